@@ -1,0 +1,75 @@
+# Makefile: builds pmview, its tests (under ASan/UBSan and TSan) and benchmarks; installs missing Debian packages first.
+#
+#   make          build ./pmview                 make run    install, build, render the default scene
+#   make test     install, build, run all tests  make bench  speed figures (ratios measured in one run)
+#   make clean
+
+CC      ?= cc
+CXX     ?= c++
+OPT     ?= -O2
+CFLAGS_COMMON := -g -Wall -Wextra -Wno-unused-parameter -pthread -Iinclude -Ibuild -I/usr/include/OpenEXR
+CFLAGS   = -std=c11 $(OPT) $(CFLAGS_COMMON) -D_POSIX_C_SOURCE=200809L
+CXXFLAGS = -std=c++14 $(OPT) -g -Wall -pthread -Iinclude -I/usr/include/stb
+LIBS    := -lembree3 -lglfw -lOSMesa -lOpenEXRCore-3_1 -lstb -lstdc++ -lm -pthread
+
+C_SRC   := $(filter-out src/main.c,$(wildcard src/*.c))
+CXX_SRC := $(wildcard src/*.cpp)
+HEADERS := $(wildcard include/*.h) build/shaders.inc
+TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
+SCENE   ?= scenes/cornell-box.gltf
+
+.PHONY: all deps run test bench clean tests-build
+all: pmview
+
+deps:
+	@sh tools/install-deps.sh
+
+# The display shaders are compiled into the binary so pmview runs from any folder.
+build/shaders.inc: $(wildcard shaders/*)
+	@mkdir -p build
+	@for f in shaders/*; do n=$$(basename $$f | tr '.-' '__'); \
+	  printf 'static const char pm_shader_%s[] =\n' "$$n"; \
+	  sed 's/\\/\\\\/g; s/"/\\"/g; s/^/"/; s/$$/\\n"/' $$f; printf ';\n'; done > $@
+
+# variant objects: build/<variant>/name.o
+define variant
+build/$(1)/%.o: src/%.c $(HEADERS)
+	@mkdir -p build/$(1)
+	$$(CC) $$(CFLAGS) $(2) -c $$< -o $$@
+build/$(1)/%.o: src/%.cpp include/loader.h include/scene.h include/pm_math.h
+	@mkdir -p build/$(1)
+	$$(CXX) $$(CXXFLAGS) $(2) -c $$< -o $$@
+build/$(1)/tests/%: tests/%.c build/$(1)/libpm.a tests/testing.h
+	@mkdir -p build/$(1)/tests
+	$$(CC) $$(CFLAGS) $(2) -Itests $$< build/$(1)/libpm.a -o $$@ $(2) $$(LIBS)
+build/$(1)/libpm.a: $(patsubst src/%.c,build/$(1)/%.o,$(C_SRC)) $(patsubst src/%.cpp,build/$(1)/%.o,$(CXX_SRC))
+	@rm -f $$@
+	ar rcs $$@ $$^
+endef
+$(eval $(call variant,rel,))
+$(eval $(call variant,asan,-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined))
+$(eval $(call variant,tsan,-fsanitize=thread))
+
+pmview: build/rel/main.o build/rel/libpm.a
+	$(CC) $(CFLAGS) $^ -o $@ $(LIBS)
+
+run: deps pmview
+	@sh tools/run-default.sh $(SCENE)
+
+tests-build: pmview build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) build/tsan/tests/test_threads $(addprefix build/rel/tests/,$(TESTS))
+
+build/asan/pmview: build/asan/main.o build/asan/libpm.a
+	$(CC) $(CFLAGS) -fsanitize=address,undefined $^ -o $@ $(LIBS) -fsanitize=address,undefined
+
+test: deps
+	@$(MAKE) --no-print-directory -j2 tests-build
+	@sh tests/run_tests.sh
+
+bench: deps pmview build/rel/bench_pm
+	@sh bench/run_bench.sh
+
+build/rel/bench_pm: bench/bench_pm.c build/rel/libpm.a
+	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
+
+clean:
+	rm -rf build pmview

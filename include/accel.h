@@ -1,0 +1,35 @@
+/* accel.h: ray queries over all scene triangles: closest hit and occlusion, the only place Embree is used.
+ *
+ * One Embree scene, one triangle geometry, built once. Rays are single (rtcIntersect1 /
+ * rtcOccluded1): the integrators are incoherent path tracers.
+ */
+#ifndef PM_ACCEL_H
+#define PM_ACCEL_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include "scene.h"
+
+typedef struct pm_accel pm_accel;
+
+typedef struct {
+    float t;        /* distance along the (unit) direction */
+    uint32_t tri;   /* triangle index in the scene */
+    float b1, b2;   /* barycentrics of vertex 1 and vertex 2 */
+} pm_hit;
+
+pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size);
+void pm_accel_destroy(pm_accel *a);
+/* Closest hit in (0, tmax); d must be unit length. */
+bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *hit);
+/* True when anything blocks (0, tmax). */
+bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax);
+size_t pm_accel_bytes(const pm_accel *a);
+double pm_accel_build_seconds(const pm_accel *a);
+
+/* Benchmark hook: casts n rays (o, d pairs) with plain rtcIntersect1 and returns the seconds
+ * taken, so raw Embree throughput can be set beside ours in one run. */
+double pm_accel_bench_raw(const pm_accel *a, const vec3 *origins, const vec3 *dirs, size_t n, size_t *hits);
+
+#endif

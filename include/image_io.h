@@ -1,0 +1,24 @@
+/* image_io.h: files out of the film and the view: multi-layer OpenEXR (C API) and PNG (stb_image_write).
+ *
+ * EXR channels: R, G, B (the total) and direct.R/G/B, specular.R/G/B, caustic.R/G/B,
+ * indirect.R/G/B, linear radiance, FLOAT, ZIP compression. The layers sum to the total.
+ */
+#ifndef PM_IMAGE_IO_H
+#define PM_IMAGE_IO_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include "film.h"
+
+bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_size);
+
+/* Reads one channel ("R", "direct.G", ...) of a scanline EXR into a malloc'ed w*h float array
+ * (row 0 = top). For tests and tools; returns NULL with err set on failure. */
+float *pm_read_exr_channel(const char *path, const char *channel, int *width, int *height,
+                           char *err, size_t err_size);
+
+/* rgba: width*height*4 bytes, row 0 = top. */
+bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, char *err, size_t err_size);
+
+#endif

@@ -1,0 +1,27 @@
+/* loader.h: glTF 2.0 (.gltf/.glb) to pm_scene, with every check a renderer needs before trusting a file.
+ *
+ * The only place tinygltf is used (src/gltf_loader.cpp). On failure the scene is left empty,
+ * nothing leaks, and err holds one line: "FILE: what (where)". Warnings (skipped primitives,
+ * degenerate triangles, ignored features) go to stderr as "pmview: warning: FILE: ..." and are
+ * counted in the report.
+ */
+#ifndef PM_LOADER_H
+#define PM_LOADER_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include "scene.h"
+
+typedef struct {
+    uint32_t skipped_degenerate;     /* zero-area or non-finite-normal triangles dropped */
+    uint32_t skipped_primitives;     /* points / lines primitives dropped */
+    uint32_t warnings;               /* warning lines printed */
+    double seconds;                  /* wall time of the load */
+} pm_load_report;
+
+/* Loads and validates. Does not call pm_scene_finalize (the caller decides on the default sky).
+ * quiet: do not print warnings (they are still counted). */
+bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_load_report *report,
+                  char *err, size_t err_size);
+
+#endif

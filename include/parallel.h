@@ -1,0 +1,17 @@
+/* parallel.h: a minimal parallel-for over task indices on a fixed number of pthreads.
+ *
+ * Work is handed out by an atomic counter, so load balances itself; determinism comes from
+ * seeding each task's random stream by its index (rng.h), never from the thread that runs it.
+ */
+#ifndef PM_PARALLEL_H
+#define PM_PARALLEL_H
+
+#include <stddef.h>
+
+/* Calls fn(ctx, task, thread) for task in [0, count), on `threads` threads (the caller's one
+ * included); thread is in [0, threads). Returns when all tasks are done. */
+void pm_parallel_for(int threads, size_t count, void (*fn)(void *ctx, size_t task, int thread), void *ctx);
+/* Number of online cores. */
+int pm_cpu_count(void);
+
+#endif

@@ -1,0 +1,109 @@
+/* pm_math.h: small vector maths, colour helpers and scale-robust ray offsets shared by every stage.
+ *
+ * Header-only and inline: these run per ray and per photon. vec3 is three floats;
+ * colours use the same type (x=R, y=G, z=B).
+ */
+#ifndef PM_MATH_H
+#define PM_MATH_H
+
+#include <math.h>
+#include <stdbool.h>
+#include <stdint.h>
+#include <string.h>
+
+#define PM_PI 3.14159265358979323846f
+#define PM_INV_PI 0.31830988618379067154f
+
+typedef struct { float x, y, z; } vec3;
+
+static inline vec3 v3(float x, float y, float z) { vec3 r = {x, y, z}; return r; }
+static inline vec3 v3s(float s) { return v3(s, s, s); }
+static inline vec3 v3_add(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline vec3 v3_sub(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline vec3 v3_mul(vec3 a, vec3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
+static inline vec3 v3_scale(vec3 a, float s) { return v3(a.x * s, a.y * s, a.z * s); }
+static inline vec3 v3_madd(vec3 a, vec3 b, float s) { return v3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s); }
+static inline vec3 v3_neg(vec3 a) { return v3(-a.x, -a.y, -a.z); }
+static inline float v3_dot(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline vec3 v3_cross(vec3 a, vec3 b) {
+    return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+static inline float v3_length(vec3 a) { return sqrtf(v3_dot(a, a)); }
+static inline vec3 v3_normalize(vec3 a) {
+    float l = v3_length(a);
+    return l > 0.f ? v3_scale(a, 1.f / l) : v3(0.f, 0.f, 1.f);
+}
+static inline vec3 v3_min(vec3 a, vec3 b) { return v3(fminf(a.x, b.x), fminf(a.y, b.y), fminf(a.z, b.z)); }
+static inline vec3 v3_max(vec3 a, vec3 b) { return v3(fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)); }
+static inline float v3_max_component(vec3 a) { return fmaxf(a.x, fmaxf(a.y, a.z)); }
+static inline float v3_average(vec3 a) { return (a.x + a.y + a.z) * (1.f / 3.f); }
+static inline bool v3_is_black(vec3 a) { return a.x == 0.f && a.y == 0.f && a.z == 0.f; }
+static inline bool v3_is_finite(vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
+static inline float v3_get(vec3 a, int i) { return i == 0 ? a.x : (i == 1 ? a.y : a.z); }
+/* Rec. 709 luminance: the scalar used to pick lights by power. */
+static inline float v3_luminance(vec3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
+
+/* Orthonormal basis around a unit normal (Duff et al. 2017, branchless). */
+static inline void v3_basis(vec3 n, vec3 *t, vec3 *b) {
+    float sign = copysignf(1.f, n.z);
+    float a = -1.f / (sign + n.z);
+    float bb = n.x * n.y * a;
+    *t = v3(1.f + sign * n.x * n.x * a, sign * bb, -sign * n.x);
+    *b = v3(bb, sign + n.y * n.y * a, -n.y);
+}
+
+static inline vec3 v3_reflect(vec3 d, vec3 n) { return v3_sub(d, v3_scale(n, 2.f * v3_dot(d, n))); }
+
+/* Cosine-distributed direction around n from two uniform numbers. */
+static inline vec3 pm_sample_cosine(vec3 n, float u1, float u2) {
+    float r = sqrtf(u1), phi = 2.f * PM_PI * u2;
+    float x = r * cosf(phi), y = r * sinf(phi), z = sqrtf(fmaxf(0.f, 1.f - u1));
+    vec3 t, b;
+    v3_basis(n, &t, &b);
+    return v3_add(v3_add(v3_scale(t, x), v3_scale(b, y)), v3_scale(n, z));
+}
+
+/* Uniform point on the unit disc (concentric mapping keeps strata compact). */
+static inline void pm_sample_disc(float u1, float u2, float *x, float *y) {
+    float a = 2.f * u1 - 1.f, b = 2.f * u2 - 1.f, r, phi;
+    if (a == 0.f && b == 0.f) { *x = *y = 0.f; return; }
+    if (a * a > b * b) { r = a; phi = (PM_PI / 4.f) * (b / a); }
+    else { r = b; phi = (PM_PI / 2.f) - (PM_PI / 4.f) * (a / b); }
+    *x = r * cosf(phi);
+    *y = r * sinf(phi);
+}
+
+static inline vec3 pm_sample_sphere(float u1, float u2) {
+    float z = 1.f - 2.f * u1, r = sqrtf(fmaxf(0.f, 1.f - z * z)), phi = 2.f * PM_PI * u2;
+    return v3(r * cosf(phi), r * sinf(phi), z);
+}
+
+/* Moves a surface point off its surface along the geometric normal n by a few float ulps of
+ * the point's own coordinates, so the offset is right at any distance from the origin
+ * (integer-ulp offsetting, Waechter & Binder, Ray Tracing Gems ch. 6). Near the origin,
+ * where ulps vanish, a step relative to the scene's size `scale` takes over, so a scene
+ * scaled by 1e-3 or 1e3 behaves exactly like the unit one. */
+static inline float pm_offset_float_(float p, float n, float scale) {
+    const float int_scale = 256.f;
+    int32_t of = (int32_t)(int_scale * n);
+    int32_t bits;
+    memcpy(&bits, &p, 4);
+    bits += (p < 0.f) ? -of : of;
+    float moved;
+    memcpy(&moved, &bits, 4);
+    return fabsf(p) < scale * (1.f / 32.f) ? p + scale * (1.f / 65536.f) * n : moved;
+}
+static inline vec3 pm_offset_ray_origin(vec3 p, vec3 n, float scale) {
+    return v3(pm_offset_float_(p.x, n.x, scale), pm_offset_float_(p.y, n.y, scale),
+              pm_offset_float_(p.z, n.z, scale));
+}
+
+/* sRGB transfer functions (IEC 61966-2-1). */
+static inline float pm_srgb_to_linear(float c) {
+    return c <= 0.04045f ? c / 12.92f : powf((c + 0.055f) / 1.055f, 2.4f);
+}
+static inline float pm_linear_to_srgb(float c) {
+    return c <= 0.0031308f ? c * 12.92f : 1.055f * powf(c, 1.f / 2.4f) - 0.055f;
+}
+
+#endif

@@ -1,0 +1,131 @@
+/* scene.h: the validated C scene every later stage reads, and the analysis of what it needs.
+ *
+ * The loader fills the geometry, materials, textures, lights and cameras in world space
+ * (instances flattened, transforms applied, winding fixed so the geometric normal
+ * cross(p1-p0, p2-p0) always points out of the glTF front face). pm_scene_finalize() then
+ * derives everything else: bounds, the emitter distribution, the default sky and the
+ * analysis of which components can be non-zero. Nothing here knows about Embree or GL.
+ */
+#ifndef PM_SCENE_H
+#define PM_SCENE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include "pm_math.h"
+
+enum { PM_WRAP_REPEAT = 0, PM_WRAP_CLAMP = 1, PM_WRAP_MIRROR = 2 };
+
+/* An 8-bit RGBA image as stored in the file (sRGB-encoded); decoded to linear on lookup. */
+typedef struct {
+    int width, height;
+    uint8_t *rgba;          /* width*height*4 bytes, row 0 = top of the image (glTF v=0) */
+    int wrap_s, wrap_t;     /* PM_WRAP_* */
+} pm_texture;
+
+/* glTF metallic-roughness material plus the extensions we honour; see README for the mapping
+ * to the diffuse (D) and specular (S) coefficients used by Russian roulette. */
+typedef struct {
+    vec3 base_color;        /* linear baseColorFactor rgb */
+    int base_color_texture; /* index into scene textures, -1 none */
+    int base_color_texcoord;/* which TEXCOORD_n the texture uses (only 0 is loaded; others warn) */
+    float metallic, roughness;
+    float transmission;     /* KHR_materials_transmission factor */
+    float ior;              /* KHR_materials_ior, default 1.5 */
+    vec3 emission;          /* radiance: emissiveFactor x KHR_materials_emissive_strength */
+    bool double_sided;
+} pm_material;
+
+typedef enum { PM_LIGHT_POINT = 0, PM_LIGHT_SPOT = 1, PM_LIGHT_DIRECTIONAL = 2 } pm_light_type;
+
+typedef struct {
+    pm_light_type type;
+    vec3 position;          /* world space (point, spot) */
+    vec3 direction;         /* unit, the direction light travels: the node's -Z (spot, directional) */
+    vec3 intensity;         /* color x intensity: W/sr (point, spot) or W/m^2 (directional) */
+    float range;            /* 0 = infinite; glTF's range is a cut-off hint, see README */
+    float cos_inner, cos_outer; /* spot cone, cosines of the glTF angles */
+} pm_light;
+
+typedef struct {
+    vec3 position;
+    vec3 forward, up, right; /* unit, right-handed: forward = node -Z, up = node +Y */
+    float yfov;              /* radians, vertical */
+    float aspect;            /* glTF aspectRatio, 0 when absent */
+    float znear;
+} pm_camera;
+
+/* Which of the four image components a scene can make non-zero. */
+typedef enum { PM_DIRECT = 0, PM_SPECULAR = 1, PM_CAUSTIC = 2, PM_INDIRECT = 3, PM_COMPONENT_COUNT = 4 } pm_component;
+extern const char *const pm_component_names[PM_COMPONENT_COUNT]; /* "direct", "specular", ... */
+
+typedef struct {
+    bool has_diffuse, has_mirror, has_glass, has_textures;
+    bool has_emissive_triangles, has_punctual_lights, has_sky;
+    bool caustics_possible;  /* some light can reach a specular surface and then a diffuse one */
+    bool component_possible[PM_COMPONENT_COUNT];
+} pm_scene_analysis;
+
+typedef struct {
+    /* geometry, world space */
+    uint32_t vertex_count, triangle_count;
+    vec3 *positions;          /* vertex_count */
+    vec3 *normals;            /* vertex_count, unit shading normals (generated when absent) */
+    float *uvs;               /* 2*vertex_count, or NULL when no primitive has TEXCOORD_0 */
+    uint32_t *indices;        /* 3*triangle_count */
+    uint32_t *triangle_material; /* triangle_count */
+
+    pm_material *materials; uint32_t material_count;
+    pm_texture *textures;   uint32_t texture_count;
+    pm_light *lights;       uint32_t light_count;
+    pm_camera *cameras;     uint32_t camera_count;
+
+    bool sky;                 /* uniform environment around the scene */
+    vec3 sky_radiance;
+
+    /* derived by pm_scene_finalize */
+    vec3 bounds_min, bounds_max;
+    vec3 center; float radius; /* bounding sphere */
+    float ray_scale;           /* length scale for ray offsets (largest extent of the bounds) */
+    uint32_t *emitters;        /* triangle indices with non-black emission */
+    float *emitter_cdf;        /* emitter_count+1 entries, by area x luminance x sides */
+    uint32_t emitter_count;
+    float emitter_power;       /* sum of area x luminance(radiance) x pi x sides */
+    pm_scene_analysis analysis;
+} pm_scene;
+
+/* Derives bounds, emitter distribution and analysis. add_default_sky: give a scene without
+ * any light a uniform white sky (returns true in *added_sky so the caller can warn). */
+void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky);
+void pm_scene_free(pm_scene *s);
+
+/* A camera framing the scene's bounds from the front (+Z), for files without a camera. */
+pm_camera pm_scene_auto_camera(const pm_scene *s, float aspect);
+
+/* Surface description at a hit, what the integrators work with. */
+typedef struct {
+    vec3 p;          /* position (from barycentrics, not o + t d) */
+    vec3 ng;         /* geometric normal, unit, glTF front side */
+    vec3 ns;         /* shading normal, unit, same side as ng */
+    float u, v;      /* texture coordinates */
+    uint32_t material;
+    vec3 kd;         /* Lambert albedo (after the material split) */
+    vec3 ks;         /* perfect-mirror reflectance */
+    vec3 kt;         /* dielectric weight (tint); Fresnel decides reflect vs refract */
+    float ior;
+    vec3 emission;   /* radiance leaving the front face (both faces if double sided) */
+    bool double_sided;
+} pm_surface;
+
+/* Fills a surface from a triangle id and Embree-style barycentrics (b1, b2). */
+void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);
+/* Splits a material (with its sampled base colour) into kd, ks, kt; see README. */
+void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, vec3 *ks, vec3 *kt);
+/* Linear RGB of a texture at (u, v) with its wrap modes, bilinear. */
+vec3 pm_texture_lookup(const pm_texture *t, float u, float v);
+
+/* Picks an emissive triangle by power; returns its index and the probability of that pick. */
+uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf);
+float pm_triangle_area(const pm_scene *s, uint32_t tri);
+
+#endif

@@ -1,0 +1,30 @@
+#!/bin/sh
+# run_tests.sh: runs every test program (ASan/UBSan build), the TSan threading test and the script tests; prints the summary line.
+cd "$(dirname "$0")/.." || exit 1
+passed=0; failed=0; failed_names=""
+run() { # name command...
+    name=$1; shift
+    log="build/test-logs/$name.log"
+    mkdir -p build/test-logs
+    start=$(date +%s)
+    if "$@" >"$log" 2>&1; then
+        passed=$((passed + 1)); status=ok
+    else
+        failed=$((failed + 1)); status=FAILED; failed_names="$failed_names $name"
+    fi
+    printf '%-28s %-6s %3ss  %s\n' "$name" "$status" "$(( $(date +%s) - start ))" "$(tail -n 1 "$log")"
+    [ "$status" = FAILED ] && sed 's/^/    | /' "$log" | tail -n 30
+}
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0
+export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
+for t in build/asan/tests/test_*; do
+    run "$(basename "$t")" "$t"
+done
+[ -x build/tsan/tests/test_threads ] && run "test_threads[tsan]" env TSAN_OPTIONS=halt_on_error=1 build/tsan/tests/test_threads
+for s in tests/test_*.sh; do
+    [ -f "$s" ] && run "$(basename "$s" .sh)" sh "$s"
+done
+[ -n "$failed_names" ] && echo "failed:$failed_names"
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]
