@@ -79,12 +79,15 @@ static inline vec3 pm_sample_sphere(float u1, float u2) {
 }
 
 /* Moves a surface point off its surface along the geometric normal n by a few float ulps of
- * the point's own coordinates, so the offset is right at any distance from the origin
+ * the point's own coordinates, so the offset is right at any distance from the origin. Hit
+ * points are interpolated from the triangle's vertices (not o + t d), so their error is a few
+ * ulps and 32 ulps clear it with margin; far from the origin a larger offset would step
+ * across small rooms
  * (integer-ulp offsetting, Waechter & Binder, Ray Tracing Gems ch. 6). Near the origin,
  * where ulps vanish, a step relative to the scene's size `scale` takes over, so a scene
  * scaled by 1e-3 or 1e3 behaves exactly like the unit one. */
 static inline float pm_offset_float_(float p, float n, float scale) {
-    const float int_scale = 256.f;
+    const float int_scale = 32.f;
     int32_t of = (int32_t)(int_scale * n);
     int32_t bits;
     memcpy(&bits, &p, 4);

@@ -115,7 +115,13 @@ typedef struct {
     float ior;
     vec3 emission;   /* radiance leaving the front face (both faces if double sided) */
     bool double_sided;
+    vec3 centroid;   /* of the triangle: origins are pulled toward it, off shared edges */
 } pm_surface;
+
+/* Origin for a ray leaving the surface on the side of side_normal (ng or -ng): offset along
+ * the normal and, by the same few ulps, toward the triangle's interior, so that a hit on an
+ * edge shared with a wall does not start the next ray inside that wall's plane. */
+vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale);
 
 /* Fills a surface from a triangle id and Embree-style barycentrics (b1, b2). */
 void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);

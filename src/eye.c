@@ -1,0 +1,250 @@
+/* eye.c: the eye pass: camera rays, emission and shadow-ray direct light, recursive specular tracing, per-component accumulation.
+ *
+ * A path from the eye follows perfect mirrors and glass interfaces (one lobe picked by
+ * weight, Fresnel picking reflection or refraction) and at every vertex with a diffuse part
+ * adds emission and direct light. The first vertex decides the component; see eye.h.
+ */
+#include "eye.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "parallel.h"
+#include "rng.h"
+
+#define TILE 16
+#define MAX_THREADS 256
+
+typedef struct {
+    const pm_scene *scene;
+    const pm_accel *accel;
+    const pm_camera *camera;
+    const pm_eye_settings *settings;
+    uint32_t iteration;
+    pm_film *film;
+    int tiles_x;
+    struct { uint64_t rays; char pad[56]; } counters[MAX_THREADS];
+} eye_job;
+
+void pm_camera_ray(const pm_camera *c, int width, int height, float x, float y, vec3 *origin, vec3 *dir) {
+    float tan_half = tanf(0.5f * c->yfov);
+    float aspect = (float)width / (float)height;
+    float sx = (2.f * x / width - 1.f) * tan_half * aspect;
+    float sy = (1.f - 2.f * y / height) * tan_half;
+    *origin = c->position;
+    *dir = v3_normalize(v3_add(c->forward, v3_add(v3_scale(c->right, sx), v3_scale(c->up, sy))));
+}
+
+static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
+
+/* glTF's recommended spot cone falloff. */
+static float spot_falloff(const pm_light *l, vec3 light_to_point) {
+    float cd = v3_dot(l->direction, light_to_point);
+    float scale = 1.f / fmaxf(1e-3f, l->cos_inner - l->cos_outer);
+    float t = fminf(fmaxf(cd * scale - l->cos_outer * scale, 0.f), 1.f);
+    return t * t;
+}
+
+/* Irradiance-like estimate E at a diffuse point seen from direction wo, so that the reflected
+ * radiance is kd/pi * E. One shadow ray per punctual light, one to a power-picked emissive
+ * triangle, one cosine-distributed toward the sky. */
+static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, vec3 wo, pm_rng *rng,
+                         uint64_t *rays) {
+    vec3 ng = facing(sf->ng, wo);
+    vec3 ns = v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
+    vec3 origin = pm_surface_origin(sf, ng, s->ray_scale);
+    vec3 e = v3s(0.f);
+
+    for (uint32_t i = 0; i < s->light_count; i++) {
+        const pm_light *l = &s->lights[i];
+        vec3 wi, radiance_scale;
+        float tmax;
+        if (l->type == PM_LIGHT_DIRECTIONAL) {
+            wi = v3_neg(l->direction);
+            tmax = INFINITY;
+            radiance_scale = l->intensity;
+        } else {
+            vec3 to_light = v3_sub(l->position, origin);
+            float d2 = v3_dot(to_light, to_light);
+            if (d2 <= 0.f) continue;
+            tmax = sqrtf(d2);
+            wi = v3_scale(to_light, 1.f / tmax);
+            float falloff = l->type == PM_LIGHT_SPOT ? spot_falloff(l, v3_neg(wi)) : 1.f;
+            if (falloff <= 0.f) continue;
+            radiance_scale = v3_scale(l->intensity, falloff / d2);
+        }
+        float cos_s = v3_dot(ns, wi);
+        if (cos_s <= 0.f || v3_dot(ng, wi) <= 0.f) continue;
+        (*rays)++;
+        if (pm_accel_occluded(a, origin, wi, tmax)) continue;
+        e = v3_madd(e, radiance_scale, cos_s);
+    }
+
+    if (s->emitter_count) {
+        float pick_pdf;
+        uint32_t tri = pm_scene_pick_emitter(s, pm_rng_float(rng), &pick_pdf);
+        float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng);
+        const uint32_t *ix = s->indices + 3 * (size_t)tri;
+        vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
+        vec3 q = v3_add(v3_scale(p0, 1.f - r1), v3_add(v3_scale(p1, r1 * (1.f - r2)), v3_scale(p2, r1 * r2)));
+        vec3 cross = v3_cross(v3_sub(p1, p0), v3_sub(p2, p0));
+        float area = 0.5f * v3_length(cross);
+        vec3 nl = v3_normalize(cross);
+        const pm_material *m = &s->materials[s->triangle_material[tri]];
+        vec3 to_light = v3_sub(q, origin);
+        float dist = v3_length(to_light);
+        if (dist > 0.f && area > 0.f && pick_pdf > 0.f) {
+            vec3 wi = v3_scale(to_light, 1.f / dist);
+            float cos_l = -v3_dot(nl, wi);
+            if (m->double_sided) cos_l = fabsf(cos_l);
+            float cos_s = v3_dot(ns, wi);
+            if (cos_l > 0.f && cos_s > 0.f && v3_dot(ng, wi) > 0.f) {
+                vec3 target = pm_offset_ray_origin(q, facing(nl, v3_neg(wi)), s->ray_scale);
+                vec3 seg = v3_sub(target, origin);
+                float seg_len = v3_length(seg);
+                (*rays)++;
+                if (seg_len > 0.f && !pm_accel_occluded(a, origin, v3_scale(seg, 1.f / seg_len), seg_len)) {
+                    float g = cos_s * cos_l / (dist * dist);
+                    e = v3_madd(e, m->emission, g * area / pick_pdf);
+                }
+            }
+        }
+    }
+
+    if (s->sky) {
+        vec3 wi = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
+        if (v3_dot(wi, ng) > 0.f) {
+            (*rays)++;
+            if (!pm_accel_occluded(a, origin, wi, INFINITY)) e = v3_madd(e, s->sky_radiance, PM_PI);
+        }
+    }
+    return e;
+}
+
+/* Unpolarised Fresnel reflectance of a smooth dielectric; cos_i > 0 on the incident side. */
+static float fresnel_dielectric(float cos_i, float eta_i, float eta_t, float *cos_t) {
+    float sin_t = eta_i / eta_t * sqrtf(fmaxf(0.f, 1.f - cos_i * cos_i));
+    if (sin_t >= 1.f) { *cos_t = 0.f; return 1.f; }
+    float ct = sqrtf(fmaxf(0.f, 1.f - sin_t * sin_t));
+    float rs = (eta_i * cos_i - eta_t * ct) / (eta_i * cos_i + eta_t * ct);
+    float rp = (eta_t * cos_i - eta_i * ct) / (eta_t * cos_i + eta_i * ct);
+    *cos_t = ct;
+    return 0.5f * (rs * rs + rp * rp);
+}
+
+static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT],
+                        uint64_t *rays) {
+    const pm_scene *s = job->scene;
+    vec3 throughput = v3s(1.f);
+    for (int depth = 0;; depth++) {
+        int comp = depth == 0 ? PM_DIRECT : PM_SPECULAR;
+        pm_hit h;
+        (*rays)++;
+        if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) {
+            if (s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, s->sky_radiance));
+            return;
+        }
+        pm_surface sf;
+        pm_scene_surface(s, h.tri, h.b1, h.b2, &sf);
+        vec3 wo = v3_neg(d);
+        bool front = v3_dot(sf.ng, wo) > 0.f;
+        if ((front || sf.double_sided) && !v3_is_black(sf.emission))
+            out[comp] = v3_add(out[comp], v3_mul(throughput, sf.emission));
+        if (!v3_is_black(sf.kd)) {
+            vec3 e = direct_light(s, job->accel, &sf, wo, rng, rays);
+            out[comp] = v3_add(out[comp], v3_mul(throughput, v3_scale(v3_mul(sf.kd, e), PM_INV_PI)));
+        }
+
+        float w_mirror = v3_average(sf.ks), w_glass = v3_average(sf.kt);
+        if (w_mirror + w_glass <= 0.f || depth >= job->settings->max_specular_depth) return;
+        vec3 ng = facing(sf.ng, wo);
+        vec3 ns = v3_dot(sf.ns, ng) < 0.f ? v3_neg(sf.ns) : sf.ns;
+        float pick = pm_rng_float(rng) * (w_mirror + w_glass);
+        if (pick < w_mirror) {
+            throughput = v3_mul(throughput, v3_scale(sf.ks, (w_mirror + w_glass) / w_mirror));
+            d = v3_reflect(d, ns);
+            if (v3_dot(d, ng) <= 0.f) d = v3_reflect(v3_neg(wo), ng);
+            o = pm_surface_origin(&sf, ng, s->ray_scale);
+        } else {
+            throughput = v3_mul(throughput, v3_scale(sf.kt, (w_mirror + w_glass) / w_glass));
+            float eta_i = front ? 1.f : sf.ior, eta_t = front ? sf.ior : 1.f;
+            float cos_i = fminf(1.f, v3_dot(wo, ns)), cos_t;
+            float f = fresnel_dielectric(cos_i, eta_i, eta_t, &cos_t);
+            if (pm_rng_float(rng) < f) {
+                d = v3_reflect(d, ns);
+                if (v3_dot(d, ng) <= 0.f) d = v3_reflect(v3_neg(wo), ng);
+                o = pm_surface_origin(&sf, ng, s->ray_scale);
+            } else {
+                float eta = eta_i / eta_t;
+                d = v3_normalize(v3_add(v3_scale(d, eta), v3_scale(ns, eta * cos_i - cos_t)));
+                if (v3_dot(d, ng) >= 0.f) return; /* shading normal bent it outside: drop */
+                /* Radiance crossing an interface scales with the square of the index ratio. */
+                throughput = v3_scale(throughput, eta * eta);
+                o = pm_surface_origin(&sf, v3_neg(ng), s->ray_scale);
+            }
+        }
+        /* Past a few bounces, roulette on throughput keeps long glass paths cheap and unbiased. */
+        if (depth >= 4) {
+            float q = fminf(0.95f, v3_max_component(throughput));
+            if (pm_rng_float(rng) >= q) return;
+            throughput = v3_scale(throughput, 1.f / q);
+        }
+    }
+}
+
+static void render_tile(void *ctx, size_t task, int thread) {
+    eye_job *job = ctx;
+    pm_film *film = job->film;
+    int tx = (int)(task % job->tiles_x), ty = (int)(task / job->tiles_x);
+    int x0 = tx * TILE, y0 = ty * TILE;
+    int x1 = x0 + TILE < film->width ? x0 + TILE : film->width;
+    int y1 = y0 + TILE < film->height ? y0 + TILE : film->height;
+    uint64_t rays = 0;
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++) {
+            size_t pixel = (size_t)y * film->width + x;
+            pm_rng rng = pm_rng_for(job->settings->seed, job->iteration, pixel);
+            vec3 o, d;
+            pm_camera_ray(job->camera, film->width, film->height, x + pm_rng_float(&rng), y + pm_rng_float(&rng), &o, &d);
+            vec3 out[PM_COMPONENT_COUNT] = {{0}};
+            trace_pixel(job, o, d, &rng, out, &rays);
+            for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+                /* A NaN from a degenerate corner case must not poison a pixel forever. */
+                if (!film->sum[c] || !v3_is_finite(out[c])) continue;
+                float *px = film->sum[c] + 3 * pixel;
+                px[0] += out[c].x;
+                px[1] += out[c].y;
+                px[2] += out[c].z;
+            }
+        }
+    job->counters[thread].rays += rays;
+}
+
+static double now_seconds(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
+                    uint32_t iteration, pm_film *film, pm_eye_stats *stats) {
+    double start = now_seconds();
+    eye_job *job = calloc(1, sizeof *job);
+    job->scene = s;
+    job->accel = a;
+    job->camera = cam;
+    job->settings = settings;
+    job->iteration = iteration;
+    job->film = film;
+    job->tiles_x = (film->width + TILE - 1) / TILE;
+    int tiles_y = (film->height + TILE - 1) / TILE;
+    int threads = settings->threads < 1 ? 1 : (settings->threads > MAX_THREADS ? MAX_THREADS : settings->threads);
+    pm_parallel_for(threads, (size_t)job->tiles_x * tiles_y, render_tile, job);
+    film->samples++;
+    if (stats) {
+        for (int t = 0; t < threads; t++) stats->rays += job->counters[t].rays;
+        stats->seconds += now_seconds() - start;
+    }
+    free(job);
+}

@@ -1,0 +1,55 @@
+/* film.c: allocation, clearing and resolving of the per-component accumulation buffers. */
+#include "film.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+bool pm_film_init(pm_film *f, int width, int height, const bool enabled[PM_COMPONENT_COUNT]) {
+    memset(f, 0, sizeof *f);
+    if (width <= 0 || height <= 0) return false;
+    f->width = width;
+    f->height = height;
+    size_t n = 3 * (size_t)width * height;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        if (!enabled[c]) continue;
+        f->sum[c] = calloc(n, sizeof(float));
+        if (!f->sum[c]) { pm_film_free(f); return false; }
+    }
+    return true;
+}
+
+void pm_film_free(pm_film *f) {
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(f->sum[c]);
+    memset(f, 0, sizeof *f);
+}
+
+void pm_film_clear(pm_film *f) {
+    size_t n = 3 * (size_t)f->width * f->height;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (f->sum[c]) memset(f->sum[c], 0, n * sizeof(float));
+    f->samples = 0;
+}
+
+void pm_film_resolve(const pm_film *f, pm_component c, float *out) {
+    size_t n = 3 * (size_t)f->width * f->height;
+    if (!f->sum[c] || f->samples == 0) { memset(out, 0, n * sizeof(float)); return; }
+    float inv = 1.f / (float)f->samples;
+    for (size_t i = 0; i < n; i++) out[i] = f->sum[c][i] * inv;
+}
+
+void pm_film_resolve_total(const pm_film *f, float *out) {
+    size_t n = 3 * (size_t)f->width * f->height;
+    memset(out, 0, n * sizeof(float));
+    if (f->samples == 0) return;
+    float inv = 1.f / (float)f->samples;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (f->sum[c])
+            for (size_t i = 0; i < n; i++) out[i] += f->sum[c][i] * inv;
+}
+
+size_t pm_film_bytes(const pm_film *f) {
+    size_t n = 0;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (f->sum[c]) n += 3 * (size_t)f->width * f->height * sizeof(float);
+    return n;
+}

@@ -1,0 +1,313 @@
+/* main.c: the pmview command line: parse flags, run load -> accel -> passes -> film -> view/files, print stats.
+ *
+ * Exit codes: 0 success, 1 a file could not be loaded, rendered or written, 2 a usage error.
+ */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/resource.h>
+#include <time.h>
+
+#include "accel.h"
+#include "defaults.h"
+#include "eye.h"
+#include "film.h"
+#include "image_io.h"
+#include "loader.h"
+#include "parallel.h"
+#include "scene.h"
+#include "view.h"
+
+typedef struct {
+    const char *scene_path;
+    const char *snapshot;
+    const char *screenshot;
+    int width, height;
+    long iterations;      /* 0 = the mode's default */
+    double time_limit;    /* 0 = none */
+    int threads;
+    uint64_t seed;
+    int camera;           /* -1 = first */
+    float exposure_ev;
+    bool stats, no_default_light, quiet;
+} options;
+
+static const char usage_text[] =
+    "usage: pmview [SCENE.gltf|.glb] [options]\n"
+    "  --snapshot FILE      render offscreen and write FILE (.png: what the display shows, .exr: linear layers)\n"
+    "  --width W --height H image size (default " "512" " wide, height from the camera's aspect ratio)\n"
+    "  --iterations N       samples per pixel (default 64 for snapshots; the window runs until closed)\n"
+    "  --time SECONDS       stop after this much rendering time\n"
+    "  --threads N          worker threads (default: all cores)\n"
+    "  --seed S             random seed (default 1); the image does not depend on --threads\n"
+    "  --camera I           use the scene's I-th camera (default 0; automatic framing when there is none)\n"
+    "  --exposure EV        display exposure in stops (PNG and window)\n"
+    "  --screenshot FILE    where the window's P key saves a PNG (default pmview-screenshot.png)\n"
+    "  --no-default-light   do not add the white sky to a scene without lights\n"
+    "  --stats              print 'stat STAGE key=value ...' lines\n"
+    "  --quiet              no warnings\n"
+    "  --help               this text\n"
+    "keys (window): 1 direct, 2 specular, 3 caustic, 4 indirect, +/- exposure, 0 reset, T tonemap, P save PNG, Esc/Q quit\n";
+
+static int usage_error(const char *fmt, const char *arg) {
+    fprintf(stderr, "pmview: ");
+    fprintf(stderr, fmt, arg);
+    fprintf(stderr, "\n%s", usage_text);
+    return 2;
+}
+
+static bool parse_long(const char *s, long lo, long hi, long *out) {
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (errno || end == s || *end || v < lo || v > hi) return false;
+    *out = v;
+    return true;
+}
+
+static bool parse_double(const char *s, double lo, double hi, double *out) {
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (errno || end == s || *end || !(v >= lo && v <= hi)) return false;
+    *out = v;
+    return true;
+}
+
+static bool has_extension(const char *path, const char *ext) {
+    size_t n = strlen(path), e = strlen(ext);
+    return n > e && strcasecmp(path + n - e, ext) == 0;
+}
+
+/* Returns -1 on success, else the exit code. */
+static int parse_options(int argc, char **argv, options *o) {
+    memset(o, 0, sizeof *o);
+    o->scene_path = PM_DEFAULT_SCENE;
+    o->screenshot = "pmview-screenshot.png";
+    o->threads = pm_cpu_count();
+    o->seed = PM_DEFAULT_SEED;
+    o->camera = -1;
+    o->exposure_ev = PM_DEFAULT_EXPOSURE_EV;
+    bool have_scene = false;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (a[0] != '-' || a[1] == 0) {
+            if (have_scene) return usage_error("more than one scene given: '%s'", a);
+            o->scene_path = a;
+            have_scene = true;
+            continue;
+        }
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) { fputs(usage_text, stdout); return 0; }
+        if (!strcmp(a, "--stats")) { o->stats = true; continue; }
+        if (!strcmp(a, "--no-default-light")) { o->no_default_light = true; continue; }
+        if (!strcmp(a, "--quiet")) { o->quiet = true; continue; }
+        static const char *const valued[] = {"--snapshot", "--width", "--height", "--iterations", "--time", "--threads",
+                                             "--seed", "--camera", "--exposure", "--screenshot"};
+        int which = -1;
+        for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
+            if (!strcmp(a, valued[k])) which = k;
+        if (which < 0) return usage_error("unknown option '%s'", a);
+        if (i + 1 >= argc) return usage_error("option '%s' needs a value", a);
+        const char *v = argv[++i];
+        long n;
+        double x;
+        switch (which) {
+        case 0:
+            if (!has_extension(v, ".png") && !has_extension(v, ".exr"))
+                return usage_error("--snapshot needs a .png or .exr file name, not '%s'", v);
+            o->snapshot = v;
+            break;
+        case 1: if (!parse_long(v, 1, PM_MAX_IMAGE_SIDE, &n)) return usage_error("bad --width '%s' (1 to 16384)", v); o->width = (int)n; break;
+        case 2: if (!parse_long(v, 1, PM_MAX_IMAGE_SIDE, &n)) return usage_error("bad --height '%s' (1 to 16384)", v); o->height = (int)n; break;
+        case 3: if (!parse_long(v, 1, 1000000000L, &n)) return usage_error("bad --iterations '%s' (a positive whole number)", v); o->iterations = n; break;
+        case 4: if (!parse_double(v, 1e-3, 1e7, &x)) return usage_error("bad --time '%s' (seconds, > 0)", v); o->time_limit = x; break;
+        case 5: if (!parse_long(v, 1, 256, &n)) return usage_error("bad --threads '%s' (1 to 256)", v); o->threads = (int)n; break;
+        case 6: if (!parse_long(v, 0, 0x7fffffffL, &n)) return usage_error("bad --seed '%s' (0 to 2147483647)", v); o->seed = (uint64_t)n; break;
+        case 7: if (!parse_long(v, 0, 1000000, &n)) return usage_error("bad --camera '%s' (an index from 0)", v); o->camera = (int)n; break;
+        case 8: if (!parse_double(v, -64, 64, &x)) return usage_error("bad --exposure '%s' (stops, -64 to 64)", v); o->exposure_ev = (float)x; break;
+        case 9: if (!has_extension(v, ".png")) return usage_error("--screenshot needs a .png file name, not '%s'", v); o->screenshot = v; break;
+        }
+    }
+    return -1;
+}
+
+static double now_seconds(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+static long peak_rss_bytes(void) {
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return ru.ru_maxrss * 1024L;
+}
+
+static void print_analysis_stats(const pm_scene *s) {
+    const pm_scene_analysis *a = &s->analysis;
+    printf("stat analysis diffuse=%d mirror=%d glass=%d textures=%d emissive_triangles=%d punctual_lights=%d sky=%d caustics_possible=%d components=",
+           a->has_diffuse, a->has_mirror, a->has_glass, a->has_textures, a->has_emissive_triangles,
+           a->has_punctual_lights, a->has_sky, a->caustics_possible);
+    bool first = true;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (a->component_possible[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }
+    printf("%s\n", first ? "none" : "");
+}
+
+static bool write_png_from_view(pm_view *view, const pm_film *film, const pm_display *display, const char *path,
+                                char *err, size_t err_size) {
+    pm_view_upload(view, film);
+    pm_view_draw(view, display);
+    uint8_t *rgba = malloc(4 * (size_t)film->width * film->height);
+    if (!rgba) { snprintf(err, err_size, "%s: out of memory", path); return false; }
+    pm_view_read_rgba8(view, rgba);
+    bool ok = pm_write_png(path, film->width, film->height, rgba, err, err_size);
+    free(rgba);
+    return ok;
+}
+
+int main(int argc, char **argv) {
+    options opt;
+    int code = parse_options(argc, argv, &opt);
+    if (code >= 0) return code;
+    setvbuf(stdout, NULL, _IOLBF, 0);
+
+    bool window = !opt.snapshot;
+    if (window && !getenv("DISPLAY")) {
+        fprintf(stderr, "pmview: no DISPLAY for a window; use --snapshot FILE.png|FILE.exr to render offscreen\n");
+        return 2;
+    }
+
+    char err[1024] = "";
+    pm_scene scene;
+    pm_load_report report;
+    if (!pm_load_gltf(opt.scene_path, opt.quiet, &scene, &report, err, sizeof err)) {
+        fprintf(stderr, "pmview: error: %s\n", err);
+        return 1;
+    }
+    bool added_sky = false;
+    pm_scene_finalize(&scene, !opt.no_default_light, &added_sky);
+    if (added_sky && !opt.quiet)
+        fprintf(stderr, "pmview: warning: %s: the scene has no light; using a uniform white sky of radiance 1 (--no-default-light turns this off)\n",
+                opt.scene_path);
+    if (opt.stats) {
+        printf("stat load seconds=%.4f triangles=%u vertices=%u materials=%u lights=%u emissive_triangles=%u textures=%u cameras=%u skipped_degenerate=%u skipped_primitives=%u\n",
+               report.seconds, scene.triangle_count, scene.vertex_count, scene.material_count, scene.light_count,
+               scene.emitter_count, scene.texture_count, scene.camera_count, report.skipped_degenerate,
+               report.skipped_primitives);
+        print_analysis_stats(&scene);
+    }
+
+    int exit_code = 0;
+    pm_accel *accel = NULL;
+    pm_view *view = NULL;
+    pm_film film;
+    memset(&film, 0, sizeof film);
+
+    pm_camera camera;
+    if (opt.camera >= 0 && (uint32_t)opt.camera >= scene.camera_count) {
+        fprintf(stderr, "pmview: error: %s: --camera %d but the scene has %u perspective camera(s)\n", opt.scene_path,
+                opt.camera, scene.camera_count);
+        exit_code = 1;
+        goto done;
+    }
+    int width = opt.width ? opt.width : PM_DEFAULT_WIDTH, height = opt.height;
+    if (scene.camera_count) {
+        camera = scene.cameras[opt.camera >= 0 ? opt.camera : 0];
+        if (!height) height = camera.aspect > 0.f ? (int)lroundf(width / camera.aspect) : width;
+    } else {
+        if (!height) height = width;
+        camera = pm_scene_auto_camera(&scene, (float)width / height);
+    }
+    if (height < 1) height = 1;
+    if (height > PM_MAX_IMAGE_SIDE) height = PM_MAX_IMAGE_SIDE;
+
+    accel = pm_accel_create(&scene, err, sizeof err);
+    if (!accel) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
+    if (opt.stats) printf("stat bvh seconds=%.4f bytes=%zu\n", pm_accel_build_seconds(accel), pm_accel_bytes(accel));
+
+    if (!pm_film_init(&film, width, height, scene.analysis.component_possible)) {
+        fprintf(stderr, "pmview: error: cannot allocate a %dx%d film\n", width, height);
+        exit_code = 1;
+        goto done;
+    }
+    if (opt.stats) {
+        printf("stat film width=%d height=%d bytes=%zu buffers=", width, height, pm_film_bytes(&film));
+        bool first = true;
+        for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+            if (film.sum[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }
+        printf("%s\n", first ? "none" : "");
+    }
+
+    pm_display display;
+    memset(&display, 0, sizeof display);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) display.enabled[c] = true;
+    display.exposure_ev = opt.exposure_ev;
+
+    bool want_png = opt.snapshot && has_extension(opt.snapshot, ".png");
+    if (window) {
+        view = pm_view_create_window(width, height, "pmview", err, sizeof err);
+    } else if (want_png) {
+        view = pm_view_create_offscreen(width, height, err, sizeof err);
+    }
+    if ((window || want_png) && !view) { fprintf(stderr, "pmview: error: %s\n", err); exit_code = 1; goto done; }
+
+    pm_eye_settings eye = {opt.seed, opt.threads, PM_DEFAULT_MAX_SPECULAR_DEPTH};
+    pm_eye_stats eye_stats = {0, 0.0};
+    long target = opt.iterations ? opt.iterations
+                                 : (opt.time_limit > 0 ? 1000000000L
+                                                       : (window ? PM_DEFAULT_WINDOW_ITERATIONS : PM_DEFAULT_SNAPSHOT_ITERATIONS));
+    double start = now_seconds();
+    bool finished = false;
+    for (;;) {
+        bool more = !finished && (long)film.samples < target &&
+                    !(opt.time_limit > 0 && now_seconds() - start >= opt.time_limit);
+        if (more) {
+            pm_eye_iterate(&scene, accel, &camera, &eye, film.samples, &film, &eye_stats);
+        } else if (!finished) {
+            finished = true;
+            if (window) printf("pmview: iterations done (%u)\n", film.samples);
+        }
+        if (!window) {
+            if (finished) break;
+            continue;
+        }
+        pm_view_events ev = pm_view_poll(view, &display, finished, 0.1);
+        if (more || ev.display_changed || finished) {
+            if (more) pm_view_upload(view, &film);
+            pm_view_draw(view, &display);
+        }
+        if (ev.save_png) {
+            if (write_png_from_view(view, &film, &display, opt.screenshot, err, sizeof err))
+                printf("pmview: saved %s\n", opt.screenshot);
+            else
+                fprintf(stderr, "pmview: error: %s\n", err);
+        }
+        if (ev.quit) break;
+    }
+    double render_seconds = now_seconds() - start;
+
+    if (opt.snapshot) {
+        bool ok = want_png ? write_png_from_view(view, &film, &display, opt.snapshot, err, sizeof err)
+                           : pm_write_exr(opt.snapshot, &film, err, sizeof err);
+        if (!ok) { fprintf(stderr, "pmview: error: %s\n", err); exit_code = 1; }
+        else if (!opt.quiet) printf("pmview: wrote %s (%dx%d, %u iterations, %.2f s)\n", opt.snapshot, width, height,
+                                    film.samples, render_seconds);
+    }
+    if (opt.stats) {
+        printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d\n", film.samples,
+               (unsigned long long)eye_stats.rays, eye_stats.seconds,
+               eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, opt.threads);
+        printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu\n", peak_rss_bytes(), pm_film_bytes(&film),
+               pm_accel_bytes(accel));
+    }
+
+done:
+    pm_view_destroy(view);
+    pm_film_free(&film);
+    pm_accel_destroy(accel);
+    pm_scene_free(&scene);
+    return exit_code;
+}

@@ -1,0 +1,53 @@
+/* parallel.c: the parallel-for of parallel.h on plain pthreads with an atomic task counter. */
+#include "parallel.h"
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+typedef struct {
+    void (*fn)(void *, size_t, int);
+    void *ctx;
+    size_t count;
+    atomic_size_t next;
+} job;
+
+typedef struct { job *j; int thread; } worker_arg;
+
+static void run_worker(job *j, int thread) {
+    for (;;) {
+        size_t task = atomic_fetch_add_explicit(&j->next, 1, memory_order_relaxed);
+        if (task >= j->count) return;
+        j->fn(j->ctx, task, thread);
+    }
+}
+
+static void *worker_main(void *p) {
+    worker_arg *a = p;
+    run_worker(a->j, a->thread);
+    return NULL;
+}
+
+void pm_parallel_for(int threads, size_t count, void (*fn)(void *, size_t, int), void *ctx) {
+    job j = {fn, ctx, count, 0};
+    if (threads < 1) threads = 1;
+    if ((size_t)threads > count) threads = count ? (int)count : 1;
+    pthread_t *ids = threads > 1 ? malloc((threads - 1) * sizeof *ids) : NULL;
+    worker_arg *args = threads > 1 ? malloc((threads - 1) * sizeof *args) : NULL;
+    int started = 0;
+    for (int t = 1; t < threads; t++) {
+        args[t - 1] = (worker_arg){&j, t};
+        if (pthread_create(&ids[t - 1], NULL, worker_main, &args[t - 1]) != 0) break;
+        started++;
+    }
+    run_worker(&j, 0);
+    for (int t = 0; t < started; t++) pthread_join(ids[t], NULL);
+    free(ids);
+    free(args);
+}
+
+int pm_cpu_count(void) {
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 0 ? (int)n : 1;
+}

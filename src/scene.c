@@ -1,0 +1,237 @@
+/* scene.c: derived scene data (bounds, emitter distribution, default sky, analysis), surface evaluation and textures.
+ *
+ * Everything here is computed from what the loader filled in, once, before any ray is cast;
+ * the analysis decides which maps, passes and buffers the later stages build at all.
+ */
+#include "scene.h"
+
+#include <float.h>
+#include <stdlib.h>
+
+const char *const pm_component_names[PM_COMPONENT_COUNT] = {"direct", "specular", "caustic", "indirect"};
+
+static float clamp01(float x) { return x < 0.f ? 0.f : (x > 1.f ? 1.f : x); }
+
+void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, vec3 *ks, vec3 *kt) {
+    base = v3(clamp01(base.x), clamp01(base.y), clamp01(base.z));
+    float metal = clamp01(m->metallic), rough = clamp01(m->roughness);
+    float glass = clamp01(m->transmission) * (1.f - metal);
+    /* The weights sum to one, so D + S = mean(base) <= 1: Russian roulette stays valid. A rough
+     * metal has no glossy lobe here; its rough share scatters diffusely (see README). */
+    float diffuse = (1.f - metal) * (1.f - clamp01(m->transmission)) + metal * rough;
+    float mirror = metal * (1.f - rough);
+    *kd = v3_scale(base, diffuse);
+    *ks = v3_scale(base, mirror);
+    *kt = v3_scale(base, glass);
+}
+
+float pm_triangle_area(const pm_scene *s, uint32_t tri) {
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
+    return 0.5f * v3_length(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
+}
+
+static void analyse(pm_scene *s) {
+    pm_scene_analysis *a = &s->analysis;
+    memset(a, 0, sizeof *a);
+    bool *material_used = calloc(s->material_count ? s->material_count : 1, sizeof(bool));
+    for (uint32_t t = 0; t < s->triangle_count; t++) material_used[s->triangle_material[t]] = true;
+    for (uint32_t i = 0; i < s->material_count; i++) {
+        if (!material_used[i]) continue;
+        vec3 kd, ks, kt;
+        pm_material_split(&s->materials[i], s->materials[i].base_color, &kd, &ks, &kt);
+        a->has_diffuse |= !v3_is_black(kd);
+        a->has_mirror |= !v3_is_black(ks);
+        a->has_glass |= !v3_is_black(kt);
+        a->has_textures |= s->materials[i].base_color_texture >= 0;
+    }
+    free(material_used);
+    a->has_emissive_triangles = s->emitter_count > 0;
+    a->has_punctual_lights = s->light_count > 0;
+    a->has_sky = s->sky;
+    bool lit = a->has_emissive_triangles || a->has_punctual_lights || a->has_sky;
+    bool specular = a->has_mirror || a->has_glass;
+    a->caustics_possible = lit && specular && a->has_diffuse;
+    a->component_possible[PM_DIRECT] = a->has_emissive_triangles || a->has_sky || (a->has_diffuse && lit);
+    a->component_possible[PM_SPECULAR] = specular && lit;
+    a->component_possible[PM_CAUSTIC] = a->caustics_possible;
+    a->component_possible[PM_INDIRECT] = a->has_diffuse && lit;
+}
+
+static void build_emitters(pm_scene *s) {
+    free(s->emitters);
+    free(s->emitter_cdf);
+    s->emitters = NULL;
+    s->emitter_cdf = NULL;
+    uint32_t count = 0;
+    for (uint32_t t = 0; t < s->triangle_count; t++)
+        if (!v3_is_black(s->materials[s->triangle_material[t]].emission)) count++;
+    s->emitter_count = count;
+    s->emitter_power = 0.f;
+    if (!count) return;
+    s->emitters = malloc(count * sizeof *s->emitters);
+    s->emitter_cdf = malloc((count + 1) * sizeof *s->emitter_cdf);
+    double total = 0.0;
+    uint32_t k = 0;
+    s->emitter_cdf[0] = 0.f;
+    double *running = malloc((count + 1) * sizeof *running);
+    running[0] = 0.0;
+    for (uint32_t t = 0; t < s->triangle_count; t++) {
+        const pm_material *m = &s->materials[s->triangle_material[t]];
+        if (v3_is_black(m->emission)) continue;
+        /* Power by luminance, floored so a deeply coloured emitter is still sampled. */
+        double w = (double)pm_triangle_area(s, t) * fmax(v3_luminance(m->emission), 1e-3 * v3_max_component(m->emission)) *
+                   (m->double_sided ? 2.0 : 1.0);
+        s->emitters[k++] = t;
+        total += w;
+        running[k] = total;
+    }
+    for (uint32_t i = 1; i <= count; i++) s->emitter_cdf[i] = total > 0 ? (float)(running[i] / total) : (float)i / count;
+    s->emitter_cdf[count] = 1.f;
+    free(running);
+    s->emitter_power = (float)(total * PM_PI);
+}
+
+void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
+    vec3 lo = v3s(FLT_MAX), hi = v3s(-FLT_MAX);
+    for (uint32_t t = 0; t < s->triangle_count; t++)
+        for (int k = 0; k < 3; k++) {
+            vec3 p = s->positions[s->indices[3 * (size_t)t + k]];
+            lo = v3_min(lo, p);
+            hi = v3_max(hi, p);
+        }
+    if (s->triangle_count == 0) lo = hi = v3s(0.f);
+    s->bounds_min = lo;
+    s->bounds_max = hi;
+    s->center = v3_scale(v3_add(lo, hi), 0.5f);
+    s->radius = 0.5f * v3_length(v3_sub(hi, lo));
+    float extent = v3_max_component(v3_sub(hi, lo));
+    s->ray_scale = extent > 0.f ? extent : 1.f;
+    build_emitters(s);
+    if (added_sky) *added_sky = false;
+    if (add_default_sky && !s->sky && s->emitter_count == 0 && s->light_count == 0) {
+        s->sky = true;
+        s->sky_radiance = v3s(1.f);
+        if (added_sky) *added_sky = true;
+    }
+    analyse(s);
+}
+
+void pm_scene_free(pm_scene *s) {
+    free(s->positions);
+    free(s->normals);
+    free(s->uvs);
+    free(s->indices);
+    free(s->triangle_material);
+    free(s->materials);
+    for (uint32_t i = 0; i < s->texture_count; i++) free(s->textures[i].rgba);
+    free(s->textures);
+    free(s->lights);
+    free(s->cameras);
+    free(s->emitters);
+    free(s->emitter_cdf);
+    memset(s, 0, sizeof *s);
+}
+
+pm_camera pm_scene_auto_camera(const pm_scene *s, float aspect) {
+    pm_camera c;
+    memset(&c, 0, sizeof c);
+    c.yfov = 45.f * PM_PI / 180.f;
+    c.aspect = aspect;
+    /* From the front (+Z) and a little above, far enough that the bounding sphere fits the
+     * narrower of the two fields of view. */
+    vec3 back = v3_normalize(v3(0.f, 0.25f, 1.f));
+    float half = 0.5f * c.yfov;
+    if (aspect > 0.f && aspect < 1.f) half = atanf(tanf(half) * aspect);
+    float r = s->radius > 0.f ? s->radius : 1.f;
+    float dist = r / sinf(half) * 1.05f;
+    c.position = v3_madd(s->center, back, dist);
+    c.forward = v3_neg(back);
+    c.right = v3_normalize(v3_cross(c.forward, v3(0.f, 1.f, 0.f)));
+    c.up = v3_cross(c.right, c.forward);
+    c.znear = dist * 1e-3f;
+    return c;
+}
+
+static int wrap_index(int i, int n, int mode) {
+    if (mode == PM_WRAP_CLAMP) return i < 0 ? 0 : (i >= n ? n - 1 : i);
+    if (mode == PM_WRAP_MIRROR) {
+        int period = 2 * n, m = i % period;
+        if (m < 0) m += period;
+        return m < n ? m : period - 1 - m;
+    }
+    int m = i % n;
+    return m < 0 ? m + n : m;
+}
+
+static float srgb_table[256];
+static void init_srgb_table(void) {
+    for (int i = 0; i < 256; i++) srgb_table[i] = pm_srgb_to_linear(i / 255.f);
+}
+
+static vec3 texel(const pm_texture *t, int x, int y) {
+    const uint8_t *p = t->rgba + 4 * ((size_t)y * t->width + x);
+    return v3(srgb_table[p[0]], srgb_table[p[1]], srgb_table[p[2]]);
+}
+
+vec3 pm_texture_lookup(const pm_texture *t, float u, float v) {
+    if (srgb_table[255] == 0.f) init_srgb_table(); /* idempotent: racing threads write equal values */
+    if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
+    /* Keep the coordinate small before converting to int, so huge uv values cannot overflow. */
+    float fu = u - floorf(u / 64.f) * 64.f, fv = v - floorf(v / 64.f) * 64.f;
+    if (t->wrap_s == PM_WRAP_CLAMP) fu = fminf(fmaxf(u, -1.f), 2.f);
+    if (t->wrap_t == PM_WRAP_CLAMP) fv = fminf(fmaxf(v, -1.f), 2.f);
+    float x = fu * t->width - 0.5f, y = fv * t->height - 0.5f;
+    int x0 = (int)floorf(x), y0 = (int)floorf(y);
+    float ax = x - x0, ay = y - y0;
+    int xa = wrap_index(x0, t->width, t->wrap_s), xb = wrap_index(x0 + 1, t->width, t->wrap_s);
+    int ya = wrap_index(y0, t->height, t->wrap_t), yb = wrap_index(y0 + 1, t->height, t->wrap_t);
+    vec3 top = v3_add(v3_scale(texel(t, xa, ya), 1.f - ax), v3_scale(texel(t, xb, ya), ax));
+    vec3 bottom = v3_add(v3_scale(texel(t, xa, yb), 1.f - ax), v3_scale(texel(t, xb, yb), ax));
+    return v3_add(v3_scale(top, 1.f - ay), v3_scale(bottom, ay));
+}
+
+void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    float b0 = 1.f - b1 - b2;
+    vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
+    out->p = v3_add(v3_add(v3_scale(p0, b0), v3_scale(p1, b1)), v3_scale(p2, b2));
+    out->ng = v3_normalize(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
+    vec3 n = v3_add(v3_add(v3_scale(s->normals[ix[0]], b0), v3_scale(s->normals[ix[1]], b1)),
+                    v3_scale(s->normals[ix[2]], b2));
+    n = v3_normalize(n);
+    /* Shading normals that disagree with the winding would light back faces: trust the winding. */
+    out->ns = v3_dot(n, out->ng) < 0.f ? v3_neg(n) : n;
+    out->u = out->v = 0.f;
+    if (s->uvs) {
+        out->u = b0 * s->uvs[2 * ix[0]] + b1 * s->uvs[2 * ix[1]] + b2 * s->uvs[2 * ix[2]];
+        out->v = b0 * s->uvs[2 * ix[0] + 1] + b1 * s->uvs[2 * ix[1] + 1] + b2 * s->uvs[2 * ix[2] + 1];
+    }
+    out->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
+    out->material = s->triangle_material[tri];
+    const pm_material *m = &s->materials[out->material];
+    vec3 base = m->base_color;
+    if (m->base_color_texture >= 0) base = v3_mul(base, pm_texture_lookup(&s->textures[m->base_color_texture], out->u, out->v));
+    pm_material_split(m, base, &out->kd, &out->ks, &out->kt);
+    out->ior = m->ior > 0.f ? m->ior : 1.5f;
+    out->emission = m->emission;
+    out->double_sided = m->double_sided;
+}
+
+vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale) {
+    vec3 inward = v3_sub(sf->centroid, sf->p);
+    float len = v3_length(inward);
+    vec3 p = sf->p;
+    if (len > 0.f) p = pm_offset_ray_origin(p, v3_scale(inward, 1.f / len), scale);
+    return pm_offset_ray_origin(p, side_normal, scale);
+}
+
+uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf) {
+    uint32_t lo = 0, hi = s->emitter_count; /* first i with cdf[i+1] > u */
+    while (lo + 1 < hi) {
+        uint32_t mid = (lo + hi) / 2;
+        if (s->emitter_cdf[mid] <= u) lo = mid; else hi = mid;
+    }
+    *pick_pdf = s->emitter_cdf[lo + 1] - s->emitter_cdf[lo];
+    return s->emitters[lo];
+}

@@ -1,0 +1,89 @@
+/* scene_builder.h: builds small pm_scenes directly in C for tests, independent of the glTF loader.
+ *
+ * Every helper appends to growable arrays; sb_finish() hands the scene to pm_scene_finalize.
+ */
+#ifndef PM_SCENE_BUILDER_H
+#define PM_SCENE_BUILDER_H
+
+#include <stdlib.h>
+#include <string.h>
+#include "scene.h"
+
+static inline void *sb_grow(void *p, size_t count, size_t size) { return realloc(p, (count + 1) * size); }
+
+static inline uint32_t sb_material(pm_scene *s, vec3 base, float metallic, float roughness, float transmission,
+                                   vec3 emission, bool double_sided) {
+    s->materials = sb_grow(s->materials, s->material_count, sizeof *s->materials);
+    pm_material m;
+    memset(&m, 0, sizeof m);
+    m.base_color = base;
+    m.base_color_texture = -1;
+    m.metallic = metallic;
+    m.roughness = roughness;
+    m.transmission = transmission;
+    m.ior = 1.5f;
+    m.emission = emission;
+    m.double_sided = double_sided;
+    s->materials[s->material_count] = m;
+    return s->material_count++;
+}
+
+static inline uint32_t sb_lambert(pm_scene *s, vec3 albedo) { return sb_material(s, albedo, 0, 1, 0, v3s(0), false); }
+
+static inline void sb_triangle(pm_scene *s, vec3 a, vec3 b, vec3 c, uint32_t material) {
+    vec3 n = v3_normalize(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+    vec3 p[3] = {a, b, c};
+    for (int k = 0; k < 3; k++) {
+        s->positions = sb_grow(s->positions, s->vertex_count, sizeof(vec3));
+        s->normals = sb_grow(s->normals, s->vertex_count, sizeof(vec3));
+        s->positions[s->vertex_count] = p[k];
+        s->normals[s->vertex_count] = n;
+        s->vertex_count++;
+    }
+    s->indices = realloc(s->indices, 3 * sizeof(uint32_t) * (s->triangle_count + 1));
+    s->triangle_material = sb_grow(s->triangle_material, s->triangle_count, sizeof(uint32_t));
+    for (int k = 0; k < 3; k++) s->indices[3 * s->triangle_count + k] = s->vertex_count - 3 + k;
+    s->triangle_material[s->triangle_count++] = material;
+}
+
+/* Quad a,b,c,d counter-clockwise seen from its front. */
+static inline void sb_quad(pm_scene *s, vec3 a, vec3 b, vec3 c, vec3 d, uint32_t material) {
+    sb_triangle(s, a, b, c, material);
+    sb_triangle(s, a, c, d, material);
+}
+
+/* Axis-aligned box whose faces point inward (a room) when inward is true. */
+static inline void sb_box(pm_scene *s, vec3 lo, vec3 hi, uint32_t material, bool inward) {
+    vec3 c[8];
+    for (int i = 0; i < 8; i++) c[i] = v3(i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z);
+    static const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+    for (int f = 0; f < 6; f++) {
+        const int *q = faces[f];
+        if (inward) sb_quad(s, c[q[3]], c[q[2]], c[q[1]], c[q[0]], material);
+        else sb_quad(s, c[q[0]], c[q[1]], c[q[2]], c[q[3]], material);
+    }
+}
+
+static inline void sb_point_light(pm_scene *s, vec3 position, vec3 intensity) {
+    s->lights = sb_grow(s->lights, s->light_count, sizeof *s->lights);
+    pm_light l;
+    memset(&l, 0, sizeof l);
+    l.type = PM_LIGHT_POINT;
+    l.position = position;
+    l.intensity = intensity;
+    s->lights[s->light_count++] = l;
+}
+
+static inline pm_camera sb_camera(vec3 position, vec3 target, vec3 up_hint, float yfov_degrees) {
+    pm_camera c;
+    memset(&c, 0, sizeof c);
+    c.position = position;
+    c.forward = v3_normalize(v3_sub(target, position));
+    c.right = v3_normalize(v3_cross(c.forward, up_hint));
+    c.up = v3_cross(c.right, c.forward);
+    c.yfov = yfov_degrees * PM_PI / 180.f;
+    c.znear = 0.01f;
+    return c;
+}
+
+#endif
