@@ -11,4 +11,16 @@
 #define PM_DEFAULT_MAX_SPECULAR_DEPTH 12
 #define PM_MAX_IMAGE_SIDE 16384
 
+/* photon mapping (classic two-pass mode) */
+#define PM_DEFAULT_PHOTONS_PER_PIXEL 1.0   /* global photons = pixels x this, clamped below */
+#define PM_MIN_DEFAULT_PHOTONS 100000
+#define PM_MAX_DEFAULT_PHOTONS 4000000
+#define PM_DEFAULT_K_GLOBAL 64
+#define PM_DEFAULT_K_CAUSTIC 64
+#define PM_DEFAULT_GLOBAL_RADIUS 0.1f     /* x the scene's largest extent */
+#define PM_DEFAULT_CAUSTIC_RADIUS 0.025f  /* x the scene's largest extent */
+#define PM_DEFAULT_GATHER_RAYS 1          /* per eye sample; iterations add more */
+#define PM_DEFAULT_MAX_PHOTON_BOUNCES 32
+#define PM_TIME_SHARE_PHOTONS 0.25        /* with --time: the photon pass's share of the budget */
+
 #endif

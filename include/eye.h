@@ -13,12 +13,20 @@
 #include <stdint.h>
 #include "accel.h"
 #include "film.h"
+#include "photonmap.h"
 #include "scene.h"
+
+typedef enum { PM_INDIRECT_GATHER = 0, PM_INDIRECT_PHOTONS = 1 } pm_indirect_mode;
 
 typedef struct {
     uint64_t seed;
     int threads;
     int max_specular_depth;   /* specular bounces followed before a path is cut */
+    const pm_photon_maps *maps; /* NULL: no caustic or indirect component */
+    pm_estimate_settings caustic_estimate, global_estimate;
+    pm_indirect_mode indirect;
+    int gather_rays;          /* final-gather rays per eye sample at the first diffuse hit */
+    bool view_photons;        /* show the maps' estimates at the first diffuse hit, no shadow rays */
 } pm_eye_settings;
 
 typedef struct {

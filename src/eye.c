@@ -133,6 +133,56 @@ static float fresnel_dielectric(float cos_i, float eta_i, float eta_t, float *co
     return 0.5f * (rs * rs + rp * rp);
 }
 
+/* Radiance reflected toward the gather ray from the first diffuse surface it reaches (through
+ * any specular bounces): the global map's estimate there, emission excluded (direct light and
+ * caustics at the gathering point already count it). */
+static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, pm_rng *rng, uint64_t *rays) {
+    const pm_scene *s = job->scene;
+    const pm_eye_settings *set = job->settings;
+    vec3 d = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
+    if (v3_dot(d, ng) <= 0.f) return v3s(0.f);
+    vec3 o = pm_surface_origin(sf, ng, s->ray_scale), weight = v3s(1.f);
+    for (int depth = 0; depth <= set->max_specular_depth; depth++) {
+        pm_hit h;
+        (*rays)++;
+        if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) return v3s(0.f);
+        pm_surface y;
+        pm_scene_surface(s, h.tri, h.b1, h.b2, &y);
+        vec3 wo = v3_neg(d), yng = facing(y.ng, wo);
+        if (!v3_is_black(y.kd)) {
+            vec3 e = pm_photon_estimate(&set->maps->global, y.p, yng, &set->global_estimate);
+            return v3_mul(weight, v3_scale(v3_mul(y.kd, e), PM_INV_PI));
+        }
+        float wm = v3_average(y.ks), wt = v3_average(y.kt);
+        if (wm + wt <= 0.f) return v3s(0.f);
+        vec3 yns = v3_dot(y.ns, yng) < 0.f ? v3_neg(y.ns) : y.ns;
+        if (pm_rng_float(rng) * (wm + wt) < wm) {
+            weight = v3_mul(weight, v3_scale(y.ks, (wm + wt) / wm));
+            vec3 r = v3_reflect(d, yns);
+            d = v3_dot(r, yng) > 0.f ? r : v3_reflect(d, yng);
+            o = pm_surface_origin(&y, yng, s->ray_scale);
+        } else {
+            weight = v3_mul(weight, v3_scale(y.kt, (wm + wt) / wt));
+            bool front = v3_dot(y.ng, wo) > 0.f;
+            float eta_i = front ? 1.f : y.ior, eta_t = front ? y.ior : 1.f, cos_t;
+            float cos_i = fminf(1.f, v3_dot(wo, yns));
+            float f = fresnel_dielectric(cos_i, eta_i, eta_t, &cos_t);
+            if (pm_rng_float(rng) < f) {
+                vec3 r = v3_reflect(d, yns);
+                d = v3_dot(r, yng) > 0.f ? r : v3_reflect(d, yng);
+                o = pm_surface_origin(&y, yng, s->ray_scale);
+            } else {
+                float eta = eta_i / eta_t;
+                d = v3_normalize(v3_add(v3_scale(d, eta), v3_scale(yns, eta * cos_i - cos_t)));
+                if (v3_dot(d, yng) >= 0.f) return v3s(0.f);
+                weight = v3_scale(weight, eta * eta);
+                o = pm_surface_origin(&y, v3_neg(yng), s->ray_scale);
+            }
+        }
+    }
+    return v3s(0.f);
+}
+
 static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT],
                         uint64_t *rays) {
     const pm_scene *s = job->scene;
@@ -152,8 +202,39 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 ou
         if ((front || sf.double_sided) && !v3_is_black(sf.emission))
             out[comp] = v3_add(out[comp], v3_mul(throughput, sf.emission));
         if (!v3_is_black(sf.kd)) {
-            vec3 e = direct_light(s, job->accel, &sf, wo, rng, rays);
-            out[comp] = v3_add(out[comp], v3_mul(throughput, v3_scale(v3_mul(sf.kd, e), PM_INV_PI)));
+            const pm_eye_settings *set = job->settings;
+            vec3 f = v3_mul(throughput, v3_scale(sf.kd, PM_INV_PI)); /* Lambert BRDF x path weight */
+            vec3 ng = facing(sf.ng, wo);
+            if (set->view_photons && set->maps) {
+                pm_estimate_settings direct_only = set->global_estimate, indirect_only = set->global_estimate;
+                direct_only.path_mask = 1u << PM_PATH_DIRECT;
+                indirect_only.path_mask = 1u << PM_PATH_INDIRECT;
+                out[comp] = v3_add(out[comp], v3_mul(f, pm_photon_estimate(&set->maps->global, sf.p, ng, &direct_only)));
+                out[depth == 0 ? PM_INDIRECT : PM_SPECULAR] = v3_add(out[depth == 0 ? PM_INDIRECT : PM_SPECULAR],
+                    v3_mul(f, pm_photon_estimate(&set->maps->global, sf.p, ng, &indirect_only)));
+            } else {
+                vec3 e = direct_light(s, job->accel, &sf, wo, rng, rays);
+                out[comp] = v3_add(out[comp], v3_mul(f, e));
+            }
+            if (set->maps && set->maps->caustic.count) {
+                int c = depth == 0 ? PM_CAUSTIC : PM_SPECULAR;
+                out[c] = v3_add(out[c], v3_mul(f, pm_photon_estimate(&set->maps->caustic, sf.p, ng, &set->caustic_estimate)));
+            }
+            if (set->maps && set->maps->global.count && !set->view_photons) {
+                int c = depth == 0 ? PM_INDIRECT : PM_SPECULAR;
+                vec3 l = v3s(0.f);
+                if (set->indirect == PM_INDIRECT_GATHER && depth == 0 && set->gather_rays > 0) {
+                    vec3 ns = v3_dot(sf.ns, ng) < 0.f ? v3_neg(sf.ns) : sf.ns;
+                    for (int g = 0; g < set->gather_rays; g++) l = v3_add(l, gather(job, &sf, ng, ns, rng, rays));
+                    /* cosine-distributed rays: kd/pi x integral L cos = kd x mean(L) */
+                    l = v3_scale(v3_mul(throughput, v3_mul(sf.kd, l)), 1.f / set->gather_rays);
+                } else {
+                    pm_estimate_settings indirect_only = set->global_estimate;
+                    indirect_only.path_mask = 1u << PM_PATH_INDIRECT;
+                    l = v3_mul(f, pm_photon_estimate(&set->maps->global, sf.p, ng, &indirect_only));
+                }
+                out[c] = v3_add(out[c], l);
+            }
         }
 
         float w_mirror = v3_average(sf.ks), w_glass = v3_average(sf.kt);

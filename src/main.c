@@ -32,6 +32,13 @@ typedef struct {
     int camera;           /* -1 = first */
     float exposure_ev;
     bool stats, no_default_light, quiet;
+    /* photon mapping; 0 / -1 = choose from the scene and the image */
+    long photons, caustic_photons;
+    int k, gather_rays;
+    double max_radius;
+    pm_kernel kernel;
+    pm_indirect_mode indirect;
+    bool view_photons, no_photons;
 } options;
 
 static const char usage_text[] =
@@ -46,6 +53,16 @@ static const char usage_text[] =
     "  --exposure EV        display exposure in stops (PNG and window)\n"
     "  --screenshot FILE    where the window's P key saves a PNG (default pmview-screenshot.png)\n"
     "  --no-default-light   do not add the white sky to a scene without lights\n"
+    "  --mode classic       two-pass photon mapping: maps built once, eye pass repeated (the default)\n"
+    "  --photons N          photons emitted for the global map (default: from the image size and --time)\n"
+    "  --caustic-photons N  photons emitted for the caustic map (default: as many as --photons)\n"
+    "  --k N                photons per radiance estimate (default 64)\n"
+    "  --max-radius R       largest estimate radius in scene units (default: a fraction of the scene size)\n"
+    "  --kernel disc|gaussian|cone  radiance estimate filter (default disc)\n"
+    "  --indirect gather|photons    indirect light by final gathering (default) or the global map directly\n"
+    "  --gather-rays N      final-gather rays per eye sample (default 1)\n"
+    "  --view photons       show the photon maps' estimates at the first diffuse hit\n"
+    "  --no-photons         direct and specular only (no photon pass)\n"
     "  --stats              print 'stat STAGE key=value ...' lines\n"
     "  --quiet              no warnings\n"
     "  --help               this text\n"
@@ -90,6 +107,8 @@ static int parse_options(int argc, char **argv, options *o) {
     o->seed = PM_DEFAULT_SEED;
     o->camera = -1;
     o->exposure_ev = PM_DEFAULT_EXPOSURE_EV;
+    o->photons = o->caustic_photons = -1;
+    o->gather_rays = PM_DEFAULT_GATHER_RAYS;
     bool have_scene = false;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -103,8 +122,11 @@ static int parse_options(int argc, char **argv, options *o) {
         if (!strcmp(a, "--stats")) { o->stats = true; continue; }
         if (!strcmp(a, "--no-default-light")) { o->no_default_light = true; continue; }
         if (!strcmp(a, "--quiet")) { o->quiet = true; continue; }
+        if (!strcmp(a, "--no-photons")) { o->no_photons = true; continue; }
         static const char *const valued[] = {"--snapshot", "--width", "--height", "--iterations", "--time", "--threads",
-                                             "--seed", "--camera", "--exposure", "--screenshot"};
+                                             "--seed", "--camera", "--exposure", "--screenshot", "--mode", "--photons",
+                                             "--caustic-photons", "--k", "--max-radius", "--kernel", "--indirect",
+                                             "--gather-rays", "--view"};
         int which = -1;
         for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
             if (!strcmp(a, valued[k])) which = k;
@@ -128,6 +150,24 @@ static int parse_options(int argc, char **argv, options *o) {
         case 7: if (!parse_long(v, 0, 1000000, &n)) return usage_error("bad --camera '%s' (an index from 0)", v); o->camera = (int)n; break;
         case 8: if (!parse_double(v, -64, 64, &x)) return usage_error("bad --exposure '%s' (stops, -64 to 64)", v); o->exposure_ev = (float)x; break;
         case 9: if (!has_extension(v, ".png")) return usage_error("--screenshot needs a .png file name, not '%s'", v); o->screenshot = v; break;
+        case 10: if (strcmp(v, "classic")) return usage_error("unknown --mode '%s' (classic)", v); break;
+        case 11: if (!parse_long(v, 0, 2000000000L, &n)) return usage_error("bad --photons '%s'", v); o->photons = n; break;
+        case 12: if (!parse_long(v, 0, 2000000000L, &n)) return usage_error("bad --caustic-photons '%s'", v); o->caustic_photons = n; break;
+        case 13: if (!parse_long(v, 1, 2048, &n)) return usage_error("bad --k '%s' (1 to 2048)", v); o->k = (int)n; break;
+        case 14: if (!parse_double(v, 1e-30, 1e30, &x)) return usage_error("bad --max-radius '%s' (> 0)", v); o->max_radius = x; break;
+        case 15:
+            if (!strcmp(v, "disc")) o->kernel = PM_KERNEL_DISC;
+            else if (!strcmp(v, "gaussian")) o->kernel = PM_KERNEL_GAUSSIAN;
+            else if (!strcmp(v, "cone")) o->kernel = PM_KERNEL_CONE;
+            else return usage_error("unknown --kernel '%s' (disc, gaussian, cone)", v);
+            break;
+        case 16:
+            if (!strcmp(v, "gather")) o->indirect = PM_INDIRECT_GATHER;
+            else if (!strcmp(v, "photons")) o->indirect = PM_INDIRECT_PHOTONS;
+            else return usage_error("unknown --indirect '%s' (gather, photons)", v);
+            break;
+        case 17: if (!parse_long(v, 0, 4096, &n)) return usage_error("bad --gather-rays '%s' (0 to 4096)", v); o->gather_rays = (int)n; break;
+        case 18: if (strcmp(v, "photons")) return usage_error("unknown --view '%s' (photons)", v); o->view_photons = true; break;
         }
     }
     return -1;
@@ -205,6 +245,8 @@ int main(int argc, char **argv) {
     pm_view *view = NULL;
     pm_film film;
     memset(&film, 0, sizeof film);
+    pm_photon_maps maps;
+    memset(&maps, 0, sizeof maps);
 
     pm_camera camera;
     if (opt.camera >= 0 && (uint32_t)opt.camera >= scene.camera_count) {
@@ -228,7 +270,69 @@ int main(int argc, char **argv) {
     if (!accel) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
     if (opt.stats) printf("stat bvh seconds=%.4f bytes=%zu\n", pm_accel_build_seconds(accel), pm_accel_bytes(accel));
 
-    if (!pm_film_init(&film, width, height, scene.analysis.component_possible)) {
+    /* Photon pass: maps built once, before the eye iterations. */
+    pm_eye_settings eye;
+    memset(&eye, 0, sizeof eye);
+    eye.seed = opt.seed;
+    eye.threads = opt.threads;
+    eye.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
+    if (!opt.no_photons && (scene.analysis.component_possible[PM_CAUSTIC] || scene.analysis.component_possible[PM_INDIRECT])) {
+        pm_photon_settings ps;
+        memset(&ps, 0, sizeof ps);
+        ps.seed = opt.seed;
+        ps.threads = opt.threads;
+        ps.max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
+        ps.projection_maps = true;
+        double pixels = (double)width * height;
+        double n = pixels * PM_DEFAULT_PHOTONS_PER_PIXEL;
+        if (opt.time_limit > 0 && opt.photons < 0) {
+            /* A pilot run measures photon speed here, so the pass gets its share of the budget. */
+            pm_photon_settings pilot = ps;
+            pilot.global_photons = pilot.caustic_photons = 20000;
+            pm_photon_stats pilot_stats;
+            pm_photon_maps pilot_maps;
+            if (pm_photon_maps_build(&scene, accel, &pilot, &pilot_maps, &pilot_stats) && pilot_stats.seconds > 0)
+                n = PM_TIME_SHARE_PHOTONS * opt.time_limit * (double)pilot_stats.emitted / pilot_stats.seconds / 2.0;
+            pm_photon_maps_free(&pilot_maps);
+        }
+        if (n < PM_MIN_DEFAULT_PHOTONS) n = PM_MIN_DEFAULT_PHOTONS;
+        if (n > PM_MAX_DEFAULT_PHOTONS) n = PM_MAX_DEFAULT_PHOTONS;
+        ps.global_photons = scene.analysis.component_possible[PM_INDIRECT] ? (uint64_t)(opt.photons >= 0 ? opt.photons : n) : 0;
+        ps.caustic_photons = scene.analysis.component_possible[PM_CAUSTIC]
+                                 ? (uint64_t)(opt.caustic_photons >= 0 ? opt.caustic_photons : (opt.photons >= 0 ? opt.photons : n))
+                                 : 0;
+        pm_photon_stats pst;
+        if (!pm_photon_maps_build(&scene, accel, &ps, &maps, &pst)) {
+            fprintf(stderr, "pmview: error: %s: out of memory building photon maps\n", opt.scene_path);
+            exit_code = 1;
+            goto done;
+        }
+        if (opt.stats) {
+            printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f\n",
+                   (unsigned long long)pst.emitted, (unsigned long long)pst.stored_caustic,
+                   (unsigned long long)pst.stored_global, (unsigned long long)pst.rays, pst.seconds,
+                   pst.seconds > 0 ? pst.emitted / pst.seconds : 0.0, sizeof(pm_photon), maps.projection_fraction);
+            printf("stat kdtree caustic_photons=%zu caustic_bytes=%zu global_photons=%zu global_bytes=%zu\n", maps.caustic.count,
+                   pm_kdtree_bytes(&maps.caustic), maps.global.count, pm_kdtree_bytes(&maps.global));
+        }
+        eye.maps = &maps;
+        float extent = scene.ray_scale;
+        eye.global_estimate.kernel = eye.caustic_estimate.kernel = opt.kernel;
+        eye.global_estimate.k = opt.k ? opt.k : PM_DEFAULT_K_GLOBAL;
+        eye.caustic_estimate.k = opt.k ? opt.k : PM_DEFAULT_K_CAUSTIC;
+        eye.global_estimate.max_radius = opt.max_radius > 0 ? (float)opt.max_radius : PM_DEFAULT_GLOBAL_RADIUS * extent;
+        eye.caustic_estimate.max_radius = opt.max_radius > 0 ? (float)opt.max_radius : PM_DEFAULT_CAUSTIC_RADIUS * extent;
+        eye.global_estimate.path_mask = eye.caustic_estimate.path_mask = 7u;
+        eye.indirect = opt.indirect;
+        eye.gather_rays = opt.gather_rays;
+        eye.view_photons = opt.view_photons;
+    }
+    bool components[PM_COMPONENT_COUNT];
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) components[c] = scene.analysis.component_possible[c];
+    components[PM_CAUSTIC] = components[PM_CAUSTIC] && maps.caustic.count > 0;
+    components[PM_INDIRECT] = components[PM_INDIRECT] && maps.global.count > 0;
+
+    if (!pm_film_init(&film, width, height, components)) {
         fprintf(stderr, "pmview: error: cannot allocate a %dx%d film\n", width, height);
         exit_code = 1;
         goto done;
@@ -254,7 +358,6 @@ int main(int argc, char **argv) {
     }
     if ((window || want_png) && !view) { fprintf(stderr, "pmview: error: %s\n", err); exit_code = 1; goto done; }
 
-    pm_eye_settings eye = {opt.seed, opt.threads, PM_DEFAULT_MAX_SPECULAR_DEPTH};
     pm_eye_stats eye_stats = {0, 0.0};
     long target = opt.iterations ? opt.iterations
                                  : (opt.time_limit > 0 ? 1000000000L
@@ -305,6 +408,7 @@ int main(int argc, char **argv) {
     }
 
 done:
+    pm_photon_maps_free(&maps);
     pm_view_destroy(view);
     pm_film_free(&film);
     pm_accel_destroy(accel);

@@ -1,0 +1,6 @@
+#!/bin/sh
+# run_bench.sh: `make bench`: runs the benchmark on the shipped scenes and prints its figures.
+cd "$(dirname "$0")/.." || exit 1
+for scene in scenes/cornell-box.gltf scenes/caustic.gltf; do
+    build/rel/bench_pm "$scene" || exit 1
+done

@@ -1,0 +1,92 @@
+/* photon.h: the compact photon record (20 bytes) and its encoding: position, octahedral normal and direction, RGBE power.
+ *
+ * Position stays full float (the estimates are sensitive to it); the incident direction is a
+ * 16-bit octahedral code (about 1 degree), the surface normal a 14-bit one (about 2 degrees:
+ * it only decides "same surface, same side"), and the remaining 2 bits say how the photon got
+ * there (direct, caustic, indirect); power is Ward's shared-exponent RGBE (1% precision).
+ */
+#ifndef PM_PHOTON_H
+#define PM_PHOTON_H
+
+#include <stdint.h>
+#include "pm_math.h"
+
+typedef struct {
+    float pos[3];
+    uint16_t normal_path; /* bits 0-13: octahedral normal (7+7 bits), 14-15: path tag */
+    uint16_t direction;  /* octahedral code of the direction the photon travelled */
+    uint8_t power[4];    /* RGBE */
+} pm_photon;
+
+_Static_assert(sizeof(pm_photon) == 20, "photon record must stay 20 bytes");
+
+/* Octahedral code with `bits` bits per axis (at most 8). */
+static inline uint16_t pm_oct_encode_bits(vec3 n, int bits) {
+    float levels = (float)((1 << bits) - 1);
+    int mask = (1 << bits) - 1;
+    float s = fabsf(n.x) + fabsf(n.y) + fabsf(n.z);
+    if (!(s > 0.f)) return (uint16_t)(((mask + 1) / 2) | (((mask + 1) / 2) << bits));
+    float x = n.x / s, y = n.y / s;
+    if (n.z < 0.f) {
+        float ox = (1.f - fabsf(y)) * (x >= 0.f ? 1.f : -1.f);
+        float oy = (1.f - fabsf(x)) * (y >= 0.f ? 1.f : -1.f);
+        x = ox;
+        y = oy;
+    }
+    int qx = (int)lroundf((x * 0.5f + 0.5f) * levels), qy = (int)lroundf((y * 0.5f + 0.5f) * levels);
+    return (uint16_t)((qx & mask) | ((qy & mask) << bits));
+}
+
+static inline vec3 pm_oct_decode_bits(uint16_t code, int bits) {
+    int mask = (1 << bits) - 1;
+    float levels = (float)mask;
+    float x = (code & mask) / levels * 2.f - 1.f, y = ((code >> bits) & mask) / levels * 2.f - 1.f;
+    float z = 1.f - fabsf(x) - fabsf(y);
+    if (z < 0.f) {
+        float ox = (1.f - fabsf(y)) * (x >= 0.f ? 1.f : -1.f);
+        float oy = (1.f - fabsf(x)) * (y >= 0.f ? 1.f : -1.f);
+        x = ox;
+        y = oy;
+    }
+    return v3_normalize(v3(x, y, z));
+}
+
+static inline uint16_t pm_oct_encode(vec3 n) { return pm_oct_encode_bits(n, 8); }
+static inline vec3 pm_oct_decode(uint16_t code) { return pm_oct_decode_bits(code, 8); }
+
+static inline void pm_rgbe_encode(vec3 c, uint8_t out[4]) {
+    float m = v3_max_component(c);
+    if (!(m > 1e-32f) || !isfinite(m)) { out[0] = out[1] = out[2] = out[3] = 0; return; }
+    int e;
+    float scale = frexpf(m, &e) * 256.f / m;
+    /* rounding to nearest halves the quantisation bias of truncation */
+    float r = fminf(c.x * scale + 0.5f, 255.f), g = fminf(c.y * scale + 0.5f, 255.f), b = fminf(c.z * scale + 0.5f, 255.f);
+    out[0] = (uint8_t)fmaxf(r, 0.f);
+    out[1] = (uint8_t)fmaxf(g, 0.f);
+    out[2] = (uint8_t)fmaxf(b, 0.f);
+    out[3] = (uint8_t)(e + 128);
+}
+
+static inline vec3 pm_rgbe_decode(const uint8_t in[4]) {
+    if (in[3] == 0) return v3s(0.f);
+    float f = ldexpf(1.f, (int)in[3] - (128 + 8));
+    return v3(in[0] * f, in[1] * f, in[2] * f);
+}
+
+static inline void pm_photon_set(pm_photon *ph, vec3 p, vec3 normal, vec3 direction, vec3 power, int path) {
+    ph->pos[0] = p.x;
+    ph->pos[1] = p.y;
+    ph->pos[2] = p.z;
+    ph->normal_path = (uint16_t)(pm_oct_encode_bits(normal, 7) | ((path & 3) << 14));
+    ph->direction = pm_oct_encode(direction);
+    pm_rgbe_encode(power, ph->power);
+}
+
+static inline vec3 pm_photon_normal(const pm_photon *ph) { return pm_oct_decode_bits(ph->normal_path & 0x3fff, 7); }
+static inline int pm_photon_path(const pm_photon *ph) { return ph->normal_path >> 14; }
+static inline vec3 pm_photon_direction(const pm_photon *ph) { return pm_oct_decode(ph->direction); }
+static inline vec3 pm_photon_power(const pm_photon *ph) { return pm_rgbe_decode(ph->power); }
+
+static inline vec3 pm_photon_position(const pm_photon *ph) { return v3(ph->pos[0], ph->pos[1], ph->pos[2]); }
+
+#endif

@@ -1,0 +1,61 @@
+/* photonmap.h: the photon pass: emission from every light by power, Russian-roulette tracing, caustic and global maps.
+ *
+ * Built as a function of a photon budget and a seed, so the progressive mode can call it
+ * once per iteration. The caustic map holds L S+ D photons (stored at the first diffuse hit
+ * after one or more specular bounces; the trace stops there), aimed with projection maps; the
+ * global map holds every diffuse hit of every photon, each tagged by how it got there so
+ * that an estimate can leave out what another component already counts.
+ */
+#ifndef PM_PHOTONMAP_H
+#define PM_PHOTONMAP_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include "accel.h"
+#include "kdtree.h"
+#include "scene.h"
+
+/* How a stored photon reached its surface (the record's 2-bit path tag). */
+enum { PM_PATH_DIRECT = 0, PM_PATH_CAUSTIC = 1, PM_PATH_INDIRECT = 2 };
+
+typedef struct {
+    uint64_t global_photons;   /* photons emitted for the global map (0 = no global map) */
+    uint64_t caustic_photons;  /* photons emitted for the caustic map (0 = none) */
+    uint64_t seed;
+    int threads;
+    int max_bounces;
+    bool projection_maps;      /* aim caustic photons at specular objects */
+} pm_photon_settings;
+
+typedef struct {
+    pm_kdtree caustic, global;
+    uint64_t caustic_emitted, global_emitted;
+    /* fraction of the caustic lights' emission directions the projection maps kept */
+    double projection_fraction;
+} pm_photon_maps;
+
+typedef struct {
+    uint64_t emitted, stored_caustic, stored_global, rays;
+    double seconds, kdtree_seconds;
+} pm_photon_stats;
+
+bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_settings *settings,
+                          pm_photon_maps *maps, pm_photon_stats *stats);
+void pm_photon_maps_free(pm_photon_maps *maps);
+
+/* Radiance estimate kernels. */
+typedef enum { PM_KERNEL_DISC = 0, PM_KERNEL_GAUSSIAN = 1, PM_KERNEL_CONE = 2 } pm_kernel;
+
+typedef struct {
+    pm_kernel kernel;
+    int k;                 /* photons per estimate */
+    float max_radius;      /* world units */
+    unsigned path_mask;    /* which PM_PATH_* tags to include (bit per tag) */
+} pm_estimate_settings;
+
+/* Irradiance-like estimate E at point p with side normal n (facing the viewer), so that the
+ * reflected radiance off a Lambert surface is kd/pi * E: the sum of the power of the k nearest
+ * photons that arrived from the front of this surface, divided by the kernel's area. */
+vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e);
+
+#endif

@@ -1,0 +1,522 @@
+/* photonmap.c: photon emission by light power, projection maps, Russian-roulette tracing, map building, radiance estimates.
+ *
+ * Photons are generated in fixed chunks, each with its own random stream and output list,
+ * merged in chunk order: the maps do not depend on the thread count. Every photon starts
+ * with its share of the light's flux (power / (photons x pick probability)) and keeps it
+ * through Russian roulette (only rescaled per channel by colour), so no weight can blow up.
+ */
+#include "photonmap.h"
+
+#include <float.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "parallel.h"
+#include "rng.h"
+
+#define CHUNK 2048
+#define MAX_THREADS 256
+#define PROJ_Z 64     /* projection map cells: uniform in z = cos(theta) ... */
+#define PROJ_PHI 128  /* ... and in phi, so every cell has the same solid angle */
+
+typedef enum { SOURCE_EMITTERS, SOURCE_PUNCTUAL, SOURCE_SKY } source_kind;
+
+typedef struct {
+    source_kind kind;
+    uint32_t light;          /* index into scene lights for SOURCE_PUNCTUAL */
+    vec3 power;              /* flux, W per channel */
+    vec3 center;             /* where its photons leave from, for projection maps */
+    float radius;            /* bounding radius of that region (0 for a point) */
+    uint8_t *cells;          /* projection map (caustic pass), NULL = every direction */
+    uint32_t *marked;        /* indices of marked cells */
+    uint32_t marked_count;
+} light_source;
+
+typedef struct { vec3 center; float radius; } sphere;
+
+typedef struct {
+    const pm_scene *scene;
+    const pm_accel *accel;
+    const pm_photon_settings *settings;
+    light_source *sources;
+    uint32_t source_count;
+    float *source_cdf;
+    bool caustic_pass;
+    uint64_t photons;        /* emitted in this pass */
+    uint64_t seed;
+    pm_photon **chunk_photons;
+    uint32_t *chunk_counts;
+    struct { uint64_t rays; char pad[56]; } counters[MAX_THREADS];
+} pass;
+
+static double now_seconds(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
+
+static float spot_falloff(const pm_light *l, vec3 light_to_point) {
+    float cd = v3_dot(l->direction, light_to_point);
+    float scale = 1.f / fmaxf(1e-3f, l->cos_inner - l->cos_outer);
+    float t = fminf(fmaxf(cd * scale - l->cos_outer * scale, 0.f), 1.f);
+    return t * t;
+}
+
+/* Flux of a spot: I x integral of the falloff over the cone (midpoint rule in cos theta). */
+static float spot_solid_angle(const pm_light *l) {
+    const int n = 4096;
+    double sum = 0.0, lo = l->cos_outer, step = (1.0 - lo) / n;
+    for (int i = 0; i < n; i++) {
+        double c = lo + (i + 0.5) * step;
+        float s = sqrtf((float)fmax(0.0, 1.0 - c * c));
+        vec3 t, b;
+        v3_basis(l->direction, &t, &b);
+        sum += spot_falloff(l, v3_add(v3_scale(l->direction, (float)c), v3_scale(t, s))) * step;
+    }
+    return (float)(2.0 * PM_PI * sum);
+}
+
+static uint32_t build_sources(const pm_scene *s, light_source *out) {
+    uint32_t n = 0;
+    float R = s->radius > 0.f ? s->radius : 1.f;
+    if (s->emitter_count) {
+        light_source *l = &out[n++];
+        memset(l, 0, sizeof *l);
+        l->kind = SOURCE_EMITTERS;
+        vec3 lo = v3s(FLT_MAX), hi = v3s(-FLT_MAX), power = v3s(0.f);
+        for (uint32_t i = 0; i < s->emitter_count; i++) {
+            uint32_t t = s->emitters[i];
+            const pm_material *m = &s->materials[s->triangle_material[t]];
+            power = v3_madd(power, m->emission, PM_PI * pm_triangle_area(s, t) * (m->double_sided ? 2.f : 1.f));
+            for (int k = 0; k < 3; k++) {
+                vec3 p = s->positions[s->indices[3 * (size_t)t + k]];
+                lo = v3_min(lo, p);
+                hi = v3_max(hi, p);
+            }
+        }
+        l->power = power;
+        l->center = v3_scale(v3_add(lo, hi), 0.5f);
+        l->radius = 0.5f * v3_length(v3_sub(hi, lo));
+    }
+    for (uint32_t i = 0; i < s->light_count; i++) {
+        const pm_light *pl = &s->lights[i];
+        light_source *l = &out[n++];
+        memset(l, 0, sizeof *l);
+        l->kind = SOURCE_PUNCTUAL;
+        l->light = i;
+        if (pl->type == PM_LIGHT_POINT) l->power = v3_scale(pl->intensity, 4.f * PM_PI);
+        else if (pl->type == PM_LIGHT_SPOT) l->power = v3_scale(pl->intensity, spot_solid_angle(pl));
+        else l->power = v3_scale(pl->intensity, PM_PI * R * R);
+        l->center = pl->position;
+    }
+    if (s->sky) {
+        light_source *l = &out[n++];
+        memset(l, 0, sizeof *l);
+        l->kind = SOURCE_SKY;
+        l->power = v3_scale(s->sky_radiance, 4.f * PM_PI * PM_PI * R * R);
+    }
+    return n;
+}
+
+/* Specular triangles bucketed on a coarse grid: each bucket's bounding sphere stands for the
+ * specular objects a projection map must cover. */
+static sphere *specular_spheres(const pm_scene *s, uint32_t *count) {
+    enum { G = 8 };
+    vec3 lo = s->bounds_min, ext = v3_sub(s->bounds_max, s->bounds_min);
+    vec3 blo[G * G * G], bhi[G * G * G];
+    bool used[G * G * G] = {false};
+    for (uint32_t t = 0; t < s->triangle_count; t++) {
+        vec3 kd, ks, kt;
+        const pm_material *m = &s->materials[s->triangle_material[t]];
+        pm_material_split(m, m->base_color, &kd, &ks, &kt);
+        if (v3_is_black(ks) && v3_is_black(kt)) continue;
+        const uint32_t *ix = s->indices + 3 * (size_t)t;
+        vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
+        vec3 c = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
+        int cell[3];
+        for (int a = 0; a < 3; a++) {
+            float e = v3_get(ext, a);
+            int g = e > 0.f ? (int)((v3_get(c, a) - v3_get(lo, a)) / e * G) : 0;
+            cell[a] = g < 0 ? 0 : (g >= G ? G - 1 : g);
+        }
+        int b = (cell[2] * G + cell[1]) * G + cell[0];
+        vec3 tlo = v3_min(p0, v3_min(p1, p2)), thi = v3_max(p0, v3_max(p1, p2));
+        if (!used[b]) { used[b] = true; blo[b] = tlo; bhi[b] = thi; }
+        else { blo[b] = v3_min(blo[b], tlo); bhi[b] = v3_max(bhi[b], thi); }
+    }
+    sphere *out = malloc(sizeof(sphere) * G * G * G);
+    uint32_t n = 0;
+    for (int b = 0; b < G * G * G; b++)
+        if (used[b]) out[n++] = (sphere){v3_scale(v3_add(blo[b], bhi[b]), 0.5f), 0.5f * v3_length(v3_sub(bhi[b], blo[b]))};
+    *count = n;
+    return out;
+}
+
+static vec3 cell_direction(int iz, int iphi, float fz, float fphi) {
+    float z = 1.f - 2.f * ((iz + fz) / PROJ_Z), r = sqrtf(fmaxf(0.f, 1.f - z * z));
+    float phi = 2.f * PM_PI * (iphi + fphi) / PROJ_PHI;
+    return v3(r * cosf(phi), r * sinf(phi), z);
+}
+
+/* Marks the cells of directions from the source's region that can reach a specular sphere.
+ * Conservative: each sphere is grown by the source's own radius, each cell by its angular
+ * radius, so no direction that could start a caustic path is left out. */
+static void build_projection_map(light_source *l, const sphere *spheres, uint32_t sphere_count) {
+    l->cells = calloc(PROJ_Z * PROJ_PHI, 1);
+    l->marked = malloc(sizeof(uint32_t) * PROJ_Z * PROJ_PHI);
+    l->marked_count = 0;
+    for (int iz = 0; iz < PROJ_Z; iz++)
+        for (int ip = 0; ip < PROJ_PHI; ip++) {
+            vec3 c = cell_direction(iz, ip, 0.5f, 0.5f);
+            float cell_cos = 1.f;
+            for (int k = 0; k < 4; k++) cell_cos = fminf(cell_cos, v3_dot(c, cell_direction(iz, ip, (float)(k & 1), (float)(k >> 1))));
+            float cell_angle = acosf(fmaxf(-1.f, fminf(1.f, cell_cos))) * 1.05f + 1e-3f;
+            bool hit = false;
+            for (uint32_t i = 0; i < sphere_count && !hit; i++) {
+                vec3 to = v3_sub(spheres[i].center, l->center);
+                float d = v3_length(to), r = spheres[i].radius + l->radius;
+                if (d <= r) { hit = true; break; }
+                float half = asinf(r / d);
+                float angle = acosf(fmaxf(-1.f, fminf(1.f, v3_dot(c, v3_scale(to, 1.f / d)))));
+                hit = angle <= half + cell_angle;
+            }
+            if (hit) {
+                l->cells[iz * PROJ_PHI + ip] = 1;
+                l->marked[l->marked_count++] = (uint32_t)(iz * PROJ_PHI + ip);
+            }
+        }
+}
+
+/* A direction from the source: uniform over the marked cells when a projection map exists,
+ * else uniform over the sphere. Returns the solid angle sampled (the pdf is 1 / that). */
+static float sample_direction(const light_source *l, pm_rng *rng, vec3 *dir) {
+    if (l->cells) {
+        uint32_t pick = (uint32_t)(pm_rng_float(rng) * l->marked_count);
+        if (pick >= l->marked_count) pick = l->marked_count - 1;
+        uint32_t cell = l->marked[pick];
+        *dir = cell_direction((int)(cell / PROJ_PHI), (int)(cell % PROJ_PHI), pm_rng_float(rng), pm_rng_float(rng));
+        return 4.f * PM_PI * (float)l->marked_count / (PROJ_Z * PROJ_PHI);
+    }
+    *dir = pm_sample_sphere(pm_rng_float(rng), pm_rng_float(rng));
+    return 4.f * PM_PI;
+}
+
+/* Starts one photon from source l: origin, direction and flux (before dividing by the photon
+ * count and the pick probability). Returns false when it carries nothing. */
+static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, vec3 *d, vec3 *flux) {
+    const pm_scene *s = ps->scene;
+    float R = s->radius > 0.f ? s->radius : 1.f;
+    if (l->kind == SOURCE_EMITTERS) {
+        float pick_pdf;
+        uint32_t tri = pm_scene_pick_emitter(s, pm_rng_float(rng), &pick_pdf);
+        float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng);
+        pm_surface sf;
+        pm_scene_surface(s, tri, r1 * (1.f - r2), r1 * r2, &sf);
+        float area = pm_triangle_area(s, tri);
+        if (pick_pdf <= 0.f || area <= 0.f) return false;
+        vec3 n = sf.ng;
+        if (l->cells) {
+            float omega = sample_direction(l, rng, d);
+            float cos_t = v3_dot(n, *d);
+            if (sf.double_sided) cos_t = fabsf(cos_t);
+            if (cos_t <= 0.f) return false;
+            *flux = v3_scale(sf.emission, cos_t * area / pick_pdf * omega);
+            n = facing(n, *d);
+        } else {
+            if (sf.double_sided && pm_rng_float(rng) < 0.5f) n = v3_neg(n);
+            *d = pm_sample_cosine(n, pm_rng_float(rng), pm_rng_float(rng));
+            *flux = v3_scale(sf.emission, PM_PI * area / pick_pdf * (sf.double_sided ? 2.f : 1.f));
+        }
+        *o = pm_surface_origin(&sf, n, s->ray_scale);
+        return true;
+    }
+    if (l->kind == SOURCE_PUNCTUAL) {
+        const pm_light *pl = &s->lights[l->light];
+        if (pl->type == PM_LIGHT_DIRECTIONAL) {
+            vec3 t, b;
+            float x, y;
+            v3_basis(pl->direction, &t, &b);
+            pm_sample_disc(pm_rng_float(rng), pm_rng_float(rng), &x, &y);
+            *o = v3_add(v3_madd(s->center, pl->direction, -1.01f * R), v3_add(v3_scale(t, x * R), v3_scale(b, y * R)));
+            *d = pl->direction;
+            *flux = v3_scale(pl->intensity, PM_PI * R * R);
+            return true;
+        }
+        *o = pl->position;
+        if (pl->type == PM_LIGHT_SPOT && !l->cells) {
+            /* uniform in the outer cone */
+            float z = 1.f - pm_rng_float(rng) * (1.f - pl->cos_outer), r = sqrtf(fmaxf(0.f, 1.f - z * z));
+            float phi = 2.f * PM_PI * pm_rng_float(rng);
+            vec3 t, b;
+            v3_basis(pl->direction, &t, &b);
+            *d = v3_add(v3_scale(pl->direction, z), v3_add(v3_scale(t, r * cosf(phi)), v3_scale(b, r * sinf(phi))));
+            float omega = 2.f * PM_PI * (1.f - pl->cos_outer);
+            *flux = v3_scale(pl->intensity, spot_falloff(pl, *d) * omega);
+            return !v3_is_black(*flux);
+        }
+        float omega = sample_direction(l, rng, d);
+        float falloff = pl->type == PM_LIGHT_SPOT ? spot_falloff(pl, *d) : 1.f;
+        *flux = v3_scale(pl->intensity, falloff * omega);
+        return falloff > 0.f;
+    }
+    /* sky: a direction, then a point on the disc facing it outside the bounding sphere */
+    vec3 w = pm_sample_sphere(pm_rng_float(rng), pm_rng_float(rng)), t, b;
+    float x, y;
+    v3_basis(w, &t, &b);
+    pm_sample_disc(pm_rng_float(rng), pm_rng_float(rng), &x, &y);
+    *o = v3_add(v3_madd(s->center, w, 1.01f * R), v3_add(v3_scale(t, x * R), v3_scale(b, y * R)));
+    *d = v3_neg(w);
+    *flux = v3_scale(s->sky_radiance, 4.f * PM_PI * PM_PI * R * R);
+    return true;
+}
+
+typedef struct { pm_photon *data; uint32_t count, capacity; } photon_list;
+
+static void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path) {
+    if (list->count == list->capacity) {
+        list->capacity = list->capacity ? 2 * list->capacity : 1024;
+        list->data = realloc(list->data, sizeof(pm_photon) * list->capacity);
+    }
+    pm_photon_set(&list->data[list->count++], p, n, d, power, path);
+}
+
+static uint32_t pick_source(const pass *ps, float u, float *pdf) {
+    uint32_t i = 0;
+    while (i + 1 < ps->source_count && ps->source_cdf[i + 1] <= u) i++;
+    *pdf = ps->source_cdf[i + 1] - ps->source_cdf[i];
+    return i;
+}
+
+static void trace_chunk(void *ctx, size_t chunk, int thread) {
+    pass *ps = ctx;
+    const pm_scene *s = ps->scene;
+    photon_list list = {NULL, 0, 0};
+    uint64_t first = (uint64_t)chunk * CHUNK, last = first + CHUNK < ps->photons ? first + CHUNK : ps->photons;
+    uint64_t rays = 0;
+    for (uint64_t i = first; i < last; i++) {
+        pm_rng rng = pm_rng_for(ps->seed, ps->caustic_pass ? 0x51u : 0x61u, i);
+        float source_pdf;
+        const light_source *l = &ps->sources[pick_source(ps, pm_rng_float(&rng), &source_pdf)];
+        vec3 o, d, flux;
+        if (source_pdf <= 0.f || !emit(ps, l, &rng, &o, &d, &flux)) continue;
+        vec3 power = v3_scale(flux, 1.f / ((float)ps->photons * source_pdf));
+        int specular_bounces = 0;
+        bool diffuse_seen = false;
+        for (int bounce = 0; bounce < ps->settings->max_bounces; bounce++) {
+            pm_hit h;
+            rays++;
+            if (!pm_accel_intersect(ps->accel, o, d, INFINITY, &h)) break;
+            pm_surface sf;
+            pm_scene_surface(s, h.tri, h.b1, h.b2, &sf);
+            vec3 ng = facing(sf.ng, v3_neg(d));
+            vec3 ns = v3_dot(sf.ns, ng) < 0.f ? v3_neg(sf.ns) : sf.ns;
+            float D = v3_average(sf.kd), Sm = v3_average(sf.ks), St = v3_average(sf.kt);
+            if (D > 0.f) {
+                if (ps->caustic_pass) {
+                    if (specular_bounces > 0) push(&list, sf.p, ng, d, power, PM_PATH_CAUSTIC);
+                    if (specular_bounces > 0) break;
+                } else {
+                    int path = bounce == 0 ? PM_PATH_DIRECT : (diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
+                    push(&list, sf.p, ng, d, power, path);
+                }
+            }
+            float x = pm_rng_float(&rng);
+            if (x < D) {
+                if (ps->caustic_pass) break; /* a diffuse bounce ends any caustic path */
+                power = v3_scale(v3_mul(power, sf.kd), 1.f / D);
+                d = pm_sample_cosine(ns, pm_rng_float(&rng), pm_rng_float(&rng));
+                if (v3_dot(d, ng) <= 0.f) break;
+                o = pm_surface_origin(&sf, ng, s->ray_scale);
+                diffuse_seen = true;
+            } else if (x < D + Sm) {
+                power = v3_scale(v3_mul(power, sf.ks), 1.f / Sm);
+                vec3 r = v3_reflect(d, ns);
+                d = v3_dot(r, ng) > 0.f ? r : v3_reflect(d, ng);
+                o = pm_surface_origin(&sf, ng, s->ray_scale);
+                specular_bounces++;
+            } else if (x < D + Sm + St) {
+                power = v3_scale(v3_mul(power, sf.kt), 1.f / St);
+                bool front = v3_dot(sf.ng, d) < 0.f;
+                float eta_i = front ? 1.f : sf.ior, eta_t = front ? sf.ior : 1.f;
+                float cos_i = fminf(1.f, -v3_dot(d, ns)), cos_t;
+                float sin_t = eta_i / eta_t * sqrtf(fmaxf(0.f, 1.f - cos_i * cos_i));
+                float f = 1.f;
+                if (sin_t < 1.f) {
+                    cos_t = sqrtf(fmaxf(0.f, 1.f - sin_t * sin_t));
+                    float rs = (eta_i * cos_i - eta_t * cos_t) / (eta_i * cos_i + eta_t * cos_t);
+                    float rp = (eta_t * cos_i - eta_i * cos_t) / (eta_t * cos_i + eta_i * cos_t);
+                    f = 0.5f * (rs * rs + rp * rp);
+                } else {
+                    cos_t = 0.f;
+                }
+                if (pm_rng_float(&rng) < f) {
+                    d = v3_reflect(d, ns);
+                    if (v3_dot(d, ng) <= 0.f) break;
+                    o = pm_surface_origin(&sf, ng, s->ray_scale);
+                } else {
+                    float eta = eta_i / eta_t;
+                    d = v3_normalize(v3_add(v3_scale(d, eta), v3_scale(ns, eta * cos_i - cos_t)));
+                    if (v3_dot(d, ng) >= 0.f) break;
+                    o = pm_surface_origin(&sf, v3_neg(ng), s->ray_scale);
+                }
+                specular_bounces++;
+            } else {
+                break; /* absorbed */
+            }
+        }
+    }
+    ps->chunk_photons[chunk] = list.data;
+    ps->chunk_counts[chunk] = list.count;
+    ps->counters[thread].rays += rays;
+}
+
+static bool run_pass(pass *ps, pm_kdtree *tree, uint64_t *stored, uint64_t *rays) {
+    size_t chunks = (size_t)((ps->photons + CHUNK - 1) / CHUNK);
+    ps->chunk_photons = calloc(chunks ? chunks : 1, sizeof(pm_photon *));
+    ps->chunk_counts = calloc(chunks ? chunks : 1, sizeof(uint32_t));
+    memset(ps->counters, 0, sizeof ps->counters);
+    int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
+    pm_parallel_for(threads, chunks, trace_chunk, ps);
+    size_t total = 0;
+    for (size_t c = 0; c < chunks; c++) total += ps->chunk_counts[c];
+    pm_photon *all = malloc(sizeof(pm_photon) * (total ? total : 1));
+    size_t at = 0;
+    for (size_t c = 0; c < chunks; c++) {
+        if (ps->chunk_counts[c]) memcpy(all + at, ps->chunk_photons[c], sizeof(pm_photon) * ps->chunk_counts[c]);
+        at += ps->chunk_counts[c];
+        free(ps->chunk_photons[c]);
+    }
+    free(ps->chunk_photons);
+    free(ps->chunk_counts);
+    for (int t = 0; t < threads; t++) *rays += ps->counters[t].rays;
+    *stored = total;
+    return pm_kdtree_build(tree, all, total, threads);
+}
+
+bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_settings *settings,
+                          pm_photon_maps *maps, pm_photon_stats *stats) {
+    double start = now_seconds();
+    memset(maps, 0, sizeof *maps);
+    pm_photon_stats local;
+    memset(&local, 0, sizeof local);
+    light_source sources[2 + 4096];
+    uint32_t max_sources = (uint32_t)(sizeof sources / sizeof *sources);
+    if (s->light_count + 2 > max_sources) return false;
+    uint32_t source_count = build_sources(s, sources);
+    float cdf[2 + 4096 + 1];
+    double total = 0.0;
+    for (uint32_t i = 0; i < source_count; i++) total += fmax(v3_luminance(sources[i].power), 1e-3 * v3_max_component(sources[i].power));
+    cdf[0] = 0.f;
+    double run = 0.0;
+    for (uint32_t i = 0; i < source_count; i++) {
+        run += fmax(v3_luminance(sources[i].power), 1e-3 * v3_max_component(sources[i].power));
+        cdf[i + 1] = total > 0 ? (float)(run / total) : 1.f;
+    }
+    if (source_count) cdf[source_count] = 1.f;
+    bool ok = true;
+    double kd_seconds = 0.0;
+
+    pass ps;
+    memset(&ps, 0, sizeof ps);
+    ps.scene = s;
+    ps.accel = a;
+    ps.settings = settings;
+    ps.sources = sources;
+    ps.source_count = source_count;
+    ps.source_cdf = cdf;
+
+    if (source_count && settings->global_photons && s->analysis.has_diffuse) {
+        ps.caustic_pass = false;
+        ps.photons = settings->global_photons;
+        ps.seed = settings->seed;
+        double t0 = now_seconds();
+        ok = run_pass(&ps, &maps->global, &local.stored_global, &local.rays);
+        kd_seconds += now_seconds() - t0; /* refined below */
+        maps->global_emitted = settings->global_photons;
+        local.emitted += settings->global_photons;
+    }
+    if (ok && source_count && settings->caustic_photons && s->analysis.caustics_possible) {
+        uint32_t sphere_count = 0;
+        sphere *spheres = specular_spheres(s, &sphere_count);
+        double covered = 0.0;
+        for (uint32_t i = 0; i < source_count; i++) {
+            bool point_like = sources[i].kind == SOURCE_EMITTERS ||
+                              (sources[i].kind == SOURCE_PUNCTUAL && s->lights[sources[i].light].type != PM_LIGHT_DIRECTIONAL);
+            if (settings->projection_maps && point_like) {
+                build_projection_map(&sources[i], spheres, sphere_count);
+                covered += (double)sources[i].marked_count / (PROJ_Z * PROJ_PHI) * (cdf[i + 1] - cdf[i]);
+            } else {
+                covered += cdf[i + 1] - cdf[i];
+            }
+        }
+        free(spheres);
+        maps->projection_fraction = covered;
+    }
+    /* No light can reach a specular object: no caustic map at all. */
+    if (ok && source_count && settings->caustic_photons && s->analysis.caustics_possible && maps->projection_fraction > 0) {
+        ps.caustic_pass = true;
+        ps.photons = settings->caustic_photons;
+        ps.seed = settings->seed ^ 0xca05u;
+        ok = run_pass(&ps, &maps->caustic, &local.stored_caustic, &local.rays);
+        maps->caustic_emitted = settings->caustic_photons;
+        local.emitted += settings->caustic_photons;
+    }
+    for (uint32_t i = 0; i < source_count; i++) {
+        free(sources[i].cells);
+        free(sources[i].marked);
+    }
+    (void)kd_seconds;
+    local.seconds = now_seconds() - start;
+    if (stats) *stats = local;
+    if (!ok) pm_photon_maps_free(maps);
+    return ok;
+}
+
+void pm_photon_maps_free(pm_photon_maps *maps) {
+    pm_kdtree_free(&maps->caustic);
+    pm_kdtree_free(&maps->global);
+    memset(maps, 0, sizeof *maps);
+}
+
+/* Jensen's Gaussian shape, rescaled here so that it integrates to one over the disc. */
+static const float gauss_alpha_raw = 0.918f, gauss_beta = 1.953f;
+
+vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e) {
+    enum { MAX_K = 2048 };
+    uint32_t idx[MAX_K];
+    float d2[MAX_K], r2 = 0.f;
+    int k = e->k < 1 ? 1 : (e->k > MAX_K ? MAX_K : e->k);
+    if (!map->count) return v3s(0.f);
+    size_t found = pm_kdtree_nearest(map, p, (size_t)k, e->max_radius * e->max_radius, idx, d2, &r2);
+    if (!found || r2 <= 0.f) return v3s(0.f);
+    /* With fewer than k photons inside the maximum radius, the disc is the maximum radius. */
+    if ((int)found < k) r2 = e->max_radius * e->max_radius;
+    float r = sqrtf(r2);
+    vec3 sum = v3s(0.f);
+    const float cone_k = 1.1f;
+    float gauss_norm = 0.f;
+    if (e->kernel == PM_KERNEL_GAUSSIAN) {
+        float eb = expf(-gauss_beta);
+        float integral = 1.f - (1.f - (2.f / gauss_beta) * (1.f - expf(-0.5f * gauss_beta))) / (1.f - eb);
+        gauss_norm = 1.f / integral; /* replaces alpha so the kernel integrates to one */
+        (void)gauss_alpha_raw;
+    }
+    for (size_t i = 0; i < found; i++) {
+        const pm_photon *ph = &map->photons[idx[i]];
+        if (!((e->path_mask >> pm_photon_path(ph)) & 1u)) continue;
+        if (v3_dot(pm_photon_direction(ph), n) >= 0.f) continue;       /* arrived from behind */
+        if (v3_dot(pm_photon_normal(ph), n) < 0.9f) continue;            /* another surface */
+        float w = 1.f;
+        if (e->kernel == PM_KERNEL_GAUSSIAN) {
+            float t = 1.f - (1.f - expf(-gauss_beta * d2[i] / (2.f * r2))) / (1.f - expf(-gauss_beta));
+            w = gauss_norm * t;
+        } else if (e->kernel == PM_KERNEL_CONE) {
+            w = (1.f - sqrtf(d2[i]) / (cone_k * r)) / (1.f - 2.f / (3.f * cone_k));
+        }
+        sum = v3_madd(sum, pm_photon_power(ph), w);
+    }
+    return v3_scale(sum, 1.f / (PM_PI * r2));
+}

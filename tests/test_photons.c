@@ -1,0 +1,193 @@
+/* test_photons.c: the photon pass against known answers: furnace, inverse-square, power bookkeeping, caustic energy, maps only where needed. */
+#include "accel.h"
+#include "eye.h"
+#include "film.h"
+#include "photonmap.h"
+#include "scene_builder.h"
+#include "testing.h"
+
+static pm_accel *finish(pm_scene *s) {
+    pm_scene_finalize(s, false, NULL);
+    char err[256];
+    pm_accel *a = pm_accel_create(s, err, sizeof err);
+    CHECK(a != NULL, "accel: %s", err);
+    return a;
+}
+
+static pm_photon_settings photon_settings(uint64_t global, uint64_t caustic) {
+    pm_photon_settings p;
+    memset(&p, 0, sizeof p);
+    p.global_photons = global;
+    p.caustic_photons = caustic;
+    p.seed = 5;
+    p.threads = 2;
+    p.max_bounces = 200;
+    p.projection_maps = true;
+    return p;
+}
+
+static vec3 stored_power(const pm_kdtree *t, int path) {
+    double sum[3] = {0, 0, 0};
+    for (size_t i = 0; i < t->count; i++) {
+        if (path >= 0 && pm_photon_path(&t->photons[i]) != path) continue;
+        vec3 p = pm_photon_power(&t->photons[i]);
+        sum[0] += p.x; sum[1] += p.y; sum[2] += p.z;
+    }
+    return v3((float)sum[0], (float)sum[1], (float)sum[2]);
+}
+
+/* A point light inside a closed box of albedo rho: every photon's first hit is stored with all
+ * of its power (sum = 4 pi I), and Russian roulette makes the later hits carry rho/(1-rho) of it. */
+static void power_bookkeeping(void) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    vec3 rho = v3(0.7f, 0.6f, 0.45f), intensity = v3(2.f, 3.f, 4.f);
+    sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), sb_lambert(&s, rho), true);
+    sb_point_light(&s, v3(0.2f, 0.1f, -0.3f), intensity);
+    pm_accel *a = finish(&s);
+    pm_photon_settings ps = photon_settings(400000, 0);
+    pm_photon_maps maps;
+    pm_photon_stats st;
+    CHECK(pm_photon_maps_build(&s, a, &ps, &maps, &st), "build");
+    CHECK(maps.caustic.count == 0, "no specular surface: no caustic map (%zu photons)", maps.caustic.count);
+    vec3 first = stored_power(&maps.global, PM_PATH_DIRECT), later = stored_power(&maps.global, PM_PATH_INDIRECT);
+    for (int c = 0; c < 3; c++) {
+        float phi = 4.f * PM_PI * v3_get(intensity, c), r = v3_get(rho, c);
+        CHECK_NEAR(v3_get(first, c), phi, 0.005, 0, "first-hit stored power = light power");
+        CHECK_NEAR(v3_get(later, c), phi * r / (1.f - r), 0.02, 0, "Russian roulette: later hits carry rho/(1-rho) of it");
+    }
+    CHECK(stored_power(&maps.global, PM_PATH_CAUSTIC).x == 0.f, "no caustic-tagged photon without specular surfaces");
+    pm_photon_maps_free(&maps);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+/* Irradiance from the global map's direct photons under a point light: E = I cos / d^2. */
+static void inverse_square(void) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    const float h = 1.5f, intensity = 7.f;
+    sb_quad(&s, v3(-30, 0, -30), v3(-30, 0, 30), v3(30, 0, 30), v3(30, 0, -30), sb_lambert(&s, v3s(0.5f)));
+    sb_point_light(&s, v3(0, h, 0), v3s(intensity));
+    pm_accel *a = finish(&s);
+    pm_photon_settings ps = photon_settings(2000000, 0);
+    pm_photon_maps maps;
+    CHECK(pm_photon_maps_build(&s, a, &ps, &maps, NULL), "build");
+    pm_estimate_settings est = {PM_KERNEL_DISC, 1000, 1.f, 1u << PM_PATH_DIRECT};
+    float radii[3] = {0.f, 0.8f, 1.6f};
+    for (int r = 0; r < 3; r++) {
+        double sum = 0;
+        int n = r == 0 ? 1 : 8;
+        for (int i = 0; i < n; i++) {
+            float phi = 2.f * PM_PI * i / n;
+            vec3 p = v3(radii[r] * cosf(phi), 0, radii[r] * sinf(phi));
+            sum += pm_photon_estimate(&maps.global, p, v3(0, 1, 0), &est).x;
+        }
+        float d2 = h * h + radii[r] * radii[r];
+        CHECK_NEAR(sum / n, intensity * h / sqrtf(d2) / d2, r == 0 ? 0.05 : 0.03, 0, "photon irradiance vs inverse-square law");
+    }
+    est.kernel = PM_KERNEL_GAUSSIAN;
+    CHECK_NEAR(pm_photon_estimate(&maps.global, v3(0.5f, 0, 0), v3(0, 1, 0), &est).x,
+               intensity * h / powf(h * h + 0.25f, 1.5f), 0.06, 0, "Gaussian kernel is normalised");
+    est.kernel = PM_KERNEL_CONE;
+    CHECK_NEAR(pm_photon_estimate(&maps.global, v3(0.5f, 0, 0), v3(0, 1, 0), &est).x,
+               intensity * h / powf(h * h + 0.25f, 1.5f), 0.06, 0, "cone kernel is normalised");
+    CHECK(pm_photon_estimate(&maps.global, v3(0.5f, 0, 0), v3(0, -1, 0), &est).x == 0.f,
+          "photons arriving at the other side do not count");
+    pm_photon_maps_free(&maps);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+static void add_sphere(pm_scene *s, vec3 c, float r, uint32_t m, int nu, int nv) {
+    for (int i = 0; i < nv; i++)
+        for (int j = 0; j < nu; j++) {
+            vec3 p[4];
+            for (int k = 0; k < 4; k++) {
+                float th = PM_PI * (i + (k >> 1)) / nv, ph = 2.f * PM_PI * (j + ((k & 1) ^ (k >> 1))) / nu;
+                p[k] = v3_add(c, v3_scale(v3(sinf(th) * cosf(ph), cosf(th), sinf(th) * sinf(ph)), r));
+            }
+            /* outward winding; smooth normals */
+            uint32_t base = s->vertex_count;
+            sb_quad(s, p[0], p[1], p[2], p[3], m);
+            for (int v = 0; v < 6; v++) s->normals[base + v] = v3_normalize(v3_sub(s->positions[base + v], c));
+        }
+}
+
+/* Glass ball in a closed white box under a point light: all the power that enters the ball
+ * ends on a diffuse wall (glass is lossless), so the caustic map's power is I x the ball's solid
+ * angle; and the focus under the ball is brighter than the lit floor around it. */
+static void glass_ball_caustic(void) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    sb_box(&s, v3(-2, 0, -2), v3(2, 3, 2), sb_lambert(&s, v3s(0.5f)), true);
+    uint32_t glass = sb_material(&s, v3s(1.f), 0, 0, 1, v3s(0), false);
+    vec3 c = v3(0, 0.6f, 0), light = v3(0, 2.5f, 0);
+    float r = 0.4f, intensity = 10.f;
+    add_sphere(&s, c, r, glass, 96, 48);
+    sb_point_light(&s, light, v3s(intensity));
+    pm_accel *a = finish(&s);
+    CHECK(s.analysis.caustics_possible, "glass + light + diffuse: caustics possible");
+    pm_photon_settings ps = photon_settings(0, 300000);
+    pm_photon_maps maps;
+    CHECK(pm_photon_maps_build(&s, a, &ps, &maps, NULL), "build");
+    CHECK(maps.projection_fraction > 0.0 && maps.projection_fraction < 0.2, "projection map covers the ball only (%g)",
+          maps.projection_fraction);
+    float d = v3_length(v3_sub(c, light)), omega = 2.f * PM_PI * (1.f - sqrtf(1.f - (r / d) * (r / d)));
+    /* the tessellated ball is a little smaller than the sphere: allow 1.5% */
+    CHECK_NEAR(stored_power(&maps.caustic, -1).x, intensity * omega, 0.015, 0, "caustic power = power through the ball");
+    pm_estimate_settings est = {PM_KERNEL_DISC, 100, 0.2f, 7u};
+    float focus = pm_photon_estimate(&maps.caustic, v3(0, 0, 0), v3(0, 1, 0), &est).x;
+    float floor_direct = intensity * 2.5f / powf(2.5f * 2.5f + 0.8f * 0.8f, 1.5f);
+    CHECK(focus > 3.f * floor_direct, "caustic focus %g must outshine the lit floor nearby %g", focus, floor_direct);
+    pm_photon_maps_free(&maps);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+/* White furnace: a closed box whose walls all emit Le and reflect rho: L = Le / (1 - rho). */
+static void white_furnace(float rho) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    const float le = 0.5f;
+    uint32_t m = sb_material(&s, v3s(rho), 0, 1, 0, v3s(le), false);
+    sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), m, true);
+    pm_accel *a = finish(&s);
+    pm_photon_settings ps = photon_settings(300000, 0);
+    pm_photon_maps maps;
+    CHECK(pm_photon_maps_build(&s, a, &ps, &maps, NULL), "build");
+    pm_film film;
+    bool comps[PM_COMPONENT_COUNT] = {true, false, false, true};
+    pm_film_init(&film, 16, 16, comps);
+    pm_eye_settings es;
+    memset(&es, 0, sizeof es);
+    es.seed = 3;
+    es.threads = 2;
+    es.max_specular_depth = 8;
+    es.maps = &maps;
+    es.global_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 100, 0.3f, 7u};
+    es.caustic_estimate = es.global_estimate;
+    es.indirect = PM_INDIRECT_GATHER;
+    es.gather_rays = 4;
+    pm_camera cam = sb_camera(v3(0, 0, 0.5f), v3(0.3f, -0.2f, -1), v3(0, 1, 0), 60.f);
+    for (int i = 0; i < 64; i++) pm_eye_iterate(&s, a, &cam, &es, i, &film, NULL);
+    float *total = malloc(sizeof(float) * 3 * 16 * 16);
+    pm_film_resolve_total(&film, total);
+    double sum = 0;
+    for (int i = 0; i < 3 * 16 * 16; i++) sum += total[i];
+    CHECK_NEAR(sum / (3 * 16 * 16), le / (1.f - rho), 0.02, 0, rho > 0.9f ? "white furnace rho 0.95" : "white furnace rho 0.5");
+    free(total);
+    pm_film_free(&film);
+    pm_photon_maps_free(&maps);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+int main(void) {
+    power_bookkeeping();
+    inverse_square();
+    glass_ball_caustic();
+    white_furnace(0.5f);
+    white_furnace(0.95f);
+    return pm_test_done("test_photons");
+}
