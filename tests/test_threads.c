@@ -1,7 +1,8 @@
-/* test_threads.c: the same seed gives the same image bit for bit at 1, 2 and 3 threads (also run under TSan). */
+/* test_threads.c: the same seed gives the same photon maps and image bit for bit at 1, 2 and 3 threads (also run under TSan). */
 #include "accel.h"
 #include "eye.h"
 #include "film.h"
+#include "photonmap.h"
 #include "scene_builder.h"
 #include "testing.h"
 
@@ -30,11 +31,33 @@ int main(void) {
     CHECK(a != NULL, "%s", err);
     pm_camera cam = sb_camera(v3(0, 1, 0.95f), v3(0, 0.9f, 0), v3(0, 1, 0), 75.f);
     pm_film films[3];
+    pm_photon_maps maps[3];
     for (int t = 0; t < 3; t++) {
+        pm_photon_settings ps = {20000, 20000, 77, t + 1, 16, true};
+        CHECK(pm_photon_maps_build(&s, a, &ps, &maps[t], NULL), "photon maps");
         pm_film_init(&films[t], 40, 36, s.analysis.component_possible);
-        pm_eye_settings set = {99, t + 1, 8};
+        pm_eye_settings set;
+        memset(&set, 0, sizeof set);
+        set.seed = 99;
+        set.threads = t + 1;
+        set.max_specular_depth = 8;
+        set.maps = &maps[t];
+        set.global_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 32, 0.2f, 7u};
+        set.caustic_estimate = set.global_estimate;
+        set.gather_rays = 1;
         for (int i = 0; i < 2; i++) pm_eye_iterate(&s, a, &cam, &set, i, &films[t], NULL);
     }
+    for (int t = 1; t < 3; t++) {
+        CHECK(maps[t].global.count == maps[0].global.count && maps[t].caustic.count == maps[0].caustic.count,
+              "photon counts differ at %d threads", t + 1);
+        if (maps[t].global.count == maps[0].global.count)
+            CHECK(memcmp(maps[t].global.photons, maps[0].global.photons, maps[0].global.count * sizeof(pm_photon)) == 0,
+                  "global map differs at %d threads", t + 1);
+        if (maps[t].caustic.count == maps[0].caustic.count)
+            CHECK(memcmp(maps[t].caustic.photons, maps[0].caustic.photons, maps[0].caustic.count * sizeof(pm_photon)) == 0,
+                  "caustic map differs at %d threads", t + 1);
+    }
+    CHECK(maps[0].caustic.count > 0, "mirror and glass under an area light make caustic photons");
     size_t n = 3 * 40 * 36;
     double energy = 0;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
@@ -46,7 +69,10 @@ int main(void) {
     }
     CHECK(energy > 0, "the room must be lit");
     CHECK(films[0].sum[PM_SPECULAR] != NULL, "mirror and glass make a specular buffer");
-    for (int t = 0; t < 3; t++) pm_film_free(&films[t]);
+    for (int t = 0; t < 3; t++) {
+        pm_film_free(&films[t]);
+        pm_photon_maps_free(&maps[t]);
+    }
     pm_accel_destroy(a);
     pm_scene_free(&s);
     return pm_test_done("test_threads");

@@ -1,0 +1,47 @@
+#!/bin/sh
+# test_cli.sh: the command line as a user meets it: usage errors exit 2, bad files exit 1 with one error line, outputs appear.
+cd "$(dirname "$0")/.." || exit 1
+bin=build/asan/pmview
+[ -x "$bin" ] || bin=./pmview
+export ASAN_OPTIONS=detect_leaks=1
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fails=0; checks=0
+expect() { # description, expected exit code, command...
+    desc=$1; want=$2; shift 2
+    checks=$((checks + 1))
+    "$@" >"$tmp/out" 2>"$tmp/err"
+    got=$?
+    if [ "$got" != "$want" ]; then
+        fails=$((fails + 1)); echo "FAIL: $desc: exit $got, want $want"; sed 's/^/    /' "$tmp/err" | head -5
+    fi
+}
+expect "help" 0 $bin --help
+expect "unknown flag" 2 $bin --frobnicate
+expect "bad width" 2 $bin --width -3 --snapshot "$tmp/x.png"
+expect "bad snapshot extension" 2 $bin --snapshot "$tmp/x.jpg"
+expect "missing value" 2 $bin --iterations
+expect "bad kernel" 2 $bin --kernel box --snapshot "$tmp/x.exr"
+expect "two scenes" 2 $bin a.gltf b.gltf --snapshot "$tmp/x.exr"
+expect "missing scene file" 1 $bin "$tmp/nope.gltf" --snapshot "$tmp/x.exr"
+checks=$((checks + 1))
+if ! grep -q "nope.gltf" "$tmp/err" || [ "$(wc -l < "$tmp/err")" -ne 1 ]; then
+    fails=$((fails + 1)); echo "FAIL: a missing file must give exactly one error line naming it:"; cat "$tmp/err"
+fi
+printf '{"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"mesh":5}],"meshes":[]}' > "$tmp/bad.gltf"
+expect "node with a missing mesh" 1 $bin "$tmp/bad.gltf" --snapshot "$tmp/x.exr"
+checks=$((checks + 1))
+[ "$(wc -l < "$tmp/err")" -eq 1 ] || { fails=$((fails + 1)); echo "FAIL: more than one error line:"; cat "$tmp/err"; }
+expect "camera index past the scene's cameras" 1 $bin scenes/cornell-box.gltf --camera 7 --snapshot "$tmp/x.exr"
+expect "EXR snapshot" 0 $bin scenes/cornell-box.gltf --width 32 --iterations 2 --photons 20000 --snapshot "$tmp/c.exr" --stats
+checks=$((checks + 1))
+[ -s "$tmp/c.exr" ] || { fails=$((fails + 1)); echo "FAIL: no EXR written"; }
+for stage in load analysis bvh photons kdtree film eye memory; do
+    checks=$((checks + 1))
+    grep -q "^stat $stage " "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: no 'stat $stage' line"; }
+done
+checks=$((checks + 1))
+grep -q "^stat load .*triangles=[1-9]" "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: stat load lacks triangles"; }
+expect "no display without snapshot" 2 env -u DISPLAY $bin scenes/cornell-box.gltf
+echo "test_cli: $checks checks, $fails failed"
+[ "$fails" -eq 0 ]
