@@ -1,0 +1,117 @@
+/* test_cornell.c: the default scene end to end: expected colours, no NaN or negative value, components summing to the EXR total. */
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "accel.h"
+#include "eye.h"
+#include "film.h"
+#include "image_io.h"
+#include "loader.h"
+#include "photonmap.h"
+#include "testing.h"
+
+#define W 48
+#define H 48
+
+static vec3 region_mean(const float *img, int x0, int y0, int x1, int y1) {
+    double s[3] = {0, 0, 0};
+    int n = 0;
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++, n++)
+            for (int c = 0; c < 3; c++) s[c] += img[3 * (y * W + x) + c];
+    return v3((float)(s[0] / n), (float)(s[1] / n), (float)(s[2] / n));
+}
+
+int main(void) {
+    pm_scene s;
+    pm_load_report rep;
+    char err[1024];
+    if (!pm_load_gltf("scenes/cornell-box.gltf", true, &s, &rep, err, sizeof err)) {
+        CHECK(false, "load: %s", err);
+        return pm_test_done("test_cornell");
+    }
+    pm_scene_finalize(&s, true, NULL);
+    CHECK(s.camera_count >= 1, "the Cornell box ships a camera");
+    CHECK(s.emitter_count > 0 && !s.sky, "lit by its ceiling lamp, no default sky");
+    CHECK(s.analysis.has_mirror && s.analysis.has_glass && s.analysis.caustics_possible, "mirror and glass balls: caustics possible");
+    pm_accel *a = pm_accel_create(&s, err, sizeof err);
+    pm_photon_settings ps = {100000, 100000, 1, 2, 32, true};
+    pm_photon_maps maps;
+    CHECK(pm_photon_maps_build(&s, a, &ps, &maps, NULL), "photon maps");
+    CHECK(maps.caustic.count > 0 && maps.global.count > 0, "both maps built");
+    pm_film film;
+    pm_film_init(&film, W, H, s.analysis.component_possible);
+    pm_eye_settings es;
+    memset(&es, 0, sizeof es);
+    es.seed = 1;
+    es.threads = 2;
+    es.max_specular_depth = 12;
+    es.maps = &maps;
+    es.global_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.1f * s.ray_scale, 7u};
+    es.caustic_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.025f * s.ray_scale, 7u};
+    es.gather_rays = 1;
+    pm_camera cam = s.cameras[0];
+    for (int i = 0; i < 16; i++) pm_eye_iterate(&s, a, &cam, &es, i, &film, NULL);
+
+    float *total = malloc(sizeof(float) * 3 * W * H), *layer = malloc(sizeof(float) * 3 * W * H);
+    pm_film_resolve_total(&film, total);
+    int bad = 0;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        pm_film_resolve(&film, c, layer);
+        for (int i = 0; i < 3 * W * H; i++) bad += !(layer[i] >= 0.f) || !isfinite(layer[i]);
+    }
+    CHECK(bad == 0, "%d NaN, infinite or negative values in the layers", bad);
+    vec3 left = region_mean(total, 1, H / 3, W / 10, 2 * H / 3), right = region_mean(total, W - W / 10, H / 3, W - 1, 2 * H / 3);
+    vec3 floor_ = region_mean(total, W / 3, H - H / 12, 2 * W / 3, H - 1);
+    CHECK(left.x > 2.f * left.y && left.x > 2.f * left.z, "left wall is red (%g %g %g)", left.x, left.y, left.z);
+    CHECK(right.y > 1.5f * right.x && right.y > 1.5f * right.z, "right wall is green (%g %g %g)", right.x, right.y, right.z);
+    CHECK(v3_average(floor_) > 0.05f, "floor is lit (%g)", v3_average(floor_));
+    float *comp_sum[PM_COMPONENT_COUNT];
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) comp_sum[c] = film.sum[c];
+    CHECK(comp_sum[PM_CAUSTIC] && comp_sum[PM_INDIRECT] && comp_sum[PM_SPECULAR], "all four components allocated");
+    double caustic_energy = 0, indirect_energy = 0;
+    pm_film_resolve(&film, PM_CAUSTIC, layer);
+    for (int i = 0; i < 3 * W * H; i++) caustic_energy += layer[i];
+    pm_film_resolve(&film, PM_INDIRECT, layer);
+    for (int i = 0; i < 3 * W * H; i++) indirect_energy += layer[i];
+    CHECK(caustic_energy > 0 && indirect_energy > 0, "caustic %g and indirect %g are non-zero", caustic_energy, indirect_energy);
+
+    /* EXR: the layers read back sum to the total */
+    char path[] = "/tmp/pmview-cornell-XXXXXX.exr";
+    int fd = mkstemps(path, 4);
+    if (fd >= 0) close(fd);
+    CHECK(pm_write_exr(path, &film, err, sizeof err), "write EXR: %s", err);
+    int w, h;
+    const char *names[3] = {"R", "G", "B"};
+    for (int c = 0; c < 3; c++) {
+        float *t = pm_read_exr_channel(path, names[c], &w, &h, err, sizeof err);
+        CHECK(t && w == W && h == H, "read %s: %s", names[c], err);
+        if (!t) continue;
+        double max_diff = 0;
+        float *parts[PM_COMPONENT_COUNT];
+        for (int k = 0; k < PM_COMPONENT_COUNT; k++) {
+            char name[32];
+            snprintf(name, sizeof name, "%s.%s", pm_component_names[k], names[c]);
+            parts[k] = pm_read_exr_channel(path, name, &w, &h, err, sizeof err);
+            CHECK(parts[k] != NULL, "layer %s: %s", name, err);
+        }
+        for (int i = 0; i < W * H; i++) {
+            double sum = 0;
+            for (int k = 0; k < PM_COMPONENT_COUNT; k++) sum += parts[k] ? parts[k][i] : 0;
+            double d = fabs(sum - t[i]) / (fabs(t[i]) + 1e-6);
+            if (d > max_diff) max_diff = d;
+        }
+        CHECK(max_diff < 1e-5, "layers sum to the total in channel %s (max rel diff %g)", names[c], max_diff);
+        for (int k = 0; k < PM_COMPONENT_COUNT; k++) free(parts[k]);
+        free(t);
+    }
+    unlink(path);
+    free(total);
+    free(layer);
+    pm_film_free(&film);
+    pm_photon_maps_free(&maps);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+    return pm_test_done("test_cornell");
+}
