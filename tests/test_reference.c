@@ -1,0 +1,147 @@
+/* test_reference.c: pmview against converged Mitsuba 3 references (tests/ref/): direct layer, total, and the point-light caustic.
+ *
+ * The references were made by tools/mitsuba_reference.py (see tests/ref/README.md). Mitsuba's
+ * `direct` integrator also sees lights through mirrors, which pmview files under specular, so
+ * the direct comparison keeps the pixels whose first hits were all diffuse (specular layer 0).
+ */
+#include <stdlib.h>
+#include <string.h>
+
+#include "accel.h"
+#include "eye.h"
+#include "film.h"
+#include "image_io.h"
+#include "loader.h"
+#include "photonmap.h"
+#include "testing.h"
+
+typedef struct { float *rgb[3]; int w, h; } image;
+
+static bool load_ref(const char *path, image *img) {
+    char err[512];
+    const char *names[3] = {"R", "G", "B"};
+    for (int c = 0; c < 3; c++) {
+        img->rgb[c] = pm_read_exr_channel(path, names[c], &img->w, &img->h, err, sizeof err);
+        if (!img->rgb[c]) {
+            printf("SKIP: %s\n", err);
+            return false;
+        }
+    }
+    return true;
+}
+
+static void free_image(image *img) {
+    for (int c = 0; c < 3; c++) free(img->rgb[c]);
+}
+
+typedef struct {
+    pm_scene scene;
+    pm_accel *accel;
+    pm_photon_maps maps;
+    pm_film film;
+} render;
+
+static bool render_scene(const char *path, int w, int h, int iterations, uint64_t photons, render *r) {
+    char err[1024];
+    pm_load_report rep;
+    memset(r, 0, sizeof *r);
+    if (!pm_load_gltf(path, true, &r->scene, &rep, err, sizeof err)) { CHECK(false, "%s", err); return false; }
+    pm_scene_finalize(&r->scene, true, NULL);
+    r->accel = pm_accel_create(&r->scene, err, sizeof err);
+    pm_photon_settings ps = {photons, photons, 1, 2, 32, true};
+    pm_photon_maps_build(&r->scene, r->accel, &ps, &r->maps, NULL);
+    pm_film_init(&r->film, w, h, r->scene.analysis.component_possible);
+    pm_eye_settings es;
+    memset(&es, 0, sizeof es);
+    es.seed = 11;
+    es.threads = 2;
+    es.max_specular_depth = 16;
+    es.maps = &r->maps;
+    es.global_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.1f * r->scene.ray_scale, 7u};
+    es.caustic_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.025f * r->scene.ray_scale, 7u};
+    es.gather_rays = 1;
+    pm_camera cam = r->scene.camera_count ? r->scene.cameras[0] : pm_scene_auto_camera(&r->scene, (float)w / h);
+    for (int i = 0; i < iterations; i++) pm_eye_iterate(&r->scene, r->accel, &cam, &es, i, &r->film, NULL);
+    return true;
+}
+
+static void free_render(render *r) {
+    pm_film_free(&r->film);
+    pm_photon_maps_free(&r->maps);
+    pm_accel_destroy(r->accel);
+    pm_scene_free(&r->scene);
+}
+
+/* relMSE = mean over pixels and channels of (x - r)^2 / (r^2 + 0.01), over the mask. */
+static void compare(const char *what, const float *ours, const image *ref, const unsigned char *mask, double max_relmse,
+                    double max_mean_error) {
+    double relmse = 0, sum_ours[3] = {0, 0, 0}, sum_ref[3] = {0, 0, 0};
+    size_t n = 0;
+    for (int i = 0; i < ref->w * ref->h; i++) {
+        if (mask && !mask[i]) continue;
+        n++;
+        for (int c = 0; c < 3; c++) {
+            double x = ours[3 * i + c], r = ref->rgb[c][i];
+            relmse += (x - r) * (x - r) / (r * r + 0.01);
+            sum_ours[c] += x;
+            sum_ref[c] += r;
+        }
+    }
+    CHECK(n > (size_t)(ref->w * ref->h) / 4, "%s: mask keeps too few pixels (%zu)", what, n);
+    relmse /= 3.0 * (n ? n : 1);
+    printf("%s: relMSE %.5f, mean ratio R %.4f G %.4f B %.4f over %zu pixels\n", what, relmse, sum_ours[0] / sum_ref[0],
+           sum_ours[1] / sum_ref[1], sum_ours[2] / sum_ref[2], n);
+    CHECK(relmse <= max_relmse, "%s: relMSE %g above %g", what, relmse, max_relmse);
+    for (int c = 0; c < 3; c++) CHECK_NEAR(sum_ours[c], sum_ref[c], max_mean_error, 0, what);
+}
+
+int main(void) {
+    image direct_ref, path_ref;
+    if (load_ref("tests/ref/cornell_direct_64.exr", &direct_ref) && load_ref("tests/ref/cornell_path_64.exr", &path_ref)) {
+        render r;
+        if (render_scene("scenes/cornell-box.gltf", direct_ref.w, direct_ref.h, 128, 200000, &r)) {
+            size_t n = (size_t)direct_ref.w * direct_ref.h;
+            float *ours = malloc(sizeof(float) * 3 * n), *spec = malloc(sizeof(float) * 3 * n);
+            unsigned char *mask = malloc(n);
+            pm_film_resolve(&r.film, PM_SPECULAR, spec);
+            for (size_t i = 0; i < n; i++) mask[i] = spec[3 * i] == 0.f && spec[3 * i + 1] == 0.f && spec[3 * i + 2] == 0.f;
+            pm_film_resolve(&r.film, PM_DIRECT, ours);
+            compare("cornell direct vs Mitsuba direct", ours, &direct_ref, mask, 0.01, 0.02);
+            pm_film_resolve_total(&r.film, ours);
+            compare("cornell total vs Mitsuba path", ours, &path_ref, NULL, 0.03, 0.03);
+            free(ours);
+            free(spec);
+            free(mask);
+            free_render(&r);
+        }
+        free_image(&direct_ref);
+        free_image(&path_ref);
+    }
+    image caustic_ref;
+    if (load_ref("tests/ref/caustic_ptracer_64.exr", &caustic_ref)) {
+        render r;
+        if (render_scene("scenes/caustic.gltf", caustic_ref.w, caustic_ref.h, 64, 300000, &r)) {
+            size_t n = (size_t)caustic_ref.w * caustic_ref.h;
+            float *ours = malloc(sizeof(float) * 3 * n), *caustic = malloc(sizeof(float) * 3 * n);
+            unsigned char *mask = malloc(n);
+            pm_film_resolve(&r.film, PM_CAUSTIC, caustic);
+            pm_film_resolve_total(&r.film, ours);
+            /* the caustic region: where our caustic layer is a large part of the pixel */
+            for (size_t i = 0; i < n; i++) mask[i] = caustic[3 * i] > 0.5f * ours[3 * i] && ours[3 * i] > 0.f;
+            double ours_sum = 0, ref_sum = 0;
+            size_t count = 0;
+            for (size_t i = 0; i < n; i++)
+                if (mask[i]) { ours_sum += ours[3 * i] + ours[3 * i + 1] + ours[3 * i + 2];
+                               ref_sum += caustic_ref.rgb[0][i] + caustic_ref.rgb[1][i] + caustic_ref.rgb[2][i]; count++; }
+            printf("caustic region: %zu pixels, ours/ref = %.4f\n", count, ours_sum / ref_sum);
+            CHECK(count >= 10, "a caustic region exists (%zu pixels)", count);
+            CHECK_NEAR(ours_sum, ref_sum, 0.05, 0, "caustic region energy vs Mitsuba ptracer");
+            free(ours);
+            free(caustic);
+            free(mask);
+            free_render(&r);
+        }
+        free_image(&caustic_ref);
+    }
+    return pm_test_done("test_reference");
+}
