@@ -1,0 +1,223 @@
+#!/usr/bin/env python3
+# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf) and exposes them as Python data.
+"""Scene generator for pmview (standard library only, deterministic).
+
+    python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf and scenes/caustic.gltf
+    python3 scenes/make_scenes.py --segments 96 --light-strength 40 --out /tmp
+
+Each scene is a dict: {"meshes": [mesh], "camera": camera, "lights": [light]} where a mesh is
+{"name", "positions" (local), "normals", "indices", "material", "translation", "scale"} and a
+material is {"kind": "diffuse"|"mirror"|"glass"|"emitter", "color", "strength"}. The glTF
+writer and tools/mitsuba_reference.py both read these dicts, so the reference renders see the
+very same triangles. Units are metres, +Y up, the camera looks down -Z.
+"""
+import argparse
+import base64
+import json
+import math
+import os
+import struct
+
+WHITE = (0.73, 0.73, 0.73)
+RED = (0.63, 0.065, 0.05)
+GREEN = (0.14, 0.45, 0.091)
+
+
+def quad(corners, normal):
+    """Two triangles of a quad given counter-clockwise as seen from its front (normal side)."""
+    return {"positions": list(corners), "normals": [normal] * 4, "indices": [0, 1, 2, 0, 2, 3]}
+
+
+def uv_sphere(segments, rings):
+    """Unit sphere, outward counter-clockwise winding, smooth normals."""
+    positions, indices = [], []
+    for i in range(rings + 1):
+        theta = math.pi * i / rings
+        for j in range(segments + 1):
+            phi = 2.0 * math.pi * j / segments
+            positions.append((math.sin(theta) * math.cos(phi), math.cos(theta), -math.sin(theta) * math.sin(phi)))
+    row = segments + 1
+    for i in range(rings):
+        for j in range(segments):
+            a, b = i * row + j, (i + 1) * row + j
+            if i != 0:
+                indices += [a, b, a + 1]
+            if i != rings - 1:
+                indices += [a + 1, b, b + 1]
+    return {"positions": positions, "normals": list(positions), "indices": indices}
+
+
+def mesh(name, geometry, material, translation=(0.0, 0.0, 0.0), scale=1.0):
+    m = dict(geometry)
+    m.update(name=name, material=material, translation=translation, scale=scale)
+    return m
+
+
+def look_at_rotation(eye, target):
+    """Unit quaternion (x, y, z, w) turning -Z toward target with +Y kept up."""
+    f = [t - e for t, e in zip(target, eye)]
+    n = math.sqrt(sum(c * c for c in f))
+    f = [c / n for c in f]
+    r = [-f[2], 0.0, f[0]]  # cross(f, up) with up = +Y
+    rn = math.sqrt(sum(c * c for c in r))
+    r = [c / rn for c in r]
+    u = [r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]]
+    # rotation matrix columns: right, up, back (-f)
+    m = [[r[0], u[0], -f[0]], [r[1], u[1], -f[1]], [r[2], u[2], -f[2]]]
+    trace = m[0][0] + m[1][1] + m[2][2]
+    if trace > 0:
+        s = 0.5 / math.sqrt(trace + 1.0)
+        return ((m[2][1] - m[1][2]) * s, (m[0][2] - m[2][0]) * s, (m[1][0] - m[0][1]) * s, 0.25 / s)
+    if m[0][0] > m[1][1] and m[0][0] > m[2][2]:
+        s = 2.0 * math.sqrt(1.0 + m[0][0] - m[1][1] - m[2][2])
+        return (0.25 * s, (m[0][1] + m[1][0]) / s, (m[0][2] + m[2][0]) / s, (m[2][1] - m[1][2]) / s)
+    if m[1][1] > m[2][2]:
+        s = 2.0 * math.sqrt(1.0 + m[1][1] - m[0][0] - m[2][2])
+        return ((m[0][1] + m[1][0]) / s, 0.25 * s, (m[1][2] + m[2][1]) / s, (m[0][2] - m[2][0]) / s)
+    s = 2.0 * math.sqrt(1.0 + m[2][2] - m[0][0] - m[1][1])
+    return ((m[0][2] + m[2][0]) / s, (m[1][2] + m[2][1]) / s, 0.25 * s, (m[1][0] - m[0][1]) / s)
+
+
+def cornell_box(segments=48, light_strength=25.0, light_size=0.5):
+    """The classic box, 2 m wide ([-1,1] x [0,2] x [-1,1], open at +Z), a square ceiling lamp,
+    a mirror ball and a glass ball."""
+    diffuse = lambda c: {"kind": "diffuse", "color": c}
+    h = light_size / 2.0
+    y = 1.999  # just under the ceiling, facing down
+    meshes = [
+        mesh("floor", quad([(-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1)], (0, 1, 0)), diffuse(WHITE)),
+        mesh("ceiling", quad([(-1, 2, -1), (1, 2, -1), (1, 2, 1), (-1, 2, 1)], (0, -1, 0)), diffuse(WHITE)),
+        mesh("back", quad([(-1, 0, -1), (1, 0, -1), (1, 2, -1), (-1, 2, -1)], (0, 0, 1)), diffuse(WHITE)),
+        mesh("left", quad([(-1, 0, 1), (-1, 0, -1), (-1, 2, -1), (-1, 2, 1)], (1, 0, 0)), diffuse(RED)),
+        mesh("right", quad([(1, 0, -1), (1, 0, 1), (1, 2, 1), (1, 2, -1)], (-1, 0, 0)), diffuse(GREEN)),
+        mesh("lamp", quad([(-h, y, -h), (h, y, -h), (h, y, h), (-h, y, h)], (0, -1, 0)),
+             {"kind": "emitter", "color": (1.0, 0.85, 0.6), "strength": light_strength}),
+        mesh("mirror_ball", uv_sphere(segments, segments // 2), {"kind": "mirror", "color": (0.9, 0.9, 0.9)},
+             translation=(-0.45, 0.35, -0.35), scale=0.35),
+        mesh("glass_ball", uv_sphere(segments, segments // 2), {"kind": "glass", "color": (1.0, 1.0, 1.0), "ior": 1.5},
+             translation=(0.45, 0.35, 0.25), scale=0.35),
+    ]
+    eye, target = (0.0, 1.0, 3.9), (0.0, 1.0, 0.0)
+    camera = {"eye": eye, "target": target, "yfov": math.radians(39.3), "aspect": 1.0}
+    return {"meshes": meshes, "camera": camera, "lights": []}
+
+
+def caustic(segments=64, intensity=50.0):
+    """A point light above a glass ball on a large white floor."""
+    meshes = [
+        mesh("floor", quad([(-3, 0, 3), (3, 0, 3), (3, 0, -3), (-3, 0, -3)], (0, 1, 0)), {"kind": "diffuse", "color": (0.8, 0.8, 0.8)}),
+        mesh("glass_ball", uv_sphere(segments, segments // 2), {"kind": "glass", "color": (1.0, 1.0, 1.0), "ior": 1.5},
+             translation=(0.0, 0.35, 0.0), scale=0.3),
+    ]
+    camera = {"eye": (0.0, 2.0, 2.2), "target": (0.0, 0.1, 0.0), "yfov": math.radians(40.0), "aspect": 1.0}
+    lights = [{"type": "point", "position": (0.0, 1.8, 0.0), "color": (1.0, 1.0, 1.0), "intensity": intensity}]
+    return {"meshes": meshes, "camera": camera, "lights": lights}
+
+
+def gltf_material(m):
+    out = {"name": m["kind"], "pbrMetallicRoughness": {"baseColorFactor": list(m.get("color", (1, 1, 1))) + [1.0]}}
+    pbr = out["pbrMetallicRoughness"]
+    if m["kind"] == "diffuse":
+        pbr.update(metallicFactor=0.0, roughnessFactor=1.0)
+    elif m["kind"] == "mirror":
+        pbr.update(metallicFactor=1.0, roughnessFactor=0.0)
+    elif m["kind"] == "glass":
+        pbr.update(metallicFactor=0.0, roughnessFactor=0.0)
+        out["extensions"] = {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+                             "KHR_materials_ior": {"ior": m.get("ior", 1.5)}}
+    elif m["kind"] == "emitter":
+        pbr.update(baseColorFactor=[0.0, 0.0, 0.0, 1.0], metallicFactor=0.0, roughnessFactor=1.0)
+        out["emissiveFactor"] = list(m["color"])
+        out["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": m["strength"]}}
+    return out
+
+
+def to_gltf(scene):
+    """A single-file glTF 2.0 document (buffer embedded as base64)."""
+    blob = bytearray()
+    views, accessors, meshes, nodes, materials = [], [], [], [], []
+
+    def add_view(data, target):
+        while len(blob) % 4:
+            blob.append(0)
+        views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": len(data), "target": target})
+        blob.extend(data)
+        return len(views) - 1
+
+    geometry_cache = {}
+    for m in scene["meshes"]:
+        key = id(m["positions"])
+        if key not in geometry_cache:
+            pos = m["positions"]
+            pv = add_view(struct.pack("<%df" % (3 * len(pos)), *[c for p in pos for c in p]), 34962)
+            lo = [min(p[i] for p in pos) for i in range(3)]
+            hi = [max(p[i] for p in pos) for i in range(3)]
+            accessors.append({"bufferView": pv, "componentType": 5126, "count": len(pos), "type": "VEC3", "min": lo, "max": hi})
+            pa = len(accessors) - 1
+            nrm = m["normals"]
+            nv = add_view(struct.pack("<%df" % (3 * len(nrm)), *[c for n in nrm for c in n]), 34962)
+            accessors.append({"bufferView": nv, "componentType": 5126, "count": len(nrm), "type": "VEC3"})
+            na = len(accessors) - 1
+            idx = m["indices"]
+            wide = max(idx) > 65535
+            iv = add_view(struct.pack("<%d%s" % (len(idx), "I" if wide else "H"), *idx), 34963)
+            accessors.append({"bufferView": iv, "componentType": 5125 if wide else 5123, "count": len(idx), "type": "SCALAR"})
+            geometry_cache[key] = (pa, na, len(accessors) - 1)
+        pa, na, ia = geometry_cache[key]
+        materials.append(gltf_material(m["material"]))
+        meshes.append({"name": m["name"], "primitives": [{"attributes": {"POSITION": pa, "NORMAL": na}, "indices": ia,
+                                                         "material": len(materials) - 1}]})
+        node = {"name": m["name"], "mesh": len(meshes) - 1}
+        if m["translation"] != (0.0, 0.0, 0.0):
+            node["translation"] = list(m["translation"])
+        if m["scale"] != 1.0:
+            node["scale"] = [m["scale"]] * 3
+        nodes.append(node)
+
+    cam = scene["camera"]
+    nodes.append({"name": "camera", "camera": 0, "translation": list(cam["eye"]),
+                  "rotation": list(look_at_rotation(cam["eye"], cam["target"]))})
+    extensions_used = sorted({e for mat in materials for e in mat.get("extensions", {})})
+    doc = {
+        "asset": {"version": "2.0", "generator": "pmview scenes/make_scenes.py"},
+        "scene": 0,
+        "scenes": [{"nodes": list(range(len(nodes)))}],
+        "nodes": nodes,
+        "meshes": meshes,
+        "materials": materials,
+        "cameras": [{"type": "perspective", "perspective": {"yfov": cam["yfov"], "aspectRatio": cam["aspect"], "znear": 0.01}}],
+        "accessors": accessors,
+        "bufferViews": views,
+        "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64," + base64.b64encode(bytes(blob)).decode()}],
+    }
+    if scene["lights"]:
+        doc["extensions"] = {"KHR_lights_punctual": {"lights": [
+            {"type": l["type"], "color": list(l["color"]), "intensity": l["intensity"]} for l in scene["lights"]]}}
+        for i, l in enumerate(scene["lights"]):
+            doc["nodes"].append({"name": "light%d" % i, "translation": list(l["position"]),
+                                 "extensions": {"KHR_lights_punctual": {"light": i}}})
+            doc["scenes"][0]["nodes"].append(len(doc["nodes"]) - 1)
+        extensions_used.append("KHR_lights_punctual")
+    if extensions_used:
+        doc["extensionsUsed"] = sorted(set(extensions_used))
+    return doc
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=os.path.dirname(os.path.abspath(__file__)))
+    ap.add_argument("--segments", type=int, default=48, help="sphere segments around (rings = half)")
+    ap.add_argument("--light-strength", type=float, default=25.0, help="Cornell lamp emissive strength")
+    ap.add_argument("--point-intensity", type=float, default=50.0, help="caustic scene point light, W/sr")
+    args = ap.parse_args()
+    for name, scene in (("cornell-box.gltf", cornell_box(args.segments, args.light_strength)),
+                        ("caustic.gltf", caustic(max(args.segments, 64), args.point_intensity))):
+        path = os.path.join(args.out, name)
+        with open(path, "w") as f:
+            json.dump(to_gltf(scene), f, separators=(",", ":"))
+            f.write("\n")
+        print("wrote", path)
+
+
+if __name__ == "__main__":
+    main()
