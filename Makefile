@@ -27,7 +27,7 @@ deps:
 # The display shaders are compiled into the binary so pmview runs from any folder.
 build/shaders.inc: $(wildcard shaders/*)
 	@mkdir -p build
-	@for f in shaders/*; do n=$$(basename $$f | tr '.-' '__'); \
+	@for f in $(wildcard shaders/*); do n=$$(basename $$f | tr '.-' '__'); \
 	  printf 'static const char pm_shader_%s[] =\n' "$$n"; \
 	  sed 's/\\/\\\\/g; s/"/\\"/g; s/^/"/; s/$$/\\n"/' $$f; printf ';\n'; done > $@
 
@@ -47,7 +47,9 @@ build/$(1)/libpm.a: $(patsubst src/%.c,build/$(1)/%.o,$(C_SRC)) $(patsubst src/%
 	ar rcs $$@ $$^
 endef
 $(eval $(call variant,rel,))
-$(eval $(call variant,asan,-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined))
+comma := ,
+ASAN_FLAGS := -fsanitize=address$(comma)undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+$(eval $(call variant,asan,$(ASAN_FLAGS)))
 $(eval $(call variant,tsan,-fsanitize=thread))
 
 pmview: build/rel/main.o build/rel/libpm.a
@@ -59,7 +61,7 @@ run: deps pmview
 tests-build: pmview build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) build/tsan/tests/test_threads $(addprefix build/rel/tests/,$(TESTS))
 
 build/asan/pmview: build/asan/main.o build/asan/libpm.a
-	$(CC) $(CFLAGS) -fsanitize=address,undefined $^ -o $@ $(LIBS) -fsanitize=address,undefined
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) $^ -o $@ $(LIBS) $(ASAN_FLAGS)
 
 test: deps
 	@$(MAKE) --no-print-directory -j2 tests-build

@@ -1,0 +1,1537 @@
+/* gltf_loader.cpp: glTF 2.0 (.gltf/.glb) into a pm_scene through tinygltf, with every check tinygltf 2.7 leaves out.
+ *
+ * The only translation unit that sees tinygltf. A load runs in three stages, each refusing bad
+ * input before the next one can trip over it:
+ *   1. preflight, on the raw bytes and the raw JSON (nlohmann): GLB container, JSON syntax and
+ *      nesting depth, asset.version, required extensions, every index and size field as written
+ *      (tinygltf turns -1 into "absent" and truncates 2^32 to 0), buffer and image URIs (refused
+ *      before anything is opened) and bufferView byte ranges (tinygltf decodes images straight
+ *      out of bufferViews without checking them);
+ *   2. tinygltf parses the same JSON and reads buffers and images, through file-system callbacks
+ *      that refuse any path outside the model's folder and an image hook that decodes only the
+ *      images used as base colour textures, after checking their size;
+ *   3. conversion: accessor layouts are validated with overflow-checked 64-bit arithmetic before
+ *      anything sized by a count is allocated, the default scene is walked iteratively with a
+ *      visited set, each mesh is decoded once (index values, finite positions) and instanced into
+ *      world space.
+ * Any problem throws LoadError; pm_load_gltf turns it into the one line "FILE: what (where)".
+ */
+#define TINYGLTF_IMPLEMENTATION
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#include <tiny_gltf.h>
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cfloat>
+#include <chrono>
+#include <climits>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+extern "C" {
+#include "loader.h"
+}
+
+namespace {
+
+using json = nlohmann::json;
+using tinygltf::Model;
+
+// A scene larger than this is refused before its arrays are allocated: instancing can multiply a
+// small file into any number of triangles.
+const uint64_t kMaxSceneVertices = 1ull << 27;
+const uint64_t kMaxSceneTriangles = 1ull << 27;
+// An accessor without a bufferView is zero-filled; its count is not bounded by any data.
+const uint64_t kMaxZeroFilledElements = 1ull << 24;
+// A base colour image is decoded only when it has at most this many pixels (1 GiB as RGBA8).
+const uint64_t kMaxImagePixels = 1ull << 28;
+// tinygltf and nlohmann recurse over nested JSON (extras); no glTF needs this depth.
+const int kMaxJsonDepth = 128;
+
+const char *const kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
+                                            "KHR_materials_transmission", "KHR_materials_ior"};
+
+// ---------------------------------------------------------------- errors and messages
+
+struct LoadError {
+    std::string message;  // "what (where)", without the file name
+};
+
+[[noreturn]] void fail(const std::string &message) { throw LoadError{message}; }
+
+std::string str(uint64_t n) { return std::to_string(n); }
+
+// Bytes of the character at s[i] when it is printable ASCII or well-formed UTF-8 that is not a
+// control character (C1 controls such as U+009B act on terminals too), else 0.
+size_t printable_character(const std::string &s, size_t i) {
+    unsigned char c = static_cast<unsigned char>(s[i]);
+    if (c >= 0x20 && c < 0x7f) return 1;
+    size_t n = (c >= 0xc2 && c <= 0xdf) ? 2 : (c >= 0xe0 && c <= 0xef) ? 3 : (c >= 0xf0 && c <= 0xf4) ? 4 : 0;
+    if (n == 0 || i + n > s.size()) return 0;
+    uint32_t code = c & (0xffu >> (n + 1));
+    for (size_t k = 1; k < n; k++) {
+        unsigned char d = static_cast<unsigned char>(s[i + k]);
+        if ((d & 0xc0) != 0x80) return 0;
+        code = code << 6 | (d & 0x3fu);
+    }
+    static const uint32_t shortest[5] = {0, 0, 0xa0, 0x800, 0x10000};  // 0xa0: above the C1 controls
+    bool ok = code >= shortest[n] && code <= 0x10ffff && !(code >= 0xd800 && code <= 0xdfff);
+    return ok ? n : 0;
+}
+
+// Text that came from the file (or a library quoting it), safe to print: anything that is not
+// printable ASCII or well-formed UTF-8 becomes '?', and it is cut after `limit` bytes.
+std::string printable(const std::string &s, size_t limit = 64) {
+    std::string out;
+    size_t i = 0;
+    while (i < s.size() && i < limit) {
+        size_t n = printable_character(s, i);
+        out += n ? s.substr(i, n) : "?";
+        i += n ? n : 1;
+    }
+    if (i < s.size()) out += "...";
+    return out;
+}
+
+// A multi-line library message (tinygltf, nlohmann) as one line.
+std::string one_line(const std::string &s, size_t limit = 300) {
+    std::string joined, line;
+    auto flush = [&]() {
+        size_t first = line.find_first_not_of(' '), last = line.find_last_not_of(' ');
+        if (first != std::string::npos) {
+            if (!joined.empty()) joined += "; ";
+            joined += line.substr(first, last - first + 1);
+        }
+        line.clear();
+    };
+    for (char c : s) {
+        if (c == '\n' || c == '\r') flush();
+        else line += c;
+    }
+    flush();
+    return printable(joined, limit);
+}
+
+std::string describe(const json &v) {
+    if (v.is_object()) return "an object";
+    if (v.is_array()) return "an array";
+    return printable(v.dump(-1, ' ', false, json::error_handler_t::replace), 40);
+}
+
+// ---------------------------------------------------------------- paths
+
+// A path reduced lexically: "." and empty segments dropped, "a/.." folded; ".." survives only at the front.
+struct LexicalPath {
+    bool absolute = false;
+    std::vector<std::string> segments;
+};
+
+LexicalPath lexical_normal(const std::string &path) {
+    LexicalPath p;
+    p.absolute = !path.empty() && path[0] == '/';
+    size_t start = 0;
+    while (start <= path.size()) {
+        size_t end = path.find('/', start);
+        if (end == std::string::npos) end = path.size();
+        std::string seg = path.substr(start, end - start);
+        if (seg == "..") {
+            if (!p.segments.empty() && p.segments.back() != "..") p.segments.pop_back();
+            else if (!p.absolute) p.segments.push_back(seg);
+        } else if (!seg.empty() && seg != ".") {
+            p.segments.push_back(seg);
+        }
+        start = end + 1;
+    }
+    return p;
+}
+
+// True when path names something strictly inside folder (lexically; symbolic links are not followed).
+bool is_inside(const LexicalPath &folder, const std::string &path) {
+    LexicalPath p = lexical_normal(path);
+    if (p.absolute != folder.absolute || p.segments.size() <= folder.segments.size()) return false;
+    if (!std::equal(folder.segments.begin(), folder.segments.end(), p.segments.begin())) return false;
+    return std::find(p.segments.begin() + static_cast<long>(folder.segments.size()), p.segments.end(), "..") ==
+           p.segments.end();
+}
+
+// The way tinygltf joins a uri to its base folder.
+std::string join_path(const std::string &folder, const std::string &relative) {
+    if (folder.empty()) return relative;
+    return folder.back() == '/' ? folder + relative : folder + "/" + relative;
+}
+
+// What the file-system hooks and the image hook need; their refusals are kept to report them in our words.
+struct TinygltfHooks {
+    LexicalPath folder;
+    std::vector<char> image_wanted;  // per image: used as a base colour texture
+    std::string error;
+    std::vector<std::string> warnings;
+};
+
+bool guarded_file_exists(const std::string &path, void *user) {
+    TinygltfHooks *hooks = static_cast<TinygltfHooks *>(user);
+    return is_inside(hooks->folder, path) && tinygltf::FileExists(path, nullptr);
+}
+
+std::string unexpanded_path(const std::string &path, void *) { return path; }
+
+bool guarded_read_file(std::vector<unsigned char> *out, std::string *err, const std::string &path, void *user) {
+    TinygltfHooks *hooks = static_cast<TinygltfHooks *>(user);
+    if (!is_inside(hooks->folder, path)) {
+        hooks->error = "refused to read " + printable(path) + ": outside the model's folder";
+        if (err) *err = hooks->error;
+        return false;
+    }
+    return tinygltf::ReadWholeFile(out, err, path, nullptr);
+}
+
+bool refuse_write(std::string *err, const std::string &, const std::vector<unsigned char> &, void *) {
+    if (err) *err = "writing is disabled";
+    return false;
+}
+
+// Decodes (with tinygltf's own stb_image loader) only the images a base colour texture uses,
+// after checking their dimensions; an image that cannot be decoded becomes a warning, not a failure.
+bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, std::string *, int req_width,
+                       int req_height, const unsigned char *bytes, int size, void *user) {
+    TinygltfHooks *hooks = static_cast<TinygltfHooks *>(user);
+    if (index < 0 || static_cast<size_t>(index) >= hooks->image_wanted.size() || !hooks->image_wanted[index])
+        return true;
+    int width = 0, height = 0, channels = 0;
+    if (!stbi_info_from_memory(bytes, size, &width, &height, &channels)) {
+        hooks->warnings.push_back("image " + str(index) + " is not a decodable PNG/JPEG/BMP/GIF; its textures are ignored");
+        return true;
+    }
+    if (static_cast<uint64_t>(width) * static_cast<uint64_t>(height) > kMaxImagePixels) {
+        hooks->error = "image is " + str(width) + "x" + str(height) + " pixels, more than " + str(kMaxImagePixels) +
+                       " (image " + str(index) + ")";
+        return false;
+    }
+    std::string decode_error, decode_warning;
+    if (!tinygltf::LoadImageData(image, index, &decode_error, &decode_warning, req_width, req_height, bytes, size,
+                                 nullptr))
+        hooks->warnings.push_back("image " + str(index) + " could not be decoded (" + one_line(decode_error, 120) +
+                                  "); its textures are ignored");
+    return true;
+}
+
+// ---------------------------------------------------------------- raw JSON access
+
+const json *find_member(const json &object, const char *key) {
+    if (!object.is_object()) return nullptr;
+    auto it = object.find(key);
+    return it == object.end() ? nullptr : &*it;
+}
+
+const json &optional_array(const json &parent, const char *key, const std::string &where) {
+    static const json empty = json::array();
+    const json *v = find_member(parent, key);
+    if (!v) return empty;
+    if (!v->is_array()) fail(std::string(key) + " must be an array (" + where + ")");
+    return *v;
+}
+
+// Calls f(object, "singular i", i) for each element of a top-level array, each required to be an object.
+template <class F>
+void for_each_object(const json &parent, const char *key, const char *singular, F f) {
+    const json &items = optional_array(parent, key, "top level");
+    for (size_t i = 0; i < items.size(); i++) {
+        std::string where = std::string(singular) + " " + str(i);
+        if (!items[i].is_object()) fail(where + " is not a JSON object");
+        f(items[i], where, i);
+    }
+}
+
+// An index as written: an integer in [0, count), else a LoadError naming the target and where it was.
+int index_value(const json &v, size_t count, const char *target, const std::string &where) {
+    if (v.is_number_unsigned()) {
+        uint64_t i = v.get<uint64_t>();
+        if (i >= count) fail(std::string(target) + " " + str(i) + " does not exist (" + where + ")");
+        return static_cast<int>(i);
+    }
+    if (v.is_number_integer())
+        fail(std::string("invalid (negative) ") + target + " index " + std::to_string(v.get<int64_t>()) + " (" +
+             where + ")");
+    fail(std::string(target) + " index must be a non-negative integer, got " + describe(v) + " (" + where + ")");
+}
+
+int optional_index(const json &object, const char *key, size_t count, const char *target, const std::string &where) {
+    const json *v = find_member(object, key);
+    return v ? index_value(*v, count, target, where) : -1;
+}
+
+int required_index(const json &object, const char *key, size_t count, const char *target, const std::string &where) {
+    const json *v = find_member(object, key);
+    if (!v) fail(std::string("missing ") + key + " (" + where + ")");
+    return index_value(*v, count, target, where);
+}
+
+uint64_t unsigned_member(const json &object, const char *key, bool required, uint64_t fallback, uint64_t max,
+                         const std::string &where) {
+    const json *v = find_member(object, key);
+    if (!v) {
+        if (required) fail(std::string("missing ") + key + " (" + where + ")");
+        return fallback;
+    }
+    if (!v->is_number_unsigned() || v->get<uint64_t>() > max)
+        fail(std::string(key) + " must be an integer in [0, " + str(max) + "], got " + describe(*v) + " (" + where +
+             ")");
+    return v->get<uint64_t>();
+}
+
+// Deepest [ / { nesting of a JSON text, strings skipped; stops counting once past the limit.
+int json_depth(const char *text, size_t size) {
+    int depth = 0, deepest = 0;
+    bool in_string = false;
+    for (size_t i = 0; i < size && deepest <= kMaxJsonDepth; i++) {
+        char c = text[i];
+        if (in_string) {
+            if (c == '\\') i++;
+            else if (c == '"') in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            deepest = std::max(deepest, ++depth);
+        } else if (c == ']' || c == '}') {
+            depth--;
+        }
+    }
+    return deepest;
+}
+
+// Decoded size of a data: URI in one of the forms tinygltf decodes, or -1 when it is malformed.
+int64_t data_uri_size(const std::string &uri) {
+    static const char *const prefixes[] = {
+        "data:application/octet-stream;base64,", "data:application/gltf-buffer;base64,", "data:image/png;base64,",
+        "data:image/jpeg;base64,", "data:image/bmp;base64,", "data:image/gif;base64,", "data:text/plain;base64,"};
+    for (const char *prefix : prefixes) {
+        size_t start = strlen(prefix);
+        if (uri.compare(0, start, prefix) != 0) continue;
+        if (uri.size() - start > static_cast<size_t>(INT_MAX)) return -1;  // tinygltf decodes with int lengths
+        uint64_t symbols = 0, padding = 0;
+        for (size_t i = start; i < uri.size(); i++) {
+            char c = uri[i];
+            bool base64 = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '+' ||
+                          c == '/';
+            if (c == '=') padding++;
+            else if (base64 && padding == 0) symbols++;
+            else return -1;
+        }
+        if (padding > 2 || symbols % 4 == 1 || (padding && (symbols + padding) % 4 != 0)) return -1;
+        int64_t bytes = static_cast<int64_t>(symbols / 4 * 3 + (symbols % 4 ? symbols % 4 - 1 : 0));
+        return bytes > 0 ? bytes : -1;
+    }
+    return -1;
+}
+
+bool is_hex(char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F'); }
+int hex_value(char c) { return c <= '9' ? c - '0' : (c | 0x20) - 'a' + 10; }
+
+bool starts_with_data_scheme(const std::string &uri) {
+    static const char scheme[] = "data:";
+    if (uri.size() < 5) return false;
+    for (size_t i = 0; i < 5; i++)
+        if ((uri[i] | 0x20) != scheme[i] && uri[i] != scheme[i]) return false;
+    return true;
+}
+
+// The path a relative URI names, percent-decoded as tinygltf decodes it ('+' included); refuses
+// schemes, absolute paths and anything that leaves the model's folder.
+std::string safe_relative_path(const std::string &uri, const std::string &folder, const LexicalPath &folder_path,
+                               const std::string &where) {
+    if (uri.empty()) fail("empty uri (" + where + ")");
+    size_t colon = uri.find(':');
+    if (colon != std::string::npos && colon > 0 && colon < uri.find_first_of("/?#")) {
+        bool scheme = isalpha(static_cast<unsigned char>(uri[0])) != 0;
+        for (size_t i = 1; i < colon && scheme; i++)
+            scheme = isalnum(static_cast<unsigned char>(uri[i])) || uri[i] == '+' || uri[i] == '-' || uri[i] == '.';
+        if (scheme)
+            fail("uri scheme " + printable(uri.substr(0, colon)) + ": is not allowed, only relative paths and data: (" +
+                 where + ")");
+    }
+    if (uri[0] == '/' || uri[0] == '\\') fail("absolute path uri " + printable(uri) + " is not allowed (" + where + ")");
+    std::string decoded;
+    for (size_t i = 0; i < uri.size(); i++) {
+        if (uri[i] == '+') {
+            decoded += ' ';
+        } else if (uri[i] == '%') {
+            if (i + 2 >= uri.size() || !is_hex(uri[i + 1]) || !is_hex(uri[i + 2]))
+                fail("malformed percent-encoding in uri " + printable(uri) + " (" + where + ")");
+            decoded += static_cast<char>(hex_value(uri[i + 1]) * 16 + hex_value(uri[i + 2]));
+            i += 2;
+        } else {
+            decoded += uri[i];
+        }
+    }
+    if (decoded.find('\0') != std::string::npos || decoded[0] == '/')
+        fail("uri " + printable(uri) + " is not a plain relative path (" + where + ")");
+    if (!is_inside(folder_path, join_path(folder, decoded)))
+        fail("uri " + printable(uri) + " escapes the model's folder (" + where + ")");
+    return decoded;
+}
+
+// ---------------------------------------------------------------- accessors
+
+size_t component_size(int type) {
+    switch (type) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT: case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    default: return 0;
+    }
+}
+
+// One component as a number, normalized integers mapped to [0, 1] or [-1, 1] as the glTF spec says.
+double read_component(const unsigned char *p, int type, bool normalized) {
+    switch (type) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        int8_t v; memcpy(&v, p, 1);
+        return normalized ? std::max(v / 127.0, -1.0) : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
+        uint8_t v; memcpy(&v, p, 1);
+        return normalized ? v / 255.0 : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        int16_t v; memcpy(&v, p, 2);
+        return normalized ? std::max(v / 32767.0, -1.0) : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t v; memcpy(&v, p, 2);
+        return normalized ? v / 65535.0 : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        uint32_t v; memcpy(&v, p, 4);
+        return v;
+    }
+    default: {
+        float v; memcpy(&v, p, 4);
+        return v;
+    }
+    }
+}
+
+// Where an accessor's bytes are, after every range has been checked.
+struct AccessorLayout {
+    const unsigned char *first = nullptr;  // element 0; nullptr: no bufferView, zero-filled
+    size_t count = 0, stride = 0, element_size = 0;
+    int component_type = 0, components = 0;
+    bool normalized = false;
+    size_t sparse_count = 0;
+    const unsigned char *sparse_indices = nullptr, *sparse_values = nullptr;
+    int sparse_index_type = 0;
+};
+
+// offset + stride*(count-1) + element bytes, or UINT64_MAX on overflow; 0 for an empty accessor.
+uint64_t bytes_needed(uint64_t offset, uint64_t count, uint64_t stride, uint64_t element) {
+    if (count == 0) return 0;
+    uint64_t span, end, total;
+    if (__builtin_mul_overflow(stride, count - 1, &span) || __builtin_add_overflow(offset, span, &end) ||
+        __builtin_add_overflow(end, element, &total))
+        return UINT64_MAX;
+    return total;
+}
+
+void check_range(uint64_t needed, uint64_t available, const std::string &what, int view) {
+    if (needed > available)
+        fail(what + " needs " + (needed == UINT64_MAX ? std::string("more than 2^64") : str(needed)) +
+             " bytes but bufferView " + str(view) + " has " + str(available));
+}
+
+const unsigned char *view_bytes(const Model &model, int view, size_t offset) {
+    const tinygltf::BufferView &bv = model.bufferViews[view];
+    return model.buffers[bv.buffer].data.data() + bv.byteOffset + offset;
+}
+
+// Validates accessor `index` (every index was range-checked in the preflight) and locates its data.
+AccessorLayout accessor_layout(const Model &model, int index) {
+    const tinygltf::Accessor &a = model.accessors[index];
+    std::string where = "accessor " + str(index);
+    AccessorLayout l;
+    l.component_type = a.componentType;
+    l.components = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(a.type));
+    size_t size = component_size(a.componentType);
+    if (size == 0 || l.components <= 0) fail("unsupported componentType " + str(a.componentType) + " (" + where + ")");
+    l.element_size = size * static_cast<size_t>(l.components);
+    l.count = a.count;
+    l.normalized = a.normalized;
+    if (a.bufferView >= 0) {
+        const tinygltf::BufferView &bv = model.bufferViews[a.bufferView];
+        l.stride = bv.byteStride ? bv.byteStride : l.element_size;
+        if (l.stride < l.element_size)
+            fail("byteStride " + str(l.stride) + " < element size " + str(l.element_size) + " (" + where +
+                 ", bufferView " + str(a.bufferView) + ")");
+        check_range(bytes_needed(a.byteOffset, a.count, l.stride, l.element_size), bv.byteLength, where,
+                    a.bufferView);
+        l.first = view_bytes(model, a.bufferView, a.byteOffset);
+    } else if (a.count > kMaxZeroFilledElements) {
+        fail("count " + str(a.count) + " without a bufferView (at most " + str(kMaxZeroFilledElements) +
+             " zero-filled elements) (" + where + ")");
+    }
+    if (a.sparse.isSparse) {
+        const auto &sp = a.sparse;
+        if (sp.count < 1 || static_cast<size_t>(sp.count) > a.count)
+            fail("sparse count " + std::to_string(sp.count) + " outside [1, " + str(a.count) + "] (" + where + ")");
+        size_t index_size = component_size(sp.indices.componentType);
+        if (sp.indices.componentType == TINYGLTF_COMPONENT_TYPE_BYTE ||
+            sp.indices.componentType == TINYGLTF_COMPONENT_TYPE_SHORT ||
+            sp.indices.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT || index_size == 0)
+            fail("sparse indices must be UNSIGNED_BYTE/SHORT/INT, got componentType " +
+                 std::to_string(sp.indices.componentType) + " (" + where + ")");
+        uint64_t n = static_cast<uint64_t>(sp.count);
+        check_range(bytes_needed(static_cast<uint64_t>(sp.indices.byteOffset), n, index_size, index_size),
+                    model.bufferViews[sp.indices.bufferView].byteLength, where + " sparse indices",
+                    sp.indices.bufferView);
+        check_range(bytes_needed(static_cast<uint64_t>(sp.values.byteOffset), n, l.element_size, l.element_size),
+                    model.bufferViews[sp.values.bufferView].byteLength, where + " sparse values",
+                    sp.values.bufferView);
+        l.sparse_count = n;
+        l.sparse_index_type = sp.indices.componentType;
+        l.sparse_indices = view_bytes(model, sp.indices.bufferView, static_cast<size_t>(sp.indices.byteOffset));
+        l.sparse_values = view_bytes(model, sp.values.bufferView, static_cast<size_t>(sp.values.byteOffset));
+    }
+    return l;
+}
+
+// Every element of a validated accessor, components flattened, sparse substitutions applied.
+// T is float or uint32_t; callers check the component type first so every value fits.
+template <class T>
+std::vector<T> read_accessor(const AccessorLayout &l, int index) {
+    size_t components = static_cast<size_t>(l.components), csize = component_size(l.component_type);
+    std::vector<T> out(l.count * components, T(0));
+    if (l.first)
+        for (size_t i = 0; i < l.count; i++)
+            for (size_t c = 0; c < components; c++)
+                out[i * components + c] =
+                    static_cast<T>(read_component(l.first + i * l.stride + c * csize, l.component_type, l.normalized));
+    size_t index_size = component_size(l.sparse_index_type);
+    for (size_t k = 0; k < l.sparse_count; k++) {
+        uint64_t target = static_cast<uint64_t>(read_component(l.sparse_indices + k * index_size, l.sparse_index_type, false));
+        if (target >= l.count)
+            fail("sparse index " + str(target) + " >= accessor count " + str(l.count) + " (accessor " + str(index) + ")");
+        for (size_t c = 0; c < components; c++)
+            out[target * components + c] = static_cast<T>(
+                read_component(l.sparse_values + k * l.element_size + c * csize, l.component_type, l.normalized));
+    }
+    return out;
+}
+
+// ---------------------------------------------------------------- transforms
+
+struct Mat4 {
+    double m[16];  // column-major, as glTF stores it: element (row r, column c) is m[c*4 + r]
+    double at(int r, int c) const { return m[c * 4 + r]; }
+};
+
+Mat4 identity() {
+    Mat4 i = {{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}};
+    return i;
+}
+
+Mat4 multiply(const Mat4 &a, const Mat4 &b) {
+    Mat4 r;
+    for (int c = 0; c < 4; c++)
+        for (int row = 0; row < 4; row++) {
+            double s = 0;
+            for (int k = 0; k < 4; k++) s += a.at(row, k) * b.at(k, c);
+            r.m[c * 4 + row] = s;
+        }
+    return r;
+}
+
+bool all_finite(const std::vector<double> &v) {
+    return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+}
+
+// The node's local matrix: `matrix`, else T * R * S. Lengths and finiteness are checked here.
+Mat4 local_matrix(const tinygltf::Node &node, int index) {
+    std::string where = " (node " + str(index) + ")";
+    struct { const std::vector<double> &values; size_t size; const char *name; } parts[] = {
+        {node.matrix, 16, "matrix"}, {node.translation, 3, "translation"}, {node.rotation, 4, "rotation"},
+        {node.scale, 3, "scale"}};
+    for (const auto &p : parts) {
+        if (!p.values.empty() && p.values.size() != p.size)
+            fail(std::string(p.name) + " must have " + str(p.size) + " numbers, got " + str(p.values.size()) + where);
+        if (!all_finite(p.values)) fail(std::string("non-finite ") + p.name + where);
+    }
+    Mat4 out = identity();
+    if (!node.matrix.empty()) {
+        std::copy(node.matrix.begin(), node.matrix.end(), out.m);
+        return out;
+    }
+    double q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+    if (!node.rotation.empty()) {
+        double len = std::sqrt(node.rotation[0] * node.rotation[0] + node.rotation[1] * node.rotation[1] +
+                               node.rotation[2] * node.rotation[2] + node.rotation[3] * node.rotation[3]);
+        if (!(len > 0) || !std::isfinite(len)) fail("rotation quaternion has zero or infinite length" + where);
+        for (int i = 0; i < 4; i++) q[i] = node.rotation[i] / len;
+    }
+    if (!node.scale.empty()) std::copy(node.scale.begin(), node.scale.end(), s);
+    double x = q[0], y = q[1], z = q[2], w = q[3];
+    double r[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                      {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                      {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+    for (int row = 0; row < 3; row++)
+        for (int c = 0; c < 3; c++) out.m[c * 4 + row] = r[row][c] * s[c];
+    if (!node.translation.empty())
+        for (int row = 0; row < 3; row++) out.m[12 + row] = node.translation[row];
+    return out;
+}
+
+// The world-space quantities one node instance needs: point and direction transforms, the
+// inverse-transpose for normals, and whether it mirrors (negative determinant).
+struct WorldTransform {
+    Mat4 matrix;
+    double normal_matrix[3][3];
+    bool mirrored;
+
+    explicit WorldTransform(const Mat4 &m) : matrix(m) {
+        double cof[3][3];
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++) {
+                int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
+                cof[r][c] = m.at(r1, c1) * m.at(r2, c2) - m.at(r1, c2) * m.at(r2, c1);
+            }
+        double det = m.at(0, 0) * cof[0][0] + m.at(0, 1) * cof[0][1] + m.at(0, 2) * cof[0][2];
+        mirrored = det < 0;
+        // inverse-transpose = cofactor / det; a singular matrix keeps the cofactor's direction
+        double scale = (det != 0 && std::isfinite(det)) ? 1.0 / det : 1.0;
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++) normal_matrix[r][c] = cof[r][c] * scale;
+    }
+    vec3 point(const float *p) const {
+        double out[3];
+        for (int r = 0; r < 3; r++)
+            out[r] = matrix.at(r, 0) * p[0] + matrix.at(r, 1) * p[1] + matrix.at(r, 2) * p[2] + matrix.at(r, 3);
+        return v3(static_cast<float>(out[0]), static_cast<float>(out[1]), static_cast<float>(out[2]));
+    }
+    // A unit direction, or (0,0,0) when the transform collapses it.
+    vec3 unit(const double d[3], bool is_normal) const {
+        double out[3];
+        for (int r = 0; r < 3; r++)
+            out[r] = is_normal ? normal_matrix[r][0] * d[0] + normal_matrix[r][1] * d[1] + normal_matrix[r][2] * d[2]
+                               : matrix.at(r, 0) * d[0] + matrix.at(r, 1) * d[1] + matrix.at(r, 2) * d[2];
+        double len = std::sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2]);
+        if (!(len > 0) || !std::isfinite(len)) return v3(0, 0, 0);
+        return v3(static_cast<float>(out[0] / len), static_cast<float>(out[1] / len), static_cast<float>(out[2] / len));
+    }
+    vec3 origin() const {
+        const float zero[3] = {0, 0, 0};
+        return point(zero);
+    }
+};
+
+// ---------------------------------------------------------------- the loader
+
+struct DecodedPrimitive {
+    bool triangles = false;             // false: points or lines, skipped
+    std::vector<float> positions;       // 3 per vertex, mesh space
+    std::vector<float> normals, uvs;    // empty when the primitive has none
+    std::vector<uint32_t> corners;      // 3 per triangle, glTF winding
+    uint32_t material = 0;
+};
+
+struct DecodedMesh {
+    std::vector<DecodedPrimitive> primitives;
+    uint64_t vertices = 0, triangles = 0;  // per instance, before degenerate triangles are dropped
+};
+
+struct Instance {
+    int node, mesh;
+};
+
+// Owns the malloc'ed texels until the scene takes them.
+struct TextureList {
+    std::vector<pm_texture> items;
+    ~TextureList() {
+        for (pm_texture &t : items) free(t.rgba);
+    }
+};
+
+class Loader {
+public:
+    explicit Loader(const std::string &path) : path_(path) {
+        size_t slash = path.find_last_of('/');
+        folder_ = slash == std::string::npos ? "" : path.substr(0, slash == 0 ? 1 : slash);
+        hooks_.folder = lexical_normal(folder_);
+    }
+
+    void load(pm_scene *out);
+    const std::vector<std::string> &warnings() const { return warnings_; }
+    uint32_t skipped_degenerate() const { return static_cast<uint32_t>(std::min<uint64_t>(degenerate_, UINT32_MAX)); }
+    uint32_t skipped_primitives() const { return static_cast<uint32_t>(std::min<uint64_t>(skipped_prims_, UINT32_MAX)); }
+
+private:
+    // stage 1
+    std::vector<unsigned char> read_model_file();
+    void split_container(const std::vector<unsigned char> &file);
+    json parse_json();
+    void preflight(const json &root);
+    void preflight_buffers(const json &root);
+    void preflight_uri_target(const json &object, const std::string &where, bool is_buffer, uint64_t byte_length);
+    // stage 2
+    void run_tinygltf(const std::vector<unsigned char> &file);
+    // stage 3
+    void traverse_default_scene();
+    const DecodedMesh &decoded_mesh(int mesh);
+    DecodedPrimitive decode_primitive(int mesh, int primitive);
+    void instance_mesh(const Instance &instance);
+    void add_light(int light, const WorldTransform &world, int node);
+    void add_camera(int camera, const WorldTransform &world, int node);
+    void convert_materials();
+    int texture_for(int gltf_texture, const std::string &where);
+    float checked(double value, double lo, double hi, const char *name, const std::string &where);
+    void emit(pm_scene *out);
+
+    void warn(const std::string &message) { warnings_.push_back(message); }
+
+    std::string path_, folder_;
+    std::vector<std::string> warnings_;
+
+    // container
+    bool binary_ = false;
+    const char *json_text_ = nullptr;
+    size_t json_size_ = 0, bin_size_ = 0;
+    bool has_bin_ = false;
+
+    // preflight results
+    size_t count_scenes_ = 0, count_nodes_ = 0, count_meshes_ = 0, count_accessors_ = 0, count_views_ = 0,
+           count_buffers_ = 0, count_materials_ = 0, count_textures_ = 0, count_images_ = 0, count_samplers_ = 0,
+           count_cameras_ = 0, count_skins_ = 0, count_lights_ = 0;
+    std::vector<size_t> primitives_per_mesh_;
+    std::vector<uint64_t> buffer_lengths_;
+    TinygltfHooks hooks_;
+    Model model_;
+
+    // conversion
+    std::vector<Mat4> world_;  // per node, valid once the traversal reached it
+    std::vector<Instance> instances_;
+    std::vector<std::unique_ptr<DecodedMesh>> meshes_;
+    std::vector<pm_material> materials_;
+    bool default_material_used_ = false;
+    TextureList textures_;
+    std::map<int, int> texture_of_gltf_;
+    std::vector<pm_light> lights_;
+    std::vector<pm_camera> cameras_;
+    std::vector<vec3> positions_, normals_;
+    std::vector<float> uvs_;
+    bool any_uv_ = false;
+    std::vector<uint32_t> indices_, triangle_material_;
+    uint64_t degenerate_ = 0, skipped_prims_ = 0, repaired_normals_ = 0, clamped_values_ = 0;
+};
+
+// ---- stage 1: bytes, container, JSON, preflight
+
+std::vector<unsigned char> Loader::read_model_file() {
+    struct stat st;
+    if (stat(path_.c_str(), &st) != 0) fail(std::string("cannot open: ") + strerror(errno));
+    if (!S_ISREG(st.st_mode)) fail("not a regular file");  // before fopen, which would wait on a FIFO
+    std::unique_ptr<FILE, int (*)(FILE *)> f(fopen(path_.c_str(), "rb"), fclose);
+    if (!f || fstat(fileno(f.get()), &st) != 0) fail(std::string("cannot open: ") + strerror(errno));
+    if (st.st_size == 0) fail("empty file");
+    if (static_cast<uint64_t>(st.st_size) > UINT32_MAX) fail("file too large (tinygltf reads at most 4 GiB)");
+    std::vector<unsigned char> data(static_cast<size_t>(st.st_size));
+    if (fread(data.data(), 1, data.size(), f.get()) != data.size()) fail(std::string("read error: ") + strerror(errno));
+    return data;
+}
+
+uint32_t read_u32(const unsigned char *p) {
+    return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 | static_cast<uint32_t>(p[2]) << 16 |
+           static_cast<uint32_t>(p[3]) << 24;
+}
+
+void Loader::split_container(const std::vector<unsigned char> &file) {
+    std::string ext = path_.size() >= 4 ? path_.substr(path_.size() - 4) : "";
+    for (char &c : ext) c = static_cast<char>(tolower(static_cast<unsigned char>(c)));
+    binary_ = ext == ".glb" || (file.size() >= 4 && memcmp(file.data(), "glTF", 4) == 0);
+    if (!binary_) {
+        json_text_ = reinterpret_cast<const char *>(file.data());
+        json_size_ = file.size();
+        return;
+    }
+    const uint64_t size = file.size();
+    if (size < 12) fail("not a glTF binary (file shorter than the 12-byte GLB header)");
+    if (memcmp(file.data(), "glTF", 4) != 0) fail("not a glTF binary (bad magic)");
+    uint32_t version = read_u32(&file[4]), length = read_u32(&file[8]);
+    if (version != 2) fail("unsupported GLB version " + str(version));
+    if (length > size) fail("truncated GLB: header length " + str(length) + " > file size " + str(size));
+    if (length != size) fail("GLB header length " + str(length) + " != file size " + str(size));
+    uint64_t offset = 12;
+    for (int chunk = 0; offset < size; chunk++) {
+        if (size - offset < 8) fail("truncated GLB: chunk " + str(chunk) + " header extends past end of file");
+        uint64_t chunk_length = read_u32(&file[offset]), type = read_u32(&file[offset + 4]);
+        if (chunk_length > size - offset - 8)
+            fail("truncated GLB: chunk " + str(chunk) + " (" + str(chunk_length) + " bytes) extends past end of file");
+        const unsigned char *payload = &file[offset + 8];
+        if (chunk == 0) {
+            if (type != 0x4E4F534Au) fail("GLB chunk 0 is not JSON");
+            if (chunk_length == 0) fail("GLB JSON chunk is empty");
+            json_text_ = reinterpret_cast<const char *>(payload);
+            json_size_ = chunk_length;
+        } else if (chunk == 1) {
+            // tinygltf reads the second chunk as BIN and refuses anything else
+            if (type != 0x004E4942u) fail("GLB chunk 1 is not BIN");
+            if (chunk_length < 4 || chunk_length % 4 != 0)
+                fail("GLB BIN chunk length " + str(chunk_length) + " is not a positive multiple of 4");
+            has_bin_ = true;
+            bin_size_ = chunk_length;
+        }
+        offset += 8 + chunk_length;
+    }
+    if (!json_text_) fail("truncated GLB: no JSON chunk");
+}
+
+json Loader::parse_json() {
+    if (json_depth(json_text_, json_size_) > kMaxJsonDepth)
+        fail("JSON nested deeper than " + str(kMaxJsonDepth) + " levels");
+    try {
+        return json::parse(json_text_, json_text_ + json_size_);
+    } catch (const json::exception &e) {
+        fail("JSON syntax error: " + one_line(e.what()));
+    }
+}
+
+void Loader::preflight(const json &root) {
+    if (!root.is_object()) fail("the JSON root is not an object");
+    const json *asset = find_member(root, "asset");
+    const json *version = asset ? find_member(*asset, "version") : nullptr;
+    if (!version || !version->is_string()) fail("missing asset.version (asset)");
+    std::string v = version->get<std::string>();
+    if (v.compare(0, 2, "2.") != 0) fail("unsupported glTF version " + printable(v) + " (asset.version)");
+
+    auto supported = [](const std::string &name) {
+        return std::find(std::begin(kSupportedExtensions), std::end(kSupportedExtensions), name) !=
+               std::end(kSupportedExtensions);
+    };
+    const json &required = optional_array(root, "extensionsRequired", "top level");
+    for (const json &e : required) {
+        if (!e.is_string()) fail("extensionsRequired holds " + describe(e) + ", not a name");
+        if (!supported(e.get<std::string>()))
+            fail("required extension " + printable(e.get<std::string>()) + " is not supported");
+    }
+    std::string ignored;
+    int ignored_count = 0;
+    for (const json &e : optional_array(root, "extensionsUsed", "top level")) {
+        if (!e.is_string() || supported(e.get<std::string>())) continue;
+        if (ignored_count++ < 8) ignored += (ignored.empty() ? "" : ", ") + printable(e.get<std::string>());
+    }
+    if (ignored_count)
+        warn("ignoring unsupported extension(s) " + ignored + (ignored_count > 8 ? ", ..." : "") +
+             " (used, not required)");
+
+    // sizes first: every index below is checked against them
+    count_scenes_ = optional_array(root, "scenes", "top level").size();
+    count_nodes_ = optional_array(root, "nodes", "top level").size();
+    count_meshes_ = optional_array(root, "meshes", "top level").size();
+    count_accessors_ = optional_array(root, "accessors", "top level").size();
+    count_views_ = optional_array(root, "bufferViews", "top level").size();
+    count_buffers_ = optional_array(root, "buffers", "top level").size();
+    count_materials_ = optional_array(root, "materials", "top level").size();
+    count_textures_ = optional_array(root, "textures", "top level").size();
+    count_images_ = optional_array(root, "images", "top level").size();
+    count_samplers_ = optional_array(root, "samplers", "top level").size();
+    count_cameras_ = optional_array(root, "cameras", "top level").size();
+    count_skins_ = optional_array(root, "skins", "top level").size();
+    const json *root_ext = find_member(root, "extensions");
+    const json *lights_ext = root_ext ? find_member(*root_ext, "KHR_lights_punctual") : nullptr;
+    if (lights_ext) count_lights_ = optional_array(*lights_ext, "lights", "KHR_lights_punctual").size();
+
+    preflight_buffers(root);
+
+    std::vector<uint64_t> view_lengths;
+    for_each_object(root, "bufferViews", "bufferView", [&](const json &bv, const std::string &where, size_t i) {
+        int buffer = required_index(bv, "buffer", count_buffers_, "buffer", where);
+        uint64_t offset = unsigned_member(bv, "byteOffset", false, 0, UINT64_MAX, where);
+        uint64_t length = unsigned_member(bv, "byteLength", true, 0, UINT64_MAX, where);
+        if (length == 0) fail("byteLength 0: a bufferView holds at least 1 byte (" + where + ")");
+        uint64_t available = buffer_lengths_[buffer];
+        if (offset > available || length > available - offset)
+            fail("bufferView " + str(i) + " (offset " + str(offset) + " + length " + str(length) + ") exceeds buffer " +
+                 str(buffer) + " (" + str(available) + " bytes)");
+        if (find_member(bv, "byteStride")) {
+            uint64_t stride = unsigned_member(bv, "byteStride", true, 0, 252, where);
+            if (stride < 4 || stride % 4 != 0)
+                fail("byteStride " + str(stride) + " is not a multiple of 4 in [4, 252] (" + where + ")");
+        }
+        view_lengths.push_back(length);
+    });
+
+    for_each_object(root, "accessors", "accessor", [&](const json &a, const std::string &where, size_t) {
+        optional_index(a, "bufferView", count_views_, "bufferView", where);
+        unsigned_member(a, "byteOffset", false, 0, UINT64_MAX, where);
+        unsigned_member(a, "count", true, 0, UINT64_MAX, where);
+        uint64_t type = unsigned_member(a, "componentType", true, 0, UINT32_MAX, where);
+        if (component_size(static_cast<int>(type)) == 0)
+            fail("unsupported componentType " + str(type) + " (" + where + ")");
+        const json *sparse = find_member(a, "sparse");
+        if (!sparse) return;
+        if (!sparse->is_object()) fail("sparse is not an object (" + where + ")");
+        unsigned_member(*sparse, "count", true, 0, INT_MAX, where + " sparse");
+        for (const char *part : {"indices", "values"}) {
+            std::string sub = where + " sparse " + part;
+            const json *p = find_member(*sparse, part);
+            if (!p || !p->is_object()) fail("missing sparse " + std::string(part) + " object (" + where + ")");
+            required_index(*p, "bufferView", count_views_, "bufferView", sub);
+            unsigned_member(*p, "byteOffset", false, 0, INT_MAX, sub);
+        }
+        unsigned_member(*find_member(*sparse, "indices"), "componentType", true, 0, UINT32_MAX, where + " sparse indices");
+    });
+
+    for_each_object(root, "images", "image", [&](const json &image, const std::string &where, size_t) {
+        int view = optional_index(image, "bufferView", count_views_, "bufferView", where);
+        if (view >= 0 && view_lengths[view] > static_cast<uint64_t>(INT_MAX))
+            fail("image data over 2 GiB (" + where + ")");  // tinygltf passes its size as an int
+        preflight_uri_target(image, where, false, 0);
+    });
+
+    for_each_object(root, "samplers", "sampler", [&](const json &s, const std::string &where, size_t) {
+        unsigned_member(s, "wrapS", false, 0, INT_MAX, where);
+        unsigned_member(s, "wrapT", false, 0, INT_MAX, where);
+    });
+
+    hooks_.image_wanted.assign(count_images_, 0);
+    std::vector<int> texture_sources;
+    for_each_object(root, "textures", "texture", [&](const json &t, const std::string &where, size_t) {
+        texture_sources.push_back(optional_index(t, "source", count_images_, "image", where));
+        optional_index(t, "sampler", count_samplers_, "sampler", where);
+    });
+
+    for_each_object(root, "materials", "material", [&](const json &m, const std::string &where, size_t) {
+        const json *pbr = find_member(m, "pbrMetallicRoughness");
+        struct { const json *parent; const char *key; } infos[] = {
+            {pbr, "baseColorTexture"}, {pbr, "metallicRoughnessTexture"}, {&m, "normalTexture"},
+            {&m, "occlusionTexture"}, {&m, "emissiveTexture"}};
+        for (const auto &info : infos) {
+            const json *ti = info.parent ? find_member(*info.parent, info.key) : nullptr;
+            if (!ti) continue;
+            std::string sub = where + " " + info.key;
+            if (!ti->is_object()) fail(std::string(info.key) + " is not an object (" + where + ")");
+            int texture = required_index(*ti, "index", count_textures_, "texture", sub);
+            unsigned_member(*ti, "texCoord", false, 0, INT_MAX, sub);
+            if (info.parent == pbr && strcmp(info.key, "baseColorTexture") == 0 && texture_sources[texture] >= 0)
+                hooks_.image_wanted[texture_sources[texture]] = 1;
+        }
+    });
+
+    for_each_object(root, "meshes", "mesh", [&](const json &mesh, const std::string &where, size_t) {
+        const json *prims = find_member(mesh, "primitives");
+        if (!prims || !prims->is_array()) fail("missing primitives array (" + where + ")");
+        for (size_t p = 0; p < prims->size(); p++) {
+            std::string sub = where + " primitive " + str(p);
+            const json &prim = (*prims)[p];
+            const json *attributes = find_member(prim, "attributes");
+            if (!attributes || !attributes->is_object()) fail("missing attributes object (" + sub + ")");
+            for (auto it = attributes->begin(); it != attributes->end(); ++it)
+                index_value(it.value(), count_accessors_, "accessor", sub + " " + printable(it.key(), 32));
+            optional_index(prim, "indices", count_accessors_, "accessor", sub + " indices");
+            optional_index(prim, "material", count_materials_, "material", sub);
+            uint64_t mode = unsigned_member(prim, "mode", false, 4, UINT32_MAX, sub);
+            if (mode > 6) fail("unknown primitive mode " + str(mode) + " (" + sub + ")");
+        }
+        primitives_per_mesh_.push_back(prims->size());
+    });
+
+    for_each_object(root, "nodes", "node", [&](const json &node, const std::string &where, size_t) {
+        for (const json &child : optional_array(node, "children", where))
+            index_value(child, count_nodes_, "node", where + " children");
+        optional_index(node, "mesh", count_meshes_, "mesh", where);
+        optional_index(node, "camera", count_cameras_, "camera", where);
+        optional_index(node, "skin", count_skins_, "skin", where);
+        const json *ext = find_member(node, "extensions");
+        const json *light = ext ? find_member(*ext, "KHR_lights_punctual") : nullptr;
+        if (light) required_index(*light, "light", count_lights_, "light", where + " KHR_lights_punctual");
+    });
+
+    for_each_object(root, "scenes", "scene", [&](const json &scene, const std::string &where, size_t) {
+        for (const json &n : optional_array(scene, "nodes", where)) index_value(n, count_nodes_, "node", where);
+    });
+    optional_index(root, "scene", count_scenes_, "scene", "default scene");
+}
+
+// Buffer sizes and URIs, before tinygltf opens anything.
+void Loader::preflight_buffers(const json &root) {
+    for_each_object(root, "buffers", "buffer", [&](const json &b, const std::string &where, size_t i) {
+        uint64_t length = unsigned_member(b, "byteLength", true, 0, UINT64_MAX, where);
+        if (find_member(b, "uri")) {
+            preflight_uri_target(b, where, true, length);
+        } else if (!binary_) {
+            fail("buffer " + str(i) + " has no uri (only a .glb embeds its buffer)");
+        } else if (!has_bin_) {
+            fail("buffer " + str(i) + " has no uri and the GLB has no BIN chunk");
+        } else if (length > bin_size_) {
+            fail("byteLength " + str(length) + " exceeds the GLB BIN chunk (" + str(bin_size_) + " bytes) (" + where + ")");
+        }
+        buffer_lengths_.push_back(length);
+    });
+}
+
+// A buffer's or image's uri: a well-formed data: URI (of the declared size for buffers) or a safe
+// relative path (an existing file of the declared size for buffers; tinygltf reports missing images).
+void Loader::preflight_uri_target(const json &object, const std::string &where, bool is_buffer, uint64_t byte_length) {
+    const json *uri_value = find_member(object, "uri");
+    if (!uri_value) return;
+    if (!uri_value->is_string()) fail("uri is " + describe(*uri_value) + ", not a string (" + where + ")");
+    const std::string &uri = uri_value->get_ref<const std::string &>();
+    if (starts_with_data_scheme(uri)) {
+        int64_t size = data_uri_size(uri);
+        if (size < 0) fail("malformed data: URI (" + where + ")");
+        if (is_buffer && static_cast<uint64_t>(size) != byte_length)
+            fail("byteLength " + str(byte_length) + " but the data: URI holds " + str(static_cast<uint64_t>(size)) +
+                 " bytes: buffer size mismatch (" + where + ")");
+        return;
+    }
+    std::string relative = safe_relative_path(uri, folder_, hooks_.folder, where);
+    if (!is_buffer) return;
+    struct stat st;
+    std::string file = join_path(folder_, relative);
+    if (stat(file.c_str(), &st) != 0)
+        fail("cannot open buffer " + printable(uri) + ": " + strerror(errno) + " (" + where + ")");
+    if (!S_ISREG(st.st_mode)) fail("buffer " + printable(uri) + " is not a regular file (" + where + ")");
+    if (static_cast<uint64_t>(st.st_size) != byte_length)
+        fail("buffer file " + printable(uri) + " has " + str(static_cast<uint64_t>(st.st_size)) +
+             " bytes but byteLength is " + str(byte_length) + " (" + where + ")");
+}
+
+// ---- stage 2: tinygltf
+
+void Loader::run_tinygltf(const std::vector<unsigned char> &file) {
+    tinygltf::TinyGLTF gltf;
+    tinygltf::FsCallbacks fs = {guarded_file_exists, unexpanded_path, guarded_read_file, refuse_write, &hooks_};
+    gltf.SetFsCallbacks(fs);
+    gltf.SetImageLoader(load_wanted_image, &hooks_);
+    std::string error, warning;
+    bool ok = binary_ ? gltf.LoadBinaryFromMemory(&model_, &error, &warning, file.data(),
+                                                  static_cast<unsigned int>(file.size()), folder_)
+                      : gltf.LoadASCIIFromString(&model_, &error, &warning, json_text_,
+                                                 static_cast<unsigned int>(json_size_), folder_);
+    if (!hooks_.error.empty()) fail(hooks_.error);
+    if (!ok) fail("tinygltf: " + (error.empty() ? std::string("load failed") : one_line(error)));
+    for (const std::string &w : hooks_.warnings) warn(w);
+    if (!warning.empty()) warn("tinygltf: " + one_line(warning));
+    if (!error.empty()) warn("tinygltf: " + one_line(error));
+
+    // The preflight checked indices against the raw JSON; tinygltf must have kept every element.
+    struct { size_t raw, parsed; const char *what; } counts[] = {
+        {count_scenes_, model_.scenes.size(), "scenes"}, {count_nodes_, model_.nodes.size(), "nodes"},
+        {count_meshes_, model_.meshes.size(), "meshes"}, {count_accessors_, model_.accessors.size(), "accessors"},
+        {count_views_, model_.bufferViews.size(), "bufferViews"}, {count_buffers_, model_.buffers.size(), "buffers"},
+        {count_materials_, model_.materials.size(), "materials"}, {count_textures_, model_.textures.size(), "textures"},
+        {count_images_, model_.images.size(), "images"}, {count_samplers_, model_.samplers.size(), "samplers"},
+        {count_cameras_, model_.cameras.size(), "cameras"}, {count_lights_, model_.lights.size(), "lights"}};
+    for (const auto &c : counts)
+        if (c.raw != c.parsed)
+            fail(std::string("tinygltf read ") + str(c.parsed) + " " + c.what + " where the JSON has " + str(c.raw));
+    for (size_t m = 0; m < count_meshes_; m++)
+        if (model_.meshes[m].primitives.size() != primitives_per_mesh_[m])
+            fail("tinygltf dropped a primitive (mesh " + str(m) + ")");
+    for (size_t b = 0; b < count_buffers_; b++)
+        if (model_.buffers[b].data.size() != buffer_lengths_[b])
+            fail("loaded " + str(model_.buffers[b].data.size()) + " bytes, byteLength is " + str(buffer_lengths_[b]) +
+                 ": buffer size mismatch (buffer " + str(b) + ")");
+    // every accessor's byte ranges, used by the default scene or not, as for every other index
+    for (size_t a = 0; a < model_.accessors.size(); a++) accessor_layout(model_, static_cast<int>(a));
+}
+
+// ---- stage 3: scene graph, meshes, materials
+
+void Loader::traverse_default_scene() {
+    if (model_.scenes.empty()) fail("nothing to render (the file has no scene)");
+    int scene = model_.defaultScene >= 0 ? model_.defaultScene : 0;
+    world_.assign(model_.nodes.size(), identity());
+    // 0: not reached, 1: on the current path, 2: finished
+    std::vector<char> state(model_.nodes.size(), 0);
+    struct Step {
+        int node, parent;
+        bool leaving;
+    };
+    std::vector<Step> stack;
+    const std::vector<int> &roots = model_.scenes[scene].nodes;
+    for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.push_back({*it, -1, false});
+    while (!stack.empty()) {
+        Step step = stack.back();
+        stack.pop_back();
+        if (step.leaving) {
+            state[step.node] = 2;
+            continue;
+        }
+        if (state[step.node] == 1) fail("node hierarchy contains a cycle (node " + str(step.node) + ")");
+        if (state[step.node] == 2)
+            fail("node " + str(step.node) + " is reached twice (two parents, or listed twice in scene " + str(scene) + ")");
+        state[step.node] = 1;
+        const tinygltf::Node &node = model_.nodes[step.node];
+        Mat4 local = local_matrix(node, step.node);
+        world_[step.node] = step.parent >= 0 ? multiply(world_[step.parent], local) : local;
+        if (!std::all_of(std::begin(world_[step.node].m), std::end(world_[step.node].m),
+                         [](double x) { return std::isfinite(x); }))
+            fail("world transform overflows (node " + str(step.node) + ")");
+        WorldTransform world(world_[step.node]);
+        if (node.camera >= 0) add_camera(node.camera, world, step.node);
+        auto light = node.extensions.find("KHR_lights_punctual");
+        if (light != node.extensions.end() && light->second.Has("light"))
+            add_light(light->second.Get("light").GetNumberAsInt(), world, step.node);
+        if (node.mesh >= 0) instances_.push_back({step.node, node.mesh});
+        stack.push_back({step.node, step.parent, true});
+        for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
+            stack.push_back({*it, step.node, false});
+    }
+}
+
+float Loader::checked(double value, double lo, double hi, const char *name, const std::string &where) {
+    if (!std::isfinite(value)) fail(std::string("non-finite ") + name + " (" + where + ")");
+    if (value < lo || value > hi) {
+        clamped_values_++;
+        value = std::min(std::max(value, lo), hi);
+    }
+    return static_cast<float>(value);
+}
+
+double extension_number(const tinygltf::ExtensionMap &extensions, const char *extension, const char *key,
+                        double fallback) {
+    auto it = extensions.find(extension);
+    if (it == extensions.end() || !it->second.IsObject() || !it->second.Has(key)) return fallback;
+    const tinygltf::Value &v = it->second.Get(key);
+    return v.IsNumber() ? v.GetNumberAsDouble() : fallback;
+}
+
+void Loader::add_light(int index, const WorldTransform &world, int node) {
+    const tinygltf::Light &l = model_.lights[index];
+    std::string where = "light " + str(index);
+    pm_light light;
+    memset(&light, 0, sizeof light);
+    if (l.type == "point") light.type = PM_LIGHT_POINT;
+    else if (l.type == "spot") light.type = PM_LIGHT_SPOT;
+    else if (l.type == "directional") light.type = PM_LIGHT_DIRECTIONAL;
+    else return warn(where + " has unknown type " + printable(l.type) + "; skipped");
+    if (!l.color.empty() && l.color.size() != 3)
+        fail("color must have 3 numbers, got " + str(l.color.size()) + " (" + where + ")");
+    double color[3] = {1, 1, 1};
+    std::copy(l.color.begin(), l.color.end(), color);
+    float intensity = checked(l.intensity, 0, FLT_MAX, "intensity", where);
+    light.intensity = v3(checked(color[0], 0, 1, "color", where) * intensity,
+                         checked(color[1], 0, 1, "color", where) * intensity,
+                         checked(color[2], 0, 1, "color", where) * intensity);
+    light.range = checked(l.range, 0, FLT_MAX, "range", where);
+    if (light.type == PM_LIGHT_SPOT) {
+        float outer = checked(l.spot.outerConeAngle, 0, M_PI / 2, "outerConeAngle", where);
+        float inner = checked(l.spot.innerConeAngle, 0, outer, "innerConeAngle", where);
+        light.cos_inner = cosf(inner);
+        light.cos_outer = cosf(outer);
+    }
+    const double minus_z[3] = {0, 0, -1};
+    light.position = world.origin();
+    light.direction = world.unit(minus_z, false);
+    if (!v3_is_finite(light.position) || (light.type != PM_LIGHT_POINT && v3_is_black(light.direction)))
+        fail("degenerate transform for " + where + " (node " + str(node) + ")");
+    lights_.push_back(light);
+}
+
+void Loader::add_camera(int index, const WorldTransform &world, int node) {
+    const tinygltf::Camera &c = model_.cameras[index];
+    std::string where = "camera " + str(index) + " on node " + str(node);
+    if (c.type != "perspective")
+        return warn(where + " is " + printable(c.type) + "; skipped (only perspective cameras are supported)");
+    const tinygltf::PerspectiveCamera &p = c.perspective;
+    if (!(p.yfov > 0 && p.yfov < M_PI) || !(p.znear > 0) || !std::isfinite(p.znear))
+        return warn(where + " has an invalid yfov or znear; skipped");
+    const double minus_z[3] = {0, 0, -1}, plus_y[3] = {0, 1, 0};
+    pm_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position = world.origin();
+    cam.forward = world.unit(minus_z, false);
+    vec3 up = world.unit(plus_y, false);
+    up = v3_sub(up, v3_scale(cam.forward, v3_dot(up, cam.forward)));
+    float up_length = v3_length(up);
+    if (v3_is_black(cam.forward) || !(up_length > 1e-6f) || !v3_is_finite(cam.position))
+        return warn(where + " has a degenerate transform; skipped");
+    cam.up = v3_scale(up, 1.f / up_length);
+    cam.right = v3_cross(cam.forward, cam.up);
+    cam.yfov = static_cast<float>(p.yfov);
+    cam.aspect = (p.aspectRatio > 0 && p.aspectRatio < FLT_MAX) ? static_cast<float>(p.aspectRatio) : 0.f;
+    cam.znear = static_cast<float>(std::min<double>(p.znear, FLT_MAX));
+    cameras_.push_back(cam);
+}
+
+int Loader::texture_for(int gltf_texture, const std::string &where) {
+    auto known = texture_of_gltf_.find(gltf_texture);
+    if (known != texture_of_gltf_.end()) return known->second;
+    int &result = texture_of_gltf_[gltf_texture];
+    result = -1;
+    const tinygltf::Texture &t = model_.textures[gltf_texture];
+    std::string what = "texture " + str(gltf_texture) + " of " + where;
+    if (t.source < 0) {
+        warn(what + " has no image source (extension images are not supported); ignored");
+        return result;
+    }
+    const tinygltf::Image &image = model_.images[t.source];
+    if (image.image.empty()) return result;  // tinygltf or load_wanted_image already warned why
+    if (image.bits != 8) {
+        warn(what + ": image " + str(t.source) + " has " + std::to_string(image.bits) +
+             "-bit channels (only 8-bit is supported); ignored");
+        return result;
+    }
+    size_t pixels = static_cast<size_t>(image.width) * static_cast<size_t>(image.height);
+    if (image.width <= 0 || image.height <= 0 || image.component < 1 || image.component > 4 ||
+        image.image.size() != pixels * static_cast<size_t>(image.component))
+        fail("decoded image has inconsistent dimensions (image " + str(t.source) + ")");
+    pm_texture tex;
+    memset(&tex, 0, sizeof tex);
+    tex.width = image.width;
+    tex.height = image.height;
+    tex.wrap_s = tex.wrap_t = PM_WRAP_REPEAT;
+    if (t.sampler >= 0) {
+        const tinygltf::Sampler &s = model_.samplers[t.sampler];
+        int *wraps[2] = {&tex.wrap_s, &tex.wrap_t};
+        int modes[2] = {s.wrapS, s.wrapT};
+        for (int k = 0; k < 2; k++) {
+            if (modes[k] == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE) *wraps[k] = PM_WRAP_CLAMP;
+            else if (modes[k] == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT) *wraps[k] = PM_WRAP_MIRROR;
+            else if (modes[k] != TINYGLTF_TEXTURE_WRAP_REPEAT)
+                warn("sampler " + str(t.sampler) + " has unknown wrap mode " + std::to_string(modes[k]) + "; using REPEAT");
+        }
+    }
+    textures_.items.reserve(textures_.items.size() + 1);  // so push_back below cannot throw and leak the texels
+    tex.rgba = static_cast<uint8_t *>(malloc(pixels * 4));
+    if (!tex.rgba) throw std::bad_alloc();
+    const unsigned char *src = image.image.data();
+    size_t n = static_cast<size_t>(image.component);
+    for (size_t i = 0; i < pixels; i++, src += n) {
+        uint8_t *dst = tex.rgba + 4 * i;
+        bool gray = n <= 2;
+        dst[0] = src[0];
+        dst[1] = gray ? src[0] : src[1];
+        dst[2] = gray ? src[0] : src[2];
+        dst[3] = n == 2 ? src[1] : (n == 4 ? src[3] : 255);
+    }
+    textures_.items.push_back(tex);
+    result = static_cast<int>(textures_.items.size() - 1);
+    return result;
+}
+
+void Loader::convert_materials() {
+    for (size_t i = 0; i < model_.materials.size(); i++) {
+        const tinygltf::Material &mat = model_.materials[i];
+        const tinygltf::PbrMetallicRoughness &pbr = mat.pbrMetallicRoughness;
+        std::string where = "material " + str(i);
+        pm_material m;
+        memset(&m, 0, sizeof m);
+        m.base_color = v3(checked(pbr.baseColorFactor[0], 0, 1, "baseColorFactor", where),
+                          checked(pbr.baseColorFactor[1], 0, 1, "baseColorFactor", where),
+                          checked(pbr.baseColorFactor[2], 0, 1, "baseColorFactor", where));
+        m.metallic = checked(pbr.metallicFactor, 0, 1, "metallicFactor", where);
+        m.roughness = checked(pbr.roughnessFactor, 0, 1, "roughnessFactor", where);
+        m.transmission = checked(extension_number(mat.extensions, "KHR_materials_transmission", "transmissionFactor", 0),
+                                 0, 1, "transmissionFactor", where);
+        m.ior = checked(extension_number(mat.extensions, "KHR_materials_ior", "ior", 1.5), 1, FLT_MAX, "ior", where);
+        float strength = checked(extension_number(mat.extensions, "KHR_materials_emissive_strength",
+                                                  "emissiveStrength", 1),
+                                 0, FLT_MAX, "emissiveStrength", where);
+        m.emission = v3(checked(mat.emissiveFactor[0], 0, 1, "emissiveFactor", where) * strength,
+                        checked(mat.emissiveFactor[1], 0, 1, "emissiveFactor", where) * strength,
+                        checked(mat.emissiveFactor[2], 0, 1, "emissiveFactor", where) * strength);
+        m.double_sided = mat.doubleSided;
+        m.base_color_texture = -1;
+        m.base_color_texcoord = pbr.baseColorTexture.texCoord;
+        if (pbr.baseColorTexture.index >= 0) {
+            m.base_color_texture = texture_for(pbr.baseColorTexture.index, where);
+            if (m.base_color_texture >= 0 && m.base_color_texcoord != 0)
+                warn(where + " reads its base colour texture through TEXCOORD_" + str(m.base_color_texcoord) +
+                     "; only TEXCOORD_0 is loaded");
+        }
+        materials_.push_back(m);
+    }
+}
+
+int attribute(const tinygltf::Primitive &prim, const char *name) {
+    auto it = prim.attributes.find(name);
+    return it == prim.attributes.end() ? -1 : it->second;
+}
+
+DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
+    const tinygltf::Primitive &prim = model_.meshes[mesh].primitives[index];
+    std::string where = "mesh " + str(mesh) + " primitive " + str(index);
+    DecodedPrimitive out;
+    if (prim.mode < TINYGLTF_MODE_TRIANGLES) return out;
+    out.triangles = true;
+    out.material = prim.material >= 0 ? static_cast<uint32_t>(prim.material)
+                                       : static_cast<uint32_t>(model_.materials.size());
+    if (prim.material < 0) default_material_used_ = true;
+
+    int position = attribute(prim, "POSITION");
+    if (position < 0) fail("triangles without a POSITION attribute (" + where + ")");
+    AccessorLayout pl = accessor_layout(model_, position);
+    if (pl.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT || pl.components != 3)
+        fail("POSITION must be a float VEC3 (accessor " + str(position) + ", " + where + ")");
+    if (pl.count > UINT32_MAX) fail("more than 2^32 vertices (" + where + ")");
+    out.positions = read_accessor<float>(pl, position);
+    for (size_t i = 0; i < out.positions.size(); i++)
+        if (!std::isfinite(out.positions[i]))
+            fail("non-finite vertex position at vertex " + str(i / 3) + " (POSITION accessor " + str(position) + ", " +
+                 where + ")");
+    const size_t vertices = pl.count;
+
+    struct { const char *name; int components; bool normalized_ints; std::vector<float> *into; } optional[] = {
+        {"NORMAL", 3, false, &out.normals}, {"TEXCOORD_0", 2, true, &out.uvs}};
+    for (const auto &o : optional) {
+        int a = attribute(prim, o.name);
+        if (a < 0) continue;
+        AccessorLayout l = accessor_layout(model_, a);
+        bool float_ok = l.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT;
+        bool int_ok = o.normalized_ints && l.normalized &&
+                      (l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                       l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
+        if (l.components != o.components || !(float_ok || int_ok))
+            fail(std::string(o.name) + " must be " + (o.normalized_ints ? "a float or normalized u8/u16 VEC2" : "a float VEC3") +
+                 " (accessor " + str(a) + ", " + where + ")");
+        if (l.count != vertices)
+            fail(std::string(o.name) + " count " + str(l.count) + " != POSITION count " + str(vertices) + " (" + where + ")");
+        *o.into = read_accessor<float>(l, a);
+    }
+
+    std::vector<uint32_t> sequence;
+    if (prim.indices >= 0) {
+        AccessorLayout il = accessor_layout(model_, prim.indices);
+        if (il.components != 1 || (il.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+                                   il.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+                                   il.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT))
+            fail("indices must be UNSIGNED_BYTE/SHORT/INT scalars, got componentType " + str(il.component_type) +
+                 " (accessor " + str(prim.indices) + ", " + where + ")");
+        sequence = read_accessor<uint32_t>(il, prim.indices);
+        for (uint32_t i : sequence)
+            if (i >= vertices) fail("index " + str(i) + " >= vertex count " + str(vertices) + " (" + where + ")");
+    } else {
+        sequence.resize(vertices);
+        for (size_t i = 0; i < vertices; i++) sequence[i] = static_cast<uint32_t>(i);
+    }
+
+    size_t n = sequence.size();
+    if (prim.mode == TINYGLTF_MODE_TRIANGLES) {
+        out.corners.assign(sequence.begin(), sequence.begin() + static_cast<long>(n / 3 * 3));
+        if (n % 3) warn("ignored " + str(n % 3) + " trailing index(es) that do not form a triangle (" + where + ")");
+    } else if (n >= 3) {
+        out.corners.reserve((n - 2) * 3);
+        for (size_t i = 0; i + 2 < n; i++) {
+            // the glTF spec's orderings, which keep every triangle's winding consistent
+            uint32_t tri[3];
+            if (prim.mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+                tri[0] = sequence[i];
+                tri[1] = sequence[i + 1 + i % 2];
+                tri[2] = sequence[i + 2 - i % 2];
+            } else {
+                tri[0] = sequence[i + 1];
+                tri[1] = sequence[i + 2];
+                tri[2] = sequence[0];
+            }
+            out.corners.insert(out.corners.end(), tri, tri + 3);
+        }
+    }
+    return out;
+}
+
+const DecodedMesh &Loader::decoded_mesh(int mesh) {
+    if (!meshes_[mesh]) {
+        std::unique_ptr<DecodedMesh> d(new DecodedMesh);
+        for (size_t p = 0; p < model_.meshes[mesh].primitives.size(); p++) {
+            d->primitives.push_back(decode_primitive(mesh, static_cast<int>(p)));
+            const DecodedPrimitive &prim = d->primitives.back();
+            uint64_t tris = prim.corners.size() / 3;
+            d->triangles += tris;
+            d->vertices += prim.normals.empty() ? 3 * tris : prim.positions.size() / 3;
+        }
+        meshes_[mesh] = std::move(d);
+    }
+    return *meshes_[mesh];
+}
+
+void Loader::instance_mesh(const Instance &instance) {
+    const DecodedMesh &mesh = *meshes_[instance.mesh];
+    WorldTransform world(world_[instance.node]);
+    for (size_t p = 0; p < mesh.primitives.size(); p++) {
+        const DecodedPrimitive &prim = mesh.primitives[p];
+        if (!prim.triangles) {
+            skipped_prims_++;
+            continue;
+        }
+        std::string where = "mesh " + str(instance.mesh) + " primitive " + str(p) + " on node " + str(instance.node);
+        size_t count = prim.positions.size() / 3;
+        std::vector<vec3> positions(count), normals;
+        for (size_t i = 0; i < count; i++) {
+            positions[i] = world.point(&prim.positions[3 * i]);
+            if (!v3_is_finite(positions[i])) fail("vertex position overflows after the transform (" + where + ")");
+        }
+        bool flat = prim.normals.empty();
+        if (!flat) {
+            normals.resize(count);
+            for (size_t i = 0; i < count; i++) {
+                const double n[3] = {prim.normals[3 * i], prim.normals[3 * i + 1], prim.normals[3 * i + 2]};
+                normals[i] = world.unit(n, true);  // (0,0,0) marks a normal to repair from its face
+            }
+        }
+        bool has_uv = !prim.uvs.empty();
+        any_uv_ = any_uv_ || has_uv;
+        auto append_vertex = [&](size_t i, vec3 normal) {
+            positions_.push_back(positions[i]);
+            normals_.push_back(normal);
+            uvs_.push_back(has_uv ? prim.uvs[2 * i] : 0.f);
+            uvs_.push_back(has_uv ? prim.uvs[2 * i + 1] : 0.f);
+        };
+        uint32_t base = static_cast<uint32_t>(positions_.size());
+        if (!flat)
+            for (size_t i = 0; i < count; i++) append_vertex(i, normals[i]);
+        for (size_t t = 0; t < prim.corners.size(); t += 3) {
+            uint32_t c[3] = {prim.corners[t], prim.corners[t + 1], prim.corners[t + 2]};
+            if (world.mirrored) std::swap(c[1], c[2]);
+            vec3 face = v3_cross(v3_sub(positions[c[1]], positions[c[0]]), v3_sub(positions[c[2]], positions[c[0]]));
+            float length = v3_length(face);
+            if (length > 0.f && std::isfinite(length)) face = v3_scale(face, 1.f / length);
+            if (!(length > 0.f) || !v3_is_finite(face)) {
+                degenerate_++;
+                continue;
+            }
+            for (int k = 0; k < 3; k++) {
+                if (flat) {
+                    indices_.push_back(static_cast<uint32_t>(positions_.size()));
+                    append_vertex(c[k], face);
+                } else {
+                    indices_.push_back(base + c[k]);
+                    if (v3_is_black(normals_[base + c[k]])) {
+                        normals_[base + c[k]] = face;
+                        repaired_normals_++;
+                    }
+                }
+            }
+            triangle_material_.push_back(prim.material);
+        }
+        if (!flat)  // vertices no triangle repaired keep a unit normal
+            for (size_t i = base; i < positions_.size(); i++)
+                if (v3_is_black(normals_[i])) normals_[i] = v3(0, 0, 1);
+    }
+}
+
+template <class T>
+T *malloc_copy(const std::vector<T> &v) {
+    if (v.empty()) return nullptr;
+    T *p = static_cast<T *>(malloc(v.size() * sizeof(T)));
+    if (!p) throw std::bad_alloc();
+    memcpy(p, v.data(), v.size() * sizeof(T));
+    return p;
+}
+
+void Loader::emit(pm_scene *out) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    try {
+        s.positions = malloc_copy(positions_);
+        s.normals = malloc_copy(normals_);
+        if (any_uv_) s.uvs = malloc_copy(uvs_);
+        s.indices = malloc_copy(indices_);
+        s.triangle_material = malloc_copy(triangle_material_);
+        s.materials = malloc_copy(materials_);
+        s.lights = malloc_copy(lights_);
+        s.cameras = malloc_copy(cameras_);
+        s.textures = malloc_copy(textures_.items);
+    } catch (...) {
+        pm_scene_free(&s);
+        throw;
+    }
+    s.texture_count = static_cast<uint32_t>(textures_.items.size());
+    textures_.items.clear();  // the scene owns the texels now
+    s.vertex_count = static_cast<uint32_t>(positions_.size());
+    s.triangle_count = static_cast<uint32_t>(triangle_material_.size());
+    s.material_count = static_cast<uint32_t>(materials_.size());
+    s.light_count = static_cast<uint32_t>(lights_.size());
+    s.camera_count = static_cast<uint32_t>(cameras_.size());
+    *out = s;
+}
+
+void Loader::load(pm_scene *out) {
+    std::vector<unsigned char> file = read_model_file();
+    split_container(file);
+    preflight(parse_json());
+    run_tinygltf(file);
+
+    traverse_default_scene();
+    meshes_.resize(model_.meshes.size());
+    uint64_t vertices = 0, triangles = 0;
+    for (const Instance &instance : instances_) {
+        const DecodedMesh &mesh = decoded_mesh(instance.mesh);
+        vertices += mesh.vertices;
+        triangles += mesh.triangles;
+        if (vertices > kMaxSceneVertices || triangles > kMaxSceneTriangles)
+            fail("scene too large: more than " + str(kMaxSceneVertices) + " vertices or " + str(kMaxSceneTriangles) +
+                 " triangles after instancing");
+    }
+    convert_materials();
+    if (default_material_used_) {
+        pm_material m;
+        memset(&m, 0, sizeof m);
+        m.base_color = v3(1, 1, 1);
+        m.base_color_texture = -1;
+        m.metallic = m.roughness = 1.f;
+        m.ior = 1.5f;
+        materials_.push_back(m);
+    }
+    positions_.reserve(vertices);
+    normals_.reserve(vertices);
+    uvs_.reserve(2 * vertices);
+    indices_.reserve(3 * triangles);
+    triangle_material_.reserve(triangles);
+    for (const Instance &instance : instances_) instance_mesh(instance);
+    if (triangle_material_.empty()) fail("nothing to render (no triangles in the default scene)");
+
+    if (degenerate_) warn("skipped " + str(degenerate_) + " degenerate triangle(s) (zero area or non-finite normal)");
+    if (skipped_prims_) warn("skipped " + str(skipped_prims_) + " points/lines primitive(s) (only triangles render)");
+    if (repaired_normals_)
+        warn("replaced " + str(repaired_normals_) + " zero or non-finite vertex normal(s) by face normals");
+    if (clamped_values_)
+        warn("clamped " + str(clamped_values_) + " out-of-range material or light value(s) into their valid range");
+    emit(out);
+}
+
+}  // namespace
+
+extern "C" bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_load_report *report, char *err,
+                             size_t err_size) {
+    auto start = std::chrono::steady_clock::now();
+    memset(out, 0, sizeof *out);
+    pm_load_report local_report;
+    if (!report) report = &local_report;
+    memset(report, 0, sizeof *report);
+    if (err && err_size) err[0] = '\0';
+    std::string message;
+    try {
+        Loader loader(path ? path : "");
+        try {
+            loader.load(out);
+        } catch (const LoadError &e) {
+            message = e.message;
+        }
+        if (message.empty()) {  // warnings are printed only for a scene that loaded
+            report->warnings = static_cast<uint32_t>(loader.warnings().size());
+            report->skipped_degenerate = loader.skipped_degenerate();
+            report->skipped_primitives = loader.skipped_primitives();
+            for (const std::string &w : loader.warnings())
+                if (!quiet) fprintf(stderr, "pmview: warning: %s: %s\n", path, w.c_str());
+        }
+    } catch (const std::bad_alloc &) {
+        message = "out of memory";
+    } catch (const std::exception &e) {
+        message = "unexpected error: " + one_line(e.what());
+    } catch (...) {
+        message = "unexpected error";
+    }
+    report->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (message.empty()) return true;
+    memset(out, 0, sizeof *out);
+    if (err && err_size) {
+        std::string line = printable(path ? path : "(null)", 400) + ": " + one_line(message, 600);
+        snprintf(err, err_size, "%s", line.c_str());
+    }
+    return false;
+}

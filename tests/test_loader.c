@@ -1,0 +1,764 @@
+/* test_loader.c: the glTF loader on small files written here: transforms, winding, normals, indices, strips, textures, cameras, lights, materials, rejections.
+ *
+ * Each test builds a glTF document in C (one mesh whose primitives' data go into a single base64
+ * data: buffer), writes it into a mkdtemp folder, loads it with pm_load_gltf and checks the
+ * pm_scene values against numbers worked out by hand. Rejection tests check the one-line error
+ * ("PATH: what (where)") and that the scene was left empty.
+ */
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "loader.h"
+#include "testing.h"
+
+/* In libstb; stb_image_write.h declares it only inside its implementation section. */
+unsigned char *stbi_write_png_to_mem(const unsigned char *pixels, int stride_bytes, int x, int y, int n, int *out_len);
+
+static char test_dir[64];
+
+/* ---------------------------------------------------------------- text and files */
+
+typedef struct {
+    char *data;
+    size_t size, capacity;
+} text;
+
+static void text_append(text *t, const char *fmt, ...) {
+    va_list args;
+    va_start(args, fmt);
+    int n = vsnprintf(NULL, 0, fmt, args);
+    va_end(args);
+    if (t->size + (size_t)n + 1 > t->capacity) {
+        t->capacity = (t->size + (size_t)n + 1) * 2;
+        t->data = realloc(t->data, t->capacity);
+        if (!t->data) abort();
+    }
+    va_start(args, fmt);
+    vsnprintf(t->data + t->size, (size_t)n + 1, fmt, args);
+    va_end(args);
+    t->size += (size_t)n;
+}
+
+static void base64_append(text *t, const unsigned char *bytes, size_t n) {
+    static const char alphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    for (size_t i = 0; i < n; i += 3) {
+        uint32_t v = (uint32_t)bytes[i] << 16 | (i + 1 < n ? (uint32_t)bytes[i + 1] << 8 : 0) |
+                     (i + 2 < n ? bytes[i + 2] : 0);
+        char quad[5] = {alphabet[v >> 18 & 63], alphabet[v >> 12 & 63], i + 1 < n ? alphabet[v >> 6 & 63] : '=',
+                        i + 2 < n ? alphabet[v & 63] : '=', 0};
+        text_append(t, "%s", quad);
+    }
+}
+
+static void model_path(const char *name, char *path, size_t size) { snprintf(path, size, "%s/%s", test_dir, name); }
+
+static void write_file(const char *path, const void *data, size_t size) {
+    FILE *f = fopen(path, "wb");
+    if (!f || fwrite(data, 1, size, f) != size) {
+        fprintf(stderr, "cannot write %s\n", path);
+        exit(1);
+    }
+    fclose(f);
+}
+
+/* ---------------------------------------------------------------- a one-mesh glTF builder */
+
+typedef struct {
+    const float *positions; /* 3 per vertex */
+    int vertex_count;
+    const float *normals;   /* NULL: no NORMAL */
+    const float *uvs;       /* NULL: no TEXCOORD_0 */
+    int uv_type;            /* 0: float, 5121: normalized u8 (uvs given as floats in [0,1]) */
+    const uint32_t *indices;
+    int index_count;
+    int index_type;         /* 0: no indices, else 5121 / 5123 / 5125 */
+    int mode;               /* -1: absent (triangles) */
+    int material;           /* -1: absent */
+} prim_spec;
+
+typedef struct {
+    const char *nodes;       /* the nodes array; default [{"mesh":0}] */
+    const char *scene_nodes; /* default [0] */
+    const char *materials;   /* the materials array, or NULL */
+    const char *extra;       /* more top-level members, each followed by a comma, or NULL */
+} doc_spec;
+
+typedef struct {
+    unsigned char bytes[1 << 16];
+    size_t size;
+    text views, accessors;
+    int view_count;
+} blob;
+
+/* Appends bytes as a new bufferView + accessor; returns the accessor index. */
+static int blob_accessor(blob *b, const void *data, size_t size, int count, int component_type, const char *type,
+                         int normalized) {
+    b->size = (b->size + 3) & ~(size_t)3;
+    if (b->size + size > sizeof b->bytes) abort();
+    memcpy(b->bytes + b->size, data, size);
+    text_append(&b->views, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", b->view_count ? "," : "", b->size,
+                size);
+    text_append(&b->accessors, "%s{\"bufferView\":%d,\"componentType\":%d,\"count\":%d,\"type\":\"%s\"%s}",
+                b->view_count ? "," : "", b->view_count, component_type, count, type,
+                normalized ? ",\"normalized\":true" : "");
+    b->size += size;
+    return b->view_count++;
+}
+
+static void write_model(const char *name, const prim_spec *prims, int prim_count, const doc_spec *doc) {
+    blob *b = calloc(1, sizeof *b);
+    text primitives = {0}, json = {0};
+    for (int p = 0; p < prim_count; p++) {
+        const prim_spec *s = &prims[p];
+        int n = s->vertex_count;
+        text_append(&primitives, "%s{\"attributes\":{\"POSITION\":%d", p ? "," : "",
+                    blob_accessor(b, s->positions, 12 * (size_t)n, n, 5126, "VEC3", 0));
+        if (s->normals)
+            text_append(&primitives, ",\"NORMAL\":%d", blob_accessor(b, s->normals, 12 * (size_t)n, n, 5126, "VEC3", 0));
+        if (s->uvs && s->uv_type == 5121) {
+            unsigned char packed[256];
+            for (int i = 0; i < 2 * n; i++) packed[i] = (unsigned char)lroundf(s->uvs[i] * 255.f);
+            text_append(&primitives, ",\"TEXCOORD_0\":%d", blob_accessor(b, packed, 2 * (size_t)n, n, 5121, "VEC2", 1));
+        } else if (s->uvs) {
+            text_append(&primitives, ",\"TEXCOORD_0\":%d", blob_accessor(b, s->uvs, 8 * (size_t)n, n, 5126, "VEC2", 0));
+        }
+        text_append(&primitives, "}");
+        if (s->index_type) {
+            unsigned char packed[1024];
+            size_t size = s->index_type == 5121 ? 1 : s->index_type == 5123 ? 2 : 4;
+            for (int i = 0; i < s->index_count; i++) {
+                uint32_t v = s->indices[i];
+                uint16_t v16 = (uint16_t)v;
+                uint8_t v8 = (uint8_t)v;
+                memcpy(packed + size * (size_t)i, size == 1 ? (void *)&v8 : size == 2 ? (void *)&v16 : (void *)&v, size);
+            }
+            text_append(&primitives, ",\"indices\":%d",
+                        blob_accessor(b, packed, size * (size_t)s->index_count, s->index_count, s->index_type, "SCALAR", 0));
+        }
+        if (s->mode >= 0) text_append(&primitives, ",\"mode\":%d", s->mode);
+        if (s->material >= 0) text_append(&primitives, ",\"material\":%d", s->material);
+        text_append(&primitives, "}");
+    }
+    text_append(&json, "{\"asset\":{\"version\":\"2.0\"},%s\"scene\":0,\"scenes\":[{\"nodes\":%s}],\"nodes\":%s,",
+                doc && doc->extra ? doc->extra : "", doc && doc->scene_nodes ? doc->scene_nodes : "[0]",
+                doc && doc->nodes ? doc->nodes : "[{\"mesh\":0}]");
+    if (doc && doc->materials) text_append(&json, "\"materials\":%s,", doc->materials);
+    text_append(&json, "\"meshes\":[{\"primitives\":[%s]}],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,",
+                primitives.data, b->size);
+    base64_append(&json, b->bytes, b->size);
+    text_append(&json, "\"}],\"bufferViews\":[%s],\"accessors\":[%s]}", b->views.data, b->accessors.data);
+    char path[256];
+    model_path(name, path, sizeof path);
+    write_file(path, json.data, json.size);
+    free(primitives.data);
+    free(json.data);
+    free(b->views.data);
+    free(b->accessors.data);
+    free(b);
+}
+
+static bool load(const char *name, pm_scene *s, pm_load_report *report, char *err, size_t err_size) {
+    char path[256];
+    model_path(name, path, sizeof path);
+    return pm_load_gltf(path, true, s, report, err, err_size);
+}
+
+/* Loads a file that must load; on failure prints why and returns false. */
+static bool load_ok(const char *name, pm_scene *s, pm_load_report *report) {
+    char err[512];
+    bool ok = load(name, s, report, err, sizeof err);
+    CHECK(ok, "%s failed to load: %s", name, err);
+    return ok;
+}
+
+static bool scene_is_empty(const pm_scene *s) {
+    pm_scene zero;
+    memset(&zero, 0, sizeof zero);
+    return memcmp(s, &zero, sizeof zero) == 0;
+}
+
+/* A file that must be rejected with one line "PATH: ..." containing `expect`, leaving the scene empty. */
+static void check_rejected(const char *name, const char *expect) {
+    char path[256], err[512];
+    model_path(name, path, sizeof path);
+    pm_scene s;
+    pm_load_report report;
+    memset(&s, 0xAB, sizeof s);
+    bool ok = pm_load_gltf(path, true, &s, &report, err, sizeof err);
+    CHECK(!ok, "%s loaded but must be rejected (%s)", name, expect);
+    if (ok) {
+        pm_scene_free(&s);
+        return;
+    }
+    CHECK(strncmp(err, path, strlen(path)) == 0 && strncmp(err + strlen(path), ": ", 2) == 0,
+          "%s: error does not start with the path: %s", name, err);
+    CHECK(strstr(err, expect) != NULL, "%s: error lacks \"%s\": %s", name, expect, err);
+    CHECK(strchr(err, '\n') == NULL, "%s: error has a newline: %s", name, err);
+    CHECK(scene_is_empty(&s), "%s: scene not left zeroed after a failure", name);
+}
+
+static void write_text(const char *name, const char *content) {
+    char path[256];
+    model_path(name, path, sizeof path);
+    write_file(path, content, strlen(content));
+}
+
+static vec3 tri_vertex(const pm_scene *s, uint32_t tri, int k) { return s->positions[s->indices[3 * tri + k]]; }
+
+static vec3 tri_geometric_normal(const pm_scene *s, uint32_t tri) {
+    vec3 a = tri_vertex(s, tri, 0), b = tri_vertex(s, tri, 1), c = tri_vertex(s, tri, 2);
+    return v3_normalize(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+}
+
+#define CHECK_VEC(got, X, Y, Z, tol, what) do { \
+    vec3 g__ = (got); \
+    CHECK_NEAR(g__.x, (X), 0, (tol), what " x"); \
+    CHECK_NEAR(g__.y, (Y), 0, (tol), what " y"); \
+    CHECK_NEAR(g__.z, (Z), 0, (tol), what " z"); \
+} while (0)
+
+static const float unit_triangle[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+
+/* ---------------------------------------------------------------- tests */
+
+static void test_transforms(void) {
+    prim_spec tri = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1};
+    pm_scene s;
+    pm_load_report r;
+
+    doc_spec matrix = {"[{\"mesh\":0,\"matrix\":[2,0,0,0, 0,2,0,0, 0,0,2,0, 10,20,30,1]}]", NULL, NULL, NULL};
+    write_model("matrix.gltf", &tri, 1, &matrix);
+    if (load_ok("matrix.gltf", &s, &r)) {
+        CHECK(s.triangle_count == 1 && s.vertex_count == 3, "tris %u verts %u", s.triangle_count, s.vertex_count);
+        CHECK_VEC(tri_vertex(&s, 0, 0), 10, 20, 30, 0, "matrix p0");
+        CHECK_VEC(tri_vertex(&s, 0, 1), 12, 20, 30, 0, "matrix p1");
+        CHECK_VEC(tri_vertex(&s, 0, 2), 10, 22, 30, 0, "matrix p2");
+        CHECK(s.uvs == NULL, "uvs must stay NULL without TEXCOORD_0");
+        CHECK(!s.sky && s.emitters == NULL && s.emitter_count == 0, "loader must leave sky/emitters to finalize");
+        pm_scene_free(&s);
+    }
+
+    /* T * R * S: scale 2, then 90 degrees about +Z, then translate (1,2,3) */
+    doc_spec trs = {"[{\"mesh\":0,\"translation\":[1,2,3],\"rotation\":[0,0,0.70710678,0.70710678],\"scale\":[2,2,2]}]",
+                    NULL, NULL, NULL};
+    write_model("trs.gltf", &tri, 1, &trs);
+    if (load_ok("trs.gltf", &s, &r)) {
+        CHECK_VEC(tri_vertex(&s, 0, 0), 1, 2, 3, 1e-5, "trs p0");
+        CHECK_VEC(tri_vertex(&s, 0, 1), 1, 4, 3, 1e-5, "trs p1");
+        CHECK_VEC(tri_vertex(&s, 0, 2), -1, 2, 3, 1e-5, "trs p2");
+        pm_scene_free(&s);
+    }
+
+    /* parent translation applies after the child's scale: (1,0,0) -> 3 -> +5 = 8 */
+    doc_spec nested = {"[{\"mesh\":0,\"scale\":[3,3,3]},{\"translation\":[5,0,0],\"children\":[0]}]", "[1]", NULL, NULL};
+    write_model("nested.gltf", &tri, 1, &nested);
+    if (load_ok("nested.gltf", &s, &r)) {
+        CHECK_VEC(tri_vertex(&s, 0, 1), 8, 0, 0, 0, "nested p1");
+        CHECK_VEC(tri_vertex(&s, 0, 2), 5, 3, 0, 0, "nested p2");
+        pm_scene_free(&s);
+    }
+
+    /* one mesh instanced twice: two copies of its vertices */
+    doc_spec twice = {"[{\"mesh\":0},{\"mesh\":0,\"translation\":[0,0,-4]}]", "[0,1]", NULL, NULL};
+    write_model("instanced.gltf", &tri, 1, &twice);
+    if (load_ok("instanced.gltf", &s, &r)) {
+        CHECK(s.triangle_count == 2 && s.vertex_count == 6, "instanced: tris %u verts %u", s.triangle_count, s.vertex_count);
+        CHECK_VEC(tri_vertex(&s, 1, 1), 1, 0, -4, 0, "second instance p1");
+        pm_scene_free(&s);
+    }
+}
+
+static void test_mirrored_winding(void) {
+    static const float up_normals[9] = {0, 0, 1, 0, 0, 1, 0, 0, 1};
+    prim_spec flat = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1};
+    prim_spec smooth = {unit_triangle, 3, up_normals, NULL, 0, NULL, 0, 0, -1, -1};
+    doc_spec mirror = {"[{\"mesh\":0,\"scale\":[-1,1,1]}]", NULL, NULL, NULL};
+    pm_scene s;
+    pm_load_report r;
+    /* The front face (CCW, +Z) mirrored in x still faces +Z; without the index swap cross() gives -Z. */
+    write_model("mirror_flat.gltf", &flat, 1, &mirror);
+    if (load_ok("mirror_flat.gltf", &s, &r)) {
+        CHECK_VEC(tri_geometric_normal(&s, 0), 0, 0, 1, 1e-6, "mirrored geometric normal");
+        CHECK_VEC(s.normals[s.indices[0]], 0, 0, 1, 1e-6, "mirrored flat normal");
+        CHECK_NEAR(tri_vertex(&s, 0, 0).x + tri_vertex(&s, 0, 1).x + tri_vertex(&s, 0, 2).x, -1, 0, 0,
+                   "mirrored x coordinates sum");
+        pm_scene_free(&s);
+    }
+    write_model("mirror_smooth.gltf", &smooth, 1, &mirror);
+    if (load_ok("mirror_smooth.gltf", &s, &r)) {
+        CHECK_VEC(tri_geometric_normal(&s, 0), 0, 0, 1, 1e-6, "mirrored geometric normal (with NORMAL)");
+        CHECK_VEC(s.normals[0], 0, 0, 1, 1e-6, "mirrored shading normal");
+        pm_scene_free(&s);
+    }
+}
+
+static void test_nonuniform_scale_normals(void) {
+    /* the plane x + y = 1, normal (1,1,0)/sqrt2; scaled by (2,1,1) it becomes x/2 + y = 1: normal (1,2,0)/sqrt5 */
+    static const float positions[9] = {1, 0, 0, 0, 1, 0, 1, 0, 1};
+    const float h = 0.70710678f;
+    const float normals[9] = {h, h, 0, h, h, 0, h, h, 0};
+    prim_spec p = {positions, 3, normals, NULL, 0, NULL, 0, 0, -1, -1};
+    doc_spec scaled = {"[{\"mesh\":0,\"scale\":[2,1,1]}]", NULL, NULL, NULL};
+    write_model("nonuniform.gltf", &p, 1, &scaled);
+    pm_scene s;
+    pm_load_report r;
+    if (load_ok("nonuniform.gltf", &s, &r)) {
+        for (int i = 0; i < 3; i++) CHECK_VEC(s.normals[i], 1 / sqrt(5.0), 2 / sqrt(5.0), 0, 1e-6, "inverse-transpose normal");
+        CHECK_VEC(tri_geometric_normal(&s, 0), 1 / sqrt(5.0), 2 / sqrt(5.0), 0, 1e-6, "geometric normal agrees");
+        pm_scene_free(&s);
+    }
+}
+
+static void test_index_types(void) {
+    static const float quad[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+    static const float quad_normals[12] = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+    static const uint32_t indices[6] = {0, 1, 2, 0, 2, 3};
+    const int types[3] = {5121, 5123, 5125};
+    const char *names[3] = {"index_u8.gltf", "index_u16.gltf", "index_u32.gltf"};
+    pm_scene s;
+    pm_load_report r;
+    for (int t = 0; t < 3; t++) {
+        prim_spec p = {quad, 4, quad_normals, NULL, 0, indices, 6, types[t], -1, -1};
+        write_model(names[t], &p, 1, NULL);
+        if (!load_ok(names[t], &s, &r)) continue;
+        CHECK(s.triangle_count == 2 && s.vertex_count == 4, "%s: tris %u verts %u", names[t], s.triangle_count,
+              s.vertex_count);
+        bool same = true;
+        for (int i = 0; i < 6; i++) same = same && s.indices[i] == indices[i];
+        CHECK(same, "%s: indices not kept", names[t]);
+        CHECK_VEC(tri_vertex(&s, 1, 2), 0, 1, 0, 0, "second triangle third corner");
+        pm_scene_free(&s);
+    }
+    static const float soup[18] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 0, 0, 1, 1, 0, 0, 1, 0};
+    static const float soup_normals[18] = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+    prim_spec p = {soup, 6, soup_normals, NULL, 0, NULL, 0, 0, -1, -1};
+    write_model("no_indices.gltf", &p, 1, NULL);
+    if (load_ok("no_indices.gltf", &s, &r)) {
+        CHECK(s.triangle_count == 2 && s.vertex_count == 6, "non-indexed: tris %u verts %u", s.triangle_count,
+              s.vertex_count);
+        CHECK(s.indices[3] == 3 && s.indices[5] == 5, "non-indexed corners %u %u", s.indices[3], s.indices[5]);
+        pm_scene_free(&s);
+    }
+}
+
+static void test_strips_and_fans(void) {
+    static const float strip[15] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 2, 0};
+    static const float fan[15] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, -1, 1, 0};
+    static const float disc[15] = {0, 0, 0, 1, 0, 0, 0, 1, 0, -1, 0, 0, 0, -1, 0};
+    static const uint32_t disc_indices[6] = {0, 1, 2, 3, 4, 1}; /* a full turn, closed back onto vertex 1 */
+    struct { const char *name; prim_spec p; uint32_t triangles; } cases[] = {
+        {"strip.gltf", {strip, 5, NULL, NULL, 0, NULL, 0, 0, 5, -1}, 3},
+        {"fan.gltf", {fan, 5, NULL, NULL, 0, NULL, 0, 0, 6, -1}, 3},
+        {"fan_indexed.gltf", {disc, 5, NULL, NULL, 0, disc_indices, 6, 5123, 6, -1}, 4},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        pm_scene s;
+        pm_load_report r;
+        write_model(cases[c].name, &cases[c].p, 1, NULL);
+        if (!load_ok(cases[c].name, &s, &r)) continue;
+        CHECK(s.triangle_count == cases[c].triangles, "%s: %u triangles, want %u", cases[c].name, s.triangle_count,
+              cases[c].triangles);
+        CHECK(s.vertex_count == 3 * cases[c].triangles, "%s: flat normals need 3 vertices per triangle, got %u",
+              cases[c].name, s.vertex_count);
+        for (uint32_t t = 0; t < s.triangle_count; t++)  /* every triangle keeps the CCW (+Z) winding */
+            CHECK(tri_geometric_normal(&s, t).z > 0.99f, "%s: triangle %u faces %g", cases[c].name, t,
+                  tri_geometric_normal(&s, t).z);
+        pm_scene_free(&s);
+    }
+}
+
+static void test_flat_normals(void) {
+    /* two triangles folded along the y axis, sharing vertices 0 and 1: one in z=0, one in x=0 */
+    static const float fold[12] = {0, 0, 0, 0, 1, 0, 1, 0, 0, 0, 0, 1};
+    static const uint32_t indices[6] = {0, 2, 1, 0, 1, 3};
+    prim_spec p = {fold, 4, NULL, NULL, 0, indices, 6, 5123, -1, -1};
+    write_model("flat.gltf", &p, 1, NULL);
+    pm_scene s;
+    pm_load_report r;
+    if (load_ok("flat.gltf", &s, &r)) {
+        CHECK(s.vertex_count == 6, "flat normals: %u vertices, want 6 (no sharing)", s.vertex_count);
+        for (int k = 0; k < 3; k++) {
+            CHECK_VEC(s.normals[s.indices[k]], 0, 0, 1, 1e-6, "first face normal");
+            CHECK_VEC(s.normals[s.indices[3 + k]], 1, 0, 0, 1e-6, "second face normal");
+        }
+        CHECK_VEC(tri_vertex(&s, 1, 2), 0, 0, 1, 0, "second triangle keeps its corner");
+        pm_scene_free(&s);
+    }
+}
+
+/* A 1x1 RGB PNG with 16-bit channels (written with Python's zlib; stb_image_write only writes 8-bit). */
+static const unsigned char png_16bit[72] = {
+    0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48, 0x44, 0x52, 0x00, 0x00,
+    0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x10, 0x02, 0x00, 0x00, 0x00, 0xc0, 0xe7, 0x8f, 0x9d, 0x00, 0x00, 0x00,
+    0x0f, 0x49, 0x44, 0x41, 0x54, 0x78, 0x9c, 0x63, 0xf8, 0xff, 0x9f, 0x81, 0xa1, 0x81, 0x01, 0x00, 0x0b, 0xfc,
+    0x02, 0x7f, 0x88, 0x8b, 0xcd, 0xf3, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
+
+static void append_png_image(text *t, const unsigned char *png, size_t size, bool first) {
+    text_append(t, "%s{\"uri\":\"data:image/png;base64,", first ? "" : ",");
+    base64_append(t, png, size);
+    text_append(t, "\"}");
+}
+
+static void test_texcoords_and_texture(void) {
+    /* 2x2 RGBA: top row red, half-transparent green; bottom row blue, white */
+    static const unsigned char pixels[16] = {255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 255, 255, 255, 255, 255};
+    static const unsigned char gray[2] = {16, 128};
+    int rgba_size = 0, gray_size = 0;
+    unsigned char *rgba_png = stbi_write_png_to_mem(pixels, 8, 2, 2, 4, &rgba_size);
+    unsigned char *gray_png = stbi_write_png_to_mem(gray, 2, 2, 1, 1, &gray_size);
+    CHECK(rgba_png && gray_png, "stbi_write_png_to_mem failed");
+    if (!rgba_png || !gray_png) return;
+    text extra = {0};
+    text_append(&extra, "\"images\":[");
+    append_png_image(&extra, rgba_png, (size_t)rgba_size, true);
+    append_png_image(&extra, gray_png, (size_t)gray_size, false);
+    append_png_image(&extra, png_16bit, sizeof png_16bit, false);
+    text_append(&extra, "],\"samplers\":[{\"wrapS\":33071,\"wrapT\":33648}],"
+                        "\"textures\":[{\"source\":0,\"sampler\":0},{\"source\":1},{\"source\":2}],");
+    free(rgba_png);
+    free(gray_png);
+
+    static const float uvs[6] = {0, 0, 1, 0, 0.25f, 1};
+    prim_spec prims[4] = {{unit_triangle, 3, NULL, uvs, 0, NULL, 0, 0, -1, 0},
+                          {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, 0},
+                          {unit_triangle, 3, NULL, uvs, 0, NULL, 0, 0, -1, 1},
+                          {unit_triangle, 3, NULL, uvs, 0, NULL, 0, 0, -1, 2}};
+    doc_spec doc = {"[{\"mesh\":0}]", NULL,
+                    "[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0},\"metallicFactor\":0}},"
+                    "{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":1}}},"
+                    "{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":2}}}]",
+                    extra.data};
+    write_model("textured.gltf", prims, 4, &doc);
+    free(extra.data);
+    pm_scene s;
+    pm_load_report r;
+    if (load_ok("textured.gltf", &s, &r)) {
+        CHECK(s.texture_count == 2, "texture_count %u (the 16-bit image must be refused)", s.texture_count);
+        CHECK(s.material_count == 3, "material_count %u", s.material_count);
+        if (s.texture_count == 2 && s.material_count == 3) {
+            const pm_texture *t = &s.textures[s.materials[0].base_color_texture];
+            CHECK(s.materials[0].base_color_texture == 0 && s.materials[0].base_color_texcoord == 0, "material 0 texture %d",
+                  s.materials[0].base_color_texture);
+            CHECK(t->width == 2 && t->height == 2, "texture %dx%d", t->width, t->height);
+            CHECK(memcmp(t->rgba, pixels, 16) == 0, "texels differ: first %u %u %u %u, second alpha %u", t->rgba[0],
+                  t->rgba[1], t->rgba[2], t->rgba[3], t->rgba[7]);
+            CHECK(t->wrap_s == PM_WRAP_CLAMP && t->wrap_t == PM_WRAP_MIRROR, "wrap %d %d", t->wrap_s, t->wrap_t);
+            CHECK(s.materials[1].base_color_texture == 1, "material 1 texture %d", s.materials[1].base_color_texture);
+            const pm_texture *g = &s.textures[1];
+            static const unsigned char gray_rgba[8] = {16, 16, 16, 255, 128, 128, 128, 255};
+            CHECK(g->width == 2 && g->height == 1 && memcmp(g->rgba, gray_rgba, 8) == 0,
+                  "one-channel image must expand to RGBA: %dx%d %u %u %u %u", g->width, g->height, g->rgba[0],
+                  g->rgba[1], g->rgba[2], g->rgba[3]);
+            CHECK(g->wrap_s == PM_WRAP_REPEAT && g->wrap_t == PM_WRAP_REPEAT, "no sampler: repeat, got %d %d", g->wrap_s,
+                  g->wrap_t);
+            CHECK(s.materials[2].base_color_texture == -1, "16-bit image: material 2 texture %d",
+                  s.materials[2].base_color_texture);
+            CHECK(r.warnings >= 1, "refusing the 16-bit image must warn");
+        }
+        CHECK(s.uvs != NULL, "uvs missing");
+        if (s.uvs && s.triangle_count == 4) {
+            uint32_t v = s.indices[2]; /* corner 2 of the first triangle: uv (0.25, 1) */
+            CHECK_NEAR(s.uvs[2 * v], 0.25, 0, 0, "u of corner 2");
+            CHECK_NEAR(s.uvs[2 * v + 1], 1, 0, 0, "v of corner 2");
+            uint32_t w = s.indices[3 + 1]; /* second primitive has no TEXCOORD_0: (0,0) */
+            CHECK(s.uvs[2 * w] == 0 && s.uvs[2 * w + 1] == 0, "uv of a primitive without TEXCOORD_0: %g %g",
+                  s.uvs[2 * w], s.uvs[2 * w + 1]);
+        }
+        pm_scene_free(&s);
+    }
+
+    /* normalized u8 texture coordinates: 51/255 = 0.2 */
+    static const float byte_uvs[6] = {0.2f, 1, 1, 0, 0, 0.6f};
+    prim_spec bytes = {unit_triangle, 3, NULL, byte_uvs, 5121, NULL, 0, 0, -1, -1};
+    write_model("uv_u8.gltf", &bytes, 1, NULL);
+    if (load_ok("uv_u8.gltf", &s, &r)) {
+        CHECK(s.uvs != NULL, "u8 uvs missing");
+        if (s.uvs) {
+            CHECK_NEAR(s.uvs[2 * s.indices[0]], 0.2, 0, 1e-6, "u8 u");
+            CHECK_NEAR(s.uvs[2 * s.indices[2] + 1], 0.6, 0, 1e-6, "u8 v");
+        }
+        pm_scene_free(&s);
+    }
+}
+
+static void test_cameras(void) {
+    prim_spec tri = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1};
+    /* node 4's children in order: node 3 (camera 2), node 2 (orthographic), node 1 (camera 0) */
+    doc_spec doc = {"[{\"mesh\":0},"
+                    "{\"camera\":0,\"translation\":[0,1,5],\"scale\":[2,2,2]},"
+                    "{\"camera\":1},"
+                    "{\"camera\":2,\"translation\":[3,0,0],\"rotation\":[0,0.70710678,0,0.70710678]},"
+                    "{\"children\":[3,2,1]}]",
+                    "[0,4]", NULL,
+                    "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.8,\"aspectRatio\":1.5,\"znear\":0.1}},"
+                    "{\"type\":\"orthographic\",\"orthographic\":{\"xmag\":1,\"ymag\":1,\"znear\":0.1,\"zfar\":10}},"
+                    "{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.5,\"znear\":0.01}}],"};
+    write_model("cameras.gltf", &tri, 1, &doc);
+    pm_scene s;
+    pm_load_report r;
+    if (!load_ok("cameras.gltf", &s, &r)) return;
+    CHECK(s.camera_count == 2, "camera_count %u (orthographic must be skipped)", s.camera_count);
+    CHECK(r.warnings >= 1, "orthographic camera must warn");
+    if (s.camera_count == 2) {
+        const pm_camera *first = &s.cameras[0], *second = &s.cameras[1];
+        CHECK_NEAR(first->yfov, 0.5, 0, 1e-7, "first camera in traversal order is camera 2");
+        CHECK_NEAR(first->aspect, 0, 0, 0, "absent aspectRatio is 0");
+        CHECK_VEC(first->position, 3, 0, 0, 1e-6, "camera 2 position");
+        CHECK_VEC(first->forward, -1, 0, 0, 1e-6, "camera 2 forward (-Z turned 90 degrees about Y)");
+        CHECK_VEC(first->up, 0, 1, 0, 1e-6, "camera 2 up");
+        CHECK_VEC(first->right, 0, 0, -1, 1e-6, "camera 2 right");
+        CHECK_NEAR(second->yfov, 0.8, 0, 1e-7, "second camera yfov");
+        CHECK_NEAR(second->aspect, 1.5, 0, 1e-7, "second camera aspect");
+        CHECK_NEAR(second->znear, 0.1, 0, 1e-7, "second camera znear");
+        CHECK_VEC(second->position, 0, 1, 5, 0, "camera 0 position");
+        CHECK_VEC(second->forward, 0, 0, -1, 1e-7, "scaled node: forward stays unit");
+        CHECK_VEC(second->up, 0, 1, 0, 1e-7, "scaled node: up stays unit");
+        CHECK_VEC(second->right, 1, 0, 0, 1e-7, "camera 0 right");
+    }
+    pm_scene_free(&s);
+}
+
+static void test_lights(void) {
+    prim_spec tri = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1};
+    doc_spec doc = {"[{\"mesh\":0},"
+                    "{\"translation\":[1,2,3],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},"
+                    "{\"translation\":[0,4,0],\"rotation\":[-0.70710678,0,0,0.70710678],"
+                    "\"extensions\":{\"KHR_lights_punctual\":{\"light\":1}}},"
+                    "{\"extensions\":{\"KHR_lights_punctual\":{\"light\":2}}},"
+                    "{\"extensions\":{\"KHR_lights_punctual\":{\"light\":3}}}]",
+                    "[0,1,2,3,4]", NULL,
+                    "\"extensionsUsed\":[\"KHR_lights_punctual\"],"
+                    "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":["
+                    "{\"type\":\"point\",\"color\":[1,0.5,0.25],\"intensity\":4,\"range\":10},"
+                    "{\"type\":\"spot\",\"intensity\":10,\"spot\":{\"innerConeAngle\":0.3,\"outerConeAngle\":0.6}},"
+                    "{\"type\":\"directional\",\"color\":[0.5,0.5,1],\"intensity\":2},"
+                    "{\"type\":\"spot\",\"spot\":{}}]}},"};
+    write_model("lights.gltf", &tri, 1, &doc);
+    pm_scene s;
+    pm_load_report r;
+    if (!load_ok("lights.gltf", &s, &r)) return;
+    CHECK(s.light_count == 4, "light_count %u", s.light_count);
+    if (s.light_count == 4) {
+        const pm_light *point = &s.lights[0], *spot = &s.lights[1], *sun = &s.lights[2], *plain = &s.lights[3];
+        CHECK(point->type == PM_LIGHT_POINT && spot->type == PM_LIGHT_SPOT && sun->type == PM_LIGHT_DIRECTIONAL,
+              "types %d %d %d", point->type, spot->type, sun->type);
+        CHECK_VEC(point->intensity, 4, 2, 1, 1e-6, "point intensity = color x intensity");
+        CHECK_VEC(point->position, 1, 2, 3, 0, "point position");
+        CHECK_NEAR(point->range, 10, 0, 0, "point range");
+        CHECK_VEC(spot->intensity, 10, 10, 10, 1e-6, "spot intensity (default white)");
+        CHECK_VEC(spot->position, 0, 4, 0, 0, "spot position");
+        CHECK_VEC(spot->direction, 0, -1, 0, 1e-6, "spot turned -90 degrees about X points down");
+        CHECK_NEAR(spot->cos_inner, cos(0.3), 0, 1e-6, "spot cos_inner");
+        CHECK_NEAR(spot->cos_outer, cos(0.6), 0, 1e-6, "spot cos_outer");
+        CHECK_NEAR(spot->range, 0, 0, 0, "absent range is 0");
+        CHECK_VEC(sun->intensity, 1, 1, 2, 1e-6, "directional intensity");
+        CHECK_VEC(sun->direction, 0, 0, -1, 1e-7, "directional light travels along -Z");
+        CHECK_NEAR(plain->cos_inner, 1, 0, 1e-7, "default innerConeAngle 0");
+        CHECK_NEAR(plain->cos_outer, cos(PM_PI / 4), 0, 1e-6, "default outerConeAngle pi/4");
+        CHECK_VEC(plain->intensity, 1, 1, 1, 0, "default color and intensity");
+    }
+    pm_scene_free(&s);
+}
+
+static void test_materials(void) {
+    prim_spec prims[5];
+    for (int i = 0; i < 5; i++) {
+        prim_spec p = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, i < 4 ? i : -1};
+        prims[i] = p;
+    }
+    doc_spec doc = {NULL, NULL,
+                    "[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.2,0.1,0.5],\"metallicFactor\":0}},"
+                    "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.9,0.9,0.9,1],\"metallicFactor\":1,\"roughnessFactor\":0}},"
+                    "{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"roughnessFactor\":0},"
+                    "\"extensions\":{\"KHR_materials_transmission\":{\"transmissionFactor\":1},\"KHR_materials_ior\":{\"ior\":1.33}}},"
+                    "{\"emissiveFactor\":[1,0.5,0.25],\"doubleSided\":true,"
+                    "\"extensions\":{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":8}}}]",
+                    "\"extensionsUsed\":[\"KHR_materials_transmission\",\"KHR_materials_ior\",\"KHR_materials_emissive_strength\"],"};
+    write_model("materials.gltf", prims, 5, &doc);
+    pm_scene s;
+    pm_load_report r;
+    if (!load_ok("materials.gltf", &s, &r)) return;
+    CHECK(s.material_count == 5, "material_count %u (4 + the default one)", s.material_count);
+    CHECK(s.triangle_count == 5, "triangle_count %u", s.triangle_count);
+    if (s.material_count == 5 && s.triangle_count == 5) {
+        const pm_material *m = s.materials;
+        for (uint32_t t = 0; t < 5; t++) CHECK(s.triangle_material[t] == t, "triangle %u material %u", t, s.triangle_material[t]);
+        CHECK_VEC(m[0].base_color, 0.8, 0.2, 0.1, 1e-7, "diffuse base colour (alpha ignored)");
+        CHECK(m[0].metallic == 0 && m[0].roughness == 1 && m[0].transmission == 0 && m[0].ior == 1.5f,
+              "diffuse: metallic %g roughness %g transmission %g ior %g", m[0].metallic, m[0].roughness,
+              m[0].transmission, m[0].ior);
+        CHECK(v3_is_black(m[0].emission) && !m[0].double_sided && m[0].base_color_texture == -1, "diffuse extras");
+        CHECK(m[1].metallic == 1 && m[1].roughness == 0, "mirror: metallic %g roughness %g", m[1].metallic, m[1].roughness);
+        CHECK_VEC(m[2].base_color, 1, 1, 1, 0, "glass default base colour");
+        CHECK(m[2].transmission == 1 && fabsf(m[2].ior - 1.33f) < 1e-6f, "glass: transmission %g ior %g",
+              m[2].transmission, m[2].ior);
+        CHECK_VEC(m[3].emission, 8, 4, 2, 1e-6, "emission = emissiveFactor x emissiveStrength");
+        CHECK(m[3].double_sided, "emissive material is double sided");
+        CHECK(m[3].metallic == 1 && m[3].roughness == 1, "glTF defaults metallic 1 roughness 1");
+        CHECK_VEC(m[4].base_color, 1, 1, 1, 0, "default material base colour");
+        CHECK(m[4].metallic == 1 && m[4].roughness == 1 && m[4].ior == 1.5f && !m[4].double_sided &&
+                  m[4].base_color_texture == -1 && v3_is_black(m[4].emission),
+              "default material: metallic %g roughness %g", m[4].metallic, m[4].roughness);
+    }
+    pm_scene_free(&s);
+}
+
+static void test_skips(void) {
+    /* a good triangle, a repeated vertex and a collinear triple */
+    static const float positions[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 2, 0, 0};
+    static const uint32_t indices[9] = {0, 1, 2, 1, 1, 2, 0, 1, 3};
+    prim_spec mixed = {positions, 4, NULL, NULL, 0, indices, 9, 5123, -1, -1};
+    write_model("degenerate.gltf", &mixed, 1, NULL);
+    pm_scene s;
+    pm_load_report r;
+    if (load_ok("degenerate.gltf", &s, &r)) {
+        CHECK(s.triangle_count == 1 && r.skipped_degenerate == 2, "tris %u degenerate %u", s.triangle_count,
+              r.skipped_degenerate);
+        CHECK(r.warnings >= 1, "skipping must warn");
+        pm_scene_free(&s);
+    }
+    prim_spec with_points[3] = {{unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, 0, -1},
+                                {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1},
+                                {positions, 4, NULL, NULL, 0, NULL, 0, 0, 1, -1}};
+    write_model("points.gltf", with_points, 3, NULL);
+    if (load_ok("points.gltf", &s, &r)) {
+        CHECK(s.triangle_count == 1 && s.vertex_count == 3, "tris %u verts %u", s.triangle_count, s.vertex_count);
+        CHECK(r.skipped_primitives == 2, "skipped_primitives %u (points + lines)", r.skipped_primitives);
+        pm_scene_free(&s);
+    }
+    write_model("only_points.gltf", with_points, 1, NULL);
+    check_rejected("only_points.gltf", "nothing to render");
+}
+
+static void test_sparse(void) {
+    /* POSITION without a bufferView (zeros) and two sparse substitutions: vertices 1 and 2 */
+    static const unsigned char data[28] = {1, 2, 0, 0, /* u8 indices 1, 2, padding */
+                                           0, 0, 0x80, 0x3f, 0, 0, 0, 0, 0, 0, 0, 0,  /* (1,0,0) */
+                                           0, 0, 0, 0, 0, 0, 0x80, 0x3f, 0, 0, 0, 0}; /* (0,1,0) */
+    text json = {0};
+    text_append(&json, "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+                       "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}],"
+                       "\"buffers\":[{\"byteLength\":28,\"uri\":\"data:application/gltf-buffer;base64,");
+    base64_append(&json, data, sizeof data);
+    text_append(&json, "\"}],\"bufferViews\":[{\"buffer\":0,\"byteLength\":4},{\"buffer\":0,\"byteOffset\":4,\"byteLength\":24}],"
+                       "\"accessors\":[{\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"sparse\":{\"count\":2,"
+                       "\"indices\":{\"bufferView\":0,\"componentType\":5121},\"values\":{\"bufferView\":1}}}]}");
+    write_text("sparse.gltf", json.data);
+    pm_scene s;
+    pm_load_report r;
+    if (load_ok("sparse.gltf", &s, &r)) {
+        CHECK(s.triangle_count == 1, "sparse triangle count %u", s.triangle_count);
+        CHECK_VEC(tri_vertex(&s, 0, 0), 0, 0, 0, 0, "zero-filled vertex 0");
+        CHECK_VEC(tri_vertex(&s, 0, 1), 1, 0, 0, 0, "sparse vertex 1");
+        CHECK_VEC(tri_vertex(&s, 0, 2), 0, 1, 0, 0, "sparse vertex 2");
+        pm_scene_free(&s);
+    }
+    /* the same with sparse index 5 in a 3-vertex accessor */
+    char *bad_index = strstr(json.data, "base64,") + 7;
+    bad_index[0] = 'B'; /* first base64 symbol: 0x01 -> 0x05 in the first byte */
+    write_text("sparse_bad.gltf", json.data);
+    check_rejected("sparse_bad.gltf", "sparse index 5 >= accessor count 3");
+    free(json.data);
+}
+
+static void test_rejections(void) {
+    static const uint32_t bad_indices[3] = {0, 1, 7};
+    prim_spec out_of_range = {unit_triangle, 3, NULL, NULL, 0, bad_indices, 3, 5123, -1, -1};
+    write_model("index_range.gltf", &out_of_range, 1, NULL);
+    check_rejected("index_range.gltf", "index 7 >= vertex count 3 (mesh 0 primitive 0)");
+
+    const float nan_triangle[9] = {0, 0, 0, NAN, 0, 0, 0, 1, 0};
+    prim_spec nan = {nan_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1};
+    write_model("nan.gltf", &nan, 1, NULL);
+    check_rejected("nan.gltf", "non-finite vertex position");
+
+    prim_spec tri = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1};
+    doc_spec cycle = {"[{\"mesh\":0,\"children\":[1]},{\"children\":[0]}]", NULL, NULL, NULL};
+    write_model("cycle.gltf", &tri, 1, &cycle);
+    check_rejected("cycle.gltf", "cycle");
+
+    doc_spec two_parents = {"[{\"mesh\":0},{\"children\":[0]},{\"children\":[0]}]", "[1,2]", NULL, NULL};
+    write_model("two_parents.gltf", &tri, 1, &two_parents);
+    check_rejected("two_parents.gltf", "node 0 is reached twice");
+
+    doc_spec draco = {NULL, NULL, NULL,
+                      "\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],\"extensionsRequired\":[\"KHR_draco_mesh_compression\"],"};
+    write_model("draco.gltf", &tri, 1, &draco);
+    check_rejected("draco.gltf", "required extension KHR_draco_mesh_compression is not supported");
+
+    doc_spec negative = {"[{\"mesh\":-1}]", NULL, NULL, NULL};
+    write_model("negative.gltf", &tri, 1, &negative);
+    check_rejected("negative.gltf", "invalid (negative) mesh index -1 (node 0)");
+
+    /* a buffer just outside the model's folder, of the declared size: only the uri check refuses it */
+    char sub[128], outside[128];
+    snprintf(sub, sizeof sub, "%s/sub", test_dir);
+    snprintf(outside, sizeof outside, "%s/outside.bin", test_dir);
+    static const unsigned char outside_bytes[36] = {0};
+    write_file(outside, outside_bytes, sizeof outside_bytes);
+    CHECK(mkdir(sub, 0700) == 0, "cannot create %s", sub);
+    write_text("sub/escape.gltf",
+               "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+               "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}],"
+               "\"buffers\":[{\"byteLength\":36,\"uri\":\"../outside.bin\"}],"
+               "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],"
+               "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}]}");
+    check_rejected("sub/escape.gltf", "escapes the model's folder (buffer 0)");
+    write_text("sub/escape_encoded.gltf",
+               "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+               "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}],"
+               "\"buffers\":[{\"byteLength\":36,\"uri\":\"a/%2e%2e/%2E%2E/outside.bin\"}],"
+               "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],"
+               "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}]}");
+    check_rejected("sub/escape_encoded.gltf", "escapes the model's folder (buffer 0)");
+
+    write_text("file_scheme.gltf",
+               "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":36,\"uri\":\"file:///etc/passwd\"}]}");
+    check_rejected("file_scheme.gltf", "scheme file: is not allowed");
+    write_text("bad_data_uri.gltf",
+               "{\"asset\":{\"version\":\"2.0\"},\"images\":[{\"uri\":\"data:image/png;base64,AA*A\"}]}");
+    check_rejected("bad_data_uri.gltf", "malformed data: URI (image 0)");
+    write_text("no_scene.gltf", "{\"asset\":{\"version\":\"2.0\"}}");
+    check_rejected("no_scene.gltf", "nothing to render");
+    write_text("empty.gltf", "");
+    check_rejected("empty.gltf", "empty file");
+    check_rejected("does_not_exist.gltf", "cannot open");
+    char deep[400];
+    memset(deep, '[', sizeof deep);
+    deep[sizeof deep - 1] = 0;
+    write_text("deep.gltf", deep);
+    check_rejected("deep.gltf", "nested deeper");
+}
+
+/* ---------------------------------------------------------------- main */
+
+int main(void) {
+    snprintf(test_dir, sizeof test_dir, "/tmp/pmview-test-loader-XXXXXX");
+    if (!mkdtemp(test_dir)) {
+        perror("mkdtemp");
+        return 1;
+    }
+    test_transforms();
+    test_mirrored_winding();
+    test_nonuniform_scale_normals();
+    test_index_types();
+    test_strips_and_fans();
+    test_flat_normals();
+    test_texcoords_and_texture();
+    test_cameras();
+    test_lights();
+    test_materials();
+    test_skips();
+    test_sparse();
+    test_rejections();
+    char command[128];
+    snprintf(command, sizeof command, "rm -rf '%s'", test_dir);
+    if (system(command) != 0) fprintf(stderr, "could not remove %s\n", test_dir);
+    return pm_test_done("test_loader");
+}
