@@ -30,6 +30,11 @@ size_t pm_kdtree_bytes(const pm_kdtree *t);
 size_t pm_kdtree_nearest(const pm_kdtree *t, vec3 p, size_t k, float max_dist2, uint32_t *index_out,
                          float *dist2_out, float *radius2_out);
 
+/* pm_kdtree_nearest that also reports how many photons it measured the distance to, so tests
+ * and benches can check query cost without timing it. */
+size_t pm_kdtree_nearest_count_visits(const pm_kdtree *t, vec3 p, size_t k, float max_dist2, uint32_t *index_out,
+                                      float *dist2_out, float *radius2_out, size_t *visits_out);
+
 /* Calls visit for every photon with squared distance <= radius2. */
 void pm_kdtree_within(const pm_kdtree *t, vec3 p, float radius2,
                       void (*visit)(void *ctx, const pm_photon *ph, float dist2), void *ctx);
