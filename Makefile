@@ -7,7 +7,7 @@
 CC      ?= cc
 CXX     ?= c++
 OPT     ?= -O2
-CFLAGS_COMMON := -g -Wall -Wextra -Wno-unused-parameter -pthread -Iinclude -Ibuild -I/usr/include/OpenEXR
+CFLAGS_COMMON := -g -fno-math-errno -Wall -Wextra -Wno-unused-parameter -pthread -Iinclude -Ibuild -I/usr/include/OpenEXR
 CFLAGS   = -std=c11 $(OPT) $(CFLAGS_COMMON) -D_POSIX_C_SOURCE=200809L
 CXXFLAGS = -std=c++14 $(OPT) -g -Wall -pthread -Iinclude -I/usr/include/stb
 LIBS    := -lembree3 -lglfw -lOSMesa -lOpenEXRCore-3_1 -lstb -lstdc++ -lm -pthread

@@ -33,7 +33,7 @@ static inline uint16_t pm_oct_encode_bits(vec3 n, int bits) {
         x = ox;
         y = oy;
     }
-    int qx = (int)lroundf((x * 0.5f + 0.5f) * levels), qy = (int)lroundf((y * 0.5f + 0.5f) * levels);
+    int qx = (int)((x * 0.5f + 0.5f) * levels + 0.5f), qy = (int)((y * 0.5f + 0.5f) * levels + 0.5f); /* both >= 0 */
     return (uint16_t)((qx & mask) | ((qy & mask) << bits));
 }
 

@@ -36,7 +36,9 @@ typedef struct {
 
 typedef struct {
     uint64_t emitted, stored_caustic, stored_global, rays;
-    double seconds, kdtree_seconds;
+    double seconds;        /* the whole build */
+    double trace_seconds;  /* emitting and tracing photons (both maps) */
+    double kdtree_seconds; /* building the kd-trees */
 } pm_photon_stats;
 
 bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_settings *settings,

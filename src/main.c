@@ -308,11 +308,11 @@ int main(int argc, char **argv) {
             goto done;
         }
         if (opt.stats) {
-            printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f\n",
+            printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f\n",
                    (unsigned long long)pst.emitted, (unsigned long long)pst.stored_caustic,
-                   (unsigned long long)pst.stored_global, (unsigned long long)pst.rays, pst.seconds,
-                   pst.seconds > 0 ? pst.emitted / pst.seconds : 0.0, sizeof(pm_photon), maps.projection_fraction);
-            printf("stat kdtree caustic_photons=%zu caustic_bytes=%zu global_photons=%zu global_bytes=%zu\n", maps.caustic.count,
+                   (unsigned long long)pst.stored_global, (unsigned long long)pst.rays, pst.seconds, pst.trace_seconds,
+                   pst.trace_seconds > 0 ? pst.emitted / pst.trace_seconds : 0.0, sizeof(pm_photon), maps.projection_fraction);
+            printf("stat kdtree seconds=%.4f caustic_photons=%zu caustic_bytes=%zu global_photons=%zu global_bytes=%zu\n", pst.kdtree_seconds, maps.caustic.count,
                    pm_kdtree_bytes(&maps.caustic), maps.global.count, pm_kdtree_bytes(&maps.global));
         }
         eye.maps = &maps;

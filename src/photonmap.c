@@ -373,7 +373,8 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     ps->counters[thread].rays += rays;
 }
 
-static bool run_pass(pass *ps, pm_kdtree *tree, uint64_t *stored, uint64_t *rays) {
+static bool run_pass(pass *ps, pm_kdtree *tree, uint64_t *stored, uint64_t *rays, pm_photon_stats *st) {
+    double t0 = now_seconds();
     size_t chunks = (size_t)((ps->photons + CHUNK - 1) / CHUNK);
     ps->chunk_photons = calloc(chunks ? chunks : 1, sizeof(pm_photon *));
     ps->chunk_counts = calloc(chunks ? chunks : 1, sizeof(uint32_t));
@@ -393,7 +394,11 @@ static bool run_pass(pass *ps, pm_kdtree *tree, uint64_t *stored, uint64_t *rays
     free(ps->chunk_counts);
     for (int t = 0; t < threads; t++) *rays += ps->counters[t].rays;
     *stored = total;
-    return pm_kdtree_build(tree, all, total, threads);
+    double t1 = now_seconds();
+    bool ok = pm_kdtree_build(tree, all, total, threads);
+    st->kdtree_seconds += now_seconds() - t1;
+    st->trace_seconds += t1 - t0;
+    return ok;
 }
 
 bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_settings *settings,
@@ -417,7 +422,6 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
     }
     if (source_count) cdf[source_count] = 1.f;
     bool ok = true;
-    double kd_seconds = 0.0;
 
     pass ps;
     memset(&ps, 0, sizeof ps);
@@ -432,9 +436,7 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
         ps.caustic_pass = false;
         ps.photons = settings->global_photons;
         ps.seed = settings->seed;
-        double t0 = now_seconds();
-        ok = run_pass(&ps, &maps->global, &local.stored_global, &local.rays);
-        kd_seconds += now_seconds() - t0; /* refined below */
+        ok = run_pass(&ps, &maps->global, &local.stored_global, &local.rays, &local);
         maps->global_emitted = settings->global_photons;
         local.emitted += settings->global_photons;
     }
@@ -460,7 +462,7 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
         ps.caustic_pass = true;
         ps.photons = settings->caustic_photons;
         ps.seed = settings->seed ^ 0xca05u;
-        ok = run_pass(&ps, &maps->caustic, &local.stored_caustic, &local.rays);
+        ok = run_pass(&ps, &maps->caustic, &local.stored_caustic, &local.rays, &local);
         maps->caustic_emitted = settings->caustic_photons;
         local.emitted += settings->caustic_photons;
     }
@@ -468,7 +470,6 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
         free(sources[i].cells);
         free(sources[i].marked);
     }
-    (void)kd_seconds;
     local.seconds = now_seconds() - start;
     if (stats) *stats = local;
     if (!ok) pm_photon_maps_free(maps);

@@ -20,7 +20,11 @@ static void rig_render(rig *r, int iterations, int threads) {
     char err[256];
     r->accel = pm_accel_create(&r->scene, err, sizeof err);
     pm_film_init(&r->film, W, H, r->scene.analysis.component_possible);
-    pm_eye_settings set = {42, threads, 8};
+    pm_eye_settings set;
+    memset(&set, 0, sizeof set);
+    set.seed = 42;
+    set.threads = threads;
+    set.max_specular_depth = 8;
     for (int i = 0; i < iterations; i++) pm_eye_iterate(&r->scene, r->accel, &r->camera, &set, i, &r->film, NULL);
 }
 
