@@ -20,6 +20,7 @@
 #define PM_DEFAULT_GLOBAL_RADIUS 0.1f     /* x the scene's largest extent */
 #define PM_DEFAULT_CAUSTIC_RADIUS 0.025f  /* x the scene's largest extent */
 #define PM_DEFAULT_GATHER_RAYS 1          /* per eye sample; iterations add more */
+#define PM_DEFAULT_IRRADIANCE_STRIDE 4    /* precomputed irradiance at every 4th global photon (Christensen) */
 #define PM_DEFAULT_MAX_PHOTON_BOUNCES 32
 #define PM_TIME_SHARE_PHOTONS 0.25        /* with --time: the photon pass's share of the budget */
 

@@ -18,33 +18,6 @@
 /* How a stored photon reached its surface (the record's 2-bit path tag). */
 enum { PM_PATH_DIRECT = 0, PM_PATH_CAUSTIC = 1, PM_PATH_INDIRECT = 2 };
 
-typedef struct {
-    uint64_t global_photons;   /* photons emitted for the global map (0 = no global map) */
-    uint64_t caustic_photons;  /* photons emitted for the caustic map (0 = none) */
-    uint64_t seed;
-    int threads;
-    int max_bounces;
-    bool projection_maps;      /* aim caustic photons at specular objects */
-} pm_photon_settings;
-
-typedef struct {
-    pm_kdtree caustic, global;
-    uint64_t caustic_emitted, global_emitted;
-    /* fraction of the caustic lights' emission directions the projection maps kept */
-    double projection_fraction;
-} pm_photon_maps;
-
-typedef struct {
-    uint64_t emitted, stored_caustic, stored_global, rays;
-    double seconds;        /* the whole build */
-    double trace_seconds;  /* emitting and tracing photons (both maps) */
-    double kdtree_seconds; /* building the kd-trees */
-} pm_photon_stats;
-
-bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_settings *settings,
-                          pm_photon_maps *maps, pm_photon_stats *stats);
-void pm_photon_maps_free(pm_photon_maps *maps);
-
 /* Radiance estimate kernels. */
 typedef enum { PM_KERNEL_DISC = 0, PM_KERNEL_GAUSSIAN = 1, PM_KERNEL_CONE = 2 } pm_kernel;
 
@@ -55,9 +28,49 @@ typedef struct {
     unsigned path_mask;    /* which PM_PATH_* tags to include (bit per tag) */
 } pm_estimate_settings;
 
+typedef struct {
+    uint64_t global_photons;   /* photons emitted for the global map (0 = no global map) */
+    uint64_t caustic_photons;  /* photons emitted for the caustic map (0 = none) */
+    uint64_t seed;
+    int threads;
+    int max_bounces;
+    bool projection_maps;      /* aim caustic photons at specular objects */
+    /* Christensen's precomputation for final gathering: irradiance estimated once at every
+     * irradiance_stride-th global photon (0 = none), with irradiance_estimate; a gather ray
+     * then needs only the nearest such point instead of a k-nearest estimate. */
+    int irradiance_stride;
+    pm_estimate_settings irradiance_estimate;
+} pm_photon_settings;
+
+typedef struct {
+    pm_kdtree caustic, global;
+    /* precomputed irradiance points: a photon record whose power is the irradiance there */
+    pm_kdtree irradiance;
+    float irradiance_radius;   /* lookups farther than this fall back to a full estimate */
+    uint64_t caustic_emitted, global_emitted;
+    /* fraction of the caustic lights' emission directions the projection maps kept */
+    double projection_fraction;
+} pm_photon_maps;
+
+typedef struct {
+    uint64_t emitted, stored_caustic, stored_global, rays;
+    double seconds;        /* the whole build */
+    double trace_seconds;  /* emitting and tracing photons (both maps) */
+    double kdtree_seconds; /* building the kd-trees */
+    double irradiance_seconds; /* precomputing irradiance points */
+} pm_photon_stats;
+
+bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_settings *settings,
+                          pm_photon_maps *maps, pm_photon_stats *stats);
+void pm_photon_maps_free(pm_photon_maps *maps);
+
 /* Irradiance-like estimate E at point p with side normal n (facing the viewer), so that the
  * reflected radiance off a Lambert surface is kd/pi * E: the sum of the power of the k nearest
  * photons that arrived from the front of this surface, divided by the kernel's area. */
 vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e);
+
+/* The precomputed irradiance nearest p on a surface facing n; false when there is none within
+ * irradiance_radius (the caller then makes a full estimate). */
+bool pm_photon_irradiance_lookup(const pm_photon_maps *maps, vec3 p, vec3 n, vec3 *irradiance);
 
 #endif

@@ -150,7 +150,9 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, p
         pm_scene_surface(s, h.tri, h.b1, h.b2, &y);
         vec3 wo = v3_neg(d), yng = facing(y.ng, wo);
         if (!v3_is_black(y.kd)) {
-            vec3 e = pm_photon_estimate(&set->maps->global, y.p, yng, &set->global_estimate);
+            vec3 e;
+            if (!pm_photon_irradiance_lookup(set->maps, y.p, yng, &e))
+                e = pm_photon_estimate(&set->maps->global, y.p, yng, &set->global_estimate);
             return v3_mul(weight, v3_scale(v3_mul(y.kd, e), PM_INV_PI));
         }
         float wm = v3_average(y.ks), wt = v3_average(y.kt);

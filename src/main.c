@@ -34,7 +34,7 @@ typedef struct {
     bool stats, no_default_light, quiet;
     /* photon mapping; 0 / -1 = choose from the scene and the image */
     long photons, caustic_photons;
-    int k, gather_rays;
+    int k, gather_rays, irradiance_stride;
     double max_radius;
     pm_kernel kernel;
     pm_indirect_mode indirect;
@@ -61,6 +61,7 @@ static const char usage_text[] =
     "  --kernel disc|gaussian|cone  radiance estimate filter (default disc)\n"
     "  --indirect gather|photons    indirect light by final gathering (default) or the global map directly\n"
     "  --gather-rays N      final-gather rays per eye sample (default 1)\n"
+    "  --precompute N       gather from irradiance precomputed at every N-th global photon (default 4; 0 = full estimates)\n"
     "  --view photons       show the photon maps' estimates at the first diffuse hit\n"
     "  --no-photons         direct and specular only (no photon pass)\n"
     "  --stats              print 'stat STAGE key=value ...' lines\n"
@@ -109,6 +110,7 @@ static int parse_options(int argc, char **argv, options *o) {
     o->exposure_ev = PM_DEFAULT_EXPOSURE_EV;
     o->photons = o->caustic_photons = -1;
     o->gather_rays = PM_DEFAULT_GATHER_RAYS;
+    o->irradiance_stride = PM_DEFAULT_IRRADIANCE_STRIDE;
     bool have_scene = false;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -126,7 +128,7 @@ static int parse_options(int argc, char **argv, options *o) {
         static const char *const valued[] = {"--snapshot", "--width", "--height", "--iterations", "--time", "--threads",
                                              "--seed", "--camera", "--exposure", "--screenshot", "--mode", "--photons",
                                              "--caustic-photons", "--k", "--max-radius", "--kernel", "--indirect",
-                                             "--gather-rays", "--view"};
+                                             "--gather-rays", "--view", "--precompute"};
         int which = -1;
         for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
             if (!strcmp(a, valued[k])) which = k;
@@ -167,6 +169,7 @@ static int parse_options(int argc, char **argv, options *o) {
             else return usage_error("unknown --indirect '%s' (gather, photons)", v);
             break;
         case 17: if (!parse_long(v, 0, 4096, &n)) return usage_error("bad --gather-rays '%s' (0 to 4096)", v); o->gather_rays = (int)n; break;
+        case 19: if (!parse_long(v, 0, 1000000, &n)) return usage_error("bad --precompute '%s' (0 to 1000000)", v); o->irradiance_stride = (int)n; break;
         case 18: if (strcmp(v, "photons")) return usage_error("unknown --view '%s' (photons)", v); o->view_photons = true; break;
         }
     }
@@ -283,6 +286,17 @@ int main(int argc, char **argv) {
         ps.threads = opt.threads;
         ps.max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
         ps.projection_maps = true;
+        float extent = scene.ray_scale;
+        eye.global_estimate.kernel = eye.caustic_estimate.kernel = opt.kernel;
+        eye.global_estimate.k = opt.k ? opt.k : PM_DEFAULT_K_GLOBAL;
+        eye.caustic_estimate.k = opt.k ? opt.k : PM_DEFAULT_K_CAUSTIC;
+        eye.global_estimate.max_radius = opt.max_radius > 0 ? (float)opt.max_radius : PM_DEFAULT_GLOBAL_RADIUS * extent;
+        eye.caustic_estimate.max_radius = opt.max_radius > 0 ? (float)opt.max_radius : PM_DEFAULT_CAUSTIC_RADIUS * extent;
+        eye.global_estimate.path_mask = eye.caustic_estimate.path_mask = 7u;
+        if (opt.indirect == PM_INDIRECT_GATHER && !opt.view_photons) {
+            ps.irradiance_stride = opt.irradiance_stride;
+            ps.irradiance_estimate = eye.global_estimate;
+        }
         double pixels = (double)width * height;
         double n = pixels * PM_DEFAULT_PHOTONS_PER_PIXEL;
         if (opt.time_limit > 0 && opt.photons < 0) {
@@ -314,15 +328,10 @@ int main(int argc, char **argv) {
                    pst.trace_seconds > 0 ? pst.emitted / pst.trace_seconds : 0.0, sizeof(pm_photon), maps.projection_fraction);
             printf("stat kdtree seconds=%.4f caustic_photons=%zu caustic_bytes=%zu global_photons=%zu global_bytes=%zu\n", pst.kdtree_seconds, maps.caustic.count,
                    pm_kdtree_bytes(&maps.caustic), maps.global.count, pm_kdtree_bytes(&maps.global));
+            printf("stat irradiance seconds=%.4f points=%zu bytes=%zu\n", pst.irradiance_seconds, maps.irradiance.count,
+                   pm_kdtree_bytes(&maps.irradiance));
         }
         eye.maps = &maps;
-        float extent = scene.ray_scale;
-        eye.global_estimate.kernel = eye.caustic_estimate.kernel = opt.kernel;
-        eye.global_estimate.k = opt.k ? opt.k : PM_DEFAULT_K_GLOBAL;
-        eye.caustic_estimate.k = opt.k ? opt.k : PM_DEFAULT_K_CAUSTIC;
-        eye.global_estimate.max_radius = opt.max_radius > 0 ? (float)opt.max_radius : PM_DEFAULT_GLOBAL_RADIUS * extent;
-        eye.caustic_estimate.max_radius = opt.max_radius > 0 ? (float)opt.max_radius : PM_DEFAULT_CAUSTIC_RADIUS * extent;
-        eye.global_estimate.path_mask = eye.caustic_estimate.path_mask = 7u;
         eye.indirect = opt.indirect;
         eye.gather_rays = opt.gather_rays;
         eye.view_photons = opt.view_photons;

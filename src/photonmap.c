@@ -275,6 +275,8 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
 
 typedef struct { pm_photon *data; uint32_t count, capacity; } photon_list;
 
+static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings *settings, int threads);
+
 static void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path) {
     if (list->count == list->capacity) {
         list->capacity = list->capacity ? 2 * list->capacity : 1024;
@@ -439,6 +441,12 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
         ok = run_pass(&ps, &maps->global, &local.stored_global, &local.rays, &local);
         maps->global_emitted = settings->global_photons;
         local.emitted += settings->global_photons;
+        if (ok && settings->irradiance_stride > 0 && maps->global.count) {
+            double t0 = now_seconds();
+            int threads = settings->threads < 1 ? 1 : (settings->threads > MAX_THREADS ? MAX_THREADS : settings->threads);
+            ok = precompute_irradiance(maps, settings, threads);
+            local.irradiance_seconds = now_seconds() - t0;
+        }
     }
     if (ok && source_count && settings->caustic_photons && s->analysis.caustics_possible) {
         uint32_t sphere_count = 0;
@@ -476,7 +484,56 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
     return ok;
 }
 
+typedef struct {
+    const pm_photon_maps *maps;
+    const pm_photon_settings *settings;
+    size_t stride, points;
+    pm_photon *out;
+} irradiance_job;
+
+static void irradiance_chunk(void *ctx, size_t chunk, int thread) {
+    const irradiance_job *job = ctx;
+    size_t first = chunk * CHUNK, last = first + CHUNK < job->points ? first + CHUNK : job->points;
+    for (size_t i = first; i < last; i++) {
+        const pm_photon *ph = &job->maps->global.photons[i * job->stride];
+        vec3 p = pm_photon_position(ph), n = pm_photon_normal(ph);
+        vec3 e = pm_photon_estimate(&job->maps->global, p, n, &job->settings->irradiance_estimate);
+        /* stored as if it arrived head-on, so the estimate's front filter would accept it */
+        pm_photon_set(&job->out[i], p, n, v3_neg(n), e, PM_PATH_DIRECT);
+    }
+}
+
+/* Samples the global map at every stride-th photon of its (deterministic) tree order. */
+static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings *settings, int threads) {
+    irradiance_job job = {maps, settings, (size_t)settings->irradiance_stride, 0, NULL};
+    job.points = (maps->global.count + job.stride - 1) / job.stride;
+    job.out = malloc(sizeof(pm_photon) * (job.points ? job.points : 1));
+    if (!job.out) return false;
+    pm_parallel_for(threads, (job.points + CHUNK - 1) / CHUNK, irradiance_chunk, &job);
+    maps->irradiance_radius = settings->irradiance_estimate.max_radius;
+    return pm_kdtree_build(&maps->irradiance, job.out, job.points, threads);
+}
+
+bool pm_photon_irradiance_lookup(const pm_photon_maps *maps, vec3 p, vec3 n, vec3 *irradiance) {
+    enum { CANDIDATES = 8 };
+    uint32_t idx[CANDIDATES];
+    float d2[CANDIDATES], r2;
+    if (!maps->irradiance.count) return false;
+    float max2 = maps->irradiance_radius * maps->irradiance_radius;
+    size_t found = pm_kdtree_nearest(&maps->irradiance, p, CANDIDATES, max2, idx, d2, &r2);
+    int best = -1;
+    for (size_t i = 0; i < found; i++) {
+        const pm_photon *ph = &maps->irradiance.photons[idx[i]];
+        if (v3_dot(pm_photon_normal(ph), n) < 0.9f) continue; /* another surface, or its back */
+        if (best < 0 || d2[i] < d2[best]) best = (int)i;
+    }
+    if (best < 0) return false;
+    *irradiance = pm_photon_power(&maps->irradiance.photons[idx[best]]);
+    return true;
+}
+
 void pm_photon_maps_free(pm_photon_maps *maps) {
+    pm_kdtree_free(&maps->irradiance);
     pm_kdtree_free(&maps->caustic);
     pm_kdtree_free(&maps->global);
     memset(maps, 0, sizeof *maps);
