@@ -35,6 +35,7 @@ typedef struct {
     /* photon mapping; 0 / -1 = choose from the scene and the image */
     long photons, caustic_photons;
     int k, gather_rays, irradiance_stride;
+    const char *reference;  /* EXR to measure the error against */
     double max_radius;
     pm_kernel kernel;
     pm_indirect_mode indirect;
@@ -64,6 +65,8 @@ static const char usage_text[] =
     "  --precompute N       gather from irradiance precomputed at every N-th global photon (default 4; 0 = full estimates)\n"
     "  --view photons       show the photon maps' estimates at the first diffuse hit\n"
     "  --no-photons         direct and specular only (no photon pass)\n"
+    "  --reference REF.exr  measure the total against REF's R,G,B (same size): relMSE and mean ratios;\n"
+    "                       with --stats also at iterations 1, 2, 4, 8, ... (an error-against-time curve)\n"
     "  --stats              print 'stat STAGE key=value ...' lines\n"
     "  --quiet              no warnings\n"
     "  --help               this text\n"
@@ -128,7 +131,7 @@ static int parse_options(int argc, char **argv, options *o) {
         static const char *const valued[] = {"--snapshot", "--width", "--height", "--iterations", "--time", "--threads",
                                              "--seed", "--camera", "--exposure", "--screenshot", "--mode", "--photons",
                                              "--caustic-photons", "--k", "--max-radius", "--kernel", "--indirect",
-                                             "--gather-rays", "--view", "--precompute"};
+                                             "--gather-rays", "--view", "--precompute", "--reference"};
         int which = -1;
         for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
             if (!strcmp(a, valued[k])) which = k;
@@ -170,6 +173,7 @@ static int parse_options(int argc, char **argv, options *o) {
             break;
         case 17: if (!parse_long(v, 0, 4096, &n)) return usage_error("bad --gather-rays '%s' (0 to 4096)", v); o->gather_rays = (int)n; break;
         case 19: if (!parse_long(v, 0, 1000000, &n)) return usage_error("bad --precompute '%s' (0 to 1000000)", v); o->irradiance_stride = (int)n; break;
+        case 20: if (!has_extension(v, ".exr")) return usage_error("--reference needs an .exr file, not '%s'", v); o->reference = v; break;
         case 18: if (strcmp(v, "photons")) return usage_error("unknown --view '%s' (photons)", v); o->view_photons = true; break;
         }
     }
@@ -186,6 +190,43 @@ static long peak_rss_bytes(void) {
     struct rusage ru;
     getrusage(RUSAGE_SELF, &ru);
     return ru.ru_maxrss * 1024L;
+}
+
+/* The reference's R, G, B planes, for --reference. */
+typedef struct { float *rgb[3]; int width, height; } reference_image;
+
+static bool load_reference(const char *path, reference_image *ref, char *err, size_t err_size) {
+    static const char *const names[3] = {"R", "G", "B"};
+    memset(ref, 0, sizeof *ref);
+    for (int c = 0; c < 3; c++) {
+        int w, h;
+        ref->rgb[c] = pm_read_exr_channel(path, names[c], &w, &h, err, err_size);
+        if (!ref->rgb[c]) return false;
+        ref->width = w;
+        ref->height = h;
+    }
+    return true;
+}
+
+static void free_reference(reference_image *ref) {
+    for (int c = 0; c < 3; c++) free(ref->rgb[c]);
+}
+
+/* relMSE = mean over pixels and channels of (x - r)^2 / (r^2 + 0.01) (the 0.01 keeps black
+ * pixels from dominating), and each channel's mean over the reference's mean. */
+static double relative_mse(const pm_film *film, const reference_image *ref, float *scratch, double mean_ratio[3]) {
+    pm_film_resolve_total(film, scratch);
+    size_t n = (size_t)film->width * film->height;
+    double sum = 0, ours[3] = {0, 0, 0}, theirs[3] = {0, 0, 0};
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++) {
+            double x = scratch[3 * i + c], r = ref->rgb[c][i];
+            sum += (x - r) * (x - r) / (r * r + 0.01);
+            ours[c] += x;
+            theirs[c] += r;
+        }
+    for (int c = 0; c < 3; c++) mean_ratio[c] = theirs[c] != 0 ? ours[c] / theirs[c] : 0.0;
+    return sum / (3.0 * (double)n);
 }
 
 static void print_analysis_stats(const pm_scene *s) {
@@ -250,6 +291,9 @@ int main(int argc, char **argv) {
     memset(&film, 0, sizeof film);
     pm_photon_maps maps;
     memset(&maps, 0, sizeof maps);
+    reference_image reference;
+    memset(&reference, 0, sizeof reference);
+    float *reference_scratch = NULL;
 
     pm_camera camera;
     if (opt.camera >= 0 && (uint32_t)opt.camera >= scene.camera_count) {
@@ -354,6 +398,23 @@ int main(int argc, char **argv) {
         printf("%s\n", first ? "none" : "");
     }
 
+    if (opt.reference) {
+        if (!load_reference(opt.reference, &reference, err, sizeof err)) {
+            fprintf(stderr, "pmview: error: %s\n", err);
+            exit_code = 1;
+            goto done;
+        }
+        if (reference.width != width || reference.height != height) {
+            fprintf(stderr, "pmview: error: %s: the reference is %dx%d but the image is %dx%d (use --width/--height)\n",
+                    opt.reference, reference.width, reference.height, width, height);
+            exit_code = 1;
+            goto done;
+        }
+        reference_scratch = malloc(sizeof(float) * 3 * (size_t)width * height);
+        if (!reference_scratch) { fprintf(stderr, "pmview: error: out of memory\n"); exit_code = 1; goto done; }
+    }
+    uint32_t next_progress = 1;
+
     pm_display display;
     memset(&display, 0, sizeof display);
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) display.enabled[c] = true;
@@ -378,6 +439,11 @@ int main(int argc, char **argv) {
                     !(opt.time_limit > 0 && now_seconds() - start >= opt.time_limit);
         if (more) {
             pm_eye_iterate(&scene, accel, &camera, &eye, film.samples, &film, &eye_stats);
+            if (reference_scratch && opt.stats && film.samples == next_progress) {
+                double ratio[3], e = relative_mse(&film, &reference, reference_scratch, ratio);
+                printf("stat progress iterations=%u seconds=%.4f relmse=%.6f\n", film.samples, now_seconds() - start, e);
+                next_progress *= 2;
+            }
         } else if (!finished) {
             finished = true;
             if (window) printf("pmview: iterations done (%u)\n", film.samples);
@@ -408,6 +474,11 @@ int main(int argc, char **argv) {
         else if (!opt.quiet) printf("pmview: wrote %s (%dx%d, %u iterations, %.2f s)\n", opt.snapshot, width, height,
                                     film.samples, render_seconds);
     }
+    if (reference_scratch) {
+        double ratio[3], e = relative_mse(&film, &reference, reference_scratch, ratio);
+        printf("stat error iterations=%u seconds=%.4f relmse=%.6f mean_ratio_r=%.4f mean_ratio_g=%.4f mean_ratio_b=%.4f\n",
+               film.samples, render_seconds, e, ratio[0], ratio[1], ratio[2]);
+    }
     if (opt.stats) {
         printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d\n", film.samples,
                (unsigned long long)eye_stats.rays, eye_stats.seconds,
@@ -417,6 +488,8 @@ int main(int argc, char **argv) {
     }
 
 done:
+    free(reference_scratch);
+    free_reference(&reference);
     pm_photon_maps_free(&maps);
     pm_view_destroy(view);
     pm_film_free(&film);
