@@ -16,6 +16,7 @@ run() { # name command...
     [ "$status" = FAILED ] && sed 's/^/    | /' "$log" | tail -n 30
 }
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0
+export LSAN_OPTIONS=suppressions=$(pwd)/tests/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 for t in build/asan/tests/test_*; do

@@ -1,0 +1,568 @@
+/* view.c: the display: a GLFW window or an OSMesa offscreen context running shaders/compose.* on the film.
+ *
+ * Both backends draw the composite into the same kind of target, an FBO with an RGBA8 colour
+ * texture of the film's size, and pm_view_read_rgba8 reads that FBO; the window only copies it
+ * to its own framebuffer afterwards. So a PNG saved from the window equals the offscreen one
+ * pixel for pixel, whatever the window's size.
+ *
+ * The process links both libGL (through GLFW) and libOSMesa, and both export gl* symbols whose
+ * dispatch belongs to different libraries. Calling them directly would pick one at link time,
+ * so every entry point is fetched through the current context's get-proc-address into a table
+ * (pm_gl) and all GL code goes through v->gl.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <GL/osmesa.h> /* also brings GL/gl.h and GL/glext.h: types and enums only */
+
+#include "view.h"
+
+#include "shaders.inc"
+
+/* Every GL function used here: return type, name without the gl prefix, parameters. */
+#define PM_GL_FUNCTIONS(X) \
+    X(GLenum, GetError, (void)) \
+    X(const GLubyte *, GetString, (GLenum name)) \
+    X(void, GetIntegerv, (GLenum pname, GLint *data)) \
+    X(void, Viewport, (GLint x, GLint y, GLsizei w, GLsizei h)) \
+    X(void, ClearColor, (GLfloat r, GLfloat g, GLfloat b, GLfloat a)) \
+    X(void, Clear, (GLbitfield mask)) \
+    X(void, Disable, (GLenum cap)) \
+    X(void, PixelStorei, (GLenum pname, GLint param)) \
+    X(void, ReadPixels, (GLint x, GLint y, GLsizei w, GLsizei h, GLenum format, GLenum type, void *pixels)) \
+    X(void, GenTextures, (GLsizei n, GLuint *textures)) \
+    X(void, DeleteTextures, (GLsizei n, const GLuint *textures)) \
+    X(void, BindTexture, (GLenum target, GLuint texture)) \
+    X(void, ActiveTexture, (GLenum texture)) \
+    X(void, TexParameteri, (GLenum target, GLenum pname, GLint param)) \
+    X(void, TexImage2D, (GLenum target, GLint level, GLint internalformat, GLsizei w, GLsizei h, GLint border, \
+                         GLenum format, GLenum type, const void *pixels)) \
+    X(void, TexSubImage2D, (GLenum target, GLint level, GLint x, GLint y, GLsizei w, GLsizei h, GLenum format, \
+                            GLenum type, const void *pixels)) \
+    X(void, GenFramebuffers, (GLsizei n, GLuint *framebuffers)) \
+    X(void, DeleteFramebuffers, (GLsizei n, const GLuint *framebuffers)) \
+    X(void, BindFramebuffer, (GLenum target, GLuint framebuffer)) \
+    X(void, FramebufferTexture2D, (GLenum target, GLenum attachment, GLenum textarget, GLuint texture, GLint level)) \
+    X(GLenum, CheckFramebufferStatus, (GLenum target)) \
+    X(void, BlitFramebuffer, (GLint sx0, GLint sy0, GLint sx1, GLint sy1, GLint dx0, GLint dy0, GLint dx1, GLint dy1, \
+                              GLbitfield mask, GLenum filter)) \
+    X(void, GenVertexArrays, (GLsizei n, GLuint *arrays)) \
+    X(void, DeleteVertexArrays, (GLsizei n, const GLuint *arrays)) \
+    X(void, BindVertexArray, (GLuint array)) \
+    X(void, DrawArrays, (GLenum mode, GLint first, GLsizei count)) \
+    X(GLuint, CreateShader, (GLenum type)) \
+    X(void, ShaderSource, (GLuint shader, GLsizei count, const GLchar *const *strings, const GLint *lengths)) \
+    X(void, CompileShader, (GLuint shader)) \
+    X(void, GetShaderiv, (GLuint shader, GLenum pname, GLint *params)) \
+    X(void, GetShaderInfoLog, (GLuint shader, GLsizei size, GLsizei *length, GLchar *log)) \
+    X(void, DeleteShader, (GLuint shader)) \
+    X(GLuint, CreateProgram, (void)) \
+    X(void, AttachShader, (GLuint program, GLuint shader)) \
+    X(void, LinkProgram, (GLuint program)) \
+    X(void, GetProgramiv, (GLuint program, GLenum pname, GLint *params)) \
+    X(void, GetProgramInfoLog, (GLuint program, GLsizei size, GLsizei *length, GLchar *log)) \
+    X(void, DeleteProgram, (GLuint program)) \
+    X(void, UseProgram, (GLuint program)) \
+    X(GLint, GetUniformLocation, (GLuint program, const GLchar *name)) \
+    X(void, Uniform1i, (GLint location, GLint v0)) \
+    X(void, Uniform1f, (GLint location, GLfloat v0))
+
+typedef struct {
+#define PM_GL_MEMBER(ret, name, params) ret (GLAPIENTRY *name) params;
+    PM_GL_FUNCTIONS(PM_GL_MEMBER)
+#undef PM_GL_MEMBER
+} pm_gl;
+
+typedef void (*pm_gl_proc)(void);
+typedef pm_gl_proc (*pm_gl_loader)(const char *name);
+
+enum { PM_BACKEND_WINDOW, PM_BACKEND_OFFSCREEN };
+
+struct pm_view {
+    int backend;
+    pm_gl gl;
+    bool gl_loaded;             /* every entry point in gl is set */
+    int width, height;          /* the film, the FBO and the component textures */
+
+    GLFWwindow *window;
+    OSMesaContext osmesa;
+    void *osmesa_buffer;        /* OSMesa's default framebuffer; never drawn to, but it must exist */
+
+    GLuint program, vao, fbo, target, black;
+    GLuint component_tex[PM_COMPONENT_COUNT];
+    bool present[PM_COMPONENT_COUNT];
+    float scale;
+    GLint u_component[PM_COMPONENT_COUNT], u_enabled[PM_COMPONENT_COUNT], u_scale, u_exposure, u_tonemap, u_height;
+
+    /* window input between callbacks; display is the caller's state, only set while polling */
+    pm_view_events pending;
+    pm_display *display;
+    bool title_set;
+    char title[128];
+};
+
+/* GLFW reports errors through a callback; the last message becomes part of create's error. */
+static char glfw_error[256];
+static int glfw_users;
+
+static void on_glfw_error(int code, const char *description) {
+    snprintf(glfw_error, sizeof glfw_error, "%s (GLFW error 0x%x)", description ? description : "?", code);
+}
+
+static pm_gl_proc osmesa_loader(const char *name) {
+    return (pm_gl_proc)OSMesaGetProcAddress(name);
+}
+
+static pm_gl_proc glfw_loader(const char *name) {
+    return (pm_gl_proc)glfwGetProcAddress(name);
+}
+
+static bool load_gl(pm_gl *gl, pm_gl_loader load, char *err, size_t err_size) {
+    pm_gl_proc p;
+#define PM_GL_LOAD(ret, name, params) \
+    if (!(p = load("gl" #name))) { \
+        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: no entry point gl%s", #name); \
+        return false; \
+    } \
+    gl->name = (ret (GLAPIENTRY *) params)p;
+    PM_GL_FUNCTIONS(PM_GL_LOAD)
+#undef PM_GL_LOAD
+    return true;
+}
+
+static void make_current(pm_view *v) {
+    if (v->backend == PM_BACKEND_OFFSCREEN) {
+        if (OSMesaGetCurrentContext() != v->osmesa)
+            OSMesaMakeCurrent(v->osmesa, v->osmesa_buffer, GL_UNSIGNED_BYTE, v->width, v->height);
+    } else if (glfwGetCurrentContext() != v->window) {
+        glfwMakeContextCurrent(v->window);
+    }
+}
+
+/* Info logs span lines; the caller's error is one line. */
+static void one_line(char *s) {
+    size_t n = strlen(s);
+    while (n && (s[n - 1] == '\n' || s[n - 1] == '\r' || s[n - 1] == ' ')) s[--n] = 0;
+    for (char *c = s; *c; c++)
+        if (*c == '\n' || *c == '\r') *c = ' ';
+}
+
+static GLuint compile_shader(pm_view *v, GLenum type, const char *source, const char *name, char *err, size_t err_size) {
+    GLuint s = v->gl.CreateShader(type);
+    v->gl.ShaderSource(s, 1, &source, NULL);
+    v->gl.CompileShader(s);
+    GLint ok = 0;
+    v->gl.GetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        char log[768] = "";
+        v->gl.GetShaderInfoLog(s, sizeof log, NULL, log);
+        one_line(log);
+        snprintf(err, err_size, "cannot compile shaders/%s: %s", name, log);
+        v->gl.DeleteShader(s);
+        return 0;
+    }
+    return s;
+}
+
+static bool build_program(pm_view *v, char *err, size_t err_size) {
+    GLuint vs = compile_shader(v, GL_VERTEX_SHADER, pm_shader_compose_vert, "compose.vert", err, err_size);
+    if (!vs) return false;
+    GLuint fs = compile_shader(v, GL_FRAGMENT_SHADER, pm_shader_compose_frag, "compose.frag", err, err_size);
+    if (!fs) { v->gl.DeleteShader(vs); return false; }
+    v->program = v->gl.CreateProgram();
+    v->gl.AttachShader(v->program, vs);
+    v->gl.AttachShader(v->program, fs);
+    v->gl.LinkProgram(v->program);
+    /* the program keeps the compiled code; the shader objects go away with it */
+    v->gl.DeleteShader(vs);
+    v->gl.DeleteShader(fs);
+    GLint ok = 0;
+    v->gl.GetProgramiv(v->program, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[768] = "";
+        v->gl.GetProgramInfoLog(v->program, sizeof log, NULL, log);
+        one_line(log);
+        snprintf(err, err_size, "cannot link shaders/compose.vert + compose.frag: %s", log);
+        return false;
+    }
+    static const char *const sampler_names[PM_COMPONENT_COUNT] = {"u_component[0]", "u_component[1]",
+                                                                  "u_component[2]", "u_component[3]"};
+    static const char *const enabled_names[PM_COMPONENT_COUNT] = {"u_enabled[0]", "u_enabled[1]", "u_enabled[2]",
+                                                                  "u_enabled[3]"};
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        v->u_component[c] = v->gl.GetUniformLocation(v->program, sampler_names[c]);
+        v->u_enabled[c] = v->gl.GetUniformLocation(v->program, enabled_names[c]);
+    }
+    v->u_scale = v->gl.GetUniformLocation(v->program, "u_scale");
+    v->u_exposure = v->gl.GetUniformLocation(v->program, "u_exposure");
+    v->u_tonemap = v->gl.GetUniformLocation(v->program, "u_tonemap");
+    v->u_height = v->gl.GetUniformLocation(v->program, "u_height");
+    v->gl.UseProgram(v->program);
+    /* texture unit c always holds component c */
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) v->gl.Uniform1i(v->u_component[c], c);
+    return true;
+}
+
+static void nearest_clamped(pm_view *v) {
+    v->gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    v->gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    v->gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    v->gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    /* a single level: without this the texture would be incomplete under a mipmap min filter */
+    v->gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+}
+
+/* (Re)allocates the film-sized objects: the FBO's colour texture and the component textures. */
+static bool allocate_film_targets(pm_view *v, int width, int height, char *err, size_t err_size) {
+    GLint max_size = 0;
+    v->gl.GetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+    if (width > max_size || height > max_size) {
+        snprintf(err, err_size, "a %dx%d image is larger than this OpenGL's texture limit (%d)", width, height,
+                 (int)max_size);
+        return false;
+    }
+    v->width = width;
+    v->height = height;
+    v->gl.ActiveTexture(GL_TEXTURE0);
+    v->gl.BindTexture(GL_TEXTURE_2D, v->target);
+    v->gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, width, height, 0, GL_RGBA, GL_UNSIGNED_BYTE, NULL);
+    nearest_clamped(v);
+    v->gl.BindFramebuffer(GL_FRAMEBUFFER, v->fbo);
+    v->gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, v->target, 0);
+    GLenum status = v->gl.CheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE) {
+        snprintf(err, err_size, "cannot render to a %dx%d RGBA8 texture (framebuffer status 0x%x)", width, height,
+                 (unsigned)status);
+        return false;
+    }
+    /* black until the first draw, so reading back before drawing is still defined */
+    v->gl.Viewport(0, 0, width, height);
+    v->gl.ClearColor(0.f, 0.f, 0.f, 1.f);
+    v->gl.Clear(GL_COLOR_BUFFER_BIT);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        v->gl.BindTexture(GL_TEXTURE_2D, v->component_tex[c]);
+        v->gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, width, height, 0, GL_RGB, GL_FLOAT, NULL);
+        nearest_clamped(v);
+        v->present[c] = false;
+    }
+    if (v->gl.GetError() != GL_NO_ERROR) {
+        snprintf(err, err_size, "cannot allocate the %dx%d display textures (out of memory?)", width, height);
+        return false;
+    }
+    return true;
+}
+
+/* Everything after the context exists: entry points, shaders, textures, the FBO. */
+static bool setup_gl(pm_view *v, pm_gl_loader load, int width, int height, char *err, size_t err_size) {
+    if (!load_gl(&v->gl, load, err, err_size)) return false;
+    v->gl_loaded = true;
+    while (v->gl.GetError() != GL_NO_ERROR) {}
+    if (!build_program(v, err, err_size)) return false;
+    v->gl.GenVertexArrays(1, &v->vao);
+    v->gl.GenFramebuffers(1, &v->fbo);
+    v->gl.GenTextures(1, &v->target);
+    v->gl.GenTextures(1, &v->black);
+    v->gl.GenTextures(PM_COMPONENT_COUNT, v->component_tex);
+    /* rows of RGB floats and RGBA bytes are always 4-byte multiples, but say so anyway */
+    v->gl.PixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    v->gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
+    static const float zero[3] = {0.f, 0.f, 0.f};
+    v->gl.ActiveTexture(GL_TEXTURE0);
+    v->gl.BindTexture(GL_TEXTURE_2D, v->black);
+    v->gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, 1, 1, 0, GL_RGB, GL_FLOAT, zero);
+    nearest_clamped(v);
+    v->gl.Disable(GL_DEPTH_TEST);
+    v->gl.Disable(GL_BLEND);
+    return allocate_film_targets(v, width, height, err, err_size);
+}
+
+static void release_gl(pm_view *v) {
+    if (!v->gl_loaded) return;
+    v->gl.BindFramebuffer(GL_FRAMEBUFFER, 0);
+    v->gl.BindVertexArray(0);
+    v->gl.UseProgram(0);
+    if (v->program) v->gl.DeleteProgram(v->program);
+    if (v->vao) v->gl.DeleteVertexArrays(1, &v->vao);
+    if (v->fbo) v->gl.DeleteFramebuffers(1, &v->fbo);
+    if (v->target) v->gl.DeleteTextures(1, &v->target);
+    if (v->black) v->gl.DeleteTextures(1, &v->black);
+    v->gl.DeleteTextures(PM_COMPONENT_COUNT, v->component_tex);
+}
+
+void pm_view_destroy(pm_view *v) {
+    if (!v) return;
+    if (v->backend == PM_BACKEND_OFFSCREEN) {
+        if (v->osmesa) {
+            make_current(v);
+            release_gl(v);
+            OSMesaMakeCurrent(NULL, NULL, GL_UNSIGNED_BYTE, 0, 0);
+            OSMesaDestroyContext(v->osmesa);
+        }
+        free(v->osmesa_buffer);
+    } else {
+        if (v->window) {
+            make_current(v);
+            release_gl(v);
+            glfwMakeContextCurrent(NULL);
+            glfwDestroyWindow(v->window);
+        }
+        if (--glfw_users == 0) glfwTerminate();
+    }
+    free(v);
+}
+
+pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_size) {
+    if (width < 1 || height < 1) {
+        snprintf(err, err_size, "bad display size %dx%d", width, height);
+        return NULL;
+    }
+    pm_view *v = calloc(1, sizeof *v);
+    if (!v) { snprintf(err, err_size, "out of memory"); return NULL; }
+    v->backend = PM_BACKEND_OFFSCREEN;
+    v->width = width;
+    v->height = height;
+    static const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0,
+                                  OSMESA_PROFILE, OSMESA_CORE_PROFILE,
+                                  OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
+    v->osmesa = OSMesaCreateContextAttribs(attribs, NULL);
+    if (!v->osmesa) {
+        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: OSMesaCreateContextAttribs failed");
+        pm_view_destroy(v);
+        return NULL;
+    }
+    v->osmesa_buffer = malloc(4 * (size_t)width * height);
+    if (!v->osmesa_buffer) {
+        snprintf(err, err_size, "out of memory for a %dx%d offscreen buffer", width, height);
+        pm_view_destroy(v);
+        return NULL;
+    }
+    if (!OSMesaMakeCurrent(v->osmesa, v->osmesa_buffer, GL_UNSIGNED_BYTE, width, height)) {
+        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: OSMesaMakeCurrent failed for %dx%d",
+                 width, height);
+        pm_view_destroy(v);
+        return NULL;
+    }
+    if (!setup_gl(v, osmesa_loader, width, height, err, err_size)) {
+        pm_view_destroy(v);
+        return NULL;
+    }
+    return v;
+}
+
+/* ---- window input ---- */
+
+static const char *const key_names[PM_COMPONENT_COUNT] = {"direct", "specular", "caustic", "indirect"};
+
+static void update_title(pm_view *v, const pm_display *d) {
+    char t[sizeof v->title + 192];
+    int n = snprintf(t, sizeof t, "%s ", v->title);
+    for (int c = 0; c < PM_COMPONENT_COUNT && n < (int)sizeof t; c++)
+        n += snprintf(t + n, sizeof t - n, " [%d %s]", c + 1, d->enabled[c] ? key_names[c] : "off");
+    if (n < (int)sizeof t)
+        snprintf(t + n, sizeof t - n, "  ev %+.1f%s", d->exposure_ev, d->tonemap ? "  reinhard" : "");
+    glfwSetWindowTitle(v->window, t);
+}
+
+static void change_exposure(pm_display *d, float delta) {
+    /* the same range the command line accepts, so 2^ev stays a finite float */
+    float ev = d->exposure_ev + delta;
+    d->exposure_ev = ev > 64.f ? 64.f : ev < -64.f ? -64.f : ev;
+}
+
+static void on_key(GLFWwindow *window, int key, int scancode, int action, int mods) {
+    pm_view *v = glfwGetWindowUserPointer(window);
+    if (!v || action == GLFW_RELEASE) return;
+    bool repeatable = key == GLFW_KEY_EQUAL || key == GLFW_KEY_KP_ADD || key == GLFW_KEY_MINUS ||
+                      key == GLFW_KEY_KP_SUBTRACT;
+    if (action == GLFW_REPEAT && !repeatable) return;
+    pm_display *d = v->display;
+    bool changed = true;
+    switch (key) {
+    case GLFW_KEY_ESCAPE: case GLFW_KEY_Q: v->pending.quit = true; return;
+    case GLFW_KEY_P: v->pending.save_png = true; return;
+    default: break;
+    }
+    if (!d) return;
+    switch (key) {
+    case GLFW_KEY_1: case GLFW_KEY_2: case GLFW_KEY_3: case GLFW_KEY_4:
+        d->enabled[key - GLFW_KEY_1] = !d->enabled[key - GLFW_KEY_1];
+        break;
+    case GLFW_KEY_KP_1: case GLFW_KEY_KP_2: case GLFW_KEY_KP_3: case GLFW_KEY_KP_4:
+        d->enabled[key - GLFW_KEY_KP_1] = !d->enabled[key - GLFW_KEY_KP_1];
+        break;
+    case GLFW_KEY_EQUAL: case GLFW_KEY_KP_ADD: change_exposure(d, 0.5f); break;
+    case GLFW_KEY_MINUS: case GLFW_KEY_KP_SUBTRACT: change_exposure(d, -0.5f); break;
+    case GLFW_KEY_0: case GLFW_KEY_KP_0:
+        d->exposure_ev = 0.f;
+        for (int c = 0; c < PM_COMPONENT_COUNT; c++) d->enabled[c] = true;
+        break;
+    case GLFW_KEY_T: d->tonemap = !d->tonemap; break;
+    default: changed = false; break;
+    }
+    if (changed) v->pending.display_changed = true;
+}
+
+static void on_close(GLFWwindow *window) {
+    pm_view *v = glfwGetWindowUserPointer(window);
+    if (v) v->pending.quit = true;
+}
+
+pm_view *pm_view_create_window(int width, int height, const char *title, char *err, size_t err_size) {
+    if (width < 1 || height < 1) {
+        snprintf(err, err_size, "bad display size %dx%d", width, height);
+        return NULL;
+    }
+    pm_view *v = calloc(1, sizeof *v);
+    if (!v) { snprintf(err, err_size, "out of memory"); return NULL; }
+    v->backend = PM_BACKEND_WINDOW;
+    v->width = width;
+    v->height = height;
+    snprintf(v->title, sizeof v->title, "%s", title ? title : "pmview");
+    glfw_error[0] = 0;
+    glfwSetErrorCallback(on_glfw_error);
+    glfw_users++; /* destroy balances this, even when init fails: glfwTerminate is safe then */
+    if (!glfwInit()) {
+        snprintf(err, err_size, "cannot open a window: %s", glfw_error[0] ? glfw_error : "glfwInit failed");
+        pm_view_destroy(v);
+        return NULL;
+    }
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+    glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+    glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+    glfwWindowHint(GLFW_RESIZABLE, GLFW_FALSE);
+    glfwWindowHint(GLFW_DEPTH_BITS, 0);
+    glfwWindowHint(GLFW_STENCIL_BITS, 0);
+    /* A film larger than the screen gets a smaller window of the same shape; the picture is
+     * scaled into it and the saved PNG keeps the film's full size. */
+    int win_w = width, win_h = height;
+    GLFWmonitor *monitor = glfwGetPrimaryMonitor();
+    const GLFWvidmode *mode = monitor ? glfwGetVideoMode(monitor) : NULL;
+    if (mode && (win_w > mode->width || win_h > mode->height)) {
+        double s = fmin((double)mode->width / win_w, (double)mode->height / win_h) * 0.9;
+        win_w = (int)(win_w * s) > 0 ? (int)(win_w * s) : 1;
+        win_h = (int)(win_h * s) > 0 ? (int)(win_h * s) : 1;
+    }
+    v->window = glfwCreateWindow(win_w, win_h, v->title, NULL, NULL);
+    if (!v->window) {
+        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: %s",
+                 glfw_error[0] ? glfw_error : "glfwCreateWindow failed");
+        pm_view_destroy(v);
+        return NULL;
+    }
+    glfwMakeContextCurrent(v->window);
+    /* rendering iterations are not to be throttled by the monitor's refresh */
+    glfwSwapInterval(0);
+    glfwSetWindowUserPointer(v->window, v);
+    glfwSetKeyCallback(v->window, on_key);
+    glfwSetWindowCloseCallback(v->window, on_close);
+    if (!setup_gl(v, glfw_loader, width, height, err, err_size)) {
+        pm_view_destroy(v);
+        return NULL;
+    }
+    return v;
+}
+
+/* ---- drawing ---- */
+
+void pm_view_upload(pm_view *v, const pm_film *film) {
+    if (!v || !film) return;
+    make_current(v);
+    if (film->width != v->width || film->height != v->height) {
+        char ignored[256];
+        if (film->width < 1 || film->height < 1 || !allocate_film_targets(v, film->width, film->height, ignored, sizeof ignored))
+            return;
+    }
+    v->gl.ActiveTexture(GL_TEXTURE0);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        v->present[c] = film->sum[c] != NULL;
+        if (!film->sum[c]) continue;
+        /* film row 0 (top) goes to texel row 0; compose.frag flips when it fetches */
+        v->gl.BindTexture(GL_TEXTURE_2D, v->component_tex[c]);
+        v->gl.TexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, film->width, film->height, GL_RGB, GL_FLOAT, film->sum[c]);
+    }
+    v->scale = film->samples ? 1.f / (float)film->samples : 0.f;
+}
+
+void pm_view_draw(pm_view *v, const pm_display *d) {
+    if (!v || !d) return;
+    make_current(v);
+    v->gl.BindFramebuffer(GL_FRAMEBUFFER, v->fbo);
+    v->gl.Viewport(0, 0, v->width, v->height);
+    v->gl.UseProgram(v->program);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        v->gl.ActiveTexture(GL_TEXTURE0 + c);
+        v->gl.BindTexture(GL_TEXTURE_2D, v->present[c] ? v->component_tex[c] : v->black);
+        v->gl.Uniform1i(v->u_enabled[c], d->enabled[c] ? 1 : 0);
+    }
+    float ev = isfinite(d->exposure_ev) ? fmaxf(-64.f, fminf(64.f, d->exposure_ev)) : 0.f;
+    v->gl.Uniform1f(v->u_scale, v->scale);
+    v->gl.Uniform1f(v->u_exposure, exp2f(ev));
+    v->gl.Uniform1i(v->u_tonemap, d->tonemap == 1 ? 1 : 0);
+    v->gl.Uniform1i(v->u_height, v->height);
+    v->gl.BindVertexArray(v->vao);
+    v->gl.DrawArrays(GL_TRIANGLES, 0, 3);
+    v->gl.BindVertexArray(0);
+
+    if (v->backend != PM_BACKEND_WINDOW) return;
+    /* Copy to the window, as large as fits with the film's aspect ratio, bars in dark grey. */
+    int fw = 0, fh = 0;
+    glfwGetFramebufferSize(v->window, &fw, &fh);
+    if (fw < 1 || fh < 1) return; /* minimised */
+    double s = fmin((double)fw / v->width, (double)fh / v->height);
+    int dw = (int)lround(v->width * s), dh = (int)lround(v->height * s);
+    int dx = (fw - dw) / 2, dy = (fh - dh) / 2;
+    v->gl.BindFramebuffer(GL_READ_FRAMEBUFFER, v->fbo);
+    v->gl.BindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+    v->gl.Viewport(0, 0, fw, fh);
+    v->gl.ClearColor(0.1f, 0.1f, 0.1f, 1.f);
+    v->gl.Clear(GL_COLOR_BUFFER_BIT);
+    v->gl.BlitFramebuffer(0, 0, v->width, v->height, dx, dy, dx + dw, dy + dh, GL_COLOR_BUFFER_BIT,
+                          dw == v->width && dh == v->height ? GL_NEAREST : GL_LINEAR);
+    v->gl.BindFramebuffer(GL_FRAMEBUFFER, 0);
+    glfwSwapBuffers(v->window);
+}
+
+void pm_view_read_rgba8(pm_view *v, uint8_t *rgba) {
+    if (!v || !rgba) return;
+    make_current(v);
+    v->gl.BindFramebuffer(GL_FRAMEBUFFER, v->fbo);
+    v->gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
+    v->gl.ReadPixels(0, 0, v->width, v->height, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
+    v->gl.BindFramebuffer(GL_FRAMEBUFFER, 0);
+    /* GL's row 0 is the bottom one */
+    size_t row = 4 * (size_t)v->width;
+    uint8_t *tmp = malloc(row);
+    if (!tmp) return;
+    for (int y = 0; y < v->height / 2; y++) {
+        uint8_t *a = rgba + row * y, *b = rgba + row * (v->height - 1 - y);
+        memcpy(tmp, a, row);
+        memcpy(a, b, row);
+        memcpy(b, tmp, row);
+    }
+    free(tmp);
+}
+
+pm_view_events pm_view_poll(pm_view *v, pm_display *d, bool wait, double timeout) {
+    pm_view_events none = {false, false, false};
+    if (!v || v->backend != PM_BACKEND_WINDOW) return none;
+    v->display = d;
+    if (d && !v->title_set) { update_title(v, d); v->title_set = true; }
+    /* GLFW rejects a zero or infinite timeout */
+    if (wait && timeout > 0 && isfinite(timeout)) glfwWaitEventsTimeout(timeout);
+    else glfwPollEvents();
+    v->display = NULL;
+    if (glfwWindowShouldClose(v->window)) v->pending.quit = true;
+    pm_view_events ev = v->pending;
+    v->pending = none;
+    if (ev.display_changed && d) update_title(v, d);
+    return ev;
+}
+
+bool pm_view_is_window(const pm_view *v) {
+    return v && v->backend == PM_BACKEND_WINDOW;
+}

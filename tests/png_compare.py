@@ -1,0 +1,105 @@
+#!/usr/bin/env python3
+# png_compare.py: compares two 8-bit PNGs pixel by pixel with only the standard library (zlib + filter reversal).
+#
+#   png_compare.py same A B [MAX]   exit 0 when every channel differs by at most MAX (default 1)
+#   png_compare.py darker A B       exit 0 when B differs from A and its mean RGB is lower
+#
+# Only what pmview writes needs decoding: non-interlaced, bit depth 8, grey/RGB/grey+alpha/RGBA;
+# anything else is refused rather than misread. The last line printed says what was found.
+import struct
+import sys
+import zlib
+
+CHANNELS = {0: 1, 2: 3, 4: 2, 6: 4}
+
+
+def read_png(path):
+    with open(path, "rb") as f:
+        data = f.read()
+    if data[:8] != b"\x89PNG\r\n\x1a\n":
+        raise ValueError("%s: not a PNG" % path)
+    pos, idat, header = 8, [], None
+    while pos + 8 <= len(data):
+        length, kind = struct.unpack(">I4s", data[pos:pos + 8])
+        body = data[pos + 8:pos + 8 + length]
+        pos += 12 + length
+        if kind == b"IHDR":
+            header = struct.unpack(">IIBBBBB", body)
+        elif kind == b"IDAT":
+            idat.append(body)
+        elif kind == b"IEND":
+            break
+    if header is None:
+        raise ValueError("%s: no IHDR" % path)
+    width, height, depth, colour, _, _, interlace = header
+    if depth != 8 or colour not in CHANNELS or interlace:
+        raise ValueError("%s: unsupported PNG (depth %d, colour type %d, interlace %d)" % (path, depth, colour, interlace))
+    bpp = CHANNELS[colour]
+    raw = zlib.decompress(b"".join(idat))
+    stride = width * bpp
+    if len(raw) < height * (stride + 1):
+        raise ValueError("%s: truncated image data" % path)
+    rows, prev = [], bytearray(stride)
+    for y in range(height):
+        kind = raw[y * (stride + 1)]
+        line = bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        for i in range(stride):
+            a = line[i - bpp] if i >= bpp else 0
+            b = prev[i]
+            c = prev[i - bpp] if i >= bpp else 0
+            if kind == 0:
+                p = 0
+            elif kind == 1:
+                p = a
+            elif kind == 2:
+                p = b
+            elif kind == 3:
+                p = (a + b) // 2
+            elif kind == 4:
+                est = a + b - c
+                pa, pb, pc = abs(est - a), abs(est - b), abs(est - c)
+                p = a if pa <= pb and pa <= pc else (b if pb <= pc else c)
+            else:
+                raise ValueError("%s: bad filter type %d in row %d" % (path, kind, y))
+            line[i] = (line[i] + p) & 255
+        rows.append(line)
+        prev = line
+    # as RGB triples, so images with and without alpha compare
+    pixels = []
+    for line in rows:
+        for x in range(width):
+            px = line[x * bpp:(x + 1) * bpp]
+            pixels.append((px[0], px[0], px[0]) if bpp <= 2 else (px[0], px[1], px[2]))
+    return width, height, pixels
+
+
+def main(argv):
+    if len(argv) < 4 or argv[1] not in ("same", "darker"):
+        print("usage: png_compare.py same|darker A B [MAX]")
+        return 2
+    try:
+        wa, ha, a = read_png(argv[2])
+        wb, hb, b = read_png(argv[3])
+    except (OSError, ValueError, zlib.error) as e:
+        print("png_compare: %s" % e)
+        return 1
+    if (wa, ha) != (wb, hb):
+        print("png_compare: sizes differ: %dx%d vs %dx%d" % (wa, ha, wb, hb))
+        return 1
+    max_diff, worst = 0, (0, 0)
+    for i, (pa, pb) in enumerate(zip(a, b)):
+        d = max(abs(x - y) for x, y in zip(pa, pb))
+        if d > max_diff:
+            max_diff, worst = d, (i % wa, i // wa)
+    mean_a = sum(sum(p) for p in a) / (3.0 * len(a))
+    mean_b = sum(sum(p) for p in b) / (3.0 * len(b))
+    if argv[1] == "same":
+        limit = int(argv[4]) if len(argv) > 4 else 1
+        print("png_compare: %dx%d, max channel difference %d (at %d,%d), limit %d" % (wa, ha, max_diff, worst[0], worst[1], limit))
+        return 0 if max_diff <= limit else 1
+    print("png_compare: mean %.2f -> %.2f, max channel difference %d" % (mean_a, mean_b, max_diff))
+    return 0 if max_diff > 0 and mean_b < mean_a else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

@@ -1,0 +1,108 @@
+#!/bin/sh
+# test_window.sh: the real window under Xvfb, driven by xdotool: P saves what the offscreen snapshot renders, 4 toggles indirect, Esc quits.
+#
+# pmview runs inside xvfb-run through an inner script (xvfb-run makes its own display, so the
+# keys must be sent from inside it). The window's screenshot must equal an offscreen --snapshot
+# of the same render within 1 per channel; after '4' (indirect off) the next one must be darker.
+# xvfb-run and everything under it run in their own session, killed as a group on any exit.
+cd "$(dirname "$0")/.." || exit 1
+
+have_tools() { command -v xvfb-run >/dev/null 2>&1 && command -v xdotool >/dev/null 2>&1 && command -v python3 >/dev/null 2>&1; }
+if ! have_tools; then
+    # only when installing cannot stop at a password prompt
+    if [ "$(id -u)" = 0 ] || sudo -n true 2>/dev/null; then sh tools/install-deps.sh </dev/null >/dev/null 2>&1; fi
+    if ! have_tools; then
+        echo "SKIP: xvfb-run, xdotool or python3 missing and tools/install-deps.sh could not install them"
+        exit 0
+    fi
+fi
+[ -x ./pmview ] || { echo "test_window: FAILED: ./pmview is not built"; exit 1; }
+
+tmp=$(mktemp -d) || exit 1
+group=""
+cleanup() {
+    # the group's leader is xvfb-run; Xvfb, the inner script and pmview are its members
+    [ -n "$group" ] && kill -TERM -- "-$group" 2>/dev/null
+    rm -rf "$tmp"
+}
+trap cleanup EXIT
+trap 'exit 1' INT TERM HUP
+
+args="scenes/cornell-box.gltf --width 96 --height 96 --iterations 4 --seed 7 --threads 2"
+
+cat >"$tmp/inner.sh" <<'EOF'
+# runs under xvfb-run: start pmview, wait, send keys; "$1" is the temp folder, the rest pmview's arguments
+tmp=$1; shift
+log="$tmp/pmview.log"
+fail() { echo "inner: $*"; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- pmview log:"; cat "$log"; exit 1; }
+# wait_for PATTERN COUNT SECONDS: until the log has COUNT lines matching PATTERN
+wait_for() {
+    i=0
+    while [ "$(grep -c "$1" "$log" 2>/dev/null)" -lt "$2" ]; do
+        kill -0 "$pid" 2>/dev/null || fail "pmview exited before '$1'"
+        i=$((i + 1)); [ "$i" -gt $(($3 * 10)) ] && fail "no '$1' after $3 s"
+        sleep 0.1
+    done
+}
+press() {
+    xdotool key --clearmodifiers "$1" || fail "xdotool key $1 failed"
+}
+./pmview "$@" --screenshot "$tmp/shot.png" >"$log" 2>&1 &
+pid=$!
+wait_for "pmview: iterations done" 1 60
+wid=$(timeout 30 xdotool search --sync --name pmview | head -n 1)
+[ -n "$wid" ] || fail "no window named pmview"
+# no window manager under Xvfb: give the window the keyboard focus directly
+xdotool windowfocus --sync "$wid" || fail "cannot focus the window"
+press p
+wait_for "pmview: saved" 1 20
+cp "$tmp/shot.png" "$tmp/first.png" || fail "no screenshot file"
+press 4
+press p
+wait_for "pmview: saved" 2 20
+cp "$tmp/shot.png" "$tmp/no-indirect.png" || fail "no second screenshot file"
+press Escape
+i=0
+while kill -0 "$pid" 2>/dev/null; do
+    i=$((i + 1)); [ "$i" -gt 200 ] && fail "pmview still running 20 s after Escape"
+    sleep 0.1
+done
+wait "$pid"; rc=$?
+[ "$rc" -eq 0 ] || fail "pmview exited with $rc after Escape"
+echo "inner: ok"
+EOF
+
+# shellcheck disable=SC2086 # args is a fixed word list
+setsid xvfb-run -a -s "-screen 0 1024x768x24" sh "$tmp/inner.sh" "$tmp" $args >"$tmp/xvfb.log" 2>&1 &
+xpid=$!
+# setsid made xvfb-run a session (and group) leader; never take our own group by mistake
+g=$(ps -o pgid= -p "$xpid" 2>/dev/null | tr -d ' ')
+[ -n "$g" ] && [ "$g" != "$(ps -o pgid= -p $$ | tr -d ' ')" ] && group=$g
+# the inner script bounds each of its waits; this bounds the whole in case Xvfb itself hangs
+i=0
+while kill -0 "$xpid" 2>/dev/null; do
+    i=$((i + 1))
+    if [ "$i" -gt 1800 ]; then
+        echo "test_window: FAILED: xvfb-run still running after 180 s"; cat "$tmp/xvfb.log"; exit 1
+    fi
+    sleep 0.1
+done
+wait "$xpid"; rc=$?
+cat "$tmp/xvfb.log"
+if [ "$rc" -ne 0 ] || ! grep -q "^inner: ok" "$tmp/xvfb.log"; then
+    echo "test_window: FAILED: the window session failed (exit $rc)"
+    exit 1
+fi
+group=""
+
+# shellcheck disable=SC2086
+if ! ./pmview $args --snapshot "$tmp/snapshot.png" >"$tmp/snapshot.log" 2>&1; then
+    cat "$tmp/snapshot.log"; echo "test_window: FAILED: the offscreen snapshot failed"; exit 1
+fi
+fails=0
+python3 tests/png_compare.py same "$tmp/first.png" "$tmp/snapshot.png" 1 ||
+    { fails=$((fails + 1)); echo "FAIL: the window's screenshot differs from the offscreen snapshot"; }
+python3 tests/png_compare.py darker "$tmp/first.png" "$tmp/no-indirect.png" ||
+    { fails=$((fails + 1)); echo "FAIL: the screenshot after '4' (indirect off) is not darker"; }
+echo "test_window: window session ok (render, P, 4, Esc); 2 comparisons, $fails failed"
+[ "$fails" -eq 0 ]
