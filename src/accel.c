@@ -6,6 +6,7 @@
 #include "accel.h"
 
 #include <embree3/rtcore.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -14,7 +15,7 @@
 struct pm_accel {
     RTCDevice device;
     RTCScene scene;
-    size_t bytes;
+    _Atomic long long bytes; /* Embree reports from its build threads */
     double build_seconds;
     /* Rejects hits at t == 0: an offset origin can still lie exactly in the plane of a
      * neighbouring wall (corner hits, float grids far from the origin), and such a hit would
@@ -30,7 +31,7 @@ static double now_seconds(void) {
 
 static bool track_memory(void *user, ssize_t bytes, bool post) {
     pm_accel *a = user;
-    a->bytes += (size_t)bytes; /* negative on release: wraps back correctly */
+    atomic_fetch_add(&a->bytes, (long long)bytes); /* negative on release */
     return true;
 }
 
@@ -120,7 +121,10 @@ bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax) {
     return r.tfar < 0.f; /* Embree sets tfar to -inf on a hit */
 }
 
-size_t pm_accel_bytes(const pm_accel *a) { return a->bytes; }
+size_t pm_accel_bytes(const pm_accel *a) {
+    long long b = atomic_load(&((pm_accel *)a)->bytes);
+    return b > 0 ? (size_t)b : 0;
+}
 double pm_accel_build_seconds(const pm_accel *a) { return a->build_seconds; }
 
 double pm_accel_bench_raw(const pm_accel *a, const vec3 *origins, const vec3 *dirs, size_t n, size_t *hits) {

@@ -1,4 +1,5 @@
 /* test_cornell.c: the default scene end to end: expected colours, no NaN or negative value, components summing to the EXR total. */
+#define _DEFAULT_SOURCE /* mkstemps */
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -36,7 +37,8 @@ int main(void) {
     CHECK(s.emitter_count > 0 && !s.sky, "lit by its ceiling lamp, no default sky");
     CHECK(s.analysis.has_mirror && s.analysis.has_glass && s.analysis.caustics_possible, "mirror and glass balls: caustics possible");
     pm_accel *a = pm_accel_create(&s, err, sizeof err);
-    pm_photon_settings ps = {100000, 100000, 1, 2, 32, true};
+    pm_photon_settings ps = {.global_photons = 100000, .caustic_photons = 100000, .seed = 1, .threads = 2,
+                             .max_bounces = 32, .projection_maps = true};
     pm_photon_maps maps;
     CHECK(pm_photon_maps_build(&s, a, &ps, &maps, NULL), "photon maps");
     CHECK(maps.caustic.count > 0 && maps.global.count > 0, "both maps built");

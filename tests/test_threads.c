@@ -33,7 +33,9 @@ int main(void) {
     pm_film films[3];
     pm_photon_maps maps[3];
     for (int t = 0; t < 3; t++) {
-        pm_photon_settings ps = {20000, 20000, 77, t + 1, 16, true};
+        pm_photon_settings ps = {.global_photons = 20000, .caustic_photons = 20000, .seed = 77, .threads = t + 1,
+                                 .max_bounces = 16, .projection_maps = true, .irradiance_stride = 4,
+                                 .irradiance_estimate = {PM_KERNEL_DISC, 32, 0.5f, 7u}};
         CHECK(pm_photon_maps_build(&s, a, &ps, &maps[t], NULL), "photon maps");
         pm_film_init(&films[t], 40, 36, s.analysis.component_possible);
         pm_eye_settings set;
