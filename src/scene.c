@@ -219,10 +219,14 @@ void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_su
 }
 
 vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale) {
+    /* The pull toward the centroid must stay in the triangle's plane: pm_offset_ray_origin's
+     * per-coordinate steps (ulps here, a scale step there) would bend it off the plane by more
+     * than the normal offset, and a ray leaving glass would start back inside. */
     vec3 inward = v3_sub(sf->centroid, sf->p);
-    float len = v3_length(inward);
-    vec3 p = sf->p;
-    if (len > 0.f) p = pm_offset_ray_origin(p, v3_scale(inward, 1.f / len), scale);
+    float m = fmaxf(fabsf(sf->p.x), fmaxf(fabsf(sf->p.y), fabsf(sf->p.z)));
+    float ulp = nextafterf(m, INFINITY) - m;
+    float len = v3_length(inward), step = fminf(0.5f * len, fmaxf(scale * (1.f / 65536.f), 32.f * ulp));
+    vec3 p = len > 0.f ? v3_madd(sf->p, inward, step / len) : sf->p;
     return pm_offset_ray_origin(p, side_normal, scale);
 }
 

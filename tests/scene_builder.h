@@ -52,6 +52,22 @@ static inline void sb_quad(pm_scene *s, vec3 a, vec3 b, vec3 c, vec3 d, uint32_t
     sb_triangle(s, a, c, d, material);
 }
 
+/* A UV sphere of `segments` around and segments/2 rings, faces pointing out (flat normals). */
+static inline void sb_sphere(pm_scene *s, vec3 center, float radius, int segments, uint32_t material) {
+    int rings = segments / 2;
+    for (int r = 0; r < rings; r++)
+        for (int k = 0; k < segments; k++) {
+            vec3 q[4];
+            for (int c = 0; c < 4; c++) {
+                float th = PM_PI * (float)(r + (c >> 1)) / rings, ph = 2.f * PM_PI * (float)(k + ((c ^ (c >> 1)) & 1)) / segments;
+                q[c] = v3_add(center, v3_scale(v3(sinf(th) * cosf(ph), cosf(th), sinf(th) * sinf(ph)), radius));
+            }
+            /* q0 (r,k) q1 (r,k+1) q2 (r+1,k+1) q3 (r+1,k): counter-clockwise seen from outside is q0,q3,q2,q1 */
+            if (r > 0) sb_triangle(s, q[0], q[2], q[1], material);
+            if (r < rings - 1) sb_triangle(s, q[0], q[3], q[2], material);
+        }
+}
+
 /* Axis-aligned box whose faces point inward (a room) when inward is true. */
 static inline void sb_box(pm_scene *s, vec3 lo, vec3 hi, uint32_t material, bool inward) {
     vec3 c[8];

@@ -68,7 +68,57 @@ static void check_scale(float scale, vec3 center) {
     pm_scene_free(&s);
 }
 
+/* Rays crossing a tessellated glass-like sphere: in through one side, out through the other.
+ * Offsets must put each new origin on the side the ray leaves to, whatever the triangle's
+ * orientation: a curved surface is where a sloppy in-plane nudge leaves the origin behind. */
+static void check_sphere_crossings(float radius, vec3 center) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    uint32_t m = sb_material(&s, v3s(1.f), 0.f, 0.f, 1.f, v3s(0.f), false);
+    sb_sphere(&s, center, radius, 64, m);
+    pm_scene_finalize(&s, false, NULL);
+    char err[256];
+    pm_accel *a = pm_accel_create(&s, err, sizeof err);
+    CHECK(a != NULL, "accel: %s", err);
+    if (!a) return;
+    int crossings = 0, wrong_side = 0, stuck = 0;
+    pm_rng rng = pm_rng_for(9, 3, 4);
+    for (int i = 0; i < 4000; i++) {
+        vec3 target = v3_add(center, v3_scale(pm_sample_sphere(pm_rng_float(&rng), pm_rng_float(&rng)), 0.9f * radius));
+        vec3 o = v3_add(center, v3_scale(pm_sample_sphere(pm_rng_float(&rng), pm_rng_float(&rng)), 3.f * radius));
+        vec3 d = v3_normalize(v3_sub(target, o));
+        for (int side = 0; side < 2; side++) {
+            pm_hit h;
+            if (!pm_accel_intersect(a, o, d, INFINITY, &h)) { stuck++; break; }
+            pm_surface sf;
+            pm_scene_surface(&s, h.tri, h.b1, h.b2, &sf);
+            vec3 beyond = v3_dot(sf.ng, d) > 0.f ? sf.ng : v3_neg(sf.ng); /* the side the ray goes on to */
+            o = pm_surface_origin(&sf, beyond, s.ray_scale);
+            if (v3_dot(v3_sub(o, sf.p), beyond) <= 0.f) wrong_side++;
+            /* leave in a random direction on that side, down to grazing */
+            d = pm_sample_cosine(beyond, pm_rng_float(&rng), pm_rng_float(&rng));
+            if (i % 4 == 3) d = v3_normalize(v3_madd(d, beyond, -0.99f * v3_dot(d, beyond)));
+            pm_hit next;
+            bool again = pm_accel_intersect(a, o, d, INFINITY, &next);
+            if (side == 0 && (!again || (next.tri == h.tri && next.t < 1e-3f * radius))) stuck++;
+            if (side == 1 && again) stuck++; /* outside a convex ball, nothing is left to hit */
+            if (side == 0 && again) d = v3_normalize(v3_sub(v3_add(o, v3_scale(d, next.t)), o));
+            crossings++;
+        }
+    }
+    CHECK(wrong_side == 0, "%d of %d offset origins on the wrong side of a sphere (radius %g, centre %g)", wrong_side,
+          crossings, radius, center.x);
+    CHECK(stuck == 0, "%d of %d crossings re-hit their own triangle or missed the far side (radius %g, centre %g)", stuck,
+          crossings, radius, center.x);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
+    check_sphere_crossings(0.3f, v3(0.f, 0.35f, 0.f));
+    check_sphere_crossings(0.3f, v3(3.f, -2.f, 1.f));
+    check_sphere_crossings(300.f, v3(1e4f, 0.f, 0.f));
+    check_sphere_crossings(3e-4f, v3(0.f, 0.f, 0.f));
     check_scale(1.f, v3s(0.f));
     check_scale(1e-3f, v3s(0.f));
     check_scale(1e3f, v3s(0.f));
