@@ -36,9 +36,12 @@ tmp=$1; shift
 log="$tmp/pmview.log"
 fail() { echo "inner: $*"; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- pmview log:"; cat "$log"; exit 1; }
 # wait_for PATTERN COUNT SECONDS: until the log has COUNT lines matching PATTERN
+# (before pmview has written a line the log may not exist: grep then prints nothing, and a
+# bare [ on an empty string would end the wait at once)
+count() { c=$(grep -c "$1" "$log" 2>/dev/null); echo "${c:-0}"; }
 wait_for() {
     i=0
-    while [ "$(grep -c "$1" "$log" 2>/dev/null)" -lt "$2" ]; do
+    while [ "$(count "$1")" -lt "$2" ]; do
         kill -0 "$pid" 2>/dev/null || fail "pmview exited before '$1'"
         i=$((i + 1)); [ "$i" -gt $(($3 * 10)) ] && fail "no '$1' after $3 s"
         sleep 0.1
