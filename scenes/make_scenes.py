@@ -103,14 +103,15 @@ def cornell_box(segments=48, light_strength=25.0, light_size=0.5):
 
 
 def caustic(segments=64, intensity=50.0):
-    """A point light above a glass ball on a large white floor."""
+    """A point light above and behind a glass ball on a large white floor, placed so that the
+    ball focuses its light onto floor the camera can see, beside the ball rather than under it."""
     meshes = [
         mesh("floor", quad([(-3, 0, 3), (3, 0, 3), (3, 0, -3), (-3, 0, -3)], (0, 1, 0)), {"kind": "diffuse", "color": (0.8, 0.8, 0.8)}),
         mesh("glass_ball", uv_sphere(segments, segments // 2), {"kind": "glass", "color": (1.0, 1.0, 1.0), "ior": 1.5},
              translation=(0.0, 0.35, 0.0), scale=0.3),
     ]
     camera = {"eye": (0.0, 2.0, 2.2), "target": (0.0, 0.1, 0.0), "yfov": math.radians(40.0), "aspect": 1.0}
-    lights = [{"type": "point", "position": (0.0, 1.8, 0.0), "color": (1.0, 1.0, 1.0), "intensity": intensity}]
+    lights = [{"type": "point", "position": (-1.2, 1.6, -0.6), "color": (1.0, 1.0, 1.0), "intensity": intensity}]
     return {"meshes": meshes, "camera": camera, "lights": lights}
 
 
