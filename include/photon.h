@@ -60,10 +60,10 @@ static inline void pm_rgbe_encode(vec3 c, uint8_t out[4]) {
     int e;
     float scale = frexpf(m, &e) * 256.f / m;
     /* rounding to nearest halves the quantisation bias of truncation */
-    float r = fminf(c.x * scale + 0.5f, 255.f), g = fminf(c.y * scale + 0.5f, 255.f), b = fminf(c.z * scale + 0.5f, 255.f);
-    out[0] = (uint8_t)fmaxf(r, 0.f);
-    out[1] = (uint8_t)fmaxf(g, 0.f);
-    out[2] = (uint8_t)fmaxf(b, 0.f);
+    float r = pm_minf(c.x * scale + 0.5f, 255.f), g = pm_minf(c.y * scale + 0.5f, 255.f), b = pm_minf(c.z * scale + 0.5f, 255.f);
+    out[0] = (uint8_t)pm_maxf(r, 0.f);
+    out[1] = (uint8_t)pm_maxf(g, 0.f);
+    out[2] = (uint8_t)pm_maxf(b, 0.f);
     out[3] = (uint8_t)(e + 128);
 }
 

@@ -16,6 +16,11 @@
 
 typedef struct { float x, y, z; } vec3;
 
+/* Plain compares, so they compile to one instruction: fminf/fmaxf are library calls unless NaN
+ * handling is given up for the whole program, and these never see NaN (inputs are validated). */
+static inline float pm_minf(float a, float b) { return a < b ? a : b; }
+static inline float pm_maxf(float a, float b) { return a > b ? a : b; }
+
 static inline vec3 v3(float x, float y, float z) { vec3 r = {x, y, z}; return r; }
 static inline vec3 v3s(float s) { return v3(s, s, s); }
 static inline vec3 v3_add(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
@@ -33,9 +38,9 @@ static inline vec3 v3_normalize(vec3 a) {
     float l = v3_length(a);
     return l > 0.f ? v3_scale(a, 1.f / l) : v3(0.f, 0.f, 1.f);
 }
-static inline vec3 v3_min(vec3 a, vec3 b) { return v3(fminf(a.x, b.x), fminf(a.y, b.y), fminf(a.z, b.z)); }
-static inline vec3 v3_max(vec3 a, vec3 b) { return v3(fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)); }
-static inline float v3_max_component(vec3 a) { return fmaxf(a.x, fmaxf(a.y, a.z)); }
+static inline vec3 v3_min(vec3 a, vec3 b) { return v3(pm_minf(a.x, b.x), pm_minf(a.y, b.y), pm_minf(a.z, b.z)); }
+static inline vec3 v3_max(vec3 a, vec3 b) { return v3(pm_maxf(a.x, b.x), pm_maxf(a.y, b.y), pm_maxf(a.z, b.z)); }
+static inline float v3_max_component(vec3 a) { return pm_maxf(a.x, pm_maxf(a.y, a.z)); }
 static inline float v3_average(vec3 a) { return (a.x + a.y + a.z) * (1.f / 3.f); }
 static inline bool v3_is_black(vec3 a) { return a.x == 0.f && a.y == 0.f && a.z == 0.f; }
 static inline bool v3_is_finite(vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
@@ -57,7 +62,7 @@ static inline vec3 v3_reflect(vec3 d, vec3 n) { return v3_sub(d, v3_scale(n, 2.f
 /* Cosine-distributed direction around n from two uniform numbers. */
 static inline vec3 pm_sample_cosine(vec3 n, float u1, float u2) {
     float r = sqrtf(u1), phi = 2.f * PM_PI * u2;
-    float x = r * cosf(phi), y = r * sinf(phi), z = sqrtf(fmaxf(0.f, 1.f - u1));
+    float x = r * cosf(phi), y = r * sinf(phi), z = sqrtf(pm_maxf(0.f, 1.f - u1));
     vec3 t, b;
     v3_basis(n, &t, &b);
     return v3_add(v3_add(v3_scale(t, x), v3_scale(b, y)), v3_scale(n, z));
@@ -74,7 +79,7 @@ static inline void pm_sample_disc(float u1, float u2, float *x, float *y) {
 }
 
 static inline vec3 pm_sample_sphere(float u1, float u2) {
-    float z = 1.f - 2.f * u1, r = sqrtf(fmaxf(0.f, 1.f - z * z)), phi = 2.f * PM_PI * u2;
+    float z = 1.f - 2.f * u1, r = sqrtf(pm_maxf(0.f, 1.f - z * z)), phi = 2.f * PM_PI * u2;
     return v3(r * cosf(phi), r * sinf(phi), z);
 }
 

@@ -41,8 +41,8 @@ static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_ne
 /* glTF's recommended spot cone falloff. */
 static float spot_falloff(const pm_light *l, vec3 light_to_point) {
     float cd = v3_dot(l->direction, light_to_point);
-    float scale = 1.f / fmaxf(1e-3f, l->cos_inner - l->cos_outer);
-    float t = fminf(fmaxf(cd * scale - l->cos_outer * scale, 0.f), 1.f);
+    float scale = 1.f / pm_maxf(1e-3f, l->cos_inner - l->cos_outer);
+    float t = pm_minf(pm_maxf(cd * scale - l->cos_outer * scale, 0.f), 1.f);
     return t * t;
 }
 
@@ -124,9 +124,9 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
 
 /* Unpolarised Fresnel reflectance of a smooth dielectric; cos_i > 0 on the incident side. */
 static float fresnel_dielectric(float cos_i, float eta_i, float eta_t, float *cos_t) {
-    float sin_t = eta_i / eta_t * sqrtf(fmaxf(0.f, 1.f - cos_i * cos_i));
+    float sin_t = eta_i / eta_t * sqrtf(pm_maxf(0.f, 1.f - cos_i * cos_i));
     if (sin_t >= 1.f) { *cos_t = 0.f; return 1.f; }
-    float ct = sqrtf(fmaxf(0.f, 1.f - sin_t * sin_t));
+    float ct = sqrtf(pm_maxf(0.f, 1.f - sin_t * sin_t));
     float rs = (eta_i * cos_i - eta_t * ct) / (eta_i * cos_i + eta_t * ct);
     float rp = (eta_t * cos_i - eta_i * ct) / (eta_t * cos_i + eta_i * ct);
     *cos_t = ct;
@@ -167,7 +167,7 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, p
             weight = v3_mul(weight, v3_scale(y.kt, (wm + wt) / wt));
             bool front = v3_dot(y.ng, wo) > 0.f;
             float eta_i = front ? 1.f : y.ior, eta_t = front ? y.ior : 1.f, cos_t;
-            float cos_i = fminf(1.f, v3_dot(wo, yns));
+            float cos_i = pm_minf(1.f, v3_dot(wo, yns));
             float f = fresnel_dielectric(cos_i, eta_i, eta_t, &cos_t);
             if (pm_rng_float(rng) < f) {
                 vec3 r = v3_reflect(d, yns);
@@ -252,7 +252,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 ou
         } else {
             throughput = v3_mul(throughput, v3_scale(sf.kt, (w_mirror + w_glass) / w_glass));
             float eta_i = front ? 1.f : sf.ior, eta_t = front ? sf.ior : 1.f;
-            float cos_i = fminf(1.f, v3_dot(wo, ns)), cos_t;
+            float cos_i = pm_minf(1.f, v3_dot(wo, ns)), cos_t;
             float f = fresnel_dielectric(cos_i, eta_i, eta_t, &cos_t);
             if (pm_rng_float(rng) < f) {
                 d = v3_reflect(d, ns);
@@ -269,7 +269,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 ou
         }
         /* Past a few bounces, roulette on throughput keeps long glass paths cheap and unbiased. */
         if (depth >= 4) {
-            float q = fminf(0.95f, v3_max_component(throughput));
+            float q = pm_minf(0.95f, v3_max_component(throughput));
             if (pm_rng_float(rng) >= q) return;
             throughput = v3_scale(throughput, 1.f / q);
         }

@@ -60,8 +60,8 @@ static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_ne
 
 static float spot_falloff(const pm_light *l, vec3 light_to_point) {
     float cd = v3_dot(l->direction, light_to_point);
-    float scale = 1.f / fmaxf(1e-3f, l->cos_inner - l->cos_outer);
-    float t = fminf(fmaxf(cd * scale - l->cos_outer * scale, 0.f), 1.f);
+    float scale = 1.f / pm_maxf(1e-3f, l->cos_inner - l->cos_outer);
+    float t = pm_minf(pm_maxf(cd * scale - l->cos_outer * scale, 0.f), 1.f);
     return t * t;
 }
 
@@ -156,7 +156,7 @@ static sphere *specular_spheres(const pm_scene *s, uint32_t *count) {
 }
 
 static vec3 cell_direction(int iz, int iphi, float fz, float fphi) {
-    float z = 1.f - 2.f * ((iz + fz) / PROJ_Z), r = sqrtf(fmaxf(0.f, 1.f - z * z));
+    float z = 1.f - 2.f * ((iz + fz) / PROJ_Z), r = sqrtf(pm_maxf(0.f, 1.f - z * z));
     float phi = 2.f * PM_PI * (iphi + fphi) / PROJ_PHI;
     return v3(r * cosf(phi), r * sinf(phi), z);
 }
@@ -172,15 +172,15 @@ static void build_projection_map(light_source *l, const sphere *spheres, uint32_
         for (int ip = 0; ip < PROJ_PHI; ip++) {
             vec3 c = cell_direction(iz, ip, 0.5f, 0.5f);
             float cell_cos = 1.f;
-            for (int k = 0; k < 4; k++) cell_cos = fminf(cell_cos, v3_dot(c, cell_direction(iz, ip, (float)(k & 1), (float)(k >> 1))));
-            float cell_angle = acosf(fmaxf(-1.f, fminf(1.f, cell_cos))) * 1.05f + 1e-3f;
+            for (int k = 0; k < 4; k++) cell_cos = pm_minf(cell_cos, v3_dot(c, cell_direction(iz, ip, (float)(k & 1), (float)(k >> 1))));
+            float cell_angle = acosf(pm_maxf(-1.f, pm_minf(1.f, cell_cos))) * 1.05f + 1e-3f;
             bool hit = false;
             for (uint32_t i = 0; i < sphere_count && !hit; i++) {
                 vec3 to = v3_sub(spheres[i].center, l->center);
                 float d = v3_length(to), r = spheres[i].radius + l->radius;
                 if (d <= r) { hit = true; break; }
                 float half = asinf(r / d);
-                float angle = acosf(fmaxf(-1.f, fminf(1.f, v3_dot(c, v3_scale(to, 1.f / d)))));
+                float angle = acosf(pm_maxf(-1.f, pm_minf(1.f, v3_dot(c, v3_scale(to, 1.f / d)))));
                 hit = angle <= half + cell_angle;
             }
             if (hit) {
@@ -248,7 +248,7 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
         *o = pl->position;
         if (pl->type == PM_LIGHT_SPOT && !l->cells) {
             /* uniform in the outer cone */
-            float z = 1.f - pm_rng_float(rng) * (1.f - pl->cos_outer), r = sqrtf(fmaxf(0.f, 1.f - z * z));
+            float z = 1.f - pm_rng_float(rng) * (1.f - pl->cos_outer), r = sqrtf(pm_maxf(0.f, 1.f - z * z));
             float phi = 2.f * PM_PI * pm_rng_float(rng);
             vec3 t, b;
             v3_basis(pl->direction, &t, &b);
@@ -279,7 +279,7 @@ static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings
 
 static void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path) {
     if (list->count == list->capacity) {
-        list->capacity = list->capacity ? 2 * list->capacity : 1024;
+        list->capacity = list->capacity ? 2 * list->capacity : 2 * CHUNK; /* about one record per photon traced */
         list->data = realloc(list->data, sizeof(pm_photon) * list->capacity);
     }
     pm_photon_set(&list->data[list->count++], p, n, d, power, path);
@@ -343,11 +343,11 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                 power = v3_scale(v3_mul(power, sf.kt), 1.f / St);
                 bool front = v3_dot(sf.ng, d) < 0.f;
                 float eta_i = front ? 1.f : sf.ior, eta_t = front ? sf.ior : 1.f;
-                float cos_i = fminf(1.f, -v3_dot(d, ns)), cos_t;
-                float sin_t = eta_i / eta_t * sqrtf(fmaxf(0.f, 1.f - cos_i * cos_i));
+                float cos_i = pm_minf(1.f, -v3_dot(d, ns)), cos_t;
+                float sin_t = eta_i / eta_t * sqrtf(pm_maxf(0.f, 1.f - cos_i * cos_i));
                 float f = 1.f;
                 if (sin_t < 1.f) {
-                    cos_t = sqrtf(fmaxf(0.f, 1.f - sin_t * sin_t));
+                    cos_t = sqrtf(pm_maxf(0.f, 1.f - sin_t * sin_t));
                     float rs = (eta_i * cos_i - eta_t * cos_t) / (eta_i * cos_i + eta_t * cos_t);
                     float rp = (eta_t * cos_i - eta_i * cos_t) / (eta_t * cos_i + eta_i * cos_t);
                     f = 0.5f * (rs * rs + rp * rp);

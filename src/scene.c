@@ -223,9 +223,13 @@ vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale) {
      * per-coordinate steps (ulps here, a scale step there) would bend it off the plane by more
      * than the normal offset, and a ray leaving glass would start back inside. */
     vec3 inward = v3_sub(sf->centroid, sf->p);
-    float m = fmaxf(fabsf(sf->p.x), fmaxf(fabsf(sf->p.y), fabsf(sf->p.z)));
-    float ulp = nextafterf(m, INFINITY) - m;
-    float len = v3_length(inward), step = fminf(0.5f * len, fmaxf(scale * (1.f / 65536.f), 32.f * ulp));
+    float m = pm_maxf(fabsf(sf->p.x), pm_maxf(fabsf(sf->p.y), fabsf(sf->p.z)));
+    uint32_t bits;
+    memcpy(&bits, &m, 4);
+    bits += 32; /* m + 32 ulps (m is finite and not negative) */
+    float m32;
+    memcpy(&m32, &bits, 4);
+    float len = v3_length(inward), step = pm_minf(0.5f * len, pm_maxf(scale * (1.f / 65536.f), m32 - m));
     vec3 p = len > 0.f ? v3_madd(sf->p, inward, step / len) : sf->p;
     return pm_offset_ray_origin(p, side_normal, scale);
 }
