@@ -54,11 +54,22 @@ static inline vec3 pm_oct_decode_bits(uint16_t code, int bits) {
 static inline uint16_t pm_oct_encode(vec3 n) { return pm_oct_encode_bits(n, 8); }
 static inline vec3 pm_oct_decode(uint16_t code) { return pm_oct_decode_bits(code, 8); }
 
+/* 2^e for a normal float exponent, -126 <= e <= 127, built from its bits. */
+static inline float pm_pow2i(int e) {
+    uint32_t b = (uint32_t)(e + 127) << 23;
+    float f;
+    memcpy(&f, &b, 4);
+    return f;
+}
+
 static inline void pm_rgbe_encode(vec3 c, uint8_t out[4]) {
     float m = v3_max_component(c);
     if (!(m > 1e-32f) || !isfinite(m)) { out[0] = out[1] = out[2] = out[3] = 0; return; }
-    int e;
-    float scale = frexpf(m, &e) * 256.f / m;
+    /* m is a normal float here: frexp's exponent read from the bits, without a libm call */
+    uint32_t mb;
+    memcpy(&mb, &m, 4);
+    int e = (int)((mb >> 23) & 0xffu) - 126; /* m = f x 2^e with f in [0.5, 1) */
+    float scale = pm_pow2i(8 - e);
     /* rounding to nearest halves the quantisation bias of truncation */
     float r = pm_minf(c.x * scale + 0.5f, 255.f), g = pm_minf(c.y * scale + 0.5f, 255.f), b = pm_minf(c.z * scale + 0.5f, 255.f);
     out[0] = (uint8_t)pm_maxf(r, 0.f);
@@ -69,7 +80,8 @@ static inline void pm_rgbe_encode(vec3 c, uint8_t out[4]) {
 
 static inline vec3 pm_rgbe_decode(const uint8_t in[4]) {
     if (in[3] == 0) return v3s(0.f);
-    float f = ldexpf(1.f, (int)in[3] - (128 + 8));
+    int e = (int)in[3] - (128 + 8);
+    float f = e >= -126 ? pm_pow2i(e) : ldexpf(1.f, e);
     return v3(in[0] * f, in[1] * f, in[2] * f);
 }
 

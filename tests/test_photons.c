@@ -3,6 +3,7 @@
 #include "eye.h"
 #include "film.h"
 #include "photonmap.h"
+#include "rng.h"
 #include "scene_builder.h"
 #include "testing.h"
 
@@ -191,7 +192,39 @@ static void white_furnace(float rho, int irradiance_stride) {
     pm_scene_free(&s);
 }
 
+/* The 20-byte record: shared-exponent power within half a step of 1/256 of its largest channel
+ * (at any magnitude), directions (8 bits per axis) and normals (7 bits) within the octahedral
+ * codes' resolution. */
+static void record_round_trip(void) {
+    pm_rng rng = pm_rng_for(5, 5, 5);
+    int power_bad = 0, exponent_bad = 0, direction_bad = 0, normal_bad = 0;
+    for (int i = 0; i < 20000; i++) {
+        float mag = ldexpf(1.f, (int)(pm_rng_float(&rng) * 200.f) - 100);
+        vec3 c = v3_scale(v3(pm_rng_float(&rng), pm_rng_float(&rng), pm_rng_float(&rng)), mag);
+        vec3 d = pm_sample_sphere(pm_rng_float(&rng), pm_rng_float(&rng)), n = pm_sample_sphere(pm_rng_float(&rng), pm_rng_float(&rng));
+        pm_photon ph;
+        pm_photon_set(&ph, v3(1, 2, 3), n, d, c, PM_PATH_INDIRECT);
+        vec3 back = pm_photon_power(&ph);
+        float m = v3_max_component(c), step = m / 128.f; /* 1/256 of [m/2, m) scaled to m: at most m/256 per step */
+        if (fabsf(back.x - c.x) > 0.5f * step || fabsf(back.y - c.y) > 0.5f * step || fabsf(back.z - c.z) > 0.5f * step) power_bad++;
+        int e;
+        frexpf(m, &e);
+        if (m > 1e-32f && ph.power[3] != e + 128) exponent_bad++;
+        if (v3_dot(pm_photon_direction(&ph), d) < cosf(0.018f)) direction_bad++; /* worst seen in 2M: 0.0165 rad */
+        if (v3_dot(pm_photon_normal(&ph), n) < cosf(0.036f)) normal_bad++;    /* 7 bits: 0.0331 rad */
+        if (pm_photon_path(&ph) != PM_PATH_INDIRECT) normal_bad++;
+    }
+    CHECK(power_bad == 0, "%d of 20000 powers off by more than half a quantisation step", power_bad);
+    CHECK(exponent_bad == 0, "%d of 20000 shared exponents differ from frexp's", exponent_bad);
+    CHECK(direction_bad == 0, "%d of 20000 directions off by more than 0.018 rad", direction_bad);
+    CHECK(normal_bad == 0, "%d of 20000 normals (or path tags) off", normal_bad);
+    pm_photon z;
+    pm_photon_set(&z, v3(0, 0, 0), v3(0, 0, 1), v3(0, 0, -1), v3s(0.f), PM_PATH_DIRECT);
+    CHECK(v3_is_black(pm_photon_power(&z)), "zero power stays zero");
+}
+
 int main(void) {
+    record_round_trip();
     power_bookkeeping();
     inverse_square();
     glass_ball_caustic();
