@@ -67,11 +67,14 @@ test: deps
 	@$(MAKE) --no-print-directory -j2 tests-build
 	@sh tests/run_tests.sh
 
-bench: deps pmview build/rel/bench_pm
+bench: deps pmview build/rel/bench_pm build/rel/caustic_error
 	@sh bench/run_bench.sh
 
 build/rel/bench_pm: bench/bench_pm.c build/rel/libpm.a
 	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
+
+build/rel/caustic_error: bench/caustic_error.c tests/caustic_region.h build/rel/libpm.a
+	$(CC) $(CFLAGS) -Itests $< build/rel/libpm.a -o $@ $(LIBS)
 
 clean:
 	rm -rf build pmview

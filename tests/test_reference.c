@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "accel.h"
+#include "caustic_region.h"
 #include "eye.h"
 #include "film.h"
 #include "image_io.h"
@@ -139,36 +140,15 @@ int main(void) {
             pm_film_resolve(&r.film, PM_DIRECT, direct);
             pm_film_resolve(&r.film, PM_SPECULAR, specular);
             pm_film_resolve_total(&r.film, ours);
-            /* The region is the floor in the point light's full shadow, seen directly: no
-             * direct light and no glass in any sample of the pixel. Chosen by geometry, not by
-             * our own noisy caustic, so noise cannot select the pixels it brightened. Light there
-             * is the caustic plus a little indirect light, in both renderers. The 3x3 pixels
-             * around the reference's brightest one are left out: the ball's focus is a
-             * singularity of the irradiance, where a pixel's value depends on how far a density
-             * estimate spreads it, while the rest of the caustic must match. */
-            size_t focus = 0;
-            for (size_t i = 1; i < n; i++) if (caustic_ref.rgb[0][i] > caustic_ref.rgb[0][focus]) focus = i;
-            int fx = (int)(focus % (size_t)caustic_ref.w), fy = (int)(focus / (size_t)caustic_ref.w);
-            double ours_sum = 0, ref_sum = 0, caustic_sum = 0, focus_ours = 0, focus_ref = 0;
-            size_t count = 0;
-            for (size_t i = 0; i < n; i++) {
-                if (direct[3 * i] != 0.f || specular[3 * i] != 0.f || ours[3 * i] <= 0.f) continue;
-                double o = ours[3 * i] + ours[3 * i + 1] + ours[3 * i + 2];
-                double rf = caustic_ref.rgb[0][i] + caustic_ref.rgb[1][i] + caustic_ref.rgb[2][i];
-                int x = (int)(i % (size_t)caustic_ref.w), y = (int)(i / (size_t)caustic_ref.w);
-                if (abs(x - fx) <= 1 && abs(y - fy) <= 1) { focus_ours += o; focus_ref += rf; continue; }
-                ours_sum += o;
-                ref_sum += rf;
-                caustic_sum += caustic[3 * i] + caustic[3 * i + 1] + caustic[3 * i + 2];
-                count++;
-            }
-            printf("caustic scene: focus (%d,%d) 3x3 ours/ref = %.4f\n", fx, fy, focus_ours / focus_ref);
+            caustic_region m = caustic_region_measure(caustic_ref.w, caustic_ref.h, ours, direct, specular, caustic,
+                                                      (const float *const *)caustic_ref.rgb);
+            printf("caustic scene: focus (%d,%d) 3x3 ours/ref = %.4f\n", m.focus_x, m.focus_y, m.focus_ours / m.focus_ref);
             printf("caustic scene, floor in full shadow without the focus: %zu pixels, ours/ref = %.4f (caustic layer %.1f%% of ours)\n",
-                   count, ours_sum / ref_sum, 100.0 * caustic_sum / ours_sum);
-            CHECK(count >= 50, "a shadow region exists (%zu pixels)", count);
-            CHECK(caustic_sum > 0.8 * ours_sum, "the shadow is lit by the caustic");
-            CHECK_NEAR(ours_sum, ref_sum, 0.02, 0, "caustic in the shadow vs Mitsuba ptracer");
-            CHECK_NEAR(focus_ours, focus_ref, 0.5, 0, "the focus, 3x3 pixels, vs Mitsuba ptracer (a singularity: only its magnitude)");
+                   m.pixels, m.ours / m.ref, 100.0 * m.caustic / m.ours);
+            CHECK(m.pixels >= 50, "a shadow region exists (%zu pixels)", m.pixels);
+            CHECK(m.caustic > 0.8 * m.ours, "the shadow is lit by the caustic");
+            CHECK_NEAR(m.ours, m.ref, 0.02, 0, "caustic in the shadow vs Mitsuba ptracer");
+            CHECK_NEAR(m.focus_ours, m.focus_ref, 0.5, 0, "the focus, 3x3 pixels, vs Mitsuba ptracer (a singularity: only its magnitude)");
             free(direct);
             free(specular);
             free(ours);

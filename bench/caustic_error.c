@@ -1,0 +1,67 @@
+/* caustic_error.c: compares a pmview EXR of a point-light caustic with a reference's R,G,B over the floor in full shadow (tests/caustic_region.h).
+ *
+ *     ./pmview scenes/caustic.gltf --snapshot /tmp/c.exr --width 64 --height 64 --time 60
+ *     build/rel/caustic_error /tmp/c.exr tests/ref/caustic_ptracer_64.exr
+ *
+ * Prints `stat caustic_error pixels=N ratio=R focus_ratio=F caustic_share=S` (ratio: our sum over
+ * the region without the focus divided by the reference's). Exit 1 when a file cannot be read.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "caustic_region.h"
+#include "image_io.h"
+
+/* Interleaves a layer's three channels; a layer the file lacks (a component the scene rules out) is zero. */
+static float *read_rgb(const char *path, const char *layer, int *w, int *h, bool required) {
+    static const char *const suffix[3] = {"R", "G", "B"};
+    float *planes[3] = {NULL, NULL, NULL}, *rgb = NULL;
+    char name[64], err[512];
+    for (int c = 0; c < 3; c++) {
+        snprintf(name, sizeof name, "%s%s%s", layer, *layer ? "." : "", suffix[c]);
+        planes[c] = pm_read_exr_channel(path, name, w, h, err, sizeof err);
+        if (!planes[c]) {
+            if (required) fprintf(stderr, "caustic_error: %s\n", err);
+            break;
+        }
+    }
+    if (planes[2] || !required) {
+        size_t n = (size_t)*w * *h;
+        rgb = calloc(3 * n, sizeof(float));
+        for (size_t i = 0; planes[2] && i < n; i++)
+            for (int c = 0; c < 3; c++) rgb[3 * i + c] = planes[c][i];
+    }
+    for (int c = 0; c < 3; c++) free(planes[c]);
+    return rgb;
+}
+
+int main(int argc, char **argv) {
+    if (argc != 3) { fprintf(stderr, "usage: caustic_error OURS.exr REFERENCE.exr\n"); return 2; }
+    int w = 0, h = 0, rw = 0, rh = 0;
+    float *total = read_rgb(argv[1], "", &w, &h, true);
+    if (!total) return 1;
+    float *direct = read_rgb(argv[1], "direct", &w, &h, false), *specular = read_rgb(argv[1], "specular", &w, &h, false);
+    float *caustic = read_rgb(argv[1], "caustic", &w, &h, false), *ref = read_rgb(argv[2], "", &rw, &rh, true);
+    int rc = 1;
+    if (ref && (rw != w || rh != h)) {
+        fprintf(stderr, "caustic_error: %s is %dx%d but %s is %dx%d\n", argv[1], w, h, argv[2], rw, rh);
+    } else if (ref) {
+        size_t n = (size_t)w * h;
+        float *planes = malloc(sizeof(float) * 3 * n);
+        for (size_t i = 0; i < n; i++)
+            for (int c = 0; c < 3; c++) planes[c * n + i] = ref[3 * i + c];
+        const float *const ref_planes[3] = {planes, planes + n, planes + 2 * n};
+        caustic_region m = caustic_region_measure(w, h, total, direct, specular, caustic, ref_planes);
+        printf("stat caustic_error pixels=%zu ratio=%.4f focus_ratio=%.4f caustic_share=%.4f\n", m.pixels,
+               m.ref > 0 ? m.ours / m.ref : 0.0, m.focus_ref > 0 ? m.focus_ours / m.focus_ref : 0.0,
+               m.ours > 0 ? m.caustic / m.ours : 0.0);
+        free(planes);
+        rc = 0;
+    }
+    free(total);
+    free(direct);
+    free(specular);
+    free(caustic);
+    free(ref);
+    return rc;
+}
