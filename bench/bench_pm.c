@@ -2,7 +2,7 @@
  *
  * Usage: build/rel/bench_pm [SCENE.gltf] — prints "bench KEY=VALUE ..." lines (stable, for
  * scripts) and nothing else. Absolute rates on a shared machine are noisy; the ratios, each
- * measured back to back, are the figures to compare.
+ * measured back to back and as the best of three interleaved runs, are the figures to compare.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -114,32 +114,46 @@ int main(int argc, char **argv) {
     size_t ns = make_scattered_rays(&s, a, &cam, n, o, d);
     double raw_scattered = raw_rate(a, o, d, ns);
     printf("bench raw threads=1 eye_like_rays_per_second=%.0f scattered_rays_per_second=%.0f\n", raw1, raw_scattered);
-    double eye1 = eye_rate(&s, a, &cam, 1, 8), eye2 = eye_rate(&s, a, &cam, 2, 8);
+    /* best of three, 1 and 2 threads interleaved: another tenant's burst lowers a run, never raises it */
+    double eye1 = 0, eye2 = 0;
+    for (int rep = 0; rep < 3; rep++) {
+        double r1 = eye_rate(&s, a, &cam, 1, 8), r2 = eye_rate(&s, a, &cam, 2, 8);
+        if (r1 > eye1) eye1 = r1;
+        if (r2 > eye2) eye2 = r2;
+    }
     printf("bench eye threads=1 rays_per_second=%.0f raw_embree_rays_per_second=%.0f ratio_to_raw=%.3f\n", eye1, raw1, eye1 / raw1);
     printf("bench eye threads=2 rays_per_second=%.0f speedup=%.2f\n", eye2, eye2 / eye1);
 
-    double photon_rate[3] = {0, 0, 0}, photon_rays[3] = {0, 0, 0};
+    double photon_rate[3] = {0, 0, 0}, photon_rays[3] = {0, 0, 0}, kd_seconds[3] = {0, 0, 0};
+    uint64_t emitted = 0, stored = 0;
     pm_photon_maps maps;
     memset(&maps, 0, sizeof maps);
-    for (int threads = 1; threads <= 2; threads++) {
-        pm_photon_settings ps;
-        memset(&ps, 0, sizeof ps);
-        ps.global_photons = 500000;
-        ps.caustic_photons = 500000;
-        ps.seed = 1;
-        ps.threads = threads;
-        ps.max_bounces = 32;
-        ps.projection_maps = true;
-        pm_photon_stats st;
-        pm_photon_maps_free(&maps);
-        if (!pm_photon_maps_build(&s, a, &ps, &maps, &st)) { fprintf(stderr, "bench: photon build failed\n"); return 1; }
-        /* tracing only: the kd-tree build is measured on its own below */
-        photon_rate[threads] = st.emitted / st.trace_seconds;
-        photon_rays[threads] = st.rays / st.trace_seconds;
+    for (int rep = 0; rep < 3; rep++)
+        for (int threads = 1; threads <= 2; threads++) {
+            pm_photon_settings ps;
+            memset(&ps, 0, sizeof ps);
+            ps.global_photons = 500000;
+            ps.caustic_photons = 500000;
+            ps.seed = 1;
+            ps.threads = threads;
+            ps.max_bounces = 32;
+            ps.projection_maps = true;
+            pm_photon_stats st;
+            pm_photon_maps_free(&maps);
+            if (!pm_photon_maps_build(&s, a, &ps, &maps, &st)) { fprintf(stderr, "bench: photon build failed\n"); return 1; }
+            /* tracing only: the kd-tree build is measured on its own below */
+            if (st.emitted / st.trace_seconds > photon_rate[threads]) {
+                photon_rate[threads] = st.emitted / st.trace_seconds;
+                photon_rays[threads] = st.rays / st.trace_seconds;
+                kd_seconds[threads] = st.kdtree_seconds;
+            }
+            emitted = st.emitted;
+            stored = st.stored_global + st.stored_caustic;
+        }
+    for (int threads = 1; threads <= 2; threads++)
         printf("bench photons threads=%d emitted=%llu stored=%llu photons_per_second=%.0f rays_per_second=%.0f ratio_to_raw_scattered=%.3f kdtree_seconds=%.4f\n",
-               threads, (unsigned long long)st.emitted, (unsigned long long)(st.stored_global + st.stored_caustic),
-               photon_rate[threads], photon_rays[threads], photon_rays[threads] / (raw_scattered * threads), st.kdtree_seconds);
-    }
+               threads, (unsigned long long)emitted, (unsigned long long)stored, photon_rate[threads], photon_rays[threads],
+               photon_rays[threads] / (raw_scattered * threads), kd_seconds[threads]);
     printf("bench photons speedup=%.2f\n", photon_rate[2] / photon_rate[1]);
 
     /* kd-tree: rebuild the global map's photons (copied) and query at random stored positions */
@@ -152,19 +166,22 @@ int main(int argc, char **argv) {
             double b0 = now_seconds();
             pm_kdtree_build(&t, copy, count, threads);
             double build = now_seconds() - b0;
-            uint32_t idx[64];
-            float d2[64], r2;
-            pm_rng rng = pm_rng_for(3, 0, 0);
-            int queries = 200000;
-            double q0 = now_seconds();
-            size_t found = 0;
-            for (int q = 0; q < queries; q++) {
-                const pm_photon *ph = &t.photons[(size_t)(pm_rng_float(&rng) * count) % count];
-                found += pm_kdtree_nearest(&t, pm_photon_position(ph), 50, 1e30f, idx, d2, &r2);
+            printf("bench kdtree threads=%d photons=%zu build_photons_per_second=%.0f\n", threads, count, count / build);
+            if (threads == 2) {
+                /* queries are independent, one thread measures their cost (the eye pass runs them per thread) */
+                uint32_t idx[64];
+                float d2[64], r2;
+                pm_rng rng = pm_rng_for(3, 0, 0);
+                int queries = 200000;
+                double q0 = now_seconds();
+                size_t found = 0;
+                for (int q = 0; q < queries; q++) {
+                    const pm_photon *ph = &t.photons[(size_t)(pm_rng_float(&rng) * count) % count];
+                    found += pm_kdtree_nearest(&t, pm_photon_position(ph), 50, 1e30f, idx, d2, &r2);
+                }
+                double query = now_seconds() - q0;
+                printf("bench knn threads=1 photons=%zu k=50 queries_per_second=%.0f found=%zu\n", count, queries / query, found);
             }
-            double query = now_seconds() - q0;
-            printf("bench kdtree threads=%d photons=%zu build_photons_per_second=%.0f knn50_queries_per_second=%.0f found=%zu\n",
-                   threads, count, count / build, queries / query, found);
             pm_kdtree_free(&t);
         }
     }
