@@ -125,8 +125,22 @@ vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale);
 
 /* Fills a surface from a triangle id and Embree-style barycentrics (b1, b2). */
 void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);
-/* Splits a material (with its sampled base colour) into kd, ks, kt; see README. */
-void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, vec3 *ks, vec3 *kt);
+static inline float pm_clamp01(float x) { return x < 0.f ? 0.f : (x > 1.f ? 1.f : x); }
+
+/* Splits a material (with its sampled base colour) into kd, ks, kt; see README. Inline: it runs
+ * at every hit of every path. */
+static inline void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, vec3 *ks, vec3 *kt) {
+    base = v3(pm_clamp01(base.x), pm_clamp01(base.y), pm_clamp01(base.z));
+    float metal = pm_clamp01(m->metallic), rough = pm_clamp01(m->roughness);
+    float glass = pm_clamp01(m->transmission) * (1.f - metal);
+    /* The weights sum to one, so D + S = mean(base) <= 1: Russian roulette stays valid. A rough
+     * metal has no glossy lobe here; its rough share scatters diffusely (see README). */
+    float diffuse = (1.f - metal) * (1.f - pm_clamp01(m->transmission)) + metal * rough;
+    float mirror = metal * (1.f - rough);
+    *kd = v3_scale(base, diffuse);
+    *ks = v3_scale(base, mirror);
+    *kt = v3_scale(base, glass);
+}
 /* Linear RGB of a texture at (u, v) with its wrap modes, bilinear. */
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v);
 

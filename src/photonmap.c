@@ -204,6 +204,24 @@ static float sample_direction(const light_source *l, pm_rng *rng, vec3 *dir) {
     return 4.f * PM_PI;
 }
 
+/* The part of a surface record that emission needs (point, unit face normal, centroid for the
+ * ray origin, emission, sides), with the triangle's area from the same cross product: one
+ * photon per call, so the full pm_scene_surface would cost a measurable share of the pass. */
+static float emitter_point(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *sf) {
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
+    vec3 cross = v3_cross(v3_sub(p1, p0), v3_sub(p2, p0));
+    float len = v3_length(cross);
+    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    memset(sf, 0, sizeof *sf);
+    sf->p = v3_add(v3_add(v3_scale(p0, 1.f - b1 - b2), v3_scale(p1, b1)), v3_scale(p2, b2));
+    sf->ng = sf->ns = len > 0.f ? v3_scale(cross, 1.f / len) : v3(0.f, 0.f, 1.f);
+    sf->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
+    sf->emission = m->emission;
+    sf->double_sided = m->double_sided;
+    return 0.5f * len;
+}
+
 /* Starts one photon from source l: origin, direction and flux (before dividing by the photon
  * count and the pick probability). Returns false when it carries nothing. */
 static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, vec3 *d, vec3 *flux) {
@@ -214,8 +232,7 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
         uint32_t tri = pm_scene_pick_emitter(s, pm_rng_float(rng), &pick_pdf);
         float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng);
         pm_surface sf;
-        pm_scene_surface(s, tri, r1 * (1.f - r2), r1 * r2, &sf);
-        float area = pm_triangle_area(s, tri);
+        float area = emitter_point(s, tri, r1 * (1.f - r2), r1 * r2, &sf);
         if (pick_pdf <= 0.f || area <= 0.f) return false;
         vec3 n = sf.ng;
         if (l->cells) {

@@ -10,21 +10,6 @@
 
 const char *const pm_component_names[PM_COMPONENT_COUNT] = {"direct", "specular", "caustic", "indirect"};
 
-static float clamp01(float x) { return x < 0.f ? 0.f : (x > 1.f ? 1.f : x); }
-
-void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, vec3 *ks, vec3 *kt) {
-    base = v3(clamp01(base.x), clamp01(base.y), clamp01(base.z));
-    float metal = clamp01(m->metallic), rough = clamp01(m->roughness);
-    float glass = clamp01(m->transmission) * (1.f - metal);
-    /* The weights sum to one, so D + S = mean(base) <= 1: Russian roulette stays valid. A rough
-     * metal has no glossy lobe here; its rough share scatters diffusely (see README). */
-    float diffuse = (1.f - metal) * (1.f - clamp01(m->transmission)) + metal * rough;
-    float mirror = metal * (1.f - rough);
-    *kd = v3_scale(base, diffuse);
-    *ks = v3_scale(base, mirror);
-    *kt = v3_scale(base, glass);
-}
-
 float pm_triangle_area(const pm_scene *s, uint32_t tri) {
     const uint32_t *ix = s->indices + 3 * (size_t)tri;
     vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];

@@ -1,0 +1,63 @@
+/* test_math.c: the shared maths of pm_math.h and rng.h: the libm-free sincos, cosine and disc sampling moments, min/max, uniform floats. */
+#include "pm_math.h"
+#include "rng.h"
+#include "testing.h"
+
+int main(void) {
+    /* sin and cos of 2 pi u on a dense grid, and at the quadrant seams */
+    double worst = 0;
+    for (int i = 0; i < (1 << 20); i++) {
+        float u = (float)i / (1 << 20), s, c;
+        pm_sincos_turn(u, &s, &c);
+        double a = 2.0 * 3.14159265358979323846 * u;
+        double e = fmax(fabs(s - sin(a)), fabs(c - cos(a)));
+        if (e > worst) worst = e;
+    }
+    CHECK(worst < 5e-7, "pm_sincos_turn off by %g", worst);
+    float s, c;
+    pm_sincos_turn(0.25f, &s, &c);
+    CHECK(fabsf(s - 1.f) < 1e-6f && fabsf(c) < 1e-6f, "quarter turn: sin %g cos %g", s, c);
+    pm_sincos_turn(0.9999999f, &s, &c);
+    CHECK(fabsf(c - 1.f) < 1e-6f && fabsf(s) < 1e-5f, "a whole turn less an ulp: sin %g cos %g", s, c);
+
+    /* cosine sampling around a tilted normal: unit length, in the hemisphere, E[cos] = 2/3,
+     * E[cos^2] = 1/2, and no preferred azimuth (the tangent components average to zero) */
+    vec3 n = v3_normalize(v3(0.3f, -0.5f, 0.8f)), t, b;
+    v3_basis(n, &t, &b);
+    pm_rng rng = pm_rng_for(1, 2, 3);
+    double m1 = 0, m2 = 0, mt = 0, mb = 0;
+    int bad = 0, N = 400000;
+    for (int i = 0; i < N; i++) {
+        vec3 d = pm_sample_cosine(n, pm_rng_float(&rng), pm_rng_float(&rng));
+        float cz = v3_dot(d, n);
+        if (fabsf(v3_length(d) - 1.f) > 1e-5f || cz < 0.f) bad++;
+        m1 += cz;
+        m2 += cz * cz;
+        mt += v3_dot(d, t);
+        mb += v3_dot(d, b);
+    }
+    CHECK(bad == 0, "%d cosine samples not unit or below the surface", bad);
+    CHECK_NEAR(m1 / N, 2.0 / 3.0, 0.003, 0, "E[cos theta] of cosine sampling");
+    CHECK_NEAR(m2 / N, 0.5, 0.004, 0, "E[cos^2 theta] of cosine sampling");
+    CHECK(fabs(mt / N) < 0.004 && fabs(mb / N) < 0.004, "no preferred azimuth (%g, %g)", mt / N, mb / N);
+
+    /* uniform disc: E[r^2] = 1/2, inside the unit disc */
+    double r2 = 0;
+    bad = 0;
+    for (int i = 0; i < N; i++) {
+        float x, y;
+        pm_sample_disc(pm_rng_float(&rng), pm_rng_float(&rng), &x, &y);
+        if (x * x + y * y > 1.f + 1e-6f) bad++;
+        r2 += x * x + y * y;
+    }
+    CHECK(bad == 0, "%d disc samples outside the disc", bad);
+    CHECK_NEAR(r2 / N, 0.5, 0.004, 0, "E[r^2] of the disc");
+
+    /* uniform floats never reach 1, min/max compare as expected */
+    pm_rng edge = {~0ULL, 1};
+    float top = 0.f;
+    for (int i = 0; i < 1000; i++) top = pm_maxf(top, pm_rng_float(&edge));
+    CHECK(top < 1.f, "pm_rng_float returned %g", top);
+    CHECK(pm_minf(-1.f, 2.f) == -1.f && pm_maxf(-1.f, 2.f) == 2.f && pm_maxf(0.f, -0.f) == 0.f, "min/max");
+    return pm_test_done("test_math");
+}
