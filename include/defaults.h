@@ -8,7 +8,7 @@
 #define PM_DEFAULT_WINDOW_ITERATIONS 100000 /* the window keeps converging until closed */
 #define PM_DEFAULT_SEED 1
 #define PM_DEFAULT_EXPOSURE_EV 0.0f
-#define PM_DEFAULT_MAX_SPECULAR_DEPTH 12
+#define PM_DEFAULT_MAX_SPECULAR_DEPTH 64 /* a safety stop: past depth 4, roulette on throughput ends eye paths */
 #define PM_MAX_IMAGE_SIDE 16384
 
 /* photon mapping (classic two-pass mode) */
@@ -21,7 +21,7 @@
 #define PM_DEFAULT_CAUSTIC_RADIUS 0.025f  /* x the scene's largest extent */
 #define PM_DEFAULT_GATHER_RAYS 1          /* per eye sample; iterations add more */
 #define PM_DEFAULT_IRRADIANCE_STRIDE 4    /* precomputed irradiance at every 4th global photon (Christensen) */
-#define PM_DEFAULT_MAX_PHOTON_BOUNCES 32
+#define PM_DEFAULT_MAX_PHOTON_BOUNCES 256 /* a safety stop only: Russian roulette ends paths; at albedo 0.95 the cap drops 0.95^257 = 2e-6 */
 #define PM_TIME_SHARE_PHOTONS 0.25        /* with --time: the photon pass's share of the budget */
 
 #endif

@@ -32,6 +32,7 @@ typedef struct {
 typedef struct {
     uint64_t rays;            /* closest-hit + shadow rays cast */
     double seconds;
+    uint64_t dropped_samples; /* component samples that were NaN or infinite, left out of the film */
 } pm_eye_stats;
 
 /* Builds the camera ray through film position (x, y) in pixels (0,0 = top-left corner). */

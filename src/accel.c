@@ -1,7 +1,7 @@
 /* accel.c: the Embree 3 scene over all triangles, with closest-hit and occlusion queries.
  *
- * Embree appears nowhere else. The geometry shares the scene's vertex and index arrays
- * is copied, so the accel does not depend on the scene's arrays after creation.
+ * Embree appears nowhere else. The geometry is copied into Embree's own buffers, so the
+ * accel does not depend on the scene's arrays after creation.
  */
 #include "accel.h"
 

@@ -24,7 +24,7 @@ typedef struct {
     uint32_t iteration;
     pm_film *film;
     int tiles_x;
-    struct { uint64_t rays; char pad[56]; } counters[MAX_THREADS];
+    struct { uint64_t rays, dropped; char pad[48]; } counters[MAX_THREADS];
 } eye_job;
 
 void pm_camera_ray(const pm_camera *c, int width, int height, float x, float y, vec3 *origin, vec3 *dir) {
@@ -141,11 +141,11 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, p
     const pm_eye_settings *set = job->settings;
     vec3 d = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
     if (v3_dot(d, ng) <= 0.f) return v3s(0.f);
-    vec3 o = pm_surface_origin(sf, ng, s->ray_scale), weight = v3s(1.f);
+    vec3 o = pm_surface_origin(sf, ng, s->ray_scale), weight = v3s(1.f), result = v3s(0.f);
     for (int depth = 0; depth <= set->max_specular_depth; depth++) {
         pm_hit h;
         (*rays)++;
-        if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) return v3s(0.f);
+        if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) return result;
         pm_surface y;
         pm_scene_surface(s, h.tri, h.b1, h.b2, &y);
         vec3 wo = v3_neg(d), yng = facing(y.ng, wo);
@@ -153,10 +153,11 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, p
             vec3 e;
             if (!pm_photon_irradiance_lookup(set->maps, y.p, yng, &e))
                 e = pm_photon_estimate(&set->maps->global, y.p, yng, &set->global_estimate);
-            return v3_mul(weight, v3_scale(v3_mul(y.kd, e), PM_INV_PI));
+            result = v3_add(result, v3_mul(weight, v3_scale(v3_mul(y.kd, e), PM_INV_PI)));
         }
+        /* the specular part of the same surface (a mixed material) reflects what it sees too */
         float wm = v3_average(y.ks), wt = v3_average(y.kt);
-        if (wm + wt <= 0.f) return v3s(0.f);
+        if (wm + wt <= 0.f) return result;
         vec3 yns = v3_dot(y.ns, yng) < 0.f ? v3_neg(y.ns) : y.ns;
         if (pm_rng_float(rng) * (wm + wt) < wm) {
             weight = v3_mul(weight, v3_scale(y.ks, (wm + wt) / wm));
@@ -176,13 +177,13 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, p
             } else {
                 float eta = eta_i / eta_t;
                 d = v3_normalize(v3_add(v3_scale(d, eta), v3_scale(yns, eta * cos_i - cos_t)));
-                if (v3_dot(d, yng) >= 0.f) return v3s(0.f);
+                if (v3_dot(d, yng) >= 0.f) return result;
                 weight = v3_scale(weight, eta * eta);
                 o = pm_surface_origin(&y, v3_neg(yng), s->ray_scale);
             }
         }
     }
-    return v3s(0.f);
+    return result;
 }
 
 static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT],
@@ -283,7 +284,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
     int x0 = tx * TILE, y0 = ty * TILE;
     int x1 = x0 + TILE < film->width ? x0 + TILE : film->width;
     int y1 = y0 + TILE < film->height ? y0 + TILE : film->height;
-    uint64_t rays = 0;
+    uint64_t rays = 0, dropped = 0;
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
             size_t pixel = (size_t)y * film->width + x;
@@ -293,8 +294,10 @@ static void render_tile(void *ctx, size_t task, int thread) {
             vec3 out[PM_COMPONENT_COUNT] = {{0}};
             trace_pixel(job, o, d, &rng, out, &rays);
             for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-                /* A NaN from a degenerate corner case must not poison a pixel forever. */
-                if (!film->sum[c] || !v3_is_finite(out[c])) continue;
+                /* A NaN from a degenerate corner case must not poison a pixel forever; it is
+                 * counted (stat eye dropped_samples=), so tests can still see one. */
+                if (!film->sum[c]) continue;
+                if (!v3_is_finite(out[c])) { dropped++; continue; }
                 float *px = film->sum[c] + 3 * pixel;
                 px[0] += out[c].x;
                 px[1] += out[c].y;
@@ -302,6 +305,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
             }
         }
     job->counters[thread].rays += rays;
+    job->counters[thread].dropped += dropped;
 }
 
 static double now_seconds(void) {
@@ -326,7 +330,10 @@ void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, 
     pm_parallel_for(threads, (size_t)job->tiles_x * tiles_y, render_tile, job);
     film->samples++;
     if (stats) {
-        for (int t = 0; t < threads; t++) stats->rays += job->counters[t].rays;
+        for (int t = 0; t < threads; t++) {
+            stats->rays += job->counters[t].rays;
+            stats->dropped_samples += job->counters[t].dropped;
+        }
         stats->seconds += now_seconds() - start;
     }
     free(job);

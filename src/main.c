@@ -318,7 +318,8 @@ int main(int argc, char **argv) {
     if (opt.stats) printf("stat bvh seconds=%.4f bytes=%zu\n", pm_accel_build_seconds(accel), pm_accel_bytes(accel));
 
     /* --time, the progress curve and the reported render time all count from here: the photon
-     * pass is part of what a time budget buys, so an error-against-time figure includes it. */
+     * pass is part of what a time budget buys, so an error-against-time figure includes it. A
+     * budget spent before the first iteration still gets that iteration: never a black image. */
     double start = now_seconds();
 
     /* Photon pass: maps built once, before the eye iterations. */
@@ -432,14 +433,14 @@ int main(int argc, char **argv) {
     }
     if ((window || want_png) && !view) { fprintf(stderr, "pmview: error: %s\n", err); exit_code = 1; goto done; }
 
-    pm_eye_stats eye_stats = {0, 0.0};
+    pm_eye_stats eye_stats = {0, 0.0, 0};
     long target = opt.iterations ? opt.iterations
                                  : (opt.time_limit > 0 ? 1000000000L
                                                        : (window ? PM_DEFAULT_WINDOW_ITERATIONS : PM_DEFAULT_SNAPSHOT_ITERATIONS));
     bool finished = false;
     for (;;) {
         bool more = !finished && (long)film.samples < target &&
-                    !(opt.time_limit > 0 && now_seconds() - start >= opt.time_limit);
+                    !(opt.time_limit > 0 && film.samples > 0 && now_seconds() - start >= opt.time_limit);
         if (more) {
             pm_eye_iterate(&scene, accel, &camera, &eye, film.samples, &film, &eye_stats);
             if (reference_scratch && opt.stats && film.samples == next_progress) {
@@ -483,9 +484,10 @@ int main(int argc, char **argv) {
                film.samples, render_seconds, e, ratio[0], ratio[1], ratio[2]);
     }
     if (opt.stats) {
-        printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d\n", film.samples,
-               (unsigned long long)eye_stats.rays, eye_stats.seconds,
-               eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, opt.threads);
+        printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu\n",
+               film.samples, (unsigned long long)eye_stats.rays, eye_stats.seconds,
+               eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, opt.threads,
+               (unsigned long long)eye_stats.dropped_samples);
         printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu\n", peak_rss_bytes(), pm_film_bytes(&film),
                pm_accel_bytes(accel));
     }

@@ -303,10 +303,13 @@ static void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path
 }
 
 static uint32_t pick_source(const pass *ps, float u, float *pdf) {
-    uint32_t i = 0;
-    while (i + 1 < ps->source_count && ps->source_cdf[i + 1] <= u) i++;
-    *pdf = ps->source_cdf[i + 1] - ps->source_cdf[i];
-    return i;
+    uint32_t lo = 0, hi = ps->source_count; /* the last i with cdf[i] <= u: binary, for scenes of many lights */
+    while (lo + 1 < hi) {
+        uint32_t mid = (lo + hi) / 2;
+        if (ps->source_cdf[mid] <= u) lo = mid; else hi = mid;
+    }
+    *pdf = ps->source_cdf[lo + 1] - ps->source_cdf[lo];
+    return lo;
 }
 
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
@@ -335,8 +338,10 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             float D = v3_average(sf.kd), Sm = v3_average(sf.ks), St = v3_average(sf.kt);
             if (D > 0.f) {
                 if (ps->caustic_pass) {
+                    /* stored, and the roulette below decides: a diffuse bounce ends the caustic
+                     * path, while the specular part of a mixed surface carries it on (L S+ D is
+                     * stored again at the next diffuse surface it reaches) */
                     if (specular_bounces > 0) push(&list, sf.p, ng, d, power, PM_PATH_CAUSTIC);
-                    if (specular_bounces > 0) break;
                 } else {
                     int path = bounce == 0 ? PM_PATH_DIRECT : (diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
                     push(&list, sf.p, ng, d, power, path);
@@ -426,11 +431,11 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
     memset(maps, 0, sizeof *maps);
     pm_photon_stats local;
     memset(&local, 0, sizeof local);
-    light_source sources[2 + 4096];
-    uint32_t max_sources = (uint32_t)(sizeof sources / sizeof *sources);
-    if (s->light_count + 2 > max_sources) return false;
+    /* the emitter set, every punctual light and the sky: at most light_count + 2 sources */
+    light_source *sources = malloc(sizeof(light_source) * ((size_t)s->light_count + 2));
+    float *cdf = malloc(sizeof(float) * ((size_t)s->light_count + 3));
+    if (!sources || !cdf) { free(sources); free(cdf); return false; }
     uint32_t source_count = build_sources(s, sources);
-    float cdf[2 + 4096 + 1];
     double total = 0.0;
     for (uint32_t i = 0; i < source_count; i++) total += fmax(v3_luminance(sources[i].power), 1e-3 * v3_max_component(sources[i].power));
     cdf[0] = 0.f;
@@ -495,6 +500,8 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
         free(sources[i].cells);
         free(sources[i].marked);
     }
+    free(sources);
+    free(cdf);
     local.seconds = now_seconds() - start;
     if (stats) *stats = local;
     if (!ok) pm_photon_maps_free(maps);

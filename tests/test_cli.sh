@@ -42,6 +42,11 @@ for stage in load analysis bvh photons kdtree film eye memory; do
 done
 checks=$((checks + 1))
 grep -q "^stat load .*triangles=[1-9]" "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: stat load lacks triangles"; }
+checks=$((checks + 1))
+grep -q "^stat eye .*dropped_samples=0" "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: stat eye lacks dropped_samples=0"; }
+expect "a time budget shorter than the photon pass" 0 $bin scenes/cornell-box.gltf --width 16 --time 0.001 --snapshot "$tmp/t.exr"
+checks=$((checks + 1))
+grep -q "(16x16, 1 iterations" "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: --time 0.001 must still render one iteration:"; cat "$tmp/out"; }
 expect "no display without snapshot" 2 env -u DISPLAY $bin scenes/cornell-box.gltf
 echo "test_cli: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]

@@ -1,10 +1,11 @@
-/* test_cornell.c: the default scene end to end: expected colours, no NaN or negative value, components summing to the EXR total. */
+/* test_cornell.c: the default scene end to end: expected colours, no NaN or negative value, each component where its first vertex puts it, layers summing to the EXR total. */
 #define _DEFAULT_SOURCE /* mkstemps */
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
 #include "accel.h"
+#include "defaults.h"
 #include "eye.h"
 #include "film.h"
 #include "image_io.h"
@@ -38,7 +39,7 @@ int main(void) {
     CHECK(s.analysis.has_mirror && s.analysis.has_glass && s.analysis.caustics_possible, "mirror and glass balls: caustics possible");
     pm_accel *a = pm_accel_create(&s, err, sizeof err);
     pm_photon_settings ps = {.global_photons = 100000, .caustic_photons = 100000, .seed = 1, .threads = 2,
-                             .max_bounces = 32, .projection_maps = true};
+                             .max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES, .projection_maps = true};
     pm_photon_maps maps;
     CHECK(pm_photon_maps_build(&s, a, &ps, &maps, NULL), "photon maps");
     CHECK(maps.caustic.count > 0 && maps.global.count > 0, "both maps built");
@@ -54,7 +55,9 @@ int main(void) {
     es.caustic_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.025f * s.ray_scale, 7u};
     es.gather_rays = 1;
     pm_camera cam = s.cameras[0];
-    for (int i = 0; i < 16; i++) pm_eye_iterate(&s, a, &cam, &es, i, &film, NULL);
+    pm_eye_stats st = {0, 0.0, 0};
+    for (int i = 0; i < 16; i++) pm_eye_iterate(&s, a, &cam, &es, i, &film, &st);
+    CHECK(st.dropped_samples == 0, "%llu samples were NaN or infinite", (unsigned long long)st.dropped_samples);
 
     float *total = malloc(sizeof(float) * 3 * W * H), *layer = malloc(sizeof(float) * 3 * W * H);
     pm_film_resolve_total(&film, total);
@@ -78,6 +81,57 @@ int main(void) {
     pm_film_resolve(&film, PM_INDIRECT, layer);
     for (int i = 0; i < 3 * W * H; i++) indirect_energy += layer[i];
     CHECK(caustic_energy > 0 && indirect_energy > 0, "caustic %g and indirect %g are non-zero", caustic_energy, indirect_energy);
+
+    /* The split by first eye vertex, pixel by pixel: where every ray of a pixel (centre and four
+     * corners) first meets the same kind of surface, the layers that vertex rules out hold exactly
+     * nothing, and the lamp seen directly is its emission and nothing else. */
+    enum { LAMP, MIRROR_OR_GLASS, DIFFUSE, MIXED_PIXEL };
+    int counts[3] = {0, 0, 0}, misfiled[3] = {0, 0, 0};
+    vec3 lamp_radiance = v3s(0.f);
+    float *layers[PM_COMPONENT_COUNT];
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        layers[c] = malloc(sizeof(float) * 3 * W * H);
+        pm_film_resolve(&film, c, layers[c]);
+    }
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            int kind = -1;
+            static const float at[5][2] = {{0.5f, 0.5f}, {0.f, 0.f}, {1.f, 0.f}, {0.f, 1.f}, {1.f, 1.f}};
+            for (int k = 0; k < 5 && kind != MIXED_PIXEL; k++) {
+                vec3 o, d;
+                pm_camera_ray(&cam, W, H, x + at[k][0], y + at[k][1], &o, &d);
+                pm_hit hit;
+                int this_kind = MIXED_PIXEL;
+                if (pm_accel_intersect(a, o, d, INFINITY, &hit)) {
+                    pm_surface sf;
+                    pm_scene_surface(&s, hit.tri, hit.b1, hit.b2, &sf);
+                    if (!v3_is_black(sf.emission)) { this_kind = LAMP; lamp_radiance = sf.emission; }
+                    else if (v3_is_black(sf.kd)) this_kind = MIRROR_OR_GLASS;
+                    else if (v3_is_black(sf.ks) && v3_is_black(sf.kt)) this_kind = DIFFUSE;
+                }
+                kind = kind < 0 || kind == this_kind ? this_kind : MIXED_PIXEL;
+            }
+            if (kind == MIXED_PIXEL) continue;
+            counts[kind]++;
+            size_t i = 3 * ((size_t)y * W + x);
+            for (int ch = 0; ch < 3; ch++) {
+                float direct = layers[PM_DIRECT][i + ch], spec = layers[PM_SPECULAR][i + ch];
+                float caustic = layers[PM_CAUSTIC][i + ch], indirect = layers[PM_INDIRECT][i + ch];
+                bool ok = true;
+                if (kind == LAMP) ok = spec == 0.f && caustic == 0.f && indirect == 0.f &&
+                                       fabsf(direct - v3_get(lamp_radiance, ch)) <= 1e-4f * v3_get(lamp_radiance, ch);
+                if (kind == MIRROR_OR_GLASS) ok = direct == 0.f && caustic == 0.f && indirect == 0.f && spec >= 0.f;
+                if (kind == DIFFUSE) ok = spec == 0.f;
+                if (!ok) { misfiled[kind]++; break; }
+            }
+        }
+    CHECK(counts[LAMP] >= 4 && counts[MIRROR_OR_GLASS] >= 40 && counts[DIFFUSE] >= 1000,
+          "pixels of each kind: lamp %d, mirror or glass %d, diffuse %d", counts[LAMP], counts[MIRROR_OR_GLASS], counts[DIFFUSE]);
+    CHECK(misfiled[LAMP] == 0, "%d lamp pixels are not exactly its emission in the direct layer", misfiled[LAMP]);
+    CHECK(misfiled[MIRROR_OR_GLASS] == 0, "%d pixels seeing a mirror or glass first have direct, caustic or indirect light",
+          misfiled[MIRROR_OR_GLASS]);
+    CHECK(misfiled[DIFFUSE] == 0, "%d pixels seeing a diffuse wall first have specular light", misfiled[DIFFUSE]);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(layers[c]);
 
     /* EXR: the layers read back sum to the total */
     char path[] = "/tmp/pmview-cornell-XXXXXX.exr";
