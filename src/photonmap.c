@@ -45,6 +45,14 @@ typedef struct {
     bool caustic_pass;
     uint64_t photons;        /* emitted in this pass */
     uint64_t seed;
+    /* caustic pass with projection maps: the specular objects' bounding spheres, which light
+     * from a direction (directional lights, the sky) reaches through the union of their
+     * projected discs (each of area pi r^2 whatever the direction) */
+    const sphere *targets;
+    uint32_t target_count;
+    const float *target_cdf;  /* target_count+1 entries, by r^2 */
+    float target_area;        /* sum of pi r^2 */
+    float target_reach;       /* a start this far back along the light is outside every target */
     pm_photon **chunk_photons;
     uint32_t *chunk_counts;
     struct { uint64_t rays; char pad[56]; } counters[MAX_THREADS];
@@ -222,11 +230,49 @@ static float emitter_point(const pm_scene *s, uint32_t tri, float b1, float b2, 
     return 0.5f * len;
 }
 
+/* Where light travelling along dir starts: a point on a plane across the scene, behind it.
+ * Without targets, uniform on a disc of the scene's bounding radius; with them (the caustic
+ * pass), uniform on the union of the targets' projected discs: pick a disc by area, a point in
+ * it, and divide by how many discs cover that point, so overlaps are not counted twice.
+ * Returns the area that the sampling stands for: flux = irradiance x that area. */
+static float parallel_start(const pass *ps, vec3 dir, pm_rng *rng, vec3 *o) {
+    const pm_scene *s = ps->scene;
+    float R = s->radius > 0.f ? s->radius : 1.f, x, y, area, back = 1.01f * R;
+    vec3 t, b;
+    v3_basis(dir, &t, &b);
+    float u = pm_rng_float(rng);
+    pm_sample_disc(pm_rng_float(rng), pm_rng_float(rng), &x, &y);
+    if (ps->targets && ps->target_count) {
+        uint32_t lo = 0, hi = ps->target_count;
+        while (lo + 1 < hi) {
+            uint32_t mid = (lo + hi) / 2;
+            if (ps->target_cdf[mid] <= u) lo = mid; else hi = mid;
+        }
+        const sphere *c = &ps->targets[lo];
+        vec3 rel = v3_sub(c->center, s->center);
+        x = v3_dot(rel, t) + x * c->radius;
+        y = v3_dot(rel, b) + y * c->radius;
+        int cover = 0;
+        for (uint32_t j = 0; j < ps->target_count; j++) {
+            vec3 rj = v3_sub(ps->targets[j].center, s->center);
+            float dx = x - v3_dot(rj, t), dy = y - v3_dot(rj, b), r = ps->targets[j].radius;
+            cover += dx * dx + dy * dy <= r * r;
+        }
+        area = ps->target_area / (float)(cover > 0 ? cover : 1); /* cover >= 1 but for rounding */
+        back = ps->target_reach;
+    } else {
+        x *= R;
+        y *= R;
+        area = PM_PI * R * R;
+    }
+    *o = v3_add(v3_madd(s->center, dir, -back), v3_add(v3_scale(t, x), v3_scale(b, y)));
+    return area;
+}
+
 /* Starts one photon from source l: origin, direction and flux (before dividing by the photon
  * count and the pick probability). Returns false when it carries nothing. */
 static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, vec3 *d, vec3 *flux) {
     const pm_scene *s = ps->scene;
-    float R = s->radius > 0.f ? s->radius : 1.f;
     if (l->kind == SOURCE_EMITTERS) {
         float pick_pdf;
         uint32_t tri = pm_scene_pick_emitter(s, pm_rng_float(rng), &pick_pdf);
@@ -253,13 +299,8 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
     if (l->kind == SOURCE_PUNCTUAL) {
         const pm_light *pl = &s->lights[l->light];
         if (pl->type == PM_LIGHT_DIRECTIONAL) {
-            vec3 t, b;
-            float x, y;
-            v3_basis(pl->direction, &t, &b);
-            pm_sample_disc(pm_rng_float(rng), pm_rng_float(rng), &x, &y);
-            *o = v3_add(v3_madd(s->center, pl->direction, -1.01f * R), v3_add(v3_scale(t, x * R), v3_scale(b, y * R)));
             *d = pl->direction;
-            *flux = v3_scale(pl->intensity, PM_PI * R * R);
+            *flux = v3_scale(pl->intensity, parallel_start(ps, *d, rng, o));
             return true;
         }
         *o = pl->position;
@@ -279,14 +320,9 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
         *flux = v3_scale(pl->intensity, falloff * omega);
         return falloff > 0.f;
     }
-    /* sky: a direction, then a point on the disc facing it outside the bounding sphere */
-    vec3 w = pm_sample_sphere(pm_rng_float(rng), pm_rng_float(rng)), t, b;
-    float x, y;
-    v3_basis(w, &t, &b);
-    pm_sample_disc(pm_rng_float(rng), pm_rng_float(rng), &x, &y);
-    *o = v3_add(v3_madd(s->center, w, 1.01f * R), v3_add(v3_scale(t, x * R), v3_scale(b, y * R)));
-    *d = v3_neg(w);
-    *flux = v3_scale(s->sky_radiance, 4.f * PM_PI * PM_PI * R * R);
+    /* sky: a direction, then a start behind the scene as for a directional light */
+    *d = v3_neg(pm_sample_sphere(pm_rng_float(rng), pm_rng_float(rng)));
+    *flux = v3_scale(s->sky_radiance, 4.f * PM_PI * parallel_start(ps, *d, rng, o));
     return true;
 }
 
@@ -446,6 +482,9 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
     }
     if (source_count) cdf[source_count] = 1.f;
     bool ok = true;
+    sphere *spheres = NULL;
+    uint32_t sphere_count = 0;
+    float *target_cdf = NULL;
 
     pass ps;
     memset(&ps, 0, sizeof ps);
@@ -471,20 +510,39 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
         }
     }
     if (ok && source_count && settings->caustic_photons && s->analysis.caustics_possible) {
-        uint32_t sphere_count = 0;
-        sphere *spheres = specular_spheres(s, &sphere_count);
+        spheres = specular_spheres(s, &sphere_count);
         double covered = 0.0;
+        float R = s->radius > 0.f ? s->radius : 1.f;
+        if (settings->projection_maps && sphere_count) {
+            target_cdf = malloc(sizeof(float) * (sphere_count + 1));
+            double sum = 0.0, reach = R;
+            for (uint32_t i = 0; i < sphere_count; i++) sum += (double)spheres[i].radius * spheres[i].radius;
+            target_cdf[0] = 0.f;
+            double run = 0.0;
+            for (uint32_t i = 0; i < sphere_count; i++) {
+                run += (double)spheres[i].radius * spheres[i].radius;
+                target_cdf[i + 1] = sum > 0 ? (float)(run / sum) : (float)(i + 1) / sphere_count;
+                reach = fmax(reach, v3_length(v3_sub(spheres[i].center, s->center)) + spheres[i].radius);
+            }
+            target_cdf[sphere_count] = 1.f;
+            ps.targets = spheres;
+            ps.target_count = sphere_count;
+            ps.target_cdf = target_cdf;
+            ps.target_area = (float)(PM_PI * sum);
+            ps.target_reach = (float)(1.01 * reach);
+        }
         for (uint32_t i = 0; i < source_count; i++) {
             bool point_like = sources[i].kind == SOURCE_EMITTERS ||
                               (sources[i].kind == SOURCE_PUNCTUAL && s->lights[sources[i].light].type != PM_LIGHT_DIRECTIONAL);
             if (settings->projection_maps && point_like) {
                 build_projection_map(&sources[i], spheres, sphere_count);
                 covered += (double)sources[i].marked_count / (PROJ_Z * PROJ_PHI) * (cdf[i + 1] - cdf[i]);
+            } else if (ps.targets) {
+                covered += fmin(1.0, ps.target_area / (PM_PI * R * R)) * (cdf[i + 1] - cdf[i]);
             } else {
                 covered += cdf[i + 1] - cdf[i];
             }
         }
-        free(spheres);
         maps->projection_fraction = covered;
     }
     /* No light can reach a specular object: no caustic map at all. */
@@ -500,6 +558,8 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
         free(sources[i].cells);
         free(sources[i].marked);
     }
+    free(spheres);
+    free(target_cdf);
     free(sources);
     free(cdf);
     local.seconds = now_seconds() - start;

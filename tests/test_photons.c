@@ -266,8 +266,51 @@ static void many_lights(void) {
     pm_scene_free(&s);
 }
 
+/* A glass ball on a floor lit by a directional light, or by the sky: with projection maps the
+ * caustic pass starts photons only on the ball's projected disc, and must store the same caustic
+ * power as a pass that starts them everywhere (both unbiased), with far fewer photons wasted. */
+static void parallel_light_projection(bool sky) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    uint32_t floor_m = sb_lambert(&s, v3s(0.5f));
+    /* a small floor keeps the ball a fair share of the unaimed starts, so both sides are precise */
+    sb_quad(&s, v3(-2, 0, 2), v3(2, 0, 2), v3(2, 0, -2), v3(-2, 0, -2), floor_m);
+    add_sphere(&s, v3(0.3f, 0.6f, -0.2f), 0.4f, sb_material(&s, v3s(1.f), 0, 0, 1, v3s(0), false), 48, 24);
+    if (sky) {
+        s.sky = true;
+        s.sky_radiance = v3s(1.f);
+    } else {
+        s.lights = sb_grow(s.lights, s.light_count, sizeof *s.lights);
+        memset(&s.lights[0], 0, sizeof s.lights[0]);
+        s.lights[0].type = PM_LIGHT_DIRECTIONAL;
+        s.lights[0].direction = v3_normalize(v3(0.3f, -1.f, 0.2f));
+        s.lights[0].intensity = v3s(3.f);
+        s.light_count = 1;
+    }
+    pm_accel *a = finish(&s);
+    const char *what = sky ? "sky" : "directional light";
+    pm_photon_settings aimed = photon_settings(0, 200000), everywhere = photon_settings(0, 2000000);
+    everywhere.projection_maps = false;
+    pm_photon_maps m1, m2;
+    CHECK(pm_photon_maps_build(&s, a, &aimed, &m1, NULL) && pm_photon_maps_build(&s, a, &everywhere, &m2, NULL), "%s: build", what);
+    double p1 = stored_power(&m1.caustic, -1).x, p2 = stored_power(&m2.caustic, -1).x;
+    printf("%s: caustic power %.4f aimed (%zu photons of 200k, fraction %.4f), %.4f everywhere (%zu of 2M)\n", what, p1,
+           m1.caustic.count, m1.projection_fraction, p2, m2.caustic.count);
+    CHECK(m1.projection_fraction < 0.5, "%s: the projection keeps a part of the disc (%g)", what, m1.projection_fraction);
+    CHECK(m2.caustic.count > 10000 && (double)m1.caustic.count / 200000 > 5.0 * m2.caustic.count / 2000000,
+          "%s: aimed photons reach the ball far more often (%zu of 200k against %zu of 2M)", what, m1.caustic.count,
+          m2.caustic.count);
+    CHECK_NEAR(p1, p2, 0.03, 0, sky ? "sky: aimed caustic power = unaimed" : "directional: aimed caustic power = unaimed");
+    pm_photon_maps_free(&m1);
+    pm_photon_maps_free(&m2);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
     record_round_trip();
+    parallel_light_projection(false);
+    parallel_light_projection(true);
     many_lights();
     power_bookkeeping();
     inverse_square();
