@@ -3,6 +3,8 @@
 #
 #   png_compare.py same A B [MAX]   exit 0 when every channel differs by at most MAX (default 1)
 #   png_compare.py darker A B       exit 0 when B differs from A and its mean RGB is lower
+#   png_compare.py cornell A        exit 0 when A looks like the default scene: red left wall,
+#                                   green right wall, lit floor, nothing pure black in the room
 #
 # Only what pmview writes needs decoding: non-interlaced, bit depth 8, grey/RGB/grey+alpha/RGBA;
 # anything else is refused rather than misread. The last line printed says what was found.
@@ -73,9 +75,38 @@ def read_png(path):
     return width, height, pixels
 
 
+def region_mean(w, pixels, x0, y0, x1, y1):
+    s, n = [0, 0, 0], 0
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            p = pixels[y * w + x]
+            for c in range(3):
+                s[c] += p[c]
+            n += 1
+    return [v / max(n, 1) for v in s]
+
+
+def cornell(path):
+    try:
+        w, h, px = read_png(path)
+    except (OSError, ValueError, zlib.error) as e:
+        print("png_compare: %s" % e)
+        return 1
+    left = region_mean(w, px, w // 40, h // 3, w // 10, 2 * h // 3)
+    right = region_mean(w, px, w - w // 10, h // 3, w - w // 40, 2 * h // 3)
+    floor = region_mean(w, px, w // 3, h - h // 12, 2 * w // 3, h - 1)
+    ok = left[0] > 2 * left[1] and left[0] > 2 * left[2] and right[1] > 1.5 * right[0] and right[1] > 1.5 * right[2] \
+        and sum(floor) / 3 > 40
+    print("png_compare: left %s right %s floor %s: %s" % ([round(v) for v in left], [round(v) for v in right],
+                                                          [round(v) for v in floor], "ok" if ok else "not the Cornell box"))
+    return 0 if ok else 1
+
+
 def main(argv):
+    if len(argv) == 3 and argv[1] == "cornell":
+        return cornell(argv[2])
     if len(argv) < 4 or argv[1] not in ("same", "darker"):
-        print("usage: png_compare.py same|darker A B [MAX]")
+        print("usage: png_compare.py same|darker A B [MAX] | cornell A")
         return 2
     try:
         wa, ha, a = read_png(argv[2])

@@ -47,6 +47,8 @@ grep -q "^stat eye .*dropped_samples=0" "$tmp/out" || { fails=$((fails + 1)); ec
 expect "a time budget shorter than the photon pass" 0 $bin scenes/cornell-box.gltf --width 16 --time 0.001 --snapshot "$tmp/t.exr"
 checks=$((checks + 1))
 grep -q "(16x16, 1 iterations" "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: --time 0.001 must still render one iteration:"; cat "$tmp/out"; }
+expect "PNG snapshot (offscreen, through the display shaders)" 0 $bin scenes/cornell-box.gltf --width 64 --iterations 4 --photons 20000 --snapshot "$tmp/c.png"
+expect "the PNG shows the Cornell box: red left, green right, lit floor" 0 python3 tests/png_compare.py cornell "$tmp/c.png"
 expect "no display without snapshot" 2 env -u DISPLAY $bin scenes/cornell-box.gltf
 echo "test_cli: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]
