@@ -7,7 +7,9 @@
 #                                   green right wall, lit floor, nothing pure black in the room
 #
 # Only what pmview writes needs decoding: non-interlaced, bit depth 8, grey/RGB/grey+alpha/RGBA;
-# anything else is refused rather than misread. The last line printed says what was found.
+# anything else is refused rather than misread. A file ending in .xwd is read as an X window dump
+# (xwd -id WINDOW: ZPixmap, TrueColor, 24 or 32 bits per pixel), so the window test can compare
+# what the window really shows. The last line printed says what was found.
 import struct
 import sys
 import zlib
@@ -75,6 +77,35 @@ def read_png(path):
     return width, height, pixels
 
 
+def read_xwd(path):
+    with open(path, "rb") as f:
+        data = f.read()
+    if len(data) < 100:
+        raise ValueError("%s: too short for an X window dump" % path)
+    h = struct.unpack(">25I", data[:100])
+    header_size, version, fmt, _, width, height = h[0], h[1], h[2], h[3], h[4], h[5]
+    byte_order, bpp, bytes_per_line = h[7], h[11], h[12]
+    masks, ncolors = (h[14], h[15], h[16]), h[19]
+    if version != 7 or fmt != 2 or bpp not in (24, 32):
+        raise ValueError("%s: unsupported X window dump (version %d, format %d, %d bits per pixel)" % (path, version, fmt, bpp))
+    pos = header_size + 12 * ncolors
+    if len(data) < pos + height * bytes_per_line:
+        raise ValueError("%s: truncated image data" % path)
+    shifts = [(m & -m).bit_length() - 1 for m in masks]
+    step, order = bpp // 8, "little" if byte_order == 0 else "big"
+    pixels = []
+    for y in range(height):
+        row = data[pos + y * bytes_per_line:pos + (y + 1) * bytes_per_line]
+        for x in range(width):
+            v = int.from_bytes(row[x * step:(x + 1) * step], order)
+            pixels.append(tuple((v & m) >> sh for m, sh in zip(masks, shifts)))
+    return width, height, pixels
+
+
+def read_image(path):
+    return read_xwd(path) if path.endswith(".xwd") else read_png(path)
+
+
 def region_mean(w, pixels, x0, y0, x1, y1):
     s, n = [0, 0, 0], 0
     for y in range(y0, y1):
@@ -109,8 +140,8 @@ def main(argv):
         print("usage: png_compare.py same|darker A B [MAX] | cornell A")
         return 2
     try:
-        wa, ha, a = read_png(argv[2])
-        wb, hb, b = read_png(argv[3])
+        wa, ha, a = read_image(argv[2])
+        wb, hb, b = read_image(argv[3])
     except (OSError, ValueError, zlib.error) as e:
         print("png_compare: %s" % e)
         return 1

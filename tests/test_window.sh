@@ -1,18 +1,19 @@
 #!/bin/sh
-# test_window.sh: the real window under Xvfb, driven by xdotool: P saves what the offscreen snapshot renders, 4 toggles indirect, Esc quits.
+# test_window.sh: the real window under Xvfb, driven by xdotool: what it shows (xwd) and what P saves equal the offscreen snapshot, 4 toggles indirect, Esc quits.
 #
 # pmview runs inside xvfb-run through an inner script (xvfb-run makes its own display, so the
-# keys must be sent from inside it). The window's screenshot must equal an offscreen --snapshot
-# of the same render within 1 per channel; after '4' (indirect off) the next one must be darker.
+# keys must be sent from inside it). The window's contents as the X server holds them (xwd) and
+# its P screenshot must both equal an offscreen --snapshot of the same render within 1 per
+# channel; after '4' (indirect off) the next screenshot must be darker.
 # xvfb-run and everything under it run in their own session, killed as a group on any exit.
 cd "$(dirname "$0")/.." || exit 1
 
-have_tools() { command -v xvfb-run >/dev/null 2>&1 && command -v xdotool >/dev/null 2>&1 && command -v python3 >/dev/null 2>&1; }
+have_tools() { for t in xvfb-run xdotool xwd python3; do command -v $t >/dev/null 2>&1 || return 1; done; }
 if ! have_tools; then
     # only when installing cannot stop at a password prompt
     if [ "$(id -u)" = 0 ] || sudo -n true 2>/dev/null; then sh tools/install-deps.sh </dev/null >/dev/null 2>&1; fi
     if ! have_tools; then
-        echo "SKIP: xvfb-run, xdotool or python3 missing and tools/install-deps.sh could not install them"
+        echo "SKIP: xvfb-run, xdotool, xwd or python3 missing and tools/install-deps.sh could not install them"
         exit 0
     fi
 fi
@@ -60,6 +61,8 @@ xdotool windowfocus --sync "$wid" || fail "cannot focus the window"
 press p
 wait_for "pmview: saved" 1 20
 cp "$tmp/shot.png" "$tmp/first.png" || fail "no screenshot file"
+# the frame that P saved has been drawn and swapped by now: dump the window as X shows it
+xwd -id "$wid" -silent >"$tmp/window.xwd" || fail "xwd could not dump the window"
 press 4
 press p
 wait_for "pmview: saved" 2 20
@@ -103,9 +106,11 @@ if ! ./pmview $args --snapshot "$tmp/snapshot.png" >"$tmp/snapshot.log" 2>&1; th
     cat "$tmp/snapshot.log"; echo "test_window: FAILED: the offscreen snapshot failed"; exit 1
 fi
 fails=0
+python3 tests/png_compare.py same "$tmp/window.xwd" "$tmp/snapshot.png" 1 ||
+    { fails=$((fails + 1)); echo "FAIL: what the window shows differs from the offscreen snapshot"; }
 python3 tests/png_compare.py same "$tmp/first.png" "$tmp/snapshot.png" 1 ||
     { fails=$((fails + 1)); echo "FAIL: the window's screenshot differs from the offscreen snapshot"; }
 python3 tests/png_compare.py darker "$tmp/first.png" "$tmp/no-indirect.png" ||
     { fails=$((fails + 1)); echo "FAIL: the screenshot after '4' (indirect off) is not darker"; }
-echo "test_window: window session ok (render, P, 4, Esc); 2 comparisons, $fails failed"
+echo "test_window: window session ok (render, xwd, P, 4, Esc); 3 comparisons, $fails failed"
 [ "$fails" -eq 0 ]

@@ -1,7 +1,7 @@
 #!/bin/sh
 # install-deps.sh: installs the Debian 12 packages pmview needs, only those missing, quietly when all are present.
 set -e
-PKGS="build-essential pkg-config libembree-dev libglfw3-dev libosmesa6-dev libopenexr-dev libtinygltf-dev nlohmann-json3-dev libstb-dev xvfb xdotool xauth python3"
+PKGS="build-essential pkg-config libembree-dev libglfw3-dev libosmesa6-dev libopenexr-dev libtinygltf-dev nlohmann-json3-dev libstb-dev xvfb xdotool xauth x11-apps python3"
 missing=""
 for p in $PKGS; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
