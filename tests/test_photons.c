@@ -307,8 +307,40 @@ static void parallel_light_projection(bool sky) {
     pm_scene_free(&s);
 }
 
+/* Both branches of the roulette: walls three quarters Lambert, a quarter mirror (metallic 0.5,
+ * roughness 0.5), reflectance rho in all. Every wall has a diffuse part, so the global map stores
+ * every hit; whichever branch a photon takes, the later hits must carry rho/(1-rho) of the
+ * light's power per channel, and the caustic map (first diffuse hit after a mirror bounce)
+ * holds the power that went through one or more mirror bounces first. */
+static void roulette_both_branches(void) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    vec3 rho = v3(0.7f, 0.6f, 0.45f), intensity = v3(2.f, 3.f, 4.f);
+    sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), sb_material(&s, rho, 0.5f, 0.5f, 0, v3s(0), false), true);
+    sb_point_light(&s, v3(0.2f, 0.1f, -0.3f), intensity);
+    pm_accel *a = finish(&s);
+    pm_photon_settings ps = photon_settings(400000, 400000);
+    ps.projection_maps = false; /* the box is all mirror: aiming has nothing to leave out */
+    pm_photon_maps maps;
+    CHECK(pm_photon_maps_build(&s, a, &ps, &maps, NULL), "build");
+    vec3 first = stored_power(&maps.global, PM_PATH_DIRECT);
+    vec3 later = v3_add(stored_power(&maps.global, PM_PATH_INDIRECT), stored_power(&maps.global, PM_PATH_CAUSTIC));
+    vec3 caustic = stored_power(&maps.caustic, -1);
+    for (int c = 0; c < 3; c++) {
+        float phi = 4.f * PM_PI * v3_get(intensity, c), r = v3_get(rho, c), m = 0.25f * r;
+        CHECK_NEAR(v3_get(first, c), phi, 0.005, 0, "mixed walls: first-hit stored power = light power");
+        CHECK_NEAR(v3_get(later, c), phi * r / (1.f - r), 0.02, 0, "mixed walls: later hits carry rho/(1-rho), both branches");
+        /* a caustic map photon took k >= 1 mirror bounces then arrived: sum of m^k = m/(1-m) */
+        CHECK_NEAR(v3_get(caustic, c), phi * m / (1.f - m), 0.03, 0, "mixed walls: caustic map power = light power x m/(1-m)");
+    }
+    pm_photon_maps_free(&maps);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
     record_round_trip();
+    roulette_both_branches();
     parallel_light_projection(false);
     parallel_light_projection(true);
     many_lights();
