@@ -44,10 +44,17 @@ int main(int argc, char **argv) {
     float *total = read_rgb(argv[1], "", &w, &h, true);
     if (!total) return 1;
     float *direct = read_rgb(argv[1], "direct", &w, &h, false), *specular = read_rgb(argv[1], "specular", &w, &h, false);
-    float *caustic = read_rgb(argv[1], "caustic", &w, &h, false), *ref = read_rgb(argv[2], "", &rw, &rh, true);
+    float *caustic = read_rgb(argv[1], "caustic", &w, &h, false), *ref[3] = {NULL, NULL, NULL};
+    static const char *const rgb_names[3] = {"R", "G", "B"};
+    char err[512];
+    bool have_ref = true;
+    for (int c = 0; c < 3 && have_ref; c++) {
+        ref[c] = pm_read_exr_channel(argv[2], rgb_names[c], &rw, &rh, err, sizeof err);
+        if (!ref[c]) { fprintf(stderr, "caustic_error: %s\n", err); have_ref = false; }
+    }
     int rc = 1;
     int f = rw > 0 && w % rw == 0 && h % rh == 0 && w / rw == h / rh ? w / rw : 1;
-    if (ref && f > 1) {
+    if (have_ref && f > 1) {
         float **layers[4] = {&total, &direct, &specular, &caustic};
         for (int l = 0; l < 4; l++) {
             float *small = calloc(3 * (size_t)rw * rh, sizeof(float));
@@ -61,25 +68,20 @@ int main(int argc, char **argv) {
         w = rw;
         h = rh;
     }
-    if (ref && (rw != w || rh != h)) {
+    if (have_ref && (rw != w || rh != h)) {
         fprintf(stderr, "caustic_error: %s is %dx%d but %s is %dx%d\n", argv[1], w, h, argv[2], rw, rh);
-    } else if (ref) {
-        size_t n = (size_t)w * h;
-        float *planes = malloc(sizeof(float) * 3 * n);
-        for (size_t i = 0; i < n; i++)
-            for (int c = 0; c < 3; c++) planes[c * n + i] = ref[3 * i + c];
-        const float *const ref_planes[3] = {planes, planes + n, planes + 2 * n};
+    } else if (have_ref) {
+        const float *const ref_planes[3] = {ref[0], ref[1], ref[2]};
         caustic_region m = caustic_region_measure(w, h, total, direct, specular, caustic, ref_planes);
         printf("stat caustic_error pixels=%zu ratio=%.4f focus_ratio=%.4f caustic_share=%.4f\n", m.pixels,
                m.ref > 0 ? m.ours / m.ref : 0.0, m.focus_ref > 0 ? m.focus_ours / m.focus_ref : 0.0,
                m.ours > 0 ? m.caustic / m.ours : 0.0);
-        free(planes);
         rc = 0;
     }
     free(total);
     free(direct);
     free(specular);
     free(caustic);
-    free(ref);
+    for (int c = 0; c < 3; c++) free(ref[c]);
     return rc;
 }

@@ -27,4 +27,14 @@ void pm_film_resolve(const pm_film *f, pm_component c, float *out);
 void pm_film_resolve_total(const pm_film *f, float *out);
 size_t pm_film_bytes(const pm_film *f);
 
+/* An image against a reference: relMSE = mean over pixels (those with mask[i] != 0, or all when
+ * mask is NULL) and channels of (x - r)^2 / (r^2 + 0.01), and each channel's sums, whose ratio is
+ * the mean ratio. rgb is interleaved, ref planar. The one definition --reference and the tests use. */
+typedef struct {
+    double relmse;
+    double ours[3], ref[3];
+    size_t pixels;
+} pm_image_error;
+pm_image_error pm_image_compare(const float *rgb, const float *const ref[3], size_t pixels, const unsigned char *mask);
+
 #endif

@@ -216,17 +216,10 @@ static void free_reference(reference_image *ref) {
  * pixels from dominating), and each channel's mean over the reference's mean. */
 static double relative_mse(const pm_film *film, const reference_image *ref, float *scratch, double mean_ratio[3]) {
     pm_film_resolve_total(film, scratch);
-    size_t n = (size_t)film->width * film->height;
-    double sum = 0, ours[3] = {0, 0, 0}, theirs[3] = {0, 0, 0};
-    for (size_t i = 0; i < n; i++)
-        for (int c = 0; c < 3; c++) {
-            double x = scratch[3 * i + c], r = ref->rgb[c][i];
-            sum += (x - r) * (x - r) / (r * r + 0.01);
-            ours[c] += x;
-            theirs[c] += r;
-        }
-    for (int c = 0; c < 3; c++) mean_ratio[c] = theirs[c] != 0 ? ours[c] / theirs[c] : 0.0;
-    return sum / (3.0 * (double)n);
+    const float *const planes[3] = {ref->rgb[0], ref->rgb[1], ref->rgb[2]};
+    pm_image_error e = pm_image_compare(scratch, planes, (size_t)film->width * film->height, NULL);
+    for (int c = 0; c < 3; c++) mean_ratio[c] = e.ref[c] != 0 ? e.ours[c] / e.ref[c] : 0.0;
+    return e.relmse;
 }
 
 static void print_analysis_stats(const pm_scene *s) {

@@ -623,8 +623,9 @@ void pm_photon_maps_free(pm_photon_maps *maps) {
     memset(maps, 0, sizeof *maps);
 }
 
-/* Jensen's Gaussian shape, rescaled here so that it integrates to one over the disc. */
-static const float gauss_alpha_raw = 0.918f, gauss_beta = 1.953f;
+/* Jensen's Gaussian shape (his beta; his alpha = 0.918 is replaced by the factor that makes the
+ * kernel integrate to exactly one over the disc). */
+static const float gauss_beta = 1.953f;
 
 vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e) {
     enum { MAX_K = 2048 };
@@ -643,8 +644,7 @@ vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_
     if (e->kernel == PM_KERNEL_GAUSSIAN) {
         float eb = expf(-gauss_beta);
         float integral = 1.f - (1.f - (2.f / gauss_beta) * (1.f - expf(-0.5f * gauss_beta))) / (1.f - eb);
-        gauss_norm = 1.f / integral; /* replaces alpha so the kernel integrates to one */
-        (void)gauss_alpha_raw;
+        gauss_norm = 1.f / integral;
     }
     for (size_t i = 0; i < found; i++) {
         const pm_photon *ph = &map->photons[idx[i]];

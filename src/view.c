@@ -315,16 +315,23 @@ void pm_view_destroy(pm_view *v) {
     free(v);
 }
 
-pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_size) {
+/* A view of the given size and backend with nothing created yet; NULL with err set. */
+static pm_view *view_alloc(int backend, int width, int height, char *err, size_t err_size) {
     if (width < 1 || height < 1) {
         snprintf(err, err_size, "bad display size %dx%d", width, height);
         return NULL;
     }
     pm_view *v = calloc(1, sizeof *v);
     if (!v) { snprintf(err, err_size, "out of memory"); return NULL; }
-    v->backend = PM_BACKEND_OFFSCREEN;
+    v->backend = backend;
     v->width = width;
     v->height = height;
+    return v;
+}
+
+pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_size) {
+    pm_view *v = view_alloc(PM_BACKEND_OFFSCREEN, width, height, err, err_size);
+    if (!v) return NULL;
     static const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0,
                                   OSMESA_PROFILE, OSMESA_CORE_PROFILE,
                                   OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
@@ -412,15 +419,8 @@ static void on_close(GLFWwindow *window) {
 }
 
 pm_view *pm_view_create_window(int width, int height, const char *title, char *err, size_t err_size) {
-    if (width < 1 || height < 1) {
-        snprintf(err, err_size, "bad display size %dx%d", width, height);
-        return NULL;
-    }
-    pm_view *v = calloc(1, sizeof *v);
-    if (!v) { snprintf(err, err_size, "out of memory"); return NULL; }
-    v->backend = PM_BACKEND_WINDOW;
-    v->width = width;
-    v->height = height;
+    pm_view *v = view_alloc(PM_BACKEND_WINDOW, width, height, err, err_size);
+    if (!v) return NULL;
     snprintf(v->title, sizeof v->title, "%s", title ? title : "pmview");
     glfw_error[0] = 0;
     glfwSetErrorCallback(on_glfw_error);
