@@ -39,7 +39,7 @@ build/$(1)/%.o: src/%.c $(HEADERS)
 build/$(1)/%.o: src/%.cpp include/loader.h include/scene.h include/pm_math.h
 	@mkdir -p build/$(1)
 	$$(CXX) $$(CXXFLAGS) $(2) -c $$< -o $$@
-build/$(1)/tests/%: tests/%.c build/$(1)/libpm.a tests/testing.h
+build/$(1)/tests/%: tests/%.c build/$(1)/libpm.a $(wildcard tests/*.h)
 	@mkdir -p build/$(1)/tests
 	$$(CC) $$(CFLAGS) $(2) -Itests $$< build/$(1)/libpm.a -o $$@ $(2) $$(LIBS)
 build/$(1)/libpm.a: $(patsubst src/%.c,build/$(1)/%.o,$(C_SRC)) $(patsubst src/%.cpp,build/$(1)/%.o,$(CXX_SRC))

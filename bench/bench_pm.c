@@ -86,7 +86,7 @@ static double eye_rate(const pm_scene *s, const pm_accel *a, const pm_camera *ca
     es.seed = 1;
     es.threads = threads;
     es.max_specular_depth = 12;
-    pm_eye_stats st = {0, 0, 0};
+    pm_eye_stats st = {0, 0, 0, false};
     for (int i = 0; i < iterations; i++) pm_eye_iterate(s, a, cam, &es, i, &film, &st);
     pm_film_free(&film);
     return st.rays / st.seconds;

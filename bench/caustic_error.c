@@ -6,8 +6,8 @@
  * An image F times the reference's size is averaged over FxF blocks first (with a box pixel
  * filter that is exactly the smaller image), so a 320x320 render compares with a 64x64 reference.
  *
- * Prints `stat caustic_error pixels=N ratio=R focus_ratio=F caustic_share=S` (ratio: our sum over
- * the region without the focus divided by the reference's). Exit 1 when a file cannot be read.
+ * Prints `stat caustic_error pixels=N ratio=R focus_ratio=F caustic_share=S relmse=E` (ratio: our
+ * sum over the region without the focus divided by the reference's; relmse over the same pixels). Exit 1 when a file cannot be read.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -73,9 +73,9 @@ int main(int argc, char **argv) {
     } else if (have_ref) {
         const float *const ref_planes[3] = {ref[0], ref[1], ref[2]};
         caustic_region m = caustic_region_measure(w, h, total, direct, specular, caustic, ref_planes);
-        printf("stat caustic_error pixels=%zu ratio=%.4f focus_ratio=%.4f caustic_share=%.4f\n", m.pixels,
+        printf("stat caustic_error pixels=%zu ratio=%.4f focus_ratio=%.4f caustic_share=%.4f relmse=%.6f\n", m.pixels,
                m.ref > 0 ? m.ours / m.ref : 0.0, m.focus_ref > 0 ? m.focus_ours / m.focus_ref : 0.0,
-               m.ours > 0 ? m.caustic / m.ours : 0.0);
+               m.ours > 0 ? m.caustic / m.ours : 0.0, m.relmse);
         rc = 0;
     }
     free(total);

@@ -11,6 +11,15 @@
 #define PM_DEFAULT_MAX_SPECULAR_DEPTH 64 /* a safety stop: past depth 4, roulette on throughput ends eye paths */
 #define PM_MAX_IMAGE_SIDE 16384
 
+/* progressive photon mapping (the default mode) */
+#define PM_DEFAULT_ALPHA (2.0 / 3.0)       /* Hachisuka and Jensen's radius reduction */
+#define PM_PPM_PHOTONS_PER_PIXEL 0.5       /* photons per iteration = pixels x this, clamped below */
+#define PM_PPM_MIN_PHOTONS 10000
+#define PM_PPM_MAX_PHOTONS 1000000
+#define PM_PPM_FOOTPRINT_PIXELS 1.0        /* initial radius at least this many pixel footprints ... */
+#define PM_PPM_INITIAL_PHOTONS 16.0        /* ... and wide enough to hold this many first-iteration photons at the scene's mean density */
+#define PM_PPM_GATHER_PHOTONS 8.0          /* final gathering: the shared radius starts holding this many (each estimate is averaged over pixels and iterations) */
+
 /* photon mapping (classic two-pass mode) */
 #define PM_DEFAULT_PHOTONS_PER_PIXEL 1.0   /* global photons = pixels x this, clamped below */
 #define PM_MIN_DEFAULT_PHOTONS 100000

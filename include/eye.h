@@ -33,7 +33,19 @@ typedef struct {
     uint64_t rays;            /* closest-hit + shadow rays cast */
     double seconds;
     uint64_t dropped_samples; /* component samples that were NaN or infinite, left out of the film */
+    bool failed;              /* out of memory: the pass did not run */
 } pm_eye_stats;
+
+/* A point waiting for photons (progressive mode): where an eye path, or the gather ray of one,
+ * first met a diffuse surface. */
+typedef struct {
+    vec3 p;
+    vec3 n;               /* geometric normal on the side the path arrived from */
+    vec3 weight;          /* path throughput x kd / pi: turns an irradiance estimate into radiance */
+    float path_length;    /* from the camera (or the gather ray's origin), for the pixel footprint */
+    bool seen_directly;   /* first eye vertex (caustic / indirect components), else through specular bounces */
+    bool valid;
+} pm_visible_point;
 
 /* Builds the camera ray through film position (x, y) in pixels (0,0 = top-left corner). */
 void pm_camera_ray(const pm_camera *c, int width, int height, float x, float y, vec3 *origin, vec3 *dir);
@@ -41,5 +53,14 @@ void pm_camera_ray(const pm_camera *c, int width, int height, float x, float y, 
 /* Adds one jittered sample per pixel (iteration number `iteration`) to the film. */
 void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                     uint32_t iteration, pm_film *film, pm_eye_stats *stats);
+
+/* The progressive mode's eye pass: one jittered sample per pixel followed through specular
+ * bounces to its first diffuse point (visible[pixel]); emission and direct light there are added
+ * to the film's sums. With gathered != NULL, one cosine-distributed gather ray from each visible
+ * point finds gathered[pixel] (final gathering). The film's sample count is left to the caller,
+ * which adds the photon estimates first. */
+void pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
+                           uint32_t iteration, pm_film *film, pm_visible_point *visible, pm_visible_point *gathered,
+                           pm_eye_stats *stats);
 
 #endif

@@ -1,8 +1,11 @@
-/* film.h: per-component radiance accumulation (direct, specular, caustic, indirect) in linear float RGB.
+/* film.h: per-component radiance accumulation (direct, specular, caustic, indirect), and the progressive photon statistics.
  *
  * A component the scene analysis rules out gets no buffer at all (sum[c] == NULL): it is
  * black by construction and costs no memory. The film stores sums of samples; every pixel
- * holds the same sample count, so a component's mean is sum / samples.
+ * holds the same sample count. The progressive mode adds per-pixel photon statistics (slots,
+ * each allocated only when the scene can use it). Everything that reads an image, the view,
+ * the EXR writer, the error measures, goes through pm_film_resolve(): nothing else knows how
+ * a mode accumulates.
  */
 #ifndef PM_FILM_H
 #define PM_FILM_H
@@ -12,19 +15,41 @@
 #include <stdint.h>
 #include "scene.h"
 
+/* Stochastic progressive photon mapping statistics of one estimate at one pixel (Hachisuka and
+ * Jensen 2009): photon count N, the flux tau gathered so far (already rescaled to the current
+ * radius) and the squared radius; r2 == 0 until the pixel's first visible point. Doubles, so
+ * that after 10^4 iterations neither N nor tau has lost its low digits. */
+typedef struct { double tau[3]; double n; double r2; } pm_ppm_stat;
+
+/* Which photons and which visible points a slot gathers: caustic (L S+ D) or other indirect
+ * photons, at a visible point seen directly or through specular bounces. */
+typedef enum {
+    PM_SLOT_CAUSTIC = 0,           /* caustic photons, first-hit visible point -> caustic */
+    PM_SLOT_INDIRECT = 1,          /* indirect photons, first-hit visible point -> indirect */
+    PM_SLOT_SPECULAR_CAUSTIC = 2,  /* caustic photons, visible point behind specular bounces -> specular */
+    PM_SLOT_SPECULAR_INDIRECT = 3, /* indirect photons, visible point behind specular bounces -> specular */
+    PM_SLOT_COUNT = 4
+} pm_ppm_slot;
+extern const pm_component pm_slot_component[PM_SLOT_COUNT];
+
 typedef struct {
     int width, height;
     float *sum[PM_COMPONENT_COUNT]; /* 3*width*height floats each, row 0 = top; NULL = always black */
-    uint32_t samples;               /* samples per pixel accumulated so far */
+    uint32_t samples;               /* samples per pixel accumulated so far (= photon passes in the progressive mode) */
+    pm_ppm_stat *ppm[PM_SLOT_COUNT];/* width*height each, or NULL: the progressive mode's photon statistics */
 } pm_film;
 
 bool pm_film_init(pm_film *f, int width, int height, const bool component_enabled[PM_COMPONENT_COUNT]);
+/* Adds the progressive statistics slots that are enabled (their components must be enabled). */
+bool pm_film_enable_ppm(pm_film *f, const bool slot_enabled[PM_SLOT_COUNT]);
 void pm_film_free(pm_film *f);
 void pm_film_clear(pm_film *f);
-/* Mean radiance of one component into out (3*w*h floats); zeros for an absent component. */
+/* Radiance of one component into out (3*w*h floats): the mean of its samples plus, in the
+ * progressive mode, tau / (pi r^2 iterations) of each slot that feeds it; zeros for an absent
+ * component. The one way an image leaves the film. */
 void pm_film_resolve(const pm_film *f, pm_component c, float *out);
-/* Mean of the sum of all components. */
-void pm_film_resolve_total(const pm_film *f, float *out);
+/* The sum of all components (false, and zeros, when out of memory for the scratch buffer). */
+bool pm_film_resolve_total(const pm_film *f, float *out);
 size_t pm_film_bytes(const pm_film *f);
 
 /* An image against a reference: relMSE = mean over pixels (those with mask[i] != 0, or all when

@@ -39,4 +39,9 @@ size_t pm_kdtree_nearest_count_visits(const pm_kdtree *t, vec3 p, size_t k, floa
 void pm_kdtree_within(const pm_kdtree *t, vec3 p, float radius2,
                       void (*visit)(void *ctx, const pm_photon *ph, float dist2), void *ctx);
 
+/* The summed power and the count of the photons within sqrt(radius2) of p whose 2-bit path tag is
+ * in path_mask, that arrived from the side n faces and whose surface normal is within about 25
+ * degrees of n: the progressive mode's gather, with the filters inlined into the walk. */
+uint32_t pm_kdtree_sum_facing(const pm_kdtree *t, vec3 p, vec3 n, float radius2, unsigned path_mask, vec3 *power);
+
 #endif

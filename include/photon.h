@@ -101,4 +101,31 @@ static inline vec3 pm_photon_power(const pm_photon *ph) { return pm_rgbe_decode(
 
 static inline vec3 pm_photon_position(const pm_photon *ph) { return v3(ph->pos[0], ph->pos[1], ph->pos[2]); }
 
+/* An octahedral code decoded without normalising: the direction is right, the length in [1/sqrt(3), 1]. */
+static inline vec3 pm_oct_decode_unnormalised(uint16_t code, int bits) {
+    int mask = (1 << bits) - 1;
+    float scale = 2.f / (float)mask;
+    float x = (float)(code & mask) * scale - 1.f, y = (float)((code >> bits) & mask) * scale - 1.f;
+    float z = 1.f - fabsf(x) - fabsf(y);
+    if (z < 0.f) {
+        float ox = (1.f - fabsf(y)) * (x >= 0.f ? 1.f : -1.f);
+        float oy = (1.f - fabsf(x)) * (y >= 0.f ? 1.f : -1.f);
+        x = ox;
+        y = oy;
+    }
+    return v3(x, y, z);
+}
+
+/* Whether a photon counts for a surface point facing n: its path tag is in path_mask, it arrived
+ * from the side n faces, and its surface's normal is within about 25 degrees (cos 0.9) of n, so
+ * photons on the back of a thin wall or on another surface across a corner count for nothing.
+ * The same test as pm_photon_estimate's, without a square root. */
+static inline bool pm_photon_counts_for(const pm_photon *ph, vec3 n, unsigned path_mask) {
+    if (!((path_mask >> (ph->normal_path >> 14)) & 1u)) return false;
+    if (v3_dot(pm_oct_decode_unnormalised(ph->direction, 8), n) >= 0.f) return false;
+    vec3 pn = pm_oct_decode_unnormalised(ph->normal_path & 0x3fff, 7);
+    float c = v3_dot(pn, n);
+    return c > 0.f && c * c >= 0.81f * v3_dot(pn, pn);
+}
+
 #endif

@@ -60,6 +60,28 @@ typedef struct {
     double irradiance_seconds; /* precomputing irradiance points */
 } pm_photon_stats;
 
+/* The photon tracer: light sources, their power distribution and projection maps, built once
+ * per scene, then asked for as many passes as a mode needs (the classic mode one of each kind,
+ * the progressive mode a fresh pass every iteration). A pass with the same (photons, seed)
+ * gives the same tree at any thread count. */
+typedef struct pm_photon_tracer pm_photon_tracer;
+pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, const pm_photon_settings *settings);
+void pm_photon_tracer_destroy(pm_photon_tracer *t);
+/* Whether a pass of that kind can store anything (a light and a diffuse surface; for caustics a
+ * specular object some light reaches). */
+bool pm_photon_tracer_can_trace(const pm_photon_tracer *t, bool caustic);
+double pm_photon_tracer_projection_fraction(const pm_photon_tracer *t);
+/* Traces `photons` photons (each carrying 1/photons of the lights' flux) into a new tree in
+ * *out, adding to the counters in *stats. False when out of memory. */
+bool pm_photon_tracer_trace(pm_photon_tracer *t, bool caustic, uint64_t photons, uint64_t seed, pm_kdtree *out,
+                            pm_photon_stats *stats);
+
+/* A growable array of photon records, reused from pass to pass. */
+typedef struct { pm_photon *data; size_t count, capacity; } pm_photon_buffer;
+/* The same pass into a buffer (grown when needed, never shrunk) instead of a new tree. */
+bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t photons, uint64_t seed,
+                                 pm_photon_buffer *out, pm_photon_stats *stats);
+
 bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_settings *settings,
                           pm_photon_maps *maps, pm_photon_stats *stats);
 void pm_photon_maps_free(pm_photon_maps *maps);
@@ -68,6 +90,12 @@ void pm_photon_maps_free(pm_photon_maps *maps);
  * reflected radiance off a Lambert surface is kd/pi * E: the sum of the power of the k nearest
  * photons that arrived from the front of this surface, divided by the kernel's area. */
 vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e);
+
+/* The progressive mode's gather: the summed power and the count of the photons within
+ * sqrt(radius2) of p that carry a tag in path_mask, arrived from the front of the surface facing
+ * n and lie on a surface of about the same orientation (photons on the back of a thin wall, or
+ * on another surface across a corner, count for nothing). */
+uint32_t pm_photon_gather(const pm_kdtree *map, vec3 p, vec3 n, float radius2, unsigned path_mask, vec3 *power);
 
 /* The precomputed irradiance nearest p on a surface facing n; false when there is none within
  * irradiance_radius (the caller then makes a full estimate). */

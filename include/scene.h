@@ -63,6 +63,7 @@ typedef struct {
     bool has_diffuse, has_mirror, has_glass, has_textures;
     bool has_emissive_triangles, has_punctual_lights, has_sky;
     bool caustics_possible;  /* some light can reach a specular surface and then a diffuse one */
+    bool interreflection_possible; /* light reflected by a diffuse surface can reach a diffuse one again */
     bool component_possible[PM_COMPONENT_COUNT];
 } pm_scene_analysis;
 
@@ -147,5 +148,7 @@ vec3 pm_texture_lookup(const pm_texture *t, float u, float v);
 /* Picks an emissive triangle by power; returns its index and the probability of that pick. */
 uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf);
 float pm_triangle_area(const pm_scene *s, uint32_t tri);
+/* The probability that pm_scene_pick_emitter picks triangle tri (0 when it emits nothing). */
+float pm_scene_emitter_pdf(const pm_scene *s, uint32_t tri);
 
 #endif

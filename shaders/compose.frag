@@ -1,6 +1,6 @@
 // compose.frag: turns the film's per-component radiance sums into the displayed sRGB pixel.
 //
-// Each enabled component contributes sum * scale (scale = 1/samples), the total is multiplied
+// Each enabled component contributes its resolved radiance times u_scale, the total is multiplied
 // by the exposure (2^ev, computed on the CPU), tonemapped (0 = clamp, 1 = Reinhard on Rec.709
 // luminance: L' = L/(1+L), colour scaled by L'/L), clamped to 0..1 and encoded with the exact
 // piecewise sRGB curve. The render target is an RGBA8 texture the size of the film.

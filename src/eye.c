@@ -12,6 +12,7 @@
 
 #include "parallel.h"
 #include "rng.h"
+#include "scatter.h"
 
 #define TILE 16
 #define MAX_THREADS 256
@@ -23,6 +24,7 @@ typedef struct {
     const pm_eye_settings *settings;
     uint32_t iteration;
     pm_film *film;
+    pm_visible_point *visible, *gathered; /* progressive mode: one each per pixel, or NULL */
     int tiles_x;
     struct { uint64_t rays, dropped; char pad[48]; } counters[MAX_THREADS];
 } eye_job;
@@ -46,9 +48,16 @@ static float spot_falloff(const pm_light *l, vec3 light_to_point) {
     return t * t;
 }
 
+/* Veach's power heuristic (beta 2): the weight of a sample drawn with pdf a against another strategy's pdf b. */
+static inline float power_heuristic(float a, float b) {
+    float a2 = a * a, b2 = b * b;
+    return a2 + b2 > 0.f ? a2 / (a2 + b2) : 0.f;
+}
+
 /* Irradiance-like estimate E at a diffuse point seen from direction wo, so that the reflected
  * radiance is kd/pi * E. One shadow ray per punctual light, one to a power-picked emissive
- * triangle, one cosine-distributed toward the sky. */
+ * triangle, one cosine-distributed ray for the sky and the emitters (combined with the area
+ * sample by multiple importance sampling). */
 static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, vec3 wo, pm_rng *rng,
                          uint64_t *rays) {
     vec3 ng = facing(sf->ng, wo);
@@ -106,31 +115,46 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                 (*rays)++;
                 if (seg_len > 0.f && !pm_accel_occluded(a, origin, v3_scale(seg, 1.f / seg_len), seg_len)) {
                     float g = cos_s * cos_l / (dist * dist);
-                    e = v3_madd(e, m->emission, g * area / pick_pdf);
+                    float pdf_light = pick_pdf * dist * dist / (area * cos_l), pdf_cosine = cos_s * PM_INV_PI;
+                    e = v3_madd(e, m->emission, g * area / pick_pdf * power_heuristic(pdf_light, pdf_cosine));
                 }
             }
         }
     }
 
-    if (s->sky) {
+    /* One cosine-distributed ray serves the sky and, weighted against the area sample above, the
+     * emitters: near an emitter (a lamp's own wall, a glowing corner) area sampling alone has
+     * unbounded variance, and the cosine sample bounds it. */
+    if (s->sky || s->emitter_count) {
         vec3 wi = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
-        if (v3_dot(wi, ng) > 0.f) {
+        float cos_s = v3_dot(ns, wi);
+        if (v3_dot(wi, ng) > 0.f && cos_s > 0.f) {
             (*rays)++;
-            if (!pm_accel_occluded(a, origin, wi, INFINITY)) e = v3_madd(e, s->sky_radiance, PM_PI);
+            if (!s->emitter_count) {
+                if (!pm_accel_occluded(a, origin, wi, INFINITY)) e = v3_madd(e, s->sky_radiance, PM_PI);
+            } else {
+                pm_hit h;
+                if (!pm_accel_intersect(a, origin, wi, INFINITY, &h)) {
+                    if (s->sky) e = v3_madd(e, s->sky_radiance, PM_PI);
+                } else {
+                    const pm_material *m = &s->materials[s->triangle_material[h.tri]];
+                    float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
+                    if (pick_pdf > 0.f) {
+                        const uint32_t *ix = s->indices + 3 * (size_t)h.tri;
+                        vec3 p0 = s->positions[ix[0]];
+                        vec3 cross = v3_cross(v3_sub(s->positions[ix[1]], p0), v3_sub(s->positions[ix[2]], p0));
+                        float len = v3_length(cross), cos_l = len > 0.f ? -v3_dot(cross, wi) / len : 0.f;
+                        if (m->double_sided) cos_l = fabsf(cos_l);
+                        if (cos_l > 0.f) {
+                            float pdf_light = pick_pdf * h.t * h.t / (0.5f * len * cos_l), pdf_cosine = cos_s * PM_INV_PI;
+                            e = v3_madd(e, m->emission, PM_PI * power_heuristic(pdf_cosine, pdf_light));
+                        }
+                    }
+                }
+            }
         }
     }
     return e;
-}
-
-/* Unpolarised Fresnel reflectance of a smooth dielectric; cos_i > 0 on the incident side. */
-static float fresnel_dielectric(float cos_i, float eta_i, float eta_t, float *cos_t) {
-    float sin_t = eta_i / eta_t * sqrtf(pm_maxf(0.f, 1.f - cos_i * cos_i));
-    if (sin_t >= 1.f) { *cos_t = 0.f; return 1.f; }
-    float ct = sqrtf(pm_maxf(0.f, 1.f - sin_t * sin_t));
-    float rs = (eta_i * cos_i - eta_t * ct) / (eta_i * cos_i + eta_t * ct);
-    float rp = (eta_t * cos_i - eta_i * ct) / (eta_t * cos_i + eta_i * ct);
-    *cos_t = ct;
-    return 0.5f * (rs * rs + rp * rp);
 }
 
 /* Radiance reflected toward the gather ray from the first diffuse surface it reaches (through
@@ -156,32 +180,12 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, p
             result = v3_add(result, v3_mul(weight, v3_scale(v3_mul(y.kd, e), PM_INV_PI)));
         }
         /* the specular part of the same surface (a mixed material) reflects what it sees too */
-        float wm = v3_average(y.ks), wt = v3_average(y.kt);
-        if (wm + wt <= 0.f) return result;
-        vec3 yns = v3_dot(y.ns, yng) < 0.f ? v3_neg(y.ns) : y.ns;
-        if (pm_rng_float(rng) * (wm + wt) < wm) {
-            weight = v3_mul(weight, v3_scale(y.ks, (wm + wt) / wm));
-            vec3 r = v3_reflect(d, yns);
-            d = v3_dot(r, yng) > 0.f ? r : v3_reflect(d, yng);
-            o = pm_surface_origin(&y, yng, s->ray_scale);
-        } else {
-            weight = v3_mul(weight, v3_scale(y.kt, (wm + wt) / wt));
-            bool front = v3_dot(y.ng, wo) > 0.f;
-            float eta_i = front ? 1.f : y.ior, eta_t = front ? y.ior : 1.f, cos_t;
-            float cos_i = pm_minf(1.f, v3_dot(wo, yns));
-            float f = fresnel_dielectric(cos_i, eta_i, eta_t, &cos_t);
-            if (pm_rng_float(rng) < f) {
-                vec3 r = v3_reflect(d, yns);
-                d = v3_dot(r, yng) > 0.f ? r : v3_reflect(d, yng);
-                o = pm_surface_origin(&y, yng, s->ray_scale);
-            } else {
-                float eta = eta_i / eta_t;
-                d = v3_normalize(v3_add(v3_scale(d, eta), v3_scale(yns, eta * cos_i - cos_t)));
-                if (v3_dot(d, yng) >= 0.f) return result;
-                weight = v3_scale(weight, eta * eta);
-                o = pm_surface_origin(&y, v3_neg(yng), s->ray_scale);
-            }
-        }
+        if (pm_specular_weight(&y) <= 0.f) return result;
+        pm_specular_sample sp;
+        if (!pm_scatter_specular(&y, d, rng, s->ray_scale, &sp)) return result;
+        weight = v3_scale(v3_mul(weight, sp.weight), sp.radiance_scale);
+        d = sp.direction;
+        o = sp.origin;
     }
     return result;
 }
@@ -240,34 +244,12 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 ou
             }
         }
 
-        float w_mirror = v3_average(sf.ks), w_glass = v3_average(sf.kt);
-        if (w_mirror + w_glass <= 0.f || depth >= job->settings->max_specular_depth) return;
-        vec3 ng = facing(sf.ng, wo);
-        vec3 ns = v3_dot(sf.ns, ng) < 0.f ? v3_neg(sf.ns) : sf.ns;
-        float pick = pm_rng_float(rng) * (w_mirror + w_glass);
-        if (pick < w_mirror) {
-            throughput = v3_mul(throughput, v3_scale(sf.ks, (w_mirror + w_glass) / w_mirror));
-            d = v3_reflect(d, ns);
-            if (v3_dot(d, ng) <= 0.f) d = v3_reflect(v3_neg(wo), ng);
-            o = pm_surface_origin(&sf, ng, s->ray_scale);
-        } else {
-            throughput = v3_mul(throughput, v3_scale(sf.kt, (w_mirror + w_glass) / w_glass));
-            float eta_i = front ? 1.f : sf.ior, eta_t = front ? sf.ior : 1.f;
-            float cos_i = pm_minf(1.f, v3_dot(wo, ns)), cos_t;
-            float f = fresnel_dielectric(cos_i, eta_i, eta_t, &cos_t);
-            if (pm_rng_float(rng) < f) {
-                d = v3_reflect(d, ns);
-                if (v3_dot(d, ng) <= 0.f) d = v3_reflect(v3_neg(wo), ng);
-                o = pm_surface_origin(&sf, ng, s->ray_scale);
-            } else {
-                float eta = eta_i / eta_t;
-                d = v3_normalize(v3_add(v3_scale(d, eta), v3_scale(ns, eta * cos_i - cos_t)));
-                if (v3_dot(d, ng) >= 0.f) return; /* shading normal bent it outside: drop */
-                /* Radiance crossing an interface scales with the square of the index ratio. */
-                throughput = v3_scale(throughput, eta * eta);
-                o = pm_surface_origin(&sf, v3_neg(ng), s->ray_scale);
-            }
-        }
+        if (pm_specular_weight(&sf) <= 0.f || depth >= job->settings->max_specular_depth) return;
+        pm_specular_sample sp;
+        if (!pm_scatter_specular(&sf, d, rng, s->ray_scale, &sp)) return; /* shading normal bent it outside: drop */
+        throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
+        d = sp.direction;
+        o = sp.origin;
         /* Past a few bounces, roulette on throughput keeps long glass paths cheap and unbiased. */
         if (depth >= 4) {
             float q = pm_minf(0.95f, v3_max_component(throughput));
@@ -275,6 +257,82 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 ou
             throughput = v3_scale(throughput, 1.f / q);
         }
     }
+}
+
+/* Follows a ray through specular bounces to the first surface where it becomes diffuse, and
+ * returns that point (false when the path leaves the scene, is absorbed or cut). Camera rays add
+ * the emission they see on the way to out[] and direct light at the point; gather rays add
+ * nothing (direct light and caustics at their origin already count it). A mixed surface is the
+ * point with probability D / (D + S) and scatters on otherwise, each choice weighted by the
+ * inverse of its probability. */
+static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, vec3 throughput, bool camera_ray, pm_rng *rng,
+                            vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, pm_visible_point *vp, pm_surface *sf,
+                            vec3 *point_throughput) {
+    const pm_scene *s = job->scene;
+    float path_length = 0.f;
+    for (int depth = 0;; depth++) {
+        int comp = depth == 0 ? PM_DIRECT : PM_SPECULAR;
+        pm_hit h;
+        (*rays)++;
+        if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) {
+            if (camera_ray && s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, s->sky_radiance));
+            return false;
+        }
+        path_length += h.t;
+        pm_scene_surface(s, h.tri, h.b1, h.b2, sf);
+        vec3 wo = v3_neg(d);
+        bool front = v3_dot(sf->ng, wo) > 0.f;
+        if (camera_ray && (front || sf->double_sided) && !v3_is_black(sf->emission))
+            out[comp] = v3_add(out[comp], v3_mul(throughput, sf->emission));
+        float D = v3_average(sf->kd), S = pm_specular_weight(sf);
+        if (D > 0.f && (S <= 0.f || pm_rng_float(rng) * (D + S) < D)) {
+            throughput = v3_scale(throughput, (D + S) / D);
+            vec3 ng = facing(sf->ng, wo);
+            vec3 f = v3_mul(throughput, v3_scale(sf->kd, PM_INV_PI));
+            if (camera_ray) out[comp] = v3_add(out[comp], v3_mul(f, direct_light(s, job->accel, sf, wo, rng, rays)));
+            vp->p = sf->p;
+            vp->n = ng;
+            vp->weight = f;
+            vp->path_length = path_length;
+            vp->seen_directly = depth == 0;
+            vp->valid = true;
+            *point_throughput = throughput;
+            return true;
+        }
+        if (S <= 0.f || depth >= job->settings->max_specular_depth) return false;
+        if (D > 0.f) throughput = v3_scale(throughput, (D + S) / S);
+        pm_specular_sample sp;
+        if (!pm_scatter_specular(sf, d, rng, s->ray_scale, &sp)) return false;
+        throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
+        d = sp.direction;
+        o = sp.origin;
+        if (depth >= 4) {
+            float q = pm_minf(0.95f, v3_max_component(throughput));
+            if (pm_rng_float(rng) >= q) return false;
+            throughput = v3_scale(throughput, 1.f / q);
+        }
+    }
+}
+
+/* The progressive mode's eye sample: the pixel's visible point and, with final gathering, the
+ * point its one gather ray finds; emission and direct light go to out[]. */
+static void trace_visible(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT],
+                          uint64_t *rays, pm_visible_point *vp, pm_visible_point *gp) {
+    memset(vp, 0, sizeof *vp);
+    if (gp) memset(gp, 0, sizeof *gp);
+    pm_surface sf;
+    vec3 throughput;
+    if (!walk_to_diffuse(job, o, d, v3s(1.f), true, rng, out, rays, vp, &sf, &throughput) || !gp) return;
+    vec3 ng = vp->n, ns = v3_dot(sf.ns, ng) < 0.f ? v3_neg(sf.ns) : sf.ns;
+    vec3 g = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
+    if (v3_dot(g, ng) <= 0.f) return;
+    /* cosine-distributed: kd/pi x cos / (cos/pi) = kd */
+    vec3 gather_throughput = v3_mul(throughput, sf.kd);
+    pm_surface y;
+    vec3 unused;
+    if (walk_to_diffuse(job, pm_surface_origin(&sf, ng, job->scene->ray_scale), g, gather_throughput, false, rng, NULL,
+                        rays, gp, &y, &unused))
+        gp->seen_directly = vp->seen_directly; /* the component is the visible point's */
 }
 
 static void render_tile(void *ctx, size_t task, int thread) {
@@ -292,7 +350,10 @@ static void render_tile(void *ctx, size_t task, int thread) {
             vec3 o, d;
             pm_camera_ray(job->camera, film->width, film->height, x + pm_rng_float(&rng), y + pm_rng_float(&rng), &o, &d);
             vec3 out[PM_COMPONENT_COUNT] = {{0}};
-            trace_pixel(job, o, d, &rng, out, &rays);
+            if (job->visible)
+                trace_visible(job, o, d, &rng, out, &rays, &job->visible[pixel], job->gathered ? &job->gathered[pixel] : NULL);
+            else
+                trace_pixel(job, o, d, &rng, out, &rays);
             for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
                 /* A NaN from a degenerate corner case must not poison a pixel forever; it is
                  * counted (stat eye dropped_samples=), so tests can still see one. */
@@ -314,21 +375,24 @@ static double now_seconds(void) {
     return ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
-void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
-                    uint32_t iteration, pm_film *film, pm_eye_stats *stats) {
+static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
+                         uint32_t iteration, pm_film *film, pm_visible_point *visible, pm_visible_point *gathered,
+                         pm_eye_stats *stats) {
     double start = now_seconds();
     eye_job *job = calloc(1, sizeof *job);
+    if (!job) { if (stats) stats->failed = true; return; }
     job->scene = s;
     job->accel = a;
     job->camera = cam;
     job->settings = settings;
     job->iteration = iteration;
     job->film = film;
+    job->visible = visible;
+    job->gathered = gathered;
     job->tiles_x = (film->width + TILE - 1) / TILE;
     int tiles_y = (film->height + TILE - 1) / TILE;
     int threads = settings->threads < 1 ? 1 : (settings->threads > MAX_THREADS ? MAX_THREADS : settings->threads);
     pm_parallel_for(threads, (size_t)job->tiles_x * tiles_y, render_tile, job);
-    film->samples++;
     if (stats) {
         for (int t = 0; t < threads; t++) {
             stats->rays += job->counters[t].rays;
@@ -337,4 +401,16 @@ void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, 
         stats->seconds += now_seconds() - start;
     }
     free(job);
+}
+
+void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
+                    uint32_t iteration, pm_film *film, pm_eye_stats *stats) {
+    run_eye_pass(s, a, cam, settings, iteration, film, NULL, NULL, stats);
+    film->samples++;
+}
+
+void pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
+                           uint32_t iteration, pm_film *film, pm_visible_point *visible, pm_visible_point *gathered,
+                           pm_eye_stats *stats) {
+    run_eye_pass(s, a, cam, settings, iteration, film, visible, gathered, stats);
 }

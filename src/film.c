@@ -1,8 +1,10 @@
-/* film.c: allocation, clearing and resolving of the per-component accumulation buffers. */
+/* film.c: allocation, clearing and resolving of the per-component accumulation buffers and progressive photon statistics. */
 #include "film.h"
 
 #include <stdlib.h>
 #include <string.h>
+
+const pm_component pm_slot_component[PM_SLOT_COUNT] = {PM_CAUSTIC, PM_INDIRECT, PM_SPECULAR, PM_SPECULAR};
 
 bool pm_film_init(pm_film *f, int width, int height, const bool enabled[PM_COMPONENT_COUNT]) {
     memset(f, 0, sizeof *f);
@@ -18,8 +20,20 @@ bool pm_film_init(pm_film *f, int width, int height, const bool enabled[PM_COMPO
     return true;
 }
 
+bool pm_film_enable_ppm(pm_film *f, const bool slot_enabled[PM_SLOT_COUNT]) {
+    size_t n = (size_t)f->width * f->height;
+    for (int k = 0; k < PM_SLOT_COUNT; k++) {
+        if (!slot_enabled[k] || f->ppm[k]) continue;
+        if (!f->sum[pm_slot_component[k]]) return false; /* a slot feeds a component that must exist */
+        f->ppm[k] = calloc(n, sizeof(pm_ppm_stat));
+        if (!f->ppm[k]) return false;
+    }
+    return true;
+}
+
 void pm_film_free(pm_film *f) {
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(f->sum[c]);
+    for (int k = 0; k < PM_SLOT_COUNT; k++) free(f->ppm[k]);
     memset(f, 0, sizeof *f);
 }
 
@@ -27,30 +41,47 @@ void pm_film_clear(pm_film *f) {
     size_t n = 3 * (size_t)f->width * f->height;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
         if (f->sum[c]) memset(f->sum[c], 0, n * sizeof(float));
+    for (int k = 0; k < PM_SLOT_COUNT; k++)
+        if (f->ppm[k]) memset(f->ppm[k], 0, (n / 3) * sizeof(pm_ppm_stat));
     f->samples = 0;
 }
 
 void pm_film_resolve(const pm_film *f, pm_component c, float *out) {
-    size_t n = 3 * (size_t)f->width * f->height;
+    size_t pixels = (size_t)f->width * f->height, n = 3 * pixels;
     if (!f->sum[c] || f->samples == 0) { memset(out, 0, n * sizeof(float)); return; }
     float inv = 1.f / (float)f->samples;
     for (size_t i = 0; i < n; i++) out[i] = f->sum[c][i] * inv;
+    for (int k = 0; k < PM_SLOT_COUNT; k++) {
+        if (pm_slot_component[k] != c || !f->ppm[k]) continue;
+        const pm_ppm_stat *st = f->ppm[k];
+        for (size_t i = 0; i < pixels; i++) {
+            if (!(st[i].r2 > 0.0)) continue;
+            double scale = 1.0 / (PM_PI * st[i].r2 * (double)f->samples);
+            for (int ch = 0; ch < 3; ch++) out[3 * i + ch] += (float)(st[i].tau[ch] * scale);
+        }
+    }
 }
 
-void pm_film_resolve_total(const pm_film *f, float *out) {
+bool pm_film_resolve_total(const pm_film *f, float *out) {
     size_t n = 3 * (size_t)f->width * f->height;
     memset(out, 0, n * sizeof(float));
-    if (f->samples == 0) return;
-    float inv = 1.f / (float)f->samples;
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-        if (f->sum[c])
-            for (size_t i = 0; i < n; i++) out[i] += f->sum[c][i] * inv;
+    float *part = malloc(n * sizeof(float));
+    if (!part) return false;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        if (!f->sum[c]) continue;
+        pm_film_resolve(f, (pm_component)c, part);
+        for (size_t i = 0; i < n; i++) out[i] += part[i];
+    }
+    free(part);
+    return true;
 }
 
 size_t pm_film_bytes(const pm_film *f) {
     size_t n = 0;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
         if (f->sum[c]) n += 3 * (size_t)f->width * f->height * sizeof(float);
+    for (int k = 0; k < PM_SLOT_COUNT; k++)
+        if (f->ppm[k]) n += (size_t)f->width * f->height * sizeof(pm_ppm_stat);
     return n;
 }
 

@@ -340,8 +340,9 @@ size_t pm_kdtree_nearest_count_visits(const pm_kdtree *t, vec3 p, size_t k, floa
     return nearest_search(t, p, k, max_dist2, index_out, dist2_out, radius2_out, visits_out);
 }
 
-void pm_kdtree_within(const pm_kdtree *t, vec3 p, float radius2,
-                      void (*visit)(void *ctx, const pm_photon *ph, float dist2), void *ctx) {
+/* The fixed-radius walk; static inline so that each caller's visitor is inlined into it. */
+static inline void within_walk(const pm_kdtree *t, vec3 p, float radius2,
+                               void (*visit)(void *ctx, const pm_photon *ph, float dist2), void *ctx) {
     const float q[3] = {p.x, p.y, p.z};
     const pm_photon *photons = t->photons;
     const uint8_t *axis = t->axis;
@@ -374,4 +375,25 @@ void pm_kdtree_within(const pm_kdtree *t, vec3 p, float radius2,
         lo = stack[depth].lo;
         hi = stack[depth].hi;
     }
+}
+
+void pm_kdtree_within(const pm_kdtree *t, vec3 p, float radius2,
+                      void (*visit)(void *ctx, const pm_photon *ph, float dist2), void *ctx) {
+    within_walk(t, p, radius2, visit, ctx);
+}
+
+typedef struct { vec3 n; unsigned path_mask; vec3 power; uint32_t count; } filtered_sum;
+
+static inline void filtered_visit(void *ctx, const pm_photon *ph, float dist2) {
+    filtered_sum *g = ctx;
+    if (!pm_photon_counts_for(ph, g->n, g->path_mask)) return;
+    g->power = v3_add(g->power, pm_photon_power(ph));
+    g->count++;
+}
+
+uint32_t pm_kdtree_sum_facing(const pm_kdtree *t, vec3 p, vec3 n, float radius2, unsigned path_mask, vec3 *power) {
+    filtered_sum g = {n, path_mask, {0.f, 0.f, 0.f}, 0};
+    if (t->count && radius2 > 0.f) within_walk(t, p, radius2, filtered_visit, &g);
+    *power = g.power;
+    return g.count;
 }

@@ -17,6 +17,7 @@
 #include "image_io.h"
 #include "loader.h"
 #include "parallel.h"
+#include "progressive.h"
 #include "scene.h"
 #include "view.h"
 
@@ -40,6 +41,9 @@ typedef struct {
     pm_kernel kernel;
     pm_indirect_mode indirect;
     bool view_photons, no_photons;
+    bool classic;         /* --mode classic; else progressive */
+    double alpha, radius; /* progressive: radius reduction, initial radius (0 = from the scene) */
+    bool indirect_given;
 } options;
 
 static const char usage_text[] =
@@ -54,13 +58,18 @@ static const char usage_text[] =
     "  --exposure EV        display exposure in stops (PNG and window)\n"
     "  --screenshot FILE    where the window's P key saves a PNG (default pmview-screenshot.png)\n"
     "  --no-default-light   do not add the white sky to a scene without lights\n"
-    "  --mode classic       two-pass photon mapping: maps built once, eye pass repeated (the default)\n"
-    "  --photons N          photons emitted for the global map (default: from the image size and --time)\n"
-    "  --caustic-photons N  photons emitted for the caustic map (default: as many as --photons)\n"
+    "  --mode progressive|classic  progressive: fresh photons every iteration, radii shrinking (default);\n"
+    "                       classic: two-pass photon mapping, maps built once, eye pass repeated\n"
+    "  --photons N          progressive: global photons per iteration (default: pixels/2, 10k to 1M);\n"
+    "                       classic: photons for the global map (default: from the image size and --time)\n"
+    "  --caustic-photons N  caustic photons per iteration / for the caustic map (default: as many as --photons)\n"
+    "  --alpha A            progressive: radius reduction per iteration, 0 < A < 1 (default 2/3)\n"
+    "  --radius R           progressive: initial radius in scene units (default: from the pixel footprint\n"
+    "                       and the first iteration's photon density)\n"
     "  --k N                photons per radiance estimate (default 64)\n"
     "  --max-radius R       largest estimate radius in scene units (default: a fraction of the scene size)\n"
     "  --kernel disc|gaussian|cone  radiance estimate filter (default disc)\n"
-    "  --indirect gather|photons    indirect light by final gathering (default) or the global map directly\n"
+    "  --indirect gather|photons    indirect light by one final-gather bounce (default) or photons at the visible point\n"
     "  --gather-rays N      final-gather rays per eye sample (default 1)\n"
     "  --precompute N       gather from irradiance precomputed at every N-th global photon (default 4; 0 = full estimates)\n"
     "  --view photons       show the photon maps' estimates at the first diffuse hit\n"
@@ -114,6 +123,8 @@ static int parse_options(int argc, char **argv, options *o) {
     o->photons = o->caustic_photons = -1;
     o->gather_rays = PM_DEFAULT_GATHER_RAYS;
     o->irradiance_stride = PM_DEFAULT_IRRADIANCE_STRIDE;
+    o->alpha = PM_DEFAULT_ALPHA;
+    o->indirect = PM_INDIRECT_GATHER;
     bool have_scene = false;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -131,7 +142,8 @@ static int parse_options(int argc, char **argv, options *o) {
         static const char *const valued[] = {"--snapshot", "--width", "--height", "--iterations", "--time", "--threads",
                                              "--seed", "--camera", "--exposure", "--screenshot", "--mode", "--photons",
                                              "--caustic-photons", "--k", "--max-radius", "--kernel", "--indirect",
-                                             "--gather-rays", "--view", "--precompute", "--reference"};
+                                             "--gather-rays", "--view", "--precompute", "--reference", "--alpha",
+                                             "--radius"};
         int which = -1;
         for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
             if (!strcmp(a, valued[k])) which = k;
@@ -155,7 +167,11 @@ static int parse_options(int argc, char **argv, options *o) {
         case 7: if (!parse_long(v, 0, 1000000, &n)) return usage_error("bad --camera '%s' (an index from 0)", v); o->camera = (int)n; break;
         case 8: if (!parse_double(v, -64, 64, &x)) return usage_error("bad --exposure '%s' (stops, -64 to 64)", v); o->exposure_ev = (float)x; break;
         case 9: if (!has_extension(v, ".png")) return usage_error("--screenshot needs a .png file name, not '%s'", v); o->screenshot = v; break;
-        case 10: if (strcmp(v, "classic")) return usage_error("unknown --mode '%s' (classic)", v); break;
+        case 10:
+            if (!strcmp(v, "classic")) o->classic = true;
+            else if (!strcmp(v, "progressive")) o->classic = false;
+            else return usage_error("unknown --mode '%s' (progressive, classic)", v);
+            break;
         case 11: if (!parse_long(v, 0, 2000000000L, &n)) return usage_error("bad --photons '%s'", v); o->photons = n; break;
         case 12: if (!parse_long(v, 0, 2000000000L, &n)) return usage_error("bad --caustic-photons '%s'", v); o->caustic_photons = n; break;
         case 13: if (!parse_long(v, 1, 2048, &n)) return usage_error("bad --k '%s' (1 to 2048)", v); o->k = (int)n; break;
@@ -175,7 +191,20 @@ static int parse_options(int argc, char **argv, options *o) {
         case 19: if (!parse_long(v, 0, 1000000, &n)) return usage_error("bad --precompute '%s' (0 to 1000000)", v); o->irradiance_stride = (int)n; break;
         case 20: if (!has_extension(v, ".exr")) return usage_error("--reference needs an .exr file, not '%s'", v); o->reference = v; break;
         case 18: if (strcmp(v, "photons")) return usage_error("unknown --view '%s' (photons)", v); o->view_photons = true; break;
+        case 21: if (!parse_double(v, 1e-3, 0.999, &x)) return usage_error("bad --alpha '%s' (0.001 to 0.999)", v); o->alpha = x; break;
+        case 22: if (!parse_double(v, 1e-30, 1e30, &x)) return usage_error("bad --radius '%s' (> 0, scene units)", v); o->radius = x; break;
         }
+    }
+    if (!o->classic) {
+        static const char *const classic_only[] = {"--k", "--max-radius", "--kernel", "--gather-rays", "--precompute", "--view"};
+        for (int i = 1; i < argc; i++)
+            for (int k = 0; k < (int)(sizeof classic_only / sizeof *classic_only); k++)
+                if (!strcmp(argv[i], classic_only[k]))
+                    return usage_error("%s belongs to --mode classic (the progressive mode has no k-nearest estimates)", argv[i]);
+    } else {
+        for (int i = 1; i < argc; i++)
+            if (!strcmp(argv[i], "--alpha") || !strcmp(argv[i], "--radius"))
+                return usage_error("%s belongs to --mode progressive (the classic mode's radii do not shrink)", argv[i]);
     }
     return -1;
 }
@@ -224,9 +253,10 @@ static double relative_mse(const pm_film *film, const reference_image *ref, floa
 
 static void print_analysis_stats(const pm_scene *s) {
     const pm_scene_analysis *a = &s->analysis;
-    printf("stat analysis diffuse=%d mirror=%d glass=%d textures=%d emissive_triangles=%d punctual_lights=%d sky=%d caustics_possible=%d components=",
+    printf("stat analysis diffuse=%d mirror=%d glass=%d textures=%d emissive_triangles=%d punctual_lights=%d sky=%d caustics_possible=%d interreflection_possible=%d photons_needed=%d components=",
            a->has_diffuse, a->has_mirror, a->has_glass, a->has_textures, a->has_emissive_triangles,
-           a->has_punctual_lights, a->has_sky, a->caustics_possible);
+           a->has_punctual_lights, a->has_sky, a->caustics_possible, a->interreflection_possible,
+           a->component_possible[PM_CAUSTIC] || a->component_possible[PM_INDIRECT]);
     bool first = true;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
         if (a->component_possible[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }
@@ -284,6 +314,7 @@ int main(int argc, char **argv) {
     memset(&film, 0, sizeof film);
     pm_photon_maps maps;
     memset(&maps, 0, sizeof maps);
+    pm_progressive *progressive = NULL;
     reference_image reference;
     memset(&reference, 0, sizeof reference);
     float *reference_scratch = NULL;
@@ -321,7 +352,26 @@ int main(int argc, char **argv) {
     eye.seed = opt.seed;
     eye.threads = opt.threads;
     eye.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
-    if (!opt.no_photons && (scene.analysis.component_possible[PM_CAUSTIC] || scene.analysis.component_possible[PM_INDIRECT])) {
+    if (!opt.classic) {
+        pm_progressive_settings ps;
+        memset(&ps, 0, sizeof ps);
+        ps.seed = opt.seed;
+        ps.threads = opt.threads;
+        uint64_t photons = opt.no_photons ? 0 : (opt.photons >= 0 ? (uint64_t)opt.photons : pm_progressive_default_photons(width, height));
+        ps.photons = photons;
+        ps.caustic_photons = opt.no_photons ? 0 : (opt.caustic_photons >= 0 ? (uint64_t)opt.caustic_photons : photons);
+        ps.alpha = opt.alpha;
+        ps.initial_radius = opt.radius;
+        ps.indirect = opt.indirect;
+        ps.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
+        ps.max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
+        progressive = pm_progressive_create(&scene, accel, &camera, &ps, err, sizeof err);
+        if (!progressive) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
+        if (opt.stats)
+            printf("stat progressive_setup photon_pass=%d caustic_photons=%llu global_photons=%llu indirect=%s\n",
+                   pm_progressive_uses_photons(progressive), (unsigned long long)ps.caustic_photons,
+                   (unsigned long long)ps.photons, opt.indirect == PM_INDIRECT_GATHER ? "gather" : "photons");
+    } else if (!opt.no_photons && (scene.analysis.component_possible[PM_CAUSTIC] || scene.analysis.component_possible[PM_INDIRECT])) {
         pm_photon_settings ps;
         memset(&ps, 0, sizeof ps);
         ps.seed = opt.seed;
@@ -379,12 +429,21 @@ int main(int argc, char **argv) {
         eye.view_photons = opt.view_photons;
     }
     bool components[PM_COMPONENT_COUNT];
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++) components[c] = scene.analysis.component_possible[c];
-    components[PM_CAUSTIC] = components[PM_CAUSTIC] && maps.caustic.count > 0;
-    components[PM_INDIRECT] = components[PM_INDIRECT] && maps.global.count > 0;
+    if (progressive) {
+        pm_progressive_components(progressive, components);
+    } else {
+        for (int c = 0; c < PM_COMPONENT_COUNT; c++) components[c] = scene.analysis.component_possible[c];
+        components[PM_CAUSTIC] = components[PM_CAUSTIC] && maps.caustic.count > 0;
+        components[PM_INDIRECT] = components[PM_INDIRECT] && maps.global.count > 0;
+    }
 
     if (!pm_film_init(&film, width, height, components)) {
-        fprintf(stderr, "pmview: error: cannot allocate a %dx%d film\n", width, height);
+        fprintf(stderr, "pmview: error: out of memory (a %dx%d film)\n", width, height);
+        exit_code = 1;
+        goto done;
+    }
+    if (progressive && !pm_progressive_bind(progressive, &film, err, sizeof err)) {
+        fprintf(stderr, "pmview: error: %s\n", err);
         exit_code = 1;
         goto done;
     }
@@ -426,7 +485,7 @@ int main(int argc, char **argv) {
     }
     if ((window || want_png) && !view) { fprintf(stderr, "pmview: error: %s\n", err); exit_code = 1; goto done; }
 
-    pm_eye_stats eye_stats = {0, 0.0, 0};
+    pm_eye_stats eye_stats = {0, 0.0, 0, false};
     long target = opt.iterations ? opt.iterations
                                  : (opt.time_limit > 0 ? 1000000000L
                                                        : (window ? PM_DEFAULT_WINDOW_ITERATIONS : PM_DEFAULT_SNAPSHOT_ITERATIONS));
@@ -435,7 +494,15 @@ int main(int argc, char **argv) {
         bool more = !finished && (long)film.samples < target &&
                     !(opt.time_limit > 0 && film.samples > 0 && now_seconds() - start >= opt.time_limit);
         if (more) {
-            pm_eye_iterate(&scene, accel, &camera, &eye, film.samples, &film, &eye_stats);
+            if (progressive) {
+                if (!pm_progressive_iterate(progressive, &film)) {
+                    fprintf(stderr, "pmview: error: %s: out of memory in a progressive iteration\n", opt.scene_path);
+                    exit_code = 1;
+                    goto done;
+                }
+            } else {
+                pm_eye_iterate(&scene, accel, &camera, &eye, film.samples, &film, &eye_stats);
+            }
             if (reference_scratch && opt.stats && film.samples == next_progress) {
                 double ratio[3], e = relative_mse(&film, &reference, reference_scratch, ratio);
                 printf("stat progress iterations=%u seconds=%.4f relmse=%.6f\n", film.samples, now_seconds() - start, e);
@@ -476,6 +543,21 @@ int main(int argc, char **argv) {
         printf("stat error iterations=%u seconds=%.4f relmse=%.6f mean_ratio_r=%.4f mean_ratio_g=%.4f mean_ratio_b=%.4f\n",
                film.samples, render_seconds, e, ratio[0], ratio[1], ratio[2]);
     }
+    if (opt.stats && progressive) {
+        const pm_progressive_stats *ps = pm_progressive_get_stats(progressive);
+        eye_stats = ps->eye;
+        const pm_photon_stats *ph = &ps->photons;
+        printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f kdtree_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f\n",
+               (unsigned long long)ph->emitted, (unsigned long long)ph->stored_caustic,
+               (unsigned long long)ph->stored_global, (unsigned long long)ph->rays, ph->seconds, ph->trace_seconds,
+               ph->kdtree_seconds, ph->trace_seconds > 0 ? ph->emitted / ph->trace_seconds : 0.0, sizeof(pm_photon),
+               pm_progressive_projection_fraction(progressive));
+        pm_radius_summary r = pm_progressive_radii(progressive, &film);
+        printf("stat progressive iterations=%u photons_per_iteration=%llu alpha=%.4f radius_initial=%.6g radius_mean=%.6g radius_min=%.6g radius_max=%.6g gather_radius=%.6g gather_seconds=%.4f photons_found=%llu\n",
+               film.samples, (unsigned long long)(film.samples ? ph->emitted / film.samples : 0), opt.alpha,
+               r.initial_mean, r.mean, r.min, r.max, r.gather, ps->gather_seconds,
+               (unsigned long long)ps->photons_found);
+    }
     if (opt.stats) {
         printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu\n",
                film.samples, (unsigned long long)eye_stats.rays, eye_stats.seconds,
@@ -489,6 +571,7 @@ done:
     free(reference_scratch);
     free_reference(&reference);
     pm_photon_maps_free(&maps);
+    pm_progressive_destroy(progressive);
     pm_view_destroy(view);
     pm_film_free(&film);
     pm_accel_destroy(accel);

@@ -8,12 +8,14 @@
 #include "photonmap.h"
 
 #include <float.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
 #include "parallel.h"
 #include "rng.h"
+#include "scatter.h"
 
 #define CHUNK 2048
 #define MAX_THREADS 256
@@ -55,6 +57,7 @@ typedef struct {
     float target_reach;       /* a start this far back along the light is outside every target */
     pm_photon **chunk_photons;
     uint32_t *chunk_counts;
+    atomic_bool out_of_memory;
     struct { uint64_t rays; char pad[56]; } counters[MAX_THREADS];
 } pass;
 
@@ -157,6 +160,8 @@ static sphere *specular_spheres(const pm_scene *s, uint32_t *count) {
     }
     sphere *out = malloc(sizeof(sphere) * G * G * G);
     uint32_t n = 0;
+    *count = 0;
+    if (!out) return NULL;
     for (int b = 0; b < G * G * G; b++)
         if (used[b]) out[n++] = (sphere){v3_scale(v3_add(blo[b], bhi[b]), 0.5f), 0.5f * v3_length(v3_sub(bhi[b], blo[b]))};
     *count = n;
@@ -172,10 +177,11 @@ static vec3 cell_direction(int iz, int iphi, float fz, float fphi) {
 /* Marks the cells of directions from the source's region that can reach a specular sphere.
  * Conservative: each sphere is grown by the source's own radius, each cell by its angular
  * radius, so no direction that could start a caustic path is left out. */
-static void build_projection_map(light_source *l, const sphere *spheres, uint32_t sphere_count) {
+static bool build_projection_map(light_source *l, const sphere *spheres, uint32_t sphere_count) {
     l->cells = calloc(PROJ_Z * PROJ_PHI, 1);
     l->marked = malloc(sizeof(uint32_t) * PROJ_Z * PROJ_PHI);
     l->marked_count = 0;
+    if (!l->cells || !l->marked) return false;
     for (int iz = 0; iz < PROJ_Z; iz++)
         for (int ip = 0; ip < PROJ_PHI; ip++) {
             vec3 c = cell_direction(iz, ip, 0.5f, 0.5f);
@@ -196,12 +202,13 @@ static void build_projection_map(light_source *l, const sphere *spheres, uint32_
                 l->marked[l->marked_count++] = (uint32_t)(iz * PROJ_PHI + ip);
             }
         }
+    return true;
 }
 
 /* A direction from the source: uniform over the marked cells when a projection map exists,
  * else uniform over the sphere. Returns the solid angle sampled (the pdf is 1 / that). */
-static float sample_direction(const light_source *l, pm_rng *rng, vec3 *dir) {
-    if (l->cells) {
+static float sample_direction(const light_source *l, bool aimed, pm_rng *rng, vec3 *dir) {
+    if (aimed) {
         uint32_t pick = (uint32_t)(pm_rng_float(rng) * l->marked_count);
         if (pick >= l->marked_count) pick = l->marked_count - 1;
         uint32_t cell = l->marked[pick];
@@ -242,7 +249,7 @@ static float parallel_start(const pass *ps, vec3 dir, pm_rng *rng, vec3 *o) {
     v3_basis(dir, &t, &b);
     float u = pm_rng_float(rng);
     pm_sample_disc(pm_rng_float(rng), pm_rng_float(rng), &x, &y);
-    if (ps->targets && ps->target_count) {
+    if (ps->caustic_pass && ps->targets && ps->target_count) {
         uint32_t lo = 0, hi = ps->target_count;
         while (lo + 1 < hi) {
             uint32_t mid = (lo + hi) / 2;
@@ -273,6 +280,7 @@ static float parallel_start(const pass *ps, vec3 dir, pm_rng *rng, vec3 *o) {
  * count and the pick probability). Returns false when it carries nothing. */
 static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, vec3 *d, vec3 *flux) {
     const pm_scene *s = ps->scene;
+    bool aimed = ps->caustic_pass && l->cells; /* projection maps aim caustic photons only */
     if (l->kind == SOURCE_EMITTERS) {
         float pick_pdf;
         uint32_t tri = pm_scene_pick_emitter(s, pm_rng_float(rng), &pick_pdf);
@@ -281,8 +289,8 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
         float area = emitter_point(s, tri, r1 * (1.f - r2), r1 * r2, &sf);
         if (pick_pdf <= 0.f || area <= 0.f) return false;
         vec3 n = sf.ng;
-        if (l->cells) {
-            float omega = sample_direction(l, rng, d);
+        if (aimed) {
+            float omega = sample_direction(l, aimed, rng, d);
             float cos_t = v3_dot(n, *d);
             if (sf.double_sided) cos_t = fabsf(cos_t);
             if (cos_t <= 0.f) return false;
@@ -304,7 +312,7 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
             return true;
         }
         *o = pl->position;
-        if (pl->type == PM_LIGHT_SPOT && !l->cells) {
+        if (pl->type == PM_LIGHT_SPOT && !aimed) {
             /* uniform in the outer cone */
             float z = 1.f - pm_rng_float(rng) * (1.f - pl->cos_outer), r = sqrtf(pm_maxf(0.f, 1.f - z * z));
             float phi = 2.f * PM_PI * pm_rng_float(rng);
@@ -315,7 +323,7 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
             *flux = v3_scale(pl->intensity, spot_falloff(pl, *d) * omega);
             return !v3_is_black(*flux);
         }
-        float omega = sample_direction(l, rng, d);
+        float omega = sample_direction(l, aimed, rng, d);
         float falloff = pl->type == PM_LIGHT_SPOT ? spot_falloff(pl, *d) : 1.f;
         *flux = v3_scale(pl->intensity, falloff * omega);
         return falloff > 0.f;
@@ -326,14 +334,18 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
     return true;
 }
 
-typedef struct { pm_photon *data; uint32_t count, capacity; } photon_list;
+typedef struct { pm_photon *data; uint32_t count, capacity; bool failed; } photon_list;
 
 static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings *settings, int threads);
 
 static void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path) {
     if (list->count == list->capacity) {
-        list->capacity = list->capacity ? 2 * list->capacity : 2 * CHUNK; /* about one record per photon traced */
-        list->data = realloc(list->data, sizeof(pm_photon) * list->capacity);
+        if (list->failed) return;
+        uint32_t capacity = list->capacity ? 2 * list->capacity : 2 * CHUNK; /* about one record per photon traced */
+        pm_photon *grown = realloc(list->data, sizeof(pm_photon) * capacity);
+        if (!grown) { list->failed = true; return; }
+        list->data = grown;
+        list->capacity = capacity;
     }
     pm_photon_set(&list->data[list->count++], p, n, d, power, path);
 }
@@ -351,7 +363,7 @@ static uint32_t pick_source(const pass *ps, float u, float *pdf) {
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
     pass *ps = ctx;
     const pm_scene *s = ps->scene;
-    photon_list list = {NULL, 0, 0};
+    photon_list list = {NULL, 0, 0, false};
     uint64_t first = (uint64_t)chunk * CHUNK, last = first + CHUNK < ps->photons ? first + CHUNK : ps->photons;
     uint64_t rays = 0;
     for (uint64_t i = first; i < last; i++) {
@@ -383,7 +395,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                     push(&list, sf.p, ng, d, power, path);
                 }
             }
-            float x = pm_rng_float(&rng);
+            float x = pm_rng_float(&rng), S = Sm + St;
             if (x < D) {
                 if (ps->caustic_pass) break; /* a diffuse bounce ends any caustic path */
                 power = v3_scale(v3_mul(power, sf.kd), 1.f / D);
@@ -391,37 +403,12 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                 if (v3_dot(d, ng) <= 0.f) break;
                 o = pm_surface_origin(&sf, ng, s->ray_scale);
                 diffuse_seen = true;
-            } else if (x < D + Sm) {
-                power = v3_scale(v3_mul(power, sf.ks), 1.f / Sm);
-                vec3 r = v3_reflect(d, ns);
-                d = v3_dot(r, ng) > 0.f ? r : v3_reflect(d, ng);
-                o = pm_surface_origin(&sf, ng, s->ray_scale);
-                specular_bounces++;
-            } else if (x < D + Sm + St) {
-                power = v3_scale(v3_mul(power, sf.kt), 1.f / St);
-                bool front = v3_dot(sf.ng, d) < 0.f;
-                float eta_i = front ? 1.f : sf.ior, eta_t = front ? sf.ior : 1.f;
-                float cos_i = pm_minf(1.f, -v3_dot(d, ns)), cos_t;
-                float sin_t = eta_i / eta_t * sqrtf(pm_maxf(0.f, 1.f - cos_i * cos_i));
-                float f = 1.f;
-                if (sin_t < 1.f) {
-                    cos_t = sqrtf(pm_maxf(0.f, 1.f - sin_t * sin_t));
-                    float rs = (eta_i * cos_i - eta_t * cos_t) / (eta_i * cos_i + eta_t * cos_t);
-                    float rp = (eta_t * cos_i - eta_i * cos_t) / (eta_t * cos_i + eta_i * cos_t);
-                    f = 0.5f * (rs * rs + rp * rp);
-                } else {
-                    cos_t = 0.f;
-                }
-                if (pm_rng_float(&rng) < f) {
-                    d = v3_reflect(d, ns);
-                    if (v3_dot(d, ng) <= 0.f) break;
-                    o = pm_surface_origin(&sf, ng, s->ray_scale);
-                } else {
-                    float eta = eta_i / eta_t;
-                    d = v3_normalize(v3_add(v3_scale(d, eta), v3_scale(ns, eta * cos_i - cos_t)));
-                    if (v3_dot(d, ng) >= 0.f) break;
-                    o = pm_surface_origin(&sf, v3_neg(ng), s->ray_scale);
-                }
+            } else if (x < D + S) {
+                pm_specular_sample sp;
+                if (!pm_scatter_specular(&sf, d, &rng, s->ray_scale, &sp)) break;
+                power = v3_scale(v3_mul(power, sp.weight), 1.f / S);
+                d = sp.direction;
+                o = sp.origin;
                 specular_bounces++;
             } else {
                 break; /* absorbed */
@@ -430,34 +417,210 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     }
     ps->chunk_photons[chunk] = list.data;
     ps->chunk_counts[chunk] = list.count;
+    if (list.failed) atomic_store(&ps->out_of_memory, true);
     ps->counters[thread].rays += rays;
 }
 
-static bool run_pass(pass *ps, pm_kdtree *tree, uint64_t *stored, uint64_t *rays, pm_photon_stats *st) {
-    double t0 = now_seconds();
+/* Traces ps->photons photons in chunks on all threads and merges the chunks' records, in chunk
+ * order, into out (grown as needed): the same records at any thread count. */
+static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
+    out->count = 0;
     size_t chunks = (size_t)((ps->photons + CHUNK - 1) / CHUNK);
     ps->chunk_photons = calloc(chunks ? chunks : 1, sizeof(pm_photon *));
     ps->chunk_counts = calloc(chunks ? chunks : 1, sizeof(uint32_t));
+    if (!ps->chunk_photons || !ps->chunk_counts) {
+        free(ps->chunk_photons);
+        free(ps->chunk_counts);
+        return false;
+    }
     memset(ps->counters, 0, sizeof ps->counters);
+    atomic_store(&ps->out_of_memory, false);
     int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
     pm_parallel_for(threads, chunks, trace_chunk, ps);
     size_t total = 0;
     for (size_t c = 0; c < chunks; c++) total += ps->chunk_counts[c];
-    pm_photon *all = malloc(sizeof(pm_photon) * (total ? total : 1));
+    bool ok = !atomic_load(&ps->out_of_memory);
+    if (ok && total > out->capacity) {
+        pm_photon *grown = realloc(out->data, sizeof(pm_photon) * total);
+        if (grown) {
+            out->data = grown;
+            out->capacity = total;
+        } else {
+            ok = false;
+        }
+    }
     size_t at = 0;
     for (size_t c = 0; c < chunks; c++) {
-        if (ps->chunk_counts[c]) memcpy(all + at, ps->chunk_photons[c], sizeof(pm_photon) * ps->chunk_counts[c]);
+        if (ok && ps->chunk_counts[c]) memcpy(out->data + at, ps->chunk_photons[c], sizeof(pm_photon) * ps->chunk_counts[c]);
         at += ps->chunk_counts[c];
         free(ps->chunk_photons[c]);
     }
     free(ps->chunk_photons);
     free(ps->chunk_counts);
+    ps->chunk_photons = NULL;
+    ps->chunk_counts = NULL;
     for (int t = 0; t < threads; t++) *rays += ps->counters[t].rays;
-    *stored = total;
+    if (ok) out->count = total;
+    return ok;
+}
+
+static bool run_pass(pass *ps, pm_kdtree *tree, uint64_t *stored, uint64_t *rays, pm_photon_stats *st) {
+    double t0 = now_seconds();
+    pm_photon_buffer all = {NULL, 0, 0};
+    if (!trace_into(ps, &all, rays)) { free(all.data); return false; }
+    *stored = all.count;
     double t1 = now_seconds();
-    bool ok = pm_kdtree_build(tree, all, total, threads);
+    int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
+    if (!all.data) all.data = malloc(sizeof(pm_photon));
+    bool ok = all.data && pm_kdtree_build(tree, all.data, all.count, threads);
     st->kdtree_seconds += now_seconds() - t1;
     st->trace_seconds += t1 - t0;
+    return ok;
+}
+
+struct pm_photon_tracer {
+    const pm_scene *scene;
+    pm_photon_settings settings;
+    light_source *sources;
+    uint32_t source_count;
+    float *cdf;
+    sphere *spheres;
+    uint32_t sphere_count;
+    float *target_cdf;
+    pass ps;                   /* the pass template: sources, targets; photons and seed set per trace */
+    bool global_possible, caustic_possible;
+    double projection_fraction;
+};
+
+static float source_weight(const light_source *l) {
+    return (float)fmax(v3_luminance(l->power), 1e-3 * v3_max_component(l->power));
+}
+
+pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, const pm_photon_settings *settings) {
+    pm_photon_tracer *t = calloc(1, sizeof *t);
+    if (!t) return NULL;
+    t->scene = s;
+    t->settings = *settings;
+    /* the emitter set, every punctual light and the sky: at most light_count + 2 sources */
+    t->sources = malloc(sizeof(light_source) * ((size_t)s->light_count + 2));
+    t->cdf = malloc(sizeof(float) * ((size_t)s->light_count + 3));
+    if (!t->sources || !t->cdf) { pm_photon_tracer_destroy(t); return NULL; }
+    uint32_t source_count = build_sources(s, t->sources);
+    t->source_count = source_count;
+    float *cdf = t->cdf;
+    double total = 0.0, run = 0.0;
+    for (uint32_t i = 0; i < source_count; i++) total += source_weight(&t->sources[i]);
+    cdf[0] = 0.f;
+    for (uint32_t i = 0; i < source_count; i++) {
+        run += source_weight(&t->sources[i]);
+        cdf[i + 1] = total > 0 ? (float)(run / total) : 1.f;
+    }
+    if (source_count) cdf[source_count] = 1.f;
+
+    pass *ps = &t->ps;
+    ps->scene = s;
+    ps->accel = a;
+    ps->settings = &t->settings;
+    ps->sources = t->sources;
+    ps->source_count = source_count;
+    ps->source_cdf = cdf;
+    t->global_possible = source_count && s->analysis.has_diffuse;
+
+    if (source_count && s->analysis.caustics_possible) {
+        t->spheres = specular_spheres(s, &t->sphere_count);
+        if (!t->spheres) { pm_photon_tracer_destroy(t); return NULL; }
+        double covered = 0.0;
+        float R = s->radius > 0.f ? s->radius : 1.f;
+        uint32_t n = t->sphere_count;
+        if (settings->projection_maps && n) {
+            t->target_cdf = malloc(sizeof(float) * (n + 1));
+            if (!t->target_cdf) { pm_photon_tracer_destroy(t); return NULL; }
+            double sum = 0.0, reach = R, acc = 0.0;
+            for (uint32_t i = 0; i < n; i++) sum += (double)t->spheres[i].radius * t->spheres[i].radius;
+            t->target_cdf[0] = 0.f;
+            for (uint32_t i = 0; i < n; i++) {
+                acc += (double)t->spheres[i].radius * t->spheres[i].radius;
+                t->target_cdf[i + 1] = sum > 0 ? (float)(acc / sum) : (float)(i + 1) / n;
+                reach = fmax(reach, v3_length(v3_sub(t->spheres[i].center, s->center)) + t->spheres[i].radius);
+            }
+            t->target_cdf[n] = 1.f;
+            ps->targets = t->spheres;
+            ps->target_count = n;
+            ps->target_cdf = t->target_cdf;
+            ps->target_area = (float)(PM_PI * sum);
+            ps->target_reach = (float)(1.01 * reach);
+        }
+        for (uint32_t i = 0; i < source_count; i++) {
+            light_source *l = &t->sources[i];
+            bool point_like = l->kind == SOURCE_EMITTERS ||
+                              (l->kind == SOURCE_PUNCTUAL && s->lights[l->light].type != PM_LIGHT_DIRECTIONAL);
+            if (settings->projection_maps && point_like) {
+                if (!build_projection_map(l, t->spheres, n)) { pm_photon_tracer_destroy(t); return NULL; }
+                covered += (double)l->marked_count / (PROJ_Z * PROJ_PHI) * (cdf[i + 1] - cdf[i]);
+            } else if (ps->targets) {
+                covered += fmin(1.0, ps->target_area / (PM_PI * R * R)) * (cdf[i + 1] - cdf[i]);
+            } else {
+                covered += cdf[i + 1] - cdf[i];
+            }
+        }
+        t->projection_fraction = covered;
+        /* No light can reach a specular object: no caustic photons at all. */
+        t->caustic_possible = covered > 0;
+    }
+    return t;
+}
+
+void pm_photon_tracer_destroy(pm_photon_tracer *t) {
+    if (!t) return;
+    if (t->sources)
+        for (uint32_t i = 0; i < t->source_count; i++) {
+            free(t->sources[i].cells);
+            free(t->sources[i].marked);
+        }
+    free(t->spheres);
+    free(t->target_cdf);
+    free(t->sources);
+    free(t->cdf);
+    free(t);
+}
+
+bool pm_photon_tracer_can_trace(const pm_photon_tracer *t, bool caustic) {
+    return caustic ? t->caustic_possible : t->global_possible;
+}
+
+double pm_photon_tracer_projection_fraction(const pm_photon_tracer *t) { return t->projection_fraction; }
+
+bool pm_photon_tracer_trace(pm_photon_tracer *t, bool caustic, uint64_t photons, uint64_t seed, pm_kdtree *out,
+                            pm_photon_stats *stats) {
+    memset(out, 0, sizeof *out);
+    if (!photons || !pm_photon_tracer_can_trace(t, caustic)) return true;
+    t->ps.caustic_pass = caustic;
+    t->ps.photons = photons;
+    t->ps.seed = caustic ? seed ^ 0xca05u : seed;
+    uint64_t stored = 0, rays = 0;
+    bool ok = run_pass(&t->ps, out, &stored, &rays, stats);
+    stats->rays += rays;
+    stats->emitted += photons;
+    if (caustic) stats->stored_caustic += stored;
+    else stats->stored_global += stored;
+    return ok;
+}
+
+bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t photons, uint64_t seed,
+                                 pm_photon_buffer *out, pm_photon_stats *stats) {
+    out->count = 0;
+    if (!photons || !pm_photon_tracer_can_trace(t, caustic)) return true;
+    double t0 = now_seconds();
+    t->ps.caustic_pass = caustic;
+    t->ps.photons = photons;
+    t->ps.seed = caustic ? seed ^ 0xca05u : seed;
+    uint64_t rays = 0;
+    bool ok = trace_into(&t->ps, out, &rays);
+    stats->rays += rays;
+    stats->emitted += photons;
+    if (caustic) stats->stored_caustic += out->count;
+    else stats->stored_global += out->count;
+    stats->trace_seconds += now_seconds() - t0;
     return ok;
 }
 
@@ -467,41 +630,12 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
     memset(maps, 0, sizeof *maps);
     pm_photon_stats local;
     memset(&local, 0, sizeof local);
-    /* the emitter set, every punctual light and the sky: at most light_count + 2 sources */
-    light_source *sources = malloc(sizeof(light_source) * ((size_t)s->light_count + 2));
-    float *cdf = malloc(sizeof(float) * ((size_t)s->light_count + 3));
-    if (!sources || !cdf) { free(sources); free(cdf); return false; }
-    uint32_t source_count = build_sources(s, sources);
-    double total = 0.0;
-    for (uint32_t i = 0; i < source_count; i++) total += fmax(v3_luminance(sources[i].power), 1e-3 * v3_max_component(sources[i].power));
-    cdf[0] = 0.f;
-    double run = 0.0;
-    for (uint32_t i = 0; i < source_count; i++) {
-        run += fmax(v3_luminance(sources[i].power), 1e-3 * v3_max_component(sources[i].power));
-        cdf[i + 1] = total > 0 ? (float)(run / total) : 1.f;
-    }
-    if (source_count) cdf[source_count] = 1.f;
+    pm_photon_tracer *t = pm_photon_tracer_create(s, a, settings);
+    if (!t) return false;
     bool ok = true;
-    sphere *spheres = NULL;
-    uint32_t sphere_count = 0;
-    float *target_cdf = NULL;
-
-    pass ps;
-    memset(&ps, 0, sizeof ps);
-    ps.scene = s;
-    ps.accel = a;
-    ps.settings = settings;
-    ps.sources = sources;
-    ps.source_count = source_count;
-    ps.source_cdf = cdf;
-
-    if (source_count && settings->global_photons && s->analysis.has_diffuse) {
-        ps.caustic_pass = false;
-        ps.photons = settings->global_photons;
-        ps.seed = settings->seed;
-        ok = run_pass(&ps, &maps->global, &local.stored_global, &local.rays, &local);
+    if (settings->global_photons && pm_photon_tracer_can_trace(t, false)) {
+        ok = pm_photon_tracer_trace(t, false, settings->global_photons, settings->seed, &maps->global, &local);
         maps->global_emitted = settings->global_photons;
-        local.emitted += settings->global_photons;
         if (ok && settings->irradiance_stride > 0 && maps->global.count) {
             double t0 = now_seconds();
             int threads = settings->threads < 1 ? 1 : (settings->threads > MAX_THREADS ? MAX_THREADS : settings->threads);
@@ -509,59 +643,12 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
             local.irradiance_seconds = now_seconds() - t0;
         }
     }
-    if (ok && source_count && settings->caustic_photons && s->analysis.caustics_possible) {
-        spheres = specular_spheres(s, &sphere_count);
-        double covered = 0.0;
-        float R = s->radius > 0.f ? s->radius : 1.f;
-        if (settings->projection_maps && sphere_count) {
-            target_cdf = malloc(sizeof(float) * (sphere_count + 1));
-            double sum = 0.0, reach = R;
-            for (uint32_t i = 0; i < sphere_count; i++) sum += (double)spheres[i].radius * spheres[i].radius;
-            target_cdf[0] = 0.f;
-            double run = 0.0;
-            for (uint32_t i = 0; i < sphere_count; i++) {
-                run += (double)spheres[i].radius * spheres[i].radius;
-                target_cdf[i + 1] = sum > 0 ? (float)(run / sum) : (float)(i + 1) / sphere_count;
-                reach = fmax(reach, v3_length(v3_sub(spheres[i].center, s->center)) + spheres[i].radius);
-            }
-            target_cdf[sphere_count] = 1.f;
-            ps.targets = spheres;
-            ps.target_count = sphere_count;
-            ps.target_cdf = target_cdf;
-            ps.target_area = (float)(PM_PI * sum);
-            ps.target_reach = (float)(1.01 * reach);
-        }
-        for (uint32_t i = 0; i < source_count; i++) {
-            bool point_like = sources[i].kind == SOURCE_EMITTERS ||
-                              (sources[i].kind == SOURCE_PUNCTUAL && s->lights[sources[i].light].type != PM_LIGHT_DIRECTIONAL);
-            if (settings->projection_maps && point_like) {
-                build_projection_map(&sources[i], spheres, sphere_count);
-                covered += (double)sources[i].marked_count / (PROJ_Z * PROJ_PHI) * (cdf[i + 1] - cdf[i]);
-            } else if (ps.targets) {
-                covered += fmin(1.0, ps.target_area / (PM_PI * R * R)) * (cdf[i + 1] - cdf[i]);
-            } else {
-                covered += cdf[i + 1] - cdf[i];
-            }
-        }
-        maps->projection_fraction = covered;
-    }
-    /* No light can reach a specular object: no caustic map at all. */
-    if (ok && source_count && settings->caustic_photons && s->analysis.caustics_possible && maps->projection_fraction > 0) {
-        ps.caustic_pass = true;
-        ps.photons = settings->caustic_photons;
-        ps.seed = settings->seed ^ 0xca05u;
-        ok = run_pass(&ps, &maps->caustic, &local.stored_caustic, &local.rays, &local);
+    maps->projection_fraction = t->projection_fraction;
+    if (ok && settings->caustic_photons && pm_photon_tracer_can_trace(t, true)) {
+        ok = pm_photon_tracer_trace(t, true, settings->caustic_photons, settings->seed, &maps->caustic, &local);
         maps->caustic_emitted = settings->caustic_photons;
-        local.emitted += settings->caustic_photons;
     }
-    for (uint32_t i = 0; i < source_count; i++) {
-        free(sources[i].cells);
-        free(sources[i].marked);
-    }
-    free(spheres);
-    free(target_cdf);
-    free(sources);
-    free(cdf);
+    pm_photon_tracer_destroy(t);
     local.seconds = now_seconds() - start;
     if (stats) *stats = local;
     if (!ok) pm_photon_maps_free(maps);
@@ -661,4 +748,8 @@ vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_
         sum = v3_madd(sum, pm_photon_power(ph), w);
     }
     return v3_scale(sum, 1.f / (PM_PI * r2));
+}
+
+uint32_t pm_photon_gather(const pm_kdtree *map, vec3 p, vec3 n, float radius2, unsigned path_mask, vec3 *power) {
+    return pm_kdtree_sum_facing(map, p, n, radius2, path_mask, power);
 }

@@ -16,6 +16,37 @@ float pm_triangle_area(const pm_scene *s, uint32_t tri) {
     return 0.5f * v3_length(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
 }
 
+/* Whether every diffuse triangle lies in one plane: then light reflected diffusely once can never
+ * reach a diffuse surface again (without a mirror or glass to send it back), and no map, pass or
+ * buffer for indirect light is needed. Judged in double precision, relative to the scene's size. */
+static bool diffuse_coplanar(const pm_scene *s) {
+    bool have_plane = false;
+    double n[3] = {0, 0, 0}, d = 0.0, tolerance = 1e-6 * (double)s->ray_scale;
+    for (uint32_t t = 0; t < s->triangle_count; t++) {
+        const pm_material *m = &s->materials[s->triangle_material[t]];
+        vec3 kd, ks, kt;
+        pm_material_split(m, m->base_color, &kd, &ks, &kt);
+        if (v3_is_black(kd)) continue;
+        const uint32_t *ix = s->indices + 3 * (size_t)t;
+        vec3 p[3] = {s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]};
+        if (!have_plane) {
+            double e1[3] = {p[1].x - p[0].x, p[1].y - p[0].y, p[1].z - p[0].z};
+            double e2[3] = {p[2].x - p[0].x, p[2].y - p[0].y, p[2].z - p[0].z};
+            n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+            n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+            n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+            double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            if (!(len > 0.0)) continue;
+            for (int k = 0; k < 3; k++) n[k] /= len;
+            d = n[0] * p[0].x + n[1] * p[0].y + n[2] * p[0].z;
+            have_plane = true;
+        }
+        for (int k = 0; k < 3; k++)
+            if (fabs(n[0] * p[k].x + n[1] * p[k].y + n[2] * p[k].z - d) > tolerance) return false;
+    }
+    return true;
+}
+
 static void analyse(pm_scene *s) {
     pm_scene_analysis *a = &s->analysis;
     memset(a, 0, sizeof *a);
@@ -37,10 +68,11 @@ static void analyse(pm_scene *s) {
     bool lit = a->has_emissive_triangles || a->has_punctual_lights || a->has_sky;
     bool specular = a->has_mirror || a->has_glass;
     a->caustics_possible = lit && specular && a->has_diffuse;
+    a->interreflection_possible = a->has_diffuse && lit && (specular || !diffuse_coplanar(s));
     a->component_possible[PM_DIRECT] = a->has_emissive_triangles || a->has_sky || (a->has_diffuse && lit);
     a->component_possible[PM_SPECULAR] = specular && lit;
     a->component_possible[PM_CAUSTIC] = a->caustics_possible;
-    a->component_possible[PM_INDIRECT] = a->has_diffuse && lit;
+    a->component_possible[PM_INDIRECT] = a->interreflection_possible;
 }
 
 static void build_emitters(pm_scene *s) {
@@ -217,6 +249,16 @@ vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale) {
     float len = v3_length(inward), step = pm_minf(0.5f * len, pm_maxf(scale * (1.f / 65536.f), m32 - m));
     vec3 p = len > 0.f ? v3_madd(sf->p, inward, step / len) : sf->p;
     return pm_offset_ray_origin(p, side_normal, scale);
+}
+
+float pm_scene_emitter_pdf(const pm_scene *s, uint32_t tri) {
+    uint32_t lo = 0, hi = s->emitter_count; /* emitters are in triangle order */
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (s->emitters[mid] < tri) lo = mid + 1; else hi = mid;
+    }
+    if (lo >= s->emitter_count || s->emitters[lo] != tri) return 0.f;
+    return s->emitter_cdf[lo + 1] - s->emitter_cdf[lo];
 }
 
 uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf) {

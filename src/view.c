@@ -96,6 +96,8 @@ struct pm_view {
     GLuint component_tex[PM_COMPONENT_COUNT];
     bool present[PM_COMPONENT_COUNT];
     float scale;
+    float *resolved;            /* one component resolved from the film, uploaded from here */
+    size_t resolved_floats;
     GLint u_component[PM_COMPONENT_COUNT], u_enabled[PM_COMPONENT_COUNT], u_scale, u_exposure, u_tonemap, u_height;
 
     /* window input between callbacks; display is the caller's state, only set while polling */
@@ -312,6 +314,7 @@ void pm_view_destroy(pm_view *v) {
         }
         if (--glfw_users == 0) glfwTerminate();
     }
+    free(v->resolved);
     free(v);
 }
 
@@ -477,15 +480,23 @@ void pm_view_upload(pm_view *v, const pm_film *film) {
         if (film->width < 1 || film->height < 1 || !allocate_film_targets(v, film->width, film->height, ignored, sizeof ignored))
             return;
     }
+    size_t floats = 3 * (size_t)film->width * film->height;
+    if (v->resolved_floats < floats) {
+        float *grown = realloc(v->resolved, floats * sizeof(float));
+        if (!grown) return; /* keeps showing the last image */
+        v->resolved = grown;
+        v->resolved_floats = floats;
+    }
     v->gl.ActiveTexture(GL_TEXTURE0);
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         v->present[c] = film->sum[c] != NULL;
         if (!film->sum[c]) continue;
+        pm_film_resolve(film, (pm_component)c, v->resolved);
         /* film row 0 (top) goes to texel row 0; compose.frag flips when it fetches */
         v->gl.BindTexture(GL_TEXTURE_2D, v->component_tex[c]);
-        v->gl.TexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, film->width, film->height, GL_RGB, GL_FLOAT, film->sum[c]);
+        v->gl.TexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, film->width, film->height, GL_RGB, GL_FLOAT, v->resolved);
     }
-    v->scale = film->samples ? 1.f / (float)film->samples : 0.f;
+    v->scale = 1.f;
 }
 
 void pm_view_draw(pm_view *v, const pm_display *d) {

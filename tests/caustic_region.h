@@ -17,6 +17,7 @@ typedef struct {
     size_t pixels;                 /* in the region, focus excluded */
     double ours, ref, caustic;     /* sums of R+G+B over the region (caustic: our caustic layer) */
     double focus_ours, focus_ref;  /* sums over the 3x3 focus pixels that lie in the region */
+    double relmse;                 /* mean of (x - r)^2 / (r^2 + 0.01) over the region's pixels and channels, focus excluded */
     int focus_x, focus_y;
 } caustic_region;
 
@@ -24,7 +25,7 @@ typedef struct {
 static inline caustic_region caustic_region_measure(int w, int h, const float *total, const float *direct,
                                                     const float *specular, const float *caustic,
                                                     const float *const ref[3]) {
-    caustic_region m = {0, 0, 0, 0, 0, 0, 0, 0};
+    caustic_region m = {0, 0, 0, 0, 0, 0, 0, 0, 0};
     size_t n = (size_t)w * h, focus = 0;
     for (size_t i = 1; i < n; i++) if (ref[0][i] > ref[0][focus]) focus = i;
     m.focus_x = (int)(focus % (size_t)w);
@@ -36,9 +37,14 @@ static inline caustic_region caustic_region_measure(int w, int h, const float *t
         if (abs(x - m.focus_x) <= 1 && abs(y - m.focus_y) <= 1) { m.focus_ours += o; m.focus_ref += r; continue; }
         m.ours += o;
         m.ref += r;
+        for (int c = 0; c < 3; c++) {
+            double d = total[3 * i + c] - ref[c][i];
+            m.relmse += d * d / ((double)ref[c][i] * ref[c][i] + 0.01);
+        }
         m.caustic += caustic[3 * i] + caustic[3 * i + 1] + caustic[3 * i + 2];
         m.pixels++;
     }
+    if (m.pixels) m.relmse /= 3.0 * (double)m.pixels;
     return m;
 }
 

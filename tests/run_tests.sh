@@ -19,8 +19,13 @@ export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0
 export LSAN_OPTIONS=suppressions=$(pwd)/tests/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
+# Convergence tests run hundreds of iterations: they run optimised; the code they drive runs
+# under ASan/UBSan in test_progressive and under TSan in test_threads.
+OPTIMISED="test_convergence"
 for t in build/asan/tests/test_*; do
-    run "$(basename "$t")" "$t"
+    name=$(basename "$t")
+    case " $OPTIMISED " in *" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac
+    run "$name" "$t"
 done
 [ -x build/tsan/tests/test_threads ] && run "test_threads[tsan]" env TSAN_OPTIONS=halt_on_error=1 build/tsan/tests/test_threads
 for s in tests/test_*.sh; do

@@ -22,6 +22,10 @@ expect "bad width" 2 $bin --width -3 --snapshot "$tmp/x.png"
 expect "bad snapshot extension" 2 $bin --snapshot "$tmp/x.jpg"
 expect "missing value" 2 $bin --iterations
 expect "bad kernel" 2 $bin --kernel box --snapshot "$tmp/x.exr"
+expect "a classic-only option in the progressive mode" 2 $bin --k 10 --snapshot "$tmp/x.exr"
+expect "alpha out of range" 2 $bin --alpha 1.5 --snapshot "$tmp/x.exr"
+expect "unknown mode" 2 $bin --mode fast --snapshot "$tmp/x.exr"
+expect "a progressive-only option in the classic mode" 2 $bin --mode classic --radius 0.1 --snapshot "$tmp/x.exr"
 expect "two scenes" 2 $bin a.gltf b.gltf --snapshot "$tmp/x.exr"
 expect "missing scene file" 1 $bin "$tmp/nope.gltf" --snapshot "$tmp/x.exr"
 checks=$((checks + 1))
@@ -36,14 +40,22 @@ expect "camera index past the scene's cameras" 1 $bin scenes/cornell-box.gltf --
 expect "EXR snapshot" 0 $bin scenes/cornell-box.gltf --width 32 --iterations 2 --photons 20000 --snapshot "$tmp/c.exr" --stats
 checks=$((checks + 1))
 [ -s "$tmp/c.exr" ] || { fails=$((fails + 1)); echo "FAIL: no EXR written"; }
-for stage in load analysis bvh photons kdtree film eye memory; do
+for stage in load analysis bvh photons film eye memory progressive; do
     checks=$((checks + 1))
-    grep -q "^stat $stage " "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: no 'stat $stage' line"; }
+    grep -q "^stat $stage " "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: no 'stat $stage' line (progressive mode)"; }
 done
+checks=$((checks + 1))
+grep -q "^stat progressive iterations=2 photons_per_iteration=40000 alpha=0.6667 radius_initial=[0-9.e-]* radius_mean=" "$tmp/out" ||
+    { fails=$((fails + 1)); echo "FAIL: stat progressive line:"; grep "^stat progressive" "$tmp/out"; }
 checks=$((checks + 1))
 grep -q "^stat load .*triangles=[1-9]" "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: stat load lacks triangles"; }
 checks=$((checks + 1))
 grep -q "^stat eye .*dropped_samples=0" "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: stat eye lacks dropped_samples=0"; }
+expect "classic EXR snapshot" 0 $bin scenes/cornell-box.gltf --mode classic --width 32 --iterations 2 --photons 20000 --snapshot "$tmp/k.exr" --stats
+for stage in photons kdtree irradiance film eye; do
+    checks=$((checks + 1))
+    grep -q "^stat $stage " "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: no 'stat $stage' line (classic mode)"; }
+done
 expect "a time budget shorter than the photon pass" 0 $bin scenes/cornell-box.gltf --width 16 --time 0.001 --snapshot "$tmp/t.exr"
 checks=$((checks + 1))
 grep -q "(16x16, 1 iterations" "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: --time 0.001 must still render one iteration:"; cat "$tmp/out"; }

@@ -1,8 +1,9 @@
-/* test_threads.c: the same seed gives the same photon maps and image bit for bit at 1, 2 and 3 threads (also run under TSan). */
+/* test_threads.c: the same seed gives the same photon maps and image bit for bit at 1, 2 and 3 threads, classic and progressive (also run under TSan). */
 #include "accel.h"
 #include "eye.h"
 #include "film.h"
 #include "photonmap.h"
+#include "progressive.h"
 #include "scene_builder.h"
 #include "testing.h"
 
@@ -74,6 +75,30 @@ int main(void) {
     for (int t = 0; t < 3; t++) {
         pm_film_free(&films[t]);
         pm_photon_maps_free(&maps[t]);
+    }
+    /* the progressive mode: eye pass, photon passes, grids and gather on every thread count, both
+     * ways of reading indirect light */
+    for (int mode = 0; mode < 2; mode++) {
+        float *images[3];
+        for (int t = 0; t < 3; t++) {
+            pm_progressive_settings ps = {.seed = 5, .threads = t + 1, .photons = 8000, .caustic_photons = 8000,
+                                          .alpha = 2.0 / 3.0, .indirect = mode ? PM_INDIRECT_PHOTONS : PM_INDIRECT_GATHER,
+                                          .max_specular_depth = 8, .max_photon_bounces = 16};
+            pm_progressive *p = pm_progressive_create(&s, a, &cam, &ps, err, sizeof err);
+            bool components[PM_COMPONENT_COUNT];
+            pm_progressive_components(p, components);
+            pm_film_init(&films[t], 40, 36, components);
+            CHECK(pm_progressive_bind(p, &films[t], err, sizeof err), "bind: %s", err);
+            for (int i = 0; i < 3; i++) CHECK(pm_progressive_iterate(p, &films[t]), "progressive iteration");
+            images[t] = malloc(sizeof(float) * n);
+            pm_film_resolve_total(&films[t], images[t]);
+            pm_progressive_destroy(p);
+            pm_film_free(&films[t]);
+        }
+        for (int t = 1; t < 3; t++)
+            CHECK(memcmp(images[0], images[t], n * sizeof(float)) == 0, "progressive (%s) image differs between 1 and %d threads",
+                  mode ? "photons" : "gather", t + 1);
+        for (int t = 0; t < 3; t++) free(images[t]);
     }
     pm_accel_destroy(a);
     pm_scene_free(&s);

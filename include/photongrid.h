@@ -1,0 +1,36 @@
+/* photongrid.h: a hashed uniform grid over one iteration's photons, rebuilt every iteration, for fixed-radius gathers.
+ *
+ * The progressive mode gathers with known radii, so it needs no k-nearest search: photons are
+ * counting-sorted by the hash of their cell (cell size from the radii that will query it, as
+ * in SmallVCM), and a query visits the few cells its disc overlaps. Buffers grow to the largest
+ * iteration and are then reused: memory stays flat however long the run.
+ */
+#ifndef PM_PHOTONGRID_H
+#define PM_PHOTONGRID_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include "photon.h"
+
+typedef struct {
+    pm_photon *photons;     /* sorted by bucket */
+    uint32_t *bucket_start; /* bucket_count + 1 offsets into photons */
+    size_t count, capacity;
+    size_t bucket_count, bucket_capacity; /* bucket_count is a power of two */
+    vec3 origin;
+    float cell, inv_cell;
+} pm_photon_grid;
+
+/* Sorts count photons into the grid with the given cell size (> 0). False when out of memory
+ * (the grid is then empty). */
+bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t count, float cell);
+void pm_photon_grid_free(pm_photon_grid *g);
+size_t pm_photon_grid_bytes(const pm_photon_grid *g);
+
+/* The summed power and count of the photons within sqrt(radius2) of p that pm_photon_counts_for
+ * a surface facing n with that path mask. */
+uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
+                                   vec3 *power);
+
+#endif

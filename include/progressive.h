@@ -1,0 +1,85 @@
+/* progressive.h: stochastic progressive photon mapping (the default mode): per-iteration eye and photon passes, shrinking radii, constant memory.
+ *
+ * Each iteration, in named phases as pbrt-v4's SPPM:
+ *   1. eye pass: a fresh jittered sample per pixel is followed through mirrors and glass to its
+ *      first diffuse point (the visible point); emission and direct light (shadow rays) go to
+ *      the film as in the classic mode; with final gathering, one gather ray per visible point
+ *      finds a gather point;
+ *   2. photon pass: a fresh set of global photons, and of caustic photons aimed by projection
+ *      maps, each pass carrying the lights' whole flux, into kd-trees rebuilt in parallel;
+ *   3. gather: every visible point collects the new photons within its pixel's radius and
+ *      updates the pixel's statistics (Hachisuka and Jensen 2009):
+ *          N' = N + alpha M,  R'^2 = R^2 (N + alpha M) / (N + M),  tau' = (tau + Phi) R'^2 / R^2
+ *      with caustic and indirect photons in separate statistics; a gather point instead makes
+ *      an independent estimate with a radius shared by all pixels that shrinks with the
+ *      iteration count, r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1) (Knaus and Zwicker 2011).
+ * The film resolves a pixel's photon part as tau / (pi R^2 iterations).
+ *
+ * Memory is fixed after the first iteration: the visible points, the statistics in the film
+ * and one iteration's photons. Restarting (a camera move) clears per-pixel state only.
+ */
+#ifndef PM_PROGRESSIVE_H
+#define PM_PROGRESSIVE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include "accel.h"
+#include "eye.h"
+#include "film.h"
+#include "photonmap.h"
+#include "scene.h"
+
+typedef struct {
+    uint64_t seed;
+    int threads;
+    uint64_t photons;          /* global photons emitted per iteration (0: no global pass) */
+    uint64_t caustic_photons;  /* caustic photons emitted per iteration (0: no caustic pass) */
+    double alpha;              /* radius reduction, in (0, 1) */
+    double initial_radius;     /* scene units; 0 = from the pixel footprint and the first photon density */
+    pm_indirect_mode indirect; /* photons: read at the visible point; gather: one final-gather bounce */
+    int max_specular_depth;
+    int max_photon_bounces;
+} pm_progressive_settings;
+
+typedef struct {
+    uint32_t iterations;
+    pm_eye_stats eye;
+    pm_photon_stats photons;   /* totals over the run */
+    double gather_seconds;
+    uint64_t photons_found;    /* photons that fell inside a visible or gather point's disc */
+} pm_progressive_stats;
+
+/* Radii over the pixels whose statistics have started (scene units). */
+typedef struct {
+    double initial_mean;       /* mean initial radius */
+    double mean, min, max;     /* now, over every statistics slot in use */
+    double gather;             /* the final-gather radius of the next iteration (0 without gathering) */
+    uint64_t pixels;
+} pm_radius_summary;
+
+typedef struct pm_progressive pm_progressive;
+
+/* The automatic photon count per iteration: PM_PPM_PHOTONS_PER_PIXEL per pixel, clamped. */
+uint64_t pm_progressive_default_photons(int width, int height);
+
+/* NULL with err set when out of memory. The camera is copied. */
+pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, const pm_camera *camera,
+                                      const pm_progressive_settings *settings, char *err, size_t err_size);
+void pm_progressive_destroy(pm_progressive *p);
+/* Which film components this mode can make non-zero for the scene (what the film should hold). */
+void pm_progressive_components(const pm_progressive *p, bool enabled[PM_COMPONENT_COUNT]);
+/* Allocates the per-pixel state for a film made with those components. */
+bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err_size);
+/* One iteration: eye pass, photon passes, gather; adds one sample to the film. False when out of memory. */
+bool pm_progressive_iterate(pm_progressive *p, pm_film *film);
+/* Starts again from nothing (a new camera, or the same one): clears the film and per-pixel
+ * state; allocates nothing. */
+void pm_progressive_restart(pm_progressive *p, pm_film *film, const pm_camera *camera);
+const pm_progressive_stats *pm_progressive_get_stats(const pm_progressive *p);
+pm_radius_summary pm_progressive_radii(const pm_progressive *p, const pm_film *film);
+/* Whether this scene needs any photon pass at all. */
+bool pm_progressive_uses_photons(const pm_progressive *p);
+/* Share of the caustic lights' emission the projection maps kept (0 without caustic photons). */
+double pm_progressive_projection_fraction(const pm_progressive *p);
+
+#endif

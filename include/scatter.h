@@ -1,0 +1,78 @@
+/* scatter.h: the one specular scattering function (mirror, glass with Fresnel) that eye paths, gather rays and photons share.
+ *
+ * Eye paths and photons must scatter identically or photon estimates are biased, so every
+ * tracer calls pm_scatter_specular() once it has chosen the specular part of a surface. The
+ * caller owns the choice between the diffuse and specular parts (roulette on D and S for
+ * photons, a weighted pick for eye paths); this function picks mirror or glass in proportion
+ * to their mean weights, lets Fresnel pick reflection or refraction, and returns the lobe's
+ * colour divided by the probability of the pick, relative to the specular total.
+ */
+#ifndef PM_SCATTER_H
+#define PM_SCATTER_H
+
+#include <stdbool.h>
+#include "pm_math.h"
+#include "rng.h"
+#include "scene.h"
+
+typedef struct {
+    vec3 direction;   /* unit, leaving the surface */
+    vec3 origin;      /* offset off the surface on the side the ray leaves */
+    vec3 weight;      /* lobe colour / P(lobe | specular) */
+    float radiance_scale; /* (eta_i / eta_t)^2 on refraction, else 1: radiance, not flux, carries it */
+    bool transmitted;
+} pm_specular_sample;
+
+/* Unpolarised Fresnel reflectance of a smooth dielectric; cos_i > 0 on the incident side. */
+static inline float pm_fresnel_dielectric(float cos_i, float eta_i, float eta_t, float *cos_t) {
+    float sin_t = eta_i / eta_t * sqrtf(pm_maxf(0.f, 1.f - cos_i * cos_i));
+    if (sin_t >= 1.f) { *cos_t = 0.f; return 1.f; }
+    float ct = sqrtf(pm_maxf(0.f, 1.f - sin_t * sin_t));
+    float rs = (eta_i * cos_i - eta_t * ct) / (eta_i * cos_i + eta_t * ct);
+    float rp = (eta_t * cos_i - eta_i * ct) / (eta_t * cos_i + eta_i * ct);
+    *cos_t = ct;
+    return 0.5f * (rs * rs + rp * rp);
+}
+
+/* Mean weight of the specular part (mirror + glass) of a surface: S in Russian roulette. */
+static inline float pm_specular_weight(const pm_surface *sf) { return v3_average(sf->ks) + v3_average(sf->kt); }
+
+/* Scatters a ray arriving along unit d off the specular part of sf. Returns false when the
+ * path must end (a shading normal bent the refracted ray back out of the surface). */
+static inline bool pm_scatter_specular(const pm_surface *sf, vec3 d, pm_rng *rng, float scale, pm_specular_sample *out) {
+    vec3 wo = v3_neg(d);
+    bool front = v3_dot(sf->ng, wo) > 0.f;
+    vec3 ng = front ? sf->ng : v3_neg(sf->ng);
+    vec3 ns = v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
+    float wm = v3_average(sf->ks), wt = v3_average(sf->kt), total = wm + wt;
+    out->radiance_scale = 1.f;
+    out->transmitted = false;
+    bool reflect = true;
+    if (pm_rng_float(rng) * total < wm) {
+        out->weight = v3_scale(sf->ks, total / wm);
+    } else {
+        out->weight = v3_scale(sf->kt, total / wt);
+        float eta_i = front ? 1.f : sf->ior, eta_t = front ? sf->ior : 1.f, cos_t;
+        float cos_i = pm_minf(1.f, v3_dot(wo, ns));
+        float f = pm_fresnel_dielectric(cos_i, eta_i, eta_t, &cos_t);
+        if (pm_rng_float(rng) >= f) {
+            float eta = eta_i / eta_t;
+            vec3 t = v3_normalize(v3_add(v3_scale(d, eta), v3_scale(ns, eta * cos_i - cos_t)));
+            if (v3_dot(t, ng) >= 0.f) return false;
+            out->direction = t;
+            out->origin = pm_surface_origin(sf, v3_neg(ng), scale);
+            out->radiance_scale = eta * eta;
+            out->transmitted = true;
+            reflect = false;
+        }
+    }
+    if (reflect) {
+        vec3 r = v3_reflect(d, ns);
+        /* a shading normal can tilt the mirror direction under the surface: reflect about the face */
+        out->direction = v3_dot(r, ng) > 0.f ? r : v3_reflect(d, ng);
+        out->origin = pm_surface_origin(sf, ng, scale);
+    }
+    return true;
+}
+
+#endif

@@ -1,0 +1,111 @@
+/* photongrid.c: the hashed photon grid: counting sort by cell hash, and the fixed-radius gather over overlapped cells. */
+#include "photongrid.h"
+
+#include <float.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Cell coordinates stay far from int overflow whatever the scene's scale or position. */
+static inline int32_t cell_coord(float x, float origin, float inv_cell) {
+    float c = floorf((x - origin) * inv_cell);
+    c = c < -1e9f ? -1e9f : (c > 1e9f ? 1e9f : c);
+    return (int32_t)c;
+}
+
+static inline size_t bucket_of(int32_t x, int32_t y, int32_t z, size_t mask) {
+    uint32_t h = ((uint32_t)x * 73856093u) ^ ((uint32_t)y * 19349663u) ^ ((uint32_t)z * 83492791u);
+    return (size_t)h & mask;
+}
+
+void pm_photon_grid_free(pm_photon_grid *g) {
+    free(g->photons);
+    free(g->bucket_start);
+    memset(g, 0, sizeof *g);
+}
+
+size_t pm_photon_grid_bytes(const pm_photon_grid *g) {
+    return g->capacity * sizeof(pm_photon) + (g->bucket_capacity + 1) * sizeof(uint32_t);
+}
+
+bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t count, float cell) {
+    g->count = 0;
+    if (!(cell > 0.f) || !isfinite(cell) || count > UINT32_MAX) return false;
+    size_t buckets = 1024;
+    while (buckets < count) buckets *= 2;
+    if (count > g->capacity) {
+        pm_photon *grown = realloc(g->photons, count * sizeof *grown);
+        if (!grown) { pm_photon_grid_free(g); return false; }
+        g->photons = grown;
+        g->capacity = count;
+    }
+    if (buckets > g->bucket_capacity) {
+        uint32_t *grown = realloc(g->bucket_start, (buckets + 1) * sizeof *grown);
+        if (!grown) { pm_photon_grid_free(g); return false; }
+        g->bucket_start = grown;
+        g->bucket_capacity = buckets;
+    }
+    g->bucket_count = buckets;
+    g->cell = cell;
+    g->inv_cell = 1.f / cell;
+    vec3 lo = v3s(FLT_MAX);
+    for (size_t i = 0; i < count; i++) lo = v3_min(lo, pm_photon_position(&photons[i]));
+    g->origin = count ? lo : v3s(0.f);
+    size_t mask = buckets - 1;
+    uint32_t *start = g->bucket_start;
+    memset(start, 0, (buckets + 1) * sizeof *start);
+    /* counting sort: sizes, offsets, then each photon into its bucket's next slot */
+    for (size_t i = 0; i < count; i++) {
+        const float *q = photons[i].pos;
+        start[bucket_of(cell_coord(q[0], g->origin.x, g->inv_cell), cell_coord(q[1], g->origin.y, g->inv_cell),
+                        cell_coord(q[2], g->origin.z, g->inv_cell), mask) + 1]++;
+    }
+    for (size_t b = 0; b < buckets; b++) start[b + 1] += start[b];
+    for (size_t i = 0; i < count; i++) {
+        const float *q = photons[i].pos;
+        size_t b = bucket_of(cell_coord(q[0], g->origin.x, g->inv_cell), cell_coord(q[1], g->origin.y, g->inv_cell),
+                             cell_coord(q[2], g->origin.z, g->inv_cell), mask);
+        g->photons[start[b]++] = photons[i];
+    }
+    /* the fill moved each start to the next bucket's: shift back */
+    for (size_t b = buckets; b > 0; b--) start[b] = start[b - 1];
+    start[0] = 0;
+    g->count = count;
+    return true;
+}
+
+uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
+                                   vec3 *power) {
+    vec3 sum = v3s(0.f);
+    uint32_t found = 0;
+    *power = sum;
+    if (!g->count || !(radius2 > 0.f)) return 0;
+    float r = sqrtf(radius2);
+    int32_t x0 = cell_coord(p.x - r, g->origin.x, g->inv_cell), x1 = cell_coord(p.x + r, g->origin.x, g->inv_cell);
+    int32_t y0 = cell_coord(p.y - r, g->origin.y, g->inv_cell), y1 = cell_coord(p.y + r, g->origin.y, g->inv_cell);
+    int32_t z0 = cell_coord(p.z - r, g->origin.z, g->inv_cell), z1 = cell_coord(p.z + r, g->origin.z, g->inv_cell);
+    size_t mask = g->bucket_count - 1;
+    /* A disc far wider than the cells would visit more cells than there are photons: scan them all. */
+    bool scan_all = (int64_t)(x1 - x0 + 1) * (y1 - y0 + 1) * (z1 - z0 + 1) > (int64_t)g->count;
+    if (scan_all) x1 = x0, y1 = y0, z1 = z0;
+    for (int32_t z = z0; z <= z1; z++)
+        for (int32_t y = y0; y <= y1; y++)
+            for (int32_t x = x0; x <= x1; x++) {
+                size_t b = bucket_of(x, y, z, mask);
+                size_t first = scan_all ? 0 : g->bucket_start[b], last = scan_all ? g->count : g->bucket_start[b + 1];
+                for (size_t i = first; i < last; i++) {
+                    const pm_photon *ph = &g->photons[i];
+                    float dx = ph->pos[0] - p.x, dy = ph->pos[1] - p.y, dz = ph->pos[2] - p.z;
+                    if (dx * dx + dy * dy + dz * dz > radius2) continue;
+                    /* another cell that hashes to the same bucket: its photons are not this cell's */
+                    if (!scan_all && (cell_coord(ph->pos[0], g->origin.x, g->inv_cell) != x ||
+                                      cell_coord(ph->pos[1], g->origin.y, g->inv_cell) != y ||
+                                      cell_coord(ph->pos[2], g->origin.z, g->inv_cell) != z))
+                        continue;
+                    if (!pm_photon_counts_for(ph, n, path_mask)) continue;
+                    sum = v3_add(sum, pm_photon_power(ph));
+                    found++;
+                }
+            }
+    *power = sum;
+    return found;
+}

@@ -1,0 +1,382 @@
+/* progressive.c: stochastic progressive photon mapping: the iteration's phases, initial radii from the scene, per-pixel statistics.
+ *
+ * The gather loops over pixels, not photons: each visible point queries a hash grid over this
+ * iteration's photons, so no two threads ever write the same statistics and the image is the
+ * same at any thread count (a grid over visible points, filled by photons as pbrt-v4 does,
+ * would need atomic float adds whose order changes the sums). The grid's cell is twice the
+ * mean radius its queries used the iteration before; docs/progressive.md has the measurement
+ * against a kd-tree.
+ */
+#include "progressive.h"
+
+#include <assert.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "defaults.h"
+#include "parallel.h"
+#include "photongrid.h"
+#include "rng.h"
+
+#define MAX_THREADS 256
+#define ROWS_PER_TASK 4
+
+enum { KIND_CAUSTIC = 0, KIND_INDIRECT = 1, KIND_COUNT = 2 };
+
+struct pm_progressive {
+    const pm_scene *scene;
+    const pm_accel *accel;
+    pm_camera camera;
+    pm_progressive_settings settings;
+    pm_eye_settings eye;
+    pm_photon_tracer *tracer;
+    bool trace_caustic, trace_global;    /* which photon passes the scene can use */
+    bool slot_used[PM_SLOT_COUNT];
+    bool gathering;                      /* final gathering at gather points */
+    pm_visible_point *visible, *gathered;
+    size_t pixels;
+    double diffuse_area;                 /* photons land here: their density sets initial radii */
+    /* initial radius from the photon density of the first iteration with photons, per kind of
+     * photon (0 until known); the final-gather radius shrinks per iteration from its own start */
+    double density_r2[KIND_COUNT];
+    double gather_r2;
+    double pixel_angle;                  /* radians per pixel, vertically */
+    double initial_radius_sum;
+    uint64_t initial_radius_count;
+    double query_radius[KIND_COUNT];     /* mean radius gathered with last iteration: sets the grid's cell */
+    pm_photon_buffer buffer[KIND_COUNT]; /* this iteration's photons, reused */
+    pm_photon_grid grid[KIND_COUNT];
+    pm_progressive_stats stats;
+};
+
+static double now_seconds(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+uint64_t pm_progressive_default_photons(int width, int height) {
+    double n = (double)width * height * PM_PPM_PHOTONS_PER_PIXEL;
+    return (uint64_t)(n < PM_PPM_MIN_PHOTONS ? PM_PPM_MIN_PHOTONS : (n > PM_PPM_MAX_PHOTONS ? PM_PPM_MAX_PHOTONS : n));
+}
+
+static double diffuse_area(const pm_scene *s) {
+    double area = 0.0;
+    for (uint32_t t = 0; t < s->triangle_count; t++) {
+        const pm_material *m = &s->materials[s->triangle_material[t]];
+        vec3 kd, ks, kt;
+        pm_material_split(m, m->base_color, &kd, &ks, &kt);
+        if (!v3_is_black(kd) || m->base_color_texture >= 0) area += pm_triangle_area(s, t);
+    }
+    return area;
+}
+
+pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, const pm_camera *camera,
+                                      const pm_progressive_settings *settings, char *err, size_t err_size) {
+    assert(settings->alpha > 0.0 && settings->alpha < 1.0);
+    pm_progressive *p = calloc(1, sizeof *p);
+    if (!p) { snprintf(err, err_size, "out of memory (progressive state, %zu bytes)", sizeof *p); return NULL; }
+    p->scene = s;
+    p->accel = a;
+    p->camera = *camera;
+    p->settings = *settings;
+    p->eye.seed = settings->seed;
+    p->eye.threads = settings->threads;
+    p->eye.max_specular_depth = settings->max_specular_depth;
+    p->eye.indirect = settings->indirect;
+    const pm_scene_analysis *an = &s->analysis;
+    bool want_caustic = an->component_possible[PM_CAUSTIC] && settings->caustic_photons > 0;
+    bool want_global = an->component_possible[PM_INDIRECT] && settings->photons > 0;
+    if (want_caustic || want_global) {
+        pm_photon_settings ps;
+        memset(&ps, 0, sizeof ps);
+        ps.seed = settings->seed;
+        ps.threads = settings->threads;
+        ps.max_bounces = settings->max_photon_bounces;
+        ps.projection_maps = true;
+        p->tracer = pm_photon_tracer_create(s, a, &ps);
+        if (!p->tracer) {
+            snprintf(err, err_size, "out of memory (photon tracer)");
+            free(p);
+            return NULL;
+        }
+        p->trace_caustic = want_caustic && pm_photon_tracer_can_trace(p->tracer, true);
+        p->trace_global = want_global && pm_photon_tracer_can_trace(p->tracer, false);
+    }
+    bool specular = an->component_possible[PM_SPECULAR];
+    p->gathering = p->trace_global && settings->indirect == PM_INDIRECT_GATHER;
+    p->slot_used[PM_SLOT_CAUSTIC] = p->trace_caustic;
+    p->slot_used[PM_SLOT_SPECULAR_CAUSTIC] = p->trace_caustic && specular;
+    p->slot_used[PM_SLOT_INDIRECT] = p->trace_global && !p->gathering;
+    p->slot_used[PM_SLOT_SPECULAR_INDIRECT] = p->trace_global && !p->gathering && specular;
+    p->diffuse_area = diffuse_area(s);
+    return p;
+}
+
+void pm_progressive_destroy(pm_progressive *p) {
+    if (!p) return;
+    pm_photon_tracer_destroy(p->tracer);
+    for (int k = 0; k < KIND_COUNT; k++) {
+        free(p->buffer[k].data);
+        pm_photon_grid_free(&p->grid[k]);
+    }
+    free(p->visible);
+    free(p->gathered);
+    free(p);
+}
+
+bool pm_progressive_uses_photons(const pm_progressive *p) { return p->trace_caustic || p->trace_global; }
+
+double pm_progressive_projection_fraction(const pm_progressive *p) {
+    return p->tracer ? pm_photon_tracer_projection_fraction(p->tracer) : 0.0;
+}
+
+void pm_progressive_components(const pm_progressive *p, bool enabled[PM_COMPONENT_COUNT]) {
+    const pm_scene_analysis *an = &p->scene->analysis;
+    enabled[PM_DIRECT] = an->component_possible[PM_DIRECT];
+    enabled[PM_SPECULAR] = an->component_possible[PM_SPECULAR];
+    enabled[PM_CAUSTIC] = p->trace_caustic;
+    enabled[PM_INDIRECT] = p->trace_global;
+}
+
+static void reset_state(pm_progressive *p, const pm_film *film) {
+    p->density_r2[KIND_CAUSTIC] = p->density_r2[KIND_INDIRECT] = 0.0;
+    p->gather_r2 = 0.0;
+    p->query_radius[KIND_CAUSTIC] = p->query_radius[KIND_INDIRECT] = 0.0;
+    p->initial_radius_sum = 0.0;
+    p->initial_radius_count = 0;
+    p->pixel_angle = 2.0 * tan(0.5 * (double)p->camera.yfov) / (double)film->height;
+    memset(&p->stats, 0, sizeof p->stats);
+}
+
+bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err_size) {
+    p->pixels = (size_t)film->width * film->height;
+    free(p->visible);
+    free(p->gathered);
+    p->gathered = NULL;
+    p->visible = malloc(p->pixels * sizeof *p->visible);
+    if (p->gathering) p->gathered = malloc(p->pixels * sizeof *p->gathered);
+    if (!p->visible || (p->gathering && !p->gathered) || !pm_film_enable_ppm(film, p->slot_used)) {
+        snprintf(err, err_size, "out of memory (progressive state for %dx%d pixels, %zu bytes)", film->width,
+                 film->height, p->pixels * (sizeof(pm_visible_point) * 2 + sizeof(pm_ppm_stat) * PM_SLOT_COUNT));
+        return false;
+    }
+    reset_state(p, film);
+    return true;
+}
+
+void pm_progressive_restart(pm_progressive *p, pm_film *film, const pm_camera *camera) {
+    if (camera) p->camera = *camera;
+    pm_film_clear(film);
+    reset_state(p, film);
+}
+
+/* ---- gather ---- */
+
+typedef struct {
+    pm_progressive *p;
+    pm_film *film;
+    const pm_photon_grid *caustic, *global;
+    double gather_r2;
+    struct {
+        double radius_sum;                   /* initial radii set in this iteration */
+        uint64_t radius_count, found, dropped;
+        double query_sum[KIND_COUNT];        /* radii gathered with, for the next grid's cell */
+        uint64_t query_count[KIND_COUNT];
+        char pad[16];
+    } counters[MAX_THREADS];
+} gather_job;
+
+/* Hachisuka and Jensen's update of one pixel's statistics with the photons of this iteration. */
+static void update_statistics(gather_job *job, pm_ppm_stat *st, const pm_visible_point *vp, const pm_photon_grid *grid,
+                              unsigned path_mask, int kind, int thread) {
+    const pm_progressive *p = job->p;
+    if (!(st->r2 > 0.0)) {
+        double r;
+        if (p->settings.initial_radius > 0.0) {
+            r = p->settings.initial_radius;
+        } else {
+            double footprint = PM_PPM_FOOTPRINT_PIXELS * (double)vp->path_length * p->pixel_angle;
+            r = kind == KIND_CAUSTIC ? footprint : fmax(footprint, sqrt(p->density_r2[kind]));
+        }
+        if (!(r > 0.0)) return; /* nothing to start from yet (no photons and a zero footprint) */
+        st->r2 = r * r;
+        job->counters[thread].radius_sum += r;
+        job->counters[thread].radius_count++;
+    }
+    vec3 power;
+    uint32_t m = pm_photon_grid_sum_facing(grid, vp->p, vp->n, (float)st->r2, path_mask, &power);
+    job->counters[thread].query_sum[kind] += sqrt(st->r2);
+    job->counters[thread].query_count[kind]++;
+    if (!m) return;
+    job->counters[thread].found += m;
+    vec3 phi = v3_mul(vp->weight, power);
+    if (!v3_is_finite(phi)) { job->counters[thread].dropped++; return; }
+    double alpha = p->settings.alpha, n = st->n;
+    double r2_new = st->r2 * (n + alpha * m) / (n + m);
+    /* A radius far below float resolution of the scene gathers nothing new: stop shrinking there. */
+    double floor = (double)p->scene->ray_scale * 1e-7;
+    if (r2_new < floor * floor) r2_new = fmin(st->r2, floor * floor);
+    double ratio = r2_new / st->r2;
+    st->tau[0] = (st->tau[0] + phi.x) * ratio;
+    st->tau[1] = (st->tau[1] + phi.y) * ratio;
+    st->tau[2] = (st->tau[2] + phi.z) * ratio;
+    st->n = n + alpha * m;
+    st->r2 = r2_new;
+    assert(st->r2 > 0.0 && st->n >= 0.0);
+}
+
+static void gather_rows(void *ctx, size_t task, int thread) {
+    gather_job *job = ctx;
+    pm_progressive *p = job->p;
+    pm_film *film = job->film;
+    size_t first = task * ROWS_PER_TASK * (size_t)film->width;
+    size_t last = first + ROWS_PER_TASK * (size_t)film->width;
+    if (last > p->pixels) last = p->pixels;
+    for (size_t i = first; i < last; i++) {
+        const pm_visible_point *vp = &p->visible[i];
+        if (vp->valid) {
+            int caustic_slot = vp->seen_directly ? PM_SLOT_CAUSTIC : PM_SLOT_SPECULAR_CAUSTIC;
+            int indirect_slot = vp->seen_directly ? PM_SLOT_INDIRECT : PM_SLOT_SPECULAR_INDIRECT;
+            if (film->ppm[caustic_slot] && job->caustic)
+                update_statistics(job, &film->ppm[caustic_slot][i], vp, job->caustic, 1u << PM_PATH_CAUSTIC,
+                                  KIND_CAUSTIC, thread);
+            if (film->ppm[indirect_slot] && job->global)
+                update_statistics(job, &film->ppm[indirect_slot][i], vp, job->global, 1u << PM_PATH_INDIRECT,
+                                  KIND_INDIRECT, thread);
+        }
+        if (p->gathered && p->gathered[i].valid && job->global && job->gather_r2 > 0.0) {
+            const pm_visible_point *gp = &p->gathered[i];
+            vec3 power;
+            /* every photon at the gather point: its direct, caustic and indirect light */
+            uint32_t m = pm_photon_grid_sum_facing(job->global, gp->p, gp->n, (float)job->gather_r2, 7u, &power);
+            job->counters[thread].found += m;
+            vec3 l = v3_scale(v3_mul(gp->weight, power), (float)(1.0 / (PM_PI * job->gather_r2)));
+            float *sum = film->sum[gp->seen_directly ? PM_INDIRECT : PM_SPECULAR];
+            if (m && sum) {
+                if (!v3_is_finite(l)) { job->counters[thread].dropped++; continue; }
+                sum[3 * i] += l.x;
+                sum[3 * i + 1] += l.y;
+                sum[3 * i + 2] += l.z;
+            }
+        }
+    }
+}
+
+/* r^2 at which a disc holds PM_PPM_INITIAL_PHOTONS photons where `stored` photons spread evenly
+ * over the diffuse surfaces: the start that follows the photon density, whatever the scale. */
+static double density_radius2(const pm_progressive *p, size_t stored) {
+    if (!stored || !(p->diffuse_area > 0.0)) return 0.0;
+    return PM_PPM_INITIAL_PHOTONS * p->diffuse_area / (PM_PI * (double)stored);
+}
+
+static size_t count_tagged(const pm_photon_buffer *b, int path) {
+    size_t n = 0;
+    for (size_t i = 0; i < b->count; i++) n += pm_photon_path(&b->data[i]) == path;
+    return n;
+}
+
+/* Sorts a kind's photons into its grid, the cell twice the radius its queries are expected to use. */
+static bool build_grid(pm_progressive *p, int kind) {
+    double r = p->query_radius[kind] > 0.0 ? p->query_radius[kind] : sqrt(p->density_r2[kind]);
+    if (kind == KIND_INDIRECT && p->gathering) r = sqrt(p->gather_r2);
+    if (!(r > 0.0)) r = 1e-3 * (double)p->scene->ray_scale;
+    if (!p->buffer[kind].count) { p->grid[kind].count = 0; return true; }
+    return pm_photon_grid_build(&p->grid[kind], p->buffer[kind].data, p->buffer[kind].count, (float)(3.0 * r));
+}
+
+bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
+    assert(p->visible && (size_t)film->width * film->height == p->pixels);
+    uint32_t iteration = film->samples;
+    const pm_progressive_settings *set = &p->settings;
+
+    /* 1. eye pass: visible points (and gather points), emission and direct light */
+    pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, iteration, film, p->visible, p->gathered,
+                          &p->stats.eye);
+    if (p->stats.eye.failed) return false;
+
+    /* 2. photon passes: a fresh, independent set every iteration, sorted into hash grids */
+    uint64_t seed = pm_hash64(set->seed * 0x9e3779b97f4a7c15ULL + iteration);
+    double t0 = now_seconds();
+    bool ok = true;
+    pm_photon_buffer *caustic = &p->buffer[KIND_CAUSTIC], *global = &p->buffer[KIND_INDIRECT];
+    caustic->count = global->count = 0;
+    if (p->trace_caustic) ok = pm_photon_tracer_trace_into(p->tracer, true, set->caustic_photons, seed, caustic, &p->stats.photons);
+    if (ok && p->trace_global) ok = pm_photon_tracer_trace_into(p->tracer, false, set->photons, seed, global, &p->stats.photons);
+    if (!ok) return false;
+    if (p->density_r2[KIND_CAUSTIC] == 0.0) p->density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count);
+    if (p->density_r2[KIND_INDIRECT] == 0.0)
+        p->density_r2[KIND_INDIRECT] = density_radius2(p, p->gathering ? global->count : count_tagged(global, PM_PATH_INDIRECT));
+    if (p->gathering && p->gather_r2 == 0.0)
+        p->gather_r2 = set->initial_radius > 0.0 ? set->initial_radius * set->initial_radius
+                                                 : p->density_r2[KIND_INDIRECT] * PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS;
+    double t_grid = now_seconds();
+    if (!build_grid(p, KIND_CAUSTIC) || !build_grid(p, KIND_INDIRECT)) return false;
+    double t1 = now_seconds();
+    p->stats.photons.kdtree_seconds += t1 - t_grid;
+    p->stats.photons.seconds += t1 - t0;
+
+    /* 3. gather: statistics at visible points, estimates at gather points */
+    gather_job *job = calloc(1, sizeof *job);
+    if (!job) return false;
+    job->p = p;
+    job->film = film;
+    job->caustic = p->grid[KIND_CAUSTIC].count ? &p->grid[KIND_CAUSTIC] : NULL;
+    job->global = p->grid[KIND_INDIRECT].count ? &p->grid[KIND_INDIRECT] : NULL;
+    job->gather_r2 = p->gather_r2;
+    int threads = set->threads < 1 ? 1 : (set->threads > MAX_THREADS ? MAX_THREADS : set->threads);
+    size_t tasks = ((size_t)film->height + ROWS_PER_TASK - 1) / ROWS_PER_TASK;
+    pm_parallel_for(threads, tasks, gather_rows, job);
+    double query_sum[KIND_COUNT] = {0, 0};
+    uint64_t query_count[KIND_COUNT] = {0, 0};
+    for (int t = 0; t < threads; t++) {
+        p->initial_radius_sum += job->counters[t].radius_sum;
+        p->initial_radius_count += job->counters[t].radius_count;
+        p->stats.photons_found += job->counters[t].found;
+        p->stats.eye.dropped_samples += job->counters[t].dropped;
+        for (int k = 0; k < KIND_COUNT; k++) {
+            query_sum[k] += job->counters[t].query_sum[k];
+            query_count[k] += job->counters[t].query_count[k];
+        }
+    }
+    for (int k = 0; k < KIND_COUNT; k++)
+        if (query_count[k]) p->query_radius[k] = query_sum[k] / (double)query_count[k];
+    free(job);
+    /* Knaus and Zwicker's shrinking radius for the next iteration's gather points */
+    if (p->gathering && p->gather_r2 > 0.0) {
+        double i = (double)iteration + 1.0;
+        p->gather_r2 *= (i + set->alpha) / (i + 1.0);
+    }
+    p->stats.gather_seconds += now_seconds() - t1;
+    film->samples++;
+    p->stats.iterations = film->samples;
+    return true;
+}
+
+const pm_progressive_stats *pm_progressive_get_stats(const pm_progressive *p) { return &p->stats; }
+
+pm_radius_summary pm_progressive_radii(const pm_progressive *p, const pm_film *film) {
+    pm_radius_summary r = {0, 0, 0, 0, 0, 0};
+    r.initial_mean = p->initial_radius_count ? p->initial_radius_sum / (double)p->initial_radius_count : 0.0;
+    r.gather = p->gathering ? sqrt(p->gather_r2) : 0.0;
+    double sum = 0.0;
+    r.min = INFINITY;
+    size_t n = (size_t)film->width * film->height;
+    for (int k = 0; k < PM_SLOT_COUNT; k++) {
+        if (!film->ppm[k]) continue;
+        for (size_t i = 0; i < n; i++) {
+            double r2 = film->ppm[k][i].r2;
+            if (!(r2 > 0.0)) continue;
+            double rad = sqrt(r2);
+            sum += rad;
+            r.min = fmin(r.min, rad);
+            r.max = fmax(r.max, rad);
+            r.pixels++;
+        }
+    }
+    r.mean = r.pixels ? sum / (double)r.pixels : 0.0;
+    if (!r.pixels) r.min = 0.0;
+    return r;
+}

@@ -1,0 +1,234 @@
+/* test_progressive.c: the progressive mode's invariants: thin walls, only the passes a scene needs, threads, restarts, scale, 10^4 iterations. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "accel.h"
+#include "defaults.h"
+#include "eye.h"
+#include "film.h"
+#include "image_io.h"
+#include "loader.h"
+#include "photonmap.h"
+#include "progressive.h"
+#include "scene_builder.h"
+#include "progressive_harness.h"
+#include "testing.h"
+
+/* ---- thin walls, analysis, threads, scale, long runs ---- */
+
+/* A single double-sided quad between a lit room half and a dark one: photons on its lit face
+ * must never count on its dark face, though both share the same positions. */
+static void test_thin_wall(void) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    uint32_t white = sb_material(&s, v3s(0.8f), 0, 1, 0, v3s(0), true);
+    /* the thin wall at z = 0, and a facing wall at z = 1 on the lit side that bounces light back */
+    sb_quad(&s, v3(-1, -1, 0), v3(1, -1, 0), v3(1, 1, 0), v3(-1, 1, 0), white);
+    sb_quad(&s, v3(-1, -1, 1), v3(-1, 1, 1), v3(1, 1, 1), v3(1, -1, 1), white);
+    sb_point_light(&s, v3(0, 0, 0.5f), v3s(1.f));
+    pm_accel *a = finish(&s);
+    CHECK(s.analysis.interreflection_possible, "two facing walls: interreflection possible");
+    enum { W = 16, H = 16 };
+    float *img = malloc(sizeof(float) * 3 * W * H);
+    for (int mode = 0; mode < 2; mode++) {
+        pm_progressive_settings ps = default_settings(W, H);
+        ps.indirect = mode == 0 ? PM_INDIRECT_PHOTONS : PM_INDIRECT_GATHER;
+        /* a radius far larger than the gap between the faces: only the side test can keep them apart */
+        ps.initial_radius = 0.3;
+        double lit = 0, dark = 0;
+        for (int side = 0; side < 2; side++) {
+            pm_camera cam = side == 0 ? sb_camera(v3(0, 0, 0.9f), v3(0, 0, 0), v3(0, 1, 0), 40.f)
+                                      : sb_camera(v3(0, 0, -1.5f), v3(0, 0, 0), v3(0, 1, 0), 40.f);
+            session r;
+            if (!start(&r, &s, a, &cam, W, H, &ps)) break;
+            iterate(&r, 16);
+            pm_film_resolve(&r.film, PM_INDIRECT, img);
+            *(side == 0 ? &lit : &dark) = mean_of(img, 3 * W * H);
+            stop(&r);
+        }
+        printf("thin wall (%s): indirect on the lit face %.5f, on the dark face %.3g\n", mode ? "gather" : "photons", lit, dark);
+        CHECK(lit > 0.001, "the lit face receives indirect light (%g)", lit);
+        CHECK(dark == 0.0, "the dark face of a thin wall stays black (%g)", dark);
+    }
+    free(img);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+/* Only what the scene needs: a single plane can never receive light reflected from itself. */
+static void test_no_photon_pass_when_useless(void) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    uint32_t white = sb_lambert(&s, v3s(0.8f));
+    sb_quad(&s, v3(-1, 0, -1), v3(-1, 0, 1), v3(1, 0, 1), v3(1, 0, -1), white);
+    sb_point_light(&s, v3(0, 1, 0), v3s(1.f));
+    pm_accel *a = finish(&s);
+    CHECK(!s.analysis.interreflection_possible && !s.analysis.caustics_possible, "one plane: no second diffuse bounce, no caustic");
+    pm_camera cam = sb_camera(v3(0, 2, 2), v3(0, 0, 0), v3(0, 1, 0), 40.f);
+    pm_progressive_settings ps = default_settings(8, 8);
+    session r;
+    if (start(&r, &s, a, &cam, 8, 8, &ps)) {
+        CHECK(!pm_progressive_uses_photons(r.p), "no photon pass for a single lit plane");
+        CHECK(r.film.sum[PM_CAUSTIC] == NULL && r.film.sum[PM_INDIRECT] == NULL, "no caustic or indirect buffers");
+        for (int k = 0; k < PM_SLOT_COUNT; k++) CHECK(r.film.ppm[k] == NULL, "no statistics slot %d", k);
+        iterate(&r, 2);
+        CHECK(pm_progressive_get_stats(r.p)->photons.emitted == 0, "no photon emitted");
+        stop(&r);
+    }
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+/* A small room with an emissive ceiling patch and a glass ball, scaled by `scale` about the origin. */
+static pm_accel *scaled_room(pm_scene *s, float scale, pm_camera *cam) {
+    memset(s, 0, sizeof *s);
+    uint32_t white = sb_lambert(s, v3s(0.7f)), red = sb_lambert(s, v3(0.7f, 0.1f, 0.1f));
+    uint32_t lamp = sb_material(s, v3s(0), 0, 1, 0, v3s(5.f), false);
+    uint32_t glass = sb_material(s, v3s(1), 0, 0, 1, v3s(0), false);
+    float k = scale;
+    sb_box(s, v3(-k, -k, -k), v3(k, k, k), white, true);
+    sb_quad(s, v3(-k, -k, -k), v3(-k, k, -k), v3(-k, k, k), v3(-k, -k, k), red);
+    sb_quad(s, v3(-0.3f * k, 0.99f * k, -0.3f * k), v3(0.3f * k, 0.99f * k, -0.3f * k), v3(0.3f * k, 0.99f * k, 0.3f * k),
+            v3(-0.3f * k, 0.99f * k, 0.3f * k), lamp);
+    sb_sphere(s, v3(0.3f * k, -0.6f * k, 0), 0.35f * k, 24, glass);
+    *cam = sb_camera(v3(0, 0, 0.95f * k), v3(0, -0.3f * k, -k), v3(0, 1, 0), 70.f);
+    return finish(s);
+}
+
+static void test_scale_invariance(void) {
+    enum { W = 24, H = 24 };
+    float *img[3];
+    const float scales[3] = {1.f, 1e-3f, 1e3f};
+    for (int i = 0; i < 3; i++) {
+        pm_scene s;
+        pm_camera cam;
+        pm_accel *a = scaled_room(&s, scales[i], &cam);
+        img[i] = malloc(sizeof(float) * 3 * W * H);
+        pm_progressive_settings ps = default_settings(W, H);
+        session r;
+        if (start(&r, &s, a, &cam, W, H, &ps)) {
+            iterate(&r, 32);
+            pm_film_resolve_total(&r.film, img[i]);
+            pm_radius_summary rad = pm_progressive_radii(r.p, &r.film);
+            printf("scale %g: mean %.5f, mean radius / scale %.5f\n", scales[i], mean_of(img[i], 3 * W * H),
+                   rad.mean / scales[i]);
+            stop(&r);
+        }
+        pm_accel_destroy(a);
+        pm_scene_free(&s);
+    }
+    const float *const planes_unused[3] = {NULL, NULL, NULL};
+    (void)planes_unused;
+    for (int i = 1; i < 3; i++) {
+        double d = 0, m = mean_of(img[0], 3 * W * H);
+        for (int k = 0; k < 3 * W * H; k++) d += fabs(img[i][k] - img[0][k]);
+        d /= 3.0 * W * H;
+        CHECK(d < 0.02 * m, "scale %g: mean absolute difference %g against %g at scale 1", scales[i], d, m);
+        CHECK_NEAR(mean_of(img[i], 3 * W * H), m, 0.01, 0, "image mean at another scale");
+    }
+    for (int i = 0; i < 3; i++) free(img[i]);
+}
+
+static void test_threads_identical(void) {
+    pm_scene s;
+    pm_camera cam;
+    pm_accel *a = scaled_room(&s, 1.f, &cam);
+    enum { W = 20, H = 16 };
+    float *img[2];
+    for (int t = 0; t < 2; t++) {
+        pm_progressive_settings ps = default_settings(W, H);
+        ps.threads = t + 1;
+        img[t] = malloc(sizeof(float) * 3 * W * H);
+        session r;
+        if (start(&r, &s, a, &cam, W, H, &ps)) {
+            iterate(&r, 4);
+            pm_film_resolve_total(&r.film, img[t]);
+            stop(&r);
+        }
+    }
+    CHECK(memcmp(img[0], img[1], sizeof(float) * 3 * W * H) == 0, "1 and 2 threads give the same image, bit for bit");
+    free(img[0]);
+    free(img[1]);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+/* 10,000 iterations: statistics stay finite and consistent, radii positive and shrinking. */
+static void test_long_run(void) {
+    pm_scene s;
+    pm_camera cam;
+    pm_accel *a = scaled_room(&s, 1.f, &cam);
+    enum { W = 6, H = 6 };
+    pm_progressive_settings ps = default_settings(W, H);
+    ps.photons = ps.caustic_photons = 400;
+    ps.indirect = PM_INDIRECT_PHOTONS;
+    session r;
+    if (!start(&r, &s, a, &cam, W, H, &ps)) return;
+    iterate(&r, 100);
+    pm_radius_summary at100 = pm_progressive_radii(r.p, &r.film);
+    iterate(&r, 9900);
+    pm_radius_summary at10k = pm_progressive_radii(r.p, &r.film);
+    printf("10^4 iterations: mean radius %.5f at 100, %.5f at 10000 (min %.3g), initial %.5f\n", at100.mean, at10k.mean,
+           at10k.min, at10k.initial_mean);
+    CHECK(at10k.min > 0.0 && at10k.mean < at100.mean && at100.mean <= at10k.initial_mean, "radii positive and shrinking");
+    int bad = 0;
+    for (int k = 0; k < PM_SLOT_COUNT; k++) {
+        if (!r.film.ppm[k]) continue;
+        for (int i = 0; i < W * H; i++) {
+            const pm_ppm_stat *st = &r.film.ppm[k][i];
+            bad += !isfinite(st->n) || st->n < 0 || !(st->r2 >= 0) || !isfinite(st->r2);
+            for (int c = 0; c < 3; c++) bad += !isfinite(st->tau[c]) || st->tau[c] < 0;
+            /* N grows by alpha M per iteration with photons: never more than the photons stored */
+            bad += st->n > (double)pm_progressive_get_stats(r.p)->photons_found;
+        }
+    }
+    CHECK(bad == 0, "%d inconsistent statistics after 10^4 iterations", bad);
+    float *img = malloc(sizeof(float) * 3 * W * H);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        pm_film_resolve(&r.film, c, img);
+        int nonfinite = 0;
+        for (int i = 0; i < 3 * W * H; i++) nonfinite += !isfinite(img[i]) || img[i] < 0.f;
+        CHECK(nonfinite == 0, "component %s: %d bad values after 10^4 iterations", pm_component_names[c], nonfinite);
+    }
+    CHECK(r.film.samples == 10000, "10^4 samples (%u)", r.film.samples);
+    free(img);
+    stop(&r);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+/* A restart clears every pixel's state without reallocating. */
+static void test_restart(void) {
+    pm_scene s;
+    pm_camera cam;
+    pm_accel *a = scaled_room(&s, 1.f, &cam);
+    enum { W = 12, H = 12 };
+    pm_progressive_settings ps = default_settings(W, H);
+    ps.indirect = PM_INDIRECT_PHOTONS;
+    session r;
+    if (!start(&r, &s, a, &cam, W, H, &ps)) return;
+    iterate(&r, 3);
+    float *first = malloc(sizeof(float) * 3 * W * H), *again = malloc(sizeof(float) * 3 * W * H);
+    pm_film_resolve_total(&r.film, first);
+    pm_ppm_stat *slot = r.film.ppm[PM_SLOT_INDIRECT];
+    pm_progressive_restart(r.p, &r.film, &cam);
+    CHECK(r.film.samples == 0 && r.film.ppm[PM_SLOT_INDIRECT] == slot, "restart keeps the buffers and clears the count");
+    iterate(&r, 3);
+    pm_film_resolve_total(&r.film, again);
+    CHECK(memcmp(first, again, sizeof(float) * 3 * W * H) == 0, "after a restart the same iterations give the same image");
+    free(first);
+    free(again);
+    stop(&r);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+int main(void) {
+    test_thin_wall();
+    test_no_photon_pass_when_useless();
+    test_threads_identical();
+    test_restart();
+    test_scale_invariance();
+    test_long_run();
+    return pm_test_done("test_progressive");
+}
