@@ -1,20 +1,24 @@
-/* bench_pm.c: speed figures measured as ratios within one run: eye and photon passes against raw Embree, kd-tree rates, thread scaling.
+/* bench_pm.c: speed figures measured as ratios within one run: eye, photon and progressive passes against raw Embree, gather structures, thread scaling.
  *
  * Usage: build/rel/bench_pm [SCENE.gltf] — prints "bench KEY=VALUE ..." lines (stable, for
  * scripts) and nothing else. Absolute rates on a shared machine are noisy; the ratios, each
  * measured back to back and as the best of three interleaved runs, are the figures to compare.
  */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
 #include "accel.h"
+#include "defaults.h"
 #include "eye.h"
 #include "film.h"
 #include "kdtree.h"
 #include "loader.h"
+#include "photongrid.h"
 #include "photonmap.h"
+#include "progressive.h"
 #include "rng.h"
 #include "scene.h"
 
@@ -92,6 +96,93 @@ static double eye_rate(const pm_scene *s, const pm_accel *a, const pm_camera *ca
     return st.rays / st.seconds;
 }
 
+/* The progressive mode at width x height for `iterations` iterations: rays (eye and photon) per
+ * second of the whole iteration, and the seconds of the first iteration and of the mean one. */
+typedef struct { double rays_per_second, first_seconds, mean_seconds; } progressive_rate;
+
+static progressive_rate progressive_iterations(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int width,
+                                               int height, int threads, int iterations, bool photons) {
+    progressive_rate r = {0, 0, 0};
+    pm_progressive_settings ps;
+    memset(&ps, 0, sizeof ps);
+    ps.seed = 1;
+    ps.threads = threads;
+    ps.photons = ps.caustic_photons = photons ? pm_progressive_default_photons(width, height) : 0;
+    ps.alpha = PM_DEFAULT_ALPHA;
+    ps.indirect = PM_INDIRECT_GATHER;
+    ps.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
+    ps.max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
+    char err[256];
+    pm_progressive *p = pm_progressive_create(s, a, cam, &ps, err, sizeof err);
+    if (!p) return r;
+    bool comps[PM_COMPONENT_COUNT];
+    pm_progressive_components(p, comps);
+    pm_film film;
+    if (!pm_film_init(&film, width, height, comps) || !pm_progressive_bind(p, &film, err, sizeof err)) {
+        pm_progressive_destroy(p);
+        return r;
+    }
+    double t0 = now_seconds(), t1 = t0;
+    for (int i = 0; i < iterations; i++) {
+        pm_progressive_iterate(p, &film);
+        if (i == 0) t1 = now_seconds();
+    }
+    double total = now_seconds() - t0;
+    const pm_progressive_stats *st = pm_progressive_get_stats(p);
+    r.rays_per_second = (double)(st->eye.rays + st->photons.rays) / total;
+    r.first_seconds = t1 - t0;
+    r.mean_seconds = total / iterations;
+    pm_progressive_destroy(p);
+    pm_film_free(&film);
+    return r;
+}
+
+/* The progressive gather's two candidate structures on the same photons and queries: a kd-tree
+ * radius walk and the hashed grid (cell twice the radius), queries per second on one thread. */
+static void gather_structures(const pm_photon_maps *maps, float radius) {
+    size_t count = maps->global.count;
+    if (!count) return;
+    pm_photon *copy = malloc(count * sizeof *copy);
+    memcpy(copy, maps->global.photons, count * sizeof *copy);
+    pm_photon_grid grid;
+    memset(&grid, 0, sizeof grid);
+    double b0 = now_seconds();
+    pm_photon_grid_build(&grid, copy, count, 2.f * radius);
+    double grid_build = now_seconds() - b0;
+    b0 = now_seconds();
+    pm_kdtree tree;
+    pm_kdtree_build(&tree, copy, count, 1); /* takes copy */
+    double tree_build = now_seconds() - b0;
+    enum { QUERIES = 200000 };
+    pm_rng rng = pm_rng_for(4, 0, 0);
+    vec3 *qp = malloc(QUERIES * sizeof *qp), *qn = malloc(QUERIES * sizeof *qn);
+    for (int q = 0; q < QUERIES; q++) {
+        const pm_photon *ph = &tree.photons[(size_t)(pm_rng_float(&rng) * count) % count];
+        qp[q] = pm_photon_position(ph);
+        qn[q] = pm_photon_normal(ph);
+    }
+    double best[2] = {0, 0};
+    uint64_t found[2] = {0, 0};
+    for (int rep = 0; rep < 3; rep++)
+        for (int k = 0; k < 2; k++) {
+            double q0 = now_seconds();
+            uint64_t f = 0;
+            vec3 power;
+            for (int q = 0; q < QUERIES; q++)
+                f += k == 0 ? pm_kdtree_sum_facing(&tree, qp[q], qn[q], radius * radius, 7u, &power)
+                            : pm_photon_grid_sum_facing(&grid, qp[q], qn[q], radius * radius, 7u, &power);
+            double rate = QUERIES / (now_seconds() - q0);
+            if (rate > best[k]) best[k] = rate;
+            found[k] = f;
+        }
+    printf("bench gather photons=%zu radius=%.5g kdtree_queries_per_second=%.0f grid_queries_per_second=%.0f grid_speedup=%.2f kdtree_build_seconds=%.4f grid_build_seconds=%.4f same_photons=%d\n",
+           count, radius, best[0], best[1], best[1] / best[0], tree_build, grid_build, found[0] == found[1]);
+    free(qp);
+    free(qn);
+    pm_kdtree_free(&tree);
+    pm_photon_grid_free(&grid);
+}
+
 int main(int argc, char **argv) {
     const char *path = argc > 1 ? argv[1] : "scenes/cornell-box.gltf";
     pm_scene s;
@@ -155,6 +246,36 @@ int main(int argc, char **argv) {
                threads, (unsigned long long)emitted, (unsigned long long)stored, photon_rate[threads], photon_rays[threads],
                photon_rays[threads] / (raw_scattered * threads), kd_seconds[threads]);
     printf("bench photons speedup=%.2f\n", photon_rate[2] / photon_rate[1]);
+
+    /* the progressive mode's gather: a radius holding about PM_PPM_INITIAL_PHOTONS photons of this map */
+    if (maps.global.count) {
+        double area = 0;
+        for (uint32_t t = 0; t < s.triangle_count; t++) area += pm_triangle_area(&s, t);
+        gather_structures(&maps, (float)sqrt(PM_PPM_INITIAL_PHOTONS * area / (PM_PI * (double)maps.global.count)));
+    }
+
+    /* whole progressive iterations at 512x512, beside the raw ceiling; thread scaling; the first
+     * iteration at 640x480 against one without photons (what makes a first image appear at once) */
+    progressive_rate it1 = {0, 0, 0}, it2 = {0, 0, 0};
+    for (int rep = 0; rep < 3; rep++) {
+        progressive_rate r1 = progressive_iterations(&s, a, &cam, 512, 512, 1, 4, true);
+        progressive_rate r2 = progressive_iterations(&s, a, &cam, 512, 512, 2, 4, true);
+        if (r1.rays_per_second > it1.rays_per_second) it1 = r1;
+        if (r2.rays_per_second > it2.rays_per_second) it2 = r2;
+    }
+    printf("bench progressive width=512 height=512 threads=1 rays_per_second=%.0f ratio_to_raw=%.3f seconds_per_iteration=%.4f\n",
+           it1.rays_per_second, it1.rays_per_second / raw1, it1.mean_seconds);
+    printf("bench progressive width=512 height=512 threads=2 rays_per_second=%.0f ratio_to_raw=%.3f seconds_per_iteration=%.4f speedup=%.2f\n",
+           it2.rays_per_second, it2.rays_per_second / (2 * raw1), it2.mean_seconds, it2.rays_per_second / it1.rays_per_second);
+    double first = 1e30, plain = 1e30;
+    for (int rep = 0; rep < 3; rep++) {
+        progressive_rate with = progressive_iterations(&s, a, &cam, 640, 480, 2, 1, true);
+        progressive_rate without = progressive_iterations(&s, a, &cam, 640, 480, 2, 1, false);
+        if (with.first_seconds < first) first = with.first_seconds;
+        if (without.first_seconds < plain) plain = without.first_seconds;
+    }
+    printf("bench first_iteration width=640 height=480 threads=2 seconds=%.4f no_photons_seconds=%.4f ratio=%.2f\n", first, plain,
+           first / plain);
 
     /* kd-tree: rebuild the global map's photons (copied) and query at random stored positions */
     size_t count = maps.global.count;

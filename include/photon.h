@@ -37,10 +37,11 @@ static inline uint16_t pm_oct_encode_bits(vec3 n, int bits) {
     return (uint16_t)((qx & mask) | ((qy & mask) << bits));
 }
 
-static inline vec3 pm_oct_decode_bits(uint16_t code, int bits) {
+/* An octahedral code decoded without normalising: the direction is right, the length in [1/sqrt(3), 1]. */
+static inline vec3 pm_oct_decode_unnormalised(uint16_t code, int bits) {
     int mask = (1 << bits) - 1;
-    float levels = (float)mask;
-    float x = (code & mask) / levels * 2.f - 1.f, y = ((code >> bits) & mask) / levels * 2.f - 1.f;
+    float scale = 2.f / (float)mask;
+    float x = (float)(code & mask) * scale - 1.f, y = (float)((code >> bits) & mask) * scale - 1.f;
     float z = 1.f - fabsf(x) - fabsf(y);
     if (z < 0.f) {
         float ox = (1.f - fabsf(y)) * (x >= 0.f ? 1.f : -1.f);
@@ -48,8 +49,10 @@ static inline vec3 pm_oct_decode_bits(uint16_t code, int bits) {
         x = ox;
         y = oy;
     }
-    return v3_normalize(v3(x, y, z));
+    return v3(x, y, z);
 }
+
+static inline vec3 pm_oct_decode_bits(uint16_t code, int bits) { return v3_normalize(pm_oct_decode_unnormalised(code, bits)); }
 
 static inline uint16_t pm_oct_encode(vec3 n) { return pm_oct_encode_bits(n, 8); }
 static inline vec3 pm_oct_decode(uint16_t code) { return pm_oct_decode_bits(code, 8); }
@@ -100,21 +103,6 @@ static inline vec3 pm_photon_direction(const pm_photon *ph) { return pm_oct_deco
 static inline vec3 pm_photon_power(const pm_photon *ph) { return pm_rgbe_decode(ph->power); }
 
 static inline vec3 pm_photon_position(const pm_photon *ph) { return v3(ph->pos[0], ph->pos[1], ph->pos[2]); }
-
-/* An octahedral code decoded without normalising: the direction is right, the length in [1/sqrt(3), 1]. */
-static inline vec3 pm_oct_decode_unnormalised(uint16_t code, int bits) {
-    int mask = (1 << bits) - 1;
-    float scale = 2.f / (float)mask;
-    float x = (float)(code & mask) * scale - 1.f, y = (float)((code >> bits) & mask) * scale - 1.f;
-    float z = 1.f - fabsf(x) - fabsf(y);
-    if (z < 0.f) {
-        float ox = (1.f - fabsf(y)) * (x >= 0.f ? 1.f : -1.f);
-        float oy = (1.f - fabsf(x)) * (y >= 0.f ? 1.f : -1.f);
-        x = ox;
-        y = oy;
-    }
-    return v3(x, y, z);
-}
 
 /* Whether a photon counts for a surface point facing n: its path tag is in path_mask, it arrived
  * from the side n faces, and its surface's normal is within about 25 degrees (cos 0.9) of n, so

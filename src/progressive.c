@@ -272,10 +272,12 @@ static double density_radius2(const pm_progressive *p, size_t stored) {
     return PM_PPM_INITIAL_PHOTONS * p->diffuse_area / (PM_PI * (double)stored);
 }
 
-static size_t count_tagged(const pm_photon_buffer *b, int path) {
-    size_t n = 0;
-    for (size_t i = 0; i < b->count; i++) n += pm_photon_path(&b->data[i]) == path;
-    return n;
+/* Keeps only the photons with the given path tag, in order. */
+static void keep_tagged(pm_photon_buffer *b, int path) {
+    size_t kept = 0;
+    for (size_t i = 0; i < b->count; i++)
+        if (pm_photon_path(&b->data[i]) == path) b->data[kept++] = b->data[i];
+    b->count = kept;
 }
 
 /* Sorts a kind's photons into its grid, the cell twice the radius its queries are expected to use. */
@@ -307,8 +309,10 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     if (ok && p->trace_global) ok = pm_photon_tracer_trace_into(p->tracer, false, set->photons, seed, global, &p->stats.photons);
     if (!ok) return false;
     if (p->density_r2[KIND_CAUSTIC] == 0.0) p->density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count);
-    if (p->density_r2[KIND_INDIRECT] == 0.0)
-        p->density_r2[KIND_INDIRECT] = density_radius2(p, p->gathering ? global->count : count_tagged(global, PM_PATH_INDIRECT));
+    /* visible points read only indirect photons (direct light and caustics have their own
+     * estimates); gather points read all of them */
+    if (!p->gathering) keep_tagged(global, PM_PATH_INDIRECT);
+    if (p->density_r2[KIND_INDIRECT] == 0.0) p->density_r2[KIND_INDIRECT] = density_radius2(p, global->count);
     if (p->gathering && p->gather_r2 == 0.0)
         p->gather_r2 = set->initial_radius > 0.0 ? set->initial_radius * set->initial_radius
                                                  : p->density_r2[KIND_INDIRECT] * PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS;
