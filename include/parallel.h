@@ -6,11 +6,16 @@
 #ifndef PM_PARALLEL_H
 #define PM_PARALLEL_H
 
+#include <stdatomic.h>
 #include <stddef.h>
 
 /* Calls fn(ctx, task, thread) for task in [0, count), on `threads` threads (the caller's one
  * included); thread is in [0, threads). Returns when all tasks are done. */
 void pm_parallel_for(int threads, size_t count, void (*fn)(void *ctx, size_t task, int thread), void *ctx);
+/* Every parallel-for started later on the calling thread stops handing out tasks once *flag is
+ * true (NULL: never). A render session's worker sets it, so a restart or a quit is answered within
+ * one task however long the pass; the work then left undone is discarded by the caller. */
+void pm_parallel_set_cancel(const atomic_bool *flag);
 /* Number of online cores. */
 int pm_cpu_count(void);
 

@@ -21,11 +21,20 @@ typedef struct {
 
 typedef struct pm_view pm_view;
 
-/* Things the user asked for through the window since the last poll. */
+/* Things the user asked for through the window since the last poll. Mouse motion is in pixels of
+ * the window; the caller turns it into camera moves. */
 typedef struct {
     bool quit;
-    bool save_png;        /* P: save what is shown */
+    bool save_png;        /* P or F12: save what is shown (and the linear layers) */
     bool display_changed; /* a toggle, exposure or tonemap key: redraw */
+    double orbit_dx, orbit_dy;  /* left drag */
+    double pan_dx, pan_dy;      /* right or middle drag */
+    double dolly;               /* scroll wheel steps, positive = closer */
+    bool pick;                  /* double click: orbit around the point under the cursor */
+    double pick_x, pick_y;      /* where, in film pixels */
+    float fly[3];               /* W/S, D/A, E/Q key presses: forward, right, up */
+    bool fast;                  /* Shift held */
+    bool frame, next_camera, home, toggle_gather, cycle_view, pause, restart, help;
 } pm_view_events;
 
 /* The shaders in shaders/ are compiled into the binary (build/shaders.inc, made by the Makefile). */
@@ -34,8 +43,13 @@ pm_view *pm_view_create_window(int width, int height, const char *title,
 pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_size);
 void pm_view_destroy(pm_view *v);
 
-/* Uploads the film's current means (absent components stay black). */
+/* Uploads the film's components as pm_film_resolve gives them (absent components stay black). */
 void pm_view_upload(pm_view *v, const pm_film *film);
+/* Uploads already resolved components: width*height*3 floats each, NULL = black. A different size
+ * than before reallocates the textures. */
+void pm_view_upload_layers(pm_view *v, int width, int height, const float *const layers[PM_COMPONENT_COUNT]);
+/* Window only: the title's status part (iterations, photons, time...), before the component flags. */
+void pm_view_set_status(pm_view *v, const char *status);
 void pm_view_draw(pm_view *v, const pm_display *d);
 /* Reads back what was last drawn: width*height*4 bytes, row 0 = top. */
 void pm_view_read_rgba8(pm_view *v, uint8_t *rgba);

@@ -3,6 +3,8 @@
  * Exit codes: 0 success, 1 a file could not be loaded, rendered or written, 2 a usage error.
  */
 #include <errno.h>
+#include <signal.h>
+#include <unistd.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,6 +21,8 @@
 #include "parallel.h"
 #include "progressive.h"
 #include "scene.h"
+#include "session.h"
+#include "camera_control.h"
 #include "view.h"
 
 typedef struct {
@@ -43,7 +47,7 @@ typedef struct {
     bool view_photons, no_photons;
     bool classic;         /* --mode classic; else progressive */
     double alpha, radius; /* progressive: radius reduction, initial radius (0 = from the scene) */
-    bool indirect_given;
+    bool components_given, components[PM_COMPONENT_COUNT]; /* --components: what a PNG (and the window) shows */
 } options;
 
 static const char usage_text[] =
@@ -76,10 +80,13 @@ static const char usage_text[] =
     "  --no-photons         direct and specular only (no photon pass)\n"
     "  --reference REF.exr  measure the total against REF's R,G,B (same size): relMSE and mean ratios;\n"
     "                       with --stats also at iterations 1, 2, 4, 8, ... (an error-against-time curve)\n"
+    "  --components LIST    what a PNG snapshot and the window show at first: direct,specular,caustic,indirect (default all)\n"
     "  --stats              print 'stat STAGE key=value ...' lines\n"
     "  --quiet              no warnings\n"
     "  --help               this text\n"
-    "keys (window): 1 direct, 2 specular, 3 caustic, 4 indirect, +/- exposure, 0 reset, T tonemap, P save PNG, Esc/Q quit\n";
+    "window: left drag orbit, right/middle drag pan, wheel dolly, double click pivot, W A S D Q E fly (Shift faster),\n"
+    "  F frame, C next camera, Home start camera, 1-4 components, +/- exposure, 0 reset, T tonemap, G gathering,\n"
+    "  Space pause, R restart, P/F12 save PNG+EXR, H help, Esc quit\n";
 
 static int usage_error(const char *fmt, const char *arg) {
     fprintf(stderr, "pmview: ");
@@ -143,7 +150,7 @@ static int parse_options(int argc, char **argv, options *o) {
                                              "--seed", "--camera", "--exposure", "--screenshot", "--mode", "--photons",
                                              "--caustic-photons", "--k", "--max-radius", "--kernel", "--indirect",
                                              "--gather-rays", "--view", "--precompute", "--reference", "--alpha",
-                                             "--radius"};
+                                             "--radius", "--components"};
         int which = -1;
         for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
             if (!strcmp(a, valued[k])) which = k;
@@ -193,6 +200,20 @@ static int parse_options(int argc, char **argv, options *o) {
         case 18: if (strcmp(v, "photons")) return usage_error("unknown --view '%s' (photons)", v); o->view_photons = true; break;
         case 21: if (!parse_double(v, 1e-3, 0.999, &x)) return usage_error("bad --alpha '%s' (0.001 to 0.999)", v); o->alpha = x; break;
         case 22: if (!parse_double(v, 1e-30, 1e30, &x)) return usage_error("bad --radius '%s' (> 0, scene units)", v); o->radius = x; break;
+        case 23: {
+            o->components_given = true;
+            memset(o->components, 0, sizeof o->components);
+            char list[256];
+            snprintf(list, sizeof list, "%s", v);
+            for (char *save = NULL, *name = strtok_r(list, ",", &save); name; name = strtok_r(NULL, ",", &save)) {
+                int found = -1;
+                for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+                    if (!strcmp(name, pm_component_names[c])) found = c;
+                if (found < 0) return usage_error("unknown component in --components '%s' (direct, specular, caustic, indirect)", v);
+                o->components[found] = true;
+            }
+            break;
+        }
         }
     }
     if (!o->classic) {
@@ -263,16 +284,360 @@ static void print_analysis_stats(const pm_scene *s) {
     printf("%s\n", first ? "none" : "");
 }
 
-static bool write_png_from_view(pm_view *view, const pm_film *film, const pm_display *display, const char *path,
-                                char *err, size_t err_size) {
-    pm_view_upload(view, film);
+
+/* Everything the chosen mode needs, from the options and the scene; the classic mode's photon
+ * counts may come from a pilot pass when a time budget is given. */
+static bool configure(const options *opt, const pm_scene *scene, const pm_accel *accel, int width, int height,
+                      pm_session_config *config) {
+    memset(config, 0, sizeof *config);
+    config->width = width;
+    config->height = height;
+    if (!opt->snapshot && opt->iterations) config->max_iterations = (uint32_t)opt->iterations;
+    pm_progressive_settings *pp = &config->progressive;
+    pp->seed = opt->seed;
+    pp->threads = opt->threads;
+    pp->max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
+    pp->max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
+    if (!opt->classic) {
+        config->mode = PM_MODE_PROGRESSIVE;
+        uint64_t photons = opt->no_photons ? 0 : (opt->photons >= 0 ? (uint64_t)opt->photons : pm_progressive_default_photons(width, height));
+        pp->photons = photons;
+        pp->caustic_photons = opt->no_photons ? 0 : (opt->caustic_photons >= 0 ? (uint64_t)opt->caustic_photons : photons);
+        pp->alpha = opt->alpha;
+        pp->initial_radius = opt->radius;
+        pp->indirect = opt->indirect;
+        if (opt->stats)
+            printf("stat progressive_setup photon_pass=%d caustic_photons=%llu global_photons=%llu indirect=%s\n",
+                   (scene->analysis.component_possible[PM_CAUSTIC] && pp->caustic_photons) ||
+                       (scene->analysis.component_possible[PM_INDIRECT] && pp->photons),
+                   (unsigned long long)pp->caustic_photons, (unsigned long long)pp->photons,
+                   opt->indirect == PM_INDIRECT_GATHER ? "gather" : "photons");
+        return true;
+    }
+    config->mode = PM_MODE_CLASSIC;
+    pm_eye_settings *eye = &config->classic_eye;
+    eye->seed = opt->seed;
+    eye->threads = opt->threads;
+    eye->max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
+    config->classic_photon_pass = !opt->no_photons && (scene->analysis.component_possible[PM_CAUSTIC] ||
+                                                       scene->analysis.component_possible[PM_INDIRECT]);
+    if (!config->classic_photon_pass) return true;
+    pm_photon_settings *ps = &config->classic_photons;
+    ps->seed = opt->seed;
+    ps->threads = opt->threads;
+    ps->max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
+    ps->projection_maps = true;
+    float extent = scene->ray_scale;
+    eye->global_estimate.kernel = eye->caustic_estimate.kernel = opt->kernel;
+    eye->global_estimate.k = opt->k ? opt->k : PM_DEFAULT_K_GLOBAL;
+    eye->caustic_estimate.k = opt->k ? opt->k : PM_DEFAULT_K_CAUSTIC;
+    eye->global_estimate.max_radius = opt->max_radius > 0 ? (float)opt->max_radius : PM_DEFAULT_GLOBAL_RADIUS * extent;
+    eye->caustic_estimate.max_radius = opt->max_radius > 0 ? (float)opt->max_radius : PM_DEFAULT_CAUSTIC_RADIUS * extent;
+    eye->global_estimate.path_mask = eye->caustic_estimate.path_mask = 7u;
+    if (opt->indirect == PM_INDIRECT_GATHER && !opt->view_photons) {
+        ps->irradiance_stride = opt->irradiance_stride;
+        ps->irradiance_estimate = eye->global_estimate;
+    }
+    double n = (double)width * height * PM_DEFAULT_PHOTONS_PER_PIXEL;
+    if (opt->time_limit > 0 && opt->photons < 0) {
+        /* A pilot run measures photon speed here, so the pass gets its share of the budget. */
+        pm_photon_settings pilot = *ps;
+        pilot.global_photons = pilot.caustic_photons = 20000;
+        pm_photon_stats pilot_stats;
+        pm_photon_maps pilot_maps;
+        if (pm_photon_maps_build(scene, accel, &pilot, &pilot_maps, &pilot_stats) && pilot_stats.seconds > 0)
+            n = PM_TIME_SHARE_PHOTONS * opt->time_limit * (double)pilot_stats.emitted / pilot_stats.seconds / 2.0;
+        pm_photon_maps_free(&pilot_maps);
+    }
+    if (n < PM_MIN_DEFAULT_PHOTONS) n = PM_MIN_DEFAULT_PHOTONS;
+    if (n > PM_MAX_DEFAULT_PHOTONS) n = PM_MAX_DEFAULT_PHOTONS;
+    ps->global_photons = scene->analysis.component_possible[PM_INDIRECT] ? (uint64_t)(opt->photons >= 0 ? opt->photons : n) : 0;
+    ps->caustic_photons = scene->analysis.component_possible[PM_CAUSTIC]
+                              ? (uint64_t)(opt->caustic_photons >= 0 ? opt->caustic_photons : (opt->photons >= 0 ? opt->photons : n))
+                              : 0;
+    eye->indirect = opt->indirect;
+    eye->gather_rays = opt->gather_rays;
+    eye->view_photons = opt->view_photons;
+    return true;
+}
+
+/* ---- snapshots ---- */
+
+static volatile sig_atomic_t interrupted_by;
+
+static void on_signal(int sig) { interrupted_by = sig; }
+
+/* The snapshot's progress: a bar redrawn on a terminal, nothing otherwise (one summary at the end). */
+static void show_progress(bool tty, uint32_t done, long target, double elapsed, double budget, uint64_t photons) {
+    if (!tty) return;
+    double fraction = budget > 0 ? elapsed / budget : (target > 0 ? (double)done / target : 0);
+    if (fraction > 1) fraction = 1;
+    char bar[31];
+    int filled = (int)(fraction * 30);
+    for (int i = 0; i < 30; i++) bar[i] = i < filled ? '#' : '.';
+    bar[30] = 0;
+    double left = fraction > 0 ? elapsed / fraction - elapsed : 0;
+    fprintf(stderr, "\r[%s] %u it  %.2f Mphotons/s  %.1f s  %.1f s left ", bar, done,
+            elapsed > 0 ? photons / elapsed * 1e-6 : 0.0, elapsed, left);
+    fflush(stderr);
+}
+
+static bool write_png_from_layers(const float *const layers[PM_COMPONENT_COUNT], int width, int height,
+                                  const pm_display *display, const char *path, char *err, size_t err_size) {
+    pm_view *view = pm_view_create_offscreen(width, height, err, err_size);
+    if (!view) return false;
+    pm_view_upload_layers(view, width, height, layers);
     pm_view_draw(view, display);
-    uint8_t *rgba = malloc(4 * (size_t)film->width * film->height);
-    if (!rgba) { snprintf(err, err_size, "%s: out of memory", path); return false; }
-    pm_view_read_rgba8(view, rgba);
-    bool ok = pm_write_png(path, film->width, film->height, rgba, err, err_size);
+    uint8_t *rgba = malloc(4 * (size_t)width * height);
+    bool ok = false;
+    if (!rgba) snprintf(err, err_size, "%s: out of memory", path);
+    else {
+        pm_view_read_rgba8(view, rgba);
+        ok = pm_write_png(path, width, height, rgba, err, err_size);
+    }
     free(rgba);
+    pm_view_destroy(view);
     return ok;
+}
+
+static void initial_display(const options *opt, pm_display *display) {
+    memset(display, 0, sizeof *display);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) display->enabled[c] = opt->components_given ? opt->components[c] : true;
+    display->exposure_ev = opt->exposure_ev;
+}
+
+static uint64_t session_photons(pm_session *session) {
+    pm_progressive *p = pm_session_progressive(session);
+    return p ? pm_progressive_get_stats(p)->photons.emitted : pm_session_classic_photon_stats(session)->emitted;
+}
+
+/* Renders to --iterations or --time, then writes the file; SIGINT and SIGTERM end the loop after
+ * the iteration under way, and the image so far is written before exiting 130 or 143. */
+static int run_snapshot(const options *opt, pm_session *session, const reference_image *reference) {
+    char err[1024];
+    signal(SIGINT, on_signal);
+    signal(SIGTERM, on_signal);
+    bool tty = isatty(2) && !opt->quiet;
+    long target = opt->iterations ? opt->iterations : (opt->time_limit > 0 ? 1000000000L : PM_DEFAULT_SNAPSHOT_ITERATIONS);
+    const pm_film *film = pm_session_film(session);
+    size_t n = (size_t)film->width * film->height;
+    float *scratch = reference->rgb[0] ? malloc(sizeof(float) * 3 * n) : NULL;
+    if (reference->rgb[0] && !scratch) { fprintf(stderr, "pmview: error: out of memory (reference comparison)\n"); return 1; }
+    /* --time and the reported render time count from here: the photon pass is part of what a
+     * budget buys. A budget spent before the first iteration still gets that iteration. */
+    double start = now_seconds();
+    uint32_t next_progress = 1;
+    while ((long)film->samples < target && !interrupted_by) {
+        if (opt->time_limit > 0 && film->samples > 0 && now_seconds() - start >= opt->time_limit) break;
+        if (!pm_session_iterate(session)) {
+            fprintf(stderr, "%spmview: error: %s: out of memory in an iteration\n", tty ? "\n" : "", opt->scene_path);
+            free(scratch);
+            return 1;
+        }
+        if (scratch && opt->stats && film->samples == next_progress) {
+            double ratio[3], e = relative_mse(film, reference, scratch, ratio);
+            printf("stat progress iterations=%u seconds=%.4f relmse=%.6f\n", film->samples, now_seconds() - start, e);
+            next_progress *= 2;
+        }
+        show_progress(tty, film->samples, opt->iterations ? opt->iterations : 0, now_seconds() - start, opt->time_limit,
+                      session_photons(session));
+    }
+    double seconds = now_seconds() - start;
+    if (tty) fputc('\n', stderr);
+    signal(SIGINT, SIG_DFL);
+    signal(SIGTERM, SIG_DFL);
+    bool ok;
+    if (has_extension(opt->snapshot, ".png")) {
+        pm_display display;
+        initial_display(opt, &display);
+        float *layers[PM_COMPONENT_COUNT] = {NULL, NULL, NULL, NULL};
+        ok = true;
+        for (int c = 0; c < PM_COMPONENT_COUNT && ok; c++) {
+            if (!film->sum[c]) continue;
+            layers[c] = malloc(sizeof(float) * 3 * n);
+            if (!layers[c]) { snprintf(err, sizeof err, "%s: out of memory", opt->snapshot); ok = false; break; }
+            pm_film_resolve(film, (pm_component)c, layers[c]);
+        }
+        if (ok) ok = write_png_from_layers((const float *const *)layers, film->width, film->height, &display, opt->snapshot, err, sizeof err);
+        for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(layers[c]);
+    } else {
+        ok = pm_write_exr(opt->snapshot, film, err, sizeof err);
+    }
+    if (!ok) { fprintf(stderr, "pmview: error: %s\n", err); free(scratch); return 1; }
+    if (!opt->quiet) printf("pmview: wrote %s (%dx%d, %u iterations, %.2f s)%s\n", opt->snapshot, film->width, film->height,
+                            film->samples, seconds, interrupted_by ? ", interrupted: the image so far" : "");
+    if (scratch) {
+        double ratio[3], e = relative_mse(film, reference, scratch, ratio);
+        printf("stat error iterations=%u seconds=%.4f relmse=%.6f mean_ratio_r=%.4f mean_ratio_g=%.4f mean_ratio_b=%.4f\n",
+               film->samples, seconds, e, ratio[0], ratio[1], ratio[2]);
+    }
+    free(scratch);
+    if (interrupted_by) return interrupted_by == SIGINT ? 130 : 143;
+    return 0;
+}
+
+/* ---- the window ---- */
+
+static const char window_help[] =
+    "pmview keys: left drag orbit, right/middle drag pan, wheel dolly, double click: orbit about that point\n"
+    "  W A S D / Q E fly (Shift faster), F frame the scene, C next camera, Home starting camera\n"
+    "  1 2 3 4 direct/specular/caustic/indirect, + - exposure, 0 reset, T tonemap, G final gathering on/off\n"
+    "  Space pause, R restart, P or F12 save PNG and EXR, H this help, Esc quit\n";
+
+static void save_from_window(const options *opt, const float *const layers[PM_COMPONENT_COUNT], int width, int height,
+                             const pm_display *display) {
+    char err[1024], exr_path[1024];
+    snprintf(exr_path, sizeof exr_path, "%.*s.exr", (int)(strlen(opt->screenshot) - 4), opt->screenshot);
+    if (!write_png_from_layers(layers, width, height, display, opt->screenshot, err, sizeof err)) {
+        fprintf(stderr, "pmview: error: %s\n", err);
+        return;
+    }
+    /* the published layers as a film of one sample: the EXR writer reads it through pm_film_resolve */
+    pm_film snapshot;
+    memset(&snapshot, 0, sizeof snapshot);
+    snapshot.width = width;
+    snapshot.height = height;
+    snapshot.samples = 1;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) snapshot.sum[c] = (float *)layers[c];
+    if (!pm_write_exr(exr_path, &snapshot, err, sizeof err)) { fprintf(stderr, "pmview: error: %s\n", err); return; }
+    printf("pmview: saved %s and %s\n", opt->screenshot, exr_path);
+}
+
+static int run_window(const options *opt, const pm_scene *scene, const pm_accel *accel, pm_session *session,
+                      const pm_camera *start_camera) {
+    char err[1024];
+    const pm_film *film = pm_session_film(session);
+    int width = film->width, height = film->height;
+    pm_view *view = pm_view_create_window(width, height, "pmview", err, sizeof err);
+    if (!view) { fprintf(stderr, "pmview: error: %s\n", err); return 1; }
+    pm_display display;
+    initial_display(opt, &display);
+    /* a first frame before any photon: the background colour of an empty image */
+    pm_view_draw(view, &display);
+    if (!pm_session_start(session, err, sizeof err)) {
+        fprintf(stderr, "pmview: error: %s\n", err);
+        pm_view_destroy(view);
+        return 1;
+    }
+    pm_camera camera = *start_camera;
+    vec3 pivot = scene->center;
+    float step = 0.05f * (scene->radius > 0.f ? scene->radius : 1.f);
+    uint32_t camera_index = opt->camera >= 0 ? (uint32_t)opt->camera : 0;
+    uint64_t version = 0;
+    uint32_t shown_iterations = 0;
+    bool finished_said = false, paused = false;
+    for (;;) {
+        pm_view_events ev = pm_view_poll(view, &display, true, 1.0 / 60.0);
+        if (ev.quit) break;
+        bool moved = false;
+        pm_camera before = camera;
+        if (ev.orbit_dx != 0 || ev.orbit_dy != 0)
+            camera = pm_camera_orbit(camera, pivot, (float)(-ev.orbit_dx * 0.01), (float)(-ev.orbit_dy * 0.01));
+        if (ev.pan_dx != 0 || ev.pan_dy != 0) camera = pm_camera_pan(camera, &pivot, (float)ev.pan_dx, (float)ev.pan_dy, height);
+        if (ev.dolly != 0) camera = pm_camera_dolly(camera, pivot, (float)ev.dolly);
+        if (ev.fly[0] != 0 || ev.fly[1] != 0 || ev.fly[2] != 0) camera = pm_camera_fly(camera, &pivot, ev.fly, ev.fast ? 5.f * step : step);
+        if (ev.frame) { camera = pm_camera_frame(scene, camera, (float)width / height); pivot = scene->center; }
+        if (ev.home) { camera = *start_camera; pivot = scene->center; }
+        if (ev.next_camera && scene->camera_count) {
+            camera_index = (camera_index + 1) % scene->camera_count;
+            camera = scene->cameras[camera_index];
+            pivot = scene->center;
+        }
+        if (ev.pick) {
+            vec3 o, d;
+            pm_hit h;
+            pm_camera_ray(&camera, width, height, (float)ev.pick_x, (float)ev.pick_y, &o, &d);
+            if (pm_accel_intersect(accel, o, d, INFINITY, &h)) pivot = v3_madd(o, d, h.t);
+        }
+        moved = memcmp(&before, &camera, sizeof camera) != 0;
+        if (moved || ev.restart) pm_session_request_restart(session, moved ? &camera : NULL, -1);
+        if (ev.toggle_gather && opt->classic == false) {
+            static int indirect = -1;
+            if (indirect < 0) indirect = opt->indirect;
+            indirect = indirect == PM_INDIRECT_GATHER ? PM_INDIRECT_PHOTONS : PM_INDIRECT_GATHER;
+            pm_session_request_restart(session, NULL, indirect);
+            printf("pmview: indirect light by %s\n", indirect == PM_INDIRECT_GATHER ? "final gathering" : "photons at the visible point");
+        }
+        if (ev.pause) {
+            paused = !paused;
+            pm_session_pause(session, paused);
+        }
+        if (ev.help) fputs(window_help, stdout);
+        pm_session_progress progress;
+        const float *const *layers = pm_session_lock_latest(session, &version, &progress);
+        bool redraw = ev.display_changed;
+        if (layers) {
+            pm_view_upload_layers(view, width, height, layers);
+            if (ev.save_png) save_from_window(opt, layers, width, height, &display);
+            ev.save_png = false;
+            pm_session_unlock_latest(session);
+            redraw = true;
+            shown_iterations = progress.iterations;
+            char status[192];
+            snprintf(status, sizeof status, "%s%u it  %.2f Mphotons  %.1f Mphotons/s  %.1f s  r %.3g%s", progress.preview ? "preview  " : "",
+                     progress.iterations, progress.photons * 1e-6, progress.seconds > 0 ? progress.photons / progress.seconds * 1e-6 : 0.0,
+                     progress.seconds, progress.mean_radius, paused ? "  paused" : "");
+            pm_view_set_status(view, status);
+            if (progress.finished && !finished_said) { printf("pmview: iterations done (%u)\n", progress.iterations); finished_said = true; }
+        }
+        if (ev.save_png) {
+            /* nothing newer was published: save the image on screen */
+            uint64_t any = 0;
+            const float *const *shown = pm_session_lock_latest(session, &any, NULL);
+            if (shown) {
+                save_from_window(opt, shown, width, height, &display);
+                pm_session_unlock_latest(session);
+            }
+        }
+        if (redraw) pm_view_draw(view, &display);
+        (void)shown_iterations;
+    }
+    pm_session_stop(session);
+    pm_view_destroy(view);
+    return 0;
+}
+
+static void print_final_stats(const options *opt, pm_session *session, const pm_accel *accel, const reference_image *reference) {
+    if (!opt->stats) return;
+    const pm_film *film = pm_session_film(session);
+    pm_eye_stats eye_stats;
+    pm_progressive *progressive = pm_session_progressive(session);
+    if (progressive) {
+        const pm_progressive_stats *ps = pm_progressive_get_stats(progressive);
+        eye_stats = ps->eye;
+        const pm_photon_stats *ph = &ps->photons;
+        printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f kdtree_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f\n",
+               (unsigned long long)ph->emitted, (unsigned long long)ph->stored_caustic,
+               (unsigned long long)ph->stored_global, (unsigned long long)ph->rays, ph->seconds, ph->trace_seconds,
+               ph->kdtree_seconds, ph->trace_seconds > 0 ? ph->emitted / ph->trace_seconds : 0.0, sizeof(pm_photon),
+               pm_progressive_projection_fraction(progressive));
+        pm_radius_summary r = pm_progressive_radii(progressive, film);
+        printf("stat progressive iterations=%u photons_per_iteration=%llu alpha=%.4f radius_initial=%.6g radius_mean=%.6g radius_min=%.6g radius_max=%.6g gather_radius=%.6g gather_seconds=%.4f photons_found=%llu\n",
+               film->samples, (unsigned long long)(film->samples ? ph->emitted / film->samples : 0), opt->alpha,
+               r.initial_mean, r.mean, r.min, r.max, r.gather, ps->gather_seconds,
+               (unsigned long long)ps->photons_found);
+    } else {
+        eye_stats = *pm_session_classic_eye_stats(session);
+        const pm_photon_maps *maps = pm_session_classic_maps(session);
+        const pm_photon_stats *pst = pm_session_classic_photon_stats(session);
+        if (maps && (maps->global.count || maps->caustic.count || pst->emitted)) {
+            printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f\n",
+                   (unsigned long long)pst->emitted, (unsigned long long)pst->stored_caustic,
+                   (unsigned long long)pst->stored_global, (unsigned long long)pst->rays, pst->seconds, pst->trace_seconds,
+                   pst->trace_seconds > 0 ? pst->emitted / pst->trace_seconds : 0.0, sizeof(pm_photon), maps->projection_fraction);
+            printf("stat kdtree seconds=%.4f caustic_photons=%zu caustic_bytes=%zu global_photons=%zu global_bytes=%zu\n", pst->kdtree_seconds,
+                   maps->caustic.count, pm_kdtree_bytes(&maps->caustic), maps->global.count, pm_kdtree_bytes(&maps->global));
+            printf("stat irradiance seconds=%.4f points=%zu bytes=%zu\n", pst->irradiance_seconds, maps->irradiance.count,
+                   pm_kdtree_bytes(&maps->irradiance));
+        }
+    }
+    printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu\n",
+           film->samples, (unsigned long long)eye_stats.rays, eye_stats.seconds,
+           eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, opt->threads,
+           (unsigned long long)eye_stats.dropped_samples);
+    printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu\n", peak_rss_bytes(), pm_film_bytes(film),
+           pm_accel_bytes(accel));
+    (void)reference;
 }
 
 int main(int argc, char **argv) {
@@ -309,15 +674,9 @@ int main(int argc, char **argv) {
 
     int exit_code = 0;
     pm_accel *accel = NULL;
-    pm_view *view = NULL;
-    pm_film film;
-    memset(&film, 0, sizeof film);
-    pm_photon_maps maps;
-    memset(&maps, 0, sizeof maps);
-    pm_progressive *progressive = NULL;
+    pm_session *session = NULL;
     reference_image reference;
     memset(&reference, 0, sizeof reference);
-    float *reference_scratch = NULL;
 
     pm_camera camera;
     if (opt.camera >= 0 && (uint32_t)opt.camera >= scene.camera_count) {
@@ -341,120 +700,18 @@ int main(int argc, char **argv) {
     if (!accel) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
     if (opt.stats) printf("stat bvh seconds=%.4f bytes=%zu\n", pm_accel_build_seconds(accel), pm_accel_bytes(accel));
 
-    /* --time, the progress curve and the reported render time all count from here: the photon
-     * pass is part of what a time budget buys, so an error-against-time figure includes it. A
-     * budget spent before the first iteration still gets that iteration: never a black image. */
-    double start = now_seconds();
-
-    /* Photon pass: maps built once, before the eye iterations. */
-    pm_eye_settings eye;
-    memset(&eye, 0, sizeof eye);
-    eye.seed = opt.seed;
-    eye.threads = opt.threads;
-    eye.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
-    if (!opt.classic) {
-        pm_progressive_settings ps;
-        memset(&ps, 0, sizeof ps);
-        ps.seed = opt.seed;
-        ps.threads = opt.threads;
-        uint64_t photons = opt.no_photons ? 0 : (opt.photons >= 0 ? (uint64_t)opt.photons : pm_progressive_default_photons(width, height));
-        ps.photons = photons;
-        ps.caustic_photons = opt.no_photons ? 0 : (opt.caustic_photons >= 0 ? (uint64_t)opt.caustic_photons : photons);
-        ps.alpha = opt.alpha;
-        ps.initial_radius = opt.radius;
-        ps.indirect = opt.indirect;
-        ps.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
-        ps.max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
-        progressive = pm_progressive_create(&scene, accel, &camera, &ps, err, sizeof err);
-        if (!progressive) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
-        if (opt.stats)
-            printf("stat progressive_setup photon_pass=%d caustic_photons=%llu global_photons=%llu indirect=%s\n",
-                   pm_progressive_uses_photons(progressive), (unsigned long long)ps.caustic_photons,
-                   (unsigned long long)ps.photons, opt.indirect == PM_INDIRECT_GATHER ? "gather" : "photons");
-    } else if (!opt.no_photons && (scene.analysis.component_possible[PM_CAUSTIC] || scene.analysis.component_possible[PM_INDIRECT])) {
-        pm_photon_settings ps;
-        memset(&ps, 0, sizeof ps);
-        ps.seed = opt.seed;
-        ps.threads = opt.threads;
-        ps.max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
-        ps.projection_maps = true;
-        float extent = scene.ray_scale;
-        eye.global_estimate.kernel = eye.caustic_estimate.kernel = opt.kernel;
-        eye.global_estimate.k = opt.k ? opt.k : PM_DEFAULT_K_GLOBAL;
-        eye.caustic_estimate.k = opt.k ? opt.k : PM_DEFAULT_K_CAUSTIC;
-        eye.global_estimate.max_radius = opt.max_radius > 0 ? (float)opt.max_radius : PM_DEFAULT_GLOBAL_RADIUS * extent;
-        eye.caustic_estimate.max_radius = opt.max_radius > 0 ? (float)opt.max_radius : PM_DEFAULT_CAUSTIC_RADIUS * extent;
-        eye.global_estimate.path_mask = eye.caustic_estimate.path_mask = 7u;
-        if (opt.indirect == PM_INDIRECT_GATHER && !opt.view_photons) {
-            ps.irradiance_stride = opt.irradiance_stride;
-            ps.irradiance_estimate = eye.global_estimate;
-        }
-        double pixels = (double)width * height;
-        double n = pixels * PM_DEFAULT_PHOTONS_PER_PIXEL;
-        if (opt.time_limit > 0 && opt.photons < 0) {
-            /* A pilot run measures photon speed here, so the pass gets its share of the budget. */
-            pm_photon_settings pilot = ps;
-            pilot.global_photons = pilot.caustic_photons = 20000;
-            pm_photon_stats pilot_stats;
-            pm_photon_maps pilot_maps;
-            if (pm_photon_maps_build(&scene, accel, &pilot, &pilot_maps, &pilot_stats) && pilot_stats.seconds > 0)
-                n = PM_TIME_SHARE_PHOTONS * opt.time_limit * (double)pilot_stats.emitted / pilot_stats.seconds / 2.0;
-            pm_photon_maps_free(&pilot_maps);
-        }
-        if (n < PM_MIN_DEFAULT_PHOTONS) n = PM_MIN_DEFAULT_PHOTONS;
-        if (n > PM_MAX_DEFAULT_PHOTONS) n = PM_MAX_DEFAULT_PHOTONS;
-        ps.global_photons = scene.analysis.component_possible[PM_INDIRECT] ? (uint64_t)(opt.photons >= 0 ? opt.photons : n) : 0;
-        ps.caustic_photons = scene.analysis.component_possible[PM_CAUSTIC]
-                                 ? (uint64_t)(opt.caustic_photons >= 0 ? opt.caustic_photons : (opt.photons >= 0 ? opt.photons : n))
-                                 : 0;
-        pm_photon_stats pst;
-        if (!pm_photon_maps_build(&scene, accel, &ps, &maps, &pst)) {
-            fprintf(stderr, "pmview: error: %s: out of memory building photon maps\n", opt.scene_path);
-            exit_code = 1;
-            goto done;
-        }
-        if (opt.stats) {
-            printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f\n",
-                   (unsigned long long)pst.emitted, (unsigned long long)pst.stored_caustic,
-                   (unsigned long long)pst.stored_global, (unsigned long long)pst.rays, pst.seconds, pst.trace_seconds,
-                   pst.trace_seconds > 0 ? pst.emitted / pst.trace_seconds : 0.0, sizeof(pm_photon), maps.projection_fraction);
-            printf("stat kdtree seconds=%.4f caustic_photons=%zu caustic_bytes=%zu global_photons=%zu global_bytes=%zu\n", pst.kdtree_seconds, maps.caustic.count,
-                   pm_kdtree_bytes(&maps.caustic), maps.global.count, pm_kdtree_bytes(&maps.global));
-            printf("stat irradiance seconds=%.4f points=%zu bytes=%zu\n", pst.irradiance_seconds, maps.irradiance.count,
-                   pm_kdtree_bytes(&maps.irradiance));
-        }
-        eye.maps = &maps;
-        eye.indirect = opt.indirect;
-        eye.gather_rays = opt.gather_rays;
-        eye.view_photons = opt.view_photons;
-    }
-    bool components[PM_COMPONENT_COUNT];
-    if (progressive) {
-        pm_progressive_components(progressive, components);
-    } else {
-        for (int c = 0; c < PM_COMPONENT_COUNT; c++) components[c] = scene.analysis.component_possible[c];
-        components[PM_CAUSTIC] = components[PM_CAUSTIC] && maps.caustic.count > 0;
-        components[PM_INDIRECT] = components[PM_INDIRECT] && maps.global.count > 0;
-    }
-
-    if (!pm_film_init(&film, width, height, components)) {
-        fprintf(stderr, "pmview: error: out of memory (a %dx%d film)\n", width, height);
-        exit_code = 1;
-        goto done;
-    }
-    if (progressive && !pm_progressive_bind(progressive, &film, err, sizeof err)) {
-        fprintf(stderr, "pmview: error: %s\n", err);
-        exit_code = 1;
-        goto done;
-    }
+    pm_session_config config;
+    if (!configure(&opt, &scene, accel, width, height, &config)) { exit_code = 1; goto done; }
+    session = pm_session_create(&scene, accel, &camera, &config, err, sizeof err);
+    if (!session) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
     if (opt.stats) {
-        printf("stat film width=%d height=%d bytes=%zu buffers=", width, height, pm_film_bytes(&film));
+        const pm_film *film = pm_session_film(session);
+        printf("stat film width=%d height=%d bytes=%zu buffers=", width, height, pm_film_bytes(film));
         bool first = true;
         for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-            if (film.sum[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }
+            if (film->sum[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }
         printf("%s\n", first ? "none" : "");
     }
-
     if (opt.reference) {
         if (!load_reference(opt.reference, &reference, err, sizeof err)) {
             fprintf(stderr, "pmview: error: %s\n", err);
@@ -467,113 +724,14 @@ int main(int argc, char **argv) {
             exit_code = 1;
             goto done;
         }
-        reference_scratch = malloc(sizeof(float) * 3 * (size_t)width * height);
-        if (!reference_scratch) { fprintf(stderr, "pmview: error: out of memory\n"); exit_code = 1; goto done; }
     }
-    uint32_t next_progress = 1;
-
-    pm_display display;
-    memset(&display, 0, sizeof display);
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++) display.enabled[c] = true;
-    display.exposure_ev = opt.exposure_ev;
-
-    bool want_png = opt.snapshot && has_extension(opt.snapshot, ".png");
-    if (window) {
-        view = pm_view_create_window(width, height, "pmview", err, sizeof err);
-    } else if (want_png) {
-        view = pm_view_create_offscreen(width, height, err, sizeof err);
-    }
-    if ((window || want_png) && !view) { fprintf(stderr, "pmview: error: %s\n", err); exit_code = 1; goto done; }
-
-    pm_eye_stats eye_stats = {0, 0.0, 0, false};
-    long target = opt.iterations ? opt.iterations
-                                 : (opt.time_limit > 0 ? 1000000000L
-                                                       : (window ? PM_DEFAULT_WINDOW_ITERATIONS : PM_DEFAULT_SNAPSHOT_ITERATIONS));
-    bool finished = false;
-    for (;;) {
-        bool more = !finished && (long)film.samples < target &&
-                    !(opt.time_limit > 0 && film.samples > 0 && now_seconds() - start >= opt.time_limit);
-        if (more) {
-            if (progressive) {
-                if (!pm_progressive_iterate(progressive, &film)) {
-                    fprintf(stderr, "pmview: error: %s: out of memory in a progressive iteration\n", opt.scene_path);
-                    exit_code = 1;
-                    goto done;
-                }
-            } else {
-                pm_eye_iterate(&scene, accel, &camera, &eye, film.samples, &film, &eye_stats);
-            }
-            if (reference_scratch && opt.stats && film.samples == next_progress) {
-                double ratio[3], e = relative_mse(&film, &reference, reference_scratch, ratio);
-                printf("stat progress iterations=%u seconds=%.4f relmse=%.6f\n", film.samples, now_seconds() - start, e);
-                next_progress *= 2;
-            }
-        } else if (!finished) {
-            finished = true;
-            if (window) printf("pmview: iterations done (%u)\n", film.samples);
-        }
-        if (!window) {
-            if (finished) break;
-            continue;
-        }
-        pm_view_events ev = pm_view_poll(view, &display, finished, 0.1);
-        if (more || ev.display_changed || finished) {
-            if (more) pm_view_upload(view, &film);
-            pm_view_draw(view, &display);
-        }
-        if (ev.save_png) {
-            if (write_png_from_view(view, &film, &display, opt.screenshot, err, sizeof err))
-                printf("pmview: saved %s\n", opt.screenshot);
-            else
-                fprintf(stderr, "pmview: error: %s\n", err);
-        }
-        if (ev.quit) break;
-    }
-    double render_seconds = now_seconds() - start;
-
-    if (opt.snapshot) {
-        bool ok = want_png ? write_png_from_view(view, &film, &display, opt.snapshot, err, sizeof err)
-                           : pm_write_exr(opt.snapshot, &film, err, sizeof err);
-        if (!ok) { fprintf(stderr, "pmview: error: %s\n", err); exit_code = 1; }
-        else if (!opt.quiet) printf("pmview: wrote %s (%dx%d, %u iterations, %.2f s)\n", opt.snapshot, width, height,
-                                    film.samples, render_seconds);
-    }
-    if (reference_scratch) {
-        double ratio[3], e = relative_mse(&film, &reference, reference_scratch, ratio);
-        printf("stat error iterations=%u seconds=%.4f relmse=%.6f mean_ratio_r=%.4f mean_ratio_g=%.4f mean_ratio_b=%.4f\n",
-               film.samples, render_seconds, e, ratio[0], ratio[1], ratio[2]);
-    }
-    if (opt.stats && progressive) {
-        const pm_progressive_stats *ps = pm_progressive_get_stats(progressive);
-        eye_stats = ps->eye;
-        const pm_photon_stats *ph = &ps->photons;
-        printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f kdtree_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f\n",
-               (unsigned long long)ph->emitted, (unsigned long long)ph->stored_caustic,
-               (unsigned long long)ph->stored_global, (unsigned long long)ph->rays, ph->seconds, ph->trace_seconds,
-               ph->kdtree_seconds, ph->trace_seconds > 0 ? ph->emitted / ph->trace_seconds : 0.0, sizeof(pm_photon),
-               pm_progressive_projection_fraction(progressive));
-        pm_radius_summary r = pm_progressive_radii(progressive, &film);
-        printf("stat progressive iterations=%u photons_per_iteration=%llu alpha=%.4f radius_initial=%.6g radius_mean=%.6g radius_min=%.6g radius_max=%.6g gather_radius=%.6g gather_seconds=%.4f photons_found=%llu\n",
-               film.samples, (unsigned long long)(film.samples ? ph->emitted / film.samples : 0), opt.alpha,
-               r.initial_mean, r.mean, r.min, r.max, r.gather, ps->gather_seconds,
-               (unsigned long long)ps->photons_found);
-    }
-    if (opt.stats) {
-        printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu\n",
-               film.samples, (unsigned long long)eye_stats.rays, eye_stats.seconds,
-               eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, opt.threads,
-               (unsigned long long)eye_stats.dropped_samples);
-        printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu\n", peak_rss_bytes(), pm_film_bytes(&film),
-               pm_accel_bytes(accel));
-    }
+    exit_code = window ? run_window(&opt, &scene, accel, session, &camera) : run_snapshot(&opt, session, &reference);
+    if (exit_code == 1) goto done;
+    print_final_stats(&opt, session, accel, &reference);
 
 done:
-    free(reference_scratch);
     free_reference(&reference);
-    pm_photon_maps_free(&maps);
-    pm_progressive_destroy(progressive);
-    pm_view_destroy(view);
-    pm_film_free(&film);
+    pm_session_destroy(session);
     pm_accel_destroy(accel);
     pm_scene_free(&scene);
     return exit_code;

@@ -11,12 +11,19 @@ typedef struct {
     void *ctx;
     size_t count;
     atomic_size_t next;
+    const atomic_bool *cancel;
 } job;
+
+/* Set by a render session's worker thread, read by every parallel-for it starts. */
+static _Thread_local const atomic_bool *current_cancel;
+
+void pm_parallel_set_cancel(const atomic_bool *flag) { current_cancel = flag; }
 
 typedef struct { job *j; int thread; } worker_arg;
 
 static void run_worker(job *j, int thread) {
     for (;;) {
+        if (j->cancel && atomic_load_explicit(j->cancel, memory_order_relaxed)) return;
         size_t task = atomic_fetch_add_explicit(&j->next, 1, memory_order_relaxed);
         if (task >= j->count) return;
         j->fn(j->ctx, task, thread);
@@ -30,7 +37,7 @@ static void *worker_main(void *p) {
 }
 
 void pm_parallel_for(int threads, size_t count, void (*fn)(void *, size_t, int), void *ctx) {
-    job j = {fn, ctx, count, 0};
+    job j = {fn, ctx, count, 0, current_cancel};
     if (threads < 1) threads = 1;
     if ((size_t)threads > count) threads = count ? (int)count : 1;
     pthread_t *ids = threads > 1 ? malloc((threads - 1) * sizeof *ids) : NULL;

@@ -156,8 +156,8 @@ bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err
     free(p->visible);
     free(p->gathered);
     p->gathered = NULL;
-    p->visible = malloc(p->pixels * sizeof *p->visible);
-    if (p->gathering) p->gathered = malloc(p->pixels * sizeof *p->gathered);
+    p->visible = calloc(p->pixels, sizeof *p->visible);
+    if (p->gathering) p->gathered = calloc(p->pixels, sizeof *p->gathered);
     if (!p->visible || (p->gathering && !p->gathered) || !pm_film_enable_ppm(film, p->slot_used)) {
         snprintf(err, err_size, "out of memory (progressive state for %dx%d pixels, %zu bytes)", film->width,
                  film->height, p->pixels * (sizeof(pm_visible_point) * 2 + sizeof(pm_ppm_stat) * PM_SLOT_COUNT));

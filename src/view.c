@@ -96,8 +96,6 @@ struct pm_view {
     GLuint component_tex[PM_COMPONENT_COUNT];
     bool present[PM_COMPONENT_COUNT];
     float scale;
-    float *resolved;            /* one component resolved from the film, uploaded from here */
-    size_t resolved_floats;
     GLint u_component[PM_COMPONENT_COUNT], u_enabled[PM_COMPONENT_COUNT], u_scale, u_exposure, u_tonemap, u_height;
 
     /* window input between callbacks; display is the caller's state, only set while polling */
@@ -105,6 +103,10 @@ struct pm_view {
     pm_display *display;
     bool title_set;
     char title[128];
+    char status[192];
+    double last_x, last_y;      /* cursor, window pixels */
+    int buttons;                /* bit 0 left, 1 right, 2 middle held */
+    double last_click;          /* time of the last left press, for double clicks */
 };
 
 /* GLFW reports errors through a callback; the last message becomes part of create's error. */
@@ -314,7 +316,6 @@ void pm_view_destroy(pm_view *v) {
         }
         if (--glfw_users == 0) glfwTerminate();
     }
-    free(v->resolved);
     free(v);
 }
 
@@ -368,8 +369,8 @@ pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_s
 static const char *const key_names[PM_COMPONENT_COUNT] = {"direct", "specular", "caustic", "indirect"};
 
 static void update_title(pm_view *v, const pm_display *d) {
-    char t[sizeof v->title + 192];
-    int n = snprintf(t, sizeof t, "%s ", v->title);
+    char t[sizeof v->title + sizeof v->status + 192];
+    int n = snprintf(t, sizeof t, "%s %s", v->title, v->status);
     for (int c = 0; c < PM_COMPONENT_COUNT && n < (int)sizeof t; c++)
         n += snprintf(t + n, sizeof t - n, " [%d %s]", c + 1, d->enabled[c] ? key_names[c] : "off");
     if (n < (int)sizeof t)
@@ -388,12 +389,29 @@ static void on_key(GLFWwindow *window, int key, int scancode, int action, int mo
     if (!v || action == GLFW_RELEASE) return;
     bool repeatable = key == GLFW_KEY_EQUAL || key == GLFW_KEY_KP_ADD || key == GLFW_KEY_MINUS ||
                       key == GLFW_KEY_KP_SUBTRACT;
-    if (action == GLFW_REPEAT && !repeatable) return;
     pm_display *d = v->display;
     bool changed = true;
+    bool fly_key = key == GLFW_KEY_W || key == GLFW_KEY_A || key == GLFW_KEY_S || key == GLFW_KEY_D ||
+                   key == GLFW_KEY_Q || key == GLFW_KEY_E;
+    if (action == GLFW_REPEAT && !repeatable && !fly_key) return;
+    v->pending.fast = v->pending.fast || (mods & GLFW_MOD_SHIFT);
     switch (key) {
-    case GLFW_KEY_ESCAPE: case GLFW_KEY_Q: v->pending.quit = true; return;
-    case GLFW_KEY_P: v->pending.save_png = true; return;
+    case GLFW_KEY_ESCAPE: v->pending.quit = true; return;
+    case GLFW_KEY_P: case GLFW_KEY_F12: v->pending.save_png = true; return;
+    case GLFW_KEY_W: v->pending.fly[0] += 1.f; return;
+    case GLFW_KEY_S: v->pending.fly[0] -= 1.f; return;
+    case GLFW_KEY_D: v->pending.fly[1] += 1.f; return;
+    case GLFW_KEY_A: v->pending.fly[1] -= 1.f; return;
+    case GLFW_KEY_E: v->pending.fly[2] += 1.f; return;
+    case GLFW_KEY_Q: v->pending.fly[2] -= 1.f; return;
+    case GLFW_KEY_F: v->pending.frame = true; return;
+    case GLFW_KEY_C: v->pending.next_camera = true; return;
+    case GLFW_KEY_HOME: v->pending.home = true; return;
+    case GLFW_KEY_G: v->pending.toggle_gather = true; return;
+    case GLFW_KEY_V: v->pending.cycle_view = true; return;
+    case GLFW_KEY_SPACE: v->pending.pause = true; return;
+    case GLFW_KEY_R: v->pending.restart = true; return;
+    case GLFW_KEY_H: v->pending.help = true; return;
     default: break;
     }
     if (!d) return;
@@ -414,6 +432,57 @@ static void on_key(GLFWwindow *window, int key, int scancode, int action, int mo
     default: changed = false; break;
     }
     if (changed) v->pending.display_changed = true;
+}
+
+/* Window pixels to film pixels (the film is letterboxed into the window). */
+static void window_to_film(const pm_view *v, double wx, double wy, double *fx, double *fy) {
+    int ww = 1, wh = 1;
+    glfwGetWindowSize(v->window, &ww, &wh);
+    double s = fmin((double)ww / v->width, (double)wh / v->height);
+    *fx = (wx - 0.5 * (ww - v->width * s)) / s;
+    *fy = (wy - 0.5 * (wh - v->height * s)) / s;
+}
+
+static void on_mouse_button(GLFWwindow *window, int button, int action, int mods) {
+    pm_view *v = glfwGetWindowUserPointer(window);
+    if (!v) return;
+    int bit = button == GLFW_MOUSE_BUTTON_LEFT ? 1 : (button == GLFW_MOUSE_BUTTON_RIGHT ? 2 : (button == GLFW_MOUSE_BUTTON_MIDDLE ? 4 : 0));
+    if (action == GLFW_PRESS) {
+        v->buttons |= bit;
+        glfwGetCursorPos(window, &v->last_x, &v->last_y);
+        if (bit == 1) {
+            double now = glfwGetTime();
+            if (now - v->last_click < 0.35) {
+                v->pending.pick = true;
+                window_to_film(v, v->last_x, v->last_y, &v->pending.pick_x, &v->pending.pick_y);
+            }
+            v->last_click = now;
+        }
+    } else {
+        v->buttons &= ~bit;
+    }
+    v->pending.fast = v->pending.fast || (mods & GLFW_MOD_SHIFT);
+}
+
+static void on_cursor(GLFWwindow *window, double x, double y) {
+    pm_view *v = glfwGetWindowUserPointer(window);
+    if (!v || !v->buttons) return;
+    double dx = x - v->last_x, dy = y - v->last_y;
+    v->last_x = x;
+    v->last_y = y;
+    if (v->buttons & 1) { v->pending.orbit_dx += dx; v->pending.orbit_dy += dy; }
+    else { v->pending.pan_dx += dx; v->pending.pan_dy += dy; }
+}
+
+static void on_scroll(GLFWwindow *window, double xoffset, double yoffset) {
+    pm_view *v = glfwGetWindowUserPointer(window);
+    if (v) v->pending.dolly += yoffset;
+}
+
+void pm_view_set_status(pm_view *v, const char *status) {
+    if (!v || v->backend != PM_BACKEND_WINDOW) return;
+    snprintf(v->status, sizeof v->status, "%s", status ? status : "");
+    v->title_set = false; /* the next poll rewrites the title */
 }
 
 static void on_close(GLFWwindow *window) {
@@ -462,6 +531,9 @@ pm_view *pm_view_create_window(int width, int height, const char *title, char *e
     glfwSwapInterval(0);
     glfwSetWindowUserPointer(v->window, v);
     glfwSetKeyCallback(v->window, on_key);
+    glfwSetMouseButtonCallback(v->window, on_mouse_button);
+    glfwSetCursorPosCallback(v->window, on_cursor);
+    glfwSetScrollCallback(v->window, on_scroll);
     glfwSetWindowCloseCallback(v->window, on_close);
     if (!setup_gl(v, glfw_loader, width, height, err, err_size)) {
         pm_view_destroy(v);
@@ -472,31 +544,37 @@ pm_view *pm_view_create_window(int width, int height, const char *title, char *e
 
 /* ---- drawing ---- */
 
-void pm_view_upload(pm_view *v, const pm_film *film) {
-    if (!v || !film) return;
+void pm_view_upload_layers(pm_view *v, int width, int height, const float *const layers[PM_COMPONENT_COUNT]) {
+    if (!v) return;
     make_current(v);
-    if (film->width != v->width || film->height != v->height) {
+    if (width != v->width || height != v->height) {
         char ignored[256];
-        if (film->width < 1 || film->height < 1 || !allocate_film_targets(v, film->width, film->height, ignored, sizeof ignored))
-            return;
-    }
-    size_t floats = 3 * (size_t)film->width * film->height;
-    if (v->resolved_floats < floats) {
-        float *grown = realloc(v->resolved, floats * sizeof(float));
-        if (!grown) return; /* keeps showing the last image */
-        v->resolved = grown;
-        v->resolved_floats = floats;
+        if (width < 1 || height < 1 || !allocate_film_targets(v, width, height, ignored, sizeof ignored)) return;
     }
     v->gl.ActiveTexture(GL_TEXTURE0);
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        v->present[c] = film->sum[c] != NULL;
-        if (!film->sum[c]) continue;
-        pm_film_resolve(film, (pm_component)c, v->resolved);
+        v->present[c] = layers[c] != NULL;
+        if (!layers[c]) continue;
         /* film row 0 (top) goes to texel row 0; compose.frag flips when it fetches */
         v->gl.BindTexture(GL_TEXTURE_2D, v->component_tex[c]);
-        v->gl.TexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, film->width, film->height, GL_RGB, GL_FLOAT, v->resolved);
+        v->gl.TexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width, height, GL_RGB, GL_FLOAT, layers[c]);
     }
     v->scale = 1.f;
+}
+
+void pm_view_upload(pm_view *v, const pm_film *film) {
+    if (!v || !film) return;
+    size_t floats = 3 * (size_t)film->width * film->height;
+    float *buffers[PM_COMPONENT_COUNT] = {NULL, NULL, NULL, NULL};
+    bool ok = true;
+    for (int c = 0; c < PM_COMPONENT_COUNT && ok; c++) {
+        if (!film->sum[c]) continue;
+        buffers[c] = malloc(floats * sizeof(float));
+        if (!buffers[c]) { ok = false; break; }
+        pm_film_resolve(film, (pm_component)c, buffers[c]);
+    }
+    if (ok) pm_view_upload_layers(v, film->width, film->height, (const float *const *)buffers); /* else keeps the last image */
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(buffers[c]);
 }
 
 void pm_view_draw(pm_view *v, const pm_display *d) {
@@ -559,7 +637,8 @@ void pm_view_read_rgba8(pm_view *v, uint8_t *rgba) {
 }
 
 pm_view_events pm_view_poll(pm_view *v, pm_display *d, bool wait, double timeout) {
-    pm_view_events none = {false, false, false};
+    pm_view_events none;
+    memset(&none, 0, sizeof none);
     if (!v || v->backend != PM_BACKEND_WINDOW) return none;
     v->display = d;
     if (d && !v->title_set) { update_title(v, d); v->title_set = true; }

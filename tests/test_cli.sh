@@ -62,5 +62,24 @@ grep -q "(16x16, 1 iterations" "$tmp/out" || { fails=$((fails + 1)); echo "FAIL:
 expect "PNG snapshot (offscreen, through the display shaders)" 0 $bin scenes/cornell-box.gltf --width 64 --iterations 4 --photons 20000 --snapshot "$tmp/c.png"
 expect "the PNG shows the Cornell box: red left, green right, lit floor" 0 python3 tests/png_compare.py cornell "$tmp/c.png"
 expect "no display without snapshot" 2 env -u DISPLAY $bin scenes/cornell-box.gltf
+expect "unknown component" 2 $bin --components direct,glow --snapshot "$tmp/x.png"
+expect "PNG of the direct component only" 0 $bin scenes/cornell-box.gltf --width 64 --iterations 2 --components direct --snapshot "$tmp/d.png"
+expect "the direct-only PNG is darker than the full one" 0 python3 tests/png_compare.py darker "$tmp/c.png" "$tmp/d.png"
+# Ctrl-C during a snapshot: the image so far is written, complete, and the exit status is 130
+checks=$((checks + 1))
+$bin scenes/cornell-box.gltf --width 48 --iterations 1000000 --snapshot "$tmp/int.exr" >"$tmp/out" 2>"$tmp/err" &
+spid=$!
+i=0
+while ! [ -s "$tmp/int.exr" ] && [ $i -lt 40 ] && kill -0 $spid 2>/dev/null; do
+    i=$((i + 1)); sleep 0.1
+    [ $i -eq 15 ] && kill -INT $spid
+done
+wait $spid; rc=$?
+if [ "$rc" -ne 130 ] || ! grep -q "interrupted" "$tmp/out" || ! [ -s "$tmp/int.exr" ]; then
+    fails=$((fails + 1)); echo "FAIL: SIGINT during a snapshot: exit $rc (want 130), output:"; cat "$tmp/out" "$tmp/err"
+fi
+checks=$((checks + 1))
+iters=$(sed -n 's/.*(48x48, \([0-9]*\) iterations.*/\1/p' "$tmp/out")
+[ "${iters:-0}" -ge 1 ] || { fails=$((fails + 1)); echo "FAIL: the interrupted snapshot holds no iteration"; }
 echo "test_cli: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]

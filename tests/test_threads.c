@@ -1,9 +1,12 @@
 /* test_threads.c: the same seed gives the same photon maps and image bit for bit at 1, 2 and 3 threads, classic and progressive (also run under TSan). */
+#include <time.h>
+
 #include "accel.h"
 #include "eye.h"
 #include "film.h"
 #include "photonmap.h"
 #include "progressive.h"
+#include "session.h"
 #include "scene_builder.h"
 #include "testing.h"
 
@@ -21,6 +24,50 @@ static void build_room(pm_scene *s) {
     sb_quad(s, v3(-0.3f, 1.99f, -0.3f), v3(0.3f, 1.99f, -0.3f), v3(0.3f, 1.99f, 0.3f), v3(-0.3f, 1.99f, 0.3f), lamp);
     sb_box(s, v3(-0.7f, 0, -0.5f), v3(-0.2f, 0.8f, 0.0f), mirror, false);
     sb_box(s, v3(0.2f, 0, -0.2f), v3(0.6f, 0.5f, 0.3f), glass, false);
+}
+
+/* The window's way of rendering: a worker thread iterates and publishes, this thread reads the
+ * newest image, moves the camera (restarts that cancel a running pass), pauses and stops. Under
+ * TSan this is where a race between the two would show. */
+static void background_session(const pm_scene *s, const pm_accel *a, pm_camera cam) {
+    pm_session_config config;
+    memset(&config, 0, sizeof config);
+    config.mode = PM_MODE_PROGRESSIVE;
+    config.width = 32;
+    config.height = 24;
+    config.progressive = (pm_progressive_settings){.seed = 3, .threads = 2, .photons = 5000, .caustic_photons = 5000,
+                                                   .alpha = 2.0 / 3.0, .indirect = PM_INDIRECT_GATHER,
+                                                   .max_specular_depth = 8, .max_photon_bounces = 16};
+    char err[256];
+    pm_session *session = pm_session_create(s, a, &cam, &config, err, sizeof err);
+    CHECK(session && pm_session_start(session, err, sizeof err), "background session: %s", err);
+    if (!session) return;
+    uint64_t version = 0;
+    int images = 0, restarts = 0;
+    double sum = 0;
+    for (int round = 0; round < 400 && images < 12; round++) {
+        pm_session_progress progress;
+        const float *const *layers = pm_session_lock_latest(session, &version, &progress);
+        if (layers) {
+            images++;
+            for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+                if (layers[c]) sum += layers[c][3 * (12 * 32 + 16)];
+            pm_session_unlock_latest(session);
+            if (images % 4 == 0) {
+                cam.position.x += 0.01f;
+                pm_session_request_restart(session, &cam, images == 8 ? PM_INDIRECT_PHOTONS : -1);
+                restarts++;
+            }
+        }
+        struct timespec ts = {0, 5000000};
+        nanosleep(&ts, NULL);
+    }
+    pm_session_pause(session, true);
+    pm_session_pause(session, false);
+    pm_session_stop(session);
+    CHECK(images >= 8, "the worker published %d images", images);
+    CHECK(sum > 0, "the published images are lit");
+    pm_session_destroy(session);
 }
 
 int main(void) {
@@ -100,6 +147,7 @@ int main(void) {
                   mode ? "photons" : "gather", t + 1);
         for (int t = 0; t < 3; t++) free(images[t]);
     }
+    background_session(&s, a, cam);
     pm_accel_destroy(a);
     pm_scene_free(&s);
     return pm_test_done("test_threads");

@@ -1,0 +1,79 @@
+/* session.h: one render session (scene, accel, camera, mode state, film) that the window, the snapshot path and the tests all drive.
+ *
+ * Synchronous use (snapshots, tests): pm_session_iterate() on the calling thread, then read the
+ * film. Background use (the window): pm_session_start() runs iterations on a worker thread;
+ * after each one the worker resolves the film's components into a back buffer and swaps it with
+ * the front one under a lock, so the thread that owns the window only ever reads a complete
+ * image (pm_session_lock_latest / pm_session_unlock_latest) and never waits for a pass.
+ * A restart (camera moved, settings changed) cancels the running pass at its next task, clears
+ * per-pixel state and shows a coarse direct-light preview within milliseconds, then refines.
+ */
+#ifndef PM_SESSION_H
+#define PM_SESSION_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include "accel.h"
+#include "eye.h"
+#include "film.h"
+#include "photonmap.h"
+#include "progressive.h"
+#include "scene.h"
+
+typedef enum { PM_MODE_PROGRESSIVE = 0, PM_MODE_CLASSIC = 1 } pm_mode;
+
+typedef struct {
+    pm_mode mode;
+    int width, height;
+    pm_progressive_settings progressive;   /* progressive mode */
+    pm_photon_settings classic_photons;    /* classic mode: the maps, built before the first iteration */
+    pm_eye_settings classic_eye;           /* classic mode: its maps pointer is the session's */
+    bool classic_photon_pass;              /* classic mode: build maps at all */
+    uint32_t max_iterations;               /* background rendering stops there (0 = never) */
+} pm_session_config;
+
+typedef struct {
+    uint32_t iterations;       /* in the published image (0: a preview) */
+    uint64_t photons;          /* emitted since the last restart */
+    double seconds;            /* rendering time since the last restart */
+    double mean_radius;        /* progressive: mean radius of the pixels' statistics (0 otherwise) */
+    bool preview;              /* the published image is the coarse preview */
+    bool paused, finished;
+} pm_session_progress;
+
+typedef struct pm_session pm_session;
+
+/* NULL with err set when out of memory. The scene and accel must outlive the session. */
+pm_session *pm_session_create(const pm_scene *s, const pm_accel *a, const pm_camera *camera,
+                              const pm_session_config *config, char *err, size_t err_size);
+/* Stops the worker, if any, and frees everything the session owns. */
+void pm_session_destroy(pm_session *s);
+
+/* One iteration on the calling thread (synchronous use only). False when out of memory. */
+bool pm_session_iterate(pm_session *s);
+const pm_film *pm_session_film(const pm_session *s);
+const pm_camera *pm_session_camera(const pm_session *s);
+pm_progressive *pm_session_progressive(pm_session *s);               /* NULL in the classic mode */
+const pm_photon_maps *pm_session_classic_maps(const pm_session *s);  /* NULL in the progressive mode */
+const pm_photon_stats *pm_session_classic_photon_stats(const pm_session *s);
+const pm_eye_stats *pm_session_classic_eye_stats(const pm_session *s);
+/* Clears the accumulation, optionally with a new camera (synchronous use). */
+void pm_session_restart(pm_session *s, const pm_camera *camera);
+
+/* ---- background rendering ---- */
+bool pm_session_start(pm_session *s, char *err, size_t err_size);
+void pm_session_pause(pm_session *s, bool paused);
+bool pm_session_paused(const pm_session *s);
+/* Takes effect at once: the running pass stops at its next task. camera may be NULL (same camera).
+ * indirect: -1 keeps the setting, else the new pm_indirect_mode (the G key). */
+void pm_session_request_restart(pm_session *s, const pm_camera *camera, int indirect);
+/* The newest complete image: w*h*3 floats per component (NULL for a component the session does
+ * not have). Returns NULL, without locking, when nothing newer than *version was published; else
+ * the caller must call pm_session_unlock_latest() once it has read the layers. */
+const float *const *pm_session_lock_latest(pm_session *s, uint64_t *version, pm_session_progress *progress);
+void pm_session_unlock_latest(pm_session *s);
+/* Stops the worker (the running pass is cancelled) and waits for it. */
+void pm_session_stop(pm_session *s);
+
+#endif

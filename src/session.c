@@ -1,0 +1,332 @@
+/* session.c: the render session: mode state and film, synchronous iterations, and the worker thread that publishes double-buffered images. */
+#include "session.h"
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "parallel.h"
+
+#define PREVIEW_DIVISOR 4 /* the coarse preview after a restart: a quarter of the width and height */
+
+struct pm_session {
+    const pm_scene *scene;
+    const pm_accel *accel;
+    pm_camera camera;
+    pm_session_config config;
+    pm_film film;
+    pm_progressive *progressive;          /* progressive mode */
+    pm_photon_maps maps;                  /* classic mode */
+    bool maps_built;
+    pm_photon_stats classic_photon_stats;
+    pm_eye_stats classic_eye_stats;
+    double render_seconds;                /* since the last restart */
+
+    /* background rendering: everything below `lock` is shared with the worker */
+    pthread_t worker;
+    bool worker_running;
+    pthread_mutex_t lock;
+    pthread_cond_t wake;
+    atomic_bool cancel;                   /* the running pass stops at its next task */
+    bool stop, paused, restart_pending, have_camera_change;
+    int indirect_change;                  /* -1 none */
+    pm_camera pending_camera;
+    float *front[PM_COMPONENT_COUNT], *back[PM_COMPONENT_COUNT];
+    uint64_t version;
+    pm_session_progress published;
+};
+
+static double now_seconds(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+/* (Re)creates the mode state and the film for the current configuration. */
+static bool build_mode(pm_session *s, char *err, size_t err_size) {
+    pm_progressive_destroy(s->progressive);
+    s->progressive = NULL;
+    pm_film_free(&s->film);
+    bool components[PM_COMPONENT_COUNT];
+    if (s->config.mode == PM_MODE_PROGRESSIVE) {
+        s->progressive = pm_progressive_create(s->scene, s->accel, &s->camera, &s->config.progressive, err, err_size);
+        if (!s->progressive) return false;
+        pm_progressive_components(s->progressive, components);
+    } else {
+        for (int c = 0; c < PM_COMPONENT_COUNT; c++) components[c] = s->scene->analysis.component_possible[c];
+        /* the maps are built at the first iteration; a component they cannot feed has no buffer */
+        components[PM_CAUSTIC] = components[PM_CAUSTIC] && s->config.classic_photon_pass && s->config.classic_photons.caustic_photons;
+        components[PM_INDIRECT] = components[PM_INDIRECT] && s->config.classic_photon_pass && s->config.classic_photons.global_photons;
+    }
+    if (!pm_film_init(&s->film, s->config.width, s->config.height, components)) {
+        snprintf(err, err_size, "out of memory (a %dx%d film)", s->config.width, s->config.height);
+        return false;
+    }
+    if (s->progressive && !pm_progressive_bind(s->progressive, &s->film, err, err_size)) return false;
+    return true;
+}
+
+pm_session *pm_session_create(const pm_scene *scene, const pm_accel *a, const pm_camera *camera,
+                              const pm_session_config *config, char *err, size_t err_size) {
+    pm_session *s = calloc(1, sizeof *s);
+    if (!s) { snprintf(err, err_size, "out of memory (render session)"); return NULL; }
+    s->scene = scene;
+    s->accel = a;
+    s->camera = *camera;
+    s->config = *config;
+    s->indirect_change = -1;
+    pthread_mutex_init(&s->lock, NULL);
+    pthread_cond_init(&s->wake, NULL);
+    atomic_init(&s->cancel, false);
+    if (!build_mode(s, err, err_size)) { pm_session_destroy(s); return NULL; }
+    return s;
+}
+
+void pm_session_destroy(pm_session *s) {
+    if (!s) return;
+    pm_session_stop(s);
+    pm_progressive_destroy(s->progressive);
+    pm_photon_maps_free(&s->maps);
+    pm_film_free(&s->film);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        free(s->front[c]);
+        free(s->back[c]);
+    }
+    pthread_mutex_destroy(&s->lock);
+    pthread_cond_destroy(&s->wake);
+    free(s);
+}
+
+const pm_film *pm_session_film(const pm_session *s) { return &s->film; }
+const pm_camera *pm_session_camera(const pm_session *s) { return &s->camera; }
+pm_progressive *pm_session_progressive(pm_session *s) { return s->progressive; }
+const pm_photon_maps *pm_session_classic_maps(const pm_session *s) { return s->config.mode == PM_MODE_CLASSIC ? &s->maps : NULL; }
+const pm_photon_stats *pm_session_classic_photon_stats(const pm_session *s) { return &s->classic_photon_stats; }
+const pm_eye_stats *pm_session_classic_eye_stats(const pm_session *s) { return &s->classic_eye_stats; }
+
+bool pm_session_iterate(pm_session *s) {
+    double t0 = now_seconds();
+    bool ok = true;
+    if (s->progressive) {
+        ok = pm_progressive_iterate(s->progressive, &s->film);
+    } else {
+        if (!s->maps_built && s->config.classic_photon_pass) {
+            ok = pm_photon_maps_build(s->scene, s->accel, &s->config.classic_photons, &s->maps, &s->classic_photon_stats);
+            s->maps_built = ok;
+            if (ok && atomic_load(&s->cancel)) {
+                /* a map cut short is no map: build it again next time */
+                pm_photon_maps_free(&s->maps);
+                s->maps_built = false;
+            }
+        }
+        if (ok) {
+            pm_eye_settings eye = s->config.classic_eye;
+            eye.maps = s->maps_built ? &s->maps : NULL;
+            pm_eye_iterate(s->scene, s->accel, &s->camera, &eye, s->film.samples, &s->film, &s->classic_eye_stats);
+        }
+    }
+    s->render_seconds += now_seconds() - t0;
+    return ok;
+}
+
+void pm_session_restart(pm_session *s, const pm_camera *camera) {
+    if (camera) s->camera = *camera;
+    if (s->progressive) pm_progressive_restart(s->progressive, &s->film, &s->camera);
+    else pm_film_clear(&s->film);
+    s->render_seconds = 0.0;
+}
+
+/* ---- background rendering ---- */
+
+static uint64_t photons_emitted(const pm_session *s) {
+    if (s->progressive) return pm_progressive_get_stats(s->progressive)->photons.emitted;
+    return s->maps_built ? s->classic_photon_stats.emitted : 0;
+}
+
+/* Resolves into the back buffers, then swaps them in under the lock. */
+static void publish(pm_session *s, const pm_film *film, bool preview) {
+    size_t n = 3 * (size_t)s->config.width * s->config.height;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        if (!s->back[c]) continue;
+        if (!film->sum[c]) { memset(s->back[c], 0, n * sizeof(float)); continue; }
+        if (film->width == s->config.width && film->height == s->config.height) {
+            pm_film_resolve(film, (pm_component)c, s->back[c]);
+            continue;
+        }
+        /* the coarse preview, each of its pixels spread over the block it covers */
+        size_t small = 3 * (size_t)film->width * film->height;
+        float *tmp = malloc(small * sizeof(float));
+        if (!tmp) return;
+        pm_film_resolve(film, (pm_component)c, tmp);
+        for (int y = 0; y < s->config.height; y++) {
+            int sy = y * film->height / s->config.height;
+            for (int x = 0; x < s->config.width; x++) {
+                int sx = x * film->width / s->config.width;
+                memcpy(s->back[c] + 3 * ((size_t)y * s->config.width + x), tmp + 3 * ((size_t)sy * film->width + sx),
+                       3 * sizeof(float));
+            }
+        }
+        free(tmp);
+    }
+    pm_radius_summary r = {0, 0, 0, 0, 0, 0};
+    if (s->progressive && !preview) r = pm_progressive_radii(s->progressive, &s->film);
+    pthread_mutex_lock(&s->lock);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        float *t = s->front[c];
+        s->front[c] = s->back[c];
+        s->back[c] = t;
+    }
+    s->version++;
+    s->published.iterations = preview ? 0 : s->film.samples;
+    s->published.photons = preview ? 0 : photons_emitted(s);
+    s->published.seconds = s->render_seconds;
+    s->published.mean_radius = r.mean;
+    s->published.preview = preview;
+    pthread_mutex_unlock(&s->lock);
+}
+
+/* A direct-light image at a quarter of the size: a picture within milliseconds of a restart. */
+static void preview(pm_session *s) {
+    int w = s->config.width / PREVIEW_DIVISOR, h = s->config.height / PREVIEW_DIVISOR;
+    if (w < 8 || h < 8) return;
+    bool components[PM_COMPONENT_COUNT] = {s->film.sum[PM_DIRECT] != NULL, s->film.sum[PM_SPECULAR] != NULL, false, false};
+    pm_film small;
+    if (!pm_film_init(&small, w, h, components)) return;
+    pm_eye_settings eye;
+    memset(&eye, 0, sizeof eye);
+    eye.seed = s->config.progressive.seed ^ 0x9e37u;
+    eye.threads = s->config.mode == PM_MODE_PROGRESSIVE ? s->config.progressive.threads : s->config.classic_eye.threads;
+    eye.max_specular_depth = 8;
+    pm_eye_iterate(s->scene, s->accel, &s->camera, &eye, 0, &small, NULL);
+    if (!atomic_load(&s->cancel)) publish(s, &small, true);
+    pm_film_free(&small);
+}
+
+static void *worker_main(void *arg) {
+    pm_session *s = arg;
+    pm_parallel_set_cancel(&s->cancel);
+    bool need_preview = true;
+    pthread_mutex_lock(&s->lock);
+    for (;;) {
+        if (s->stop) break;
+        if (s->restart_pending) {
+            s->restart_pending = false;
+            bool camera = s->have_camera_change;
+            pm_camera cam = s->pending_camera;
+            int indirect = s->indirect_change;
+            s->have_camera_change = false;
+            s->indirect_change = -1;
+            atomic_store(&s->cancel, false);
+            pthread_mutex_unlock(&s->lock);
+            if (camera) s->camera = cam;
+            if (indirect >= 0 && s->config.mode == PM_MODE_PROGRESSIVE && (int)s->config.progressive.indirect != indirect) {
+                char err[256];
+                s->config.progressive.indirect = (pm_indirect_mode)indirect;
+                if (!build_mode(s, err, sizeof err)) {
+                    fprintf(stderr, "pmview: error: %s\n", err);
+                    pthread_mutex_lock(&s->lock);
+                    s->published.finished = true;
+                    break;
+                }
+            }
+            pm_session_restart(s, NULL);
+            need_preview = true;
+            pthread_mutex_lock(&s->lock);
+            continue;
+        }
+        bool done = s->config.max_iterations && s->film.samples >= s->config.max_iterations;
+        s->published.finished = done;
+        s->published.paused = s->paused;
+        if (s->paused || done) {
+            pthread_cond_wait(&s->wake, &s->lock);
+            continue;
+        }
+        pthread_mutex_unlock(&s->lock);
+        if (need_preview) {
+            preview(s);
+            need_preview = false;
+        }
+        bool ok = atomic_load(&s->cancel) ? true : pm_session_iterate(s);
+        if (!ok) fprintf(stderr, "pmview: error: out of memory in an iteration; rendering stops\n");
+        bool cut_short = atomic_load(&s->cancel);
+        if (ok && !cut_short) publish(s, &s->film, false);
+        pthread_mutex_lock(&s->lock);
+        if (!ok) { s->published.finished = true; s->paused = true; }
+        /* an iteration cut short is discarded by the restart that cut it */
+    }
+    pthread_mutex_unlock(&s->lock);
+    return NULL;
+}
+
+bool pm_session_start(pm_session *s, char *err, size_t err_size) {
+    if (s->worker_running) return true;
+    size_t n = 3 * (size_t)s->config.width * s->config.height;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        if (!s->film.sum[c]) continue;
+        s->front[c] = calloc(n, sizeof(float));
+        s->back[c] = calloc(n, sizeof(float));
+        if (!s->front[c] || !s->back[c]) {
+            snprintf(err, err_size, "out of memory (display buffers, %zu bytes)", 2 * PM_COMPONENT_COUNT * n * sizeof(float));
+            return false;
+        }
+    }
+    s->stop = false;
+    atomic_store(&s->cancel, false);
+    if (pthread_create(&s->worker, NULL, worker_main, s) != 0) {
+        snprintf(err, err_size, "cannot start the render thread");
+        return false;
+    }
+    s->worker_running = true;
+    return true;
+}
+
+void pm_session_pause(pm_session *s, bool paused) {
+    pthread_mutex_lock(&s->lock);
+    s->paused = paused;
+    s->published.paused = paused;
+    pthread_cond_signal(&s->wake);
+    pthread_mutex_unlock(&s->lock);
+}
+
+bool pm_session_paused(const pm_session *s) { return s->paused; }
+
+void pm_session_request_restart(pm_session *s, const pm_camera *camera, int indirect) {
+    pthread_mutex_lock(&s->lock);
+    if (camera) {
+        s->pending_camera = *camera;
+        s->have_camera_change = true;
+    }
+    if (indirect >= 0) s->indirect_change = indirect;
+    s->restart_pending = true;
+    atomic_store(&s->cancel, true);
+    pthread_cond_signal(&s->wake);
+    pthread_mutex_unlock(&s->lock);
+}
+
+const float *const *pm_session_lock_latest(pm_session *s, uint64_t *version, pm_session_progress *progress) {
+    pthread_mutex_lock(&s->lock);
+    if (progress) *progress = s->published;
+    if (s->version == *version) {
+        pthread_mutex_unlock(&s->lock);
+        return NULL;
+    }
+    *version = s->version;
+    return (const float *const *)s->front;
+}
+
+void pm_session_unlock_latest(pm_session *s) { pthread_mutex_unlock(&s->lock); }
+
+void pm_session_stop(pm_session *s) {
+    if (!s->worker_running) return;
+    pthread_mutex_lock(&s->lock);
+    s->stop = true;
+    atomic_store(&s->cancel, true);
+    pthread_cond_signal(&s->wake);
+    pthread_mutex_unlock(&s->lock);
+    pthread_join(s->worker, NULL);
+    s->worker_running = false;
+    atomic_store(&s->cancel, false);
+}

@@ -1,0 +1,111 @@
+#!/bin/sh
+# test_interactive.sh: the window as a person uses it, under Xvfb with xdotool: a first frame at once, a drag restarts the accumulation and moves the view, Space pauses, Esc quits in the middle of a long photon pass.
+#
+# Checked from outside the process only: the window title (iterations, "paused"), X's own copy
+# of the window (xwd) and how long pmview takes to exit.
+cd "$(dirname "$0")/.." || exit 1
+for t in xvfb-run xdotool xwd python3; do
+    command -v $t >/dev/null 2>&1 || { echo "SKIP: $t missing"; echo "test_interactive: 0 checks, skipped"; exit 0; }
+done
+[ -x ./pmview ] || { echo "test_interactive: FAILED: ./pmview is not built"; exit 1; }
+tmp=$(mktemp -d) || exit 1
+group=""
+cleanup() { [ -n "$group" ] && kill -TERM -- "-$group" 2>/dev/null; rm -rf "$tmp"; }
+trap cleanup EXIT
+trap 'exit 1' INT TERM HUP
+
+cat >"$tmp/inner.sh" <<'EOF'
+tmp=$1
+log="$tmp/pmview.log"
+fail() { echo "inner: FAIL: $*"; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- pmview log:"; cat "$log"; exit 1; }
+now_ms() { date +%s%3N; }
+iterations() { xdotool getwindowname "$wid" 2>/dev/null | sed -n 's/.* \([0-9][0-9]*\) it .*/\1/p'; }
+wait_window() {
+    i=0; wid=""
+    while [ -z "$wid" ]; do
+        wid=$(xdotool search --name '^pmview' 2>/dev/null | head -n 1)
+        i=$((i + 1)); [ $i -gt 300 ] && fail "no window after 30 s"
+        kill -0 "$pid" 2>/dev/null || fail "pmview exited"
+        sleep 0.1
+    done
+}
+wait_iterations() { # at least N, within S seconds
+    i=0
+    while [ "$(iterations)" = "" ] || [ "$(iterations)" -lt "$1" ]; do
+        i=$((i + 1)); [ $i -gt $(($2 * 20)) ] && fail "fewer than $1 iterations after $2 s (title: $(xdotool getwindowname "$wid"))"
+        sleep 0.05
+    done
+}
+
+# 1. a first frame at once, not black
+./pmview scenes/cornell-box.gltf --width 160 --height 160 --threads 2 --screenshot "$tmp/shot.png" >"$log" 2>&1 &
+pid=$!
+wait_window
+t0=$(now_ms)
+sleep 0.3
+xwd -id "$wid" -silent >"$tmp/first.xwd" || fail "xwd"
+python3 tests/png_compare.py lit "$tmp/first.xwd" || fail "the first frame is black"
+echo "inner: first frame lit 0.3 s after the window appeared"
+xdotool windowfocus --sync "$wid" || fail "focus"
+
+# 2. a drag restarts the accumulation (the title's count drops) and moves the view
+wait_iterations 6 60
+before=$(iterations)
+xwd -id "$wid" -silent >"$tmp/before.xwd"
+# a person's drag: press, move, release, each its own event
+xdotool mousemove --window "$wid" 60 80 && xdotool mousedown 1 && sleep 0.05 &&
+    xdotool mousemove --window "$wid" 100 80 && sleep 0.05 && xdotool mouseup 1 || fail "drag"
+sleep 0.25
+after=$(iterations)
+[ -n "$after" ] && [ "$after" -lt "$before" ] || fail "the drag did not restart: $before iterations before, '$after' after"
+echo "inner: drag restarted the accumulation ($before iterations -> $after)"
+wait_iterations 2 30
+xwd -id "$wid" -silent >"$tmp/after.xwd"
+python3 tests/png_compare.py differ "$tmp/before.xwd" "$tmp/after.xwd" || fail "the drag did not change the view"
+
+# 3. Space pauses: the count stops, the title says so
+xdotool key --clearmodifiers space
+sleep 0.5
+p1=$(iterations); sleep 0.6; p2=$(iterations)
+xdotool getwindowname "$wid" | grep -q paused || fail "no 'paused' in the title"
+[ "$p1" = "$p2" ] || fail "iterations went on while paused ($p1 -> $p2)"
+echo "inner: Space paused at $p1 iterations"
+xdotool key --clearmodifiers space
+xdotool key --clearmodifiers Escape
+i=0; while kill -0 "$pid" 2>/dev/null; do i=$((i + 1)); [ $i -gt 50 ] && fail "still running 5 s after Escape"; sleep 0.1; done
+wait "$pid" || fail "exit status $? after Escape"
+
+# 4. Esc in the middle of a long photon pass: answered at once
+./pmview scenes/cornell-box.gltf --width 64 --height 64 --photons 40000000 --threads 2 >"$log" 2>&1 &
+pid=$!
+wait_window
+xdotool windowfocus --sync "$wid" || fail "focus"
+sleep 1
+t0=$(now_ms)
+xdotool key --clearmodifiers Escape
+i=0; while kill -0 "$pid" 2>/dev/null; do i=$((i + 1)); [ $i -gt 100 ] && fail "still running 10 s after Escape"; sleep 0.02; done
+wait "$pid" || fail "exit status $? after Escape"
+t1=$(now_ms)
+echo "inner: Esc during a 40-million-photon pass: exited after $((t1 - t0)) ms"
+[ $((t1 - t0)) -lt 1000 ] || fail "Esc took $((t1 - t0)) ms during a photon pass"
+echo "inner: ok"
+EOF
+
+setsid xvfb-run -a -s "-screen 0 1024x768x24" sh "$tmp/inner.sh" "$tmp" >"$tmp/xvfb.log" 2>&1 &
+xpid=$!
+g=$(ps -o pgid= -p "$xpid" 2>/dev/null | tr -d ' ')
+[ -n "$g" ] && [ "$g" != "$(ps -o pgid= -p $$ | tr -d ' ')" ] && group=$g
+i=0
+while kill -0 "$xpid" 2>/dev/null; do
+    i=$((i + 1)); [ "$i" -gt 1800 ] && { echo "test_interactive: FAILED: still running after 180 s"; cat "$tmp/xvfb.log"; exit 1; }
+    sleep 0.1
+done
+wait "$xpid"; rc=$?
+cat "$tmp/xvfb.log"
+group=""
+checks=$(grep -c "^inner: " "$tmp/xvfb.log")
+if [ "$rc" -ne 0 ] || ! grep -q "^inner: ok" "$tmp/xvfb.log"; then
+    echo "test_interactive: $checks checks, 1 failed"
+    exit 1
+fi
+echo "test_interactive: $checks checks, 0 failed"
