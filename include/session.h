@@ -73,6 +73,11 @@ void pm_session_request_restart(pm_session *s, const pm_camera *camera, int indi
  * the caller must call pm_session_unlock_latest() once it has read the layers. */
 const float *const *pm_session_lock_latest(pm_session *s, uint64_t *version, pm_session_progress *progress);
 void pm_session_unlock_latest(pm_session *s);
+/* What the published images show: the shaded components, or (progressive mode) a false-colour
+ * map of each pixel's photon density N / (pi R^2) or of its radius R, log scale, in the direct
+ * layer. Takes effect with the next published image; false when the mode has no statistics. */
+typedef enum { PM_VIEW_SHADED = 0, PM_VIEW_DENSITY = 1, PM_VIEW_RADIUS = 2, PM_VIEW_COUNT = 3 } pm_session_view;
+bool pm_session_set_view(pm_session *s, pm_session_view view);
 /* Stops the worker (the running pass is cancelled) and waits for it. */
 void pm_session_stop(pm_session *s);
 

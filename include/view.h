@@ -35,6 +35,7 @@ typedef struct {
     float fly[3];               /* W/S, D/A, E/Q key presses: forward, right, up */
     bool fast;                  /* Shift held */
     bool frame, next_camera, home, toggle_gather, cycle_view, pause, restart, help;
+    int resized_width, resized_height; /* the window's new size in pixels, 0 when unchanged */
 } pm_view_events;
 
 /* The shaders in shaders/ are compiled into the binary (build/shaders.inc, made by the Makefile). */

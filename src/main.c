@@ -86,7 +86,7 @@ static const char usage_text[] =
     "  --help               this text\n"
     "window: left drag orbit, right/middle drag pan, wheel dolly, double click pivot, W A S D Q E fly (Shift faster),\n"
     "  F frame, C next camera, Home start camera, 1-4 components, +/- exposure, 0 reset, T tonemap, G gathering,\n"
-    "  Space pause, R restart, P/F12 save PNG+EXR, H help, Esc quit\n";
+    "  V views, Space pause, R restart, P/F12 save PNG+EXR, H help, Esc quit\n";
 
 static int usage_error(const char *fmt, const char *arg) {
     fprintf(stderr, "pmview: ");
@@ -363,6 +363,8 @@ static bool configure(const options *opt, const pm_scene *scene, const pm_accel 
 
 /* ---- snapshots ---- */
 
+static double process_start; /* for the window's time to its first frame */
+
 static volatile sig_atomic_t interrupted_by;
 
 static void on_signal(int sig) { interrupted_by = sig; }
@@ -482,7 +484,7 @@ static const char window_help[] =
     "pmview keys: left drag orbit, right/middle drag pan, wheel dolly, double click: orbit about that point\n"
     "  W A S D / Q E fly (Shift faster), F frame the scene, C next camera, Home starting camera\n"
     "  1 2 3 4 direct/specular/caustic/indirect, + - exposure, 0 reset, T tonemap, G final gathering on/off\n"
-    "  Space pause, R restart, P or F12 save PNG and EXR, H this help, Esc quit\n";
+    "  V views: shaded, photon density, radius; Space pause, R restart, P or F12 save PNG and EXR, H this help, Esc quit\n";
 
 static void save_from_window(const options *opt, const float *const layers[PM_COMPONENT_COUNT], int width, int height,
                              const pm_display *display) {
@@ -503,9 +505,11 @@ static void save_from_window(const options *opt, const float *const layers[PM_CO
     printf("pmview: saved %s and %s\n", opt->screenshot, exr_path);
 }
 
-static int run_window(const options *opt, const pm_scene *scene, const pm_accel *accel, pm_session *session,
-                      const pm_camera *start_camera) {
+static int run_window(const options *opt, const pm_scene *scene, const pm_accel *accel, pm_session **session_io,
+                      const pm_session_config *config_in, const pm_camera *start_camera) {
     char err[1024];
+    pm_session *session = *session_io;
+    pm_session_config config = *config_in;
     const pm_film *film = pm_session_film(session);
     int width = film->width, height = film->height;
     pm_view *view = pm_view_create_window(width, height, "pmview", err, sizeof err);
@@ -514,6 +518,9 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
     initial_display(opt, &display);
     /* a first frame before any photon: the background colour of an empty image */
     pm_view_draw(view, &display);
+    double first_frame = now_seconds() - process_start, first_image = 0, restart_requested = 0, restart_to_image = 0;
+    uint64_t loops = 0, frames = 1, restarts = 0;
+    double loop_start = now_seconds();
     if (!pm_session_start(session, err, sizeof err)) {
         fprintf(stderr, "pmview: error: %s\n", err);
         pm_view_destroy(view);
@@ -526,6 +533,7 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
     uint64_t version = 0;
     uint32_t shown_iterations = 0;
     bool finished_said = false, paused = false;
+    int view_mode = PM_VIEW_SHADED;
     for (;;) {
         pm_view_events ev = pm_view_poll(view, &display, true, 1.0 / 60.0);
         if (ev.quit) break;
@@ -550,7 +558,10 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
             if (pm_accel_intersect(accel, o, d, INFINITY, &h)) pivot = v3_madd(o, d, h.t);
         }
         moved = memcmp(&before, &camera, sizeof camera) != 0;
-        if (moved || ev.restart) pm_session_request_restart(session, moved ? &camera : NULL, -1);
+        if (moved || ev.restart) {
+            pm_session_request_restart(session, moved ? &camera : NULL, -1);
+            if (restart_requested == 0) restart_requested = now_seconds();
+        }
         if (ev.toggle_gather && opt->classic == false) {
             static int indirect = -1;
             if (indirect < 0) indirect = opt->indirect;
@@ -563,10 +574,49 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
             pm_session_pause(session, paused);
         }
         if (ev.help) fputs(window_help, stdout);
+        if (ev.cycle_view) {
+            static const char *const names[PM_VIEW_COUNT] = {"shaded", "photon density (false colour, log scale)",
+                                                             "radius (false colour, log scale)"};
+            view_mode = (view_mode + 1) % PM_VIEW_COUNT;
+            if (pm_session_set_view(session, (pm_session_view)view_mode)) printf("pmview: view: %s\n", names[view_mode]);
+            else { view_mode = PM_VIEW_SHADED; printf("pmview: the photon density and radius views need the progressive mode\n"); }
+        }
+        if (ev.resized_width && (ev.resized_width != width || ev.resized_height != height)) {
+            /* a new size is a new film: a new session at that size, with the camera as it is */
+            pm_session_stop(session);
+            pm_session_config resized = config;
+            resized.width = ev.resized_width;
+            resized.height = ev.resized_height;
+            pm_session *next = pm_session_create(scene, accel, &camera, &resized, err, sizeof err);
+            if (!next || !pm_session_start(next, err, sizeof err)) {
+                fprintf(stderr, "pmview: error: %s (window resized to %dx%d); keeping %dx%d\n", err, resized.width,
+                        resized.height, width, height);
+                pm_session_destroy(next);
+                pm_session_start(session, err, sizeof err);
+            } else {
+                pm_session_destroy(session);
+                session = *session_io = next;
+                pm_session_set_view(session, (pm_session_view)view_mode);
+                config = resized;
+                width = resized.width;
+                height = resized.height;
+                version = 0;
+                if (paused) pm_session_pause(session, true);
+                printf("pmview: rendering at %dx%d\n", width, height);
+            }
+        }
         pm_session_progress progress;
         const float *const *layers = pm_session_lock_latest(session, &version, &progress);
         bool redraw = ev.display_changed;
+        loops++;
         if (layers) {
+            double t = now_seconds();
+            if (first_image == 0) first_image = t - process_start;
+            if (restart_requested > 0 && progress.preview) {
+                restart_to_image += t - restart_requested;
+                restarts++;
+                restart_requested = 0;
+            }
             pm_view_upload_layers(view, width, height, layers);
             if (ev.save_png) save_from_window(opt, layers, width, height, &display);
             ev.save_png = false;
@@ -589,9 +639,14 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
                 pm_session_unlock_latest(session);
             }
         }
-        if (redraw) pm_view_draw(view, &display);
+        if (redraw) { pm_view_draw(view, &display); frames++; }
         (void)shown_iterations;
     }
+    double seconds = now_seconds() - loop_start;
+    if (opt->stats)
+        printf("stat window first_frame_seconds=%.4f first_image_seconds=%.4f ui_loops_per_second=%.1f frames_per_second=%.1f restarts=%llu restart_to_image_seconds=%.4f\n",
+               first_frame, first_image, seconds > 0 ? loops / seconds : 0.0, seconds > 0 ? frames / seconds : 0.0,
+               (unsigned long long)restarts, restarts ? restart_to_image / restarts : 0.0);
     pm_session_stop(session);
     pm_view_destroy(view);
     return 0;
@@ -641,6 +696,7 @@ static void print_final_stats(const options *opt, pm_session *session, const pm_
 }
 
 int main(int argc, char **argv) {
+    process_start = now_seconds();
     options opt;
     int code = parse_options(argc, argv, &opt);
     if (code >= 0) return code;
@@ -725,7 +781,7 @@ int main(int argc, char **argv) {
             goto done;
         }
     }
-    exit_code = window ? run_window(&opt, &scene, accel, session, &camera) : run_snapshot(&opt, session, &reference);
+    exit_code = window ? run_window(&opt, &scene, accel, &session, &config, &camera) : run_snapshot(&opt, session, &reference);
     if (exit_code == 1) goto done;
     print_final_stats(&opt, session, accel, &reference);
 

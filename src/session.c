@@ -1,6 +1,7 @@
 /* session.c: the render session: mode state and film, synchronous iterations, and the worker thread that publishes double-buffered images. */
 #include "session.h"
 
+#include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -37,6 +38,7 @@ struct pm_session {
     float *front[PM_COMPONENT_COUNT], *back[PM_COMPONENT_COUNT];
     uint64_t version;
     pm_session_progress published;
+    atomic_int view;                      /* pm_session_view: what publish() writes */
 };
 
 static double now_seconds(void) {
@@ -146,10 +148,57 @@ static uint64_t photons_emitted(const pm_session *s) {
     return s->maps_built ? s->classic_photon_stats.emitted : 0;
 }
 
+/* Blue (low) through green to red (high) for t in [0, 1]. */
+static void heat_colour(double t, float *rgb) {
+    t = t < 0 ? 0 : (t > 1 ? 1 : t);
+    rgb[0] = (float)(t < 0.5 ? 0.0 : 2.0 * t - 1.0);
+    rgb[1] = (float)(t < 0.5 ? 2.0 * t : 2.0 - 2.0 * t);
+    rgb[2] = (float)(t < 0.5 ? 1.0 - 2.0 * t : 0.0);
+}
+
+/* The diagnostic views of the progressive statistics, false colour in the direct layer: each
+ * pixel's photon density N / (pi R^2) or its radius R, on a log scale over the image's range. */
+static void diagnostic_view(const pm_session *s, int view, float *out) {
+    size_t pixels = (size_t)s->config.width * s->config.height;
+    double lo = INFINITY, hi = -INFINITY;
+    double *value = malloc(pixels * sizeof *value);
+    if (!value) return;
+    for (size_t i = 0; i < pixels; i++) {
+        double n = 0, r2 = 0;
+        int slots = 0;
+        for (int k = 0; k < PM_SLOT_COUNT; k++) {
+            if (!s->film.ppm[k] || !(s->film.ppm[k][i].r2 > 0)) continue;
+            n += s->film.ppm[k][i].n;
+            r2 += s->film.ppm[k][i].r2;
+            slots++;
+        }
+        value[i] = NAN;
+        if (!slots) continue;
+        r2 /= slots;
+        double v = view == PM_VIEW_RADIUS ? sqrt(r2) : n / (PM_PI * r2);
+        if (!(v > 0)) continue;
+        value[i] = log(v);
+        lo = fmin(lo, value[i]);
+        hi = fmax(hi, value[i]);
+    }
+    for (size_t i = 0; i < pixels; i++) {
+        if (isnan(value[i])) { out[3 * i] = out[3 * i + 1] = out[3 * i + 2] = 0.f; continue; }
+        heat_colour(hi > lo ? (value[i] - lo) / (hi - lo) : 0.5, out + 3 * i);
+    }
+    free(value);
+}
+
 /* Resolves into the back buffers, then swaps them in under the lock. */
 static void publish(pm_session *s, const pm_film *film, bool preview) {
     size_t n = 3 * (size_t)s->config.width * s->config.height;
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+    int view = atomic_load(&s->view);
+    if (view != PM_VIEW_SHADED && !preview && s->progressive && s->back[PM_DIRECT]) {
+        for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+            if (s->back[c]) memset(s->back[c], 0, n * sizeof(float));
+        diagnostic_view(s, view, s->back[PM_DIRECT]);
+        film = NULL;
+    }
+    for (int c = 0; c < PM_COMPONENT_COUNT && film; c++) {
         if (!s->back[c]) continue;
         if (!film->sum[c]) { memset(s->back[c], 0, n * sizeof(float)); continue; }
         if (film->width == s->config.width && film->height == s->config.height) {
@@ -265,7 +314,7 @@ bool pm_session_start(pm_session *s, char *err, size_t err_size) {
     if (s->worker_running) return true;
     size_t n = 3 * (size_t)s->config.width * s->config.height;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        if (!s->film.sum[c]) continue;
+        if (!s->film.sum[c] || s->front[c]) continue;
         s->front[c] = calloc(n, sizeof(float));
         s->back[c] = calloc(n, sizeof(float));
         if (!s->front[c] || !s->back[c]) {
@@ -292,6 +341,12 @@ void pm_session_pause(pm_session *s, bool paused) {
 }
 
 bool pm_session_paused(const pm_session *s) { return s->paused; }
+
+bool pm_session_set_view(pm_session *s, pm_session_view view) {
+    if (view != PM_VIEW_SHADED && !s->progressive) return false;
+    atomic_store(&s->view, (int)view);
+    return true;
+}
 
 void pm_session_request_restart(pm_session *s, const pm_camera *camera, int indirect) {
     pthread_mutex_lock(&s->lock);

@@ -474,6 +474,13 @@ static void on_cursor(GLFWwindow *window, double x, double y) {
     else { v->pending.pan_dx += dx; v->pending.pan_dy += dy; }
 }
 
+static void on_framebuffer_size(GLFWwindow *window, int width, int height) {
+    pm_view *v = glfwGetWindowUserPointer(window);
+    if (!v || width < 1 || height < 1) return; /* minimised: keep rendering at the old size */
+    v->pending.resized_width = width;
+    v->pending.resized_height = height;
+}
+
 static void on_scroll(GLFWwindow *window, double xoffset, double yoffset) {
     pm_view *v = glfwGetWindowUserPointer(window);
     if (v) v->pending.dolly += yoffset;
@@ -506,7 +513,7 @@ pm_view *pm_view_create_window(int width, int height, const char *title, char *e
     glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
     glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
     glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
-    glfwWindowHint(GLFW_RESIZABLE, GLFW_FALSE);
+    glfwWindowHint(GLFW_RESIZABLE, GLFW_TRUE);
     glfwWindowHint(GLFW_DEPTH_BITS, 0);
     glfwWindowHint(GLFW_STENCIL_BITS, 0);
     /* A film larger than the screen gets a smaller window of the same shape; the picture is
@@ -534,6 +541,7 @@ pm_view *pm_view_create_window(int width, int height, const char *title, char *e
     glfwSetMouseButtonCallback(v->window, on_mouse_button);
     glfwSetCursorPosCallback(v->window, on_cursor);
     glfwSetScrollCallback(v->window, on_scroll);
+    glfwSetFramebufferSizeCallback(v->window, on_framebuffer_size);
     glfwSetWindowCloseCallback(v->window, on_close);
     if (!setup_gl(v, glfw_loader, width, height, err, err_size)) {
         pm_view_destroy(v);

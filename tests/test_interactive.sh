@@ -63,7 +63,15 @@ wait_iterations 2 30
 xwd -id "$wid" -silent >"$tmp/after.xwd"
 python3 tests/png_compare.py differ "$tmp/before.xwd" "$tmp/after.xwd" || fail "the drag did not change the view"
 
-# 3. Space pauses: the count stops, the title says so
+# 3. a resize renders at the new size
+xdotool windowsize "$wid" 200 120 || fail "windowsize"
+i=0; while ! grep -q "rendering at 200x120" "$log"; do i=$((i + 1)); [ $i -gt 100 ] && fail "no re-render at 200x120"; sleep 0.05; done
+wait_iterations 2 30
+xwd -id "$wid" -silent >"$tmp/resized.xwd"
+python3 tests/png_compare.py lit "$tmp/resized.xwd" || fail "black after the resize"
+echo "inner: resized to 200x120 and rendering at that size"
+
+# 4. Space pauses: the count stops, the title says so
 xdotool key --clearmodifiers space
 sleep 0.5
 p1=$(iterations); sleep 0.6; p2=$(iterations)
@@ -71,11 +79,21 @@ xdotool getwindowname "$wid" | grep -q paused || fail "no 'paused' in the title"
 [ "$p1" = "$p2" ] || fail "iterations went on while paused ($p1 -> $p2)"
 echo "inner: Space paused at $p1 iterations"
 xdotool key --clearmodifiers space
+sleep 0.5
+
+# 5. V shows the radius and density maps (false colour), a different picture
+xwd -id "$wid" -silent >"$tmp/shaded.xwd"
+xdotool key --clearmodifiers v
+i=0; while ! grep -q "view: photon density" "$log"; do i=$((i + 1)); [ $i -gt 100 ] && fail "V did not switch the view"; sleep 0.05; done
+sleep 1.5
+xwd -id "$wid" -silent >"$tmp/density.xwd"
+python3 tests/png_compare.py differ "$tmp/shaded.xwd" "$tmp/density.xwd" || fail "the density view looks like the shaded one"
+echo "inner: V shows the photon density map"
 xdotool key --clearmodifiers Escape
 i=0; while kill -0 "$pid" 2>/dev/null; do i=$((i + 1)); [ $i -gt 50 ] && fail "still running 5 s after Escape"; sleep 0.1; done
 wait "$pid" || fail "exit status $? after Escape"
 
-# 4. Esc in the middle of a long photon pass: answered at once
+# 6. Esc in the middle of a long photon pass: answered at once
 ./pmview scenes/cornell-box.gltf --width 64 --height 64 --photons 40000000 --threads 2 >"$log" 2>&1 &
 pid=$!
 wait_window
