@@ -18,7 +18,7 @@ typedef struct {
     uint32_t *bucket_start; /* bucket_count + 1 offsets into photons */
     size_t count, capacity;
     size_t bucket_count, bucket_capacity; /* bucket_count is a power of two */
-    vec3 origin;
+    vec3 origin, upper;     /* the photons' bounds: a disc outside them finds nothing without a lookup */
     float cell, inv_cell;
 } pm_photon_grid;
 

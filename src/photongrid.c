@@ -47,9 +47,14 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
     g->bucket_count = buckets;
     g->cell = cell;
     g->inv_cell = 1.f / cell;
-    vec3 lo = v3s(FLT_MAX);
-    for (size_t i = 0; i < count; i++) lo = v3_min(lo, pm_photon_position(&photons[i]));
+    vec3 lo = v3s(FLT_MAX), hi = v3s(-FLT_MAX);
+    for (size_t i = 0; i < count; i++) {
+        vec3 q = pm_photon_position(&photons[i]);
+        lo = v3_min(lo, q);
+        hi = v3_max(hi, q);
+    }
     g->origin = count ? lo : v3s(0.f);
+    g->upper = count ? hi : v3s(0.f);
     size_t mask = buckets - 1;
     uint32_t *start = g->bucket_start;
     memset(start, 0, (buckets + 1) * sizeof *start);
@@ -80,6 +85,10 @@ uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, floa
     *power = sum;
     if (!g->count || !(radius2 > 0.f)) return 0;
     float r = sqrtf(radius2);
+    /* caustic photons often cover a small part of the image: most discs miss them all */
+    if (p.x + r < g->origin.x || p.y + r < g->origin.y || p.z + r < g->origin.z || p.x - r > g->upper.x ||
+        p.y - r > g->upper.y || p.z - r > g->upper.z)
+        return 0;
     int32_t x0 = cell_coord(p.x - r, g->origin.x, g->inv_cell), x1 = cell_coord(p.x + r, g->origin.x, g->inv_cell);
     int32_t y0 = cell_coord(p.y - r, g->origin.y, g->inv_cell), y1 = cell_coord(p.y + r, g->origin.y, g->inv_cell);
     int32_t z0 = cell_coord(p.z - r, g->origin.z, g->inv_cell), z1 = cell_coord(p.z + r, g->origin.z, g->inv_cell);
