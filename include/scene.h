@@ -32,7 +32,8 @@ typedef struct {
     float metallic, roughness;
     float transmission;     /* KHR_materials_transmission factor */
     float ior;              /* KHR_materials_ior, default 1.5 */
-    vec3 emission;          /* radiance: emissiveFactor x KHR_materials_emissive_strength */
+    vec3 emission;          /* emissiveFactor x KHR_materials_emissive_strength; radiance = this x the emissive texture */
+    int emission_texture;   /* index into scene textures (sRGB), -1 none */
     bool double_sided;
 } pm_material;
 
@@ -88,10 +89,12 @@ typedef struct {
     vec3 bounds_min, bounds_max;
     vec3 center; float radius; /* bounding sphere */
     float ray_scale;           /* length scale for ray offsets (largest extent of the bounds) */
-    uint32_t *emitters;        /* triangle indices with non-black emission */
+    uint32_t *emitters;        /* triangle indices whose emission, averaged over the triangle, is not black */
+    vec3 *emitter_radiance;    /* emitter_count: each one's radiance averaged over its triangle (texture included) */
     float *emitter_cdf;        /* emitter_count+1 entries, by area x luminance x sides */
     uint32_t emitter_count;
     float emitter_power;       /* sum of area x luminance(radiance) x pi x sides */
+    bool emitter_alloc_failed; /* out of memory for the emitter distribution: the caller reports it */
     pm_scene_analysis analysis;
 } pm_scene;
 
@@ -144,6 +147,10 @@ static inline void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, 
 }
 /* Linear RGB of a texture at (u, v) with its wrap modes, bilinear. */
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v);
+
+/* Radiance leaving triangle tri at barycentrics (b1, b2): the material's emission times its
+ * emissive texture there (one side; the caller decides which faces emit). */
+vec3 pm_scene_emission_at(const pm_scene *s, uint32_t tri, float b1, float b2);
 
 /* Picks an emissive triangle by power; returns its index and the probability of that pick. */
 uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf);

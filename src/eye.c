@@ -94,6 +94,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         float pick_pdf;
         uint32_t tri = pm_scene_pick_emitter(s, pm_rng_float(rng), &pick_pdf);
         float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng);
+        vec3 radiance = pm_scene_emission_at(s, tri, r1 * (1.f - r2), r1 * r2);
         const uint32_t *ix = s->indices + 3 * (size_t)tri;
         vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
         vec3 q = v3_add(v3_scale(p0, 1.f - r1), v3_add(v3_scale(p1, r1 * (1.f - r2)), v3_scale(p2, r1 * r2)));
@@ -116,7 +117,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                 if (seg_len > 0.f && !pm_accel_occluded(a, origin, v3_scale(seg, 1.f / seg_len), seg_len)) {
                     float g = cos_s * cos_l / (dist * dist);
                     float pdf_light = pick_pdf * dist * dist / (area * cos_l), pdf_cosine = cos_s * PM_INV_PI;
-                    e = v3_madd(e, m->emission, g * area / pick_pdf * power_heuristic(pdf_light, pdf_cosine));
+                    e = v3_madd(e, radiance, g * area / pick_pdf * power_heuristic(pdf_light, pdf_cosine));
                 }
             }
         }
@@ -147,7 +148,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                         if (m->double_sided) cos_l = fabsf(cos_l);
                         if (cos_l > 0.f) {
                             float pdf_light = pick_pdf * h.t * h.t / (0.5f * len * cos_l), pdf_cosine = cos_s * PM_INV_PI;
-                            e = v3_madd(e, m->emission, PM_PI * power_heuristic(pdf_cosine, pdf_light));
+                            e = v3_madd(e, pm_scene_emission_at(s, h.tri, h.b1, h.b2), PM_PI * power_heuristic(pdf_cosine, pdf_light));
                         }
                     }
                 }

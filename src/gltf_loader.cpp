@@ -170,7 +170,7 @@ std::string join_path(const std::string &folder, const std::string &relative) {
 // What the file-system hooks and the image hook need; their refusals are kept to report them in our words.
 struct TinygltfHooks {
     LexicalPath folder;
-    std::vector<char> image_wanted;  // per image: used as a base colour texture
+    std::vector<char> image_wanted;  // per image: used as a base colour or emissive texture
     std::string error;
     std::vector<std::string> warnings;
 };
@@ -915,8 +915,9 @@ void Loader::preflight(const json &root) {
             if (!ti->is_object()) fail(std::string(info.key) + " is not an object (" + where + ")");
             int texture = required_index(*ti, "index", count_textures_, "texture", sub);
             unsigned_member(*ti, "texCoord", false, 0, INT_MAX, sub);
-            if (info.parent == pbr && strcmp(info.key, "baseColorTexture") == 0 && texture_sources[texture] >= 0)
-                hooks_.image_wanted[texture_sources[texture]] = 1;
+            bool used = (info.parent == pbr && strcmp(info.key, "baseColorTexture") == 0) ||
+                        strcmp(info.key, "emissiveTexture") == 0;
+            if (used && texture_sources[texture] >= 0) hooks_.image_wanted[texture_sources[texture]] = 1;
         }
     });
 
@@ -1237,11 +1238,18 @@ void Loader::convert_materials() {
                         checked(mat.emissiveFactor[2], 0, 1, "emissiveFactor", where) * strength);
         m.double_sided = mat.doubleSided;
         m.base_color_texture = -1;
+        m.emission_texture = -1;
         m.base_color_texcoord = pbr.baseColorTexture.texCoord;
         if (pbr.baseColorTexture.index >= 0) {
             m.base_color_texture = texture_for(pbr.baseColorTexture.index, where);
             if (m.base_color_texture >= 0 && m.base_color_texcoord != 0)
                 warn(where + " reads its base colour texture through TEXCOORD_" + str(m.base_color_texcoord) +
+                     "; only TEXCOORD_0 is loaded");
+        }
+        if (mat.emissiveTexture.index >= 0 && (m.emission.x > 0 || m.emission.y > 0 || m.emission.z > 0)) {
+            m.emission_texture = texture_for(mat.emissiveTexture.index, where);
+            if (m.emission_texture >= 0 && mat.emissiveTexture.texCoord != 0)
+                warn(where + " reads its emissive texture through TEXCOORD_" + str(mat.emissiveTexture.texCoord) +
                      "; only TEXCOORD_0 is loaded");
         }
         materials_.push_back(m);
@@ -1473,6 +1481,7 @@ void Loader::load(pm_scene *out) {
         memset(&m, 0, sizeof m);
         m.base_color = v3(1, 1, 1);
         m.base_color_texture = -1;
+        m.emission_texture = -1;
         m.metallic = m.roughness = 1.f;
         m.ior = 1.5f;
         materials_.push_back(m);

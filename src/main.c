@@ -717,6 +717,11 @@ int main(int argc, char **argv) {
     }
     bool added_sky = false;
     pm_scene_finalize(&scene, !opt.no_default_light, &added_sky);
+    if (scene.emitter_alloc_failed) {
+        fprintf(stderr, "pmview: error: %s: out of memory (the distribution of emissive triangles)\n", opt.scene_path);
+        pm_scene_free(&scene);
+        return 1;
+    }
     if (added_sky && !opt.quiet)
         fprintf(stderr, "pmview: warning: %s: the scene has no light; using a uniform white sky of radiance 1 (--no-default-light turns this off)\n",
                 opt.scene_path);

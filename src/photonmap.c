@@ -101,7 +101,7 @@ static uint32_t build_sources(const pm_scene *s, light_source *out) {
         for (uint32_t i = 0; i < s->emitter_count; i++) {
             uint32_t t = s->emitters[i];
             const pm_material *m = &s->materials[s->triangle_material[t]];
-            power = v3_madd(power, m->emission, PM_PI * pm_triangle_area(s, t) * (m->double_sided ? 2.f : 1.f));
+            power = v3_madd(power, s->emitter_radiance[i], PM_PI * pm_triangle_area(s, t) * (m->double_sided ? 2.f : 1.f));
             for (int k = 0; k < 3; k++) {
                 vec3 p = s->positions[s->indices[3 * (size_t)t + k]];
                 lo = v3_min(lo, p);
@@ -232,7 +232,7 @@ static float emitter_point(const pm_scene *s, uint32_t tri, float b1, float b2, 
     sf->p = v3_add(v3_add(v3_scale(p0, 1.f - b1 - b2), v3_scale(p1, b1)), v3_scale(p2, b2));
     sf->ng = sf->ns = len > 0.f ? v3_scale(cross, 1.f / len) : v3(0.f, 0.f, 1.f);
     sf->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
-    sf->emission = m->emission;
+    sf->emission = pm_scene_emission_at(s, tri, b1, b2);
     sf->double_sided = m->double_sided;
     return 0.5f * len;
 }

@@ -59,7 +59,7 @@ static void analyse(pm_scene *s) {
         a->has_diffuse |= !v3_is_black(kd);
         a->has_mirror |= !v3_is_black(ks);
         a->has_glass |= !v3_is_black(kt);
-        a->has_textures |= s->materials[i].base_color_texture >= 0;
+        a->has_textures |= s->materials[i].base_color_texture >= 0 || s->materials[i].emission_texture >= 0;
     }
     free(material_used);
     a->has_emissive_triangles = s->emitter_count > 0;
@@ -75,36 +75,74 @@ static void analyse(pm_scene *s) {
     a->component_possible[PM_INDIRECT] = a->interreflection_possible;
 }
 
+/* A triangle's emission averaged over its area: the factor alone, or with a texture the mean of
+ * 64 stratified samples of it (a texture black over the triangle makes it no emitter at all). */
+static vec3 triangle_mean_emission(const pm_scene *s, uint32_t t) {
+    const pm_material *m = &s->materials[s->triangle_material[t]];
+    if (v3_is_black(m->emission) || m->emission_texture < 0 || !s->uvs) return m->emission;
+    enum { N = 8 };
+    vec3 sum = v3s(0.f);
+    for (int i = 0; i < N; i++)
+        for (int j = 0; j < N; j++) {
+            /* the square's strata folded onto the triangle: uniform in area */
+            float u = (i + 0.5f) / N, v = (j + 0.5f) / N;
+            if (u + v > 1.f) { u = 1.f - u; v = 1.f - v; }
+            sum = v3_add(sum, pm_scene_emission_at(s, t, u, v));
+        }
+    return v3_scale(sum, 1.f / (N * N));
+}
+
 static void build_emitters(pm_scene *s) {
     free(s->emitters);
     free(s->emitter_cdf);
+    free(s->emitter_radiance);
     s->emitters = NULL;
     s->emitter_cdf = NULL;
-    uint32_t count = 0;
-    for (uint32_t t = 0; t < s->triangle_count; t++)
-        if (!v3_is_black(s->materials[s->triangle_material[t]].emission)) count++;
-    s->emitter_count = count;
+    s->emitter_radiance = NULL;
+    s->emitter_count = 0;
     s->emitter_power = 0.f;
-    if (!count) return;
-    s->emitters = malloc(count * sizeof *s->emitters);
-    s->emitter_cdf = malloc((count + 1) * sizeof *s->emitter_cdf);
+    uint32_t candidates = 0;
+    for (uint32_t t = 0; t < s->triangle_count; t++)
+        if (!v3_is_black(s->materials[s->triangle_material[t]].emission)) candidates++;
+    if (!candidates) return;
+    s->emitters = malloc(candidates * sizeof *s->emitters);
+    s->emitter_radiance = malloc(candidates * sizeof *s->emitter_radiance);
+    s->emitter_cdf = malloc((candidates + 1) * sizeof *s->emitter_cdf);
+    double *running = malloc((candidates + 1) * sizeof *running);
+    if (!s->emitters || !s->emitter_radiance || !s->emitter_cdf || !running) {
+        /* no light from emitters rather than a crash; pm_scene_finalize reports it */
+        free(s->emitters);
+        free(s->emitter_radiance);
+        free(s->emitter_cdf);
+        free(running);
+        s->emitters = NULL;
+        s->emitter_radiance = NULL;
+        s->emitter_cdf = NULL;
+        s->emitter_alloc_failed = true;
+        return;
+    }
     double total = 0.0;
     uint32_t k = 0;
-    s->emitter_cdf[0] = 0.f;
-    double *running = malloc((count + 1) * sizeof *running);
     running[0] = 0.0;
     for (uint32_t t = 0; t < s->triangle_count; t++) {
         const pm_material *m = &s->materials[s->triangle_material[t]];
         if (v3_is_black(m->emission)) continue;
+        vec3 mean = triangle_mean_emission(s, t);
+        if (v3_is_black(mean)) continue;
         /* Power by luminance, floored so a deeply coloured emitter is still sampled. */
-        double w = (double)pm_triangle_area(s, t) * fmax(v3_luminance(m->emission), 1e-3 * v3_max_component(m->emission)) *
+        double w = (double)pm_triangle_area(s, t) * fmax(v3_luminance(mean), 1e-3 * v3_max_component(mean)) *
                    (m->double_sided ? 2.0 : 1.0);
-        s->emitters[k++] = t;
+        if (!(w > 0.0)) continue;
+        s->emitters[k] = t;
+        s->emitter_radiance[k] = mean;
+        k++;
         total += w;
         running[k] = total;
     }
-    for (uint32_t i = 1; i <= count; i++) s->emitter_cdf[i] = total > 0 ? (float)(running[i] / total) : (float)i / count;
-    s->emitter_cdf[count] = 1.f;
+    s->emitter_count = k;
+    s->emitter_cdf[0] = 0.f;
+    for (uint32_t i = 1; i <= k; i++) s->emitter_cdf[i] = total > 0 ? (float)(running[i] / total) : (float)i / k;
+    if (k) s->emitter_cdf[k] = 1.f;
     free(running);
     s->emitter_power = (float)(total * PM_PI);
 }
@@ -147,6 +185,7 @@ void pm_scene_free(pm_scene *s) {
     free(s->cameras);
     free(s->emitters);
     free(s->emitter_cdf);
+    free(s->emitter_radiance);
     memset(s, 0, sizeof *s);
 }
 
@@ -232,6 +271,8 @@ void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_su
     pm_material_split(m, base, &out->kd, &out->ks, &out->kt);
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
     out->emission = m->emission;
+    if (m->emission_texture >= 0 && !v3_is_black(m->emission))
+        out->emission = v3_mul(m->emission, pm_texture_lookup(&s->textures[m->emission_texture], out->u, out->v));
     out->double_sided = m->double_sided;
 }
 
@@ -249,6 +290,16 @@ vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale) {
     float len = v3_length(inward), step = pm_minf(0.5f * len, pm_maxf(scale * (1.f / 65536.f), m32 - m));
     vec3 p = len > 0.f ? v3_madd(sf->p, inward, step / len) : sf->p;
     return pm_offset_ray_origin(p, side_normal, scale);
+}
+
+vec3 pm_scene_emission_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
+    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    if (m->emission_texture < 0 || !s->uvs || v3_is_black(m->emission)) return m->emission;
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    float b0 = 1.f - b1 - b2;
+    float u = b0 * s->uvs[2 * ix[0]] + b1 * s->uvs[2 * ix[1]] + b2 * s->uvs[2 * ix[2]];
+    float v = b0 * s->uvs[2 * ix[0] + 1] + b1 * s->uvs[2 * ix[1] + 1] + b2 * s->uvs[2 * ix[2] + 1];
+    return v3_mul(m->emission, pm_texture_lookup(&s->textures[m->emission_texture], u, v));
 }
 
 float pm_scene_emitter_pdf(const pm_scene *s, uint32_t tri) {

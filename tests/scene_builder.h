@@ -18,6 +18,7 @@ static inline uint32_t sb_material(pm_scene *s, vec3 base, float metallic, float
     memset(&m, 0, sizeof m);
     m.base_color = base;
     m.base_color_texture = -1;
+    m.emission_texture = -1;
     m.metallic = metallic;
     m.roughness = roughness;
     m.transmission = transmission;
