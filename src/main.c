@@ -60,7 +60,7 @@ static const char usage_text[] =
     "  --seed S             random seed (default 1); the image does not depend on --threads\n"
     "  --camera I           use the scene's I-th camera (default 0; automatic framing when there is none)\n"
     "  --exposure EV        display exposure in stops (PNG and window)\n"
-    "  --screenshot FILE    where the window's P key saves a PNG (default pmview-screenshot.png)\n"
+    "  --screenshot FILE    where the window's P key saves a PNG and the layers as .exr (default pmview-screenshot.png)\n"
     "  --no-default-light   do not add the white sky to a scene without lights\n"
     "  --mode progressive|classic  progressive: fresh photons every iteration, radii shrinking (default);\n"
     "                       classic: two-pass photon mapping, maps built once, eye pass repeated\n"
