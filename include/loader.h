@@ -16,6 +16,7 @@ typedef struct {
     uint32_t skipped_degenerate;     /* zero-area or non-finite-normal triangles dropped */
     uint32_t skipped_primitives;     /* points / lines primitives dropped */
     uint32_t warnings;               /* warning lines printed */
+    uint32_t ignored_inputs;         /* material inputs not rendered (alpha modes, normal maps, unsupported extensions...), one warning per kind */
     double seconds;                  /* wall time of the load */
 } pm_load_report;
 

@@ -667,6 +667,7 @@ public:
     const std::vector<std::string> &warnings() const { return warnings_; }
     uint32_t skipped_degenerate() const { return static_cast<uint32_t>(std::min<uint64_t>(degenerate_, UINT32_MAX)); }
     uint32_t skipped_primitives() const { return static_cast<uint32_t>(std::min<uint64_t>(skipped_prims_, UINT32_MAX)); }
+    uint32_t ignored_inputs() const { return ignored_inputs_; }
 
 private:
     // stage 1
@@ -725,6 +726,14 @@ private:
     bool any_uv_ = false;
     std::vector<uint32_t> indices_, triangle_material_;
     uint64_t degenerate_ = 0, skipped_prims_ = 0, repaired_normals_ = 0, clamped_values_ = 0;
+    uint32_t ignored_inputs_ = 0;  // materials using an input pmview does not render (each kind warned once)
+    struct Ignored { uint32_t count; std::string first; };
+    std::map<std::string, Ignored> ignored_;  // kind -> materials using it, the first one's name
+    void note_ignored(const std::string &kind, const std::string &material) {
+        Ignored &i = ignored_[kind];
+        if (i.count++ == 0) i.first = material;
+        ignored_inputs_++;
+    }
 };
 
 // ---- stage 1: bytes, container, JSON, preflight
@@ -1220,6 +1229,22 @@ void Loader::convert_materials() {
         const tinygltf::Material &mat = model_.materials[i];
         const tinygltf::PbrMetallicRoughness &pbr = mat.pbrMetallicRoughness;
         std::string where = "material " + str(i);
+        /* what this material asks for that pmview does not render: warned once per kind below */
+        std::string name = mat.name.empty() ? where : "material " + str(i) + " " + printable(mat.name);
+        if (mat.alphaMode == "MASK") note_ignored("alphaMode MASK (cut-outs render opaque)", name);
+        if (mat.alphaMode == "BLEND") note_ignored("alphaMode BLEND (renders opaque)", name);
+        if (mat.normalTexture.index >= 0) note_ignored("normal textures", name);
+        if (mat.occlusionTexture.index >= 0) note_ignored("occlusion textures", name);
+        if (pbr.metallicRoughnessTexture.index >= 0) note_ignored("metallic-roughness textures (the factors are used)", name);
+        if (pbr.baseColorTexture.extensions.count("KHR_texture_transform") || mat.emissiveTexture.extensions.count("KHR_texture_transform"))
+            note_ignored("KHR_texture_transform", name);
+        for (const auto &e : mat.extensions) {
+            if (e.first == "KHR_materials_transmission") {
+                if (e.second.Has("transmissionTexture")) note_ignored("transmission textures (the factor is used)", name);
+            } else if (e.first != "KHR_materials_emissive_strength" && e.first != "KHR_materials_ior") {
+                note_ignored(e.first, name);
+            }
+        }
         pm_material m;
         memset(&m, 0, sizeof m);
         m.base_color = v3(checked(pbr.baseColorFactor[0], 0, 1, "baseColorFactor", where),
@@ -1254,6 +1279,8 @@ void Loader::convert_materials() {
         }
         materials_.push_back(m);
     }
+    for (const auto &k : ignored_)
+        warn("ignored: " + k.first + " in " + str(k.second.count) + " material(s), first " + k.second.first);
 }
 
 int attribute(const tinygltf::Primitive &prim, const char *name) {
@@ -1525,6 +1552,7 @@ extern "C" bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_loa
             report->warnings = static_cast<uint32_t>(loader.warnings().size());
             report->skipped_degenerate = loader.skipped_degenerate();
             report->skipped_primitives = loader.skipped_primitives();
+            report->ignored_inputs = loader.ignored_inputs();
             for (const std::string &w : loader.warnings())
                 if (!quiet) fprintf(stderr, "pmview: warning: %s: %s\n", path, w.c_str());
         }

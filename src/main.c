@@ -726,10 +726,10 @@ int main(int argc, char **argv) {
         fprintf(stderr, "pmview: warning: %s: the scene has no light; using a uniform white sky of radiance 1 (--no-default-light turns this off)\n",
                 opt.scene_path);
     if (opt.stats) {
-        printf("stat load seconds=%.4f triangles=%u vertices=%u materials=%u lights=%u emissive_triangles=%u textures=%u cameras=%u skipped_degenerate=%u skipped_primitives=%u\n",
+        printf("stat load seconds=%.4f triangles=%u vertices=%u materials=%u lights=%u emissive_triangles=%u textures=%u cameras=%u skipped_degenerate=%u skipped_primitives=%u ignored_inputs=%u\n",
                report.seconds, scene.triangle_count, scene.vertex_count, scene.material_count, scene.light_count,
                scene.emitter_count, scene.texture_count, scene.camera_count, report.skipped_degenerate,
-               report.skipped_primitives);
+               report.skipped_primitives, report.ignored_inputs);
         print_analysis_stats(&scene);
     }
 

@@ -738,6 +738,27 @@ static void test_rejections(void) {
 
 /* ---------------------------------------------------------------- main */
 
+/* Inputs pmview does not render are counted (stat load ignored_inputs) and warned once per kind. */
+static void test_ignored_inputs(void) {
+    prim_spec prims[3];
+    for (int i = 0; i < 3; i++) {
+        prim_spec p = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, i};
+        prims[i] = p;
+    }
+    doc_spec doc = {NULL, NULL,
+                    "[{\"name\":\"leaves\",\"alphaMode\":\"MASK\"},{\"alphaMode\":\"MASK\"},"
+                    "{\"alphaMode\":\"BLEND\",\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1}}}]",
+                    "\"extensionsUsed\":[\"KHR_materials_clearcoat\"],"};
+    write_model("ignored.gltf", prims, 3, &doc);
+    pm_scene s;
+    pm_load_report r;
+    if (!load_ok("ignored.gltf", &s, &r)) return;
+    /* two MASK, one BLEND, one clearcoat: four uses; warnings: one per kind (3) + the extension list */
+    CHECK(r.ignored_inputs == 4, "ignored inputs %u (2 MASK, 1 BLEND, 1 clearcoat)", r.ignored_inputs);
+    CHECK(r.warnings == 4, "warnings %u: MASK, BLEND, clearcoat once each, and the unsupported extension list", r.warnings);
+    pm_scene_free(&s);
+}
+
 int main(void) {
     snprintf(test_dir, sizeof test_dir, "/tmp/pmview-test-loader-XXXXXX");
     if (!mkdtemp(test_dir)) {
@@ -754,6 +775,7 @@ int main(void) {
     test_cameras();
     test_lights();
     test_materials();
+    test_ignored_inputs();
     test_skips();
     test_sparse();
     test_rejections();
