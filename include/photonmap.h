@@ -91,12 +91,6 @@ void pm_photon_maps_free(pm_photon_maps *maps);
  * photons that arrived from the front of this surface, divided by the kernel's area. */
 vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e);
 
-/* The progressive mode's gather: the summed power and the count of the photons within
- * sqrt(radius2) of p that carry a tag in path_mask, arrived from the front of the surface facing
- * n and lie on a surface of about the same orientation (photons on the back of a thin wall, or
- * on another surface across a corner, count for nothing). */
-uint32_t pm_photon_gather(const pm_kdtree *map, vec3 p, vec3 n, float radius2, unsigned path_mask, vec3 *power);
-
 /* The precomputed irradiance nearest p on a surface facing n; false when there is none within
  * irradiance_radius (the caller then makes a full estimate). */
 bool pm_photon_irradiance_lookup(const pm_photon_maps *maps, vec3 p, vec3 n, vec3 *irradiance);

@@ -53,7 +53,6 @@ void pm_session_destroy(pm_session *s);
 /* One iteration on the calling thread (synchronous use only). False when out of memory. */
 bool pm_session_iterate(pm_session *s);
 const pm_film *pm_session_film(const pm_session *s);
-const pm_camera *pm_session_camera(const pm_session *s);
 pm_progressive *pm_session_progressive(pm_session *s);               /* NULL in the classic mode */
 const pm_photon_maps *pm_session_classic_maps(const pm_session *s);  /* NULL in the progressive mode */
 const pm_photon_stats *pm_session_classic_photon_stats(const pm_session *s);
@@ -64,7 +63,6 @@ void pm_session_restart(pm_session *s, const pm_camera *camera);
 /* ---- background rendering ---- */
 bool pm_session_start(pm_session *s, char *err, size_t err_size);
 void pm_session_pause(pm_session *s, bool paused);
-bool pm_session_paused(const pm_session *s);
 /* Takes effect at once: the running pass stops at its next task. camera may be NULL (same camera).
  * indirect: -1 keeps the setting, else the new pm_indirect_mode (the G key). */
 void pm_session_request_restart(pm_session *s, const pm_camera *camera, int indirect);

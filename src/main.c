@@ -531,9 +531,9 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
     float step = 0.05f * (scene->radius > 0.f ? scene->radius : 1.f);
     uint32_t camera_index = opt->camera >= 0 ? (uint32_t)opt->camera : 0;
     uint64_t version = 0;
-    uint32_t shown_iterations = 0;
     bool finished_said = false, paused = false;
     int view_mode = PM_VIEW_SHADED;
+    int indirect = opt->indirect; /* the G key's setting */
     for (;;) {
         pm_view_events ev = pm_view_poll(view, &display, true, 1.0 / 60.0);
         if (ev.quit) break;
@@ -562,9 +562,7 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
             pm_session_request_restart(session, moved ? &camera : NULL, -1);
             if (restart_requested == 0) restart_requested = now_seconds();
         }
-        if (ev.toggle_gather && opt->classic == false) {
-            static int indirect = -1;
-            if (indirect < 0) indirect = opt->indirect;
+        if (ev.toggle_gather && !opt->classic) {
             indirect = indirect == PM_INDIRECT_GATHER ? PM_INDIRECT_PHOTONS : PM_INDIRECT_GATHER;
             pm_session_request_restart(session, NULL, indirect);
             printf("pmview: indirect light by %s\n", indirect == PM_INDIRECT_GATHER ? "final gathering" : "photons at the visible point");
@@ -622,7 +620,6 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
             ev.save_png = false;
             pm_session_unlock_latest(session);
             redraw = true;
-            shown_iterations = progress.iterations;
             char status[192];
             snprintf(status, sizeof status, "%s%u it  %.2f Mphotons  %.1f Mphotons/s  %.1f s  r %.3g%s", progress.preview ? "preview  " : "",
                      progress.iterations, progress.photons * 1e-6, progress.seconds > 0 ? progress.photons / progress.seconds * 1e-6 : 0.0,
@@ -640,7 +637,6 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
             }
         }
         if (redraw) { pm_view_draw(view, &display); frames++; }
-        (void)shown_iterations;
     }
     double seconds = now_seconds() - loop_start;
     if (opt->stats)
@@ -652,7 +648,7 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
     return 0;
 }
 
-static void print_final_stats(const options *opt, pm_session *session, const pm_accel *accel, const reference_image *reference) {
+static void print_final_stats(const options *opt, pm_session *session, const pm_accel *accel) {
     if (!opt->stats) return;
     const pm_film *film = pm_session_film(session);
     pm_eye_stats eye_stats;
@@ -692,7 +688,6 @@ static void print_final_stats(const options *opt, pm_session *session, const pm_
            (unsigned long long)eye_stats.dropped_samples);
     printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu\n", peak_rss_bytes(), pm_film_bytes(film),
            pm_accel_bytes(accel));
-    (void)reference;
 }
 
 int main(int argc, char **argv) {
@@ -788,7 +783,7 @@ int main(int argc, char **argv) {
     }
     exit_code = window ? run_window(&opt, &scene, accel, &session, &config, &camera) : run_snapshot(&opt, session, &reference);
     if (exit_code == 1) goto done;
-    print_final_stats(&opt, session, accel, &reference);
+    print_final_stats(&opt, session, accel);
 
 done:
     free_reference(&reference);

@@ -749,7 +749,3 @@ vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_
     }
     return v3_scale(sum, 1.f / (PM_PI * r2));
 }
-
-uint32_t pm_photon_gather(const pm_kdtree *map, vec3 p, vec3 n, float radius2, unsigned path_mask, vec3 *power) {
-    return pm_kdtree_sum_facing(map, p, n, radius2, path_mask, power);
-}

@@ -103,7 +103,6 @@ void pm_session_destroy(pm_session *s) {
 }
 
 const pm_film *pm_session_film(const pm_session *s) { return &s->film; }
-const pm_camera *pm_session_camera(const pm_session *s) { return &s->camera; }
 pm_progressive *pm_session_progressive(pm_session *s) { return s->progressive; }
 const pm_photon_maps *pm_session_classic_maps(const pm_session *s) { return s->config.mode == PM_MODE_CLASSIC ? &s->maps : NULL; }
 const pm_photon_stats *pm_session_classic_photon_stats(const pm_session *s) { return &s->classic_photon_stats; }
@@ -340,7 +339,6 @@ void pm_session_pause(pm_session *s, bool paused) {
     pthread_mutex_unlock(&s->lock);
 }
 
-bool pm_session_paused(const pm_session *s) { return s->paused; }
 
 bool pm_session_set_view(pm_session *s, pm_session_view view) {
     if (view != PM_VIEW_SHADED && !s->progressive) return false;
