@@ -280,9 +280,26 @@ static void keep_tagged(pm_photon_buffer *b, int path) {
     b->count = kept;
 }
 
-/* Sorts a kind's photons into its grid, the cell twice the radius its queries are expected to use. */
+/* The radius the visible points will start from, on average: before any query has run, the
+ * grid's cell follows it (the density radius alone would be far too large for caustics, whose
+ * photons crowd into a small part of the diffuse area). */
+static double mean_initial_radius(const pm_progressive *p, int kind) {
+    if (p->settings.initial_radius > 0.0) return p->settings.initial_radius;
+    double sum = 0.0, density = kind == KIND_CAUSTIC ? 0.0 : sqrt(p->density_r2[kind]);
+    size_t n = 0;
+    for (size_t i = 0; i < p->pixels; i++) {
+        if (!p->visible[i].valid) continue;
+        sum += fmax(PM_PPM_FOOTPRINT_PIXELS * (double)p->visible[i].path_length * p->pixel_angle, density);
+        n++;
+    }
+    return n ? sum / (double)n : 0.0;
+}
+
+/* Sorts a kind's photons into its grid, the cell three times the radius its queries are expected
+ * to use (radii vary per pixel around that mean). */
 static bool build_grid(pm_progressive *p, int kind) {
-    double r = p->query_radius[kind] > 0.0 ? p->query_radius[kind] : sqrt(p->density_r2[kind]);
+    double r = p->query_radius[kind] > 0.0 ? p->query_radius[kind] : mean_initial_radius(p, kind);
+    if (!(r > 0.0)) r = sqrt(p->density_r2[kind]);
     if (kind == KIND_INDIRECT && p->gathering) r = sqrt(p->gather_r2);
     if (!(r > 0.0)) r = 1e-3 * (double)p->scene->ray_scale;
     if (!p->buffer[kind].count) { p->grid[kind].count = 0; return true; }
