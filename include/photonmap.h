@@ -76,6 +76,11 @@ double pm_photon_tracer_projection_fraction(const pm_photon_tracer *t);
 bool pm_photon_tracer_trace(pm_photon_tracer *t, bool caustic, uint64_t photons, uint64_t seed, pm_kdtree *out,
                             pm_photon_stats *stats);
 
+/* Passes started after this (CLOCK_MONOTONIC seconds; 0 = never) stop starting chunks once it is
+ * past, and rescale what they stored so the expected power stays the same: a time budget holds
+ * however long a pass would have run. Not for trees (the classic mode sizes its passes). */
+void pm_photon_tracer_set_deadline(pm_photon_tracer *t, double deadline);
+
 /* A growable array of photon records, reused from pass to pass. */
 typedef struct { pm_photon *data; size_t count, capacity; } pm_photon_buffer;
 /* The same pass into a buffer (grown when needed, never shrunk) instead of a new tree. */

@@ -75,6 +75,9 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film);
 /* Starts again from nothing (a new camera, or the same one): clears the film and per-pixel
  * state; allocates nothing. */
 void pm_progressive_restart(pm_progressive *p, pm_film *film, const pm_camera *camera);
+/* A time budget's end (CLOCK_MONOTONIC seconds, 0 = none): photon passes running past it are
+ * cut short (see pm_photon_tracer_set_deadline). */
+void pm_progressive_set_deadline(pm_progressive *p, double deadline);
 const pm_progressive_stats *pm_progressive_get_stats(const pm_progressive *p);
 pm_radius_summary pm_progressive_radii(const pm_progressive *p, const pm_film *film);
 /* Whether this scene needs any photon pass at all. */

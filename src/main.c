@@ -413,6 +413,16 @@ static uint64_t session_photons(pm_session *session) {
     return p ? pm_progressive_get_stats(p)->photons.emitted : pm_session_classic_photon_stats(session)->emitted;
 }
 
+/* Seconds spent so far in the parts of an iteration that repeat at their full length: the eye
+ * pass and the gather in the progressive mode (its photon passes shrink to fit the time left),
+ * the eye pass in the classic mode (its maps are built once, before the first). */
+static double repeating_seconds(pm_session *session) {
+    pm_progressive *p = pm_session_progressive(session);
+    if (!p) return pm_session_classic_eye_stats(session)->seconds;
+    const pm_progressive_stats *st = pm_progressive_get_stats(p);
+    return st->eye.seconds + st->gather_seconds;
+}
+
 /* Renders to --iterations or --time, then writes the file; SIGINT and SIGTERM end the loop after
  * the iteration under way, and the image so far is written before exiting 130 or 143. */
 static int run_snapshot(const options *opt, pm_session *session, const reference_image *reference) {
@@ -427,10 +437,17 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
     if (reference->rgb[0] && !scratch) { fprintf(stderr, "pmview: error: out of memory (reference comparison)\n"); return 1; }
     /* --time and the reported render time count from here: the photon pass is part of what a
      * budget buys. A budget spent before the first iteration still gets that iteration. */
-    double start = now_seconds();
+    double start = now_seconds(), last_iteration = 0.0, fixed_before = 0.0;
     uint32_t next_progress = 1;
+    if (opt->time_limit > 0 && pm_session_progressive(session))
+        pm_progressive_set_deadline(pm_session_progressive(session), start + opt->time_limit);
     while ((long)film->samples < target && !interrupted_by) {
-        if (opt->time_limit > 0 && film->samples > 0 && now_seconds() - start >= opt->time_limit) break;
+        /* --time: start an iteration only if it is expected to end nearer the budget than
+         * stopping now would. The last iteration predicts the next one's eye pass and gather;
+         * photon passes shrink to fit the time left (pm_progressive_set_deadline). */
+        if (opt->time_limit > 0 && film->samples > 0 && now_seconds() + 0.5 * last_iteration - start >= opt->time_limit) break;
+        double iteration_start = now_seconds();
+        fixed_before = repeating_seconds(session);
         if (!pm_session_iterate(session)) {
             fprintf(stderr, "%spmview: error: %s: out of memory in an iteration\n", tty ? "\n" : "", opt->scene_path);
             free(scratch);
@@ -441,6 +458,7 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
             printf("stat progress iterations=%u seconds=%.4f relmse=%.6f\n", film->samples, now_seconds() - start, e);
             next_progress *= 2;
         }
+        last_iteration = fmin(now_seconds() - iteration_start, repeating_seconds(session) - fixed_before);
         show_progress(tty, film->samples, opt->iterations ? opt->iterations : 0, now_seconds() - start, opt->time_limit,
                       session_photons(session));
     }

@@ -376,6 +376,10 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     return true;
 }
 
+void pm_progressive_set_deadline(pm_progressive *p, double deadline) {
+    if (p->tracer) pm_photon_tracer_set_deadline(p->tracer, deadline);
+}
+
 const pm_progressive_stats *pm_progressive_get_stats(const pm_progressive *p) { return &p->stats; }
 
 pm_radius_summary pm_progressive_radii(const pm_progressive *p, const pm_film *film) {

@@ -81,5 +81,17 @@ fi
 checks=$((checks + 1))
 iters=$(sed -n 's/.*(48x48, \([0-9]*\) iterations.*/\1/p' "$tmp/out")
 [ "${iters:-0}" -ge 1 ] || { fails=$((fails + 1)); echo "FAIL: the interrupted snapshot holds no iteration"; }
+# --time held on a closed room of albedo-1 walls (Russian roulette alone never ends its photon
+# paths), with the default photon count and with a pass far longer than the budget: the render
+# ends within 5% of the budget (optimised build: the clock, not the sanitizer, is under test)
+python3 tests/white_room.py "$tmp/room.gltf"
+for photons in auto 5000000; do
+    flag=""; [ "$photons" = auto ] || flag="--photons $photons"
+    expect "albedo-1 room, --time 3, photons $photons" 0 ./pmview "$tmp/room.gltf" --width 64 --time 3 $flag --snapshot "$tmp/room.exr"
+    checks=$((checks + 1))
+    secs=$(sed -n 's/.*iterations, \([0-9.]*\) s).*/\1/p' "$tmp/out")
+    awk -v s="${secs:-0}" 'BEGIN { exit !(s >= 2.85 && s <= 3.15) }' ||
+        { fails=$((fails + 1)); echo "FAIL: --time 3 on the albedo-1 room (photons $photons) took ${secs:-?} s, want 3 +- 5%"; cat "$tmp/out"; }
+done
 echo "test_cli: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]
