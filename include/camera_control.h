@@ -18,7 +18,7 @@ pm_camera pm_camera_pan(pm_camera c, vec3 *pivot, float dx, float dy, int height
 pm_camera pm_camera_dolly(pm_camera c, vec3 pivot, float steps);
 /* Moves along the camera's forward, right and up by `step` scene units per unit of move; the pivot follows. */
 pm_camera pm_camera_fly(pm_camera c, vec3 *pivot, const float move[3], float step);
-/* Keeps the orientation and backs off until the scene's bounding sphere fills the view. */
+/* Keeps the orientation and backs off until the scene fills the view (pm_scene_fit_camera). */
 pm_camera pm_camera_frame(const pm_scene *s, pm_camera c, float aspect);
 
 #endif

@@ -11,6 +11,15 @@
 #define PM_DEFAULT_MAX_SPECULAR_DEPTH 64 /* a safety stop: past depth 4, roulette on throughput ends eye paths */
 #define PM_MAX_IMAGE_SIDE 16384
 
+/* the default environment (radiance), for files without KHR_lights_punctual whose emitters do
+ * not enclose the view: a lit white top (about 1.1) stands out against the horizon (0.35) */
+#define PM_SKY_ZENITH 1.5
+#define PM_SKY_HORIZON 0.35
+#define PM_SKY_GROUND 0.3
+#define PM_VIEW_ENCLOSED_FRACTION 0.5   /* cosine rays from the surfaces in view that hit geometry: above this the view is a room
+                                           (the open Cornell box 0.67), its emitters light it alone; a model in open space is near 0 */
+#define PM_CAMERA_ENCLOSED_FRACTION 0.99 /* rays from the camera in all directions that hit geometry: the camera is shut in */
+
 /* progressive photon mapping (the default mode) */
 #define PM_DEFAULT_ALPHA (2.0 / 3.0)       /* Hachisuka and Jensen's radius reduction */
 #define PM_PPM_PHOTONS_PER_PIXEL 0.25      /* photons per iteration = pixels x this, clamped below */

@@ -13,6 +13,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include "pm_math.h"
+#include "sky.h"
 
 enum { PM_WRAP_REPEAT = 0, PM_WRAP_CLAMP = 1, PM_WRAP_MIRROR = 2 };
 
@@ -51,9 +52,11 @@ typedef struct {
 typedef struct {
     vec3 position;
     vec3 forward, up, right; /* unit, right-handed: forward = node -Z, up = node +Y */
-    float yfov;              /* radians, vertical */
-    float aspect;            /* glTF aspectRatio, 0 when absent */
+    float yfov;              /* radians, vertical (perspective) */
+    float aspect;            /* glTF aspectRatio (xmag/ymag for orthographic), 0 when absent */
     float znear;
+    bool orthographic;       /* parallel rays from the image plane through position */
+    float ymag;              /* orthographic: half the view's height in scene units (the width follows the image) */
 } pm_camera;
 
 /* Which of the four image components a scene can make non-zero. */
@@ -82,8 +85,9 @@ typedef struct {
     pm_light *lights;       uint32_t light_count;
     pm_camera *cameras;     uint32_t camera_count;
 
-    bool sky;                 /* uniform environment around the scene */
+    bool sky;                 /* an environment around the scene: radiance sky_radiance x the map's (1 without one) */
     vec3 sky_radiance;
+    pm_sky_map *sky_map;      /* owned; NULL = uniform */
 
     /* derived by pm_scene_finalize */
     vec3 bounds_min, bounds_max;
@@ -102,9 +106,25 @@ typedef struct {
  * any light a uniform white sky (returns true in *added_sky so the caller can warn). */
 void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky);
 void pm_scene_free(pm_scene *s);
+/* Replaces the sky (the scene takes the map; NULL map = uniform, sky false = none) and analyses
+ * the scene again: which components are possible depends on it. */
+void pm_scene_set_sky(pm_scene *s, bool sky, vec3 radiance, pm_sky_map *map);
 
-/* A camera framing the scene's bounds from the front (+Z), for files without a camera. */
+/* Radiance arriving from the environment along -dir (dir points from the scene to the sky). */
+static inline vec3 pm_scene_sky(const pm_scene *s, vec3 dir) {
+    return s->sky_map ? v3_mul(s->sky_radiance, pm_sky_map_radiance(s->sky_map, dir)) : s->sky_radiance;
+}
+/* The environment's radiance averaged over all directions. */
+static inline vec3 pm_scene_sky_mean(const pm_scene *s) {
+    return s->sky_map ? v3_mul(s->sky_radiance, s->sky_map->mean) : s->sky_radiance;
+}
+
+/* A camera framing the scene from the front (+Z) and a little above, for files without a camera. */
 pm_camera pm_scene_auto_camera(const pm_scene *s, float aspect);
+/* Keeps c's orientation and kind and moves it back from the centre of the bounds (or, for an
+ * orthographic camera, sets its ymag) until every vertex is in view with a 5% margin: the model
+ * fills the frame, however far its bounding sphere reaches past its silhouette. */
+pm_camera pm_scene_fit_camera(const pm_scene *s, pm_camera c, float aspect);
 
 /* Surface description at a hit, what the integrators work with. */
 typedef struct {

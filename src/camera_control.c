@@ -1,6 +1,8 @@
 /* camera_control.c: orbit, pan, dolly, fly and framing as rotations and translations of a pm_camera. */
 #include "camera_control.h"
 
+#include "eye.h"
+
 /* Rodrigues' rotation of v about the unit axis by angle. */
 static vec3 rotate(vec3 v, vec3 axis, float angle) {
     float c = cosf(angle), s = sinf(angle);
@@ -25,7 +27,7 @@ pm_camera pm_camera_orbit(pm_camera c, vec3 pivot, float yaw, float pitch) {
 
 pm_camera pm_camera_pan(pm_camera c, vec3 *pivot, float dx, float dy, int height) {
     float distance = v3_length(v3_sub(*pivot, c.position));
-    float per_pixel = 2.f * tanf(0.5f * c.yfov) * distance / (float)(height > 0 ? height : 1);
+    float per_pixel = pm_camera_pixel_size(&c, height, distance);
     vec3 move = v3_add(v3_scale(c.right, -dx * per_pixel), v3_scale(c.up, dy * per_pixel));
     c.position = v3_add(c.position, move);
     *pivot = v3_add(*pivot, move);
@@ -33,6 +35,10 @@ pm_camera pm_camera_pan(pm_camera c, vec3 *pivot, float dx, float dy, int height
 }
 
 pm_camera pm_camera_dolly(pm_camera c, vec3 pivot, float steps) {
+    if (c.orthographic) { /* moving an orthographic camera changes nothing on screen: zoom */
+        c.ymag *= powf(0.85f, steps);
+        return c;
+    }
     vec3 to = v3_sub(pivot, c.position);
     float distance = v3_length(to);
     if (!(distance > 0.f)) return c;
@@ -50,11 +56,4 @@ pm_camera pm_camera_fly(pm_camera c, vec3 *pivot, const float move[3], float ste
     return c;
 }
 
-pm_camera pm_camera_frame(const pm_scene *s, pm_camera c, float aspect) {
-    float half = 0.5f * c.yfov;
-    if (aspect > 0.f && aspect < 1.f) half = atanf(tanf(half) * aspect);
-    float r = s->radius > 0.f ? s->radius : 1.f;
-    float distance = r / sinf(half) * 1.05f;
-    c.position = v3_sub(s->center, v3_scale(c.forward, distance));
-    return c;
-}
+pm_camera pm_camera_frame(const pm_scene *s, pm_camera c, float aspect) { return pm_scene_fit_camera(s, c, aspect); }

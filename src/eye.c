@@ -29,16 +29,59 @@ typedef struct {
     struct { uint64_t rays, dropped; char pad[48]; } counters[MAX_THREADS];
 } eye_job;
 
+static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
+
 void pm_camera_ray(const pm_camera *c, int width, int height, float x, float y, vec3 *origin, vec3 *dir) {
-    float tan_half = tanf(0.5f * c->yfov);
+    float half = c->orthographic ? c->ymag : tanf(0.5f * c->yfov);
     float aspect = (float)width / (float)height;
-    float sx = (2.f * x / width - 1.f) * tan_half * aspect;
-    float sy = (1.f - 2.f * y / height) * tan_half;
-    *origin = c->position;
-    *dir = v3_normalize(v3_add(c->forward, v3_add(v3_scale(c->right, sx), v3_scale(c->up, sy))));
+    float sx = (2.f * x / width - 1.f) * half * aspect;
+    float sy = (1.f - 2.f * y / height) * half;
+    vec3 across = v3_add(v3_scale(c->right, sx), v3_scale(c->up, sy));
+    if (c->orthographic) {
+        *origin = v3_add(c->position, across);
+        *dir = c->forward;
+    } else {
+        *origin = c->position;
+        *dir = v3_normalize(v3_add(c->forward, across));
+    }
 }
 
-static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
+void pm_eye_enclosure(const pm_scene *s, const pm_accel *a, const pm_camera *cam, float aspect, float *view_fraction,
+                      float *around_fraction) {
+    enum { GRID = 32, AROUND = 1024, BOUNCES = 4 };
+    int width = aspect >= 1.f ? GRID : (int)fmaxf(1.f, GRID * aspect), height = aspect >= 1.f ? (int)fmaxf(1.f, GRID / aspect) : GRID;
+    int rays = 0, closed = 0;
+    pm_hit h;
+    pm_rng rng = pm_rng_for(0x5e1f, 0, 0);
+    for (int y = 0; y < height; y++)
+        for (int x = 0; x < width; x++) {
+            vec3 o, d;
+            pm_camera_ray(cam, width, height, x + 0.5f, y + 0.5f, &o, &d);
+            rays += BOUNCES;
+            if (!pm_accel_intersect(a, o, d, INFINITY, &h)) continue;
+            /* what the seen surface sees: light from outside reaches it only along rays that escape */
+            pm_surface sf;
+            pm_scene_surface(s, h.tri, h.b1, h.b2, &sf);
+            vec3 n = facing(sf.ng, v3_neg(d));
+            vec3 from = pm_surface_origin(&sf, n, s->ray_scale);
+            for (int k = 0; k < BOUNCES; k++)
+                closed += pm_accel_intersect(a, from, pm_sample_cosine(n, pm_rng_float(&rng), pm_rng_float(&rng)), INFINITY, &h);
+        }
+    *view_fraction = rays ? (float)closed / (float)rays : 0.f;
+    int hits = 0;
+    for (int i = 0; i < AROUND; i++) {
+        /* a spherical Fibonacci set: even coverage without randomness */
+        float z = 1.f - (2.f * i + 1.f) / AROUND, r = sqrtf(fmaxf(0.f, 1.f - z * z)), phi = 2.39996323f * i;
+        hits += pm_accel_intersect(a, cam->position, v3(r * cosf(phi), r * sinf(phi), z), INFINITY, &h);
+    }
+    *around_fraction = (float)hits / AROUND;
+}
+
+float pm_camera_pixel_size(const pm_camera *c, int height, float distance) {
+    float h = (float)(height > 0 ? height : 1);
+    return c->orthographic ? 2.f * c->ymag / h : 2.f * tanf(0.5f * c->yfov) * distance / h;
+}
+
 
 /* glTF's recommended spot cone falloff. */
 static float spot_falloff(const pm_light *l, vec3 light_to_point) {
@@ -123,6 +166,20 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         }
     }
 
+    /* A sky with a map (a sun, a bright window) gets a ray drawn from the map too, weighted
+     * against the cosine ray below; a uniform sky is sampled best by the cosine ray alone. */
+    if (s->sky && s->sky_map) {
+        vec3 wi;
+        float pdf_sky;
+        vec3 radiance = v3_mul(s->sky_radiance, pm_sky_map_sample(s->sky_map, pm_rng_float(rng), pm_rng_float(rng), &wi, &pdf_sky));
+        float cos_s = v3_dot(ns, wi);
+        if (pdf_sky > 0.f && cos_s > 0.f && v3_dot(ng, wi) > 0.f) {
+            (*rays)++;
+            if (!pm_accel_occluded(a, origin, wi, INFINITY))
+                e = v3_madd(e, radiance, cos_s / pdf_sky * power_heuristic(pdf_sky, cos_s * PM_INV_PI));
+        }
+    }
+
     /* One cosine-distributed ray serves the sky and, weighted against the area sample above, the
      * emitters: near an emitter (a lamp's own wall, a glowing corner) area sampling alone has
      * unbounded variance, and the cosine sample bounds it. */
@@ -131,12 +188,13 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         float cos_s = v3_dot(ns, wi);
         if (v3_dot(wi, ng) > 0.f && cos_s > 0.f) {
             (*rays)++;
+            float sky_weight = s->sky_map ? power_heuristic(cos_s * PM_INV_PI, pm_sky_map_pdf(s->sky_map, wi)) : 1.f;
             if (!s->emitter_count) {
-                if (!pm_accel_occluded(a, origin, wi, INFINITY)) e = v3_madd(e, s->sky_radiance, PM_PI);
+                if (!pm_accel_occluded(a, origin, wi, INFINITY)) e = v3_madd(e, pm_scene_sky(s, wi), PM_PI * sky_weight);
             } else {
                 pm_hit h;
                 if (!pm_accel_intersect(a, origin, wi, INFINITY, &h)) {
-                    if (s->sky) e = v3_madd(e, s->sky_radiance, PM_PI);
+                    if (s->sky) e = v3_madd(e, pm_scene_sky(s, wi), PM_PI * sky_weight);
                 } else {
                     const pm_material *m = &s->materials[s->triangle_material[h.tri]];
                     float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
@@ -200,7 +258,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 ou
         pm_hit h;
         (*rays)++;
         if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) {
-            if (s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, s->sky_radiance));
+            if (s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
             return;
         }
         pm_surface sf;
@@ -276,7 +334,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, vec3 throughput,
         pm_hit h;
         (*rays)++;
         if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) {
-            if (camera_ray && s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, s->sky_radiance));
+            if (camera_ray && s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
             return false;
         }
         path_length += h.t;

@@ -622,6 +622,12 @@ struct WorldTransform {
         if (!(len > 0) || !std::isfinite(len)) return v3(0, 0, 0);
         return v3(static_cast<float>(out[0] / len), static_cast<float>(out[1] / len), static_cast<float>(out[2] / len));
     }
+    // How much the transform stretches a direction (0 when it collapses it).
+    double stretch(const double d[3]) const {
+        double out[3];
+        for (int r = 0; r < 3; r++) out[r] = matrix.at(r, 0) * d[0] + matrix.at(r, 1) * d[1] + matrix.at(r, 2) * d[2];
+        return std::sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2]);
+    }
     vec3 origin() const {
         const float zero[3] = {0, 0, 0};
         return point(zero);
@@ -1145,11 +1151,19 @@ void Loader::add_light(int index, const WorldTransform &world, int node) {
 void Loader::add_camera(int index, const WorldTransform &world, int node) {
     const tinygltf::Camera &c = model_.cameras[index];
     std::string where = "camera " + str(index) + " on node " + str(node);
-    if (c.type != "perspective")
-        return warn(where + " is " + printable(c.type) + "; skipped (only perspective cameras are supported)");
+    bool orthographic = c.type == "orthographic";
+    if (c.type != "perspective" && !orthographic)
+        return warn(where + " is " + printable(c.type) + "; skipped (perspective and orthographic cameras are supported)");
     const tinygltf::PerspectiveCamera &p = c.perspective;
-    if (!(p.yfov > 0 && p.yfov < M_PI) || !(p.znear > 0) || !std::isfinite(p.znear))
+    const tinygltf::OrthographicCamera &o = c.orthographic;
+    if (orthographic) {
+        /* the specification forbids zero magnifications; a negative one would mirror the image */
+        if (!(std::fabs(o.xmag) > 0) || !(std::fabs(o.ymag) > 0) || !std::isfinite(o.xmag) || !std::isfinite(o.ymag) ||
+            std::fabs(o.ymag) > FLT_MAX || std::fabs(o.xmag) > FLT_MAX)
+            return warn(where + " has an invalid xmag or ymag; skipped");
+    } else if (!(p.yfov > 0 && p.yfov < M_PI) || !(p.znear > 0) || !std::isfinite(p.znear)) {
         return warn(where + " has an invalid yfov or znear; skipped");
+    }
     const double minus_z[3] = {0, 0, -1}, plus_y[3] = {0, 1, 0};
     pm_camera cam;
     memset(&cam, 0, sizeof cam);
@@ -1162,9 +1176,22 @@ void Loader::add_camera(int index, const WorldTransform &world, int node) {
         return warn(where + " has a degenerate transform; skipped");
     cam.up = v3_scale(up, 1.f / up_length);
     cam.right = v3_cross(cam.forward, cam.up);
-    cam.yfov = static_cast<float>(p.yfov);
-    cam.aspect = (p.aspectRatio > 0 && p.aspectRatio < FLT_MAX) ? static_cast<float>(p.aspectRatio) : 0.f;
-    cam.znear = static_cast<float>(std::min<double>(p.znear, FLT_MAX));
+    if (orthographic) {
+        /* magnifications are in the camera node's units: the node's scale applies */
+        const double plus_x[3] = {1, 0, 0};
+        double scale_y = world.stretch(plus_y), scale_x = world.stretch(plus_x);
+        cam.orthographic = true;
+        cam.ymag = static_cast<float>(std::fabs(o.ymag) * scale_y);
+        double xmag = std::fabs(o.xmag) * scale_x;
+        cam.aspect = cam.ymag > 0.f && xmag / cam.ymag < FLT_MAX ? static_cast<float>(xmag / cam.ymag) : 0.f;
+        cam.yfov = 0.f;
+        cam.znear = 0.f;
+        if (!(cam.ymag > 0.f) || !std::isfinite(cam.ymag)) return warn(where + " has an invalid ymag after its node's scale; skipped");
+    } else {
+        cam.yfov = static_cast<float>(p.yfov);
+        cam.aspect = (p.aspectRatio > 0 && p.aspectRatio < FLT_MAX) ? static_cast<float>(p.aspectRatio) : 0.f;
+        cam.znear = static_cast<float>(std::min<double>(p.znear, FLT_MAX));
+    }
     cameras_.push_back(cam);
 }
 

@@ -19,6 +19,7 @@
 #include <string.h>
 
 #include <openexr.h>
+#include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
 #define PM_EXR_CHANNELS (3 + 3 * PM_COMPONENT_COUNT)
@@ -415,4 +416,61 @@ bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, 
         return false;
     }
     return true;
+}
+
+static bool ends_with_ci(const char *path, const char *suffix) {
+    size_t n = strlen(path), k = strlen(suffix);
+    if (n < k) return false;
+    for (size_t i = 0; i < k; i++) {
+        char c = path[n - k + i];
+        if (c >= 'A' && c <= 'Z') c = (char)(c - 'A' + 'a');
+        if (c != suffix[i]) return false;
+    }
+    return true;
+}
+
+float *pm_read_environment(const char *path, int *width, int *height, char *err, size_t err_size) {
+    char inner[512];
+    if (ends_with_ci(path, ".hdr")) {
+        int channels = 0;
+        float *data = stbi_loadf(path, width, height, &channels, 3);
+        if (!data) snprintf(err, err_size, "%s: cannot read the environment map (%s)", path, stbi_failure_reason());
+        if (!data) return NULL;
+        /* stb's buffer goes back to stb: hand the caller its own copy */
+        size_t bytes = sizeof(float) * 3 * (size_t)*width * (size_t)*height;
+        float *copy = malloc(bytes);
+        if (copy) memcpy(copy, data, bytes);
+        else snprintf(err, err_size, "%s: out of memory (environment map, %zu bytes)", path, bytes);
+        stbi_image_free(data);
+        return copy;
+    }
+    if (!ends_with_ci(path, ".exr")) {
+        snprintf(err, err_size, "%s: an environment map must be .exr or .hdr", path);
+        return NULL;
+    }
+    static const char *const names[3] = {"R", "G", "B"};
+    float *channel[3] = {NULL, NULL, NULL};
+    for (int c = 0; c < 3; c++) {
+        int w = 0, h = 0;
+        channel[c] = pm_read_exr_channel(path, names[c], &w, &h, inner, sizeof inner);
+        if (channel[c] && c > 0 && (w != *width || h != *height)) {
+            snprintf(inner, sizeof inner, "channels of different sizes");
+            free(channel[c]);
+            channel[c] = NULL;
+        }
+        if (!channel[c]) {
+            snprintf(err, err_size, "%s: cannot read the environment map (%s)", path, inner);
+            for (int k = 0; k < c; k++) free(channel[k]);
+            return NULL;
+        }
+        *width = w;
+        *height = h;
+    }
+    size_t n = (size_t)*width * (size_t)*height;
+    float *rgb = malloc(sizeof(float) * 3 * n);
+    if (!rgb) snprintf(err, err_size, "%s: out of memory (environment map, %zu bytes)", path, sizeof(float) * 3 * n);
+    for (size_t i = 0; rgb && i < n; i++)
+        for (int c = 0; c < 3; c++) rgb[3 * i + c] = channel[c][i];
+    for (int c = 0; c < 3; c++) free(channel[c]);
+    return rgb;
 }

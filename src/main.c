@@ -48,6 +48,7 @@ typedef struct {
     bool classic;         /* --mode classic; else progressive */
     double alpha, radius; /* progressive: radius reduction, initial radius (0 = from the scene) */
     bool components_given, components[PM_COMPONENT_COUNT]; /* --components: what a PNG (and the window) shows */
+    const char *sky;      /* --sky: none, white, gradient or an .exr/.hdr file; NULL = the default policy */
 } options;
 
 static const char usage_text[] =
@@ -61,7 +62,10 @@ static const char usage_text[] =
     "  --camera I           use the scene's I-th camera (default 0; automatic framing when there is none)\n"
     "  --exposure EV        display exposure in stops (PNG and window)\n"
     "  --screenshot FILE    where the window's P key saves a PNG and the layers as .exr (default pmview-screenshot.png)\n"
-    "  --no-default-light   do not add the white sky to a scene without lights\n"
+    "  --sky none|white|gradient|FILE.exr|FILE.hdr  the environment around the scene (default: the gradient\n"
+    "                       for files without punctual lights whose emitters do not enclose the view, else none);\n"
+    "                       a FILE is an equirectangular map, its middle along -Z, +Y up\n"
+    "  --no-default-light   no default environment (the same as --sky none unless --sky is given)\n"
     "  --mode progressive|classic  progressive: fresh photons every iteration, radii shrinking (default);\n"
     "                       classic: two-pass photon mapping, maps built once, eye pass repeated\n"
     "  --photons N          progressive: global photons per iteration (default: pixels/2, 10k to 1M);\n"
@@ -150,7 +154,7 @@ static int parse_options(int argc, char **argv, options *o) {
                                              "--seed", "--camera", "--exposure", "--screenshot", "--mode", "--photons",
                                              "--caustic-photons", "--k", "--max-radius", "--kernel", "--indirect",
                                              "--gather-rays", "--view", "--precompute", "--reference", "--alpha",
-                                             "--radius", "--components"};
+                                             "--radius", "--components", "--sky"};
         int which = -1;
         for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
             if (!strcmp(a, valued[k])) which = k;
@@ -197,6 +201,12 @@ static int parse_options(int argc, char **argv, options *o) {
         case 17: if (!parse_long(v, 0, 4096, &n)) return usage_error("bad --gather-rays '%s' (0 to 4096)", v); o->gather_rays = (int)n; break;
         case 19: if (!parse_long(v, 0, 1000000, &n)) return usage_error("bad --precompute '%s' (0 to 1000000)", v); o->irradiance_stride = (int)n; break;
         case 20: if (!has_extension(v, ".exr")) return usage_error("--reference needs an .exr file, not '%s'", v); o->reference = v; break;
+        case 24:
+            if (strcmp(v, "none") && strcmp(v, "white") && strcmp(v, "gradient") && !has_extension(v, ".exr") &&
+                !has_extension(v, ".hdr"))
+                return usage_error("unknown --sky '%s' (none, white, gradient, or an .exr or .hdr environment map)", v);
+            o->sky = v;
+            break;
         case 18: if (strcmp(v, "photons")) return usage_error("unknown --view '%s' (photons)", v); o->view_photons = true; break;
         case 21: if (!parse_double(v, 1e-3, 0.999, &x)) return usage_error("bad --alpha '%s' (0.001 to 0.999)", v); o->alpha = x; break;
         case 22: if (!parse_double(v, 1e-30, 1e30, &x)) return usage_error("bad --radius '%s' (> 0, scene units)", v); o->radius = x; break;
@@ -708,6 +718,53 @@ static void print_final_stats(const options *opt, pm_session *session, const pm_
            pm_accel_bytes(accel));
 }
 
+/* The environment: --sky when given; else the gradient for a file without punctual lights,
+ * unless its emitters enclose the view (a closed room lit from inside); else none. Warns when
+ * the default is added and when the camera is shut in by geometry that no light is inside. */
+static bool choose_sky(const options *opt, pm_scene *scene, const pm_accel *accel, const pm_camera *camera, float aspect) {
+    float view_fraction, around_fraction;
+    pm_eye_enclosure(scene, accel, camera, aspect, &view_fraction, &around_fraction);
+    const char *sky = opt->sky;
+    if (!sky) {
+        bool emitters_enclose = scene->emitter_count > 0 && view_fraction >= PM_VIEW_ENCLOSED_FRACTION;
+        sky = opt->no_default_light || scene->light_count > 0 || emitters_enclose ? "none" : "gradient";
+        if (!strcmp(sky, "gradient") && !opt->quiet)
+            fprintf(stderr, "pmview: warning: %s: %s; lighting it with the default gradient sky (--sky none|white|gradient|FILE chooses)\n",
+                    opt->scene_path, scene->emitter_count ? "no punctual light, and its emitters do not enclose the view" : "the scene has no light");
+    }
+    char err[1024];
+    if (!strcmp(sky, "none")) {
+        pm_scene_set_sky(scene, false, v3s(0.f), NULL);
+    } else if (!strcmp(sky, "white")) {
+        pm_scene_set_sky(scene, true, v3s(1.f), NULL);
+    } else {
+        pm_sky_map *map = NULL;
+        if (!strcmp(sky, "gradient")) {
+            map = pm_sky_map_gradient(err, sizeof err);
+        } else {
+            int w = 0, h = 0;
+            float *rgb = pm_read_environment(sky, &w, &h, err, sizeof err);
+            if (rgb) {
+                char inner[512];
+                map = pm_sky_map_create(w, h, rgb, inner, sizeof inner);
+                if (!map) snprintf(err, sizeof err, "%s: %s", sky, inner);
+                free(rgb);
+            }
+        }
+        if (!map) { fprintf(stderr, "pmview: error: %s\n", err); return false; }
+        pm_scene_set_sky(scene, true, v3s(1.f), map);
+    }
+    if (!opt->quiet && scene->emitter_count == 0 && scene->light_count == 0 && around_fraction >= PM_CAMERA_ENCLOSED_FRACTION)
+        fprintf(stderr, "pmview: warning: %s: the camera is shut in by geometry (%.0f%% of the directions around it) and no light is inside: %s\n",
+                opt->scene_path, 100.0 * around_fraction,
+                scene->sky ? "the environment lies outside and the image will be dark" : "the image will be black");
+    if (opt->stats)
+        printf("stat sky kind=%s view_enclosed=%.3f camera_enclosed=%.3f\n",
+               !scene->sky ? "none" : (!scene->sky_map ? "white" : (!strcmp(sky, "gradient") ? "gradient" : "map")),
+               view_fraction, around_fraction);
+    return true;
+}
+
 int main(int argc, char **argv) {
     process_start = now_seconds();
     options opt;
@@ -728,22 +785,17 @@ int main(int argc, char **argv) {
         fprintf(stderr, "pmview: error: %s\n", err);
         return 1;
     }
-    bool added_sky = false;
-    pm_scene_finalize(&scene, !opt.no_default_light, &added_sky);
+    pm_scene_finalize(&scene, false, NULL);
     if (scene.emitter_alloc_failed) {
         fprintf(stderr, "pmview: error: %s: out of memory (the distribution of emissive triangles)\n", opt.scene_path);
         pm_scene_free(&scene);
         return 1;
     }
-    if (added_sky && !opt.quiet)
-        fprintf(stderr, "pmview: warning: %s: the scene has no light; using a uniform white sky of radiance 1 (--no-default-light turns this off)\n",
-                opt.scene_path);
     if (opt.stats) {
         printf("stat load seconds=%.4f triangles=%u vertices=%u materials=%u lights=%u emissive_triangles=%u textures=%u cameras=%u skipped_degenerate=%u skipped_primitives=%u ignored_inputs=%u\n",
                report.seconds, scene.triangle_count, scene.vertex_count, scene.material_count, scene.light_count,
                scene.emitter_count, scene.texture_count, scene.camera_count, report.skipped_degenerate,
                report.skipped_primitives, report.ignored_inputs);
-        print_analysis_stats(&scene);
     }
 
     int exit_code = 0;
@@ -773,6 +825,8 @@ int main(int argc, char **argv) {
     accel = pm_accel_create(&scene, err, sizeof err);
     if (!accel) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
     if (opt.stats) printf("stat bvh seconds=%.4f bytes=%zu\n", pm_accel_build_seconds(accel), pm_accel_bytes(accel));
+    if (!choose_sky(&opt, &scene, accel, &camera, (float)width / height)) { exit_code = 1; goto done; }
+    if (opt.stats) print_analysis_stats(&scene);
 
     pm_session_config config;
     if (!configure(&opt, &scene, accel, width, height, &config)) { exit_code = 1; goto done; }

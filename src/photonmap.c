@@ -135,7 +135,7 @@ static uint32_t build_sources(const pm_scene *s, light_source *out) {
         light_source *l = &out[n++];
         memset(l, 0, sizeof *l);
         l->kind = SOURCE_SKY;
-        l->power = v3_scale(s->sky_radiance, 4.f * PM_PI * PM_PI * R * R);
+        l->power = v3_scale(pm_scene_sky_mean(s), 4.f * PM_PI * PM_PI * R * R);
     }
     return n;
 }
@@ -336,7 +336,17 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
         *flux = v3_scale(pl->intensity, falloff * omega);
         return falloff > 0.f;
     }
-    /* sky: a direction, then a start behind the scene as for a directional light */
+    /* sky: a direction (drawn from the map, if any), then a start behind the scene as for a
+     * directional light */
+    if (s->sky_map) {
+        vec3 toward;
+        float pdf;
+        vec3 radiance = pm_sky_map_sample(s->sky_map, pm_rng_float(rng), pm_rng_float(rng), &toward, &pdf);
+        if (!(pdf > 0.f)) return false;
+        *d = v3_neg(toward);
+        *flux = v3_scale(v3_mul(s->sky_radiance, radiance), parallel_start(ps, *d, rng, o) / pdf);
+        return true;
+    }
     *d = v3_neg(pm_sample_sphere(pm_rng_float(rng), pm_rng_float(rng)));
     *flux = v3_scale(s->sky_radiance, 4.f * PM_PI * parallel_start(ps, *d, rng, o));
     return true;

@@ -42,7 +42,8 @@ struct pm_progressive {
      * photon (0 until known); the final-gather radius shrinks per iteration from its own start */
     double density_r2[KIND_COUNT];
     double gather_r2;
-    double pixel_angle;                  /* radians per pixel, vertically */
+    double pixel_angle;                  /* radians per pixel, vertically (0 for an orthographic camera) */
+    double pixel_width;                  /* scene units per pixel at the camera (orthographic only) */
     double initial_radius_sum;
     uint64_t initial_radius_count;
     double query_radius[KIND_COUNT];     /* mean radius gathered with last iteration: sets the grid's cell */
@@ -147,7 +148,8 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     p->query_radius[KIND_CAUSTIC] = p->query_radius[KIND_INDIRECT] = 0.0;
     p->initial_radius_sum = 0.0;
     p->initial_radius_count = 0;
-    p->pixel_angle = 2.0 * tan(0.5 * (double)p->camera.yfov) / (double)film->height;
+    p->pixel_angle = p->camera.orthographic ? 0.0 : pm_camera_pixel_size(&p->camera, film->height, 1.f);
+    p->pixel_width = p->camera.orthographic ? pm_camera_pixel_size(&p->camera, film->height, 0.f) : 0.0;
     memset(&p->stats, 0, sizeof p->stats);
 }
 
@@ -198,7 +200,7 @@ static void update_statistics(gather_job *job, pm_ppm_stat *st, const pm_visible
         if (p->settings.initial_radius > 0.0) {
             r = p->settings.initial_radius;
         } else {
-            double footprint = PM_PPM_FOOTPRINT_PIXELS * (double)vp->path_length * p->pixel_angle;
+            double footprint = PM_PPM_FOOTPRINT_PIXELS * ((double)vp->path_length * p->pixel_angle + p->pixel_width);
             r = kind == KIND_CAUSTIC ? footprint : fmax(footprint, sqrt(p->density_r2[kind]));
         }
         if (!(r > 0.0)) return; /* nothing to start from yet (no photons and a zero footprint) */
@@ -289,7 +291,7 @@ static double mean_initial_radius(const pm_progressive *p, int kind) {
     size_t n = 0;
     for (size_t i = 0; i < p->pixels; i++) {
         if (!p->visible[i].valid) continue;
-        sum += fmax(PM_PPM_FOOTPRINT_PIXELS * (double)p->visible[i].path_length * p->pixel_angle, density);
+        sum += fmax(PM_PPM_FOOTPRINT_PIXELS * ((double)p->visible[i].path_length * p->pixel_angle + p->pixel_width), density);
         n++;
     }
     return n ? sum / (double)n : 0.0;

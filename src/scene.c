@@ -172,7 +172,17 @@ void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     analyse(s);
 }
 
+void pm_scene_set_sky(pm_scene *s, bool sky, vec3 radiance, pm_sky_map *map) {
+    if (s->sky_map != map) pm_sky_map_free(s->sky_map);
+    s->sky = sky;
+    s->sky_radiance = sky ? radiance : v3s(0.f);
+    s->sky_map = sky ? map : NULL;
+    if (!sky && map) pm_sky_map_free(map);
+    analyse(s);
+}
+
 void pm_scene_free(pm_scene *s) {
+    pm_sky_map_free(s->sky_map);
     free(s->positions);
     free(s->normals);
     free(s->uvs);
@@ -194,18 +204,42 @@ pm_camera pm_scene_auto_camera(const pm_scene *s, float aspect) {
     memset(&c, 0, sizeof c);
     c.yfov = 45.f * PM_PI / 180.f;
     c.aspect = aspect;
-    /* From the front (+Z) and a little above, far enough that the bounding sphere fits the
-     * narrower of the two fields of view. */
     vec3 back = v3_normalize(v3(0.f, 0.25f, 1.f));
-    float half = 0.5f * c.yfov;
-    if (aspect > 0.f && aspect < 1.f) half = atanf(tanf(half) * aspect);
-    float r = s->radius > 0.f ? s->radius : 1.f;
-    float dist = r / sinf(half) * 1.05f;
-    c.position = v3_madd(s->center, back, dist);
     c.forward = v3_neg(back);
     c.right = v3_normalize(v3_cross(c.forward, v3(0.f, 1.f, 0.f)));
     c.up = v3_cross(c.right, c.forward);
-    c.znear = dist * 1e-3f;
+    return pm_scene_fit_camera(s, c, aspect);
+}
+
+pm_camera pm_scene_fit_camera(const pm_scene *s, pm_camera c, float aspect) {
+    const float margin = 1.05f;
+    if (!(aspect > 0.f)) aspect = c.aspect > 0.f ? c.aspect : 1.f;
+    vec3 center = v3_scale(v3_add(s->bounds_min, s->bounds_max), 0.5f);
+    float r = s->radius > 0.f ? s->radius : 1.f;
+    double tan_y = tan(0.5 * (double)c.yfov) / margin, tan_x = tan_y * aspect;
+    /* in the camera's frame, from the centre: x right, y up, z toward the camera */
+    double need = 0.0, half_w = 0.0, half_h = 0.0, z_max = 0.0;
+    for (uint32_t i = 0; i < s->vertex_count; i++) {
+        vec3 d = v3_sub(s->positions[i], center);
+        double x = fabs((double)v3_dot(d, c.right)), y = fabs((double)v3_dot(d, c.up)), z = -(double)v3_dot(d, c.forward);
+        if (c.orthographic) {
+            half_w = fmax(half_w, x);
+            half_h = fmax(half_h, y);
+            z_max = fmax(z_max, z);
+        } else {
+            need = fmax(need, fmax(z + x / tan_x, z + y / tan_y));
+        }
+    }
+    double dist;
+    if (c.orthographic) {
+        c.ymag = (float)fmax(margin * fmax(half_h, half_w / aspect), 1e-6 * r);
+        dist = z_max + 0.1 * r; /* in front of everything: parallel rays start at the camera */
+    } else {
+        dist = s->vertex_count ? need : r / sin(atan(fmin(tan_x, tan_y)));
+        dist = fmax(dist, 1e-3 * r);
+    }
+    c.position = v3_sub(center, v3_scale(c.forward, (float)dist));
+    c.znear = (float)dist * 1e-3f;
     return c;
 }
 

@@ -21,7 +21,7 @@
 
 typedef struct {
     const char *path;
-    uint32_t triangles, lights, cameras, textures; /* cameras: perspective ones (orthographic are skipped) */
+    uint32_t triangles, lights, cameras, textures; /* cameras: perspective and orthographic */
 } valid_case;
 
 static const valid_case valid_cases[] = {
@@ -29,7 +29,7 @@ static const valid_case valid_cases[] = {
     {"valid/box_textured/BoxTextured.gltf", 12, 0, 0, 1},
     {"valid/box_textured_embedded/BoxTextured.gltf", 12, 0, 0, 1},
     {"valid/box_textured_glb/BoxTextured.glb", 12, 0, 0, 1},
-    {"valid/cameras/Cameras.gltf", 2, 0, 1, 0}, /* table: 2 cameras, one of them orthographic */
+    {"valid/cameras/Cameras.gltf", 2, 0, 2, 0}, /* table: 2 cameras, one of them orthographic */
     {"valid/cornell_box/cornellBox-2.80-Eevee-gltf.gltf", 4410, 0, 0, 2},
     {"valid/made_here_ext_scene/ext_scene.glb", 24, 2, 1, 0},
     {"valid/made_here_ext_scene/ext_scene.gltf", 24, 2, 1, 0},

@@ -489,7 +489,7 @@ static void test_texcoords_and_texture(void) {
 
 static void test_cameras(void) {
     prim_spec tri = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1};
-    /* node 4's children in order: node 3 (camera 2), node 2 (orthographic), node 1 (camera 0) */
+    /* node 4's children in order: node 3 (camera 2), node 2 (camera 1, orthographic), node 1 (camera 0) */
     doc_spec doc = {"[{\"mesh\":0},"
                     "{\"camera\":0,\"translation\":[0,1,5],\"scale\":[2,2,2]},"
                     "{\"camera\":1},"
@@ -503,16 +503,21 @@ static void test_cameras(void) {
     pm_scene s;
     pm_load_report r;
     if (!load_ok("cameras.gltf", &s, &r)) return;
-    CHECK(s.camera_count == 2, "camera_count %u (orthographic must be skipped)", s.camera_count);
-    CHECK(r.warnings >= 1, "orthographic camera must warn");
-    if (s.camera_count == 2) {
-        const pm_camera *first = &s.cameras[0], *second = &s.cameras[1];
+    CHECK(s.camera_count == 3, "camera_count %u (perspective and orthographic)", s.camera_count);
+    CHECK(r.warnings == 0, "three valid cameras: %u warnings", r.warnings);
+    if (s.camera_count == 3) {
+        const pm_camera *first = &s.cameras[0], *ortho = &s.cameras[1], *second = &s.cameras[2];
         CHECK_NEAR(first->yfov, 0.5, 0, 1e-7, "first camera in traversal order is camera 2");
+        CHECK(!first->orthographic, "camera 2 is perspective");
         CHECK_NEAR(first->aspect, 0, 0, 0, "absent aspectRatio is 0");
         CHECK_VEC(first->position, 3, 0, 0, 1e-6, "camera 2 position");
         CHECK_VEC(first->forward, -1, 0, 0, 1e-6, "camera 2 forward (-Z turned 90 degrees about Y)");
         CHECK_VEC(first->up, 0, 1, 0, 1e-6, "camera 2 up");
         CHECK_VEC(first->right, 0, 0, -1, 1e-6, "camera 2 right");
+        CHECK(ortho->orthographic, "camera 1 is orthographic");
+        CHECK_NEAR(ortho->ymag, 1, 0, 1e-7, "orthographic ymag");
+        CHECK_NEAR(ortho->aspect, 1, 0, 1e-7, "orthographic aspect = xmag / ymag");
+        CHECK_VEC(ortho->forward, 0, 0, -1, 1e-7, "orthographic forward");
         CHECK_NEAR(second->yfov, 0.8, 0, 1e-7, "second camera yfov");
         CHECK_NEAR(second->aspect, 1.5, 0, 1e-7, "second camera aspect");
         CHECK_NEAR(second->znear, 0.1, 0, 1e-7, "second camera znear");

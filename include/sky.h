@@ -1,0 +1,38 @@
+/* sky.h: environment maps around the scene: equirectangular radiance, lookup, importance sampling by luminance.
+ *
+ * One mechanism for every sky that is not uniform: the default gradient and a user's .exr or
+ * .hdr are both maps. Directions map to the image as
+ *     u = 1/2 + atan2(x, -z) / 2pi,   v = acos(y) / pi        (+Y up, row 0 = the zenith),
+ * so the middle of the image lies along -Z, where a glTF camera looks by default. Radiance is
+ * piecewise constant per texel, and the sampler draws texels in proportion to luminance x the
+ * texel's solid angle: pm_sky_map_pdf is exactly the density pm_sky_map_sample draws from.
+ */
+#ifndef PM_SKY_H
+#define PM_SKY_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include "pm_math.h"
+
+typedef struct {
+    int width, height;
+    float *rgb;          /* width*height*3, linear radiance, row 0 = the zenith */
+    float *row_cdf;      /* height+1: rows by their summed weight */
+    float *column_cdf;   /* height*(width+1): texels within each row */
+    vec3 mean;           /* radiance averaged over the sphere (per solid angle) */
+} pm_sky_map;
+
+/* Copies w*h linear RGB texels (negative and non-finite values read as 0). NULL with err set
+ * when out of memory or when the map holds no light at all. */
+pm_sky_map *pm_sky_map_create(int width, int height, const float *rgb, char *err, size_t err_size);
+/* pmview's default environment: a bright zenith fading to a dimmer horizon above a grey ground,
+ * so that a lit white object stands out from the background. */
+pm_sky_map *pm_sky_map_gradient(char *err, size_t err_size);
+void pm_sky_map_free(pm_sky_map *m);
+
+vec3 pm_sky_map_radiance(const pm_sky_map *m, vec3 dir);
+/* A direction toward the sky drawn by luminance x solid angle; returns its radiance, *pdf per steradian. */
+vec3 pm_sky_map_sample(const pm_sky_map *m, float u1, float u2, vec3 *dir, float *pdf);
+float pm_sky_map_pdf(const pm_sky_map *m, vec3 dir);
+
+#endif

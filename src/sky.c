@@ -1,0 +1,158 @@
+/* sky.c: equirectangular environment maps: building the sampling distribution, lookup, sampling, the default gradient. */
+#include "sky.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "defaults.h"
+
+void pm_sky_map_free(pm_sky_map *m) {
+    if (!m) return;
+    free(m->rgb);
+    free(m->row_cdf);
+    free(m->column_cdf);
+    free(m);
+}
+
+/* Solid angle of one texel of row `row`: the band between its two polar angles, split in width. */
+static double texel_solid_angle(const pm_sky_map *m, int row) {
+    double t0 = PM_PI * row / m->height, t1 = PM_PI * (row + 1) / m->height;
+    return 2.0 * PM_PI / m->width * (cos(t0) - cos(t1));
+}
+
+static float texel_weight(const float *rgb) { return (rgb[0] + rgb[1] + rgb[2]) * (1.f / 3.f); }
+
+pm_sky_map *pm_sky_map_create(int width, int height, const float *rgb, char *err, size_t err_size) {
+    if (width < 1 || height < 1 || (size_t)width * (size_t)height > ((size_t)1 << 28)) {
+        snprintf(err, err_size, "environment map of %dx%d texels is not usable", width, height);
+        return NULL;
+    }
+    size_t n = (size_t)width * height;
+    pm_sky_map *m = calloc(1, sizeof *m);
+    if (m) {
+        m->rgb = malloc(sizeof(float) * 3 * n);
+        m->row_cdf = malloc(sizeof(float) * ((size_t)height + 1));
+        m->column_cdf = malloc(sizeof(float) * (size_t)height * ((size_t)width + 1));
+    }
+    if (!m || !m->rgb || !m->row_cdf || !m->column_cdf) {
+        pm_sky_map_free(m);
+        snprintf(err, err_size, "out of memory (environment map, %zu bytes)", n * sizeof(float) * 4);
+        return NULL;
+    }
+    m->width = width;
+    m->height = height;
+    for (size_t i = 0; i < 3 * n; i++) m->rgb[i] = isfinite(rgb[i]) && rgb[i] > 0.f ? rgb[i] : 0.f;
+    /* cdfs in double, stored normalised as floats; a row of zero weight keeps a uniform column cdf
+     * (it is never picked, and lookups need no special case) */
+    double total = 0.0, mean[3] = {0, 0, 0};
+    m->row_cdf[0] = 0.f;
+    double *row_sum = malloc(sizeof(double) * (size_t)height);
+    if (!row_sum) {
+        pm_sky_map_free(m);
+        snprintf(err, err_size, "out of memory (environment map)");
+        return NULL;
+    }
+    for (int y = 0; y < height; y++) {
+        double omega = texel_solid_angle(m, y), sum = 0.0;
+        float *cdf = m->column_cdf + (size_t)y * (width + 1);
+        cdf[0] = 0.f;
+        double run = 0.0;
+        for (int x = 0; x < width; x++) {
+            const float *t = m->rgb + 3 * ((size_t)y * width + x);
+            run += texel_weight(t);
+            for (int c = 0; c < 3; c++) mean[c] += t[c] * omega;
+            cdf[x + 1] = (float)run;
+        }
+        for (int x = 1; x <= width; x++) cdf[x] = run > 0.0 ? (float)(cdf[x] / run) : (float)x / width;
+        cdf[width] = 1.f;
+        sum = run * omega;
+        row_sum[y] = sum;
+        total += sum;
+    }
+    if (!(total > 0.0)) {
+        free(row_sum);
+        pm_sky_map_free(m);
+        snprintf(err, err_size, "the environment map is black: it would light nothing");
+        return NULL;
+    }
+    double run = 0.0;
+    for (int y = 0; y < height; y++) {
+        run += row_sum[y];
+        m->row_cdf[y + 1] = (float)(run / total);
+    }
+    m->row_cdf[height] = 1.f;
+    free(row_sum);
+    m->mean = v3((float)(mean[0] / (4.0 * PM_PI)), (float)(mean[1] / (4.0 * PM_PI)), (float)(mean[2] / (4.0 * PM_PI)));
+    return m;
+}
+
+static void texel_of(const pm_sky_map *m, vec3 dir, int *x, int *y) {
+    float len = v3_length(dir);
+    float cy = len > 0.f ? dir.y / len : 1.f;
+    cy = cy < -1.f ? -1.f : (cy > 1.f ? 1.f : cy);
+    float u = 0.5f + atan2f(dir.x, -dir.z) * (0.5f * PM_INV_PI), v = acosf(cy) * PM_INV_PI;
+    int ix = (int)(u * m->width), iy = (int)(v * m->height);
+    *x = ix < 0 ? 0 : (ix >= m->width ? m->width - 1 : ix);
+    *y = iy < 0 ? 0 : (iy >= m->height ? m->height - 1 : iy);
+}
+
+vec3 pm_sky_map_radiance(const pm_sky_map *m, vec3 dir) {
+    int x, y;
+    texel_of(m, dir, &x, &y);
+    const float *t = m->rgb + 3 * ((size_t)y * m->width + x);
+    return v3(t[0], t[1], t[2]);
+}
+
+/* The last index i with cdf[i] <= u, among n intervals. */
+static int find_interval(const float *cdf, int n, float u) {
+    int lo = 0, hi = n;
+    while (lo + 1 < hi) {
+        int mid = (lo + hi) / 2;
+        if (cdf[mid] <= u) lo = mid; else hi = mid;
+    }
+    return lo;
+}
+
+float pm_sky_map_pdf(const pm_sky_map *m, vec3 dir) {
+    int x, y;
+    texel_of(m, dir, &x, &y);
+    const float *cdf = m->column_cdf + (size_t)y * (m->width + 1);
+    double p = (double)(m->row_cdf[y + 1] - m->row_cdf[y]) * (double)(cdf[x + 1] - cdf[x]);
+    double omega = texel_solid_angle(m, y);
+    return omega > 0.0 ? (float)(p / omega) : 0.f;
+}
+
+vec3 pm_sky_map_sample(const pm_sky_map *m, float u1, float u2, vec3 *dir, float *pdf) {
+    int y = find_interval(m->row_cdf, m->height, u1);
+    float row_p = m->row_cdf[y + 1] - m->row_cdf[y];
+    float v = row_p > 0.f ? (u1 - m->row_cdf[y]) / row_p : 0.5f; /* reused: uniform within the row's slice */
+    const float *cdf = m->column_cdf + (size_t)y * (m->width + 1);
+    int x = find_interval(cdf, m->width, u2);
+    float col_p = cdf[x + 1] - cdf[x];
+    float w = col_p > 0.f ? (u2 - cdf[x]) / col_p : 0.5f;
+    v = v < 0.f ? 0.f : (v > 1.f ? 1.f : v);
+    w = w < 0.f ? 0.f : (w > 1.f ? 1.f : w);
+    /* uniform in solid angle within the texel: cos(theta) uniform across the band, phi uniform */
+    double c0 = cos(PM_PI * y / m->height), c1 = cos(PM_PI * (y + 1) / m->height);
+    double cos_t = c0 + (c1 - c0) * v, sin_t = sqrt(fmax(0.0, 1.0 - cos_t * cos_t));
+    double phi = ((x + w) / m->width - 0.5) * 2.0 * PM_PI;
+    *dir = v3((float)(sin_t * sin(phi)), (float)cos_t, (float)(-sin_t * cos(phi)));
+    double omega = texel_solid_angle(m, y);
+    *pdf = omega > 0.0 ? (float)((double)row_p * col_p / omega) : 0.f;
+    const float *t = m->rgb + 3 * ((size_t)y * m->width + x);
+    return v3(t[0], t[1], t[2]);
+}
+
+pm_sky_map *pm_sky_map_gradient(char *err, size_t err_size) {
+    enum { W = 4, H = 256 };
+    float rgb[W * H * 3];
+    for (int y = 0; y < H; y++) {
+        /* elevation of the row's centre: +pi/2 at the zenith, -pi/2 at the nadir */
+        double elevation = 0.5 * PM_PI - PM_PI * (y + 0.5) / H;
+        double s = sin(elevation);
+        double l = s > 0.0 ? PM_SKY_HORIZON + (PM_SKY_ZENITH - PM_SKY_HORIZON) * s : PM_SKY_GROUND;
+        for (int x = 0; x < W; x++)
+            for (int c = 0; c < 3; c++) rgb[3 * (y * W + x) + c] = (float)l;
+    }
+    return pm_sky_map_create(W, H, rgb, err, err_size);
+}
