@@ -93,5 +93,28 @@ for photons in auto 5000000; do
     awk -v s="${secs:-0}" 'BEGIN { exit !(s >= 2.85 && s <= 3.15) }' ||
         { fails=$((fails + 1)); echo "FAIL: --time 3 on the albedo-1 room (photons $photons) took ${secs:-?} s, want 3 +- 5%"; cat "$tmp/out"; }
 done
+# environments: a bad --sky is a usage error, a missing map one error line, an EXR that pmview
+# wrote is a usable map; a file without lights gets the gradient with a warning, a closed room
+# with no light inside a warning that it will be dark
+expect "unknown --sky" 2 $bin --sky purple --snapshot "$tmp/x.exr"
+expect "missing environment map" 1 $bin scenes/caustic.gltf --sky "$tmp/none.exr" --width 16 --iterations 1 --snapshot "$tmp/x.exr"
+checks=$((checks + 1))
+{ [ "$(wc -l < "$tmp/err")" -eq 1 ] && grep -q "none.exr" "$tmp/err"; } || { fails=$((fails + 1)); echo "FAIL: a missing map must give one error line naming it:"; cat "$tmp/err"; }
+expect "an EXR pmview wrote, as the sky" 0 $bin scenes/caustic.gltf --sky "$tmp/c.exr" --width 16 --iterations 2 --stats --snapshot "$tmp/x.exr"
+checks=$((checks + 1))
+grep -q "^stat sky kind=map " "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: --sky FILE.exr must say stat sky kind=map"; grep "stat sky" "$tmp/out"; }
+printf '#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 2\n\200\200\200\201\200\200\200\201\200\200\200\200\200\200\200\200' > "$tmp/sky.hdr"
+expect "a Radiance .hdr map (bright top row, dim bottom)" 0 $bin scenes/caustic.gltf --sky "$tmp/sky.hdr" --width 16 --iterations 2 --stats --snapshot "$tmp/x.exr"
+checks=$((checks + 1))
+grep -q "^stat sky kind=map " "$tmp/out" || { fails=$((fails + 1)); echo "FAIL: --sky FILE.hdr must say stat sky kind=map"; cat "$tmp/err"; }
+python3 tests/white_room.py "$tmp/dark.gltf" 0.5 dark
+expect "a closed room with no light" 0 $bin "$tmp/dark.gltf" --width 16 --iterations 1 --stats --snapshot "$tmp/x.exr"
+checks=$((checks + 1))
+{ grep -q "shut in" "$tmp/err" && grep -q "^stat sky kind=gradient " "$tmp/out"; } ||
+    { fails=$((fails + 1)); echo "FAIL: a closed dark room must get the default sky and the shut-in warning:"; cat "$tmp/err"; }
+expect "the open Cornell box lit by its lamp" 0 $bin scenes/cornell-box.gltf --width 16 --iterations 1 --stats --snapshot "$tmp/x.exr"
+checks=$((checks + 1))
+{ grep -q "^stat sky kind=none " "$tmp/out" && ! grep -q "warning" "$tmp/err"; } ||
+    { fails=$((fails + 1)); echo "FAIL: the Cornell box's emitters enclose its view: no sky, no warning"; cat "$tmp/err"; }
 echo "test_cli: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]
