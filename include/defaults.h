@@ -11,6 +11,9 @@
 #define PM_DEFAULT_MAX_SPECULAR_DEPTH 64 /* a safety stop: past depth 4, roulette on throughput ends eye paths */
 #define PM_MAX_IMAGE_SIDE 16384
 
+/* materials */
+#define PM_GLOSSY_MIN_ALPHA 1e-3f         /* GGX alpha = roughness^2 below this is the perfect mirror (roughness < 0.032) */
+
 /* progressive photon mapping (the default mode) */
 #define PM_DEFAULT_ALPHA (2.0 / 3.0)       /* Hachisuka and Jensen's radius reduction */
 #define PM_PPM_PHOTONS_PER_PIXEL 0.25      /* photons per iteration = pixels x this, clamped below */

@@ -68,7 +68,7 @@ static double diffuse_area(const pm_scene *s) {
         const pm_material *m = &s->materials[s->triangle_material[t]];
         vec3 kd, ks, kt;
         pm_material_split(m, m->base_color, &kd, &ks, &kt);
-        if (!v3_is_black(kd) || m->base_color_texture >= 0) area += pm_triangle_area(s, t);
+        if (!v3_is_black(kd) || pm_material_glossy(m) || m->base_color_texture >= 0) area += pm_triangle_area(s, t);
     }
     return area;
 }
