@@ -26,7 +26,7 @@ export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 # Convergence tests run hundreds of iterations: they run optimised; the code they drive runs
 # under ASan/UBSan in test_progressive and under TSan in test_threads.
-OPTIMISED="test_convergence test_glossy"
+OPTIMISED="test_convergence"
 for t in build/asan/tests/test_*; do
     name=$(basename "$t")
     case " $OPTIMISED " in *" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac
