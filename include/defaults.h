@@ -20,6 +20,9 @@
                                            (the open Cornell box 0.67), its emitters light it alone; a model in open space is near 0 */
 #define PM_CAMERA_ENCLOSED_FRACTION 0.99 /* rays from the camera in all directions that hit geometry: the camera is shut in */
 
+/* materials */
+#define PM_GLOSSY_MIN_ALPHA 1e-3f         /* GGX alpha = roughness^2 below this is the perfect mirror (roughness < 0.032) */
+
 /* progressive photon mapping (the default mode) */
 #define PM_DEFAULT_ALPHA (2.0 / 3.0)       /* Hachisuka and Jensen's radius reduction */
 #define PM_PPM_PHOTONS_PER_PIXEL 0.25      /* photons per iteration = pixels x this, clamped below */

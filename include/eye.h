@@ -37,11 +37,15 @@ typedef struct {
 } pm_eye_stats;
 
 /* A point waiting for photons (progressive mode): where an eye path, or the gather ray of one,
- * first met a diffuse surface. */
+ * first met a diffuse or glossy surface. */
 typedef struct {
     vec3 p;
     vec3 n;               /* geometric normal on the side the path arrived from */
-    vec3 weight;          /* path throughput x kd / pi: turns an irradiance estimate into radiance */
+    vec3 weight;          /* Lambert: path throughput x kd / pi, turns an irradiance estimate into radiance;
+                             glossy: the path throughput, the lobe is evaluated per photon */
+    bool glossy;          /* brdf, ns and wo hold the glossy lobe seen from wo */
+    pm_brdf brdf;
+    vec3 ns, wo;          /* shading normal on wo's side; unit direction toward the eye (or the gather ray's origin) */
     float path_length;    /* from the camera (or the gather ray's origin), for the pixel footprint */
     bool seen_directly;   /* first eye vertex (caustic / indirect components), else through specular bounces */
     bool valid;

@@ -11,6 +11,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include "brdf.h"
 #include "photon.h"
 
 typedef struct {
@@ -32,5 +33,9 @@ size_t pm_photon_grid_bytes(const pm_photon_grid *g);
  * a surface facing n with that path mask. */
 uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
                                    vec3 *power);
+/* The same photons, each one's power times b's f(wo, wi) for the direction wi it arrived from
+ * (ns: the shading normal on wo's side): Jensen's estimate at a glossy point. */
+uint32_t pm_photon_grid_sum_brdf(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
+                                 const pm_brdf *b, vec3 ns, vec3 wo, vec3 *reflected);
 
 #endif

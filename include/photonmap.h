@@ -12,6 +12,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 #include "accel.h"
+#include "brdf.h"
 #include "kdtree.h"
 #include "scene.h"
 
@@ -95,6 +96,12 @@ void pm_photon_maps_free(pm_photon_maps *maps);
  * reflected radiance off a Lambert surface is kd/pi * E: the sum of the power of the k nearest
  * photons that arrived from the front of this surface, divided by the kernel's area. */
 vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e);
+
+/* The reflected radiance toward wo at a glossy point (Jensen's estimate with any BRDF): the same
+ * photons, each one's power weighted by f(wo, wi) for the direction wi it arrived from; ns is
+ * the shading normal on wo's side. */
+vec3 pm_photon_estimate_brdf(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e, const pm_brdf *b,
+                             vec3 ns, vec3 wo);
 
 /* The precomputed irradiance nearest p on a surface facing n; false when there is none within
  * irradiance_radius (the caller then makes a full estimate). */

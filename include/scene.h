@@ -12,6 +12,8 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include "brdf.h"
+#include "defaults.h"
 #include "pm_math.h"
 #include "sky.h"
 
@@ -65,6 +67,7 @@ extern const char *const pm_component_names[PM_COMPONENT_COUNT]; /* "direct", "s
 
 typedef struct {
     bool has_diffuse, has_mirror, has_glass, has_textures;
+    bool has_glossy;         /* some material has the GGX lobe (has_diffuse is then true too: it is a D surface) */
     bool has_emissive_triangles, has_punctual_lights, has_sky;
     bool caustics_possible;  /* some light can reach a specular surface and then a diffuse one */
     bool interreflection_possible; /* light reflected by a diffuse surface can reach a diffuse one again */
@@ -133,10 +136,12 @@ typedef struct {
     vec3 ns;         /* shading normal, unit, same side as ng */
     float u, v;      /* texture coordinates */
     uint32_t material;
-    vec3 kd;         /* Lambert albedo (after the material split) */
+    vec3 kd;         /* Lambert albedo (after the material split; 0 on a glossy surface, whose brdf holds its diffuse part) */
     vec3 ks;         /* perfect-mirror reflectance */
     vec3 kt;         /* dielectric weight (tint); Fresnel decides reflect vs refract */
     float ior;
+    bool glossy;     /* the glossy lobe brdf replaces kd and ks (pm_material_glossy) */
+    pm_brdf brdf;    /* valid when glossy */
     vec3 emission;   /* radiance leaving the front face (both faces if double sided) */
     bool double_sided;
     vec3 centroid;   /* of the triangle: origins are pulled toward it, off shared edges */
@@ -151,19 +156,43 @@ vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale);
 void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);
 static inline float pm_clamp01(float x) { return x < 0.f ? 0.f : (x > 1.f ? 1.f : x); }
 
+/* Whether a material has the glossy (GGX) lobe: some metal, and alpha = roughness^2 at least
+ * PM_GLOSSY_MIN_ALPHA. Below that it is today's perfect mirror; a metallic 0 material stays
+ * Lambert (the dielectric's 4% specular coat is not rendered; see README). */
+static inline bool pm_material_glossy(const pm_material *m) {
+    float r = pm_clamp01(m->roughness);
+    return m->metallic > 0.f && r * r >= PM_GLOSSY_MIN_ALPHA;
+}
+
 /* Splits a material (with its sampled base colour) into kd, ks, kt; see README. Inline: it runs
- * at every hit of every path. */
+ * at every hit of every path. A glossy material has kd = ks = 0: its lobe (pm_material_brdf)
+ * holds both its diffuse and its specular parts, and kt its glass share. */
 static inline void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, vec3 *ks, vec3 *kt) {
     base = v3(pm_clamp01(base.x), pm_clamp01(base.y), pm_clamp01(base.z));
     float metal = pm_clamp01(m->metallic), rough = pm_clamp01(m->roughness);
     float glass = pm_clamp01(m->transmission) * (1.f - metal);
-    /* The weights sum to one, so D + S = mean(base) <= 1: Russian roulette stays valid. A rough
-     * metal has no glossy lobe here; its rough share scatters diffusely (see README). */
+    *kt = v3_scale(base, glass);
+    if (pm_material_glossy(m)) {
+        *kd = *ks = v3s(0.f);
+        return;
+    }
+    /* The weights sum to one, so D + S = mean(base) <= 1: Russian roulette stays valid. Below
+     * PM_GLOSSY_MIN_ALPHA the rough share is tiny and scatters diffusely. */
     float diffuse = (1.f - metal) * (1.f - pm_clamp01(m->transmission)) + metal * rough;
     float mirror = metal * (1.f - rough);
     *kd = v3_scale(base, diffuse);
     *ks = v3_scale(base, mirror);
-    *kt = v3_scale(base, glass);
+}
+
+/* The glossy lobe of a material for which pm_material_glossy() holds. */
+static inline pm_brdf pm_material_brdf(const pm_material *m, vec3 base) {
+    float metal = pm_clamp01(m->metallic), rough = pm_clamp01(m->roughness);
+    pm_brdf b;
+    b.base = v3(pm_clamp01(base.x), pm_clamp01(base.y), pm_clamp01(base.z));
+    b.metallic = metal;
+    b.alpha = pm_maxf(PM_GLOSSY_MIN_ALPHA, rough * rough);
+    b.weight = 1.f - pm_clamp01(m->transmission) * (1.f - metal);
+    return b;
 }
 /* Linear RGB of a texture at (u, v) with its wrap modes, bilinear. */
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v);

@@ -1,13 +1,13 @@
 #!/usr/bin/env python3
-# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf) and exposes them as Python data.
+# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf) and exposes them as Python data.
 """Scene generator for pmview (standard library only, deterministic).
 
-    python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf and scenes/caustic.gltf
+    python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf, caustic.gltf and glossy-spheres.gltf
     python3 scenes/make_scenes.py --segments 96 --light-strength 40 --out /tmp
 
 Each scene is a dict: {"meshes": [mesh], "camera": camera, "lights": [light]} where a mesh is
 {"name", "positions" (local), "normals", "indices", "material", "translation", "scale"} and a
-material is {"kind": "diffuse"|"mirror"|"glass"|"emitter", "color", "strength"}. The glTF
+material is {"kind": "diffuse"|"mirror"|"glass"|"emitter"|"metal", "color", "strength", "roughness"}. The glTF
 writer and tools/mitsuba_reference.py both read these dicts, so the reference renders see the
 very same triangles. Units are metres, +Y up, the camera looks down -Z.
 """
@@ -115,6 +115,25 @@ def caustic(segments=64, intensity=50.0):
     return {"meshes": meshes, "camera": camera, "lights": lights}
 
 
+def glossy_spheres(segments=48, light_strength=12.0):
+    """Two rough white metal spheres (roughness 0.3 and 0.7: GGX alpha 0.09 and 0.49) on a tinted
+    diffuse floor under a square lamp. White metal has Schlick F = 1 at every angle, the same as
+    an ideal conductor, so an independent renderer's rough conductor sees the same material."""
+    h = 0.5
+    meshes = [
+        mesh("floor", quad([(-3, 0, 3), (3, 0, 3), (3, 0, -3), (-3, 0, -3)], (0, 1, 0)),
+             {"kind": "diffuse", "color": (0.7, 0.6, 0.5)}),
+        mesh("smooth_metal", uv_sphere(segments, segments // 2), {"kind": "metal", "color": (1.0, 1.0, 1.0), "roughness": 0.3},
+             translation=(-0.6, 0.5, 0.0), scale=0.5),
+        mesh("rough_metal", uv_sphere(segments, segments // 2), {"kind": "metal", "color": (1.0, 1.0, 1.0), "roughness": 0.7},
+             translation=(0.6, 0.5, 0.0), scale=0.5),
+        mesh("lamp", quad([(-h, 2.5, -h - 0.5), (h, 2.5, -h - 0.5), (h, 2.5, h - 0.5), (-h, 2.5, h - 0.5)], (0, -1, 0)),
+             {"kind": "emitter", "color": (1.0, 0.95, 0.9), "strength": light_strength}),
+    ]
+    camera = {"eye": (0.0, 1.3, 3.2), "target": (0.0, 0.45, 0.0), "yfov": math.radians(40.0), "aspect": 1.0}
+    return {"meshes": meshes, "camera": camera, "lights": []}
+
+
 def gltf_material(m):
     out = {"name": m["kind"], "pbrMetallicRoughness": {"baseColorFactor": list(m.get("color", (1, 1, 1))) + [1.0]}}
     pbr = out["pbrMetallicRoughness"]
@@ -122,6 +141,8 @@ def gltf_material(m):
         pbr.update(metallicFactor=0.0, roughnessFactor=1.0)
     elif m["kind"] == "mirror":
         pbr.update(metallicFactor=1.0, roughnessFactor=0.0)
+    elif m["kind"] == "metal":
+        pbr.update(metallicFactor=1.0, roughnessFactor=m["roughness"])
     elif m["kind"] == "glass":
         pbr.update(metallicFactor=0.0, roughnessFactor=0.0)
         out["extensions"] = {"KHR_materials_transmission": {"transmissionFactor": 1.0},
@@ -212,7 +233,8 @@ def main():
     ap.add_argument("--point-intensity", type=float, default=50.0, help="caustic scene point light, W/sr")
     args = ap.parse_args()
     for name, scene in (("cornell-box.gltf", cornell_box(args.segments, args.light_strength)),
-                        ("caustic.gltf", caustic(max(args.segments, 64), args.point_intensity))):
+                        ("caustic.gltf", caustic(max(args.segments, 64), args.point_intensity)),
+                        ("glossy-spheres.gltf", glossy_spheres(args.segments))):
         path = os.path.join(args.out, name)
         with open(path, "w") as f:
             json.dump(to_gltf(scene), f, separators=(",", ":"))

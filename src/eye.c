@@ -1,8 +1,8 @@
 /* eye.c: the eye pass: camera rays, emission and shadow-ray direct light, recursive specular tracing, per-component accumulation.
  *
  * A path from the eye follows perfect mirrors and glass interfaces (one lobe picked by
- * weight, Fresnel picking reflection or refraction) and at every vertex with a diffuse part
- * adds emission and direct light. The first vertex decides the component; see eye.h.
+ * weight, Fresnel picking reflection or refraction) and at every vertex with a diffuse or
+ * glossy part adds emission and direct light (a glossy lobe evaluated per light sample). The first vertex decides the component; see eye.h.
  */
 #include "eye.h"
 
@@ -97,16 +97,22 @@ static inline float power_heuristic(float a, float b) {
     return a2 + b2 > 0.f ? a2 / (a2 + b2) : 0.f;
 }
 
-/* Irradiance-like estimate E at a diffuse point seen from direction wo, so that the reflected
- * radiance is kd/pi * E. One shadow ray per punctual light, one to a power-picked emissive
- * triangle, one cosine-distributed ray for the sky and the emitters (combined with the area
- * sample by multiple importance sampling). */
+/* f cos for a light sample arriving along wi: the glossy lobe's, or the cosine alone on a Lambert
+ * surface (whose kd/pi is applied once, at the end). */
+static inline vec3 reflected(const pm_surface *sf, vec3 ns, vec3 wo, vec3 wi, float cos_s) {
+    return sf->glossy ? v3_scale(pm_brdf_eval(&sf->brdf, ns, wo, wi), cos_s) : v3s(cos_s);
+}
+
+/* Direct light reflected toward wo at a diffuse or glossy point. One shadow ray per punctual
+ * light, one to a power-picked emissive triangle, one ray from the surface's own sampling
+ * (cosine on Lambert, the lobe's sampler on glossy) for the sky and the emitters, combined with
+ * the area sample by multiple importance sampling. */
 static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, vec3 wo, pm_rng *rng,
                          uint64_t *rays) {
     vec3 ng = facing(sf->ng, wo);
     vec3 ns = v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
     vec3 origin = pm_surface_origin(sf, ng, s->ray_scale);
-    vec3 e = v3s(0.f);
+    vec3 e = v3s(0.f); /* Lambert: irradiance E (times kd/pi at the end); glossy: radiance */
 
     for (uint32_t i = 0; i < s->light_count; i++) {
         const pm_light *l = &s->lights[i];
@@ -130,7 +136,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         if (cos_s <= 0.f || v3_dot(ng, wi) <= 0.f) continue;
         (*rays)++;
         if (pm_accel_occluded(a, origin, wi, tmax)) continue;
-        e = v3_madd(e, radiance_scale, cos_s);
+        e = v3_add(e, v3_mul(radiance_scale, reflected(sf, ns, wo, wi, cos_s)));
     }
 
     if (s->emitter_count) {
@@ -158,9 +164,11 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                 float seg_len = v3_length(seg);
                 (*rays)++;
                 if (seg_len > 0.f && !pm_accel_occluded(a, origin, v3_scale(seg, 1.f / seg_len), seg_len)) {
-                    float g = cos_s * cos_l / (dist * dist);
-                    float pdf_light = pick_pdf * dist * dist / (area * cos_l), pdf_cosine = cos_s * PM_INV_PI;
-                    e = v3_madd(e, radiance, g * area / pick_pdf * power_heuristic(pdf_light, pdf_cosine));
+                    float g = cos_l / (dist * dist);
+                    float pdf_light = pick_pdf * dist * dist / (area * cos_l);
+                    float pdf_surface = sf->glossy ? pm_brdf_pdf(&sf->brdf, ns, wo, wi) : cos_s * PM_INV_PI;
+                    e = v3_add(e, v3_mul(v3_scale(radiance, g * area / pick_pdf * power_heuristic(pdf_light, pdf_surface)),
+                                         reflected(sf, ns, wo, wi, cos_s)));
                 }
             }
         }
@@ -175,26 +183,40 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         float cos_s = v3_dot(ns, wi);
         if (pdf_sky > 0.f && cos_s > 0.f && v3_dot(ng, wi) > 0.f) {
             (*rays)++;
+            float pdf_surface = sf->glossy ? pm_brdf_pdf(&sf->brdf, ns, wo, wi) : cos_s * PM_INV_PI;
             if (!pm_accel_occluded(a, origin, wi, INFINITY))
-                e = v3_madd(e, radiance, cos_s / pdf_sky * power_heuristic(pdf_sky, cos_s * PM_INV_PI));
+                e = v3_add(e, v3_mul(v3_scale(radiance, power_heuristic(pdf_sky, pdf_surface) / pdf_sky),
+                                     reflected(sf, ns, wo, wi, cos_s)));
         }
     }
 
-    /* One cosine-distributed ray serves the sky and, weighted against the area sample above, the
-     * emitters: near an emitter (a lamp's own wall, a glowing corner) area sampling alone has
-     * unbounded variance, and the cosine sample bounds it. */
+    /* One ray from the surface's own sampling serves the sky and, weighted against the area
+     * sample above, the emitters: near an emitter (a lamp's own wall, a glowing corner) area
+     * sampling alone has unbounded variance, and this sample bounds it (and on a glossy surface
+     * it finds the highlight of a large lamp that area sampling rarely would). */
     if (s->sky || s->emitter_count) {
-        vec3 wi = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
-        float cos_s = v3_dot(ns, wi);
-        if (v3_dot(wi, ng) > 0.f && cos_s > 0.f) {
+        vec3 wi, weight = v3s(PM_PI); /* Lambert: cos / (cos / pi) */
+        float pdf_surface = 0.f;
+        bool sampled = true;
+        if (sf->glossy) {
+            vec3 f;
+            sampled = pm_brdf_sample(&sf->brdf, ns, wo, pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), &wi, &f,
+                                     &pdf_surface);
+            if (sampled) weight = v3_scale(f, v3_dot(ns, wi) / pdf_surface);
+        } else {
+            wi = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
+        }
+        float cos_s = sampled ? v3_dot(ns, wi) : 0.f;
+        if (!sf->glossy) pdf_surface = cos_s * PM_INV_PI;
+        if (sampled && v3_dot(wi, ng) > 0.f && cos_s > 0.f) {
             (*rays)++;
-            float sky_weight = s->sky_map ? power_heuristic(cos_s * PM_INV_PI, pm_sky_map_pdf(s->sky_map, wi)) : 1.f;
+            float sky_weight = s->sky_map ? power_heuristic(pdf_surface, pm_sky_map_pdf(s->sky_map, wi)) : 1.f;
             if (!s->emitter_count) {
-                if (!pm_accel_occluded(a, origin, wi, INFINITY)) e = v3_madd(e, pm_scene_sky(s, wi), PM_PI * sky_weight);
+                if (!pm_accel_occluded(a, origin, wi, INFINITY)) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
             } else {
                 pm_hit h;
                 if (!pm_accel_intersect(a, origin, wi, INFINITY, &h)) {
-                    if (s->sky) e = v3_madd(e, pm_scene_sky(s, wi), PM_PI * sky_weight);
+                    if (s->sky) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
                 } else {
                     const pm_material *m = &s->materials[s->triangle_material[h.tri]];
                     float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
@@ -205,26 +227,52 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                         float len = v3_length(cross), cos_l = len > 0.f ? -v3_dot(cross, wi) / len : 0.f;
                         if (m->double_sided) cos_l = fabsf(cos_l);
                         if (cos_l > 0.f) {
-                            float pdf_light = pick_pdf * h.t * h.t / (0.5f * len * cos_l), pdf_cosine = cos_s * PM_INV_PI;
-                            e = v3_madd(e, pm_scene_emission_at(s, h.tri, h.b1, h.b2), PM_PI * power_heuristic(pdf_cosine, pdf_light));
+                            float pdf_light = pick_pdf * h.t * h.t / (0.5f * len * cos_l);
+                            e = v3_add(e, v3_mul(v3_scale(pm_scene_emission_at(s, h.tri, h.b1, h.b2),
+                                                          power_heuristic(pdf_surface, pdf_light)), weight));
                         }
                     }
                 }
             }
         }
     }
-    return e;
+    return sf->glossy ? e : v3_scale(v3_mul(sf->kd, e), PM_INV_PI);
+}
+
+static inline vec3 side_normal(const pm_surface *sf, vec3 ng) { return v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns; }
+
+/* Radiance reflected toward wo by a photon map's estimate at a diffuse or glossy point: kd/pi x
+ * the irradiance estimate, or each photon weighted by the lobe. */
+static vec3 map_estimate(const pm_kdtree *map, const pm_surface *sf, vec3 ng, vec3 wo, const pm_estimate_settings *e) {
+    if (sf->glossy) return pm_photon_estimate_brdf(map, sf->p, ng, e, &sf->brdf, side_normal(sf, ng), wo);
+    return v3_scale(v3_mul(sf->kd, pm_photon_estimate(map, sf->p, ng, e)), PM_INV_PI);
+}
+
+/* A direction leaving a diffuse or glossy point (ng, ns on wo's side) by its own sampling and the
+ * weight f cos / pdf (kd for Lambert's cosine samples); false when the sample is lost. */
+static bool sample_reflection(const pm_surface *sf, vec3 ng, vec3 ns, vec3 wo, pm_rng *rng, vec3 *wi, vec3 *weight) {
+    if (sf->glossy) {
+        vec3 f;
+        float pdf;
+        if (!pm_brdf_sample(&sf->brdf, ns, wo, pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), wi, &f, &pdf))
+            return false;
+        *weight = v3_scale(f, v3_dot(ns, *wi) / pdf);
+    } else {
+        *wi = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
+        *weight = sf->kd; /* cosine-distributed: kd/pi x cos / (cos/pi) */
+    }
+    return v3_dot(*wi, ng) > 0.f;
 }
 
 /* Radiance reflected toward the gather ray from the first diffuse surface it reaches (through
  * any specular bounces): the global map's estimate there, emission excluded (direct light and
  * caustics at the gathering point already count it). */
-static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, pm_rng *rng, uint64_t *rays) {
+static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, vec3 wo0, pm_rng *rng, uint64_t *rays) {
     const pm_scene *s = job->scene;
     const pm_eye_settings *set = job->settings;
-    vec3 d = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
-    if (v3_dot(d, ng) <= 0.f) return v3s(0.f);
-    vec3 o = pm_surface_origin(sf, ng, s->ray_scale), weight = v3s(1.f), result = v3s(0.f);
+    vec3 d, weight;
+    if (!sample_reflection(sf, ng, ns, wo0, rng, &d, &weight)) return v3s(0.f);
+    vec3 o = pm_surface_origin(sf, ng, s->ray_scale), result = v3s(0.f);
     for (int depth = 0; depth <= set->max_specular_depth; depth++) {
         pm_hit h;
         (*rays)++;
@@ -232,7 +280,9 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, p
         pm_surface y;
         pm_scene_surface(s, h.tri, h.b1, h.b2, &y);
         vec3 wo = v3_neg(d), yng = facing(y.ng, wo);
-        if (!v3_is_black(y.kd)) {
+        if (y.glossy) {
+            result = v3_add(result, v3_mul(weight, map_estimate(&set->maps->global, &y, yng, wo, &set->global_estimate)));
+        } else if (!v3_is_black(y.kd)) {
             vec3 e;
             if (!pm_photon_irradiance_lookup(set->maps, y.p, yng, &e))
                 e = pm_photon_estimate(&set->maps->global, y.p, yng, &set->global_estimate);
@@ -267,37 +317,35 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 ou
         bool front = v3_dot(sf.ng, wo) > 0.f;
         if ((front || sf.double_sided) && !v3_is_black(sf.emission))
             out[comp] = v3_add(out[comp], v3_mul(throughput, sf.emission));
-        if (!v3_is_black(sf.kd)) {
+        if (!v3_is_black(sf.kd) || sf.glossy) {
             const pm_eye_settings *set = job->settings;
-            vec3 f = v3_mul(throughput, v3_scale(sf.kd, PM_INV_PI)); /* Lambert BRDF x path weight */
             vec3 ng = facing(sf.ng, wo);
             if (set->view_photons && set->maps) {
                 pm_estimate_settings direct_only = set->global_estimate, indirect_only = set->global_estimate;
                 direct_only.path_mask = 1u << PM_PATH_DIRECT;
                 indirect_only.path_mask = 1u << PM_PATH_INDIRECT;
-                out[comp] = v3_add(out[comp], v3_mul(f, pm_photon_estimate(&set->maps->global, sf.p, ng, &direct_only)));
+                out[comp] = v3_add(out[comp], v3_mul(throughput, map_estimate(&set->maps->global, &sf, ng, wo, &direct_only)));
                 out[depth == 0 ? PM_INDIRECT : PM_SPECULAR] = v3_add(out[depth == 0 ? PM_INDIRECT : PM_SPECULAR],
-                    v3_mul(f, pm_photon_estimate(&set->maps->global, sf.p, ng, &indirect_only)));
+                    v3_mul(throughput, map_estimate(&set->maps->global, &sf, ng, wo, &indirect_only)));
             } else {
-                vec3 e = direct_light(s, job->accel, &sf, wo, rng, rays);
-                out[comp] = v3_add(out[comp], v3_mul(f, e));
+                out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, &sf, wo, rng, rays)));
             }
             if (set->maps && set->maps->caustic.count) {
                 int c = depth == 0 ? PM_CAUSTIC : PM_SPECULAR;
-                out[c] = v3_add(out[c], v3_mul(f, pm_photon_estimate(&set->maps->caustic, sf.p, ng, &set->caustic_estimate)));
+                out[c] = v3_add(out[c], v3_mul(throughput, map_estimate(&set->maps->caustic, &sf, ng, wo, &set->caustic_estimate)));
             }
             if (set->maps && set->maps->global.count && !set->view_photons) {
                 int c = depth == 0 ? PM_INDIRECT : PM_SPECULAR;
                 vec3 l = v3s(0.f);
                 if (set->indirect == PM_INDIRECT_GATHER && depth == 0 && set->gather_rays > 0) {
-                    vec3 ns = v3_dot(sf.ns, ng) < 0.f ? v3_neg(sf.ns) : sf.ns;
-                    for (int g = 0; g < set->gather_rays; g++) l = v3_add(l, gather(job, &sf, ng, ns, rng, rays));
-                    /* cosine-distributed rays: kd/pi x integral L cos = kd x mean(L) */
-                    l = v3_scale(v3_mul(throughput, v3_mul(sf.kd, l)), 1.f / set->gather_rays);
+                    vec3 ns = side_normal(&sf, ng);
+                    /* each gather ray carries its sample's weight: kd x L for Lambert's cosine rays */
+                    for (int g = 0; g < set->gather_rays; g++) l = v3_add(l, gather(job, &sf, ng, ns, wo, rng, rays));
+                    l = v3_scale(v3_mul(throughput, l), 1.f / set->gather_rays);
                 } else {
                     pm_estimate_settings indirect_only = set->global_estimate;
                     indirect_only.path_mask = 1u << PM_PATH_INDIRECT;
-                    l = v3_mul(f, pm_photon_estimate(&set->maps->global, sf.p, ng, &indirect_only));
+                    l = v3_mul(throughput, map_estimate(&set->maps->global, &sf, ng, wo, &indirect_only));
                 }
                 out[c] = v3_add(out[c], l);
             }
@@ -343,15 +391,23 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, vec3 throughput,
         bool front = v3_dot(sf->ng, wo) > 0.f;
         if (camera_ray && (front || sf->double_sided) && !v3_is_black(sf->emission))
             out[comp] = v3_add(out[comp], v3_mul(throughput, sf->emission));
-        float D = v3_average(sf->kd), S = pm_specular_weight(sf);
+        /* a glossy lobe is a visible point like Lambert's, chosen by its share of the surface */
+        float D = sf->glossy ? sf->brdf.weight : v3_average(sf->kd), S = pm_specular_weight(sf);
         if (D > 0.f && (S <= 0.f || pm_rng_float(rng) * (D + S) < D)) {
             throughput = v3_scale(throughput, (D + S) / D);
             vec3 ng = facing(sf->ng, wo);
-            vec3 f = v3_mul(throughput, v3_scale(sf->kd, PM_INV_PI));
-            if (camera_ray) out[comp] = v3_add(out[comp], v3_mul(f, direct_light(s, job->accel, sf, wo, rng, rays)));
+            if (camera_ray) out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, sf, wo, rng, rays)));
             vp->p = sf->p;
             vp->n = ng;
-            vp->weight = f;
+            vp->glossy = sf->glossy;
+            vp->wo = wo;
+            if (sf->glossy) {
+                vp->weight = throughput;
+                vp->brdf = sf->brdf;
+                vp->ns = side_normal(sf, ng);
+            } else {
+                vp->weight = v3_mul(throughput, v3_scale(sf->kd, PM_INV_PI));
+            }
             vp->path_length = path_length;
             vp->seen_directly = depth == 0;
             vp->valid = true;
@@ -382,11 +438,9 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 
     pm_surface sf;
     vec3 throughput;
     if (!walk_to_diffuse(job, o, d, v3s(1.f), true, rng, out, rays, vp, &sf, &throughput) || !gp) return;
-    vec3 ng = vp->n, ns = v3_dot(sf.ns, ng) < 0.f ? v3_neg(sf.ns) : sf.ns;
-    vec3 g = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
-    if (v3_dot(g, ng) <= 0.f) return;
-    /* cosine-distributed: kd/pi x cos / (cos/pi) = kd */
-    vec3 gather_throughput = v3_mul(throughput, sf.kd);
+    vec3 ng = vp->n, ns = side_normal(&sf, ng), g, weight;
+    if (!sample_reflection(&sf, ng, ns, vp->wo, rng, &g, &weight)) return;
+    vec3 gather_throughput = v3_mul(throughput, weight);
     pm_surface y;
     vec3 unused;
     if (walk_to_diffuse(job, pm_surface_origin(&sf, ng, job->scene->ray_scale), g, gather_throughput, false, rng, NULL,

@@ -284,10 +284,10 @@ static double relative_mse(const pm_film *film, const reference_image *ref, floa
 
 static void print_analysis_stats(const pm_scene *s) {
     const pm_scene_analysis *a = &s->analysis;
-    printf("stat analysis diffuse=%d mirror=%d glass=%d textures=%d emissive_triangles=%d punctual_lights=%d sky=%d caustics_possible=%d interreflection_possible=%d photons_needed=%d components=",
+    printf("stat analysis diffuse=%d mirror=%d glass=%d textures=%d emissive_triangles=%d punctual_lights=%d sky=%d caustics_possible=%d interreflection_possible=%d photons_needed=%d glossy=%d components=",
            a->has_diffuse, a->has_mirror, a->has_glass, a->has_textures, a->has_emissive_triangles,
            a->has_punctual_lights, a->has_sky, a->caustics_possible, a->interreflection_possible,
-           a->component_possible[PM_CAUSTIC] || a->component_possible[PM_INDIRECT]);
+           a->component_possible[PM_CAUSTIC] || a->component_possible[PM_INDIRECT], a->has_glossy);
     bool first = true;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
         if (a->component_possible[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }

@@ -78,8 +78,10 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
     return true;
 }
 
-uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
-                                   vec3 *power) {
+/* The disc's photons that count for the surface, each one's power weighted by the lobe's f(wo, wi)
+ * when a lobe is given. Inline into both callers, so the plain sum keeps no BRDF branch cost. */
+static inline uint32_t sum_disc(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
+                                const pm_brdf *lobe, vec3 ns, vec3 wo, vec3 *power) {
     vec3 sum = v3s(0.f);
     uint32_t found = 0;
     *power = sum;
@@ -111,10 +113,22 @@ uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, floa
                                       cell_coord(ph->pos[2], g->origin.z, g->inv_cell) != z))
                         continue;
                     if (!pm_photon_counts_for(ph, n, path_mask)) continue;
-                    sum = v3_add(sum, pm_photon_power(ph));
+                    vec3 q = pm_photon_power(ph);
+                    if (lobe) q = v3_mul(q, pm_brdf_eval(lobe, ns, wo, v3_neg(pm_photon_direction(ph))));
+                    sum = v3_add(sum, q);
                     found++;
                 }
             }
     *power = sum;
     return found;
+}
+
+uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
+                                   vec3 *power) {
+    return sum_disc(g, p, n, radius2, path_mask, NULL, n, n, power);
+}
+
+uint32_t pm_photon_grid_sum_brdf(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
+                                 const pm_brdf *b, vec3 ns, vec3 wo, vec3 *reflected) {
+    return sum_disc(g, p, n, radius2, path_mask, b, ns, wo, reflected);
 }

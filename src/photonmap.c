@@ -407,7 +407,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             vec3 ng = facing(sf.ng, v3_neg(d));
             vec3 ns = v3_dot(sf.ns, ng) < 0.f ? v3_neg(sf.ns) : sf.ns;
             float D = v3_average(sf.kd), Sm = v3_average(sf.ks), St = v3_average(sf.kt);
-            if (D > 0.f) {
+            if (D > 0.f || sf.glossy) {
                 if (ps->caustic_pass) {
                     /* stored, and the roulette below decides: a diffuse bounce ends the caustic
                      * path, while the specular part of a mixed surface carries it on (L S+ D is
@@ -418,8 +418,35 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                     push(&list, sf.p, ng, d, power, path);
                 }
             }
-            /* survival D + S, capped: scale both choices by q and let the weights make up for it */
             float x = pm_rng_float(&rng), S = Sm + St;
+            if (sf.glossy) {
+                /* the glass share by its weight, else the lobe: sample it, then survive with the
+                 * probability of its mean weight, so power is only rescaled per channel by colour */
+                if (x < St) {
+                    pm_specular_sample sp;
+                    if (!pm_scatter_specular(&sf, d, &rng, s->ray_scale, &sp)) break;
+                    power = v3_scale(v3_mul(power, sp.weight), 1.f / St);
+                    d = sp.direction;
+                    o = sp.origin;
+                    specular_bounces++;
+                    continue;
+                }
+                if (ps->caustic_pass) break; /* a glossy bounce ends a caustic path, as a diffuse one does */
+                vec3 wi, f;
+                float pdf;
+                if (!pm_brdf_sample(&sf.brdf, ns, v3_neg(d), pm_rng_float(&rng), pm_rng_float(&rng), pm_rng_float(&rng),
+                                    &wi, &f, &pdf) || v3_dot(wi, ng) <= 0.f)
+                    break;
+                vec3 w = v3_scale(f, v3_dot(ns, wi) / pdf);
+                float q = pm_minf(PM_PHOTON_MAX_SURVIVAL, v3_average(w) / (1.f - St));
+                if (!(q > 0.f) || pm_rng_float(&rng) >= q) break;
+                power = v3_scale(v3_mul(power, w), 1.f / ((1.f - St) * q));
+                d = wi;
+                o = pm_surface_origin(&sf, ng, s->ray_scale);
+                diffuse_seen = true;
+                continue;
+            }
+            /* survival D + S, capped: scale both choices by q and let the weights make up for it */
             float q = D + S > PM_PHOTON_MAX_SURVIVAL ? PM_PHOTON_MAX_SURVIVAL / (D + S) : 1.f;
             D *= q;
             S *= q;
@@ -765,7 +792,10 @@ void pm_photon_maps_free(pm_photon_maps *maps) {
  * kernel integrate to exactly one over the disc). */
 static const float gauss_beta = 1.953f;
 
-vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e) {
+/* Jensen's estimate: the photons' power, each weighted by the kernel and (with b) by the BRDF
+ * f(wo, wi) for its incoming direction wi, over the kernel's area. */
+static vec3 estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e, const pm_brdf *b, vec3 ns,
+                     vec3 wo) {
     enum { MAX_K = 2048 };
     uint32_t idx[MAX_K];
     float d2[MAX_K], r2 = 0.f;
@@ -796,7 +826,18 @@ vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_
         } else if (e->kernel == PM_KERNEL_CONE) {
             w = (1.f - sqrtf(d2[i]) / (cone_k * r)) / (1.f - 2.f / (3.f * cone_k));
         }
-        sum = v3_madd(sum, pm_photon_power(ph), w);
+        vec3 power = pm_photon_power(ph);
+        if (b) power = v3_mul(power, pm_brdf_eval(b, ns, wo, v3_neg(pm_photon_direction(ph))));
+        sum = v3_madd(sum, power, w);
     }
     return v3_scale(sum, 1.f / (PM_PI * r2));
+}
+
+vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e) {
+    return estimate(map, p, n, e, NULL, n, n);
+}
+
+vec3 pm_photon_estimate_brdf(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e, const pm_brdf *b,
+                             vec3 ns, vec3 wo) {
+    return estimate(map, p, n, e, b, ns, wo);
 }

@@ -69,7 +69,7 @@ static double diffuse_area(const pm_scene *s) {
         const pm_material *m = &s->materials[s->triangle_material[t]];
         vec3 kd, ks, kt;
         pm_material_split(m, m->base_color, &kd, &ks, &kt);
-        if (!v3_is_black(kd) || m->base_color_texture >= 0) area += pm_triangle_area(s, t);
+        if (!v3_is_black(kd) || pm_material_glossy(m) || m->base_color_texture >= 0) area += pm_triangle_area(s, t);
     }
     return area;
 }
@@ -209,12 +209,13 @@ static void update_statistics(gather_job *job, pm_ppm_stat *st, const pm_visible
         job->counters[thread].radius_count++;
     }
     vec3 power;
-    uint32_t m = pm_photon_grid_sum_facing(grid, vp->p, vp->n, (float)st->r2, path_mask, &power);
+    uint32_t m = vp->glossy ? pm_photon_grid_sum_brdf(grid, vp->p, vp->n, (float)st->r2, path_mask, &vp->brdf, vp->ns, vp->wo, &power)
+                            : pm_photon_grid_sum_facing(grid, vp->p, vp->n, (float)st->r2, path_mask, &power);
     job->counters[thread].query_sum[kind] += sqrt(st->r2);
     job->counters[thread].query_count[kind]++;
     if (!m) return;
     job->counters[thread].found += m;
-    vec3 phi = v3_mul(vp->weight, power);
+    vec3 phi = v3_mul(vp->weight, power); /* Lambert: kd/pi x power; glossy: the lobe is in power already */
     if (!v3_is_finite(phi)) { job->counters[thread].dropped++; return; }
     double alpha = p->settings.alpha, n = st->n;
     double r2_new = st->r2 * (n + alpha * m) / (n + m);
@@ -253,7 +254,9 @@ static void gather_rows(void *ctx, size_t task, int thread) {
             const pm_visible_point *gp = &p->gathered[i];
             vec3 power;
             /* every photon at the gather point: its direct, caustic and indirect light */
-            uint32_t m = pm_photon_grid_sum_facing(job->global, gp->p, gp->n, (float)job->gather_r2, 7u, &power);
+            uint32_t m = gp->glossy ? pm_photon_grid_sum_brdf(job->global, gp->p, gp->n, (float)job->gather_r2, 7u, &gp->brdf,
+                                                              gp->ns, gp->wo, &power)
+                                    : pm_photon_grid_sum_facing(job->global, gp->p, gp->n, (float)job->gather_r2, 7u, &power);
             job->counters[thread].found += m;
             vec3 l = v3_scale(v3_mul(gp->weight, power), (float)(1.0 / (PM_PI * job->gather_r2)));
             float *sum = film->sum[gp->seen_directly ? PM_INDIRECT : PM_SPECULAR];

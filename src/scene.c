@@ -26,7 +26,7 @@ static bool diffuse_coplanar(const pm_scene *s) {
         const pm_material *m = &s->materials[s->triangle_material[t]];
         vec3 kd, ks, kt;
         pm_material_split(m, m->base_color, &kd, &ks, &kt);
-        if (v3_is_black(kd)) continue;
+        if (v3_is_black(kd) && !pm_material_glossy(m)) continue;
         const uint32_t *ix = s->indices + 3 * (size_t)t;
         vec3 p[3] = {s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]};
         if (!have_plane) {
@@ -56,7 +56,9 @@ static void analyse(pm_scene *s) {
         if (!material_used[i]) continue;
         vec3 kd, ks, kt;
         pm_material_split(&s->materials[i], s->materials[i].base_color, &kd, &ks, &kt);
-        a->has_diffuse |= !v3_is_black(kd);
+        bool glossy = pm_material_glossy(&s->materials[i]);
+        a->has_glossy |= glossy;
+        a->has_diffuse |= !v3_is_black(kd) || glossy;
         a->has_mirror |= !v3_is_black(ks);
         a->has_glass |= !v3_is_black(kt);
         a->has_textures |= s->materials[i].base_color_texture >= 0 || s->materials[i].emission_texture >= 0;
@@ -303,6 +305,8 @@ void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_su
     vec3 base = m->base_color;
     if (m->base_color_texture >= 0) base = v3_mul(base, pm_texture_lookup(&s->textures[m->base_color_texture], out->u, out->v));
     pm_material_split(m, base, &out->kd, &out->ks, &out->kt);
+    out->glossy = pm_material_glossy(m);
+    if (out->glossy) out->brdf = pm_material_brdf(m, base);
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
     out->emission = m->emission;
     if (m->emission_texture >= 0 && !v3_is_black(m->emission))

@@ -156,8 +156,9 @@ static void white_furnace(float rho, int irradiance_stride, float metallic) {
     pm_scene s;
     memset(&s, 0, sizeof s);
     const float le = 0.5f;
-    /* metallic 0.5, roughness 0.5: three quarters Lambert, a quarter mirror, albedo rho in all */
-    uint32_t m = sb_material(&s, v3s(rho), metallic, metallic > 0.f ? 0.5f : 1.f, 0, v3s(le), false);
+    /* metallic 0.5, roughness 0 (a rougher metal would be the glossy lobe): half Lambert, half
+     * mirror, albedo rho in all */
+    uint32_t m = sb_material(&s, v3s(rho), metallic, metallic > 0.f ? 0.f : 1.f, 0, v3s(le), false);
     sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), m, true);
     pm_accel *a = finish(&s);
     pm_photon_settings ps = photon_settings(300000, 300000);
@@ -192,7 +193,7 @@ static void white_furnace(float rho, int irradiance_stride, float metallic) {
      * pixel) and Le ks/(1-ks) arrives through mirror chains from emission (the caustic layer), so
      * the indirect layer is kd (L - Le - Le ks/(1-ks)). The direct layer's own per-pixel noise
      * (area sampling of emitters a hair away across a corner) is left to the mean. */
-    float kd = rho * (metallic > 0.f ? (1.f - metallic) + metallic * 0.5f : 1.f), ks = rho * metallic * 0.5f;
+    float kd = rho * (1.f - metallic), ks = rho * metallic;
     double want_indirect = kd * (want - le - le * ks / (1.f - ks));
     pm_film_resolve(&film, PM_INDIRECT, total);
     for (int i = 0; i < 3 * 16 * 16; i++) {
@@ -307,8 +308,8 @@ static void parallel_light_projection(bool sky) {
     pm_scene_free(&s);
 }
 
-/* Both branches of the roulette: walls three quarters Lambert, a quarter mirror (metallic 0.5,
- * roughness 0.5), reflectance rho in all. Every wall has a diffuse part, so the global map stores
+/* Both branches of the roulette: walls half Lambert, half mirror (metallic 0.5, roughness 0),
+ * reflectance rho in all. Every wall has a diffuse part, so the global map stores
  * every hit; whichever branch a photon takes, the later hits must carry rho/(1-rho) of the
  * light's power per channel, and the caustic map (first diffuse hit after a mirror bounce)
  * holds the power that went through one or more mirror bounces first. */
@@ -316,7 +317,7 @@ static void roulette_both_branches(void) {
     pm_scene s;
     memset(&s, 0, sizeof s);
     vec3 rho = v3(0.7f, 0.6f, 0.45f), intensity = v3(2.f, 3.f, 4.f);
-    sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), sb_material(&s, rho, 0.5f, 0.5f, 0, v3s(0), false), true);
+    sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), sb_material(&s, rho, 0.5f, 0.f, 0, v3s(0), false), true);
     sb_point_light(&s, v3(0.2f, 0.1f, -0.3f), intensity);
     pm_accel *a = finish(&s);
     pm_photon_settings ps = photon_settings(400000, 400000);
@@ -327,7 +328,7 @@ static void roulette_both_branches(void) {
     vec3 later = v3_add(stored_power(&maps.global, PM_PATH_INDIRECT), stored_power(&maps.global, PM_PATH_CAUSTIC));
     vec3 caustic = stored_power(&maps.caustic, -1);
     for (int c = 0; c < 3; c++) {
-        float phi = 4.f * PM_PI * v3_get(intensity, c), r = v3_get(rho, c), m = 0.25f * r;
+        float phi = 4.f * PM_PI * v3_get(intensity, c), r = v3_get(rho, c), m = 0.5f * r;
         CHECK_NEAR(v3_get(first, c), phi, 0.005, 0, "mixed walls: first-hit stored power = light power");
         CHECK_NEAR(v3_get(later, c), phi * r / (1.f - r), 0.02, 0, "mixed walls: later hits carry rho/(1-rho), both branches");
         /* a caustic map photon took k >= 1 mirror bounces then arrived: sum of m^k = m/(1-m) */

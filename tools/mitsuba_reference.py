@@ -27,7 +27,7 @@ import mitsuba as mi  # noqa: E402
 # The LLVM variants crash on the machine these were made on, and a 64x64 reference does not need them.
 mi.set_variant("scalar_rgb")
 
-SCENES = {"cornell": make_scenes.cornell_box, "caustic": make_scenes.caustic}
+SCENES = {"cornell": make_scenes.cornell_box, "caustic": make_scenes.caustic, "glossy": make_scenes.glossy_spheres}
 
 
 def rgb(c):
@@ -46,6 +46,14 @@ def bsdf_and_emitter(material):
         # metallic 1 / roughness 0 with baseColor c: pmview makes a perfect mirror of constant
         # reflectance c, no Fresnel falloff; material 'none' is Mitsuba's ideal conductor.
         return {"type": "conductor", "material": "none", "specular_reflectance": rgb(color)}, None
+    if kind == "metal":
+        # metallic 1 with roughness r: pmview's glTF lobe is GGX with alpha = r^2 and Schlick F with
+        # F0 = baseColor. make_scenes' metals are white, where Schlick is 1 at every angle, exactly
+        # the ideal conductor ('none') here; visible-normal sampling is Mitsuba's default. Mitsuba's
+        # Smith term is the separable G1(wi) G1(wo), pmview's the height-correlated one (see
+        # tests/ref/README.md for the difference this leaves).
+        return {"type": "roughconductor", "material": "none", "distribution": "ggx",
+                "alpha": float(material["roughness"]) ** 2, "specular_reflectance": rgb(color)}, None
     if kind == "glass":
         ior = float(material.get("ior", 1.5))
         return {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0,

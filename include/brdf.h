@@ -1,0 +1,38 @@
+/* brdf.h: glTF's metallic-roughness BRDF (GGX, height-correlated Smith, Schlick Fresnel, Lambert base): evaluation, sampling, pdf.
+ *
+ * The specification's model expanded into one sum (Schlick is linear in F0, so the metal and
+ * dielectric specular lobes merge into one with F0 = mix(0.04, base, metallic)):
+ *
+ *     f = weight x [ F(F0, v.h) D(h) V(wo, wi)  +  (1 - metallic) (1 - F(0.04, cos_o)) (1 - F(0.04, cos_i)) base / pi ]
+ *
+ * (the diffuse base's Fresnel at the two macro angles rather than at v.h: with v.h a white
+ * dielectric reflects up to 1.39 of the light at grazing angles, which Russian roulette cannot take).
+ * D is Trowbridge-Reitz (GGX) with alpha = roughness^2, V = G2 / (4 cos_o cos_i) with the
+ * height-correlated Smith G2 = 1 / (1 + Lambda(wo) + Lambda(wi)). Every term is symmetric in
+ * wo and wi, so f is reciprocal. Sampling picks the specular lobe (visible normals of GGX,
+ * Heitz 2018) or a cosine direction, with a probability that depends on wo only; the pdf is the
+ * mixture's, so the sampled direction and pm_brdf_pdf() always agree. Directions are world
+ * space; n is the shading normal on the side wo is (wo and wi below it give f = 0).
+ */
+#ifndef PM_BRDF_H
+#define PM_BRDF_H
+
+#include <stdbool.h>
+#include "pm_math.h"
+
+typedef struct {
+    vec3 base;       /* base colour, each channel in [0, 1] */
+    float metallic;  /* [0, 1] */
+    float alpha;     /* GGX alpha = roughness^2, at least PM_GLOSSY_MIN_ALPHA */
+    float weight;    /* the share of the surface the lobe covers: 1 minus the glass share */
+} pm_brdf;
+
+/* f(wo, wi), the cosine not included. */
+vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi);
+/* The density (per solid angle) with which pm_brdf_sample returns wi. */
+float pm_brdf_pdf(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi);
+/* Samples wi from three uniform numbers; fills f(wo, wi) and the pdf. False when the sample is
+ * lost (below the surface): the caller ends the path there. */
+bool pm_brdf_sample(const pm_brdf *b, vec3 n, vec3 wo, float u0, float u1, float u2, vec3 *wi, vec3 *f, float *pdf);
+
+#endif

@@ -1,0 +1,255 @@
+/* test_brdf.c: the glossy BRDF alone: white furnace (albedo <= 1, brute force vs sampler), reciprocity, sampler vs pdf(), material mapping. */
+#include <stdio.h>
+#include <string.h>
+
+#include "brdf.h"
+#include "rng.h"
+#include "scene.h"
+#include "testing.h"
+
+#define PM_PI_D 3.14159265358979323846
+
+static pm_brdf make_brdf(vec3 base, float metallic, float roughness) {
+    pm_brdf b = {base, metallic, pm_maxf(PM_GLOSSY_MIN_ALPHA, roughness * roughness), 1.f};
+    return b;
+}
+
+static vec3 direction_at(float cos_theta, float phi) {
+    float s = sqrtf(pm_maxf(0.f, 1.f - cos_theta * cos_theta));
+    return v3(s * cosf(phi), s * sinf(phi), cos_theta);
+}
+
+typedef struct { double mean[3], stderr_max; } estimate;
+
+/* Directional albedo integral of f cos over the hemisphere by uniform (stratified) directions:
+ * the brute force that knows nothing of the sampler. */
+static estimate albedo_uniform(const pm_brdf *b, vec3 n, vec3 wo, int side) {
+    double sum[3] = {0, 0, 0}, sum2[3] = {0, 0, 0};
+    pm_rng rng = pm_rng_for(7, side, 1);
+    int count = side * side;
+    for (int i = 0; i < side; i++)
+        for (int j = 0; j < side; j++) {
+            float z = (i + pm_rng_float(&rng)) / side, phi = 2.f * PM_PI * (j + pm_rng_float(&rng)) / side;
+            vec3 wi = direction_at(z, phi);
+            vec3 f = pm_brdf_eval(b, n, wo, wi);
+            for (int c = 0; c < 3; c++) {
+                double v = v3_get(f, c) * z * 2.0 * PM_PI; /* uniform pdf 1 / (2 pi) */
+                sum[c] += v;
+                sum2[c] += v * v;
+            }
+        }
+    estimate e = {{0, 0, 0}, 0};
+    for (int c = 0; c < 3; c++) {
+        e.mean[c] = sum[c] / count;
+        /* stratification only lowers the error: the plain estimator's is an upper bound */
+        double var = sum2[c] / count - e.mean[c] * e.mean[c];
+        e.stderr_max = fmax(e.stderr_max, sqrt(fmax(var, 0.0) / count));
+    }
+    return e;
+}
+
+/* The same integral as the mean of the sampler's weights f cos / pdf (a lost sample counts 0). */
+static estimate albedo_sampled(const pm_brdf *b, vec3 n, vec3 wo, int count, double *max_weight) {
+    double sum[3] = {0, 0, 0}, sum2[3] = {0, 0, 0};
+    pm_rng rng = pm_rng_for(9, count, 2);
+    *max_weight = 0.0;
+    for (int i = 0; i < count; i++) {
+        vec3 wi, f;
+        float pdf;
+        if (!pm_brdf_sample(b, n, wo, pm_rng_float(&rng), pm_rng_float(&rng), pm_rng_float(&rng), &wi, &f, &pdf)) continue;
+        for (int c = 0; c < 3; c++) {
+            double v = v3_get(f, c) * v3_dot(n, wi) / pdf;
+            sum[c] += v;
+            sum2[c] += v * v;
+            *max_weight = fmax(*max_weight, v);
+        }
+    }
+    estimate e = {{0, 0, 0}, 0};
+    for (int c = 0; c < 3; c++) {
+        e.mean[c] = sum[c] / count;
+        e.stderr_max = fmax(e.stderr_max, sqrt(fmax(sum2[c] / count - e.mean[c] * e.mean[c], 0.0) / count));
+    }
+    return e;
+}
+
+/* Independent reference for metal with F = 1: the albedo written with Smith's Lambda (not the
+ * V form the BRDF uses), integrated in double precision by the midpoint rule in (cos theta, phi). */
+static double lambda_ggx(double a2, double c) { return 0.5 * (-1.0 + sqrt(1.0 + a2 * (1.0 - c * c) / (c * c))); }
+static double metal_albedo_quadrature(double alpha, double cos_o) {
+    const int nz = 1500, nphi = 600;
+    double a2 = alpha * alpha, so = sqrt(1.0 - cos_o * cos_o), sum = 0.0;
+    for (int i = 0; i < nz; i++) {
+        double ci = (i + 0.5) / nz, si = sqrt(1.0 - ci * ci);
+        for (int j = 0; j < nphi; j++) {
+            double phi = 2.0 * PM_PI_D * (j + 0.5) / nphi;
+            double h[3] = {so + si * cos(phi), si * sin(phi), cos_o + ci};
+            double hl = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]), ch = h[2] / hl;
+            double t = ch * ch * (a2 - 1.0) + 1.0, d = a2 / (PM_PI_D * t * t);
+            double g2 = 1.0 / (1.0 + lambda_ggx(a2, cos_o) + lambda_ggx(a2, ci));
+            sum += d * g2 / (4.0 * cos_o); /* f cos_i = D G2 / (4 cos_o) */
+        }
+    }
+    return sum * (1.0 / nz) * (2.0 * PM_PI_D / nphi);
+}
+
+static void white_furnace(void) {
+    const float roughness[] = {0.2f, 0.4f, 0.6f, 0.8f, 1.f}, cosines[] = {1.f, 0.7f, 0.3f, 0.1f};
+    vec3 n = v3(0, 0, 1);
+    printf("white furnace, metal with F0 = 1: albedo (brute force / sampler / quadrature), i.e. what single-scattering GGX+Smith loses\n");
+    for (size_t r = 0; r < sizeof roughness / sizeof *roughness; r++) {
+        pm_brdf metal = make_brdf(v3s(1.f), 1.f, roughness[r]);
+        printf("  roughness %.1f:", roughness[r]);
+        for (size_t k = 0; k < sizeof cosines / sizeof *cosines; k++) {
+            vec3 wo = direction_at(cosines[k], 0.3f);
+            estimate u = albedo_uniform(&metal, n, wo, 1000);
+            double max_w;
+            estimate s = albedo_sampled(&metal, n, wo, 400000, &max_w);
+            double q = metal_albedo_quadrature(metal.alpha, cosines[k]);
+            printf(" cos %.1f %.4f/%.4f/%.4f", cosines[k], u.mean[0], s.mean[0], q);
+            CHECK(s.mean[0] <= 1.0 + 4.0 * s.stderr_max && u.mean[0] <= 1.0 + 4.0 * u.stderr_max,
+                  "energy <= 1 (roughness %g, cos %g): %g %g", roughness[r], cosines[k], s.mean[0], u.mean[0]);
+            CHECK_NEAR(s.mean[0], u.mean[0], 0, 4.0 * (s.stderr_max + u.stderr_max) + 1e-3, "sampler weights = uniform integration");
+            /* float vs double and the quadrature's own error near the peak */
+            /* the midpoint rule misses narrow peaks: only for the wider lobes */
+            if (roughness[r] >= 0.4f) CHECK_NEAR(u.mean[0], q, 0.002, 4.0 * u.stderr_max, "uniform integration = Lambda-form quadrature");
+            /* F = 1 and visible-normal sampling: every weight is G2 / G1(wo) <= 1 */
+            CHECK(max_w <= 1.0 + 1e-3, "metal F0=1 sample weight <= 1 (got %g)", max_w);
+            /* alpha 1 head-on: D = 1/pi, G2 = 2c/(1+c), so the albedo is 1 - ln 2 */
+            if (roughness[r] == 1.f && cosines[k] == 1.f) CHECK_NEAR(q, 1.0 - log(2.0), 1e-3, 0, "alpha 1, head-on: 1 - ln 2");
+            if (roughness[r] <= 0.4f && cosines[k] >= 0.3f) CHECK(s.mean[0] > 0.88, "smoother: little is lost (%g)", s.mean[0]);
+        }
+        printf("\n");
+    }
+    /* smooth limit: almost nothing is lost at normal incidence (every weight is G2/G1 there) */
+    {
+        pm_brdf smooth = make_brdf(v3s(1.f), 1.f, 0.1f);
+        double max_w;
+        estimate s = albedo_sampled(&smooth, n, v3(0, 0, 1), 100000, &max_w);
+        CHECK_NEAR(s.mean[0], 1.0, 0.002, 0, "alpha 0.01 keeps the energy head-on");
+    }
+
+    /* dielectric and mixed materials, white base: still no energy gain */
+    const float metals[] = {0.f, 0.3f, 0.7f};
+    for (size_t m = 0; m < 3; m++)
+        for (size_t r = 0; r < sizeof roughness / sizeof *roughness; r++)
+            for (size_t k = 0; k < sizeof cosines / sizeof *cosines; k++) {
+                pm_brdf b = make_brdf(v3(1.f, 0.8f, 0.3f), metals[m], roughness[r]);
+                vec3 wo = direction_at(cosines[k], 1.1f);
+                estimate u = albedo_uniform(&b, n, wo, 400);
+                double max_w;
+                estimate s = albedo_sampled(&b, n, wo, 100000, &max_w);
+                for (int c = 0; c < 3; c++) {
+                    CHECK(u.mean[c] <= 1.0 + 4.0 * u.stderr_max, "metallic %g roughness %g cos %g channel %d: albedo %g > 1",
+                          metals[m], roughness[r], cosines[k], c, u.mean[c]);
+                    CHECK_NEAR(s.mean[c], u.mean[c], 0, 4.0 * (s.stderr_max + u.stderr_max) + 2e-3,
+                               "mixed: sampler weights = uniform integration");
+                }
+            }
+}
+
+static void reciprocity(void) {
+    pm_rng rng = pm_rng_for(3, 4, 5);
+    vec3 n = v3_normalize(v3(0.2f, -0.4f, 1.f));
+    double worst = 0.0;
+    for (int i = 0; i < 20000; i++) {
+        pm_brdf b = make_brdf(v3(pm_rng_float(&rng), pm_rng_float(&rng), pm_rng_float(&rng)), pm_rng_float(&rng),
+                              0.05f + 0.95f * pm_rng_float(&rng));
+        vec3 wo = pm_sample_cosine(n, pm_rng_float(&rng), pm_rng_float(&rng));
+        vec3 wi = pm_sample_cosine(n, pm_rng_float(&rng), pm_rng_float(&rng));
+        vec3 a = pm_brdf_eval(&b, n, wo, wi), c = pm_brdf_eval(&b, n, wi, wo);
+        for (int k = 0; k < 3; k++) {
+            double scale = fmax(fabs(v3_get(a, k)), 1e-6);
+            worst = fmax(worst, fabs(v3_get(a, k) - v3_get(c, k)) / scale);
+        }
+        CHECK(v3_is_black(pm_brdf_eval(&b, n, wo, v3_neg(wi))), "f = 0 below the surface");
+    }
+    printf("reciprocity: largest relative |f(wo,wi) - f(wi,wo)| over 20000 pairs %.2g\n", worst);
+    CHECK(worst < 1e-4, "f(wo, wi) = f(wi, wo) (worst relative difference %g)", worst);
+}
+
+/* The sampler's histogram over (cos theta, phi) bins against pdf() integrated over each bin, and
+ * pdf() integrated over the hemisphere against the share of samples that were not lost. */
+static void sampler_matches_pdf(float metallic, float roughness, float cos_o) {
+    enum { NZ = 12, NP = 24, SUB = 12, SAMPLES = 1000000 };
+    static double hist[NZ][NP];
+    memset(hist, 0, sizeof hist);
+    vec3 n = v3(0, 0, 1), wo = direction_at(cos_o, 0.f);
+    pm_brdf b = make_brdf(v3(0.9f, 0.6f, 0.3f), metallic, roughness);
+    pm_rng rng = pm_rng_for(11, (uint64_t)(roughness * 100), (uint64_t)(cos_o * 100));
+    int kept = 0, pdf_mismatch = 0;
+    for (int i = 0; i < SAMPLES; i++) {
+        vec3 wi, f;
+        float pdf;
+        if (!pm_brdf_sample(&b, n, wo, pm_rng_float(&rng), pm_rng_float(&rng), pm_rng_float(&rng), &wi, &f, &pdf)) continue;
+        kept++;
+        if (fabsf(pdf - pm_brdf_pdf(&b, n, wo, wi)) > 1e-4f * pdf) pdf_mismatch++;
+        float phi = atan2f(wi.y, wi.x);
+        if (phi < 0.f) phi += 2.f * PM_PI;
+        int iz = (int)(wi.z * NZ), ip = (int)(phi / (2.f * PM_PI) * NP);
+        hist[iz < NZ ? iz : NZ - 1][ip < NP ? ip : NP - 1] += 1.0;
+    }
+    double total = 0.0, worst = 0.0;
+    for (int iz = 0; iz < NZ; iz++)
+        for (int ip = 0; ip < NP; ip++) {
+            double p = 0.0;
+            for (int a = 0; a < SUB; a++)
+                for (int c = 0; c < SUB; c++) {
+                    float z = (iz + (a + 0.5f) / SUB) / NZ, phi = 2.f * PM_PI * (ip + (c + 0.5f) / SUB) / NP;
+                    p += pm_brdf_pdf(&b, n, wo, direction_at(z, phi));
+                }
+            p *= (1.0 / NZ) * (2.0 * PM_PI_D / NP) / (SUB * SUB); /* d omega = d(cos theta) d phi */
+            total += p;
+            double freq = hist[iz][ip] / SAMPLES, tol = 5.0 * sqrt(p / SAMPLES) + 0.03 * p + 2e-5;
+            worst = fmax(worst, fabs(freq - p) / tol);
+        }
+    printf("sampler vs pdf (metallic %.1f roughness %.1f cos %.1f): integral of pdf %.4f, samples kept %.4f, worst bin %.2f of its tolerance\n",
+           metallic, roughness, cos_o, total, (double)kept / SAMPLES, worst);
+    CHECK(pdf_mismatch == 0, "the sample's pdf is pm_brdf_pdf at the sampled direction (%d differ)", pdf_mismatch);
+    CHECK(total <= 1.0 + 5e-3, "pdf integrates to <= 1 (%g)", total);
+    CHECK_NEAR(total, (double)kept / SAMPLES, 0.01, 2e-3, "pdf integral = share of samples kept");
+    CHECK(worst <= 1.0, "every bin's frequency matches the integral of pdf() over it (worst %.2f of tolerance)", worst);
+}
+
+static void material_mapping(void) {
+    pm_material m;
+    memset(&m, 0, sizeof m);
+    m.base_color = v3(0.8f, 0.6f, 0.4f);
+    m.base_color_texture = m.emission_texture = -1;
+    m.ior = 1.5f;
+    vec3 kd, ks, kt;
+    m.metallic = 1.f;
+    m.roughness = 0.f;
+    CHECK(!pm_material_glossy(&m), "metal roughness 0 is the mirror");
+    pm_material_split(&m, m.base_color, &kd, &ks, &kt);
+    CHECK(v3_is_black(kd) && ks.x == 0.8f && v3_is_black(kt), "mirror split unchanged");
+    m.roughness = 0.03f; /* alpha 9e-4 < 1e-3 */
+    CHECK(!pm_material_glossy(&m), "below the threshold: still the mirror");
+    m.roughness = 0.04f;
+    CHECK(pm_material_glossy(&m), "alpha 1.6e-3: glossy");
+    m.roughness = 0.5f;
+    m.metallic = 0.5f;
+    m.transmission = 0.4f;
+    CHECK(pm_material_glossy(&m), "some metal, rough: glossy");
+    pm_material_split(&m, m.base_color, &kd, &ks, &kt);
+    CHECK(v3_is_black(kd) && v3_is_black(ks), "glossy: the lobe replaces kd and ks");
+    CHECK_NEAR(kt.x, 0.8f * 0.4f * 0.5f, 1e-6, 0, "glossy: glass share t (1 - m) stays");
+    pm_brdf b = pm_material_brdf(&m, m.base_color);
+    CHECK_NEAR(b.alpha, 0.25f, 1e-6, 0, "alpha = roughness^2");
+    CHECK_NEAR(b.weight, 1.f - 0.4f * 0.5f, 1e-6, 0, "lobe weight = 1 - glass share");
+    m.metallic = 0.f;
+    m.transmission = 0.f;
+    CHECK(!pm_material_glossy(&m), "metallic 0 stays Lambert");
+    pm_material_split(&m, m.base_color, &kd, &ks, &kt);
+    CHECK(kd.x == 0.8f && v3_is_black(ks), "Lambert split unchanged");
+}
+
+int main(void) {
+    material_mapping();
+    reciprocity();
+    sampler_matches_pdf(1.f, 0.3f, 0.9f);
+    sampler_matches_pdf(1.f, 0.7f, 0.2f);
+    sampler_matches_pdf(0.4f, 0.5f, 0.5f);
+    sampler_matches_pdf(0.1f, 1.0f, 0.95f);
+    white_furnace();
+    return pm_test_done("test_brdf");
+}
