@@ -138,6 +138,9 @@ static bool split_triangles(const pm_scene *s, uint32_t **opaque, uint32_t *opaq
     *alpha = malloc(((size_t)*alpha_count + 1) * sizeof(uint32_t));
     if (!*opaque || !*alpha) {
         free(see_through);
+        free(*opaque);
+        free(*alpha);
+        *opaque = *alpha = NULL;
         return false;
     }
     uint32_t no = 0, na = 0;
