@@ -1,7 +1,11 @@
 /* accel.h: ray queries over all scene triangles: closest hit and occlusion, the only place Embree is used.
  *
- * One Embree scene, one triangle geometry, built once. Rays are single (rtcIntersect1 /
- * rtcOccluded1): the integrators are incoherent path tracers.
+ * One Embree scene, built once: one triangle geometry, plus one for triangles whose material is
+ * MASK or BLEND (glTF alphaMode), whose hits pass the alpha test inside every query: MASK cuts out
+ * where alpha < alphaCutoff, BLEND lets each ray through with probability 1 - alpha, decided by a
+ * hash of the ray and the triangle (see accel.c), so callers pass no random numbers. Rays are
+ * single (rtcIntersect1 / rtcOccluded1): the integrators are incoherent path tracers. A scene
+ * with alpha-tested triangles must outlive its accel.
  */
 #ifndef PM_ACCEL_H
 #define PM_ACCEL_H
@@ -27,6 +31,8 @@ bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *h
 bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax);
 size_t pm_accel_bytes(const pm_accel *a);
 double pm_accel_build_seconds(const pm_accel *a);
+/* Triangles behind the alpha filter; 0 means no filter is installed (an opaque scene). */
+uint32_t pm_accel_alpha_tested_triangles(const pm_accel *a);
 
 /* Benchmark hook: casts n rays (o, d pairs) with plain rtcIntersect1 and returns the seconds
  * taken, so raw Embree throughput can be set beside ours in one run. */

@@ -26,6 +26,10 @@ typedef struct {
     int wrap_s, wrap_t;     /* PM_WRAP_* */
 } pm_texture;
 
+/* glTF alphaMode: MASK cuts the surface out where alpha < alpha_cutoff; BLEND lets each ray
+ * through with probability 1 - alpha (stochastic transparency, decided in accel). */
+typedef enum { PM_ALPHA_OPAQUE = 0, PM_ALPHA_MASK = 1, PM_ALPHA_BLEND = 2 } pm_alpha_mode;
+
 /* glTF metallic-roughness material plus the extensions we honour; see README for the mapping
  * to the diffuse (D) and specular (S) coefficients used by Russian roulette. */
 typedef struct {
@@ -38,6 +42,9 @@ typedef struct {
     vec3 emission;          /* emissiveFactor x KHR_materials_emissive_strength; radiance = this x the emissive texture */
     int emission_texture;   /* index into scene textures (sRGB), -1 none */
     bool double_sided;
+    pm_alpha_mode alpha_mode;
+    float alpha;            /* baseColorFactor[3]; coverage = this x the base colour texture's (linear) alpha */
+    float alpha_cutoff;     /* MASK only, glTF default 0.5 */
 } pm_material;
 
 typedef enum { PM_LIGHT_POINT = 0, PM_LIGHT_SPOT = 1, PM_LIGHT_DIRECTIONAL = 2 } pm_light_type;
@@ -69,6 +76,7 @@ typedef struct {
     bool has_diffuse, has_mirror, has_glass, has_textures;
     bool has_glossy;         /* some material has the GGX lobe (has_diffuse is then true too: it is a D surface) */
     bool has_emissive_triangles, has_punctual_lights, has_sky;
+    bool has_non_opaque;     /* some triangle's material can let rays through (MASK or BLEND with alpha that can cut) */
     bool caustics_possible;  /* some light can reach a specular surface and then a diffuse one */
     bool interreflection_possible; /* light reflected by a diffuse surface can reach a diffuse one again */
     bool component_possible[PM_COMPONENT_COUNT];
@@ -196,10 +204,20 @@ static inline pm_brdf pm_material_brdf(const pm_material *m, vec3 base) {
 }
 /* Linear RGB of a texture at (u, v) with its wrap modes, bilinear. */
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v);
+/* The alpha channel at (u, v), bilinear like pm_texture_lookup; alpha is stored linear (no sRGB). */
+float pm_texture_alpha(const pm_texture *t, float u, float v);
+
+/* Whether a material can let a ray through anywhere: MASK whose smallest possible alpha is below
+ * the cutoff, or BLEND whose smallest possible alpha is below 1 (texture alpha scanned). */
+bool pm_material_can_be_transparent(const pm_scene *s, const pm_material *m);
 
 /* Radiance leaving triangle tri at barycentrics (b1, b2): the material's emission times its
  * emissive texture there (one side; the caller decides which faces emit). */
 vec3 pm_scene_emission_at(const pm_scene *s, uint32_t tri, float b1, float b2);
+
+/* Coverage of triangle tri at barycentrics (b1, b2): the material's alpha times its base colour
+ * texture's alpha there (1 for an OPAQUE material). */
+float pm_scene_alpha_at(const pm_scene *s, uint32_t tri, float b1, float b2);
 
 /* Picks an emissive triangle by power; returns its index and the probability of that pick. */
 uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf);

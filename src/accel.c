@@ -1,7 +1,12 @@
-/* accel.c: the Embree 3 scene over all triangles, with closest-hit and occlusion queries.
+/* accel.c: the Embree 3 scene over all triangles, with closest-hit and occlusion queries and the glTF alpha test.
  *
- * Embree appears nowhere else. The geometry is copied into Embree's own buffers, so the
- * accel does not depend on the scene's arrays after creation.
+ * Embree appears nowhere else. The geometry is copied into Embree's own buffers. Triangles whose
+ * material can let rays through (MASK, BLEND) go into a second Embree geometry whose intersection
+ * and occlusion filters reject a candidate hit the alpha test lets through, so every query (eye,
+ * shadow, gather, photon) sees the same cut-outs; opaque triangles stay in a geometry without
+ * filters, and a scene without such materials is built exactly as before (one geometry, no
+ * filter). Only the alpha test reads the scene after creation, so the scene must outlive the
+ * accel (it does: the session holds it too).
  */
 #include "accel.h"
 
@@ -21,7 +26,62 @@ struct pm_accel {
      * neighbouring wall (corner hits, float grids far from the origin), and such a hit would
      * flip the side the path continues on. Far below any visible gap. */
     float tnear;
+    const pm_scene *source;         /* read by the alpha filter */
+    uint32_t *tri_of_prim[2];       /* per geometry: Embree primID -> scene triangle (NULL: the same) */
+    uint32_t alpha_tested;          /* triangles in the filtered geometry */
 };
+
+enum { OPAQUE_GEOMETRY = 0, ALPHA_GEOMETRY = 1 };
+
+/* A uniform number in [0, 1) from the ray (origin and direction bits) and the triangle.
+ *
+ * Why a hash and not a random stream: the decision must be a function of (ray, surface) alone.
+ * Embree may offer the same triangle to a ray more than once (spatial splits put it in several
+ * leaves), and consuming a fresh number each time would let a ray through a pane of alpha a
+ * with probability below 1 - a. Distinct rays (every ray of every path starts from a new random
+ * point or direction) get independent decisions, and the decision needs no thread-dependent
+ * state, so images still depend only on the seed. */
+static float crossing_uniform(const float org[3], const float dir[3], uint32_t tri) {
+    uint64_t h = 0x9E3779B97F4A7C15ull * (tri + 1ull);
+    for (int k = 0; k < 6; k++) {
+        uint32_t bits;
+        memcpy(&bits, k < 3 ? &org[k] : &dir[k - 3], 4);
+        h ^= bits;
+        h ^= h >> 31; h *= 0x7FB5D329728EA185ull;
+        h ^= h >> 27; h *= 0x81DADEF4BC2DD44Dull;
+        h ^= h >> 33;
+    }
+    return (float)(h >> 40) * 0x1p-24f;
+}
+
+/* glTF: MASK is opaque where alpha >= alphaCutoff; BLEND is here stochastic transparency, a
+ * hit with probability alpha, so every kind of ray passes a pane with probability 1 - alpha. */
+static bool alpha_accepts(const pm_scene *s, uint32_t tri, float b1, float b2, const float org[3], const float dir[3]) {
+    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    float alpha = pm_scene_alpha_at(s, tri, b1, b2);
+    if (m->alpha_mode == PM_ALPHA_MASK) return alpha >= m->alpha_cutoff;
+    if (alpha >= 1.f) return true;
+    return crossing_uniform(org, dir, tri) < alpha;
+}
+
+/* Embree's intersection and occlusion filter for the alpha geometry: clearing valid[i] makes
+ * Embree go on looking past this candidate. */
+static void alpha_filter(const struct RTCFilterFunctionNArguments *args) {
+    const pm_accel *a = args->geometryUserPtr;
+    unsigned n = args->N;
+    /* Embree's packets are structures of arrays; its accessors for them are C++ only. Ray:
+     * org_x, org_y, org_z, tnear, dir_x, dir_y, dir_z, ...; hit: Ng_x, Ng_y, Ng_z, u, v, primID. */
+    const float *ray = (const float *)args->ray, *hit_f = (const float *)args->hit;
+    const unsigned *hit_u = (const unsigned *)args->hit;
+    for (unsigned i = 0; i < n; i++) {
+        if (args->valid[i] != -1) continue;
+        float org[3] = {ray[0 * n + i], ray[1 * n + i], ray[2 * n + i]};
+        float dir[3] = {ray[4 * n + i], ray[5 * n + i], ray[6 * n + i]};
+        uint32_t tri = a->tri_of_prim[ALPHA_GEOMETRY][hit_u[5 * n + i]];
+        if (!alpha_accepts(a->source, tri, hit_f[3 * n + i], hit_f[4 * n + i], org, dir))
+            args->valid[i] = 0;
+    }
+}
 
 static double now_seconds(void) {
     struct timespec ts;
@@ -35,9 +95,71 @@ static bool track_memory(void *user, ssize_t bytes, bool post) {
     return true;
 }
 
+/* Adds the triangles `tris` (count of them; NULL: all, in order) as geometry `id` over the shared
+ * vertex buffer; with `filtered`, the alpha filter decides each candidate hit. */
+static bool add_geometry(pm_accel *a, RTCBuffer vertices, const pm_scene *s, uint32_t *tris, uint32_t count,
+                         unsigned id, bool filtered) {
+    RTCGeometry g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    rtcSetGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices, 0, 3 * sizeof(float),
+                         s->vertex_count);
+    uint32_t *triangles = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                  3 * sizeof(uint32_t), count);
+    if (!triangles) {
+        rtcReleaseGeometry(g);
+        return false;
+    }
+    if (!tris) memcpy(triangles, s->indices, 3 * sizeof(uint32_t) * (size_t)count);
+    else
+        for (uint32_t i = 0; i < count; i++) memcpy(triangles + 3 * (size_t)i, s->indices + 3 * (size_t)tris[i], 3 * sizeof(uint32_t));
+    if (filtered) {
+        rtcSetGeometryUserData(g, a);
+        rtcSetGeometryIntersectFilterFunction(g, alpha_filter);
+        rtcSetGeometryOccludedFilterFunction(g, alpha_filter);
+    }
+    rtcCommitGeometry(g);
+    rtcAttachGeometryByID(a->scene, g, id);
+    rtcReleaseGeometry(g);
+    a->tri_of_prim[id] = tris;
+    return true;
+}
+
+/* Splits the triangles by whether their material can let a ray through; false when out of memory. */
+static bool split_triangles(const pm_scene *s, uint32_t **opaque, uint32_t *opaque_count,
+                            uint32_t **alpha, uint32_t *alpha_count) {
+    *opaque = *alpha = NULL;
+    *opaque_count = *alpha_count = 0;
+    if (!s->analysis.has_non_opaque) return true;
+    bool *see_through = calloc(s->material_count ? s->material_count : 1, sizeof(bool));
+    if (!see_through) return false;
+    for (uint32_t i = 0; i < s->material_count; i++) see_through[i] = pm_material_can_be_transparent(s, &s->materials[i]);
+    for (uint32_t t = 0; t < s->triangle_count; t++) *alpha_count += see_through[s->triangle_material[t]];
+    *opaque_count = s->triangle_count - *alpha_count;
+    *opaque = malloc(((size_t)*opaque_count + 1) * sizeof(uint32_t));
+    *alpha = malloc(((size_t)*alpha_count + 1) * sizeof(uint32_t));
+    if (!*opaque || !*alpha) {
+        free(see_through);
+        free(*opaque);
+        free(*alpha);
+        *opaque = *alpha = NULL;
+        return false;
+    }
+    uint32_t no = 0, na = 0;
+    for (uint32_t t = 0; t < s->triangle_count; t++) {
+        if (see_through[s->triangle_material[t]]) (*alpha)[na++] = t;
+        else (*opaque)[no++] = t;
+    }
+    free(see_through);
+    return true;
+}
+
 pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
     pm_accel *a = calloc(1, sizeof *a);
+    if (!a) {
+        snprintf(err, err_size, "out of memory for the acceleration structure");
+        return NULL;
+    }
     double start = now_seconds();
+    a->source = s;
     a->device = rtcNewDevice("verbose=0");
     if (!a->device) {
         snprintf(err, err_size, "Embree: cannot create a device (error %d)", (int)rtcGetDeviceError(NULL));
@@ -48,24 +170,37 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
     a->scene = rtcNewScene(a->device);
     rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_HIGH);
     rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
-    RTCGeometry g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    /* Copied into Embree's own buffers: Embree may read 16 bytes at the last element (SSE
-     * loads), which a tightly packed vec3 array does not guarantee. */
-    float *vertices = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                              s->vertex_count);
-    uint32_t *triangles = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                  3 * sizeof(uint32_t), s->triangle_count);
-    if (!vertices || !triangles) {
-        snprintf(err, err_size, "Embree: out of memory for %u vertices", s->vertex_count);
-        rtcReleaseGeometry(g);
+    uint32_t *opaque, *alpha, opaque_count, alpha_count;
+    if (!split_triangles(s, &opaque, &opaque_count, &alpha, &alpha_count)) {
+        snprintf(err, err_size, "out of memory for %u triangles", s->triangle_count);
         pm_accel_destroy(a);
         return NULL;
     }
-    memcpy(vertices, s->positions, 3 * sizeof(float) * (size_t)s->vertex_count);
-    memcpy(triangles, s->indices, 3 * sizeof(uint32_t) * (size_t)s->triangle_count);
-    rtcCommitGeometry(g);
-    rtcAttachGeometry(a->scene, g);
-    rtcReleaseGeometry(g);
+    /* Copied into Embree's own buffer, 16 bytes longer: Embree may read 16 bytes at the last
+     * element (SSE loads), which a tightly packed vec3 array does not guarantee. */
+    size_t vertex_bytes = 3 * sizeof(float) * (size_t)s->vertex_count;
+    RTCBuffer vertices = rtcNewBuffer(a->device, vertex_bytes + 16);
+    float *vertex_data = vertices ? rtcGetBufferData(vertices) : NULL;
+    bool ok = vertex_data != NULL;
+    if (ok) memcpy(vertex_data, s->positions, vertex_bytes);
+    if (ok && !s->analysis.has_non_opaque) ok = add_geometry(a, vertices, s, NULL, s->triangle_count, OPAQUE_GEOMETRY, false);
+    if (ok && opaque_count) {
+        ok = add_geometry(a, vertices, s, opaque, opaque_count, OPAQUE_GEOMETRY, false);
+        if (ok) opaque = NULL; /* owned by the accel now */
+    }
+    if (ok && alpha_count) {
+        ok = add_geometry(a, vertices, s, alpha, alpha_count, ALPHA_GEOMETRY, true);
+        if (ok) alpha = NULL;
+        if (ok) a->alpha_tested = alpha_count;
+    }
+    free(opaque);
+    free(alpha);
+    if (vertices) rtcReleaseBuffer(vertices);
+    if (!ok) {
+        snprintf(err, err_size, "Embree: out of memory for %u vertices", s->vertex_count);
+        pm_accel_destroy(a);
+        return NULL;
+    }
     rtcCommitScene(a->scene);
     enum RTCError e = rtcGetDeviceError(a->device);
     if (e != RTC_ERROR_NONE) {
@@ -82,6 +217,8 @@ void pm_accel_destroy(pm_accel *a) {
     if (!a) return;
     if (a->scene) rtcReleaseScene(a->scene);
     if (a->device) rtcReleaseDevice(a->device);
+    free(a->tri_of_prim[OPAQUE_GEOMETRY]);
+    free(a->tri_of_prim[ALPHA_GEOMETRY]);
     free(a);
 }
 
@@ -106,7 +243,8 @@ bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *h
     rtcIntersect1(a->scene, &ctx, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     hit->t = rh.ray.tfar;
-    hit->tri = rh.hit.primID;
+    const uint32_t *tri_of_prim = a->tri_of_prim[rh.hit.geomID];
+    hit->tri = tri_of_prim ? tri_of_prim[rh.hit.primID] : rh.hit.primID;
     hit->b1 = rh.hit.u;
     hit->b2 = rh.hit.v;
     return true;
@@ -126,6 +264,7 @@ size_t pm_accel_bytes(const pm_accel *a) {
     return b > 0 ? (size_t)b : 0;
 }
 double pm_accel_build_seconds(const pm_accel *a) { return a->build_seconds; }
+uint32_t pm_accel_alpha_tested_triangles(const pm_accel *a) { return a->alpha_tested; }
 
 double pm_accel_bench_raw(const pm_accel *a, const vec3 *origins, const vec3 *dirs, size_t n, size_t *hits) {
     struct RTCIntersectContext ctx;

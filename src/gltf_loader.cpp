@@ -1258,8 +1258,6 @@ void Loader::convert_materials() {
         std::string where = "material " + str(i);
         /* what this material asks for that pmview does not render: warned once per kind below */
         std::string name = mat.name.empty() ? where : "material " + str(i) + " " + printable(mat.name);
-        if (mat.alphaMode == "MASK") note_ignored("alphaMode MASK (cut-outs render opaque)", name);
-        if (mat.alphaMode == "BLEND") note_ignored("alphaMode BLEND (renders opaque)", name);
         if (mat.normalTexture.index >= 0) note_ignored("normal textures", name);
         if (mat.occlusionTexture.index >= 0) note_ignored("occlusion textures", name);
         if (pbr.metallicRoughnessTexture.index >= 0) note_ignored("metallic-roughness textures (the factors are used)", name);
@@ -1289,6 +1287,12 @@ void Loader::convert_materials() {
                         checked(mat.emissiveFactor[1], 0, 1, "emissiveFactor", where) * strength,
                         checked(mat.emissiveFactor[2], 0, 1, "emissiveFactor", where) * strength);
         m.double_sided = mat.doubleSided;
+        m.alpha = checked(pbr.baseColorFactor[3], 0, 1, "baseColorFactor", where);
+        m.alpha_cutoff = checked(mat.alphaCutoff, 0, FLT_MAX, "alphaCutoff", where);
+        if (mat.alphaMode == "MASK") m.alpha_mode = PM_ALPHA_MASK;
+        else if (mat.alphaMode == "BLEND") m.alpha_mode = PM_ALPHA_BLEND;
+        else if (mat.alphaMode != "OPAQUE")
+            warn(where + " has unknown alphaMode " + printable(mat.alphaMode) + "; treated as OPAQUE");
         m.base_color_texture = -1;
         m.emission_texture = -1;
         m.base_color_texcoord = pbr.baseColorTexture.texCoord;
@@ -1538,6 +1542,8 @@ void Loader::load(pm_scene *out) {
         m.emission_texture = -1;
         m.metallic = m.roughness = 1.f;
         m.ior = 1.5f;
+        m.alpha = 1.f;
+        m.alpha_cutoff = 0.5f;
         materials_.push_back(m);
     }
     positions_.reserve(vertices);

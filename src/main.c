@@ -291,7 +291,7 @@ static void print_analysis_stats(const pm_scene *s) {
     bool first = true;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
         if (a->component_possible[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }
-    printf("%s\n", first ? "none" : "");
+    printf("%s non_opaque=%d\n", first ? "none" : "", a->has_non_opaque);
 }
 
 
@@ -824,7 +824,9 @@ int main(int argc, char **argv) {
 
     accel = pm_accel_create(&scene, err, sizeof err);
     if (!accel) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
-    if (opt.stats) printf("stat bvh seconds=%.4f bytes=%zu\n", pm_accel_build_seconds(accel), pm_accel_bytes(accel));
+    if (opt.stats)
+        printf("stat bvh seconds=%.4f bytes=%zu alpha_tested_triangles=%u\n", pm_accel_build_seconds(accel),
+               pm_accel_bytes(accel), pm_accel_alpha_tested_triangles(accel));
     if (!choose_sky(&opt, &scene, accel, &camera, (float)width / height)) { exit_code = 1; goto done; }
     if (opt.stats) print_analysis_stats(&scene);
 

@@ -62,6 +62,7 @@ static void analyse(pm_scene *s) {
         a->has_mirror |= !v3_is_black(ks);
         a->has_glass |= !v3_is_black(kt);
         a->has_textures |= s->materials[i].base_color_texture >= 0 || s->materials[i].emission_texture >= 0;
+        a->has_non_opaque |= pm_material_can_be_transparent(s, &s->materials[i]);
     }
     free(material_used);
     a->has_emissive_triangles = s->emitter_count > 0;
@@ -266,6 +267,25 @@ static vec3 texel(const pm_texture *t, int x, int y) {
     return v3(srgb_table[p[0]], srgb_table[p[1]], srgb_table[p[2]]);
 }
 
+/* The four texels around (u, v) and their bilinear weights, with the texture's wrap modes: the
+ * same footprint pm_texture_lookup uses, for the alpha channel. */
+typedef struct { size_t texel[4]; float weight[4]; } bilinear_taps;
+static bilinear_taps bilinear(const pm_texture *t, float u, float v) {
+    /* Keep the coordinate small before converting to int, so huge uv values cannot overflow. */
+    float fu = u - floorf(u / 64.f) * 64.f, fv = v - floorf(v / 64.f) * 64.f;
+    if (t->wrap_s == PM_WRAP_CLAMP) fu = fminf(fmaxf(u, -1.f), 2.f);
+    if (t->wrap_t == PM_WRAP_CLAMP) fv = fminf(fmaxf(v, -1.f), 2.f);
+    float x = fu * t->width - 0.5f, y = fv * t->height - 0.5f;
+    int x0 = (int)floorf(x), y0 = (int)floorf(y);
+    float ax = x - x0, ay = y - y0;
+    int xa = wrap_index(x0, t->width, t->wrap_s), xb = wrap_index(x0 + 1, t->width, t->wrap_s);
+    int ya = wrap_index(y0, t->height, t->wrap_t), yb = wrap_index(y0 + 1, t->height, t->wrap_t);
+    bilinear_taps b = {{(size_t)ya * t->width + xa, (size_t)ya * t->width + xb, (size_t)yb * t->width + xa,
+                        (size_t)yb * t->width + xb},
+                       {(1.f - ax) * (1.f - ay), ax * (1.f - ay), (1.f - ax) * ay, ax * ay}};
+    return b;
+}
+
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v) {
     if (srgb_table[255] == 0.f) init_srgb_table(); /* idempotent: racing threads write equal values */
     if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
@@ -281,6 +301,28 @@ vec3 pm_texture_lookup(const pm_texture *t, float u, float v) {
     vec3 top = v3_add(v3_scale(texel(t, xa, ya), 1.f - ax), v3_scale(texel(t, xb, ya), ax));
     vec3 bottom = v3_add(v3_scale(texel(t, xa, yb), 1.f - ax), v3_scale(texel(t, xb, yb), ax));
     return v3_add(v3_scale(top, 1.f - ay), v3_scale(bottom, ay));
+}
+
+float pm_texture_alpha(const pm_texture *t, float u, float v) {
+    if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return 1.f;
+    bilinear_taps b = bilinear(t, u, v);
+    float sum = 0.f;
+    for (int k = 0; k < 4; k++) sum += t->rgba[4 * b.texel[k] + 3] * b.weight[k];
+    return sum * (1.f / 255.f);
+}
+
+bool pm_material_can_be_transparent(const pm_scene *s, const pm_material *m) {
+    if (m->alpha_mode == PM_ALPHA_OPAQUE) return false;
+    /* bilinear filtering never goes below the smallest texel */
+    uint8_t least = 255;
+    if (m->base_color_texture >= 0 && (uint32_t)m->base_color_texture < s->texture_count) {
+        const pm_texture *t = &s->textures[m->base_color_texture];
+        size_t n = t->rgba ? (size_t)t->width * (size_t)t->height : 0;
+        for (size_t i = 0; i < n && least > 0; i++)
+            if (t->rgba[4 * i + 3] < least) least = t->rgba[4 * i + 3];
+    }
+    float smallest = m->alpha * (least / 255.f);
+    return m->alpha_mode == PM_ALPHA_MASK ? smallest < m->alpha_cutoff : smallest < 1.f;
 }
 
 void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
@@ -338,6 +380,20 @@ vec3 pm_scene_emission_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
     float u = b0 * s->uvs[2 * ix[0]] + b1 * s->uvs[2 * ix[1]] + b2 * s->uvs[2 * ix[2]];
     float v = b0 * s->uvs[2 * ix[0] + 1] + b1 * s->uvs[2 * ix[1] + 1] + b2 * s->uvs[2 * ix[2] + 1];
     return v3_mul(m->emission, pm_texture_lookup(&s->textures[m->emission_texture], u, v));
+}
+
+float pm_scene_alpha_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
+    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    if (m->alpha_mode == PM_ALPHA_OPAQUE) return 1.f;
+    if (m->base_color_texture < 0) return m->alpha;
+    float u = 0.f, v = 0.f; /* as pm_scene_surface: without texture coordinates the texel at (0, 0) */
+    if (s->uvs) {
+        const uint32_t *ix = s->indices + 3 * (size_t)tri;
+        float b0 = 1.f - b1 - b2;
+        u = b0 * s->uvs[2 * ix[0]] + b1 * s->uvs[2 * ix[1]] + b2 * s->uvs[2 * ix[2]];
+        v = b0 * s->uvs[2 * ix[0] + 1] + b1 * s->uvs[2 * ix[1] + 1] + b2 * s->uvs[2 * ix[2] + 1];
+    }
+    return m->alpha * pm_texture_alpha(&s->textures[m->base_color_texture], u, v);
 }
 
 float pm_scene_emitter_pdf(const pm_scene *s, uint32_t tri) {

@@ -25,6 +25,8 @@ static inline uint32_t sb_material(pm_scene *s, vec3 base, float metallic, float
     m.ior = 1.5f;
     m.emission = emission;
     m.double_sided = double_sided;
+    m.alpha = 1.f;
+    m.alpha_cutoff = 0.5f;
     s->materials[s->material_count] = m;
     return s->material_count++;
 }

@@ -743,24 +743,42 @@ static void test_rejections(void) {
 
 /* ---------------------------------------------------------------- main */
 
-/* Inputs pmview does not render are counted (stat load ignored_inputs) and warned once per kind. */
+/* Inputs pmview does not render are counted (stat load ignored_inputs) and warned once per kind;
+ * alpha modes are read (mode, cutoff, the base colour factor's alpha) and no longer warned. */
 static void test_ignored_inputs(void) {
-    prim_spec prims[3];
-    for (int i = 0; i < 3; i++) {
+    prim_spec prims[4];
+    for (int i = 0; i < 4; i++) {
         prim_spec p = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, i};
         prims[i] = p;
     }
     doc_spec doc = {NULL, NULL,
-                    "[{\"name\":\"leaves\",\"alphaMode\":\"MASK\"},{\"alphaMode\":\"MASK\"},"
-                    "{\"alphaMode\":\"BLEND\",\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1}}}]",
+                    "[{\"name\":\"leaves\",\"alphaMode\":\"MASK\",\"alphaCutoff\":0.3,"
+                    "\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,0.25]}},{\"alphaMode\":\"MASK\"},"
+                    "{\"alphaMode\":\"BLEND\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,0.7]},"
+                    "\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1}}},{}]",
                     "\"extensionsUsed\":[\"KHR_materials_clearcoat\"],"};
-    write_model("ignored.gltf", prims, 3, &doc);
+    write_model("ignored.gltf", prims, 4, &doc);
     pm_scene s;
     pm_load_report r;
     if (!load_ok("ignored.gltf", &s, &r)) return;
-    /* two MASK, one BLEND, one clearcoat: four uses; warnings: one per kind (3) + the extension list */
-    CHECK(r.ignored_inputs == 4, "ignored inputs %u (2 MASK, 1 BLEND, 1 clearcoat)", r.ignored_inputs);
-    CHECK(r.warnings == 4, "warnings %u: MASK, BLEND, clearcoat once each, and the unsupported extension list", r.warnings);
+    /* one clearcoat use; warnings: clearcoat once and the unsupported extension list */
+    CHECK(r.ignored_inputs == 1, "ignored inputs %u (1 clearcoat; alpha modes are rendered)", r.ignored_inputs);
+    CHECK(r.warnings == 2, "warnings %u: clearcoat and the unsupported extension list", r.warnings);
+    if (s.material_count == 4) {
+        const pm_material *m = s.materials;
+        CHECK(m[0].alpha_mode == PM_ALPHA_MASK && m[0].alpha_cutoff == 0.3f && m[0].alpha == 0.25f,
+              "MASK: mode %d cutoff %g alpha %g", m[0].alpha_mode, m[0].alpha_cutoff, m[0].alpha);
+        CHECK(m[1].alpha_mode == PM_ALPHA_MASK && m[1].alpha_cutoff == 0.5f && m[1].alpha == 1.f,
+              "MASK defaults: mode %d cutoff %g alpha %g", m[1].alpha_mode, m[1].alpha_cutoff, m[1].alpha);
+        CHECK(m[2].alpha_mode == PM_ALPHA_BLEND && m[2].alpha == 0.7f, "BLEND: mode %d alpha %g", m[2].alpha_mode, m[2].alpha);
+        CHECK(m[3].alpha_mode == PM_ALPHA_OPAQUE && m[3].alpha == 1.f, "default OPAQUE: mode %d alpha %g", m[3].alpha_mode,
+              m[3].alpha);
+        CHECK(pm_material_can_be_transparent(&s, &m[0]) && !pm_material_can_be_transparent(&s, &m[1]) &&
+                  pm_material_can_be_transparent(&s, &m[2]) && !pm_material_can_be_transparent(&s, &m[3]),
+              "MASK alpha 0.25 < 0.3 and BLEND 0.7 can be see-through; MASK alpha 1 and OPAQUE cannot");
+        pm_scene_finalize(&s, false, NULL);
+        CHECK(s.analysis.has_non_opaque, "the analysis knows the scene has non-opaque materials");
+    } else CHECK(0, "material_count %u", s.material_count);
     pm_scene_free(&s);
 }
 
