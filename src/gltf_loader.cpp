@@ -703,8 +703,8 @@ private:
     void add_camera(int camera, const WorldTransform &world, int node);
     void convert_materials();
     int texture_for(int gltf_texture, const std::string &where);
-    void convert_reference(const TextureReference &r, const std::string &where, const std::string &name,
-                           int *texture, int *texcoord, pm_uv_transform *transform);
+    bool convert_reference(const TextureReference &r, const std::string &where, int *texture, int *texcoord,
+                           pm_uv_transform *transform);
     float checked(double value, double lo, double hi, const char *name, const std::string &where);
     void emit(pm_scene *out);
 
@@ -1289,18 +1289,18 @@ int Loader::texture_for(int gltf_texture, const std::string &where) {
 // TextureTransformTest and the common viewers read it: a positive angle turns the UVs
 // counter-clockwise as seen in glTF's v-down UV space (u' = cos u + sin v, v' = -sin u + cos v);
 // the spec's GLSL listing has the opposite sign (KhronosGroup/glTF issue 1563).
-void Loader::convert_reference(const TextureReference &r, const std::string &where, const std::string &name,
-                               int *texture, int *texcoord, pm_uv_transform *transform) {
+// Returns false when the reference names a TEXCOORD set above 1 (TEXCOORD_0 is read instead).
+bool Loader::convert_reference(const TextureReference &r, const std::string &where, int *texture, int *texcoord,
+                               pm_uv_transform *transform) {
     *texture = -1;
     *texcoord = 0;
     memset(transform, 0, sizeof *transform);
-    if (r.texture < 0) return;
+    if (r.texture < 0) return true;
     *texture = texture_for(r.texture, where);
-    if (*texture < 0) return;
-    if (r.texcoord > 1) note_ignored("texture coordinate sets above TEXCOORD_1 (TEXCOORD_0 is read instead)", name);
-    else *texcoord = static_cast<int>(r.texcoord);
+    if (*texture < 0) return true;
+    if (r.texcoord <= 1) *texcoord = static_cast<int>(r.texcoord);
     if (*texcoord == 1) uv1_needed_ = true;
-    if (!r.transformed) return;
+    if (!r.transformed) return r.texcoord <= 1;
     double c = std::cos(r.rotation), s = std::sin(r.rotation);
     const double m[6] = {c * r.scale[0], s * r.scale[1], r.offset[0], -s * r.scale[0], c * r.scale[1], r.offset[1]};
     transform->transformed = true;
@@ -1308,6 +1308,7 @@ void Loader::convert_reference(const TextureReference &r, const std::string &whe
         transform->m[k] = static_cast<float>(m[k]);
         if (!std::isfinite(transform->m[k])) fail("KHR_texture_transform overflows a float (" + where + ")");
     }
+    return r.texcoord <= 1;
 }
 
 void Loader::convert_materials() {
@@ -1344,16 +1345,17 @@ void Loader::convert_materials() {
         m.double_sided = mat.doubleSided;
         const std::array<TextureReference, kReferenceKinds> &refs = references_[i];
         TextureReference none;
-        convert_reference(refs[kBaseColor], where, name, &m.base_color_texture, &m.base_color_texcoord,
-                          &m.base_color_transform);
+        bool sets_ok = convert_reference(refs[kBaseColor], where, &m.base_color_texture, &m.base_color_texcoord,
+                                         &m.base_color_transform);
         // an emissive texture times a black factor, or a transmission texture times 0, is never read
         bool emits = m.emission.x > 0 || m.emission.y > 0 || m.emission.z > 0;
-        convert_reference(emits ? refs[kEmissive] : none, where, name, &m.emission_texture, &m.emission_texcoord,
-                          &m.emission_transform);
-        convert_reference(refs[kMetallicRoughness], where, name, &m.metallic_roughness_texture,
-                          &m.metallic_roughness_texcoord, &m.metallic_roughness_transform);
-        convert_reference(m.transmission > 0 ? refs[kTransmission] : none, where, name, &m.transmission_texture,
-                          &m.transmission_texcoord, &m.transmission_transform);
+        sets_ok &= convert_reference(emits ? refs[kEmissive] : none, where, &m.emission_texture, &m.emission_texcoord,
+                                     &m.emission_transform);
+        sets_ok &= convert_reference(refs[kMetallicRoughness], where, &m.metallic_roughness_texture,
+                                     &m.metallic_roughness_texcoord, &m.metallic_roughness_transform);
+        sets_ok &= convert_reference(m.transmission > 0 ? refs[kTransmission] : none, where, &m.transmission_texture,
+                                     &m.transmission_texcoord, &m.transmission_transform);
+        if (!sets_ok) note_ignored("texture coordinate sets above TEXCOORD_1 (TEXCOORD_0 is read instead)", name);
         materials_.push_back(m);
     }
     for (const auto &k : ignored_)
