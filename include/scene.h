@@ -23,8 +23,7 @@ typedef struct {
     int wrap_s, wrap_t;     /* PM_WRAP_* */
 } pm_texture;
 
-/* How a texture reference reads the mesh's texture coordinates beyond the TEXCOORD set:
- * KHR_texture_transform's affine map (u', v') = (m[0] u + m[1] v + m[2], m[3] u + m[4] v + m[5]),
+/* What KHR_texture_transform does to one texture reference's coordinates: the affine map (u', v') = (m[0] u + m[1] v + m[2], m[3] u + m[4] v + m[5]),
  * applied only when `transformed` (a zeroed struct is the identity, so builders need not set it). */
 typedef struct {
     bool transformed;
@@ -44,7 +43,7 @@ typedef struct {
     vec3 emission;          /* emissiveFactor x KHR_materials_emissive_strength; radiance = this x the emissive texture */
     int emission_texture;   /* index into scene textures (sRGB), -1 none */
     bool double_sided;
-    int emission_texcoord;
+    int emission_texcoord;  /* 0 or 1 */
     /* data textures, read linear (no sRGB decode): metallic x B, roughness x G; transmission x R */
     int metallic_roughness_texture, metallic_roughness_texcoord; /* -1 none */
     int transmission_texture, transmission_texcoord;             /* -1 none */
