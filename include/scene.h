@@ -30,12 +30,20 @@ typedef struct {
  * through with probability 1 - alpha (stochastic transparency, decided in accel). */
 typedef enum { PM_ALPHA_OPAQUE = 0, PM_ALPHA_MASK = 1, PM_ALPHA_BLEND = 2 } pm_alpha_mode;
 
+/* What KHR_texture_transform does to one texture reference's coordinates: the affine map (u', v') = (m[0] u + m[1] v + m[2], m[3] u + m[4] v + m[5]),
+ * applied only when `transformed` (a zeroed struct is the identity, so builders need not set it). */
+typedef struct {
+    bool transformed;
+    float m[6];
+} pm_uv_transform;
+
 /* glTF metallic-roughness material plus the extensions we honour; see README for the mapping
- * to the diffuse (D) and specular (S) coefficients used by Russian roulette. */
+ * to the diffuse (D) and specular (S) coefficients used by Russian roulette. Each texture has
+ * its TEXCOORD set (0 or 1; 1 reads the scene's uvs1) and its transform. */
 typedef struct {
     vec3 base_color;        /* linear baseColorFactor rgb */
     int base_color_texture; /* index into scene textures, -1 none */
-    int base_color_texcoord;/* which TEXCOORD_n the texture uses (only 0 is loaded; others warn) */
+    int base_color_texcoord;/* which TEXCOORD_n the texture uses: 0 or 1 */
     float metallic, roughness;
     float transmission;     /* KHR_materials_transmission factor */
     float ior;              /* KHR_materials_ior, default 1.5 */
@@ -45,6 +53,14 @@ typedef struct {
     pm_alpha_mode alpha_mode;
     float alpha;            /* baseColorFactor[3]; coverage = this x the base colour texture's (linear) alpha */
     float alpha_cutoff;     /* MASK only, glTF default 0.5 */
+    int emission_texcoord;  /* 0 or 1 */
+    /* data textures, read linear (no sRGB decode): metallic x B, roughness x G; transmission x R */
+    int metallic_roughness_texture, metallic_roughness_texcoord; /* -1 none */
+    int transmission_texture, transmission_texcoord;             /* -1 none */
+    pm_uv_transform base_color_transform, emission_transform, metallic_roughness_transform, transmission_transform;
+    /* derived by pm_scene_finalize: whether each lobe's weight can be non-zero at some point of
+     * the material (the factors with the data textures' whole range of texel values) */
+    bool may_diffuse, may_mirror, may_glass, may_glossy;
 } pm_material;
 
 typedef enum { PM_LIGHT_POINT = 0, PM_LIGHT_SPOT = 1, PM_LIGHT_DIRECTIONAL = 2 } pm_light_type;
@@ -88,6 +104,7 @@ typedef struct {
     vec3 *positions;          /* vertex_count */
     vec3 *normals;            /* vertex_count, unit shading normals (generated when absent) */
     float *uvs;               /* 2*vertex_count, or NULL when no primitive has TEXCOORD_0 */
+    float *uvs1;              /* 2*vertex_count TEXCOORD_1, or NULL when no material's texture reads set 1 */
     uint32_t *indices;        /* 3*triangle_count */
     uint32_t *triangle_material; /* triangle_count */
 
@@ -142,7 +159,7 @@ typedef struct {
     vec3 p;          /* position (from barycentrics, not o + t d) */
     vec3 ng;         /* geometric normal, unit, glTF front side */
     vec3 ns;         /* shading normal, unit, same side as ng */
-    float u, v;      /* texture coordinates */
+    float u, v;      /* TEXCOORD_0 as stored (each texture applies its own set and transform) */
     uint32_t material;
     vec3 kd;         /* Lambert albedo (after the material split; 0 on a glossy surface, whose brdf holds its diffuse part) */
     vec3 ks;         /* perfect-mirror reflectance */
@@ -164,43 +181,55 @@ vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale);
 void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);
 static inline float pm_clamp01(float x) { return x < 0.f ? 0.f : (x > 1.f ? 1.f : x); }
 
-/* Whether a material has the glossy (GGX) lobe: some metal, and alpha = roughness^2 at least
- * PM_GLOSSY_MIN_ALPHA. Below that it is today's perfect mirror; a metallic 0 material stays
- * Lambert (the dielectric's 4% specular coat is not rendered; see README). */
-static inline bool pm_material_glossy(const pm_material *m) {
-    float r = pm_clamp01(m->roughness);
-    return m->metallic > 0.f && r * r >= PM_GLOSSY_MIN_ALPHA;
+/* Whether a point with these parameters has the glossy (GGX) lobe: some metal, and alpha =
+ * roughness^2 at least PM_GLOSSY_MIN_ALPHA. Below that it is the perfect mirror; a metallic 0
+ * material stays Lambert (the dielectric's 4% specular coat is not rendered; see README). */
+static inline bool pm_glossy_at(float metallic, float roughness) {
+    float r = pm_clamp01(roughness);
+    return pm_clamp01(metallic) > 0.f && r * r >= PM_GLOSSY_MIN_ALPHA;
 }
+/* The same for a material's factors alone (no data texture). */
+static inline bool pm_material_glossy(const pm_material *m) { return pm_glossy_at(m->metallic, m->roughness); }
 
-/* Splits a material (with its sampled base colour) into kd, ks, kt; see README. Inline: it runs
- * at every hit of every path. A glossy material has kd = ks = 0: its lobe (pm_material_brdf)
- * holds both its diffuse and its specular parts, and kt its glass share. */
-static inline void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, vec3 *ks, vec3 *kt) {
+/* Splits a material at a point (its base colour, metallic, roughness and transmission there,
+ * textures applied) into kd, ks, kt; see README. Inline: it runs at every hit of every path. A
+ * glossy point has kd = ks = 0: its lobe (pm_brdf_at) holds both its diffuse and its specular
+ * parts, and kt its glass share. */
+static inline void pm_material_split_at(vec3 base, float metallic, float roughness, float transmission, vec3 *kd,
+                                        vec3 *ks, vec3 *kt) {
     base = v3(pm_clamp01(base.x), pm_clamp01(base.y), pm_clamp01(base.z));
-    float metal = pm_clamp01(m->metallic), rough = pm_clamp01(m->roughness);
-    float glass = pm_clamp01(m->transmission) * (1.f - metal);
+    float metal = pm_clamp01(metallic), rough = pm_clamp01(roughness);
+    float glass = pm_clamp01(transmission) * (1.f - metal);
     *kt = v3_scale(base, glass);
-    if (pm_material_glossy(m)) {
+    if (pm_glossy_at(metal, rough)) {
         *kd = *ks = v3s(0.f);
         return;
     }
     /* The weights sum to one, so D + S = mean(base) <= 1: Russian roulette stays valid. Below
      * PM_GLOSSY_MIN_ALPHA the rough share is tiny and scatters diffusely. */
-    float diffuse = (1.f - metal) * (1.f - pm_clamp01(m->transmission)) + metal * rough;
+    float diffuse = (1.f - metal) * (1.f - pm_clamp01(transmission)) + metal * rough;
     float mirror = metal * (1.f - rough);
     *kd = v3_scale(base, diffuse);
     *ks = v3_scale(base, mirror);
 }
 
-/* The glossy lobe of a material for which pm_material_glossy() holds. */
-static inline pm_brdf pm_material_brdf(const pm_material *m, vec3 base) {
-    float metal = pm_clamp01(m->metallic), rough = pm_clamp01(m->roughness);
+/* The glossy lobe at a point for which pm_glossy_at() holds. */
+static inline pm_brdf pm_brdf_at(vec3 base, float metallic, float roughness, float transmission) {
+    float metal = pm_clamp01(metallic), rough = pm_clamp01(roughness);
     pm_brdf b;
     b.base = v3(pm_clamp01(base.x), pm_clamp01(base.y), pm_clamp01(base.z));
     b.metallic = metal;
     b.alpha = pm_maxf(PM_GLOSSY_MIN_ALPHA, rough * rough);
-    b.weight = 1.f - pm_clamp01(m->transmission) * (1.f - metal);
+    b.weight = 1.f - pm_clamp01(transmission) * (1.f - metal);
     return b;
+}
+/* The same with the material's factors alone. */
+static inline pm_brdf pm_material_brdf(const pm_material *m, vec3 base) {
+    return pm_brdf_at(base, m->metallic, m->roughness, m->transmission);
+}
+/* The split with the material's factors alone (no data texture). */
+static inline void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, vec3 *ks, vec3 *kt) {
+    pm_material_split_at(base, m->metallic, m->roughness, m->transmission, kd, ks, kt);
 }
 /* Linear RGB of a texture at (u, v) with its wrap modes, bilinear. */
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v);
@@ -210,6 +239,13 @@ float pm_texture_alpha(const pm_texture *t, float u, float v);
 /* Whether a material can let a ray through anywhere: MASK whose smallest possible alpha is below
  * the cutoff, or BLEND whose smallest possible alpha is below 1 (texture alpha scanned). */
 bool pm_material_can_be_transparent(const pm_scene *s, const pm_material *m);
+/* The same for a data texture (metallic-roughness, transmission): texels / 255, no sRGB decode. */
+vec3 pm_texture_lookup_data(const pm_texture *t, float u, float v);
+
+/* The coordinates a texture reference reads at barycentrics (b1, b2) of triangle tri: TEXCOORD
+ * set `texcoord` (0 or 1; (0, 0) when the scene has no such set), then the transform. */
+void pm_scene_texcoord(const pm_scene *s, uint32_t tri, float b1, float b2, int texcoord, const pm_uv_transform *t,
+                       float *u, float *v);
 
 /* Radiance leaving triangle tri at barycentrics (b1, b2): the material's emission times its
  * emissive texture there (one side; the caller decides which faces emit). */

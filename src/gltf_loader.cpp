@@ -9,7 +9,7 @@
  *      out of bufferViews without checking them);
  *   2. tinygltf parses the same JSON and reads buffers and images, through file-system callbacks
  *      that refuse any path outside the model's folder and an image hook that decodes only the
- *      images used as base colour textures, after checking their size;
+ *      images used by the textures pmview renders, after checking their size;
  *   3. conversion: accessor layouts are validated with overflow-checked 64-bit arithmetic before
  *      anything sized by a count is allocated, the default scene is walked iteratively with a
  *      visited set, each mesh is decoded once (index values, finite positions) and instanced into
@@ -23,6 +23,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cfloat>
 #include <chrono>
@@ -56,7 +57,8 @@ const uint64_t kMaxImagePixels = 1ull << 28;
 const int kMaxJsonDepth = 128;
 
 const char *const kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
-                                            "KHR_materials_transmission", "KHR_materials_ior"};
+                                            "KHR_materials_transmission", "KHR_materials_ior",
+                                            "KHR_texture_transform", "KHR_mesh_quantization"};
 
 // ---------------------------------------------------------------- errors and messages
 
@@ -170,7 +172,7 @@ std::string join_path(const std::string &folder, const std::string &relative) {
 // What the file-system hooks and the image hook need; their refusals are kept to report them in our words.
 struct TinygltfHooks {
     LexicalPath folder;
-    std::vector<char> image_wanted;  // per image: used as a base colour or emissive texture
+    std::vector<char> image_wanted;  // per image: used by a texture pmview renders (base colour, emissive, data)
     std::string error;
     std::vector<std::string> warnings;
 };
@@ -197,7 +199,7 @@ bool refuse_write(std::string *err, const std::string &, const std::vector<unsig
     return false;
 }
 
-// Decodes (with tinygltf's own stb_image loader) only the images a base colour texture uses,
+// Decodes (with tinygltf's own stb_image loader) only the images a rendered texture uses,
 // after checking their dimensions; an image that cannot be decoded becomes a warning, not a failure.
 bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, std::string *, int req_width,
                        int req_height, const unsigned char *bytes, int size, void *user) {
@@ -639,7 +641,7 @@ struct WorldTransform {
 struct DecodedPrimitive {
     bool triangles = false;             // false: points or lines, skipped
     std::vector<float> positions;       // 3 per vertex, mesh space
-    std::vector<float> normals, uvs;    // empty when the primitive has none
+    std::vector<float> normals, uvs, uvs1;  // empty when the primitive has none (uvs1: or no texture reads it)
     std::vector<uint32_t> corners;      // 3 per triangle, glTF winding
     uint32_t material = 0;
 };
@@ -652,6 +654,19 @@ struct DecodedMesh {
 struct Instance {
     int node, mesh;
 };
+
+// A textureInfo as written (checked in the preflight): its texture, TEXCOORD set and KHR_texture_transform.
+struct TextureReference {
+    int texture = -1;  // glTF texture index, -1 none
+    uint64_t texcoord = 0;  // after the transform's texCoord override
+    bool transformed = false;
+    double offset[2] = {0, 0}, rotation = 0, scale[2] = {1, 1};
+};
+
+// The texture references pmview renders, per material.
+enum { kBaseColor, kEmissive, kMetallicRoughness, kTransmission, kReferenceKinds };
+const char *const kReferenceNames[kReferenceKinds] = {"baseColorTexture", "emissiveTexture",
+                                                      "metallicRoughnessTexture", "transmissionTexture"};
 
 // Owns the malloc'ed texels until the scene takes them.
 struct TextureList {
@@ -694,6 +709,8 @@ private:
     void add_camera(int camera, const WorldTransform &world, int node);
     void convert_materials();
     int texture_for(int gltf_texture, const std::string &where);
+    bool convert_reference(const TextureReference &r, const std::string &where, int *texture, int *texcoord,
+                           pm_uv_transform *transform);
     float checked(double value, double lo, double hi, const char *name, const std::string &where);
     void emit(pm_scene *out);
 
@@ -728,8 +745,11 @@ private:
     std::vector<pm_light> lights_;
     std::vector<pm_camera> cameras_;
     std::vector<vec3> positions_, normals_;
-    std::vector<float> uvs_;
-    bool any_uv_ = false;
+    std::vector<float> uvs_, uvs1_;
+    bool any_uv_ = false, any_uv1_ = false;
+    bool uv1_needed_ = false;   // some rendered texture reads TEXCOORD_1
+    bool quantization_ = false; // KHR_mesh_quantization is used: integer vertex attributes are allowed
+    std::vector<std::array<TextureReference, kReferenceKinds>> references_;  // per material
     std::vector<uint32_t> indices_, triangle_material_;
     uint64_t degenerate_ = 0, skipped_prims_ = 0, repaired_normals_ = 0, clamped_values_ = 0;
     uint32_t ignored_inputs_ = 0;  // materials using an input pmview does not render (each kind warned once)
@@ -813,6 +833,35 @@ json Loader::parse_json() {
     }
 }
 
+// A number member of KHR_texture_transform, or a fixed-size array of them; absent keeps the default.
+void transform_numbers(const json &ext, const char *key, double *out, size_t n, const std::string &where) {
+    const json *v = find_member(ext, key);
+    if (!v) return;
+    bool ok = n == 1 ? v->is_number() : (v->is_array() && v->size() == n);
+    for (size_t i = 0; ok && i < n; i++) {
+        const json &x = n == 1 ? *v : (*v)[i];
+        ok = x.is_number() && std::isfinite(x.get<double>());
+        if (ok) out[i] = x.get<double>();
+    }
+    if (!ok)
+        fail(std::string("KHR_texture_transform ") + key + " must be " + (n == 1 ? "a number" : str(n) + " numbers") +
+             ", got " + describe(*v) + " (" + where + ")");
+}
+
+// textureInfo.extensions.KHR_texture_transform into r, its texCoord overriding the textureInfo's.
+void read_texture_transform(const json &info, const std::string &where, TextureReference *r) {
+    const json *extensions = find_member(info, "extensions");
+    const json *ext = extensions ? find_member(*extensions, "KHR_texture_transform") : nullptr;
+    if (!ext) return;
+    std::string sub = where + " KHR_texture_transform";
+    if (!ext->is_object()) fail("KHR_texture_transform is not an object (" + where + ")");
+    transform_numbers(*ext, "offset", r->offset, 2, where);
+    transform_numbers(*ext, "rotation", &r->rotation, 1, where);
+    transform_numbers(*ext, "scale", r->scale, 2, where);
+    r->texcoord = unsigned_member(*ext, "texCoord", false, r->texcoord, INT_MAX, sub);
+    r->transformed = r->offset[0] != 0 || r->offset[1] != 0 || r->rotation != 0 || r->scale[0] != 1 || r->scale[1] != 1;
+}
+
 void Loader::preflight(const json &root) {
     if (!root.is_object()) fail("the JSON root is not an object");
     const json *asset = find_member(root, "asset");
@@ -833,7 +882,10 @@ void Loader::preflight(const json &root) {
     }
     std::string ignored;
     int ignored_count = 0;
+    for (const json &e : required)
+        if (e.get<std::string>() == "KHR_mesh_quantization") quantization_ = true;
     for (const json &e : optional_array(root, "extensionsUsed", "top level")) {
+        if (e.is_string() && e.get<std::string>() == "KHR_mesh_quantization") quantization_ = true;
         if (!e.is_string() || supported(e.get<std::string>())) continue;
         if (ignored_count++ < 8) ignored += (ignored.empty() ? "" : ", ") + printable(e.get<std::string>());
     }
@@ -920,19 +972,27 @@ void Loader::preflight(const json &root) {
 
     for_each_object(root, "materials", "material", [&](const json &m, const std::string &where, size_t) {
         const json *pbr = find_member(m, "pbrMetallicRoughness");
-        struct { const json *parent; const char *key; } infos[] = {
-            {pbr, "baseColorTexture"}, {pbr, "metallicRoughnessTexture"}, {&m, "normalTexture"},
-            {&m, "occlusionTexture"}, {&m, "emissiveTexture"}};
+        const json *extensions = find_member(m, "extensions");
+        const json *transmission = extensions ? find_member(*extensions, "KHR_materials_transmission") : nullptr;
+        struct { const json *parent; const char *key; int kind; } infos[] = {
+            {pbr, "baseColorTexture", kBaseColor}, {pbr, "metallicRoughnessTexture", kMetallicRoughness},
+            {&m, "normalTexture", -1}, {&m, "occlusionTexture", -1}, {&m, "emissiveTexture", kEmissive},
+            {transmission, "transmissionTexture", kTransmission}};
+        references_.emplace_back();
         for (const auto &info : infos) {
             const json *ti = info.parent ? find_member(*info.parent, info.key) : nullptr;
             if (!ti) continue;
             std::string sub = where + " " + info.key;
             if (!ti->is_object()) fail(std::string(info.key) + " is not an object (" + where + ")");
             int texture = required_index(*ti, "index", count_textures_, "texture", sub);
-            unsigned_member(*ti, "texCoord", false, 0, INT_MAX, sub);
-            bool used = (info.parent == pbr && strcmp(info.key, "baseColorTexture") == 0) ||
-                        strcmp(info.key, "emissiveTexture") == 0;
-            if (used && texture_sources[texture] >= 0) hooks_.image_wanted[texture_sources[texture]] = 1;
+            uint64_t texcoord = unsigned_member(*ti, "texCoord", false, 0, INT_MAX, sub);
+            if (info.kind < 0) continue;
+            TextureReference r;
+            r.texture = texture;
+            r.texcoord = texcoord;
+            read_texture_transform(*ti, sub, &r);
+            references_.back()[info.kind] = r;
+            if (texture_sources[texture] >= 0) hooks_.image_wanted[texture_sources[texture]] = 1;
         }
     });
 
@@ -1251,6 +1311,33 @@ int Loader::texture_for(int gltf_texture, const std::string &where) {
     return result;
 }
 
+// One texture reference into the material's texture index, TEXCOORD set and uv transform. The
+// transform is KHR_texture_transform's T * R * S, with the rotation as the sample model
+// TextureTransformTest and the common viewers read it: a positive angle turns the UVs
+// counter-clockwise as seen in glTF's v-down UV space (u' = cos u + sin v, v' = -sin u + cos v);
+// the spec's GLSL listing has the opposite sign (KhronosGroup/glTF issue 1563).
+// Returns false when the reference names a TEXCOORD set above 1 (TEXCOORD_0 is read instead).
+bool Loader::convert_reference(const TextureReference &r, const std::string &where, int *texture, int *texcoord,
+                               pm_uv_transform *transform) {
+    *texture = -1;
+    *texcoord = 0;
+    memset(transform, 0, sizeof *transform);
+    if (r.texture < 0) return true;
+    *texture = texture_for(r.texture, where);
+    if (*texture < 0) return true;
+    if (r.texcoord <= 1) *texcoord = static_cast<int>(r.texcoord);
+    if (*texcoord == 1) uv1_needed_ = true;
+    if (!r.transformed) return r.texcoord <= 1;
+    double c = std::cos(r.rotation), s = std::sin(r.rotation);
+    const double m[6] = {c * r.scale[0], s * r.scale[1], r.offset[0], -s * r.scale[0], c * r.scale[1], r.offset[1]};
+    transform->transformed = true;
+    for (int k = 0; k < 6; k++) {
+        transform->m[k] = static_cast<float>(m[k]);
+        if (!std::isfinite(transform->m[k])) fail("KHR_texture_transform overflows a float (" + where + ")");
+    }
+    return r.texcoord <= 1;
+}
+
 void Loader::convert_materials() {
     for (size_t i = 0; i < model_.materials.size(); i++) {
         const tinygltf::Material &mat = model_.materials[i];
@@ -1260,16 +1347,10 @@ void Loader::convert_materials() {
         std::string name = mat.name.empty() ? where : "material " + str(i) + " " + printable(mat.name);
         if (mat.normalTexture.index >= 0) note_ignored("normal textures", name);
         if (mat.occlusionTexture.index >= 0) note_ignored("occlusion textures", name);
-        if (pbr.metallicRoughnessTexture.index >= 0) note_ignored("metallic-roughness textures (the factors are used)", name);
-        if (pbr.baseColorTexture.extensions.count("KHR_texture_transform") || mat.emissiveTexture.extensions.count("KHR_texture_transform"))
-            note_ignored("KHR_texture_transform", name);
-        for (const auto &e : mat.extensions) {
-            if (e.first == "KHR_materials_transmission") {
-                if (e.second.Has("transmissionTexture")) note_ignored("transmission textures (the factor is used)", name);
-            } else if (e.first != "KHR_materials_emissive_strength" && e.first != "KHR_materials_ior") {
+        for (const auto &e : mat.extensions)
+            if (e.first != "KHR_materials_transmission" && e.first != "KHR_materials_emissive_strength" &&
+                e.first != "KHR_materials_ior")
                 note_ignored(e.first, name);
-            }
-        }
         pm_material m;
         memset(&m, 0, sizeof m);
         m.base_color = v3(checked(pbr.baseColorFactor[0], 0, 1, "baseColorFactor", where),
@@ -1293,25 +1374,42 @@ void Loader::convert_materials() {
         else if (mat.alphaMode == "BLEND") m.alpha_mode = PM_ALPHA_BLEND;
         else if (mat.alphaMode != "OPAQUE")
             warn(where + " has unknown alphaMode " + printable(mat.alphaMode) + "; treated as OPAQUE");
-        m.base_color_texture = -1;
-        m.emission_texture = -1;
-        m.base_color_texcoord = pbr.baseColorTexture.texCoord;
-        if (pbr.baseColorTexture.index >= 0) {
-            m.base_color_texture = texture_for(pbr.baseColorTexture.index, where);
-            if (m.base_color_texture >= 0 && m.base_color_texcoord != 0)
-                warn(where + " reads its base colour texture through TEXCOORD_" + str(m.base_color_texcoord) +
-                     "; only TEXCOORD_0 is loaded");
-        }
-        if (mat.emissiveTexture.index >= 0 && (m.emission.x > 0 || m.emission.y > 0 || m.emission.z > 0)) {
-            m.emission_texture = texture_for(mat.emissiveTexture.index, where);
-            if (m.emission_texture >= 0 && mat.emissiveTexture.texCoord != 0)
-                warn(where + " reads its emissive texture through TEXCOORD_" + str(mat.emissiveTexture.texCoord) +
-                     "; only TEXCOORD_0 is loaded");
-        }
+        const std::array<TextureReference, kReferenceKinds> &refs = references_[i];
+        TextureReference none;
+        bool sets_ok = convert_reference(refs[kBaseColor], where, &m.base_color_texture, &m.base_color_texcoord,
+                                         &m.base_color_transform);
+        // an emissive texture times a black factor, or a transmission texture times 0, is never read
+        bool emits = m.emission.x > 0 || m.emission.y > 0 || m.emission.z > 0;
+        sets_ok &= convert_reference(emits ? refs[kEmissive] : none, where, &m.emission_texture, &m.emission_texcoord,
+                                     &m.emission_transform);
+        sets_ok &= convert_reference(refs[kMetallicRoughness], where, &m.metallic_roughness_texture,
+                                     &m.metallic_roughness_texcoord, &m.metallic_roughness_transform);
+        sets_ok &= convert_reference(m.transmission > 0 ? refs[kTransmission] : none, where, &m.transmission_texture,
+                                     &m.transmission_texcoord, &m.transmission_transform);
+        if (!sets_ok) note_ignored("texture coordinate sets above TEXCOORD_1 (TEXCOORD_0 is read instead)", name);
         materials_.push_back(m);
     }
     for (const auto &k : ignored_)
         warn("ignored: " + k.first + " in " + str(k.second.count) + " material(s), first " + k.second.first);
+}
+
+enum class VertexRole { kPosition, kNormal, kTexcoord };
+
+// Component types a vertex attribute may use. Core glTF: float everywhere, and normalized
+// u8/u16 for texture coordinates. KHR_mesh_quantization adds: positions and texture coordinates
+// of any byte/short type, normalized or not; normals of normalized i8/i16 (read_component
+// dequantizes the normalized ones with glTF's formulas).
+bool vertex_type_allowed(const AccessorLayout &l, VertexRole role, bool quantization) {
+    int t = l.component_type;
+    if (t == TINYGLTF_COMPONENT_TYPE_FLOAT) return true;
+    bool signed_int = t == TINYGLTF_COMPONENT_TYPE_BYTE || t == TINYGLTF_COMPONENT_TYPE_SHORT;
+    bool unsigned_int = t == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE || t == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    switch (role) {
+    case VertexRole::kPosition: return quantization && (signed_int || unsigned_int);
+    case VertexRole::kNormal: return quantization && signed_int && l.normalized;
+    case VertexRole::kTexcoord: return (unsigned_int && l.normalized) || (quantization && (signed_int || unsigned_int));
+    }
+    return false;
 }
 
 int attribute(const tinygltf::Primitive &prim, const char *name) {
@@ -1332,8 +1430,10 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
     int position = attribute(prim, "POSITION");
     if (position < 0) fail("triangles without a POSITION attribute (" + where + ")");
     AccessorLayout pl = accessor_layout(model_, position);
-    if (pl.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT || pl.components != 3)
-        fail("POSITION must be a float VEC3 (accessor " + str(position) + ", " + where + ")");
+    if (pl.components != 3 || !vertex_type_allowed(pl, VertexRole::kPosition, quantization_))
+        fail(std::string("POSITION must be a float VEC3") +
+             (quantization_ ? " or (KHR_mesh_quantization) a byte/short one" : "") + " (accessor " + str(position) +
+             ", " + where + ")");
     if (pl.count > UINT32_MAX) fail("more than 2^32 vertices (" + where + ")");
     out.positions = read_accessor<float>(pl, position);
     for (size_t i = 0; i < out.positions.size(); i++)
@@ -1342,18 +1442,19 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
                  where + ")");
     const size_t vertices = pl.count;
 
-    struct { const char *name; int components; bool normalized_ints; std::vector<float> *into; } optional[] = {
-        {"NORMAL", 3, false, &out.normals}, {"TEXCOORD_0", 2, true, &out.uvs}};
+    struct { const char *name; int components; bool texcoord; std::vector<float> *into; } optional[] = {
+        {"NORMAL", 3, false, &out.normals}, {"TEXCOORD_0", 2, true, &out.uvs},
+        {"TEXCOORD_1", 2, true, uv1_needed_ ? &out.uvs1 : nullptr}};  // set 1 only when a texture reads it
     for (const auto &o : optional) {
         int a = attribute(prim, o.name);
-        if (a < 0) continue;
+        if (a < 0 || !o.into) continue;
         AccessorLayout l = accessor_layout(model_, a);
-        bool float_ok = l.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT;
-        bool int_ok = o.normalized_ints && l.normalized &&
-                      (l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
-                       l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
-        if (l.components != o.components || !(float_ok || int_ok))
-            fail(std::string(o.name) + " must be " + (o.normalized_ints ? "a float or normalized u8/u16 VEC2" : "a float VEC3") +
+        if (l.components != o.components || !vertex_type_allowed(l, o.texcoord ? VertexRole::kTexcoord : VertexRole::kNormal, quantization_))
+            fail(std::string(o.name) + " must be " +
+                 (o.texcoord ? "a float or normalized u8/u16 VEC2" : "a float VEC3") +
+                 (quantization_ ? (o.texcoord ? " or (KHR_mesh_quantization) any byte/short VEC2"
+                                              : " or (KHR_mesh_quantization) a normalized byte/short VEC3")
+                                : "") +
                  " (accessor " + str(a) + ", " + where + ")");
         if (l.count != vertices)
             fail(std::string(o.name) + " count " + str(l.count) + " != POSITION count " + str(vertices) + " (" + where + ")");
@@ -1439,13 +1540,18 @@ void Loader::instance_mesh(const Instance &instance) {
                 normals[i] = world.unit(n, true);  // (0,0,0) marks a normal to repair from its face
             }
         }
-        bool has_uv = !prim.uvs.empty();
+        bool has_uv = !prim.uvs.empty(), has_uv1 = !prim.uvs1.empty();
         any_uv_ = any_uv_ || has_uv;
+        any_uv1_ = any_uv1_ || has_uv1;
         auto append_vertex = [&](size_t i, vec3 normal) {
             positions_.push_back(positions[i]);
             normals_.push_back(normal);
             uvs_.push_back(has_uv ? prim.uvs[2 * i] : 0.f);
             uvs_.push_back(has_uv ? prim.uvs[2 * i + 1] : 0.f);
+            if (uv1_needed_) {
+                uvs1_.push_back(has_uv1 ? prim.uvs1[2 * i] : 0.f);
+                uvs1_.push_back(has_uv1 ? prim.uvs1[2 * i + 1] : 0.f);
+            }
         };
         uint32_t base = static_cast<uint32_t>(positions_.size());
         if (!flat)
@@ -1496,6 +1602,7 @@ void Loader::emit(pm_scene *out) {
         s.positions = malloc_copy(positions_);
         s.normals = malloc_copy(normals_);
         if (any_uv_) s.uvs = malloc_copy(uvs_);
+        if (any_uv1_) s.uvs1 = malloc_copy(uvs1_);
         s.indices = malloc_copy(indices_);
         s.triangle_material = malloc_copy(triangle_material_);
         s.materials = malloc_copy(materials_);
@@ -1523,6 +1630,7 @@ void Loader::load(pm_scene *out) {
     run_tinygltf(file);
 
     traverse_default_scene();
+    convert_materials();  // first: whether any texture reads TEXCOORD_1 decides what the meshes keep
     meshes_.resize(model_.meshes.size());
     uint64_t vertices = 0, triangles = 0;
     for (const Instance &instance : instances_) {
@@ -1533,13 +1641,14 @@ void Loader::load(pm_scene *out) {
             fail("scene too large: more than " + str(kMaxSceneVertices) + " vertices or " + str(kMaxSceneTriangles) +
                  " triangles after instancing");
     }
-    convert_materials();
     if (default_material_used_) {
         pm_material m;
         memset(&m, 0, sizeof m);
         m.base_color = v3(1, 1, 1);
         m.base_color_texture = -1;
         m.emission_texture = -1;
+        m.metallic_roughness_texture = -1;
+        m.transmission_texture = -1;
         m.metallic = m.roughness = 1.f;
         m.ior = 1.5f;
         m.alpha = 1.f;
@@ -1549,6 +1658,7 @@ void Loader::load(pm_scene *out) {
     positions_.reserve(vertices);
     normals_.reserve(vertices);
     uvs_.reserve(2 * vertices);
+    if (uv1_needed_) uvs1_.reserve(2 * vertices);
     indices_.reserve(3 * triangles);
     triangle_material_.reserve(triangles);
     for (const Instance &instance : instances_) instance_mesh(instance);

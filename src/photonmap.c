@@ -148,10 +148,8 @@ static sphere *specular_spheres(const pm_scene *s, uint32_t *count) {
     vec3 blo[G * G * G], bhi[G * G * G];
     bool used[G * G * G] = {false};
     for (uint32_t t = 0; t < s->triangle_count; t++) {
-        vec3 kd, ks, kt;
         const pm_material *m = &s->materials[s->triangle_material[t]];
-        pm_material_split(m, m->base_color, &kd, &ks, &kt);
-        if (v3_is_black(ks) && v3_is_black(kt)) continue;
+        if (!m->may_mirror && !m->may_glass) continue;
         const uint32_t *ix = s->indices + 3 * (size_t)t;
         vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
         vec3 c = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);

@@ -66,10 +66,9 @@ uint64_t pm_progressive_default_photons(int width, int height) {
 static double diffuse_area(const pm_scene *s) {
     double area = 0.0;
     for (uint32_t t = 0; t < s->triangle_count; t++) {
+        /* may_diffuse, may_glossy: at some point, its textures' range of metallic and transmission included */
         const pm_material *m = &s->materials[s->triangle_material[t]];
-        vec3 kd, ks, kt;
-        pm_material_split(m, m->base_color, &kd, &ks, &kt);
-        if (!v3_is_black(kd) || pm_material_glossy(m) || m->base_color_texture >= 0) area += pm_triangle_area(s, t);
+        if (m->may_diffuse || m->may_glossy) area += pm_triangle_area(s, t);
     }
     return area;
 }

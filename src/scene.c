@@ -24,9 +24,7 @@ static bool diffuse_coplanar(const pm_scene *s) {
     double n[3] = {0, 0, 0}, d = 0.0, tolerance = 1e-6 * (double)s->ray_scale;
     for (uint32_t t = 0; t < s->triangle_count; t++) {
         const pm_material *m = &s->materials[s->triangle_material[t]];
-        vec3 kd, ks, kt;
-        pm_material_split(m, m->base_color, &kd, &ks, &kt);
-        if (v3_is_black(kd) && !pm_material_glossy(m)) continue;
+        if (!m->may_diffuse && !m->may_glossy) continue;
         const uint32_t *ix = s->indices + 3 * (size_t)t;
         vec3 p[3] = {s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]};
         if (!have_plane) {
@@ -47,22 +45,60 @@ static bool diffuse_coplanar(const pm_scene *s) {
     return true;
 }
 
+/* The smallest and largest value of one channel over a texture's texels, as a fraction of 255
+ * (bilinear filtering cannot leave this range); [1, 1] without a texture, whose factor stands alone. */
+static void channel_range(const pm_scene *s, int texture, int channel, float *lo, float *hi) {
+    *lo = *hi = 1.f;
+    if (texture < 0 || (uint32_t)texture >= s->texture_count || !s->textures[texture].rgba) return;
+    const pm_texture *t = &s->textures[texture];
+    uint8_t a = 255, b = 0;
+    size_t n = (size_t)t->width * (size_t)t->height;
+    for (size_t i = 0; i < n; i++) {
+        uint8_t x = t->rgba[4 * i + channel];
+        a = x < a ? x : a;
+        b = x > b ? x : b;
+    }
+    *lo = a / 255.f;
+    *hi = b / 255.f;
+}
+
+/* Which lobes a material can have somewhere. Each lobe weight is linear in metallic, roughness
+ * and transmission separately, so its largest value over the box of their possible values is
+ * at one of the box's eight corners. */
+static void material_lobes(const pm_scene *s, pm_material *m) {
+    float lo[3], hi[3];
+    channel_range(s, m->metallic_roughness_texture, 2, &lo[0], &hi[0]);
+    channel_range(s, m->metallic_roughness_texture, 1, &lo[1], &hi[1]);
+    channel_range(s, m->transmission_texture, 0, &lo[2], &hi[2]);
+    const float factor[3] = {m->metallic, m->roughness, m->transmission};
+    m->may_diffuse = m->may_mirror = m->may_glass = m->may_glossy = false;
+    for (int corner = 0; corner < 8; corner++) {
+        float x[3];
+        for (int k = 0; k < 3; k++) x[k] = factor[k] * ((corner >> k & 1) ? hi[k] : lo[k]);
+        vec3 kd, ks, kt;
+        pm_material_split_at(m->base_color, x[0], x[1], x[2], &kd, &ks, &kt);
+        m->may_diffuse |= !v3_is_black(kd);
+        m->may_mirror |= !v3_is_black(ks);
+        m->may_glass |= !v3_is_black(kt);
+        m->may_glossy |= pm_glossy_at(x[0], x[1]);
+    }
+}
+
 static void analyse(pm_scene *s) {
     pm_scene_analysis *a = &s->analysis;
     memset(a, 0, sizeof *a);
     bool *material_used = calloc(s->material_count ? s->material_count : 1, sizeof(bool));
-    for (uint32_t t = 0; t < s->triangle_count; t++) material_used[s->triangle_material[t]] = true;
+    for (uint32_t t = 0; t < s->triangle_count && material_used; t++) material_used[s->triangle_material[t]] = true;
     for (uint32_t i = 0; i < s->material_count; i++) {
-        if (!material_used[i]) continue;
-        vec3 kd, ks, kt;
-        pm_material_split(&s->materials[i], s->materials[i].base_color, &kd, &ks, &kt);
-        bool glossy = pm_material_glossy(&s->materials[i]);
-        a->has_glossy |= glossy;
-        a->has_diffuse |= !v3_is_black(kd) || glossy;
-        a->has_mirror |= !v3_is_black(ks);
-        a->has_glass |= !v3_is_black(kt);
-        a->has_textures |= s->materials[i].base_color_texture >= 0 || s->materials[i].emission_texture >= 0;
-        a->has_non_opaque |= pm_material_can_be_transparent(s, &s->materials[i]);
+        const pm_material *m = &s->materials[i];
+        if (material_used && !material_used[i]) continue;
+        a->has_glossy |= m->may_glossy;
+        a->has_diffuse |= m->may_diffuse || m->may_glossy;
+        a->has_mirror |= m->may_mirror;
+        a->has_glass |= m->may_glass;
+        a->has_textures |= m->base_color_texture >= 0 || m->emission_texture >= 0 ||
+                           m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0;
+        a->has_non_opaque |= pm_material_can_be_transparent(s, m);
     }
     free(material_used);
     a->has_emissive_triangles = s->emitter_count > 0;
@@ -82,7 +118,7 @@ static void analyse(pm_scene *s) {
  * 64 stratified samples of it (a texture black over the triangle makes it no emitter at all). */
 static vec3 triangle_mean_emission(const pm_scene *s, uint32_t t) {
     const pm_material *m = &s->materials[s->triangle_material[t]];
-    if (v3_is_black(m->emission) || m->emission_texture < 0 || !s->uvs) return m->emission;
+    if (v3_is_black(m->emission) || m->emission_texture < 0) return m->emission;
     enum { N = 8 };
     vec3 sum = v3s(0.f);
     for (int i = 0; i < N; i++)
@@ -165,6 +201,7 @@ void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     s->radius = 0.5f * v3_length(v3_sub(hi, lo));
     float extent = v3_max_component(v3_sub(hi, lo));
     s->ray_scale = extent > 0.f ? extent : 1.f;
+    for (uint32_t i = 0; i < s->material_count; i++) material_lobes(s, &s->materials[i]);
     build_emitters(s);
     if (added_sky) *added_sky = false;
     if (add_default_sky && !s->sky && s->emitter_count == 0 && s->light_count == 0) {
@@ -189,6 +226,7 @@ void pm_scene_free(pm_scene *s) {
     free(s->positions);
     free(s->normals);
     free(s->uvs);
+    free(s->uvs1);
     free(s->indices);
     free(s->triangle_material);
     free(s->materials);
@@ -262,8 +300,9 @@ static void init_srgb_table(void) {
     for (int i = 0; i < 256; i++) srgb_table[i] = pm_srgb_to_linear(i / 255.f);
 }
 
-static vec3 texel(const pm_texture *t, int x, int y) {
+static vec3 texel(const pm_texture *t, int x, int y, bool srgb) {
     const uint8_t *p = t->rgba + 4 * ((size_t)y * t->width + x);
+    if (!srgb) return v3(p[0] * (1.f / 255.f), p[1] * (1.f / 255.f), p[2] * (1.f / 255.f));
     return v3(srgb_table[p[0]], srgb_table[p[1]], srgb_table[p[2]]);
 }
 
@@ -286,7 +325,7 @@ static bilinear_taps bilinear(const pm_texture *t, float u, float v) {
     return b;
 }
 
-vec3 pm_texture_lookup(const pm_texture *t, float u, float v) {
+static vec3 texture_bilinear(const pm_texture *t, float u, float v, bool srgb) {
     if (srgb_table[255] == 0.f) init_srgb_table(); /* idempotent: racing threads write equal values */
     if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
     /* Keep the coordinate small before converting to int, so huge uv values cannot overflow. */
@@ -298,9 +337,46 @@ vec3 pm_texture_lookup(const pm_texture *t, float u, float v) {
     float ax = x - x0, ay = y - y0;
     int xa = wrap_index(x0, t->width, t->wrap_s), xb = wrap_index(x0 + 1, t->width, t->wrap_s);
     int ya = wrap_index(y0, t->height, t->wrap_t), yb = wrap_index(y0 + 1, t->height, t->wrap_t);
-    vec3 top = v3_add(v3_scale(texel(t, xa, ya), 1.f - ax), v3_scale(texel(t, xb, ya), ax));
-    vec3 bottom = v3_add(v3_scale(texel(t, xa, yb), 1.f - ax), v3_scale(texel(t, xb, yb), ax));
+    vec3 top = v3_add(v3_scale(texel(t, xa, ya, srgb), 1.f - ax), v3_scale(texel(t, xb, ya, srgb), ax));
+    vec3 bottom = v3_add(v3_scale(texel(t, xa, yb, srgb), 1.f - ax), v3_scale(texel(t, xb, yb, srgb), ax));
     return v3_add(v3_scale(top, 1.f - ay), v3_scale(bottom, ay));
+}
+
+vec3 pm_texture_lookup(const pm_texture *t, float u, float v) { return texture_bilinear(t, u, v, true); }
+vec3 pm_texture_lookup_data(const pm_texture *t, float u, float v) { return texture_bilinear(t, u, v, false); }
+
+/* Interpolated TEXCOORD set (0 or 1) at barycentrics; (0, 0) when the scene lacks the set. */
+static void interpolated_uv(const pm_scene *s, const uint32_t *ix, float b0, float b1, float b2, int set, float *u,
+                            float *v) {
+    const float *uv = set == 1 ? s->uvs1 : s->uvs;
+    if (!uv) {
+        *u = *v = 0.f;
+        return;
+    }
+    *u = b0 * uv[2 * ix[0]] + b1 * uv[2 * ix[1]] + b2 * uv[2 * ix[2]];
+    *v = b0 * uv[2 * ix[0] + 1] + b1 * uv[2 * ix[1] + 1] + b2 * uv[2 * ix[2] + 1];
+}
+
+static inline void apply_uv_transform(const pm_uv_transform *t, float *u, float *v) {
+    if (!t->transformed) return;
+    float x = *u, y = *v;
+    *u = t->m[0] * x + t->m[1] * y + t->m[2];
+    *v = t->m[3] * x + t->m[4] * y + t->m[5];
+}
+
+void pm_scene_texcoord(const pm_scene *s, uint32_t tri, float b1, float b2, int texcoord, const pm_uv_transform *t,
+                       float *u, float *v) {
+    interpolated_uv(s, s->indices + 3 * (size_t)tri, 1.f - b1 - b2, b1, b2, texcoord, u, v);
+    apply_uv_transform(t, u, v);
+}
+
+/* A texture reference's value at a point, from the point's interpolated TEXCOORD sets. */
+static vec3 texture_at(const pm_scene *s, const float uv[2][2], int texture, int texcoord, const pm_uv_transform *t,
+                       bool srgb) {
+    if ((uint32_t)texture >= s->texture_count) return v3s(1.f); /* a material filled by hand with 0, not -1 */
+    float u = uv[texcoord == 1][0], v = uv[texcoord == 1][1];
+    apply_uv_transform(t, &u, &v);
+    return texture_bilinear(&s->textures[texture], u, v, srgb);
 }
 
 float pm_texture_alpha(const pm_texture *t, float u, float v) {
@@ -336,23 +412,36 @@ void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_su
     n = v3_normalize(n);
     /* Shading normals that disagree with the winding would light back faces: trust the winding. */
     out->ns = v3_dot(n, out->ng) < 0.f ? v3_neg(n) : n;
-    out->u = out->v = 0.f;
-    if (s->uvs) {
-        out->u = b0 * s->uvs[2 * ix[0]] + b1 * s->uvs[2 * ix[1]] + b2 * s->uvs[2 * ix[2]];
-        out->v = b0 * s->uvs[2 * ix[0] + 1] + b1 * s->uvs[2 * ix[1] + 1] + b2 * s->uvs[2 * ix[2] + 1];
-    }
+    float uv[2][2];
+    interpolated_uv(s, ix, b0, b1, b2, 0, &uv[0][0], &uv[0][1]);
+    uv[1][0] = uv[1][1] = 0.f;
+    if (s->uvs1) interpolated_uv(s, ix, b0, b1, b2, 1, &uv[1][0], &uv[1][1]);
+    out->u = uv[0][0];
+    out->v = uv[0][1];
     out->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
     out->material = s->triangle_material[tri];
     const pm_material *m = &s->materials[out->material];
     vec3 base = m->base_color;
-    if (m->base_color_texture >= 0) base = v3_mul(base, pm_texture_lookup(&s->textures[m->base_color_texture], out->u, out->v));
-    pm_material_split(m, base, &out->kd, &out->ks, &out->kt);
-    out->glossy = pm_material_glossy(m);
-    if (out->glossy) out->brdf = pm_material_brdf(m, base);
+    if (m->base_color_texture >= 0)
+        base = v3_mul(base, texture_at(s, uv, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform, true));
+    float metallic = m->metallic, roughness = m->roughness, transmission = m->transmission;
+    if (m->metallic_roughness_texture >= 0) {
+        vec3 mr = texture_at(s, uv, m->metallic_roughness_texture, m->metallic_roughness_texcoord,
+                             &m->metallic_roughness_transform, false);
+        roughness *= mr.y;
+        metallic *= mr.z;
+    }
+    if (m->transmission_texture >= 0 && transmission > 0.f)
+        transmission *= texture_at(s, uv, m->transmission_texture, m->transmission_texcoord, &m->transmission_transform,
+                                   false).x;
+    pm_material_split_at(base, metallic, roughness, transmission, &out->kd, &out->ks, &out->kt);
+    out->glossy = pm_glossy_at(metallic, roughness);
+    if (out->glossy) out->brdf = pm_brdf_at(base, metallic, roughness, transmission);
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
     out->emission = m->emission;
     if (m->emission_texture >= 0 && !v3_is_black(m->emission))
-        out->emission = v3_mul(m->emission, pm_texture_lookup(&s->textures[m->emission_texture], out->u, out->v));
+        out->emission = v3_mul(m->emission, texture_at(s, uv, m->emission_texture, m->emission_texcoord,
+                                                       &m->emission_transform, true));
     out->double_sided = m->double_sided;
 }
 
@@ -374,25 +463,18 @@ vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale) {
 
 vec3 pm_scene_emission_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
     const pm_material *m = &s->materials[s->triangle_material[tri]];
-    if (m->emission_texture < 0 || !s->uvs || v3_is_black(m->emission)) return m->emission;
-    const uint32_t *ix = s->indices + 3 * (size_t)tri;
-    float b0 = 1.f - b1 - b2;
-    float u = b0 * s->uvs[2 * ix[0]] + b1 * s->uvs[2 * ix[1]] + b2 * s->uvs[2 * ix[2]];
-    float v = b0 * s->uvs[2 * ix[0] + 1] + b1 * s->uvs[2 * ix[1] + 1] + b2 * s->uvs[2 * ix[2] + 1];
+    if (m->emission_texture < 0 || v3_is_black(m->emission)) return m->emission;
+    float u, v;
+    pm_scene_texcoord(s, tri, b1, b2, m->emission_texcoord, &m->emission_transform, &u, &v);
     return v3_mul(m->emission, pm_texture_lookup(&s->textures[m->emission_texture], u, v));
 }
 
 float pm_scene_alpha_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
     const pm_material *m = &s->materials[s->triangle_material[tri]];
     if (m->alpha_mode == PM_ALPHA_OPAQUE) return 1.f;
-    if (m->base_color_texture < 0) return m->alpha;
-    float u = 0.f, v = 0.f; /* as pm_scene_surface: without texture coordinates the texel at (0, 0) */
-    if (s->uvs) {
-        const uint32_t *ix = s->indices + 3 * (size_t)tri;
-        float b0 = 1.f - b1 - b2;
-        u = b0 * s->uvs[2 * ix[0]] + b1 * s->uvs[2 * ix[1]] + b2 * s->uvs[2 * ix[2]];
-        v = b0 * s->uvs[2 * ix[0] + 1] + b1 * s->uvs[2 * ix[1] + 1] + b2 * s->uvs[2 * ix[2] + 1];
-    }
+    if (m->base_color_texture < 0 || (uint32_t)m->base_color_texture >= s->texture_count) return m->alpha;
+    float u, v; /* the base colour texture's own set and transform, as pm_scene_surface reads it */
+    pm_scene_texcoord(s, tri, b1, b2, m->base_color_texcoord, &m->base_color_transform, &u, &v);
     return m->alpha * pm_texture_alpha(&s->textures[m->base_color_texture], u, v);
 }
 

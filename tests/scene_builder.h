@@ -19,6 +19,8 @@ static inline uint32_t sb_material(pm_scene *s, vec3 base, float metallic, float
     m.base_color = base;
     m.base_color_texture = -1;
     m.emission_texture = -1;
+    m.metallic_roughness_texture = -1;
+    m.transmission_texture = -1;
     m.metallic = metallic;
     m.roughness = roughness;
     m.transmission = transmission;

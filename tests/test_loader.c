@@ -1,4 +1,4 @@
-/* test_loader.c: the glTF loader on small files written here: transforms, winding, normals, indices, strips, textures, cameras, lights, materials, rejections.
+/* test_loader.c: the glTF loader on small files written here: transforms, winding, normals, indices, strips, textures (sets, transforms, data textures), quantized meshes, cameras, lights, materials, rejections.
  *
  * Each test builds a glTF document in C (one mesh whose primitives' data go into a single base64
  * data: buffer), writes it into a mkdtemp folder, loads it with pm_load_gltf and checks the
@@ -741,6 +741,353 @@ static void test_rejections(void) {
     check_rejected("deep.gltf", "nested deeper");
 }
 
+/* ---------------------------------------------------------------- texture inputs and quantized meshes */
+
+/* A unit quad in z = 0 (triangles 0-1-2 and 0-2-3), its accessors added to a blob by each test. */
+static const float quad_positions[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+static const uint16_t quad_indices[6] = {0, 1, 2, 0, 2, 3};
+
+/* Writes {"asset", BODY, buffers, bufferViews, accessors}; BODY holds every other member, no trailing comma. */
+static void write_blob_model(const char *name, blob *b, const char *body) {
+    text json = {0};
+    text_append(&json, "{\"asset\":{\"version\":\"2.0\"},%s,\"buffers\":[{\"byteLength\":%zu,"
+                       "\"uri\":\"data:application/octet-stream;base64,", body, b->size);
+    base64_append(&json, b->bytes, b->size);
+    text_append(&json, "\"}],\"bufferViews\":[%s],\"accessors\":[%s]}", b->views.data, b->accessors.data);
+    char path[256];
+    model_path(name, path, sizeof path);
+    write_file(path, json.data, json.size);
+    free(json.data);
+    free(b->views.data);
+    free(b->accessors.data);
+    memset(b, 0, sizeof *b);
+}
+
+/* Appends "images":[...] of w x 1 RGBA PNGs (one per row of `rows`), then the textures (one per image) and a
+ * clamping sampler, as members followed by a comma. */
+static void append_strip_images(text *t, const unsigned char (*rows)[16], const int *widths, int count) {
+    text_append(t, "\"images\":[");
+    for (int i = 0; i < count; i++) {
+        int size = 0;
+        unsigned char *png = stbi_write_png_to_mem(rows[i], 4 * widths[i], widths[i], 1, 4, &size);
+        if (!png) abort();
+        append_png_image(t, png, (size_t)size, i == 0);
+        free(png);
+    }
+    text_append(t, "],\"samplers\":[{\"wrapS\":33071,\"wrapT\":33071}],\"textures\":[");
+    for (int i = 0; i < count; i++) text_append(t, "%s{\"source\":%d,\"sampler\":0}", i ? "," : "", i);
+    text_append(t, "],");
+}
+
+/* The surface at (x, y) of the unit quad (x >= y: triangle 0, else triangle 1). */
+static void quad_surface(const pm_scene *s, float x, float y, pm_surface *sf) {
+    if (x >= y) pm_scene_surface(s, 0, x - y, y, sf);
+    else pm_scene_surface(s, 1, x, y - x, sf);
+}
+
+/* The quad with TEXCOORD_0 = uv0 and (when given) TEXCOORD_1 = uv1, POSITION float; returns the primitive's JSON. */
+static void quad_primitive(blob *b, text *prim, const float *uv0, const float *uv1, int material) {
+    text_append(prim, "{\"attributes\":{\"POSITION\":%d", blob_accessor(b, quad_positions, sizeof quad_positions, 4, 5126, "VEC3", 0));
+    if (uv0) text_append(prim, ",\"TEXCOORD_0\":%d", blob_accessor(b, uv0, 32, 4, 5126, "VEC2", 0));
+    if (uv1) text_append(prim, ",\"TEXCOORD_1\":%d", blob_accessor(b, uv1, 32, 4, 5126, "VEC2", 0));
+    text_append(prim, "},\"indices\":%d,\"material\":%d}", blob_accessor(b, quad_indices, sizeof quad_indices, 6, 5123, "SCALAR", 0),
+                material);
+}
+
+/* A red|blue strip read through TEXCOORD_1 (mirrored in u against TEXCOORD_0): the colour is set 1's. Sets
+ * above 1 are read through set 0 and counted as ignored inputs. */
+static void test_texcoord_sets(void) {
+    static const unsigned char strip[1][16] = {{255, 0, 0, 255, 0, 0, 255, 255}};
+    static const int width[1] = {2};
+    static const float uv0[8] = {0, 0, 1, 0, 1, 1, 0, 1}, uv1[8] = {1, 0, 0, 0, 0, 1, 1, 1};
+    for (int variant = 0; variant < 3; variant++) {
+        /* both textures on set 1, then on set 0 (set 1 present but unused), then on set 2 (read through set 0, warned) */
+        const int set = variant == 0 ? 1 : variant == 1 ? 0 : 2;
+        const bool blue = variant == 0; /* at x 0.2: set 0 reads u 0.2 (the red texel), set 1 u 0.8 (blue) */
+        blob *b = calloc(1, sizeof *b);
+        text body = {0}, prim = {0};
+        quad_primitive(b, &prim, uv0, uv1, 0);
+        append_strip_images(&body, strip, width, 1);
+        text_append(&body, "\"materials\":[{\"pbrMetallicRoughness\":{\"metallicFactor\":0,"
+                           "\"baseColorTexture\":{\"index\":0,\"texCoord\":%d}},"
+                           "\"emissiveFactor\":[1,1,1],\"emissiveTexture\":{\"index\":0,\"texCoord\":%d}}],"
+                           "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[%s]}]",
+                    set, set, prim.data);
+        write_blob_model("texcoord1.gltf", b, body.data);
+        free(body.data);
+        free(prim.data);
+        free(b);
+        pm_scene s;
+        pm_load_report r;
+        if (!load_ok("texcoord1.gltf", &s, &r)) continue;
+        CHECK(variant == 0 ? s.uvs1 != NULL : s.uvs1 == NULL, "variant %d: uvs1 %p (kept only when a texture reads set 1)",
+              variant, (void *)s.uvs1);
+        CHECK(s.materials[0].base_color_texcoord == (set == 1) && s.materials[0].emission_texcoord == (set == 1),
+              "texcoords %d %d", s.materials[0].base_color_texcoord, s.materials[0].emission_texcoord);
+        CHECK(r.ignored_inputs == (set == 2 ? 1u : 0u), "set %d: ignored_inputs %u (one material)", set, r.ignored_inputs);
+        pm_surface sf;
+        quad_surface(&s, 0.2f, 0.5f, &sf);
+        CHECK_VEC(sf.kd, blue ? 0 : 1, 0, blue ? 1 : 0, 1e-5, "base colour at x 0.2");
+        CHECK_VEC(sf.emission, blue ? 0 : 1, 0, blue ? 1 : 0, 1e-5, "emission at x 0.2");
+        CHECK_VEC(pm_scene_emission_at(&s, 1, 0.2f, 0.3f), blue ? 0 : 1, 0, blue ? 1 : 0, 1e-5,
+                  "pm_scene_emission_at at x 0.2");
+        quad_surface(&s, 0.9f, 0.5f, &sf);
+        CHECK_VEC(sf.kd, blue ? 1 : 0, 0, blue ? 0 : 1, 1e-5, "base colour at x 0.9");
+        pm_scene_free(&s);
+    }
+}
+
+/* KHR_texture_transform u' = cos u + sin v, v' = -sin u + cos v (rotation), times scale, plus offset. */
+static void transform_uv(const double *offset, double rotation, const double *scale, float u, float v, float *out) {
+    double c = cos(rotation), s = sin(rotation);
+    out[0] = (float)(c * scale[0] * u + s * scale[1] * v + offset[0]);
+    out[1] = (float)(-s * scale[0] * u + c * scale[1] * v + offset[1]);
+}
+
+/* A transformed texture (texCoord overridden to set 1) gives at every point the colour of the plain texture
+ * read through pre-transformed coordinates; and a quarter turn has the sign the sample model expects. */
+static void test_texture_transform(void) {
+    static const unsigned char tiles[2][16] = {{255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 0, 255},
+                                               {255, 0, 0, 255, 0, 0, 255, 255}};
+    static const int widths[2] = {4, 2};
+    static const float uv[8] = {0, 0, 1, 0, 1, 1, 0, 1}, junk[8] = {0.9f, 0.9f, 0.9f, 0.9f, 0.9f, 0.9f, 0.9f, 0.9f};
+    const double offset[2] = {0.3, -0.2}, rotation = 0.7, scale[2] = {1.5, 0.8};
+    float moved[8];
+    for (int k = 0; k < 4; k++) transform_uv(offset, rotation, scale, uv[2 * k], uv[2 * k + 1], moved + 2 * k);
+    for (int variant = 0; variant < 2; variant++) {
+        blob *b = calloc(1, sizeof *b);
+        text body = {0}, prim = {0};
+        if (variant == 0) quad_primitive(b, &prim, junk, uv, 0);
+        else quad_primitive(b, &prim, moved, NULL, 0);
+        append_strip_images(&body, tiles, widths, 2);
+        /* textures repeat here: the sampler is dropped */
+        char *sampler = strstr(body.data, ",\"sampler\":0");
+        memmove(sampler, sampler + 12, strlen(sampler + 12) + 1);
+        body.size = strlen(body.data);
+        if (variant == 0)
+            text_append(&body, "\"extensionsUsed\":[\"KHR_texture_transform\"],\"materials\":[{\"pbrMetallicRoughness\":{"
+                               "\"metallicFactor\":0,\"baseColorTexture\":{\"index\":0,\"extensions\":{\"KHR_texture_transform\":"
+                               "{\"offset\":[0.3,-0.2],\"rotation\":0.7,\"scale\":[1.5,0.8],\"texCoord\":1}}}}},");
+        else
+            text_append(&body, "\"materials\":[{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"baseColorTexture\":{\"index\":0}}},");
+        /* material 1: a quarter turn and offset (0, 1) of a red|blue strip, clamped */
+        text_append(&body, "{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"baseColorTexture\":{\"index\":1,\"extensions\":"
+                           "{\"KHR_texture_transform\":{\"offset\":[0,1],\"rotation\":1.5707963268}}}}}],"
+                           "\"samplers\":[{\"wrapS\":33071,\"wrapT\":33071}],");
+        text_append(&body, "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[%s]}]", prim.data);
+        write_blob_model(variant ? "plain_moved.gltf" : "transformed.gltf", b, body.data);
+        free(body.data);
+        free(prim.data);
+        free(b);
+    }
+    pm_scene t, p;
+    pm_load_report r;
+    if (!load_ok("transformed.gltf", &t, &r)) return;
+    CHECK(r.ignored_inputs == 0, "ignored_inputs %u with KHR_texture_transform", r.ignored_inputs);
+    if (!load_ok("plain_moved.gltf", &p, &r)) {
+        pm_scene_free(&t);
+        return;
+    }
+    double worst = 0.0, spread = 0.0;
+    vec3 first = v3s(-1.f);
+    for (int i = 0; i < 16; i++)
+        for (int j = 0; j < 16; j++) {
+            float x = (i + 0.37f) / 16.f, y = (j + 0.61f) / 16.f;
+            pm_surface a, c;
+            quad_surface(&t, x, y, &a);
+            quad_surface(&p, x, y, &c);
+            for (int k = 0; k < 3; k++) worst = fmax(worst, fabs(v3_get(a.kd, k) - v3_get(c.kd, k)));
+            if (first.x < 0.f) first = a.kd;
+            spread = fmax(spread, v3_length(v3_sub(a.kd, first)));
+        }
+    CHECK(worst < 2e-4, "transformed vs pre-transformed coordinates differ by %g", worst);
+    CHECK(spread > 0.5, "the test texture must vary over the quad (spread %g)", spread);
+    /* quarter turn: uv (0.1, 0.8) -> (0.8, 0.9): the blue texel (the opposite sign would clamp to red) */
+    if (t.material_count == 2) {
+        t.triangle_material[1] = 1;
+        pm_surface sf;
+        quad_surface(&t, 0.1f, 0.8f, &sf);
+        CHECK_VEC(sf.kd, 0, 0, 1, 1e-5, "quarter-turn transform reads the blue texel");
+    }
+    pm_scene_free(&t);
+    pm_scene_free(&p);
+
+    /* a malformed transform is refused with one line */
+    blob *b = calloc(1, sizeof *b);
+    text body = {0}, prim = {0};
+    quad_primitive(b, &prim, uv, NULL, 0);
+    append_strip_images(&body, tiles, widths, 1);
+    text_append(&body, "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0,\"extensions\":"
+                       "{\"KHR_texture_transform\":{\"scale\":[2]}}}}}],"
+                       "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[%s]}]", prim.data);
+    write_blob_model("bad_transform.gltf", b, body.data);
+    free(body.data);
+    free(prim.data);
+    free(b);
+    check_rejected("bad_transform.gltf", "KHR_texture_transform scale must be 2 numbers, got an array "
+                                         "(material 0 baseColorTexture)");
+}
+
+/* B = metalness, G = roughness, linear (64 reads 0.251, not the sRGB 0.051); R of the transmission texture. */
+static void test_data_textures(void) {
+    static const unsigned char strips[3][16] = {{0, 64, 255, 255, 0, 200, 0, 255},    /* metal left, dielectric right */
+                                                {128, 10, 10, 255, 0, 255, 255, 255}, /* transmission R: 128 | 0 */
+                                                {0, 0, 0, 255, 0, 0, 0, 255}};        /* B = 0: never metal */
+    static const int widths[3] = {2, 2, 2};
+    static const float uv[8] = {0, 0, 1, 0, 1, 1, 0, 1};
+    blob *b = calloc(1, sizeof *b);
+    text body = {0}, prims = {0};
+    quad_primitive(b, &prims, uv, NULL, 0); /* accessors 0-2, shared by the three meshes */
+    append_strip_images(&body, strips, widths, 3);
+    text_append(&body, "\"extensionsUsed\":[\"KHR_materials_transmission\"],\"materials\":["
+                       "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.8,0.8,1],\"roughnessFactor\":0.5,"
+                       "\"metallicRoughnessTexture\":{\"index\":0}}},"
+                       "{\"pbrMetallicRoughness\":{\"metallicFactor\":0},\"extensions\":{\"KHR_materials_transmission\":"
+                       "{\"transmissionFactor\":1,\"transmissionTexture\":{\"index\":1}}}},"
+                       "{\"pbrMetallicRoughness\":{\"metallicRoughnessTexture\":{\"index\":2}}}],"
+                       "\"scenes\":[{\"nodes\":[0,1,2]}],\"nodes\":[{\"mesh\":0},{\"mesh\":1,\"translation\":[2,0,0]},"
+                       "{\"mesh\":2,\"translation\":[4,0,0]}],\"meshes\":[{\"primitives\":[%s]},", prims.data);
+    /* meshes 1 and 2: the same quad with materials 1 and 2 */
+    text_append(&body, "{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1},\"indices\":2,\"material\":1}]},"
+                       "{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1},\"indices\":2,\"material\":2}]}]");
+    write_blob_model("data_textures.gltf", b, body.data);
+    free(body.data);
+    free(prims.data);
+    free(b);
+    pm_scene s;
+    pm_load_report r;
+    if (!load_ok("data_textures.gltf", &s, &r)) return;
+    CHECK(r.ignored_inputs == 0, "ignored_inputs %u with metallic-roughness and transmission textures", r.ignored_inputs);
+    CHECK(s.triangle_count == 6, "triangles %u", s.triangle_count);
+    if (s.triangle_count == 6 && s.material_count == 3) {
+        pm_surface sf;
+        quad_surface(&s, 0.2f, 0.1f, &sf); /* metal, roughness 0.5 x 64/255 */
+        double rough = 0.5 * 64.0 / 255.0;
+        CHECK_VEC(sf.ks, 0.8 * (1 - rough), 0.8 * (1 - rough), 0.8 * (1 - rough), 1e-5, "metal half: mirror");
+        CHECK_VEC(sf.kd, 0.8 * rough, 0.8 * rough, 0.8 * rough, 1e-5, "metal half: its rough share diffuse");
+        quad_surface(&s, 0.9f, 0.1f, &sf);
+        CHECK_VEC(sf.ks, 0, 0, 0, 0, "dielectric half: no mirror");
+        CHECK_VEC(sf.kd, 0.8, 0.8, 0.8, 1e-5, "dielectric half: Lambert");
+        pm_surface glass, opaque;
+        pm_scene_surface(&s, 2, 0.1f, 0.1f, &glass); /* mesh 1, x 0.2: R 128 */
+        pm_scene_surface(&s, 2, 0.8f, 0.1f, &opaque); /* x 0.9: R 0 */
+        double t = 128.0 / 255.0;
+        CHECK_VEC(glass.kt, t, t, t, 1e-5, "transmission half: kt = R linear");
+        CHECK_VEC(glass.kd, 1 - t, 1 - t, 1 - t, 1e-5, "transmission half: the rest diffuse");
+        CHECK_VEC(opaque.kt, 0, 0, 0, 0, "R 0: no glass");
+        CHECK_VEC(opaque.kd, 1, 1, 1, 1e-5, "R 0: Lambert");
+        pm_scene_finalize(&s, false, NULL);
+        const pm_material *m = s.materials;
+        CHECK(m[0].may_mirror && m[0].may_diffuse && !m[0].may_glass, "material 0 lobes %d %d %d", m[0].may_diffuse,
+              m[0].may_mirror, m[0].may_glass);
+        CHECK(m[1].may_glass && m[1].may_diffuse && !m[1].may_mirror, "material 1 lobes %d %d %d", m[1].may_diffuse,
+              m[1].may_mirror, m[1].may_glass);
+        CHECK(!m[2].may_mirror && m[2].may_diffuse, "material 2 (B 0 everywhere, metallicFactor 1) lobes %d %d %d",
+              m[2].may_diffuse, m[2].may_mirror, m[2].may_glass);
+        CHECK(s.analysis.has_mirror && s.analysis.has_glass && s.analysis.has_diffuse,
+              "analysis: a texture-made metal and glass count (mirror %d glass %d)", s.analysis.has_mirror,
+              s.analysis.has_glass);
+    }
+    pm_scene_free(&s);
+}
+
+/* SHORT normalized positions under a node scale and translation, BYTE normalized normals and unnormalized
+ * UNSIGNED_BYTE texture coordinates load to the float version's values. */
+static void test_mesh_quantization(void) {
+    static const int16_t q_pos[12] = {0, 0, 0, 32767, 0, 0, 32767, 32767, -32768, 0, 32767, 16384};
+    static const int8_t q_normal[12] = {0, 0, 127, 0, 0, 127, 0, -128, 127, 0, 0, 127}; /* padded to 4 bytes each */
+    static const uint8_t q_uv[8] = {0, 0, 2, 0, 2, 3, 0, 3};
+    const double scale[3] = {2, 3, 4}, offset[3] = {1, -1, 0.5};
+    float f_pos[12], f_normal[12], f_uv[8];
+    for (int v = 0; v < 4; v++)
+        for (int k = 0; k < 3; k++) {
+            double unit = q_pos[3 * v + k] / 32767.0;
+            f_pos[3 * v + k] = (float)((unit < -1 ? -1 : unit) * scale[k] + offset[k]);
+        }
+    for (int i = 0; i < 8; i++) f_uv[i] = q_uv[i];
+    for (int v = 0; v < 4; v++) {
+        /* the normal as the node sees it: the inverse transpose of the scale, renormalized by the loader */
+        double n[3] = {q_normal[3 * v] / 127.0, fmax(q_normal[3 * v + 1] / 127.0, -1.0), q_normal[3 * v + 2] / 127.0};
+        for (int k = 0; k < 3; k++) f_normal[3 * v + k] = (float)(n[k] / scale[k]);
+    }
+    for (int quantized = 0; quantized < 2; quantized++) {
+        blob *b = calloc(1, sizeof *b);
+        text body = {0};
+        int pos, normal, uv;
+        if (quantized) {
+            pos = blob_accessor(b, q_pos, sizeof q_pos, 4, 5122, "VEC3", 1);
+            unsigned char padded[16];
+            for (int v = 0; v < 4; v++) {
+                memcpy(padded + 4 * v, q_normal + 3 * v, 3);
+                padded[4 * v + 3] = 0;
+            }
+            normal = blob_accessor(b, padded, sizeof padded, 4, 5120, "VEC3", 1);
+            uv = blob_accessor(b, q_uv, sizeof q_uv, 4, 5121, "VEC2", 0);
+        } else {
+            pos = blob_accessor(b, f_pos, sizeof f_pos, 4, 5126, "VEC3", 0);
+            normal = blob_accessor(b, f_normal, sizeof f_normal, 4, 5126, "VEC3", 0);
+            uv = blob_accessor(b, f_uv, sizeof f_uv, 4, 5126, "VEC2", 0);
+        }
+        int indices = blob_accessor(b, quad_indices, sizeof quad_indices, 6, 5123, "SCALAR", 0);
+        text_append(&body, "%s\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0%s}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+                           "{\"POSITION\":%d,\"NORMAL\":%d,\"TEXCOORD_0\":%d},\"indices\":%d}]}]",
+                    quantized ? "\"extensionsUsed\":[\"KHR_mesh_quantization\"],\"extensionsRequired\":[\"KHR_mesh_quantization\"]," : "",
+                    quantized ? ",\"scale\":[2,3,4],\"translation\":[1,-1,0.5]" : "", pos, normal, uv, indices);
+        if (quantized) {
+            /* give the normals' view (view 1) its stride of 4 */
+            text fixed = {0};
+            char *view1 = strstr(b->views.data, "},{") + 2;
+            char *close = strchr(view1, '}');
+            text_append(&fixed, "%.*s,\"byteStride\":4%s", (int)(close - b->views.data), b->views.data, close);
+            free(b->views.data);
+            b->views = fixed;
+        }
+        write_blob_model(quantized ? "quantized.gltf" : "unquantized.gltf", b, body.data);
+        free(body.data);
+        free(b);
+    }
+    pm_scene q, f;
+    pm_load_report r;
+    if (!load_ok("quantized.gltf", &q, &r)) return;
+    if (!load_ok("unquantized.gltf", &f, &r)) {
+        pm_scene_free(&q);
+        return;
+    }
+    CHECK(q.vertex_count == f.vertex_count && q.triangle_count == f.triangle_count && q.triangle_count == 2,
+          "quantized %u vertices %u triangles, float %u %u", q.vertex_count, q.triangle_count, f.vertex_count,
+          f.triangle_count);
+    if (q.vertex_count == f.vertex_count && q.triangle_count == f.triangle_count && q.uvs && f.uvs) {
+        double dp = 0, dn = 0, du = 0;
+        for (uint32_t v = 0; v < q.vertex_count; v++) {
+            dp = fmax(dp, v3_length(v3_sub(q.positions[v], f.positions[v])));
+            dn = fmax(dn, v3_length(v3_sub(q.normals[v], f.normals[v])));
+            du = fmax(du, fabs(q.uvs[2 * v] - f.uvs[2 * v]) + fabs(q.uvs[2 * v + 1] - f.uvs[2 * v + 1]));
+        }
+        CHECK(dp < 1e-6 && dn < 1e-6 && du == 0, "quantized vs float: positions %g normals %g uvs %g", dp, dn, du);
+        CHECK(memcmp(q.indices, f.indices, 6 * sizeof(uint32_t)) == 0, "triangles differ");
+        /* one value by hand: vertex 2 = (1 x 2 + 1, 1 x 3 - 1, -1 x 4 + 0.5) */
+        CHECK_VEC(q.positions[q.indices[2]], 3, 2, -3.5, 1e-6, "quantized vertex 2");
+    }
+    pm_scene_free(&q);
+    pm_scene_free(&f);
+
+    /* without the extension, SHORT positions are refused */
+    char path[256];
+    model_path("quantized.gltf", path, sizeof path);
+    FILE *in = fopen(path, "rb");
+    char json[8192];
+    size_t n = in ? fread(json, 1, sizeof json - 1, in) : 0;
+    if (in) fclose(in);
+    json[n] = 0;
+    char *used = strstr(json, "\"extensionsUsed\"");
+    char *scenes = strstr(json, "\"scenes\"");
+    if (used && scenes) {
+        memmove(used, scenes, strlen(scenes) + 1);
+        write_text("quantized_undeclared.gltf", json);
+        check_rejected("quantized_undeclared.gltf", "POSITION must be a float VEC3 (accessor 0, mesh 0 primitive 0)");
+    }
+}
+
 /* ---------------------------------------------------------------- main */
 
 /* Inputs pmview does not render are counted (stat load ignored_inputs) and warned once per kind;
@@ -799,6 +1146,10 @@ int main(void) {
     test_lights();
     test_materials();
     test_ignored_inputs();
+    test_texcoord_sets();
+    test_texture_transform();
+    test_data_textures();
+    test_mesh_quantization();
     test_skips();
     test_sparse();
     test_rejections();
