@@ -44,7 +44,7 @@
 #define PM_DEFAULT_IRRADIANCE_STRIDE 4    /* precomputed irradiance at every 4th global photon (Christensen) */
 #define PM_DEFAULT_MAX_PHOTON_BOUNCES 256 /* a safety stop only: Russian roulette ends paths; at albedo 0.95 the cap drops 0.95^257 = 2e-6 */
 #define PM_TIME_SHARE_PHOTONS 0.25        /* with --time: the photon pass's share of the budget */
-#define PM_PHOTON_PASS_TIME_SHARE (1.0 / 3.0) /* with --time: a photon pass stops starting chunks after this share of the time left */
+#define PM_PHOTON_PASS_TIME_SHARE 0.25     /* with --time: a photon pass stops starting chunks after this share of the time left (sorting what it stored takes as long again) */
 #define PM_PHOTON_MAX_SURVIVAL 0.95f      /* Russian roulette keeps a photon with at most this probability (the weight compensates):
                                               a closed room of albedo 1 ends its paths after 20 bounces on average, not at the cap */
 

@@ -685,7 +685,7 @@ bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t pho
     if (!photons || !pm_photon_tracer_can_trace(t, caustic)) return true;
     double t0 = now_seconds();
     /* sorting what a pass stored costs more than tracing it (about 2x, measured on a closed
-     * white room): a pass may use a third of the time left */
+     * white room): a pass may use a quarter of the time left */
     t->ps.deadline = t->deadline > 0.0 ? t0 + (t->deadline - t0) * PM_PHOTON_PASS_TIME_SHARE : 0.0;
     t->ps.caustic_pass = caustic;
     t->ps.photons = photons;

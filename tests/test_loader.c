@@ -961,10 +961,13 @@ static void test_data_textures(void) {
     CHECK(s.triangle_count == 6, "triangles %u", s.triangle_count);
     if (s.triangle_count == 6 && s.material_count == 3) {
         pm_surface sf;
-        quad_surface(&s, 0.2f, 0.1f, &sf); /* metal, roughness 0.5 x 64/255 */
+        quad_surface(&s, 0.2f, 0.1f, &sf); /* metal, roughness 0.5 x 64/255: the glossy lobe */
         double rough = 0.5 * 64.0 / 255.0;
-        CHECK_VEC(sf.ks, 0.8 * (1 - rough), 0.8 * (1 - rough), 0.8 * (1 - rough), 1e-5, "metal half: mirror");
-        CHECK_VEC(sf.kd, 0.8 * rough, 0.8 * rough, 0.8 * rough, 1e-5, "metal half: its rough share diffuse");
+        CHECK(sf.glossy, "metal half: glossy (roughness %.3f)", rough);
+        CHECK_NEAR(sf.brdf.alpha, rough * rough, 1e-4, 0, "metal half: GGX alpha = (roughness x G linear)^2");
+        CHECK_NEAR(sf.brdf.metallic, 1.0, 0, 1e-6, "metal half: metallic = B");
+        CHECK_VEC(sf.ks, 0, 0, 0, 0, "metal half: the lobe holds the mirror share");
+        CHECK_VEC(sf.kd, 0, 0, 0, 0, "metal half: and the diffuse share");
         quad_surface(&s, 0.9f, 0.1f, &sf);
         CHECK_VEC(sf.ks, 0, 0, 0, 0, "dielectric half: no mirror");
         CHECK_VEC(sf.kd, 0.8, 0.8, 0.8, 1e-5, "dielectric half: Lambert");
@@ -978,14 +981,15 @@ static void test_data_textures(void) {
         CHECK_VEC(opaque.kd, 1, 1, 1, 1e-5, "R 0: Lambert");
         pm_scene_finalize(&s, false, NULL);
         const pm_material *m = s.materials;
-        CHECK(m[0].may_mirror && m[0].may_diffuse && !m[0].may_glass, "material 0 lobes %d %d %d", m[0].may_diffuse,
-              m[0].may_mirror, m[0].may_glass);
+        CHECK(m[0].may_glossy && m[0].may_diffuse && !m[0].may_glass && !m[0].may_mirror, "material 0 lobes %d %d %d %d",
+              m[0].may_diffuse, m[0].may_mirror, m[0].may_glass, m[0].may_glossy);
         CHECK(m[1].may_glass && m[1].may_diffuse && !m[1].may_mirror, "material 1 lobes %d %d %d", m[1].may_diffuse,
               m[1].may_mirror, m[1].may_glass);
-        CHECK(!m[2].may_mirror && m[2].may_diffuse, "material 2 (B 0 everywhere, metallicFactor 1) lobes %d %d %d",
-              m[2].may_diffuse, m[2].may_mirror, m[2].may_glass);
-        CHECK(s.analysis.has_mirror && s.analysis.has_glass && s.analysis.has_diffuse,
-              "analysis: a texture-made metal and glass count (mirror %d glass %d)", s.analysis.has_mirror,
+        CHECK(!m[2].may_mirror && !m[2].may_glossy && m[2].may_diffuse,
+              "material 2 (B 0 everywhere, metallicFactor 1) lobes %d %d %d %d", m[2].may_diffuse, m[2].may_mirror,
+              m[2].may_glass, m[2].may_glossy);
+        CHECK(s.analysis.has_glossy && s.analysis.has_glass && s.analysis.has_diffuse,
+              "analysis: a texture-made metal and glass count (glossy %d glass %d)", s.analysis.has_glossy,
               s.analysis.has_glass);
     }
     pm_scene_free(&s);
