@@ -209,7 +209,7 @@ static double furnace_mean(bool bumpy, int iterations) {
 
 static void test_furnace(void) {
     const double want = 0.5 / (1.0 - 0.5), tolerance = 0.02; /* the flat furnace's noise at this size is well under 1% */
-    const int iterations = 24;
+    const int iterations = 96;
     double flat = furnace_mean(false, iterations), bumpy = furnace_mean(true, iterations);
     printf("furnace rho 0.5 Le 0.5 (answer %.3f), %d iterations at 32x32: flat walls %.4f (%+.2f%%), bumpy normal map %.4f (%+.2f%%)\n",
            want, iterations, flat, 100.0 * (flat / want - 1.0), bumpy, 100.0 * (bumpy / want - 1.0));
