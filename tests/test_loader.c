@@ -1114,13 +1114,14 @@ static void test_normal_maps(void) {
                        "{\"normalTexture\":{\"index\":0,\"scale\":0.5}},"
                        "{\"normalTexture\":{\"index\":0,\"texCoord\":1,\"extensions\":{\"KHR_texture_transform\":{\"offset\":[0.25,0]}}}},"
                        "{\"normalTexture\":{\"index\":0}}],"
-                       "\"scenes\":[{\"nodes\":[0,1,2,3]}],\"nodes\":[{\"mesh\":0},{\"mesh\":1,\"translation\":[2,0,0]},"
-                       "{\"mesh\":2,\"rotation\":[0,0,0.70710678,0.70710678]},{\"mesh\":3,\"scale\":[-1,1,1],\"translation\":[5,0,0]}],"
+                       "\"scenes\":[{\"nodes\":[0,1,2,3,4]}],\"nodes\":[{\"mesh\":0},{\"mesh\":1,\"translation\":[2,0,0]},"
+                       "{\"mesh\":2,\"rotation\":[0,0,0.70710678,0.70710678]},{\"mesh\":3,\"scale\":[-1,1,1],\"translation\":[5,0,0]},{\"mesh\":4,\"translation\":[8,0,0]}],"
                        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"TEXCOORD_0\":%d,\"TEXCOORD_1\":%d},\"indices\":%d,\"material\":0}]},"
                        "{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"TEXCOORD_0\":%d,\"TEXCOORD_1\":%d},\"indices\":%d,\"material\":1}]},"
                        "{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d,\"TEXCOORD_0\":%d,\"TANGENT\":%d},\"indices\":%d,\"material\":2}]},"
-                       "{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d,\"TEXCOORD_0\":%d,\"TANGENT\":%d},\"indices\":%d,\"material\":2}]}]",
-                pos, t0, t1, ix, pos, t0, t1, ix, pos, nrm, t0, tf, ix, pos, nrm, t0, tq, ix);
+                       "{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d,\"TEXCOORD_0\":%d,\"TANGENT\":%d},\"indices\":%d,\"material\":2}]},"
+                       "{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d,\"TEXCOORD_0\":%d},\"indices\":%d,\"material\":0}]}]",
+                pos, t0, t1, ix, pos, t0, t1, ix, pos, nrm, t0, tf, ix, pos, nrm, t0, tq, ix, pos, nrm, t0, ix);
     write_blob_model("normalmap.gltf", b, body.data);
     free(body.data);
     free(b);
@@ -1129,7 +1130,7 @@ static void test_normal_maps(void) {
     if (!load_ok("normalmap.gltf", &s, &r)) return;
     CHECK(r.ignored_inputs == 0 && r.warnings == 0, "normal maps are rendered: ignored_inputs %u warnings %u", r.ignored_inputs,
           r.warnings);
-    if (s.material_count != 3 || s.triangle_count != 8 || !s.tangents) {
+    if (s.material_count != 3 || s.triangle_count != 10 || !s.tangents) {
         CHECK(0, "materials %u triangles %u tangents %p", s.material_count, s.triangle_count, (void *)s.tangents);
         pm_scene_free(&s);
         return;
@@ -1143,11 +1144,12 @@ static void test_normal_maps(void) {
           m[1].normal_scale, m[1].normal_transform.transformed, m[1].normal_transform.m[2]);
     CHECK(s.uvs1 != NULL, "TEXCOORD_1 is kept: the normal texture of material 1 reads it");
     /* per triangle pair: the tangent every corner must have (xyz, w) */
-    static const float want[4][4] = {{1, 0, 0, 1},   /* generated from (x, 1-y) */
+    static const float want[5][4] = {{1, 0, 0, 1},   /* generated from (x, 1-y) */
                                      {0, 1, 0, 1},   /* generated from set 1 (y, x): +u = +y, v = x, so w = +1 */
                                      {-1, 0, 0, -1}, /* TANGENT (0,1,0,-1) turned a quarter about z */
-                                     {0, 1, 0, 1}};  /* quantized TANGENT under scale (-1,1,1): w flips */
-    for (uint32_t tri = 0; tri < 8; tri++)
+                                     {0, 1, 0, 1},   /* quantized TANGENT under scale (-1,1,1): w flips */
+                                     {1, 0, 0, 1}};  /* generated per shared vertex (NORMAL given) */
+    for (uint32_t tri = 0; tri < 10; tri++)
         for (int k = 0; k < 3; k++) {
             const float *t = s.tangents + 4 * (size_t)s.indices[3 * tri + k];
             const float *w = want[tri / 2];
@@ -1156,7 +1158,7 @@ static void test_normal_maps(void) {
                   w[1], w[2], w[3]);
         }
     /* the flat map: ns stays the interpolated normal (128/255 is 0.0039 off centre: within 1e-2) */
-    for (uint32_t tri = 0; tri < 8; tri++) {
+    for (uint32_t tri = 0; tri < 10; tri++) {
         pm_surface sf;
         pm_scene_surface(&s, tri, 0.3f, 0.2f, &sf);
         CHECK(v3_length(v3_sub(sf.ns, v3(0, 0, 1))) < 1e-2f, "triangle %u: flat map moved ns to (%g %g %g)", tri, sf.ns.x,
