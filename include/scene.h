@@ -58,6 +58,11 @@ typedef struct {
     int metallic_roughness_texture, metallic_roughness_texcoord; /* -1 none */
     int transmission_texture, transmission_texcoord;             /* -1 none */
     pm_uv_transform base_color_transform, emission_transform, metallic_roughness_transform, transmission_transform;
+    /* tangent-space normal map, read linear ([0,1] -> [-1,1]); x and y times normal_scale (glTF
+     * normalTexture.scale). Used only when the scene has tangents; -1 none */
+    int normal_texture, normal_texcoord;
+    float normal_scale;
+    pm_uv_transform normal_transform;
     /* derived by pm_scene_finalize: whether each lobe's weight can be non-zero at some point of
      * the material (the factors with the data textures' whole range of texel values) */
     bool may_diffuse, may_mirror, may_glass, may_glossy;
@@ -105,6 +110,8 @@ typedef struct {
     vec3 *normals;            /* vertex_count, unit shading normals (generated when absent) */
     float *uvs;               /* 2*vertex_count, or NULL when no primitive has TEXCOORD_0 */
     float *uvs1;              /* 2*vertex_count TEXCOORD_1, or NULL when no material's texture reads set 1 */
+    float *tangents;          /* 4*vertex_count: unit tangent xyz (world, along +u of the normal map's set) and w = +-1,
+                                 the bitangent being w cross(normal, tangent); NULL when no material has a normal map */
     uint32_t *indices;        /* 3*triangle_count */
     uint32_t *triangle_material; /* triangle_count */
 
@@ -158,7 +165,7 @@ pm_camera pm_scene_fit_camera(const pm_scene *s, pm_camera c, float aspect);
 typedef struct {
     vec3 p;          /* position (from barycentrics, not o + t d) */
     vec3 ng;         /* geometric normal, unit, glTF front side */
-    vec3 ns;         /* shading normal, unit, same side as ng */
+    vec3 ns;         /* shading normal, unit, same side as ng (normal-mapped: dot(ns, ng) >= PM_NORMAL_MAP_MIN_COS) */
     float u, v;      /* TEXCOORD_0 as stored (each texture applies its own set and transform) */
     uint32_t material;
     vec3 kd;         /* Lambert albedo (after the material split; 0 on a glossy surface, whose brdf holds its diffuse part) */
@@ -176,6 +183,10 @@ typedef struct {
  * the normal and, by the same few ulps, toward the triangle's interior, so that a hit on an
  * edge shared with a wall does not start the next ray inside that wall's plane. */
 vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale);
+
+/* A normal-mapped shading normal keeps at least this cosine with the geometric normal: ns never
+ * tilts to or past the surface's plane, so shading cannot light its back (see pm_scene_surface). */
+#define PM_NORMAL_MAP_MIN_COS 0.05f
 
 /* Fills a surface from a triangle id and Embree-style barycentrics (b1, b2). */
 void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);

@@ -642,6 +642,7 @@ struct DecodedPrimitive {
     bool triangles = false;             // false: points or lines, skipped
     std::vector<float> positions;       // 3 per vertex, mesh space
     std::vector<float> normals, uvs, uvs1;  // empty when the primitive has none (uvs1: or no texture reads it)
+    std::vector<float> tangents;        // TANGENT, 4 per vertex; empty when absent or no material has a normal map
     std::vector<uint32_t> corners;      // 3 per triangle, glTF winding
     uint32_t material = 0;
 };
@@ -664,9 +665,10 @@ struct TextureReference {
 };
 
 // The texture references pmview renders, per material.
-enum { kBaseColor, kEmissive, kMetallicRoughness, kTransmission, kReferenceKinds };
+enum { kBaseColor, kEmissive, kMetallicRoughness, kTransmission, kNormal, kReferenceKinds };
 const char *const kReferenceNames[kReferenceKinds] = {"baseColorTexture", "emissiveTexture",
-                                                      "metallicRoughnessTexture", "transmissionTexture"};
+                                                      "metallicRoughnessTexture", "transmissionTexture",
+                                                      "normalTexture"};
 
 // Owns the malloc'ed texels until the scene takes them.
 struct TextureList {
@@ -712,6 +714,23 @@ private:
     bool convert_reference(const TextureReference &r, const std::string &where, int *texture, int *texcoord,
                            pm_uv_transform *transform);
     float checked(double value, double lo, double hi, const char *name, const std::string &where);
+    // Stores vertex i's generated tangent: dp/du made unit and perpendicular to the normal, or
+    // any perpendicular when the UV mapping gives none there.
+    void set_tangent(size_t i, vec3 du, vec3 normal, float hand) {
+        vec3 t = v3_sub(du, v3_scale(normal, v3_dot(du, normal)));
+        float len = v3_length(t);
+        if (len > 1e-12f && std::isfinite(len)) {
+            t = v3_scale(t, 1.f / len);
+        } else {
+            vec3 unused;
+            v3_basis(normal, &t, &unused);
+        }
+        float *out = &tangents_[4 * i];
+        out[0] = t.x;
+        out[1] = t.y;
+        out[2] = t.z;
+        out[3] = hand;
+    }
     void emit(pm_scene *out);
 
     void warn(const std::string &message) { warnings_.push_back(message); }
@@ -748,6 +767,8 @@ private:
     std::vector<float> uvs_, uvs1_;
     bool any_uv_ = false, any_uv1_ = false;
     bool uv1_needed_ = false;   // some rendered texture reads TEXCOORD_1
+    bool tangents_needed_ = false; // some material has a normal map: vertices keep a tangent
+    std::vector<float> tangents_;  // 4 per vertex when tangents_needed_
     bool quantization_ = false; // KHR_mesh_quantization is used: integer vertex attributes are allowed
     std::vector<std::array<TextureReference, kReferenceKinds>> references_;  // per material
     std::vector<uint32_t> indices_, triangle_material_;
@@ -976,7 +997,7 @@ void Loader::preflight(const json &root) {
         const json *transmission = extensions ? find_member(*extensions, "KHR_materials_transmission") : nullptr;
         struct { const json *parent; const char *key; int kind; } infos[] = {
             {pbr, "baseColorTexture", kBaseColor}, {pbr, "metallicRoughnessTexture", kMetallicRoughness},
-            {&m, "normalTexture", -1}, {&m, "occlusionTexture", -1}, {&m, "emissiveTexture", kEmissive},
+            {&m, "normalTexture", kNormal}, {&m, "occlusionTexture", -1}, {&m, "emissiveTexture", kEmissive},
             {transmission, "transmissionTexture", kTransmission}};
         references_.emplace_back();
         for (const auto &info : infos) {
@@ -1345,7 +1366,6 @@ void Loader::convert_materials() {
         std::string where = "material " + str(i);
         /* what this material asks for that pmview does not render: warned once per kind below */
         std::string name = mat.name.empty() ? where : "material " + str(i) + " " + printable(mat.name);
-        if (mat.normalTexture.index >= 0) note_ignored("normal textures", name);
         if (mat.occlusionTexture.index >= 0) note_ignored("occlusion textures", name);
         for (const auto &e : mat.extensions)
             if (e.first != "KHR_materials_transmission" && e.first != "KHR_materials_emissive_strength" &&
@@ -1386,6 +1406,9 @@ void Loader::convert_materials() {
                                      &m.metallic_roughness_texcoord, &m.metallic_roughness_transform);
         sets_ok &= convert_reference(m.transmission > 0 ? refs[kTransmission] : none, where, &m.transmission_texture,
                                      &m.transmission_texcoord, &m.transmission_transform);
+        sets_ok &= convert_reference(refs[kNormal], where, &m.normal_texture, &m.normal_texcoord, &m.normal_transform);
+        m.normal_scale = checked(mat.normalTexture.scale, -FLT_MAX, FLT_MAX, "normalTexture scale", where);
+        if (m.normal_texture >= 0) tangents_needed_ = true;
         if (!sets_ok) note_ignored("texture coordinate sets above TEXCOORD_1 (TEXCOORD_0 is read instead)", name);
         materials_.push_back(m);
     }
@@ -1393,12 +1416,12 @@ void Loader::convert_materials() {
         warn("ignored: " + k.first + " in " + str(k.second.count) + " material(s), first " + k.second.first);
 }
 
-enum class VertexRole { kPosition, kNormal, kTexcoord };
+enum class VertexRole { kPosition, kNormal, kTexcoord, kTangent };
 
 // Component types a vertex attribute may use. Core glTF: float everywhere, and normalized
 // u8/u16 for texture coordinates. KHR_mesh_quantization adds: positions and texture coordinates
 // of any byte/short type, normalized or not; normals of normalized i8/i16 (read_component
-// dequantizes the normalized ones with glTF's formulas).
+// dequantizes the normalized ones with glTF's formulas); tangents like normals.
 bool vertex_type_allowed(const AccessorLayout &l, VertexRole role, bool quantization) {
     int t = l.component_type;
     if (t == TINYGLTF_COMPONENT_TYPE_FLOAT) return true;
@@ -1406,7 +1429,8 @@ bool vertex_type_allowed(const AccessorLayout &l, VertexRole role, bool quantiza
     bool unsigned_int = t == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE || t == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
     switch (role) {
     case VertexRole::kPosition: return quantization && (signed_int || unsigned_int);
-    case VertexRole::kNormal: return quantization && signed_int && l.normalized;
+    case VertexRole::kNormal:
+    case VertexRole::kTangent: return quantization && signed_int && l.normalized;
     case VertexRole::kTexcoord: return (unsigned_int && l.normalized) || (quantization && (signed_int || unsigned_int));
     }
     return false;
@@ -1442,19 +1466,22 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
                  where + ")");
     const size_t vertices = pl.count;
 
-    struct { const char *name; int components; bool texcoord; std::vector<float> *into; } optional[] = {
-        {"NORMAL", 3, false, &out.normals}, {"TEXCOORD_0", 2, true, &out.uvs},
-        {"TEXCOORD_1", 2, true, uv1_needed_ ? &out.uvs1 : nullptr}};  // set 1 only when a texture reads it
+    struct { const char *name; int components; VertexRole role; std::vector<float> *into; } optional[] = {
+        {"NORMAL", 3, VertexRole::kNormal, &out.normals}, {"TEXCOORD_0", 2, VertexRole::kTexcoord, &out.uvs},
+        {"TEXCOORD_1", 2, VertexRole::kTexcoord, uv1_needed_ ? &out.uvs1 : nullptr},  // only when a texture reads it
+        {"TANGENT", 4, VertexRole::kTangent, tangents_needed_ ? &out.tangents : nullptr}};  // only with a normal map
     for (const auto &o : optional) {
         int a = attribute(prim, o.name);
         if (a < 0 || !o.into) continue;
         AccessorLayout l = accessor_layout(model_, a);
-        if (l.components != o.components || !vertex_type_allowed(l, o.texcoord ? VertexRole::kTexcoord : VertexRole::kNormal, quantization_))
+        bool texcoord = o.role == VertexRole::kTexcoord;
+        const char *vec = o.components == 4 ? "VEC4" : "VEC3";
+        if (l.components != o.components || !vertex_type_allowed(l, o.role, quantization_))
             fail(std::string(o.name) + " must be " +
-                 (o.texcoord ? "a float or normalized u8/u16 VEC2" : "a float VEC3") +
-                 (quantization_ ? (o.texcoord ? " or (KHR_mesh_quantization) any byte/short VEC2"
-                                              : " or (KHR_mesh_quantization) a normalized byte/short VEC3")
-                                : "") +
+                 (texcoord ? std::string("a float or normalized u8/u16 VEC2") : std::string("a float ") + vec) +
+                 (quantization_ ? (texcoord ? std::string(" or (KHR_mesh_quantization) any byte/short VEC2")
+                                            : std::string(" or (KHR_mesh_quantization) a normalized byte/short ") + vec)
+                                : std::string()) +
                  " (accessor " + str(a) + ", " + where + ")");
         if (l.count != vertices)
             fail(std::string(o.name) + " count " + str(l.count) + " != POSITION count " + str(vertices) + " (" + where + ")");
@@ -1543,9 +1570,34 @@ void Loader::instance_mesh(const Instance &instance) {
         bool has_uv = !prim.uvs.empty(), has_uv1 = !prim.uvs1.empty();
         any_uv_ = any_uv_ || has_uv;
         any_uv1_ = any_uv1_ || has_uv1;
+        // Tangents for a normal-mapped material: TANGENT transformed like a direction (its w
+        // flips with a mirroring transform, as the bitangent w cross(n, t) would), else generated
+        // below from the positions and the normal texture's UV set.
+        const pm_material &material = materials_[prim.material];
+        bool mapped = tangents_needed_ && material.normal_texture >= 0;
+        bool given_tangents = mapped && !prim.tangents.empty();
+        const std::vector<float> &tangent_uvs = material.normal_texcoord == 1 ? prim.uvs1 : prim.uvs;
+        std::vector<float> tangents;  // given: 4 per vertex in world space
+        if (given_tangents) {
+            tangents.resize(4 * count);
+            for (size_t i = 0; i < count; i++) {
+                const double d[3] = {prim.tangents[4 * i], prim.tangents[4 * i + 1], prim.tangents[4 * i + 2]};
+                vec3 t = world.unit(d, false);  // (0,0,0): no usable tangent, the scene picks a frame
+                tangents[4 * i] = t.x;
+                tangents[4 * i + 1] = t.y;
+                tangents[4 * i + 2] = t.z;
+                tangents[4 * i + 3] = (prim.tangents[4 * i + 3] < 0) != world.mirrored ? -1.f : 1.f;
+            }
+        }
+        // generated: per vertex, the sum of its triangles' dp/du scaled by |det| (so weighted by
+        // their UV area) and of their handedness votes (weighted by area)
+        std::vector<vec3> du_sum(mapped && !given_tangents && !flat ? count : 0, v3s(0.f));
+        std::vector<float> hand_sum(du_sum.size(), 0.f);
         auto append_vertex = [&](size_t i, vec3 normal) {
             positions_.push_back(positions[i]);
             normals_.push_back(normal);
+            if (tangents_needed_)
+                for (int k = 0; k < 4; k++) tangents_.push_back(given_tangents ? tangents[4 * i + k] : (k == 3 ? 1.f : 0.f));
             uvs_.push_back(has_uv ? prim.uvs[2 * i] : 0.f);
             uvs_.push_back(has_uv ? prim.uvs[2 * i + 1] : 0.f);
             if (uv1_needed_) {
@@ -1566,10 +1618,33 @@ void Loader::instance_mesh(const Instance &instance) {
                 degenerate_++;
                 continue;
             }
+            vec3 du = v3s(0.f);  // dp/du x |det|: along +u, weighted by the triangle's UV area
+            float hand = 0.f;  // no vote from a triangle without a UV mapping
+            if (mapped && !given_tangents && !tangent_uvs.empty()) {
+                // p - p0 = dp/du (u - u0) + dp/dv (v - v0) on the triangle, solved for dp/du; glTF's
+                // v runs down the image and the map's +y up it, so the bitangent is -dp/dv and
+                // w = sign((n x dp/du) . -dp/dv) = -sign(det) with n along cross(e1, e2)
+                const float *uv = tangent_uvs.data();
+                double du1 = uv[2 * c[1]] - uv[2 * c[0]], dv1 = uv[2 * c[1] + 1] - uv[2 * c[0] + 1];
+                double du2 = uv[2 * c[2]] - uv[2 * c[0]], dv2 = uv[2 * c[2] + 1] - uv[2 * c[0] + 1];
+                double det = du1 * dv2 - du2 * dv1;
+                vec3 e1 = v3_sub(positions[c[1]], positions[c[0]]), e2 = v3_sub(positions[c[2]], positions[c[0]]);
+                if (det != 0 && std::isfinite(det)) {
+                    float sign = det > 0 ? 1.f : -1.f;
+                    du = v3_scale(v3_sub(v3_scale(e1, static_cast<float>(dv2)), v3_scale(e2, static_cast<float>(dv1))), sign);
+                    hand = -sign;
+                }
+            }
+            if (!du_sum.empty())
+                for (int k = 0; k < 3; k++) {
+                    du_sum[c[k]] = v3_add(du_sum[c[k]], du);
+                    hand_sum[c[k]] += hand * length;
+                }
             for (int k = 0; k < 3; k++) {
                 if (flat) {
                     indices_.push_back(static_cast<uint32_t>(positions_.size()));
                     append_vertex(c[k], face);
+                    if (mapped && !given_tangents) set_tangent(positions_.size() - 1, du, face, hand < 0 ? -1.f : 1.f);
                 } else {
                     indices_.push_back(base + c[k]);
                     if (v3_is_black(normals_[base + c[k]])) {
@@ -1583,6 +1658,7 @@ void Loader::instance_mesh(const Instance &instance) {
         if (!flat)  // vertices no triangle repaired keep a unit normal
             for (size_t i = base; i < positions_.size(); i++)
                 if (v3_is_black(normals_[i])) normals_[i] = v3(0, 0, 1);
+        for (size_t i = 0; i < du_sum.size(); i++) set_tangent(base + i, du_sum[i], normals_[base + i], hand_sum[i] < 0 ? -1.f : 1.f);
     }
 }
 
@@ -1603,6 +1679,7 @@ void Loader::emit(pm_scene *out) {
         s.normals = malloc_copy(normals_);
         if (any_uv_) s.uvs = malloc_copy(uvs_);
         if (any_uv1_) s.uvs1 = malloc_copy(uvs1_);
+        if (tangents_needed_) s.tangents = malloc_copy(tangents_);
         s.indices = malloc_copy(indices_);
         s.triangle_material = malloc_copy(triangle_material_);
         s.materials = malloc_copy(materials_);
@@ -1649,6 +1726,8 @@ void Loader::load(pm_scene *out) {
         m.emission_texture = -1;
         m.metallic_roughness_texture = -1;
         m.transmission_texture = -1;
+        m.normal_texture = -1;
+        m.normal_scale = 1.f;
         m.metallic = m.roughness = 1.f;
         m.ior = 1.5f;
         m.alpha = 1.f;
@@ -1659,6 +1738,7 @@ void Loader::load(pm_scene *out) {
     normals_.reserve(vertices);
     uvs_.reserve(2 * vertices);
     if (uv1_needed_) uvs1_.reserve(2 * vertices);
+    if (tangents_needed_) tangents_.reserve(4 * vertices);
     indices_.reserve(3 * triangles);
     triangle_material_.reserve(triangles);
     for (const Instance &instance : instances_) instance_mesh(instance);

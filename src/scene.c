@@ -97,7 +97,8 @@ static void analyse(pm_scene *s) {
         a->has_mirror |= m->may_mirror;
         a->has_glass |= m->may_glass;
         a->has_textures |= m->base_color_texture >= 0 || m->emission_texture >= 0 ||
-                           m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0;
+                           m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0 ||
+                           (m->normal_texture >= 0 && s->tangents);
         a->has_non_opaque |= pm_material_can_be_transparent(s, m);
     }
     free(material_used);
@@ -227,6 +228,7 @@ void pm_scene_free(pm_scene *s) {
     free(s->normals);
     free(s->uvs);
     free(s->uvs1);
+    free(s->tangents);
     free(s->indices);
     free(s->triangle_material);
     free(s->materials);
@@ -401,6 +403,53 @@ bool pm_material_can_be_transparent(const pm_scene *s, const pm_material *m) {
     return m->alpha_mode == PM_ALPHA_MASK ? smallest < m->alpha_cutoff : smallest < 1.f;
 }
 
+/* The shading normal a normal map gives at barycentrics (b0, b1, b2) of the triangle with
+ * corners ix: the texel (linear, [0,1] -> [-1,1], x and y times the scale) in the frame of the
+ * interpolated tangent T (orthogonalised against n), B = w cross(n, T) and n, the interpolated
+ * normal already on ng's side.
+ *
+ * Guard against light leaks: the result is pulled back toward ng until dot(ns, ng) >=
+ * PM_NORMAL_MAP_MIN_COS (keeping its azimuth around ng), so a steep texel never turns the
+ * shading hemisphere under the surface. Energy: every integrator scatters about ns but drops
+ * directions below the geometric plane (eye.c direct_light's shadow, emitter, sky and surface
+ * rays, sample_reflection for gather rays and the visible point's gather, photonmap.c's diffuse
+ * and glossy bounces), Lambert's sample weight is kd whatever ns is, and the glossy lobe (brdf.c)
+ * is evaluated and sampled about ns with an albedo of at most 1 and is zero when wo or wi is
+ * below ns: dropping directions only loses energy, so a normal map can darken but never
+ * brighten a furnace (tests/test_normalmap.c). */
+static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_t *ix, const float b[3],
+                          const float uv[2][2], vec3 n, vec3 ng) {
+    vec3 t = v3s(0.f);
+    float w = 0.f;
+    for (int k = 0; k < 3; k++) {
+        const float *tk = s->tangents + 4 * (size_t)ix[k];
+        t = v3_madd(t, v3(tk[0], tk[1], tk[2]), b[k]);
+        w += tk[3] * b[k];
+    }
+    t = v3_sub(t, v3_scale(n, v3_dot(t, n)));
+    float len = v3_length(t);
+    vec3 bt;
+    if (len > 1e-6f && isfinite(len)) {
+        t = v3_scale(t, 1.f / len);
+        bt = v3_scale(v3_cross(n, t), w < 0.f ? -1.f : 1.f);
+    } else {
+        v3_basis(n, &t, &bt); /* no usable tangent here: any frame around n */
+    }
+    vec3 c = texture_at(s, uv, m->normal_texture, m->normal_texcoord, &m->normal_transform, false);
+    float x = (2.f * c.x - 1.f) * m->normal_scale, y = (2.f * c.y - 1.f) * m->normal_scale, z = 2.f * c.z - 1.f;
+    vec3 p = v3_add(v3_add(v3_scale(t, x), v3_scale(bt, y)), v3_scale(n, z));
+    float plen = v3_length(p);
+    if (!(plen > 0.f) || !isfinite(plen)) return n;
+    p = v3_scale(p, 1.f / plen);
+    float cos_g = v3_dot(p, ng);
+    if (cos_g >= PM_NORMAL_MAP_MIN_COS) return p;
+    vec3 side = v3_sub(p, v3_scale(ng, cos_g));
+    float side_len = v3_length(side);
+    if (!(side_len > 1e-6f)) return ng;
+    const float c_min = PM_NORMAL_MAP_MIN_COS, s_min = sqrtf(1.f - PM_NORMAL_MAP_MIN_COS * PM_NORMAL_MAP_MIN_COS);
+    return v3_add(v3_scale(ng, c_min), v3_scale(side, s_min / side_len));
+}
+
 void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
     const uint32_t *ix = s->indices + 3 * (size_t)tri;
     float b0 = 1.f - b1 - b2;
@@ -421,6 +470,10 @@ void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_su
     out->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
     out->material = s->triangle_material[tri];
     const pm_material *m = &s->materials[out->material];
+    if (m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents) {
+        const float b[3] = {b0, b1, b2};
+        out->ns = normal_mapped(s, m, ix, b, uv, out->ns, out->ng);
+    }
     vec3 base = m->base_color;
     if (m->base_color_texture >= 0)
         base = v3_mul(base, texture_at(s, uv, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform, true));

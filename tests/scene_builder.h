@@ -21,6 +21,8 @@ static inline uint32_t sb_material(pm_scene *s, vec3 base, float metallic, float
     m.emission_texture = -1;
     m.metallic_roughness_texture = -1;
     m.transmission_texture = -1;
+    m.normal_texture = -1;
+    m.normal_scale = 1.f;
     m.metallic = metallic;
     m.roughness = roughness;
     m.transmission = transmission;

@@ -1092,6 +1092,85 @@ static void test_mesh_quantization(void) {
     }
 }
 
+/* normalTexture (index, texCoord, scale, transform) is read; TANGENT (float, or normalized SHORT under
+ * KHR_mesh_quantization) is turned like a direction, its w flipped by a mirroring node; without TANGENT,
+ * tangents follow +u of the normal texture's set, with w from the UV winding (glTF's v runs down the image,
+ * the map's +y up it). A flat (128,128,255) map leaves the shading normal alone. */
+static void test_normal_maps(void) {
+    static const unsigned char flat_texel[1][16] = {{128, 128, 255, 255}};
+    static const int width[1] = {1};
+    static const float uv0[8] = {0, 1, 1, 1, 1, 0, 0, 0}; /* (x, 1 - y): the image upright on the quad */
+    static const float uv1[8] = {0, 0, 0, 1, 1, 1, 1, 0}; /* (y, x): +u along +y */
+    static const float normals[12] = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+    static const float tangents[16] = {0, 1, 0, -1, 0, 1, 0, -1, 0, 1, 0, -1, 0, 1, 0, -1};
+    static const int16_t q_tangents[16] = {0, 32767, 0, -32767, 0, 32767, 0, -32767, 0, 32767, 0, -32767, 0, 32767, 0, -32767};
+    blob *b = calloc(1, sizeof *b);
+    text body = {0};
+    int pos = blob_accessor(b, quad_positions, sizeof quad_positions, 4, 5126, "VEC3", 0);
+    int t0 = blob_accessor(b, uv0, sizeof uv0, 4, 5126, "VEC2", 0), t1 = blob_accessor(b, uv1, sizeof uv1, 4, 5126, "VEC2", 0);
+    int ix = blob_accessor(b, quad_indices, sizeof quad_indices, 6, 5123, "SCALAR", 0);
+    int nrm = blob_accessor(b, normals, sizeof normals, 4, 5126, "VEC3", 0);
+    int tf = blob_accessor(b, tangents, sizeof tangents, 4, 5126, "VEC4", 0);
+    int tq = blob_accessor(b, q_tangents, sizeof q_tangents, 4, 5122, "VEC4", 1);
+    append_strip_images(&body, flat_texel, width, 1);
+    text_append(&body, "\"extensionsUsed\":[\"KHR_mesh_quantization\",\"KHR_texture_transform\"],"
+                       "\"extensionsRequired\":[\"KHR_mesh_quantization\"],\"materials\":["
+                       "{\"normalTexture\":{\"index\":0,\"scale\":0.5}},"
+                       "{\"normalTexture\":{\"index\":0,\"texCoord\":1,\"extensions\":{\"KHR_texture_transform\":{\"offset\":[0.25,0]}}}},"
+                       "{\"normalTexture\":{\"index\":0}}],"
+                       "\"scenes\":[{\"nodes\":[0,1,2,3,4]}],\"nodes\":[{\"mesh\":0},{\"mesh\":1,\"translation\":[2,0,0]},"
+                       "{\"mesh\":2,\"rotation\":[0,0,0.70710678,0.70710678]},{\"mesh\":3,\"scale\":[-1,1,1],\"translation\":[5,0,0]},{\"mesh\":4,\"translation\":[8,0,0]}],"
+                       "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"TEXCOORD_0\":%d,\"TEXCOORD_1\":%d},\"indices\":%d,\"material\":0}]},"
+                       "{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"TEXCOORD_0\":%d,\"TEXCOORD_1\":%d},\"indices\":%d,\"material\":1}]},"
+                       "{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d,\"TEXCOORD_0\":%d,\"TANGENT\":%d},\"indices\":%d,\"material\":2}]},"
+                       "{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d,\"TEXCOORD_0\":%d,\"TANGENT\":%d},\"indices\":%d,\"material\":2}]},"
+                       "{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d,\"TEXCOORD_0\":%d},\"indices\":%d,\"material\":0}]}]",
+                pos, t0, t1, ix, pos, t0, t1, ix, pos, nrm, t0, tf, ix, pos, nrm, t0, tq, ix, pos, nrm, t0, ix);
+    write_blob_model("normalmap.gltf", b, body.data);
+    free(body.data);
+    free(b);
+    pm_scene s;
+    pm_load_report r;
+    if (!load_ok("normalmap.gltf", &s, &r)) return;
+    CHECK(r.ignored_inputs == 0 && r.warnings == 0, "normal maps are rendered: ignored_inputs %u warnings %u", r.ignored_inputs,
+          r.warnings);
+    if (s.material_count != 3 || s.triangle_count != 10 || !s.tangents) {
+        CHECK(0, "materials %u triangles %u tangents %p", s.material_count, s.triangle_count, (void *)s.tangents);
+        pm_scene_free(&s);
+        return;
+    }
+    const pm_material *m = s.materials;
+    CHECK(m[0].normal_texture == 0 && m[0].normal_texcoord == 0 && m[0].normal_scale == 0.5f && !m[0].normal_transform.transformed,
+          "material 0: texture %d set %d scale %g", m[0].normal_texture, m[0].normal_texcoord, m[0].normal_scale);
+    CHECK(m[1].normal_texture == 0 && m[1].normal_texcoord == 1 && m[1].normal_scale == 1.f && m[1].normal_transform.transformed &&
+              m[1].normal_transform.m[2] == 0.25f,
+          "material 1: texture %d set %d scale %g transformed %d offset %g", m[1].normal_texture, m[1].normal_texcoord,
+          m[1].normal_scale, m[1].normal_transform.transformed, m[1].normal_transform.m[2]);
+    CHECK(s.uvs1 != NULL, "TEXCOORD_1 is kept: the normal texture of material 1 reads it");
+    /* per triangle pair: the tangent every corner must have (xyz, w) */
+    static const float want[5][4] = {{1, 0, 0, 1},   /* generated from (x, 1-y) */
+                                     {0, 1, 0, 1},   /* generated from set 1 (y, x): +u = +y, v = x, so w = +1 */
+                                     {-1, 0, 0, -1}, /* TANGENT (0,1,0,-1) turned a quarter about z */
+                                     {0, 1, 0, 1},   /* quantized TANGENT under scale (-1,1,1): w flips */
+                                     {1, 0, 0, 1}};  /* generated per shared vertex (NORMAL given) */
+    for (uint32_t tri = 0; tri < 10; tri++)
+        for (int k = 0; k < 3; k++) {
+            const float *t = s.tangents + 4 * (size_t)s.indices[3 * tri + k];
+            const float *w = want[tri / 2];
+            CHECK(fabsf(t[0] - w[0]) < 1e-5f && fabsf(t[1] - w[1]) < 1e-5f && fabsf(t[2] - w[2]) < 1e-5f && t[3] == w[3],
+                  "triangle %u corner %d: tangent (%g %g %g %g), want (%g %g %g %g)", tri, k, t[0], t[1], t[2], t[3], w[0],
+                  w[1], w[2], w[3]);
+        }
+    /* the flat map: ns stays the interpolated normal (128/255 is 0.0039 off centre: within 1e-2) */
+    for (uint32_t tri = 0; tri < 10; tri++) {
+        pm_surface sf;
+        pm_scene_surface(&s, tri, 0.3f, 0.2f, &sf);
+        CHECK(v3_length(v3_sub(sf.ns, v3(0, 0, 1))) < 1e-2f, "triangle %u: flat map moved ns to (%g %g %g)", tri, sf.ns.x,
+              sf.ns.y, sf.ns.z);
+    }
+    pm_scene_free(&s);
+}
+
 /* ---------------------------------------------------------------- main */
 
 /* Inputs pmview does not render are counted (stat load ignored_inputs) and warned once per kind;
@@ -1154,6 +1233,7 @@ int main(void) {
     test_texture_transform();
     test_data_textures();
     test_mesh_quantization();
+    test_normal_maps();
     test_skips();
     test_sparse();
     test_rejections();
