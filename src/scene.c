@@ -6,6 +6,7 @@
 #include "scene.h"
 
 #include <float.h>
+#include <pthread.h>
 #include <stdlib.h>
 
 const char *const pm_component_names[PM_COMPONENT_COUNT] = {"direct", "specular", "caustic", "indirect"};
@@ -298,18 +299,13 @@ static int wrap_index(int i, int n, int mode) {
 }
 
 static float srgb_table[256];
+static pthread_once_t srgb_table_once = PTHREAD_ONCE_INIT; /* filled once, before any thread reads it */
 static void init_srgb_table(void) {
     for (int i = 0; i < 256; i++) srgb_table[i] = pm_srgb_to_linear(i / 255.f);
 }
 
-static vec3 texel(const pm_texture *t, int x, int y, bool srgb) {
-    const uint8_t *p = t->rgba + 4 * ((size_t)y * t->width + x);
-    if (!srgb) return v3(p[0] * (1.f / 255.f), p[1] * (1.f / 255.f), p[2] * (1.f / 255.f));
-    return v3(srgb_table[p[0]], srgb_table[p[1]], srgb_table[p[2]]);
-}
-
 /* The four texels around (u, v) and their bilinear weights, with the texture's wrap modes: the
- * same footprint pm_texture_lookup uses, for the alpha channel. */
+ * footprint of every lookup (colour, data and alpha). */
 typedef struct { size_t texel[4]; float weight[4]; } bilinear_taps;
 static bilinear_taps bilinear(const pm_texture *t, float u, float v) {
     /* Keep the coordinate small before converting to int, so huge uv values cannot overflow. */
@@ -328,20 +324,17 @@ static bilinear_taps bilinear(const pm_texture *t, float u, float v) {
 }
 
 static vec3 texture_bilinear(const pm_texture *t, float u, float v, bool srgb) {
-    if (srgb_table[255] == 0.f) init_srgb_table(); /* idempotent: racing threads write equal values */
+    pthread_once(&srgb_table_once, init_srgb_table);
     if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
-    /* Keep the coordinate small before converting to int, so huge uv values cannot overflow. */
-    float fu = u - floorf(u / 64.f) * 64.f, fv = v - floorf(v / 64.f) * 64.f;
-    if (t->wrap_s == PM_WRAP_CLAMP) fu = fminf(fmaxf(u, -1.f), 2.f);
-    if (t->wrap_t == PM_WRAP_CLAMP) fv = fminf(fmaxf(v, -1.f), 2.f);
-    float x = fu * t->width - 0.5f, y = fv * t->height - 0.5f;
-    int x0 = (int)floorf(x), y0 = (int)floorf(y);
-    float ax = x - x0, ay = y - y0;
-    int xa = wrap_index(x0, t->width, t->wrap_s), xb = wrap_index(x0 + 1, t->width, t->wrap_s);
-    int ya = wrap_index(y0, t->height, t->wrap_t), yb = wrap_index(y0 + 1, t->height, t->wrap_t);
-    vec3 top = v3_add(v3_scale(texel(t, xa, ya, srgb), 1.f - ax), v3_scale(texel(t, xb, ya, srgb), ax));
-    vec3 bottom = v3_add(v3_scale(texel(t, xa, yb, srgb), 1.f - ax), v3_scale(texel(t, xb, yb, srgb), ax));
-    return v3_add(v3_scale(top, 1.f - ay), v3_scale(bottom, ay));
+    bilinear_taps b = bilinear(t, u, v);
+    vec3 sum = v3s(0.f);
+    for (int k = 0; k < 4; k++) {
+        const uint8_t *p = t->rgba + 4 * b.texel[k];
+        vec3 c = srgb ? v3(srgb_table[p[0]], srgb_table[p[1]], srgb_table[p[2]])
+                      : v3(p[0] * (1.f / 255.f), p[1] * (1.f / 255.f), p[2] * (1.f / 255.f));
+        sum = v3_madd(sum, c, b.weight[k]);
+    }
+    return sum;
 }
 
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v) { return texture_bilinear(t, u, v, true); }
