@@ -50,6 +50,9 @@ typedef struct {
     vec3 emission;          /* emissiveFactor x KHR_materials_emissive_strength; radiance = this x the emissive texture */
     int emission_texture;   /* index into scene textures (sRGB), -1 none */
     bool double_sided;
+    /* KHR_materials_volume: the attenuation coefficient per unit length (per channel) inside the
+     * closed mesh this material bounds, 0 = none (no extension, or a thin-walled surface) */
+    vec3 attenuation;
     pm_alpha_mode alpha_mode;
     float alpha;            /* baseColorFactor[3]; coverage = this x the base colour texture's (linear) alpha */
     float alpha_cutoff;     /* MASK only, glTF default 0.5 */
@@ -257,6 +260,15 @@ vec3 pm_texture_lookup_data(const pm_texture *t, float u, float v);
  * set `texcoord` (0 or 1; (0, 0) when the scene has no such set), then the transform. */
 void pm_scene_texcoord(const pm_scene *s, uint32_t tri, float b1, float b2, int texcoord, const pm_uv_transform *t,
                        float *u, float *v);
+
+/* Beer-Lambert for KHR_materials_volume: the fraction of light that survives a segment of length
+ * t travelled along d that ends at surface sf from its back (inside a closed mesh whose faces
+ * point out, the ray leaves the medium there); 1 for a segment that ends on a front face. */
+static inline vec3 pm_volume_transmittance(const pm_scene *s, const pm_surface *sf, vec3 d, float t) {
+    vec3 sigma = s->materials[sf->material].attenuation;
+    if (v3_is_black(sigma) || v3_dot(sf->ng, d) <= 0.f) return v3s(1.f);
+    return v3(expf(-sigma.x * t), expf(-sigma.y * t), expf(-sigma.z * t));
+}
 
 /* Radiance leaving triangle tri at barycentrics (b1, b2): the material's emission times its
  * emissive texture there (one side; the caller decides which faces emit). */

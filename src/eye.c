@@ -279,6 +279,7 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, v
         if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) return result;
         pm_surface y;
         pm_scene_surface(s, h.tri, h.b1, h.b2, &y);
+        weight = v3_mul(weight, pm_volume_transmittance(s, &y, d, h.t));
         vec3 wo = v3_neg(d), yng = facing(y.ng, wo);
         if (y.glossy) {
             result = v3_add(result, v3_mul(weight, map_estimate(&set->maps->global, &y, yng, wo, &set->global_estimate)));
@@ -313,6 +314,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 ou
         }
         pm_surface sf;
         pm_scene_surface(s, h.tri, h.b1, h.b2, &sf);
+        throughput = v3_mul(throughput, pm_volume_transmittance(s, &sf, d, h.t));
         vec3 wo = v3_neg(d);
         bool front = v3_dot(sf.ng, wo) > 0.f;
         if ((front || sf.double_sided) && !v3_is_black(sf.emission))
@@ -387,6 +389,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, vec3 throughput,
         }
         path_length += h.t;
         pm_scene_surface(s, h.tri, h.b1, h.b2, sf);
+        throughput = v3_mul(throughput, pm_volume_transmittance(s, sf, d, h.t));
         vec3 wo = v3_neg(d);
         bool front = v3_dot(sf->ng, wo) > 0.f;
         if (camera_ray && (front || sf->double_sided) && !v3_is_black(sf->emission))

@@ -58,7 +58,7 @@ const int kMaxJsonDepth = 128;
 
 const char *const kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
                                             "KHR_materials_transmission", "KHR_materials_ior",
-                                            "KHR_texture_transform", "KHR_mesh_quantization"};
+                                            "KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_volume"};
 
 // ---------------------------------------------------------------- errors and messages
 
@@ -714,6 +714,7 @@ private:
     bool convert_reference(const TextureReference &r, const std::string &where, int *texture, int *texcoord,
                            pm_uv_transform *transform);
     float checked(double value, double lo, double hi, const char *name, const std::string &where);
+    vec3 volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &where);
     // Stores vertex i's generated tangent: dp/du made unit and perpendicular to the normal, or
     // any perpendicular when the UV mapping gives none there.
     void set_tangent(size_t i, vec3 du, vec3 normal, float hand) {
@@ -1197,6 +1198,32 @@ double extension_number(const tinygltf::ExtensionMap &extensions, const char *ex
     return v.IsNumber() ? v.GetNumberAsDouble() : fallback;
 }
 
+// KHR_materials_volume's attenuation coefficient: -ln(attenuationColor) / attenuationDistance per
+// channel, for a material with a volume (thicknessFactor > 0; 0 is thin-walled) and a finite
+// distance; 0 otherwise. thicknessFactor itself is for rasterizers: a ray tracer measures the
+// distance inside the mesh.
+vec3 Loader::volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &where) {
+    auto it = extensions.find("KHR_materials_volume");
+    if (it == extensions.end() || !it->second.IsObject()) return v3(0, 0, 0);
+    double thickness = checked(extension_number(extensions, "KHR_materials_volume", "thicknessFactor", 0), 0, FLT_MAX,
+                               "thicknessFactor", where);
+    double distance = extension_number(extensions, "KHR_materials_volume", "attenuationDistance", INFINITY);
+    if (!(distance > 0)) fail("attenuationDistance must be positive (" + where + ")");
+    double color[3] = {1, 1, 1};
+    if (it->second.Has("attenuationColor")) {
+        const tinygltf::Value &c = it->second.Get("attenuationColor");
+        if (!c.IsArray() || c.ArrayLen() != 3) fail("attenuationColor must have 3 numbers (" + where + ")");
+        for (int k = 0; k < 3; k++) {
+            if (!c.Get(k).IsNumber()) fail("attenuationColor must have 3 numbers (" + where + ")");
+            color[k] = checked(c.Get(k).GetNumberAsDouble(), 0, 1, "attenuationColor", where);
+        }
+    }
+    if (!(thickness > 0) || !std::isfinite(distance)) return v3(0, 0, 0);
+    float sigma[3];
+    for (int k = 0; k < 3; k++) sigma[k] = static_cast<float>(-std::log(std::max(color[k], 1e-30)) / distance);
+    return v3(sigma[0], sigma[1], sigma[2]);
+}
+
 void Loader::add_light(int index, const WorldTransform &world, int node) {
     const tinygltf::Light &l = model_.lights[index];
     std::string where = "light " + str(index);
@@ -1369,7 +1396,7 @@ void Loader::convert_materials() {
         if (mat.occlusionTexture.index >= 0) note_ignored("occlusion textures", name);
         for (const auto &e : mat.extensions)
             if (e.first != "KHR_materials_transmission" && e.first != "KHR_materials_emissive_strength" &&
-                e.first != "KHR_materials_ior")
+                e.first != "KHR_materials_ior" && e.first != "KHR_materials_volume")
                 note_ignored(e.first, name);
         pm_material m;
         memset(&m, 0, sizeof m);
@@ -1388,6 +1415,7 @@ void Loader::convert_materials() {
                         checked(mat.emissiveFactor[1], 0, 1, "emissiveFactor", where) * strength,
                         checked(mat.emissiveFactor[2], 0, 1, "emissiveFactor", where) * strength);
         m.double_sided = mat.doubleSided;
+        m.attenuation = volume_attenuation(mat.extensions, where);
         m.alpha = checked(pbr.baseColorFactor[3], 0, 1, "baseColorFactor", where);
         m.alpha_cutoff = checked(mat.alphaCutoff, 0, FLT_MAX, "alphaCutoff", where);
         if (mat.alphaMode == "MASK") m.alpha_mode = PM_ALPHA_MASK;

@@ -402,6 +402,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             if (!pm_accel_intersect(ps->accel, o, d, INFINITY, &h)) break;
             pm_surface sf;
             pm_scene_surface(s, h.tri, h.b1, h.b2, &sf);
+            power = v3_mul(power, pm_volume_transmittance(s, &sf, d, h.t));
             vec3 ng = facing(sf.ng, v3_neg(d));
             vec3 ns = v3_dot(sf.ns, ng) < 0.f ? v3_neg(sf.ns) : sf.ns;
             float D = v3_average(sf.kd), Sm = v3_average(sf.ks), St = v3_average(sf.kt);
