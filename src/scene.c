@@ -454,15 +454,18 @@ void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_su
     n = v3_normalize(n);
     /* Shading normals that disagree with the winding would light back faces: trust the winding. */
     out->ns = v3_dot(n, out->ng) < 0.f ? v3_neg(n) : n;
-    float uv[2][2];
-    interpolated_uv(s, ix, b0, b1, b2, 0, &uv[0][0], &uv[0][1]);
-    uv[1][0] = uv[1][1] = 0.f;
-    if (s->uvs1) interpolated_uv(s, ix, b0, b1, b2, 1, &uv[1][0], &uv[1][1]);
-    out->u = uv[0][0];
-    out->v = uv[0][1];
     out->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
     out->material = s->triangle_material[tri];
     const pm_material *m = &s->materials[out->material];
+    /* texture coordinates only for a textured material: every photon bounce comes through here */
+    float uv[2][2] = {{0.f, 0.f}, {0.f, 0.f}};
+    if (m->base_color_texture >= 0 || m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0 ||
+        m->normal_texture >= 0 || m->emission_texture >= 0) {
+        interpolated_uv(s, ix, b0, b1, b2, 0, &uv[0][0], &uv[0][1]);
+        if (s->uvs1) interpolated_uv(s, ix, b0, b1, b2, 1, &uv[1][0], &uv[1][1]);
+    }
+    out->u = uv[0][0];
+    out->v = uv[0][1];
     if (m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents) {
         const float b[3] = {b0, b1, b2};
         out->ns = normal_mapped(s, m, ix, b, uv, out->ns, out->ng);
