@@ -80,8 +80,10 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
 
 /* The disc's photons that count for the surface, each one's power weighted by the lobe's f(wo, wi)
  * when a lobe is given. Inline into both callers, so the plain sum keeps no BRDF branch cost. */
-static inline uint32_t sum_disc(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
-                                const pm_brdf *lobe, vec3 ns, vec3 wo, vec3 *power) {
+/* Inlined into both callers so that the Lambert one (lobe == NULL) carries no per-photon branch. */
+static inline __attribute__((always_inline)) uint32_t sum_disc(const pm_photon_grid *g, vec3 p, vec3 n, float radius2,
+                                                               unsigned path_mask, const pm_brdf *lobe, vec3 ns,
+                                                               vec3 wo, vec3 *power) {
     vec3 sum = v3s(0.f);
     uint32_t found = 0;
     *power = sum;

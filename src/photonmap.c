@@ -793,8 +793,10 @@ static const float gauss_beta = 1.953f;
 
 /* Jensen's estimate: the photons' power, each weighted by the kernel and (with b) by the BRDF
  * f(wo, wi) for its incoming direction wi, over the kernel's area. */
-static vec3 estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e, const pm_brdf *b, vec3 ns,
-                     vec3 wo) {
+/* Inlined into both callers so that the Lambert one (b == NULL) carries no per-photon branch. */
+static inline __attribute__((always_inline)) vec3 estimate(const pm_kdtree *map, vec3 p, vec3 n,
+                                                           const pm_estimate_settings *e, const pm_brdf *b, vec3 ns,
+                                                           vec3 wo) {
     enum { MAX_K = 2048 };
     uint32_t idx[MAX_K];
     float d2[MAX_K], r2 = 0.f;
