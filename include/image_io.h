@@ -18,6 +18,9 @@ bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_s
 float *pm_read_exr_channel(const char *path, const char *channel, int *width, int *height,
                            char *err, size_t err_size);
 
+/* Whether path ends in ext (".exr", ...), ignoring case, with something before it. */
+bool pm_has_extension(const char *path, const char *ext);
+
 /* An equirectangular environment map as linear RGB floats (w*h*3, row 0 = top), malloc'ed:
  * .exr (its R, G, B channels) or .hdr (Radiance RGBE). NULL with err set on failure. */
 float *pm_read_environment(const char *path, int *width, int *height, char *err, size_t err_size);

@@ -17,6 +17,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include <openexr.h>
 #include <stb/stb_image.h>
@@ -418,20 +419,14 @@ bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, 
     return true;
 }
 
-static bool ends_with_ci(const char *path, const char *suffix) {
-    size_t n = strlen(path), k = strlen(suffix);
-    if (n < k) return false;
-    for (size_t i = 0; i < k; i++) {
-        char c = path[n - k + i];
-        if (c >= 'A' && c <= 'Z') c = (char)(c - 'A' + 'a');
-        if (c != suffix[i]) return false;
-    }
-    return true;
+bool pm_has_extension(const char *path, const char *ext) {
+    size_t n = strlen(path), e = strlen(ext);
+    return n > e && strcasecmp(path + n - e, ext) == 0;
 }
 
 float *pm_read_environment(const char *path, int *width, int *height, char *err, size_t err_size) {
     char inner[512];
-    if (ends_with_ci(path, ".hdr")) {
+    if (pm_has_extension(path, ".hdr")) {
         int channels = 0;
         float *data = stbi_loadf(path, width, height, &channels, 3);
         if (!data) snprintf(err, err_size, "%s: cannot read the environment map (%s)", path, stbi_failure_reason());
@@ -444,7 +439,7 @@ float *pm_read_environment(const char *path, int *width, int *height, char *err,
         stbi_image_free(data);
         return copy;
     }
-    if (!ends_with_ci(path, ".exr")) {
+    if (!pm_has_extension(path, ".exr")) {
         snprintf(err, err_size, "%s: an environment map must be .exr or .hdr", path);
         return NULL;
     }

@@ -117,11 +117,6 @@ static bool parse_double(const char *s, double lo, double hi, double *out) {
     return true;
 }
 
-static bool has_extension(const char *path, const char *ext) {
-    size_t n = strlen(path), e = strlen(ext);
-    return n > e && strcasecmp(path + n - e, ext) == 0;
-}
-
 /* Returns -1 on success, else the exit code. */
 static int parse_options(int argc, char **argv, options *o) {
     memset(o, 0, sizeof *o);
@@ -165,7 +160,7 @@ static int parse_options(int argc, char **argv, options *o) {
         double x;
         switch (which) {
         case 0:
-            if (!has_extension(v, ".png") && !has_extension(v, ".exr"))
+            if (!pm_has_extension(v, ".png") && !pm_has_extension(v, ".exr"))
                 return usage_error("--snapshot needs a .png or .exr file name, not '%s'", v);
             o->snapshot = v;
             break;
@@ -177,7 +172,7 @@ static int parse_options(int argc, char **argv, options *o) {
         case 6: if (!parse_long(v, 0, 0x7fffffffL, &n)) return usage_error("bad --seed '%s' (0 to 2147483647)", v); o->seed = (uint64_t)n; break;
         case 7: if (!parse_long(v, 0, 1000000, &n)) return usage_error("bad --camera '%s' (an index from 0)", v); o->camera = (int)n; break;
         case 8: if (!parse_double(v, -64, 64, &x)) return usage_error("bad --exposure '%s' (stops, -64 to 64)", v); o->exposure_ev = (float)x; break;
-        case 9: if (!has_extension(v, ".png")) return usage_error("--screenshot needs a .png file name, not '%s'", v); o->screenshot = v; break;
+        case 9: if (!pm_has_extension(v, ".png")) return usage_error("--screenshot needs a .png file name, not '%s'", v); o->screenshot = v; break;
         case 10:
             if (!strcmp(v, "classic")) o->classic = true;
             else if (!strcmp(v, "progressive")) o->classic = false;
@@ -200,10 +195,10 @@ static int parse_options(int argc, char **argv, options *o) {
             break;
         case 17: if (!parse_long(v, 0, 4096, &n)) return usage_error("bad --gather-rays '%s' (0 to 4096)", v); o->gather_rays = (int)n; break;
         case 19: if (!parse_long(v, 0, 1000000, &n)) return usage_error("bad --precompute '%s' (0 to 1000000)", v); o->irradiance_stride = (int)n; break;
-        case 20: if (!has_extension(v, ".exr")) return usage_error("--reference needs an .exr file, not '%s'", v); o->reference = v; break;
+        case 20: if (!pm_has_extension(v, ".exr")) return usage_error("--reference needs an .exr file, not '%s'", v); o->reference = v; break;
         case 24:
-            if (strcmp(v, "none") && strcmp(v, "white") && strcmp(v, "gradient") && !has_extension(v, ".exr") &&
-                !has_extension(v, ".hdr"))
+            if (strcmp(v, "none") && strcmp(v, "white") && strcmp(v, "gradient") && !pm_has_extension(v, ".exr") &&
+                !pm_has_extension(v, ".hdr"))
                 return usage_error("unknown --sky '%s' (none, white, gradient, or an .exr or .hdr environment map)", v);
             o->sky = v;
             break;
@@ -477,7 +472,7 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
     signal(SIGINT, SIG_DFL);
     signal(SIGTERM, SIG_DFL);
     bool ok;
-    if (has_extension(opt->snapshot, ".png")) {
+    if (pm_has_extension(opt->snapshot, ".png")) {
         pm_display display;
         initial_display(opt, &display);
         float *layers[PM_COMPONENT_COUNT] = {NULL, NULL, NULL, NULL};

@@ -9,6 +9,7 @@
 #include "defaults.h"
 #include "film.h"
 #include "progressive.h"
+#include "scene_builder.h"
 #include "testing.h"
 
 static pm_progressive_settings default_settings(int w, int h) {
@@ -59,14 +60,6 @@ static double mean_of(const float *img, size_t n) {
     double s = 0;
     for (size_t i = 0; i < n; i++) s += img[i];
     return s / (double)n;
-}
-
-static pm_accel *finish(pm_scene *s) {
-    pm_scene_finalize(s, false, NULL);
-    char err[256];
-    pm_accel *a = pm_accel_create(s, err, sizeof err);
-    CHECK(a != NULL, "accel: %s", err);
-    return a;
 }
 
 #endif

@@ -7,7 +7,9 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include "accel.h"
 #include "scene.h"
+#include "testing.h"
 
 static inline void *sb_grow(void *p, size_t count, size_t size) { return realloc(p, (count + 1) * size); }
 
@@ -107,6 +109,15 @@ static inline pm_camera sb_camera(vec3 position, vec3 target, vec3 up_hint, floa
     c.yfov = yfov_degrees * PM_PI / 180.f;
     c.znear = 0.01f;
     return c;
+}
+
+/* Finalizes the scene (no default sky) and builds its accel, checking that it could. */
+static inline pm_accel *sb_finish(pm_scene *s) {
+    pm_scene_finalize(s, false, NULL);
+    char err[256];
+    pm_accel *a = pm_accel_create(s, err, sizeof err);
+    CHECK(a != NULL, "accel: %s", err);
+    return a;
 }
 
 #endif

@@ -77,7 +77,7 @@ int main(void) {
         CHECK(false, "%s", err);
         return pm_test_done("test_glossy");
     }
-    pm_accel *a = finish(&s);
+    pm_accel *a = sb_finish(&s);
     CHECK(s.analysis.has_glossy && !s.analysis.has_mirror, "the spheres are glossy, not mirrors");
     (void)mean_of;
     pm_camera cam = s.cameras[0];

@@ -175,7 +175,7 @@ static double furnace_mean(bool bumpy, int iterations) {
         s.materials[m].normal_texture = add_texture(&s, T, T, rgba);
         s.materials[m].normal_scale = 1.f;
     }
-    pm_accel *a = finish(&s);
+    pm_accel *a = sb_finish(&s);
     if (bumpy) {
         /* the map really bends the shading normals: their mean tilt over the walls */
         double tilt = 0.0;

@@ -8,14 +8,6 @@
 #include "scene_builder.h"
 #include "testing.h"
 
-static pm_accel *finish(pm_scene *s) {
-    pm_scene_finalize(s, false, NULL);
-    char err[256];
-    pm_accel *a = pm_accel_create(s, err, sizeof err);
-    CHECK(a != NULL, "accel: %s", err);
-    return a;
-}
-
 static pm_photon_settings photon_settings(uint64_t global, uint64_t caustic) {
     pm_photon_settings p;
     memset(&p, 0, sizeof p);
@@ -46,7 +38,7 @@ static void power_bookkeeping(void) {
     vec3 rho = v3(0.7f, 0.6f, 0.45f), intensity = v3(2.f, 3.f, 4.f);
     sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), sb_lambert(&s, rho), true);
     sb_point_light(&s, v3(0.2f, 0.1f, -0.3f), intensity);
-    pm_accel *a = finish(&s);
+    pm_accel *a = sb_finish(&s);
     pm_photon_settings ps = photon_settings(400000, 100000); /* caustic photons asked for, none may be built */
     pm_photon_maps maps;
     pm_photon_stats st;
@@ -74,7 +66,7 @@ static void inverse_square(void) {
     const float h = 1.5f, intensity = 7.f;
     sb_quad(&s, v3(-30, 0, -30), v3(-30, 0, 30), v3(30, 0, 30), v3(30, 0, -30), sb_lambert(&s, v3s(0.5f)));
     sb_point_light(&s, v3(0, h, 0), v3s(intensity));
-    pm_accel *a = finish(&s);
+    pm_accel *a = sb_finish(&s);
     pm_photon_settings ps = photon_settings(2000000, 0);
     pm_photon_maps maps;
     CHECK(pm_photon_maps_build(&s, a, &ps, &maps, NULL), "build");
@@ -131,7 +123,7 @@ static void glass_ball_caustic(void) {
     float r = 0.4f, intensity = 10.f;
     add_sphere(&s, c, r, glass, 96, 48);
     sb_point_light(&s, light, v3s(intensity));
-    pm_accel *a = finish(&s);
+    pm_accel *a = sb_finish(&s);
     CHECK(s.analysis.caustics_possible, "glass + light + diffuse: caustics possible");
     pm_photon_settings ps = photon_settings(0, 300000);
     pm_photon_maps maps;
@@ -160,7 +152,7 @@ static void white_furnace(float rho, int irradiance_stride, float metallic) {
      * mirror, albedo rho in all */
     uint32_t m = sb_material(&s, v3s(rho), metallic, metallic > 0.f ? 0.f : 1.f, 0, v3s(le), false);
     sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), m, true);
-    pm_accel *a = finish(&s);
+    pm_accel *a = sb_finish(&s);
     pm_photon_settings ps = photon_settings(300000, 300000);
     ps.irradiance_stride = irradiance_stride;
     ps.irradiance_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 100, 0.3f, 7u};
@@ -257,7 +249,7 @@ static void many_lights(void) {
         sb_point_light(&s, v3(1.8f * pm_rng_float(&rng) - 0.9f, 1.8f * pm_rng_float(&rng) - 0.9f, 1.8f * pm_rng_float(&rng) - 0.9f),
                        v3s(intensity));
     }
-    pm_accel *a = finish(&s);
+    pm_accel *a = sb_finish(&s);
     pm_photon_settings ps = photon_settings(200000, 0);
     pm_photon_maps maps;
     CHECK(pm_photon_maps_build(&s, a, &ps, &maps, NULL), "5000 lights: build");
@@ -288,7 +280,7 @@ static void parallel_light_projection(bool sky) {
         s.lights[0].intensity = v3s(3.f);
         s.light_count = 1;
     }
-    pm_accel *a = finish(&s);
+    pm_accel *a = sb_finish(&s);
     const char *what = sky ? "sky" : "directional light";
     pm_photon_settings aimed = photon_settings(0, 200000), everywhere = photon_settings(0, 2000000);
     everywhere.projection_maps = false;
@@ -319,7 +311,7 @@ static void roulette_both_branches(void) {
     vec3 rho = v3(0.7f, 0.6f, 0.45f), intensity = v3(2.f, 3.f, 4.f);
     sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), sb_material(&s, rho, 0.5f, 0.f, 0, v3s(0), false), true);
     sb_point_light(&s, v3(0.2f, 0.1f, -0.3f), intensity);
-    pm_accel *a = finish(&s);
+    pm_accel *a = sb_finish(&s);
     pm_photon_settings ps = photon_settings(400000, 400000);
     ps.projection_maps = false; /* the box is all mirror: aiming has nothing to leave out */
     pm_photon_maps maps;

@@ -26,7 +26,7 @@ static void test_thin_wall(void) {
     sb_quad(&s, v3(-1, -1, 0), v3(1, -1, 0), v3(1, 1, 0), v3(-1, 1, 0), white);
     sb_quad(&s, v3(-1, -1, 1), v3(-1, 1, 1), v3(1, 1, 1), v3(1, -1, 1), white);
     sb_point_light(&s, v3(0, 0, 0.5f), v3s(1.f));
-    pm_accel *a = finish(&s);
+    pm_accel *a = sb_finish(&s);
     CHECK(s.analysis.interreflection_possible, "two facing walls: interreflection possible");
     enum { W = 16, H = 16 };
     float *img = malloc(sizeof(float) * 3 * W * H);
@@ -62,7 +62,7 @@ static void test_no_photon_pass_when_useless(void) {
     uint32_t white = sb_lambert(&s, v3s(0.8f));
     sb_quad(&s, v3(-1, 0, -1), v3(-1, 0, 1), v3(1, 0, 1), v3(1, 0, -1), white);
     sb_point_light(&s, v3(0, 1, 0), v3s(1.f));
-    pm_accel *a = finish(&s);
+    pm_accel *a = sb_finish(&s);
     CHECK(!s.analysis.interreflection_possible && !s.analysis.caustics_possible, "one plane: no second diffuse bounce, no caustic");
     pm_camera cam = sb_camera(v3(0, 2, 2), v3(0, 0, 0), v3(0, 1, 0), 40.f);
     pm_progressive_settings ps = default_settings(8, 8);
@@ -92,7 +92,7 @@ static pm_accel *scaled_room(pm_scene *s, float scale, pm_camera *cam) {
             v3(-0.3f * k, 0.99f * k, 0.3f * k), lamp);
     sb_sphere(s, v3(0.3f * k, -0.6f * k, 0), 0.35f * k, 24, glass);
     *cam = sb_camera(v3(0, 0, 0.95f * k), v3(0, -0.3f * k, -k), v3(0, 1, 0), 70.f);
-    return finish(s);
+    return sb_finish(s);
 }
 
 static void test_scale_invariance(void) {
