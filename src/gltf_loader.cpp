@@ -31,6 +31,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <initializer_list>
 #include <map>
 #include <memory>
 #include <string>
@@ -286,6 +287,62 @@ uint64_t unsigned_member(const json &object, const char *key, bool required, uin
         fail(std::string(key) + " must be an integer in [0, " + str(max) + "], got " + describe(*v) + " (" + where +
              ")");
     return v->get<uint64_t>();
+}
+
+// Typed members as glTF's schema defines them. tinygltf quietly keeps the default for a member of
+// the wrong type or length (a 3-number baseColorFactor, a string roughnessFactor), which would
+// render a different material than the file's author wrote: these refuse such a member instead.
+const json *typed_object(const json &object, const char *key, const std::string &where) {
+    const json *v = find_member(object, key);
+    if (v && !v->is_object()) fail(std::string(key) + " must be an object, got " + describe(*v) + " (" + where + ")");
+    return v;
+}
+
+void typed_number(const json &object, const char *key, bool required, const std::string &where) {
+    const json *v = find_member(object, key);
+    if (!v) {
+        if (required) fail(std::string("missing ") + key + " (" + where + ")");
+        return;
+    }
+    if (!v->is_number() || !std::isfinite(v->get<double>()))
+        fail(std::string(key) + " must be a finite number, got " + describe(*v) + " (" + where + ")");
+}
+
+// An array of exactly `size` finite numbers (any length when size is 0).
+void typed_numbers(const json &object, const char *key, size_t size, const std::string &where) {
+    const json *v = find_member(object, key);
+    if (!v) return;
+    std::string wanted = size ? str(size) + " numbers" : std::string("an array of numbers");
+    if (!v->is_array()) fail(std::string(key) + " must be " + wanted + ", got " + describe(*v) + " (" + where + ")");
+    if (size && v->size() != size)
+        fail(std::string(key) + " must be " + wanted + ", got " + str(v->size()) + " (" + where + ")");
+    for (size_t i = 0; i < v->size(); i++)
+        if (!(*v)[i].is_number() || !std::isfinite((*v)[i].get<double>()))
+            fail(std::string(key) + " must be " + wanted + ", got " + describe((*v)[i]) + " at [" + str(i) + "] (" +
+                 where + ")");
+}
+
+void typed_bool(const json &object, const char *key, const std::string &where) {
+    const json *v = find_member(object, key);
+    if (v && !v->is_boolean()) fail(std::string(key) + " must be true or false, got " + describe(*v) + " (" + where + ")");
+}
+
+// A string member; when `allowed` is given, one of those values (glTF's enumerations).
+void typed_string(const json &object, const char *key, bool required, std::initializer_list<const char *> allowed,
+                  const std::string &where) {
+    const json *v = find_member(object, key);
+    if (!v) {
+        if (required) fail(std::string("missing ") + key + " (" + where + ")");
+        return;
+    }
+    if (!v->is_string()) fail(std::string(key) + " must be a string, got " + describe(*v) + " (" + where + ")");
+    if (allowed.size() == 0) return;
+    std::string names;
+    for (const char *a : allowed) {
+        if (v->get_ref<const std::string &>() == a) return;
+        names += (names.empty() ? "" : ", ") + std::string(a);
+    }
+    fail(std::string(key) + " must be one of " + names + ", got " + describe(*v) + " (" + where + ")");
 }
 
 // Deepest [ / { nesting of a JSON text, strings skipped; stops counting once past the limit.
@@ -699,6 +756,8 @@ private:
     json parse_json();
     void preflight(const json &root);
     void preflight_buffers(const json &root);
+    void preflight_typed_members(const json &root);
+    void preflight_other_indices(const json &root);
     void preflight_uri_target(const json &object, const std::string &where, bool is_buffer, uint64_t byte_length);
     // stage 2
     void run_tinygltf(const std::vector<unsigned char> &file);
@@ -1051,6 +1110,170 @@ void Loader::preflight(const json &root) {
         for (const json &n : optional_array(scene, "nodes", where)) index_value(n, count_nodes_, "node", where);
     });
     optional_index(root, "scene", count_scenes_, "scene", "default scene");
+    preflight_other_indices(root);
+    preflight_typed_members(root);
+}
+
+// Every texture reference (an object named ...Texture with an "index") anywhere inside an
+// extension object, such as KHR_materials_volume's thicknessTexture: its index must exist.
+void check_nested_texture_indices(const json &value, size_t textures, const std::string &where, int depth = 0) {
+    if (depth > kMaxJsonDepth || !value.is_object()) return;
+    for (auto it = value.begin(); it != value.end(); ++it) {
+        const std::string &key = it.key();
+        bool texture_info = key.size() > 7 && key.compare(key.size() - 7, 7, "Texture") == 0 && it->is_object();
+        if (texture_info)
+            required_index(*it, "index", textures, "texture", where + " " + printable(key, 40));
+        else if (it->is_object())
+            check_nested_texture_indices(*it, textures, where + " " + printable(key, 40), depth + 1);
+    }
+}
+
+// Indices pmview does not use but glTF still requires to resolve: morph targets, skins,
+// animations, material variants, texture sources given by extensions, extension textures.
+void Loader::preflight_other_indices(const json &root) {
+    for_each_object(root, "meshes", "mesh", [&](const json &mesh, const std::string &where, size_t) {
+        const json &prims = *find_member(mesh, "primitives");  // the mesh pass checked it is an array
+        for (size_t p = 0; p < prims.size(); p++) {
+            std::string sub = where + " primitive " + str(p);
+            const json &targets = optional_array(prims[p], "targets", sub);
+            for (size_t t = 0; t < targets.size(); t++) {
+                std::string target = sub + " morph target " + str(t);
+                if (!targets[t].is_object()) fail("morph target is not a JSON object (" + target + ")");
+                for (auto it = targets[t].begin(); it != targets[t].end(); ++it)
+                    index_value(it.value(), count_accessors_, "accessor", target + " " + printable(it.key(), 32));
+            }
+            const json *ext = typed_object(prims[p], "extensions", sub);
+            const json *variants = ext ? typed_object(*ext, "KHR_materials_variants", sub) : nullptr;
+            if (!variants) continue;
+            const json &mappings = optional_array(*variants, "mappings", sub + " KHR_materials_variants");
+            for (size_t k = 0; k < mappings.size(); k++)
+                required_index(mappings[k], "material", count_materials_, "material",
+                               sub + " KHR_materials_variants mapping " + str(k));
+        }
+    });
+    for_each_object(root, "skins", "skin", [&](const json &skin, const std::string &where, size_t) {
+        optional_index(skin, "inverseBindMatrices", count_accessors_, "accessor", where + " inverseBindMatrices");
+        optional_index(skin, "skeleton", count_nodes_, "node", where + " skeleton");
+        const json *joints = find_member(skin, "joints");
+        if (!joints || !joints->is_array() || joints->empty()) fail("joints must be a non-empty array (" + where + ")");
+        for (size_t j = 0; j < joints->size(); j++)
+            index_value((*joints)[j], count_nodes_, "node", where + " joint " + str(j));
+    });
+    for_each_object(root, "animations", "animation", [&](const json &animation, const std::string &where, size_t) {
+        const json &samplers = optional_array(animation, "samplers", where);
+        for (size_t k = 0; k < samplers.size(); k++) {
+            std::string sub = where + " sampler " + str(k);
+            required_index(samplers[k], "input", count_accessors_, "accessor", sub + " input");
+            required_index(samplers[k], "output", count_accessors_, "accessor", sub + " output");
+            typed_string(samplers[k], "interpolation", false, {"LINEAR", "STEP", "CUBICSPLINE"}, sub);
+        }
+        const json &channels = optional_array(animation, "channels", where);
+        for (size_t k = 0; k < channels.size(); k++) {
+            std::string sub = where + " channel " + str(k);
+            required_index(channels[k], "sampler", samplers.size(), "animation sampler", sub);
+            const json *target = typed_object(channels[k], "target", sub);
+            if (!target) fail("missing target (" + sub + ")");
+            optional_index(*target, "node", count_nodes_, "node", sub + " target");
+            typed_string(*target, "path", true, {"translation", "rotation", "scale", "weights"}, sub + " target");
+        }
+    });
+    for_each_object(root, "textures", "texture", [&](const json &t, const std::string &where, size_t) {
+        const json *ext = typed_object(t, "extensions", where);
+        if (!ext) return;
+        for (auto it = ext->begin(); it != ext->end(); ++it)
+            if (it->is_object()) optional_index(*it, "source", count_images_, "image", where + " " + printable(it.key(), 40));
+    });
+    for_each_object(root, "materials", "material", [&](const json &m, const std::string &where, size_t) {
+        const json *ext = typed_object(m, "extensions", where);
+        if (ext) check_nested_texture_indices(*ext, count_textures_, where);
+    });
+}
+
+// Material, light, camera and node members of the wrong type or length (see typed_number).
+void Loader::preflight_typed_members(const json &root) {
+    for_each_object(root, "materials", "material", [&](const json &m, const std::string &where, size_t) {
+        typed_string(m, "name", false, {}, where);
+        if (const json *pbr = typed_object(m, "pbrMetallicRoughness", where)) {
+            std::string sub = where + " pbrMetallicRoughness";
+            typed_numbers(*pbr, "baseColorFactor", 4, sub);
+            typed_number(*pbr, "metallicFactor", false, sub);
+            typed_number(*pbr, "roughnessFactor", false, sub);
+        }
+        if (const json *normal = typed_object(m, "normalTexture", where))
+            typed_number(*normal, "scale", false, where + " normalTexture");
+        if (const json *occlusion = typed_object(m, "occlusionTexture", where))
+            typed_number(*occlusion, "strength", false, where + " occlusionTexture");
+        typed_numbers(m, "emissiveFactor", 3, where);
+        typed_string(m, "alphaMode", false, {"OPAQUE", "MASK", "BLEND"}, where);
+        typed_number(m, "alphaCutoff", false, where);
+        typed_bool(m, "doubleSided", where);
+        const json *ext = typed_object(m, "extensions", where);
+        if (!ext) return;
+        struct { const char *extension; const char *members[3]; } numbers[] = {
+            {"KHR_materials_transmission", {"transmissionFactor"}},
+            {"KHR_materials_ior", {"ior"}},
+            {"KHR_materials_emissive_strength", {"emissiveStrength"}},
+            {"KHR_materials_volume", {"thicknessFactor", "attenuationDistance"}}};
+        for (const auto &n : numbers) {
+            const json *e = typed_object(*ext, n.extension, where);
+            if (!e) continue;
+            for (const char *member : n.members)
+                if (member) typed_number(*e, member, false, where + " " + n.extension);
+            if (!strcmp(n.extension, "KHR_materials_volume"))
+                typed_numbers(*e, "attenuationColor", 3, where + " " + n.extension);
+        }
+    });
+
+    const json *root_ext = find_member(root, "extensions");
+    const json *lights_ext = root_ext ? find_member(*root_ext, "KHR_lights_punctual") : nullptr;
+    if (lights_ext && !lights_ext->is_object()) fail("KHR_lights_punctual must be an object (top level extensions)");
+    if (lights_ext)
+        for_each_object(*lights_ext, "lights", "light", [&](const json &l, const std::string &where, size_t) {
+            typed_string(l, "name", false, {}, where);
+            typed_string(l, "type", true, {"directional", "point", "spot"}, where);
+            typed_numbers(l, "color", 3, where);
+            typed_number(l, "intensity", false, where);
+            typed_number(l, "range", false, where);
+            const json *spot = typed_object(l, "spot", where);
+            if (spot) {
+                typed_number(*spot, "innerConeAngle", false, where + " spot");
+                typed_number(*spot, "outerConeAngle", false, where + " spot");
+            }
+        });
+
+    for_each_object(root, "cameras", "camera", [&](const json &c, const std::string &where, size_t) {
+        typed_string(c, "type", true, {"perspective", "orthographic"}, where);
+        bool perspective = c.at("type") == "perspective";
+        const char *kind = perspective ? "perspective" : "orthographic";
+        const json *params = typed_object(c, kind, where);
+        if (!params) fail(std::string("missing ") + kind + " object (" + where + ")");
+        std::string sub = where + " " + kind;
+        if (perspective) {
+            typed_number(*params, "yfov", true, sub);
+            typed_number(*params, "znear", true, sub);
+            typed_number(*params, "aspectRatio", false, sub);
+            typed_number(*params, "zfar", false, sub);
+        } else {
+            for (const char *member : {"xmag", "ymag", "znear", "zfar"}) typed_number(*params, member, true, sub);
+        }
+    });
+
+    for_each_object(root, "nodes", "node", [&](const json &node, const std::string &where, size_t) {
+        typed_string(node, "name", false, {}, where);
+        typed_numbers(node, "matrix", 16, where);
+        typed_numbers(node, "translation", 3, where);
+        typed_numbers(node, "rotation", 4, where);
+        typed_numbers(node, "scale", 3, where);
+        typed_numbers(node, "weights", 0, where);
+    });
+    for_each_object(root, "meshes", "mesh", [&](const json &mesh, const std::string &where, size_t) {
+        typed_numbers(mesh, "weights", 0, where);
+    });
+    for_each_object(root, "accessors", "accessor", [&](const json &a, const std::string &where, size_t) {
+        typed_bool(a, "normalized", where);
+        typed_numbers(a, "min", 0, where);
+        typed_numbers(a, "max", 0, where);
+    });
 }
 
 // Buffer sizes and URIs, before tinygltf opens anything.
