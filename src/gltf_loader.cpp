@@ -748,6 +748,8 @@ public:
     uint32_t skipped_degenerate() const { return static_cast<uint32_t>(std::min<uint64_t>(degenerate_, UINT32_MAX)); }
     uint32_t skipped_primitives() const { return static_cast<uint32_t>(std::min<uint64_t>(skipped_prims_, UINT32_MAX)); }
     uint32_t ignored_inputs() const { return ignored_inputs_; }
+    double unit_scale() const { return frame_scale_; }
+    bool recentered() const { return recentered_; }
 
 private:
     // stage 1
@@ -767,6 +769,7 @@ private:
     DecodedPrimitive decode_primitive(int mesh, int primitive);
     void instance_mesh(const Instance &instance);
     void add_light(int light, const WorldTransform &world, int node);
+    void choose_frame();
     void add_camera(int camera, const WorldTransform &world, int node);
     void convert_materials();
     int texture_for(int gltf_texture, const std::string &where);
@@ -777,6 +780,8 @@ private:
     // Stores vertex i's generated tangent: dp/du made unit and perpendicular to the normal, or
     // any perpendicular when the UV mapping gives none there.
     void set_tangent(size_t i, vec3 du, vec3 normal, float hand) {
+        float largest = std::max(std::fabs(du.x), std::max(std::fabs(du.y), std::fabs(du.z)));
+        if (largest > 0.f && std::isfinite(largest)) du = v3_scale(du, 1.f / largest);  // its square stays in range
         vec3 t = v3_sub(du, v3_scale(normal, v3_dot(du, normal)));
         float len = v3_length(t);
         if (len > 1e-12f && std::isfinite(len)) {
@@ -816,6 +821,11 @@ private:
     // conversion
     std::vector<Mat4> world_;  // per node, valid once the traversal reached it
     std::vector<Instance> instances_;
+    struct Placed { int node, index; bool light; };
+    std::vector<Placed> placed_;  // cameras and lights in traversal order
+    // The frame the scene is stored in: world = (file world - frame_center_) x frame_scale_ (see choose_frame)
+    double frame_scale_ = 1, frame_center_[3] = {0, 0, 0};
+    bool recentered_ = false;
     std::vector<std::unique_ptr<DecodedMesh>> meshes_;
     std::vector<pm_material> materials_;
     bool default_material_used_ = false;
@@ -1392,11 +1402,11 @@ void Loader::traverse_default_scene() {
         if (!std::all_of(std::begin(world_[step.node].m), std::end(world_[step.node].m),
                          [](double x) { return std::isfinite(x); }))
             fail("world transform overflows (node " + str(step.node) + ")");
-        WorldTransform world(world_[step.node]);
-        if (node.camera >= 0) add_camera(node.camera, world, step.node);
+        // cameras and lights are placed once the scene's frame is known (choose_frame)
+        if (node.camera >= 0) placed_.push_back({step.node, node.camera, false});
         auto light = node.extensions.find("KHR_lights_punctual");
         if (light != node.extensions.end() && light->second.Has("light"))
-            add_light(light->second.Get("light").GetNumberAsInt(), world, step.node);
+            placed_.push_back({step.node, light->second.Get("light").GetNumberAsInt(), true});
         if (node.mesh >= 0) instances_.push_back({step.node, node.mesh});
         stack.push_back({step.node, step.parent, true});
         for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
@@ -1474,6 +1484,13 @@ void Loader::add_light(int index, const WorldTransform &world, int node) {
     const double minus_z[3] = {0, 0, -1};
     light.position = world.origin();
     light.direction = world.unit(minus_z, false);
+    if (light.type != PM_LIGHT_DIRECTIONAL) {
+        // the same irradiance I / d^2 at every point once distances are frame_scale_ times longer
+        double k = frame_scale_ * frame_scale_;
+        light.intensity = v3(static_cast<float>(light.intensity.x * k), static_cast<float>(light.intensity.y * k),
+                             static_cast<float>(light.intensity.z * k));
+        light.range = static_cast<float>(std::min<double>(light.range * frame_scale_, FLT_MAX));
+    }
     if (!v3_is_finite(light.position) || (light.type != PM_LIGHT_POINT && v3_is_black(light.direction)))
         fail("degenerate transform for " + where + " (node " + str(node) + ")");
     lights_.push_back(light);
@@ -1521,7 +1538,7 @@ void Loader::add_camera(int index, const WorldTransform &world, int node) {
     } else {
         cam.yfov = static_cast<float>(p.yfov);
         cam.aspect = (p.aspectRatio > 0 && p.aspectRatio < FLT_MAX) ? static_cast<float>(p.aspectRatio) : 0.f;
-        cam.znear = static_cast<float>(std::min<double>(p.znear, FLT_MAX));
+        cam.znear = static_cast<float>(std::min<double>(p.znear * frame_scale_, FLT_MAX));
     }
     cameras_.push_back(cam);
 }
@@ -1843,7 +1860,7 @@ void Loader::instance_mesh(const Instance &instance) {
         // generated: per vertex, the sum of its triangles' dp/du scaled by |det| (so weighted by
         // their UV area) and of their handedness votes (weighted by area)
         std::vector<vec3> du_sum(mapped && !given_tangents && !flat ? count : 0, v3s(0.f));
-        std::vector<float> hand_sum(du_sum.size(), 0.f);
+        std::vector<double> hand_sum(du_sum.size(), 0.0);
         auto append_vertex = [&](size_t i, vec3 normal) {
             positions_.push_back(positions[i]);
             normals_.push_back(normal);
@@ -1862,13 +1879,20 @@ void Loader::instance_mesh(const Instance &instance) {
         for (size_t t = 0; t < prim.corners.size(); t += 3) {
             uint32_t c[3] = {prim.corners[t], prim.corners[t + 1], prim.corners[t + 2]};
             if (world.mirrored) std::swap(c[1], c[2]);
-            vec3 face = v3_cross(v3_sub(positions[c[1]], positions[c[0]]), v3_sub(positions[c[2]], positions[c[0]]));
-            float length = v3_length(face);
-            if (length > 0.f && std::isfinite(length)) face = v3_scale(face, 1.f / length);
-            if (!(length > 0.f) || !v3_is_finite(face)) {
+            // in double: edges of a tiny triangle square to below a float's range, a huge one's above it
+            double e1[3], e2[3], cross[3];
+            for (int k = 0; k < 3; k++) {
+                e1[k] = static_cast<double>(v3_get(positions[c[1]], k)) - v3_get(positions[c[0]], k);
+                e2[k] = static_cast<double>(v3_get(positions[c[2]], k)) - v3_get(positions[c[0]], k);
+            }
+            for (int k = 0; k < 3; k++) cross[k] = e1[(k + 1) % 3] * e2[(k + 2) % 3] - e1[(k + 2) % 3] * e2[(k + 1) % 3];
+            double length = std::sqrt(cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]);
+            if (!(length > 0) || !std::isfinite(length)) {
                 degenerate_++;
                 continue;
             }
+            vec3 face = v3(static_cast<float>(cross[0] / length), static_cast<float>(cross[1] / length),
+                           static_cast<float>(cross[2] / length));
             vec3 du = v3s(0.f);  // dp/du x |det|: along +u, weighted by the triangle's UV area
             float hand = 0.f;  // no vote from a triangle without a UV mapping
             if (mapped && !given_tangents && !tangent_uvs.empty()) {
@@ -1951,6 +1975,61 @@ void Loader::emit(pm_scene *out) {
     *out = s;
 }
 
+// The renderer works in float and squares lengths (areas, distances, densities), which leave a
+// float's range for extents beyond about 1e+-19, and a model far from the origin loses its
+// detail to the float spacing there. The image does not change when the whole scene (camera and
+// lights included) is moved or scaled, so a scene whose extent is outside [2^-20, 2^20] is
+// scaled by the power of two that brings it near 1 (exact in float), and one lying more than
+// 2^10 extents from the origin is moved to it; point and spot intensities scale by the square
+// (the same irradiance), volume attenuation by the inverse. Computed in double from the file.
+void Loader::choose_frame() {
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (const Instance &instance : instances_) {
+        const Mat4 &m = world_[instance.node];
+        for (const DecodedPrimitive &prim : meshes_[instance.mesh]->primitives) {
+            if (!prim.triangles) continue;
+            for (size_t i = 0; i + 2 < prim.positions.size(); i += 3)
+                for (int r = 0; r < 3; r++) {
+                    double x = m.at(r, 0) * prim.positions[i] + m.at(r, 1) * prim.positions[i + 1] +
+                               m.at(r, 2) * prim.positions[i + 2] + m.at(r, 3);
+                    lo[r] = std::min(lo[r], x);
+                    hi[r] = std::max(hi[r], x);
+                }
+        }
+    }
+    double extent = 0, center[3], farthest = 0;
+    for (int r = 0; r < 3; r++) {
+        extent = std::max(extent, hi[r] - lo[r]);
+        center[r] = 0.5 * lo[r] + 0.5 * hi[r];
+        farthest = std::max(farthest, std::fabs(center[r]));
+    }
+    if (extent > 0 && std::isfinite(extent) && std::isfinite(farthest)) {
+        if (extent < std::ldexp(1.0, -20) || extent > std::ldexp(1.0, 20)) frame_scale_ = std::ldexp(1.0, -std::ilogb(extent));
+        if (farthest > std::ldexp(1.0, 10) * extent) {
+            recentered_ = true;
+            std::copy(center, center + 3, frame_center_);
+        }
+    }
+    if (frame_scale_ != 1 || recentered_) {
+        Mat4 frame = identity();
+        for (int r = 0; r < 3; r++) {
+            frame.m[r * 5] = frame_scale_;
+            frame.m[12 + r] = -frame_center_[r] * frame_scale_;
+        }
+        for (Mat4 &w : world_) w = multiply(frame, w);
+        for (pm_material &m : materials_) {
+            double k = 1 / frame_scale_;
+            m.attenuation = v3(static_cast<float>(m.attenuation.x * k), static_cast<float>(m.attenuation.y * k),
+                               static_cast<float>(m.attenuation.z * k));
+        }
+    }
+    for (const Placed &p : placed_) {
+        WorldTransform world(world_[p.node]);
+        if (p.light) add_light(p.index, world, p.node);
+        else add_camera(p.index, world, p.node);
+    }
+}
+
 void Loader::load(pm_scene *out) {
     std::vector<unsigned char> file = read_model_file();
     split_container(file);
@@ -1969,6 +2048,7 @@ void Loader::load(pm_scene *out) {
             fail("scene too large: more than " + str(kMaxSceneVertices) + " vertices or " + str(kMaxSceneTriangles) +
                  " triangles after instancing");
     }
+    choose_frame();
     if (default_material_used_) {
         pm_material m;
         memset(&m, 0, sizeof m);
@@ -1993,6 +2073,12 @@ void Loader::load(pm_scene *out) {
     indices_.reserve(3 * triangles);
     triangle_material_.reserve(triangles);
     for (const Instance &instance : instances_) instance_mesh(instance);
+    if (triangle_material_.empty() && degenerate_)
+        fail("nothing to render: all " + str(degenerate_) +
+             " triangle(s) of the default scene are degenerate (zero area, or not representable after the transforms)");
+    if (triangle_material_.empty() && skipped_prims_)
+        fail("nothing to render: the default scene has only points/lines primitives (" + str(skipped_prims_) +
+             " skipped; only triangles render)");
     if (triangle_material_.empty()) fail("nothing to render (no triangles in the default scene)");
 
     if (degenerate_) warn("skipped " + str(degenerate_) + " degenerate triangle(s) (zero area or non-finite normal)");
@@ -2027,6 +2113,8 @@ extern "C" bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_loa
             report->skipped_degenerate = loader.skipped_degenerate();
             report->skipped_primitives = loader.skipped_primitives();
             report->ignored_inputs = loader.ignored_inputs();
+            report->unit_scale = loader.unit_scale();
+            report->recentered = loader.recentered();
             for (const std::string &w : loader.warnings())
                 if (!quiet) fprintf(stderr, "pmview: warning: %s: %s\n", path, w.c_str());
         }

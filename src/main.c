@@ -787,11 +787,14 @@ int main(int argc, char **argv) {
         return 1;
     }
     if (opt.stats) {
-        printf("stat load seconds=%.4f triangles=%u vertices=%u materials=%u lights=%u emissive_triangles=%u textures=%u cameras=%u skipped_degenerate=%u skipped_primitives=%u ignored_inputs=%u\n",
+        printf("stat load seconds=%.4f triangles=%u vertices=%u materials=%u lights=%u emissive_triangles=%u textures=%u cameras=%u skipped_degenerate=%u skipped_primitives=%u ignored_inputs=%u unit_scale=%.9g recentered=%d\n",
                report.seconds, scene.triangle_count, scene.vertex_count, scene.material_count, scene.light_count,
                scene.emitter_count, scene.texture_count, scene.camera_count, report.skipped_degenerate,
-               report.skipped_primitives, report.ignored_inputs);
+               report.skipped_primitives, report.ignored_inputs, report.unit_scale, report.recentered);
     }
+    /* the options' lengths are in the file's units; the loader may have rescaled the scene */
+    opt.radius *= report.unit_scale;
+    opt.max_radius *= report.unit_scale;
 
     int exit_code = 0;
     pm_accel *accel = NULL;
