@@ -212,6 +212,12 @@ bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, s
         hooks->warnings.push_back("image " + str(index) + " is not a decodable PNG/JPEG/BMP/GIF; its textures are ignored");
         return true;
     }
+    // stb_image's info reports a top-down BMP's height as written, negative; its decoder flips the rows
+    if (height < 0 && height != INT_MIN) height = -height;
+    if (width <= 0 || height <= 0) {
+        hooks->warnings.push_back("image " + str(index) + " has no valid size; its textures are ignored");
+        return true;
+    }
     if (static_cast<uint64_t>(width) * static_cast<uint64_t>(height) > kMaxImagePixels) {
         hooks->error = "image is " + str(width) + "x" + str(height) + " pixels, more than " + str(kMaxImagePixels) +
                        " (image " + str(index) + ")";

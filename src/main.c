@@ -774,6 +774,11 @@ int main(int argc, char **argv) {
     }
 
     char err[1024] = "";
+    /* before any work: a snapshot that cannot be written would waste the whole render */
+    if (opt.snapshot && !pm_check_output_path(opt.snapshot, err, sizeof err)) {
+        fprintf(stderr, "pmview: error: %s\n", err);
+        return 1;
+    }
     pm_scene scene;
     pm_load_report report;
     if (!pm_load_gltf(opt.scene_path, opt.quiet, &scene, &report, err, sizeof err)) {
