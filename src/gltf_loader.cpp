@@ -901,6 +901,12 @@ void Loader::split_container(const std::vector<unsigned char> &file) {
         uint64_t chunk_length = read_u32(&file[offset]), type = read_u32(&file[offset + 4]);
         if (chunk_length > size - offset - 8)
             fail("truncated GLB: chunk " + str(chunk) + " (" + str(chunk_length) + " bytes) extends past end of file");
+        // the GLB specification: every chunk starts and ends on a 4-byte boundary; one JSON chunk,
+        // first, and at most one BIN chunk, second (chunks of other types are ignored)
+        if (chunk_length % 4 != 0)
+            fail("GLB chunk " + str(chunk) + " length " + str(chunk_length) + " is not a multiple of 4");
+        if (chunk >= 2 && (type == 0x4E4F534Au || type == 0x004E4942u))
+            fail("GLB chunk " + str(chunk) + " is a second " + (type == 0x004E4942u ? "BIN" : "JSON") + " chunk");
         const unsigned char *payload = &file[offset + 8];
         if (chunk == 0) {
             if (type != 0x4E4F534Au) fail("GLB chunk 0 is not JSON");
@@ -1300,10 +1306,15 @@ void Loader::preflight_buffers(const json &root) {
             preflight_uri_target(b, where, true, length);
         } else if (!binary_) {
             fail("buffer " + str(i) + " has no uri (only a .glb embeds its buffer)");
+        } else if (i != 0) {
+            fail("buffer " + str(i) + " has no uri: only buffer 0 can be the GLB's BIN chunk");
         } else if (!has_bin_) {
             fail("buffer " + str(i) + " has no uri and the GLB has no BIN chunk");
         } else if (length > bin_size_) {
             fail("byteLength " + str(length) + " exceeds the GLB BIN chunk (" + str(bin_size_) + " bytes) (" + where + ")");
+        } else if (bin_size_ - length > 3) {
+            fail("byteLength " + str(length) + " but the GLB BIN chunk has " + str(bin_size_) +
+                 " bytes (at most 3 bytes of padding) (" + where + ")");
         }
         buffer_lengths_.push_back(length);
     });
@@ -1492,9 +1503,14 @@ void Loader::add_light(int index, const WorldTransform &world, int node) {
     light.direction = world.unit(minus_z, false);
     if (light.type != PM_LIGHT_DIRECTIONAL) {
         // the same irradiance I / d^2 at every point once distances are frame_scale_ times longer
-        double k = frame_scale_ * frame_scale_;
-        light.intensity = v3(static_cast<float>(light.intensity.x * k), static_cast<float>(light.intensity.y * k),
-                             static_cast<float>(light.intensity.z * k));
+        double k = frame_scale_ * frame_scale_, framed[3] = {light.intensity.x * k, light.intensity.y * k,
+                                                             light.intensity.z * k};
+        for (double &v : framed)
+            if (v > FLT_MAX) {  // an irradiance beyond a float's range in the file's own units
+                v = FLT_MAX;
+                clamped_values_++;
+            }
+        light.intensity = v3(static_cast<float>(framed[0]), static_cast<float>(framed[1]), static_cast<float>(framed[2]));
         light.range = static_cast<float>(std::min<double>(light.range * frame_scale_, FLT_MAX));
     }
     if (!v3_is_finite(light.position) || (light.type != PM_LIGHT_POINT && v3_is_black(light.direction)))

@@ -5,6 +5,7 @@
  * pm_scene values against numbers worked out by hand. Rejection tests check the one-line error
  * ("PATH: what (where)") and that the scene was left empty.
  */
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -1406,10 +1407,15 @@ static void test_any_scale(void) {
         }
         if (s.camera_count == 1 && s.light_count == 1) {
             CHECK_VEC(s.cameras[0].position, 0.25 * k, 0.25 * k, 4 * k, 1e-6 * k, "camera framed with the scene");
-            CHECK_NEAR(s.cameras[0].znear, 0.5 * k, 1e-6, 0, "znear framed with the scene");
+            /* znear and light intensities are not scaled by node transforms (glTF), only by the framing */
+            CHECK_NEAR(s.cameras[0].znear, fmin(0.5 * r.unit_scale, FLT_MAX), 1e-6, 0, "znear framed with the scene");
             CHECK_VEC(s.lights[0].position, 0, 0, 2 * k, 1e-6 * k, "light framed with the scene");
-            /* irradiance at the triangle, 8 / 2^2 in the file's units, is kept */
-            CHECK_NEAR(s.lights[0].intensity.x / (4 * k * k), 2, 1e-5, 0, "point light irradiance kept");
+            /* the irradiance the light gives the triangle, 8 / (2 scale)^2, is kept: 8 unit_scale^2
+             * over the framed distance squared; beyond a float it is clamped (with a warning) */
+            double want = 8 * r.unit_scale * r.unit_scale;
+            if (want <= FLT_MAX) CHECK_NEAR(s.lights[0].intensity.x, want, 1e-6, 1e-44, "point light irradiance kept");
+            else CHECK(s.lights[0].intensity.x == FLT_MAX && r.warnings >= 1, "scale %g: intensity %g, want FLT_MAX and a warning",
+                       scales[i], s.lights[0].intensity.x);
         } else CHECK(0, "scale %g: cameras %u lights %u", scales[i], s.camera_count, s.light_count);
         pm_scene_free(&s);
     }
@@ -1443,6 +1449,77 @@ static void test_any_scale(void) {
     check_rejected("flattened.gltf", "are degenerate (zero area");
 }
 
+/* A GLB: the header, then chunks given as (type, bytes, length); lengths are written as given. */
+static void write_glb(const char *name, const uint32_t *types, const void *const *payloads, const uint32_t *lengths,
+                      int chunks) {
+    unsigned char out[4096];
+    uint32_t size = 12;
+    for (int c = 0; c < chunks; c++) {
+        memcpy(out + size, &lengths[c], 4);
+        memcpy(out + size + 4, &types[c], 4);
+        memcpy(out + size + 8, payloads[c], lengths[c]);
+        size += 8 + lengths[c];
+    }
+    uint32_t version = 2;
+    memcpy(out, "glTF", 4);
+    memcpy(out + 4, &version, 4);
+    memcpy(out + 8, &size, 4);
+    char path[256];
+    model_path(name, path, sizeof path);
+    write_file(path, out, size);
+}
+
+/* What the GLB container rules forbid and tinygltf 2.7 accepted: a chunk not 4-byte aligned, a
+ * second BIN chunk, a GLB-stored buffer other than buffer 0, a BIN chunk over 3 bytes longer
+ * than its buffer. An unknown chunk type after BIN is ignored, as the specification says. */
+static void test_glb_container(void) {
+    const uint32_t json_type = 0x4E4F534Au, bin_type = 0x004E4942u, other_type = 0x12345678u;
+    static const char json_good[] =
+        "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}],\"buffers\":[{\"byteLength\":36}],"
+        "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],"
+        "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}]}";
+    static const char json_two[] =
+        "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}],"
+        "\"buffers\":[{\"byteLength\":4,\"uri\":\"data:application/octet-stream;base64,AAAAAA==\"},{\"byteLength\":36}],"
+        "\"bufferViews\":[{\"buffer\":1,\"byteLength\":36}],"
+        "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}]}";
+    char padded[1024], padded_two[1024];
+    uint32_t length = (uint32_t)((strlen(json_good) + 3) & ~(size_t)3), length_two = (uint32_t)((strlen(json_two) + 3) & ~(size_t)3);
+    memset(padded, ' ', sizeof padded);
+    memcpy(padded, json_good, strlen(json_good));
+    memset(padded_two, ' ', sizeof padded_two);
+    memcpy(padded_two, json_two, strlen(json_two));
+    unsigned char bin[44] = {0};
+    memcpy(bin, unit_triangle, 36);
+
+    uint32_t types[3] = {json_type, bin_type, other_type};
+    const void *payloads[3] = {padded, bin, bin};
+    uint32_t lengths[3] = {length, 36, 8};
+    write_glb("glb_good.glb", types, payloads, lengths, 3);
+    pm_scene s;
+    pm_load_report r;
+    if (load_ok("glb_good.glb", &s, &r)) {
+        CHECK(s.triangle_count == 1, "GLB triangle count %u", s.triangle_count);
+        pm_scene_free(&s);
+    }
+    uint32_t unaligned[2] = {length - 1, 36};
+    write_glb("glb_unaligned.glb", types, payloads, unaligned, 2);
+    check_rejected("glb_unaligned.glb", "GLB chunk 0 length");
+    uint32_t second_bin[3] = {json_type, bin_type, bin_type};
+    uint32_t three[3] = {length, 36, 36};
+    write_glb("glb_two_bin.glb", second_bin, payloads, three, 3);
+    check_rejected("glb_two_bin.glb", "GLB chunk 2 is a second BIN chunk");
+    uint32_t long_bin[2] = {length, 44};
+    write_glb("glb_long_bin.glb", types, payloads, long_bin, 2);
+    check_rejected("glb_long_bin.glb", "byteLength 36 but the GLB BIN chunk has 44 bytes (at most 3 bytes of padding)");
+    const void *payloads_two[2] = {padded_two, bin};
+    uint32_t lengths_two[2] = {length_two, 36};
+    write_glb("glb_buffer1.glb", types, payloads_two, lengths_two, 2);
+    check_rejected("glb_buffer1.glb", "buffer 1 has no uri: only buffer 0 can be the GLB's BIN chunk");
+}
+
 int main(void) {
     snprintf(test_dir, sizeof test_dir, "/tmp/pmview-test-loader-XXXXXX");
     if (!mkdtemp(test_dir)) {
@@ -1471,6 +1548,7 @@ int main(void) {
     test_wrong_types_and_indices();
     test_top_down_bmp();
     test_any_scale();
+    test_glb_container();
     char command[128];
     snprintf(command, sizeof command, "rm -rf '%s'", test_dir);
     if (system(command) != 0) fprintf(stderr, "could not remove %s\n", test_dir);
