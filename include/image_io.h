@@ -13,6 +13,11 @@
 
 bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_size);
 
+/* Whether an output file can be written at path, checked before any work: not a directory, an
+ * existing PNG writable in place, and a new file (or an EXR's temporary file) creatable in its
+ * folder. On refusal err holds "PATH: the cause". Creates nothing that outlives the call. */
+bool pm_check_output_path(const char *path, char *err, size_t err_size);
+
 /* Reads one channel ("R", "direct.G", ...) of a scanline EXR into a malloc'ed w*h float array
  * (row 0 = top). For tests and tools; returns NULL with err set on failure. */
 float *pm_read_exr_channel(const char *path, const char *channel, int *width, int *height,

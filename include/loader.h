@@ -18,6 +18,8 @@ typedef struct {
     uint32_t warnings;               /* warning lines printed */
     uint32_t ignored_inputs;         /* material inputs not rendered (alpha modes, normal maps, unsupported extensions...), one warning per kind */
     double seconds;                  /* wall time of the load */
+    double unit_scale;               /* scene units per file unit: a power of two, 1 unless the file's extent was outside [2^-20, 2^20] */
+    bool recentered;                 /* the scene was moved to the origin (it lay over 2^10 extents away; see README) */
 } pm_load_report;
 
 /* Loads and validates. Does not call pm_scene_finalize (the caller decides on the default sky).

@@ -31,6 +31,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <initializer_list>
 #include <map>
 #include <memory>
 #include <string>
@@ -211,6 +212,12 @@ bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, s
         hooks->warnings.push_back("image " + str(index) + " is not a decodable PNG/JPEG/BMP/GIF; its textures are ignored");
         return true;
     }
+    // stb_image's info reports a top-down BMP's height as written, negative; its decoder flips the rows
+    if (height < 0 && height != INT_MIN) height = -height;
+    if (width <= 0 || height <= 0) {
+        hooks->warnings.push_back("image " + str(index) + " has no valid size; its textures are ignored");
+        return true;
+    }
     if (static_cast<uint64_t>(width) * static_cast<uint64_t>(height) > kMaxImagePixels) {
         hooks->error = "image is " + str(width) + "x" + str(height) + " pixels, more than " + str(kMaxImagePixels) +
                        " (image " + str(index) + ")";
@@ -286,6 +293,62 @@ uint64_t unsigned_member(const json &object, const char *key, bool required, uin
         fail(std::string(key) + " must be an integer in [0, " + str(max) + "], got " + describe(*v) + " (" + where +
              ")");
     return v->get<uint64_t>();
+}
+
+// Typed members as glTF's schema defines them. tinygltf quietly keeps the default for a member of
+// the wrong type or length (a 3-number baseColorFactor, a string roughnessFactor), which would
+// render a different material than the file's author wrote: these refuse such a member instead.
+const json *typed_object(const json &object, const char *key, const std::string &where) {
+    const json *v = find_member(object, key);
+    if (v && !v->is_object()) fail(std::string(key) + " must be an object, got " + describe(*v) + " (" + where + ")");
+    return v;
+}
+
+void typed_number(const json &object, const char *key, bool required, const std::string &where) {
+    const json *v = find_member(object, key);
+    if (!v) {
+        if (required) fail(std::string("missing ") + key + " (" + where + ")");
+        return;
+    }
+    if (!v->is_number() || !std::isfinite(v->get<double>()))
+        fail(std::string(key) + " must be a finite number, got " + describe(*v) + " (" + where + ")");
+}
+
+// An array of exactly `size` finite numbers (any length when size is 0).
+void typed_numbers(const json &object, const char *key, size_t size, const std::string &where) {
+    const json *v = find_member(object, key);
+    if (!v) return;
+    std::string wanted = size ? str(size) + " numbers" : std::string("an array of numbers");
+    if (!v->is_array()) fail(std::string(key) + " must be " + wanted + ", got " + describe(*v) + " (" + where + ")");
+    if (size && v->size() != size)
+        fail(std::string(key) + " must be " + wanted + ", got " + str(v->size()) + " (" + where + ")");
+    for (size_t i = 0; i < v->size(); i++)
+        if (!(*v)[i].is_number() || !std::isfinite((*v)[i].get<double>()))
+            fail(std::string(key) + " must be " + wanted + ", got " + describe((*v)[i]) + " at [" + str(i) + "] (" +
+                 where + ")");
+}
+
+void typed_bool(const json &object, const char *key, const std::string &where) {
+    const json *v = find_member(object, key);
+    if (v && !v->is_boolean()) fail(std::string(key) + " must be true or false, got " + describe(*v) + " (" + where + ")");
+}
+
+// A string member; when `allowed` is given, one of those values (glTF's enumerations).
+void typed_string(const json &object, const char *key, bool required, std::initializer_list<const char *> allowed,
+                  const std::string &where) {
+    const json *v = find_member(object, key);
+    if (!v) {
+        if (required) fail(std::string("missing ") + key + " (" + where + ")");
+        return;
+    }
+    if (!v->is_string()) fail(std::string(key) + " must be a string, got " + describe(*v) + " (" + where + ")");
+    if (allowed.size() == 0) return;
+    std::string names;
+    for (const char *a : allowed) {
+        if (v->get_ref<const std::string &>() == a) return;
+        names += (names.empty() ? "" : ", ") + std::string(a);
+    }
+    fail(std::string(key) + " must be one of " + names + ", got " + describe(*v) + " (" + where + ")");
 }
 
 // Deepest [ / { nesting of a JSON text, strings skipped; stops counting once past the limit.
@@ -691,6 +754,8 @@ public:
     uint32_t skipped_degenerate() const { return static_cast<uint32_t>(std::min<uint64_t>(degenerate_, UINT32_MAX)); }
     uint32_t skipped_primitives() const { return static_cast<uint32_t>(std::min<uint64_t>(skipped_prims_, UINT32_MAX)); }
     uint32_t ignored_inputs() const { return ignored_inputs_; }
+    double unit_scale() const { return frame_scale_; }
+    bool recentered() const { return recentered_; }
 
 private:
     // stage 1
@@ -699,6 +764,8 @@ private:
     json parse_json();
     void preflight(const json &root);
     void preflight_buffers(const json &root);
+    void preflight_typed_members(const json &root);
+    void preflight_other_indices(const json &root);
     void preflight_uri_target(const json &object, const std::string &where, bool is_buffer, uint64_t byte_length);
     // stage 2
     void run_tinygltf(const std::vector<unsigned char> &file);
@@ -708,6 +775,7 @@ private:
     DecodedPrimitive decode_primitive(int mesh, int primitive);
     void instance_mesh(const Instance &instance);
     void add_light(int light, const WorldTransform &world, int node);
+    void choose_frame();
     void add_camera(int camera, const WorldTransform &world, int node);
     void convert_materials();
     int texture_for(int gltf_texture, const std::string &where);
@@ -718,6 +786,8 @@ private:
     // Stores vertex i's generated tangent: dp/du made unit and perpendicular to the normal, or
     // any perpendicular when the UV mapping gives none there.
     void set_tangent(size_t i, vec3 du, vec3 normal, float hand) {
+        float largest = std::max(std::fabs(du.x), std::max(std::fabs(du.y), std::fabs(du.z)));
+        if (largest > 0.f && std::isfinite(largest)) du = v3_scale(du, 1.f / largest);  // its square stays in range
         vec3 t = v3_sub(du, v3_scale(normal, v3_dot(du, normal)));
         float len = v3_length(t);
         if (len > 1e-12f && std::isfinite(len)) {
@@ -757,6 +827,11 @@ private:
     // conversion
     std::vector<Mat4> world_;  // per node, valid once the traversal reached it
     std::vector<Instance> instances_;
+    struct Placed { int node, index; bool light; };
+    std::vector<Placed> placed_;  // cameras and lights in traversal order
+    // The frame the scene is stored in: world = (file world - frame_center_) x frame_scale_ (see choose_frame)
+    double frame_scale_ = 1, frame_center_[3] = {0, 0, 0};
+    bool recentered_ = false;
     std::vector<std::unique_ptr<DecodedMesh>> meshes_;
     std::vector<pm_material> materials_;
     bool default_material_used_ = false;
@@ -826,6 +901,12 @@ void Loader::split_container(const std::vector<unsigned char> &file) {
         uint64_t chunk_length = read_u32(&file[offset]), type = read_u32(&file[offset + 4]);
         if (chunk_length > size - offset - 8)
             fail("truncated GLB: chunk " + str(chunk) + " (" + str(chunk_length) + " bytes) extends past end of file");
+        // the GLB specification: every chunk starts and ends on a 4-byte boundary; one JSON chunk,
+        // first, and at most one BIN chunk, second (chunks of other types are ignored)
+        if (chunk_length % 4 != 0)
+            fail("GLB chunk " + str(chunk) + " length " + str(chunk_length) + " is not a multiple of 4");
+        if (chunk >= 2 && (type == 0x4E4F534Au || type == 0x004E4942u))
+            fail("GLB chunk " + str(chunk) + " is a second " + (type == 0x004E4942u ? "BIN" : "JSON") + " chunk");
         const unsigned char *payload = &file[offset + 8];
         if (chunk == 0) {
             if (type != 0x4E4F534Au) fail("GLB chunk 0 is not JSON");
@@ -1051,6 +1132,170 @@ void Loader::preflight(const json &root) {
         for (const json &n : optional_array(scene, "nodes", where)) index_value(n, count_nodes_, "node", where);
     });
     optional_index(root, "scene", count_scenes_, "scene", "default scene");
+    preflight_other_indices(root);
+    preflight_typed_members(root);
+}
+
+// Every texture reference (an object named ...Texture with an "index") anywhere inside an
+// extension object, such as KHR_materials_volume's thicknessTexture: its index must exist.
+void check_nested_texture_indices(const json &value, size_t textures, const std::string &where, int depth = 0) {
+    if (depth > kMaxJsonDepth || !value.is_object()) return;
+    for (auto it = value.begin(); it != value.end(); ++it) {
+        const std::string &key = it.key();
+        bool texture_info = key.size() > 7 && key.compare(key.size() - 7, 7, "Texture") == 0 && it->is_object();
+        if (texture_info)
+            required_index(*it, "index", textures, "texture", where + " " + printable(key, 40));
+        else if (it->is_object())
+            check_nested_texture_indices(*it, textures, where + " " + printable(key, 40), depth + 1);
+    }
+}
+
+// Indices pmview does not use but glTF still requires to resolve: morph targets, skins,
+// animations, material variants, texture sources given by extensions, extension textures.
+void Loader::preflight_other_indices(const json &root) {
+    for_each_object(root, "meshes", "mesh", [&](const json &mesh, const std::string &where, size_t) {
+        const json &prims = *find_member(mesh, "primitives");  // the mesh pass checked it is an array
+        for (size_t p = 0; p < prims.size(); p++) {
+            std::string sub = where + " primitive " + str(p);
+            const json &targets = optional_array(prims[p], "targets", sub);
+            for (size_t t = 0; t < targets.size(); t++) {
+                std::string target = sub + " morph target " + str(t);
+                if (!targets[t].is_object()) fail("morph target is not a JSON object (" + target + ")");
+                for (auto it = targets[t].begin(); it != targets[t].end(); ++it)
+                    index_value(it.value(), count_accessors_, "accessor", target + " " + printable(it.key(), 32));
+            }
+            const json *ext = typed_object(prims[p], "extensions", sub);
+            const json *variants = ext ? typed_object(*ext, "KHR_materials_variants", sub) : nullptr;
+            if (!variants) continue;
+            const json &mappings = optional_array(*variants, "mappings", sub + " KHR_materials_variants");
+            for (size_t k = 0; k < mappings.size(); k++)
+                required_index(mappings[k], "material", count_materials_, "material",
+                               sub + " KHR_materials_variants mapping " + str(k));
+        }
+    });
+    for_each_object(root, "skins", "skin", [&](const json &skin, const std::string &where, size_t) {
+        optional_index(skin, "inverseBindMatrices", count_accessors_, "accessor", where + " inverseBindMatrices");
+        optional_index(skin, "skeleton", count_nodes_, "node", where + " skeleton");
+        const json *joints = find_member(skin, "joints");
+        if (!joints || !joints->is_array() || joints->empty()) fail("joints must be a non-empty array (" + where + ")");
+        for (size_t j = 0; j < joints->size(); j++)
+            index_value((*joints)[j], count_nodes_, "node", where + " joint " + str(j));
+    });
+    for_each_object(root, "animations", "animation", [&](const json &animation, const std::string &where, size_t) {
+        const json &samplers = optional_array(animation, "samplers", where);
+        for (size_t k = 0; k < samplers.size(); k++) {
+            std::string sub = where + " sampler " + str(k);
+            required_index(samplers[k], "input", count_accessors_, "accessor", sub + " input");
+            required_index(samplers[k], "output", count_accessors_, "accessor", sub + " output");
+            typed_string(samplers[k], "interpolation", false, {"LINEAR", "STEP", "CUBICSPLINE"}, sub);
+        }
+        const json &channels = optional_array(animation, "channels", where);
+        for (size_t k = 0; k < channels.size(); k++) {
+            std::string sub = where + " channel " + str(k);
+            required_index(channels[k], "sampler", samplers.size(), "animation sampler", sub);
+            const json *target = typed_object(channels[k], "target", sub);
+            if (!target) fail("missing target (" + sub + ")");
+            optional_index(*target, "node", count_nodes_, "node", sub + " target");
+            typed_string(*target, "path", true, {"translation", "rotation", "scale", "weights"}, sub + " target");
+        }
+    });
+    for_each_object(root, "textures", "texture", [&](const json &t, const std::string &where, size_t) {
+        const json *ext = typed_object(t, "extensions", where);
+        if (!ext) return;
+        for (auto it = ext->begin(); it != ext->end(); ++it)
+            if (it->is_object()) optional_index(*it, "source", count_images_, "image", where + " " + printable(it.key(), 40));
+    });
+    for_each_object(root, "materials", "material", [&](const json &m, const std::string &where, size_t) {
+        const json *ext = typed_object(m, "extensions", where);
+        if (ext) check_nested_texture_indices(*ext, count_textures_, where);
+    });
+}
+
+// Material, light, camera and node members of the wrong type or length (see typed_number).
+void Loader::preflight_typed_members(const json &root) {
+    for_each_object(root, "materials", "material", [&](const json &m, const std::string &where, size_t) {
+        typed_string(m, "name", false, {}, where);
+        if (const json *pbr = typed_object(m, "pbrMetallicRoughness", where)) {
+            std::string sub = where + " pbrMetallicRoughness";
+            typed_numbers(*pbr, "baseColorFactor", 4, sub);
+            typed_number(*pbr, "metallicFactor", false, sub);
+            typed_number(*pbr, "roughnessFactor", false, sub);
+        }
+        if (const json *normal = typed_object(m, "normalTexture", where))
+            typed_number(*normal, "scale", false, where + " normalTexture");
+        if (const json *occlusion = typed_object(m, "occlusionTexture", where))
+            typed_number(*occlusion, "strength", false, where + " occlusionTexture");
+        typed_numbers(m, "emissiveFactor", 3, where);
+        typed_string(m, "alphaMode", false, {"OPAQUE", "MASK", "BLEND"}, where);
+        typed_number(m, "alphaCutoff", false, where);
+        typed_bool(m, "doubleSided", where);
+        const json *ext = typed_object(m, "extensions", where);
+        if (!ext) return;
+        struct { const char *extension; const char *members[3]; } numbers[] = {
+            {"KHR_materials_transmission", {"transmissionFactor"}},
+            {"KHR_materials_ior", {"ior"}},
+            {"KHR_materials_emissive_strength", {"emissiveStrength"}},
+            {"KHR_materials_volume", {"thicknessFactor", "attenuationDistance"}}};
+        for (const auto &n : numbers) {
+            const json *e = typed_object(*ext, n.extension, where);
+            if (!e) continue;
+            for (const char *member : n.members)
+                if (member) typed_number(*e, member, false, where + " " + n.extension);
+            if (!strcmp(n.extension, "KHR_materials_volume"))
+                typed_numbers(*e, "attenuationColor", 3, where + " " + n.extension);
+        }
+    });
+
+    const json *root_ext = find_member(root, "extensions");
+    const json *lights_ext = root_ext ? find_member(*root_ext, "KHR_lights_punctual") : nullptr;
+    if (lights_ext && !lights_ext->is_object()) fail("KHR_lights_punctual must be an object (top level extensions)");
+    if (lights_ext)
+        for_each_object(*lights_ext, "lights", "light", [&](const json &l, const std::string &where, size_t) {
+            typed_string(l, "name", false, {}, where);
+            typed_string(l, "type", true, {"directional", "point", "spot"}, where);
+            typed_numbers(l, "color", 3, where);
+            typed_number(l, "intensity", false, where);
+            typed_number(l, "range", false, where);
+            const json *spot = typed_object(l, "spot", where);
+            if (spot) {
+                typed_number(*spot, "innerConeAngle", false, where + " spot");
+                typed_number(*spot, "outerConeAngle", false, where + " spot");
+            }
+        });
+
+    for_each_object(root, "cameras", "camera", [&](const json &c, const std::string &where, size_t) {
+        typed_string(c, "type", true, {"perspective", "orthographic"}, where);
+        bool perspective = c.at("type") == "perspective";
+        const char *kind = perspective ? "perspective" : "orthographic";
+        const json *params = typed_object(c, kind, where);
+        if (!params) fail(std::string("missing ") + kind + " object (" + where + ")");
+        std::string sub = where + " " + kind;
+        if (perspective) {
+            typed_number(*params, "yfov", true, sub);
+            typed_number(*params, "znear", true, sub);
+            typed_number(*params, "aspectRatio", false, sub);
+            typed_number(*params, "zfar", false, sub);
+        } else {
+            for (const char *member : {"xmag", "ymag", "znear", "zfar"}) typed_number(*params, member, true, sub);
+        }
+    });
+
+    for_each_object(root, "nodes", "node", [&](const json &node, const std::string &where, size_t) {
+        typed_string(node, "name", false, {}, where);
+        typed_numbers(node, "matrix", 16, where);
+        typed_numbers(node, "translation", 3, where);
+        typed_numbers(node, "rotation", 4, where);
+        typed_numbers(node, "scale", 3, where);
+        typed_numbers(node, "weights", 0, where);
+    });
+    for_each_object(root, "meshes", "mesh", [&](const json &mesh, const std::string &where, size_t) {
+        typed_numbers(mesh, "weights", 0, where);
+    });
+    for_each_object(root, "accessors", "accessor", [&](const json &a, const std::string &where, size_t) {
+        typed_bool(a, "normalized", where);
+        typed_numbers(a, "min", 0, where);
+        typed_numbers(a, "max", 0, where);
+    });
 }
 
 // Buffer sizes and URIs, before tinygltf opens anything.
@@ -1061,10 +1306,15 @@ void Loader::preflight_buffers(const json &root) {
             preflight_uri_target(b, where, true, length);
         } else if (!binary_) {
             fail("buffer " + str(i) + " has no uri (only a .glb embeds its buffer)");
+        } else if (i != 0) {
+            fail("buffer " + str(i) + " has no uri: only buffer 0 can be the GLB's BIN chunk");
         } else if (!has_bin_) {
             fail("buffer " + str(i) + " has no uri and the GLB has no BIN chunk");
         } else if (length > bin_size_) {
             fail("byteLength " + str(length) + " exceeds the GLB BIN chunk (" + str(bin_size_) + " bytes) (" + where + ")");
+        } else if (bin_size_ - length > 3) {
+            fail("byteLength " + str(length) + " but the GLB BIN chunk has " + str(bin_size_) +
+                 " bytes (at most 3 bytes of padding) (" + where + ")");
         }
         buffer_lengths_.push_back(length);
     });
@@ -1169,11 +1419,11 @@ void Loader::traverse_default_scene() {
         if (!std::all_of(std::begin(world_[step.node].m), std::end(world_[step.node].m),
                          [](double x) { return std::isfinite(x); }))
             fail("world transform overflows (node " + str(step.node) + ")");
-        WorldTransform world(world_[step.node]);
-        if (node.camera >= 0) add_camera(node.camera, world, step.node);
+        // cameras and lights are placed once the scene's frame is known (choose_frame)
+        if (node.camera >= 0) placed_.push_back({step.node, node.camera, false});
         auto light = node.extensions.find("KHR_lights_punctual");
         if (light != node.extensions.end() && light->second.Has("light"))
-            add_light(light->second.Get("light").GetNumberAsInt(), world, step.node);
+            placed_.push_back({step.node, light->second.Get("light").GetNumberAsInt(), true});
         if (node.mesh >= 0) instances_.push_back({step.node, node.mesh});
         stack.push_back({step.node, step.parent, true});
         for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
@@ -1251,6 +1501,18 @@ void Loader::add_light(int index, const WorldTransform &world, int node) {
     const double minus_z[3] = {0, 0, -1};
     light.position = world.origin();
     light.direction = world.unit(minus_z, false);
+    if (light.type != PM_LIGHT_DIRECTIONAL) {
+        // the same irradiance I / d^2 at every point once distances are frame_scale_ times longer
+        double k = frame_scale_ * frame_scale_, framed[3] = {light.intensity.x * k, light.intensity.y * k,
+                                                             light.intensity.z * k};
+        for (double &v : framed)
+            if (v > FLT_MAX) {  // an irradiance beyond a float's range in the file's own units
+                v = FLT_MAX;
+                clamped_values_++;
+            }
+        light.intensity = v3(static_cast<float>(framed[0]), static_cast<float>(framed[1]), static_cast<float>(framed[2]));
+        light.range = static_cast<float>(std::min<double>(light.range * frame_scale_, FLT_MAX));
+    }
     if (!v3_is_finite(light.position) || (light.type != PM_LIGHT_POINT && v3_is_black(light.direction)))
         fail("degenerate transform for " + where + " (node " + str(node) + ")");
     lights_.push_back(light);
@@ -1298,7 +1560,7 @@ void Loader::add_camera(int index, const WorldTransform &world, int node) {
     } else {
         cam.yfov = static_cast<float>(p.yfov);
         cam.aspect = (p.aspectRatio > 0 && p.aspectRatio < FLT_MAX) ? static_cast<float>(p.aspectRatio) : 0.f;
-        cam.znear = static_cast<float>(std::min<double>(p.znear, FLT_MAX));
+        cam.znear = static_cast<float>(std::min<double>(p.znear * frame_scale_, FLT_MAX));
     }
     cameras_.push_back(cam);
 }
@@ -1620,7 +1882,7 @@ void Loader::instance_mesh(const Instance &instance) {
         // generated: per vertex, the sum of its triangles' dp/du scaled by |det| (so weighted by
         // their UV area) and of their handedness votes (weighted by area)
         std::vector<vec3> du_sum(mapped && !given_tangents && !flat ? count : 0, v3s(0.f));
-        std::vector<float> hand_sum(du_sum.size(), 0.f);
+        std::vector<double> hand_sum(du_sum.size(), 0.0);
         auto append_vertex = [&](size_t i, vec3 normal) {
             positions_.push_back(positions[i]);
             normals_.push_back(normal);
@@ -1639,13 +1901,20 @@ void Loader::instance_mesh(const Instance &instance) {
         for (size_t t = 0; t < prim.corners.size(); t += 3) {
             uint32_t c[3] = {prim.corners[t], prim.corners[t + 1], prim.corners[t + 2]};
             if (world.mirrored) std::swap(c[1], c[2]);
-            vec3 face = v3_cross(v3_sub(positions[c[1]], positions[c[0]]), v3_sub(positions[c[2]], positions[c[0]]));
-            float length = v3_length(face);
-            if (length > 0.f && std::isfinite(length)) face = v3_scale(face, 1.f / length);
-            if (!(length > 0.f) || !v3_is_finite(face)) {
+            // in double: edges of a tiny triangle square to below a float's range, a huge one's above it
+            double e1[3], e2[3], cross[3];
+            for (int k = 0; k < 3; k++) {
+                e1[k] = static_cast<double>(v3_get(positions[c[1]], k)) - v3_get(positions[c[0]], k);
+                e2[k] = static_cast<double>(v3_get(positions[c[2]], k)) - v3_get(positions[c[0]], k);
+            }
+            for (int k = 0; k < 3; k++) cross[k] = e1[(k + 1) % 3] * e2[(k + 2) % 3] - e1[(k + 2) % 3] * e2[(k + 1) % 3];
+            double length = std::sqrt(cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]);
+            if (!(length > 0) || !std::isfinite(length)) {
                 degenerate_++;
                 continue;
             }
+            vec3 face = v3(static_cast<float>(cross[0] / length), static_cast<float>(cross[1] / length),
+                           static_cast<float>(cross[2] / length));
             vec3 du = v3s(0.f);  // dp/du x |det|: along +u, weighted by the triangle's UV area
             float hand = 0.f;  // no vote from a triangle without a UV mapping
             if (mapped && !given_tangents && !tangent_uvs.empty()) {
@@ -1728,6 +1997,61 @@ void Loader::emit(pm_scene *out) {
     *out = s;
 }
 
+// The renderer works in float and squares lengths (areas, distances, densities), which leave a
+// float's range for extents beyond about 1e+-19, and a model far from the origin loses its
+// detail to the float spacing there. The image does not change when the whole scene (camera and
+// lights included) is moved or scaled, so a scene whose extent is outside [2^-20, 2^20] is
+// scaled by the power of two that brings it near 1 (exact in float), and one lying more than
+// 2^10 extents from the origin is moved to it; point and spot intensities scale by the square
+// (the same irradiance), volume attenuation by the inverse. Computed in double from the file.
+void Loader::choose_frame() {
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (const Instance &instance : instances_) {
+        const Mat4 &m = world_[instance.node];
+        for (const DecodedPrimitive &prim : meshes_[instance.mesh]->primitives) {
+            if (!prim.triangles) continue;
+            for (size_t i = 0; i + 2 < prim.positions.size(); i += 3)
+                for (int r = 0; r < 3; r++) {
+                    double x = m.at(r, 0) * prim.positions[i] + m.at(r, 1) * prim.positions[i + 1] +
+                               m.at(r, 2) * prim.positions[i + 2] + m.at(r, 3);
+                    lo[r] = std::min(lo[r], x);
+                    hi[r] = std::max(hi[r], x);
+                }
+        }
+    }
+    double extent = 0, center[3], farthest = 0;
+    for (int r = 0; r < 3; r++) {
+        extent = std::max(extent, hi[r] - lo[r]);
+        center[r] = 0.5 * lo[r] + 0.5 * hi[r];
+        farthest = std::max(farthest, std::fabs(center[r]));
+    }
+    if (extent > 0 && std::isfinite(extent) && std::isfinite(farthest)) {
+        if (extent < std::ldexp(1.0, -20) || extent > std::ldexp(1.0, 20)) frame_scale_ = std::ldexp(1.0, -std::ilogb(extent));
+        if (farthest > std::ldexp(1.0, 10) * extent) {
+            recentered_ = true;
+            std::copy(center, center + 3, frame_center_);
+        }
+    }
+    if (frame_scale_ != 1 || recentered_) {
+        Mat4 frame = identity();
+        for (int r = 0; r < 3; r++) {
+            frame.m[r * 5] = frame_scale_;
+            frame.m[12 + r] = -frame_center_[r] * frame_scale_;
+        }
+        for (Mat4 &w : world_) w = multiply(frame, w);
+        for (pm_material &m : materials_) {
+            double k = 1 / frame_scale_;
+            m.attenuation = v3(static_cast<float>(m.attenuation.x * k), static_cast<float>(m.attenuation.y * k),
+                               static_cast<float>(m.attenuation.z * k));
+        }
+    }
+    for (const Placed &p : placed_) {
+        WorldTransform world(world_[p.node]);
+        if (p.light) add_light(p.index, world, p.node);
+        else add_camera(p.index, world, p.node);
+    }
+}
+
 void Loader::load(pm_scene *out) {
     std::vector<unsigned char> file = read_model_file();
     split_container(file);
@@ -1746,6 +2070,7 @@ void Loader::load(pm_scene *out) {
             fail("scene too large: more than " + str(kMaxSceneVertices) + " vertices or " + str(kMaxSceneTriangles) +
                  " triangles after instancing");
     }
+    choose_frame();
     if (default_material_used_) {
         pm_material m;
         memset(&m, 0, sizeof m);
@@ -1770,6 +2095,12 @@ void Loader::load(pm_scene *out) {
     indices_.reserve(3 * triangles);
     triangle_material_.reserve(triangles);
     for (const Instance &instance : instances_) instance_mesh(instance);
+    if (triangle_material_.empty() && degenerate_)
+        fail("nothing to render: all " + str(degenerate_) +
+             " triangle(s) of the default scene are degenerate (zero area, or not representable after the transforms)");
+    if (triangle_material_.empty() && skipped_prims_)
+        fail("nothing to render: the default scene has only points/lines primitives (" + str(skipped_prims_) +
+             " skipped; only triangles render)");
     if (triangle_material_.empty()) fail("nothing to render (no triangles in the default scene)");
 
     if (degenerate_) warn("skipped " + str(degenerate_) + " degenerate triangle(s) (zero area or non-finite normal)");
@@ -1804,6 +2135,8 @@ extern "C" bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_loa
             report->skipped_degenerate = loader.skipped_degenerate();
             report->skipped_primitives = loader.skipped_primitives();
             report->ignored_inputs = loader.ignored_inputs();
+            report->unit_scale = loader.unit_scale();
+            report->recentered = loader.recentered();
             for (const std::string &w : loader.warnings())
                 if (!quiet) fprintf(stderr, "pmview: warning: %s: %s\n", path, w.c_str());
         }

@@ -18,6 +18,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <openexr.h>
 #include <stb/stb_image.h>
@@ -62,6 +65,74 @@ static void set_exr_error(char *err, size_t err_size, const char *path, const ch
 
 /* ---------------------------------------------------------------------------------------------- */
 
+/* The folder part of path ("." for a bare name) into out. */
+static void folder_of(const char *path, char *out, size_t size) {
+    const char *slash = strrchr(path, '/');
+    if (!slash) snprintf(out, size, ".");
+    else if (slash == path) snprintf(out, size, "/");
+    else snprintf(out, size, "%.*s", (int)(slash - path), path);
+}
+
+/* Creates an empty, uniquely named hidden file in path's folder: ".NAME.XXXXXX". */
+static bool temporary_beside(const char *path, char *temp, size_t size, char *err, size_t err_size) {
+    char folder[4096];
+    folder_of(path, folder, sizeof folder);
+    const char *slash = strrchr(path, '/');
+    int n = snprintf(temp, size, "%s/.%s.XXXXXX", folder, slash ? slash + 1 : path);
+    if (n < 0 || (size_t)n >= size) {
+        temp[0] = '\0';
+        set_error(err, err_size, path, "the file name is too long");
+        return false;
+    }
+    int fd = mkstemp(temp);
+    if (fd < 0) {
+        char what[4200];
+        snprintf(what, sizeof what, "cannot create a file in the folder %s (%s)", folder, strerror(errno));
+        temp[0] = '\0';
+        set_error(err, err_size, path, what);
+        return false;
+    }
+    /* mkstemp makes it private (0600); the file it becomes gets the usual permissions */
+    mode_t mask = umask(0);
+    umask(mask);
+    fchmod(fd, 0666 & ~mask);
+    close(fd);
+    return true;
+}
+
+bool pm_check_output_path(const char *path, char *err, size_t err_size) {
+    if (!path || !*path) { set_error(err, err_size, path ? path : "", "no output file name given"); return false; }
+    char what[4200];
+    struct stat st;
+    bool exists = stat(path, &st) == 0;
+    if (!exists && errno != ENOENT) {
+        snprintf(what, sizeof what, "cannot write there (%s)", strerror(errno));
+        set_error(err, err_size, path, what);
+        return false;
+    }
+    if (exists && S_ISDIR(st.st_mode)) { set_error(err, err_size, path, "is a directory, not a file name"); return false; }
+    bool exr = pm_has_extension(path, ".exr");
+    if (exists && exr && !S_ISREG(st.st_mode)) {
+        set_error(err, err_size, path, "is not a regular file (an EXR is written beside it and renamed over it)");
+        return false;
+    }
+    if (exists && !exr) { /* a PNG is written in place: the file itself must take writing (not truncated here) */
+        int fd = open(path, O_WRONLY | O_NOCTTY | O_NONBLOCK);
+        if (fd < 0) {
+            snprintf(what, sizeof what, "cannot write the file (%s)", strerror(errno));
+            set_error(err, err_size, path, what);
+            return false;
+        }
+        close(fd);
+        return true;
+    }
+    /* a new file (or an EXR's temporary one) must be creatable in the folder: try it */
+    char temp[4096];
+    if (!temporary_beside(path, temp, sizeof temp, err, err_size)) return false;
+    unlink(temp);
+    return true;
+}
+
 bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_size) {
     if (!path || !*path) { set_error(err, err_size, path ? path : "", "no output file name given"); return false; }
     if (!film || film->width <= 0 || film->height <= 0) {
@@ -89,6 +160,7 @@ bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_s
     exr_context_t ctxt = NULL;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
     bool enc_started = false;
+    char temp_path[4096] = "";
     float *planes = malloc(PM_EXR_CHANNELS * npix * sizeof(float));
     float *rgb = malloc(3 * npix * sizeof(float));
     if (!planes || !rgb) { set_error(err, err_size, path, "out of memory preparing the EXR channels"); goto done; }
@@ -111,8 +183,11 @@ bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_s
     }
 
     exr_context_initializer_t init = exr_initializer();
-    /* A temporary file renamed at the end: a failed write leaves any previous file untouched. */
-    exr_result_t rv = exr_start_write(&ctxt, path, EXR_INTERMEDIATE_TEMP_FILE, &init);
+    /* A temporary file beside the target, renamed over it at the end: a failed write leaves any
+     * previous file untouched, and the temporary file is removed on every failure (OpenEXR's own
+     * temporary file outlived a failed rename) */
+    if (!temporary_beside(path, temp_path, sizeof temp_path, err, err_size)) goto done;
+    exr_result_t rv = exr_start_write(&ctxt, temp_path, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot create the file", rv); goto done; }
 
     int part = 0;
@@ -173,13 +248,19 @@ bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_s
 done:
     if (enc_started) exr_encoding_destroy(ctxt, &enc);
     if (ctxt) {
-        /* exr_finish deletes the temporary file unless every chunk was written, else renames it */
         rv = exr_finish(&ctxt);
         if (ok && rv != EXR_ERR_SUCCESS) {
             set_exr_error(err, err_size, path, "cannot finish the file", rv);
             ok = false;
         }
     }
+    if (ok && rename(temp_path, path) != 0) {
+        char what[320];
+        snprintf(what, sizeof what, "cannot replace the file (%s)", strerror(errno));
+        set_error(err, err_size, path, what);
+        ok = false;
+    }
+    if (!ok && temp_path[0]) unlink(temp_path);
     free(rgb);
     free(planes);
     return ok;

@@ -897,6 +897,11 @@ int main(int argc, char **argv) {
     }
 
     char err[1024] = "";
+    /* before any work: a snapshot that cannot be written would waste the whole render */
+    if (opt.snapshot && !pm_check_output_path(opt.snapshot, err, sizeof err)) {
+        fprintf(stderr, "pmview: error: %s\n", err);
+        return 1;
+    }
     pm_scene scene;
     pm_load_report report;
     if (!pm_load_gltf(opt.scene_path, opt.quiet, &scene, &report, err, sizeof err)) {
@@ -910,11 +915,14 @@ int main(int argc, char **argv) {
         return 1;
     }
     if (opt.stats) {
-        printf("stat load seconds=%.4f triangles=%u vertices=%u materials=%u lights=%u emissive_triangles=%u textures=%u cameras=%u skipped_degenerate=%u skipped_primitives=%u ignored_inputs=%u\n",
+        printf("stat load seconds=%.4f triangles=%u vertices=%u materials=%u lights=%u emissive_triangles=%u textures=%u cameras=%u skipped_degenerate=%u skipped_primitives=%u ignored_inputs=%u unit_scale=%.9g recentered=%d\n",
                report.seconds, scene.triangle_count, scene.vertex_count, scene.material_count, scene.light_count,
                scene.emitter_count, scene.texture_count, scene.camera_count, report.skipped_degenerate,
-               report.skipped_primitives, report.ignored_inputs);
+               report.skipped_primitives, report.ignored_inputs, report.unit_scale, report.recentered);
     }
+    /* the options' lengths are in the file's units; the loader may have rescaled the scene */
+    opt.radius *= report.unit_scale;
+    opt.max_radius *= report.unit_scale;
 
     int exit_code = 0;
     pm_accel *accel = NULL;

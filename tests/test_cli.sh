@@ -116,5 +116,23 @@ expect "the open Cornell box lit by its lamp" 0 $bin scenes/cornell-box.gltf --w
 checks=$((checks + 1))
 { grep -q "^stat sky kind=none " "$tmp/out" && ! grep -q "warning" "$tmp/err"; } ||
     { fails=$((fails + 1)); echo "FAIL: the Cornell box's emitters enclose its view: no sky, no warning"; cat "$tmp/err"; }
+# snapshot paths that cannot be written are refused before any work, naming the cause, and no
+# temporary file is left behind (today's main rendered all 10^6 iterations of a directory.exr, then
+# said "Unable to rename temporary file: Success" and left tmp.PID<name> beside it)
+mkdir -p "$tmp/out dir/taken.exr" "$tmp/out dir/taken.png"
+: > "$tmp/out dir/plain"
+for target in "taken.exr|is a directory" "taken.png|is a directory" "missing/x.exr|cannot create a file in the folder" \
+              "missing/x.png|cannot create a file in the folder" "plain/x.exr|Not a directory"; do
+    path="$tmp/out dir/${target%%|*}"; cause=${target#*|}
+    expect "snapshot to $path" 1 timeout 20 $bin scenes/cornell-box.gltf --width 64 --iterations 1000000 --snapshot "$path"
+    checks=$((checks + 1))
+    { [ "$(wc -l < "$tmp/err")" -eq 1 ] && grep -q "$cause" "$tmp/err" && grep -q "${target%%|*}" "$tmp/err"; } ||
+        { fails=$((fails + 1)); echo "FAIL: snapshot to ${target%%|*}: want one line naming it and \"$cause\":"; cat "$tmp/err"; }
+done
+expect "EXR snapshot into a folder with a space" 0 $bin scenes/cornell-box.gltf --width 16 --iterations 1 --snapshot "$tmp/out dir/ok.exr"
+checks=$((checks + 1))
+left=$(cd "$tmp/out dir" && ls -A | grep -v -x -e taken.exr -e taken.png -e plain -e ok.exr)
+[ -z "$left" ] && [ -s "$tmp/out dir/ok.exr" ] ||
+    { fails=$((fails + 1)); echo "FAIL: files left behind beside the snapshots: $left"; }
 echo "test_cli: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]

@@ -4,6 +4,7 @@
 
 #include <openexr.h>
 #include <stb/stb_image.h>
+#include <dirent.h>
 #include <stdint.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -278,6 +279,33 @@ static void test_exr_failures(void) {
     CHECK(px == NULL && err[0], "garbage after a valid magic number: \"%s\"", err);
     free(px);
     unlink(path);
+
+    /* the target is a directory: the write fails naming it, and the temporary file beside it goes
+     * (OpenEXR's own stayed, after "Unable to rename temporary file: Success") */
+    char folder[256], taken[300];
+    tmp_path(folder, sizeof folder, "rename-target");
+    snprintf(taken, sizeof taken, "%s/taken.exr", folder);
+    mkdir(folder, 0700);
+    mkdir(taken, 0700);
+    err[0] = '\0';
+    CHECK(!pm_write_exr(taken, &film, err, sizeof err), "writing over a directory must fail");
+    CHECK(strncmp(err, taken, strlen(taken)) == 0 && strstr(err, "Is a directory") && !strchr(err, '\n'),
+          "one line naming the file and the cause: \"%s\"", err);
+    DIR *dir = opendir(folder);
+    int entries = 0;
+    for (struct dirent *e; dir && (e = readdir(dir));)
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) entries++;
+    if (dir) closedir(dir);
+    CHECK(entries == 1, "%d entries in the folder: a temporary file was left behind", entries - 1);
+    /* the same refused up front by the check main() runs before rendering, and a writable target passes */
+    CHECK(!pm_check_output_path(taken, err, sizeof err) && strstr(err, "is a directory"), "check: \"%s\"", err);
+    snprintf(taken, sizeof taken, "%s/missing/x.exr", folder);
+    CHECK(!pm_check_output_path(taken, err, sizeof err) && strstr(err, "No such file or directory"), "check: \"%s\"", err);
+    snprintf(taken, sizeof taken, "%s/new.png", folder);
+    CHECK(pm_check_output_path(taken, err, sizeof err) && !file_exists(taken), "a new file in a writable folder: \"%s\"", err);
+    snprintf(taken, sizeof taken, "%s/taken.exr", folder);
+    rmdir(taken);
+    rmdir(folder);
 
     /* bad arguments */
     CHECK(pm_read_exr_channel("", "R", &w, &h, err, sizeof err) == NULL, "empty path");

@@ -5,6 +5,7 @@
  * pm_scene values against numbers worked out by hand. Rejection tests check the one-line error
  * ("PATH: what (where)") and that the scene was left empty.
  */
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -1212,6 +1213,313 @@ static void test_ignored_inputs(void) {
     pm_scene_free(&s);
 }
 
+/* ---------------------------------------------------------------- issue 11: what glTF forbids, any scale */
+
+/* Members of the wrong type or length, which tinygltf 2.7 replaced by their defaults (a white
+ * material, a unit light), and indices pmview does not use that still must resolve. */
+static void test_wrong_types_and_indices(void) {
+    prim_spec tri = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, 0};
+    static const struct { const char *name, *nodes, *materials, *extra, *expect; } cases[] = {
+        {"bcf3.gltf", NULL, "[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5]}}]", NULL,
+         "baseColorFactor must be 4 numbers, got 3 (material 0 pbrMetallicRoughness)"},
+        {"bcf_element.gltf", NULL, "[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,\"a\",1,1]}}]", NULL,
+         "baseColorFactor must be 4 numbers, got \"a\" at [1] (material 0 pbrMetallicRoughness)"},
+        {"rough_string.gltf", NULL, "[{\"pbrMetallicRoughness\":{\"roughnessFactor\":\"0.5\"}}]", NULL,
+         "roughnessFactor must be a finite number, got \"0.5\" (material 0 pbrMetallicRoughness)"},
+        {"metal_string.gltf", NULL, "[{\"pbrMetallicRoughness\":{\"metallicFactor\":\"0\"}}]", NULL,
+         "metallicFactor must be a finite number, got \"0\" (material 0 pbrMetallicRoughness)"},
+        {"pbr_array.gltf", NULL, "[{\"pbrMetallicRoughness\":[0]}]", NULL,
+         "pbrMetallicRoughness must be an object, got an array (material 0)"},
+        {"emissive_string.gltf", NULL, "[{\"emissiveFactor\":\"1\"}]", NULL, "emissiveFactor must be 3 numbers, got \"1\" (material 0)"},
+        {"double_sided.gltf", NULL, "[{\"doubleSided\":1}]", NULL, "doubleSided must be true or false, got 1 (material 0)"},
+        {"alpha_mode.gltf", NULL, "[{\"alphaMode\":\"CUTOUT\"}]", NULL,
+         "alphaMode must be one of OPAQUE, MASK, BLEND, got \"CUTOUT\" (material 0)"},
+        {"cutoff.gltf", NULL, "[{\"alphaCutoff\":\"0.5\"}]", NULL, "alphaCutoff must be a finite number"},
+        {"ior.gltf", NULL, "[{\"extensions\":{\"KHR_materials_ior\":{\"ior\":\"1.5\"}}}]", NULL,
+         "ior must be a finite number, got \"1.5\" (material 0 KHR_materials_ior)"},
+        {"transmission.gltf", NULL, "[{\"extensions\":{\"KHR_materials_transmission\":{\"transmissionFactor\":[1]}}}]", NULL,
+         "transmissionFactor must be a finite number, got an array (material 0 KHR_materials_transmission)"},
+        {"strength.gltf", NULL, "[{\"extensions\":{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":\"9\"}}}]", NULL,
+         "emissiveStrength must be a finite number"},
+        {"attenuation.gltf", NULL, "[{\"extensions\":{\"KHR_materials_volume\":{\"attenuationColor\":[1,1]}}}]", NULL,
+         "attenuationColor must be 3 numbers, got 2 (material 0 KHR_materials_volume)"},
+        {"volume_texture.gltf", NULL, "[{\"extensions\":{\"KHR_materials_volume\":{\"thicknessTexture\":{\"index\":4}}}}]", NULL,
+         "texture 4 does not exist (material 0 KHR_materials_volume thicknessTexture)"},
+        {"light_intensity.gltf", "[{\"mesh\":0,\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}]", "[{}]",
+         "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"point\",\"intensity\":\"5\"}]}},",
+         "intensity must be a finite number, got \"5\" (light 0)"},
+        {"light_color.gltf", "[{\"mesh\":0}]", "[{}]",
+         "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"point\",\"color\":[1,1]}]}},",
+         "color must be 3 numbers, got 2 (light 0)"},
+        {"light_type.gltf", "[{\"mesh\":0}]", "[{}]",
+         "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"area\"}]}},",
+         "type must be one of directional, point, spot, got \"area\" (light 0)"},
+        {"light_spot.gltf", "[{\"mesh\":0}]", "[{}]",
+         "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"spot\",\"spot\":{\"outerConeAngle\":\"1\"}}]}},",
+         "outerConeAngle must be a finite number, got \"1\" (light 0 spot)"},
+        {"camera_yfov.gltf", "[{\"mesh\":0},{\"camera\":0}]", "[{}]",
+         "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":\"1\",\"znear\":0.1}}],",
+         "yfov must be a finite number, got \"1\" (camera 0 perspective)"},
+        {"camera_missing.gltf", "[{\"mesh\":0}]", "[{}]", "\"cameras\":[{\"type\":\"orthographic\"}],",
+         "missing orthographic object (camera 0)"},
+        {"node_scale.gltf", "[{\"mesh\":0,\"scale\":\"big\"}]", "[{}]", NULL, "scale must be 3 numbers, got \"big\" (node 0)"},
+        {"node_translation.gltf", "[{\"mesh\":0,\"translation\":[1,\"2\",3]}]", "[{}]", NULL,
+         "translation must be 3 numbers, got \"2\" at [1] (node 0)"},
+        {"skin_joint.gltf", "[{\"mesh\":0}]", "[{}]", "\"skins\":[{\"joints\":[5]}],", "node 5 does not exist (skin 0 joint 0)"},
+        {"skin_matrices.gltf", "[{\"mesh\":0}]", "[{}]", "\"skins\":[{\"joints\":[0],\"inverseBindMatrices\":9}],",
+         "accessor 9 does not exist (skin 0 inverseBindMatrices)"},
+        {"skin_skeleton.gltf", "[{\"mesh\":0}]", "[{}]", "\"skins\":[{\"joints\":[0],\"skeleton\":3}],",
+         "node 3 does not exist (skin 0 skeleton)"},
+        {"animation_node.gltf", "[{\"mesh\":0}]", "[{}]",
+         "\"animations\":[{\"samplers\":[{\"input\":0,\"output\":0}],"
+         "\"channels\":[{\"sampler\":0,\"target\":{\"node\":9,\"path\":\"scale\"}}]}],",
+         "node 9 does not exist (animation 0 channel 0 target)"},
+        {"animation_sampler.gltf", "[{\"mesh\":0}]", "[{}]",
+         "\"animations\":[{\"samplers\":[{\"input\":0,\"output\":0}],"
+         "\"channels\":[{\"sampler\":1,\"target\":{\"node\":0,\"path\":\"scale\"}}]}],",
+         "animation sampler 1 does not exist (animation 0 channel 0)"},
+        {"animation_output.gltf", "[{\"mesh\":0}]", "[{}]",
+         "\"animations\":[{\"samplers\":[{\"input\":0,\"output\":8}],"
+         "\"channels\":[{\"sampler\":0,\"target\":{\"node\":0,\"path\":\"scale\"}}]}],",
+         "accessor 8 does not exist (animation 0 sampler 0 output)"},
+        {"basisu_source.gltf", "[{\"mesh\":0}]", "[{}]", "\"textures\":[{\"extensions\":{\"KHR_texture_basisu\":{\"source\":5}}}],",
+         "image 5 does not exist (texture 0 KHR_texture_basisu)"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        doc_spec doc = {cases[i].nodes, NULL, cases[i].materials, cases[i].extra};
+        write_model(cases[i].name, &tri, 1, &doc);
+        check_rejected(cases[i].name, cases[i].expect);
+    }
+
+    /* a morph target whose accessor does not exist: the primitive is written by hand */
+    write_text("morph_target.gltf",
+               "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+               "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"targets\":[{\"POSITION\":7}]}]}],"
+               "\"buffers\":[{\"byteLength\":36,\"uri\":\"data:application/octet-stream;base64,"
+               "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA\"}],"
+               "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],"
+               "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}]}");
+    check_rejected("morph_target.gltf", "accessor 7 does not exist (mesh 0 primitive 0 morph target 0 POSITION)");
+
+    /* the same members, well formed, alongside a skin and an animation: loads, and reads them */
+    doc_spec good = {"[{\"mesh\":0,\"scale\":[2,2,2],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},{\"camera\":0}]", "[0,1]",
+                     "[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.25,1,1],\"roughnessFactor\":0.5,\"metallicFactor\":0},"
+                     "\"alphaMode\":\"OPAQUE\",\"doubleSided\":true,\"emissiveFactor\":[0,0,0]}]",
+                     "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"spot\",\"color\":[1,1,1],\"intensity\":3,"
+                     "\"spot\":{\"outerConeAngle\":0.5}}]}},"
+                     "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":1,\"znear\":0.1}}],"
+                     "\"skins\":[{\"joints\":[0,1],\"skeleton\":0}],"
+                     "\"animations\":[{\"samplers\":[{\"input\":0,\"output\":0,\"interpolation\":\"STEP\"}],"
+                     "\"channels\":[{\"sampler\":0,\"target\":{\"node\":1,\"path\":\"translation\"}}]}],"};
+    write_model("typed_good.gltf", &tri, 1, &good);
+    pm_scene s;
+    pm_load_report r;
+    if (load_ok("typed_good.gltf", &s, &r)) {
+        CHECK(s.material_count == 1 && s.light_count == 1 && s.camera_count == 1, "materials %u lights %u cameras %u",
+              s.material_count, s.light_count, s.camera_count);
+        if (s.material_count == 1) {
+            CHECK_VEC(s.materials[0].base_color, 0.5, 0.25, 1, 0, "base colour as written");
+            CHECK(s.materials[0].roughness == 0.5f && s.materials[0].double_sided, "roughness %g", s.materials[0].roughness);
+        }
+        pm_scene_free(&s);
+    }
+}
+
+/* A 2x2 24-bit BMP stored top-down (negative height): stb_image's info call reports the height
+ * as -2, which the loader used to take for 18446744073709551614 and refuse. */
+static void test_top_down_bmp(void) {
+    static const unsigned char bmp[70] = {
+        'B', 'M', 70, 0, 0, 0, 0, 0, 0, 0, 54, 0, 0, 0,                  /* file header: size 70, pixels at 54 */
+        40, 0, 0, 0, 2, 0, 0, 0, 0xfe, 0xff, 0xff, 0xff, 1, 0, 24, 0,      /* info header: 2 x -2, 1 plane, 24 bits */
+        0, 0, 0, 0, 16, 0, 0, 0, 0x13, 0x0b, 0, 0, 0x13, 0x0b, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+        0, 0, 255, 0, 255, 0, 0, 0,         /* first row in the file = top: red, green (BGR), 2 bytes padding */
+        255, 0, 0, 255, 255, 255, 0, 0};    /* bottom: blue, white */
+    text extra = {0};
+    text_append(&extra, "\"images\":[{\"uri\":\"data:image/bmp;base64,");
+    base64_append(&extra, bmp, sizeof bmp);
+    text_append(&extra, "\"}],\"textures\":[{\"source\":0}],");
+    static const float uvs[6] = {0, 0, 1, 0, 0, 1};
+    prim_spec tri = {unit_triangle, 3, NULL, uvs, 0, NULL, 0, 0, -1, 0};
+    doc_spec doc = {NULL, NULL, "[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}]", extra.data};
+    write_model("top_down_bmp.gltf", &tri, 1, &doc);
+    free(extra.data);
+    pm_scene s;
+    pm_load_report r;
+    if (!load_ok("top_down_bmp.gltf", &s, &r)) return;
+    CHECK(s.texture_count == 1 && r.warnings == 0, "the BMP must decode: %u textures, %u warnings", s.texture_count, r.warnings);
+    if (s.texture_count == 1) {
+        const pm_texture *t = &s.textures[0];
+        static const unsigned char want[16] = {255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255};
+        CHECK(t->width == 2 && t->height == 2, "size %dx%d", t->width, t->height);
+        CHECK(t->width == 2 && t->height == 2 && memcmp(t->rgba, want, 16) == 0,
+              "row 0 must be the top row (red, green): %u %u %u, %u %u %u", t->rgba[0], t->rgba[1], t->rgba[2], t->rgba[4],
+              t->rgba[5], t->rgba[6]);
+    }
+    pm_scene_free(&s);
+}
+
+/* Largest extent of the loaded vertices. */
+static double loaded_extent(const pm_scene *s) {
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY}, e = 0;
+    for (uint32_t v = 0; v < s->vertex_count; v++)
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fmin(lo[k], v3_get(s->positions[v], k));
+            hi[k] = fmax(hi[k], v3_get(s->positions[v], k));
+        }
+    for (int k = 0; k < 3; k++) e = fmax(e, hi[k] - lo[k]);
+    return e;
+}
+
+/* A triangle at scales whose float cross product underflows (1e-12: its squared length is
+ * 1e-48) or overflows (1e30), and beyond float's range in the file's own transform (1e-40,
+ * 1e38 x the triangle): every one loads, framed near unit size by a power of two, with the
+ * camera and a point light framed alike (the same irradiance). */
+static void test_any_scale(void) {
+    static const double scales[] = {1e-12, 1e30, 1e-40, 1e38, 1};
+    for (size_t i = 0; i < sizeof scales / sizeof scales[0]; i++) {
+        char nodes[512];
+        snprintf(nodes, sizeof nodes,
+                 "[{\"scale\":[%.17g,%.17g,%.17g],\"children\":[1,2,3]},{\"mesh\":0},"
+                 "{\"camera\":0,\"translation\":[0.25,0.25,4]},"
+                 "{\"translation\":[0,0,2],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}]",
+                 scales[i], scales[i], scales[i]);
+        doc_spec doc = {nodes, NULL, NULL,
+                        "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.5,\"znear\":0.5}}],"
+                        "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"point\",\"intensity\":8}]}},"};
+        prim_spec tri = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1};
+        write_model("scaled.gltf", &tri, 1, &doc);
+        pm_scene s;
+        pm_load_report r;
+        if (!load_ok("scaled.gltf", &s, &r)) {
+            fprintf(stderr, "  (scale %g)\n", scales[i]);
+            continue;
+        }
+        double k = r.unit_scale * scales[i]; /* scene units per triangle unit */
+        CHECK(s.triangle_count == 1 && r.skipped_degenerate == 0, "scale %g: %u triangles, %u degenerate", scales[i],
+              s.triangle_count, r.skipped_degenerate);
+        CHECK(r.unit_scale == ldexp(1.0, ilogb(r.unit_scale)), "scale %g: unit_scale %g is a power of two", scales[i], r.unit_scale);
+        CHECK(scales[i] != 1 || r.unit_scale == 1, "a unit-size scene is not rescaled (unit_scale %g)", r.unit_scale);
+        CHECK(k > 0.5 && k <= 2, "scale %g: the triangle spans %g scene units, want (0.5, 2]", scales[i], k);
+        if (s.triangle_count == 1) {
+            CHECK_NEAR(loaded_extent(&s), k, 1e-6, 0, "extent of the framed triangle");
+            CHECK_VEC(tri_geometric_normal(&s, 0), 0, 0, 1, 1e-6, "geometric normal");
+            CHECK_VEC(s.normals[s.indices[0]], 0, 0, 1, 1e-6, "generated shading normal");
+        }
+        if (s.camera_count == 1 && s.light_count == 1) {
+            CHECK_VEC(s.cameras[0].position, 0.25 * k, 0.25 * k, 4 * k, 1e-6 * k, "camera framed with the scene");
+            /* znear and light intensities are not scaled by node transforms (glTF), only by the framing */
+            CHECK_NEAR(s.cameras[0].znear, fmin(0.5 * r.unit_scale, FLT_MAX), 1e-6, 0, "znear framed with the scene");
+            CHECK_VEC(s.lights[0].position, 0, 0, 2 * k, 1e-6 * k, "light framed with the scene");
+            /* the irradiance the light gives the triangle, 8 / (2 scale)^2, is kept: 8 unit_scale^2
+             * over the framed distance squared; beyond a float it is clamped (with a warning) */
+            double want = 8 * r.unit_scale * r.unit_scale;
+            if (want <= FLT_MAX) CHECK_NEAR(s.lights[0].intensity.x, want, 1e-6, 1e-44, "point light irradiance kept");
+            else CHECK(s.lights[0].intensity.x == FLT_MAX && r.warnings >= 1, "scale %g: intensity %g, want FLT_MAX and a warning",
+                       scales[i], s.lights[0].intensity.x);
+        } else CHECK(0, "scale %g: cameras %u lights %u", scales[i], s.camera_count, s.light_count);
+        pm_scene_free(&s);
+    }
+
+    /* 1e5 from the origin at 1e-3 scale: float spacing at 1e5 (0.0078) is coarser than the
+     * triangle, which collapsed; recentred, its shape survives exactly */
+    doc_spec far = {"[{\"translation\":[1e5,1e5,1e5],\"scale\":[1e-3,1e-3,1e-3],\"mesh\":0}]", NULL, NULL, NULL};
+    static const float right_triangle[9] = {0, 0, 0, 3, 0, 0, 0, 4, 0};
+    prim_spec tri = {right_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1};
+    write_model("far.gltf", &tri, 1, &far);
+    pm_scene s;
+    pm_load_report r;
+    if (load_ok("far.gltf", &s, &r)) {
+        CHECK(r.recentered && r.unit_scale == 1, "recentred %d, unit_scale %g", r.recentered, r.unit_scale);
+        if (s.triangle_count == 1) {
+            vec3 a = tri_vertex(&s, 0, 0), b = tri_vertex(&s, 0, 1), c = tri_vertex(&s, 0, 2);
+            CHECK_NEAR(v3_length(v3_sub(b, a)), 3e-3, 1e-5, 0, "edge 3e-3");
+            CHECK_NEAR(v3_length(v3_sub(c, a)), 4e-3, 1e-5, 0, "edge 4e-3");
+            CHECK_NEAR(v3_length(v3_sub(c, b)), 5e-3, 1e-5, 0, "hypotenuse 5e-3");
+        } else CHECK(0, "far triangle count %u", s.triangle_count);
+        pm_scene_free(&s);
+    }
+
+    /* a file whose every triangle is dropped says why */
+    static const float collinear[9] = {0, 0, 0, 1, 0, 0, 2, 0, 0};
+    prim_spec line = {collinear, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1};
+    write_model("all_degenerate.gltf", &line, 1, NULL);
+    check_rejected("all_degenerate.gltf", "nothing to render: all 1 triangle(s) of the default scene are degenerate");
+    doc_spec flat = {"[{\"mesh\":0,\"scale\":[1,0,1]}]", NULL, NULL, NULL};
+    write_model("flattened.gltf", &tri, 1, &flat);
+    check_rejected("flattened.gltf", "are degenerate (zero area");
+}
+
+/* A GLB: the header, then chunks given as (type, bytes, length); lengths are written as given. */
+static void write_glb(const char *name, const uint32_t *types, const void *const *payloads, const uint32_t *lengths,
+                      int chunks) {
+    unsigned char out[4096];
+    uint32_t size = 12;
+    for (int c = 0; c < chunks; c++) {
+        memcpy(out + size, &lengths[c], 4);
+        memcpy(out + size + 4, &types[c], 4);
+        memcpy(out + size + 8, payloads[c], lengths[c]);
+        size += 8 + lengths[c];
+    }
+    uint32_t version = 2;
+    memcpy(out, "glTF", 4);
+    memcpy(out + 4, &version, 4);
+    memcpy(out + 8, &size, 4);
+    char path[256];
+    model_path(name, path, sizeof path);
+    write_file(path, out, size);
+}
+
+/* What the GLB container rules forbid and tinygltf 2.7 accepted: a chunk not 4-byte aligned, a
+ * second BIN chunk, a GLB-stored buffer other than buffer 0, a BIN chunk over 3 bytes longer
+ * than its buffer. An unknown chunk type after BIN is ignored, as the specification says. */
+static void test_glb_container(void) {
+    const uint32_t json_type = 0x4E4F534Au, bin_type = 0x004E4942u, other_type = 0x12345678u;
+    static const char json_good[] =
+        "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}],\"buffers\":[{\"byteLength\":36}],"
+        "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],"
+        "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}]}";
+    static const char json_two[] =
+        "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}],"
+        "\"buffers\":[{\"byteLength\":4,\"uri\":\"data:application/octet-stream;base64,AAAAAA==\"},{\"byteLength\":36}],"
+        "\"bufferViews\":[{\"buffer\":1,\"byteLength\":36}],"
+        "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}]}";
+    char padded[1024], padded_two[1024];
+    uint32_t length = (uint32_t)((strlen(json_good) + 3) & ~(size_t)3), length_two = (uint32_t)((strlen(json_two) + 3) & ~(size_t)3);
+    memset(padded, ' ', sizeof padded);
+    memcpy(padded, json_good, strlen(json_good));
+    memset(padded_two, ' ', sizeof padded_two);
+    memcpy(padded_two, json_two, strlen(json_two));
+    unsigned char bin[44] = {0};
+    memcpy(bin, unit_triangle, 36);
+
+    uint32_t types[3] = {json_type, bin_type, other_type};
+    const void *payloads[3] = {padded, bin, bin};
+    uint32_t lengths[3] = {length, 36, 8};
+    write_glb("glb_good.glb", types, payloads, lengths, 3);
+    pm_scene s;
+    pm_load_report r;
+    if (load_ok("glb_good.glb", &s, &r)) {
+        CHECK(s.triangle_count == 1, "GLB triangle count %u", s.triangle_count);
+        pm_scene_free(&s);
+    }
+    uint32_t unaligned[2] = {length - 1, 36};
+    write_glb("glb_unaligned.glb", types, payloads, unaligned, 2);
+    check_rejected("glb_unaligned.glb", "GLB chunk 0 length");
+    uint32_t second_bin[3] = {json_type, bin_type, bin_type};
+    uint32_t three[3] = {length, 36, 36};
+    write_glb("glb_two_bin.glb", second_bin, payloads, three, 3);
+    check_rejected("glb_two_bin.glb", "GLB chunk 2 is a second BIN chunk");
+    uint32_t long_bin[2] = {length, 44};
+    write_glb("glb_long_bin.glb", types, payloads, long_bin, 2);
+    check_rejected("glb_long_bin.glb", "byteLength 36 but the GLB BIN chunk has 44 bytes (at most 3 bytes of padding)");
+    const void *payloads_two[2] = {padded_two, bin};
+    uint32_t lengths_two[2] = {length_two, 36};
+    write_glb("glb_buffer1.glb", types, payloads_two, lengths_two, 2);
+    check_rejected("glb_buffer1.glb", "buffer 1 has no uri: only buffer 0 can be the GLB's BIN chunk");
+}
+
 int main(void) {
     snprintf(test_dir, sizeof test_dir, "/tmp/pmview-test-loader-XXXXXX");
     if (!mkdtemp(test_dir)) {
@@ -1237,6 +1545,10 @@ int main(void) {
     test_skips();
     test_sparse();
     test_rejections();
+    test_wrong_types_and_indices();
+    test_top_down_bmp();
+    test_any_scale();
+    test_glb_container();
     char command[128];
     snprintf(command, sizeof command, "rm -rf '%s'", test_dir);
     if (system(command) != 0) fprintf(stderr, "could not remove %s\n", test_dir);
