@@ -15,6 +15,7 @@
 #include "film.h"
 #include "photonmap.h"
 #include "scene.h"
+#include "shadowmap.h"
 
 typedef enum { PM_INDIRECT_GATHER = 0, PM_INDIRECT_PHOTONS = 1 } pm_indirect_mode;
 
@@ -27,12 +28,15 @@ typedef struct {
     pm_indirect_mode indirect;
     int gather_rays;          /* final-gather rays per eye sample at the first diffuse hit */
     bool view_photons;        /* show the maps' estimates at the first diffuse hit, no shadow rays */
+    const pm_shadow_map *shadow; /* shadow photons; NULL: every punctual light sample casts its shadow ray */
 } pm_eye_settings;
 
 typedef struct {
     uint64_t rays;            /* closest-hit + shadow rays cast */
     double seconds;
     uint64_t dropped_samples; /* component samples that were NaN or infinite, left out of the film */
+    uint64_t shadow_rays;     /* direct light's shadow rays toward light samples (punctual, emitter, sky map), among rays */
+    uint64_t shadow_rays_saved; /* punctual light samples that shadow photons decided without a ray */
     bool failed;              /* out of memory: the pass did not run */
 } pm_eye_stats;
 
