@@ -34,6 +34,8 @@
 #define PM_SHADOW_MIN_COUNT 8             /* the threshold: a light is decided without a ray only when at least this many of its
                                              photons are near and all agree (at most 15) */
 #define PM_SHADOW_MAX_CROSSINGS 16        /* surfaces a shadow photon passes through before it stops */
+#define PM_SHADOW_MIN_GAIN 2.0            /* ... and keeps it only when, timed on random surface points, the shadow rays it decides
+                                             take at least this many times as long as its lookups (big scenes, alpha-tested leaves) */
 #define PM_SHADOW_TIME_SHARE 0.1         /* with --time: the shadow photons stop starting chunks after this share of the budget */
 #define PM_SHADOW_PAYBACK 4.0             /* by default a render gets shadow photons only when its shadow rays (samples x lights
                                              shaded) are at least this many times the photons the map would trace */

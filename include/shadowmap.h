@@ -47,6 +47,9 @@ typedef struct {
     size_t cells, bytes;         /* table entries in use, bytes of the table */
     double seconds;
     float cell_size, spacing;    /* scene units; spacing: between one light's records at their mean density */
+    /* the probe (random surface points, every light): the share of light samples the map decides,
+     * and the nanoseconds per light sample of the lookups and of the shadow rays */
+    double probe_decided, probe_lookup_ns, probe_ray_ns;
     bool out_of_memory;
 } pm_shadow_stats;
 
@@ -55,10 +58,11 @@ typedef struct pm_shadow_map pm_shadow_map;
 /* Photons per light for an image of that many pixels: PM_SHADOW_PHOTONS_PER_PIXEL each, clamped. */
 uint64_t pm_shadow_default_photons(int width, int height);
 
-/* Why a scene gets no map under these settings (NULL: it gets one): "off", "no_punctual_lights",
- * "too_many_lights", "stochastic_transparency" (BLEND lets rays through at random: no photon
- * can vouch for a ray), "would_not_pay" (auto: fewer shadow rays than PM_SHADOW_PAYBACK x the
- * photons). */
+/* Why a scene gets no map under these settings before one is built (NULL: it may get one): "off",
+ * "no_punctual_lights", "too_many_lights", "stochastic_transparency" (BLEND lets rays through at
+ * random: no photon can vouch for a ray), "would_not_pay" (auto: fewer shadow rays than
+ * PM_SHADOW_PAYBACK x the photons). After building, auto also drops a map whose probe finds
+ * the rays it saves cheaper than PM_SHADOW_MIN_GAIN x its lookups ("would_not_pay"). */
 const char *pm_shadow_map_unneeded(const pm_scene *s, const pm_shadow_settings *set);
 
 /* Traces and summarises the shadow photons. NULL when the scene gets none (stats->reason says

@@ -719,10 +719,10 @@ static void print_final_stats(const options *opt, pm_session *session, const pm_
         }
     }
     const pm_shadow_stats *sh = pm_session_shadow_stats(session);
-    printf("stat shadow_photons built=%d reason=%s lights=%u photons=%llu records=%llu rays=%llu cells=%zu bytes=%zu cell_size=%.6g spacing=%.6g seconds=%.4f\n",
+    printf("stat shadow_photons built=%d reason=%s lights=%u photons=%llu records=%llu rays=%llu cells=%zu bytes=%zu cell_size=%.6g spacing=%.6g seconds=%.4f probe_decided=%.3f probe_lookup_ns=%.1f probe_ray_ns=%.1f\n",
            sh->built, sh->built ? "none" : (sh->reason ? sh->reason : "not_reached"), sh->lights,
            (unsigned long long)sh->photons, (unsigned long long)sh->records, (unsigned long long)sh->rays, sh->cells,
-           sh->bytes, sh->cell_size, sh->spacing, sh->seconds);
+           sh->bytes, sh->cell_size, sh->spacing, sh->seconds, sh->probe_decided, sh->probe_lookup_ns, sh->probe_ray_ns);
     printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu shadow_rays=%llu shadow_rays_saved=%llu\n",
            film->samples, (unsigned long long)eye_stats.rays, eye_stats.seconds,
            eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, opt->threads,

@@ -254,6 +254,68 @@ static double shaded_area(const pm_scene *s) {
     return area;
 }
 
+/* What lookups cost against the shadow rays they replace, timed on this machine at random points
+ * of the surfaces that can have direct light (both sides, every light in front): the time of a
+ * lookup and of a shadow ray, and the share of light samples the map decides. The image does not
+ * depend on it (a decided sample gives what its ray would), only the speed. */
+static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, pm_shadow_stats *stats) {
+    enum { POINTS = 4096 };
+    typedef struct { vec3 p, n, origin; } probe_point;
+    probe_point *points = malloc(POINTS * sizeof *points);
+    double *cdf = malloc(((size_t)s->triangle_count + 1) * sizeof *cdf);
+    if (!points || !cdf) { free(points); free(cdf); return false; }
+    cdf[0] = 0.0;
+    for (uint32_t t = 0; t < s->triangle_count; t++) {
+        const pm_material *mat = &s->materials[s->triangle_material[t]];
+        cdf[t + 1] = cdf[t] + (mat->may_diffuse || mat->may_glossy ? pm_triangle_area(s, t) : 0.0);
+    }
+    pm_rng rng = pm_rng_for(0x5ad0, 1, 2);
+    size_t n = 0;
+    for (int k = 0; k < POINTS && cdf[s->triangle_count] > 0.0; k++) {
+        double u = pm_rng_float(&rng) * cdf[s->triangle_count];
+        uint32_t lo = 0, hi = s->triangle_count;
+        while (lo + 1 < hi) {
+            uint32_t mid = (lo + hi) / 2;
+            if (cdf[mid] <= u) lo = mid; else hi = mid;
+        }
+        float r1 = sqrtf(pm_rng_float(&rng)), r2 = pm_rng_float(&rng);
+        pm_surface sf;
+        pm_scene_surface(s, lo, r1 * (1.f - r2), r1 * r2, &sf);
+        vec3 side = pm_rng_float(&rng) < 0.5f ? sf.ng : v3_neg(sf.ng);
+        points[n++] = (probe_point){sf.p, side, pm_surface_origin(&sf, side, s->ray_scale)};
+    }
+    free(cdf);
+    uint64_t samples = 0, decided = 0, hidden = 0;
+    double t0 = now_seconds();
+    for (size_t i = 0; i < n; i++) {
+        const uint8_t *found = pm_shadow_map_find(m, points[i].p, points[i].n);
+        for (uint32_t l = 0; l < s->light_count; l++) decided += pm_shadow_map_verdict(m, found, l) != PM_VISIBILITY_UNKNOWN;
+    }
+    double t1 = now_seconds();
+    for (size_t i = 0; i < n; i++)
+        for (uint32_t l = 0; l < s->light_count; l++) {
+            const pm_light *light = &s->lights[l];
+            vec3 wi = v3_neg(light->direction);
+            float tmax = INFINITY;
+            if (light->type != PM_LIGHT_DIRECTIONAL) {
+                vec3 to = v3_sub(light->position, points[i].origin);
+                tmax = v3_length(to);
+                wi = v3_scale(to, 1.f / pm_maxf(tmax, 1e-30f));
+            }
+            samples++;
+            hidden += pm_accel_occluded(a, points[i].origin, wi, tmax);
+        }
+    double t2 = now_seconds();
+    free(points);
+    (void)hidden;
+    if (samples) {
+        stats->probe_decided = (double)decided / (double)samples;
+        stats->probe_lookup_ns = (t1 - t0) / (double)samples * 1e9;
+        stats->probe_ray_ns = (t2 - t1) / (double)samples * 1e9;
+    }
+    return true;
+}
+
 pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const pm_shadow_settings *set,
                                    pm_shadow_stats *stats) {
     double start = now_seconds();
@@ -310,14 +372,27 @@ pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const p
         stats->out_of_memory = true;
         return NULL;
     }
-    stats->built = true;
     stats->photons = photons_per_light(set) * s->light_count;
     stats->records = records;
     stats->cells = m->used;
     stats->bytes = m->capacity * sizeof(entry) + sizeof *m;
     stats->cell_size = m->cell;
     stats->spacing = density > 0.0 ? (float)(1.0 / sqrt(density)) : 0.f;
+    ok = probe(s, a, m, stats);
     stats->seconds = now_seconds() - start;
+    if (!ok) {
+        pm_shadow_map_free(m);
+        stats->out_of_memory = true;
+        return NULL;
+    }
+    if (set->mode == PM_SHADOW_AUTO &&
+        !(stats->probe_decided * stats->probe_ray_ns >= PM_SHADOW_MIN_GAIN * stats->probe_lookup_ns)) {
+        /* the rays it would save are too cheap for the lookups (a small scene): no map */
+        pm_shadow_map_free(m);
+        stats->reason = "would_not_pay";
+        return NULL;
+    }
+    stats->built = true;
     return m;
 }
 
