@@ -285,13 +285,11 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
         points[n++] = (probe_point){sf.p, side, pm_surface_origin(&sf, side, s->ray_scale)};
     }
     free(cdf);
-    uint64_t samples = 0, decided = 0, hidden = 0;
-    double t0 = now_seconds();
-    for (size_t i = 0; i < n; i++) {
-        const uint8_t *found = pm_shadow_map_find(m, points[i].p, points[i].n);
-        for (uint32_t l = 0; l < s->light_count; l++) decided += pm_shadow_map_verdict(m, found, l) != PM_VISIBILITY_UNKNOWN;
-    }
-    double t1 = now_seconds();
+    /* the light samples direct light would take there: each light in front of the side */
+    typedef struct { uint32_t point, light; vec3 wi; float tmax; } probe_sample;
+    probe_sample *samples = malloc(n * s->light_count * sizeof *samples + 1);
+    if (!samples) { free(points); return false; }
+    size_t count = 0;
     for (size_t i = 0; i < n; i++)
         for (uint32_t l = 0; l < s->light_count; l++) {
             const pm_light *light = &s->lights[l];
@@ -302,16 +300,26 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
                 tmax = v3_length(to);
                 wi = v3_scale(to, 1.f / pm_maxf(tmax, 1e-30f));
             }
-            samples++;
-            hidden += pm_accel_occluded(a, points[i].origin, wi, tmax);
+            if (v3_dot(wi, points[i].n) > 0.f) samples[count++] = (probe_sample){(uint32_t)i, l, wi, tmax};
         }
+    uint64_t decided = 0, hidden = 0;
+    double t0 = now_seconds();
+    for (size_t k = 0; k < count; k++) {
+        const probe_point *q = &points[samples[k].point];
+        decided += pm_shadow_map_verdict(m, pm_shadow_map_find(m, q->p, q->n), samples[k].light) != PM_VISIBILITY_UNKNOWN;
+    }
+    double t1 = now_seconds();
+    for (size_t k = 0; k < count; k++)
+        hidden += pm_accel_occluded(a, points[samples[k].point].origin, samples[k].wi, samples[k].tmax);
     double t2 = now_seconds();
     free(points);
-    (void)hidden;
-    if (samples) {
-        stats->probe_decided = (double)decided / (double)samples;
-        stats->probe_lookup_ns = (t1 - t0) / (double)samples * 1e9;
-        stats->probe_ray_ns = (t2 - t1) / (double)samples * 1e9;
+    free(samples);
+    (void)hidden; /* kept so the compiler cannot drop the rays */
+    double samples_done = (double)count;
+    if (samples_done > 0.0) {
+        stats->probe_decided = (double)decided / samples_done;
+        stats->probe_lookup_ns = (t1 - t0) / samples_done * 1e9;
+        stats->probe_ray_ns = (t2 - t1) / samples_done * 1e9;
     }
     return true;
 }
