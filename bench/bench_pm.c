@@ -186,15 +186,17 @@ static void gather_structures(const pm_photon_maps *maps, float radius) {
 }
 
 /* Eye passes (direct light and specular, no photon maps) with and without shadow photons, on
- * the scene as loaded and with `extra_lights` point lights added under its top: seconds of the
- * best of three interleaved runs, the share of shadow rays saved, and what the map costs. */
-static void shadow_photons(const char *path, int extra_lights) {
+ * the scene as loaded and with point lights added under its top until it has `lights` (0: as
+ * loaded): seconds of the best of three interleaved runs, the share of shadow rays saved, and what
+ * the map costs. */
+static void shadow_photons(const char *path, int lights) {
     pm_scene s;
     pm_load_report rep;
     char err[1024];
     if (!pm_load_gltf(path, true, &s, &rep, err, sizeof err)) return;
     pm_scene_finalize(&s, true, NULL);
     vec3 ext = v3_sub(s.bounds_max, s.bounds_min);
+    int extra_lights = lights > (int)s.light_count ? lights - (int)s.light_count : 0;
     for (int i = 0; i < extra_lights; i++) {
         s.lights = realloc(s.lights, (s.light_count + 1) * sizeof *s.lights);
         pm_light l;
