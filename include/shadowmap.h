@@ -8,9 +8,9 @@
  * material with a glass share) a record is "uncertain" instead: the light may come through.
  * Only surfaces that can have direct light (a diffuse or glossy share) keep records.
  *
- * The records are then summarised into a hash table keyed by grid cell and normal direction
- * (the nearest of the six axis directions; along that axis cells are four times thinner, so a
- * shelf and the floor under it stay apart), holding per light saturating counts of the
+ * The records are then summarised into a hash table keyed by grid cell and side (the nearest of
+ * the six axis directions to the side's normal, and whether it is the triangle's front; along that
+ * axis cells are four times thinner, so a shelf and the floor under it stay apart), holding per light saturating counts of the
  * illumination and shadow records within half a cell of any point of the cell (each record is
  * counted in the up to eight cells that half a cell around it touches). A lookup is one probe. A light counts as seen when at least `min_count`
  * of its records are near and none is a shadow record, as hidden when at least that many are
@@ -74,8 +74,9 @@ void pm_shadow_map_free(pm_shadow_map *m);
 typedef enum { PM_VISIBILITY_UNKNOWN = 0, PM_VISIBILITY_SEEN = 1, PM_VISIBILITY_HIDDEN = 2 } pm_visibility;
 
 /* The counts of every light at point p of a surface whose side toward those lights faces n
- * (its geometric normal), for pm_shadow_map_verdict; NULL when no record came near. */
-const uint8_t *pm_shadow_map_find(const pm_shadow_map *m, vec3 p, vec3 n);
+ * (the geometric normal of that side; front: it is the triangle's own normal, not its reverse),
+ * for pm_shadow_map_verdict; NULL when no record came near. */
+const uint8_t *pm_shadow_map_find(const pm_shadow_map *m, vec3 p, vec3 n, bool front);
 /* What the records found say about light `light` (an index into the scene's lights). */
 pm_visibility pm_shadow_map_verdict(const pm_shadow_map *m, const uint8_t *found, uint32_t light);
 

@@ -124,7 +124,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
     bool sampled_lights = s->light_count > PM_DIRECT_LIGHT_SAMPLES;
     uint32_t light_samples = sampled_lights ? PM_DIRECT_LIGHT_SAMPLES : s->light_count;
     float stratum = sampled_lights ? pm_rng_float(rng) : 0.f;
-    const uint8_t *records = shadow && light_samples ? pm_shadow_map_find(shadow, sf->p, ng) : NULL;
+    const uint8_t *records = shadow && light_samples ? pm_shadow_map_find(shadow, sf->p, ng, v3_dot(ng, sf->ng) > 0.f) : NULL;
     for (uint32_t j = 0; j < light_samples; j++) {
         uint32_t i = j;
         float pick_weight = 1.f;

@@ -30,7 +30,7 @@ enum { RECORD_SEEN = 0, RECORD_HIDDEN = 1, RECORD_UNCERTAIN = 2 };
 typedef struct {
     vec3 p;
     uint16_t light;
-    uint8_t direction; /* normal_bucket() of the side the photon arrived on */
+    uint8_t side;      /* side_code() of the side the photon arrived on */
     uint8_t state;     /* RECORD_* */
 } record;
 
@@ -72,13 +72,14 @@ static double now_seconds(void) {
 
 static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
 
-/* Which of the six axis directions n is nearest: records and lookups on differently facing
- * surfaces (a floor and the wall it meets) never mix. */
-static inline int normal_bucket(vec3 n) {
+/* Which of the six axis directions n (the side's normal) is nearest, times two, plus one on a
+ * triangle's front (its own normal is n): records and lookups on differently facing surfaces (a
+ * floor and the wall it meets) never mix, nor the outside of a thin closed object with its inside
+ * (its far wall, seen from within, faces the same way as its near wall). */
+static inline int side_code(vec3 n, bool front) {
     float ax = fabsf(n.x), ay = fabsf(n.y), az = fabsf(n.z);
-    if (ax >= ay && ax >= az) return n.x >= 0.f ? 0 : 1;
-    if (ay >= az) return n.y >= 0.f ? 2 : 3;
-    return n.z >= 0.f ? 4 : 5;
+    int bucket = ax >= ay && ax >= az ? (n.x >= 0.f ? 0 : 1) : (ay >= az ? (n.y >= 0.f ? 2 : 3) : (n.z >= 0.f ? 4 : 5));
+    return 2 * bucket + (front ? 1 : 0);
 }
 
 uint64_t pm_shadow_default_photons(int width, int height) {
@@ -165,10 +166,10 @@ static void trace_chunk(void *ctx, size_t task, int thread) {
             const uint32_t *ix = s->indices + 3 * (size_t)h.tri;
             vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
             vec3 p = v3_add(v3_add(v3_scale(p0, 1.f - h.b1 - h.b2), v3_scale(p1, h.b1)), v3_scale(p2, h.b2));
-            vec3 toward_light = facing(v3_normalize(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0))), v3_neg(d));
+            vec3 face = v3_normalize(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0))), toward_light = facing(face, v3_neg(d));
             const pm_material *m = &s->materials[s->triangle_material[h.tri]];
             if (m->may_diffuse || m->may_glossy) {
-                record r = {p, (uint16_t)light, (uint8_t)normal_bucket(toward_light), (uint8_t)state};
+                record r = {p, (uint16_t)light, (uint8_t)side_code(toward_light, v3_dot(face, d) < 0.f), (uint8_t)state};
                 if (!push(&list, &count, &capacity, r)) { failed = true; break; }
             }
             /* a shadow ray stops at every surface, glass included; but light does pass glass (as a
@@ -204,24 +205,24 @@ static bool grow_table(pm_shadow_map *m) {
     return true;
 }
 
-static inline uint64_t cell_key(uint32_t x, uint32_t y, uint32_t z, int direction) {
-    return (((uint64_t)x << (2 * AXIS_BITS + 3)) | ((uint64_t)y << (AXIS_BITS + 3)) | ((uint64_t)z << 3) | (uint64_t)direction) + 1u;
+static inline uint64_t cell_key(uint32_t x, uint32_t y, uint32_t z, int side) {
+    return (((uint64_t)x << (2 * AXIS_BITS + 4)) | ((uint64_t)y << (AXIS_BITS + 4)) | ((uint64_t)z << 4) | (uint64_t)side) + 1u;
 }
 
 /* A point's position in cells: along the axis its surfaces face (the bucket's), cells are
  * LAYERS times thinner, so a surface and a parallel one a little above it (a shelf over a floor)
  * do not share records. */
-static inline void grid_position(const pm_shadow_map *m, vec3 p, int direction, float g[3]) {
+static inline void grid_position(const pm_shadow_map *m, vec3 p, int side, float g[3]) {
     g[0] = (p.x - m->origin.x) * m->inv_cell;
     g[1] = (p.y - m->origin.y) * m->inv_cell;
     g[2] = (p.z - m->origin.z) * m->inv_cell;
-    g[direction / 2] *= LAYERS;
+    g[side / 4] *= LAYERS;
 }
 
 /* Counts a record in every cell that half a cell around it touches. */
 static bool add_record(pm_shadow_map *m, const record *r) {
     float g[3];
-    grid_position(m, r->p, r->direction, g);
+    grid_position(m, r->p, r->side, g);
     uint32_t lo[3], hi[3];
     for (int a = 0; a < 3; a++) {
         float l = floorf(g[a] - 0.5f), h = floorf(g[a] + 0.5f), top = (float)(m->cells_per_axis - 1);
@@ -232,7 +233,7 @@ static bool add_record(pm_shadow_map *m, const record *r) {
         for (uint32_t y = lo[1]; y <= hi[1]; y++)
             for (uint32_t z = lo[2]; z <= hi[2]; z++) {
                 if (2 * (m->used + 1) > m->capacity && !grow_table(m)) return false;
-                uint64_t key = cell_key(x, y, z, r->direction);
+                uint64_t key = cell_key(x, y, z, r->side);
                 entry *e = slot_of(m->slots, m->capacity, key);
                 if (!e->key) { e->key = key; m->used++; }
                 uint8_t *c = &e->counts[r->light];
@@ -260,7 +261,7 @@ static double shaded_area(const pm_scene *s) {
  * depend on it (a decided sample gives what its ray would), only the speed. */
 static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, pm_shadow_stats *stats) {
     enum { POINTS = 4096 };
-    typedef struct { vec3 p, n, origin; } probe_point;
+    typedef struct { vec3 p, n, origin; bool front; } probe_point;
     probe_point *points = malloc(POINTS * sizeof *points);
     double *cdf = malloc(((size_t)s->triangle_count + 1) * sizeof *cdf);
     if (!points || !cdf) { free(points); free(cdf); return false; }
@@ -281,8 +282,9 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
         float r1 = sqrtf(pm_rng_float(&rng)), r2 = pm_rng_float(&rng);
         pm_surface sf;
         pm_scene_surface(s, lo, r1 * (1.f - r2), r1 * r2, &sf);
-        vec3 side = pm_rng_float(&rng) < 0.5f ? sf.ng : v3_neg(sf.ng);
-        points[n++] = (probe_point){sf.p, side, pm_surface_origin(&sf, side, s->ray_scale)};
+        bool front = pm_rng_float(&rng) < 0.5f;
+        vec3 side = front ? sf.ng : v3_neg(sf.ng);
+        points[n++] = (probe_point){sf.p, side, pm_surface_origin(&sf, side, s->ray_scale), front};
     }
     free(cdf);
     /* the light samples direct light would take there: each light in front of the side */
@@ -306,7 +308,7 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
     double t0 = now_seconds();
     for (size_t k = 0; k < count; k++) {
         const probe_point *q = &points[samples[k].point];
-        decided += pm_shadow_map_verdict(m, pm_shadow_map_find(m, q->p, q->n), samples[k].light) != PM_VISIBILITY_UNKNOWN;
+        decided += pm_shadow_map_verdict(m, pm_shadow_map_find(m, q->p, q->n, q->front), samples[k].light) != PM_VISIBILITY_UNKNOWN;
     }
     double t1 = now_seconds();
     for (size_t k = 0; k < count; k++)
@@ -410,17 +412,17 @@ void pm_shadow_map_free(pm_shadow_map *m) {
     free(m);
 }
 
-const uint8_t *pm_shadow_map_find(const pm_shadow_map *m, vec3 p, vec3 n) {
+const uint8_t *pm_shadow_map_find(const pm_shadow_map *m, vec3 p, vec3 n, bool front) {
     if (!m->used) return NULL;
-    int direction = normal_bucket(n);
+    int side = side_code(n, front);
     float g[3];
-    grid_position(m, p, direction, g);
+    grid_position(m, p, side, g);
     uint32_t c[3];
     for (int a = 0; a < 3; a++) {
         if (!(g[a] >= 0.f && g[a] < (float)m->cells_per_axis)) return NULL;
         c[a] = (uint32_t)g[a];
     }
-    uint64_t key = cell_key(c[0], c[1], c[2], direction);
+    uint64_t key = cell_key(c[0], c[1], c[2], side);
     const entry *e = slot_of(m->slots, m->capacity, key);
     return e->key ? e->counts : NULL;
 }

@@ -61,7 +61,7 @@ static bool light_ray(const pm_scene *s, const pm_surface *sf, vec3 ng, uint32_t
  * hit by the ray counts it as "behind glass" (its verdict must not be hidden), or -1. */
 static void check_point(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, const pm_surface *sf, vec3 ng,
                         int glass_material, tally *t) {
-    const uint8_t *found = pm_shadow_map_find(m, sf->p, ng);
+    const uint8_t *found = pm_shadow_map_find(m, sf->p, ng, v3_dot(ng, sf->ng) > 0.f);
     for (uint32_t i = 0; i < s->light_count; i++) {
         vec3 o, wi;
         float tmax;
@@ -441,7 +441,61 @@ static void twenty_thousand_lights(void) {
     CHECK_NEAR(many.mean, many.expected, 0.03, 0, "20000 lights: the direct layer's mean against the analytic one");
 }
 
-int main(void) {
+/* `test_shadow stress SIZE TRIALS`: not a test but the measurement README quotes: random poles
+ * (diameter SIZE) and strips (SIZE wide) in a 4-unit scene under a random point light and a low
+ * directional light, every verdict at 128x128 camera-visible points against its ray. */
+static int stress(float size, int trials) {
+    uint64_t wrong = 0, decided = 0, asked = 0;
+    float spacing = 0.f;
+    pm_rng rng = pm_rng_for(5, 5, 5);
+    for (int k = 0; k < trials; k++) {
+        pm_scene s;
+        memset(&s, 0, sizeof s);
+        uint32_t white = sb_lambert(&s, v3s(0.7f));
+        sb_quad(&s, v3(-2, 0, -2), v3(-2, 0, 2), v3(2, 0, 2), v3(2, 0, -2), white);
+        for (int j = 0; j < 3; j++) {
+            vec3 foot = v3(-1.5f + 3 * pm_rng_float(&rng), 0.f, -1.5f + 3 * pm_rng_float(&rng));
+            cylinder(&s, foot, size / 2, 0.5f + pm_rng_float(&rng), 8, white);
+            float turn = 2 * PM_PI * pm_rng_float(&rng), h = 0.2f + 0.6f * pm_rng_float(&rng);
+            vec3 c = v3(-1 + 2 * pm_rng_float(&rng), h, -1 + 2 * pm_rng_float(&rng));
+            vec3 along = v3(cosf(turn) * 0.7f, 0, sinf(turn) * 0.7f), across = v3(-sinf(turn) * size / 2, 0, cosf(turn) * size / 2);
+            vec3 a0 = v3_sub(v3_sub(c, along), across), a1 = v3_add(v3_sub(c, along), across);
+            vec3 a2 = v3_add(v3_add(c, along), across), a3 = v3_sub(v3_add(c, along), across);
+            sb_quad(&s, a0, a1, a2, a3, white);
+            sb_quad(&s, a0, a3, a2, a1, white);
+        }
+        sb_point_light(&s, v3(-1 + 2 * pm_rng_float(&rng), 1.2f + pm_rng_float(&rng), -1 + 2 * pm_rng_float(&rng)), v3s(4.f));
+        s.lights = sb_grow(s.lights, s.light_count, sizeof *s.lights);
+        pm_light sun;
+        memset(&sun, 0, sizeof sun);
+        sun.type = PM_LIGHT_DIRECTIONAL;
+        sun.direction = v3_normalize(v3(pm_rng_float(&rng) - 0.5f, -0.3f - pm_rng_float(&rng), pm_rng_float(&rng) - 0.5f));
+        sun.intensity = v3s(1.f);
+        s.lights[s.light_count++] = sun;
+        pm_accel *a = sb_finish(&s);
+        pm_shadow_settings set = forced();
+        pm_shadow_stats st;
+        pm_shadow_map *m = pm_shadow_map_build(&s, a, &set, &st);
+        if (m) {
+            spacing = st.spacing;
+            pm_camera cam = sb_camera(v3(0.f, 4.5f, 0.01f), v3(0, 0, 0), v3(0, 1, 0), 60.f);
+            tally t = verify("stress", &s, a, m, &cam, 128, 0, -1);
+            wrong += t.wrong;
+            decided += t.decided;
+            asked += t.asked;
+        }
+        pm_shadow_map_free(m);
+        pm_accel_destroy(a);
+        pm_scene_free(&s);
+    }
+    printf("stress size=%g trials=%d spacing=%.4f queries=%llu decided=%llu wrong=%llu wrong_fraction_of_decided=%.2e\n", size,
+           trials, spacing, (unsigned long long)asked, (unsigned long long)decided, (unsigned long long)wrong,
+           decided ? (double)wrong / (double)decided : 0.0);
+    return 0;
+}
+
+int main(int argc, char **argv) {
+    if (argc == 4 && !strcmp(argv[1], "stress")) return stress((float)atof(argv[2]), atoi(argv[3]));
     caustic_scene();
     cornell_box();
     thin_occluders();
