@@ -10,6 +10,7 @@
 #define PM_DEFAULT_EXPOSURE_EV 0.0f
 #define PM_DEFAULT_MAX_SPECULAR_DEPTH 64 /* a safety stop: past depth 4, roulette on throughput ends eye paths */
 #define PM_MAX_IMAGE_SIDE 16384
+#define PM_LOG_EVERY_ITERATION_UNTIL 64 /* --log: a row per iteration up to here, then at every doubling (and the last) */
 
 /* the default environment (radiance), for files without KHR_lights_punctual whose emitters do
  * not enclose the view: a lit white top (about 1.1) stands out against the horizon (0.35) */
@@ -67,5 +68,10 @@
 #define PM_PHOTON_PASS_TIME_SHARE 0.25     /* with --time: a photon pass stops starting chunks after this share of the time left (sorting what it stored takes as long again) */
 #define PM_PHOTON_MAX_SURVIVAL 0.95f      /* Russian roulette keeps a photon with at most this probability (the weight compensates):
                                               a closed room of albedo 1 ends its paths after 20 bounces on average, not at the cap */
+
+/* path tracing (--mode pathtrace) */
+#define PM_PATHTRACE_ROULETTE_VERTEX 3     /* Russian roulette after the scattering at the fourth surface a path meets (index 3) and every later one ... */
+#define PM_PATHTRACE_MAX_SURVIVAL 0.95f    /* ... keeping it with probability min(this, max throughput component), the weight compensated */
+#define PM_PATHTRACE_MAX_VERTICES 256      /* a safety stop only, as PM_DEFAULT_MAX_PHOTON_BOUNCES: roulette ends paths first */
 
 #endif

@@ -28,6 +28,7 @@ typedef struct {
     pm_indirect_mode indirect;
     int gather_rays;          /* final-gather rays per eye sample at the first diffuse hit */
     bool view_photons;        /* show the maps' estimates at the first diffuse hit, no shadow rays */
+    bool path_trace;          /* the path tracer (--mode pathtrace): maps are ignored, see pm_eye_iterate */
     const pm_shadow_map *shadow; /* shadow photons; NULL: every punctual light sample casts its shadow ray */
 } pm_eye_settings;
 
@@ -35,6 +36,7 @@ typedef struct {
     uint64_t rays;            /* closest-hit + shadow rays cast */
     double seconds;
     uint64_t dropped_samples; /* component samples that were NaN or infinite, left out of the film */
+    uint64_t path_vertices;   /* path tracer: surfaces its paths met (for the mean path length) */
     uint64_t shadow_rays;     /* direct light's shadow rays toward light samples (punctual, emitter, sky map), among rays */
     uint64_t shadow_rays_saved; /* punctual light samples that shadow photons decided without a ray */
     bool failed;              /* out of memory: the pass did not run */
@@ -67,7 +69,28 @@ void pm_eye_enclosure(const pm_scene *s, const pm_accel *a, const pm_camera *cam
  * orthographic camera). */
 float pm_camera_pixel_size(const pm_camera *c, int height, float distance);
 
-/* Adds one jittered sample per pixel (iteration number `iteration`) to the film. */
+/* Adds one jittered sample per pixel (iteration number `iteration`) to the film.
+ *
+ * With settings->path_trace, each sample is an unbiased path-traced estimate. At every diffuse or
+ * glossy vertex it adds direct light by next-event estimation (the same direct_light() the other
+ * modes call: punctual lights, an emissive triangle picked by power and the sky map, combined by
+ * multiple importance sampling with a ray from the material's own sampling), then continues by a
+ * fresh sample of the same material (cosine or the glossy lobe); mirrors and glass scatter through
+ * pm_scatter_specular() and a mixed surface picks its part by weight, as every eye path does.
+ * Emission and the sky are counted where a segment meets them only when no light sampling could
+ * have found them: on the camera ray and after a specular bounce (after a diffuse or glossy bounce
+ * the vertex's direct light already holds them). Russian roulette on the throughput from the
+ * scattering at the surface of index PM_PATHTRACE_ROULETTE_VERTEX (from 0) on (survival at most PM_PATHTRACE_MAX_SURVIVAL, the weight
+ * divided by it); paths stop at PM_PATHTRACE_MAX_VERTICES as a safety. Components, by the first eye
+ * vertex as in the photon modes: direct = emission and sky seen by the camera ray + direct light at
+ * a first-hit diffuse vertex; specular = everything behind a first-hit specular vertex; caustic =
+ * light the continuation from a first-hit diffuse vertex x1 finds through one or more specular
+ * bounces and no other diffuse vertex (E D S+ L, the eye side of the caustic photons' L S+ D);
+ * indirect = everything found after a second diffuse vertex (E D ... D ... L, which the photon modes
+ * gather from the global map at the second diffuse vertex). Punctual lights are points or
+ * directions: their light through mirrors or glass (an L S+ D caustic, or a light seen in a mirror)
+ * cannot be found by a path from the eye and is missing, as in any path tracer; the photon modes
+ * have it. */
 void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                     uint32_t iteration, pm_film *film, pm_eye_stats *stats);
 

@@ -57,6 +57,7 @@ size_t pm_film_bytes(const pm_film *f);
  * the mean ratio. rgb is interleaved, ref planar. The one definition --reference and the tests use. */
 typedef struct {
     double relmse;
+    double mse;             /* mean over the same pixels and channels of (x - r)^2 */
     double ours[3], ref[3];
     size_t pixels;
 } pm_image_error;

@@ -69,6 +69,13 @@ typedef struct {
     /* derived by pm_scene_finalize: whether each lobe's weight can be non-zero at some point of
      * the material (the factors with the data textures' whole range of texel values) */
     bool may_diffuse, may_mirror, may_glass, may_glossy;
+    /* derived by pm_scene_finalize for a material without base colour, metallic-roughness or
+     * transmission texture: its split is the same at every point, so a hit copies it instead of
+     * clamping and splitting the factors again (every photon bounce reads a surface) */
+    bool uniform_split;
+    vec3 split_kd, split_ks, split_kt;
+    bool split_glossy;
+    pm_brdf split_brdf;
 } pm_material;
 
 typedef enum { PM_LIGHT_POINT = 0, PM_LIGHT_SPOT = 1, PM_LIGHT_DIRECTIONAL = 2 } pm_light_type;
@@ -117,6 +124,8 @@ typedef struct {
                                  the bitangent being w cross(normal, tangent); NULL when no material has a normal map */
     uint32_t *indices;        /* 3*triangle_count */
     uint32_t *triangle_material; /* triangle_count */
+    vec3 *face_normals;       /* triangle_count unit geometric normals (glTF front side), computed in double by
+                                 pm_scene_finalize; NULL when that allocation failed (each hit then computes its own) */
 
     pm_material *materials; uint32_t material_count;
     pm_texture *textures;   uint32_t texture_count;

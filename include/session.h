@@ -22,17 +22,18 @@
 #include "scene.h"
 #include "shadowmap.h"
 
-typedef enum { PM_MODE_PROGRESSIVE = 0, PM_MODE_CLASSIC = 1 } pm_mode;
+typedef enum { PM_MODE_PROGRESSIVE = 0, PM_MODE_CLASSIC = 1, PM_MODE_PATHTRACE = 2 } pm_mode;
 
 typedef struct {
     pm_mode mode;
     int width, height;
     pm_progressive_settings progressive;   /* progressive mode */
     pm_photon_settings classic_photons;    /* classic mode: the maps, built before the first iteration */
-    pm_eye_settings classic_eye;           /* classic mode: its maps pointer is the session's */
+    pm_eye_settings classic_eye;           /* classic mode: its maps pointer is the session's; path-tracing mode: the
+                                              eye pass too (no maps, path_trace set by the session) */
     bool classic_photon_pass;              /* classic mode: build maps at all */
     uint32_t max_iterations;               /* background rendering stops there (0 = never) */
-    pm_shadow_settings shadow;             /* shadow photons, both modes: built before the first iteration */
+    pm_shadow_settings shadow;             /* shadow photons, every mode: built before the first iteration */
 } pm_session_config;
 
 typedef struct {
@@ -58,7 +59,7 @@ const pm_film *pm_session_film(const pm_session *s);
 pm_progressive *pm_session_progressive(pm_session *s);               /* NULL in the classic mode */
 const pm_photon_maps *pm_session_classic_maps(const pm_session *s);  /* NULL in the progressive mode */
 const pm_photon_stats *pm_session_classic_photon_stats(const pm_session *s);
-const pm_eye_stats *pm_session_classic_eye_stats(const pm_session *s);
+const pm_eye_stats *pm_session_classic_eye_stats(const pm_session *s); /* classic and path-tracing modes */
 /* The shadow photons: whether there are any, why not, and what they cost (zeros before the first iteration). */
 const pm_shadow_stats *pm_session_shadow_stats(const pm_session *s);
 /* A time budget's end (CLOCK_MONOTONIC seconds): the shadow photons, when they are still to be

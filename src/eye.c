@@ -10,6 +10,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "defaults.h"
 #include "parallel.h"
 #include "rng.h"
 #include "scatter.h"
@@ -26,7 +27,7 @@ typedef struct {
     pm_film *film;
     pm_visible_point *visible, *gathered; /* progressive mode: one each per pixel, or NULL */
     int tiles_x;
-    struct { uint64_t rays, dropped, shadow[2]; char pad[32]; } counters[MAX_THREADS];
+    struct { uint64_t rays, dropped, vertices, shadow[2]; char pad[24]; } counters[MAX_THREADS];
 } eye_job;
 
 static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
@@ -486,6 +487,65 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 
         gp->seen_directly = vp->seen_directly; /* the component is the visible point's */
 }
 
+/* The path tracer's sample (settings->path_trace; the rules are in eye.h at pm_eye_iterate).
+ * `seen` is the component that light met along the next segment belongs to, `lit_by_segment`
+ * whether such light counts at all (camera ray, or the last bounce was specular). */
+static void trace_path(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays,
+                       uint64_t shadow_counts[2], uint64_t *vertices) {
+    const pm_scene *s = job->scene;
+    vec3 throughput = v3s(1.f);
+    int seen = PM_DIRECT;
+    bool lit_by_segment = true, behind_specular = false;
+    for (int depth = 0; depth < PM_PATHTRACE_MAX_VERTICES; depth++) {
+        pm_hit h;
+        (*rays)++;
+        if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) {
+            if (lit_by_segment && s->sky) out[seen] = v3_add(out[seen], v3_mul(throughput, pm_scene_sky(s, d)));
+            return;
+        }
+        (*vertices)++;
+        pm_surface sf;
+        pm_scene_surface(s, h.tri, h.b1, h.b2, &sf);
+        throughput = v3_mul(throughput, pm_volume_transmittance(s, &sf, d, h.t));
+        vec3 wo = v3_neg(d);
+        bool front = v3_dot(sf.ng, wo) > 0.f;
+        if (lit_by_segment && (front || sf.double_sided) && !v3_is_black(sf.emission))
+            out[seen] = v3_add(out[seen], v3_mul(throughput, sf.emission));
+        float D = sf.glossy ? sf.brdf.weight : v3_average(sf.kd), S = pm_specular_weight(&sf);
+        if (D <= 0.f && S <= 0.f) return;
+        if (D > 0.f && (S <= 0.f || pm_rng_float(rng) * (D + S) < D)) {
+            throughput = v3_scale(throughput, (D + S) / D);
+            int here = depth == 0 ? PM_DIRECT : (behind_specular ? PM_SPECULAR : PM_INDIRECT);
+            out[here] = v3_add(out[here], v3_mul(throughput, direct_light(s, job->accel, &sf, wo, rng, rays,
+                                                                          job->settings->shadow, shadow_counts)));
+            /* from a first-hit diffuse vertex, what specular bounces lead to is the caustic */
+            seen = depth == 0 ? PM_CAUSTIC : here;
+            lit_by_segment = false;
+            vec3 ng = facing(sf.ng, wo), weight;
+            if (!sample_reflection(&sf, ng, side_normal(&sf, ng), wo, rng, &d, &weight)) return;
+            throughput = v3_mul(throughput, weight);
+            o = pm_surface_origin(&sf, ng, s->ray_scale);
+        } else {
+            if (D > 0.f) throughput = v3_scale(throughput, (D + S) / S);
+            if (depth == 0) {
+                behind_specular = true;
+                seen = PM_SPECULAR;
+            }
+            lit_by_segment = true;
+            pm_specular_sample sp;
+            if (!pm_scatter_specular(&sf, d, rng, s->ray_scale, &sp)) return;
+            throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
+            d = sp.direction;
+            o = sp.origin;
+        }
+        if (depth >= PM_PATHTRACE_ROULETTE_VERTEX) {
+            float q = pm_minf(PM_PATHTRACE_MAX_SURVIVAL, v3_max_component(throughput));
+            if (!(q > 0.f) || pm_rng_float(rng) >= q) return;
+            throughput = v3_scale(throughput, 1.f / q);
+        }
+    }
+}
+
 static void render_tile(void *ctx, size_t task, int thread) {
     eye_job *job = ctx;
     pm_film *film = job->film;
@@ -493,7 +553,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
     int x0 = tx * TILE, y0 = ty * TILE;
     int x1 = x0 + TILE < film->width ? x0 + TILE : film->width;
     int y1 = y0 + TILE < film->height ? y0 + TILE : film->height;
-    uint64_t rays = 0, dropped = 0, shadow_counts[2] = {0, 0};
+    uint64_t rays = 0, dropped = 0, vertices = 0, shadow_counts[2] = {0, 0};
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
             size_t pixel = (size_t)y * film->width + x;
@@ -501,7 +561,9 @@ static void render_tile(void *ctx, size_t task, int thread) {
             vec3 o, d;
             pm_camera_ray(job->camera, film->width, film->height, x + pm_rng_float(&rng), y + pm_rng_float(&rng), &o, &d);
             vec3 out[PM_COMPONENT_COUNT] = {{0}};
-            if (job->visible)
+            if (job->settings->path_trace)
+                trace_path(job, o, d, &rng, out, &rays, shadow_counts, &vertices);
+            else if (job->visible)
                 trace_visible(job, o, d, &rng, out, &rays, shadow_counts, &job->visible[pixel],
                               job->gathered ? &job->gathered[pixel] : NULL);
             else
@@ -519,6 +581,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
         }
     job->counters[thread].rays += rays;
     job->counters[thread].dropped += dropped;
+    job->counters[thread].vertices += vertices;
     job->counters[thread].shadow[0] += shadow_counts[0];
     job->counters[thread].shadow[1] += shadow_counts[1];
 }
@@ -551,6 +614,7 @@ static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
         for (int t = 0; t < threads; t++) {
             stats->rays += job->counters[t].rays;
             stats->dropped_samples += job->counters[t].dropped;
+            stats->path_vertices += job->counters[t].vertices;
             stats->shadow_rays += job->counters[t].shadow[0];
             stats->shadow_rays_saved += job->counters[t].shadow[1];
         }

@@ -86,17 +86,19 @@ size_t pm_film_bytes(const pm_film *f) {
 }
 
 pm_image_error pm_image_compare(const float *rgb, const float *const ref[3], size_t pixels, const unsigned char *mask) {
-    pm_image_error e = {0, {0, 0, 0}, {0, 0, 0}, 0};
+    pm_image_error e = {0, 0, {0, 0, 0}, {0, 0, 0}, 0};
     for (size_t i = 0; i < pixels; i++) {
         if (mask && !mask[i]) continue;
         e.pixels++;
         for (int c = 0; c < 3; c++) {
             double x = rgb[3 * i + c], r = ref[c][i];
             e.relmse += (x - r) * (x - r) / (r * r + 0.01);
+            e.mse += (x - r) * (x - r);
             e.ours[c] += x;
             e.ref[c] += r;
         }
     }
     e.relmse /= 3.0 * (double)(e.pixels ? e.pixels : 1);
+    e.mse /= 3.0 * (double)(e.pixels ? e.pixels : 1);
     return e;
 }

@@ -3,6 +3,7 @@
  * Exit codes: 0 success, 1 a file could not be loaded, rendered or written, 2 a usage error.
  */
 #include <errno.h>
+#include <math.h>
 #include <signal.h>
 #include <unistd.h>
 #include <stdio.h>
@@ -46,7 +47,9 @@ typedef struct {
     pm_indirect_mode indirect;
     bool view_photons, no_photons;
     pm_shadow_mode shadow_photons; /* --shadow-photons on|off; default: where they pay */
-    bool classic;         /* --mode classic; else progressive */
+    bool classic;         /* --mode classic; else progressive (or pathtrace) */
+    bool pathtrace;       /* --mode pathtrace */
+    const char *log;      /* --log: CSV of the run, one row per logged iteration */
     double alpha, radius; /* progressive: radius reduction, initial radius (0 = from the scene) */
     bool components_given, components[PM_COMPONENT_COUNT]; /* --components: what a PNG (and the window) shows */
     const char *sky;      /* --sky: none, white, gradient or an .exr/.hdr file; NULL = the default policy */
@@ -67,8 +70,9 @@ static const char usage_text[] =
     "                       for files without punctual lights whose emitters do not enclose the view, else none);\n"
     "                       a FILE is an equirectangular map, its middle along -Z, +Y up\n"
     "  --no-default-light   no default environment (the same as --sky none unless --sky is given)\n"
-    "  --mode progressive|classic  progressive: fresh photons every iteration, radii shrinking (default);\n"
-    "                       classic: two-pass photon mapping, maps built once, eye pass repeated\n"
+    "  --mode progressive|classic|pathtrace  progressive: fresh photons every iteration, radii shrinking (default);\n"
+    "                       classic: two-pass photon mapping, maps built once, eye pass repeated;\n"
+    "                       pathtrace: unbiased path tracing (light sampling and MIS), the same four components\n"
     "  --photons N          progressive: global photons per iteration (default: pixels/2, 10k to 1M);\n"
     "                       classic: photons for the global map (default: from the image size and --time)\n"
     "  --caustic-photons N  caustic photons per iteration / for the caustic map (default: as many as --photons)\n"
@@ -87,6 +91,8 @@ static const char usage_text[] =
     "                       (default: on for point, spot and directional lights where they pay)\n"
     "  --reference REF.exr  measure the total against REF's R,G,B (same size): relMSE and mean ratios;\n"
     "                       with --stats also at iterations 1, 2, 4, 8, ... (an error-against-time curve)\n"
+    "  --log FILE.csv       with --snapshot: one CSV row per iteration (then per doubling past 64): seconds,\n"
+    "                       iterations, photons, mean radius, and with --reference each layer's relMSE, RMSE, bias\n"
     "  --components LIST    what a PNG snapshot and the window show at first: direct,specular,caustic,indirect (default all)\n"
     "  --stats              print 'stat STAGE key=value ...' lines\n"
     "  --quiet              no warnings\n"
@@ -152,7 +158,7 @@ static int parse_options(int argc, char **argv, options *o) {
                                              "--seed", "--camera", "--exposure", "--screenshot", "--mode", "--photons",
                                              "--caustic-photons", "--k", "--max-radius", "--kernel", "--indirect",
                                              "--gather-rays", "--view", "--precompute", "--reference", "--alpha",
-                                             "--radius", "--components", "--sky", "--shadow-photons"};
+                                             "--radius", "--components", "--sky", "--log", "--shadow-photons"};
         int which = -1;
         for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
             if (!strcmp(a, valued[k])) which = k;
@@ -177,9 +183,10 @@ static int parse_options(int argc, char **argv, options *o) {
         case 8: if (!parse_double(v, -64, 64, &x)) return usage_error("bad --exposure '%s' (stops, -64 to 64)", v); o->exposure_ev = (float)x; break;
         case 9: if (!pm_has_extension(v, ".png")) return usage_error("--screenshot needs a .png file name, not '%s'", v); o->screenshot = v; break;
         case 10:
+            o->classic = o->pathtrace = false;
             if (!strcmp(v, "classic")) o->classic = true;
-            else if (!strcmp(v, "progressive")) o->classic = false;
-            else return usage_error("unknown --mode '%s' (progressive, classic)", v);
+            else if (!strcmp(v, "pathtrace")) o->pathtrace = true;
+            else if (strcmp(v, "progressive")) return usage_error("unknown --mode '%s' (progressive, classic, pathtrace)", v);
             break;
         case 11: if (!parse_long(v, 0, 2000000000L, &n)) return usage_error("bad --photons '%s'", v); o->photons = n; break;
         case 12: if (!parse_long(v, 0, 2000000000L, &n)) return usage_error("bad --caustic-photons '%s'", v); o->caustic_photons = n; break;
@@ -205,7 +212,8 @@ static int parse_options(int argc, char **argv, options *o) {
                 return usage_error("unknown --sky '%s' (none, white, gradient, or an .exr or .hdr environment map)", v);
             o->sky = v;
             break;
-        case 25:
+        case 25: o->log = v; break;
+        case 26:
             if (!strcmp(v, "on")) o->shadow_photons = PM_SHADOW_ON;
             else if (!strcmp(v, "off")) o->shadow_photons = PM_SHADOW_OFF;
             else return usage_error("unknown --shadow-photons '%s' (on, off)", v);
@@ -234,12 +242,20 @@ static int parse_options(int argc, char **argv, options *o) {
         for (int i = 1; i < argc; i++)
             for (int k = 0; k < (int)(sizeof classic_only / sizeof *classic_only); k++)
                 if (!strcmp(argv[i], classic_only[k]))
-                    return usage_error("%s belongs to --mode classic (the progressive mode has no k-nearest estimates)", argv[i]);
-    } else {
+                    return usage_error("%s belongs to --mode classic (the other modes have no k-nearest estimates)", argv[i]);
+    }
+    if (o->pathtrace) {
+        static const char *const photon_only[] = {"--alpha", "--radius", "--photons", "--caustic-photons", "--indirect", "--no-photons"};
+        for (int i = 1; i < argc; i++)
+            for (int k = 0; k < (int)(sizeof photon_only / sizeof *photon_only); k++)
+                if (!strcmp(argv[i], photon_only[k]))
+                    return usage_error("%s belongs to the photon-mapping modes (the path tracer has no photons)", argv[i]);
+    } else if (o->classic) {
         for (int i = 1; i < argc; i++)
             if (!strcmp(argv[i], "--alpha") || !strcmp(argv[i], "--radius"))
                 return usage_error("%s belongs to --mode progressive (the classic mode's radii do not shrink)", argv[i]);
     }
+    if (o->log && !o->snapshot) return usage_error("--log '%s' needs --snapshot (the window restarts its runs)", o->log);
     return -1;
 }
 
@@ -255,10 +271,11 @@ static long peak_rss_bytes(void) {
     return ru.ru_maxrss * 1024L;
 }
 
-/* The reference's R, G, B planes, for --reference. */
-typedef struct { float *rgb[3]; int width, height; } reference_image;
+/* The reference's R, G, B planes, for --reference, and (for --log) the planes of each component
+ * layer it has (direct.R, ...; NULL when the file lacks one of the layer's channels). */
+typedef struct { float *rgb[3]; float *layer[PM_COMPONENT_COUNT][3]; int width, height; } reference_image;
 
-static bool load_reference(const char *path, reference_image *ref, char *err, size_t err_size) {
+static bool load_reference(const char *path, bool with_layers, reference_image *ref, char *err, size_t err_size) {
     static const char *const names[3] = {"R", "G", "B"};
     memset(ref, 0, sizeof *ref);
     for (int c = 0; c < 3; c++) {
@@ -268,11 +285,28 @@ static bool load_reference(const char *path, reference_image *ref, char *err, si
         ref->width = w;
         ref->height = h;
     }
+    for (int c = 0; c < PM_COMPONENT_COUNT && with_layers; c++) {
+        bool complete = true;
+        for (int k = 0; k < 3 && complete; k++) {
+            char channel[64], ignored[256];
+            int w = 0, h = 0;
+            snprintf(channel, sizeof channel, "%s.%s", pm_component_names[c], names[k]);
+            ref->layer[c][k] = pm_read_exr_channel(path, channel, &w, &h, ignored, sizeof ignored);
+            complete = ref->layer[c][k] && w == ref->width && h == ref->height;
+        }
+        if (complete) continue;
+        for (int k = 0; k < 3; k++) {
+            free(ref->layer[c][k]);
+            ref->layer[c][k] = NULL;
+        }
+    }
     return true;
 }
 
 static void free_reference(reference_image *ref) {
     for (int c = 0; c < 3; c++) free(ref->rgb[c]);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        for (int k = 0; k < 3; k++) free(ref->layer[c][k]);
 }
 
 /* relMSE = mean over pixels and channels of (x - r)^2 / (r^2 + 0.01) (the 0.01 keeps black
@@ -317,6 +351,14 @@ static bool configure(const options *opt, const pm_scene *scene, const pm_accel 
     pp->threads = opt->threads;
     pp->max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
     pp->max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
+    if (opt->pathtrace) {
+        config->mode = PM_MODE_PATHTRACE;
+        config->classic_eye.seed = opt->seed;
+        config->classic_eye.threads = opt->threads;
+        config->classic_eye.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
+        config->classic_eye.path_trace = true;
+        return true;
+    }
     if (!opt->classic) {
         config->mode = PM_MODE_PROGRESSIVE;
         uint64_t photons = opt->no_photons ? 0 : (opt->photons >= 0 ? (uint64_t)opt->photons : pm_progressive_default_photons(width, height));
@@ -442,6 +484,50 @@ static double repeating_seconds(pm_session *session) {
     return st->eye.seconds + st->gather_seconds;
 }
 
+/* ---- --log: the run as CSV ---- */
+
+static const char *const log_measures[3] = {"relmse", "rmse", "rel_bias"};
+
+static bool log_wanted(uint32_t iteration) {
+    return iteration <= PM_LOG_EVERY_ITERATION_UNTIL || (iteration & (iteration - 1)) == 0;
+}
+
+static void log_header(FILE *f) {
+    fputs("seconds,iterations,photons,mean_radius", f);
+    for (int part = -1; part < PM_COMPONENT_COUNT; part++)
+        for (int m = 0; m < 3; m++) fprintf(f, ",%s_%s", part < 0 ? "total" : pm_component_names[part], log_measures[m]);
+    fputc('\n', f);
+}
+
+/* relMSE (as --reference), RMSE and relative bias (sum of ours over the reference's, minus 1, all
+ * pixels and channels) of one image; three empty fields without a reference plane, an empty bias
+ * when the reference is black. */
+static void log_errors(FILE *f, const float *rgb, float *const planes[3], size_t pixels) {
+    if (!rgb || !planes[0]) { fputs(",,,", f); return; }
+    pm_image_error e = pm_image_compare(rgb, (const float *const *)planes, pixels, NULL);
+    double ours = e.ours[0] + e.ours[1] + e.ours[2], ref = e.ref[0] + e.ref[1] + e.ref[2];
+    fprintf(f, ",%.6g,%.6g,", e.relmse, sqrt(e.mse));
+    if (ref != 0) fprintf(f, "%.6g", ours / ref - 1.0);
+}
+
+/* One row: the film as it is after `seconds` of rendering. scratch: 3 floats a pixel, or NULL
+ * without a reference. */
+static void log_row(FILE *f, pm_session *session, const reference_image *ref, float *scratch, double seconds) {
+    const pm_film *film = pm_session_film(session);
+    pm_progressive *p = pm_session_progressive(session);
+    size_t n = (size_t)film->width * film->height;
+    fprintf(f, "%.6f,%u,%llu,", seconds, film->samples, (unsigned long long)session_photons(session));
+    double radius = p ? pm_progressive_radii(p, film).mean : 0.0;
+    if (radius > 0) fprintf(f, "%.6g", radius);
+    if (scratch) pm_film_resolve_total(film, scratch);
+    log_errors(f, scratch, (float *const *)ref->rgb, n);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        if (scratch && ref->layer[c][0]) pm_film_resolve(film, (pm_component)c, scratch);
+        log_errors(f, scratch, (float *const *)ref->layer[c], n);
+    }
+    fputc('\n', f);
+}
+
 /* Renders to --iterations or --time, then writes the file; SIGINT and SIGTERM end the loop after
  * the iteration under way, and the image so far is written before exiting 130 or 143. */
 static int run_snapshot(const options *opt, pm_session *session, const reference_image *reference) {
@@ -454,6 +540,19 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
     size_t n = (size_t)film->width * film->height;
     float *scratch = reference->rgb[0] ? malloc(sizeof(float) * 3 * n) : NULL;
     if (reference->rgb[0] && !scratch) { fprintf(stderr, "pmview: error: out of memory (reference comparison)\n"); return 1; }
+    FILE *log = NULL;
+    if (opt->log) {
+        log = fopen(opt->log, "w");
+        if (!log) {
+            fprintf(stderr, "pmview: error: %s: cannot write the log (%s)\n", opt->log, strerror(errno));
+            free(scratch);
+            return 1;
+        }
+        log_header(log);
+    }
+    /* the log's seconds: time inside the iterations, the log's own measuring left out */
+    double rendered = 0.0;
+    uint32_t logged = 0;
     /* --time and the reported render time count from here: the photon pass is part of what a
      * budget buys. A budget spent before the first iteration still gets that iteration. */
     double start = now_seconds(), last_iteration = 0.0, fixed_before = 0.0;
@@ -466,10 +565,17 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
         if (opt->time_limit > 0 && film->samples > 0 && now_seconds() + 0.5 * last_iteration - start >= opt->time_limit) break;
         double iteration_start = now_seconds();
         fixed_before = repeating_seconds(session);
-        if (!pm_session_iterate(session)) {
+        bool iterated = pm_session_iterate(session);
+        rendered += now_seconds() - iteration_start;
+        if (!iterated) {
             fprintf(stderr, "%spmview: error: %s: out of memory in an iteration\n", tty ? "\n" : "", opt->scene_path);
             free(scratch);
+            if (log) fclose(log);
             return 1;
+        }
+        if (log && log_wanted(film->samples)) {
+            log_row(log, session, reference, scratch, rendered);
+            logged = film->samples;
         }
         if (scratch && opt->stats && film->samples == next_progress) {
             double ratio[3], e = relative_mse(film, reference, scratch, ratio);
@@ -481,6 +587,16 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
                       session_photons(session));
     }
     double seconds = now_seconds() - start;
+    if (log && logged != film->samples && film->samples) log_row(log, session, reference, scratch, rendered);
+    if (log) {
+        bool written = !ferror(log);
+        if (fclose(log) != 0) written = false;
+        if (!written) {
+            fprintf(stderr, "%spmview: error: %s: cannot write the log\n", tty ? "\n" : "", opt->log);
+            free(scratch);
+            return 1;
+        }
+    }
     if (tty) fputc('\n', stderr);
     signal(SIGINT, SIG_DFL);
     signal(SIGTERM, SIG_DFL);
@@ -598,7 +714,7 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
             pm_session_request_restart(session, moved ? &camera : NULL, -1);
             if (restart_requested == 0) restart_requested = now_seconds();
         }
-        if (ev.toggle_gather && !opt->classic) {
+        if (ev.toggle_gather && !opt->classic && !opt->pathtrace) {
             indirect = indirect == PM_INDIRECT_GATHER ? PM_INDIRECT_PHOTONS : PM_INDIRECT_GATHER;
             pm_session_request_restart(session, NULL, indirect);
             printf("pmview: indirect light by %s\n", indirect == PM_INDIRECT_GATHER ? "final gathering" : "photons at the visible point");
@@ -723,6 +839,13 @@ static void print_final_stats(const options *opt, pm_session *session, const pm_
            sh->built, sh->built ? "none" : (sh->reason ? sh->reason : "not_reached"), sh->lights,
            (unsigned long long)sh->photons, (unsigned long long)sh->records, (unsigned long long)sh->rays, sh->cells,
            sh->bytes, sh->cell_size, sh->spacing, sh->seconds, sh->probe_decided, sh->probe_lookup_ns, sh->probe_ray_ns);
+    if (opt->pathtrace) {
+        double paths = (double)film->samples * film->width * film->height;
+        printf("stat pathtrace iterations=%u paths=%.0f rays=%llu seconds=%.4f rays_per_second=%.0f paths_per_second=%.0f mean_path_vertices=%.4f roulette_vertex=%d max_survival=%.2f\n",
+               film->samples, paths, (unsigned long long)eye_stats.rays, eye_stats.seconds,
+               eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, eye_stats.seconds > 0 ? paths / eye_stats.seconds : 0.0,
+               paths > 0 ? eye_stats.path_vertices / paths : 0.0, PM_PATHTRACE_ROULETTE_VERTEX, PM_PATHTRACE_MAX_SURVIVAL);
+    }
     printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu shadow_rays=%llu shadow_rays_saved=%llu\n",
            film->samples, (unsigned long long)eye_stats.rays, eye_stats.seconds,
            eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, opt->threads,
@@ -857,7 +980,7 @@ int main(int argc, char **argv) {
         printf("%s\n", first ? "none" : "");
     }
     if (opt.reference) {
-        if (!load_reference(opt.reference, &reference, err, sizeof err)) {
+        if (!load_reference(opt.reference, opt.log != NULL, &reference, err, sizeof err)) {
             fprintf(stderr, "pmview: error: %s\n", err);
             exit_code = 1;
             goto done;

@@ -78,6 +78,22 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
     return true;
 }
 
+#define MAX_GATHER_CELLS 27 /* a disc up to the cell's width overlaps at most 3 x 3 x 3 cells */
+
+/* One photon's share of a disc sum: inside the radius, counting for the surface, weighted by the
+ * lobe's f(wo, wi) when a lobe is given. */
+static inline __attribute__((always_inline)) void sum_photon(const pm_photon *ph, vec3 p, vec3 n, float radius2,
+                                                             unsigned path_mask, const pm_brdf *lobe, vec3 ns, vec3 wo,
+                                                             vec3 *sum, uint32_t *found) {
+    float dx = ph->pos[0] - p.x, dy = ph->pos[1] - p.y, dz = ph->pos[2] - p.z;
+    if (dx * dx + dy * dy + dz * dz > radius2) return;
+    if (!pm_photon_counts_for(ph, n, path_mask)) return;
+    vec3 q = pm_photon_power(ph);
+    if (lobe) q = v3_mul(q, pm_brdf_eval(lobe, ns, wo, v3_neg(pm_photon_direction(ph))));
+    *sum = v3_add(*sum, q);
+    (*found)++;
+}
+
 /* The disc's photons that count for the surface, each one's power weighted by the lobe's f(wo, wi)
  * when a lobe is given. Inline into both callers, so the plain sum keeps no BRDF branch cost. */
 /* Inlined into both callers so that the Lambert one (lobe == NULL) carries no per-photon branch. */
@@ -98,29 +114,52 @@ static inline __attribute__((always_inline)) uint32_t sum_disc(const pm_photon_g
     int32_t z0 = cell_coord(p.z - r, g->origin.z, g->inv_cell), z1 = cell_coord(p.z + r, g->origin.z, g->inv_cell);
     size_t mask = g->bucket_count - 1;
     /* A disc far wider than the cells would visit more cells than there are photons: scan them all. */
-    bool scan_all = (int64_t)(x1 - x0 + 1) * (y1 - y0 + 1) * (z1 - z0 + 1) > (int64_t)g->count;
-    if (scan_all) x1 = x0, y1 = y0, z1 = z0;
+    int64_t cells = (int64_t)(x1 - x0 + 1) * (y1 - y0 + 1) * (z1 - z0 + 1);
+    if (cells > (int64_t)g->count) {
+        for (size_t i = 0; i < g->count; i++) sum_photon(&g->photons[i], p, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
+        *power = sum;
+        return found;
+    }
+    if (cells > MAX_GATHER_CELLS) {
+        /* a rare wide disc: cell by cell, each photon checked to be its cell's (buckets may repeat) */
+        for (int32_t z = z0; z <= z1; z++)
+            for (int32_t y = y0; y <= y1; y++)
+                for (int32_t x = x0; x <= x1; x++) {
+                    size_t b = bucket_of(x, y, z, mask);
+                    for (uint32_t i = g->bucket_start[b]; i < g->bucket_start[b + 1]; i++) {
+                        const float *q = g->photons[i].pos;
+                        if (cell_coord(q[0], g->origin.x, g->inv_cell) == x && cell_coord(q[1], g->origin.y, g->inv_cell) == y &&
+                            cell_coord(q[2], g->origin.z, g->inv_cell) == z)
+                            sum_photon(&g->photons[i], p, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
+                    }
+                }
+        *power = sum;
+        return found;
+    }
+    /* The overlapped cells' buckets, each once: a photon within the radius lies in one of these
+     * cells, so a bucket shared with a far cell only adds photons that fail the distance test, and
+     * no photon needs its own cell checked. The lookups are cache misses; prefetching every
+     * bucket's bounds and then every bucket's first photons overlaps them. */
+    size_t bucket[MAX_GATHER_CELLS];
+    int nb = 0;
     for (int32_t z = z0; z <= z1; z++)
         for (int32_t y = y0; y <= y1; y++)
             for (int32_t x = x0; x <= x1; x++) {
                 size_t b = bucket_of(x, y, z, mask);
-                size_t first = scan_all ? 0 : g->bucket_start[b], last = scan_all ? g->count : g->bucket_start[b + 1];
-                for (size_t i = first; i < last; i++) {
-                    const pm_photon *ph = &g->photons[i];
-                    float dx = ph->pos[0] - p.x, dy = ph->pos[1] - p.y, dz = ph->pos[2] - p.z;
-                    if (dx * dx + dy * dy + dz * dz > radius2) continue;
-                    /* another cell that hashes to the same bucket: its photons are not this cell's */
-                    if (!scan_all && (cell_coord(ph->pos[0], g->origin.x, g->inv_cell) != x ||
-                                      cell_coord(ph->pos[1], g->origin.y, g->inv_cell) != y ||
-                                      cell_coord(ph->pos[2], g->origin.z, g->inv_cell) != z))
-                        continue;
-                    if (!pm_photon_counts_for(ph, n, path_mask)) continue;
-                    vec3 q = pm_photon_power(ph);
-                    if (lobe) q = v3_mul(q, pm_brdf_eval(lobe, ns, wo, v3_neg(pm_photon_direction(ph))));
-                    sum = v3_add(sum, q);
-                    found++;
-                }
+                bool seen = false;
+                for (int k = 0; k < nb; k++) seen |= bucket[k] == b;
+                if (seen) continue;
+                bucket[nb++] = b;
+                __builtin_prefetch(&g->bucket_start[b]);
             }
+    uint32_t first[MAX_GATHER_CELLS], last[MAX_GATHER_CELLS];
+    for (int k = 0; k < nb; k++) {
+        first[k] = g->bucket_start[bucket[k]];
+        last[k] = g->bucket_start[bucket[k] + 1];
+        if (first[k] < last[k]) __builtin_prefetch(&g->photons[first[k]]);
+    }
+    for (int k = 0; k < nb; k++)
+        for (uint32_t i = first[k]; i < last[k]; i++) sum_photon(&g->photons[i], p, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
     *power = sum;
     return found;
 }

@@ -83,6 +83,26 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
         m->may_glass |= !v3_is_black(kt);
         m->may_glossy |= pm_glossy_at(x[0], x[1]);
     }
+    m->uniform_split = m->base_color_texture < 0 && m->metallic_roughness_texture < 0 && m->transmission_texture < 0;
+    if (m->uniform_split) {
+        pm_material_split_at(m->base_color, m->metallic, m->roughness, m->transmission, &m->split_kd, &m->split_ks,
+                             &m->split_kt);
+        m->split_glossy = pm_glossy_at(m->metallic, m->roughness);
+        if (m->split_glossy) m->split_brdf = pm_brdf_at(m->base_color, m->metallic, m->roughness, m->transmission);
+    }
+}
+
+/* The unit normal of triangle (p0, p1, p2) by the right-hand rule, computed in double: a float
+ * cross product of edges underflows for tiny triangles and overflows for huge ones. */
+static vec3 face_normal(vec3 p0, vec3 p1, vec3 p2) {
+    double e1[3] = {(double)p1.x - p0.x, (double)p1.y - p0.y, (double)p1.z - p0.z};
+    double e2[3] = {(double)p2.x - p0.x, (double)p2.y - p0.y, (double)p2.z - p0.z};
+    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    double scale = fmax(fabs(n[0]), fmax(fabs(n[1]), fabs(n[2])));
+    if (!(scale > 0.0) || !isfinite(scale)) return v3(0.f, 0.f, 1.f);
+    for (int k = 0; k < 3; k++) n[k] /= scale; /* the largest is 1 now: no overflow in the length */
+    double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    return v3((float)(n[0] / len), (float)(n[1] / len), (float)(n[2] / len));
 }
 
 static void analyse(pm_scene *s) {
@@ -265,6 +285,12 @@ void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     float extent = v3_max_component(v3_sub(hi, lo));
     s->ray_scale = extent > 0.f ? extent : 1.f;
     for (uint32_t i = 0; i < s->material_count; i++) material_lobes(s, &s->materials[i]);
+    free(s->face_normals);
+    s->face_normals = malloc(sizeof(vec3) * (s->triangle_count ? s->triangle_count : 1));
+    for (uint32_t t = 0; s->face_normals && t < s->triangle_count; t++) {
+        const uint32_t *ix = s->indices + 3 * (size_t)t;
+        s->face_normals[t] = face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);
+    }
     build_emitters(s);
     build_light_distribution(s);
     if (added_sky) *added_sky = false;
@@ -294,6 +320,7 @@ void pm_scene_free(pm_scene *s) {
     free(s->tangents);
     free(s->indices);
     free(s->triangle_material);
+    free(s->face_normals);
     free(s->materials);
     for (uint32_t i = 0; i < s->texture_count; i++) free(s->textures[i].rgba);
     free(s->textures);
@@ -511,7 +538,7 @@ void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_su
     float b0 = 1.f - b1 - b2;
     vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
     out->p = v3_add(v3_add(v3_scale(p0, b0), v3_scale(p1, b1)), v3_scale(p2, b2));
-    out->ng = v3_normalize(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
+    out->ng = s->face_normals ? s->face_normals[tri] : face_normal(p0, p1, p2);
     vec3 n = v3_add(v3_add(v3_scale(s->normals[ix[0]], b0), v3_scale(s->normals[ix[1]], b1)),
                     v3_scale(s->normals[ix[2]], b2));
     n = v3_normalize(n);
@@ -533,22 +560,30 @@ void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_su
         const float b[3] = {b0, b1, b2};
         out->ns = normal_mapped(s, m, ix, b, uv, out->ns, out->ng);
     }
-    vec3 base = m->base_color;
-    if (m->base_color_texture >= 0)
-        base = v3_mul(base, texture_at(s, uv, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform, true));
-    float metallic = m->metallic, roughness = m->roughness, transmission = m->transmission;
-    if (m->metallic_roughness_texture >= 0) {
-        vec3 mr = texture_at(s, uv, m->metallic_roughness_texture, m->metallic_roughness_texcoord,
-                             &m->metallic_roughness_transform, false);
-        roughness *= mr.y;
-        metallic *= mr.z;
+    if (m->uniform_split) {
+        out->kd = m->split_kd;
+        out->ks = m->split_ks;
+        out->kt = m->split_kt;
+        out->glossy = m->split_glossy;
+        if (out->glossy) out->brdf = m->split_brdf;
+    } else {
+        vec3 base = m->base_color;
+        if (m->base_color_texture >= 0)
+            base = v3_mul(base, texture_at(s, uv, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform, true));
+        float metallic = m->metallic, roughness = m->roughness, transmission = m->transmission;
+        if (m->metallic_roughness_texture >= 0) {
+            vec3 mr = texture_at(s, uv, m->metallic_roughness_texture, m->metallic_roughness_texcoord,
+                                 &m->metallic_roughness_transform, false);
+            roughness *= mr.y;
+            metallic *= mr.z;
+        }
+        if (m->transmission_texture >= 0 && transmission > 0.f)
+            transmission *= texture_at(s, uv, m->transmission_texture, m->transmission_texcoord, &m->transmission_transform,
+                                       false).x;
+        pm_material_split_at(base, metallic, roughness, transmission, &out->kd, &out->ks, &out->kt);
+        out->glossy = pm_glossy_at(metallic, roughness);
+        if (out->glossy) out->brdf = pm_brdf_at(base, metallic, roughness, transmission);
     }
-    if (m->transmission_texture >= 0 && transmission > 0.f)
-        transmission *= texture_at(s, uv, m->transmission_texture, m->transmission_texcoord, &m->transmission_transform,
-                                   false).x;
-    pm_material_split_at(base, metallic, roughness, transmission, &out->kd, &out->ks, &out->kt);
-    out->glossy = pm_glossy_at(metallic, roughness);
-    if (out->glossy) out->brdf = pm_brdf_at(base, metallic, roughness, transmission);
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
     out->emission = m->emission;
     if (m->emission_texture >= 0 && !v3_is_black(m->emission))

@@ -62,9 +62,11 @@ static bool build_mode(pm_session *s, char *err, size_t err_size) {
         pm_progressive_components(s->progressive, components);
     } else {
         for (int c = 0; c < PM_COMPONENT_COUNT; c++) components[c] = s->scene->analysis.component_possible[c];
-        /* the maps are built at the first iteration; a component they cannot feed has no buffer */
-        components[PM_CAUSTIC] = components[PM_CAUSTIC] && s->config.classic_photon_pass && s->config.classic_photons.caustic_photons;
-        components[PM_INDIRECT] = components[PM_INDIRECT] && s->config.classic_photon_pass && s->config.classic_photons.global_photons;
+        /* the maps are built at the first iteration; a component they cannot feed has no buffer
+         * (the path tracer feeds every component the scene can have) */
+        bool maps = s->config.mode == PM_MODE_CLASSIC;
+        components[PM_CAUSTIC] = components[PM_CAUSTIC] && (!maps || (s->config.classic_photon_pass && s->config.classic_photons.caustic_photons));
+        components[PM_INDIRECT] = components[PM_INDIRECT] && (!maps || (s->config.classic_photon_pass && s->config.classic_photons.global_photons));
     }
     if (!pm_film_init(&s->film, s->config.width, s->config.height, components)) {
         snprintf(err, err_size, "out of memory (a %dx%d film)", s->config.width, s->config.height);
@@ -142,7 +144,7 @@ bool pm_session_iterate(pm_session *s) {
         pm_progressive_set_shadow_map(s->progressive, s->shadow);
         ok = pm_progressive_iterate(s->progressive, &s->film);
     } else {
-        if (!s->maps_built && s->config.classic_photon_pass) {
+        if (!s->maps_built && s->config.classic_photon_pass && s->config.mode == PM_MODE_CLASSIC) {
             ok = pm_photon_maps_build(s->scene, s->accel, &s->config.classic_photons, &s->maps, &s->classic_photon_stats);
             s->maps_built = ok;
             if (ok && atomic_load(&s->cancel)) {
@@ -154,6 +156,7 @@ bool pm_session_iterate(pm_session *s) {
         if (ok) {
             pm_eye_settings eye = s->config.classic_eye;
             eye.maps = s->maps_built ? &s->maps : NULL;
+            eye.path_trace = s->config.mode == PM_MODE_PATHTRACE;
             eye.shadow = s->shadow;
             pm_eye_iterate(s->scene, s->accel, &s->camera, &eye, s->film.samples, &s->film, &s->classic_eye_stats);
         }
