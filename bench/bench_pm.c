@@ -1,6 +1,6 @@
-/* bench_pm.c: speed figures measured as ratios within one run: eye, photon and progressive passes against raw Embree, gather structures, thread scaling.
+/* bench_pm.c: speed figures measured as ratios within one run: eye, photon and progressive passes against raw Embree, gather structures, thread scaling, shadow photons.
  *
- * Usage: build/rel/bench_pm [SCENE.gltf] — prints "bench KEY=VALUE ..." lines (stable, for
+ * Usage: build/rel/bench_pm [SCENE.gltf [shadow]] — prints "bench KEY=VALUE ..." lines (stable, for
  * scripts) and nothing else. Absolute rates on a shared machine are noisy; the ratios, each
  * measured back to back and as the best of three interleaved runs, are the figures to compare.
  */
@@ -21,6 +21,7 @@
 #include "progressive.h"
 #include "rng.h"
 #include "scene.h"
+#include "shadowmap.h"
 
 static double now_seconds(void) {
     struct timespec ts;
@@ -90,7 +91,8 @@ static double eye_rate(const pm_scene *s, const pm_accel *a, const pm_camera *ca
     es.seed = 1;
     es.threads = threads;
     es.max_specular_depth = 12;
-    pm_eye_stats st = {0, 0, 0, false};
+    pm_eye_stats st;
+    memset(&st, 0, sizeof st);
     for (int i = 0; i < iterations; i++) pm_eye_iterate(s, a, cam, &es, i, &film, &st);
     pm_film_free(&film);
     return st.rays / st.seconds;
@@ -183,8 +185,78 @@ static void gather_structures(const pm_photon_maps *maps, float radius) {
     pm_photon_grid_free(&grid);
 }
 
+/* Eye passes (direct light and specular, no photon maps) with and without shadow photons, on
+ * the scene as loaded and with point lights added under its top until it has `lights` (0: as
+ * loaded): seconds of the best of three interleaved runs, the share of shadow rays saved, and what
+ * the map costs. */
+static void shadow_photons(const char *path, int lights) {
+    pm_scene s;
+    pm_load_report rep;
+    char err[1024];
+    if (!pm_load_gltf(path, true, &s, &rep, err, sizeof err)) return;
+    pm_scene_finalize(&s, true, NULL);
+    vec3 ext = v3_sub(s.bounds_max, s.bounds_min);
+    int extra_lights = lights > (int)s.light_count ? lights - (int)s.light_count : 0;
+    for (int i = 0; i < extra_lights; i++) {
+        s.lights = realloc(s.lights, (s.light_count + 1) * sizeof *s.lights);
+        pm_light l;
+        memset(&l, 0, sizeof l);
+        l.type = PM_LIGHT_POINT;
+        float fx = (float)fmod(0.5 + i * 0.6180339887, 1.0), fz = (float)fmod(0.5 + i * 0.7548776662, 1.0);
+        l.position = v3(s.bounds_min.x + ext.x * (0.15f + 0.7f * fx), s.bounds_min.y + ext.y * 0.85f,
+                        s.bounds_min.z + ext.z * (0.15f + 0.7f * fz));
+        l.intensity = v3s(2.4f / (float)extra_lights);
+        s.lights[s.light_count++] = l;
+    }
+    pm_scene_finalize(&s, true, NULL);
+    pm_accel *a = pm_accel_create(&s, err, sizeof err);
+    if (!a) { pm_scene_free(&s); return; }
+    pm_camera cam = s.camera_count ? s.cameras[0] : pm_scene_auto_camera(&s, 1.f);
+    pm_shadow_settings set;
+    memset(&set, 0, sizeof set);
+    set.mode = PM_SHADOW_ON;
+    set.threads = 2;
+    set.photons_per_light = pm_shadow_default_photons(512, 512);
+    pm_shadow_stats st;
+    pm_shadow_map *m = pm_shadow_map_build(&s, a, &set, &st);
+    double best[2] = {1e30, 1e30};
+    pm_eye_stats last[2];
+    for (int rep = 0; rep < 3; rep++)
+        for (int k = 0; k < 2; k++) {
+            bool comps[PM_COMPONENT_COUNT] = {true, true, false, false};
+            pm_film film;
+            pm_film_init(&film, 256, 256, comps);
+            pm_eye_settings es;
+            memset(&es, 0, sizeof es);
+            es.seed = 1;
+            es.threads = 1;
+            es.max_specular_depth = 12;
+            es.shadow = k ? m : NULL;
+            pm_eye_stats e;
+            memset(&e, 0, sizeof e);
+            for (int i = 0; i < 4; i++) pm_eye_iterate(&s, a, &cam, &es, i, &film, &e);
+            pm_film_free(&film);
+            if (e.seconds < best[k]) best[k] = e.seconds;
+            last[k] = e;
+        }
+    double cast = (double)last[1].shadow_rays, saved = (double)last[1].shadow_rays_saved;
+    printf("bench shadow_photons scene=%s added_point_lights=%d lights=%u built=%d reason=%s photons=%llu records=%llu map_seconds=%.4f map_bytes=%zu eye_seconds_rays=%.4f eye_seconds_shadow_photons=%.4f speedup=%.2f shadow_rays_saved_fraction=%.3f probe_lookup_ns=%.1f probe_ray_ns=%.1f\n",
+           path, extra_lights, s.light_count, st.built, st.built ? "none" : st.reason, (unsigned long long)st.photons,
+           (unsigned long long)st.records, st.seconds, st.bytes, best[0], best[1], best[0] / best[1],
+           cast + saved > 0 ? saved / (cast + saved) : 0.0, st.probe_lookup_ns, st.probe_ray_ns);
+    pm_shadow_map_free(m);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(int argc, char **argv) {
     const char *path = argc > 1 ? argv[1] : "scenes/cornell-box.gltf";
+    if (argc > 2 && !strcmp(argv[2], "shadow")) {
+        shadow_photons(path, 0);
+        shadow_photons(path, 8);
+        shadow_photons(path, 20000);
+        return 0;
+    }
     pm_scene s;
     pm_load_report rep;
     char err[1024];
@@ -276,6 +348,10 @@ int main(int argc, char **argv) {
     }
     printf("bench first_iteration width=640 height=480 threads=2 seconds=%.4f no_photons_seconds=%.4f ratio=%.2f\n", first, plain,
            first / plain);
+
+    shadow_photons(path, 0);
+    shadow_photons(path, 8);
+    shadow_photons(path, 20000); /* no map (too many lights): light sampling by power bounds the cost */
 
     /* kd-tree: rebuild the global map's photons (copied) and query at random stored positions */
     size_t count = maps.global.count;

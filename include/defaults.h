@@ -21,6 +21,26 @@
                                            (the open Cornell box 0.67), its emitters light it alone; a model in open space is near 0 */
 #define PM_CAMERA_ENCLOSED_FRACTION 0.99 /* rays from the camera in all directions that hit geometry: the camera is shut in */
 
+/* direct light */
+#define PM_DIRECT_LIGHT_SAMPLES 4         /* punctual lights shaded per shading point: every one in a scene with at most this many,
+                                             else this many drawn by power (stratified), so the cost does not grow with the count */
+
+/* shadow photons (Jensen and Christensen 1995): which punctual lights a point surely sees or surely does not */
+#define PM_SHADOW_PHOTONS_PER_PIXEL 1.0   /* photons per light = image pixels x this, clamped below */
+#define PM_SHADOW_MIN_PHOTONS 65536
+#define PM_SHADOW_MAX_PHOTONS 1048576
+#define PM_SHADOW_MAX_LIGHTS 8            /* a scene with more punctual lights gets none (they are sampled; a map per light would not pay) */
+#define PM_SHADOW_LOOKUP_PHOTONS 256      /* a lookup's region holds this many of one light's photons at their mean density (sets the
+                                             cell): larger is safer near thin shadows, smaller saves more rays (tests/test_shadow.c) */
+#define PM_SHADOW_MIN_COUNT 8             /* the threshold: a light is decided without a ray only when at least this many of its
+                                             photons are near and all agree (at most 15) */
+#define PM_SHADOW_MAX_CROSSINGS 16        /* surfaces a shadow photon passes through before it stops */
+#define PM_SHADOW_MIN_GAIN 2.0            /* ... and keeps it only when, timed on random surface points, the shadow rays it decides
+                                             take at least this many times as long as its lookups (big scenes, alpha-tested leaves) */
+#define PM_SHADOW_TIME_SHARE 0.1         /* with --time: the shadow photons stop starting chunks after this share of the budget */
+#define PM_SHADOW_PAYBACK 4.0             /* by default a render gets shadow photons only when its shadow rays (samples x lights
+                                             shaded) are at least this many times the photons the map would trace */
+
 /* materials */
 #define PM_GLOSSY_MIN_ALPHA 1e-3f         /* GGX alpha = roughness^2 below this is the perfect mirror (roughness < 0.032) */
 

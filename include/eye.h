@@ -15,6 +15,7 @@
 #include "film.h"
 #include "photonmap.h"
 #include "scene.h"
+#include "shadowmap.h"
 
 typedef enum { PM_INDIRECT_GATHER = 0, PM_INDIRECT_PHOTONS = 1 } pm_indirect_mode;
 
@@ -28,6 +29,7 @@ typedef struct {
     int gather_rays;          /* final-gather rays per eye sample at the first diffuse hit */
     bool view_photons;        /* show the maps' estimates at the first diffuse hit, no shadow rays */
     bool path_trace;          /* the path tracer (--mode pathtrace): maps are ignored, see pm_eye_iterate */
+    const pm_shadow_map *shadow; /* shadow photons; NULL: every punctual light sample casts its shadow ray */
 } pm_eye_settings;
 
 typedef struct {
@@ -35,6 +37,8 @@ typedef struct {
     double seconds;
     uint64_t dropped_samples; /* component samples that were NaN or infinite, left out of the film */
     uint64_t path_vertices;   /* path tracer: surfaces its paths met (for the mean path length) */
+    uint64_t shadow_rays;     /* direct light's shadow rays toward light samples (punctual, emitter, sky map), among rays */
+    uint64_t shadow_rays_saved; /* punctual light samples that shadow photons decided without a ray */
     bool failed;              /* out of memory: the pass did not run */
 } pm_eye_stats;
 

@@ -78,6 +78,9 @@ void pm_progressive_restart(pm_progressive *p, pm_film *film, const pm_camera *c
 /* A time budget's end (CLOCK_MONOTONIC seconds, 0 = none): photon passes running past it are
  * cut short (see pm_photon_tracer_set_deadline). */
 void pm_progressive_set_deadline(pm_progressive *p, double deadline);
+/* Shadow photons for direct light at the visible points (NULL: shadow rays only); the map must
+ * outlive its use. */
+void pm_progressive_set_shadow_map(pm_progressive *p, const pm_shadow_map *m);
 const pm_progressive_stats *pm_progressive_get_stats(const pm_progressive *p);
 pm_radius_summary pm_progressive_radii(const pm_progressive *p, const pm_film *film);
 /* Whether this scene needs any photon pass at all. */

@@ -146,6 +146,7 @@ typedef struct {
     uint32_t emitter_count;
     float emitter_power;       /* sum of area x luminance(radiance) x pi x sides */
     bool emitter_alloc_failed; /* out of memory for the emitter distribution: the caller reports it */
+    float *light_cdf;          /* light_count+1 entries by power, when there are more than PM_DIRECT_LIGHT_SAMPLES punctual lights; else NULL */
     pm_scene_analysis analysis;
 } pm_scene;
 
@@ -287,6 +288,9 @@ vec3 pm_scene_emission_at(const pm_scene *s, uint32_t tri, float b1, float b2);
  * texture's alpha there (1 for an OPAQUE material). */
 float pm_scene_alpha_at(const pm_scene *s, uint32_t tri, float b1, float b2);
 
+/* Picks a punctual light by power (uniformly when the distribution could not be allocated);
+ * returns its index and the probability of that pick. The scene must have a light. */
+uint32_t pm_scene_pick_light(const pm_scene *s, float u, float *pick_pdf);
 /* Picks an emissive triangle by power; returns its index and the probability of that pick. */
 uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf);
 float pm_triangle_area(const pm_scene *s, uint32_t tri);

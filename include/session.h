@@ -20,6 +20,7 @@
 #include "photonmap.h"
 #include "progressive.h"
 #include "scene.h"
+#include "shadowmap.h"
 
 typedef enum { PM_MODE_PROGRESSIVE = 0, PM_MODE_CLASSIC = 1, PM_MODE_PATHTRACE = 2 } pm_mode;
 
@@ -32,6 +33,7 @@ typedef struct {
                                               eye pass too (no maps, path_trace set by the session) */
     bool classic_photon_pass;              /* classic mode: build maps at all */
     uint32_t max_iterations;               /* background rendering stops there (0 = never) */
+    pm_shadow_settings shadow;             /* shadow photons, every mode: built before the first iteration */
 } pm_session_config;
 
 typedef struct {
@@ -58,6 +60,12 @@ pm_progressive *pm_session_progressive(pm_session *s);               /* NULL in 
 const pm_photon_maps *pm_session_classic_maps(const pm_session *s);  /* NULL in the progressive mode */
 const pm_photon_stats *pm_session_classic_photon_stats(const pm_session *s);
 const pm_eye_stats *pm_session_classic_eye_stats(const pm_session *s); /* classic and path-tracing modes */
+/* The shadow photons: whether there are any, why not, and what they cost (zeros before the first iteration). */
+const pm_shadow_stats *pm_session_shadow_stats(const pm_session *s);
+/* A time budget's end (CLOCK_MONOTONIC seconds): the shadow photons, when they are still to be
+ * built, may take PM_SHADOW_TIME_SHARE of the time left, and the progressive mode's photon passes
+ * are cut to fit (pm_progressive_set_deadline). */
+void pm_session_set_deadline(pm_session *s, double deadline);
 /* Clears the accumulation, optionally with a new camera (synchronous use). */
 void pm_session_restart(pm_session *s, const pm_camera *camera);
 

@@ -27,7 +27,7 @@ typedef struct {
     pm_film *film;
     pm_visible_point *visible, *gathered; /* progressive mode: one each per pixel, or NULL */
     int tiles_x;
-    struct { uint64_t rays, dropped, vertices; char pad[40]; } counters[MAX_THREADS];
+    struct { uint64_t rays, dropped, vertices, shadow[2]; char pad[24]; } counters[MAX_THREADS];
 } eye_job;
 
 static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
@@ -105,17 +105,36 @@ static inline vec3 reflected(const pm_surface *sf, vec3 ns, vec3 wo, vec3 wi, fl
 }
 
 /* Direct light reflected toward wo at a diffuse or glossy point. One shadow ray per punctual
- * light, one to a power-picked emissive triangle, one ray from the surface's own sampling
- * (cosine on Lambert, the lobe's sampler on glossy) for the sky and the emitters, combined with
- * the area sample by multiple importance sampling. */
+ * light (with more than PM_DIRECT_LIGHT_SAMPLES lights, that many drawn by power, stratified,
+ * each weighted by 1 / (samples x its pick probability)), one to a power-picked emissive
+ * triangle, one ray from the surface's own sampling (cosine on Lambert, the lobe's sampler on
+ * glossy) for the sky and the emitters, combined with the area sample by multiple importance
+ * sampling (punctual lights are deltas: no other strategy can find them, so they take no MIS
+ * weight). With shadow photons (shadow != NULL) a punctual light that the records near the point
+ * surely show or surely hide costs no ray; shadow_counts (may be NULL) adds the shadow rays cast
+ * to light samples [0] and those the records made unnecessary [1]. A NULL shadow map is exactly
+ * the ray-only estimate, random numbers included. */
 static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, vec3 wo, pm_rng *rng,
-                         uint64_t *rays) {
+                         uint64_t *rays, const pm_shadow_map *shadow, uint64_t shadow_counts[2]) {
     vec3 ng = facing(sf->ng, wo);
     vec3 ns = v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
     vec3 origin = pm_surface_origin(sf, ng, s->ray_scale);
     vec3 e = v3s(0.f); /* Lambert: irradiance E (times kd/pi at the end); glossy: radiance */
+    uint64_t cast = 0, saved = 0;
 
-    for (uint32_t i = 0; i < s->light_count; i++) {
+    bool sampled_lights = s->light_count > PM_DIRECT_LIGHT_SAMPLES;
+    uint32_t light_samples = sampled_lights ? PM_DIRECT_LIGHT_SAMPLES : s->light_count;
+    float stratum = sampled_lights ? pm_rng_float(rng) : 0.f;
+    const uint8_t *records = shadow && light_samples ? pm_shadow_map_find(shadow, sf->p, ng, v3_dot(ng, sf->ng) > 0.f) : NULL;
+    for (uint32_t j = 0; j < light_samples; j++) {
+        uint32_t i = j;
+        float pick_weight = 1.f;
+        if (sampled_lights) {
+            float pick_pdf;
+            i = pm_scene_pick_light(s, ((float)j + stratum) / (float)light_samples, &pick_pdf);
+            if (!(pick_pdf > 0.f)) continue;
+            pick_weight = 1.f / ((float)light_samples * pick_pdf);
+        }
         const pm_light *l = &s->lights[i];
         vec3 wi, radiance_scale;
         float tmax;
@@ -135,9 +154,16 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         }
         float cos_s = v3_dot(ns, wi);
         if (cos_s <= 0.f || v3_dot(ng, wi) <= 0.f) continue;
-        (*rays)++;
-        if (pm_accel_occluded(a, origin, wi, tmax)) continue;
-        e = v3_add(e, v3_mul(radiance_scale, reflected(sf, ns, wo, wi, cos_s)));
+        pm_visibility verdict = records ? pm_shadow_map_verdict(shadow, records, i) : PM_VISIBILITY_UNKNOWN;
+        if (verdict == PM_VISIBILITY_HIDDEN) { saved++; continue; }
+        if (verdict == PM_VISIBILITY_SEEN) {
+            saved++;
+        } else {
+            (*rays)++;
+            cast++;
+            if (pm_accel_occluded(a, origin, wi, tmax)) continue;
+        }
+        e = v3_add(e, v3_mul(v3_scale(radiance_scale, pick_weight), reflected(sf, ns, wo, wi, cos_s)));
     }
 
     if (s->emitter_count) {
@@ -164,6 +190,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                 vec3 seg = v3_sub(target, origin);
                 float seg_len = v3_length(seg);
                 (*rays)++;
+                cast++;
                 if (seg_len > 0.f && !pm_accel_occluded(a, origin, v3_scale(seg, 1.f / seg_len), seg_len)) {
                     float g = cos_l / (dist * dist);
                     float pdf_light = pick_pdf * dist * dist / (area * cos_l);
@@ -184,6 +211,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         float cos_s = v3_dot(ns, wi);
         if (pdf_sky > 0.f && cos_s > 0.f && v3_dot(ng, wi) > 0.f) {
             (*rays)++;
+            cast++;
             float pdf_surface = sf->glossy ? pm_brdf_pdf(&sf->brdf, ns, wo, wi) : cos_s * PM_INV_PI;
             if (!pm_accel_occluded(a, origin, wi, INFINITY))
                 e = v3_add(e, v3_mul(v3_scale(radiance, power_heuristic(pdf_sky, pdf_surface) / pdf_sky),
@@ -236,6 +264,10 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                 }
             }
         }
+    }
+    if (shadow_counts) {
+        shadow_counts[0] += cast;
+        shadow_counts[1] += saved;
     }
     return sf->glossy ? e : v3_scale(v3_mul(sf->kd, e), PM_INV_PI);
 }
@@ -302,7 +334,7 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, v
 }
 
 static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT],
-                        uint64_t *rays) {
+                        uint64_t *rays, uint64_t shadow_counts[2]) {
     const pm_scene *s = job->scene;
     vec3 throughput = v3s(1.f);
     for (int depth = 0;; depth++) {
@@ -331,7 +363,8 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 ou
                 out[depth == 0 ? PM_INDIRECT : PM_SPECULAR] = v3_add(out[depth == 0 ? PM_INDIRECT : PM_SPECULAR],
                     v3_mul(throughput, map_estimate(&set->maps->global, &sf, ng, wo, &indirect_only)));
             } else {
-                out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, &sf, wo, rng, rays)));
+                out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, &sf, wo, rng, rays, set->shadow,
+                                                                              shadow_counts)));
             }
             if (set->maps && set->maps->caustic.count) {
                 int c = depth == 0 ? PM_CAUSTIC : PM_SPECULAR;
@@ -376,8 +409,8 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 ou
  * point with probability D / (D + S) and scatters on otherwise, each choice weighted by the
  * inverse of its probability. */
 static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, vec3 throughput, bool camera_ray, pm_rng *rng,
-                            vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, pm_visible_point *vp, pm_surface *sf,
-                            vec3 *point_throughput) {
+                            vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2], pm_visible_point *vp,
+                            pm_surface *sf, vec3 *point_throughput) {
     const pm_scene *s = job->scene;
     float path_length = 0.f;
     for (int depth = 0;; depth++) {
@@ -400,7 +433,9 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, vec3 throughput,
         if (D > 0.f && (S <= 0.f || pm_rng_float(rng) * (D + S) < D)) {
             throughput = v3_scale(throughput, (D + S) / D);
             vec3 ng = facing(sf->ng, wo);
-            if (camera_ray) out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, sf, wo, rng, rays)));
+            if (camera_ray)
+                out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, sf, wo, rng, rays,
+                                                                              job->settings->shadow, shadow_counts)));
             vp->p = sf->p;
             vp->n = ng;
             vp->glossy = sf->glossy;
@@ -436,19 +471,19 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, vec3 throughput,
 /* The progressive mode's eye sample: the pixel's visible point and, with final gathering, the
  * point its one gather ray finds; emission and direct light go to out[]. */
 static void trace_visible(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT],
-                          uint64_t *rays, pm_visible_point *vp, pm_visible_point *gp) {
+                          uint64_t *rays, uint64_t shadow_counts[2], pm_visible_point *vp, pm_visible_point *gp) {
     memset(vp, 0, sizeof *vp);
     if (gp) memset(gp, 0, sizeof *gp);
     pm_surface sf;
     vec3 throughput;
-    if (!walk_to_diffuse(job, o, d, v3s(1.f), true, rng, out, rays, vp, &sf, &throughput) || !gp) return;
+    if (!walk_to_diffuse(job, o, d, v3s(1.f), true, rng, out, rays, shadow_counts, vp, &sf, &throughput) || !gp) return;
     vec3 ng = vp->n, ns = side_normal(&sf, ng), g, weight;
     if (!sample_reflection(&sf, ng, ns, vp->wo, rng, &g, &weight)) return;
     vec3 gather_throughput = v3_mul(throughput, weight);
     pm_surface y;
     vec3 unused;
     if (walk_to_diffuse(job, pm_surface_origin(&sf, ng, job->scene->ray_scale), g, gather_throughput, false, rng, NULL,
-                        rays, gp, &y, &unused))
+                        rays, NULL, gp, &y, &unused))
         gp->seen_directly = vp->seen_directly; /* the component is the visible point's */
 }
 
@@ -456,7 +491,7 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 
  * `seen` is the component that light met along the next segment belongs to, `lit_by_segment`
  * whether such light counts at all (camera ray, or the last bounce was specular). */
 static void trace_path(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays,
-                       uint64_t *vertices) {
+                       uint64_t shadow_counts[2], uint64_t *vertices) {
     const pm_scene *s = job->scene;
     vec3 throughput = v3s(1.f);
     int seen = PM_DIRECT;
@@ -481,7 +516,8 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out
         if (D > 0.f && (S <= 0.f || pm_rng_float(rng) * (D + S) < D)) {
             throughput = v3_scale(throughput, (D + S) / D);
             int here = depth == 0 ? PM_DIRECT : (behind_specular ? PM_SPECULAR : PM_INDIRECT);
-            out[here] = v3_add(out[here], v3_mul(throughput, direct_light(s, job->accel, &sf, wo, rng, rays)));
+            out[here] = v3_add(out[here], v3_mul(throughput, direct_light(s, job->accel, &sf, wo, rng, rays,
+                                                                          job->settings->shadow, shadow_counts)));
             /* from a first-hit diffuse vertex, what specular bounces lead to is the caustic */
             seen = depth == 0 ? PM_CAUSTIC : here;
             lit_by_segment = false;
@@ -517,7 +553,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
     int x0 = tx * TILE, y0 = ty * TILE;
     int x1 = x0 + TILE < film->width ? x0 + TILE : film->width;
     int y1 = y0 + TILE < film->height ? y0 + TILE : film->height;
-    uint64_t rays = 0, dropped = 0, vertices = 0;
+    uint64_t rays = 0, dropped = 0, vertices = 0, shadow_counts[2] = {0, 0};
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
             size_t pixel = (size_t)y * film->width + x;
@@ -526,11 +562,12 @@ static void render_tile(void *ctx, size_t task, int thread) {
             pm_camera_ray(job->camera, film->width, film->height, x + pm_rng_float(&rng), y + pm_rng_float(&rng), &o, &d);
             vec3 out[PM_COMPONENT_COUNT] = {{0}};
             if (job->settings->path_trace)
-                trace_path(job, o, d, &rng, out, &rays, &vertices);
+                trace_path(job, o, d, &rng, out, &rays, shadow_counts, &vertices);
             else if (job->visible)
-                trace_visible(job, o, d, &rng, out, &rays, &job->visible[pixel], job->gathered ? &job->gathered[pixel] : NULL);
+                trace_visible(job, o, d, &rng, out, &rays, shadow_counts, &job->visible[pixel],
+                              job->gathered ? &job->gathered[pixel] : NULL);
             else
-                trace_pixel(job, o, d, &rng, out, &rays);
+                trace_pixel(job, o, d, &rng, out, &rays, shadow_counts);
             for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
                 /* A NaN from a degenerate corner case must not poison a pixel forever; it is
                  * counted (stat eye dropped_samples=), so tests can still see one. */
@@ -545,6 +582,8 @@ static void render_tile(void *ctx, size_t task, int thread) {
     job->counters[thread].rays += rays;
     job->counters[thread].dropped += dropped;
     job->counters[thread].vertices += vertices;
+    job->counters[thread].shadow[0] += shadow_counts[0];
+    job->counters[thread].shadow[1] += shadow_counts[1];
 }
 
 static double now_seconds(void) {
@@ -576,6 +615,8 @@ static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
             stats->rays += job->counters[t].rays;
             stats->dropped_samples += job->counters[t].dropped;
             stats->path_vertices += job->counters[t].vertices;
+            stats->shadow_rays += job->counters[t].shadow[0];
+            stats->shadow_rays_saved += job->counters[t].shadow[1];
         }
         stats->seconds += now_seconds() - start;
     }

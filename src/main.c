@@ -46,6 +46,7 @@ typedef struct {
     pm_kernel kernel;
     pm_indirect_mode indirect;
     bool view_photons, no_photons;
+    pm_shadow_mode shadow_photons; /* --shadow-photons on|off; default: where they pay */
     bool classic;         /* --mode classic; else progressive (or pathtrace) */
     bool pathtrace;       /* --mode pathtrace */
     const char *log;      /* --log: CSV of the run, one row per logged iteration */
@@ -86,6 +87,8 @@ static const char usage_text[] =
     "  --precompute N       gather from irradiance precomputed at every N-th global photon (default 4; 0 = full estimates)\n"
     "  --view photons       show the photon maps' estimates at the first diffuse hit\n"
     "  --no-photons         direct and specular only (no photon pass)\n"
+    "  --shadow-photons on|off  shadow photons decide where direct light needs no shadow ray\n"
+    "                       (default: on for point, spot and directional lights where they pay)\n"
     "  --reference REF.exr  measure the total against REF's R,G,B (same size): relMSE and mean ratios;\n"
     "                       with --stats also at iterations 1, 2, 4, 8, ... (an error-against-time curve)\n"
     "  --log FILE.csv       with --snapshot: one CSV row per iteration (then per doubling past 64): seconds,\n"
@@ -155,7 +158,7 @@ static int parse_options(int argc, char **argv, options *o) {
                                              "--seed", "--camera", "--exposure", "--screenshot", "--mode", "--photons",
                                              "--caustic-photons", "--k", "--max-radius", "--kernel", "--indirect",
                                              "--gather-rays", "--view", "--precompute", "--reference", "--alpha",
-                                             "--radius", "--components", "--sky", "--log"};
+                                             "--radius", "--components", "--sky", "--log", "--shadow-photons"};
         int which = -1;
         for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
             if (!strcmp(a, valued[k])) which = k;
@@ -210,6 +213,11 @@ static int parse_options(int argc, char **argv, options *o) {
             o->sky = v;
             break;
         case 25: o->log = v; break;
+        case 26:
+            if (!strcmp(v, "on")) o->shadow_photons = PM_SHADOW_ON;
+            else if (!strcmp(v, "off")) o->shadow_photons = PM_SHADOW_OFF;
+            else return usage_error("unknown --shadow-photons '%s' (on, off)", v);
+            break;
         case 18: if (strcmp(v, "photons")) return usage_error("unknown --view '%s' (photons)", v); o->view_photons = true; break;
         case 21: if (!parse_double(v, 1e-3, 0.999, &x)) return usage_error("bad --alpha '%s' (0.001 to 0.999)", v); o->alpha = x; break;
         case 22: if (!parse_double(v, 1e-30, 1e30, &x)) return usage_error("bad --radius '%s' (> 0, scene units)", v); o->radius = x; break;
@@ -332,6 +340,12 @@ static bool configure(const options *opt, const pm_scene *scene, const pm_accel 
     config->width = width;
     config->height = height;
     if (!opt->snapshot && opt->iterations) config->max_iterations = (uint32_t)opt->iterations;
+    config->shadow.mode = opt->shadow_photons;
+    config->shadow.photons_per_light = pm_shadow_default_photons(width, height);
+    config->shadow.threads = opt->threads;
+    /* how many points direct light will shade, when a snapshot's iterations say so */
+    if (opt->snapshot && !(opt->time_limit > 0))
+        config->shadow.expected_samples = (double)width * height * (opt->iterations ? opt->iterations : PM_DEFAULT_SNAPSHOT_ITERATIONS);
     pm_progressive_settings *pp = &config->progressive;
     pp->seed = opt->seed;
     pp->threads = opt->threads;
@@ -543,8 +557,7 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
      * budget buys. A budget spent before the first iteration still gets that iteration. */
     double start = now_seconds(), last_iteration = 0.0, fixed_before = 0.0;
     uint32_t next_progress = 1;
-    if (opt->time_limit > 0 && pm_session_progressive(session))
-        pm_progressive_set_deadline(pm_session_progressive(session), start + opt->time_limit);
+    if (opt->time_limit > 0) pm_session_set_deadline(session, start + opt->time_limit);
     while ((long)film->samples < target && !interrupted_by) {
         /* --time: start an iteration only if it is expected to end nearer the budget than
          * stopping now would. The last iteration predicts the next one's eye pass and gather;
@@ -821,6 +834,11 @@ static void print_final_stats(const options *opt, pm_session *session, const pm_
                    pm_kdtree_bytes(&maps->irradiance));
         }
     }
+    const pm_shadow_stats *sh = pm_session_shadow_stats(session);
+    printf("stat shadow_photons built=%d reason=%s lights=%u photons=%llu records=%llu rays=%llu cells=%zu bytes=%zu cell_size=%.6g spacing=%.6g seconds=%.4f probe_decided=%.3f probe_lookup_ns=%.1f probe_ray_ns=%.1f\n",
+           sh->built, sh->built ? "none" : (sh->reason ? sh->reason : "not_reached"), sh->lights,
+           (unsigned long long)sh->photons, (unsigned long long)sh->records, (unsigned long long)sh->rays, sh->cells,
+           sh->bytes, sh->cell_size, sh->spacing, sh->seconds, sh->probe_decided, sh->probe_lookup_ns, sh->probe_ray_ns);
     if (opt->pathtrace) {
         double paths = (double)film->samples * film->width * film->height;
         printf("stat pathtrace iterations=%u paths=%.0f rays=%llu seconds=%.4f rays_per_second=%.0f paths_per_second=%.0f mean_path_vertices=%.4f roulette_vertex=%d max_survival=%.2f\n",
@@ -828,10 +846,11 @@ static void print_final_stats(const options *opt, pm_session *session, const pm_
                eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, eye_stats.seconds > 0 ? paths / eye_stats.seconds : 0.0,
                paths > 0 ? eye_stats.path_vertices / paths : 0.0, PM_PATHTRACE_ROULETTE_VERTEX, PM_PATHTRACE_MAX_SURVIVAL);
     }
-    printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu\n",
+    printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu shadow_rays=%llu shadow_rays_saved=%llu\n",
            film->samples, (unsigned long long)eye_stats.rays, eye_stats.seconds,
            eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, opt->threads,
-           (unsigned long long)eye_stats.dropped_samples);
+           (unsigned long long)eye_stats.dropped_samples, (unsigned long long)eye_stats.shadow_rays,
+           (unsigned long long)eye_stats.shadow_rays_saved);
     printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu\n", peak_rss_bytes(), pm_film_bytes(film),
            pm_accel_bytes(accel));
 }

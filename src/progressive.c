@@ -384,6 +384,8 @@ void pm_progressive_set_deadline(pm_progressive *p, double deadline) {
     if (p->tracer) pm_photon_tracer_set_deadline(p->tracer, deadline);
 }
 
+void pm_progressive_set_shadow_map(pm_progressive *p, const pm_shadow_map *m) { p->eye.shadow = m; }
+
 const pm_progressive_stats *pm_progressive_get_stats(const pm_progressive *p) { return &p->stats; }
 
 pm_radius_summary pm_progressive_radii(const pm_progressive *p, const pm_film *film) {

@@ -208,6 +208,67 @@ static void build_emitters(pm_scene *s) {
     s->emitter_power = (float)(total * PM_PI);
 }
 
+/* The power of a punctual light, W: a point light's 4 pi I; a spot's I times the integral of
+ * glTF's falloff over its cone, 2 pi ((1 - cos_inner) + (cos_inner - cos_outer) / 3) for the
+ * squared linear ramp in cos (up to the ramp's floor); a directional light's irradiance over the
+ * scene's cross-section. */
+static vec3 light_power(const pm_scene *s, const pm_light *l) {
+    if (l->type == PM_LIGHT_DIRECTIONAL) {
+        float r = s->radius > 0.f ? s->radius : 1.f;
+        return v3_scale(l->intensity, PM_PI * r * r);
+    }
+    if (l->type == PM_LIGHT_SPOT) {
+        float ramp = pm_maxf(1e-3f, l->cos_inner - l->cos_outer), cone = pm_maxf(0.f, 1.f - l->cos_outer);
+        return v3_scale(l->intensity, 2.f * PM_PI * (pm_maxf(0.f, cone - ramp) + pm_minf(ramp, cone) / 3.f));
+    }
+    return v3_scale(l->intensity, 4.f * PM_PI);
+}
+
+/* The punctual lights' distribution by power (luminance, floored as the emitters'), for scenes
+ * with more lights than direct light shades one by one. Without memory it stays NULL and
+ * pm_scene_pick_light picks uniformly: noisier, still unbiased. */
+static void build_light_distribution(pm_scene *s) {
+    free(s->light_cdf);
+    s->light_cdf = NULL;
+    if (s->light_count <= PM_DIRECT_LIGHT_SAMPLES) return;
+    double *running = malloc(((size_t)s->light_count + 1) * sizeof *running);
+    s->light_cdf = malloc(((size_t)s->light_count + 1) * sizeof *s->light_cdf);
+    if (!running || !s->light_cdf) {
+        free(running);
+        free(s->light_cdf);
+        s->light_cdf = NULL;
+        return;
+    }
+    double total = 0.0;
+    running[0] = 0.0;
+    for (uint32_t i = 0; i < s->light_count; i++) {
+        vec3 p = light_power(s, &s->lights[i]);
+        double w = fmax(v3_luminance(p), 1e-3 * v3_max_component(p));
+        total += w > 0.0 && isfinite(w) ? w : 0.0;
+        running[i + 1] = total;
+    }
+    for (uint32_t i = 0; i <= s->light_count; i++)
+        s->light_cdf[i] = total > 0.0 ? (float)(running[i] / total) : (float)i / (float)s->light_count;
+    s->light_cdf[s->light_count] = 1.f;
+    free(running);
+}
+
+uint32_t pm_scene_pick_light(const pm_scene *s, float u, float *pick_pdf) {
+    uint32_t n = s->light_count;
+    if (!s->light_cdf) {
+        uint32_t i = (uint32_t)(u * (float)n);
+        *pick_pdf = 1.f / (float)n;
+        return i < n ? i : n - 1;
+    }
+    uint32_t lo = 0, hi = n; /* the last i with cdf[i] <= u */
+    while (lo + 1 < hi) {
+        uint32_t mid = (lo + hi) / 2;
+        if (s->light_cdf[mid] <= u) lo = mid; else hi = mid;
+    }
+    *pick_pdf = s->light_cdf[lo + 1] - s->light_cdf[lo];
+    return lo;
+}
+
 void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     vec3 lo = v3s(FLT_MAX), hi = v3s(-FLT_MAX);
     for (uint32_t t = 0; t < s->triangle_count; t++)
@@ -231,6 +292,7 @@ void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
         s->face_normals[t] = face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);
     }
     build_emitters(s);
+    build_light_distribution(s);
     if (added_sky) *added_sky = false;
     if (add_default_sky && !s->sky && s->emitter_count == 0 && s->light_count == 0) {
         s->sky = true;
@@ -267,6 +329,7 @@ void pm_scene_free(pm_scene *s) {
     free(s->emitters);
     free(s->emitter_cdf);
     free(s->emitter_radiance);
+    free(s->light_cdf);
     memset(s, 0, sizeof *s);
 }
 

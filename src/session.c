@@ -24,6 +24,9 @@ struct pm_session {
     bool maps_built;
     pm_photon_stats classic_photon_stats;
     pm_eye_stats classic_eye_stats;
+    pm_shadow_map *shadow;                /* both modes; NULL: shadow rays only */
+    pm_shadow_stats shadow_stats;
+    bool shadow_decided;                  /* built, or known to be unneeded */
     double render_seconds;                /* since the last restart */
 
     /* background rendering: everything below `lock` is shared with the worker */
@@ -94,6 +97,7 @@ void pm_session_destroy(pm_session *s) {
     pm_session_stop(s);
     pm_progressive_destroy(s->progressive);
     pm_photon_maps_free(&s->maps);
+    pm_shadow_map_free(s->shadow);
     pm_film_free(&s->film);
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         free(s->front[c]);
@@ -109,11 +113,35 @@ pm_progressive *pm_session_progressive(pm_session *s) { return s->progressive; }
 const pm_photon_maps *pm_session_classic_maps(const pm_session *s) { return s->config.mode == PM_MODE_CLASSIC ? &s->maps : NULL; }
 const pm_photon_stats *pm_session_classic_photon_stats(const pm_session *s) { return &s->classic_photon_stats; }
 const pm_eye_stats *pm_session_classic_eye_stats(const pm_session *s) { return &s->classic_eye_stats; }
+const pm_shadow_stats *pm_session_shadow_stats(const pm_session *s) { return &s->shadow_stats; }
+
+void pm_session_set_deadline(pm_session *s, double deadline) {
+    double now = now_seconds();
+    s->config.shadow.deadline = deadline > now ? now + (deadline - now) * PM_SHADOW_TIME_SHARE : now;
+    if (s->progressive) pm_progressive_set_deadline(s->progressive, deadline);
+}
+
+/* The shadow photons, once: they depend on the scene and its lights only, so camera moves and
+ * restarts keep them. A build cut short by a restart is no map: it is built again next time. */
+static bool decide_shadow_map(pm_session *s) {
+    if (s->shadow_decided) return true;
+    s->shadow = pm_shadow_map_build(s->scene, s->accel, &s->config.shadow, &s->shadow_stats);
+    if (s->shadow_stats.out_of_memory) return false;
+    if (atomic_load(&s->cancel)) {
+        pm_shadow_map_free(s->shadow);
+        s->shadow = NULL;
+        return true;
+    }
+    s->shadow_decided = true;
+    return true;
+}
 
 bool pm_session_iterate(pm_session *s) {
     double t0 = now_seconds();
-    bool ok = true;
+    bool ok = decide_shadow_map(s);
+    if (!ok) return false;
     if (s->progressive) {
+        pm_progressive_set_shadow_map(s->progressive, s->shadow);
         ok = pm_progressive_iterate(s->progressive, &s->film);
     } else {
         if (!s->maps_built && s->config.classic_photon_pass && s->config.mode == PM_MODE_CLASSIC) {
@@ -129,6 +157,7 @@ bool pm_session_iterate(pm_session *s) {
             pm_eye_settings eye = s->config.classic_eye;
             eye.maps = s->maps_built ? &s->maps : NULL;
             eye.path_trace = s->config.mode == PM_MODE_PATHTRACE;
+            eye.shadow = s->shadow;
             pm_eye_iterate(s->scene, s->accel, &s->camera, &eye, s->film.samples, &s->film, &s->classic_eye_stats);
         }
     }

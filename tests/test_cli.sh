@@ -134,5 +134,15 @@ checks=$((checks + 1))
 left=$(cd "$tmp/out dir" && ls -A | grep -v -x -e taken.exr -e taken.png -e plain -e ok.exr)
 [ -z "$left" ] && [ -s "$tmp/out dir/ok.exr" ] ||
     { fails=$((fails + 1)); echo "FAIL: files left behind beside the snapshots: $left"; }
+expect "bad --shadow-photons" 2 $bin --shadow-photons maybe --snapshot "$tmp/x.exr"
+expect "shadow photons forced on" 0 $bin scenes/caustic.gltf --width 16 --iterations 2 --photons 0 --shadow-photons on --stats --snapshot "$tmp/x.exr"
+checks=$((checks + 1))
+{ grep -q "^stat shadow_photons built=1 reason=none lights=1 photons=65536 " "$tmp/out" &&
+  grep -q "^stat eye .*dropped_samples=0 shadow_rays=[0-9]* shadow_rays_saved=[1-9]" "$tmp/out"; } ||
+    { fails=$((fails + 1)); echo "FAIL: --shadow-photons on must build a map and save rays:"; grep "^stat \(eye\|shadow\)" "$tmp/out"; }
+expect "shadow photons by default on a render too short to pay" 0 $bin scenes/caustic.gltf --width 16 --iterations 2 --photons 0 --stats --snapshot "$tmp/x.exr"
+checks=$((checks + 1))
+{ grep -q "^stat shadow_photons built=0 reason=would_not_pay " "$tmp/out" && grep -q "^stat eye .*shadow_rays_saved=0" "$tmp/out"; } ||
+    { fails=$((fails + 1)); echo "FAIL: a 16x16, 2-iteration render gets no shadow photons:"; grep "^stat \(eye\|shadow\)" "$tmp/out"; }
 echo "test_cli: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]

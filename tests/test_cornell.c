@@ -55,7 +55,7 @@ int main(void) {
     es.caustic_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.025f * s.ray_scale, 7u};
     es.gather_rays = 1;
     pm_camera cam = s.cameras[0];
-    pm_eye_stats st = {0, 0.0, 0, false};
+    pm_eye_stats st = {0};
     for (int i = 0; i < 16; i++) pm_eye_iterate(&s, a, &cam, &es, i, &film, &st);
     CHECK(st.dropped_samples == 0, "%llu samples were NaN or infinite", (unsigned long long)st.dropped_samples);
 
