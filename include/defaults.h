@@ -10,6 +10,11 @@
 #define PM_DEFAULT_EXPOSURE_EV 0.0f
 #define PM_DEFAULT_MAX_SPECULAR_DEPTH 64 /* a safety stop: past depth 4, roulette on throughput ends eye paths */
 #define PM_MAX_IMAGE_SIDE 16384
+#define PM_DEFAULT_MEMORY_SHARE 0.5     /* --max-memory default: one estimated structure (triangles, photon records of a pass,
+                                           a film, a texture) may take at most this share of physical memory */
+#define PM_MAX_EMISSION 1e20f          /* emission radiance and light intensity are clamped to this (with a warning): a float film sums
+                                           up to 1e9 iterations of samples, and 1e20 x 1e9 leaves 1e9 of FLT_MAX's headroom for path weights */
+#define PM_ACCEL_BYTES_PER_TRIANGLE 160 /* Embree's BVH, estimated before the build (measured: 90 bytes a triangle built, twice that at the build's peak) */
 
 /* the default environment (radiance), for files without KHR_lights_punctual whose emitters do
  * not enclose the view: a lit white top (about 1.1) stands out against the horizon (0.35) */
@@ -45,6 +50,7 @@
 #define PM_DEFAULT_MAX_PHOTON_BOUNCES 256 /* a safety stop only: Russian roulette ends paths; at albedo 0.95 the cap drops 0.95^257 = 2e-6 */
 #define PM_TIME_SHARE_PHOTONS 0.25        /* with --time: the photon pass's share of the budget */
 #define PM_PHOTON_PASS_TIME_SHARE 0.25     /* with --time: a photon pass stops starting chunks after this share of the time left (sorting what it stored takes as long again) */
+#define PM_ENERGY_CONSERVING_ALBEDO 0.98f /* a shut-in camera whose surroundings mostly reflect this much or more gets a warning */
 #define PM_PHOTON_MAX_SURVIVAL 0.95f      /* Russian roulette keeps a photon with at most this probability (the weight compensates):
                                               a closed room of albedo 1 ends its paths after 20 bounces on average, not at the cap */
 

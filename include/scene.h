@@ -137,6 +137,7 @@ typedef struct {
     uint32_t emitter_count;
     float emitter_power;       /* sum of area x luminance(radiance) x pi x sides */
     bool emitter_alloc_failed; /* out of memory for the emitter distribution: the caller reports it */
+    uint32_t clamped_emission; /* materials, lights and sky whose emission finalize clamped to PM_MAX_EMISSION: the caller warns */
     pm_scene_analysis analysis;
 } pm_scene;
 
@@ -144,6 +145,9 @@ typedef struct {
  * any light a uniform white sky (returns true in *added_sky so the caller can warn). */
 void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky);
 void pm_scene_free(pm_scene *s);
+/* The share of the surface area whose material reflects at least `albedo` of the light (mean base
+ * colour; textures not read): near 1 with albedo ~1, a closed room never absorbs light by itself. */
+double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo);
 /* Replaces the sky (the scene takes the map; NULL map = uniform, sky false = none) and analyses
  * the scene again: which components are possible depends on it. */
 void pm_scene_set_sky(pm_scene *s, bool sky, vec3 radiance, pm_sky_map *map);
