@@ -47,11 +47,15 @@
 #define PM_DEFAULT_CAUSTIC_RADIUS 0.025f  /* x the scene's largest extent */
 #define PM_DEFAULT_GATHER_RAYS 1          /* per eye sample; iterations add more */
 #define PM_DEFAULT_IRRADIANCE_STRIDE 4    /* precomputed irradiance at every 4th global photon (Christensen) */
-#define PM_DEFAULT_MAX_PHOTON_BOUNCES 256 /* a safety stop only: Russian roulette ends paths; at albedo 0.95 the cap drops 0.95^257 = 2e-6 */
+#define PM_DEFAULT_MAX_PHOTON_BOUNCES 1024 /* the path-length cap, a safety stop: Russian roulette ends paths; a closed room of albedo 0.99
+                                             loses 0.99^1024 = 3e-5 of its light to it, one of albedo 1 reaches it with probability 3e-5 */
 #define PM_TIME_SHARE_PHOTONS 0.25        /* with --time: the photon pass's share of the budget */
 #define PM_PHOTON_PASS_TIME_SHARE 0.25     /* with --time: a photon pass stops starting chunks after this share of the time left (sorting what it stored takes as long again) */
 #define PM_ENERGY_CONSERVING_ALBEDO 0.98f /* a shut-in camera whose surroundings mostly reflect this much or more gets a warning */
-#define PM_PHOTON_MAX_SURVIVAL 0.95f      /* Russian roulette keeps a photon with at most this probability (the weight compensates):
-                                              a closed room of albedo 1 ends its paths after 20 bounces on average, not at the cap */
+#define PM_PHOTON_MAX_SURVIVAL 0.99f      /* Russian roulette keeps a photon with at most this probability (the weight compensates):
+                                              a closed room of albedo 1 ends its paths after 100 bounces on average (so a pass stores
+                                              at most about 100 records a photon), not at the cap. Below albedo rho the weights grow by
+                                              rho/q a bounce and their variance stays finite only while q > rho^2: 0.99 keeps a room of
+                                              albedo 0.99 exact (tests/test_hardcases.c), 0.95 left it 10% dark */
 
 #endif

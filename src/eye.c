@@ -525,7 +525,9 @@ static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
 
 void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                     uint32_t iteration, pm_film *film, pm_eye_stats *stats) {
+    bool failed_before = stats && stats->failed;
     run_eye_pass(s, a, cam, settings, iteration, film, NULL, NULL, stats);
+    if (stats && stats->failed && !failed_before) return; /* out of memory: no sample was added */
     film->samples++;
 }
 

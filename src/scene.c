@@ -197,11 +197,12 @@ static bool clamp_emission(vec3 *v) {
     bool changed = false;
     for (int k = 0; k < 3; k++) {
         if (!(c[k] >= 0.f)) { c[k] = 0.f; changed = true; }
+        c[k] = pm_minf(c[k], FLT_MAX); /* an infinite component as the largest float, so the hue survives */
         m = pm_maxf(m, c[k]);
     }
     if (m > PM_MAX_EMISSION) {
-        double scale = PM_MAX_EMISSION / (double)m; /* m may be infinite: the component becomes the limit */
-        for (int k = 0; k < 3; k++) c[k] = isinf(c[k]) ? PM_MAX_EMISSION : (float)(c[k] * scale);
+        double scale = PM_MAX_EMISSION / (double)m;
+        for (int k = 0; k < 3; k++) c[k] = (float)(c[k] * scale);
         changed = true;
     }
     *v = v3(c[0], c[1], c[2]);

@@ -129,6 +129,7 @@ bool pm_session_iterate(pm_session *s) {
             pm_eye_settings eye = s->config.classic_eye;
             eye.maps = s->maps_built ? &s->maps : NULL;
             pm_eye_iterate(s->scene, s->accel, &s->camera, &eye, s->film.samples, &s->film, &s->classic_eye_stats);
+            ok = !s->classic_eye_stats.failed;
         }
     }
     s->render_seconds += now_seconds() - t0;

@@ -28,7 +28,7 @@ export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 # optimised (test_photons 45 s against 136 s); the code they drive runs under ASan/UBSan in
 # test_progressive, test_glossy, test_volume and the classic runs of test_cli (build/asan/pmview),
 # and under TSan in test_threads.
-OPTIMISED="test_convergence test_photons"
+OPTIMISED="test_convergence test_photons test_hardcases"
 for t in build/asan/tests/test_*; do
     name=$(basename "$t")
     case " $OPTIMISED " in *" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac
