@@ -64,6 +64,7 @@ typedef struct {
     pm_photon **chunk_photons;
     uint32_t *chunk_counts;
     bool *chunk_skipped;      /* started after the deadline */
+    uint32_t *chunk_cut;      /* photons a chunk left untraced when the deadline passed during it */
     double deadline;          /* now_seconds() past which no chunk starts; 0 = none */
     uint64_t traced;          /* photons the last pass traced (fewer than asked when cut) */
     uint64_t record_limit;    /* records one pass may store: they and their merged copy fit the memory limit */
@@ -401,6 +402,12 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     uint64_t first = (uint64_t)chunk * CHUNK, last = first + CHUNK < ps->photons ? first + CHUNK : ps->photons;
     uint64_t rays = 0, dropped = 0;
     for (uint64_t i = first; i < last && !atomic_load_explicit(&ps->out_of_memory, memory_order_relaxed); i++) {
+        /* long paths (a room of albedo 1: 100 bounces a photon) make a chunk long: the deadline is
+         * also checked inside it, every 64 photons */
+        if (chunk > 0 && ps->deadline > 0.0 && (i & 63) == 0 && i > first && now_seconds() > ps->deadline) {
+            ps->chunk_cut[chunk] = (uint32_t)(last - i);
+            break;
+        }
         pm_rng rng = pm_rng_for(ps->seed, ps->caustic_pass ? 0x51u : 0x61u, i);
         float source_pdf;
         const light_source *l = &ps->sources[pick_source(ps, pm_rng_float(&rng), &source_pdf)];
@@ -499,7 +506,9 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     ps->chunk_photons = pm_calloc(chunks ? chunks : 1, sizeof(pm_photon *), "photon pass chunk list");
     ps->chunk_counts = pm_calloc(chunks ? chunks : 1, sizeof(uint32_t), "photon pass chunk list");
     ps->chunk_skipped = pm_calloc(chunks ? chunks : 1, sizeof(bool), "photon pass chunk list");
-    if (!ps->chunk_photons || !ps->chunk_counts || !ps->chunk_skipped) {
+    ps->chunk_cut = pm_calloc(chunks ? chunks : 1, sizeof(uint32_t), "photon pass chunk list");
+    if (!ps->chunk_photons || !ps->chunk_counts || !ps->chunk_skipped || !ps->chunk_cut) {
+        free(ps->chunk_cut);
         free(ps->chunk_photons);
         free(ps->chunk_counts);
         free(ps->chunk_skipped);
@@ -531,10 +540,13 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     }
     uint64_t traced = 0;
     for (size_t c = 0; c < chunks; c++)
-        if (!ps->chunk_skipped[c]) traced += (c + 1) * (uint64_t)CHUNK < ps->photons ? CHUNK : ps->photons - c * (uint64_t)CHUNK;
+        if (!ps->chunk_skipped[c])
+            traced += ((c + 1) * (uint64_t)CHUNK < ps->photons ? CHUNK : ps->photons - c * (uint64_t)CHUNK) - ps->chunk_cut[c];
     free(ps->chunk_photons);
     free(ps->chunk_counts);
     free(ps->chunk_skipped);
+    free(ps->chunk_cut);
+    ps->chunk_cut = NULL;
     ps->chunk_photons = NULL;
     ps->chunk_counts = NULL;
     ps->chunk_skipped = NULL;

@@ -9,7 +9,6 @@
 #include "photonmap.h"
 #include "progressive.h"
 #include "scene_builder.h"
-#include "progressive_harness.h"
 #include "testing.h"
 
 static double seconds_now(void) {
@@ -34,8 +33,9 @@ static void test_allocation_failures(void) {
     pm_camera cam;
     pm_accel *a = furnace(&s, 0.5f, 1.f, &cam);
     enum { W = 8, H = 8 };
-    pm_progressive_settings ps = default_settings(W, H);
-    ps.photons = ps.caustic_photons = 3000;
+    pm_progressive_settings ps = {.seed = 1, .threads = 2, .photons = 3000, .caustic_photons = 3000, .alpha = PM_DEFAULT_ALPHA,
+                                  .indirect = PM_INDIRECT_GATHER, .max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH,
+                                  .max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES};
     uint64_t total = 0;
     int failures_seen = 0, unreported = 0;
     for (uint64_t n = 0;; n++) {
