@@ -186,7 +186,44 @@ static void test_emission_clamp(void) {
     pm_scene_free(&s);
 }
 
+/* 10,000 iterations of the progressive mode with final gathering, the default (test_progressive
+ * runs them with --indirect photons): criteria: every film sum and statistic finite, nothing
+ * dropped, and the furnace answer within 2% (each iteration's estimate is independent). */
+static void test_ten_thousand_gather(void) {
+    pm_scene s;
+    pm_camera cam;
+    const float le = 0.5f, rho = 0.5f;
+    pm_accel *a = furnace(&s, rho, le, &cam);
+    enum { W = 4, H = 4 };
+    pm_progressive_settings ps = default_settings(W, H);
+    ps.photons = ps.caustic_photons = 200; /* the discs overhang the box edges: -1.4% at 100 photons, -0.7% at 400 */
+    ps.threads = 1;
+    session r;
+    float img[3 * W * H];
+    double t0 = seconds_now();
+    if (!start(&r, &s, a, &cam, W, H, &ps)) return;
+    iterate(&r, 10000);
+    pm_film_resolve_total(&r.film, img);
+    int nonfinite = 0;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (r.film.sum[c])
+            for (int i = 0; i < 3 * W * H; i++) nonfinite += !isfinite(r.film.sum[c][i]);
+    for (int i = 0; i < 3 * W * H; i++) nonfinite += !isfinite(img[i]);
+    double got = mean_of(img, 3 * W * H), want = le / (1.0 - rho);
+    uint64_t dropped = pm_progressive_get_stats(r.p)->eye.dropped_samples;
+    printf("10^4 gather iterations: mean %.4f, expected %.4f (%+.2f%%), %d non-finite, %llu dropped, %.2f s\n", got, want,
+           100.0 * (got / want - 1.0), nonfinite, (unsigned long long)dropped, seconds_now() - t0);
+    CHECK(nonfinite == 0 && dropped == 0, "criterion: finite after 10^4 iterations (%d non-finite, %llu dropped)", nonfinite,
+          (unsigned long long)dropped);
+    CHECK(r.film.samples == 10000, "10^4 samples (%u)", r.film.samples);
+    CHECK_NEAR(got, want, 0.02, 0.0, "criterion: the furnace answer within 2% after 10^4 gather iterations");
+    stop(&r);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
+    test_ten_thousand_gather();
     test_emission_clamp();
     test_film_overflow();
     test_albedo_one_room();
