@@ -11,6 +11,11 @@
 #define PM_DEFAULT_MAX_SPECULAR_DEPTH 64 /* a safety stop: past depth 4, roulette on throughput ends eye paths */
 #define PM_MAX_IMAGE_SIDE 16384
 #define PM_LOG_EVERY_ITERATION_UNTIL 64 /* --log: a row per iteration up to here, then at every doubling (and the last) */
+#define PM_DEFAULT_MEMORY_SHARE 0.5     /* --max-memory default: one estimated structure (triangles, photon records of a pass,
+                                           a film, a texture) may take at most this share of physical memory */
+#define PM_MAX_EMISSION 1e20f          /* emission radiance and light intensity are clamped to this (with a warning): a float film sums
+                                           up to 1e9 iterations of samples, and 1e20 x 1e9 leaves 1e9 of FLT_MAX's headroom for path weights */
+#define PM_ACCEL_BYTES_PER_TRIANGLE 160 /* Embree's BVH, estimated before the build (measured: 90 bytes a triangle built, twice that at the build's peak) */
 
 /* the default environment (radiance), for files without KHR_lights_punctual whose emitters do
  * not enclose the view: a lit white top (about 1.1) stands out against the horizon (0.35) */
@@ -63,15 +68,21 @@
 #define PM_DEFAULT_CAUSTIC_RADIUS 0.025f  /* x the scene's largest extent */
 #define PM_DEFAULT_GATHER_RAYS 1          /* per eye sample; iterations add more */
 #define PM_DEFAULT_IRRADIANCE_STRIDE 4    /* precomputed irradiance at every 4th global photon (Christensen) */
-#define PM_DEFAULT_MAX_PHOTON_BOUNCES 256 /* a safety stop only: Russian roulette ends paths; at albedo 0.95 the cap drops 0.95^257 = 2e-6 */
+#define PM_DEFAULT_MAX_PHOTON_BOUNCES 1024 /* the path-length cap, a safety stop: Russian roulette ends paths; a closed room of albedo 0.99
+                                             loses 0.99^1024 = 3e-5 of its light to it, one of albedo 1 reaches it with probability 3e-5 */
 #define PM_TIME_SHARE_PHOTONS 0.25        /* with --time: the photon pass's share of the budget */
 #define PM_PHOTON_PASS_TIME_SHARE 0.25     /* with --time: a photon pass stops starting chunks after this share of the time left (sorting what it stored takes as long again) */
-#define PM_PHOTON_MAX_SURVIVAL 0.95f      /* Russian roulette keeps a photon with at most this probability (the weight compensates):
-                                              a closed room of albedo 1 ends its paths after 20 bounces on average, not at the cap */
+#define PM_ENERGY_CONSERVING_ALBEDO 0.98f /* a shut-in camera whose surroundings mostly reflect this much or more gets a warning */
+#define PM_PHOTON_MAX_SURVIVAL 0.99f      /* Russian roulette keeps a photon with at most this probability (the weight compensates):
+                                              a closed room of albedo 1 ends its paths after 100 bounces on average (so a pass stores
+                                              at most about 100 records a photon), not at the cap. Below albedo rho the weights grow by
+                                              rho/q a bounce and their variance stays finite only while q > rho^2: 0.99 keeps a room of
+                                              albedo 0.99 exact (tests/test_hardcases.c), 0.95 left it 10% dark */
 
 /* path tracing (--mode pathtrace) */
 #define PM_PATHTRACE_ROULETTE_VERTEX 3     /* Russian roulette after the scattering at the fourth surface a path meets (index 3) and every later one ... */
-#define PM_PATHTRACE_MAX_SURVIVAL 0.95f    /* ... keeping it with probability min(this, max throughput component), the weight compensated */
-#define PM_PATHTRACE_MAX_VERTICES 256      /* a safety stop only, as PM_DEFAULT_MAX_PHOTON_BOUNCES: roulette ends paths first */
+#define PM_PATHTRACE_MAX_SURVIVAL 0.99f    /* ... keeping it with probability min(this, max throughput component), the weight compensated;
+                                              0.99 for the reason PM_PHOTON_MAX_SURVIVAL gives (finite variance needs q > albedo^2) */
+#define PM_PATHTRACE_MAX_VERTICES 1024     /* a safety stop only, as PM_DEFAULT_MAX_PHOTON_BOUNCES: roulette ends paths first */
 
 #endif

@@ -55,6 +55,7 @@ typedef struct {
 
 typedef struct {
     uint64_t emitted, stored_caustic, stored_global, rays;
+    uint64_t dropped;      /* photon paths ended because their power was NaN or infinite */
     double seconds;        /* the whole build */
     double trace_seconds;  /* emitting and tracing photons (both maps) */
     double kdtree_seconds; /* building the kd-trees */

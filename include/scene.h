@@ -147,6 +147,7 @@ typedef struct {
     float emitter_power;       /* sum of area x luminance(radiance) x pi x sides */
     bool emitter_alloc_failed; /* out of memory for the emitter distribution: the caller reports it */
     float *light_cdf;          /* light_count+1 entries by power, when there are more than PM_DIRECT_LIGHT_SAMPLES punctual lights; else NULL */
+    uint32_t clamped_emission; /* materials, lights and sky whose emission finalize clamped to PM_MAX_EMISSION: the caller warns */
     pm_scene_analysis analysis;
 } pm_scene;
 
@@ -154,6 +155,9 @@ typedef struct {
  * any light a uniform white sky (returns true in *added_sky so the caller can warn). */
 void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky);
 void pm_scene_free(pm_scene *s);
+/* The share of the surface area whose material reflects at least `albedo` of the light (mean base
+ * colour; textures not read): near 1 with albedo ~1, a closed room never absorbs light by itself. */
+double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo);
 /* Replaces the sky (the scene takes the map; NULL map = uniform, sky false = none) and analyses
  * the scene again: which components are possible depends on it. */
 void pm_scene_set_sky(pm_scene *s, bool sky, vec3 radiance, pm_sky_map *map);

@@ -9,6 +9,7 @@
  * accel (it does: the session holds it too).
  */
 #include "accel.h"
+#include "memory.h"
 
 #include <embree3/rtcore.h>
 #include <stdatomic.h>
@@ -91,7 +92,13 @@ static double now_seconds(void) {
 
 static bool track_memory(void *user, ssize_t bytes, bool post) {
     pm_accel *a = user;
-    atomic_fetch_add(&a->bytes, (long long)bytes); /* negative on release */
+    long long now = atomic_fetch_add(&a->bytes, (long long)bytes) + (long long)bytes; /* negative on release */
+    /* Embree asks before it allocates: past the memory limit it is refused (Embree then fails the
+     * build with RTC_ERROR_OUT_OF_MEMORY, reported below), instead of exhausting the machine */
+    if (bytes > 0 && !post && (uint64_t)now > pm_memory_limit()) {
+        pm_memory_admit((uint64_t)now, "acceleration structure");
+        return false;
+    }
     return true;
 }
 
@@ -129,13 +136,13 @@ static bool split_triangles(const pm_scene *s, uint32_t **opaque, uint32_t *opaq
     *opaque = *alpha = NULL;
     *opaque_count = *alpha_count = 0;
     if (!s->analysis.has_non_opaque) return true;
-    bool *see_through = calloc(s->material_count ? s->material_count : 1, sizeof(bool));
+    bool *see_through = pm_calloc(s->material_count ? s->material_count : 1, sizeof(bool), "acceleration structure");
     if (!see_through) return false;
     for (uint32_t i = 0; i < s->material_count; i++) see_through[i] = pm_material_can_be_transparent(s, &s->materials[i]);
     for (uint32_t t = 0; t < s->triangle_count; t++) *alpha_count += see_through[s->triangle_material[t]];
     *opaque_count = s->triangle_count - *alpha_count;
-    *opaque = malloc(((size_t)*opaque_count + 1) * sizeof(uint32_t));
-    *alpha = malloc(((size_t)*alpha_count + 1) * sizeof(uint32_t));
+    *opaque = pm_malloc(((size_t)*opaque_count + 1) * sizeof(uint32_t), "acceleration structure");
+    *alpha = pm_malloc(((size_t)*alpha_count + 1) * sizeof(uint32_t), "acceleration structure");
     if (!*opaque || !*alpha) {
         free(see_through);
         free(*opaque);
@@ -153,9 +160,9 @@ static bool split_triangles(const pm_scene *s, uint32_t **opaque, uint32_t *opaq
 }
 
 pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
-    pm_accel *a = calloc(1, sizeof *a);
+    pm_accel *a = pm_calloc(1, sizeof *a, "acceleration structure");
     if (!a) {
-        snprintf(err, err_size, "out of memory for the acceleration structure");
+        snprintf(err, err_size, "out of memory (acceleration structure, %zu bytes)", sizeof *a);
         return NULL;
     }
     double start = now_seconds();
@@ -172,7 +179,7 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
     rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
     uint32_t *opaque, *alpha, opaque_count, alpha_count;
     if (!split_triangles(s, &opaque, &opaque_count, &alpha, &alpha_count)) {
-        snprintf(err, err_size, "out of memory for %u triangles", s->triangle_count);
+        snprintf(err, err_size, "out of memory (%s) for %u triangles", pm_memory_failure() ? pm_memory_failure() : "triangle lists", s->triangle_count);
         pm_accel_destroy(a);
         return NULL;
     }
@@ -197,12 +204,18 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
     free(alpha);
     if (vertices) rtcReleaseBuffer(vertices);
     if (!ok) {
-        snprintf(err, err_size, "Embree: out of memory for %u vertices", s->vertex_count);
+        snprintf(err, err_size, "out of memory (%s) for %u vertices", pm_memory_failure() ? pm_memory_failure() : "Embree geometry", s->vertex_count);
         pm_accel_destroy(a);
         return NULL;
     }
     rtcCommitScene(a->scene);
     enum RTCError e = rtcGetDeviceError(a->device);
+    if (e == RTC_ERROR_OUT_OF_MEMORY) {
+        if (!pm_memory_failure()) pm_memory_fail((uint64_t)atomic_load(&a->bytes), "acceleration structure");
+        snprintf(err, err_size, "out of memory (%s)", pm_memory_failure());
+        pm_accel_destroy(a);
+        return NULL;
+    }
     if (e != RTC_ERROR_NONE) {
         snprintf(err, err_size, "Embree: scene build failed (error %d)", (int)e);
         pm_accel_destroy(a);

@@ -5,6 +5,7 @@
  * glossy part adds emission and direct light (a glossy lobe evaluated per light sample). The first vertex decides the component; see eye.h.
  */
 #include "eye.h"
+#include "memory.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -574,9 +575,12 @@ static void render_tile(void *ctx, size_t task, int thread) {
                 if (!film->sum[c]) continue;
                 if (!v3_is_finite(out[c])) { dropped++; continue; }
                 float *px = film->sum[c] + 3 * pixel;
-                px[0] += out[c].x;
-                px[1] += out[c].y;
-                px[2] += out[c].z;
+                /* nor may a finite one overflow the float sum: the film never holds an Inf */
+                vec3 sum = v3(px[0] + out[c].x, px[1] + out[c].y, px[2] + out[c].z);
+                if (!v3_is_finite(sum)) { dropped++; continue; }
+                px[0] = sum.x;
+                px[1] = sum.y;
+                px[2] = sum.z;
             }
         }
     job->counters[thread].rays += rays;
@@ -596,7 +600,7 @@ static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
                          uint32_t iteration, pm_film *film, pm_visible_point *visible, pm_visible_point *gathered,
                          pm_eye_stats *stats) {
     double start = now_seconds();
-    eye_job *job = calloc(1, sizeof *job);
+    eye_job *job = pm_calloc(1, sizeof *job, "eye pass job");
     if (!job) { if (stats) stats->failed = true; return; }
     job->scene = s;
     job->accel = a;
@@ -625,7 +629,9 @@ static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
 
 void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                     uint32_t iteration, pm_film *film, pm_eye_stats *stats) {
+    bool failed_before = stats && stats->failed;
     run_eye_pass(s, a, cam, settings, iteration, film, NULL, NULL, stats);
+    if (stats && stats->failed && !failed_before) return; /* out of memory: no sample was added */
     film->samples++;
 }
 

@@ -1,6 +1,9 @@
 /* film.c: allocation, clearing and resolving of the per-component accumulation buffers and progressive photon statistics. */
 #include "film.h"
+#include "memory.h"
 
+#include <float.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -12,9 +15,12 @@ bool pm_film_init(pm_film *f, int width, int height, const bool enabled[PM_COMPO
     f->width = width;
     f->height = height;
     size_t n = 3 * (size_t)width * height;
+    uint64_t bytes = 0;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) bytes += enabled[c] ? n * sizeof(float) : 0;
+    if (!pm_memory_admit(bytes, "film")) return false;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         if (!enabled[c]) continue;
-        f->sum[c] = calloc(n, sizeof(float));
+        f->sum[c] = pm_calloc(n, sizeof(float), "film");
         if (!f->sum[c]) { pm_film_free(f); return false; }
     }
     return true;
@@ -25,7 +31,8 @@ bool pm_film_enable_ppm(pm_film *f, const bool slot_enabled[PM_SLOT_COUNT]) {
     for (int k = 0; k < PM_SLOT_COUNT; k++) {
         if (!slot_enabled[k] || f->ppm[k]) continue;
         if (!f->sum[pm_slot_component[k]]) return false; /* a slot feeds a component that must exist */
-        f->ppm[k] = calloc(n, sizeof(pm_ppm_stat));
+        if (!pm_memory_admit((uint64_t)n * sizeof(pm_ppm_stat), "progressive photon statistics")) return false;
+        f->ppm[k] = pm_calloc(n, sizeof(pm_ppm_stat), "progressive photon statistics");
         if (!f->ppm[k]) return false;
     }
     return true;
@@ -57,7 +64,8 @@ void pm_film_resolve(const pm_film *f, pm_component c, float *out) {
         for (size_t i = 0; i < pixels; i++) {
             if (!(st[i].r2 > 0.0)) continue;
             double scale = 1.0 / (PM_PI * st[i].r2 * (double)f->samples);
-            for (int ch = 0; ch < 3; ch++) out[3 * i + ch] += (float)(st[i].tau[ch] * scale);
+            /* the statistics are doubles: their estimate is clamped into float range, never an Inf */
+            for (int ch = 0; ch < 3; ch++) out[3 * i + ch] = (float)fmin(out[3 * i + ch] + st[i].tau[ch] * scale, FLT_MAX);
         }
     }
 }
@@ -65,7 +73,7 @@ void pm_film_resolve(const pm_film *f, pm_component c, float *out) {
 bool pm_film_resolve_total(const pm_film *f, float *out) {
     size_t n = 3 * (size_t)f->width * f->height;
     memset(out, 0, n * sizeof(float));
-    float *part = malloc(n * sizeof(float));
+    float *part = pm_malloc(n * sizeof(float), "image");
     if (!part) return false;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         if (!f->sum[c]) continue;

@@ -38,7 +38,9 @@
 #include <vector>
 
 extern "C" {
+#include "defaults.h"
 #include "loader.h"
+#include "memory.h"
 }
 
 namespace {
@@ -1604,7 +1606,9 @@ int Loader::texture_for(int gltf_texture, const std::string &where) {
         }
     }
     textures_.items.reserve(textures_.items.size() + 1);  // so push_back below cannot throw and leak the texels
-    tex.rgba = static_cast<uint8_t *>(malloc(pixels * 4));
+    if (!pm_memory_admit(static_cast<uint64_t>(pixels) * 4, "texture"))
+        fail("out of memory (" + std::string(pm_memory_failure()) + "): image " + str(t.source));
+    tex.rgba = static_cast<uint8_t *>(pm_malloc(pixels * 4, "texture"));
     if (!tex.rgba) throw std::bad_alloc();
     const unsigned char *src = image.image.data();
     size_t n = static_cast<size_t>(image.component);
@@ -2070,6 +2074,14 @@ void Loader::load(pm_scene *out) {
             fail("scene too large: more than " + str(kMaxSceneVertices) + " vertices or " + str(kMaxSceneTriangles) +
                  " triangles after instancing");
     }
+    {
+        // the scene's arrays and the acceleration structure, estimated before either is allocated
+        uint64_t per_vertex = 2 * sizeof(vec3) + 2 * sizeof(float) * (uv1_needed_ ? 2 : 1) + (tangents_needed_ ? 4 * sizeof(float) : 0);
+        uint64_t bytes = vertices * per_vertex + triangles * (4 * sizeof(uint32_t) + PM_ACCEL_BYTES_PER_TRIANGLE);
+        if (!pm_memory_admit(bytes, "scene geometry and its acceleration structure"))
+            fail("out of memory (" + std::string(pm_memory_failure()) + "): " + str(triangles) +
+                 " triangles after instancing");
+    }
     choose_frame();
     if (default_material_used_) {
         pm_material m;
@@ -2142,6 +2154,7 @@ extern "C" bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_loa
         }
     } catch (const std::bad_alloc &) {
         message = "out of memory";
+        if (pm_memory_failure()) message += " (" + std::string(pm_memory_failure()) + ")";
     } catch (const std::exception &e) {
         message = "unexpected error: " + one_line(e.what());
     } catch (...) {

@@ -23,6 +23,7 @@
  * radius is the heap top, and only strictly closer photons can enter.
  */
 #include "kdtree.h"
+#include "memory.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -206,7 +207,7 @@ bool pm_kdtree_build(pm_kdtree *t, pm_photon *photons, size_t count, int threads
     memset(t, 0, sizeof *t);
     uint8_t *axis = NULL;
     if (count) {
-        axis = malloc(count);
+        axis = pm_malloc(count, "photon kd-tree");
         if (!axis) {
             free(photons);
             return false;

@@ -19,6 +19,7 @@
 #include "film.h"
 #include "image_io.h"
 #include "loader.h"
+#include "memory.h"
 #include "parallel.h"
 #include "progressive.h"
 #include "scene.h"
@@ -42,6 +43,7 @@ typedef struct {
     long photons, caustic_photons;
     int k, gather_rays, irradiance_stride;
     const char *reference;  /* EXR to measure the error against */
+    uint64_t max_memory;    /* --max-memory: bytes one estimated structure may take (0 = the default) */
     double max_radius;
     pm_kernel kernel;
     pm_indirect_mode indirect;
@@ -95,6 +97,8 @@ static const char usage_text[] =
     "                       iterations, photons, mean radius, and with --reference each layer's relMSE, RMSE, bias\n"
     "  --components LIST    what a PNG snapshot and the window show at first: direct,specular,caustic,indirect (default all)\n"
     "  --stats              print 'stat STAGE key=value ...' lines\n"
+    "  --max-memory SIZE    refuse a structure (scene, photon records, film, texture) estimated above SIZE bytes\n"
+    "                       (K, M, G, T suffixes; default half the physical memory)\n"
     "  --quiet              no warnings\n"
     "  --help               this text\n"
     "window: left drag orbit, right/middle drag pan, wheel dolly, double click pivot, W A S D Q E fly (Shift faster),\n"
@@ -158,7 +162,7 @@ static int parse_options(int argc, char **argv, options *o) {
                                              "--seed", "--camera", "--exposure", "--screenshot", "--mode", "--photons",
                                              "--caustic-photons", "--k", "--max-radius", "--kernel", "--indirect",
                                              "--gather-rays", "--view", "--precompute", "--reference", "--alpha",
-                                             "--radius", "--components", "--sky", "--log", "--shadow-photons"};
+                                             "--radius", "--components", "--sky", "--log", "--shadow-photons", "--max-memory"};
         int which = -1;
         for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
             if (!strcmp(a, valued[k])) which = k;
@@ -221,6 +225,7 @@ static int parse_options(int argc, char **argv, options *o) {
         case 18: if (strcmp(v, "photons")) return usage_error("unknown --view '%s' (photons)", v); o->view_photons = true; break;
         case 21: if (!parse_double(v, 1e-3, 0.999, &x)) return usage_error("bad --alpha '%s' (0.001 to 0.999)", v); o->alpha = x; break;
         case 22: if (!parse_double(v, 1e-30, 1e30, &x)) return usage_error("bad --radius '%s' (> 0, scene units)", v); o->radius = x; break;
+        case 27: if (!pm_memory_parse_size(v, &o->max_memory)) return usage_error("bad --max-memory '%s' (bytes, or with K, M, G, T)", v); break;
         case 23: {
             o->components_given = true;
             memset(o->components, 0, sizeof o->components);
@@ -568,7 +573,8 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
         bool iterated = pm_session_iterate(session);
         rendered += now_seconds() - iteration_start;
         if (!iterated) {
-            fprintf(stderr, "%spmview: error: %s: out of memory in an iteration\n", tty ? "\n" : "", opt->scene_path);
+            fprintf(stderr, "%spmview: error: %s: out of memory (%s) in iteration %u\n", tty ? "\n" : "", opt->scene_path,
+                    pm_memory_failure() ? pm_memory_failure() : "unknown", film->samples + 1);
             free(scratch);
             if (log) fclose(log);
             return 1;
@@ -809,11 +815,11 @@ static void print_final_stats(const options *opt, pm_session *session, const pm_
         const pm_progressive_stats *ps = pm_progressive_get_stats(progressive);
         eye_stats = ps->eye;
         const pm_photon_stats *ph = &ps->photons;
-        printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f kdtree_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f\n",
+        printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f kdtree_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f dropped=%llu\n",
                (unsigned long long)ph->emitted, (unsigned long long)ph->stored_caustic,
                (unsigned long long)ph->stored_global, (unsigned long long)ph->rays, ph->seconds, ph->trace_seconds,
                ph->kdtree_seconds, ph->trace_seconds > 0 ? ph->emitted / ph->trace_seconds : 0.0, sizeof(pm_photon),
-               pm_progressive_projection_fraction(progressive));
+               pm_progressive_projection_fraction(progressive), (unsigned long long)ph->dropped);
         pm_radius_summary r = pm_progressive_radii(progressive, film);
         printf("stat progressive iterations=%u photons_per_iteration=%llu alpha=%.4f radius_initial=%.6g radius_mean=%.6g radius_min=%.6g radius_max=%.6g gather_radius=%.6g gather_seconds=%.4f photons_found=%llu\n",
                film->samples, (unsigned long long)(film->samples ? ph->emitted / film->samples : 0), opt->alpha,
@@ -824,10 +830,11 @@ static void print_final_stats(const options *opt, pm_session *session, const pm_
         const pm_photon_maps *maps = pm_session_classic_maps(session);
         const pm_photon_stats *pst = pm_session_classic_photon_stats(session);
         if (maps && (maps->global.count || maps->caustic.count || pst->emitted)) {
-            printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f\n",
+            printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f dropped=%llu\n",
                    (unsigned long long)pst->emitted, (unsigned long long)pst->stored_caustic,
                    (unsigned long long)pst->stored_global, (unsigned long long)pst->rays, pst->seconds, pst->trace_seconds,
-                   pst->trace_seconds > 0 ? pst->emitted / pst->trace_seconds : 0.0, sizeof(pm_photon), maps->projection_fraction);
+                   pst->trace_seconds > 0 ? pst->emitted / pst->trace_seconds : 0.0, sizeof(pm_photon), maps->projection_fraction,
+                   (unsigned long long)pst->dropped);
             printf("stat kdtree seconds=%.4f caustic_photons=%zu caustic_bytes=%zu global_photons=%zu global_bytes=%zu\n", pst->kdtree_seconds,
                    maps->caustic.count, pm_kdtree_bytes(&maps->caustic), maps->global.count, pm_kdtree_bytes(&maps->global));
             printf("stat irradiance seconds=%.4f points=%zu bytes=%zu\n", pst->irradiance_seconds, maps->irradiance.count,
@@ -851,8 +858,9 @@ static void print_final_stats(const options *opt, pm_session *session, const pm_
            eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, opt->threads,
            (unsigned long long)eye_stats.dropped_samples, (unsigned long long)eye_stats.shadow_rays,
            (unsigned long long)eye_stats.shadow_rays_saved);
-    printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu\n", peak_rss_bytes(), pm_film_bytes(film),
-           pm_accel_bytes(accel));
+    printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu limit_bytes=%llu checked_allocations=%llu\n",
+           peak_rss_bytes(), pm_film_bytes(film), pm_accel_bytes(accel), (unsigned long long)pm_memory_limit(),
+           (unsigned long long)pm_memory_allocations());
 }
 
 /* The environment: --sky when given; else the gradient for a file without punctual lights,
@@ -895,6 +903,14 @@ static bool choose_sky(const options *opt, pm_scene *scene, const pm_accel *acce
         fprintf(stderr, "pmview: warning: %s: the camera is shut in by geometry (%.0f%% of the directions around it) and no light is inside: %s\n",
                 opt->scene_path, 100.0 * around_fraction,
                 scene->sky ? "the environment lies outside and the image will be dark" : "the image will be black");
+    double reflective = pm_scene_reflective_area_fraction(scene, PM_ENERGY_CONSERVING_ALBEDO);
+    if (!opt->quiet && around_fraction >= PM_CAMERA_ENCLOSED_FRACTION && (scene->emitter_count || scene->light_count) &&
+        reflective >= 0.5)
+        fprintf(stderr, "pmview: warning: %s: a closed room that conserves energy (%.0f%% of the surface reflects %.0f%% or more; "
+                "glTF's default material is white): light does not die out by itself, so photon paths end by Russian roulette "
+                "capped at %.0f%% survival or after %d bounces, and renders are slower and noisier than usual\n",
+                opt->scene_path, 100.0 * reflective, 100.0 * PM_ENERGY_CONSERVING_ALBEDO, 100.0 * PM_PHOTON_MAX_SURVIVAL,
+                PM_DEFAULT_MAX_PHOTON_BOUNCES);
     if (opt->stats)
         printf("stat sky kind=%s view_enclosed=%.3f camera_enclosed=%.3f\n",
                !scene->sky ? "none" : (!scene->sky_map ? "white" : (!strcmp(sky, "gradient") ? "gradient" : "map")),
@@ -908,6 +924,7 @@ int main(int argc, char **argv) {
     int code = parse_options(argc, argv, &opt);
     if (code >= 0) return code;
     setvbuf(stdout, NULL, _IOLBF, 0);
+    if (opt.max_memory) pm_memory_set_limit(opt.max_memory);
 
     bool window = !opt.snapshot;
     if (window && !getenv("DISPLAY")) {
@@ -928,8 +945,12 @@ int main(int argc, char **argv) {
         return 1;
     }
     pm_scene_finalize(&scene, false, NULL);
+    if (scene.clamped_emission && !opt.quiet)
+        fprintf(stderr, "pmview: warning: %s: %u emission or light value(s) above %g (or not a number) clamped: a float film could not sum them\n",
+                opt.scene_path, scene.clamped_emission, (double)PM_MAX_EMISSION);
     if (scene.emitter_alloc_failed) {
-        fprintf(stderr, "pmview: error: %s: out of memory (the distribution of emissive triangles)\n", opt.scene_path);
+        fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", opt.scene_path,
+                pm_memory_failure() ? pm_memory_failure() : "emitter distribution");
         pm_scene_free(&scene);
         return 1;
     }

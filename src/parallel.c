@@ -43,7 +43,7 @@ void pm_parallel_for(int threads, size_t count, void (*fn)(void *, size_t, int),
     pthread_t *ids = threads > 1 ? malloc((threads - 1) * sizeof *ids) : NULL;
     worker_arg *args = threads > 1 ? malloc((threads - 1) * sizeof *args) : NULL;
     int started = 0;
-    for (int t = 1; t < threads; t++) {
+    for (int t = 1; t < threads && ids && args; t++) { /* without them, this thread runs every task */
         args[t - 1] = (worker_arg){&j, t};
         if (pthread_create(&ids[t - 1], NULL, worker_main, &args[t - 1]) != 0) break;
         started++;

@@ -1,5 +1,6 @@
 /* photongrid.c: the hashed photon grid: counting sort by cell hash, and the fixed-radius gather over overlapped cells. */
 #include "photongrid.h"
+#include "memory.h"
 
 #include <float.h>
 #include <stdlib.h>
@@ -33,13 +34,13 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
     size_t buckets = 1024;
     while (buckets < count) buckets *= 2;
     if (count > g->capacity) {
-        pm_photon *grown = realloc(g->photons, count * sizeof *grown);
+        pm_photon *grown = pm_realloc(g->photons, count * sizeof *grown, "photon grid");
         if (!grown) { pm_photon_grid_free(g); return false; }
         g->photons = grown;
         g->capacity = count;
     }
     if (buckets > g->bucket_capacity) {
-        uint32_t *grown = realloc(g->bucket_start, (buckets + 1) * sizeof *grown);
+        uint32_t *grown = pm_realloc(g->bucket_start, (buckets + 1) * sizeof *grown, "photon grid buckets");
         if (!grown) { pm_photon_grid_free(g); return false; }
         g->bucket_start = grown;
         g->bucket_capacity = buckets;

@@ -18,6 +18,7 @@
 #include <time.h>
 
 #include "defaults.h"
+#include "memory.h"
 #include "parallel.h"
 #include "rng.h"
 #include "scatter.h"
@@ -63,10 +64,14 @@ typedef struct {
     pm_photon **chunk_photons;
     uint32_t *chunk_counts;
     bool *chunk_skipped;      /* started after the deadline */
+    uint32_t *chunk_cut;      /* photons a chunk left untraced when the deadline passed during it */
     double deadline;          /* now_seconds() past which no chunk starts; 0 = none */
     uint64_t traced;          /* photons the last pass traced (fewer than asked when cut) */
+    uint64_t record_limit;    /* records one pass may store: they and their merged copy fit the memory limit */
+    _Atomic uint64_t records; /* stored so far in this pass */
     atomic_bool out_of_memory;
-    struct { uint64_t rays; char pad[56]; } counters[MAX_THREADS];
+    uint64_t dropped;         /* photons of the last pass whose power was not finite (ended, not stored) */
+    struct { uint64_t rays, dropped; char pad[48]; } counters[MAX_THREADS];
 } pass;
 
 static double now_seconds(void) {
@@ -164,7 +169,7 @@ static sphere *specular_spheres(const pm_scene *s, uint32_t *count) {
         if (!used[b]) { used[b] = true; blo[b] = tlo; bhi[b] = thi; }
         else { blo[b] = v3_min(blo[b], tlo); bhi[b] = v3_max(bhi[b], thi); }
     }
-    sphere *out = malloc(sizeof(sphere) * G * G * G);
+    sphere *out = pm_malloc(sizeof(sphere) * G * G * G, "specular object bounds");
     uint32_t n = 0;
     *count = 0;
     if (!out) return NULL;
@@ -184,8 +189,8 @@ static vec3 cell_direction(int iz, int iphi, float fz, float fphi) {
  * Conservative: each sphere is grown by the source's own radius, each cell by its angular
  * radius, so no direction that could start a caustic path is left out. */
 static bool build_projection_map(light_source *l, const sphere *spheres, uint32_t sphere_count) {
-    l->cells = calloc(PROJ_Z * PROJ_PHI, 1);
-    l->marked = malloc(sizeof(uint32_t) * PROJ_Z * PROJ_PHI);
+    l->cells = pm_calloc(PROJ_Z * PROJ_PHI, 1, "projection map");
+    l->marked = pm_malloc(sizeof(uint32_t) * PROJ_Z * PROJ_PHI, "projection map");
     l->marked_count = 0;
     if (!l->cells || !l->marked) return false;
     for (int iz = 0; iz < PROJ_Z; iz++)
@@ -350,7 +355,7 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
     return true;
 }
 
-typedef struct { pm_photon *data; uint32_t count, capacity; bool failed; } photon_list;
+typedef struct { pm_photon *data; uint32_t count, capacity; bool failed; pass *ps; } photon_list;
 
 static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings *settings, int threads);
 
@@ -358,8 +363,16 @@ static void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path
     if (list->count == list->capacity) {
         if (list->failed) return;
         uint32_t capacity = list->capacity ? 2 * list->capacity : 2 * CHUNK; /* about one record per photon traced */
-        pm_photon *grown = realloc(list->data, sizeof(pm_photon) * capacity);
-        if (!grown) { list->failed = true; return; }
+        /* the pass's storage bound, counted as chunks grow (whether it is crossed does not depend on the threads) */
+        uint64_t records = atomic_fetch_add(&list->ps->records, capacity - list->capacity) + (capacity - list->capacity);
+        if (records > list->ps->record_limit) {
+            pm_memory_admit(2 * records * sizeof(pm_photon), "photon records of one pass and their merged copy");
+            list->failed = true;
+            atomic_store(&list->ps->out_of_memory, true);
+            return;
+        }
+        pm_photon *grown = pm_realloc(list->data, sizeof(pm_photon) * capacity, "photon records of a chunk");
+        if (!grown) { list->failed = true; atomic_store(&list->ps->out_of_memory, true); return; }
         list->data = grown;
         list->capacity = capacity;
     }
@@ -379,15 +392,22 @@ static uint32_t pick_source(const pass *ps, float u, float *pdf) {
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
     pass *ps = ctx;
     const pm_scene *s = ps->scene;
-    photon_list list = {NULL, 0, 0, false};
+    photon_list list = {NULL, 0, 0, false, ps};
+    if (atomic_load(&ps->out_of_memory)) return; /* the pass has failed: no use tracing on */
     /* the first chunk always runs: an iteration with no photon at all would bias its average */
     if (chunk > 0 && ps->deadline > 0.0 && now_seconds() > ps->deadline) {
         ps->chunk_skipped[chunk] = true;
         return;
     }
     uint64_t first = (uint64_t)chunk * CHUNK, last = first + CHUNK < ps->photons ? first + CHUNK : ps->photons;
-    uint64_t rays = 0;
-    for (uint64_t i = first; i < last; i++) {
+    uint64_t rays = 0, dropped = 0;
+    for (uint64_t i = first; i < last && !atomic_load_explicit(&ps->out_of_memory, memory_order_relaxed); i++) {
+        /* long paths (a room of albedo 1: 100 bounces a photon) make a chunk long: the deadline is
+         * also checked inside it, every 64 photons */
+        if (chunk > 0 && ps->deadline > 0.0 && (i & 63) == 0 && i > first && now_seconds() > ps->deadline) {
+            ps->chunk_cut[chunk] = (uint32_t)(last - i);
+            break;
+        }
         pm_rng rng = pm_rng_for(ps->seed, ps->caustic_pass ? 0x51u : 0x61u, i);
         float source_pdf;
         const light_source *l = &ps->sources[pick_source(ps, pm_rng_float(&rng), &source_pdf)];
@@ -398,6 +418,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
         bool diffuse_seen = false;
         for (int bounce = 0; bounce < ps->settings->max_bounces; bounce++) {
             pm_hit h;
+            if (!v3_is_finite(power)) { dropped++; break; } /* an overflowing light or weight: never stored */
             rays++;
             if (!pm_accel_intersect(ps->accel, o, d, INFINITY, &h)) break;
             pm_surface sf;
@@ -420,11 +441,13 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             float x = pm_rng_float(&rng), S = Sm + St;
             if (sf.glossy) {
                 /* the glass share by its weight, else the lobe: sample it, then survive with the
-                 * probability of its mean weight, so power is only rescaled per channel by colour */
-                if (x < St) {
+                 * probability of its mean weight, so power is only rescaled per channel by colour; the
+                 * glass share's probability is capped like every survival (a nearly clear glossy glass) */
+                float Sg = pm_minf(St, PM_PHOTON_MAX_SURVIVAL);
+                if (x < Sg) {
                     pm_specular_sample sp;
                     if (!pm_scatter_specular(&sf, d, &rng, s->ray_scale, &sp)) break;
-                    power = v3_scale(v3_mul(power, sp.weight), 1.f / St);
+                    power = v3_scale(v3_mul(power, sp.weight), 1.f / Sg);
                     d = sp.direction;
                     o = sp.origin;
                     specular_bounces++;
@@ -437,9 +460,9 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                                     &wi, &f, &pdf) || v3_dot(wi, ng) <= 0.f)
                     break;
                 vec3 w = v3_scale(f, v3_dot(ns, wi) / pdf);
-                float q = pm_minf(PM_PHOTON_MAX_SURVIVAL, v3_average(w) / (1.f - St));
+                float q = pm_minf(PM_PHOTON_MAX_SURVIVAL, v3_average(w) / (1.f - Sg));
                 if (!(q > 0.f) || pm_rng_float(&rng) >= q) break;
-                power = v3_scale(v3_mul(power, w), 1.f / ((1.f - St) * q));
+                power = v3_scale(v3_mul(power, w), 1.f / ((1.f - Sg) * q));
                 d = wi;
                 o = pm_surface_origin(&sf, ng, s->ray_scale);
                 diffuse_seen = true;
@@ -472,6 +495,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     ps->chunk_counts[chunk] = list.count;
     if (list.failed) atomic_store(&ps->out_of_memory, true);
     ps->counters[thread].rays += rays;
+    ps->counters[thread].dropped += dropped;
 }
 
 /* Traces ps->photons photons in chunks on all threads and merges the chunks' records, in chunk
@@ -479,10 +503,12 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
 static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     out->count = 0;
     size_t chunks = (size_t)((ps->photons + CHUNK - 1) / CHUNK);
-    ps->chunk_photons = calloc(chunks ? chunks : 1, sizeof(pm_photon *));
-    ps->chunk_counts = calloc(chunks ? chunks : 1, sizeof(uint32_t));
-    ps->chunk_skipped = calloc(chunks ? chunks : 1, sizeof(bool));
-    if (!ps->chunk_photons || !ps->chunk_counts || !ps->chunk_skipped) {
+    ps->chunk_photons = pm_calloc(chunks ? chunks : 1, sizeof(pm_photon *), "photon pass chunk list");
+    ps->chunk_counts = pm_calloc(chunks ? chunks : 1, sizeof(uint32_t), "photon pass chunk list");
+    ps->chunk_skipped = pm_calloc(chunks ? chunks : 1, sizeof(bool), "photon pass chunk list");
+    ps->chunk_cut = pm_calloc(chunks ? chunks : 1, sizeof(uint32_t), "photon pass chunk list");
+    if (!ps->chunk_photons || !ps->chunk_counts || !ps->chunk_skipped || !ps->chunk_cut) {
+        free(ps->chunk_cut);
         free(ps->chunk_photons);
         free(ps->chunk_counts);
         free(ps->chunk_skipped);
@@ -490,13 +516,15 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     }
     memset(ps->counters, 0, sizeof ps->counters);
     atomic_store(&ps->out_of_memory, false);
+    atomic_store(&ps->records, out->capacity); /* the merged buffer kept from the last pass counts too */
+    ps->record_limit = pm_memory_limit() / (2 * sizeof(pm_photon));
     int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
     pm_parallel_for(threads, chunks, trace_chunk, ps);
     size_t total = 0;
     for (size_t c = 0; c < chunks; c++) total += ps->chunk_counts[c];
     bool ok = !atomic_load(&ps->out_of_memory);
     if (ok && total > out->capacity) {
-        pm_photon *grown = realloc(out->data, sizeof(pm_photon) * total);
+        pm_photon *grown = pm_realloc(out->data, sizeof(pm_photon) * total, "merged photon records");
         if (grown) {
             out->data = grown;
             out->capacity = total;
@@ -512,14 +540,21 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     }
     uint64_t traced = 0;
     for (size_t c = 0; c < chunks; c++)
-        if (!ps->chunk_skipped[c]) traced += (c + 1) * (uint64_t)CHUNK < ps->photons ? CHUNK : ps->photons - c * (uint64_t)CHUNK;
+        if (!ps->chunk_skipped[c])
+            traced += ((c + 1) * (uint64_t)CHUNK < ps->photons ? CHUNK : ps->photons - c * (uint64_t)CHUNK) - ps->chunk_cut[c];
     free(ps->chunk_photons);
     free(ps->chunk_counts);
     free(ps->chunk_skipped);
+    free(ps->chunk_cut);
+    ps->chunk_cut = NULL;
     ps->chunk_photons = NULL;
     ps->chunk_counts = NULL;
     ps->chunk_skipped = NULL;
-    for (int t = 0; t < threads; t++) *rays += ps->counters[t].rays;
+    ps->dropped = 0;
+    for (int t = 0; t < threads; t++) {
+        *rays += ps->counters[t].rays;
+        ps->dropped += ps->counters[t].dropped;
+    }
     if (ok && traced < ps->photons) {
         /* cut by the deadline: each stored photon stands for photons / traced of the flux */
         float scale = traced ? (float)((double)ps->photons / (double)traced) : 0.f;
@@ -542,7 +577,7 @@ static bool run_pass(pass *ps, pm_kdtree *tree, uint64_t *stored, uint64_t *rays
     *stored = all.count;
     double t1 = now_seconds();
     int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
-    if (!all.data) all.data = malloc(sizeof(pm_photon));
+    if (!all.data) all.data = pm_malloc(sizeof(pm_photon), "photon records");
     bool ok = all.data && pm_kdtree_build(tree, all.data, all.count, threads);
     st->kdtree_seconds += now_seconds() - t1;
     st->trace_seconds += t1 - t0;
@@ -569,13 +604,13 @@ static float source_weight(const light_source *l) {
 }
 
 pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, const pm_photon_settings *settings) {
-    pm_photon_tracer *t = calloc(1, sizeof *t);
+    pm_photon_tracer *t = pm_calloc(1, sizeof *t, "photon tracer");
     if (!t) return NULL;
     t->scene = s;
     t->settings = *settings;
     /* the emitter set, every punctual light and the sky: at most light_count + 2 sources */
-    t->sources = malloc(sizeof(light_source) * ((size_t)s->light_count + 2));
-    t->cdf = malloc(sizeof(float) * ((size_t)s->light_count + 3));
+    t->sources = pm_malloc(sizeof(light_source) * ((size_t)s->light_count + 2), "photon light sources");
+    t->cdf = pm_malloc(sizeof(float) * ((size_t)s->light_count + 3), "photon light sources");
     if (!t->sources || !t->cdf) { pm_photon_tracer_destroy(t); return NULL; }
     uint32_t source_count = build_sources(s, t->sources);
     t->source_count = source_count;
@@ -605,7 +640,7 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
         float R = s->radius > 0.f ? s->radius : 1.f;
         uint32_t n = t->sphere_count;
         if (settings->projection_maps && n) {
-            t->target_cdf = malloc(sizeof(float) * (n + 1));
+            t->target_cdf = pm_malloc(sizeof(float) * (n + 1), "projection targets");
             if (!t->target_cdf) { pm_photon_tracer_destroy(t); return NULL; }
             double sum = 0.0, reach = R, acc = 0.0;
             for (uint32_t i = 0; i < n; i++) sum += (double)t->spheres[i].radius * t->spheres[i].radius;
@@ -672,6 +707,7 @@ bool pm_photon_tracer_trace(pm_photon_tracer *t, bool caustic, uint64_t photons,
     uint64_t stored = 0, rays = 0;
     bool ok = run_pass(&t->ps, out, &stored, &rays, stats);
     stats->rays += rays;
+    stats->dropped += t->ps.dropped;
     stats->emitted += photons;
     if (caustic) stats->stored_caustic += stored;
     else stats->stored_global += stored;
@@ -694,6 +730,7 @@ bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t pho
     uint64_t rays = 0;
     bool ok = trace_into(&t->ps, out, &rays);
     stats->rays += rays;
+    stats->dropped += t->ps.dropped;
     stats->emitted += t->ps.traced;
     if (caustic) stats->stored_caustic += out->count;
     else stats->stored_global += out->count;
@@ -755,7 +792,7 @@ static void irradiance_chunk(void *ctx, size_t chunk, int thread) {
 static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings *settings, int threads) {
     irradiance_job job = {maps, settings, (size_t)settings->irradiance_stride, 0, NULL};
     job.points = (maps->global.count + job.stride - 1) / job.stride;
-    job.out = malloc(sizeof(pm_photon) * (job.points ? job.points : 1));
+    job.out = pm_malloc(sizeof(pm_photon) * (job.points ? job.points : 1), "precomputed irradiance points");
     if (!job.out) return false;
     pm_parallel_for(threads, (job.points + CHUNK - 1) / CHUNK, irradiance_chunk, &job);
     maps->irradiance_radius = settings->irradiance_estimate.max_radius;

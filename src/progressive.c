@@ -8,6 +8,7 @@
  * against a kd-tree.
  */
 #include "progressive.h"
+#include "memory.h"
 
 #include <assert.h>
 #include <stdio.h>
@@ -76,7 +77,7 @@ static double diffuse_area(const pm_scene *s) {
 pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, const pm_camera *camera,
                                       const pm_progressive_settings *settings, char *err, size_t err_size) {
     assert(settings->alpha > 0.0 && settings->alpha < 1.0);
-    pm_progressive *p = calloc(1, sizeof *p);
+    pm_progressive *p = pm_calloc(1, sizeof *p, "progressive state");
     if (!p) { snprintf(err, err_size, "out of memory (progressive state, %zu bytes)", sizeof *p); return NULL; }
     p->scene = s;
     p->accel = a;
@@ -98,7 +99,7 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
         ps.projection_maps = true;
         p->tracer = pm_photon_tracer_create(s, a, &ps);
         if (!p->tracer) {
-            snprintf(err, err_size, "out of memory (photon tracer)");
+            snprintf(err, err_size, "out of memory (%s)", pm_memory_failure() ? pm_memory_failure() : "photon tracer");
             free(p);
             return NULL;
         }
@@ -157,9 +158,10 @@ bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err
     free(p->visible);
     free(p->gathered);
     p->gathered = NULL;
-    p->visible = calloc(p->pixels, sizeof *p->visible);
-    if (p->gathering) p->gathered = calloc(p->pixels, sizeof *p->gathered);
+    p->visible = pm_calloc(p->pixels, sizeof *p->visible, "visible points");
+    if (p->gathering) p->gathered = pm_calloc(p->pixels, sizeof *p->gathered, "gather points");
     if (!p->visible || (p->gathering && !p->gathered) || !pm_film_enable_ppm(film, p->slot_used)) {
+        if (pm_memory_failure()) { snprintf(err, err_size, "out of memory (%s) for %dx%d pixels", pm_memory_failure(), film->width, film->height); return false; }
         snprintf(err, err_size, "out of memory (progressive state for %dx%d pixels, %zu bytes)", film->width,
                  film->height, p->pixels * (sizeof(pm_visible_point) * 2 + sizeof(pm_ppm_stat) * PM_SLOT_COUNT));
         return false;
@@ -260,10 +262,11 @@ static void gather_rows(void *ctx, size_t task, int thread) {
             vec3 l = v3_scale(v3_mul(gp->weight, power), (float)(1.0 / (PM_PI * job->gather_r2)));
             float *sum = film->sum[gp->seen_directly ? PM_INDIRECT : PM_SPECULAR];
             if (m && sum) {
-                if (!v3_is_finite(l)) { job->counters[thread].dropped++; continue; }
-                sum[3 * i] += l.x;
-                sum[3 * i + 1] += l.y;
-                sum[3 * i + 2] += l.z;
+                vec3 added = v3(sum[3 * i] + l.x, sum[3 * i + 1] + l.y, sum[3 * i + 2] + l.z);
+                if (!v3_is_finite(added)) { job->counters[thread].dropped++; continue; } /* NaN, Inf, or a sum overflowing */
+                sum[3 * i] = added.x;
+                sum[3 * i + 1] = added.y;
+                sum[3 * i + 2] = added.z;
             }
         }
     }
@@ -344,7 +347,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     p->stats.photons.seconds += t1 - t0;
 
     /* 3. gather: statistics at visible points, estimates at gather points */
-    gather_job *job = calloc(1, sizeof *job);
+    gather_job *job = pm_calloc(1, sizeof *job, "gather job");
     if (!job) return false;
     job->p = p;
     job->film = film;

@@ -4,6 +4,8 @@
  * the analysis decides which maps, passes and buffers the later stages build at all.
  */
 #include "scene.h"
+#include "memory.h"
+#include "defaults.h"
 
 #include <float.h>
 #include <pthread.h>
@@ -166,10 +168,10 @@ static void build_emitters(pm_scene *s) {
     for (uint32_t t = 0; t < s->triangle_count; t++)
         if (!v3_is_black(s->materials[s->triangle_material[t]].emission)) candidates++;
     if (!candidates) return;
-    s->emitters = malloc(candidates * sizeof *s->emitters);
-    s->emitter_radiance = malloc(candidates * sizeof *s->emitter_radiance);
-    s->emitter_cdf = malloc((candidates + 1) * sizeof *s->emitter_cdf);
-    double *running = malloc((candidates + 1) * sizeof *running);
+    s->emitters = pm_malloc(candidates * sizeof *s->emitters, "emitter distribution");
+    s->emitter_radiance = pm_malloc(candidates * sizeof *s->emitter_radiance, "emitter distribution");
+    s->emitter_cdf = pm_malloc((candidates + 1) * sizeof *s->emitter_cdf, "emitter distribution");
+    double *running = pm_malloc((candidates + 1) * sizeof *running, "emitter distribution");
     if (!s->emitters || !s->emitter_radiance || !s->emitter_cdf || !running) {
         /* no light from emitters rather than a crash; pm_scene_finalize reports it */
         free(s->emitters);
@@ -269,7 +271,45 @@ uint32_t pm_scene_pick_light(const pm_scene *s, float u, float *pick_pdf) {
     return lo;
 }
 
+/* Scales v down to PM_MAX_EMISSION in its largest component (hue kept); true when it had to
+ * (a NaN or negative component becomes 0). */
+static bool clamp_emission(vec3 *v) {
+    float c[3] = {v->x, v->y, v->z}, m = 0.f;
+    bool changed = false;
+    for (int k = 0; k < 3; k++) {
+        if (!(c[k] >= 0.f)) { c[k] = 0.f; changed = true; }
+        c[k] = pm_minf(c[k], FLT_MAX); /* an infinite component as the largest float, so the hue survives */
+        m = pm_maxf(m, c[k]);
+    }
+    if (m > PM_MAX_EMISSION) {
+        double scale = PM_MAX_EMISSION / (double)m;
+        for (int k = 0; k < 3; k++) c[k] = (float)(c[k] * scale);
+        changed = true;
+    }
+    *v = v3(c[0], c[1], c[2]);
+    return changed;
+}
+
+double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo) {
+    double total = 0.0, reflective = 0.0;
+    for (uint32_t t = 0; t < s->triangle_count; t++) {
+        const uint32_t *i = &s->indices[3 * (size_t)t];
+        vec3 a = s->positions[i[0]], b = s->positions[i[1]], c = s->positions[i[2]];
+        double e1[3] = {(double)b.x - a.x, (double)b.y - a.y, (double)b.z - a.z};
+        double e2[3] = {(double)c.x - a.x, (double)c.y - a.y, (double)c.z - a.z};
+        double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
+        double area = 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
+        total += area;
+        if (v3_average(s->materials[s->triangle_material[t]].base_color) >= albedo) reflective += area;
+    }
+    return total > 0.0 ? reflective / total : 0.0;
+}
+
 void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
+    s->clamped_emission = 0;
+    for (uint32_t i = 0; i < s->material_count; i++) s->clamped_emission += clamp_emission(&s->materials[i].emission);
+    for (uint32_t i = 0; i < s->light_count; i++) s->clamped_emission += clamp_emission(&s->lights[i].intensity);
+    if (s->sky) s->clamped_emission += clamp_emission(&s->sky_radiance);
     vec3 lo = v3s(FLT_MAX), hi = v3s(-FLT_MAX);
     for (uint32_t t = 0; t < s->triangle_count; t++)
         for (int k = 0; k < 3; k++) {

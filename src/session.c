@@ -1,5 +1,6 @@
 /* session.c: the render session: mode state and film, synchronous iterations, and the worker thread that publishes double-buffered images. */
 #include "session.h"
+#include "memory.h"
 
 #include <math.h>
 #include <pthread.h>
@@ -69,7 +70,8 @@ static bool build_mode(pm_session *s, char *err, size_t err_size) {
         components[PM_INDIRECT] = components[PM_INDIRECT] && (!maps || (s->config.classic_photon_pass && s->config.classic_photons.global_photons));
     }
     if (!pm_film_init(&s->film, s->config.width, s->config.height, components)) {
-        snprintf(err, err_size, "out of memory (a %dx%d film)", s->config.width, s->config.height);
+        snprintf(err, err_size, "out of memory (%s) for a %dx%d film", pm_memory_failure() ? pm_memory_failure() : "film",
+                 s->config.width, s->config.height);
         return false;
     }
     if (s->progressive && !pm_progressive_bind(s->progressive, &s->film, err, err_size)) return false;
@@ -78,8 +80,8 @@ static bool build_mode(pm_session *s, char *err, size_t err_size) {
 
 pm_session *pm_session_create(const pm_scene *scene, const pm_accel *a, const pm_camera *camera,
                               const pm_session_config *config, char *err, size_t err_size) {
-    pm_session *s = calloc(1, sizeof *s);
-    if (!s) { snprintf(err, err_size, "out of memory (render session)"); return NULL; }
+    pm_session *s = pm_calloc(1, sizeof *s, "render session");
+    if (!s) { snprintf(err, err_size, "out of memory (render session, %zu bytes)", sizeof *s); return NULL; }
     s->scene = scene;
     s->accel = a;
     s->camera = *camera;
@@ -159,6 +161,7 @@ bool pm_session_iterate(pm_session *s) {
             eye.path_trace = s->config.mode == PM_MODE_PATHTRACE;
             eye.shadow = s->shadow;
             pm_eye_iterate(s->scene, s->accel, &s->camera, &eye, s->film.samples, &s->film, &s->classic_eye_stats);
+            ok = !s->classic_eye_stats.failed;
         }
     }
     s->render_seconds += now_seconds() - t0;
@@ -330,7 +333,9 @@ static void *worker_main(void *arg) {
             need_preview = false;
         }
         bool ok = atomic_load(&s->cancel) ? true : pm_session_iterate(s);
-        if (!ok) fprintf(stderr, "pmview: error: out of memory in an iteration; rendering stops\n");
+        if (!ok)
+            fprintf(stderr, "pmview: error: out of memory (%s) in an iteration; rendering stops\n",
+                    pm_memory_failure() ? pm_memory_failure() : "unknown");
         bool cut_short = atomic_load(&s->cancel);
         if (ok && !cut_short) publish(s, &s->film, false);
         pthread_mutex_lock(&s->lock);
@@ -346,8 +351,8 @@ bool pm_session_start(pm_session *s, char *err, size_t err_size) {
     size_t n = 3 * (size_t)s->config.width * s->config.height;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         if (!s->film.sum[c] || s->front[c]) continue;
-        s->front[c] = calloc(n, sizeof(float));
-        s->back[c] = calloc(n, sizeof(float));
+        s->front[c] = pm_calloc(n, sizeof(float), "display buffers");
+        s->back[c] = pm_calloc(n, sizeof(float), "display buffers");
         if (!s->front[c] || !s->back[c]) {
             snprintf(err, err_size, "out of memory (display buffers, %zu bytes)", 2 * PM_COMPONENT_COUNT * n * sizeof(float));
             return false;

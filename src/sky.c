@@ -1,5 +1,6 @@
 /* sky.c: equirectangular environment maps: building the sampling distribution, lookup, sampling, the default gradient. */
 #include "sky.h"
+#include "memory.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -30,9 +31,9 @@ pm_sky_map *pm_sky_map_create(int width, int height, const float *rgb, char *err
     size_t n = (size_t)width * height;
     pm_sky_map *m = calloc(1, sizeof *m);
     if (m) {
-        m->rgb = malloc(sizeof(float) * 3 * n);
-        m->row_cdf = malloc(sizeof(float) * ((size_t)height + 1));
-        m->column_cdf = malloc(sizeof(float) * (size_t)height * ((size_t)width + 1));
+        m->rgb = pm_malloc(sizeof(float) * 3 * n, "environment map");
+        m->row_cdf = pm_malloc(sizeof(float) * ((size_t)height + 1), "environment map");
+        m->column_cdf = pm_malloc(sizeof(float) * (size_t)height * ((size_t)width + 1), "environment map");
     }
     if (!m || !m->rgb || !m->row_cdf || !m->column_cdf) {
         pm_sky_map_free(m);

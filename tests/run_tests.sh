@@ -25,10 +25,11 @@ export LSAN_OPTIONS=suppressions=$(pwd)/tests/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 # Convergence tests run hundreds of iterations, test_photons millions of photons, test_pathtrace
-# hundreds of paths per pixel: they run optimised (test_photons 45 s against 136 s); the code they
-# drive runs under ASan/UBSan in test_progressive, test_glossy, test_volume, the classic runs of
-# test_cli and the path-traced runs of test_log (build/asan/pmview), and under TSan in test_threads.
-OPTIMISED="test_convergence test_photons test_pathtrace"
+# hundreds of paths per pixel, test_hardcases an albedo-0.99 furnace of 100-bounce photon paths:
+# they run optimised (test_photons 45 s against 136 s); the code they drive runs under ASan/UBSan
+# in test_progressive, test_glossy, test_volume, the classic runs of test_cli and the path-traced
+# runs of test_log (build/asan/pmview), and under TSan in test_threads.
+OPTIMISED="test_convergence test_photons test_pathtrace test_hardcases"
 for t in build/asan/tests/test_*; do
     name=$(basename "$t")
     case " $OPTIMISED " in *" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac

@@ -1,0 +1,46 @@
+/* memory.h: checked allocation: every large or per-pass allocation goes through here, so a failure is reported (what, how much), never a crash.
+ *
+ * pm_malloc/pm_calloc/pm_realloc behave as the C library's and, on failure, record the first
+ * failure's description (what, bytes) for the one error line main prints. pm_memory_admit()
+ * refuses a structure estimated in bytes before it is allocated when it exceeds the memory limit
+ * (--max-memory; by default PM_DEFAULT_MEMORY_SHARE of physical memory). For tests, the
+ * environment variable PMVIEW_FAIL_ALLOC=N makes the N-th checked allocation fail (and every
+ * one after it when N is followed by '+'), so each failure path can be driven without running
+ * out of memory for real.
+ */
+#ifndef PM_MEMORY_H
+#define PM_MEMORY_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+void *pm_malloc(size_t bytes, const char *what);
+void *pm_calloc(size_t count, size_t size, const char *what);
+void *pm_realloc(void *p, size_t bytes, const char *what);
+
+/* The limit in bytes for one estimated structure (0 before any set: the default). */
+void pm_memory_set_limit(uint64_t bytes);
+uint64_t pm_memory_limit(void);
+/* PM_DEFAULT_MEMORY_SHARE of physical memory (sysconf), or 4 GiB when it cannot be read. */
+uint64_t pm_memory_default_limit(void);
+/* True when `bytes` for `what` fits the limit; else records why and returns false. */
+bool pm_memory_admit(uint64_t bytes, const char *what);
+/* Records a failure found elsewhere (an allocation inside a library), if none is recorded yet. */
+void pm_memory_fail(uint64_t bytes, const char *what);
+
+/* The first failure since the last pm_memory_clear_failure(), as "what, N bytes" (or with the
+ * limit when an estimate was refused); NULL when none. */
+const char *pm_memory_failure(void);
+void pm_memory_clear_failure(void);
+
+/* Allocation-failure injection (tests): the n-th checked allocation from now fails (0 = none);
+ * with `and_after`, every one after it too. Also set from PMVIEW_FAIL_ALLOC at the first call. */
+void pm_memory_fail_at(uint64_t n, bool and_after);
+/* Checked allocations made so far (to size an injection loop). */
+uint64_t pm_memory_allocations(void);
+
+/* Parses a size: a number with an optional K, M, G or T suffix (powers of 1024) and optional B. */
+bool pm_memory_parse_size(const char *text, uint64_t *bytes);
+
+#endif

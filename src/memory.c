@@ -1,0 +1,143 @@
+/* memory.c: checked allocation with failure recording, the memory limit for estimated structures, and allocation-failure injection for tests. */
+#include "memory.h"
+
+#include <ctype.h>
+#include <inttypes.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "defaults.h"
+
+static _Atomic uint64_t limit_bytes;
+static _Atomic uint64_t allocations;
+static _Atomic uint64_t fail_at;       /* 0: no injection */
+static atomic_bool fail_after;
+static pthread_once_t env_once = PTHREAD_ONCE_INIT;
+static pthread_mutex_t failure_lock = PTHREAD_MUTEX_INITIALIZER;
+static char failure[192];
+static bool failed;
+
+static void read_env(void) {
+    const char *v = getenv("PMVIEW_FAIL_ALLOC");
+    if (!v || !*v) return;
+    char *end;
+    unsigned long long n = strtoull(v, &end, 10);
+    if (end != v) {
+        atomic_store(&fail_at, (uint64_t)n);
+        atomic_store(&fail_after, *end == '+');
+    }
+}
+
+void pm_memory_fail_at(uint64_t n, bool and_after) {
+    pthread_once(&env_once, read_env);
+    atomic_store(&allocations, 0);
+    atomic_store(&fail_at, n);
+    atomic_store(&fail_after, and_after);
+}
+
+uint64_t pm_memory_allocations(void) { return atomic_load(&allocations); }
+
+static void record(const char *text) {
+    pthread_mutex_lock(&failure_lock);
+    if (!failed) {
+        snprintf(failure, sizeof failure, "%s", text);
+        failed = true;
+    }
+    pthread_mutex_unlock(&failure_lock);
+}
+
+void pm_memory_fail(uint64_t bytes, const char *what) {
+    char text[192];
+    snprintf(text, sizeof text, "%s, %" PRIu64 " bytes", what, bytes);
+    record(text);
+}
+
+/* Whether this allocation is the injected failure. */
+static bool injected(void) {
+    pthread_once(&env_once, read_env);
+    uint64_t n = atomic_fetch_add(&allocations, 1) + 1, at = atomic_load(&fail_at);
+    return at && (n == at || (n > at && atomic_load(&fail_after)));
+}
+
+void *pm_malloc(size_t bytes, const char *what) {
+    void *p = injected() ? NULL : malloc(bytes ? bytes : 1);
+    if (!p) pm_memory_fail(bytes, what);
+    return p;
+}
+
+void *pm_calloc(size_t count, size_t size, const char *what) {
+    void *p = NULL;
+    bool overflow = size && count > SIZE_MAX / size;
+    if (!injected() && !overflow) p = calloc(count ? count : 1, size ? size : 1);
+    if (!p) pm_memory_fail(overflow ? UINT64_MAX : (uint64_t)count * size, what);
+    return p;
+}
+
+void *pm_realloc(void *old, size_t bytes, const char *what) {
+    void *p = injected() ? NULL : realloc(old, bytes ? bytes : 1);
+    if (!p) pm_memory_fail(bytes, what); /* old stays allocated, as with realloc */
+    return p;
+}
+
+uint64_t pm_memory_default_limit(void) {
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+    if (pages <= 0 || page <= 0) return (uint64_t)4 << 30;
+    return (uint64_t)((double)pages * (double)page * PM_DEFAULT_MEMORY_SHARE);
+}
+
+void pm_memory_set_limit(uint64_t bytes) { atomic_store(&limit_bytes, bytes); }
+
+uint64_t pm_memory_limit(void) {
+    uint64_t l = atomic_load(&limit_bytes);
+    if (!l) {
+        l = pm_memory_default_limit();
+        atomic_store(&limit_bytes, l);
+    }
+    return l;
+}
+
+bool pm_memory_admit(uint64_t bytes, const char *what) {
+    uint64_t limit = pm_memory_limit();
+    if (bytes <= limit) return true;
+    char text[192];
+    snprintf(text, sizeof text, "%s, %" PRIu64 " bytes, over the limit of %" PRIu64 " bytes; see --max-memory", what,
+             bytes, limit);
+    record(text);
+    return false;
+}
+
+const char *pm_memory_failure(void) {
+    pthread_mutex_lock(&failure_lock);
+    bool f = failed;
+    pthread_mutex_unlock(&failure_lock);
+    return f ? failure : NULL;
+}
+
+void pm_memory_clear_failure(void) {
+    pthread_mutex_lock(&failure_lock);
+    failed = false;
+    failure[0] = 0;
+    pthread_mutex_unlock(&failure_lock);
+}
+
+bool pm_memory_parse_size(const char *text, uint64_t *bytes) {
+    char *end;
+    double v = strtod(text, &end);
+    if (end == text || !(v > 0)) return false;
+    double scale = 1;
+    switch (toupper((unsigned char)*end)) {
+    case 'K': scale = 1024.0; end++; break;
+    case 'M': scale = 1024.0 * 1024; end++; break;
+    case 'G': scale = 1024.0 * 1024 * 1024; end++; break;
+    case 'T': scale = 1024.0 * 1024 * 1024 * 1024; end++; break;
+    default: break;
+    }
+    if (toupper((unsigned char)*end) == 'B') end++;
+    if (*end || v * scale >= 1.8e19 || v * scale < 1) return false;
+    *bytes = (uint64_t)(v * scale);
+    return true;
+}
