@@ -2,6 +2,8 @@
 #
 #   make          build ./pmview                 make run    install, build, render the default scene
 #   make test     install, build, run all tests  make bench  speed figures (ratios measured in one run)
+#   make check    the whole suite under ASan+UBSan, the threaded tests under TSan, a render under valgrind
+#   make fuzz     libFuzzer (clang) over load, set-up, accel and a tiny render for FUZZ_SECONDS (600)
 #   make clean
 
 CC      ?= cc
@@ -18,7 +20,7 @@ HEADERS := $(wildcard include/*.h) build/shaders.inc
 TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 SCENE   ?= scenes/cornell-box.gltf
 
-.PHONY: all deps run test bench clean tests-build
+.PHONY: all deps run test check bench clean tests-build fuzz fuzz-deps
 all: pmview
 
 deps:
@@ -66,6 +68,31 @@ build/asan/pmview: build/asan/main.o build/asan/libpm.a
 test: deps
 	@$(MAKE) --no-print-directory -j2 tests-build
 	@sh tests/run_tests.sh
+
+# The fuzz target: clang's libFuzzer over the whole library, built with its own compiler and flags.
+FUZZ_CC      ?= clang
+FUZZ_CXX     ?= clang++
+FUZZ_SECONDS ?= 600
+FUZZ_SAN     := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+build/fuzz/%.o: src/%.c $(HEADERS)
+	@mkdir -p build/fuzz
+	$(FUZZ_CC) $(CFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer-no-link -c $< -o $@
+build/fuzz/%.o: src/%.cpp include/loader.h include/scene.h include/pm_math.h
+	@mkdir -p build/fuzz
+	$(FUZZ_CXX) $(CXXFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer-no-link -c $< -o $@
+build/fuzz/libpm.a: $(patsubst src/%.c,build/fuzz/%.o,$(C_SRC)) $(patsubst src/%.cpp,build/fuzz/%.o,$(CXX_SRC))
+	@rm -f $@
+	ar rcs $@ $^
+build/fuzz/fuzz_gltf: tests/fuzz/fuzz_target.c tests/fuzz/fuzz_entry.h build/fuzz/libpm.a
+	$(FUZZ_CC) $(CFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer -Itests/fuzz -c $< -o build/fuzz/fuzz_target.o
+	$(FUZZ_CXX) $(FUZZ_SAN) -fsanitize=fuzzer build/fuzz/fuzz_target.o build/fuzz/libpm.a -o $@ $(LIBS)
+
+fuzz-deps:
+	@sh tools/install-deps.sh fuzz
+
+fuzz: fuzz-deps
+	@$(MAKE) --no-print-directory build/fuzz/fuzz_gltf
+	@sh tools/run-fuzz.sh $(FUZZ_SECONDS)
 
 bench: deps pmview build/rel/bench_pm build/rel/caustic_error
 	@sh bench/run_bench.sh
