@@ -19,6 +19,7 @@ CXX_SRC := $(wildcard src/*.cpp)
 HEADERS := $(wildcard include/*.h) build/shaders.inc
 TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 SCENE   ?= scenes/cornell-box.gltf
+TSAN_TESTS := test_threads test_texture_threads
 
 .PHONY: all deps run test check bench clean tests-build fuzz fuzz-deps
 all: pmview
@@ -41,7 +42,7 @@ build/$(1)/%.o: src/%.c $(HEADERS)
 build/$(1)/%.o: src/%.cpp include/loader.h include/scene.h include/pm_math.h
 	@mkdir -p build/$(1)
 	$$(CXX) $$(CXXFLAGS) $(2) -c $$< -o $$@
-build/$(1)/tests/%: tests/%.c build/$(1)/libpm.a $(wildcard tests/*.h)
+build/$(1)/tests/%: tests/%.c build/$(1)/libpm.a $(wildcard tests/*.h tests/fuzz/*.h)
 	@mkdir -p build/$(1)/tests
 	$$(CC) $$(CFLAGS) $(2) -Itests $$< build/$(1)/libpm.a -o $$@ $(2) $$(LIBS)
 build/$(1)/libpm.a: $(patsubst src/%.c,build/$(1)/%.o,$(C_SRC)) $(patsubst src/%.cpp,build/$(1)/%.o,$(CXX_SRC))
@@ -60,7 +61,7 @@ pmview: build/rel/main.o build/rel/libpm.a
 run: deps pmview
 	@sh tools/run-default.sh $(SCENE)
 
-tests-build: pmview build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) build/tsan/tests/test_threads $(addprefix build/rel/tests/,$(TESTS))
+tests-build: pmview build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) $(addprefix build/tsan/tests/,$(TSAN_TESTS)) $(addprefix build/rel/tests/,$(TESTS))
 
 build/asan/pmview: build/asan/main.o build/asan/libpm.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) $^ -o $@ $(LIBS) $(ASAN_FLAGS)
@@ -68,6 +69,11 @@ build/asan/pmview: build/asan/main.o build/asan/libpm.a
 test: deps
 	@$(MAKE) --no-print-directory -j2 tests-build
 	@sh tests/run_tests.sh
+
+# everything under ASan+UBSan (the optimised tests too), the threaded tests under TSan, a render under valgrind
+check: deps
+	@$(MAKE) --no-print-directory -j2 tests-build
+	@PMVIEW_CHECK=1 sh tests/run_tests.sh
 
 # The fuzz target: clang's libFuzzer over the whole library, built with its own compiler and flags.
 FUZZ_CC      ?= clang

@@ -1,5 +1,7 @@
 #!/bin/sh
-# run_tests.sh: runs every test program (ASan/UBSan build), the TSan threading test and the script tests; prints the summary line.
+# run_tests.sh: runs every test program (ASan/UBSan build), the threaded tests under TSan and the script tests; prints the summary line.
+#
+# PMVIEW_CHECK=1 (make check): the OPTIMISED tests run under ASan/UBSan too, and the valgrind test is added.
 cd "$(dirname "$0")/.." || exit 1
 passed=0; failed=0; skipped=0; failed_names=""
 run() { # name command...
@@ -29,15 +31,25 @@ export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 # test_progressive, test_glossy, test_volume and the classic runs of test_cli (build/asan/pmview),
 # and under TSan in test_threads.
 OPTIMISED="test_convergence test_photons"
+[ "${PMVIEW_CHECK:-0}" = 1 ] && OPTIMISED=""
+# the tests that render on several threads, run again under TSan
+TSAN_TESTS="test_threads test_texture_threads"
 for t in build/asan/tests/test_*; do
     name=$(basename "$t")
     case " $OPTIMISED " in *" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac
     run "$name" "$t"
 done
-[ -x build/tsan/tests/test_threads ] && run "test_threads[tsan]" env TSAN_OPTIONS=halt_on_error=1 build/tsan/tests/test_threads
+for t in $TSAN_TESTS; do
+    [ -x "build/tsan/tests/$t" ] && run "$t[tsan]" env TSAN_OPTIONS=halt_on_error=1 "build/tsan/tests/$t"
+done
 for s in tests/test_*.sh; do
     [ -f "$s" ] && run "$(basename "$s" .sh)" sh "$s"
 done
+if [ "${PMVIEW_CHECK:-0}" = 1 ]; then
+    for s in tests/check_*.sh; do
+        [ -f "$s" ] && run "$(basename "$s" .sh)" sh "$s"
+    done
+fi
 [ -n "$failed_names" ] && echo "failed:$failed_names"
 if [ "$skipped" -gt 0 ]; then echo "$passed passed, $failed failed, $skipped skipped"; else echo "$passed passed, $failed failed"; fi
 [ "$failed" -eq 0 ]
