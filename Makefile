@@ -71,7 +71,8 @@ test: deps
 	@sh tests/run_tests.sh
 
 # everything under ASan+UBSan (the optimised tests too), the threaded tests under TSan, a render under valgrind
-check: deps
+check:
+	@sh tools/install-deps.sh check
 	@$(MAKE) --no-print-directory -j2 tests-build
 	@PMVIEW_CHECK=1 sh tests/run_tests.sh
 
