@@ -25,18 +25,19 @@ run() { # name command...
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0
 export LSAN_OPTIONS=suppressions=$(pwd)/tests/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+# make check sets PMVIEW_CHECK=1: the OPTIMISED tests below run under ASan/UBSan too
+check=${PMVIEW_CHECK:-0}
+# the tests that render on several threads, run again under TSan
+TSAN_TESTS="test_threads test_texture_threads"
 export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 # Convergence tests run hundreds of iterations, test_photons millions of photons: they run
 # optimised (test_photons 45 s against 136 s); the code they drive runs under ASan/UBSan in
 # test_progressive, test_glossy, test_volume and the classic runs of test_cli (build/asan/pmview),
 # and under TSan in test_threads.
 OPTIMISED="test_convergence test_photons"
-[ "${PMVIEW_CHECK:-0}" = 1 ] && OPTIMISED=""
-# the tests that render on several threads, run again under TSan
-TSAN_TESTS="test_threads test_texture_threads"
 for t in build/asan/tests/test_*; do
     name=$(basename "$t")
-    case " $OPTIMISED " in *" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac
+    case "$check $OPTIMISED " in "0 "*" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac
     run "$name" "$t"
 done
 for t in $TSAN_TESTS; do
@@ -45,7 +46,7 @@ done
 for s in tests/test_*.sh; do
     [ -f "$s" ] && run "$(basename "$s" .sh)" sh "$s"
 done
-if [ "${PMVIEW_CHECK:-0}" = 1 ]; then
+if [ "$check" = 1 ]; then
     for s in tests/check_*.sh; do
         [ -f "$s" ] && run "$(basename "$s" .sh)" sh "$s"
     done
