@@ -76,6 +76,7 @@ static void check_anchors(void) {
     bool file_ok = pm_load_gltf("scenes/cornell-box.gltf", true, &from_file, NULL, err, sizeof err);
     bool memory_ok = pm_load_gltf_memory(box, size, "cornell-box.gltf", true, &from_memory, NULL, err, sizeof err);
     CHECK(file_ok && memory_ok, "the Cornell box loads from its file and from memory: %s", err);
+    uint32_t file_triangles = file_ok ? from_file.triangle_count : 0;
     if (file_ok && memory_ok) {
         CHECK(from_file.triangle_count == from_memory.triangle_count && from_file.vertex_count == from_memory.vertex_count &&
                   !memcmp(from_file.positions, from_memory.positions, from_file.vertex_count * sizeof(vec3)),
@@ -84,7 +85,24 @@ static void check_anchors(void) {
         pm_scene_free(&from_file);
         pm_scene_free(&from_memory);
     }
-    pm_fuzz_result r = pm_fuzz_run(box, size);
+    /* the same JSON in a GLB container (a JSON chunk padded with spaces, no BIN chunk: its buffers are data: URIs) */
+    size_t json_length = (size + 3) & ~(size_t)3, glb_size = 12 + 8 + json_length;
+    unsigned char *glb = malloc(glb_size);
+    const uint32_t header[5] = {0x46546C67u, 2, (uint32_t)glb_size, (uint32_t)json_length, 0x4E4F534Au};
+    for (int k = 0; k < 5; k++)
+        for (int byte = 0; byte < 4; byte++) glb[4 * k + byte] = (unsigned char)(header[k] >> (8 * byte));
+    memcpy(glb + 20, box, size);
+    memset(glb + 20 + size, ' ', json_length - size);
+    memory_ok = pm_load_gltf_memory(glb, glb_size, "cornell-box.glb", true, &from_memory, NULL, err, sizeof err);
+    CHECK(memory_ok && file_triangles > 0 && from_memory.triangle_count == file_triangles,
+          "the Cornell box as a GLB from memory: %s (%u triangles, %u from the file)", err,
+          memory_ok ? from_memory.triangle_count : 0, file_triangles);
+    if (memory_ok) pm_scene_free(&from_memory);
+    pm_fuzz_result r = pm_fuzz_run(glb, glb_size);
+    printf("anchor cornell-box.glb (GLB from memory): %s, %u triangles\n", stage_name(r.stage), r.triangles);
+    CHECK(r.stage == PM_FUZZ_RENDERED, "the fuzz entry renders the GLB (stage %d, %s)", r.stage, r.error);
+    free(glb);
+    r = pm_fuzz_run(box, size);
     printf("anchor cornell-box.gltf: %s, %u triangles, %llu non-finite values\n", stage_name(r.stage), r.triangles,
            (unsigned long long)r.nonfinite_values);
     CHECK(r.stage == PM_FUZZ_RENDERED && r.triangles > 0 && r.nonfinite_values == 0,
