@@ -37,7 +37,7 @@ export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 OPTIMISED="test_convergence test_photons"
 for t in build/asan/tests/test_*; do
     name=$(basename "$t")
-    case "$check $OPTIMISED " in "0 "*" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac
+    [ "$check" = 0 ] && case " $OPTIMISED " in *" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac
     run "$name" "$t"
 done
 for t in $TSAN_TESTS; do
