@@ -2,6 +2,8 @@
 #
 #   make          build ./pmview                 make run    install, build, render the default scene
 #   make test     install, build, run all tests  make bench  speed figures (ratios measured in one run)
+#   make check    the whole suite under ASan+UBSan, the threaded tests under TSan, a render under valgrind
+#   make fuzz     libFuzzer (clang) over load, set-up, accel and a tiny render for FUZZ_SECONDS (600)
 #   make clean
 
 CC      ?= cc
@@ -17,8 +19,9 @@ CXX_SRC := $(wildcard src/*.cpp)
 HEADERS := $(wildcard include/*.h) build/shaders.inc
 TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 SCENE   ?= scenes/cornell-box.gltf
+TSAN_TESTS := test_threads test_texture_threads
 
-.PHONY: all deps run test bench clean tests-build
+.PHONY: all deps run test check bench clean tests-build fuzz fuzz-deps
 all: pmview
 
 deps:
@@ -39,7 +42,7 @@ build/$(1)/%.o: src/%.c $(HEADERS)
 build/$(1)/%.o: src/%.cpp include/loader.h include/scene.h include/pm_math.h
 	@mkdir -p build/$(1)
 	$$(CXX) $$(CXXFLAGS) $(2) -c $$< -o $$@
-build/$(1)/tests/%: tests/%.c build/$(1)/libpm.a $(wildcard tests/*.h)
+build/$(1)/tests/%: tests/%.c build/$(1)/libpm.a $(wildcard tests/*.h tests/fuzz/*.h)
 	@mkdir -p build/$(1)/tests
 	$$(CC) $$(CFLAGS) $(2) -Itests $$< build/$(1)/libpm.a -o $$@ $(2) $$(LIBS)
 build/$(1)/libpm.a: $(patsubst src/%.c,build/$(1)/%.o,$(C_SRC)) $(patsubst src/%.cpp,build/$(1)/%.o,$(CXX_SRC))
@@ -58,7 +61,7 @@ pmview: build/rel/main.o build/rel/libpm.a
 run: deps pmview
 	@sh tools/run-default.sh $(SCENE)
 
-tests-build: pmview build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) build/tsan/tests/test_threads $(addprefix build/rel/tests/,$(TESTS))
+tests-build: pmview build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) $(addprefix build/tsan/tests/,$(TSAN_TESTS)) $(addprefix build/rel/tests/,$(TESTS))
 
 build/asan/pmview: build/asan/main.o build/asan/libpm.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) $^ -o $@ $(LIBS) $(ASAN_FLAGS)
@@ -66,6 +69,37 @@ build/asan/pmview: build/asan/main.o build/asan/libpm.a
 test: deps
 	@$(MAKE) --no-print-directory -j2 tests-build
 	@sh tests/run_tests.sh
+
+# everything under ASan+UBSan (the optimised tests too), the threaded tests under TSan, a render under valgrind
+check:
+	@sh tools/install-deps.sh check
+	@$(MAKE) --no-print-directory -j2 tests-build
+	@PMVIEW_CHECK=1 sh tests/run_tests.sh
+
+# The fuzz target: clang's libFuzzer over the whole library, built with its own compiler and flags.
+FUZZ_CC      ?= clang
+FUZZ_CXX     ?= clang++
+FUZZ_SECONDS ?= 600
+FUZZ_SAN     := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+build/fuzz/%.o: src/%.c $(HEADERS)
+	@mkdir -p build/fuzz
+	$(FUZZ_CC) $(CFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer-no-link -c $< -o $@
+build/fuzz/%.o: src/%.cpp include/loader.h include/scene.h include/pm_math.h
+	@mkdir -p build/fuzz
+	$(FUZZ_CXX) $(CXXFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer-no-link -c $< -o $@
+build/fuzz/libpm.a: $(patsubst src/%.c,build/fuzz/%.o,$(C_SRC)) $(patsubst src/%.cpp,build/fuzz/%.o,$(CXX_SRC))
+	@rm -f $@
+	ar rcs $@ $^
+build/fuzz/fuzz_gltf: tests/fuzz/fuzz_target.c tests/fuzz/fuzz_entry.h build/fuzz/libpm.a
+	$(FUZZ_CC) $(CFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer -Itests/fuzz -c $< -o build/fuzz/fuzz_target.o
+	$(FUZZ_CXX) $(FUZZ_SAN) -fsanitize=fuzzer build/fuzz/fuzz_target.o build/fuzz/libpm.a -o $@ $(LIBS)
+
+fuzz-deps:
+	@sh tools/install-deps.sh fuzz
+
+fuzz: fuzz-deps
+	@$(MAKE) --no-print-directory build/fuzz/fuzz_gltf
+	@sh tools/run-fuzz.sh $(FUZZ_SECONDS)
 
 bench: deps pmview build/rel/bench_pm build/rel/caustic_error
 	@sh bench/run_bench.sh

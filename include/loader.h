@@ -27,4 +27,11 @@ typedef struct {
 bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_load_report *report,
                   char *err, size_t err_size);
 
+/* The same from bytes in memory (the fuzz target): name stands for the file in messages, and a
+ * name ending in .glb, or bytes starting with "glTF", are read as GLB. Only data: URIs and the
+ * GLB's BIN chunk can be read: a buffer that names an external file is refused, an image that
+ * does is not found (a warning, its textures ignored, as for a missing image file). */
+bool pm_load_gltf_memory(const void *data, size_t size, const char *name, bool quiet, pm_scene *out,
+                         pm_load_report *report, char *err, size_t err_size);
+
 #endif

@@ -12,6 +12,7 @@
 #include "memory.h"
 
 #include <embree3/rtcore.h>
+#include <math.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -33,6 +34,18 @@ struct pm_accel {
 };
 
 enum { OPAQUE_GEOMETRY = 0, ALPHA_GEOMETRY = 1 };
+
+/* Debian's Embree keeps its assertions: a ray whose origin or direction has a coordinate beyond
+ * +-1.844e18 (Embree's FLT_LARGE) or NaN, or whose tfar is NaN, aborts the whole process (found
+ * by fuzzing, tests/fuzz/regressions/). Scenes reaching that far are refused at creation; a ray
+ * from farther (a camera or a light out there) is answered as a miss, or as blocked for a
+ * shadow ray, without reaching Embree. */
+#define EMBREE_MAX_COORDINATE 1.8e18f
+static bool ray_in_range(vec3 o, vec3 d, float tmax) {
+    return fabsf(o.x) <= EMBREE_MAX_COORDINATE && fabsf(o.y) <= EMBREE_MAX_COORDINATE &&
+           fabsf(o.z) <= EMBREE_MAX_COORDINATE && fabsf(d.x) <= EMBREE_MAX_COORDINATE &&
+           fabsf(d.y) <= EMBREE_MAX_COORDINATE && fabsf(d.z) <= EMBREE_MAX_COORDINATE && !isnan(tmax);
+}
 
 /* A uniform number in [0, 1) from the ray (origin and direction bits) and the triangle.
  *
@@ -160,6 +173,13 @@ static bool split_triangles(const pm_scene *s, uint32_t **opaque, uint32_t *opaq
 }
 
 pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
+    float reach = fmaxf(fmaxf(fmaxf(fabsf(s->bounds_min.x), fabsf(s->bounds_max.x)), fmaxf(fabsf(s->bounds_min.y), fabsf(s->bounds_max.y))),
+                        fmaxf(fabsf(s->bounds_min.z), fabsf(s->bounds_max.z)));
+    if (s->triangle_count && !(reach <= EMBREE_MAX_COORDINATE)) {
+        snprintf(err, err_size, "the scene reaches %.3g from the origin, beyond the %.2g Embree can trace (accel)",
+                 (double)reach, (double)EMBREE_MAX_COORDINATE);
+        return NULL;
+    }
     pm_accel *a = pm_calloc(1, sizeof *a, "acceleration structure");
     if (!a) {
         snprintf(err, err_size, "out of memory (acceleration structure, %zu bytes)", sizeof *a);
@@ -247,6 +267,7 @@ static void fill_ray(struct RTCRay *r, vec3 o, vec3 d, float tnear, float tmax) 
 }
 
 bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *hit) {
+    if (!ray_in_range(o, d, tmax)) return false;
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRayHit rh;
@@ -264,6 +285,7 @@ bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *h
 }
 
 bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax) {
+    if (!ray_in_range(o, d, tmax)) return true;
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRay r;

@@ -175,6 +175,7 @@ std::string join_path(const std::string &folder, const std::string &relative) {
 // What the file-system hooks and the image hook need; their refusals are kept to report them in our words.
 struct TinygltfHooks {
     LexicalPath folder;
+    bool no_files = false;  // loading from memory: there is no folder to read external files from
     std::vector<char> image_wanted;  // per image: used by a texture pmview renders (base colour, emissive, data)
     std::string error;
     std::vector<std::string> warnings;
@@ -182,13 +183,18 @@ struct TinygltfHooks {
 
 bool guarded_file_exists(const std::string &path, void *user) {
     TinygltfHooks *hooks = static_cast<TinygltfHooks *>(user);
-    return is_inside(hooks->folder, path) && tinygltf::FileExists(path, nullptr);
+    return !hooks->no_files && is_inside(hooks->folder, path) && tinygltf::FileExists(path, nullptr);
 }
 
 std::string unexpanded_path(const std::string &path, void *) { return path; }
 
 bool guarded_read_file(std::vector<unsigned char> *out, std::string *err, const std::string &path, void *user) {
     TinygltfHooks *hooks = static_cast<TinygltfHooks *>(user);
+    if (hooks->no_files) {
+        hooks->error = "cannot read " + printable(path) + ": external files are unavailable when loading from memory";
+        if (err) *err = hooks->error;
+        return false;
+    }
     if (!is_inside(hooks->folder, path)) {
         hooks->error = "refused to read " + printable(path) + ": outside the model's folder";
         if (err) *err = hooks->error;
@@ -750,6 +756,12 @@ public:
         folder_ = slash == std::string::npos ? "" : path.substr(0, slash == 0 ? 1 : slash);
         hooks_.folder = lexical_normal(folder_);
     }
+    // Bytes already in memory; path_ only names them (messages, the .glb extension).
+    Loader(const std::string &name, const unsigned char *data, size_t size) : Loader(name) {
+        memory_ = data;
+        memory_size_ = size;
+        hooks_.no_files = true;
+    }
 
     void load(pm_scene *out);
     const std::vector<std::string> &warnings() const { return warnings_; }
@@ -809,6 +821,8 @@ private:
     void warn(const std::string &message) { warnings_.push_back(message); }
 
     std::string path_, folder_;
+    const unsigned char *memory_ = nullptr;  // non-null: load these bytes instead of reading path_
+    size_t memory_size_ = 0;
     std::vector<std::string> warnings_;
 
     // container
@@ -864,6 +878,11 @@ private:
 // ---- stage 1: bytes, container, JSON, preflight
 
 std::vector<unsigned char> Loader::read_model_file() {
+    if (memory_) {
+        if (memory_size_ == 0) fail("empty file");
+        if (memory_size_ > UINT32_MAX) fail("file too large (tinygltf reads at most 4 GiB)");
+        return std::vector<unsigned char>(memory_, memory_ + memory_size_);
+    }
     struct stat st;
     if (stat(path_.c_str(), &st) != 0) fail(std::string("cannot open: ") + strerror(errno));
     if (!S_ISREG(st.st_mode)) fail("not a regular file");  // before fopen, which would wait on a FIFO
@@ -1339,6 +1358,8 @@ void Loader::preflight_uri_target(const json &object, const std::string &where, 
     }
     std::string relative = safe_relative_path(uri, folder_, hooks_.folder, where);
     if (!is_buffer) return;
+    if (hooks_.no_files)
+        fail("buffer " + printable(uri) + " is an external file, unavailable when loading from memory (" + where + ")");
     struct stat st;
     std::string file = join_path(folder_, relative);
     if (stat(file.c_str(), &st) != 0)
@@ -2126,8 +2147,11 @@ void Loader::load(pm_scene *out) {
 
 }  // namespace
 
-extern "C" bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_load_report *report, char *err,
-                             size_t err_size) {
+namespace {
+
+// What both entries share: runs the loader, prints warnings unless quiet, turns failures into err.
+bool run_loader(const char *path, const unsigned char *data, size_t size, bool quiet, pm_scene *out,
+                pm_load_report *report, char *err, size_t err_size) {
     auto start = std::chrono::steady_clock::now();
     memset(out, 0, sizeof *out);
     pm_load_report local_report;
@@ -2136,7 +2160,8 @@ extern "C" bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_loa
     if (err && err_size) err[0] = '\0';
     std::string message;
     try {
-        Loader loader(path ? path : "");
+        std::unique_ptr<Loader> made(data ? new Loader(path ? path : "", data, size) : new Loader(path ? path : ""));
+        Loader &loader = *made;
         try {
             loader.load(out);
         } catch (const LoadError &e) {
@@ -2168,4 +2193,18 @@ extern "C" bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_loa
         snprintf(err, err_size, "%s", line.c_str());
     }
     return false;
+}
+
+}  // namespace
+
+extern "C" bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_load_report *report, char *err,
+                             size_t err_size) {
+    return run_loader(path, nullptr, 0, quiet, out, report, err, err_size);
+}
+
+extern "C" bool pm_load_gltf_memory(const void *data, size_t size, const char *name, bool quiet, pm_scene *out,
+                                    pm_load_report *report, char *err, size_t err_size) {
+    static const unsigned char nothing = 0;  // a non-null pointer for empty input, so it is not read as a path
+    const unsigned char *bytes = data && size ? static_cast<const unsigned char *>(data) : &nothing;
+    return run_loader(name ? name : "(memory)", bytes, data ? size : 0, quiet, out, report, err, err_size);
 }

@@ -1,5 +1,7 @@
 #!/bin/sh
-# run_tests.sh: runs every test program (ASan/UBSan build), the TSan threading test and the script tests; prints the summary line.
+# run_tests.sh: runs every test program (ASan/UBSan build), the threaded tests under TSan and the script tests; prints the summary line.
+#
+# PMVIEW_CHECK=1 (make check): the OPTIMISED tests run under ASan/UBSan too, and the valgrind test is added.
 cd "$(dirname "$0")/.." || exit 1
 passed=0; failed=0; skipped=0; failed_names=""
 run() { # name command...
@@ -23,6 +25,10 @@ run() { # name command...
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0
 export LSAN_OPTIONS=suppressions=$(pwd)/tests/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+# make check sets PMVIEW_CHECK=1: the OPTIMISED tests below run under ASan/UBSan too
+check=${PMVIEW_CHECK:-0}
+# the tests that render on several threads, run again under TSan
+TSAN_TESTS="test_threads test_texture_threads"
 export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 # Convergence tests run hundreds of iterations, test_photons millions of photons, test_pathtrace
 # hundreds of paths per pixel, test_hardcases an albedo-0.99 furnace of 100-bounce photon paths:
@@ -32,13 +38,20 @@ export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 OPTIMISED="test_convergence test_photons test_pathtrace test_hardcases"
 for t in build/asan/tests/test_*; do
     name=$(basename "$t")
-    case " $OPTIMISED " in *" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac
+    [ "$check" = 0 ] && case " $OPTIMISED " in *" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac
     run "$name" "$t"
 done
-[ -x build/tsan/tests/test_threads ] && run "test_threads[tsan]" env TSAN_OPTIONS=halt_on_error=1 build/tsan/tests/test_threads
+for t in $TSAN_TESTS; do
+    [ -x "build/tsan/tests/$t" ] && run "$t[tsan]" env TSAN_OPTIONS=halt_on_error=1 "build/tsan/tests/$t"
+done
 for s in tests/test_*.sh; do
     [ -f "$s" ] && run "$(basename "$s" .sh)" sh "$s"
 done
+if [ "$check" = 1 ]; then
+    for s in tests/check_*.sh; do
+        [ -f "$s" ] && run "$(basename "$s" .sh)" sh "$s"
+    done
+fi
 [ -n "$failed_names" ] && echo "failed:$failed_names"
 if [ "$skipped" -gt 0 ]; then echo "$passed passed, $failed failed, $skipped skipped"; else echo "$passed passed, $failed failed"; fi
 [ "$failed" -eq 0 ]

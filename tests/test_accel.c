@@ -114,7 +114,33 @@ static void check_sphere_crossings(float radius, vec3 center) {
     pm_scene_free(&s);
 }
 
+/* Rays Embree cannot take (a coordinate beyond 1.8e18, NaN) are answered without it: Debian's
+ * Embree asserts on them and would abort the process. Scenes reaching that far are refused. */
+static void check_out_of_range(void) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    sb_quad(&s, v3(-1, -1, 0), v3(1, -1, 0), v3(1, 1, 0), v3(-1, 1, 0), sb_lambert(&s, v3s(0.5f)));
+    pm_accel *a = sb_finish(&s);
+    if (!a) return;
+    pm_hit hit;
+    CHECK(pm_accel_intersect(a, v3(0, 0, 5), v3(0, 0, -1), INFINITY, &hit), "an ordinary ray hits the quad");
+    CHECK(!pm_accel_intersect(a, v3(0, 0, 1e20f), v3(0, 0, -1), INFINITY, &hit), "a ray from 1e20 is a miss");
+    CHECK(pm_accel_occluded(a, v3(0, 0, 1e20f), v3(0, 0, -1), 1e21f), "a shadow ray from 1e20 is blocked");
+    CHECK(!pm_accel_intersect(a, v3(0, 0, 5), v3(NAN, 0, -1), INFINITY, &hit), "a NaN direction is a miss");
+    CHECK(!pm_accel_intersect(a, v3(0, 0, 5), v3(0, 0, -1), NAN, &hit), "a NaN tmax is a miss");
+    pm_accel_destroy(a);
+    for (uint32_t v = 0; v < s.vertex_count; v++) s.positions[v].x *= 1e19f;
+    pm_scene_finalize(&s, false, NULL);
+    char err[256] = "";
+    a = pm_accel_create(&s, err, sizeof err);
+    printf("a quad 2e19 wide: %s\n", err);
+    CHECK(!a && strstr(err, "beyond the 1.8e+18 Embree can trace"), "a scene reaching 1e19 is refused: %s", err);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
+    check_out_of_range();
     check_sphere_crossings(0.3f, v3(0.f, 0.35f, 0.f));
     check_sphere_crossings(0.3f, v3(3.f, -2.f, 1.f));
     check_sphere_crossings(300.f, v3(1e4f, 0.f, 0.f));

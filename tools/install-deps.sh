@@ -1,7 +1,11 @@
 #!/bin/sh
-# install-deps.sh: installs the Debian 12 packages pmview needs, only those missing, quietly when all are present.
+# install-deps.sh: installs the Debian 12 packages pmview needs (with `fuzz` or `check`, also those targets' own), only those missing, quietly when all are present.
 set -e
 PKGS="build-essential pkg-config libembree-dev libglfw3-dev libosmesa6-dev libopenexr-dev libtinygltf-dev nlohmann-json3-dev libstb-dev xvfb xdotool xauth x11-apps python3"
+# `install-deps.sh fuzz` (make fuzz): clang and its runtime libraries hold libFuzzer; gcc has none
+[ "$1" = fuzz ] && PKGS="$PKGS clang libclang-rt-14-dev"
+# `install-deps.sh check` (make check): valgrind for the memcheck test
+[ "$1" = check ] && PKGS="$PKGS valgrind"
 missing=""
 for p in $PKGS; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
