@@ -77,7 +77,7 @@
                                               a closed room of albedo 1 ends its paths after 100 bounces on average (so a pass stores
                                               at most about 100 records a photon), not at the cap. Below albedo rho the weights grow by
                                               rho/q a bounce and their variance stays finite only while q > rho^2: 0.99 keeps a room of
-                                              albedo 0.99 exact (tests/test_hardcases.c), 0.95 left it 10% dark */
+                                              albedo 0.99 exact (tests/test_hard_energy.c), 0.95 left it 10% dark */
 
 /* path tracing (--mode pathtrace) */
 #define PM_PATHTRACE_ROULETTE_VERTEX 3     /* Russian roulette after the scattering at the fourth surface a path meets (index 3) and every later one ... */

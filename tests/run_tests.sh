@@ -31,11 +31,11 @@ check=${PMVIEW_CHECK:-0}
 TSAN_TESTS="test_threads test_texture_threads"
 export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 # Convergence tests run hundreds of iterations, test_photons millions of photons, test_pathtrace
-# hundreds of paths per pixel, test_hardcases an albedo-0.99 furnace of 100-bounce photon paths:
+# hundreds of paths per pixel, test_hard_energy an albedo-0.99 furnace of 100-bounce photon paths:
 # they run optimised (test_photons 45 s against 136 s); the code they drive runs under ASan/UBSan
 # in test_progressive, test_glossy, test_volume, the classic runs of test_cli and the path-traced
 # runs of test_log (build/asan/pmview), and under TSan in test_threads.
-OPTIMISED="test_convergence test_photons test_pathtrace test_hardcases"
+OPTIMISED="test_convergence test_photons test_pathtrace test_hard_energy"
 for t in build/asan/tests/test_*; do
     name=$(basename "$t")
     [ "$check" = 0 ] && case " $OPTIMISED " in *" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac

@@ -1,4 +1,4 @@
-/* test_hardcases.c: hard-case scenes of issue 11, each check naming its criterion: closed rooms of albedo 1 and 0.99, a tiny very bright light, emission clamping, film overflow. */
+/* test_hard_energy.c: hard-case scenes of issue 11, each check naming its criterion: closed rooms of albedo 1 and 0.99, a tiny very bright light, emission clamping, film overflow. */
 /* Run from the optimised build (tests/run_tests.sh): the albedo-0.99 furnace traces 8 million photon rays. */
 #include <float.h>
 #include <stdlib.h>
@@ -229,5 +229,5 @@ int main(void) {
     test_albedo_one_room();
     test_tiny_bright_light();
     test_furnace_099();
-    return pm_test_done("test_hardcases");
+    return pm_test_done("test_hard_energy");
 }

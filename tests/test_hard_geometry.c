@@ -1,4 +1,4 @@
-/* test_hard_cases.c: hard-case scenes of issue 11, each with its criterion printed and measured: thin and coplanar walls do not leak, ior 1.0 glass is invisible, ior 2.4 glass (total internal reflection) keeps a furnace at 1, a point light inside a glass ball lights the floor as the bare light does. */
+/* test_hard_geometry.c: hard-case scenes of issue 11, each with its criterion printed and measured: thin and coplanar walls do not leak, ior 1.0 glass is invisible, ior 2.4 glass (total internal reflection) keeps a furnace at 1, a point light inside a glass ball lights the floor as the bare light does. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -375,5 +375,5 @@ int main(void) {
     glass_ior_one();
     glass_ior_high();
     light_in_glass_ball();
-    return pm_test_done("test_hard_cases");
+    return pm_test_done("test_hard_geometry");
 }
