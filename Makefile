@@ -2,6 +2,7 @@
 #
 #   make          build ./pmview                 make run    install, build, render the default scene
 #   make test     install, build, run all tests  make bench  speed figures (ratios measured in one run)
+#   make convergence  error against time for every method and shipped scene: docs/convergence.md (QUICK=1: a short one)
 #   make clean
 
 CC      ?= cc
@@ -18,7 +19,7 @@ HEADERS := $(wildcard include/*.h) build/shaders.inc
 TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 SCENE   ?= scenes/cornell-box.gltf
 
-.PHONY: all deps run test bench clean tests-build
+.PHONY: all deps run test bench convergence clean tests-build
 all: pmview
 
 deps:
@@ -58,7 +59,7 @@ pmview: build/rel/main.o build/rel/libpm.a
 run: deps pmview
 	@sh tools/run-default.sh $(SCENE)
 
-tests-build: pmview build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) build/tsan/tests/test_threads $(addprefix build/rel/tests/,$(TESTS))
+tests-build: pmview build/rel/error_map build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) build/tsan/tests/test_threads $(addprefix build/rel/tests/,$(TESTS))
 
 build/asan/pmview: build/asan/main.o build/asan/libpm.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) $^ -o $@ $(LIBS) $(ASAN_FLAGS)
@@ -75,6 +76,14 @@ build/rel/bench_pm: bench/bench_pm.c build/rel/libpm.a
 
 build/rel/caustic_error: bench/caustic_error.c tests/caustic_region.h build/rel/libpm.a
 	$(CC) $(CFLAGS) -Itests $< build/rel/libpm.a -o $@ $(LIBS)
+
+# Takes about an hour (45 runs of 64 s); QUICK=1 about 4 minutes. gnuplot draws the plots.
+convergence: deps pmview build/rel/error_map
+	@sh tools/install-deps.sh convergence
+	@QUICK=$(QUICK) sh tools/convergence.sh
+
+build/rel/error_map: tools/error_map.c build/rel/libpm.a
+	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
 
 clean:
 	rm -rf build pmview
