@@ -134,7 +134,7 @@ def glossy_spheres(segments=48, light_strength=12.0):
     return {"meshes": meshes, "camera": camera, "lights": []}
 
 
-def mirror_caustic(segments=64, light_strength=200.0, light_radius=0.1):
+def mirror_caustic(segments=64, light_strength=50.0, light_radius=0.2):
     """A glass ball's caustic seen directly and in a mirror wall, lit by a small emissive sphere:
     the path eye -> mirror -> floor -> glass -> glass -> lamp is hard for a path tracer (only a
     direction sampled at the floor can find the lamp through the ball, and it rarely does), easy

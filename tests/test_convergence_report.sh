@@ -10,6 +10,24 @@ if ! CONV_OUT="$tmp" CONV_SCENES=cornell CONV_METHODS="$methods" CONV_SECONDS=3 
      sh tools/convergence.sh >"$tmp/out" 2>&1; then
     sed 's/^/    /' "$tmp/out"; echo "FAIL: tools/convergence.sh failed"; exit 1
 fi
+# The caustic reference leaves the pixels the glass ball touches unknown (NaN): pmview and error_map
+# must both skip them, and agree; against the particle tracer's raw image (ball pixels black) the
+# same render is far worse, so the skipped pixels are really the ball's.
+./pmview scenes/caustic.gltf --sky none --width 64 --height 64 --iterations 8 --threads 2 --quiet --snapshot "$tmp/c.exr" \
+    --reference tests/ref/caustic_floor_64.exr --log "$tmp/c.csv" >"$tmp/c.out" 2>&1 || { cat "$tmp/c.out"; echo "FAIL: caustic run"; exit 1; }
+masked=$(sed -n 's/^stat error .*relmse=\([^ ]*\).*/\1/p' "$tmp/c.out")
+mapped=$(build/rel/error_map "$tmp/c.exr" tests/ref/caustic_floor_64.exr "$tmp/c.png" "$tmp/ce.png" | sed 's/relmse=//')
+raw=$(./pmview scenes/caustic.gltf --sky none --width 64 --height 64 --iterations 8 --threads 2 --quiet --snapshot "$tmp/c.exr" \
+    --reference tests/ref/caustic_ptracer_64.exr | sed -n 's/^stat error .*relmse=\([^ ]*\).*/\1/p')
+python3 -c "
+import sys, csv
+m, e, r = float('$masked'), float('$mapped'), float('$raw')
+last = float(list(csv.DictReader(open('$tmp/c.csv')))[-1]['total_relmse'])
+assert 0 < m < 0.2, 'relMSE over the known pixels %g' % m
+assert abs(e / m - 1) < 2e-3 and abs(last / m - 1) < 2e-3, 'pmview %g, its log %g, error_map %g' % (m, last, e)
+assert r > 10 * m, 'against the unmasked particle tracer %g, masked %g' % (r, m)
+print('NaN reference pixels skipped: relMSE %g (error_map %g), unmasked %g' % (m, e, r))
+" || { echo "FAIL: NaN pixels of a reference"; exit 1; }
 python3 - "$tmp" "$methods" <<'EOF' || exit 1
 import csv, os, re, sys
 tmp, methods = sys.argv[1], sys.argv[2].split()
