@@ -77,7 +77,7 @@ build/rel/bench_pm: bench/bench_pm.c build/rel/libpm.a
 build/rel/caustic_error: bench/caustic_error.c tests/caustic_region.h build/rel/libpm.a
 	$(CC) $(CFLAGS) -Itests $< build/rel/libpm.a -o $@ $(LIBS)
 
-# Takes about an hour (45 runs of 64 s); QUICK=1 about 4 minutes. gnuplot draws the plots.
+# Takes about 50 minutes (45 runs of 64 s, one at a time); QUICK=1 about 3 minutes. gnuplot draws the plots.
 convergence: deps pmview build/rel/error_map
 	@sh tools/install-deps.sh convergence
 	@QUICK=$(QUICK) sh tools/convergence.sh

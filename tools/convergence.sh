@@ -1,7 +1,7 @@
 #!/bin/sh
 # convergence.sh: renders the shipped scenes with every method for a fixed time, logging error against time, and writes the report docs/convergence.md (`make convergence`).
 #
-#   make convergence            every method on the three scenes, 64 s each (about an hour)
+#   make convergence            every method on the three scenes, 64 s each (about 50 minutes)
 #   make convergence QUICK=1    four methods, 12 s each (about 3 minutes)
 #
 # Each run is one pmview process with --time T --log run.csv --reference REF.exr: the log has a
