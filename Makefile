@@ -4,6 +4,7 @@
 #   make test     install, build, run all tests  make bench  speed figures (ratios measured in one run)
 #   make check    the whole suite under ASan+UBSan, the threaded tests under TSan, a render under valgrind
 #   make fuzz     libFuzzer (clang) over load, set-up, accel and a tiny render for FUZZ_SECONDS (600)
+#   make convergence  error against time for every method and shipped scene: docs/convergence.md (QUICK=1: a short one)
 #   make clean
 
 CC      ?= cc
@@ -21,7 +22,7 @@ TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 SCENE   ?= scenes/cornell-box.gltf
 TSAN_TESTS := test_threads test_texture_threads
 
-.PHONY: all deps run test check bench clean tests-build fuzz fuzz-deps
+.PHONY: all deps run test check bench convergence clean tests-build fuzz fuzz-deps
 all: pmview
 
 deps:
@@ -61,7 +62,7 @@ pmview: build/rel/main.o build/rel/libpm.a
 run: deps pmview
 	@sh tools/run-default.sh $(SCENE)
 
-tests-build: pmview build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) $(addprefix build/tsan/tests/,$(TSAN_TESTS)) $(addprefix build/rel/tests/,$(TESTS))
+tests-build: pmview build/rel/error_map build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) $(addprefix build/tsan/tests/,$(TSAN_TESTS)) $(addprefix build/rel/tests/,$(TESTS))
 
 build/asan/pmview: build/asan/main.o build/asan/libpm.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) $^ -o $@ $(LIBS) $(ASAN_FLAGS)
@@ -109,6 +110,14 @@ build/rel/bench_pm: bench/bench_pm.c build/rel/libpm.a
 
 build/rel/caustic_error: bench/caustic_error.c tests/caustic_region.h build/rel/libpm.a
 	$(CC) $(CFLAGS) -Itests $< build/rel/libpm.a -o $@ $(LIBS)
+
+# Takes about 50 minutes (45 runs of 64 s, one at a time); QUICK=1 about 3 minutes. gnuplot draws the plots.
+convergence: deps pmview build/rel/error_map
+	@sh tools/install-deps.sh convergence
+	@QUICK=$(QUICK) sh tools/convergence.sh
+
+build/rel/error_map: tools/error_map.c build/rel/libpm.a
+	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
 
 clean:
 	rm -rf build pmview

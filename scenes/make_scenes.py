@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf) and exposes them as Python data.
+# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, mirror-caustic.gltf) and exposes them as Python data.
 """Scene generator for pmview (standard library only, deterministic).
 
-    python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf, caustic.gltf and glossy-spheres.gltf
+    python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, mirror-caustic.gltf
     python3 scenes/make_scenes.py --segments 96 --light-strength 40 --out /tmp
 
 Each scene is a dict: {"meshes": [mesh], "camera": camera, "lights": [light]} where a mesh is
@@ -134,6 +134,24 @@ def glossy_spheres(segments=48, light_strength=12.0):
     return {"meshes": meshes, "camera": camera, "lights": []}
 
 
+def mirror_caustic(segments=64, light_strength=50.0, light_radius=0.2):
+    """A glass ball's caustic seen directly and in a mirror wall, lit by a small emissive sphere:
+    the path eye -> mirror -> floor -> glass -> glass -> lamp is hard for a path tracer (only a
+    direction sampled at the floor can find the lamp through the ball, and it rarely does), easy
+    for photons. The lamp is an area light so that an independent path tracer can converge it."""
+    meshes = [
+        mesh("floor", quad([(-3, 0, 3), (3, 0, 3), (3, 0, -3), (-3, 0, -3)], (0, 1, 0)), {"kind": "diffuse", "color": (0.8, 0.8, 0.8)}),
+        mesh("mirror", quad([(-1.6, 0, -1.2), (1.6, 0, -1.2), (1.6, 1.6, -1.2), (-1.6, 1.6, -1.2)], (0, 0, 1)),
+             {"kind": "mirror", "color": (0.9, 0.9, 0.9)}),
+        mesh("glass_ball", uv_sphere(segments, segments // 2), {"kind": "glass", "color": (1.0, 1.0, 1.0), "ior": 1.5},
+             translation=(0.0, 0.35, 0.0), scale=0.3),
+        mesh("lamp", uv_sphere(16, 8), {"kind": "emitter", "color": (1.0, 0.9, 0.75), "strength": light_strength},
+             translation=(1.0, 1.1, -0.7), scale=light_radius),
+    ]
+    camera = {"eye": (0.3, 1.4, 2.6), "target": (-0.1, 0.3, -0.6), "yfov": math.radians(40.0), "aspect": 1.0}
+    return {"meshes": meshes, "camera": camera, "lights": []}
+
+
 def gltf_material(m):
     out = {"name": m["kind"], "pbrMetallicRoughness": {"baseColorFactor": list(m.get("color", (1, 1, 1))) + [1.0]}}
     pbr = out["pbrMetallicRoughness"]
@@ -234,7 +252,8 @@ def main():
     args = ap.parse_args()
     for name, scene in (("cornell-box.gltf", cornell_box(args.segments, args.light_strength)),
                         ("caustic.gltf", caustic(max(args.segments, 64), args.point_intensity)),
-                        ("glossy-spheres.gltf", glossy_spheres(args.segments))):
+                        ("glossy-spheres.gltf", glossy_spheres(args.segments)),
+                        ("mirror-caustic.gltf", mirror_caustic(max(args.segments, 64)))):
         path = os.path.join(args.out, name)
         with open(path, "w") as f:
             json.dump(to_gltf(scene), f, separators=(",", ":"))

@@ -278,7 +278,9 @@ static long peak_rss_bytes(void) {
 
 /* The reference's R, G, B planes, for --reference, and (for --log) the planes of each component
  * layer it has (direct.R, ...; NULL when the file lacks one of the layer's channels). */
-typedef struct { float *rgb[3]; float *layer[PM_COMPONENT_COUNT][3]; int width, height; } reference_image;
+/* known: NULL when every pixel is compared, else 1 for the pixels whose R, G and B are finite (a
+ * reference marks the pixels it cannot vouch for NaN; they are left out of every measure) */
+typedef struct { float *rgb[3]; float *layer[PM_COMPONENT_COUNT][3]; unsigned char *known; int width, height; } reference_image;
 
 static bool load_reference(const char *path, bool with_layers, reference_image *ref, char *err, size_t err_size) {
     static const char *const names[3] = {"R", "G", "B"};
@@ -290,6 +292,18 @@ static bool load_reference(const char *path, bool with_layers, reference_image *
         ref->width = w;
         ref->height = h;
     }
+    size_t n = (size_t)ref->width * ref->height, known = 0;
+    for (size_t i = 0; i < n; i++) {
+        bool finite = isfinite(ref->rgb[0][i]) && isfinite(ref->rgb[1][i]) && isfinite(ref->rgb[2][i]);
+        if (!finite && !ref->known) {
+            ref->known = malloc(n);
+            if (!ref->known) { snprintf(err, err_size, "%s: out of memory (reference mask)", path); return false; }
+            memset(ref->known, 1, i);
+        }
+        if (ref->known) ref->known[i] = finite;
+        known += finite;
+    }
+    if (!known) { snprintf(err, err_size, "%s: no pixel of the reference is finite", path); return false; }
     for (int c = 0; c < PM_COMPONENT_COUNT && with_layers; c++) {
         bool complete = true;
         for (int k = 0; k < 3 && complete; k++) {
@@ -309,6 +323,7 @@ static bool load_reference(const char *path, bool with_layers, reference_image *
 }
 
 static void free_reference(reference_image *ref) {
+    free(ref->known);
     for (int c = 0; c < 3; c++) free(ref->rgb[c]);
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
         for (int k = 0; k < 3; k++) free(ref->layer[c][k]);
@@ -319,7 +334,7 @@ static void free_reference(reference_image *ref) {
 static double relative_mse(const pm_film *film, const reference_image *ref, float *scratch, double mean_ratio[3]) {
     pm_film_resolve_total(film, scratch);
     const float *const planes[3] = {ref->rgb[0], ref->rgb[1], ref->rgb[2]};
-    pm_image_error e = pm_image_compare(scratch, planes, (size_t)film->width * film->height, NULL);
+    pm_image_error e = pm_image_compare(scratch, planes, (size_t)film->width * film->height, ref->known);
     for (int c = 0; c < 3; c++) mean_ratio[c] = e.ref[c] != 0 ? e.ours[c] / e.ref[c] : 0.0;
     return e.relmse;
 }
@@ -507,9 +522,9 @@ static void log_header(FILE *f) {
 /* relMSE (as --reference), RMSE and relative bias (sum of ours over the reference's, minus 1, all
  * pixels and channels) of one image; three empty fields without a reference plane, an empty bias
  * when the reference is black. */
-static void log_errors(FILE *f, const float *rgb, float *const planes[3], size_t pixels) {
+static void log_errors(FILE *f, const float *rgb, float *const planes[3], size_t pixels, const unsigned char *known) {
     if (!rgb || !planes[0]) { fputs(",,,", f); return; }
-    pm_image_error e = pm_image_compare(rgb, (const float *const *)planes, pixels, NULL);
+    pm_image_error e = pm_image_compare(rgb, (const float *const *)planes, pixels, known);
     double ours = e.ours[0] + e.ours[1] + e.ours[2], ref = e.ref[0] + e.ref[1] + e.ref[2];
     fprintf(f, ",%.6g,%.6g,", e.relmse, sqrt(e.mse));
     if (ref != 0) fprintf(f, "%.6g", ours / ref - 1.0);
@@ -525,10 +540,10 @@ static void log_row(FILE *f, pm_session *session, const reference_image *ref, fl
     double radius = p ? pm_progressive_radii(p, film).mean : 0.0;
     if (radius > 0) fprintf(f, "%.6g", radius);
     if (scratch) pm_film_resolve_total(film, scratch);
-    log_errors(f, scratch, (float *const *)ref->rgb, n);
+    log_errors(f, scratch, (float *const *)ref->rgb, n, ref->known);
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         if (scratch && ref->layer[c][0]) pm_film_resolve(film, (pm_component)c, scratch);
-        log_errors(f, scratch, (float *const *)ref->layer[c], n);
+        log_errors(f, scratch, (float *const *)ref->layer[c], n, ref->known);
     }
     fputc('\n', f);
 }

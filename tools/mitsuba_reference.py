@@ -27,7 +27,8 @@ import mitsuba as mi  # noqa: E402
 # The LLVM variants crash on the machine these were made on, and a 64x64 reference does not need them.
 mi.set_variant("scalar_rgb")
 
-SCENES = {"cornell": make_scenes.cornell_box, "caustic": make_scenes.caustic, "glossy": make_scenes.glossy_spheres}
+SCENES = {"cornell": make_scenes.cornell_box, "caustic": make_scenes.caustic, "glossy": make_scenes.glossy_spheres,
+          "mirror": make_scenes.mirror_caustic}
 
 
 def rgb(c):
