@@ -11,6 +11,7 @@
 #include <time.h>
 
 #include "accel.h"
+#include "clock.h"
 #include "defaults.h"
 #include "eye.h"
 #include "film.h"
@@ -22,12 +23,6 @@
 #include "rng.h"
 #include "scene.h"
 #include "shadowmap.h"
-
-static double now_seconds(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 /* Rays like the passes cast: camera rays and cosine bounces from their hits, half each. */
 static size_t make_rays(const pm_scene *s, const pm_accel *a, const pm_camera *cam, size_t n, vec3 *o, vec3 *d) {
@@ -124,12 +119,12 @@ static progressive_rate progressive_iterations(const pm_scene *s, const pm_accel
         pm_progressive_destroy(p);
         return r;
     }
-    double t0 = now_seconds(), t1 = t0;
+    double t0 = pm_now_seconds(), t1 = t0;
     for (int i = 0; i < iterations; i++) {
         pm_progressive_iterate(p, &film);
-        if (i == 0) t1 = now_seconds();
+        if (i == 0) t1 = pm_now_seconds();
     }
-    double total = now_seconds() - t0;
+    double total = pm_now_seconds() - t0;
     const pm_progressive_stats *st = pm_progressive_get_stats(p);
     r.rays_per_second = (double)(st->eye.rays + st->photons.rays) / total;
     r.first_seconds = t1 - t0;
@@ -148,13 +143,13 @@ static void gather_structures(const pm_photon_maps *maps, float radius) {
     memcpy(copy, maps->global.photons, count * sizeof *copy);
     pm_photon_grid grid;
     memset(&grid, 0, sizeof grid);
-    double b0 = now_seconds();
+    double b0 = pm_now_seconds();
     pm_photon_grid_build(&grid, copy, count, 2.f * radius);
-    double grid_build = now_seconds() - b0;
-    b0 = now_seconds();
+    double grid_build = pm_now_seconds() - b0;
+    b0 = pm_now_seconds();
     pm_kdtree tree;
     pm_kdtree_build(&tree, copy, count, 1); /* takes copy */
-    double tree_build = now_seconds() - b0;
+    double tree_build = pm_now_seconds() - b0;
     enum { QUERIES = 200000 };
     pm_rng rng = pm_rng_for(4, 0, 0);
     vec3 *qp = malloc(QUERIES * sizeof *qp), *qn = malloc(QUERIES * sizeof *qn);
@@ -167,13 +162,13 @@ static void gather_structures(const pm_photon_maps *maps, float radius) {
     uint64_t found[2] = {0, 0};
     for (int rep = 0; rep < 3; rep++)
         for (int k = 0; k < 2; k++) {
-            double q0 = now_seconds();
+            double q0 = pm_now_seconds();
             uint64_t f = 0;
             vec3 power;
             for (int q = 0; q < QUERIES; q++)
                 f += k == 0 ? pm_kdtree_sum_facing(&tree, qp[q], qn[q], radius * radius, 7u, &power)
                             : pm_photon_grid_sum_facing(&grid, qp[q], qn[q], radius * radius, 7u, &power);
-            double rate = QUERIES / (now_seconds() - q0);
+            double rate = QUERIES / (pm_now_seconds() - q0);
             if (rate > best[k]) best[k] = rate;
             found[k] = f;
         }
@@ -260,10 +255,10 @@ int main(int argc, char **argv) {
     pm_scene s;
     pm_load_report rep;
     char err[1024];
-    double t0 = now_seconds();
+    double t0 = pm_now_seconds();
     if (!pm_load_gltf(path, true, &s, &rep, err, sizeof err)) { fprintf(stderr, "bench: %s\n", err); return 1; }
     pm_scene_finalize(&s, true, NULL);
-    double load = now_seconds() - t0;
+    double load = pm_now_seconds() - t0;
     pm_accel *a = pm_accel_create(&s, err, sizeof err);
     if (!a) { fprintf(stderr, "bench: %s\n", err); return 1; }
     printf("bench scene=%s triangles=%u load_seconds=%.4f bvh_seconds=%.4f bvh_bytes=%zu\n", path, s.triangle_count, load,
@@ -360,9 +355,9 @@ int main(int argc, char **argv) {
             pm_photon *copy = malloc(count * sizeof *copy);
             memcpy(copy, maps.global.photons, count * sizeof *copy);
             pm_kdtree t;
-            double b0 = now_seconds();
+            double b0 = pm_now_seconds();
             pm_kdtree_build(&t, copy, count, threads);
-            double build = now_seconds() - b0;
+            double build = pm_now_seconds() - b0;
             printf("bench kdtree threads=%d photons=%zu build_photons_per_second=%.0f\n", threads, count, count / build);
             if (threads == 2) {
                 /* queries are independent, one thread measures their cost (the eye pass runs them per thread) */
@@ -370,13 +365,13 @@ int main(int argc, char **argv) {
                 float d2[64], r2;
                 pm_rng rng = pm_rng_for(3, 0, 0);
                 int queries = 200000;
-                double q0 = now_seconds();
+                double q0 = pm_now_seconds();
                 size_t found = 0;
                 for (int q = 0; q < queries; q++) {
                     const pm_photon *ph = &t.photons[(size_t)(pm_rng_float(&rng) * count) % count];
                     found += pm_kdtree_nearest(&t, pm_photon_position(ph), 50, 1e30f, idx, d2, &r2);
                 }
-                double query = now_seconds() - q0;
+                double query = pm_now_seconds() - q0;
                 printf("bench knn threads=1 photons=%zu k=50 queries_per_second=%.0f found=%zu\n", count, queries / query, found);
             }
             pm_kdtree_free(&t);

@@ -9,6 +9,7 @@
  * accel (it does: the session holds it too).
  */
 #include "accel.h"
+#include "clock.h"
 #include "memory.h"
 
 #include <embree3/rtcore.h>
@@ -97,12 +98,6 @@ static void alpha_filter(const struct RTCFilterFunctionNArguments *args) {
     }
 }
 
-static double now_seconds(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
 static bool track_memory(void *user, ssize_t bytes, bool post) {
     pm_accel *a = user;
     long long now = atomic_fetch_add(&a->bytes, (long long)bytes) + (long long)bytes; /* negative on release */
@@ -185,7 +180,7 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
         snprintf(err, err_size, "out of memory (acceleration structure, %zu bytes)", sizeof *a);
         return NULL;
     }
-    double start = now_seconds();
+    double start = pm_now_seconds();
     a->source = s;
     a->device = rtcNewDevice("verbose=0");
     if (!a->device) {
@@ -242,7 +237,7 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
         return NULL;
     }
     a->tnear = s->ray_scale * 1e-9f;
-    a->build_seconds = now_seconds() - start;
+    a->build_seconds = pm_now_seconds() - start;
     return a;
 }
 
@@ -305,7 +300,7 @@ double pm_accel_bench_raw(const pm_accel *a, const vec3 *origins, const vec3 *di
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     size_t count = 0;
-    double start = now_seconds();
+    double start = pm_now_seconds();
     for (size_t i = 0; i < n; i++) {
         struct RTCRayHit rh;
         fill_ray(&rh.ray, origins[i], dirs[i], a->tnear, INFINITY);
@@ -313,7 +308,7 @@ double pm_accel_bench_raw(const pm_accel *a, const vec3 *origins, const vec3 *di
         rtcIntersect1(a->scene, &ctx, &rh);
         count += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
     }
-    double seconds = now_seconds() - start;
+    double seconds = pm_now_seconds() - start;
     if (hits) *hits = count;
     return seconds;
 }

@@ -5,6 +5,7 @@
  * glossy part adds emission and direct light (a glossy lobe evaluated per light sample). The first vertex decides the component; see eye.h.
  */
 #include "eye.h"
+#include "clock.h"
 #include "memory.h"
 
 #include <stdlib.h>
@@ -590,16 +591,10 @@ static void render_tile(void *ctx, size_t task, int thread) {
     job->counters[thread].shadow[1] += shadow_counts[1];
 }
 
-static double now_seconds(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
 static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                          uint32_t iteration, pm_film *film, pm_visible_point *visible, pm_visible_point *gathered,
                          pm_eye_stats *stats) {
-    double start = now_seconds();
+    double start = pm_now_seconds();
     eye_job *job = pm_calloc(1, sizeof *job, "eye pass job");
     if (!job) { if (stats) stats->failed = true; return; }
     job->scene = s;
@@ -622,7 +617,7 @@ static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
             stats->shadow_rays += job->counters[t].shadow[0];
             stats->shadow_rays_saved += job->counters[t].shadow[1];
         }
-        stats->seconds += now_seconds() - start;
+        stats->seconds += pm_now_seconds() - start;
     }
     free(job);
 }

@@ -14,6 +14,7 @@
 #include <time.h>
 
 #include "accel.h"
+#include "clock.h"
 #include "defaults.h"
 #include "eye.h"
 #include "film.h"
@@ -262,12 +263,6 @@ static int parse_options(int argc, char **argv, options *o) {
     }
     if (o->log && !o->snapshot) return usage_error("--log '%s' needs --snapshot (the window restarts its runs)", o->log);
     return -1;
-}
-
-static double now_seconds(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
 static long peak_rss_bytes(void) {
@@ -575,18 +570,18 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
     uint32_t logged = 0;
     /* --time and the reported render time count from here: the photon pass is part of what a
      * budget buys. A budget spent before the first iteration still gets that iteration. */
-    double start = now_seconds(), last_iteration = 0.0, fixed_before = 0.0;
+    double start = pm_now_seconds(), last_iteration = 0.0, fixed_before = 0.0;
     uint32_t next_progress = 1;
     if (opt->time_limit > 0) pm_session_set_deadline(session, start + opt->time_limit);
     while ((long)film->samples < target && !interrupted_by) {
         /* --time: start an iteration only if it is expected to end nearer the budget than
          * stopping now would. The last iteration predicts the next one's eye pass and gather;
          * photon passes shrink to fit the time left (pm_progressive_set_deadline). */
-        if (opt->time_limit > 0 && film->samples > 0 && now_seconds() + 0.5 * last_iteration - start >= opt->time_limit) break;
-        double iteration_start = now_seconds();
+        if (opt->time_limit > 0 && film->samples > 0 && pm_now_seconds() + 0.5 * last_iteration - start >= opt->time_limit) break;
+        double iteration_start = pm_now_seconds();
         fixed_before = repeating_seconds(session);
         bool iterated = pm_session_iterate(session);
-        rendered += now_seconds() - iteration_start;
+        rendered += pm_now_seconds() - iteration_start;
         if (!iterated) {
             fprintf(stderr, "%spmview: error: %s: out of memory (%s) in iteration %u\n", tty ? "\n" : "", opt->scene_path,
                     pm_memory_failure() ? pm_memory_failure() : "unknown", film->samples + 1);
@@ -600,14 +595,14 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
         }
         if (scratch && opt->stats && film->samples == next_progress) {
             double ratio[3], e = relative_mse(film, reference, scratch, ratio);
-            printf("stat progress iterations=%u seconds=%.4f relmse=%.6f\n", film->samples, now_seconds() - start, e);
+            printf("stat progress iterations=%u seconds=%.4f relmse=%.6f\n", film->samples, pm_now_seconds() - start, e);
             next_progress *= 2;
         }
-        last_iteration = fmin(now_seconds() - iteration_start, repeating_seconds(session) - fixed_before);
-        show_progress(tty, film->samples, opt->iterations ? opt->iterations : 0, now_seconds() - start, opt->time_limit,
+        last_iteration = fmin(pm_now_seconds() - iteration_start, repeating_seconds(session) - fixed_before);
+        show_progress(tty, film->samples, opt->iterations ? opt->iterations : 0, pm_now_seconds() - start, opt->time_limit,
                       session_photons(session));
     }
-    double seconds = now_seconds() - start;
+    double seconds = pm_now_seconds() - start;
     if (log && logged != film->samples && film->samples) log_row(log, session, reference, scratch, rendered);
     if (log) {
         bool written = !ferror(log);
@@ -691,9 +686,9 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
     initial_display(opt, &display);
     /* a first frame before any photon: the background colour of an empty image */
     pm_view_draw(view, &display);
-    double first_frame = now_seconds() - process_start, first_image = 0, restart_requested = 0, restart_to_image = 0;
+    double first_frame = pm_now_seconds() - process_start, first_image = 0, restart_requested = 0, restart_to_image = 0;
     uint64_t loops = 0, frames = 1, restarts = 0;
-    double loop_start = now_seconds();
+    double loop_start = pm_now_seconds();
     if (!pm_session_start(session, err, sizeof err)) {
         fprintf(stderr, "pmview: error: %s\n", err);
         pm_view_destroy(view);
@@ -733,7 +728,7 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
         moved = memcmp(&before, &camera, sizeof camera) != 0;
         if (moved || ev.restart) {
             pm_session_request_restart(session, moved ? &camera : NULL, -1);
-            if (restart_requested == 0) restart_requested = now_seconds();
+            if (restart_requested == 0) restart_requested = pm_now_seconds();
         }
         if (ev.toggle_gather && !opt->classic && !opt->pathtrace) {
             indirect = indirect == PM_INDIRECT_GATHER ? PM_INDIRECT_PHOTONS : PM_INDIRECT_GATHER;
@@ -781,7 +776,7 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
         bool redraw = ev.display_changed;
         loops++;
         if (layers) {
-            double t = now_seconds();
+            double t = pm_now_seconds();
             if (first_image == 0) first_image = t - process_start;
             if (restart_requested > 0 && progress.preview) {
                 restart_to_image += t - restart_requested;
@@ -811,7 +806,7 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
         }
         if (redraw) { pm_view_draw(view, &display); frames++; }
     }
-    double seconds = now_seconds() - loop_start;
+    double seconds = pm_now_seconds() - loop_start;
     if (opt->stats)
         printf("stat window first_frame_seconds=%.4f first_image_seconds=%.4f ui_loops_per_second=%.1f frames_per_second=%.1f restarts=%llu restart_to_image_seconds=%.4f\n",
                first_frame, first_image, seconds > 0 ? loops / seconds : 0.0, seconds > 0 ? frames / seconds : 0.0,
@@ -934,7 +929,7 @@ static bool choose_sky(const options *opt, pm_scene *scene, const pm_accel *acce
 }
 
 int main(int argc, char **argv) {
-    process_start = now_seconds();
+    process_start = pm_now_seconds();
     options opt;
     int code = parse_options(argc, argv, &opt);
     if (code >= 0) return code;

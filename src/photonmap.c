@@ -17,6 +17,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "clock.h"
 #include "defaults.h"
 #include "memory.h"
 #include "parallel.h"
@@ -65,7 +66,7 @@ typedef struct {
     uint32_t *chunk_counts;
     bool *chunk_skipped;      /* started after the deadline */
     uint32_t *chunk_cut;      /* photons a chunk left untraced when the deadline passed during it */
-    double deadline;          /* now_seconds() past which no chunk starts; 0 = none */
+    double deadline;          /* pm_now_seconds() past which no chunk starts; 0 = none */
     uint64_t traced;          /* photons the last pass traced (fewer than asked when cut) */
     uint64_t record_limit;    /* records one pass may store: they and their merged copy fit the memory limit */
     _Atomic uint64_t records; /* stored so far in this pass */
@@ -73,12 +74,6 @@ typedef struct {
     uint64_t dropped;         /* photons of the last pass whose power was not finite (ended, not stored) */
     struct { uint64_t rays, dropped; char pad[48]; } counters[MAX_THREADS];
 } pass;
-
-static double now_seconds(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
 
@@ -395,7 +390,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     photon_list list = {NULL, 0, 0, false, ps};
     if (atomic_load(&ps->out_of_memory)) return; /* the pass has failed: no use tracing on */
     /* the first chunk always runs: an iteration with no photon at all would bias its average */
-    if (chunk > 0 && ps->deadline > 0.0 && now_seconds() > ps->deadline) {
+    if (chunk > 0 && ps->deadline > 0.0 && pm_now_seconds() > ps->deadline) {
         ps->chunk_skipped[chunk] = true;
         return;
     }
@@ -404,7 +399,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     for (uint64_t i = first; i < last && !atomic_load_explicit(&ps->out_of_memory, memory_order_relaxed); i++) {
         /* long paths (a room of albedo 1: 100 bounces a photon) make a chunk long: the deadline is
          * also checked inside it, every 64 photons */
-        if (chunk > 0 && ps->deadline > 0.0 && (i & 63) == 0 && i > first && now_seconds() > ps->deadline) {
+        if (chunk > 0 && ps->deadline > 0.0 && (i & 63) == 0 && i > first && pm_now_seconds() > ps->deadline) {
             ps->chunk_cut[chunk] = (uint32_t)(last - i);
             break;
         }
@@ -571,15 +566,15 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
 }
 
 static bool run_pass(pass *ps, pm_kdtree *tree, uint64_t *stored, uint64_t *rays, pm_photon_stats *st) {
-    double t0 = now_seconds();
+    double t0 = pm_now_seconds();
     pm_photon_buffer all = {NULL, 0, 0};
     if (!trace_into(ps, &all, rays)) { free(all.data); return false; }
     *stored = all.count;
-    double t1 = now_seconds();
+    double t1 = pm_now_seconds();
     int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
     if (!all.data) all.data = pm_malloc(sizeof(pm_photon), "photon records");
     bool ok = all.data && pm_kdtree_build(tree, all.data, all.count, threads);
-    st->kdtree_seconds += now_seconds() - t1;
+    st->kdtree_seconds += pm_now_seconds() - t1;
     st->trace_seconds += t1 - t0;
     return ok;
 }
@@ -720,7 +715,7 @@ bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t pho
                                  pm_photon_buffer *out, pm_photon_stats *stats) {
     out->count = 0;
     if (!photons || !pm_photon_tracer_can_trace(t, caustic)) return true;
-    double t0 = now_seconds();
+    double t0 = pm_now_seconds();
     /* sorting what a pass stored costs more than tracing it (about 2x, measured on a closed
      * white room): a pass may use a quarter of the time left */
     t->ps.deadline = t->deadline > 0.0 ? t0 + (t->deadline - t0) * PM_PHOTON_PASS_TIME_SHARE : 0.0;
@@ -734,13 +729,13 @@ bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t pho
     stats->emitted += t->ps.traced;
     if (caustic) stats->stored_caustic += out->count;
     else stats->stored_global += out->count;
-    stats->trace_seconds += now_seconds() - t0;
+    stats->trace_seconds += pm_now_seconds() - t0;
     return ok;
 }
 
 bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_settings *settings,
                           pm_photon_maps *maps, pm_photon_stats *stats) {
-    double start = now_seconds();
+    double start = pm_now_seconds();
     memset(maps, 0, sizeof *maps);
     pm_photon_stats local;
     memset(&local, 0, sizeof local);
@@ -751,10 +746,10 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
         ok = pm_photon_tracer_trace(t, false, settings->global_photons, settings->seed, &maps->global, &local);
         maps->global_emitted = settings->global_photons;
         if (ok && settings->irradiance_stride > 0 && maps->global.count) {
-            double t0 = now_seconds();
+            double t0 = pm_now_seconds();
             int threads = settings->threads < 1 ? 1 : (settings->threads > MAX_THREADS ? MAX_THREADS : settings->threads);
             ok = precompute_irradiance(maps, settings, threads);
-            local.irradiance_seconds = now_seconds() - t0;
+            local.irradiance_seconds = pm_now_seconds() - t0;
         }
     }
     maps->projection_fraction = t->projection_fraction;
@@ -763,7 +758,7 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
         maps->caustic_emitted = settings->caustic_photons;
     }
     pm_photon_tracer_destroy(t);
-    local.seconds = now_seconds() - start;
+    local.seconds = pm_now_seconds() - start;
     if (stats) *stats = local;
     if (!ok) pm_photon_maps_free(maps);
     return ok;

@@ -8,6 +8,7 @@
  * against a kd-tree.
  */
 #include "progressive.h"
+#include "clock.h"
 #include "memory.h"
 
 #include <assert.h>
@@ -52,12 +53,6 @@ struct pm_progressive {
     pm_photon_grid grid[KIND_COUNT];
     pm_progressive_stats stats;
 };
-
-static double now_seconds(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 uint64_t pm_progressive_default_photons(int width, int height) {
     double n = (double)width * height * PM_PPM_PHOTONS_PER_PIXEL;
@@ -325,7 +320,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
 
     /* 2. photon passes: a fresh, independent set every iteration, sorted into hash grids */
     uint64_t seed = pm_hash64(set->seed * 0x9e3779b97f4a7c15ULL + iteration);
-    double t0 = now_seconds();
+    double t0 = pm_now_seconds();
     bool ok = true;
     pm_photon_buffer *caustic = &p->buffer[KIND_CAUSTIC], *global = &p->buffer[KIND_INDIRECT];
     caustic->count = global->count = 0;
@@ -340,9 +335,9 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     if (p->gathering && p->gather_r2 == 0.0)
         p->gather_r2 = set->initial_radius > 0.0 ? set->initial_radius * set->initial_radius
                                                  : p->density_r2[KIND_INDIRECT] * PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS;
-    double t_grid = now_seconds();
+    double t_grid = pm_now_seconds();
     if (!build_grid(p, KIND_CAUSTIC) || !build_grid(p, KIND_INDIRECT)) return false;
-    double t1 = now_seconds();
+    double t1 = pm_now_seconds();
     p->stats.photons.kdtree_seconds += t1 - t_grid;
     p->stats.photons.seconds += t1 - t0;
 
@@ -377,7 +372,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
         double i = (double)iteration + 1.0;
         p->gather_r2 *= (i + set->alpha) / (i + 1.0);
     }
-    p->stats.gather_seconds += now_seconds() - t1;
+    p->stats.gather_seconds += pm_now_seconds() - t1;
     film->samples++;
     p->stats.iterations = film->samples;
     return true;

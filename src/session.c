@@ -1,5 +1,6 @@
 /* session.c: the render session: mode state and film, synchronous iterations, and the worker thread that publishes double-buffered images. */
 #include "session.h"
+#include "clock.h"
 #include "memory.h"
 
 #include <math.h>
@@ -44,12 +45,6 @@ struct pm_session {
     pm_session_progress published;
     atomic_int view;                      /* pm_session_view: what publish() writes */
 };
-
-static double now_seconds(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 /* (Re)creates the mode state and the film for the current configuration. */
 static bool build_mode(pm_session *s, char *err, size_t err_size) {
@@ -118,7 +113,7 @@ const pm_eye_stats *pm_session_classic_eye_stats(const pm_session *s) { return &
 const pm_shadow_stats *pm_session_shadow_stats(const pm_session *s) { return &s->shadow_stats; }
 
 void pm_session_set_deadline(pm_session *s, double deadline) {
-    double now = now_seconds();
+    double now = pm_now_seconds();
     s->config.shadow.deadline = deadline > now ? now + (deadline - now) * PM_SHADOW_TIME_SHARE : now;
     if (s->progressive) pm_progressive_set_deadline(s->progressive, deadline);
 }
@@ -139,7 +134,7 @@ static bool decide_shadow_map(pm_session *s) {
 }
 
 bool pm_session_iterate(pm_session *s) {
-    double t0 = now_seconds();
+    double t0 = pm_now_seconds();
     bool ok = decide_shadow_map(s);
     if (!ok) return false;
     if (s->progressive) {
@@ -164,7 +159,7 @@ bool pm_session_iterate(pm_session *s) {
             ok = !s->classic_eye_stats.failed;
         }
     }
-    s->render_seconds += now_seconds() - t0;
+    s->render_seconds += pm_now_seconds() - t0;
     return ok;
 }
 

@@ -14,6 +14,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "clock.h"
 #include "defaults.h"
 #include "parallel.h"
 #include "rng.h"
@@ -63,12 +64,6 @@ typedef struct {
     atomic_bool out_of_memory;
     struct { uint64_t rays; char pad[56]; } counters[MAX_THREADS];
 } trace_job;
-
-static double now_seconds(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
 
 static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
 
@@ -148,7 +143,7 @@ static void trace_chunk(void *ctx, size_t task, int thread) {
     /* lights interleaved, so a deadline takes the same directions from each */
     uint32_t light = (uint32_t)(task % job->lights);
     uint64_t first = (uint64_t)(task / job->lights) * CHUNK;
-    if (job->deadline > 0.0 && now_seconds() > job->deadline) return;
+    if (job->deadline > 0.0 && pm_now_seconds() > job->deadline) return;
     uint64_t last = first + CHUNK < job->photons ? first + CHUNK : job->photons;
     const pm_light *l = &s->lights[light];
     record *list = NULL;
@@ -305,15 +300,15 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
             if (v3_dot(wi, points[i].n) > 0.f) samples[count++] = (probe_sample){(uint32_t)i, l, wi, tmax};
         }
     uint64_t decided = 0, hidden = 0;
-    double t0 = now_seconds();
+    double t0 = pm_now_seconds();
     for (size_t k = 0; k < count; k++) {
         const probe_point *q = &points[samples[k].point];
         decided += pm_shadow_map_verdict(m, pm_shadow_map_find(m, q->p, q->n, q->front), samples[k].light) != PM_VISIBILITY_UNKNOWN;
     }
-    double t1 = now_seconds();
+    double t1 = pm_now_seconds();
     for (size_t k = 0; k < count; k++)
         hidden += pm_accel_occluded(a, points[samples[k].point].origin, samples[k].wi, samples[k].tmax);
-    double t2 = now_seconds();
+    double t2 = pm_now_seconds();
     free(points);
     free(samples);
     (void)hidden; /* kept so the compiler cannot drop the rays */
@@ -328,7 +323,7 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
 
 pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const pm_shadow_settings *set,
                                    pm_shadow_stats *stats) {
-    double start = now_seconds();
+    double start = pm_now_seconds();
     memset(stats, 0, sizeof *stats);
     stats->reason = pm_shadow_map_unneeded(s, set);
     if (stats->reason) return NULL;
@@ -389,7 +384,7 @@ pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const p
     stats->cell_size = m->cell;
     stats->spacing = density > 0.0 ? (float)(1.0 / sqrt(density)) : 0.f;
     ok = probe(s, a, m, stats);
-    stats->seconds = now_seconds() - start;
+    stats->seconds = pm_now_seconds() - start;
     if (!ok) {
         pm_shadow_map_free(m);
         stats->out_of_memory = true;

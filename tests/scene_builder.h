@@ -120,4 +120,14 @@ static inline pm_accel *sb_finish(pm_scene *s) {
     return a;
 }
 
+/* A closed box of walls of albedo rho emitting le (radiance), the camera inside it looking into a
+ * corner: a white furnace, whose every pixel converges to le / (1 - rho). */
+static inline pm_accel *sb_furnace(pm_scene *s, float rho, float le, pm_camera *cam) {
+    memset(s, 0, sizeof *s);
+    uint32_t m = sb_material(s, v3s(rho), 0, 1, 0, v3s(le), false);
+    sb_box(s, v3(-1, -1, -1), v3(1, 1, 1), m, true);
+    *cam = sb_camera(v3(0, 0, 0.5f), v3(0.3f, -0.2f, -1), v3(0, 1, 0), 60.f);
+    return sb_finish(s);
+}
+
 #endif

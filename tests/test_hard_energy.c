@@ -6,6 +6,7 @@
 #include <time.h>
 
 #include "accel.h"
+#include "clock.h"
 #include "defaults.h"
 #include "memory.h"
 #include "photonmap.h"
@@ -13,21 +14,6 @@
 #include "scene_builder.h"
 #include "progressive_harness.h"
 #include "testing.h"
-
-static double seconds_now(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
-/* A closed box of walls reflecting rho (and emitting le), camera inside. */
-static pm_accel *furnace(pm_scene *s, float rho, float le, pm_camera *cam) {
-    memset(s, 0, sizeof *s);
-    uint32_t m = sb_material(s, v3s(rho), 0, 1, 0, v3s(le), false);
-    sb_box(s, v3(-1, -1, -1), v3(1, 1, 1), m, true);
-    *cam = sb_camera(v3(0, 0, 0.5f), v3(0.3f, -0.2f, -1), v3(0, 1, 0), 60.f);
-    return sb_finish(s);
-}
 
 /* Closed room of albedo 1 lit by a point light: Russian roulette alone would never end a path.
  * Criterion: records per photon within the stated bound 1/(1 - PM_PHOTON_MAX_SURVIVAL) (+10%
@@ -45,9 +31,9 @@ static void test_albedo_one_room(void) {
     pm_photon_stats st;
     memset(&st, 0, sizeof st);
     const uint64_t photons = 5000;
-    double t0 = seconds_now();
+    double t0 = pm_now_seconds();
     CHECK(pm_photon_tracer_trace_into(t, false, photons, 1, &buf, &st), "albedo-1 pass");
-    double secs = seconds_now() - t0;
+    double secs = pm_now_seconds() - t0;
     double per_photon = (double)buf.count / photons, bound = 1.0 / (1.0 - PM_PHOTON_MAX_SURVIVAL);
     printf("albedo-1 room: %.2f records a photon (bound %.1f, cap %d), %.3f s for %llu photons\n", per_photon, bound,
            PM_DEFAULT_MAX_PHOTON_BOUNCES, secs, (unsigned long long)photons);
@@ -66,14 +52,14 @@ static void test_furnace_099(void) {
     pm_scene s;
     pm_camera cam;
     const float le = 0.5f, rho = 0.99f;
-    pm_accel *a = furnace(&s, rho, le, &cam);
+    pm_accel *a = sb_furnace(&s, rho, le, &cam);
     enum { W = 48, H = 48 }; /* gather noise falls with the pixels; the photon pass costs the same */
     pm_progressive_settings ps = default_settings(W, H);
     session r;
     float *img = malloc(sizeof(float) * 3 * W * H);
     double got = 0.0, want = le / (1.0 - rho);
     int iterations = 8;
-    double t0 = seconds_now();
+    double t0 = pm_now_seconds();
     if (start(&r, &s, a, &cam, W, H, &ps)) {
         iterate(&r, iterations);
         pm_film_resolve_total(&r.film, img);
@@ -81,7 +67,7 @@ static void test_furnace_099(void) {
         stop(&r);
     }
     printf("furnace rho 0.99: mean %.4f, expected %.4f, error %+.2f%% after %d iterations (%.2f s)\n", got, want,
-           100.0 * (got / want - 1.0), iterations, seconds_now() - t0);
+           100.0 * (got / want - 1.0), iterations, pm_now_seconds() - t0);
     CHECK_NEAR(got, want, 0.01, 0.0, "criterion: the furnace answer Le/(1-rho) within 1% at albedo 0.99");
     free(img);
     pm_accel_destroy(a);
@@ -146,7 +132,7 @@ static void test_tiny_bright_light(void) {
 static void test_film_overflow(void) {
     pm_scene s;
     pm_camera cam;
-    pm_accel *a = furnace(&s, 0.5f, 1.f, &cam);
+    pm_accel *a = sb_furnace(&s, 0.5f, 1.f, &cam);
     s.materials[0].emission = v3s(3e38f);
     enum { W = 4, H = 4 };
     pm_progressive_settings ps = default_settings(W, H);
@@ -193,14 +179,14 @@ static void test_ten_thousand_gather(void) {
     pm_scene s;
     pm_camera cam;
     const float le = 0.5f, rho = 0.5f;
-    pm_accel *a = furnace(&s, rho, le, &cam);
+    pm_accel *a = sb_furnace(&s, rho, le, &cam);
     enum { W = 4, H = 4 };
     pm_progressive_settings ps = default_settings(W, H);
     ps.photons = ps.caustic_photons = 200; /* the discs overhang the box edges: -1.4% at 100 photons, -0.7% at 400 */
     ps.threads = 1;
     session r;
     float img[3 * W * H];
-    double t0 = seconds_now();
+    double t0 = pm_now_seconds();
     if (!start(&r, &s, a, &cam, W, H, &ps)) return;
     iterate(&r, 10000);
     pm_film_resolve_total(&r.film, img);
@@ -212,7 +198,7 @@ static void test_ten_thousand_gather(void) {
     double got = mean_of(img, 3 * W * H), want = le / (1.0 - rho);
     uint64_t dropped = pm_progressive_get_stats(r.p)->eye.dropped_samples;
     printf("10^4 gather iterations: mean %.4f, expected %.4f (%+.2f%%), %d non-finite, %llu dropped, %.2f s\n", got, want,
-           100.0 * (got / want - 1.0), nonfinite, (unsigned long long)dropped, seconds_now() - t0);
+           100.0 * (got / want - 1.0), nonfinite, (unsigned long long)dropped, pm_now_seconds() - t0);
     CHECK(nonfinite == 0 && dropped == 0, "criterion: finite after 10^4 iterations (%d non-finite, %llu dropped)", nonfinite,
           (unsigned long long)dropped);
     CHECK(r.film.samples == 10000, "10^4 samples (%u)", r.film.samples);

@@ -4,6 +4,7 @@
 #include <time.h>
 
 #include "accel.h"
+#include "clock.h"
 #include "defaults.h"
 #include "memory.h"
 #include "photonmap.h"
@@ -11,27 +12,13 @@
 #include "scene_builder.h"
 #include "testing.h"
 
-static double seconds_now(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
-static pm_accel *furnace(pm_scene *s, float rho, float le, pm_camera *cam) {
-    memset(s, 0, sizeof *s);
-    uint32_t m = sb_material(s, v3s(rho), 0, 1, 0, v3s(le), false);
-    sb_box(s, v3(-1, -1, -1), v3(1, 1, 1), m, true);
-    *cam = sb_camera(v3(0, 0, 0.5f), v3(0.3f, -0.2f, -1), v3(0, 1, 0), 60.f);
-    return sb_finish(s);
-}
-
 /* Every checked allocation of a progressive session's set-up and first two iterations made to
  * fail in turn: each failure is reported (pm_memory_failure names what), the call returns
  * false, nothing crashes and (under ASan) nothing leaks. */
 static void test_allocation_failures(void) {
     pm_scene s;
     pm_camera cam;
-    pm_accel *a = furnace(&s, 0.5f, 1.f, &cam);
+    pm_accel *a = sb_furnace(&s, 0.5f, 1.f, &cam);
     enum { W = 8, H = 8 };
     pm_progressive_settings ps = {.seed = 1, .threads = 2, .photons = 3000, .caustic_photons = 3000, .alpha = PM_DEFAULT_ALPHA,
                                   .indirect = PM_INDIRECT_GATHER, .max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH,
@@ -79,7 +66,7 @@ static void test_allocation_failures(void) {
 static void test_photon_record_limit(void) {
     pm_scene s;
     pm_camera cam;
-    pm_accel *a = furnace(&s, 1.f, 1.f, &cam);
+    pm_accel *a = sb_furnace(&s, 1.f, 1.f, &cam);
     pm_photon_settings ps = {.seed = 1, .threads = 2, .max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES, .projection_maps = true};
     pm_photon_tracer *t = pm_photon_tracer_create(&s, a, &ps);
     pm_photon_buffer buf = {NULL, 0, 0};
@@ -87,9 +74,9 @@ static void test_photon_record_limit(void) {
     memset(&st, 0, sizeof st);
     pm_memory_clear_failure();
     pm_memory_set_limit(1 << 20);
-    double t0 = seconds_now();
+    double t0 = pm_now_seconds();
     bool ok = pm_photon_tracer_trace_into(t, false, 10000000, 1, &buf, &st);
-    double secs = seconds_now() - t0;
+    double secs = pm_now_seconds() - t0;
     pm_memory_set_limit(pm_memory_default_limit());
     const char *why = pm_memory_failure();
     printf("10^7 photons in an albedo-1 room under a 1 MiB limit: %s after %.3f s (%s)\n", ok ? "stored" : "refused", secs,

@@ -14,6 +14,7 @@
 #include "loader.h"
 #include "scene_builder.h"
 #include "session.h"
+#include "reference_image.h"
 #include "testing.h"
 
 static pm_session_config pathtrace_config(int w, int h, uint64_t seed, int threads) {
@@ -69,27 +70,6 @@ static void furnace(float rho, int iterations) {
     }
     pm_accel_destroy(a);
     pm_scene_free(&s);
-}
-
-typedef struct { float *rgb[3]; int w, h; } image;
-
-static bool load_ref(const char *path, image *img) {
-    char err[512];
-    const char *names[3] = {"R", "G", "B"};
-    memset(img, 0, sizeof *img);
-    for (int c = 0; c < 3; c++) {
-        img->rgb[c] = pm_read_exr_channel(path, names[c], &img->w, &img->h, err, sizeof err);
-        if (!img->rgb[c]) {
-            printf("SKIP: %s\n", err);
-            for (int k = 0; k < c; k++) free(img->rgb[k]);
-            return false;
-        }
-    }
-    return true;
-}
-
-static void free_image(image *img) {
-    for (int c = 0; c < 3; c++) free(img->rgb[c]);
 }
 
 typedef struct {

@@ -14,27 +14,8 @@
 #include "image_io.h"
 #include "loader.h"
 #include "photonmap.h"
+#include "reference_image.h"
 #include "testing.h"
-
-typedef struct { float *rgb[3]; int w, h; } image;
-
-static bool load_ref(const char *path, image *img) {
-    char err[512];
-    const char *names[3] = {"R", "G", "B"};
-    for (int c = 0; c < 3; c++) {
-        img->rgb[c] = pm_read_exr_channel(path, names[c], &img->w, &img->h, err, sizeof err);
-        if (!img->rgb[c]) {
-            printf("SKIP: %s\n", err);
-            for (int k = 0; k < c; k++) free(img->rgb[k]);
-            return false;
-        }
-    }
-    return true;
-}
-
-static void free_image(image *img) {
-    for (int c = 0; c < 3; c++) free(img->rgb[c]);
-}
 
 typedef struct {
     pm_scene scene;
