@@ -19,12 +19,9 @@
  * Returns the relative error of the image mean after `iterations`. */
 static double furnace_error(float rho, pm_indirect_mode indirect, int iterations, bool classic) {
     pm_scene s;
-    memset(&s, 0, sizeof s);
+    pm_camera cam;
     const float le = 0.5f;
-    uint32_t m = sb_material(&s, v3s(rho), 0, 1, 0, v3s(le), false);
-    sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), m, true);
-    pm_accel *a = sb_finish(&s);
-    pm_camera cam = sb_camera(v3(0, 0, 0.5f), v3(0.3f, -0.2f, -1), v3(0, 1, 0), 60.f);
+    pm_accel *a = sb_furnace(&s, rho, le, &cam);
     enum { W = 64, H = 64 };
     float *total = malloc(sizeof(float) * 3 * W * H);
     double want = le / (1.0 - rho), got;

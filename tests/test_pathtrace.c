@@ -47,12 +47,9 @@ static double mean_of(const float *x, size_t n) {
 /* White furnace: a closed box whose walls emit Le and reflect rho: L = Le / (1 - rho) everywhere. */
 static void furnace(float rho, int iterations) {
     pm_scene s;
-    memset(&s, 0, sizeof s);
+    pm_camera cam;
     const float le = 0.5f;
-    uint32_t m = sb_material(&s, v3s(rho), 0, 1, 0, v3s(le), false);
-    sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), m, true);
-    pm_accel *a = sb_finish(&s);
-    pm_camera cam = sb_camera(v3(0, 0, 0.5f), v3(0.3f, -0.2f, -1), v3(0, 1, 0), 60.f);
+    pm_accel *a = sb_furnace(&s, rho, le, &cam);
     enum { W = 32, H = 32 };
     pm_session_config c = pathtrace_config(W, H, 1, 2);
     pm_session *session = run(&s, a, &cam, &c, iterations);
