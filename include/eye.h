@@ -74,8 +74,8 @@ float pm_camera_pixel_size(const pm_camera *c, int height, float distance);
  * With settings->path_trace, each sample is an unbiased path-traced estimate. At every diffuse or
  * glossy vertex it adds direct light by next-event estimation (the same direct_light() the other
  * modes call: punctual lights, an emissive triangle picked by power and the sky map, combined by
- * multiple importance sampling with a ray from the material's own sampling), then continues by a
- * fresh sample of the same material (cosine or the glossy lobe); mirrors and glass scatter through
+ * multiple importance sampling with a ray from the material's own sampling), then continues along
+ * that same ray (cosine or the glossy lobe: one traced segment serves both); mirrors and glass scatter through
  * pm_scatter_specular() and a mixed surface picks its part by weight, as every eye path does.
  * Emission and the sky are counted where a segment meets them only when no light sampling could
  * have found them: on the camera ray and after a specular bounce (after a diffuse or glossy bounce
@@ -96,8 +96,9 @@ void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, 
 
 /* The progressive mode's eye pass: one jittered sample per pixel followed through specular
  * bounces to its first diffuse point (visible[pixel]); emission and direct light there are added
- * to the film's sums. With gathered != NULL, one cosine-distributed gather ray from each visible
- * point finds gathered[pixel] (final gathering). The film's sample count is left to the caller,
+ * to the film's sums. With gathered != NULL, one gather ray from each visible point (the ray
+ * direct light drew from the material there, cosine or glossy lobe) finds gathered[pixel] (final
+ * gathering). The film's sample count is left to the caller,
  * which adds the photon estimates first. */
 void pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                            uint32_t iteration, pm_film *film, pm_visible_point *visible, pm_visible_point *gathered,

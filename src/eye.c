@@ -34,6 +34,19 @@ typedef struct {
 
 static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
 
+/* The ray direct_light() draws from the material's own sampling, handed on as the path's next
+ * segment: a path that continues from a diffuse or glossy point (a final-gather ray, a path
+ * tracer's bounce) would draw a direction from the same distribution and trace it again, so one
+ * ray serves both the light it meets (weighted by MIS) and the continuation. */
+typedef struct {
+    bool sampled;   /* a direction on wo's side of the surface: the path goes on */
+    vec3 direction;
+    vec3 weight;    /* f cos / pdf: kd for Lambert's cosine samples */
+    vec3 origin;
+    bool hit;       /* false: the ray left the scene */
+    pm_hit h;
+} surface_bounce;
+
 void pm_camera_ray(const pm_camera *c, int width, int height, float x, float y, vec3 *origin, vec3 *dir) {
     float half = c->orthographic ? c->ymag : tanf(0.5f * c->yfov);
     float aspect = (float)width / (float)height;
@@ -117,7 +130,7 @@ static inline vec3 reflected(const pm_surface *sf, vec3 ns, vec3 wo, vec3 wi, fl
  * to light samples [0] and those the records made unnecessary [1]. A NULL shadow map is exactly
  * the ray-only estimate, random numbers included. */
 static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, vec3 wo, pm_rng *rng,
-                         uint64_t *rays, const pm_shadow_map *shadow, uint64_t shadow_counts[2]) {
+                         uint64_t *rays, const pm_shadow_map *shadow, uint64_t shadow_counts[2], surface_bounce *next) {
     vec3 ng = facing(sf->ng, wo);
     vec3 ns = v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
     vec3 origin = pm_surface_origin(sf, ng, s->ray_scale);
@@ -224,8 +237,10 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
     /* One ray from the surface's own sampling serves the sky and, weighted against the area
      * sample above, the emitters: near an emitter (a lamp's own wall, a glowing corner) area
      * sampling alone has unbounded variance, and this sample bounds it (and on a glossy surface
-     * it finds the highlight of a large lamp that area sampling rarely would). */
-    if (s->sky || s->emitter_count) {
+     * it finds the highlight of a large lamp that area sampling rarely would). The same ray is
+     * the path's next segment when the caller asks for one. */
+    if (next) next->sampled = false;
+    if (s->sky || s->emitter_count || next) {
         vec3 wi, weight = v3s(PM_PI); /* Lambert: cos / (cos / pi) */
         float pdf_surface = 0.f;
         bool sampled = true;
@@ -239,32 +254,45 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         }
         float cos_s = sampled ? v3_dot(ns, wi) : 0.f;
         if (!sf->glossy) pdf_surface = cos_s * PM_INV_PI;
-        if (sampled && v3_dot(wi, ng) > 0.f && cos_s > 0.f) {
+        bool leaves = sampled && v3_dot(wi, ng) > 0.f;
+        bool lit = leaves && cos_s > 0.f && (s->sky || s->emitter_count);
+        float sky_weight = lit && s->sky_map ? power_heuristic(pdf_surface, pm_sky_map_pdf(s->sky_map, wi)) : 1.f;
+        if (leaves && next) {
+            next->sampled = true;
+            next->direction = wi;
+            next->weight = sf->glossy ? weight : sf->kd;
+            next->origin = origin;
+        }
+        if (leaves && (next || s->emitter_count)) {
             (*rays)++;
-            float sky_weight = s->sky_map ? power_heuristic(pdf_surface, pm_sky_map_pdf(s->sky_map, wi)) : 1.f;
-            if (!s->emitter_count) {
-                if (!pm_accel_occluded(a, origin, wi, INFINITY)) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
-            } else {
-                pm_hit h;
-                if (!pm_accel_intersect(a, origin, wi, INFINITY, &h)) {
-                    if (s->sky) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
-                } else {
-                    const pm_material *m = &s->materials[s->triangle_material[h.tri]];
-                    float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
-                    if (pick_pdf > 0.f) {
-                        const uint32_t *ix = s->indices + 3 * (size_t)h.tri;
-                        vec3 p0 = s->positions[ix[0]];
-                        vec3 cross = v3_cross(v3_sub(s->positions[ix[1]], p0), v3_sub(s->positions[ix[2]], p0));
-                        float len = v3_length(cross), cos_l = len > 0.f ? -v3_dot(cross, wi) / len : 0.f;
-                        if (m->double_sided) cos_l = fabsf(cos_l);
-                        if (cos_l > 0.f) {
-                            float pdf_light = pick_pdf * h.t * h.t / (0.5f * len * cos_l);
-                            e = v3_add(e, v3_mul(v3_scale(pm_scene_emission_at(s, h.tri, h.b1, h.b2),
-                                                          power_heuristic(pdf_surface, pdf_light)), weight));
-                        }
+            pm_hit h;
+            bool hit = pm_accel_intersect(a, origin, wi, INFINITY, &h);
+            if (next) {
+                next->hit = hit;
+                next->h = h;
+            }
+            if (lit && !hit) {
+                if (s->sky) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
+            } else if (lit && s->emitter_count) {
+                const pm_material *m = &s->materials[s->triangle_material[h.tri]];
+                float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
+                if (pick_pdf > 0.f) {
+                    const uint32_t *ix = s->indices + 3 * (size_t)h.tri;
+                    vec3 p0 = s->positions[ix[0]];
+                    vec3 cross = v3_cross(v3_sub(s->positions[ix[1]], p0), v3_sub(s->positions[ix[2]], p0));
+                    float len = v3_length(cross), cos_l = len > 0.f ? -v3_dot(cross, wi) / len : 0.f;
+                    if (m->double_sided) cos_l = fabsf(cos_l);
+                    if (cos_l > 0.f) {
+                        float pdf_light = pick_pdf * h.t * h.t / (0.5f * len * cos_l);
+                        e = v3_add(e, v3_mul(v3_scale(pm_scene_emission_at(s, h.tri, h.b1, h.b2),
+                                                      power_heuristic(pdf_surface, pdf_light)), weight));
                     }
                 }
             }
+        } else if (lit) {
+            /* a sky without emitters: only whether the ray gets out matters */
+            (*rays)++;
+            if (!pm_accel_occluded(a, origin, wi, INFINITY)) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
         }
     }
     if (shadow_counts) {
@@ -366,7 +394,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 ou
                     v3_mul(throughput, map_estimate(&set->maps->global, &sf, ng, wo, &indirect_only)));
             } else {
                 out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, &sf, wo, rng, rays, set->shadow,
-                                                                              shadow_counts)));
+                                                                              shadow_counts, NULL)));
             }
             if (set->maps && set->maps->caustic.count) {
                 int c = depth == 0 ? PM_CAUSTIC : PM_SPECULAR;
@@ -410,16 +438,24 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 ou
  * nothing (direct light and caustics at their origin already count it). A mixed surface is the
  * point with probability D / (D + S) and scatters on otherwise, each choice weighted by the
  * inverse of its probability. */
-static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, vec3 throughput, bool camera_ray, pm_rng *rng,
-                            vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2], pm_visible_point *vp,
-                            pm_surface *sf, vec3 *point_throughput) {
+static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bounce *traced, vec3 throughput,
+                            bool camera_ray, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays,
+                            uint64_t shadow_counts[2], pm_visible_point *vp, pm_surface *sf, vec3 *point_throughput,
+                            surface_bounce *next) {
     const pm_scene *s = job->scene;
     float path_length = 0.f;
     for (int depth = 0;; depth++) {
         int comp = depth == 0 ? PM_DIRECT : PM_SPECULAR;
         pm_hit h;
-        (*rays)++;
-        if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) {
+        bool hit;
+        if (depth == 0 && traced) {
+            hit = traced->hit;
+            h = traced->h;
+        } else {
+            (*rays)++;
+            hit = pm_accel_intersect(job->accel, o, d, INFINITY, &h);
+        }
+        if (!hit) {
             if (camera_ray && s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
             return false;
         }
@@ -437,7 +473,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, vec3 throughput,
             vec3 ng = facing(sf->ng, wo);
             if (camera_ray)
                 out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, sf, wo, rng, rays,
-                                                                              job->settings->shadow, shadow_counts)));
+                                                                              job->settings->shadow, shadow_counts, next)));
             vp->p = sf->p;
             vp->n = ng;
             vp->glossy = sf->glossy;
@@ -471,21 +507,21 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, vec3 throughput,
 }
 
 /* The progressive mode's eye sample: the pixel's visible point and, with final gathering, the
- * point its one gather ray finds; emission and direct light go to out[]. */
+ * point its one gather ray finds (the ray direct light drew from the material at the visible
+ * point); emission and direct light go to out[]. */
 static void trace_visible(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT],
                           uint64_t *rays, uint64_t shadow_counts[2], pm_visible_point *vp, pm_visible_point *gp) {
     memset(vp, 0, sizeof *vp);
     if (gp) memset(gp, 0, sizeof *gp);
-    pm_surface sf;
-    vec3 throughput;
-    if (!walk_to_diffuse(job, o, d, v3s(1.f), true, rng, out, rays, shadow_counts, vp, &sf, &throughput) || !gp) return;
-    vec3 ng = vp->n, ns = side_normal(&sf, ng), g, weight;
-    if (!sample_reflection(&sf, ng, ns, vp->wo, rng, &g, &weight)) return;
-    vec3 gather_throughput = v3_mul(throughput, weight);
-    pm_surface y;
-    vec3 unused;
-    if (walk_to_diffuse(job, pm_surface_origin(&sf, ng, job->scene->ray_scale), g, gather_throughput, false, rng, NULL,
-                        rays, NULL, gp, &y, &unused))
+    pm_surface sf, y;
+    vec3 throughput, unused;
+    surface_bounce next;
+    if (!walk_to_diffuse(job, o, d, NULL, v3s(1.f), true, rng, out, rays, shadow_counts, vp, &sf, &throughput,
+                         gp ? &next : NULL) ||
+        !gp || !next.sampled)
+        return;
+    if (walk_to_diffuse(job, next.origin, next.direction, &next, v3_mul(throughput, next.weight), false, rng, NULL, rays,
+                        NULL, gp, &y, &unused, NULL))
         gp->seen_directly = vp->seen_directly; /* the component is the visible point's */
 }
 
@@ -498,10 +534,19 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out
     vec3 throughput = v3s(1.f);
     int seen = PM_DIRECT;
     bool lit_by_segment = true, behind_specular = false;
+    surface_bounce next = {.sampled = false};
     for (int depth = 0; depth < PM_PATHTRACE_MAX_VERTICES; depth++) {
         pm_hit h;
-        (*rays)++;
-        if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) {
+        bool hit;
+        if (next.sampled) { /* the segment direct light traced from the last diffuse vertex */
+            hit = next.hit;
+            h = next.h;
+            next.sampled = false;
+        } else {
+            (*rays)++;
+            hit = pm_accel_intersect(job->accel, o, d, INFINITY, &h);
+        }
+        if (!hit) {
             if (lit_by_segment && s->sky) out[seen] = v3_add(out[seen], v3_mul(throughput, pm_scene_sky(s, d)));
             return;
         }
@@ -519,14 +564,14 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out
             throughput = v3_scale(throughput, (D + S) / D);
             int here = depth == 0 ? PM_DIRECT : (behind_specular ? PM_SPECULAR : PM_INDIRECT);
             out[here] = v3_add(out[here], v3_mul(throughput, direct_light(s, job->accel, &sf, wo, rng, rays,
-                                                                          job->settings->shadow, shadow_counts)));
+                                                                          job->settings->shadow, shadow_counts, &next)));
             /* from a first-hit diffuse vertex, what specular bounces lead to is the caustic */
             seen = depth == 0 ? PM_CAUSTIC : here;
             lit_by_segment = false;
-            vec3 ng = facing(sf.ng, wo), weight;
-            if (!sample_reflection(&sf, ng, side_normal(&sf, ng), wo, rng, &d, &weight)) return;
-            throughput = v3_mul(throughput, weight);
-            o = pm_surface_origin(&sf, ng, s->ray_scale);
+            if (!next.sampled) return;
+            throughput = v3_mul(throughput, next.weight);
+            d = next.direction;
+            o = next.origin;
         } else {
             if (D > 0.f) throughput = v3_scale(throughput, (D + S) / S);
             if (depth == 0) {
