@@ -95,13 +95,18 @@ void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, 
                     uint32_t iteration, pm_film *film, pm_eye_stats *stats);
 
 /* The progressive mode's eye pass: one jittered sample per pixel followed through specular
- * bounces to its first diffuse point (visible[pixel]); emission and direct light there are added
- * to the film's sums. With gathered != NULL, one gather ray from each visible point (the ray
- * direct light drew from the material there, cosine or glossy lobe) finds gathered[pixel] (final
- * gathering). The film's sample count is left to the caller,
- * which adds the photon estimates first. */
+ * bounces to its first diffuse point; emission and direct light there are added to the film's
+ * sums. With gather_points, one gather ray from each visible point (the ray direct light drew from
+ * the material there, cosine or glossy lobe) finds the point its final gather reads. Each tile's
+ * points go to visit (when not NULL) at the end of the tile, on the thread that traced them: the
+ * caller gathers this iteration's photons there while the points are still in cache, and no
+ * per-pixel point array exists. pixels[k] is the film index of visible[k] (and gathered[k], NULL
+ * without gather_points); an invalid point found no diffuse surface. The film's sample count is
+ * left to the caller. */
+typedef void (*pm_visible_points_fn)(void *ctx, const size_t *pixels, const pm_visible_point *visible,
+                                     const pm_visible_point *gathered, size_t count, int thread);
 void pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
-                           uint32_t iteration, pm_film *film, pm_visible_point *visible, pm_visible_point *gathered,
+                           uint32_t iteration, pm_film *film, bool gather_points, pm_visible_points_fn visit, void *ctx,
                            pm_eye_stats *stats);
 
 #endif

@@ -27,7 +27,9 @@ typedef struct {
     const pm_eye_settings *settings;
     uint32_t iteration;
     pm_film *film;
-    pm_visible_point *visible, *gathered; /* progressive mode: one each per pixel, or NULL */
+    bool visible_points, gather_points;  /* progressive mode: find each pixel's points, hand them to visit */
+    pm_visible_points_fn visit;
+    void *visit_ctx;
     int tiles_x;
     struct { uint64_t rays, dropped, vertices, shadow[2]; char pad[24]; } counters[MAX_THREADS];
 } eye_job;
@@ -601,6 +603,8 @@ static void render_tile(void *ctx, size_t task, int thread) {
     int x1 = x0 + TILE < film->width ? x0 + TILE : film->width;
     int y1 = y0 + TILE < film->height ? y0 + TILE : film->height;
     uint64_t rays = 0, dropped = 0, vertices = 0, shadow_counts[2] = {0, 0};
+    pm_visible_point visible[TILE * TILE], gathered[TILE * TILE];
+    size_t pixels[TILE * TILE], points = 0;
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
             size_t pixel = (size_t)y * film->width + x;
@@ -610,10 +614,11 @@ static void render_tile(void *ctx, size_t task, int thread) {
             vec3 out[PM_COMPONENT_COUNT] = {{0}};
             if (job->settings->path_trace)
                 trace_path(job, o, d, &rng, out, &rays, shadow_counts, &vertices);
-            else if (job->visible)
-                trace_visible(job, o, d, &rng, out, &rays, shadow_counts, &job->visible[pixel],
-                              job->gathered ? &job->gathered[pixel] : NULL);
-            else
+            else if (job->visible_points) {
+                trace_visible(job, o, d, &rng, out, &rays, shadow_counts, &visible[points],
+                              job->gather_points ? &gathered[points] : NULL);
+                pixels[points++] = pixel;
+            } else
                 trace_pixel(job, o, d, &rng, out, &rays, shadow_counts);
             for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
                 /* A NaN from a degenerate corner case must not poison a pixel forever; it is
@@ -629,6 +634,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
                 px[2] = sum.z;
             }
         }
+    if (job->visit && points) job->visit(job->visit_ctx, pixels, visible, job->gather_points ? gathered : NULL, points, thread);
     job->counters[thread].rays += rays;
     job->counters[thread].dropped += dropped;
     job->counters[thread].vertices += vertices;
@@ -637,8 +643,8 @@ static void render_tile(void *ctx, size_t task, int thread) {
 }
 
 static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
-                         uint32_t iteration, pm_film *film, pm_visible_point *visible, pm_visible_point *gathered,
-                         pm_eye_stats *stats) {
+                         uint32_t iteration, pm_film *film, bool visible_points, bool gather_points,
+                         pm_visible_points_fn visit, void *visit_ctx, pm_eye_stats *stats) {
     double start = pm_now_seconds();
     eye_job *job = pm_calloc(1, sizeof *job, "eye pass job");
     if (!job) { if (stats) stats->failed = true; return; }
@@ -648,8 +654,10 @@ static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
     job->settings = settings;
     job->iteration = iteration;
     job->film = film;
-    job->visible = visible;
-    job->gathered = gathered;
+    job->visible_points = visible_points;
+    job->gather_points = visible_points && gather_points;
+    job->visit = visit;
+    job->visit_ctx = visit_ctx;
     job->tiles_x = (film->width + TILE - 1) / TILE;
     int tiles_y = (film->height + TILE - 1) / TILE;
     int threads = settings->threads < 1 ? 1 : (settings->threads > MAX_THREADS ? MAX_THREADS : settings->threads);
@@ -670,13 +678,13 @@ static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
 void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                     uint32_t iteration, pm_film *film, pm_eye_stats *stats) {
     bool failed_before = stats && stats->failed;
-    run_eye_pass(s, a, cam, settings, iteration, film, NULL, NULL, stats);
+    run_eye_pass(s, a, cam, settings, iteration, film, false, false, NULL, NULL, stats);
     if (stats && stats->failed && !failed_before) return; /* out of memory: no sample was added */
     film->samples++;
 }
 
 void pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
-                           uint32_t iteration, pm_film *film, pm_visible_point *visible, pm_visible_point *gathered,
+                           uint32_t iteration, pm_film *film, bool gather_points, pm_visible_points_fn visit, void *ctx,
                            pm_eye_stats *stats) {
-    run_eye_pass(s, a, cam, settings, iteration, film, visible, gathered, stats);
+    run_eye_pass(s, a, cam, settings, iteration, film, true, gather_points, visit, ctx, stats);
 }

@@ -1,11 +1,13 @@
 /* progressive.c: stochastic progressive photon mapping: the iteration's phases, initial radii from the scene, per-pixel statistics.
  *
- * The gather loops over pixels, not photons: each visible point queries a hash grid over this
- * iteration's photons, so no two threads ever write the same statistics and the image is the
- * same at any thread count (a grid over visible points, filled by photons as pbrt-v4 does,
- * would need atomic float adds whose order changes the sums). The grid's cell is twice the
- * mean radius its queries used the iteration before; docs/progressive.md has the measurement
- * against a kd-tree.
+ * An iteration traces its photons first and sorts them into hash grids; then the eye pass finds
+ * each pixel's visible point (and gather point) and hands every finished tile to gather_tile,
+ * which queries the grids on the same thread while the points are still in cache, so no per-pixel
+ * point array is ever stored. The gather loops over pixels, not photons: no two threads ever
+ * write the same statistics and the image is the same at any thread count (a grid over visible
+ * points, filled by photons as pbrt-v4 does, would need atomic float adds whose order changes the
+ * sums). The grid's cell is three times the mean radius its queries used the iteration before;
+ * docs/progressive.md has the measurement against a kd-tree.
  */
 #include "progressive.h"
 #include "clock.h"
@@ -18,12 +20,10 @@
 #include <time.h>
 
 #include "defaults.h"
-#include "parallel.h"
 #include "photongrid.h"
 #include "rng.h"
 
 #define MAX_THREADS 256
-#define ROWS_PER_TASK 4
 
 enum { KIND_CAUSTIC = 0, KIND_INDIRECT = 1, KIND_COUNT = 2 };
 
@@ -37,7 +37,6 @@ struct pm_progressive {
     bool trace_caustic, trace_global;    /* which photon passes the scene can use */
     bool slot_used[PM_SLOT_COUNT];
     bool gathering;                      /* final gathering at gather points */
-    pm_visible_point *visible, *gathered;
     size_t pixels;
     double diffuse_area;                 /* photons land here: their density sets initial radii */
     /* initial radius from the photon density of the first iteration with photons, per kind of
@@ -46,6 +45,7 @@ struct pm_progressive {
     double gather_r2;
     double pixel_angle;                  /* radians per pixel, vertically (0 for an orthographic camera) */
     double pixel_width;                  /* scene units per pixel at the camera (orthographic only) */
+    double probe_footprint;              /* mean first radius of a sparse grid of camera rays: the first grid's cell */
     double initial_radius_sum;
     uint64_t initial_radius_count;
     double query_radius[KIND_COUNT];     /* mean radius gathered with last iteration: sets the grid's cell */
@@ -118,8 +118,6 @@ void pm_progressive_destroy(pm_progressive *p) {
         free(p->buffer[k].data);
         pm_photon_grid_free(&p->grid[k]);
     }
-    free(p->visible);
-    free(p->gathered);
     free(p);
 }
 
@@ -137,6 +135,26 @@ void pm_progressive_components(const pm_progressive *p, bool enabled[PM_COMPONEN
     enabled[PM_INDIRECT] = p->trace_global;
 }
 
+/* The mean pixel footprint (the first radius of a visible point seen directly) over a sparse grid
+ * of camera rays: before any visible point exists, the first grid's cell follows it. Only the
+ * grid's speed depends on it, never the image. */
+static double probe_footprint(const pm_progressive *p, const pm_film *film) {
+    enum { PROBE = 32 };
+    double sum = 0.0;
+    int hits = 0;
+    for (int j = 0; j < PROBE; j++)
+        for (int i = 0; i < PROBE; i++) {
+            vec3 o, d;
+            pm_camera_ray(&p->camera, film->width, film->height, (i + 0.5f) * film->width / PROBE,
+                          (j + 0.5f) * film->height / PROBE, &o, &d);
+            pm_hit h;
+            if (!pm_accel_intersect(p->accel, o, d, INFINITY, &h)) continue;
+            sum += PM_PPM_FOOTPRINT_PIXELS * ((double)h.t * p->pixel_angle + p->pixel_width);
+            hits++;
+        }
+    return hits ? sum / hits : 0.0;
+}
+
 static void reset_state(pm_progressive *p, const pm_film *film) {
     p->density_r2[KIND_CAUSTIC] = p->density_r2[KIND_INDIRECT] = 0.0;
     p->gather_r2 = 0.0;
@@ -145,20 +163,16 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     p->initial_radius_count = 0;
     p->pixel_angle = p->camera.orthographic ? 0.0 : pm_camera_pixel_size(&p->camera, film->height, 1.f);
     p->pixel_width = p->camera.orthographic ? pm_camera_pixel_size(&p->camera, film->height, 0.f) : 0.0;
+    p->probe_footprint = pm_progressive_uses_photons(p) ? probe_footprint(p, film) : 0.0;
     memset(&p->stats, 0, sizeof p->stats);
 }
 
 bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err_size) {
     p->pixels = (size_t)film->width * film->height;
-    free(p->visible);
-    free(p->gathered);
-    p->gathered = NULL;
-    p->visible = pm_calloc(p->pixels, sizeof *p->visible, "visible points");
-    if (p->gathering) p->gathered = pm_calloc(p->pixels, sizeof *p->gathered, "gather points");
-    if (!p->visible || (p->gathering && !p->gathered) || !pm_film_enable_ppm(film, p->slot_used)) {
+    if (!pm_film_enable_ppm(film, p->slot_used)) {
         if (pm_memory_failure()) { snprintf(err, err_size, "out of memory (%s) for %dx%d pixels", pm_memory_failure(), film->width, film->height); return false; }
         snprintf(err, err_size, "out of memory (progressive state for %dx%d pixels, %zu bytes)", film->width,
-                 film->height, p->pixels * (sizeof(pm_visible_point) * 2 + sizeof(pm_ppm_stat) * PM_SLOT_COUNT));
+                 film->height, p->pixels * sizeof(pm_ppm_stat) * PM_SLOT_COUNT);
         return false;
     }
     reset_state(p, film);
@@ -183,7 +197,8 @@ typedef struct {
         uint64_t radius_count, found, dropped;
         double query_sum[KIND_COUNT];        /* radii gathered with, for the next grid's cell */
         uint64_t query_count[KIND_COUNT];
-        char pad[16];
+        double seconds;                      /* spent gathering, on this thread */
+        char pad[56];
     } counters[MAX_THREADS];
 } gather_job;
 
@@ -227,15 +242,15 @@ static void update_statistics(gather_job *job, pm_ppm_stat *st, const pm_visible
     assert(st->r2 > 0.0 && st->n >= 0.0);
 }
 
-static void gather_rows(void *ctx, size_t task, int thread) {
+/* The eye pass's visit: one tile's visible and gather points, on the thread that found them. */
+static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point *visible, const pm_visible_point *gathered,
+                        size_t count, int thread) {
     gather_job *job = ctx;
-    pm_progressive *p = job->p;
     pm_film *film = job->film;
-    size_t first = task * ROWS_PER_TASK * (size_t)film->width;
-    size_t last = first + ROWS_PER_TASK * (size_t)film->width;
-    if (last > p->pixels) last = p->pixels;
-    for (size_t i = first; i < last; i++) {
-        const pm_visible_point *vp = &p->visible[i];
+    double t0 = pm_now_seconds();
+    for (size_t k = 0; k < count; k++) {
+        size_t i = pixels[k];
+        const pm_visible_point *vp = &visible[k];
         if (vp->valid) {
             int caustic_slot = vp->seen_directly ? PM_SLOT_CAUSTIC : PM_SLOT_SPECULAR_CAUSTIC;
             int indirect_slot = vp->seen_directly ? PM_SLOT_INDIRECT : PM_SLOT_SPECULAR_INDIRECT;
@@ -246,8 +261,8 @@ static void gather_rows(void *ctx, size_t task, int thread) {
                 update_statistics(job, &film->ppm[indirect_slot][i], vp, job->global, 1u << PM_PATH_INDIRECT,
                                   KIND_INDIRECT, thread);
         }
-        if (p->gathered && p->gathered[i].valid && job->global && job->gather_r2 > 0.0) {
-            const pm_visible_point *gp = &p->gathered[i];
+        if (gathered && gathered[k].valid && job->global && job->gather_r2 > 0.0) {
+            const pm_visible_point *gp = &gathered[k];
             vec3 power;
             /* every photon at the gather point: its direct, caustic and indirect light */
             uint32_t m = gp->glossy ? pm_photon_grid_sum_brdf(job->global, gp->p, gp->n, (float)job->gather_r2, 7u, &gp->brdf,
@@ -265,6 +280,7 @@ static void gather_rows(void *ctx, size_t task, int thread) {
             }
         }
     }
+    job->counters[thread].seconds += pm_now_seconds() - t0;
 }
 
 /* r^2 at which a disc holds PM_PPM_INITIAL_PHOTONS photons where `stored` photons spread evenly
@@ -287,14 +303,7 @@ static void keep_tagged(pm_photon_buffer *b, int path) {
  * photons crowd into a small part of the diffuse area). */
 static double mean_initial_radius(const pm_progressive *p, int kind) {
     if (p->settings.initial_radius > 0.0) return p->settings.initial_radius;
-    double sum = 0.0, density = kind == KIND_CAUSTIC ? 0.0 : sqrt(p->density_r2[kind]);
-    size_t n = 0;
-    for (size_t i = 0; i < p->pixels; i++) {
-        if (!p->visible[i].valid) continue;
-        sum += fmax(PM_PPM_FOOTPRINT_PIXELS * ((double)p->visible[i].path_length * p->pixel_angle + p->pixel_width), density);
-        n++;
-    }
-    return n ? sum / (double)n : 0.0;
+    return kind == KIND_CAUSTIC ? p->probe_footprint : fmax(p->probe_footprint, sqrt(p->density_r2[kind]));
 }
 
 /* Sorts a kind's photons into its grid, the cell three times the radius its queries are expected
@@ -309,16 +318,11 @@ static bool build_grid(pm_progressive *p, int kind) {
 }
 
 bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
-    assert(p->visible && (size_t)film->width * film->height == p->pixels);
+    assert((size_t)film->width * film->height == p->pixels);
     uint32_t iteration = film->samples;
     const pm_progressive_settings *set = &p->settings;
 
-    /* 1. eye pass: visible points (and gather points), emission and direct light */
-    pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, iteration, film, p->visible, p->gathered,
-                          &p->stats.eye);
-    if (p->stats.eye.failed) return false;
-
-    /* 2. photon passes: a fresh, independent set every iteration, sorted into hash grids */
+    /* 1. photon passes: a fresh, independent set every iteration, sorted into hash grids */
     uint64_t seed = pm_hash64(set->seed * 0x9e3779b97f4a7c15ULL + iteration);
     double t0 = pm_now_seconds();
     bool ok = true;
@@ -341,7 +345,9 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     p->stats.photons.kdtree_seconds += t1 - t_grid;
     p->stats.photons.seconds += t1 - t0;
 
-    /* 3. gather: statistics at visible points, estimates at gather points */
+    /* 2. eye pass: visible points (and gather points), emission and direct light; each tile's
+     * points gather this iteration's photons as soon as the tile is traced (statistics at visible
+     * points, estimates at gather points) */
     gather_job *job = pm_calloc(1, sizeof *job, "gather job");
     if (!job) return false;
     job->p = p;
@@ -349,16 +355,19 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     job->caustic = p->grid[KIND_CAUSTIC].count ? &p->grid[KIND_CAUSTIC] : NULL;
     job->global = p->grid[KIND_INDIRECT].count ? &p->grid[KIND_INDIRECT] : NULL;
     job->gather_r2 = p->gather_r2;
+    bool photons_here = job->caustic || job->global;
+    pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, iteration, film, p->gathering && job->global,
+                          photons_here ? gather_tile : NULL, job, &p->stats.eye);
+    if (p->stats.eye.failed) { free(job); return false; }
     int threads = set->threads < 1 ? 1 : (set->threads > MAX_THREADS ? MAX_THREADS : set->threads);
-    size_t tasks = ((size_t)film->height + ROWS_PER_TASK - 1) / ROWS_PER_TASK;
-    pm_parallel_for(threads, tasks, gather_rows, job);
-    double query_sum[KIND_COUNT] = {0, 0};
+    double query_sum[KIND_COUNT] = {0, 0}, gather_seconds = 0.0;
     uint64_t query_count[KIND_COUNT] = {0, 0};
     for (int t = 0; t < threads; t++) {
         p->initial_radius_sum += job->counters[t].radius_sum;
         p->initial_radius_count += job->counters[t].radius_count;
         p->stats.photons_found += job->counters[t].found;
         p->stats.eye.dropped_samples += job->counters[t].dropped;
+        gather_seconds += job->counters[t].seconds;
         for (int k = 0; k < KIND_COUNT; k++) {
             query_sum[k] += job->counters[t].query_sum[k];
             query_count[k] += job->counters[t].query_count[k];
@@ -367,12 +376,16 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     for (int k = 0; k < KIND_COUNT; k++)
         if (query_count[k]) p->query_radius[k] = query_sum[k] / (double)query_count[k];
     free(job);
+    /* the gathering ran inside the eye pass's wall time: its share (thread seconds over threads)
+     * is reported as gather time, the rest as the eye pass's */
+    gather_seconds /= threads;
+    p->stats.gather_seconds += gather_seconds;
+    p->stats.eye.seconds -= fmin(gather_seconds, p->stats.eye.seconds);
     /* Knaus and Zwicker's shrinking radius for the next iteration's gather points */
     if (p->gathering && p->gather_r2 > 0.0) {
         double i = (double)iteration + 1.0;
         p->gather_r2 *= (i + set->alpha) / (i + 1.0);
     }
-    p->stats.gather_seconds += pm_now_seconds() - t1;
     film->samples++;
     p->stats.iterations = film->samples;
     return true;
