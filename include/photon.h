@@ -38,7 +38,7 @@ static inline uint16_t pm_oct_encode_bits(vec3 n, int bits) {
 }
 
 /* An octahedral code decoded without normalising: the direction is right, the length in [1/sqrt(3), 1]. */
-static inline vec3 pm_oct_decode_unnormalised(uint16_t code, int bits) {
+static inline __attribute__((always_inline)) vec3 pm_oct_decode_unnormalised(uint16_t code, int bits) {
     int mask = (1 << bits) - 1;
     float scale = 2.f / (float)mask;
     float x = (float)(code & mask) * scale - 1.f, y = (float)((code >> bits) & mask) * scale - 1.f;
@@ -108,7 +108,7 @@ static inline vec3 pm_photon_position(const pm_photon *ph) { return v3(ph->pos[0
  * from the side n faces, and its surface's normal is within about 25 degrees (cos 0.9) of n, so
  * photons on the back of a thin wall or on another surface across a corner count for nothing.
  * The same test as pm_photon_estimate's, without a square root. */
-static inline bool pm_photon_counts_for(const pm_photon *ph, vec3 n, unsigned path_mask) {
+static inline __attribute__((always_inline)) bool pm_photon_counts_for(const pm_photon *ph, vec3 n, unsigned path_mask) {
     if (!((path_mask >> (ph->normal_path >> 14)) & 1u)) return false;
     if (v3_dot(pm_oct_decode_unnormalised(ph->direction, 8), n) >= 0.f) return false;
     vec3 pn = pm_oct_decode_unnormalised(ph->normal_path & 0x3fff, 7);

@@ -17,6 +17,7 @@
 typedef struct {
     pm_photon *photons;     /* sorted by bucket */
     uint32_t *bucket_start; /* bucket_count + 1 offsets into photons */
+    uint64_t *occupied;     /* a bit per bucket: holds a photon */
     size_t count, capacity;
     size_t bucket_count, bucket_capacity; /* bucket_count is a power of two */
     vec3 origin, upper;     /* the photons' bounds: a disc outside them finds nothing without a lookup */
@@ -37,5 +38,22 @@ uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, floa
  * (ns: the shading normal on wo's side): Jensen's estimate at a glossy point. */
 uint32_t pm_photon_grid_sum_brdf(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
                                  const pm_brdf *b, vec3 ns, vec3 wo, vec3 *reflected);
+
+/* One disc query of a batch: lobe NULL for the plain sum (pm_photon_grid_sum_facing), else the
+ * lobe-weighted one (pm_photon_grid_sum_brdf) with its ns and wo. */
+typedef struct {
+    vec3 p, n;
+    float radius2;
+    unsigned path_mask;
+    const pm_brdf *lobe;
+    vec3 ns, wo;
+} pm_grid_query;
+typedef struct {
+    vec3 power;
+    uint32_t found;
+} pm_grid_result;
+/* The same sums for count queries (out[k] for q[k]), faster than one by one: the memory reads of
+ * several queries overlap. Each result is bit for bit the single query's. */
+void pm_photon_grid_sum_many(const pm_photon_grid *g, const pm_grid_query *q, size_t count, pm_grid_result *out);
 
 #endif

@@ -21,11 +21,12 @@ static inline size_t bucket_of(int32_t x, int32_t y, int32_t z, size_t mask) {
 void pm_photon_grid_free(pm_photon_grid *g) {
     free(g->photons);
     free(g->bucket_start);
+    free(g->occupied);
     memset(g, 0, sizeof *g);
 }
 
 size_t pm_photon_grid_bytes(const pm_photon_grid *g) {
-    return g->capacity * sizeof(pm_photon) + (g->bucket_capacity + 1) * sizeof(uint32_t);
+    return g->capacity * sizeof(pm_photon) + (g->bucket_capacity + 1) * sizeof(uint32_t) + g->bucket_capacity / 8;
 }
 
 bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t count, float cell) {
@@ -43,6 +44,9 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
         uint32_t *grown = pm_realloc(g->bucket_start, (buckets + 1) * sizeof *grown, "photon grid buckets");
         if (!grown) { pm_photon_grid_free(g); return false; }
         g->bucket_start = grown;
+        uint64_t *bits = pm_realloc(g->occupied, buckets / 64 * sizeof *bits, "photon grid occupancy");
+        if (!bits) { pm_photon_grid_free(g); return false; }
+        g->occupied = bits;
         g->bucket_capacity = buckets;
     }
     g->bucket_count = buckets;
@@ -65,6 +69,9 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
         start[bucket_of(cell_coord(q[0], g->origin.x, g->inv_cell), cell_coord(q[1], g->origin.y, g->inv_cell),
                         cell_coord(q[2], g->origin.z, g->inv_cell), mask) + 1]++;
     }
+    memset(g->occupied, 0, buckets / 64 * sizeof *g->occupied);
+    for (size_t b = 0; b < buckets; b++)
+        if (start[b + 1]) g->occupied[b >> 6] |= 1ull << (b & 63);
     for (size_t b = 0; b < buckets; b++) start[b + 1] += start[b];
     for (size_t i = 0; i < count; i++) {
         const float *q = photons[i].pos;
@@ -95,37 +102,78 @@ static inline __attribute__((always_inline)) void sum_photon(const pm_photon *ph
     (*found)++;
 }
 
-/* The disc's photons that count for the surface, each one's power weighted by the lobe's f(wo, wi)
- * when a lobe is given. Inline into both callers, so the plain sum keeps no BRDF branch cost. */
-/* Inlined into both callers so that the Lambert one (lobe == NULL) carries no per-photon branch. */
-static inline __attribute__((always_inline)) uint32_t sum_disc(const pm_photon_grid *g, vec3 p, vec3 n, float radius2,
-                                                               unsigned path_mask, const pm_brdf *lobe, vec3 ns,
-                                                               vec3 wo, vec3 *power) {
-    vec3 sum = v3s(0.f);
-    uint32_t found = 0;
-    *power = sum;
-    if (!g->count || !(radius2 > 0.f)) return 0;
+/* Where a disc's photons are: nothing, every photon (a disc wider than the photons' cells), the
+ * cells one by one (a rare wide disc whose buckets may repeat), or a short list of distinct
+ * occupied buckets. */
+enum { PLAN_NONE, PLAN_ALL, PLAN_CELLS, PLAN_BUCKETS };
+typedef struct {
+    int kind, buckets;
+    int32_t lo[3], hi[3];
+    uint32_t bucket[MAX_GATHER_CELLS];
+    uint32_t first[MAX_GATHER_CELLS], last[MAX_GATHER_CELLS];
+} disc_plan;
+
+/* The overlapped cells' buckets, each once: a photon within the radius lies in one of these cells,
+ * so a bucket shared with a far cell only adds photons that fail the distance test, and no photon
+ * needs its own cell checked. The occupancy bits (a few kB, in L1) skip the empty buckets, which
+ * are most of them on surfaces; the other buckets' bounds are prefetched here and read later. */
+static inline void plan_disc(const pm_photon_grid *g, vec3 p, float radius2, disc_plan *plan) {
+    plan->kind = PLAN_NONE;
+    plan->buckets = 0;
+    if (!g->count || !(radius2 > 0.f)) return;
     float r = sqrtf(radius2);
     /* caustic photons often cover a small part of the image: most discs miss them all */
     if (p.x + r < g->origin.x || p.y + r < g->origin.y || p.z + r < g->origin.z || p.x - r > g->upper.x ||
         p.y - r > g->upper.y || p.z - r > g->upper.z)
-        return 0;
-    int32_t x0 = cell_coord(p.x - r, g->origin.x, g->inv_cell), x1 = cell_coord(p.x + r, g->origin.x, g->inv_cell);
-    int32_t y0 = cell_coord(p.y - r, g->origin.y, g->inv_cell), y1 = cell_coord(p.y + r, g->origin.y, g->inv_cell);
-    int32_t z0 = cell_coord(p.z - r, g->origin.z, g->inv_cell), z1 = cell_coord(p.z + r, g->origin.z, g->inv_cell);
-    size_t mask = g->bucket_count - 1;
+        return;
+    int32_t *lo = plan->lo, *hi = plan->hi;
+    lo[0] = cell_coord(p.x - r, g->origin.x, g->inv_cell), hi[0] = cell_coord(p.x + r, g->origin.x, g->inv_cell);
+    lo[1] = cell_coord(p.y - r, g->origin.y, g->inv_cell), hi[1] = cell_coord(p.y + r, g->origin.y, g->inv_cell);
+    lo[2] = cell_coord(p.z - r, g->origin.z, g->inv_cell), hi[2] = cell_coord(p.z + r, g->origin.z, g->inv_cell);
+    int64_t cells = (int64_t)(hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1);
     /* A disc far wider than the cells would visit more cells than there are photons: scan them all. */
-    int64_t cells = (int64_t)(x1 - x0 + 1) * (y1 - y0 + 1) * (z1 - z0 + 1);
-    if (cells > (int64_t)g->count) {
-        for (size_t i = 0; i < g->count; i++) sum_photon(&g->photons[i], p, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
-        *power = sum;
-        return found;
+    if (cells > (int64_t)g->count) { plan->kind = PLAN_ALL; return; }
+    if (cells > MAX_GATHER_CELLS) { plan->kind = PLAN_CELLS; return; }
+    plan->kind = PLAN_BUCKETS;
+    size_t mask = g->bucket_count - 1;
+    for (int32_t z = lo[2]; z <= hi[2]; z++)
+        for (int32_t y = lo[1]; y <= hi[1]; y++)
+            for (int32_t x = lo[0]; x <= hi[0]; x++) {
+                size_t b = bucket_of(x, y, z, mask);
+                if (!((g->occupied[b >> 6] >> (b & 63)) & 1u)) continue;
+                bool seen = false;
+                for (int k = 0; k < plan->buckets; k++) seen |= plan->bucket[k] == b;
+                if (seen) continue;
+                plan->bucket[plan->buckets++] = (uint32_t)b;
+                __builtin_prefetch(&g->bucket_start[b]);
+            }
+}
+
+/* Reads the planned buckets' bounds and prefetches each bucket's first photons. */
+static inline void locate_buckets(const pm_photon_grid *g, disc_plan *plan) {
+    for (int k = 0; k < plan->buckets; k++) {
+        plan->first[k] = g->bucket_start[plan->bucket[k]];
+        plan->last[k] = g->bucket_start[plan->bucket[k] + 1];
+        __builtin_prefetch(&g->photons[plan->first[k]]);
+        if (plan->last[k] - plan->first[k] > 3) __builtin_prefetch(&g->photons[plan->first[k] + 3]);
     }
-    if (cells > MAX_GATHER_CELLS) {
-        /* a rare wide disc: cell by cell, each photon checked to be its cell's (buckets may repeat) */
-        for (int32_t z = z0; z <= z1; z++)
-            for (int32_t y = y0; y <= y1; y++)
-                for (int32_t x = x0; x <= x1; x++) {
+}
+
+/* The disc's photons that count for the surface, each one's power weighted by the lobe's f(wo, wi)
+ * when a lobe is given. Inlined into its callers, so the Lambert one (lobe == NULL) carries no
+ * per-photon branch. */
+static inline __attribute__((always_inline)) uint32_t sum_planned(const pm_photon_grid *g, const disc_plan *plan, vec3 p,
+                                                                  vec3 n, float radius2, unsigned path_mask,
+                                                                  const pm_brdf *lobe, vec3 ns, vec3 wo, vec3 *power) {
+    vec3 sum = v3s(0.f);
+    uint32_t found = 0;
+    if (plan->kind == PLAN_ALL) {
+        for (size_t i = 0; i < g->count; i++) sum_photon(&g->photons[i], p, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
+    } else if (plan->kind == PLAN_CELLS) {
+        size_t mask = g->bucket_count - 1;
+        for (int32_t z = plan->lo[2]; z <= plan->hi[2]; z++)
+            for (int32_t y = plan->lo[1]; y <= plan->hi[1]; y++)
+                for (int32_t x = plan->lo[0]; x <= plan->hi[0]; x++) {
                     size_t b = bucket_of(x, y, z, mask);
                     for (uint32_t i = g->bucket_start[b]; i < g->bucket_start[b + 1]; i++) {
                         const float *q = g->photons[i].pos;
@@ -134,35 +182,43 @@ static inline __attribute__((always_inline)) uint32_t sum_disc(const pm_photon_g
                             sum_photon(&g->photons[i], p, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
                     }
                 }
-        *power = sum;
-        return found;
+    } else if (plan->kind == PLAN_BUCKETS) {
+        for (int k = 0; k < plan->buckets; k++)
+            for (uint32_t i = plan->first[k]; i < plan->last[k]; i++)
+                sum_photon(&g->photons[i], p, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
     }
-    /* The overlapped cells' buckets, each once: a photon within the radius lies in one of these
-     * cells, so a bucket shared with a far cell only adds photons that fail the distance test, and
-     * no photon needs its own cell checked. The lookups are cache misses; prefetching every
-     * bucket's bounds and then every bucket's first photons overlaps them. */
-    size_t bucket[MAX_GATHER_CELLS];
-    int nb = 0;
-    for (int32_t z = z0; z <= z1; z++)
-        for (int32_t y = y0; y <= y1; y++)
-            for (int32_t x = x0; x <= x1; x++) {
-                size_t b = bucket_of(x, y, z, mask);
-                bool seen = false;
-                for (int k = 0; k < nb; k++) seen |= bucket[k] == b;
-                if (seen) continue;
-                bucket[nb++] = b;
-                __builtin_prefetch(&g->bucket_start[b]);
-            }
-    uint32_t first[MAX_GATHER_CELLS], last[MAX_GATHER_CELLS];
-    for (int k = 0; k < nb; k++) {
-        first[k] = g->bucket_start[bucket[k]];
-        last[k] = g->bucket_start[bucket[k] + 1];
-        if (first[k] < last[k]) __builtin_prefetch(&g->photons[first[k]]);
-    }
-    for (int k = 0; k < nb; k++)
-        for (uint32_t i = first[k]; i < last[k]; i++) sum_photon(&g->photons[i], p, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
     *power = sum;
     return found;
+}
+
+static inline __attribute__((always_inline)) uint32_t sum_disc(const pm_photon_grid *g, vec3 p, vec3 n, float radius2,
+                                                               unsigned path_mask, const pm_brdf *lobe, vec3 ns,
+                                                               vec3 wo, vec3 *power) {
+    disc_plan plan;
+    plan_disc(g, p, radius2, &plan);
+    if (plan.kind == PLAN_BUCKETS) locate_buckets(g, &plan);
+    return sum_planned(g, &plan, p, n, radius2, path_mask, lobe, ns, wo, power);
+}
+
+/* Queries in groups: every disc's bucket bounds are requested, then every disc's first photons,
+ * before any photon is read, so the cache misses of a group overlap instead of queuing one after
+ * another (a single query has too little independent work to hide them). */
+#define QUERY_GROUP 32
+
+void pm_photon_grid_sum_many(const pm_photon_grid *g, const pm_grid_query *q, size_t count, pm_grid_result *out) {
+    disc_plan plan[QUERY_GROUP];
+    for (size_t base = 0; base < count; base += QUERY_GROUP) {
+        size_t n = count - base < QUERY_GROUP ? count - base : QUERY_GROUP;
+        for (size_t k = 0; k < n; k++) plan_disc(g, q[base + k].p, q[base + k].radius2, &plan[k]);
+        for (size_t k = 0; k < n; k++)
+            if (plan[k].kind == PLAN_BUCKETS) locate_buckets(g, &plan[k]);
+        for (size_t k = 0; k < n; k++) {
+            const pm_grid_query *x = &q[base + k];
+            pm_grid_result *r = &out[base + k];
+            r->found = x->lobe ? sum_planned(g, &plan[k], x->p, x->n, x->radius2, x->path_mask, x->lobe, x->ns, x->wo, &r->power)
+                               : sum_planned(g, &plan[k], x->p, x->n, x->radius2, x->path_mask, NULL, x->n, x->n, &r->power);
+        }
+    }
 }
 
 uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,

@@ -202,26 +202,31 @@ typedef struct {
     } counters[MAX_THREADS];
 } gather_job;
 
-/* Hachisuka and Jensen's update of one pixel's statistics with the photons of this iteration. */
-static void update_statistics(gather_job *job, pm_ppm_stat *st, const pm_visible_point *vp, const pm_photon_grid *grid,
-                              unsigned path_mask, int kind, int thread) {
+/* A pixel's radius before its first query: the footprint, and for indirect photons at least the
+ * density radius (or --radius). False when there is nothing to start from yet (no photons and a
+ * zero footprint). */
+static bool start_radius(gather_job *job, pm_ppm_stat *st, const pm_visible_point *vp, int kind, int thread) {
     const pm_progressive *p = job->p;
-    if (!(st->r2 > 0.0)) {
-        double r;
-        if (p->settings.initial_radius > 0.0) {
-            r = p->settings.initial_radius;
-        } else {
-            double footprint = PM_PPM_FOOTPRINT_PIXELS * ((double)vp->path_length * p->pixel_angle + p->pixel_width);
-            r = kind == KIND_CAUSTIC ? footprint : fmax(footprint, sqrt(p->density_r2[kind]));
-        }
-        if (!(r > 0.0)) return; /* nothing to start from yet (no photons and a zero footprint) */
-        st->r2 = r * r;
-        job->counters[thread].radius_sum += r;
-        job->counters[thread].radius_count++;
+    if (st->r2 > 0.0) return true;
+    double r;
+    if (p->settings.initial_radius > 0.0) {
+        r = p->settings.initial_radius;
+    } else {
+        double footprint = PM_PPM_FOOTPRINT_PIXELS * ((double)vp->path_length * p->pixel_angle + p->pixel_width);
+        r = kind == KIND_CAUSTIC ? footprint : fmax(footprint, sqrt(p->density_r2[kind]));
     }
-    vec3 power;
-    uint32_t m = vp->glossy ? pm_photon_grid_sum_brdf(grid, vp->p, vp->n, (float)st->r2, path_mask, &vp->brdf, vp->ns, vp->wo, &power)
-                            : pm_photon_grid_sum_facing(grid, vp->p, vp->n, (float)st->r2, path_mask, &power);
+    if (!(r > 0.0)) return false;
+    st->r2 = r * r;
+    job->counters[thread].radius_sum += r;
+    job->counters[thread].radius_count++;
+    return true;
+}
+
+/* Hachisuka and Jensen's update of one pixel's statistics with the m photons of this iteration
+ * its disc found, of summed power `power` (glossy: already weighted by the lobe). */
+static void update_statistics(gather_job *job, pm_ppm_stat *st, const pm_visible_point *vp, uint32_t m, vec3 power,
+                              int kind, int thread) {
+    const pm_progressive *p = job->p;
     job->counters[thread].query_sum[kind] += sqrt(st->r2);
     job->counters[thread].query_count[kind]++;
     if (!m) return;
@@ -242,34 +247,61 @@ static void update_statistics(gather_job *job, pm_ppm_stat *st, const pm_visible
     assert(st->r2 > 0.0 && st->n >= 0.0);
 }
 
-/* The eye pass's visit: one tile's visible and gather points, on the thread that found them. */
+static pm_grid_query disc_query(const pm_visible_point *vp, double r2, unsigned path_mask) {
+    pm_grid_query q = {vp->p, vp->n, (float)r2, path_mask, vp->glossy ? &vp->brdf : NULL, vp->ns, vp->wo};
+    return q;
+}
+
+/* The eye pass's visit: one tile's visible and gather points, on the thread that found them. The
+ * discs of a kind are queried together (pm_photon_grid_sum_many overlaps their cache misses). */
 static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point *visible, const pm_visible_point *gathered,
                         size_t count, int thread) {
+    enum { BATCH = 64 };
     gather_job *job = ctx;
     pm_film *film = job->film;
     double t0 = pm_now_seconds();
-    for (size_t k = 0; k < count; k++) {
-        size_t i = pixels[k];
-        const pm_visible_point *vp = &visible[k];
-        if (vp->valid) {
-            int caustic_slot = vp->seen_directly ? PM_SLOT_CAUSTIC : PM_SLOT_SPECULAR_CAUSTIC;
-            int indirect_slot = vp->seen_directly ? PM_SLOT_INDIRECT : PM_SLOT_SPECULAR_INDIRECT;
-            if (film->ppm[caustic_slot] && job->caustic)
-                update_statistics(job, &film->ppm[caustic_slot][i], vp, job->caustic, 1u << PM_PATH_CAUSTIC,
-                                  KIND_CAUSTIC, thread);
-            if (film->ppm[indirect_slot] && job->global)
-                update_statistics(job, &film->ppm[indirect_slot][i], vp, job->global, 1u << PM_PATH_INDIRECT,
-                                  KIND_INDIRECT, thread);
+    pm_grid_query query[BATCH];
+    pm_grid_result result[BATCH];
+    pm_ppm_stat *target[BATCH];
+    size_t point[BATCH];
+    for (size_t base = 0; base < count; base += BATCH) {
+        size_t end = count - base < BATCH ? count : base + BATCH;
+        /* statistics at visible points: caustic photons, and indirect ones without final gathering */
+        for (int kind = 0; kind < KIND_COUNT; kind++) {
+            const pm_photon_grid *grid = kind == KIND_CAUSTIC ? job->caustic : job->global;
+            if (!grid) continue;
+            size_t n = 0;
+            for (size_t k = base; k < end; k++) {
+                const pm_visible_point *vp = &visible[k];
+                if (!vp->valid) continue;
+                int slot = kind == KIND_CAUSTIC ? (vp->seen_directly ? PM_SLOT_CAUSTIC : PM_SLOT_SPECULAR_CAUSTIC)
+                                                : (vp->seen_directly ? PM_SLOT_INDIRECT : PM_SLOT_SPECULAR_INDIRECT);
+                if (!film->ppm[slot]) continue;
+                pm_ppm_stat *st = &film->ppm[slot][pixels[k]];
+                if (!start_radius(job, st, vp, kind, thread)) continue;
+                query[n] = disc_query(vp, st->r2, 1u << (kind == KIND_CAUSTIC ? PM_PATH_CAUSTIC : PM_PATH_INDIRECT));
+                target[n] = st;
+                point[n++] = k;
+            }
+            pm_photon_grid_sum_many(grid, query, n, result);
+            for (size_t j = 0; j < n; j++)
+                update_statistics(job, target[j], &visible[point[j]], result[j].found, result[j].power, kind, thread);
         }
-        if (gathered && gathered[k].valid && job->global && job->gather_r2 > 0.0) {
-            const pm_visible_point *gp = &gathered[k];
-            vec3 power;
-            /* every photon at the gather point: its direct, caustic and indirect light */
-            uint32_t m = gp->glossy ? pm_photon_grid_sum_brdf(job->global, gp->p, gp->n, (float)job->gather_r2, 7u, &gp->brdf,
-                                                              gp->ns, gp->wo, &power)
-                                    : pm_photon_grid_sum_facing(job->global, gp->p, gp->n, (float)job->gather_r2, 7u, &power);
+        /* estimates at gather points: every photon there, its direct, caustic and indirect light */
+        if (!gathered || !job->global || !(job->gather_r2 > 0.0)) continue;
+        size_t n = 0;
+        for (size_t k = base; k < end; k++)
+            if (gathered[k].valid) {
+                query[n] = disc_query(&gathered[k], job->gather_r2, 7u);
+                point[n++] = k;
+            }
+        pm_photon_grid_sum_many(job->global, query, n, result);
+        for (size_t j = 0; j < n; j++) {
+            const pm_visible_point *gp = &gathered[point[j]];
+            size_t i = pixels[point[j]];
+            uint32_t m = result[j].found;
             job->counters[thread].found += m;
-            vec3 l = v3_scale(v3_mul(gp->weight, power), (float)(1.0 / (PM_PI * job->gather_r2)));
+            vec3 l = v3_scale(v3_mul(gp->weight, result[j].power), (float)(1.0 / (PM_PI * job->gather_r2)));
             float *sum = film->sum[gp->seen_directly ? PM_INDIRECT : PM_SPECULAR];
             if (m && sum) {
                 vec3 added = v3(sum[3 * i] + l.x, sum[3 * i + 1] + l.y, sum[3 * i + 2] + l.z);

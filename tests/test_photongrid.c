@@ -1,4 +1,4 @@
-/* test_photongrid.c: the progressive mode's hashed photon grid against brute force: every disc finds exactly the photons a full scan finds, at any radius against the cell (one cell, the 27-cell fast path, wide discs, discs wider than the photon set) and with buckets shared by many cells. */
+/* test_photongrid.c: the progressive mode's hashed photon grid against brute force: every disc finds exactly the photons a full scan finds, at any radius against the cell (one cell, the 27-cell fast path, wide discs, discs wider than the photon set) and with buckets shared by many cells; the batched query gives each single query's result bit for bit. */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,7 +45,9 @@ static void check_against_brute_force(const char *what, const pm_photon *ph, siz
     memset(&g, 0, sizeof g);
     CHECK(pm_photon_grid_build(&g, ph, count, cell), "%s: build", what);
     static const float radius_in_cells[] = {0.1f, 0.5f, 0.9f, 1.0f, 1.4f, 2.5f, 6.f, 200.f};
-    int mismatches = 0, nonempty = 0;
+    int mismatches = 0, nonempty = 0, batch_mismatches = 0;
+    pm_grid_query *batch = calloc((size_t)queries, sizeof *batch);
+    pm_grid_result *single = calloc((size_t)queries, sizeof *single), *many = calloc((size_t)queries, sizeof *many);
     for (int q = 0; q < queries; q++) {
         vec3 p = q % 2 ? pm_photon_position(&ph[(size_t)(pm_rng_float(rng) * count) % count])
                        : v3(pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng));
@@ -55,6 +57,9 @@ static void check_against_brute_force(const char *what, const pm_photon *ph, siz
         vec3 want, got;
         uint32_t nw = brute_force(ph, count, p, n, r * r, mask, &want);
         uint32_t ng = pm_photon_grid_sum_facing(&g, p, n, r * r, mask, &got);
+        batch[q] = (pm_grid_query){p, n, r * r, mask, NULL, n, n};
+        single[q].found = ng;
+        single[q].power = got;
         nonempty += nw > 0;
         if (nw != ng || fabsf(got.x - want.x) > 1e-4f * (want.x + 1e-6f) + 1e-6f) {
             if (mismatches++ < 5)
@@ -63,6 +68,15 @@ static void check_against_brute_force(const char *what, const pm_photon *ph, siz
         }
     }
     CHECK(mismatches == 0, "%s: %d of %d discs differ from brute force", what, mismatches, queries);
+    /* in uneven slices, so groups start at every offset and the last one is short */
+    for (int at = 0, step = 1; at < queries; at += step, step = step * 3 % 97 + 1)
+        pm_photon_grid_sum_many(&g, batch + at, (size_t)(at + step <= queries ? step : queries - at), many + at);
+    for (int q = 0; q < queries; q++)
+        batch_mismatches += many[q].found != single[q].found || memcmp(&many[q].power, &single[q].power, sizeof(vec3)) != 0;
+    CHECK(batch_mismatches == 0, "%s: %d of %d batched discs differ from the single query", what, batch_mismatches, queries);
+    free(batch);
+    free(single);
+    free(many);
     CHECK(nonempty > queries / 8, "%s: only %d of %d discs found photons: the test would not see a miss", what, nonempty,
           queries);
     pm_photon_grid_free(&g);
