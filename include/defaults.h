@@ -51,7 +51,7 @@
 
 /* progressive photon mapping (the default mode) */
 #define PM_DEFAULT_ALPHA (2.0 / 3.0)       /* Hachisuka and Jensen's radius reduction */
-#define PM_PPM_PHOTONS_PER_PIXEL 0.25      /* photons per iteration = pixels x this, clamped below */
+#define PM_PPM_PHOTONS_PER_PIXEL 0.125     /* photons per iteration = pixels x this, clamped below */
 #define PM_PPM_MIN_PHOTONS 10000
 #define PM_PPM_MAX_PHOTONS 1000000
 #define PM_PPM_FOOTPRINT_PIXELS 1.0        /* initial radius at least this many pixel footprints ... */

@@ -76,7 +76,7 @@ static const char usage_text[] =
     "  --mode progressive|classic|pathtrace  progressive: fresh photons every iteration, radii shrinking (default);\n"
     "                       classic: two-pass photon mapping, maps built once, eye pass repeated;\n"
     "                       pathtrace: unbiased path tracing (light sampling and MIS), the same four components\n"
-    "  --photons N          progressive: global photons per iteration (default: pixels/4, 10k to 1M);\n"
+    "  --photons N          progressive: global photons per iteration (default: pixels/8, 10k to 1M);\n"
     "                       classic: photons for the global map (default: from the image size and --time)\n"
     "  --caustic-photons N  caustic photons per iteration / for the caustic map (default: as many as --photons)\n"
     "  --alpha A            progressive: radius reduction per iteration, 0 < A < 1 (default 2/3)\n"
