@@ -95,11 +95,14 @@ static double eye_rate(const pm_scene *s, const pm_accel *a, const pm_camera *ca
 
 /* The progressive mode at width x height for `iterations` iterations: rays (eye and photon) per
  * second of the whole iteration, and the seconds of the first iteration and of the mean one. */
-typedef struct { double rays_per_second, first_seconds, mean_seconds; } progressive_rate;
+typedef struct {
+    double rays_per_second, first_seconds, mean_seconds;
+    double photon_seconds, eye_seconds, gather_seconds, rays; /* per iteration */
+} progressive_rate;
 
 static progressive_rate progressive_iterations(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int width,
                                                int height, int threads, int iterations, bool photons) {
-    progressive_rate r = {0, 0, 0};
+    progressive_rate r = {0, 0, 0, 0, 0, 0, 0};
     pm_progressive_settings ps;
     memset(&ps, 0, sizeof ps);
     ps.seed = 1;
@@ -129,6 +132,10 @@ static progressive_rate progressive_iterations(const pm_scene *s, const pm_accel
     r.rays_per_second = (double)(st->eye.rays + st->photons.rays) / total;
     r.first_seconds = t1 - t0;
     r.mean_seconds = total / iterations;
+    r.photon_seconds = st->photons.seconds / iterations;
+    r.eye_seconds = st->eye.seconds / iterations;
+    r.gather_seconds = st->gather_seconds / iterations;
+    r.rays = (double)(st->eye.rays + st->photons.rays) / iterations;
     pm_progressive_destroy(p);
     pm_film_free(&film);
     return r;
@@ -323,7 +330,7 @@ int main(int argc, char **argv) {
 
     /* whole progressive iterations at 512x512, beside the raw ceiling; thread scaling; the first
      * iteration at 640x480 against one without photons (what makes a first image appear at once) */
-    progressive_rate it1 = {0, 0, 0}, it2 = {0, 0, 0};
+    progressive_rate it1 = {0, 0, 0, 0, 0, 0, 0}, it2 = it1;
     for (int rep = 0; rep < 3; rep++) {
         progressive_rate r1 = progressive_iterations(&s, a, &cam, 512, 512, 1, 4, true);
         progressive_rate r2 = progressive_iterations(&s, a, &cam, 512, 512, 2, 4, true);
@@ -334,6 +341,9 @@ int main(int argc, char **argv) {
            it1.rays_per_second, it1.rays_per_second / raw1, it1.mean_seconds);
     printf("bench progressive width=512 height=512 threads=2 rays_per_second=%.0f ratio_to_raw=%.3f seconds_per_iteration=%.4f speedup=%.2f\n",
            it2.rays_per_second, it2.rays_per_second / (2 * raw1), it2.mean_seconds, it2.rays_per_second / it1.rays_per_second);
+    /* where an iteration's time goes, and the floor: its rays traced at the raw rate on both threads */
+    printf("bench progressive_phases width=512 height=512 threads=2 photon_seconds=%.4f eye_seconds=%.4f gather_seconds=%.4f rays_per_iteration=%.0f raw_ray_floor_seconds=%.4f\n",
+           it2.photon_seconds, it2.eye_seconds, it2.gather_seconds, it2.rays, it2.rays / (2 * raw1));
     double first = 1e30, plain = 1e30;
     for (int rep = 0; rep < 3; rep++) {
         progressive_rate with = progressive_iterations(&s, a, &cam, 640, 480, 2, 1, true);
