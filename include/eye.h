@@ -12,6 +12,7 @@
 
 #include <stdint.h>
 #include "accel.h"
+#include "camera.h"
 #include "film.h"
 #include "photonmap.h"
 #include "scene.h"
@@ -57,17 +58,12 @@ typedef struct {
     bool valid;
 } pm_visible_point;
 
-/* Builds the camera ray through film position (x, y) in pixels (0,0 = top-left corner). */
-void pm_camera_ray(const pm_camera *c, int width, int height, float x, float y, vec3 *origin, vec3 *dir);
 /* How shut in the view is. view_fraction: of cosine rays from the surfaces a grid of camera rays
  * sees (a camera ray that misses counts as open), the fraction that hit geometry: near 1 in a
  * room, low around a model in open space. around_fraction: of rays from the camera's position
  * in all directions, the fraction that hit geometry (1 = the camera is shut in). */
 void pm_eye_enclosure(const pm_scene *s, const pm_accel *a, const pm_camera *cam, float aspect, float *view_fraction,
                       float *around_fraction);
-/* The width of a pixel of an image `height` tall at `distance` along the ray (any distance for an
- * orthographic camera). */
-float pm_camera_pixel_size(const pm_camera *c, int height, float distance);
 
 /* Adds one jittered sample per pixel (iteration number `iteration`) to the film.
  *

@@ -83,6 +83,22 @@ bool pm_photon_tracer_trace(pm_photon_tracer *t, bool caustic, uint64_t photons,
  * however long a pass would have run. Not for trees (the classic mode sizes its passes). */
 void pm_photon_tracer_set_deadline(pm_photon_tracer *t, double deadline);
 
+/* Camera splats: light tracing of the caustic seen directly. While set, every caustic pass also
+ * connects each caustic photon it stores at a diffuse or glossy point to the camera (an image
+ * width x height) and, where the camera sees that point, appends the radiance the photon adds to
+ * that pixel's mean (the particle tracer's estimate) to out, in photon order: the same splats at
+ * any thread count. out is emptied at each caustic pass and rescaled with the records when a
+ * deadline cuts the pass. camera NULL stops it; camera and out must outlive the passes. */
+typedef struct {
+    uint32_t pixel; /* y x width + x */
+    float rgb[3];
+} pm_camera_splat;
+typedef struct {
+    pm_camera_splat *data;
+    size_t count, capacity;
+} pm_splat_buffer;
+void pm_photon_tracer_set_splats(pm_photon_tracer *t, const pm_camera *camera, int width, int height, pm_splat_buffer *out);
+
 /* A growable array of photon records, reused from pass to pass. */
 typedef struct { pm_photon *data; size_t count, capacity; } pm_photon_buffer;
 /* The same pass into a buffer (grown when needed, never shrunk) instead of a new tree. */

@@ -1,22 +1,27 @@
 /* progressive.h: stochastic progressive photon mapping (the default mode): per-iteration eye and photon passes, shrinking radii, constant memory.
  *
  * Each iteration, in named phases as pbrt-v4's SPPM:
- *   1. eye pass: a fresh jittered sample per pixel is followed through mirrors and glass to its
+ *   1. photon pass: a fresh set of global photons, and of caustic photons aimed by projection
+ *      maps, each pass carrying the lights' whole flux, sorted into hash grids; every caustic
+ *      photon stored where the camera sees its surface is also connected to the camera, and the
+ *      radiance it adds to that pixel is splatted (light tracing: the caustic seen directly);
+ *   2. eye pass: a fresh jittered sample per pixel is followed through mirrors and glass to its
  *      first diffuse point (the visible point); emission and direct light (shadow rays) go to
- *      the film as in the classic mode; with final gathering, one gather ray per visible point
- *      finds a gather point;
- *   2. photon pass: a fresh set of global photons, and of caustic photons aimed by projection
- *      maps, each pass carrying the lights' whole flux, into kd-trees rebuilt in parallel;
- *   3. gather: every visible point collects the new photons within its pixel's radius and
- *      updates the pixel's statistics (Hachisuka and Jensen 2009):
+ *      the film as in the classic mode; with final gathering, the gather ray (the surface's own
+ *      sample that direct light traced) finds a gather point;
+ *   3. gather, tile by tile inside the eye pass: every visible point collects the new photons
+ *      within its pixel's radius and updates the pixel's statistics (Hachisuka and Jensen 2009):
  *          N' = N + alpha M,  R'^2 = R^2 (N + alpha M) / (N + M),  tau' = (tau + Phi) R'^2 / R^2
- *      with caustic and indirect photons in separate statistics; a gather point instead makes
- *      an independent estimate with a radius shared by all pixels that shrinks with the
- *      iteration count, r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1) (Knaus and Zwicker 2011).
- * The film resolves a pixel's photon part as tau / (pi R^2 iterations).
+ *      with caustic (seen through mirrors and glass; seen directly only when splats are off) and
+ *      indirect photons in separate statistics; a gather point instead makes an independent
+ *      estimate with a radius shared by all pixels that shrinks with the iteration count,
+ *      r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1) (Knaus and Zwicker 2011).
+ * The film resolves a pixel's photon part as tau / (pi R^2 iterations), its splats and gather
+ * estimates as their sum over iterations.
  *
- * Memory is fixed after the first iteration: the visible points, the statistics in the film
- * and one iteration's photons. Restarting (a camera move) clears per-pixel state only.
+ * Memory is fixed after the first iteration: the statistics in the film, one iteration's photons
+ * and splats, and one tile's points per thread. Restarting (a camera move) clears per-pixel
+ * state only.
  */
 #ifndef PM_PROGRESSIVE_H
 #define PM_PROGRESSIVE_H
@@ -39,6 +44,7 @@ typedef struct {
     pm_indirect_mode indirect; /* photons: read at the visible point; gather: one final-gather bounce */
     int max_specular_depth;
     int max_photon_bounces;
+    bool caustic_by_statistics; /* the caustic seen directly from visible-point statistics, no camera splats (to compare) */
 } pm_progressive_settings;
 
 typedef struct {
@@ -47,6 +53,7 @@ typedef struct {
     pm_photon_stats photons;   /* totals over the run */
     double gather_seconds;
     uint64_t photons_found;    /* photons that fell inside a visible or gather point's disc */
+    uint64_t splats;           /* caustic photons splatted to the camera */
 } pm_progressive_stats;
 
 /* Radii over the pixels whose statistics have started (scene units). */

@@ -49,20 +49,6 @@ typedef struct {
     pm_hit h;
 } surface_bounce;
 
-void pm_camera_ray(const pm_camera *c, int width, int height, float x, float y, vec3 *origin, vec3 *dir) {
-    float half = c->orthographic ? c->ymag : tanf(0.5f * c->yfov);
-    float aspect = (float)width / (float)height;
-    float sx = (2.f * x / width - 1.f) * half * aspect;
-    float sy = (1.f - 2.f * y / height) * half;
-    vec3 across = v3_add(v3_scale(c->right, sx), v3_scale(c->up, sy));
-    if (c->orthographic) {
-        *origin = v3_add(c->position, across);
-        *dir = c->forward;
-    } else {
-        *origin = c->position;
-        *dir = v3_normalize(v3_add(c->forward, across));
-    }
-}
 
 void pm_eye_enclosure(const pm_scene *s, const pm_accel *a, const pm_camera *cam, float aspect, float *view_fraction,
                       float *around_fraction) {
@@ -95,10 +81,6 @@ void pm_eye_enclosure(const pm_scene *s, const pm_accel *a, const pm_camera *cam
     *around_fraction = (float)hits / AROUND;
 }
 
-float pm_camera_pixel_size(const pm_camera *c, int height, float distance) {
-    float h = (float)(height > 0 ? height : 1);
-    return c->orthographic ? 2.f * c->ymag / h : 2.f * tanf(0.5f * c->yfov) * distance / h;
-}
 
 
 /* glTF's recommended spot cone falloff. */

@@ -17,6 +17,8 @@
 #include <string.h>
 #include <time.h>
 
+#include "brdf.h"
+#include "camera.h"
 #include "clock.h"
 #include "defaults.h"
 #include "memory.h"
@@ -72,6 +74,12 @@ typedef struct {
     _Atomic uint64_t records; /* stored so far in this pass */
     atomic_bool out_of_memory;
     uint64_t dropped;         /* photons of the last pass whose power was not finite (ended, not stored) */
+    /* camera splats of the caustic pass (pm_photon_tracer_set_splats): per chunk, merged in order */
+    const pm_camera *splat_camera;
+    int splat_width, splat_height;
+    pm_splat_buffer *splat_out;
+    pm_camera_splat **chunk_splats;
+    uint32_t *chunk_splat_counts;
     struct { uint64_t rays, dropped; char pad[48]; } counters[MAX_THREADS];
 } pass;
 
@@ -351,6 +359,40 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
 }
 
 typedef struct { pm_photon *data; uint32_t count, capacity; bool failed; pass *ps; } photon_list;
+typedef struct { pm_camera_splat *data; uint32_t count, capacity; } splat_list;
+
+/* Light tracing at a caustic photon's diffuse or glossy hit: where the camera sees the point
+ * directly, the radiance the photon reflects toward it, f x power x cos x importance, goes to
+ * its pixel. This is the particle tracer's estimate of the caustic seen directly, exact with no
+ * radius, so the progressive mode uses it instead of statistics at directly seen visible points
+ * (which sample one point of the pixel per iteration: on a sharp caustic that is most of their
+ * error). ng faces the side the photon arrived from; ns is the shading normal on that side. */
+static void splat_to_camera(pass *ps, splat_list *out, const pm_surface *sf, vec3 ng, vec3 ns, vec3 d, vec3 power,
+                            uint64_t *rays) {
+    pm_camera_connection c;
+    if (!pm_camera_connect(ps->splat_camera, ps->splat_width, ps->splat_height, sf->p, &c)) return;
+    float cos_x = v3_dot(ng, c.to_camera);
+    if (!(cos_x > 0.f)) return; /* the camera sees the other side */
+    vec3 f = sf->glossy ? pm_brdf_eval(&sf->brdf, ns, c.to_camera, v3_neg(d)) : v3_scale(sf->kd, PM_INV_PI);
+    vec3 l = v3_scale(v3_mul(f, power), cos_x * c.importance);
+    if (v3_is_black(l) || !v3_is_finite(l)) return;
+    vec3 o = pm_surface_origin(sf, ng, ps->scene->ray_scale);
+    float reach = ps->splat_camera->orthographic ? c.distance : v3_length(v3_sub(ps->splat_camera->position, o));
+    (*rays)++;
+    if (pm_accel_occluded(ps->accel, o, c.to_camera, reach)) return;
+    if (out->count == out->capacity) {
+        uint32_t capacity = out->capacity ? 2 * out->capacity : 256;
+        pm_camera_splat *grown = pm_realloc(out->data, capacity * sizeof *grown, "camera splats of a chunk");
+        if (!grown) { atomic_store(&ps->out_of_memory, true); return; }
+        out->data = grown;
+        out->capacity = capacity;
+    }
+    pm_camera_splat *sp = &out->data[out->count++];
+    sp->pixel = c.pixel;
+    sp->rgb[0] = l.x;
+    sp->rgb[1] = l.y;
+    sp->rgb[2] = l.z;
+}
 
 static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings *settings, int threads);
 
@@ -388,6 +430,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     pass *ps = ctx;
     const pm_scene *s = ps->scene;
     photon_list list = {NULL, 0, 0, false, ps};
+    splat_list splats = {NULL, 0, 0};
     if (atomic_load(&ps->out_of_memory)) return; /* the pass has failed: no use tracing on */
     /* the first chunk always runs: an iteration with no photon at all would bias its average */
     if (chunk > 0 && ps->deadline > 0.0 && pm_now_seconds() > ps->deadline) {
@@ -427,7 +470,10 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                     /* stored, and the roulette below decides: a diffuse bounce ends the caustic
                      * path, while the specular part of a mixed surface carries it on (L S+ D is
                      * stored again at the next diffuse surface it reaches) */
-                    if (specular_bounces > 0) push(&list, sf.p, ng, d, power, PM_PATH_CAUSTIC);
+                    if (specular_bounces > 0) {
+                        push(&list, sf.p, ng, d, power, PM_PATH_CAUSTIC);
+                        if (ps->splat_camera) splat_to_camera(ps, &splats, &sf, ng, ns, d, power, &rays);
+                    }
                 } else {
                     int path = bounce == 0 ? PM_PATH_DIRECT : (diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
                     push(&list, sf.p, ng, d, power, path);
@@ -488,6 +534,12 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     }
     ps->chunk_photons[chunk] = list.data;
     ps->chunk_counts[chunk] = list.count;
+    if (ps->chunk_splats) {
+        ps->chunk_splats[chunk] = splats.data;
+        ps->chunk_splat_counts[chunk] = splats.count;
+    } else {
+        free(splats.data);
+    }
     if (list.failed) atomic_store(&ps->out_of_memory, true);
     ps->counters[thread].rays += rays;
     ps->counters[thread].dropped += dropped;
@@ -508,6 +560,23 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
         free(ps->chunk_counts);
         free(ps->chunk_skipped);
         return false;
+    }
+    bool splatting = ps->splat_camera && ps->caustic_pass && ps->splat_out;
+    if (splatting) {
+        ps->splat_out->count = 0;
+        ps->chunk_splats = pm_calloc(chunks ? chunks : 1, sizeof(pm_camera_splat *), "camera splat chunk list");
+        ps->chunk_splat_counts = pm_calloc(chunks ? chunks : 1, sizeof(uint32_t), "camera splat chunk list");
+        if (!ps->chunk_splats || !ps->chunk_splat_counts) {
+            free(ps->chunk_splats);
+            free(ps->chunk_splat_counts);
+            ps->chunk_splats = NULL;
+            ps->chunk_splat_counts = NULL;
+            free(ps->chunk_cut);
+            free(ps->chunk_photons);
+            free(ps->chunk_counts);
+            free(ps->chunk_skipped);
+            return false;
+        }
     }
     memset(ps->counters, 0, sizeof ps->counters);
     atomic_store(&ps->out_of_memory, false);
@@ -550,6 +619,33 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
         *rays += ps->counters[t].rays;
         ps->dropped += ps->counters[t].dropped;
     }
+    if (splatting) {
+        /* the chunks' splats in chunk order, as the records: the same at any thread count */
+        size_t splat_total = 0;
+        for (size_t c = 0; c < chunks; c++) splat_total += ps->chunk_splat_counts[c];
+        pm_splat_buffer *so = ps->splat_out;
+        if (ok && splat_total > so->capacity) {
+            pm_camera_splat *grown = pm_realloc(so->data, splat_total * sizeof *grown, "camera splats of a pass");
+            if (grown) {
+                so->data = grown;
+                so->capacity = splat_total;
+            } else {
+                ok = false;
+            }
+        }
+        size_t n = 0;
+        for (size_t c = 0; c < chunks; c++) {
+            if (ok && ps->chunk_splat_counts[c])
+                memcpy(so->data + n, ps->chunk_splats[c], ps->chunk_splat_counts[c] * sizeof *so->data);
+            n += ps->chunk_splat_counts[c];
+            free(ps->chunk_splats[c]);
+        }
+        so->count = ok ? splat_total : 0;
+        free(ps->chunk_splats);
+        free(ps->chunk_splat_counts);
+        ps->chunk_splats = NULL;
+        ps->chunk_splat_counts = NULL;
+    }
     if (ok && traced < ps->photons) {
         /* cut by the deadline: each stored photon stands for photons / traced of the flux */
         float scale = traced ? (float)((double)ps->photons / (double)traced) : 0.f;
@@ -557,6 +653,9 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
             pm_photon *ph = &out->data[i];
             pm_rgbe_encode(v3_scale(pm_photon_power(ph), scale), ph->power);
         }
+        if (splatting)
+            for (size_t i = 0; i < ps->splat_out->count; i++)
+                for (int ch = 0; ch < 3; ch++) ps->splat_out->data[i].rgb[ch] *= scale;
         ps->traced = traced;
     } else {
         ps->traced = ps->photons;
@@ -710,6 +809,13 @@ bool pm_photon_tracer_trace(pm_photon_tracer *t, bool caustic, uint64_t photons,
 }
 
 void pm_photon_tracer_set_deadline(pm_photon_tracer *t, double deadline) { t->deadline = deadline; }
+
+void pm_photon_tracer_set_splats(pm_photon_tracer *t, const pm_camera *camera, int width, int height, pm_splat_buffer *out) {
+    t->ps.splat_camera = camera && out && width > 0 && height > 0 ? camera : NULL;
+    t->ps.splat_width = width;
+    t->ps.splat_height = height;
+    t->ps.splat_out = out;
+}
 
 bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t photons, uint64_t seed,
                                  pm_photon_buffer *out, pm_photon_stats *stats) {

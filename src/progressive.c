@@ -37,6 +37,8 @@ struct pm_progressive {
     bool trace_caustic, trace_global;    /* which photon passes the scene can use */
     bool slot_used[PM_SLOT_COUNT];
     bool gathering;                      /* final gathering at gather points */
+    bool splatting;                      /* the caustic seen directly by camera splats */
+    pm_splat_buffer splats;              /* this iteration's, reused */
     size_t pixels;
     double diffuse_area;                 /* photons land here: their density sets initial radii */
     /* initial radius from the photon density of the first iteration with photons, per kind of
@@ -103,7 +105,8 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
     }
     bool specular = an->component_possible[PM_SPECULAR];
     p->gathering = p->trace_global && settings->indirect == PM_INDIRECT_GATHER;
-    p->slot_used[PM_SLOT_CAUSTIC] = p->trace_caustic;
+    p->splatting = p->trace_caustic && !settings->caustic_by_statistics;
+    p->slot_used[PM_SLOT_CAUSTIC] = p->trace_caustic && !p->splatting;
     p->slot_used[PM_SLOT_SPECULAR_CAUSTIC] = p->trace_caustic && specular;
     p->slot_used[PM_SLOT_INDIRECT] = p->trace_global && !p->gathering;
     p->slot_used[PM_SLOT_SPECULAR_INDIRECT] = p->trace_global && !p->gathering && specular;
@@ -118,6 +121,7 @@ void pm_progressive_destroy(pm_progressive *p) {
         free(p->buffer[k].data);
         pm_photon_grid_free(&p->grid[k]);
     }
+    free(p->splats.data);
     free(p);
 }
 
@@ -344,6 +348,22 @@ static double density_radius2(const pm_progressive *p, size_t stored) {
     return PM_PPM_INITIAL_PHOTONS * p->diffuse_area / (PM_PI * (double)stored);
 }
 
+/* This iteration's camera splats into the film's caustic sums, in photon order. */
+static void add_splats(pm_progressive *p, pm_film *film) {
+    float *sum = film->sum[PM_CAUSTIC];
+    if (!sum) return;
+    for (size_t i = 0; i < p->splats.count; i++) {
+        const pm_camera_splat *sp = &p->splats.data[i];
+        float *px = sum + 3 * (size_t)sp->pixel;
+        vec3 added = v3(px[0] + sp->rgb[0], px[1] + sp->rgb[1], px[2] + sp->rgb[2]);
+        if (!v3_is_finite(added)) { p->stats.eye.dropped_samples++; continue; } /* a sum overflowing */
+        px[0] = added.x;
+        px[1] = added.y;
+        px[2] = added.z;
+    }
+    p->stats.splats += p->splats.count;
+}
+
 /* Keeps only the photons with the given path tag, in order. */
 static void keep_tagged(pm_photon_buffer *b, int path) {
     size_t kept = 0;
@@ -382,7 +402,11 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     bool ok = true;
     pm_photon_buffer *caustic = &p->buffer[KIND_CAUSTIC], *global = &p->buffer[KIND_INDIRECT];
     caustic->count = global->count = 0;
-    if (p->trace_caustic) ok = pm_photon_tracer_trace_into(p->tracer, true, set->caustic_photons, seed, caustic, &p->stats.photons);
+    if (p->trace_caustic) {
+        pm_photon_tracer_set_splats(p->tracer, p->splatting ? &p->camera : NULL, film->width, film->height, &p->splats);
+        ok = pm_photon_tracer_trace_into(p->tracer, true, set->caustic_photons, seed, caustic, &p->stats.photons);
+        if (ok && p->splatting) add_splats(p, film);
+    }
     if (ok && p->trace_global) ok = pm_photon_tracer_trace_into(p->tracer, false, set->photons, seed, global, &p->stats.photons);
     if (!ok) return false;
     if (p->density_r2[KIND_CAUSTIC] == 0.0) p->density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count);

@@ -1,0 +1,56 @@
+/* camera.c: camera rays through film positions, pixel sizes, and scene points connected back to their pixels. */
+#include "camera.h"
+
+void pm_camera_ray(const pm_camera *c, int width, int height, float x, float y, vec3 *origin, vec3 *dir) {
+    float half = c->orthographic ? c->ymag : tanf(0.5f * c->yfov);
+    float aspect = (float)width / (float)height;
+    float sx = (2.f * x / width - 1.f) * half * aspect;
+    float sy = (1.f - 2.f * y / height) * half;
+    vec3 across = v3_add(v3_scale(c->right, sx), v3_scale(c->up, sy));
+    if (c->orthographic) {
+        *origin = v3_add(c->position, across);
+        *dir = c->forward;
+    } else {
+        *origin = c->position;
+        *dir = v3_normalize(v3_add(c->forward, across));
+    }
+}
+
+float pm_camera_pixel_size(const pm_camera *c, int height, float distance) {
+    float h = (float)(height > 0 ? height : 1);
+    return c->orthographic ? 2.f * c->ymag / h : 2.f * tanf(0.5f * c->yfov) * distance / h;
+}
+
+bool pm_camera_connect(const pm_camera *c, int width, int height, vec3 p, pm_camera_connection *out) {
+    float half = c->orthographic ? c->ymag : tanf(0.5f * c->yfov);
+    float aspect = (float)width / (float)height;
+    vec3 v = v3_sub(p, c->position);
+    float z = v3_dot(v, c->forward);
+    if (!(z > 0.f) || !(half > 0.f)) return false;
+    float sx = v3_dot(v, c->right), sy = v3_dot(v, c->up);
+    if (!c->orthographic) {
+        sx /= z;
+        sy /= z;
+    }
+    /* the inverse of pm_camera_ray's film mapping */
+    float fx = (sx / (half * aspect) + 1.f) * 0.5f * (float)width;
+    float fy = (1.f - sy / half) * 0.5f * (float)height;
+    if (!(fx >= 0.f && fx < (float)width && fy >= 0.f && fy < (float)height)) return false;
+    int x = (int)fx, y = (int)fy;
+    if (x >= width) x = width - 1;
+    if (y >= height) y = height - 1;
+    out->pixel = (uint32_t)y * (uint32_t)width + (uint32_t)x;
+    float pixel_area = (2.f * half * aspect / (float)width) * (2.f * half / (float)height);
+    if (c->orthographic) {
+        out->to_camera = v3_neg(c->forward);
+        out->distance = z;
+        out->importance = 1.f / pixel_area;
+    } else {
+        float d = v3_length(v);
+        float cos_axis = z / d;
+        out->to_camera = v3_scale(v, -1.f / d);
+        out->distance = d;
+        out->importance = 1.f / (pixel_area * cos_axis * cos_axis * cos_axis * d * d);
+    }
+    return true;
+}
