@@ -10,7 +10,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include <sys/resource.h>
 #include <time.h>
 
 #include "accel.h"
@@ -23,8 +22,11 @@
 #include "memory.h"
 #include "parallel.h"
 #include "progressive.h"
+#include "report.h"
+#include "runlog.h"
 #include "scene.h"
 #include "session.h"
+#include "sky_choice.h"
 #include "camera_control.h"
 #include "view.h"
 
@@ -265,88 +267,6 @@ static int parse_options(int argc, char **argv, options *o) {
     return -1;
 }
 
-static long peak_rss_bytes(void) {
-    struct rusage ru;
-    getrusage(RUSAGE_SELF, &ru);
-    return ru.ru_maxrss * 1024L;
-}
-
-/* The reference's R, G, B planes, for --reference, and (for --log) the planes of each component
- * layer it has (direct.R, ...; NULL when the file lacks one of the layer's channels). */
-/* known: NULL when every pixel is compared, else 1 for the pixels whose R, G and B are finite (a
- * reference marks the pixels it cannot vouch for NaN; they are left out of every measure) */
-typedef struct { float *rgb[3]; float *layer[PM_COMPONENT_COUNT][3]; unsigned char *known; int width, height; } reference_image;
-
-static bool load_reference(const char *path, bool with_layers, reference_image *ref, char *err, size_t err_size) {
-    static const char *const names[3] = {"R", "G", "B"};
-    memset(ref, 0, sizeof *ref);
-    for (int c = 0; c < 3; c++) {
-        int w, h;
-        ref->rgb[c] = pm_read_exr_channel(path, names[c], &w, &h, err, err_size);
-        if (!ref->rgb[c]) return false;
-        ref->width = w;
-        ref->height = h;
-    }
-    size_t n = (size_t)ref->width * ref->height, known = 0;
-    for (size_t i = 0; i < n; i++) {
-        bool finite = isfinite(ref->rgb[0][i]) && isfinite(ref->rgb[1][i]) && isfinite(ref->rgb[2][i]);
-        if (!finite && !ref->known) {
-            ref->known = malloc(n);
-            if (!ref->known) { snprintf(err, err_size, "%s: out of memory (reference mask)", path); return false; }
-            memset(ref->known, 1, i);
-        }
-        if (ref->known) ref->known[i] = finite;
-        known += finite;
-    }
-    if (!known) { snprintf(err, err_size, "%s: no pixel of the reference is finite", path); return false; }
-    for (int c = 0; c < PM_COMPONENT_COUNT && with_layers; c++) {
-        bool complete = true;
-        for (int k = 0; k < 3 && complete; k++) {
-            char channel[64], ignored[256];
-            int w = 0, h = 0;
-            snprintf(channel, sizeof channel, "%s.%s", pm_component_names[c], names[k]);
-            ref->layer[c][k] = pm_read_exr_channel(path, channel, &w, &h, ignored, sizeof ignored);
-            complete = ref->layer[c][k] && w == ref->width && h == ref->height;
-        }
-        if (complete) continue;
-        for (int k = 0; k < 3; k++) {
-            free(ref->layer[c][k]);
-            ref->layer[c][k] = NULL;
-        }
-    }
-    return true;
-}
-
-static void free_reference(reference_image *ref) {
-    free(ref->known);
-    for (int c = 0; c < 3; c++) free(ref->rgb[c]);
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-        for (int k = 0; k < 3; k++) free(ref->layer[c][k]);
-}
-
-/* relMSE = mean over pixels and channels of (x - r)^2 / (r^2 + 0.01) (the 0.01 keeps black
- * pixels from dominating), and each channel's mean over the reference's mean. */
-static double relative_mse(const pm_film *film, const reference_image *ref, float *scratch, double mean_ratio[3]) {
-    pm_film_resolve_total(film, scratch);
-    const float *const planes[3] = {ref->rgb[0], ref->rgb[1], ref->rgb[2]};
-    pm_image_error e = pm_image_compare(scratch, planes, (size_t)film->width * film->height, ref->known);
-    for (int c = 0; c < 3; c++) mean_ratio[c] = e.ref[c] != 0 ? e.ours[c] / e.ref[c] : 0.0;
-    return e.relmse;
-}
-
-static void print_analysis_stats(const pm_scene *s) {
-    const pm_scene_analysis *a = &s->analysis;
-    printf("stat analysis diffuse=%d mirror=%d glass=%d textures=%d emissive_triangles=%d punctual_lights=%d sky=%d caustics_possible=%d interreflection_possible=%d photons_needed=%d glossy=%d components=",
-           a->has_diffuse, a->has_mirror, a->has_glass, a->has_textures, a->has_emissive_triangles,
-           a->has_punctual_lights, a->has_sky, a->caustics_possible, a->interreflection_possible,
-           a->component_possible[PM_CAUSTIC] || a->component_possible[PM_INDIRECT], a->has_glossy);
-    bool first = true;
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-        if (a->component_possible[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }
-    printf("%s non_opaque=%d\n", first ? "none" : "", a->has_non_opaque);
-}
-
-
 /* Everything the chosen mode needs, from the options and the scene; the classic mode's photon
  * counts may come from a pilot pass when a time budget is given. */
 static bool configure(const options *opt, const pm_scene *scene, const pm_accel *accel, int width, int height,
@@ -499,53 +419,9 @@ static double repeating_seconds(pm_session *session) {
     return st->eye.seconds + st->gather_seconds;
 }
 
-/* ---- --log: the run as CSV ---- */
-
-static const char *const log_measures[3] = {"relmse", "rmse", "rel_bias"};
-
-static bool log_wanted(uint32_t iteration) {
-    return iteration <= PM_LOG_EVERY_ITERATION_UNTIL || (iteration & (iteration - 1)) == 0;
-}
-
-static void log_header(FILE *f) {
-    fputs("seconds,iterations,photons,mean_radius", f);
-    for (int part = -1; part < PM_COMPONENT_COUNT; part++)
-        for (int m = 0; m < 3; m++) fprintf(f, ",%s_%s", part < 0 ? "total" : pm_component_names[part], log_measures[m]);
-    fputc('\n', f);
-}
-
-/* relMSE (as --reference), RMSE and relative bias (sum of ours over the reference's, minus 1, all
- * pixels and channels) of one image; three empty fields without a reference plane, an empty bias
- * when the reference is black. */
-static void log_errors(FILE *f, const float *rgb, float *const planes[3], size_t pixels, const unsigned char *known) {
-    if (!rgb || !planes[0]) { fputs(",,,", f); return; }
-    pm_image_error e = pm_image_compare(rgb, (const float *const *)planes, pixels, known);
-    double ours = e.ours[0] + e.ours[1] + e.ours[2], ref = e.ref[0] + e.ref[1] + e.ref[2];
-    fprintf(f, ",%.6g,%.6g,", e.relmse, sqrt(e.mse));
-    if (ref != 0) fprintf(f, "%.6g", ours / ref - 1.0);
-}
-
-/* One row: the film as it is after `seconds` of rendering. scratch: 3 floats a pixel, or NULL
- * without a reference. */
-static void log_row(FILE *f, pm_session *session, const reference_image *ref, float *scratch, double seconds) {
-    const pm_film *film = pm_session_film(session);
-    pm_progressive *p = pm_session_progressive(session);
-    size_t n = (size_t)film->width * film->height;
-    fprintf(f, "%.6f,%u,%llu,", seconds, film->samples, (unsigned long long)session_photons(session));
-    double radius = p ? pm_progressive_radii(p, film).mean : 0.0;
-    if (radius > 0) fprintf(f, "%.6g", radius);
-    if (scratch) pm_film_resolve_total(film, scratch);
-    log_errors(f, scratch, (float *const *)ref->rgb, n, ref->known);
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        if (scratch && ref->layer[c][0]) pm_film_resolve(film, (pm_component)c, scratch);
-        log_errors(f, scratch, (float *const *)ref->layer[c], n, ref->known);
-    }
-    fputc('\n', f);
-}
-
 /* Renders to --iterations or --time, then writes the file; SIGINT and SIGTERM end the loop after
  * the iteration under way, and the image so far is written before exiting 130 or 143. */
-static int run_snapshot(const options *opt, pm_session *session, const reference_image *reference) {
+static int run_snapshot(const options *opt, pm_session *session, const pm_reference_image *reference) {
     char err[1024];
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
@@ -563,7 +439,7 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
             free(scratch);
             return 1;
         }
-        log_header(log);
+        pm_log_header(log);
     }
     /* the log's seconds: time inside the iterations, the log's own measuring left out */
     double rendered = 0.0;
@@ -589,12 +465,12 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
             if (log) fclose(log);
             return 1;
         }
-        if (log && log_wanted(film->samples)) {
-            log_row(log, session, reference, scratch, rendered);
+        if (log && pm_log_wanted(film->samples)) {
+            pm_log_row(log, session, session_photons(session), reference, scratch, rendered);
             logged = film->samples;
         }
         if (scratch && opt->stats && film->samples == next_progress) {
-            double ratio[3], e = relative_mse(film, reference, scratch, ratio);
+            double ratio[3], e = pm_reference_relmse(film, reference, scratch, ratio);
             printf("stat progress iterations=%u seconds=%.4f relmse=%.6f\n", film->samples, pm_now_seconds() - start, e);
             next_progress *= 2;
         }
@@ -603,7 +479,7 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
                       session_photons(session));
     }
     double seconds = pm_now_seconds() - start;
-    if (log && logged != film->samples && film->samples) log_row(log, session, reference, scratch, rendered);
+    if (log && logged != film->samples && film->samples) pm_log_row(log, session, session_photons(session), reference, scratch, rendered);
     if (log) {
         bool written = !ferror(log);
         if (fclose(log) != 0) written = false;
@@ -637,7 +513,7 @@ static int run_snapshot(const options *opt, pm_session *session, const reference
     if (!opt->quiet) printf("pmview: wrote %s (%dx%d, %u iterations, %.2f s)%s\n", opt->snapshot, film->width, film->height,
                             film->samples, seconds, interrupted_by ? ", interrupted: the image so far" : "");
     if (scratch) {
-        double ratio[3], e = relative_mse(film, reference, scratch, ratio);
+        double ratio[3], e = pm_reference_relmse(film, reference, scratch, ratio);
         printf("stat error iterations=%u seconds=%.4f relmse=%.6f mean_ratio_r=%.4f mean_ratio_g=%.4f mean_ratio_b=%.4f\n",
                film->samples, seconds, e, ratio[0], ratio[1], ratio[2]);
     }
@@ -816,118 +692,6 @@ static int run_window(const options *opt, const pm_scene *scene, const pm_accel 
     return 0;
 }
 
-static void print_final_stats(const options *opt, pm_session *session, const pm_accel *accel) {
-    if (!opt->stats) return;
-    const pm_film *film = pm_session_film(session);
-    pm_eye_stats eye_stats;
-    pm_progressive *progressive = pm_session_progressive(session);
-    if (progressive) {
-        const pm_progressive_stats *ps = pm_progressive_get_stats(progressive);
-        eye_stats = ps->eye;
-        const pm_photon_stats *ph = &ps->photons;
-        printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f kdtree_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f dropped=%llu\n",
-               (unsigned long long)ph->emitted, (unsigned long long)ph->stored_caustic,
-               (unsigned long long)ph->stored_global, (unsigned long long)ph->rays, ph->seconds, ph->trace_seconds,
-               ph->kdtree_seconds, ph->trace_seconds > 0 ? ph->emitted / ph->trace_seconds : 0.0, sizeof(pm_photon),
-               pm_progressive_projection_fraction(progressive), (unsigned long long)ph->dropped);
-        pm_radius_summary r = pm_progressive_radii(progressive, film);
-        printf("stat progressive iterations=%u photons_per_iteration=%llu alpha=%.4f radius_initial=%.6g radius_mean=%.6g radius_min=%.6g radius_max=%.6g gather_radius=%.6g gather_seconds=%.4f photons_found=%llu\n",
-               film->samples, (unsigned long long)(film->samples ? ph->emitted / film->samples : 0), opt->alpha,
-               r.initial_mean, r.mean, r.min, r.max, r.gather, ps->gather_seconds,
-               (unsigned long long)ps->photons_found);
-    } else {
-        eye_stats = *pm_session_classic_eye_stats(session);
-        const pm_photon_maps *maps = pm_session_classic_maps(session);
-        const pm_photon_stats *pst = pm_session_classic_photon_stats(session);
-        if (maps && (maps->global.count || maps->caustic.count || pst->emitted)) {
-            printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f dropped=%llu\n",
-                   (unsigned long long)pst->emitted, (unsigned long long)pst->stored_caustic,
-                   (unsigned long long)pst->stored_global, (unsigned long long)pst->rays, pst->seconds, pst->trace_seconds,
-                   pst->trace_seconds > 0 ? pst->emitted / pst->trace_seconds : 0.0, sizeof(pm_photon), maps->projection_fraction,
-                   (unsigned long long)pst->dropped);
-            printf("stat kdtree seconds=%.4f caustic_photons=%zu caustic_bytes=%zu global_photons=%zu global_bytes=%zu\n", pst->kdtree_seconds,
-                   maps->caustic.count, pm_kdtree_bytes(&maps->caustic), maps->global.count, pm_kdtree_bytes(&maps->global));
-            printf("stat irradiance seconds=%.4f points=%zu bytes=%zu\n", pst->irradiance_seconds, maps->irradiance.count,
-                   pm_kdtree_bytes(&maps->irradiance));
-        }
-    }
-    const pm_shadow_stats *sh = pm_session_shadow_stats(session);
-    printf("stat shadow_photons built=%d reason=%s lights=%u photons=%llu records=%llu rays=%llu cells=%zu bytes=%zu cell_size=%.6g spacing=%.6g seconds=%.4f probe_decided=%.3f probe_lookup_ns=%.1f probe_ray_ns=%.1f\n",
-           sh->built, sh->built ? "none" : (sh->reason ? sh->reason : "not_reached"), sh->lights,
-           (unsigned long long)sh->photons, (unsigned long long)sh->records, (unsigned long long)sh->rays, sh->cells,
-           sh->bytes, sh->cell_size, sh->spacing, sh->seconds, sh->probe_decided, sh->probe_lookup_ns, sh->probe_ray_ns);
-    if (opt->pathtrace) {
-        double paths = (double)film->samples * film->width * film->height;
-        printf("stat pathtrace iterations=%u paths=%.0f rays=%llu seconds=%.4f rays_per_second=%.0f paths_per_second=%.0f mean_path_vertices=%.4f roulette_vertex=%d max_survival=%.2f\n",
-               film->samples, paths, (unsigned long long)eye_stats.rays, eye_stats.seconds,
-               eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, eye_stats.seconds > 0 ? paths / eye_stats.seconds : 0.0,
-               paths > 0 ? eye_stats.path_vertices / paths : 0.0, PM_PATHTRACE_ROULETTE_VERTEX, PM_PATHTRACE_MAX_SURVIVAL);
-    }
-    printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu shadow_rays=%llu shadow_rays_saved=%llu\n",
-           film->samples, (unsigned long long)eye_stats.rays, eye_stats.seconds,
-           eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, opt->threads,
-           (unsigned long long)eye_stats.dropped_samples, (unsigned long long)eye_stats.shadow_rays,
-           (unsigned long long)eye_stats.shadow_rays_saved);
-    printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu limit_bytes=%llu checked_allocations=%llu\n",
-           peak_rss_bytes(), pm_film_bytes(film), pm_accel_bytes(accel), (unsigned long long)pm_memory_limit(),
-           (unsigned long long)pm_memory_allocations());
-}
-
-/* The environment: --sky when given; else the gradient for a file without punctual lights,
- * unless its emitters enclose the view (a closed room lit from inside); else none. Warns when
- * the default is added and when the camera is shut in by geometry that no light is inside. */
-static bool choose_sky(const options *opt, pm_scene *scene, const pm_accel *accel, const pm_camera *camera, float aspect) {
-    float view_fraction, around_fraction;
-    pm_eye_enclosure(scene, accel, camera, aspect, &view_fraction, &around_fraction);
-    const char *sky = opt->sky;
-    if (!sky) {
-        bool emitters_enclose = scene->emitter_count > 0 && view_fraction >= PM_VIEW_ENCLOSED_FRACTION;
-        sky = opt->no_default_light || scene->light_count > 0 || emitters_enclose ? "none" : "gradient";
-        if (!strcmp(sky, "gradient") && !opt->quiet)
-            fprintf(stderr, "pmview: warning: %s: %s; lighting it with the default gradient sky (--sky none|white|gradient|FILE chooses)\n",
-                    opt->scene_path, scene->emitter_count ? "no punctual light, and its emitters do not enclose the view" : "the scene has no light");
-    }
-    char err[1024];
-    if (!strcmp(sky, "none")) {
-        pm_scene_set_sky(scene, false, v3s(0.f), NULL);
-    } else if (!strcmp(sky, "white")) {
-        pm_scene_set_sky(scene, true, v3s(1.f), NULL);
-    } else {
-        pm_sky_map *map = NULL;
-        if (!strcmp(sky, "gradient")) {
-            map = pm_sky_map_gradient(err, sizeof err);
-        } else {
-            int w = 0, h = 0;
-            float *rgb = pm_read_environment(sky, &w, &h, err, sizeof err);
-            if (rgb) {
-                char inner[512];
-                map = pm_sky_map_create(w, h, rgb, inner, sizeof inner);
-                if (!map) snprintf(err, sizeof err, "%s: %s", sky, inner);
-                free(rgb);
-            }
-        }
-        if (!map) { fprintf(stderr, "pmview: error: %s\n", err); return false; }
-        pm_scene_set_sky(scene, true, v3s(1.f), map);
-    }
-    if (!opt->quiet && scene->emitter_count == 0 && scene->light_count == 0 && around_fraction >= PM_CAMERA_ENCLOSED_FRACTION)
-        fprintf(stderr, "pmview: warning: %s: the camera is shut in by geometry (%.0f%% of the directions around it) and no light is inside: %s\n",
-                opt->scene_path, 100.0 * around_fraction,
-                scene->sky ? "the environment lies outside and the image will be dark" : "the image will be black");
-    double reflective = pm_scene_reflective_area_fraction(scene, PM_ENERGY_CONSERVING_ALBEDO);
-    if (!opt->quiet && around_fraction >= PM_CAMERA_ENCLOSED_FRACTION && (scene->emitter_count || scene->light_count) &&
-        reflective >= 0.5)
-        fprintf(stderr, "pmview: warning: %s: a closed room that conserves energy (%.0f%% of the surface reflects %.0f%% or more; "
-                "glTF's default material is white): light does not die out by itself, so photon paths end by Russian roulette "
-                "capped at %.0f%% survival or after %d bounces, and renders are slower and noisier than usual\n",
-                opt->scene_path, 100.0 * reflective, 100.0 * PM_ENERGY_CONSERVING_ALBEDO, 100.0 * PM_PHOTON_MAX_SURVIVAL,
-                PM_DEFAULT_MAX_PHOTON_BOUNCES);
-    if (opt->stats)
-        printf("stat sky kind=%s view_enclosed=%.3f camera_enclosed=%.3f\n",
-               !scene->sky ? "none" : (!scene->sky_map ? "white" : (!strcmp(sky, "gradient") ? "gradient" : "map")),
-               view_fraction, around_fraction);
-    return true;
-}
-
 int main(int argc, char **argv) {
     process_start = pm_now_seconds();
     options opt;
@@ -964,12 +728,7 @@ int main(int argc, char **argv) {
         pm_scene_free(&scene);
         return 1;
     }
-    if (opt.stats) {
-        printf("stat load seconds=%.4f triangles=%u vertices=%u materials=%u lights=%u emissive_triangles=%u textures=%u cameras=%u skipped_degenerate=%u skipped_primitives=%u ignored_inputs=%u unit_scale=%.9g recentered=%d\n",
-               report.seconds, scene.triangle_count, scene.vertex_count, scene.material_count, scene.light_count,
-               scene.emitter_count, scene.texture_count, scene.camera_count, report.skipped_degenerate,
-               report.skipped_primitives, report.ignored_inputs, report.unit_scale, report.recentered);
-    }
+    if (opt.stats) pm_print_load_stats(&report, &scene);
     /* the options' lengths are in the file's units; the loader may have rescaled the scene */
     opt.radius *= report.unit_scale;
     opt.max_radius *= report.unit_scale;
@@ -977,7 +736,7 @@ int main(int argc, char **argv) {
     int exit_code = 0;
     pm_accel *accel = NULL;
     pm_session *session = NULL;
-    reference_image reference;
+    pm_reference_image reference;
     memset(&reference, 0, sizeof reference);
 
     pm_camera camera;
@@ -1000,26 +759,19 @@ int main(int argc, char **argv) {
 
     accel = pm_accel_create(&scene, err, sizeof err);
     if (!accel) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
-    if (opt.stats)
-        printf("stat bvh seconds=%.4f bytes=%zu alpha_tested_triangles=%u\n", pm_accel_build_seconds(accel),
-               pm_accel_bytes(accel), pm_accel_alpha_tested_triangles(accel));
-    if (!choose_sky(&opt, &scene, accel, &camera, (float)width / height)) { exit_code = 1; goto done; }
-    if (opt.stats) print_analysis_stats(&scene);
+    if (opt.stats) pm_print_bvh_stats(accel);
+    pm_sky_request sky = {.sky = opt.sky, .no_default_light = opt.no_default_light, .scene_path = opt.scene_path,
+                          .quiet = opt.quiet, .stats = opt.stats};
+    if (!pm_choose_sky(&sky, &scene, accel, &camera, (float)width / height)) { exit_code = 1; goto done; }
+    if (opt.stats) pm_print_analysis_stats(&scene);
 
     pm_session_config config;
     if (!configure(&opt, &scene, accel, width, height, &config)) { exit_code = 1; goto done; }
     session = pm_session_create(&scene, accel, &camera, &config, err, sizeof err);
     if (!session) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
-    if (opt.stats) {
-        const pm_film *film = pm_session_film(session);
-        printf("stat film width=%d height=%d bytes=%zu buffers=", width, height, pm_film_bytes(film));
-        bool first = true;
-        for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-            if (film->sum[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }
-        printf("%s\n", first ? "none" : "");
-    }
+    if (opt.stats) pm_print_film_stats(pm_session_film(session));
     if (opt.reference) {
-        if (!load_reference(opt.reference, opt.log != NULL, &reference, err, sizeof err)) {
+        if (!pm_reference_load(opt.reference, opt.log != NULL, &reference, err, sizeof err)) {
             fprintf(stderr, "pmview: error: %s\n", err);
             exit_code = 1;
             goto done;
@@ -1033,10 +785,10 @@ int main(int argc, char **argv) {
     }
     exit_code = window ? run_window(&opt, &scene, accel, &session, &config, &camera) : run_snapshot(&opt, session, &reference);
     if (exit_code == 1) goto done;
-    print_final_stats(&opt, session, accel);
+    if (opt.stats) pm_print_final_stats(session, accel, opt.threads, opt.alpha, opt.pathtrace);
 
 done:
-    free_reference(&reference);
+    pm_reference_free(&reference);
     pm_session_destroy(session);
     pm_accel_destroy(accel);
     pm_scene_free(&scene);

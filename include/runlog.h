@@ -1,0 +1,39 @@
+/* runlog.h: the per-iteration CSV log of a snapshot (--log) and the error against a reference image (--reference).
+ *
+ * The log's columns: seconds, iterations, photons, mean_radius, then relMSE, RMSE and relative
+ * bias of the total and of each component layer (empty fields where the reference lacks them).
+ */
+#ifndef PM_RUNLOG_H
+#define PM_RUNLOG_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include "film.h"
+#include "session.h"
+
+/* The reference's R, G, B planes, for --reference, and (for --log) the planes of each component
+ * layer it has (direct.R, ...; NULL when the file lacks one of the layer's channels). */
+/* known: NULL when every pixel is compared, else 1 for the pixels whose R, G and B are finite (a
+ * reference marks the pixels it cannot vouch for NaN; they are left out of every measure) */
+typedef struct { float *rgb[3]; float *layer[PM_COMPONENT_COUNT][3]; unsigned char *known; int width, height; } pm_reference_image;
+
+/* False with err set when the file cannot be read, memory runs out or no pixel is finite; the
+ * caller frees ref with pm_reference_free either way. */
+bool pm_reference_load(const char *path, bool with_layers, pm_reference_image *ref, char *err, size_t err_size);
+void pm_reference_free(pm_reference_image *ref);
+/* relMSE = mean over pixels and channels of (x - r)^2 / (r^2 + 0.01) (the 0.01 keeps black
+ * pixels from dominating), and each channel's mean over the reference's mean. scratch: 3 floats
+ * a pixel. */
+double pm_reference_relmse(const pm_film *film, const pm_reference_image *ref, float *scratch, double mean_ratio[3]);
+
+/* Whether iteration gets a row: every one up to PM_LOG_EVERY_ITERATION_UNTIL, then the powers of two. */
+bool pm_log_wanted(uint32_t iteration);
+void pm_log_header(FILE *f);
+/* One row: the film as it is after `seconds` of rendering, `photons` emitted so far. scratch: 3
+ * floats a pixel, or NULL without a reference. */
+void pm_log_row(FILE *f, pm_session *session, uint64_t photons, const pm_reference_image *ref, float *scratch,
+                double seconds);
+
+#endif

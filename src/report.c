@@ -1,0 +1,104 @@
+/* report.c: the `stat STAGE key=value ...` lines of --stats for each stage of a run (an interface: keys are only ever added). */
+#include <stdio.h>
+#include <sys/resource.h>
+
+#include "defaults.h"
+#include "kdtree.h"
+#include "memory.h"
+#include "photonmap.h"
+#include "progressive.h"
+#include "report.h"
+
+static long peak_rss_bytes(void) {
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return ru.ru_maxrss * 1024L;
+}
+
+void pm_print_load_stats(const pm_load_report *report, const pm_scene *scene) {
+    printf("stat load seconds=%.4f triangles=%u vertices=%u materials=%u lights=%u emissive_triangles=%u textures=%u cameras=%u skipped_degenerate=%u skipped_primitives=%u ignored_inputs=%u unit_scale=%.9g recentered=%d\n",
+           report->seconds, scene->triangle_count, scene->vertex_count, scene->material_count, scene->light_count,
+           scene->emitter_count, scene->texture_count, scene->camera_count, report->skipped_degenerate,
+           report->skipped_primitives, report->ignored_inputs, report->unit_scale, report->recentered);
+}
+
+void pm_print_bvh_stats(const pm_accel *accel) {
+    printf("stat bvh seconds=%.4f bytes=%zu alpha_tested_triangles=%u\n", pm_accel_build_seconds(accel),
+           pm_accel_bytes(accel), pm_accel_alpha_tested_triangles(accel));
+}
+
+void pm_print_analysis_stats(const pm_scene *s) {
+    const pm_scene_analysis *a = &s->analysis;
+    printf("stat analysis diffuse=%d mirror=%d glass=%d textures=%d emissive_triangles=%d punctual_lights=%d sky=%d caustics_possible=%d interreflection_possible=%d photons_needed=%d glossy=%d components=",
+           a->has_diffuse, a->has_mirror, a->has_glass, a->has_textures, a->has_emissive_triangles,
+           a->has_punctual_lights, a->has_sky, a->caustics_possible, a->interreflection_possible,
+           a->component_possible[PM_CAUSTIC] || a->component_possible[PM_INDIRECT], a->has_glossy);
+    bool first = true;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (a->component_possible[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }
+    printf("%s non_opaque=%d\n", first ? "none" : "", a->has_non_opaque);
+}
+
+void pm_print_film_stats(const pm_film *film) {
+    printf("stat film width=%d height=%d bytes=%zu buffers=", film->width, film->height, pm_film_bytes(film));
+    bool first = true;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (film->sum[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }
+    printf("%s\n", first ? "none" : "");
+}
+
+void pm_print_final_stats(pm_session *session, const pm_accel *accel, int threads, double alpha, bool pathtrace) {
+    const pm_film *film = pm_session_film(session);
+    pm_eye_stats eye_stats;
+    pm_progressive *progressive = pm_session_progressive(session);
+    if (progressive) {
+        const pm_progressive_stats *ps = pm_progressive_get_stats(progressive);
+        eye_stats = ps->eye;
+        const pm_photon_stats *ph = &ps->photons;
+        printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f kdtree_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f dropped=%llu\n",
+               (unsigned long long)ph->emitted, (unsigned long long)ph->stored_caustic,
+               (unsigned long long)ph->stored_global, (unsigned long long)ph->rays, ph->seconds, ph->trace_seconds,
+               ph->kdtree_seconds, ph->trace_seconds > 0 ? ph->emitted / ph->trace_seconds : 0.0, sizeof(pm_photon),
+               pm_progressive_projection_fraction(progressive), (unsigned long long)ph->dropped);
+        pm_radius_summary r = pm_progressive_radii(progressive, film);
+        printf("stat progressive iterations=%u photons_per_iteration=%llu alpha=%.4f radius_initial=%.6g radius_mean=%.6g radius_min=%.6g radius_max=%.6g gather_radius=%.6g gather_seconds=%.4f photons_found=%llu\n",
+               film->samples, (unsigned long long)(film->samples ? ph->emitted / film->samples : 0), alpha,
+               r.initial_mean, r.mean, r.min, r.max, r.gather, ps->gather_seconds,
+               (unsigned long long)ps->photons_found);
+    } else {
+        eye_stats = *pm_session_classic_eye_stats(session);
+        const pm_photon_maps *maps = pm_session_classic_maps(session);
+        const pm_photon_stats *pst = pm_session_classic_photon_stats(session);
+        if (maps && (maps->global.count || maps->caustic.count || pst->emitted)) {
+            printf("stat photons emitted=%llu caustic=%llu global=%llu rays=%llu seconds=%.4f trace_seconds=%.4f photons_per_second=%.0f bytes_per_photon=%zu projection_fraction=%.4f dropped=%llu\n",
+                   (unsigned long long)pst->emitted, (unsigned long long)pst->stored_caustic,
+                   (unsigned long long)pst->stored_global, (unsigned long long)pst->rays, pst->seconds, pst->trace_seconds,
+                   pst->trace_seconds > 0 ? pst->emitted / pst->trace_seconds : 0.0, sizeof(pm_photon), maps->projection_fraction,
+                   (unsigned long long)pst->dropped);
+            printf("stat kdtree seconds=%.4f caustic_photons=%zu caustic_bytes=%zu global_photons=%zu global_bytes=%zu\n", pst->kdtree_seconds,
+                   maps->caustic.count, pm_kdtree_bytes(&maps->caustic), maps->global.count, pm_kdtree_bytes(&maps->global));
+            printf("stat irradiance seconds=%.4f points=%zu bytes=%zu\n", pst->irradiance_seconds, maps->irradiance.count,
+                   pm_kdtree_bytes(&maps->irradiance));
+        }
+    }
+    const pm_shadow_stats *sh = pm_session_shadow_stats(session);
+    printf("stat shadow_photons built=%d reason=%s lights=%u photons=%llu records=%llu rays=%llu cells=%zu bytes=%zu cell_size=%.6g spacing=%.6g seconds=%.4f probe_decided=%.3f probe_lookup_ns=%.1f probe_ray_ns=%.1f\n",
+           sh->built, sh->built ? "none" : (sh->reason ? sh->reason : "not_reached"), sh->lights,
+           (unsigned long long)sh->photons, (unsigned long long)sh->records, (unsigned long long)sh->rays, sh->cells,
+           sh->bytes, sh->cell_size, sh->spacing, sh->seconds, sh->probe_decided, sh->probe_lookup_ns, sh->probe_ray_ns);
+    if (pathtrace) {
+        double paths = (double)film->samples * film->width * film->height;
+        printf("stat pathtrace iterations=%u paths=%.0f rays=%llu seconds=%.4f rays_per_second=%.0f paths_per_second=%.0f mean_path_vertices=%.4f roulette_vertex=%d max_survival=%.2f\n",
+               film->samples, paths, (unsigned long long)eye_stats.rays, eye_stats.seconds,
+               eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, eye_stats.seconds > 0 ? paths / eye_stats.seconds : 0.0,
+               paths > 0 ? eye_stats.path_vertices / paths : 0.0, PM_PATHTRACE_ROULETTE_VERTEX, PM_PATHTRACE_MAX_SURVIVAL);
+    }
+    printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu shadow_rays=%llu shadow_rays_saved=%llu\n",
+           film->samples, (unsigned long long)eye_stats.rays, eye_stats.seconds,
+           eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, threads,
+           (unsigned long long)eye_stats.dropped_samples, (unsigned long long)eye_stats.shadow_rays,
+           (unsigned long long)eye_stats.shadow_rays_saved);
+    printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu limit_bytes=%llu checked_allocations=%llu\n",
+           peak_rss_bytes(), pm_film_bytes(film), pm_accel_bytes(accel), (unsigned long long)pm_memory_limit(),
+           (unsigned long long)pm_memory_allocations());
+}

@@ -1,0 +1,108 @@
+/* runlog.c: the per-iteration CSV log of a snapshot (--log) and the error against a reference image (--reference). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "defaults.h"
+#include "image_io.h"
+#include "progressive.h"
+#include "runlog.h"
+
+bool pm_reference_load(const char *path, bool with_layers, pm_reference_image *ref, char *err, size_t err_size) {
+    static const char *const names[3] = {"R", "G", "B"};
+    memset(ref, 0, sizeof *ref);
+    for (int c = 0; c < 3; c++) {
+        int w, h;
+        ref->rgb[c] = pm_read_exr_channel(path, names[c], &w, &h, err, err_size);
+        if (!ref->rgb[c]) return false;
+        ref->width = w;
+        ref->height = h;
+    }
+    size_t n = (size_t)ref->width * ref->height, known = 0;
+    for (size_t i = 0; i < n; i++) {
+        bool finite = isfinite(ref->rgb[0][i]) && isfinite(ref->rgb[1][i]) && isfinite(ref->rgb[2][i]);
+        if (!finite && !ref->known) {
+            ref->known = malloc(n);
+            if (!ref->known) { snprintf(err, err_size, "%s: out of memory (reference mask)", path); return false; }
+            memset(ref->known, 1, i);
+        }
+        if (ref->known) ref->known[i] = finite;
+        known += finite;
+    }
+    if (!known) { snprintf(err, err_size, "%s: no pixel of the reference is finite", path); return false; }
+    for (int c = 0; c < PM_COMPONENT_COUNT && with_layers; c++) {
+        bool complete = true;
+        for (int k = 0; k < 3 && complete; k++) {
+            char channel[64], ignored[256];
+            int w = 0, h = 0;
+            snprintf(channel, sizeof channel, "%s.%s", pm_component_names[c], names[k]);
+            ref->layer[c][k] = pm_read_exr_channel(path, channel, &w, &h, ignored, sizeof ignored);
+            complete = ref->layer[c][k] && w == ref->width && h == ref->height;
+        }
+        if (complete) continue;
+        for (int k = 0; k < 3; k++) {
+            free(ref->layer[c][k]);
+            ref->layer[c][k] = NULL;
+        }
+    }
+    return true;
+}
+
+void pm_reference_free(pm_reference_image *ref) {
+    free(ref->known);
+    for (int c = 0; c < 3; c++) free(ref->rgb[c]);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        for (int k = 0; k < 3; k++) free(ref->layer[c][k]);
+}
+
+double pm_reference_relmse(const pm_film *film, const pm_reference_image *ref, float *scratch, double mean_ratio[3]) {
+    pm_film_resolve_total(film, scratch);
+    const float *const planes[3] = {ref->rgb[0], ref->rgb[1], ref->rgb[2]};
+    pm_image_error e = pm_image_compare(scratch, planes, (size_t)film->width * film->height, ref->known);
+    for (int c = 0; c < 3; c++) mean_ratio[c] = e.ref[c] != 0 ? e.ours[c] / e.ref[c] : 0.0;
+    return e.relmse;
+}
+
+/* ---- --log: the run as CSV ---- */
+
+static const char *const log_measures[3] = {"relmse", "rmse", "rel_bias"};
+
+bool pm_log_wanted(uint32_t iteration) {
+    return iteration <= PM_LOG_EVERY_ITERATION_UNTIL || (iteration & (iteration - 1)) == 0;
+}
+
+void pm_log_header(FILE *f) {
+    fputs("seconds,iterations,photons,mean_radius", f);
+    for (int part = -1; part < PM_COMPONENT_COUNT; part++)
+        for (int m = 0; m < 3; m++) fprintf(f, ",%s_%s", part < 0 ? "total" : pm_component_names[part], log_measures[m]);
+    fputc('\n', f);
+}
+
+/* relMSE (as --reference), RMSE and relative bias (sum of ours over the reference's, minus 1, all
+ * pixels and channels) of one image; three empty fields without a reference plane, an empty bias
+ * when the reference is black. */
+static void log_errors(FILE *f, const float *rgb, float *const planes[3], size_t pixels, const unsigned char *known) {
+    if (!rgb || !planes[0]) { fputs(",,,", f); return; }
+    pm_image_error e = pm_image_compare(rgb, (const float *const *)planes, pixels, known);
+    double ours = e.ours[0] + e.ours[1] + e.ours[2], ref = e.ref[0] + e.ref[1] + e.ref[2];
+    fprintf(f, ",%.6g,%.6g,", e.relmse, sqrt(e.mse));
+    if (ref != 0) fprintf(f, "%.6g", ours / ref - 1.0);
+}
+
+void pm_log_row(FILE *f, pm_session *session, uint64_t photons, const pm_reference_image *ref, float *scratch,
+                double seconds) {
+    const pm_film *film = pm_session_film(session);
+    pm_progressive *p = pm_session_progressive(session);
+    size_t n = (size_t)film->width * film->height;
+    fprintf(f, "%.6f,%u,%llu,", seconds, film->samples, (unsigned long long)photons);
+    double radius = p ? pm_progressive_radii(p, film).mean : 0.0;
+    if (radius > 0) fprintf(f, "%.6g", radius);
+    if (scratch) pm_film_resolve_total(film, scratch);
+    log_errors(f, scratch, (float *const *)ref->rgb, n, ref->known);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        if (scratch && ref->layer[c][0]) pm_film_resolve(film, (pm_component)c, scratch);
+        log_errors(f, scratch, (float *const *)ref->layer[c], n, ref->known);
+    }
+    fputc('\n', f);
+}
