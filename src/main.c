@@ -52,6 +52,7 @@ typedef struct {
     pm_indirect_mode indirect;
     bool view_photons, no_photons;
     pm_shadow_mode shadow_photons; /* --shadow-photons on|off; default: where they pay */
+    bool caustic_statistics;       /* --caustic-splats off */
     bool classic;         /* --mode classic; else progressive (or pathtrace) */
     bool pathtrace;       /* --mode pathtrace */
     const char *log;      /* --log: CSV of the run, one row per logged iteration */
@@ -94,6 +95,8 @@ static const char usage_text[] =
     "  --no-photons         direct and specular only (no photon pass)\n"
     "  --shadow-photons on|off  shadow photons decide where direct light needs no shadow ray\n"
     "                       (default: on for point, spot and directional lights where they pay)\n"
+    "  --caustic-splats on|off  progressive: the caustic seen directly by connecting caustic photons to\n"
+    "                       the camera (light tracing; default on), or off: from visible-point statistics\n"
     "  --reference REF.exr  measure the total against REF's R,G,B (same size): relMSE and mean ratios;\n"
     "                       with --stats also at iterations 1, 2, 4, 8, ... (an error-against-time curve)\n"
     "  --log FILE.csv       with --snapshot: one CSV row per iteration (then per doubling past 64): seconds,\n"
@@ -165,7 +168,8 @@ static int parse_options(int argc, char **argv, options *o) {
                                              "--seed", "--camera", "--exposure", "--screenshot", "--mode", "--photons",
                                              "--caustic-photons", "--k", "--max-radius", "--kernel", "--indirect",
                                              "--gather-rays", "--view", "--precompute", "--reference", "--alpha",
-                                             "--radius", "--components", "--sky", "--log", "--shadow-photons", "--max-memory"};
+                                             "--radius", "--components", "--sky", "--log", "--shadow-photons", "--max-memory",
+                                             "--caustic-splats"};
         int which = -1;
         for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
             if (!strcmp(a, valued[k])) which = k;
@@ -228,6 +232,11 @@ static int parse_options(int argc, char **argv, options *o) {
         case 18: if (strcmp(v, "photons")) return usage_error("unknown --view '%s' (photons)", v); o->view_photons = true; break;
         case 21: if (!parse_double(v, 1e-3, 0.999, &x)) return usage_error("bad --alpha '%s' (0.001 to 0.999)", v); o->alpha = x; break;
         case 22: if (!parse_double(v, 1e-30, 1e30, &x)) return usage_error("bad --radius '%s' (> 0, scene units)", v); o->radius = x; break;
+        case 28:
+            if (!strcmp(v, "on")) o->caustic_statistics = false;
+            else if (!strcmp(v, "off")) o->caustic_statistics = true;
+            else return usage_error("unknown --caustic-splats '%s' (on, off)", v);
+            break;
         case 27: if (!pm_memory_parse_size(v, &o->max_memory)) return usage_error("bad --max-memory '%s' (bytes, or with K, M, G, T)", v); break;
         case 23: {
             o->components_given = true;
@@ -302,12 +311,14 @@ static bool configure(const options *opt, const pm_scene *scene, const pm_accel 
         pp->alpha = opt->alpha;
         pp->initial_radius = opt->radius;
         pp->indirect = opt->indirect;
+        pp->caustic_by_statistics = opt->caustic_statistics;
         if (opt->stats)
-            printf("stat progressive_setup photon_pass=%d caustic_photons=%llu global_photons=%llu indirect=%s\n",
+            printf("stat progressive_setup photon_pass=%d caustic_photons=%llu global_photons=%llu indirect=%s caustic_splats=%d\n",
                    (scene->analysis.component_possible[PM_CAUSTIC] && pp->caustic_photons) ||
                        (scene->analysis.component_possible[PM_INDIRECT] && pp->photons),
                    (unsigned long long)pp->caustic_photons, (unsigned long long)pp->photons,
-                   opt->indirect == PM_INDIRECT_GATHER ? "gather" : "photons");
+                   opt->indirect == PM_INDIRECT_GATHER ? "gather" : "photons",
+                   scene->analysis.component_possible[PM_CAUSTIC] && pp->caustic_photons && !opt->caustic_statistics);
         return true;
     }
     config->mode = PM_MODE_CLASSIC;
