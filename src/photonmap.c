@@ -382,23 +382,29 @@ typedef struct { pm_photon *data; uint32_t count, capacity; bool failed; pass *p
 
 static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings *settings, int threads);
 
-static void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path) {
-    if (list->count == list->capacity) {
-        if (list->failed) return;
-        uint32_t capacity = list->capacity ? 2 * list->capacity : 2 * CHUNK; /* about one record per photon traced */
-        /* the pass's storage bound, counted as chunks grow (whether it is crossed does not depend on the threads) */
-        uint64_t records = atomic_fetch_add(&list->ps->records, capacity - list->capacity) + (capacity - list->capacity);
-        if (records > list->ps->record_limit) {
-            pm_memory_admit(2 * records * sizeof(pm_photon), "photon records of one pass and their merged copy");
-            list->failed = true;
-            atomic_store(&list->ps->out_of_memory, true);
-            return;
-        }
-        pm_photon *grown = pm_realloc(list->data, sizeof(pm_photon) * capacity, "photon records of a chunk");
-        if (!grown) { list->failed = true; atomic_store(&list->ps->out_of_memory, true); return; }
-        list->data = grown;
-        list->capacity = capacity;
+/* Doubles a chunk's record list; false (the pass has failed) past the pass's storage bound or
+ * when memory runs out. */
+static bool grow(photon_list *list) {
+    if (list->failed) return false;
+    uint32_t capacity = list->capacity ? 2 * list->capacity : 2 * CHUNK; /* about one record per photon traced */
+    /* the pass's storage bound, counted as chunks grow (whether it is crossed does not depend on the threads) */
+    uint64_t records = atomic_fetch_add(&list->ps->records, capacity - list->capacity) + (capacity - list->capacity);
+    if (records > list->ps->record_limit) {
+        pm_memory_admit(2 * records * sizeof(pm_photon), "photon records of one pass and their merged copy");
+        list->failed = true;
+        atomic_store(&list->ps->out_of_memory, true);
+        return false;
     }
+    pm_photon *grown = pm_realloc(list->data, sizeof(pm_photon) * capacity, "photon records of a chunk");
+    if (!grown) { list->failed = true; atomic_store(&list->ps->out_of_memory, true); return false; }
+    list->data = grown;
+    list->capacity = capacity;
+    return true;
+}
+
+/* Inline, the growth out of line: a record at every diffuse hit. */
+static inline void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path) {
+    if (list->count == list->capacity && !grow(list)) return;
     pm_photon_set(&list->data[list->count++], p, n, d, power, path);
 }
 
