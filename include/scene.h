@@ -226,44 +226,53 @@ static inline vec3 pm_offset_surface_origin(vec3 p, vec3 centroid, vec3 side_nor
 /* Fills a surface from a triangle id and Embree-style barycentrics (b1, b2). */
 void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);
 
-/* The geometric part of a surface record, given the unit face normal ng: p, ng, ns (interpolated,
- * on ng's side, before any normal map), centroid and material. pm_scene_surface starts with it. */
-static inline void pm_scene_surface_geometry(const pm_scene *s, uint32_t tri, float b1, float b2, vec3 ng,
-                                             pm_surface *out) {
+/* The geometric part of a surface record in two steps: the point, the unit face normal ng (given)
+ * and the material, then the shading normal (interpolated, on ng's side, before any normal map)
+ * and the centroid. pm_scene_surface makes both; the photon pass makes the second only for a
+ * path that goes on from the hit. */
+static inline void pm_scene_surface_point(const pm_scene *s, uint32_t tri, float b1, float b2, vec3 ng, pm_surface *out) {
     const uint32_t *ix = s->indices + 3 * (size_t)tri;
     float b0 = 1.f - b1 - b2;
     vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
     out->p = v3_add(v3_add(v3_scale(p0, b0), v3_scale(p1, b1)), v3_scale(p2, b2));
     out->ng = ng;
+    out->material = s->triangle_material[tri];
+}
+static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    float b0 = 1.f - b1 - b2;
     vec3 n = v3_add(v3_add(v3_scale(s->normals[ix[0]], b0), v3_scale(s->normals[ix[1]], b1)),
                     v3_scale(s->normals[ix[2]], b2));
     n = v3_normalize(n);
     /* Shading normals that disagree with the winding would light back faces: trust the winding. */
-    out->ns = v3_dot(n, ng) < 0.f ? v3_neg(n) : n;
+    out->ns = v3_dot(n, out->ng) < 0.f ? v3_neg(n) : n;
+    vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
     out->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
-    out->material = s->triangle_material[tri];
 }
 
 /* The fields of pm_scene_surface that light transport reads (p, ng, ns, centroid, material, kd,
- * ks, kt, glossy, brdf, ior; not u, v, emission, double_sided), with the same values. For a
- * material with a uniform split and no normal map in effect they are the geometry and the
- * material's constants: inline, no texture coordinate, for the photon pass's every hit; any
- * other material takes pm_scene_surface. */
-static inline void pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
+ * ks, kt, glossy, brdf, ior; not u, v, emission, double_sided), with the same values, for a
+ * tracer that often ends its path at the hit. For a material with a uniform split and no normal
+ * map in effect they are the geometry and the material's constants: inline, no texture
+ * coordinate, and ns and centroid are left to pm_scene_surface_shading (returns true: the
+ * caller makes them before it reads them); any other material takes pm_scene_surface (false). */
+static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
     const pm_material *m = &s->materials[s->triangle_material[tri]];
     bool normal_mapped = m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents;
     if (!m->uniform_split || normal_mapped || !s->face_normals) {
         pm_scene_surface(s, tri, b1, b2, out);
-        return;
+        return false;
     }
-    pm_scene_surface_geometry(s, tri, b1, b2, s->face_normals[tri], out);
+    pm_scene_surface_point(s, tri, b1, b2, s->face_normals[tri], out);
     out->kd = m->split_kd;
     out->ks = m->split_ks;
     out->kt = m->split_kt;
     out->glossy = m->split_glossy;
     if (out->glossy) out->brdf = m->split_brdf;
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
+    return true;
 }
+
 static inline float pm_clamp01(float x) { return x < 0.f ? 0.f : (x > 1.f ? 1.f : x); }
 
 /* Whether a point with these parameters has the glossy (GGX) lobe: some metal, and alpha =

@@ -418,6 +418,13 @@ static uint32_t pick_source(const pass *ps, float u, float *pdf) {
     return lo;
 }
 
+/* The rest of a lean hit record (shading normal, centroid) once the path goes on from the hit;
+ * returns the shading normal on the side of ng, the side the path leaves. */
+static inline vec3 going_on(const pm_scene *s, const pm_hit *h, bool shading_left, vec3 ng, pm_surface *sf) {
+    if (shading_left) pm_scene_surface_shading(s, h->tri, h->b1, h->b2, sf);
+    return v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
+}
+
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
     pass *ps = ctx;
     const pm_scene *s = ps->scene;
@@ -452,10 +459,9 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             rays++;
             if (!pm_accel_intersect(ps->accel, o, d, INFINITY, &h)) break;
             pm_surface sf;
-            pm_scene_surface_lean(s, h.tri, h.b1, h.b2, &sf);
+            bool shading_left = pm_scene_surface_lean(s, h.tri, h.b1, h.b2, &sf);
             if (ps->volumes) power = v3_mul(power, pm_volume_transmittance(s, &sf, d, h.t));
             vec3 ng = facing(sf.ng, v3_neg(d));
-            vec3 ns = v3_dot(sf.ns, ng) < 0.f ? v3_neg(sf.ns) : sf.ns;
             float D = v3_average(sf.kd), Sm = v3_average(sf.ks), St = v3_average(sf.kt);
             if (D > 0.f || sf.glossy) {
                 if (ps->caustic_pass) {
@@ -476,6 +482,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                 float Sg = pm_minf(St, PM_PHOTON_MAX_SURVIVAL);
                 if (x < Sg) {
                     pm_specular_sample sp;
+                    going_on(s, &h, shading_left, ng, &sf);
                     if (!pm_scatter_specular(&sf, d, &rng, s->ray_scale, &sp)) break;
                     power = v3_scale(v3_mul(power, sp.weight), 1.f / Sg);
                     d = sp.direction;
@@ -484,7 +491,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                     continue;
                 }
                 if (ps->caustic_pass) break; /* a glossy bounce ends a caustic path, as a diffuse one does */
-                vec3 wi, f;
+                vec3 ns = going_on(s, &h, shading_left, ng, &sf), wi, f;
                 float pdf;
                 if (!pm_brdf_sample(&sf.brdf, ns, v3_neg(d), pm_rng_float(&rng), pm_rng_float(&rng), pm_rng_float(&rng),
                                     &wi, &f, &pdf) || v3_dot(wi, ng) <= 0.f)
@@ -505,12 +512,14 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             if (x < D) {
                 if (ps->caustic_pass) break; /* a diffuse bounce ends any caustic path */
                 power = v3_scale(v3_mul(power, sf.kd), 1.f / D);
+                vec3 ns = going_on(s, &h, shading_left, ng, &sf);
                 d = pm_sample_cosine(ns, pm_rng_float(&rng), pm_rng_float(&rng));
                 if (v3_dot(d, ng) <= 0.f) break;
                 o = pm_offset_surface_origin(sf.p, sf.centroid, ng, s->ray_scale);
                 diffuse_seen = true;
             } else if (x < D + S) {
                 pm_specular_sample sp;
+                going_on(s, &h, shading_left, ng, &sf);
                 if (!pm_scatter_specular(&sf, d, &rng, s->ray_scale, &sp)) break;
                 power = v3_scale(v3_mul(power, sp.weight), 1.f / S);
                 d = sp.direction;

@@ -578,7 +578,8 @@ void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_su
     float b0 = 1.f - b1 - b2;
     vec3 ng = s->face_normals ? s->face_normals[tri]
                               : face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);
-    pm_scene_surface_geometry(s, tri, b1, b2, ng, out);
+    pm_scene_surface_point(s, tri, b1, b2, ng, out);
+    pm_scene_surface_shading(s, tri, b1, b2, out);
     const pm_material *m = &s->materials[out->material];
     /* texture coordinates only for a textured material: every photon bounce comes through here */
     float uv[2][2] = {{0.f, 0.f}, {0.f, 0.f}};
