@@ -70,12 +70,16 @@ static inline void pm_sincos_turn(float u, float *s, float *c) {
     float cx = 1.f - x2 * (0.5f - x2 * (1.f / 24.f - x2 * (1.f / 720.f - x2 * (1.f / 40320.f))));
     const float h = 0.70710678118654752f; /* angle = x + pi/4 inside the quadrant */
     float sa = h * (sx + cx), ca = h * (cx - sx);
-    switch (q & 3) {
-    case 0: *s = sa; *c = ca; break;
-    case 1: *s = ca; *c = -sa; break;
-    case 2: *s = -sa; *c = -ca; break;
-    default: *s = -ca; *c = sa; break;
-    }
+    /* quadrant q & 3 = 0: (sa, ca), 1: (ca, -sa), 2: (-sa, -ca), 3: (-ca, sa), by bit selects and
+     * sign flips: the quadrant is random, and a branch on it would be mispredicted half the time */
+    uint32_t sb, cb;
+    memcpy(&sb, &sa, 4);
+    memcpy(&cb, &ca, 4);
+    uint32_t swap = 0u - (uint32_t)(q & 1);
+    uint32_t sin_bits = ((cb & swap) | (sb & ~swap)) ^ ((uint32_t)(q & 2) << 30);
+    uint32_t cos_bits = ((sb & swap) | (cb & ~swap)) ^ ((uint32_t)((q + 1) & 2) << 30);
+    memcpy(s, &sin_bits, 4);
+    memcpy(c, &cos_bits, 4);
 }
 
 /* Cosine-distributed direction around n from two uniform numbers. */
