@@ -28,14 +28,26 @@ static inline uint32_t pm_rng_u32(pm_rng *r) {
 /* Uniform float in [0, 1): 24 random bits, so 1.0 is never returned. */
 static inline float pm_rng_float(pm_rng *r) { return (float)(pm_rng_u32(r) >> 8) * (1.f / 16777216.f); }
 
-static inline pm_rng pm_rng_for(uint64_t seed, uint64_t a, uint64_t b) {
+/* What pm_rng_for(seed, a, b) computes from (seed, a) alone: a loop over b (the photons of a
+ * pass) makes it once with pm_rng_family_for and each stream with pm_rng_member, the same numbers. */
+typedef struct { uint64_t inc, mix; } pm_rng_family;
+
+static inline pm_rng_family pm_rng_family_for(uint64_t seed, uint64_t a) {
+    pm_rng_family f;
+    f.inc = (pm_hash64(seed ^ pm_hash64(a + 0x9e3779b97f4a7c15ULL)) << 1u) | 1u;
+    f.mix = pm_hash64(seed + 0x632be59bd9b4e019ULL);
+    return f;
+}
+
+static inline pm_rng pm_rng_member(pm_rng_family f, uint64_t b) {
     pm_rng r;
-    r.state = 0;
-    r.inc = (pm_hash64(seed ^ pm_hash64(a + 0x9e3779b97f4a7c15ULL)) << 1u) | 1u;
-    pm_rng_u32(&r);
-    r.state += pm_hash64(b ^ pm_hash64(seed + 0x632be59bd9b4e019ULL));
+    r.inc = f.inc;
+    r.state = f.inc; /* one step from state 0 */
+    r.state += pm_hash64(b ^ f.mix);
     pm_rng_u32(&r);
     return r;
 }
+
+static inline pm_rng pm_rng_for(uint64_t seed, uint64_t a, uint64_t b) { return pm_rng_member(pm_rng_family_for(seed, a), b); }
 
 #endif

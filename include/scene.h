@@ -201,12 +201,78 @@ typedef struct {
  * edge shared with a wall does not start the next ray inside that wall's plane. */
 vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale);
 
+/* pm_surface_origin from the point and its triangle's centroid alone, inline (the photon pass
+ * starts a ray here at every bounce and emission). The pull toward the centroid must stay in the
+ * triangle's plane: pm_offset_ray_origin's per-coordinate steps (ulps here, a scale step there)
+ * would bend it off the plane by more than the normal offset, and a ray leaving glass would
+ * start back inside. */
+static inline vec3 pm_offset_surface_origin(vec3 p, vec3 centroid, vec3 side_normal, float scale) {
+    vec3 inward = v3_sub(centroid, p);
+    float m = pm_maxf(fabsf(p.x), pm_maxf(fabsf(p.y), fabsf(p.z)));
+    uint32_t bits;
+    memcpy(&bits, &m, 4);
+    bits += 32; /* m + 32 ulps (m is finite and not negative) */
+    float m32;
+    memcpy(&m32, &bits, 4);
+    float len = v3_length(inward), step = pm_minf(0.5f * len, pm_maxf(scale * (1.f / 65536.f), m32 - m));
+    vec3 q = len > 0.f ? v3_madd(p, inward, step / len) : p;
+    return pm_offset_ray_origin(q, side_normal, scale);
+}
+
 /* A normal-mapped shading normal keeps at least this cosine with the geometric normal: ns never
  * tilts to or past the surface's plane, so shading cannot light its back (see pm_scene_surface). */
 #define PM_NORMAL_MAP_MIN_COS 0.05f
 
 /* Fills a surface from a triangle id and Embree-style barycentrics (b1, b2). */
 void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);
+
+/* The geometric part of a surface record in two steps: the point, the unit face normal ng (given)
+ * and the material, then the shading normal (interpolated, on ng's side, before any normal map)
+ * and the centroid. pm_scene_surface makes both; the photon pass makes the second only for a
+ * path that goes on from the hit. */
+static inline void pm_scene_surface_point(const pm_scene *s, uint32_t tri, float b1, float b2, vec3 ng, pm_surface *out) {
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    float b0 = 1.f - b1 - b2;
+    vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
+    out->p = v3_add(v3_add(v3_scale(p0, b0), v3_scale(p1, b1)), v3_scale(p2, b2));
+    out->ng = ng;
+    out->material = s->triangle_material[tri];
+}
+static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    float b0 = 1.f - b1 - b2;
+    vec3 n = v3_add(v3_add(v3_scale(s->normals[ix[0]], b0), v3_scale(s->normals[ix[1]], b1)),
+                    v3_scale(s->normals[ix[2]], b2));
+    n = v3_normalize(n);
+    /* Shading normals that disagree with the winding would light back faces: trust the winding. */
+    out->ns = v3_dot(n, out->ng) < 0.f ? v3_neg(n) : n;
+    vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
+    out->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
+}
+
+/* The fields of pm_scene_surface that light transport reads (p, ng, ns, centroid, material, kd,
+ * ks, kt, glossy, brdf, ior; not u, v, emission, double_sided), with the same values, for a
+ * tracer that often ends its path at the hit. For a material with a uniform split and no normal
+ * map in effect they are the geometry and the material's constants: inline, no texture
+ * coordinate, and ns and centroid are left to pm_scene_surface_shading (returns true: the
+ * caller makes them before it reads them); any other material takes pm_scene_surface (false). */
+static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
+    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    bool normal_mapped = m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents;
+    if (!m->uniform_split || normal_mapped || !s->face_normals) {
+        pm_scene_surface(s, tri, b1, b2, out);
+        return false;
+    }
+    pm_scene_surface_point(s, tri, b1, b2, s->face_normals[tri], out);
+    out->kd = m->split_kd;
+    out->ks = m->split_ks;
+    out->kt = m->split_kt;
+    out->glossy = m->split_glossy;
+    if (out->glossy) out->brdf = m->split_brdf;
+    out->ior = m->ior > 0.f ? m->ior : 1.5f;
+    return true;
+}
+
 static inline float pm_clamp01(float x) { return x < 0.f ? 0.f : (x > 1.f ? 1.f : x); }
 
 /* Whether a point with these parameters has the glossy (GGX) lobe: some metal, and alpha =
@@ -297,6 +363,16 @@ float pm_scene_alpha_at(const pm_scene *s, uint32_t tri, float b1, float b2);
 uint32_t pm_scene_pick_light(const pm_scene *s, float u, float *pick_pdf);
 /* Picks an emissive triangle by power; returns its index and the probability of that pick. */
 uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf);
+/* The same pick as a position in s->emitters (for data kept per emitter). */
+static inline uint32_t pm_scene_pick_emitter_index(const pm_scene *s, float u, float *pick_pdf) {
+    uint32_t lo = 0, hi = s->emitter_count; /* first i with cdf[i+1] > u */
+    while (lo + 1 < hi) {
+        uint32_t mid = (lo + hi) / 2;
+        if (s->emitter_cdf[mid] <= u) lo = mid; else hi = mid;
+    }
+    *pick_pdf = s->emitter_cdf[lo + 1] - s->emitter_cdf[lo];
+    return lo;
+}
 float pm_triangle_area(const pm_scene *s, uint32_t tri);
 /* The probability that pm_scene_pick_emitter picks triangle tri (0 when it emits nothing). */
 float pm_scene_emitter_pdf(const pm_scene *s, uint32_t tri);

@@ -46,6 +46,15 @@ typedef struct {
 
 typedef struct { vec3 center; float radius; } sphere;
 
+/* Per emitter (in s->emitters order), what emission reads of its triangle and would otherwise
+ * compute again for every photon: the unit normal and area from one float cross product, and
+ * whether its emission is the material's constant (no emissive texture to read). */
+typedef struct {
+    vec3 ng;
+    float area;
+    bool uniform_emission;
+} emitter_shape;
+
 typedef struct {
     const pm_scene *scene;
     const pm_accel *accel;
@@ -53,6 +62,8 @@ typedef struct {
     light_source *sources;
     uint32_t source_count;
     float *source_cdf;
+    const emitter_shape *emitter_shapes; /* s->emitter_count entries */
+    bool volumes;            /* some material attenuates inside its mesh (KHR_materials_volume) */
     bool caustic_pass;
     uint64_t photons;        /* emitted in this pass */
     uint64_t seed;
@@ -233,22 +244,39 @@ static float sample_direction(const light_source *l, bool aimed, pm_rng *rng, ve
     return 4.f * PM_PI;
 }
 
+static emitter_shape *emitter_shapes(const pm_scene *s) {
+    emitter_shape *out = pm_malloc(sizeof(emitter_shape) * (s->emitter_count ? s->emitter_count : 1), "photon emitters");
+    for (uint32_t i = 0; out && i < s->emitter_count; i++) {
+        uint32_t tri = s->emitters[i];
+        const uint32_t *ix = s->indices + 3 * (size_t)tri;
+        vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
+        vec3 cross = v3_cross(v3_sub(p1, p0), v3_sub(p2, p0));
+        float len = v3_length(cross);
+        const pm_material *m = &s->materials[s->triangle_material[tri]];
+        out[i].ng = len > 0.f ? v3_scale(cross, 1.f / len) : v3(0.f, 0.f, 1.f);
+        out[i].area = 0.5f * len;
+        out[i].uniform_emission = m->emission_texture < 0 || v3_is_black(m->emission); /* as pm_scene_emission_at */
+    }
+    return out;
+}
+
 /* The part of a surface record that emission needs (point, unit face normal, centroid for the
- * ray origin, emission, sides), with the triangle's area from the same cross product: one
- * photon per call, so the full pm_scene_surface would cost a measurable share of the pass. */
-static float emitter_point(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *sf) {
+ * ray origin, emission, sides) on emitter number e; returns its area: one photon per call, so
+ * the full pm_scene_surface would cost a measurable share of the pass. */
+static float emitter_point(const pass *ps, uint32_t e, float b1, float b2, pm_surface *sf) {
+    const pm_scene *s = ps->scene;
+    const emitter_shape *shape = &ps->emitter_shapes[e];
+    uint32_t tri = s->emitters[e];
     const uint32_t *ix = s->indices + 3 * (size_t)tri;
     vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
-    vec3 cross = v3_cross(v3_sub(p1, p0), v3_sub(p2, p0));
-    float len = v3_length(cross);
     const pm_material *m = &s->materials[s->triangle_material[tri]];
     /* only the fields emission reads are set: clearing the whole record, once per photon, showed in profiles */
     sf->p = v3_add(v3_add(v3_scale(p0, 1.f - b1 - b2), v3_scale(p1, b1)), v3_scale(p2, b2));
-    sf->ng = sf->ns = len > 0.f ? v3_scale(cross, 1.f / len) : v3(0.f, 0.f, 1.f);
+    sf->ng = sf->ns = shape->ng;
     sf->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
-    sf->emission = pm_scene_emission_at(s, tri, b1, b2);
+    sf->emission = shape->uniform_emission ? m->emission : pm_scene_emission_at(s, tri, b1, b2);
     sf->double_sided = m->double_sided;
-    return 0.5f * len;
+    return shape->area;
 }
 
 /* Where light travelling along dir starts: a point on a plane across the scene, behind it.
@@ -297,10 +325,10 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
     bool aimed = ps->caustic_pass && l->cells; /* projection maps aim caustic photons only */
     if (l->kind == SOURCE_EMITTERS) {
         float pick_pdf;
-        uint32_t tri = pm_scene_pick_emitter(s, pm_rng_float(rng), &pick_pdf);
+        uint32_t e = pm_scene_pick_emitter_index(s, pm_rng_float(rng), &pick_pdf);
         float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng);
         pm_surface sf;
-        float area = emitter_point(s, tri, r1 * (1.f - r2), r1 * r2, &sf);
+        float area = emitter_point(ps, e, r1 * (1.f - r2), r1 * r2, &sf);
         if (pick_pdf <= 0.f || area <= 0.f) return false;
         vec3 n = sf.ng;
         if (aimed) {
@@ -315,7 +343,7 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
             *d = pm_sample_cosine(n, pm_rng_float(rng), pm_rng_float(rng));
             *flux = v3_scale(sf.emission, PM_PI * area / pick_pdf * (sf.double_sided ? 2.f : 1.f));
         }
-        *o = pm_surface_origin(&sf, n, s->ray_scale);
+        *o = pm_offset_surface_origin(sf.p, sf.centroid, n, s->ray_scale);
         return true;
     }
     if (l->kind == SOURCE_PUNCTUAL) {
@@ -396,23 +424,29 @@ static void splat_to_camera(pass *ps, splat_list *out, const pm_surface *sf, vec
 
 static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings *settings, int threads);
 
-static void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path) {
-    if (list->count == list->capacity) {
-        if (list->failed) return;
-        uint32_t capacity = list->capacity ? 2 * list->capacity : 2 * CHUNK; /* about one record per photon traced */
-        /* the pass's storage bound, counted as chunks grow (whether it is crossed does not depend on the threads) */
-        uint64_t records = atomic_fetch_add(&list->ps->records, capacity - list->capacity) + (capacity - list->capacity);
-        if (records > list->ps->record_limit) {
-            pm_memory_admit(2 * records * sizeof(pm_photon), "photon records of one pass and their merged copy");
-            list->failed = true;
-            atomic_store(&list->ps->out_of_memory, true);
-            return;
-        }
-        pm_photon *grown = pm_realloc(list->data, sizeof(pm_photon) * capacity, "photon records of a chunk");
-        if (!grown) { list->failed = true; atomic_store(&list->ps->out_of_memory, true); return; }
-        list->data = grown;
-        list->capacity = capacity;
+/* Doubles a chunk's record list; false (the pass has failed) past the pass's storage bound or
+ * when memory runs out. */
+static bool grow(photon_list *list) {
+    if (list->failed) return false;
+    uint32_t capacity = list->capacity ? 2 * list->capacity : 2 * CHUNK; /* about one record per photon traced */
+    /* the pass's storage bound, counted as chunks grow (whether it is crossed does not depend on the threads) */
+    uint64_t records = atomic_fetch_add(&list->ps->records, capacity - list->capacity) + (capacity - list->capacity);
+    if (records > list->ps->record_limit) {
+        pm_memory_admit(2 * records * sizeof(pm_photon), "photon records of one pass and their merged copy");
+        list->failed = true;
+        atomic_store(&list->ps->out_of_memory, true);
+        return false;
     }
+    pm_photon *grown = pm_realloc(list->data, sizeof(pm_photon) * capacity, "photon records of a chunk");
+    if (!grown) { list->failed = true; atomic_store(&list->ps->out_of_memory, true); return false; }
+    list->data = grown;
+    list->capacity = capacity;
+    return true;
+}
+
+/* Inline, the growth out of line: a record at every diffuse hit. */
+static inline void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path) {
+    if (list->count == list->capacity && !grow(list)) return;
     pm_photon_set(&list->data[list->count++], p, n, d, power, path);
 }
 
@@ -424,6 +458,13 @@ static uint32_t pick_source(const pass *ps, float u, float *pdf) {
     }
     *pdf = ps->source_cdf[lo + 1] - ps->source_cdf[lo];
     return lo;
+}
+
+/* The rest of a lean hit record (shading normal, centroid) once the path goes on from the hit;
+ * returns the shading normal on the side of ng, the side the path leaves. */
+static inline vec3 going_on(const pm_scene *s, const pm_hit *h, bool shading_left, vec3 ng, pm_surface *sf) {
+    if (shading_left) pm_scene_surface_shading(s, h->tri, h->b1, h->b2, sf);
+    return v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
 }
 
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
@@ -439,6 +480,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     }
     uint64_t first = (uint64_t)chunk * CHUNK, last = first + CHUNK < ps->photons ? first + CHUNK : ps->photons;
     uint64_t rays = 0, dropped = 0;
+    pm_rng_family streams = pm_rng_family_for(ps->seed, ps->caustic_pass ? 0x51u : 0x61u);
     for (uint64_t i = first; i < last && !atomic_load_explicit(&ps->out_of_memory, memory_order_relaxed); i++) {
         /* long paths (a room of albedo 1: 100 bounces a photon) make a chunk long: the deadline is
          * also checked inside it, every 64 photons */
@@ -446,7 +488,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             ps->chunk_cut[chunk] = (uint32_t)(last - i);
             break;
         }
-        pm_rng rng = pm_rng_for(ps->seed, ps->caustic_pass ? 0x51u : 0x61u, i);
+        pm_rng rng = pm_rng_member(streams, i);
         float source_pdf;
         const light_source *l = &ps->sources[pick_source(ps, pm_rng_float(&rng), &source_pdf)];
         vec3 o, d, flux;
@@ -460,10 +502,9 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             rays++;
             if (!pm_accel_intersect(ps->accel, o, d, INFINITY, &h)) break;
             pm_surface sf;
-            pm_scene_surface(s, h.tri, h.b1, h.b2, &sf);
-            power = v3_mul(power, pm_volume_transmittance(s, &sf, d, h.t));
+            bool shading_left = pm_scene_surface_lean(s, h.tri, h.b1, h.b2, &sf);
+            if (ps->volumes) power = v3_mul(power, pm_volume_transmittance(s, &sf, d, h.t));
             vec3 ng = facing(sf.ng, v3_neg(d));
-            vec3 ns = v3_dot(sf.ns, ng) < 0.f ? v3_neg(sf.ns) : sf.ns;
             float D = v3_average(sf.kd), Sm = v3_average(sf.ks), St = v3_average(sf.kt);
             if (D > 0.f || sf.glossy) {
                 if (ps->caustic_pass) {
@@ -487,6 +528,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                 float Sg = pm_minf(St, PM_PHOTON_MAX_SURVIVAL);
                 if (x < Sg) {
                     pm_specular_sample sp;
+                    going_on(s, &h, shading_left, ng, &sf);
                     if (!pm_scatter_specular(&sf, d, &rng, s->ray_scale, &sp)) break;
                     power = v3_scale(v3_mul(power, sp.weight), 1.f / Sg);
                     d = sp.direction;
@@ -495,7 +537,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                     continue;
                 }
                 if (ps->caustic_pass) break; /* a glossy bounce ends a caustic path, as a diffuse one does */
-                vec3 wi, f;
+                vec3 ns = going_on(s, &h, shading_left, ng, &sf), wi, f;
                 float pdf;
                 if (!pm_brdf_sample(&sf.brdf, ns, v3_neg(d), pm_rng_float(&rng), pm_rng_float(&rng), pm_rng_float(&rng),
                                     &wi, &f, &pdf) || v3_dot(wi, ng) <= 0.f)
@@ -505,7 +547,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                 if (!(q > 0.f) || pm_rng_float(&rng) >= q) break;
                 power = v3_scale(v3_mul(power, w), 1.f / ((1.f - Sg) * q));
                 d = wi;
-                o = pm_surface_origin(&sf, ng, s->ray_scale);
+                o = pm_offset_surface_origin(sf.p, sf.centroid, ng, s->ray_scale);
                 diffuse_seen = true;
                 continue;
             }
@@ -516,12 +558,14 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             if (x < D) {
                 if (ps->caustic_pass) break; /* a diffuse bounce ends any caustic path */
                 power = v3_scale(v3_mul(power, sf.kd), 1.f / D);
+                vec3 ns = going_on(s, &h, shading_left, ng, &sf);
                 d = pm_sample_cosine(ns, pm_rng_float(&rng), pm_rng_float(&rng));
                 if (v3_dot(d, ng) <= 0.f) break;
-                o = pm_surface_origin(&sf, ng, s->ray_scale);
+                o = pm_offset_surface_origin(sf.p, sf.centroid, ng, s->ray_scale);
                 diffuse_seen = true;
             } else if (x < D + S) {
                 pm_specular_sample sp;
+                going_on(s, &h, shading_left, ng, &sf);
                 if (!pm_scatter_specular(&sf, d, &rng, s->ray_scale, &sp)) break;
                 power = v3_scale(v3_mul(power, sp.weight), 1.f / S);
                 d = sp.direction;
@@ -687,6 +731,7 @@ struct pm_photon_tracer {
     sphere *spheres;
     uint32_t sphere_count;
     float *target_cdf;
+    emitter_shape *emitter_shapes;
     pass ps;                   /* the pass template: sources, targets; photons and seed set per trace */
     bool global_possible, caustic_possible;
     double projection_fraction;
@@ -705,7 +750,8 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
     /* the emitter set, every punctual light and the sky: at most light_count + 2 sources */
     t->sources = pm_malloc(sizeof(light_source) * ((size_t)s->light_count + 2), "photon light sources");
     t->cdf = pm_malloc(sizeof(float) * ((size_t)s->light_count + 3), "photon light sources");
-    if (!t->sources || !t->cdf) { pm_photon_tracer_destroy(t); return NULL; }
+    t->emitter_shapes = emitter_shapes(s);
+    if (!t->sources || !t->cdf || !t->emitter_shapes) { pm_photon_tracer_destroy(t); return NULL; }
     uint32_t source_count = build_sources(s, t->sources);
     t->source_count = source_count;
     float *cdf = t->cdf;
@@ -725,6 +771,8 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
     ps->sources = t->sources;
     ps->source_count = source_count;
     ps->source_cdf = cdf;
+    ps->emitter_shapes = t->emitter_shapes;
+    for (uint32_t i = 0; i < s->material_count; i++) ps->volumes |= !v3_is_black(s->materials[i].attenuation);
     t->global_possible = source_count && s->analysis.has_diffuse;
 
     if (source_count && s->analysis.caustics_possible) {
@@ -780,6 +828,7 @@ void pm_photon_tracer_destroy(pm_photon_tracer *t) {
         }
     free(t->spheres);
     free(t->target_cdf);
+    free(t->emitter_shapes);
     free(t->sources);
     free(t->cdf);
     free(t);

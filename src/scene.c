@@ -576,16 +576,10 @@ static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_
 void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
     const uint32_t *ix = s->indices + 3 * (size_t)tri;
     float b0 = 1.f - b1 - b2;
-    vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
-    out->p = v3_add(v3_add(v3_scale(p0, b0), v3_scale(p1, b1)), v3_scale(p2, b2));
-    out->ng = s->face_normals ? s->face_normals[tri] : face_normal(p0, p1, p2);
-    vec3 n = v3_add(v3_add(v3_scale(s->normals[ix[0]], b0), v3_scale(s->normals[ix[1]], b1)),
-                    v3_scale(s->normals[ix[2]], b2));
-    n = v3_normalize(n);
-    /* Shading normals that disagree with the winding would light back faces: trust the winding. */
-    out->ns = v3_dot(n, out->ng) < 0.f ? v3_neg(n) : n;
-    out->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
-    out->material = s->triangle_material[tri];
+    vec3 ng = s->face_normals ? s->face_normals[tri]
+                              : face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);
+    pm_scene_surface_point(s, tri, b1, b2, ng, out);
+    pm_scene_surface_shading(s, tri, b1, b2, out);
     const pm_material *m = &s->materials[out->material];
     /* texture coordinates only for a textured material: every photon bounce comes through here */
     float uv[2][2] = {{0.f, 0.f}, {0.f, 0.f}};
@@ -633,19 +627,7 @@ void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_su
 }
 
 vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale) {
-    /* The pull toward the centroid must stay in the triangle's plane: pm_offset_ray_origin's
-     * per-coordinate steps (ulps here, a scale step there) would bend it off the plane by more
-     * than the normal offset, and a ray leaving glass would start back inside. */
-    vec3 inward = v3_sub(sf->centroid, sf->p);
-    float m = pm_maxf(fabsf(sf->p.x), pm_maxf(fabsf(sf->p.y), fabsf(sf->p.z)));
-    uint32_t bits;
-    memcpy(&bits, &m, 4);
-    bits += 32; /* m + 32 ulps (m is finite and not negative) */
-    float m32;
-    memcpy(&m32, &bits, 4);
-    float len = v3_length(inward), step = pm_minf(0.5f * len, pm_maxf(scale * (1.f / 65536.f), m32 - m));
-    vec3 p = len > 0.f ? v3_madd(sf->p, inward, step / len) : sf->p;
-    return pm_offset_ray_origin(p, side_normal, scale);
+    return pm_offset_surface_origin(sf->p, sf->centroid, side_normal, scale);
 }
 
 vec3 pm_scene_emission_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
@@ -676,11 +658,5 @@ float pm_scene_emitter_pdf(const pm_scene *s, uint32_t tri) {
 }
 
 uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf) {
-    uint32_t lo = 0, hi = s->emitter_count; /* first i with cdf[i+1] > u */
-    while (lo + 1 < hi) {
-        uint32_t mid = (lo + hi) / 2;
-        if (s->emitter_cdf[mid] <= u) lo = mid; else hi = mid;
-    }
-    *pick_pdf = s->emitter_cdf[lo + 1] - s->emitter_cdf[lo];
-    return s->emitters[lo];
+    return s->emitters[pm_scene_pick_emitter_index(s, u, pick_pdf)];
 }

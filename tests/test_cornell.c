@@ -37,6 +37,29 @@ int main(void) {
     CHECK(s.camera_count >= 1, "the Cornell box ships a camera");
     CHECK(s.emitter_count > 0 && !s.sky, "lit by its ceiling lamp, no default sky");
     CHECK(s.analysis.has_mirror && s.analysis.has_glass && s.analysis.caustics_possible, "mirror and glass balls: caustics possible");
+    /* the photon pass's lean hit record (and its shading part) holds what pm_scene_surface does,
+     * bit for bit, on every triangle: plain walls, the smooth mirror and glass balls, the lamp */
+    int lean_bad = 0, lean_plain = 0;
+    for (uint32_t t = 0; t < s.triangle_count; t++)
+        for (int k = 0; k < 4; k++) {
+            float b1 = (k & 1) ? 0.7f : 0.15f, b2 = (k & 2) ? 0.2f : 0.05f;
+            pm_surface full, lean;
+            memset(&lean, 0, sizeof lean);
+            pm_scene_surface(&s, t, b1, b2, &full);
+            if (pm_scene_surface_lean(&s, t, b1, b2, &lean)) {
+                lean_plain++;
+                pm_scene_surface_shading(&s, t, b1, b2, &lean);
+            }
+            bool same = !memcmp(&full.p, &lean.p, sizeof full.p) && !memcmp(&full.ng, &lean.ng, sizeof full.ng) &&
+                        !memcmp(&full.ns, &lean.ns, sizeof full.ns) && !memcmp(&full.centroid, &lean.centroid, sizeof full.centroid) &&
+                        full.material == lean.material && !memcmp(&full.kd, &lean.kd, sizeof full.kd) &&
+                        !memcmp(&full.ks, &lean.ks, sizeof full.ks) && !memcmp(&full.kt, &lean.kt, sizeof full.kt) &&
+                        full.glossy == lean.glossy && full.ior == lean.ior &&
+                        (!full.glossy || !memcmp(&full.brdf, &lean.brdf, sizeof full.brdf));
+            lean_bad += !same;
+        }
+    CHECK(lean_bad == 0 && lean_plain == 4 * (int)s.triangle_count, "lean hit records: %d differ from pm_scene_surface, %d of %u plain",
+          lean_bad, lean_plain, 4 * s.triangle_count);
     pm_accel *a = pm_accel_create(&s, err, sizeof err);
     pm_photon_settings ps = {.global_photons = 100000, .caustic_photons = 100000, .seed = 1, .threads = 2,
                              .max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES, .projection_maps = true};
