@@ -389,38 +389,6 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
 typedef struct { pm_photon *data; uint32_t count, capacity; bool failed; pass *ps; } photon_list;
 typedef struct { pm_camera_splat *data; uint32_t count, capacity; } splat_list;
 
-/* Light tracing at a caustic photon's diffuse or glossy hit: where the camera sees the point
- * directly, the radiance the photon reflects toward it, f x power x cos x importance, goes to
- * its pixel. This is the particle tracer's estimate of the caustic seen directly, exact with no
- * radius, so the progressive mode uses it instead of statistics at directly seen visible points
- * (which sample one point of the pixel per iteration: on a sharp caustic that is most of their
- * error). ng faces the side the photon arrived from; ns is the shading normal on that side. */
-static void splat_to_camera(pass *ps, splat_list *out, const pm_surface *sf, vec3 ng, vec3 ns, vec3 d, vec3 power,
-                            uint64_t *rays) {
-    pm_camera_connection c;
-    if (!pm_camera_connect(ps->splat_camera, ps->splat_width, ps->splat_height, sf->p, &c)) return;
-    float cos_x = v3_dot(ng, c.to_camera);
-    if (!(cos_x > 0.f)) return; /* the camera sees the other side */
-    vec3 f = sf->glossy ? pm_brdf_eval(&sf->brdf, ns, c.to_camera, v3_neg(d)) : v3_scale(sf->kd, PM_INV_PI);
-    vec3 l = v3_scale(v3_mul(f, power), cos_x * c.importance);
-    if (v3_is_black(l) || !v3_is_finite(l)) return;
-    vec3 o = pm_surface_origin(sf, ng, ps->scene->ray_scale);
-    float reach = ps->splat_camera->orthographic ? c.distance : v3_length(v3_sub(ps->splat_camera->position, o));
-    (*rays)++;
-    if (pm_accel_occluded(ps->accel, o, c.to_camera, reach)) return;
-    if (out->count == out->capacity) {
-        uint32_t capacity = out->capacity ? 2 * out->capacity : 256;
-        pm_camera_splat *grown = pm_realloc(out->data, capacity * sizeof *grown, "camera splats of a chunk");
-        if (!grown) { atomic_store(&ps->out_of_memory, true); return; }
-        out->data = grown;
-        out->capacity = capacity;
-    }
-    pm_camera_splat *sp = &out->data[out->count++];
-    sp->pixel = c.pixel;
-    sp->rgb[0] = l.x;
-    sp->rgb[1] = l.y;
-    sp->rgb[2] = l.z;
-}
 
 static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings *settings, int threads);
 
@@ -465,6 +433,42 @@ static uint32_t pick_source(const pass *ps, float u, float *pdf) {
 static inline vec3 going_on(const pm_scene *s, const pm_hit *h, bool shading_left, vec3 ng, pm_surface *sf) {
     if (shading_left) pm_scene_surface_shading(s, h->tri, h->b1, h->b2, sf);
     return v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
+}
+
+/* Light tracing at a caustic photon's diffuse or glossy hit: where the camera sees the point
+ * directly, the radiance the photon reflects toward it, f x power x cos x importance, goes to
+ * its pixel. This is the particle tracer's estimate of the caustic seen directly, exact with no
+ * radius, so the progressive mode uses it instead of statistics at directly seen visible points
+ * (which sample one point of the pixel per iteration: on a sharp caustic that is most of their
+ * error). ng faces the side the photon arrived from; a lean record (*shading_left) is completed
+ * only for a photon the camera can see. */
+static void splat_to_camera(pass *ps, splat_list *out, const pm_hit *h, bool *shading_left, pm_surface *sf, vec3 ng,
+                            vec3 d, vec3 power, uint64_t *rays) {
+    pm_camera_connection c;
+    if (!pm_camera_connect(ps->splat_camera, ps->splat_width, ps->splat_height, sf->p, &c)) return;
+    float cos_x = v3_dot(ng, c.to_camera);
+    if (!(cos_x > 0.f)) return; /* the camera sees the other side */
+    vec3 ns = going_on(ps->scene, h, *shading_left, ng, sf);
+    *shading_left = false;
+    vec3 f = sf->glossy ? pm_brdf_eval(&sf->brdf, ns, c.to_camera, v3_neg(d)) : v3_scale(sf->kd, PM_INV_PI);
+    vec3 l = v3_scale(v3_mul(f, power), cos_x * c.importance);
+    if (v3_is_black(l) || !v3_is_finite(l)) return;
+    vec3 o = pm_surface_origin(sf, ng, ps->scene->ray_scale);
+    float reach = ps->splat_camera->orthographic ? c.distance : v3_length(v3_sub(ps->splat_camera->position, o));
+    (*rays)++;
+    if (pm_accel_occluded(ps->accel, o, c.to_camera, reach)) return;
+    if (out->count == out->capacity) {
+        uint32_t capacity = out->capacity ? 2 * out->capacity : 256;
+        pm_camera_splat *grown = pm_realloc(out->data, capacity * sizeof *grown, "camera splats of a chunk");
+        if (!grown) { atomic_store(&ps->out_of_memory, true); return; }
+        out->data = grown;
+        out->capacity = capacity;
+    }
+    pm_camera_splat *sp = &out->data[out->count++];
+    sp->pixel = c.pixel;
+    sp->rgb[0] = l.x;
+    sp->rgb[1] = l.y;
+    sp->rgb[2] = l.z;
 }
 
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
@@ -513,7 +517,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                      * stored again at the next diffuse surface it reaches) */
                     if (specular_bounces > 0) {
                         push(&list, sf.p, ng, d, power, PM_PATH_CAUSTIC);
-                        if (ps->splat_camera) splat_to_camera(ps, &splats, &sf, ng, ns, d, power, &rays);
+                        if (ps->splat_camera) splat_to_camera(ps, &splats, &h, &shading_left, &sf, ng, d, power, &rays);
                     }
                 } else {
                     int path = bounce == 0 ? PM_PATH_DIRECT : (diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
