@@ -593,6 +593,31 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     ps->counters[thread].dropped += dropped;
 }
 
+/* Concatenates per-chunk lists in chunk order into *data (grown to hold them, *capacity in
+ * elements), freeing each chunk's list; *total is their length. With ok false, or when growing
+ * fails (false), nothing is copied but the lists are still freed. */
+static bool merge_chunks(void **chunk_data, const uint32_t *chunk_counts, size_t chunks, size_t size, void **data,
+                         size_t *capacity, size_t *total, bool ok, const char *what) {
+    *total = 0;
+    for (size_t c = 0; c < chunks; c++) *total += chunk_counts[c];
+    if (ok && *total > *capacity) {
+        void *grown = pm_realloc(*data, *total * size, what);
+        if (grown) {
+            *data = grown;
+            *capacity = *total;
+        } else {
+            ok = false;
+        }
+    }
+    size_t at = 0;
+    for (size_t c = 0; c < chunks; c++) {
+        if (ok && chunk_counts[c]) memcpy((char *)*data + at * size, chunk_data[c], chunk_counts[c] * size);
+        at += chunk_counts[c];
+        free(chunk_data[c]);
+    }
+    return ok;
+}
+
 /* Traces ps->photons photons in chunks on all threads and merges the chunks' records, in chunk
  * order, into out (grown as needed): the same records at any thread count. */
 static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
@@ -632,24 +657,12 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     ps->record_limit = pm_memory_limit() / (2 * sizeof(pm_photon));
     int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
     pm_parallel_for(threads, chunks, trace_chunk, ps);
-    size_t total = 0;
-    for (size_t c = 0; c < chunks; c++) total += ps->chunk_counts[c];
     bool ok = !atomic_load(&ps->out_of_memory);
-    if (ok && total > out->capacity) {
-        pm_photon *grown = pm_realloc(out->data, sizeof(pm_photon) * total, "merged photon records");
-        if (grown) {
-            out->data = grown;
-            out->capacity = total;
-        } else {
-            ok = false;
-        }
-    }
-    size_t at = 0;
-    for (size_t c = 0; c < chunks; c++) {
-        if (ok && ps->chunk_counts[c]) memcpy(out->data + at, ps->chunk_photons[c], sizeof(pm_photon) * ps->chunk_counts[c]);
-        at += ps->chunk_counts[c];
-        free(ps->chunk_photons[c]);
-    }
+    size_t total = 0;
+    void *merged = out->data;
+    ok = merge_chunks((void **)ps->chunk_photons, ps->chunk_counts, chunks, sizeof(pm_photon), &merged, &out->capacity,
+                      &total, ok, "merged photon records");
+    out->data = merged;
     uint64_t traced = 0;
     for (size_t c = 0; c < chunks; c++)
         if (!ps->chunk_skipped[c])
@@ -669,25 +682,12 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     }
     if (splatting) {
         /* the chunks' splats in chunk order, as the records: the same at any thread count */
-        size_t splat_total = 0;
-        for (size_t c = 0; c < chunks; c++) splat_total += ps->chunk_splat_counts[c];
         pm_splat_buffer *so = ps->splat_out;
-        if (ok && splat_total > so->capacity) {
-            pm_camera_splat *grown = pm_realloc(so->data, splat_total * sizeof *grown, "camera splats of a pass");
-            if (grown) {
-                so->data = grown;
-                so->capacity = splat_total;
-            } else {
-                ok = false;
-            }
-        }
-        size_t n = 0;
-        for (size_t c = 0; c < chunks; c++) {
-            if (ok && ps->chunk_splat_counts[c])
-                memcpy(so->data + n, ps->chunk_splats[c], ps->chunk_splat_counts[c] * sizeof *so->data);
-            n += ps->chunk_splat_counts[c];
-            free(ps->chunk_splats[c]);
-        }
+        size_t splat_total = 0;
+        void *splats = so->data;
+        ok = merge_chunks((void **)ps->chunk_splats, ps->chunk_splat_counts, chunks, sizeof(pm_camera_splat), &splats,
+                          &so->capacity, &splat_total, ok, "camera splats of a pass");
+        so->data = splats;
         so->count = ok ? splat_total : 0;
         free(ps->chunk_splats);
         free(ps->chunk_splat_counts);
