@@ -77,7 +77,9 @@ static double raw_rate(const pm_accel *a, const vec3 *o, const vec3 *d, size_t n
     return best;
 }
 
-static double eye_rate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int threads, int iterations) {
+/* Eye passes (direct light and specular, no photon maps) on a 256x256 film: their statistics. */
+static pm_eye_stats eye_passes(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int threads, int iterations,
+                               const pm_shadow_map *shadow) {
     bool comps[PM_COMPONENT_COUNT] = {true, true, false, false};
     pm_film film;
     pm_film_init(&film, 256, 256, comps);
@@ -86,10 +88,16 @@ static double eye_rate(const pm_scene *s, const pm_accel *a, const pm_camera *ca
     es.seed = 1;
     es.threads = threads;
     es.max_specular_depth = 12;
+    es.shadow = shadow;
     pm_eye_stats st;
     memset(&st, 0, sizeof st);
     for (int i = 0; i < iterations; i++) pm_eye_iterate(s, a, cam, &es, i, &film, &st);
     pm_film_free(&film);
+    return st;
+}
+
+static double eye_rate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int threads, int iterations) {
+    pm_eye_stats st = eye_passes(s, a, cam, threads, iterations, NULL);
     return st.rays / st.seconds;
 }
 
@@ -225,19 +233,7 @@ static void shadow_photons(const char *path, int lights) {
     pm_eye_stats last[2];
     for (int rep = 0; rep < 3; rep++)
         for (int k = 0; k < 2; k++) {
-            bool comps[PM_COMPONENT_COUNT] = {true, true, false, false};
-            pm_film film;
-            pm_film_init(&film, 256, 256, comps);
-            pm_eye_settings es;
-            memset(&es, 0, sizeof es);
-            es.seed = 1;
-            es.threads = 1;
-            es.max_specular_depth = 12;
-            es.shadow = k ? m : NULL;
-            pm_eye_stats e;
-            memset(&e, 0, sizeof e);
-            for (int i = 0; i < 4; i++) pm_eye_iterate(&s, a, &cam, &es, i, &film, &e);
-            pm_film_free(&film);
+            pm_eye_stats e = eye_passes(&s, a, &cam, 1, 4, k ? m : NULL);
             if (e.seconds < best[k]) best[k] = e.seconds;
             last[k] = e;
         }

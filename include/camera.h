@@ -30,6 +30,14 @@ typedef struct {
     float distance;
     float importance;
 } pm_camera_connection;
-bool pm_camera_connect(const pm_camera *c, int width, int height, vec3 p, pm_camera_connection *out);
+/* A camera and image size with what every connection needs computed once (a tangent, the
+ * pixel's area): the light tracer connects many points per pass. */
+typedef struct {
+    pm_camera camera;
+    int width, height;
+    float half, aspect, pixel_area;
+} pm_camera_view;
+pm_camera_view pm_camera_view_make(const pm_camera *c, int width, int height);
+bool pm_camera_connect(const pm_camera_view *v, vec3 p, pm_camera_connection *out);
 
 #endif

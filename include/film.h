@@ -51,6 +51,11 @@ void pm_film_resolve(const pm_film *f, pm_component c, float *out);
 /* The sum of all components (false, and zeros, when out of memory for the scratch buffer). */
 bool pm_film_resolve_total(const pm_film *f, float *out);
 size_t pm_film_bytes(const pm_film *f);
+/* Adds radiance v to a pixel's sum of component c (which must be enabled). False, and nothing
+ * added, when v or the new sum is not finite: a NaN from a degenerate case must not poison a pixel
+ * forever, nor a finite sample overflow it, so the film never holds an Inf (callers count these as
+ * dropped samples). */
+bool pm_film_add(pm_film *f, pm_component c, size_t pixel, vec3 v);
 
 /* An image against a reference: relMSE = mean over pixels (those with mask[i] != 0, or all when
  * mask is NULL) and channels of (x - r)^2 / (r^2 + 0.01), and each channel's sums, whose ratio is

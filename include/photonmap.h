@@ -88,7 +88,7 @@ void pm_photon_tracer_set_deadline(pm_photon_tracer *t, double deadline);
  * width x height) and, where the camera sees that point, appends the radiance the photon adds to
  * that pixel's mean (the particle tracer's estimate) to out, in photon order: the same splats at
  * any thread count. out is emptied at each caustic pass and rescaled with the records when a
- * deadline cuts the pass. camera NULL stops it; camera and out must outlive the passes. */
+ * deadline cuts the pass. camera NULL stops it; the camera is copied, out must outlive the passes. */
 typedef struct {
     uint32_t pixel; /* y x width + x */
     float rgb[3];

@@ -21,9 +21,21 @@ float pm_camera_pixel_size(const pm_camera *c, int height, float distance) {
     return c->orthographic ? 2.f * c->ymag / h : 2.f * tanf(0.5f * c->yfov) * distance / h;
 }
 
-bool pm_camera_connect(const pm_camera *c, int width, int height, vec3 p, pm_camera_connection *out) {
-    float half = c->orthographic ? c->ymag : tanf(0.5f * c->yfov);
-    float aspect = (float)width / (float)height;
+pm_camera_view pm_camera_view_make(const pm_camera *c, int width, int height) {
+    pm_camera_view v;
+    v.camera = *c;
+    v.width = width;
+    v.height = height;
+    v.half = c->orthographic ? c->ymag : tanf(0.5f * c->yfov);
+    v.aspect = (float)width / (float)height;
+    v.pixel_area = (2.f * v.half * v.aspect / (float)width) * (2.f * v.half / (float)height);
+    return v;
+}
+
+bool pm_camera_connect(const pm_camera_view *view, vec3 p, pm_camera_connection *out) {
+    const pm_camera *c = &view->camera;
+    float half = view->half, aspect = view->aspect;
+    int width = view->width, height = view->height;
     vec3 v = v3_sub(p, c->position);
     float z = v3_dot(v, c->forward);
     if (!(z > 0.f) || !(half > 0.f)) return false;
@@ -40,17 +52,16 @@ bool pm_camera_connect(const pm_camera *c, int width, int height, vec3 p, pm_cam
     if (x >= width) x = width - 1;
     if (y >= height) y = height - 1;
     out->pixel = (uint32_t)y * (uint32_t)width + (uint32_t)x;
-    float pixel_area = (2.f * half * aspect / (float)width) * (2.f * half / (float)height);
     if (c->orthographic) {
         out->to_camera = v3_neg(c->forward);
         out->distance = z;
-        out->importance = 1.f / pixel_area;
+        out->importance = 1.f / view->pixel_area;
     } else {
         float d = v3_length(v);
         float cos_axis = z / d;
         out->to_camera = v3_scale(v, -1.f / d);
         out->distance = d;
-        out->importance = 1.f / (pixel_area * cos_axis * cos_axis * cos_axis * d * d);
+        out->importance = 1.f / (view->pixel_area * cos_axis * cos_axis * cos_axis * d * d);
     }
     return true;
 }

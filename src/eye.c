@@ -602,19 +602,9 @@ static void render_tile(void *ctx, size_t task, int thread) {
                 pixels[points++] = pixel;
             } else
                 trace_pixel(job, o, d, &rng, out, &rays, shadow_counts);
-            for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-                /* A NaN from a degenerate corner case must not poison a pixel forever; it is
-                 * counted (stat eye dropped_samples=), so tests can still see one. */
-                if (!film->sum[c]) continue;
-                if (!v3_is_finite(out[c])) { dropped++; continue; }
-                float *px = film->sum[c] + 3 * pixel;
-                /* nor may a finite one overflow the float sum: the film never holds an Inf */
-                vec3 sum = v3(px[0] + out[c].x, px[1] + out[c].y, px[2] + out[c].z);
-                if (!v3_is_finite(sum)) { dropped++; continue; }
-                px[0] = sum.x;
-                px[1] = sum.y;
-                px[2] = sum.z;
-            }
+            /* a sample pm_film_add refuses is counted (stat eye dropped_samples=), so tests can see one */
+            for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+                if (film->sum[c] && !pm_film_add(film, (pm_component)c, pixel, out[c])) dropped++;
         }
     if (job->visit && points) job->visit(job->visit_ctx, pixels, visible, job->gather_points ? gathered : NULL, points, thread);
     job->counters[thread].rays += rays;

@@ -70,6 +70,16 @@ void pm_film_resolve(const pm_film *f, pm_component c, float *out) {
     }
 }
 
+bool pm_film_add(pm_film *f, pm_component c, size_t pixel, vec3 v) {
+    float *px = f->sum[c] + 3 * pixel;
+    vec3 sum = v3(px[0] + v.x, px[1] + v.y, px[2] + v.z);
+    if (!v3_is_finite(v) || !v3_is_finite(sum)) return false;
+    px[0] = sum.x;
+    px[1] = sum.y;
+    px[2] = sum.z;
+    return true;
+}
+
 bool pm_film_resolve_total(const pm_film *f, float *out) {
     size_t n = 3 * (size_t)f->width * f->height;
     memset(out, 0, n * sizeof(float));

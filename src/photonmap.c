@@ -86,8 +86,8 @@ typedef struct {
     atomic_bool out_of_memory;
     uint64_t dropped;         /* photons of the last pass whose power was not finite (ended, not stored) */
     /* camera splats of the caustic pass (pm_photon_tracer_set_splats): per chunk, merged in order */
-    const pm_camera *splat_camera;
-    int splat_width, splat_height;
+    bool splat;               /* splat_view is set */
+    pm_camera_view splat_view;
     pm_splat_buffer *splat_out;
     pm_camera_splat **chunk_splats;
     uint32_t *chunk_splat_counts;
@@ -445,7 +445,7 @@ static inline vec3 going_on(const pm_scene *s, const pm_hit *h, bool shading_lef
 static void splat_to_camera(pass *ps, splat_list *out, const pm_hit *h, bool *shading_left, pm_surface *sf, vec3 ng,
                             vec3 d, vec3 power, uint64_t *rays) {
     pm_camera_connection c;
-    if (!pm_camera_connect(ps->splat_camera, ps->splat_width, ps->splat_height, sf->p, &c)) return;
+    if (!pm_camera_connect(&ps->splat_view, sf->p, &c)) return;
     float cos_x = v3_dot(ng, c.to_camera);
     if (!(cos_x > 0.f)) return; /* the camera sees the other side */
     vec3 ns = going_on(ps->scene, h, *shading_left, ng, sf);
@@ -454,7 +454,7 @@ static void splat_to_camera(pass *ps, splat_list *out, const pm_hit *h, bool *sh
     vec3 l = v3_scale(v3_mul(f, power), cos_x * c.importance);
     if (v3_is_black(l) || !v3_is_finite(l)) return;
     vec3 o = pm_surface_origin(sf, ng, ps->scene->ray_scale);
-    float reach = ps->splat_camera->orthographic ? c.distance : v3_length(v3_sub(ps->splat_camera->position, o));
+    float reach = ps->splat_view.camera.orthographic ? c.distance : v3_length(v3_sub(ps->splat_view.camera.position, o));
     (*rays)++;
     if (pm_accel_occluded(ps->accel, o, c.to_camera, reach)) return;
     if (out->count == out->capacity) {
@@ -517,7 +517,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                      * stored again at the next diffuse surface it reaches) */
                     if (specular_bounces > 0) {
                         push(&list, sf.p, ng, d, power, PM_PATH_CAUSTIC);
-                        if (ps->splat_camera) splat_to_camera(ps, &splats, &h, &shading_left, &sf, ng, d, power, &rays);
+                        if (ps->splat) splat_to_camera(ps, &splats, &h, &shading_left, &sf, ng, d, power, &rays);
                     }
                 } else {
                     int path = bounce == 0 ? PM_PATH_DIRECT : (diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
@@ -634,7 +634,7 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
         free(ps->chunk_skipped);
         return false;
     }
-    bool splatting = ps->splat_camera && ps->caustic_pass && ps->splat_out;
+    bool splatting = ps->splat && ps->caustic_pass && ps->splat_out;
     if (splatting) {
         ps->splat_out->count = 0;
         ps->chunk_splats = pm_calloc(chunks ? chunks : 1, sizeof(pm_camera_splat *), "camera splat chunk list");
@@ -864,9 +864,8 @@ bool pm_photon_tracer_trace(pm_photon_tracer *t, bool caustic, uint64_t photons,
 void pm_photon_tracer_set_deadline(pm_photon_tracer *t, double deadline) { t->deadline = deadline; }
 
 void pm_photon_tracer_set_splats(pm_photon_tracer *t, const pm_camera *camera, int width, int height, pm_splat_buffer *out) {
-    t->ps.splat_camera = camera && out && width > 0 && height > 0 ? camera : NULL;
-    t->ps.splat_width = width;
-    t->ps.splat_height = height;
+    t->ps.splat = camera && out && width > 0 && height > 0;
+    if (t->ps.splat) t->ps.splat_view = pm_camera_view_make(camera, width, height);
     t->ps.splat_out = out;
 }
 

@@ -328,14 +328,8 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
             uint32_t m = result[j].found;
             job->counters[thread].found += m;
             vec3 l = v3_scale(v3_mul(gp->weight, result[j].power), (float)(1.0 / (PM_PI * job->gather_r2)));
-            float *sum = film->sum[gp->seen_directly ? PM_INDIRECT : PM_SPECULAR];
-            if (m && sum) {
-                vec3 added = v3(sum[3 * i] + l.x, sum[3 * i + 1] + l.y, sum[3 * i + 2] + l.z);
-                if (!v3_is_finite(added)) { job->counters[thread].dropped++; continue; } /* NaN, Inf, or a sum overflowing */
-                sum[3 * i] = added.x;
-                sum[3 * i + 1] = added.y;
-                sum[3 * i + 2] = added.z;
-            }
+            pm_component c = gp->seen_directly ? PM_INDIRECT : PM_SPECULAR;
+            if (m && film->sum[c] && !pm_film_add(film, c, i, l)) job->counters[thread].dropped++;
         }
     }
     job->counters[thread].seconds += pm_now_seconds() - t0;
@@ -350,16 +344,10 @@ static double density_radius2(const pm_progressive *p, size_t stored) {
 
 /* This iteration's camera splats into the film's caustic sums, in photon order. */
 static void add_splats(pm_progressive *p, pm_film *film) {
-    float *sum = film->sum[PM_CAUSTIC];
-    if (!sum) return;
+    if (!film->sum[PM_CAUSTIC]) return;
     for (size_t i = 0; i < p->splats.count; i++) {
         const pm_camera_splat *sp = &p->splats.data[i];
-        float *px = sum + 3 * (size_t)sp->pixel;
-        vec3 added = v3(px[0] + sp->rgb[0], px[1] + sp->rgb[1], px[2] + sp->rgb[2]);
-        if (!v3_is_finite(added)) { p->stats.eye.dropped_samples++; continue; } /* a sum overflowing */
-        px[0] = added.x;
-        px[1] = added.y;
-        px[2] = added.z;
+        if (!pm_film_add(film, PM_CAUSTIC, sp->pixel, v3(sp->rgb[0], sp->rgb[1], sp->rgb[2]))) p->stats.eye.dropped_samples++;
     }
     p->stats.splats += p->splats.count;
 }
