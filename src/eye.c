@@ -587,6 +587,13 @@ static void render_tile(void *ctx, size_t task, int thread) {
     uint64_t rays = 0, dropped = 0, vertices = 0, shadow_counts[2] = {0, 0};
     pm_visible_point visible[TILE * TILE], gathered[TILE * TILE];
     size_t pixels[TILE * TILE], points = 0;
+    /* a tile's rows are short runs in each component's sum, too short for the hardware prefetcher:
+     * asking for them now hides the misses behind the tile's rays */
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (film->sum[c])
+            for (int y = y0; y < y1; y++)
+                for (int x = x0; x < x1 + 4; x += 5) /* 60 bytes apart: every 64-byte line */
+                    __builtin_prefetch(film->sum[c] + 3 * ((size_t)y * film->width + (x < x1 ? x : x1 - 1)), 1);
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
             size_t pixel = (size_t)y * film->width + x;
@@ -602,9 +609,13 @@ static void render_tile(void *ctx, size_t task, int thread) {
                 pixels[points++] = pixel;
             } else
                 trace_pixel(job, o, d, &rng, out, &rays, shadow_counts);
-            /* a sample pm_film_add refuses is counted (stat eye dropped_samples=), so tests can see one */
+            /* a sample pm_film_add refuses is counted (stat eye dropped_samples=), so tests can see one; a
+             * zero adds nothing (sums are never -0, and NaN is not zero), so the components this pass
+             * leaves to photons are not touched */
             for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-                if (film->sum[c] && !pm_film_add(film, (pm_component)c, pixel, out[c])) dropped++;
+                if (film->sum[c] && (out[c].x != 0.f || out[c].y != 0.f || out[c].z != 0.f) &&
+                    !pm_film_add(film, (pm_component)c, pixel, out[c]))
+                    dropped++;
         }
     if (job->visit && points) job->visit(job->visit_ctx, pixels, visible, job->gather_points ? gathered : NULL, points, thread);
     job->counters[thread].rays += rays;

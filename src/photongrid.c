@@ -8,9 +8,10 @@
 
 /* Cell coordinates stay far from int overflow whatever the scene's scale or position. */
 static inline int32_t cell_coord(float x, float origin, float inv_cell) {
-    float c = floorf((x - origin) * inv_cell);
-    c = c < -1e9f ? -1e9f : (c > 1e9f ? 1e9f : c);
-    return (int32_t)c;
+    float c = (x - origin) * inv_cell;
+    c = c < -1e9f ? -1e9f : (c > 1e9f ? 1e9f : c); /* NaN stays NaN: the conversion below gives INT32_MIN, as before */
+    int32_t i = (int32_t)c;                         /* floor without a libm call: truncate, then step down below zero */
+    return i - (c < (float)i);
 }
 
 static inline size_t bucket_of(int32_t x, int32_t y, int32_t z, size_t mask) {
