@@ -91,11 +91,18 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
 
 /* One photon's share of a disc sum: inside the radius, counting for the surface, weighted by the
  * lobe's f(wo, wi) when a lobe is given. */
-static inline __attribute__((always_inline)) void sum_photon(const pm_photon *ph, vec3 p, vec3 n, float radius2,
+static inline __attribute__((always_inline)) void sum_photon(const pm_photon *ph, pm_f4_ p4, vec3 n, float radius2,
                                                              unsigned path_mask, const pm_brdf *lobe, vec3 ns, vec3 wo,
                                                              vec3 *sum, uint32_t *found) {
-    float dx = ph->pos[0] - p.x, dy = ph->pos[1] - p.y, dz = ph->pos[2] - p.z;
-    if (dx * dx + dy * dy + dz * dz > radius2) return;
+    /* the distance test is most of a query's work (about 8 photons read for each one found): the
+     * three differences in one register, summed in the scalar order (dx^2 + dy^2) + dz^2, so the
+     * same photons pass. The fourth lane (the record's codes) is masked off before any arithmetic. */
+    pm_f4_ at;
+    memcpy(&at, ph, sizeof at);
+    const pm_u4_ xyz = {~0u, ~0u, ~0u, 0u};
+    pm_f4_ d = (pm_f4_)((pm_u4_)at & xyz) - p4;
+    d *= d;
+    if (d[0] + d[1] + d[2] > radius2) return;
     if (!pm_photon_counts_for(ph, n, path_mask)) return;
     vec3 q = pm_photon_power(ph);
     if (lobe) q = v3_mul(q, pm_brdf_eval(lobe, ns, wo, v3_neg(pm_photon_direction(ph))));
@@ -168,8 +175,9 @@ static inline __attribute__((always_inline)) uint32_t sum_planned(const pm_photo
                                                                   const pm_brdf *lobe, vec3 ns, vec3 wo, vec3 *power) {
     vec3 sum = v3s(0.f);
     uint32_t found = 0;
+    const pm_f4_ p4 = {p.x, p.y, p.z, 0.f};
     if (plan->kind == PLAN_ALL) {
-        for (size_t i = 0; i < g->count; i++) sum_photon(&g->photons[i], p, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
+        for (size_t i = 0; i < g->count; i++) sum_photon(&g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
     } else if (plan->kind == PLAN_CELLS) {
         size_t mask = g->bucket_count - 1;
         for (int32_t z = plan->lo[2]; z <= plan->hi[2]; z++)
@@ -180,13 +188,13 @@ static inline __attribute__((always_inline)) uint32_t sum_planned(const pm_photo
                         const float *q = g->photons[i].pos;
                         if (cell_coord(q[0], g->origin.x, g->inv_cell) == x && cell_coord(q[1], g->origin.y, g->inv_cell) == y &&
                             cell_coord(q[2], g->origin.z, g->inv_cell) == z)
-                            sum_photon(&g->photons[i], p, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
+                            sum_photon(&g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
                     }
                 }
     } else if (plan->kind == PLAN_BUCKETS) {
         for (int k = 0; k < plan->buckets; k++)
             for (uint32_t i = plan->first[k]; i < plan->last[k]; i++)
-                sum_photon(&g->photons[i], p, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
+                sum_photon(&g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
     }
     *power = sum;
     return found;
