@@ -43,12 +43,19 @@ static inline __attribute__((always_inline)) vec3 pm_oct_decode_unnormalised(uin
     float scale = 2.f / (float)mask;
     float x = (float)(code & mask) * scale - 1.f, y = (float)((code >> bits) & mask) * scale - 1.f;
     float z = 1.f - fabsf(x) - fabsf(y);
-    if (z < 0.f) {
-        float ox = (1.f - fabsf(y)) * (x >= 0.f ? 1.f : -1.f);
-        float oy = (1.f - fabsf(x)) * (y >= 0.f ? 1.f : -1.f);
-        x = ox;
-        y = oy;
-    }
+    /* The lower half's fold by bit selects, not branches: a gathered photon's direction lies in
+     * either half at random, and the branch mispredicted half the time. copysignf gives exactly
+     * (1 - |y|) x sign(x): x and y are never -0 here (they come out of a subtraction). */
+    float fx = copysignf(1.f - fabsf(y), x), fy = copysignf(1.f - fabsf(x), y);
+    uint32_t fold = (uint32_t)0 - (uint32_t)(z < 0.f), bx, by, bfx, bfy;
+    memcpy(&bx, &x, 4);
+    memcpy(&by, &y, 4);
+    memcpy(&bfx, &fx, 4);
+    memcpy(&bfy, &fy, 4);
+    bx = (bfx & fold) | (bx & ~fold);
+    by = (bfy & fold) | (by & ~fold);
+    memcpy(&x, &bx, 4);
+    memcpy(&y, &by, 4);
     return v3(x, y, z);
 }
 
