@@ -160,12 +160,12 @@ static inline void plan_disc(const pm_photon_grid *g, vec3 p, float radius2, dis
     for (int32_t z = lo[2]; z <= hi[2]; z++)
         for (int32_t y = lo[1]; y <= hi[1]; y++)
             for (int32_t x = lo[0]; x <= hi[0]; x++) {
+                /* kept by an add, not a branch: whether a cell's bucket holds photons is random */
                 size_t b = bucket_of(x, y, z, mask);
-                if (!((g->occupied[b >> 6] >> (b & 63)) & 1u)) continue;
                 bool seen = false;
                 for (int k = 0; k < plan->buckets; k++) seen |= plan->bucket[k] == b;
-                if (seen) continue;
-                plan->bucket[plan->buckets++] = (uint32_t)b;
+                plan->bucket[plan->buckets] = (uint32_t)b;
+                plan->buckets += (int)((g->occupied[b >> 6] >> (b & 63)) & 1u) & !seen;
                 __builtin_prefetch(&g->bucket_start[b]);
             }
 }
@@ -176,7 +176,9 @@ static inline void locate_buckets(const pm_photon_grid *g, disc_plan *plan) {
         plan->first[k] = g->bucket_start[plan->bucket[k]];
         plan->last[k] = g->bucket_start[plan->bucket[k] + 1];
         __builtin_prefetch(&g->photons[plan->first[k]]);
-        if (plan->last[k] - plan->first[k] > 3) __builtin_prefetch(&g->photons[plan->first[k] + 3]);
+        /* the next line too, whether or not the bucket reaches it (a prefetch never faults; the
+         * address is integer arithmetic, not a pointer past the array) */
+        __builtin_prefetch((const void *)((uintptr_t)&g->photons[plan->first[k]] + 64));
     }
 }
 
