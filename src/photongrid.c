@@ -175,10 +175,12 @@ static inline void locate_buckets(const pm_photon_grid *g, disc_plan *plan) {
     for (int k = 0; k < plan->buckets; k++) {
         plan->first[k] = g->bucket_start[plan->bucket[k]];
         plan->last[k] = g->bucket_start[plan->bucket[k] + 1];
-        __builtin_prefetch(&g->photons[plan->first[k]]);
-        /* the next line too, whether or not the bucket reaches it (a prefetch never faults; the
-         * address is integer arithmetic, not a pointer past the array) */
-        __builtin_prefetch((const void *)((uintptr_t)&g->photons[plan->first[k]] + 64));
+        /* every line of the bucket (a bucket of a gather disc holds about 14 photons, 5 lines) */
+        uintptr_t line = (uintptr_t)&g->photons[plan->first[k]] & ~(uintptr_t)63, end = (uintptr_t)&g->photons[plan->last[k]];
+        do {
+            __builtin_prefetch((const void *)line);
+            line += 64;
+        } while (line < end);
     }
 }
 
