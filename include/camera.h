@@ -30,14 +30,16 @@ typedef struct {
     float distance;
     float importance;
 } pm_camera_connection;
-/* A camera and image size with what every connection needs computed once (a tangent, the
- * pixel's area): the light tracer connects many points per pass. */
+/* A camera and image size with what every ray and connection needs computed once (a tangent,
+ * the pixel's area): an eye pass makes a ray per pixel, the light tracer many connections. */
 typedef struct {
     pm_camera camera;
     int width, height;
     float half, aspect, pixel_area;
 } pm_camera_view;
 pm_camera_view pm_camera_view_make(const pm_camera *c, int width, int height);
+/* pm_camera_ray with the view's tangent, computed once: the same ray, bit for bit. */
+void pm_camera_view_ray(const pm_camera_view *v, float x, float y, vec3 *origin, vec3 *dir);
 bool pm_camera_connect(const pm_camera_view *v, vec3 p, pm_camera_connection *out);
 
 #endif

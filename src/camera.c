@@ -2,10 +2,14 @@
 #include "camera.h"
 
 void pm_camera_ray(const pm_camera *c, int width, int height, float x, float y, vec3 *origin, vec3 *dir) {
-    float half = c->orthographic ? c->ymag : tanf(0.5f * c->yfov);
-    float aspect = (float)width / (float)height;
-    float sx = (2.f * x / width - 1.f) * half * aspect;
-    float sy = (1.f - 2.f * y / height) * half;
+    pm_camera_view v = pm_camera_view_make(c, width, height);
+    pm_camera_view_ray(&v, x, y, origin, dir);
+}
+
+void pm_camera_view_ray(const pm_camera_view *v, float x, float y, vec3 *origin, vec3 *dir) {
+    const pm_camera *c = &v->camera;
+    float sx = (2.f * x / v->width - 1.f) * v->half * v->aspect;
+    float sy = (1.f - 2.f * y / v->height) * v->half;
     vec3 across = v3_add(v3_scale(c->right, sx), v3_scale(c->up, sy));
     if (c->orthographic) {
         *origin = v3_add(c->position, across);

@@ -24,6 +24,7 @@ typedef struct {
     const pm_scene *scene;
     const pm_accel *accel;
     const pm_camera *camera;
+    pm_camera_view view;                 /* the camera at the film's size: one tangent per pass, not per pixel */
     const pm_eye_settings *settings;
     uint32_t iteration;
     pm_film *film;
@@ -599,7 +600,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
             size_t pixel = (size_t)y * film->width + x;
             pm_rng rng = pm_rng_for(job->settings->seed, job->iteration, pixel);
             vec3 o, d;
-            pm_camera_ray(job->camera, film->width, film->height, x + pm_rng_float(&rng), y + pm_rng_float(&rng), &o, &d);
+            pm_camera_view_ray(&job->view, x + pm_rng_float(&rng), y + pm_rng_float(&rng), &o, &d);
             vec3 out[PM_COMPONENT_COUNT] = {{0}};
             if (job->settings->path_trace)
                 trace_path(job, o, d, &rng, out, &rays, shadow_counts, &vertices);
@@ -634,6 +635,7 @@ static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
     job->scene = s;
     job->accel = a;
     job->camera = cam;
+    job->view = pm_camera_view_make(cam, film->width, film->height);
     job->settings = settings;
     job->iteration = iteration;
     job->film = film;
