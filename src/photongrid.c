@@ -89,8 +89,6 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
 
 #define MAX_GATHER_CELLS 27 /* a disc up to the cell's width overlaps at most 3 x 3 x 3 cells */
 
-/* One photon's share of a disc sum: inside the radius, counting for the surface, weighted by the
- * lobe's f(wo, wi) when a lobe is given. */
 /* Whether a photon lies within the radius (NaN distances pass, as they always did, and the
  * surface test then decides). The distance test is most of a query's work (about 8 photons read
  * for each one inside): the three differences in one register, summed in the scalar order
@@ -105,7 +103,8 @@ static inline __attribute__((always_inline)) bool within(const pm_photon *ph, pm
     return !(d[0] + d[1] + d[2] > radius2);
 }
 
-/* The share of a photon within the radius. */
+/* The share of a photon within the radius: counting for the surface, weighted by the lobe's
+ * f(wo, wi) when a lobe is given. */
 static inline __attribute__((always_inline)) void sum_inside(const pm_photon *ph, vec3 n, unsigned path_mask,
                                                              const pm_brdf *lobe, vec3 ns, vec3 wo, vec3 *sum,
                                                              uint32_t *found) {
@@ -116,12 +115,12 @@ static inline __attribute__((always_inline)) void sum_inside(const pm_photon *ph
     (*found)++;
 }
 
+/* One photon's share of a disc sum (the rare wide discs: every photon, or cell by cell). */
 static inline __attribute__((always_inline)) void sum_photon(const pm_photon *ph, pm_f4_ p4, vec3 n, float radius2,
                                                              unsigned path_mask, const pm_brdf *lobe, vec3 ns, vec3 wo,
                                                              vec3 *sum, uint32_t *found) {
     if (within(ph, p4, radius2)) sum_inside(ph, n, path_mask, lobe, ns, wo, sum, found);
 }
-
 
 /* Where a disc's photons are: nothing, every photon (a disc wider than the photons' cells), the
  * cells one by one (a rare wide disc whose buckets may repeat), or a short list of distinct
