@@ -220,26 +220,67 @@ static void gather_structures(const pm_photon_maps *maps, float radius) {
  * the scene as loaded and with point lights added under its top until it has `lights` (0: as
  * loaded): seconds of the best of three interleaved runs, the share of shadow rays saved, and what
  * the map costs. */
-static void shadow_photons(const char *path, int lights) {
-    pm_scene s;
+/* Loads the scene and spreads point lights under its ceiling until it has `lights` of them (a
+ * golden-ratio pattern, the same every run); the number added is returned, -1 when loading fails. */
+static int load_with_point_lights(const char *path, int lights, pm_scene *s) {
     pm_load_report rep;
     char err[1024];
-    if (!pm_load_gltf(path, true, &s, &rep, err, sizeof err)) return;
-    pm_scene_finalize(&s, true, NULL);
-    vec3 ext = v3_sub(s.bounds_max, s.bounds_min);
-    int extra_lights = lights > (int)s.light_count ? lights - (int)s.light_count : 0;
+    if (!pm_load_gltf(path, true, s, &rep, err, sizeof err)) return -1;
+    pm_scene_finalize(s, true, NULL);
+    vec3 ext = v3_sub(s->bounds_max, s->bounds_min);
+    int extra_lights = lights > (int)s->light_count ? lights - (int)s->light_count : 0;
     for (int i = 0; i < extra_lights; i++) {
-        s.lights = realloc(s.lights, (s.light_count + 1) * sizeof *s.lights);
+        s->lights = realloc(s->lights, (s->light_count + 1) * sizeof *s->lights);
         pm_light l;
         memset(&l, 0, sizeof l);
         l.type = PM_LIGHT_POINT;
         float fx = (float)fmod(0.5 + i * 0.6180339887, 1.0), fz = (float)fmod(0.5 + i * 0.7548776662, 1.0);
-        l.position = v3(s.bounds_min.x + ext.x * (0.15f + 0.7f * fx), s.bounds_min.y + ext.y * 0.85f,
-                        s.bounds_min.z + ext.z * (0.15f + 0.7f * fz));
+        l.position = v3(s->bounds_min.x + ext.x * (0.15f + 0.7f * fx), s->bounds_min.y + ext.y * 0.85f,
+                        s->bounds_min.z + ext.z * (0.15f + 0.7f * fz));
         l.intensity = v3s(2.4f / (float)extra_lights);
-        s.lights[s.light_count++] = l;
+        s->lights[s->light_count++] = l;
     }
-    pm_scene_finalize(&s, true, NULL);
+    pm_scene_finalize(s, true, NULL);
+    return extra_lights;
+}
+
+/* The photon tracer's set-up, which builds a projection map per point-like light: it comes
+ * before the first image, so many lights around specular objects must not delay it. */
+static void projection_maps(const char *path, int lights) {
+    pm_scene s;
+    char err[1024];
+    int added = load_with_point_lights(path, lights, &s);
+    if (added < 0) return;
+    pm_accel *a = pm_accel_create(&s, err, sizeof err);
+    if (!a) { pm_scene_free(&s); return; }
+    double best[3] = {1e30, 1e30, 1e30}, fraction = 0.0;
+    for (int rep = 0; rep < 3; rep++)
+        for (int threads = 1; threads <= 2; threads++) {
+            pm_photon_settings ps;
+            memset(&ps, 0, sizeof ps);
+            ps.seed = 1;
+            ps.threads = threads;
+            ps.max_bounces = 32;
+            ps.projection_maps = true;
+            double t0 = pm_now_seconds();
+            pm_photon_tracer *t = pm_photon_tracer_create(&s, a, &ps);
+            double t1 = pm_now_seconds() - t0;
+            if (!t) continue;
+            fraction = pm_photon_tracer_projection_fraction(t);
+            pm_photon_tracer_destroy(t);
+            if (t1 < best[threads]) best[threads] = t1;
+        }
+    printf("bench projection_maps scene=%s lights=%u added_point_lights=%d seconds_1_thread=%.4f seconds_2_threads=%.4f projection_fraction=%.4f\n",
+           path, s.light_count, added, best[1], best[2], fraction);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+static void shadow_photons(const char *path, int lights) {
+    pm_scene s;
+    char err[1024];
+    int extra_lights = load_with_point_lights(path, lights, &s);
+    if (extra_lights < 0) return;
     pm_accel *a = pm_accel_create(&s, err, sizeof err);
     if (!a) { pm_scene_free(&s); return; }
     pm_camera cam = s.camera_count ? s.cameras[0] : pm_scene_auto_camera(&s, 1.f);
@@ -379,6 +420,8 @@ int main(int argc, char **argv) {
     shadow_photons(path, 0);
     shadow_photons(path, 8);
     shadow_photons(path, 20000); /* no map (too many lights): light sampling by power bounds the cost */
+    projection_maps(path, 0);
+    projection_maps(path, 64);
 
     /* kd-tree: rebuild the global map's photons (copied) and query at random stored positions */
     size_t count = maps.global.count;

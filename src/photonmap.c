@@ -199,35 +199,83 @@ static vec3 cell_direction(int iz, int iphi, float fz, float fphi) {
     return v3(r * cosf(phi), r * sinf(phi), z);
 }
 
+/* The projection map's cells, the same for every source: each cell's centre direction and its
+ * angular radius (the widest corner, with a margin), and that radius's cosine and sine. */
+typedef struct { vec3 centre; float angle, cos_angle, sin_angle; } projection_cell;
+
+static projection_cell *projection_cells(void) {
+    projection_cell *cells = pm_malloc(sizeof *cells * PROJ_Z * PROJ_PHI, "projection map cells");
+    if (!cells) return NULL;
+    for (int iz = 0; iz < PROJ_Z; iz++)
+        for (int ip = 0; ip < PROJ_PHI; ip++) {
+            projection_cell *c = &cells[iz * PROJ_PHI + ip];
+            c->centre = cell_direction(iz, ip, 0.5f, 0.5f);
+            float cell_cos = 1.f;
+            for (int k = 0; k < 4; k++)
+                cell_cos = pm_minf(cell_cos, v3_dot(c->centre, cell_direction(iz, ip, (float)(k & 1), (float)(k >> 1))));
+            c->angle = acosf(pm_maxf(-1.f, pm_minf(1.f, cell_cos))) * 1.05f + 1e-3f;
+            c->cos_angle = cosf(c->angle);
+            c->sin_angle = sinf(c->angle);
+        }
+    return cells;
+}
+
+typedef struct {
+    light_source *sources;
+    uint32_t source_count;
+    const projection_cell *cells;
+    const sphere *spheres;
+    uint32_t sphere_count;
+    atomic_bool failed;
+} projection_job;
+
 /* Marks the cells of directions from the source's region that can reach a specular sphere.
  * Conservative: each sphere is grown by the source's own radius, each cell by its angular
- * radius, so no direction that could start a caustic path is left out. */
-static bool build_projection_map(light_source *l, const sphere *spheres, uint32_t sphere_count) {
+ * radius, so no direction that could start a caustic path is left out. A cell reaches a sphere
+ * when the angle between their directions is at most the sphere's half angle plus the cell's:
+ * compared as cosines (the cosine of the sum from both sides' cosines and sines, no libm call
+ * per pair: with many lights and specular objects, the arc functions took seconds), and where
+ * the two sides are within 1e-5 of each other, by the angles themselves, so every cell is
+ * marked exactly as the angle test marks it. */
+static void build_projection_map(void *ctx, size_t index, int thread) {
+    projection_job *job = ctx;
+    light_source *l = &job->sources[index];
     l->cells = pm_calloc(PROJ_Z * PROJ_PHI, 1, "projection map");
     l->marked = pm_malloc(sizeof(uint32_t) * PROJ_Z * PROJ_PHI, "projection map");
     l->marked_count = 0;
-    if (!l->cells || !l->marked) return false;
-    for (int iz = 0; iz < PROJ_Z; iz++)
-        for (int ip = 0; ip < PROJ_PHI; ip++) {
-            vec3 c = cell_direction(iz, ip, 0.5f, 0.5f);
-            float cell_cos = 1.f;
-            for (int k = 0; k < 4; k++) cell_cos = pm_minf(cell_cos, v3_dot(c, cell_direction(iz, ip, (float)(k & 1), (float)(k >> 1))));
-            float cell_angle = acosf(pm_maxf(-1.f, pm_minf(1.f, cell_cos))) * 1.05f + 1e-3f;
-            bool hit = false;
-            for (uint32_t i = 0; i < sphere_count && !hit; i++) {
-                vec3 to = v3_sub(spheres[i].center, l->center);
-                float d = v3_length(to), r = spheres[i].radius + l->radius;
-                if (d <= r) { hit = true; break; }
-                float half = asinf(r / d);
-                float angle = acosf(pm_maxf(-1.f, pm_minf(1.f, v3_dot(c, v3_scale(to, 1.f / d)))));
-                hit = angle <= half + cell_angle;
-            }
-            if (hit) {
-                l->cells[iz * PROJ_PHI + ip] = 1;
-                l->marked[l->marked_count++] = (uint32_t)(iz * PROJ_PHI + ip);
-            }
+    if (!l->cells || !l->marked) { atomic_store(&job->failed, true); return; }
+    typedef struct { vec3 axis; float half, cos_half, sin_half; bool inside; } cone;
+    cone *cones = pm_malloc(sizeof *cones * (job->sphere_count ? job->sphere_count : 1), "projection map cones");
+    if (!cones) { atomic_store(&job->failed, true); return; }
+    for (uint32_t i = 0; i < job->sphere_count; i++) {
+        vec3 to = v3_sub(job->spheres[i].center, l->center);
+        float d = v3_length(to), r = job->spheres[i].radius + l->radius;
+        cones[i].inside = d <= r;
+        if (cones[i].inside) continue;
+        cones[i].axis = v3_scale(to, 1.f / d);
+        cones[i].half = asinf(r / d);
+        cones[i].sin_half = r / d;
+        cones[i].cos_half = sqrtf(pm_maxf(0.f, 1.f - cones[i].sin_half * cones[i].sin_half));
+    }
+    for (uint32_t cell = 0; cell < PROJ_Z * PROJ_PHI; cell++) {
+        const projection_cell *c = &job->cells[cell];
+        bool hit = false;
+        for (uint32_t i = 0; i < job->sphere_count && !hit; i++) {
+            const cone *k = &cones[i];
+            if (k->inside) { hit = true; break; }
+            float reach = k->half + c->angle;
+            if (reach >= PM_PI) { hit = true; break; }
+            float dot = v3_dot(c->centre, k->axis);
+            float threshold = k->cos_half * c->cos_angle - k->sin_half * c->sin_angle;
+            if (dot > threshold + 1e-5f) hit = true;
+            else if (dot >= threshold - 1e-5f) hit = acosf(pm_maxf(-1.f, pm_minf(1.f, dot))) <= reach;
         }
-    return true;
+        if (hit) {
+            l->cells[cell] = 1;
+            l->marked[l->marked_count++] = cell;
+        }
+    }
+    free(cones);
 }
 
 /* A direction from the source: uniform over the marked cells when a projection map exists,
@@ -803,12 +851,32 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
             ps->target_area = (float)(PM_PI * sum);
             ps->target_reach = (float)(1.01 * reach);
         }
+        /* the point-like sources' projection maps, built in parallel: one task per source */
+        if (settings->projection_maps) {
+            light_source *mapped = pm_malloc(sizeof *mapped * source_count, "projection map sources");
+            uint32_t *index = pm_malloc(sizeof *index * source_count, "projection map sources");
+            projection_cell *cells = projection_cells();
+            uint32_t count = 0;
+            for (uint32_t i = 0; mapped && index && cells && i < source_count; i++) {
+                const light_source *l = &t->sources[i];
+                if (l->kind == SOURCE_EMITTERS || (l->kind == SOURCE_PUNCTUAL && s->lights[l->light].type != PM_LIGHT_DIRECTIONAL)) {
+                    mapped[count] = *l;
+                    index[count++] = i;
+                }
+            }
+            projection_job job = {mapped, count, cells, t->spheres, n, !mapped || !index || !cells};
+            if (!atomic_load(&job.failed)) pm_parallel_for(settings->threads < 1 ? 1 : settings->threads, count, build_projection_map, &job);
+            for (uint32_t j = 0; mapped && index && j < count; j++) t->sources[index[j]] = mapped[j]; /* the maps, freed with the sources */
+            free(mapped);
+            free(index);
+            free(cells);
+            if (atomic_load(&job.failed)) { pm_photon_tracer_destroy(t); return NULL; }
+        }
         for (uint32_t i = 0; i < source_count; i++) {
             light_source *l = &t->sources[i];
             bool point_like = l->kind == SOURCE_EMITTERS ||
                               (l->kind == SOURCE_PUNCTUAL && s->lights[l->light].type != PM_LIGHT_DIRECTIONAL);
             if (settings->projection_maps && point_like) {
-                if (!build_projection_map(l, t->spheres, n)) { pm_photon_tracer_destroy(t); return NULL; }
                 covered += (double)l->marked_count / (PROJ_Z * PROJ_PHI) * (cdf[i + 1] - cdf[i]);
             } else if (ps->targets) {
                 covered += fmin(1.0, ps->target_area / (PM_PI * R * R)) * (cdf[i + 1] - cdf[i]);

@@ -12,13 +12,26 @@
 #include "scene_builder.h"
 #include "testing.h"
 
+/* A glass ball and a mirror ball in a grey box, lit by two point lights: caustic photons,
+ * projection maps (one per light, built in parallel) and camera splats all allocate. */
+static pm_accel *caustic_box(pm_scene *s, pm_camera *cam) {
+    memset(s, 0, sizeof *s);
+    sb_box(s, v3s(-1.f), v3s(1.f), sb_lambert(s, v3s(0.5f)), true);
+    sb_sphere(s, v3(-0.4f, -0.6f, 0.f), 0.3f, 16, sb_material(s, v3s(1.f), 0, 0, 1, v3s(0), false));
+    sb_sphere(s, v3(0.4f, -0.6f, 0.2f), 0.3f, 16, sb_material(s, v3s(0.9f), 1, 0, 0, v3s(0), false));
+    sb_point_light(s, v3(0.f, 0.8f, 0.f), v3s(1.f));
+    sb_point_light(s, v3(0.5f, 0.7f, -0.5f), v3s(0.5f));
+    *cam = sb_camera(v3(0.f, 0.f, 0.95f), v3(0.f, -0.3f, 0.f), v3(0.f, 1.f, 0.f), 60.f);
+    return sb_finish(s);
+}
+
 /* Every checked allocation of a progressive session's set-up and first two iterations made to
  * fail in turn: each failure is reported (pm_memory_failure names what), the call returns
  * false, nothing crashes and (under ASan) nothing leaks. */
-static void test_allocation_failures(void) {
+static void test_allocation_failures(bool caustics) {
     pm_scene s;
     pm_camera cam;
-    pm_accel *a = sb_furnace(&s, 0.5f, 1.f, &cam);
+    pm_accel *a = caustics ? caustic_box(&s, &cam) : sb_furnace(&s, 0.5f, 1.f, &cam);
     enum { W = 8, H = 8 };
     pm_progressive_settings ps = {.seed = 1, .threads = 2, .photons = 3000, .caustic_photons = 3000, .alpha = PM_DEFAULT_ALPHA,
                                   .indirect = PM_INDIRECT_GATHER, .max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH,
@@ -51,8 +64,8 @@ static void test_allocation_failures(void) {
     }
     pm_memory_fail_at(0, false);
     pm_memory_clear_failure();
-    printf("allocation failures: %llu checked allocations, %d failing runs, %d without a reason\n",
-           (unsigned long long)total, failures_seen, unreported);
+    printf("allocation failures (%s): %llu checked allocations, %d failing runs, %d without a reason\n",
+           caustics ? "glass and mirror balls, point lights" : "furnace", (unsigned long long)total, failures_seen, unreported);
     CHECK(total >= 10 && failures_seen >= (int)total - 2,
           "criterion: every injected allocation failure fails the run cleanly (%d of %llu)", failures_seen,
           (unsigned long long)total);
@@ -92,7 +105,8 @@ static void test_photon_record_limit(void) {
 }
 
 int main(void) {
-    test_allocation_failures();
+    test_allocation_failures(false);
+    test_allocation_failures(true);
     test_photon_record_limit();
     return pm_test_done("test_memory_failures");
 }

@@ -304,6 +304,39 @@ static void parallel_light_projection(bool sky) {
     pm_scene_free(&s);
 }
 
+/* Point lights around several glass balls, one close enough to a light that its cone is wide,
+ * one far: each light's projection map (one per light, built in parallel) must keep every
+ * direction that reaches a ball, so the aimed caustic power equals the unaimed one. */
+static void point_lights_projection(void) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    sb_quad(&s, v3(-3, 0, 3), v3(3, 0, 3), v3(3, 0, -3), v3(-3, 0, -3), sb_lambert(&s, v3s(0.5f)));
+    uint32_t glass = sb_material(&s, v3s(1.f), 0, 0, 1, v3s(0), false);
+    add_sphere(&s, v3(0.f, 0.5f, 0.f), 0.4f, glass, 32, 16);
+    add_sphere(&s, v3(1.2f, 0.9f, -0.8f), 0.3f, glass, 32, 16);
+    add_sphere(&s, v3(-1.5f, 1.6f, 0.9f), 0.35f, glass, 32, 16);
+    add_sphere(&s, v3(2.2f, 0.3f, 2.0f), 0.25f, glass, 32, 16);
+    sb_point_light(&s, v3(0.2f, 2.f, 0.1f), v3s(1.f));
+    sb_point_light(&s, v3(-1.5f, 2.3f, 0.9f), v3s(2.f)); /* 0.7 above a ball of 0.35: a wide cone */
+    sb_point_light(&s, v3(1.8f, 1.2f, -1.5f), v3s(1.5f));
+    pm_accel *a = sb_finish(&s);
+    pm_photon_settings aimed = photon_settings(0, 200000), everywhere = photon_settings(0, 2000000);
+    everywhere.projection_maps = false;
+    pm_photon_maps m1, m2;
+    CHECK(pm_photon_maps_build(&s, a, &aimed, &m1, NULL) && pm_photon_maps_build(&s, a, &everywhere, &m2, NULL),
+          "point lights: build");
+    double p1 = stored_power(&m1.caustic, -1).x, p2 = stored_power(&m2.caustic, -1).x;
+    printf("point lights: caustic power %.4f aimed (%zu photons of 200k, fraction %.4f), %.4f everywhere (%zu of 2M)\n", p1,
+           m1.caustic.count, m1.projection_fraction, p2, m2.caustic.count);
+    CHECK(m1.projection_fraction > 0.0 && m1.projection_fraction < 0.5, "point lights: the maps keep a part of the sphere (%g)",
+          m1.projection_fraction);
+    CHECK_NEAR(p1, p2, 0.03, 0, "point lights: aimed caustic power = unaimed");
+    pm_photon_maps_free(&m1);
+    pm_photon_maps_free(&m2);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 /* Both branches of the roulette: walls half Lambert, half mirror (metallic 0.5, roughness 0),
  * reflectance rho in all. Every wall has a diffuse part, so the global map stores
  * every hit; whichever branch a photon takes, the later hits must carry rho/(1-rho) of the
@@ -340,6 +373,7 @@ int main(void) {
     roulette_both_branches();
     parallel_light_projection(false);
     parallel_light_projection(true);
+    point_lights_projection();
     many_lights();
     power_bookkeeping();
     inverse_square();
