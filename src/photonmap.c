@@ -12,6 +12,7 @@
 #include "photonmap.h"
 
 #include <float.h>
+#include <assert.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -39,8 +40,7 @@ typedef struct {
     vec3 power;              /* flux, W per channel */
     vec3 center;             /* where its photons leave from, for projection maps */
     float radius;            /* bounding radius of that region (0 for a point) */
-    uint8_t *cells;          /* projection map (caustic pass), NULL = every direction */
-    uint32_t *marked;        /* indices of marked cells */
+    uint32_t *marked;        /* projection map (caustic pass): the marked cells' indices; NULL = every direction */
     uint32_t marked_count;
 } light_source;
 
@@ -240,10 +240,8 @@ typedef struct {
 static void build_projection_map(void *ctx, size_t index, int thread) {
     projection_job *job = ctx;
     light_source *l = &job->sources[index];
-    l->cells = pm_calloc(PROJ_Z * PROJ_PHI, 1, "projection map");
-    l->marked = pm_malloc(sizeof(uint32_t) * PROJ_Z * PROJ_PHI, "projection map");
+    l->marked = NULL;
     l->marked_count = 0;
-    if (!l->cells || !l->marked) { atomic_store(&job->failed, true); return; }
     typedef struct { vec3 axis; float half, cos_half, sin_half; bool inside; } cone;
     cone *cones = pm_malloc(sizeof *cones * (job->sphere_count ? job->sphere_count : 1), "projection map cones");
     if (!cones) { atomic_store(&job->failed, true); return; }
@@ -257,6 +255,7 @@ static void build_projection_map(void *ctx, size_t index, int thread) {
         cones[i].sin_half = r / d;
         cones[i].cos_half = sqrtf(pm_maxf(0.f, 1.f - cones[i].sin_half * cones[i].sin_half));
     }
+    uint32_t marks[PROJ_Z * PROJ_PHI], count = 0; /* 32 kB of the worker's stack; the map keeps only the marks */
     for (uint32_t cell = 0; cell < PROJ_Z * PROJ_PHI; cell++) {
         const projection_cell *c = &job->cells[cell];
         bool hit = false;
@@ -270,18 +269,26 @@ static void build_projection_map(void *ctx, size_t index, int thread) {
             if (dot > threshold + 1e-5f) hit = true;
             else if (dot >= threshold - 1e-5f) hit = acosf(pm_maxf(-1.f, pm_minf(1.f, dot))) <= reach;
         }
-        if (hit) {
-            l->cells[cell] = 1;
-            l->marked[l->marked_count++] = cell;
-        }
+        marks[count] = cell;
+        count += hit;
     }
     free(cones);
+    l->marked = pm_malloc(sizeof(uint32_t) * (count ? count : 1), "projection map");
+    if (!l->marked) { atomic_store(&job->failed, true); return; }
+    memcpy(l->marked, marks, sizeof(uint32_t) * count);
+    l->marked_count = count;
 }
 
 /* A direction from the source: uniform over the marked cells when a projection map exists,
  * else uniform over the sphere. Returns the solid angle sampled (the pdf is 1 / that). */
 static float sample_direction(const light_source *l, bool aimed, pm_rng *rng, vec3 *dir) {
     if (aimed) {
+        /* every sphere's own direction marks its cell, so a map has a cell whenever it exists */
+        assert(l->marked_count > 0);
+        if (!l->marked_count) {
+            *dir = v3(0.f, 0.f, 1.f);
+            return 0.f; /* no flux */
+        }
         uint32_t pick = (uint32_t)(pm_rng_float(rng) * l->marked_count);
         if (pick >= l->marked_count) pick = l->marked_count - 1;
         uint32_t cell = l->marked[pick];
@@ -370,7 +377,7 @@ static float parallel_start(const pass *ps, vec3 dir, pm_rng *rng, vec3 *o) {
  * count and the pick probability). Returns false when it carries nothing. */
 static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, vec3 *d, vec3 *flux) {
     const pm_scene *s = ps->scene;
-    bool aimed = ps->caustic_pass && l->cells; /* projection maps aim caustic photons only */
+    bool aimed = ps->caustic_pass && l->marked; /* projection maps aim caustic photons only */
     if (l->kind == SOURCE_EMITTERS) {
         float pick_pdf;
         uint32_t e = pm_scene_pick_emitter_index(s, pm_rng_float(rng), &pick_pdf);
@@ -895,7 +902,6 @@ void pm_photon_tracer_destroy(pm_photon_tracer *t) {
     if (!t) return;
     if (t->sources)
         for (uint32_t i = 0; i < t->source_count; i++) {
-            free(t->sources[i].cells);
             free(t->sources[i].marked);
         }
     free(t->spheres);
