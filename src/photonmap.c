@@ -253,7 +253,9 @@ static void build_projection_map(void *ctx, size_t index, int thread) {
         cones[i].axis = v3_scale(to, 1.f / d);
         cones[i].half = asinf(r / d);
         cones[i].sin_half = r / d;
-        cones[i].cos_half = sqrtf(pm_maxf(0.f, 1.f - cones[i].sin_half * cones[i].sin_half));
+        /* in double: near the light a sphere's sine is close to 1, and 1 - s^2 in float cancels */
+        double s2 = (double)cones[i].sin_half * cones[i].sin_half;
+        cones[i].cos_half = (float)sqrt(s2 < 1.0 ? 1.0 - s2 : 0.0);
     }
     uint32_t marks[PROJ_Z * PROJ_PHI], count = 0; /* 32 kB of the worker's stack; the map keeps only the marks */
     for (uint32_t cell = 0; cell < PROJ_Z * PROJ_PHI; cell++) {
