@@ -220,12 +220,13 @@ static void gather_structures(const pm_photon_maps *maps, float radius) {
  * the scene as loaded and with point lights added under its top until it has `lights` (0: as
  * loaded): seconds of the best of three interleaved runs, the share of shadow rays saved, and what
  * the map costs. */
-/* Loads the scene and spreads point lights under its ceiling until it has `lights` of them (a
- * golden-ratio pattern, the same every run); the number added is returned, -1 when loading fails. */
-static int load_with_point_lights(const char *path, int lights, pm_scene *s) {
+/* Loads the scene, spreads point lights under its ceiling until it has `lights` of them (a
+ * golden-ratio pattern, the same every run; *added says how many) and builds its accel; NULL
+ * (nothing to free) when loading or building fails. */
+static pm_accel *load_with_point_lights(const char *path, int lights, pm_scene *s, int *added) {
     pm_load_report rep;
     char err[1024];
-    if (!pm_load_gltf(path, true, s, &rep, err, sizeof err)) return -1;
+    if (!pm_load_gltf(path, true, s, &rep, err, sizeof err)) return NULL;
     pm_scene_finalize(s, true, NULL);
     vec3 ext = v3_sub(s->bounds_max, s->bounds_min);
     int extra_lights = lights > (int)s->light_count ? lights - (int)s->light_count : 0;
@@ -241,18 +242,19 @@ static int load_with_point_lights(const char *path, int lights, pm_scene *s) {
         s->lights[s->light_count++] = l;
     }
     pm_scene_finalize(s, true, NULL);
-    return extra_lights;
+    *added = extra_lights;
+    pm_accel *a = pm_accel_create(s, err, sizeof err);
+    if (!a) pm_scene_free(s);
+    return a;
 }
 
 /* The photon tracer's set-up, which builds a projection map per point-like light: it comes
  * before the first image, so many lights around specular objects must not delay it. */
 static void projection_maps(const char *path, int lights) {
     pm_scene s;
-    char err[1024];
-    int added = load_with_point_lights(path, lights, &s);
-    if (added < 0) return;
-    pm_accel *a = pm_accel_create(&s, err, sizeof err);
-    if (!a) { pm_scene_free(&s); return; }
+    int added;
+    pm_accel *a = load_with_point_lights(path, lights, &s, &added);
+    if (!a) return;
     double best[3] = {1e30, 1e30, 1e30}, fraction = 0.0;
     for (int rep = 0; rep < 3; rep++)
         for (int threads = 1; threads <= 2; threads++) {
@@ -278,11 +280,9 @@ static void projection_maps(const char *path, int lights) {
 
 static void shadow_photons(const char *path, int lights) {
     pm_scene s;
-    char err[1024];
-    int extra_lights = load_with_point_lights(path, lights, &s);
-    if (extra_lights < 0) return;
-    pm_accel *a = pm_accel_create(&s, err, sizeof err);
-    if (!a) { pm_scene_free(&s); return; }
+    int extra_lights;
+    pm_accel *a = load_with_point_lights(path, lights, &s, &extra_lights);
+    if (!a) return;
     pm_camera cam = s.camera_count ? s.cameras[0] : pm_scene_auto_camera(&s, 1.f);
     pm_shadow_settings set;
     memset(&set, 0, sizeof set);
