@@ -78,6 +78,17 @@ static double raw_rate(const pm_accel *a, const vec3 *o, const vec3 *d, size_t n
     return best;
 }
 
+/* The photon settings every photon bench uses: seed 1, 32 bounces, projection maps. */
+static pm_photon_settings bench_photon_settings(int threads) {
+    pm_photon_settings ps;
+    memset(&ps, 0, sizeof ps);
+    ps.seed = 1;
+    ps.threads = threads;
+    ps.max_bounces = 32;
+    ps.projection_maps = true;
+    return ps;
+}
+
 /* The raw rate on two threads, each tracing half the rays, over the wall time of both: the fair
  * ceiling for a two-thread pass (two tenants of one machine rarely scale by exactly 2). */
 typedef struct { const pm_accel *a; const vec3 *o, *d; size_t n; } raw_job;
@@ -258,12 +269,7 @@ static void projection_maps(const char *path, int lights) {
     double best[3] = {1e30, 1e30, 1e30}, fraction = 0.0;
     for (int rep = 0; rep < 3; rep++)
         for (int threads = 1; threads <= 2; threads++) {
-            pm_photon_settings ps;
-            memset(&ps, 0, sizeof ps);
-            ps.seed = 1;
-            ps.threads = threads;
-            ps.max_bounces = 32;
-            ps.projection_maps = true;
+            pm_photon_settings ps = bench_photon_settings(threads);
             double t0 = pm_now_seconds();
             pm_photon_tracer *t = pm_photon_tracer_create(&s, a, &ps);
             double t1 = pm_now_seconds() - t0;
@@ -355,14 +361,9 @@ int main(int argc, char **argv) {
     memset(&maps, 0, sizeof maps);
     for (int rep = 0; rep < 3; rep++)
         for (int threads = 1; threads <= 2; threads++) {
-            pm_photon_settings ps;
-            memset(&ps, 0, sizeof ps);
+            pm_photon_settings ps = bench_photon_settings(threads);
             ps.global_photons = 500000;
             ps.caustic_photons = 500000;
-            ps.seed = 1;
-            ps.threads = threads;
-            ps.max_bounces = 32;
-            ps.projection_maps = true;
             pm_photon_stats st;
             pm_photon_maps_free(&maps);
             if (!pm_photon_maps_build(&s, a, &ps, &maps, &st)) { fprintf(stderr, "bench: photon build failed\n"); return 1; }

@@ -199,6 +199,11 @@ static vec3 cell_direction(int iz, int iphi, float fz, float fphi) {
     return v3(r * cosf(phi), r * sinf(phi), z);
 }
 
+/* Sources whose photons leave from a bounded region, so a map of directions can aim them. */
+static bool point_like(const pm_scene *s, const light_source *l) {
+    return l->kind == SOURCE_EMITTERS || (l->kind == SOURCE_PUNCTUAL && s->lights[l->light].type != PM_LIGHT_DIRECTIONAL);
+}
+
 /* The projection map's cells, the same for every source: each cell's centre direction and its
  * angular radius (the widest corner, with a margin), and that radius's cosine and sine. */
 typedef struct { vec3 centre; float angle, cos_angle, sin_angle; } projection_cell;
@@ -222,7 +227,7 @@ static projection_cell *projection_cells(void) {
 
 typedef struct {
     light_source *sources;
-    uint32_t source_count;
+    const uint32_t *mapped;  /* the sources that get a map, one task each */
     const projection_cell *cells;
     const sphere *spheres;
     uint32_t sphere_count;
@@ -239,7 +244,7 @@ typedef struct {
  * marked exactly as the angle test marks it. */
 static void build_projection_map(void *ctx, size_t index, int thread) {
     projection_job *job = ctx;
-    light_source *l = &job->sources[index];
+    light_source *l = &job->sources[job->mapped[index]];
     l->marked = NULL;
     l->marked_count = 0;
     typedef struct { vec3 axis; float half, cos_half, sin_half; bool inside; } cone;
@@ -860,32 +865,23 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
             ps->target_area = (float)(PM_PI * sum);
             ps->target_reach = (float)(1.01 * reach);
         }
-        /* the point-like sources' projection maps, built in parallel: one task per source */
+        /* the point-like sources' projection maps, built in parallel: one task per source (each
+         * writes only its own source's map) */
         if (settings->projection_maps) {
-            light_source *mapped = pm_malloc(sizeof *mapped * source_count, "projection map sources");
-            uint32_t *index = pm_malloc(sizeof *index * source_count, "projection map sources");
+            uint32_t *mapped = pm_malloc(sizeof *mapped * source_count, "projection map sources");
             projection_cell *cells = projection_cells();
             uint32_t count = 0;
-            for (uint32_t i = 0; mapped && index && cells && i < source_count; i++) {
-                const light_source *l = &t->sources[i];
-                if (l->kind == SOURCE_EMITTERS || (l->kind == SOURCE_PUNCTUAL && s->lights[l->light].type != PM_LIGHT_DIRECTIONAL)) {
-                    mapped[count] = *l;
-                    index[count++] = i;
-                }
-            }
-            projection_job job = {mapped, count, cells, t->spheres, n, !mapped || !index || !cells};
+            for (uint32_t i = 0; mapped && cells && i < source_count; i++)
+                if (point_like(s, &t->sources[i])) mapped[count++] = i;
+            projection_job job = {t->sources, mapped, cells, t->spheres, n, !mapped || !cells};
             if (!atomic_load(&job.failed)) pm_parallel_for(settings->threads < 1 ? 1 : settings->threads, count, build_projection_map, &job);
-            for (uint32_t j = 0; mapped && index && j < count; j++) t->sources[index[j]] = mapped[j]; /* the maps, freed with the sources */
             free(mapped);
-            free(index);
             free(cells);
             if (atomic_load(&job.failed)) { pm_photon_tracer_destroy(t); return NULL; }
         }
         for (uint32_t i = 0; i < source_count; i++) {
             light_source *l = &t->sources[i];
-            bool point_like = l->kind == SOURCE_EMITTERS ||
-                              (l->kind == SOURCE_PUNCTUAL && s->lights[l->light].type != PM_LIGHT_DIRECTIONAL);
-            if (settings->projection_maps && point_like) {
+            if (settings->projection_maps && point_like(s, l)) {
                 covered += (double)l->marked_count / (PROJ_Z * PROJ_PHI) * (cdf[i + 1] - cdf[i]);
             } else if (ps->targets) {
                 covered += fmin(1.0, ps->target_area / (PM_PI * R * R)) * (cdf[i + 1] - cdf[i]);
