@@ -4,8 +4,10 @@
  * MASK or BLEND (glTF alphaMode), whose hits pass the alpha test inside every query: MASK cuts out
  * where alpha < alphaCutoff, BLEND lets each ray through with probability 1 - alpha, decided by a
  * hash of the ray and the triangle (see accel.c), so callers pass no random numbers. Rays are
- * single (rtcIntersect1 / rtcOccluded1): the integrators are incoherent path tracers. A scene
- * with alpha-tested triangles must outlive its accel.
+ * single (rtcIntersect1 / rtcOccluded1), the integrators being incoherent path tracers, except
+ * where rays start together and point alike (a tile's camera rays): those go in packets of 8,
+ * which Embree traces about twice as fast, with the same answers. A scene with alpha-tested
+ * triangles must outlive its accel.
  */
 #ifndef PM_ACCEL_H
 #define PM_ACCEL_H
@@ -27,6 +29,10 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size);
 void pm_accel_destroy(pm_accel *a);
 /* Closest hit in (0, tmax); d must be unit length. */
 bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *hit);
+/* pm_accel_intersect(o[i], d[i], INFINITY, &hits[i]) for i < n, its answer in hit[i] (hits[i] is
+ * written only where hit[i]), traced in packets of 8 consecutive rays: for rays that start
+ * together and point alike, in that order (a 4 x 2 block of camera rays, not a row of 8). */
+void pm_accel_intersect_coherent(const pm_accel *a, size_t n, const vec3 *o, const vec3 *d, bool *hit, pm_hit *hits);
 /* True when anything blocks (0, tmax). */
 bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax);
 size_t pm_accel_bytes(const pm_accel *a);

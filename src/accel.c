@@ -279,6 +279,44 @@ bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *h
     return true;
 }
 
+void pm_accel_intersect_coherent(const pm_accel *a, size_t n, const vec3 *o, const vec3 *d, bool *hit, pm_hit *hits) {
+    enum { PACKET = 8 };
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    for (size_t base = 0; base < n; base += PACKET) {
+        size_t m = n - base < PACKET ? n - base : PACKET;
+        int valid[PACKET];
+        struct RTCRayHit8 rh;
+        for (size_t j = 0; j < PACKET; j++) {
+            /* lanes past the end and rays Embree must not see stay invalid: a miss */
+            size_t i = base + (j < m ? j : 0);
+            valid[j] = j < m && ray_in_range(o[i], d[i], INFINITY) ? -1 : 0;
+            rh.ray.org_x[j] = o[i].x; rh.ray.org_y[j] = o[i].y; rh.ray.org_z[j] = o[i].z;
+            rh.ray.dir_x[j] = d[i].x; rh.ray.dir_y[j] = d[i].y; rh.ray.dir_z[j] = d[i].z;
+            rh.ray.tnear[j] = a->tnear;
+            rh.ray.tfar[j] = INFINITY;
+            rh.ray.time[j] = 0.f;
+            rh.ray.mask[j] = 0xFFFFFFFFu;
+            rh.ray.id[j] = 0;
+            rh.ray.flags[j] = 0;
+            rh.hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
+        }
+        rtcIntersect8(valid, a->scene, &ctx, &rh);
+        for (size_t j = 0; j < m; j++) {
+            size_t i = base + j;
+            hit[i] = valid[j] && rh.hit.geomID[j] != RTC_INVALID_GEOMETRY_ID;
+            if (!hit[i]) continue;
+            hits[i].t = rh.ray.tfar[j];
+            const uint32_t *tri_of_prim = a->tri_of_prim[rh.hit.geomID[j]];
+            hits[i].tri = tri_of_prim ? tri_of_prim[rh.hit.primID[j]] : rh.hit.primID[j];
+            hits[i].b1 = rh.hit.u[j];
+            hits[i].b2 = rh.hit.v[j];
+        }
+    }
+}
+
 bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax) {
     if (!ray_in_range(o, d, tmax)) return true;
     struct RTCIntersectContext ctx;

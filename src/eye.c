@@ -348,15 +348,22 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, v
     return result;
 }
 
-static void trace_pixel(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT],
-                        uint64_t *rays, uint64_t shadow_counts[2]) {
+static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
+                        vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2]) {
     const pm_scene *s = job->scene;
     vec3 throughput = v3s(1.f);
     for (int depth = 0;; depth++) {
         int comp = depth == 0 ? PM_DIRECT : PM_SPECULAR;
         pm_hit h;
-        (*rays)++;
-        if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) {
+        bool hit;
+        if (depth == 0) {
+            hit = camera->hit;
+            h = camera->h;
+        } else {
+            (*rays)++;
+            hit = pm_accel_intersect(job->accel, o, d, INFINITY, &h);
+        }
+        if (!hit) {
             if (s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
             return;
         }
@@ -494,14 +501,15 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
 /* The progressive mode's eye sample: the pixel's visible point and, with final gathering, the
  * point its one gather ray finds (the ray direct light drew from the material at the visible
  * point); emission and direct light go to out[]. */
-static void trace_visible(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT],
-                          uint64_t *rays, uint64_t shadow_counts[2], pm_visible_point *vp, pm_visible_point *gp) {
+static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
+                          vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2], pm_visible_point *vp,
+                          pm_visible_point *gp) {
     memset(vp, 0, sizeof *vp);
     if (gp) memset(gp, 0, sizeof *gp);
     pm_surface sf, y;
     vec3 throughput, unused;
     surface_bounce next;
-    if (!walk_to_diffuse(job, o, d, NULL, v3s(1.f), true, rng, out, rays, shadow_counts, vp, &sf, &throughput,
+    if (!walk_to_diffuse(job, o, d, camera, v3s(1.f), true, rng, out, rays, shadow_counts, vp, &sf, &throughput,
                          gp ? &next : NULL) ||
         !gp || !next.sampled)
         return;
@@ -513,13 +521,13 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 
 /* The path tracer's sample (settings->path_trace; the rules are in eye.h at pm_eye_iterate).
  * `seen` is the component that light met along the next segment belongs to, `lit_by_segment`
  * whether such light counts at all (camera ray, or the last bounce was specular). */
-static void trace_path(const eye_job *job, vec3 o, vec3 d, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays,
-                       uint64_t shadow_counts[2], uint64_t *vertices) {
+static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
+                       vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2], uint64_t *vertices) {
     const pm_scene *s = job->scene;
     vec3 throughput = v3s(1.f);
     int seen = PM_DIRECT;
     bool lit_by_segment = true, behind_specular = false;
-    surface_bounce next = {.sampled = false};
+    surface_bounce next = *camera; /* the camera ray, traced with its tile */
     for (int depth = 0; depth < PM_PATHTRACE_MAX_VERTICES; depth++) {
         pm_hit h;
         bool hit;
@@ -595,21 +603,45 @@ static void render_tile(void *ctx, size_t task, int thread) {
             for (int y = y0; y < y1; y++)
                 for (int x = x0; x < x1 + 4; x += 5) /* 60 bytes apart: every 64-byte line */
                     __builtin_prefetch(film->sum[c] + 3 * ((size_t)y * film->width + (x < x1 ? x : x1 - 1)), 1);
+    /* The tile's camera rays first, in 4 x 2 blocks: Embree traces such a packet of 8 about twice
+     * as fast as 8 single rays. Each pixel's random numbers go on from where its jitter left them. */
+    enum { BLOCK_W = 4, BLOCK_H = 2 };
+    vec3 origin[TILE * TILE], direction[TILE * TILE];
+    pm_rng rngs[TILE * TILE];
+    bool hit[TILE * TILE];
+    pm_hit hits[TILE * TILE];
+    uint16_t ray_of[TILE * TILE]; /* by the pixel's place in the tile, row by row */
+    size_t traced = 0;
+    for (int by = y0; by < y1; by += BLOCK_H)
+        for (int bx = x0; bx < x1; bx += BLOCK_W)
+            for (int y = by; y < by + BLOCK_H && y < y1; y++)
+                for (int x = bx; x < bx + BLOCK_W && x < x1; x++) {
+                    pm_rng *rng = &rngs[traced];
+                    *rng = pm_rng_for(job->settings->seed, job->iteration, (size_t)y * film->width + x);
+                    /* y's number first: the order the images have always had */
+                    float jy = pm_rng_float(rng), jx = pm_rng_float(rng);
+                    pm_camera_view_ray(&job->view, x + jx, y + jy, &origin[traced], &direction[traced]);
+                    ray_of[(y - y0) * TILE + (x - x0)] = (uint16_t)traced++;
+                }
+    if (!traced) return; /* an empty tile: none is ever made */
+    pm_accel_intersect_coherent(job->accel, traced, origin, direction, hit, hits);
+    rays += traced;
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
-            size_t pixel = (size_t)y * film->width + x;
-            pm_rng rng = pm_rng_for(job->settings->seed, job->iteration, pixel);
-            vec3 o, d;
-            pm_camera_view_ray(&job->view, x + pm_rng_float(&rng), y + pm_rng_float(&rng), &o, &d);
+            size_t pixel = (size_t)y * film->width + x, k = ray_of[(y - y0) * TILE + (x - x0)];
+            pm_rng rng = rngs[k];
+            vec3 o = origin[k], d = direction[k];
+            surface_bounce camera = {.sampled = true, .hit = hit[k]};
+            if (hit[k]) camera.h = hits[k];
             vec3 out[PM_COMPONENT_COUNT] = {{0}};
             if (job->settings->path_trace)
-                trace_path(job, o, d, &rng, out, &rays, shadow_counts, &vertices);
+                trace_path(job, o, d, &camera, &rng, out, &rays, shadow_counts, &vertices);
             else if (job->visible_points) {
-                trace_visible(job, o, d, &rng, out, &rays, shadow_counts, &visible[points],
+                trace_visible(job, o, d, &camera, &rng, out, &rays, shadow_counts, &visible[points],
                               job->gather_points ? &gathered[points] : NULL);
                 pixels[points++] = pixel;
             } else
-                trace_pixel(job, o, d, &rng, out, &rays, shadow_counts);
+                trace_pixel(job, o, d, &camera, &rng, out, &rays, shadow_counts);
             /* a sample pm_film_add refuses is counted (stat eye dropped_samples=), so tests can see one; a
              * zero adds nothing (sums are never -0, and NaN is not zero), so the components this pass
              * leaves to photons are not touched */

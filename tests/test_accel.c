@@ -1,5 +1,6 @@
 /* test_accel.c: hit distances and self-intersection-free ray offsets at any scale and far from the origin. */
 #include "accel.h"
+#include "camera.h"
 #include "rng.h"
 #include "scene_builder.h"
 #include "testing.h"
@@ -139,7 +140,59 @@ static void check_out_of_range(void) {
     pm_scene_free(&s);
 }
 
+/* Packets of camera rays (pm_accel_intersect_coherent) answer exactly as single rays do: the same
+ * hits, distances and barycentrics, bit for bit, through a BLEND pane's stochastic alpha test, for
+ * rays Embree cannot take, and for a count that is not a multiple of the packet. */
+static void check_coherent_packets(void) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    uint32_t m = sb_lambert(&s, v3s(0.5f)), pane = sb_lambert(&s, v3s(0.5f));
+    sb_box(&s, v3s(-1.f), v3s(1.f), m, true);
+    sb_sphere(&s, v3(0.3f, -0.4f, 0.1f), 0.35f, 24, m);
+    sb_quad(&s, v3(-0.8f, -0.8f, 0.2f), v3(0.8f, -0.8f, 0.2f), v3(0.8f, 0.8f, 0.2f), v3(-0.8f, 0.8f, 0.2f), pane);
+    s.materials[pane].alpha_mode = PM_ALPHA_BLEND;
+    s.materials[pane].alpha = 0.5f;
+    pm_accel *a = sb_finish(&s);
+    if (!a) return;
+    enum { N = 8 * 40 + 3 };
+    vec3 o[N], d[N];
+    bool hit[N];
+    pm_hit hits[N];
+    pm_rng rng = pm_rng_for(11, 0, 0);
+    pm_camera cam = sb_camera(v3(0.f, 0.f, 0.95f), v3(0.f, 0.f, 0.f), v3(0.f, 1.f, 0.f), 60.f);
+    for (int i = 0; i < N; i++) {
+        if (i < N / 2) { /* a camera's rays, 4 x 2 blocks over a small image */
+            int block = i / 8, x = 4 * (block % 5) + i % 4, y = 2 * (block / 5) + (i % 8) / 4;
+            pm_camera_ray(&cam, 20, 20, x + pm_rng_float(&rng), y + pm_rng_float(&rng), &o[i], &d[i]);
+        } else { /* scattered rays from anywhere in the room */
+            o[i] = v3(1.8f * pm_rng_float(&rng) - 0.9f, 1.8f * pm_rng_float(&rng) - 0.9f, 1.8f * pm_rng_float(&rng) - 0.9f);
+            d[i] = v3_normalize(v3(pm_rng_float(&rng) - 0.5f, pm_rng_float(&rng) - 0.5f, pm_rng_float(&rng) - 0.5f));
+        }
+    }
+    o[N / 2 + 5] = v3(0.f, 0.f, 1e20f);
+    d[N / 2 + 9] = v3(NAN, 0.f, -1.f);
+    pm_accel_intersect_coherent(a, N, o, d, hit, hits);
+    int differ = 0, hits_seen = 0, pane_hits = 0;
+    for (int i = 0; i < N; i++) {
+        pm_hit h;
+        bool single = pm_accel_intersect(a, o[i], d[i], INFINITY, &h);
+        hits_seen += single;
+        if (single) pane_hits += s.triangle_material[h.tri] == pane;
+        if (single != hit[i] || (single && (memcmp(&h.t, &hits[i].t, 4) || h.tri != hits[i].tri ||
+                                            memcmp(&h.b1, &hits[i].b1, 4) || memcmp(&h.b2, &hits[i].b2, 4))))
+            differ++;
+    }
+    printf("coherent packets: %d rays, %d hits (%d on the pane), %d differ from single rays\n", N, hits_seen, pane_hits, differ);
+    CHECK(differ == 0, "packets must answer as single rays: %d differ", differ);
+    CHECK(hits_seen == N - 2, "every ray in range hits the closed room: %d of %d", hits_seen, N - 2);
+    CHECK(!hit[N / 2 + 5] && !hit[N / 2 + 9], "rays Embree cannot take are misses in a packet too");
+    CHECK(pane_hits > 20 && pane_hits < N / 2, "the BLEND pane stops some rays and lets others through: %d", pane_hits);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
+    check_coherent_packets();
     check_out_of_range();
     check_sphere_crossings(0.3f, v3(0.f, 0.35f, 0.f));
     check_sphere_crossings(0.3f, v3(3.f, -2.f, 1.f));
