@@ -476,6 +476,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
                 vp->ns = side_normal(sf, ng);
             } else {
                 vp->weight = v3_mul(throughput, v3_scale(sf->kd, PM_INV_PI));
+                vp->ns = ng; /* read by nothing on a Lambert point, but every field is set */
             }
             vp->path_length = path_length;
             vp->seen_directly = depth == 0;
@@ -504,8 +505,10 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
 static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
                           vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2], pm_visible_point *vp,
                           pm_visible_point *gp) {
-    memset(vp, 0, sizeof *vp);
-    if (gp) memset(gp, 0, sizeof *gp);
+    /* a point's fields are all written where it becomes valid; clearing two 96-byte records per
+     * pixel was 2% of an iteration */
+    vp->valid = false;
+    if (gp) gp->valid = false;
     pm_surface sf, y;
     vec3 throughput, unused;
     surface_bounce next;
