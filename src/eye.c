@@ -348,6 +348,14 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, v
     return result;
 }
 
+/* Past a few bounces, roulette on throughput keeps long glass paths cheap and unbiased. */
+static inline bool roulette_survives(vec3 *throughput, pm_rng *rng) {
+    float q = pm_minf(0.95f, v3_max_component(*throughput));
+    if (pm_rng_float(rng) >= q) return false;
+    *throughput = v3_scale(*throughput, 1.f / q);
+    return true;
+}
+
 static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
                         vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2]) {
     const pm_scene *s = job->scene;
@@ -415,27 +423,30 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
         throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
         d = sp.direction;
         o = sp.origin;
-        /* Past a few bounces, roulette on throughput keeps long glass paths cheap and unbiased. */
-        if (depth >= 4) {
-            float q = pm_minf(0.95f, v3_max_component(throughput));
-            if (pm_rng_float(rng) >= q) return;
-            throughput = v3_scale(throughput, 1.f / q);
-        }
+        if (depth >= 4 && !roulette_survives(&throughput, rng)) return;
     }
 }
 
 /* Follows a ray through specular bounces to the first surface where it becomes diffuse, and
  * returns that point (false when the path leaves the scene, is absorbed or cut). Camera rays add
- * the emission they see on the way to out[] and direct light at the point; gather rays add
- * nothing (direct light and caustics at their origin already count it). A mixed surface is the
+ * the emission they see on the way to out[] and direct light at the point. A mixed surface is the
  * point with probability D / (D + S) and scatters on otherwise, each choice weighted by the
- * inverse of its probability. */
+ * inverse of its probability.
+ *
+ * Gather rays add nothing through specular bounces (direct light and caustics at their origin
+ * already count it), but go on through a sharp glossy lobe (GGX alpha below
+ * PM_PPM_GATHER_LOBE_ALPHA) by sampling it, as photons do: read there, each photon weighted by a
+ * lobe that peaks at 1 / (pi alpha^2), such a point turns a few photons into bright speckles that
+ * take thousands of iterations to clear (the floor beside a smooth metal ball). Past such a
+ * bounce the light the ray meets (emission, sky) is no longer counted by photons at any point, so
+ * it is added to out[lobe_component]. */
 static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bounce *traced, vec3 throughput,
-                            bool camera_ray, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays,
+                            bool camera_ray, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], int lobe_component, uint64_t *rays,
                             uint64_t shadow_counts[2], pm_visible_point *vp, pm_surface *sf, vec3 *point_throughput,
                             surface_bounce *next) {
     const pm_scene *s = job->scene;
     float path_length = 0.f;
+    bool past_lobe = false; /* a gather ray that went on through a sharp lobe */
     for (int depth = 0;; depth++) {
         int comp = depth == 0 ? PM_DIRECT : PM_SPECULAR;
         pm_hit h;
@@ -447,8 +458,10 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
             (*rays)++;
             hit = pm_accel_intersect(job->accel, o, d, INFINITY, &h);
         }
+        if (past_lobe) comp = lobe_component;
+        bool adds_light = camera_ray || past_lobe;
         if (!hit) {
-            if (camera_ray && s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
+            if (adds_light && s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
             return false;
         }
         path_length += h.t;
@@ -456,13 +469,27 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
         throughput = v3_mul(throughput, pm_volume_transmittance(s, sf, d, h.t));
         vec3 wo = v3_neg(d);
         bool front = v3_dot(sf->ng, wo) > 0.f;
-        if (camera_ray && (front || sf->double_sided) && !v3_is_black(sf->emission))
+        if (adds_light && (front || sf->double_sided) && !v3_is_black(sf->emission))
             out[comp] = v3_add(out[comp], v3_mul(throughput, sf->emission));
         /* a glossy lobe is a visible point like Lambert's, chosen by its share of the surface */
         float D = sf->glossy ? sf->brdf.weight : v3_average(sf->kd), S = pm_specular_weight(sf);
         if (D > 0.f && (S <= 0.f || pm_rng_float(rng) * (D + S) < D)) {
             throughput = v3_scale(throughput, (D + S) / D);
             vec3 ng = facing(sf->ng, wo);
+            if (!camera_ray && sf->glossy && sf->brdf.alpha < PM_PPM_GATHER_LOBE_ALPHA) {
+                if (depth >= job->settings->max_specular_depth) return false;
+                vec3 ns = side_normal(sf, ng), wi, f;
+                float pdf;
+                if (!pm_brdf_sample(&sf->brdf, ns, wo, pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), &wi, &f, &pdf) ||
+                    v3_dot(wi, ng) <= 0.f)
+                    return false;
+                throughput = v3_mul(throughput, v3_scale(f, v3_dot(ns, wi) / pdf));
+                d = wi;
+                o = pm_surface_origin(sf, ng, s->ray_scale);
+                past_lobe = true;
+                if (depth >= 4 && !roulette_survives(&throughput, rng)) return false;
+                continue;
+            }
             if (camera_ray)
                 out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, sf, wo, rng, rays,
                                                                               job->settings->shadow, shadow_counts, next)));
@@ -491,11 +518,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
         throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
         d = sp.direction;
         o = sp.origin;
-        if (depth >= 4) {
-            float q = pm_minf(0.95f, v3_max_component(throughput));
-            if (pm_rng_float(rng) >= q) return false;
-            throughput = v3_scale(throughput, 1.f / q);
-        }
+        if (depth >= 4 && !roulette_survives(&throughput, rng)) return false;
     }
 }
 
@@ -512,12 +535,14 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
     pm_surface sf, y;
     vec3 throughput, unused;
     surface_bounce next;
-    if (!walk_to_diffuse(job, o, d, camera, v3s(1.f), true, rng, out, rays, shadow_counts, vp, &sf, &throughput,
+    if (!walk_to_diffuse(job, o, d, camera, v3s(1.f), true, rng, out, PM_DIRECT, rays, shadow_counts, vp, &sf, &throughput,
                          gp ? &next : NULL) ||
         !gp || !next.sampled)
         return;
-    if (walk_to_diffuse(job, next.origin, next.direction, &next, v3_mul(throughput, next.weight), false, rng, NULL, rays,
-                        NULL, gp, &y, &unused, NULL))
+    /* light the gather ray meets past a sharp lobe is the visible point's indirect light */
+    int lobe_component = vp->seen_directly ? PM_INDIRECT : PM_SPECULAR;
+    if (walk_to_diffuse(job, next.origin, next.direction, &next, v3_mul(throughput, next.weight), false, rng, out,
+                        lobe_component, rays, NULL, gp, &y, &unused, NULL))
         gp->seen_directly = vp->seen_directly; /* the component is the visible point's */
 }
 

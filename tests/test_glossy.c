@@ -60,7 +60,52 @@ static void compare(const char *what, const float *ours, const float *const ref[
     }
 }
 
+/* The noise of the default mode where both spheres are smooth metal (roughness 0.1, GGX alpha
+ * 0.01): relMSE between the images of two seeds, 128 iterations each. Gather rays that end on such
+ * a lobe and read photons there, each weighted by a lobe that peaks at 1/(pi alpha^2), made
+ * fireflies on the floor: 0.39 between these seeds; going on through the lobe, 0.017. */
+static void smooth_metal_noise(void) {
+    pm_scene s;
+    pm_load_report rep;
+    char err[1024];
+    memset(&s, 0, sizeof s);
+    if (!pm_load_gltf("scenes/glossy-spheres.gltf", true, &s, &rep, err, sizeof err)) {
+        CHECK(false, "%s", err);
+        return;
+    }
+    for (uint32_t m = 0; m < s.material_count; m++)
+        if (s.materials[m].metallic > 0.f) s.materials[m].roughness = 0.1f;
+    pm_accel *a = sb_finish(&s);
+    pm_camera cam = s.cameras[0];
+    float *img[2] = {malloc(sizeof(float) * 3 * W * H), malloc(sizeof(float) * 3 * W * H)};
+    bool ok = true;
+    for (int k = 0; k < 2; k++) {
+        pm_progressive_settings ps = default_settings(W, H);
+        ps.seed = 1 + (uint64_t)k;
+        session r;
+        ok = ok && start(&r, &s, a, &cam, W, H, &ps) && iterate(&r, 128);
+        if (ok) pm_film_resolve_total(&r.film, img[k]);
+        stop(&r);
+    }
+    if (ok) {
+        float *planes[3];
+        for (int c = 0; c < 3; c++) {
+            planes[c] = malloc(sizeof(float) * W * H);
+            for (int i = 0; i < W * H; i++) planes[c][i] = img[1][3 * i + c];
+        }
+        pm_image_error e = pm_image_compare(img[0], (const float *const *)planes, (size_t)W * H, NULL);
+        printf("roughness 0.1 metal, 128 iterations: relMSE between two seeds %.4f\n", e.relmse);
+        CHECK(e.relmse < 0.05, "smooth metal must not make fireflies: relMSE between seeds %g", e.relmse);
+        for (int c = 0; c < 3; c++) free(planes[c]);
+    }
+    free(img[0]);
+    free(img[1]);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
+    smooth_metal_noise();
     const char *names[3] = {"R", "G", "B"};
     float *ref[3] = {NULL, NULL, NULL};
     char err[1024];
@@ -86,12 +131,14 @@ int main(void) {
     sphere_mask(&s, a, &cam, 0.49f, masks[1]);
     float *img = malloc(sizeof(float) * 3 * W * H);
 
-    /* the default mode with final gathering, a fixed number of iterations (relMSE 0.0034 measured) */
+    /* the default mode with final gathering, a fixed number of iterations. Gather rays go on
+     * through the roughness 0.3 sphere's sharp lobe: reading photons there instead, each weighted
+     * by the lobe, gave relMSE 0.0026 (speckles on the floor beside it); now 0.0015 */
     pm_progressive_settings ps = default_settings(W, H);
     session r;
     if (start(&r, &s, a, &cam, W, H, &ps) && iterate(&r, 512)) {
         pm_film_resolve_total(&r.film, img);
-        compare("progressive, 512 iterations, vs Mitsuba path", img, (const float *const *)ref, masks, 0.008, 0.02, 0.03);
+        compare("progressive, 512 iterations, vs Mitsuba path", img, (const float *const *)ref, masks, 0.002, 0.02, 0.03);
     }
     stop(&r);
 
