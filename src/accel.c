@@ -286,7 +286,7 @@ void pm_accel_intersect_coherent(const pm_accel *a, size_t n, const vec3 *o, con
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     for (size_t base = 0; base < n; base += PACKET) {
         size_t m = n - base < PACKET ? n - base : PACKET;
-        int valid[PACKET];
+        _Alignas(32) int valid[PACKET]; /* Embree asks for the mask aligned like the packet */
         struct RTCRayHit8 rh;
         for (size_t j = 0; j < PACKET; j++) {
             /* lanes past the end and rays Embree must not see stay invalid: a miss */

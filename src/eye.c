@@ -29,6 +29,7 @@ typedef struct {
     uint32_t iteration;
     pm_film *film;
     bool visible_points, gather_points;  /* progressive mode: find each pixel's points, hand them to visit */
+    bool through_lobes;                  /* gather rays may go on through sharp glossy lobes (walk_to_diffuse) */
     pm_visible_points_fn visit;
     void *visit_ctx;
     int tiles_x;
@@ -104,24 +105,13 @@ static inline vec3 reflected(const pm_surface *sf, vec3 ns, vec3 wo, vec3 wi, fl
     return sf->glossy ? v3_scale(pm_brdf_eval(&sf->brdf, ns, wo, wi), cos_s) : v3s(cos_s);
 }
 
-/* Direct light reflected toward wo at a diffuse or glossy point. One shadow ray per punctual
- * light (with more than PM_DIRECT_LIGHT_SAMPLES lights, that many drawn by power, stratified,
- * each weighted by 1 / (samples x its pick probability)), one to a power-picked emissive
- * triangle, one ray from the surface's own sampling (cosine on Lambert, the lobe's sampler on
- * glossy) for the sky and the emitters, combined with the area sample by multiple importance
- * sampling (punctual lights are deltas: no other strategy can find them, so they take no MIS
- * weight). With shadow photons (shadow != NULL) a punctual light that the records near the point
- * surely show or surely hide costs no ray; shadow_counts (may be NULL) adds the shadow rays cast
- * to light samples [0] and those the records made unnecessary [1]. A NULL shadow map is exactly
- * the ray-only estimate, random numbers included. */
-static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, vec3 wo, pm_rng *rng,
-                         uint64_t *rays, const pm_shadow_map *shadow, uint64_t shadow_counts[2], surface_bounce *next) {
-    vec3 ng = facing(sf->ng, wo);
-    vec3 ns = v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
-    vec3 origin = pm_surface_origin(sf, ng, s->ray_scale);
-    vec3 e = v3s(0.f); /* Lambert: irradiance E (times kd/pi at the end); glossy: radiance */
-    uint64_t cast = 0, saved = 0;
-
+/* The punctual lights' share of direct_light (below): their light reflected toward wo, Lambert's
+ * as irradiance (kd/pi not applied), a glossy lobe's as radiance; *cast and *saved count shadow
+ * rays cast and made unnecessary by shadow photons. */
+static vec3 punctual_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, vec3 wo, vec3 ng, vec3 ns,
+                           vec3 origin, pm_rng *rng, uint64_t *rays, const pm_shadow_map *shadow, uint64_t *cast,
+                           uint64_t *saved) {
+    vec3 e = v3s(0.f);
     bool sampled_lights = s->light_count > PM_DIRECT_LIGHT_SAMPLES;
     uint32_t light_samples = sampled_lights ? PM_DIRECT_LIGHT_SAMPLES : s->light_count;
     float stratum = sampled_lights ? pm_rng_float(rng) : 0.f;
@@ -155,16 +145,37 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         float cos_s = v3_dot(ns, wi);
         if (cos_s <= 0.f || v3_dot(ng, wi) <= 0.f) continue;
         pm_visibility verdict = records ? pm_shadow_map_verdict(shadow, records, i) : PM_VISIBILITY_UNKNOWN;
-        if (verdict == PM_VISIBILITY_HIDDEN) { saved++; continue; }
+        if (verdict == PM_VISIBILITY_HIDDEN) { (*saved)++; continue; }
         if (verdict == PM_VISIBILITY_SEEN) {
-            saved++;
+            (*saved)++;
         } else {
             (*rays)++;
-            cast++;
+            (*cast)++;
             if (pm_accel_occluded(a, origin, wi, tmax)) continue;
         }
         e = v3_add(e, v3_mul(v3_scale(radiance_scale, pick_weight), reflected(sf, ns, wo, wi, cos_s)));
     }
+    return e;
+}
+
+/* Direct light reflected toward wo at a diffuse or glossy point. One shadow ray per punctual
+ * light (with more than PM_DIRECT_LIGHT_SAMPLES lights, that many drawn by power, stratified,
+ * each weighted by 1 / (samples x its pick probability)), one to a power-picked emissive
+ * triangle, one ray from the surface's own sampling (cosine on Lambert, the lobe's sampler on
+ * glossy) for the sky and the emitters, combined with the area sample by multiple importance
+ * sampling (punctual lights are deltas: no other strategy can find them, so they take no MIS
+ * weight). With shadow photons (shadow != NULL) a punctual light that the records near the point
+ * surely show or surely hide costs no ray; shadow_counts (may be NULL) adds the shadow rays cast
+ * to light samples [0] and those the records made unnecessary [1]. A NULL shadow map is exactly
+ * the ray-only estimate, random numbers included. */
+static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, vec3 wo, pm_rng *rng,
+                         uint64_t *rays, const pm_shadow_map *shadow, uint64_t shadow_counts[2], surface_bounce *next) {
+    vec3 ng = facing(sf->ng, wo);
+    vec3 ns = v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
+    vec3 origin = pm_surface_origin(sf, ng, s->ray_scale);
+    uint64_t cast = 0, saved = 0;
+    /* Lambert: irradiance E (times kd/pi at the end); glossy: radiance */
+    vec3 e = punctual_light(s, a, sf, wo, ng, ns, origin, rng, rays, shadow, &cast, &saved);
 
     if (s->emitter_count) {
         float pick_pdf;
@@ -437,9 +448,13 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
  * already count it), but go on through a sharp glossy lobe (GGX alpha below
  * PM_PPM_GATHER_LOBE_ALPHA) by sampling it, as photons do: read there, each photon weighted by a
  * lobe that peaks at 1 / (pi alpha^2), such a point turns a few photons into bright speckles that
- * take thousands of iterations to clear (the floor beside a smooth metal ball). Past such a
- * bounce the light the ray meets (emission, sky) is no longer counted by photons at any point, so
- * it is added to out[lobe_component]. */
+ * take thousands of iterations to clear (the floor beside a smooth metal ball). The photons there
+ * counted all light arriving at the lobe; now the ray finds it: punctual lights by a shadow ray
+ * from the lobe, emission and sky where the ray meets them past the lobe (through mirrors and
+ * glass too), the rest in the photons at the next diffuse point; all but that last go to
+ * out[lobe_component]. A punctual light's light through mirrors or glass onto the lobe would be
+ * found by none of these, so a scene with punctual lights and mirrors or glass does not go on
+ * (job->through_lobes). */
 static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bounce *traced, vec3 throughput,
                             bool camera_ray, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], int lobe_component, uint64_t *rays,
                             uint64_t shadow_counts[2], pm_visible_point *vp, pm_surface *sf, vec3 *point_throughput,
@@ -476,10 +491,20 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
         if (D > 0.f && (S <= 0.f || pm_rng_float(rng) * (D + S) < D)) {
             throughput = v3_scale(throughput, (D + S) / D);
             vec3 ng = facing(sf->ng, wo);
-            if (!camera_ray && sf->glossy && sf->brdf.alpha < PM_PPM_GATHER_LOBE_ALPHA) {
-                if (depth >= job->settings->max_specular_depth) return false;
+            if (!camera_ray && job->through_lobes && sf->glossy && sf->brdf.alpha < PM_PPM_GATHER_LOBE_ALPHA &&
+                depth < job->settings->max_specular_depth) {
                 vec3 ns = side_normal(sf, ng), wi, f;
                 float pdf;
+                if (s->light_count) {
+                    uint64_t cast = 0, saved = 0;
+                    vec3 e = punctual_light(s, job->accel, sf, wo, ng, ns, pm_surface_origin(sf, ng, s->ray_scale), rng,
+                                            rays, job->settings->shadow, &cast, &saved);
+                    out[lobe_component] = v3_add(out[lobe_component], v3_mul(throughput, e));
+                    if (shadow_counts) {
+                        shadow_counts[0] += cast;
+                        shadow_counts[1] += saved;
+                    }
+                }
                 if (!pm_brdf_sample(&sf->brdf, ns, wo, pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), &wi, &f, &pdf) ||
                     v3_dot(wi, ng) <= 0.f)
                     return false;
@@ -542,7 +567,7 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
     /* light the gather ray meets past a sharp lobe is the visible point's indirect light */
     int lobe_component = vp->seen_directly ? PM_INDIRECT : PM_SPECULAR;
     if (walk_to_diffuse(job, next.origin, next.direction, &next, v3_mul(throughput, next.weight), false, rng, out,
-                        lobe_component, rays, NULL, gp, &y, &unused, NULL))
+                        lobe_component, rays, shadow_counts, gp, &y, &unused, NULL))
         gp->seen_directly = vp->seen_directly; /* the component is the visible point's */
 }
 
@@ -701,6 +726,7 @@ static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
     job->film = film;
     job->visible_points = visible_points;
     job->gather_points = visible_points && gather_points;
+    job->through_lobes = !(s->analysis.has_punctual_lights && (s->analysis.has_mirror || s->analysis.has_glass));
     job->visit = visit;
     job->visit_ctx = visit_ctx;
     job->tiles_x = (film->width + TILE - 1) / TILE;

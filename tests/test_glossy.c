@@ -87,6 +87,7 @@ static void smooth_metal_noise(void) {
         if (ok) pm_film_resolve_total(&r.film, img[k]);
         stop(&r);
     }
+    CHECK(ok, "both seeds rendered");
     if (ok) {
         float *planes[3];
         for (int c = 0; c < 3; c++) {
@@ -104,7 +105,66 @@ static void smooth_metal_noise(void) {
     pm_scene_free(&s);
 }
 
+/* Light from a point light off a sharp lobe onto the floor (the spheres at roughness 0.3, GGX
+ * alpha 0.09, the lamp replaced by a point light): a gather ray that goes on through such a lobe
+ * cannot meet a point light, so the lobe casts a shadow ray to it. The indirect layer against the
+ * path tracer's, at 32x32: 0.99 of it; without that shadow ray, 0.67. */
+static void point_light_through_lobe(void) {
+    enum { SMALL = 32 };
+    pm_scene s;
+    pm_load_report rep;
+    char err[1024];
+    memset(&s, 0, sizeof s);
+    if (!pm_load_gltf("scenes/glossy-spheres.gltf", true, &s, &rep, err, sizeof err)) {
+        CHECK(false, "%s", err);
+        return;
+    }
+    for (uint32_t m = 0; m < s.material_count; m++) {
+        if (s.materials[m].metallic > 0.f) s.materials[m].roughness = 0.3f;
+        s.materials[m].emission = v3s(0.f);
+    }
+    sb_point_light(&s, v3(0.f, 2.4f, -0.5f), v3(12.f, 11.4f, 10.8f));
+    pm_accel *a = sb_finish(&s);
+    CHECK(s.emitter_count == 0 && s.light_count == 1, "the lamp is a point light now");
+    pm_camera cam = s.cameras[0];
+    float *img = malloc(sizeof(float) * 3 * SMALL * SMALL);
+    double mean[2] = {0, 0};
+    bool ok = true;
+    /* the progressive default, then the path tracer (unbiased, with a shadow ray at every glossy vertex) */
+    pm_progressive_settings ps = default_settings(SMALL, SMALL);
+    session r;
+    ok = start(&r, &s, a, &cam, SMALL, SMALL, &ps) && iterate(&r, 512);
+    if (ok) {
+        pm_film_resolve(&r.film, PM_INDIRECT, img);
+        mean[0] = mean_of(img, 3 * SMALL * SMALL);
+    }
+    stop(&r);
+    pm_film film;
+    ok = ok && pm_film_init(&film, SMALL, SMALL, s.analysis.component_possible);
+    if (ok) {
+        pm_eye_settings es;
+        memset(&es, 0, sizeof es);
+        es.seed = 2;
+        es.threads = 2;
+        es.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
+        es.path_trace = true;
+        for (int i = 0; i < 2048; i++) pm_eye_iterate(&s, a, &cam, &es, (uint32_t)i, &film, NULL);
+        pm_film_resolve(&film, PM_INDIRECT, img);
+        mean[1] = mean_of(img, 3 * SMALL * SMALL);
+        pm_film_free(&film);
+    }
+    CHECK(ok, "both renders ran");
+    printf("point light off roughness 0.3 metal: indirect layer %.5f, path tracer's %.5f (ratio %.3f)\n", mean[0], mean[1],
+           mean[1] > 0 ? mean[0] / mean[1] : 0.0);
+    CHECK(mean[1] > 0.0 && fabs(mean[0] / mean[1] - 1.0) < 0.05, "indirect light via a sharp lobe: ratio %g",
+          mean[1] > 0 ? mean[0] / mean[1] : 0.0);
+    free(img);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
+    point_light_through_lobe();
     smooth_metal_noise();
     const char *names[3] = {"R", "G", "B"};
     float *ref[3] = {NULL, NULL, NULL};
