@@ -69,6 +69,7 @@ typedef struct {
     /* derived by pm_scene_finalize: whether each lobe's weight can be non-zero at some point of
      * the material (the factors with the data textures' whole range of texel values) */
     bool may_diffuse, may_mirror, may_glass, may_glossy;
+    bool may_see_through;    /* derived too: pm_material_can_be_transparent (it reads the whole alpha texture) */
     /* derived by pm_scene_finalize for a material without base colour, metallic-roughness or
      * transmission texture: its split is the same at every point, so a hit copies it instead of
      * clamping and splitting the factors again (every photon bounce reads a surface) */
@@ -351,8 +352,13 @@ static inline vec3 pm_volume_transmittance(const pm_scene *s, const pm_surface *
 }
 
 /* Radiance leaving triangle tri at barycentrics (b1, b2): the material's emission times its
- * emissive texture there (one side; the caller decides which faces emit). */
+ * emissive texture there (one side; the caller decides which faces emit). What a ray that hit
+ * the triangle sees: it has passed the alpha test already. */
 vec3 pm_scene_emission_at(const pm_scene *s, uint32_t tri, float b1, float b2);
+/* What the triangle sends out at (b1, b2) on average: pm_scene_emission_at times its coverage
+ * there (0 where a MASK material is cut out, alpha on BLEND, as every ray crossing it sees it).
+ * For whatever picks points on an emitter by area (light samples, photon emission). */
+vec3 pm_scene_emitted_at(const pm_scene *s, uint32_t tri, float b1, float b2);
 
 /* Coverage of triangle tri at barycentrics (b1, b2): the material's alpha times its base colour
  * texture's alpha there (1 for an OPAQUE material). */

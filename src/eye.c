@@ -181,7 +181,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         float pick_pdf;
         uint32_t tri = pm_scene_pick_emitter(s, pm_rng_float(rng), &pick_pdf);
         float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng);
-        vec3 radiance = pm_scene_emission_at(s, tri, r1 * (1.f - r2), r1 * r2);
+        vec3 radiance = pm_scene_emitted_at(s, tri, r1 * (1.f - r2), r1 * r2); /* a point picked by area: cut-outs count */
         const uint32_t *ix = s->indices + 3 * (size_t)tri;
         vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
         vec3 q = v3_add(v3_scale(p0, 1.f - r1), v3_add(v3_scale(p1, r1 * (1.f - r2)), v3_scale(p2, r1 * r2)));

@@ -317,7 +317,8 @@ static emitter_shape *emitter_shapes(const pm_scene *s) {
         const pm_material *m = &s->materials[s->triangle_material[tri]];
         out[i].ng = len > 0.f ? v3_scale(cross, 1.f / len) : v3(0.f, 0.f, 1.f);
         out[i].area = 0.5f * len;
-        out[i].uniform_emission = m->emission_texture < 0 || v3_is_black(m->emission); /* as pm_scene_emission_at */
+        /* as pm_scene_emitted_at: the factor alone, unless a texture or a cut-out varies it */
+        out[i].uniform_emission = (m->emission_texture < 0 || v3_is_black(m->emission)) && !m->may_see_through;
     }
     return out;
 }
@@ -336,7 +337,7 @@ static float emitter_point(const pass *ps, uint32_t e, float b1, float b2, pm_su
     sf->p = v3_add(v3_add(v3_scale(p0, 1.f - b1 - b2), v3_scale(p1, b1)), v3_scale(p2, b2));
     sf->ng = sf->ns = shape->ng;
     sf->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
-    sf->emission = shape->uniform_emission ? m->emission : pm_scene_emission_at(s, tri, b1, b2);
+    sf->emission = shape->uniform_emission ? m->emission : pm_scene_emitted_at(s, tri, b1, b2);
     sf->double_sided = m->double_sided;
     return shape->area;
 }
@@ -391,7 +392,7 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
         float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng);
         pm_surface sf;
         float area = emitter_point(ps, e, r1 * (1.f - r2), r1 * r2, &sf);
-        if (pick_pdf <= 0.f || area <= 0.f) return false;
+        if (pick_pdf <= 0.f || area <= 0.f || v3_is_black(sf.emission)) return false; /* a black texel, a cut-out */
         vec3 n = sf.ng;
         if (aimed) {
             float omega = sample_direction(l, aimed, rng, d);

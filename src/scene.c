@@ -85,6 +85,7 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
         m->may_glass |= !v3_is_black(kt);
         m->may_glossy |= pm_glossy_at(x[0], x[1]);
     }
+    m->may_see_through = pm_material_can_be_transparent(s, m);
     m->uniform_split = m->base_color_texture < 0 && m->metallic_roughness_texture < 0 && m->transmission_texture < 0;
     if (m->uniform_split) {
         pm_material_split_at(m->base_color, m->metallic, m->roughness, m->transmission, &m->split_kd, &m->split_ks,
@@ -138,11 +139,12 @@ static void analyse(pm_scene *s) {
     a->component_possible[PM_INDIRECT] = a->interreflection_possible;
 }
 
-/* A triangle's emission averaged over its area: the factor alone, or with a texture the mean of
- * 64 stratified samples of it (a texture black over the triangle makes it no emitter at all). */
+/* A triangle's emission averaged over its area: the factor alone, or with a texture or cut-outs
+ * the mean of 64 stratified samples of what it sends out (a texture black over the triangle, or a
+ * cut-out covering it, makes it no emitter at all). */
 static vec3 triangle_mean_emission(const pm_scene *s, uint32_t t) {
     const pm_material *m = &s->materials[s->triangle_material[t]];
-    if (v3_is_black(m->emission) || m->emission_texture < 0) return m->emission;
+    if (v3_is_black(m->emission) || (m->emission_texture < 0 && !m->may_see_through)) return m->emission;
     enum { N = 8 };
     vec3 sum = v3s(0.f);
     for (int i = 0; i < N; i++)
@@ -150,7 +152,7 @@ static vec3 triangle_mean_emission(const pm_scene *s, uint32_t t) {
             /* the square's strata folded onto the triangle: uniform in area */
             float u = (i + 0.5f) / N, v = (j + 0.5f) / N;
             if (u + v > 1.f) { u = 1.f - u; v = 1.f - v; }
-            sum = v3_add(sum, pm_scene_emission_at(s, t, u, v));
+            sum = v3_add(sum, pm_scene_emitted_at(s, t, u, v));
         }
     return v3_scale(sum, 1.f / (N * N));
 }
@@ -636,6 +638,15 @@ vec3 pm_scene_emission_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
     float u, v;
     pm_scene_texcoord(s, tri, b1, b2, m->emission_texcoord, &m->emission_transform, &u, &v);
     return v3_mul(m->emission, pm_texture_lookup(&s->textures[m->emission_texture], u, v));
+}
+
+vec3 pm_scene_emitted_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
+    vec3 e = pm_scene_emission_at(s, tri, b1, b2);
+    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    if (m->alpha_mode == PM_ALPHA_OPAQUE || v3_is_black(e)) return e;
+    float alpha = pm_scene_alpha_at(s, tri, b1, b2);
+    if (m->alpha_mode == PM_ALPHA_MASK) return alpha >= m->alpha_cutoff ? e : v3s(0.f);
+    return v3_scale(e, pm_clamp01(alpha));
 }
 
 float pm_scene_alpha_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
