@@ -38,7 +38,7 @@ typedef struct {
     double seconds;
     uint64_t dropped_samples; /* component samples that were NaN or infinite, left out of the film */
     uint64_t path_vertices;   /* path tracer: surfaces its paths met (for the mean path length) */
-    uint64_t shadow_rays;     /* direct light's shadow rays toward light samples (punctual, emitter, sky map), among rays */
+    uint64_t shadow_rays;     /* shadow rays toward light samples (punctual, emitter, sky map), among rays: direct light's, and from sharp glossy lobes on gather paths */
     uint64_t shadow_rays_saved; /* punctual light samples that shadow photons decided without a ray */
     bool failed;              /* out of memory: the pass did not run */
 } pm_eye_stats;

@@ -191,7 +191,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         const pm_material *m = &s->materials[s->triangle_material[tri]];
         vec3 to_light = v3_sub(q, origin);
         float dist = v3_length(to_light);
-        if (dist > 0.f && area > 0.f && pick_pdf > 0.f) {
+        if (dist > 0.f && area > 0.f && pick_pdf > 0.f && !v3_is_black(radiance)) { /* not a cut-out or black texel */
             vec3 wi = v3_scale(to_light, 1.f / dist);
             float cos_l = -v3_dot(nl, wi);
             if (m->double_sided) cos_l = fabsf(cos_l);

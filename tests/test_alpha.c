@@ -385,7 +385,34 @@ static void emissive_cutout(void) {
     }
 }
 
+/* A lamp that a MASK texture of 32 texels covers only along a strip 1/32 wide: the 64 points that
+ * average an emitter's power all miss it, and it must stay a light (it did not, for a while). */
+static void thin_emitter_strip(void) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    uint32_t lamp = sb_material(&s, v3s(0.f), 0, 1, 0, v3s(4.f), false);
+    sb_quad(&s, v3(-1.f, 2.5f, -1.f), v3(1.f, 2.5f, -1.f), v3(1.f, 2.5f, 1.f), v3(-1.f, 2.5f, 1.f), lamp);
+    s.uvs = calloc(2 * (size_t)s.vertex_count, sizeof(float));
+    for (uint32_t i = 0; i < s.vertex_count; i++) s.uvs[2 * i] = (s.positions[i].x + 1.f) * 0.5f;
+    s.textures = calloc(1, sizeof *s.textures);
+    s.texture_count = 1;
+    pm_texture *t = s.textures;
+    t->width = 32;
+    t->height = 1;
+    t->wrap_s = t->wrap_t = PM_WRAP_CLAMP;
+    t->rgba = calloc(4 * 32, 1);
+    t->rgba[4 * 3 + 3] = 255; /* texel 3 alone is opaque */
+    s.materials[lamp].base_color_texture = 0;
+    s.materials[lamp].alpha_mode = PM_ALPHA_MASK;
+    pm_scene_finalize(&s, false, NULL);
+    printf("lamp covered along a thin strip: %u emitter triangles\n", s.emitter_count);
+    CHECK(s.emitter_count == 2 && !v3_is_black(s.emitter_radiance[0]), "a thinly covered lamp stays a light (%u)",
+          s.emitter_count);
+    pm_scene_free(&s);
+}
+
 int main(void) {
+    thin_emitter_strip();
     emissive_cutout();
     mask_cutout();
     blend_pane();
