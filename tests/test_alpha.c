@@ -314,6 +314,21 @@ static void opaque_has_no_filter(void) {
     }
 }
 
+/* The scene's one texture, `width` x 1 texels of the given alphas (black: the lamp's colour is its
+ * emission), clamped; vertices from `first` on get u = (x + 1) / 2, so the texture spans |x| <= 1. */
+static void lamp_alpha_texture(pm_scene *s, uint32_t first, int width, const uint8_t *alphas) {
+    s->uvs = calloc(2 * (size_t)s->vertex_count, sizeof(float));
+    for (uint32_t i = first; i < s->vertex_count; i++) s->uvs[2 * i] = (s->positions[i].x + 1.f) * 0.5f;
+    s->textures = calloc(1, sizeof *s->textures);
+    s->texture_count = 1;
+    pm_texture *t = s->textures;
+    t->width = width;
+    t->height = 1;
+    t->wrap_s = t->wrap_t = PM_WRAP_CLAMP;
+    t->rgba = calloc(4 * (size_t)width, 1);
+    for (int i = 0; i < width; i++) t->rgba[4 * i + 3] = alphas[i];
+}
+
 /* A lamp (a quad at y = 2.5 facing down, in a room 6 x 3 x 6) with cut-outs lights the room as
  * what it keeps: with a MASK texture cutting its left half away, as an opaque lamp of its right
  * half; BLEND at alpha 0.5, as an opaque lamp of half its emission. Light samples and photons pick
@@ -340,17 +355,8 @@ static void emissive_cutout(void) {
             if (k == 0) {
                 pm_material *m = &s.materials[lamp];
                 if (variant == 0) {
-                    s.uvs = calloc(2 * (size_t)s.vertex_count, sizeof(float));
-                    for (uint32_t i = first_lamp_vertex; i < s.vertex_count; i++) s.uvs[2 * i] = (s.positions[i].x + 1.f) * 0.5f;
-                    s.textures = calloc(1, sizeof *s.textures);
-                    s.texture_count = 1;
-                    pm_texture *t = s.textures;
-                    t->width = 2;
-                    t->height = 1;
-                    t->wrap_s = t->wrap_t = PM_WRAP_CLAMP;
-                    t->rgba = malloc(8);
-                    const uint8_t texels[8] = {0, 0, 0, 0, 0, 0, 0, 255};
-                    memcpy(t->rgba, texels, 8);
+                    const uint8_t alphas[2] = {0, 255};
+                    lamp_alpha_texture(&s, first_lamp_vertex, 2, alphas);
                     m->base_color_texture = 0;
                     m->alpha_mode = PM_ALPHA_MASK;
                 } else {
@@ -392,16 +398,9 @@ static void thin_emitter_strip(void) {
     memset(&s, 0, sizeof s);
     uint32_t lamp = sb_material(&s, v3s(0.f), 0, 1, 0, v3s(4.f), false);
     sb_quad(&s, v3(-1.f, 2.5f, -1.f), v3(1.f, 2.5f, -1.f), v3(1.f, 2.5f, 1.f), v3(-1.f, 2.5f, 1.f), lamp);
-    s.uvs = calloc(2 * (size_t)s.vertex_count, sizeof(float));
-    for (uint32_t i = 0; i < s.vertex_count; i++) s.uvs[2 * i] = (s.positions[i].x + 1.f) * 0.5f;
-    s.textures = calloc(1, sizeof *s.textures);
-    s.texture_count = 1;
-    pm_texture *t = s.textures;
-    t->width = 32;
-    t->height = 1;
-    t->wrap_s = t->wrap_t = PM_WRAP_CLAMP;
-    t->rgba = calloc(4 * 32, 1);
-    t->rgba[4 * 3 + 3] = 255; /* texel 3 alone is opaque */
+    uint8_t alphas[32] = {0};
+    alphas[3] = 255; /* texel 3 alone is opaque */
+    lamp_alpha_texture(&s, 0, 32, alphas);
     s.materials[lamp].base_color_texture = 0;
     s.materials[lamp].alpha_mode = PM_ALPHA_MASK;
     pm_scene_finalize(&s, false, NULL);

@@ -60,19 +60,23 @@ static void compare(const char *what, const float *ours, const float *const ref[
     }
 }
 
+/* scenes/glossy-spheres.gltf, loaded (false, reported, when it cannot be). */
+static bool load_spheres(pm_scene *s) {
+    pm_load_report rep;
+    char err[1024];
+    memset(s, 0, sizeof *s);
+    bool ok = pm_load_gltf("scenes/glossy-spheres.gltf", true, s, &rep, err, sizeof err);
+    CHECK(ok, "%s", err);
+    return ok;
+}
+
 /* The noise of the default mode where both spheres are smooth metal (roughness 0.1, GGX alpha
  * 0.01): relMSE between the images of two seeds, 128 iterations each. Gather rays that end on such
  * a lobe and read photons there, each weighted by a lobe that peaks at 1/(pi alpha^2), made
  * fireflies on the floor: 0.39 between these seeds; going on through the lobe, 0.017. */
 static void smooth_metal_noise(void) {
     pm_scene s;
-    pm_load_report rep;
-    char err[1024];
-    memset(&s, 0, sizeof s);
-    if (!pm_load_gltf("scenes/glossy-spheres.gltf", true, &s, &rep, err, sizeof err)) {
-        CHECK(false, "%s", err);
-        return;
-    }
+    if (!load_spheres(&s)) return;
     for (uint32_t m = 0; m < s.material_count; m++)
         if (s.materials[m].metallic > 0.f) s.materials[m].roughness = 0.1f;
     pm_accel *a = sb_finish(&s);
@@ -112,13 +116,7 @@ static void smooth_metal_noise(void) {
 static void point_light_through_lobe(void) {
     enum { SMALL = 32 };
     pm_scene s;
-    pm_load_report rep;
-    char err[1024];
-    memset(&s, 0, sizeof s);
-    if (!pm_load_gltf("scenes/glossy-spheres.gltf", true, &s, &rep, err, sizeof err)) {
-        CHECK(false, "%s", err);
-        return;
-    }
+    if (!load_spheres(&s)) return;
     for (uint32_t m = 0; m < s.material_count; m++) {
         if (s.materials[m].metallic > 0.f) s.materials[m].roughness = 0.3f;
         s.materials[m].emission = v3s(0.f);
@@ -176,15 +174,9 @@ int main(void) {
     }
     CHECK(w == W && h == H, "reference size %dx%d", w, h);
     pm_scene s;
-    pm_load_report rep;
-    memset(&s, 0, sizeof s);
-    if (!pm_load_gltf("scenes/glossy-spheres.gltf", true, &s, &rep, err, sizeof err)) {
-        CHECK(false, "%s", err);
-        return pm_test_done("test_glossy");
-    }
+    if (!load_spheres(&s)) return pm_test_done("test_glossy");
     pm_accel *a = sb_finish(&s);
     CHECK(s.analysis.has_glossy && !s.analysis.has_mirror, "the spheres are glossy, not mirrors");
-    (void)mean_of;
     pm_camera cam = s.cameras[0];
     unsigned char *masks[REGIONS] = {malloc(W * H), malloc(W * H)};
     sphere_mask(&s, a, &cam, 0.09f, masks[0]);
