@@ -55,6 +55,7 @@
 #define PM_PPM_MIN_PHOTONS 10000
 #define PM_PPM_MAX_PHOTONS 1000000
 #define PM_PPM_FOOTPRINT_PIXELS 1.0        /* initial radius at least this many pixel footprints ... */
+#define PM_PPM_CURVED_RADIUS 0.43         /* ... and at most this many radii of the surface's curvature (the chord of the photons' 25-degree normal test) */
 #define PM_PPM_INITIAL_PHOTONS 16.0        /* ... and wide enough to hold this many first-iteration photons at the scene's mean density */
 #define PM_PPM_GATHER_LOBE_ALPHA 0.1f      /* final gathering goes on through a glossy lobe sharper than this GGX alpha (roughness 0.32) instead of reading photons there */
 #define PM_PPM_GATHER_PHOTONS 8.0          /* final gathering: the shared radius starts holding this many (each estimate is averaged over pixels and iterations) */

@@ -54,6 +54,7 @@ typedef struct {
     pm_brdf brdf;
     vec3 ns, wo;          /* shading normal on wo's side; unit direction toward the eye (or the gather ray's origin) */
     float path_length;    /* from the camera (or the gather ray's origin), for the pixel footprint */
+    uint32_t tri;         /* the triangle it lies on (its curvature bounds a first radius) */
     bool seen_directly;   /* first eye vertex (caustic / indirect components), else through specular bounces */
     bool valid;
 } pm_visible_point;

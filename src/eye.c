@@ -531,6 +531,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
                 vp->ns = ng; /* read by nothing on a Lambert point, but every field is set */
             }
             vp->path_length = path_length;
+            vp->tri = h.tri;
             vp->seen_directly = depth == 0;
             vp->valid = true;
             *point_throughput = throughput;
