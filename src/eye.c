@@ -493,12 +493,12 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
             vec3 ng = facing(sf->ng, wo);
             if (!camera_ray && job->through_lobes && sf->glossy && sf->brdf.alpha < PM_PPM_GATHER_LOBE_ALPHA &&
                 depth < job->settings->max_specular_depth) {
-                vec3 ns = side_normal(sf, ng), wi, f;
+                vec3 ns = side_normal(sf, ng), from = pm_surface_origin(sf, ng, s->ray_scale), wi, f;
                 float pdf;
                 if (s->light_count) {
                     uint64_t cast = 0, saved = 0;
-                    vec3 e = punctual_light(s, job->accel, sf, wo, ng, ns, pm_surface_origin(sf, ng, s->ray_scale), rng,
-                                            rays, job->settings->shadow, &cast, &saved);
+                    vec3 e = punctual_light(s, job->accel, sf, wo, ng, ns, from, rng, rays, job->settings->shadow, &cast,
+                                            &saved);
                     out[lobe_component] = v3_add(out[lobe_component], v3_mul(throughput, e));
                     if (shadow_counts) {
                         shadow_counts[0] += cast;
@@ -510,7 +510,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
                     return false;
                 throughput = v3_mul(throughput, v3_scale(f, v3_dot(ns, wi) / pdf));
                 d = wi;
-                o = pm_surface_origin(sf, ng, s->ray_scale);
+                o = from;
                 past_lobe = true;
                 if (depth >= 4 && !roulette_survives(&throughput, rng)) return false;
                 continue;

@@ -139,6 +139,15 @@ static void analyse(pm_scene *s) {
     a->component_possible[PM_INDIRECT] = a->interreflection_possible;
 }
 
+/* The share of triangle tri at (b1, b2) that a crossing ray meets: 1 when opaque, 0 or 1 by a
+ * MASK's cutoff, alpha on BLEND (pm_scene_emitted_at's factor). */
+static float coverage_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
+    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    if (m->alpha_mode == PM_ALPHA_OPAQUE) return 1.f;
+    float alpha = pm_scene_alpha_at(s, tri, b1, b2);
+    return m->alpha_mode == PM_ALPHA_MASK ? (alpha >= m->alpha_cutoff ? 1.f : 0.f) : pm_clamp01(alpha);
+}
+
 /* A triangle's emission averaged over its area: the factor alone, or with a texture or cut-outs
  * the mean of 64 stratified samples of what it sends out (a texture black over the triangle makes
  * it no emitter at all). Where the texture emits at the samples but cut-outs cover none of them (a
@@ -155,8 +164,9 @@ static vec3 triangle_mean_emission(const pm_scene *s, uint32_t t) {
             /* the square's strata folded onto the triangle: uniform in area */
             float u = (i + 0.5f) / N, v = (j + 0.5f) / N;
             if (u + v > 1.f) { u = 1.f - u; v = 1.f - v; }
-            sum = v3_add(sum, pm_scene_emitted_at(s, t, u, v));
-            uncovered = v3_add(uncovered, pm_scene_emission_at(s, t, u, v));
+            vec3 e = pm_scene_emission_at(s, t, u, v); /* one texture read for both sums */
+            uncovered = v3_add(uncovered, e);
+            if (!v3_is_black(e)) sum = v3_add(sum, v3_scale(e, coverage_at(s, t, u, v)));
         }
     vec3 mean = v3_scale(sum, 1.f / (N * N));
     return v3_is_black(mean) ? v3_scale(uncovered, 1.f / (N * N * N * N)) : mean;
@@ -647,11 +657,7 @@ vec3 pm_scene_emission_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
 
 vec3 pm_scene_emitted_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
     vec3 e = pm_scene_emission_at(s, tri, b1, b2);
-    const pm_material *m = &s->materials[s->triangle_material[tri]];
-    if (m->alpha_mode == PM_ALPHA_OPAQUE || v3_is_black(e)) return e;
-    float alpha = pm_scene_alpha_at(s, tri, b1, b2);
-    if (m->alpha_mode == PM_ALPHA_MASK) return alpha >= m->alpha_cutoff ? e : v3s(0.f);
-    return v3_scale(e, pm_clamp01(alpha));
+    return v3_is_black(e) ? e : v3_scale(e, coverage_at(s, tri, b1, b2));
 }
 
 float pm_scene_alpha_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
