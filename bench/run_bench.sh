@@ -3,5 +3,6 @@
 cd "$(dirname "$0")/.." || exit 1
 for scene in scenes/cornell-box.gltf scenes/caustic.gltf; do
     build/rel/bench_pm "$scene" || exit 1
+    build/rel/photon_ceiling "$scene" || exit 1
 done
 sh bench/window_bench.sh
