@@ -408,8 +408,9 @@ int main(int argc, char **argv) {
     /* where an iteration's time goes, and the floor: its rays traced at the raw rate on both threads */
     printf("bench progressive_phases width=512 height=512 threads=2 photon_seconds=%.4f eye_seconds=%.4f gather_seconds=%.4f rays_per_iteration=%.0f raw_ray_floor_seconds=%.4f\n",
            it2.photon_seconds, it2.eye_seconds, it2.gather_seconds, it2.rays, it2.rays / (2 * raw1));
+    /* two single short iterations are the figures most exposed to other tenants: best of five */
     double first = 1e30, plain = 1e30;
-    for (int rep = 0; rep < 3; rep++) {
+    for (int rep = 0; rep < 5; rep++) {
         progressive_rate with = progressive_iterations(&s, a, &cam, 640, 480, 2, 1, true);
         progressive_rate without = progressive_iterations(&s, a, &cam, 640, 480, 2, 1, false);
         if (with.first_seconds < first) first = with.first_seconds;

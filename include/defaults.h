@@ -53,6 +53,7 @@
 #define PM_DEFAULT_ALPHA (2.0 / 3.0)       /* Hachisuka and Jensen's radius reduction */
 #define PM_PPM_PHOTONS_PER_PIXEL 0.125     /* photons per iteration = pixels x this, clamped below */
 #define PM_PPM_MIN_PHOTONS 10000
+#define PM_PPM_FIRST_PHOTON_FRACTION 0.5   /* the first iteration (after a start or a camera move) emits this share of them: the user waits for it */
 #define PM_PPM_MAX_PHOTONS 1000000
 #define PM_PPM_FOOTPRINT_PIXELS 1.0        /* initial radius at least this many pixel footprints ... */
 #define PM_PPM_CURVED_RADIUS 0.43         /* ... and at most this many radii of the surface's curvature (the chord of the photons' 25-degree normal test) */

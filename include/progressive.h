@@ -19,9 +19,12 @@
  * The film resolves a pixel's photon part as tau / (pi R^2 iterations), its splats and gather
  * estimates as their sum over iterations.
  *
- * Memory is fixed after the first iteration: the statistics in the film, one iteration's photons
- * and splats, and one tile's points per thread. Restarting (a camera move) clears per-pixel
- * state only.
+ * The first iteration after a start or a restart emits PM_PPM_FIRST_PHOTON_FRACTION of the
+ * photons: it is the one a user waits for.
+ *
+ * Memory is fixed after the first two iterations (the first emits fewer photons): the statistics
+ * in the film, one iteration's photons and splats, and one tile's points per thread. Restarting
+ * (a camera move) clears per-pixel state only.
  */
 #ifndef PM_PROGRESSIVE_H
 #define PM_PROGRESSIVE_H
@@ -92,6 +95,9 @@ const pm_progressive_stats *pm_progressive_get_stats(const pm_progressive *p);
 pm_radius_summary pm_progressive_radii(const pm_progressive *p, const pm_film *film);
 /* Whether this scene needs any photon pass at all. */
 bool pm_progressive_uses_photons(const pm_progressive *p);
+/* Photons a whole iteration emits, over the passes the scene uses (the first iteration after a
+ * start or a restart emits PM_PPM_FIRST_PHOTON_FRACTION of them). */
+uint64_t pm_progressive_photons_per_iteration(const pm_progressive *p);
 /* Share of the caustic lights' emission the projection maps kept (0 without caustic photons). */
 double pm_progressive_projection_fraction(const pm_progressive *p);
 

@@ -127,6 +127,10 @@ void pm_progressive_destroy(pm_progressive *p) {
 
 bool pm_progressive_uses_photons(const pm_progressive *p) { return p->trace_caustic || p->trace_global; }
 
+uint64_t pm_progressive_photons_per_iteration(const pm_progressive *p) {
+    return (p->trace_caustic ? p->settings.caustic_photons : 0) + (p->trace_global ? p->settings.photons : 0);
+}
+
 double pm_progressive_projection_fraction(const pm_progressive *p) {
     return p->tracer ? pm_photon_tracer_projection_fraction(p->tracer) : 0.0;
 }
@@ -354,10 +358,23 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
 }
 
 /* r^2 at which a disc holds PM_PPM_INITIAL_PHOTONS photons where `stored` photons spread evenly
- * over the diffuse surfaces: the start that follows the photon density, whatever the scale. */
-static double density_radius2(const pm_progressive *p, size_t stored) {
-    if (!stored || !(p->diffuse_area > 0.0)) return 0.0;
-    return PM_PPM_INITIAL_PHOTONS * p->diffuse_area / (PM_PI * (double)stored);
+ * over the diffuse surfaces: the start that follows the photon density, whatever the scale.
+ * `stored` came from `emitted` photons; the density is that of a whole iteration's `per_iteration`
+ * (the first iteration emits fewer), so every radius starts where it would with the full count. */
+static double density_radius2(const pm_progressive *p, size_t stored, uint64_t emitted, uint64_t per_iteration) {
+    if (!stored || !emitted || !(p->diffuse_area > 0.0)) return 0.0;
+    return PM_PPM_INITIAL_PHOTONS * p->diffuse_area * (double)emitted / (PM_PI * (double)stored * (double)per_iteration);
+}
+
+/* Photons to emit this iteration: the first after a start or a restart emits
+ * PM_PPM_FIRST_PHOTON_FRACTION of them. It is the iteration a user waits for (the first image, the
+ * first after a camera move), and half the photons cost about half its photon pass and gather;
+ * its estimate is as unbiased as any other (each photon carries flux / photons emitted) and only
+ * noisier, which averaging over the iterations that follow dilutes at once. */
+static uint64_t photons_to_emit(uint64_t per_iteration, uint32_t iteration) {
+    if (iteration > 0 || !per_iteration) return per_iteration;
+    uint64_t n = (uint64_t)((double)per_iteration * PM_PPM_FIRST_PHOTON_FRACTION);
+    return n ? n : 1;
 }
 
 /* This iteration's camera splats into the film's caustic sums, in photon order. */
@@ -408,18 +425,22 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     bool ok = true;
     pm_photon_buffer *caustic = &p->buffer[KIND_CAUSTIC], *global = &p->buffer[KIND_INDIRECT];
     caustic->count = global->count = 0;
+    uint64_t caustic_emitted = photons_to_emit(set->caustic_photons, iteration);
+    uint64_t global_emitted = photons_to_emit(set->photons, iteration);
     if (p->trace_caustic) {
         pm_photon_tracer_set_splats(p->tracer, p->splatting ? &p->camera : NULL, film->width, film->height, &p->splats);
-        ok = pm_photon_tracer_trace_into(p->tracer, true, set->caustic_photons, seed, caustic, &p->stats.photons);
+        ok = pm_photon_tracer_trace_into(p->tracer, true, caustic_emitted, seed, caustic, &p->stats.photons);
         if (ok && p->splatting) add_splats(p, film);
     }
-    if (ok && p->trace_global) ok = pm_photon_tracer_trace_into(p->tracer, false, set->photons, seed, global, &p->stats.photons);
+    if (ok && p->trace_global) ok = pm_photon_tracer_trace_into(p->tracer, false, global_emitted, seed, global, &p->stats.photons);
     if (!ok) return false;
-    if (p->density_r2[KIND_CAUSTIC] == 0.0) p->density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count);
+    if (p->density_r2[KIND_CAUSTIC] == 0.0)
+        p->density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count, caustic_emitted, set->caustic_photons);
     /* visible points read only indirect photons (direct light and caustics have their own
      * estimates); gather points read all of them */
     if (!p->gathering) keep_tagged(global, PM_PATH_INDIRECT);
-    if (p->density_r2[KIND_INDIRECT] == 0.0) p->density_r2[KIND_INDIRECT] = density_radius2(p, global->count);
+    if (p->density_r2[KIND_INDIRECT] == 0.0)
+        p->density_r2[KIND_INDIRECT] = density_radius2(p, global->count, global_emitted, set->photons);
     if (p->gathering && p->gather_r2 == 0.0)
         p->gather_r2 = set->initial_radius > 0.0 ? set->initial_radius * set->initial_radius
                                                  : p->density_r2[KIND_INDIRECT] * PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS;

@@ -62,7 +62,7 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
                pm_progressive_projection_fraction(progressive), (unsigned long long)ph->dropped);
         pm_radius_summary r = pm_progressive_radii(progressive, film);
         printf("stat progressive iterations=%u photons_per_iteration=%llu alpha=%.4f radius_initial=%.6g radius_mean=%.6g radius_min=%.6g radius_max=%.6g gather_radius=%.6g gather_seconds=%.4f photons_found=%llu caustic_splats=%llu\n",
-               film->samples, (unsigned long long)(film->samples ? ph->emitted / film->samples : 0), alpha,
+               film->samples, (unsigned long long)pm_progressive_photons_per_iteration(progressive), alpha,
                r.initial_mean, r.mean, r.min, r.max, r.gather, ps->gather_seconds,
                (unsigned long long)ps->photons_found, (unsigned long long)ps->splats);
     } else {
