@@ -223,11 +223,54 @@ static void test_restart(void) {
     pm_scene_free(&s);
 }
 
+/* The first iteration after a start or a restart emits PM_PPM_FIRST_PHOTON_FRACTION of the
+ * photons, and the radii start from a whole iteration's density all the same: the final-gather
+ * radius after it is recomputed here from the stored photons, scaled to a whole iteration. */
+static void test_first_iteration_photons(void) {
+    pm_scene s;
+    pm_camera cam;
+    pm_accel *a = scaled_room(&s, 1.f, &cam);
+    enum { W = 16, H = 16 };
+    pm_progressive_settings ps = default_settings(W, H);
+    session r;
+    if (!start(&r, &s, a, &cam, W, H, &ps)) return;
+    uint64_t whole = pm_progressive_photons_per_iteration(r.p);
+    CHECK(whole == ps.photons + ps.caustic_photons, "a glass ball and a room: both passes (%llu photons)", (unsigned long long)whole);
+    uint64_t global_first = (uint64_t)(PM_PPM_FIRST_PHOTON_FRACTION * (double)ps.photons);
+    uint64_t first = global_first + (uint64_t)(PM_PPM_FIRST_PHOTON_FRACTION * (double)ps.caustic_photons);
+    iterate(&r, 1);
+    const pm_progressive_stats *st = pm_progressive_get_stats(r.p);
+    CHECK(st->photons.emitted == first, "the first iteration emits %llu of %llu (%llu)", (unsigned long long)first,
+          (unsigned long long)whole, (unsigned long long)st->photons.emitted);
+    double area = 0.0;
+    for (uint32_t t = 0; t < s.triangle_count; t++) {
+        const pm_material *m = &s.materials[s.triangle_material[t]];
+        if (m->may_diffuse || m->may_glossy) area += pm_triangle_area(&s, t);
+    }
+    /* a disc holding PM_PPM_GATHER_PHOTONS of a whole iteration's stored photons, shrunk once */
+    double stored_whole = (double)st->photons.stored_global * (double)ps.photons / (double)global_first;
+    double want = sqrt(PM_PPM_GATHER_PHOTONS * area / (PM_PI * stored_whole) * (1.0 + ps.alpha) / 2.0);
+    double got = pm_progressive_radii(r.p, &r.film).gather;
+    CHECK_NEAR(got, want, 1e-9, 1e-6, "final-gather radius after the first iteration, from a whole iteration's density");
+    iterate(&r, 2);
+    CHECK(st->photons.emitted == first + 2 * whole, "later iterations emit the whole count (%llu)",
+          (unsigned long long)st->photons.emitted);
+    pm_progressive_restart(r.p, &r.film, &cam);
+    iterate(&r, 1);
+    /* a restart clears the statistics too */
+    CHECK(st->photons.emitted == first, "the first iteration after a restart emits the first count again (%llu)",
+          (unsigned long long)st->photons.emitted);
+    stop(&r);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
     test_thin_wall();
     test_no_photon_pass_when_useless();
     test_threads_identical();
     test_restart();
+    test_first_iteration_photons();
     test_scale_invariance();
     test_long_run();
     return pm_test_done("test_progressive");
