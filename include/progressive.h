@@ -22,9 +22,9 @@
  * The first iteration after a start or a restart emits PM_PPM_FIRST_PHOTON_FRACTION of the
  * photons: it is the one a user waits for.
  *
- * Memory is fixed after the first two iterations (the first emits fewer photons): the statistics
- * in the film, one iteration's photons and splats, and one tile's points per thread. Restarting
- * (a camera move) clears per-pixel state only.
+ * Memory stops growing after the first iterations (the photon buffers keep the largest
+ * iteration's size): the statistics in the film, one iteration's photons and splats, and one
+ * tile's points per thread. Restarting (a camera move) clears per-pixel state only.
  */
 #ifndef PM_PROGRESSIVE_H
 #define PM_PROGRESSIVE_H
@@ -48,6 +48,7 @@ typedef struct {
     int max_specular_depth;
     int max_photon_bounces;
     bool caustic_by_statistics; /* the caustic seen directly from visible-point statistics, no camera splats (to compare) */
+    double first_photon_fraction; /* share of the photons the first iteration after a start or a restart emits; 0 = PM_PPM_FIRST_PHOTON_FRACTION */
 } pm_progressive_settings;
 
 typedef struct {

@@ -84,7 +84,7 @@ static const char usage_text[] =
     "  --caustic-photons N  caustic photons per iteration / for the caustic map (default: as many as --photons)\n"
     "  --alpha A            progressive: radius reduction per iteration, 0 < A < 1 (default 2/3)\n"
     "  --radius R           progressive: initial radius in scene units (default: from the pixel footprint\n"
-    "                       and the first iteration's photon density)\n"
+    "                       and the photon density of one iteration)\n"
     "  --k N                photons per radiance estimate (default 64)\n"
     "  --max-radius R       largest estimate radius in scene units (default: a fraction of the scene size)\n"
     "  --kernel disc|gaussian|cone  radiance estimate filter (default disc)\n"

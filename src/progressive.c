@@ -200,6 +200,7 @@ typedef struct {
     pm_film *film;
     const pm_photon_grid *caustic, *global;
     double gather_r2;
+    double to_whole[KIND_COUNT]; /* a whole iteration's photons over those this one traced (the first traces fewer) */
     struct {
         double radius_sum;                   /* initial radii set in this iteration */
         uint64_t radius_count, found, dropped;
@@ -248,15 +249,17 @@ static int start_radius(gather_job *job, pm_ppm_stat *st, const pm_visible_point
     return START_FRESH;
 }
 
-/* Where the first disc already holds more than PM_PPM_INITIAL_PHOTONS photons (a focused caustic
- * seen by a wide pixel, a bright corner), the radius starts where it would hold that many, and
- * the disc is read again: the first radius follows the photon density as well as the footprint,
- * so dense light starts with the small bias its photons allow instead of blurring for hundreds of
- * iterations (a radius shrinks only as N^((alpha - 1) / 2)). A --radius is kept as given. */
+/* Where the first disc already holds more than PM_PPM_INITIAL_PHOTONS photons of a whole
+ * iteration (a focused caustic seen by a wide pixel, a bright corner), the radius starts where it
+ * would hold that many, and the disc is read again: the first radius follows the photon density as
+ * well as the footprint, so dense light starts with the small bias its photons allow instead of
+ * blurring for hundreds of iterations (a radius shrinks only as N^((alpha - 1) / 2)). A --radius
+ * is kept as given. */
 static void narrow_start(gather_job *job, pm_ppm_stat *st, const pm_photon_grid *grid, pm_grid_query *q,
-                         pm_grid_result *r) {
-    if (job->p->settings.initial_radius > 0.0 || r->found <= PM_PPM_INITIAL_PHOTONS) return;
-    st->r2 *= PM_PPM_INITIAL_PHOTONS / (double)r->found;
+                         pm_grid_result *r, int kind) {
+    double found = (double)r->found * job->to_whole[kind];
+    if (job->p->settings.initial_radius > 0.0 || found <= PM_PPM_INITIAL_PHOTONS) return;
+    st->r2 *= PM_PPM_INITIAL_PHOTONS / found;
     q->radius2 = (float)st->r2;
     pm_photon_grid_sum_many(grid, q, 1, r);
 }
@@ -328,7 +331,7 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
             pm_photon_grid_sum_many(grid, query, n, result);
             for (size_t j = 0; j < n; j++) {
                 if (fresh[j]) {
-                    narrow_start(job, target[j], grid, &query[j], &result[j]);
+                    narrow_start(job, target[j], grid, &query[j], &result[j], kind);
                     job->counters[thread].radius_sum += sqrt(target[j]->r2);
                     job->counters[thread].radius_count++;
                 }
@@ -357,13 +360,19 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
     job->counters[thread].seconds += pm_now_seconds() - t0;
 }
 
-/* r^2 at which a disc holds PM_PPM_INITIAL_PHOTONS photons where `stored` photons spread evenly
- * over the diffuse surfaces: the start that follows the photon density, whatever the scale.
- * `stored` came from `emitted` photons; the density is that of a whole iteration's `per_iteration`
- * (the first iteration emits fewer), so every radius starts where it would with the full count. */
-static double density_radius2(const pm_progressive *p, size_t stored, uint64_t emitted, uint64_t per_iteration) {
-    if (!stored || !emitted || !(p->diffuse_area > 0.0)) return 0.0;
-    return PM_PPM_INITIAL_PHOTONS * p->diffuse_area * (double)emitted / (PM_PI * (double)stored * (double)per_iteration);
+/* r^2 at which a disc holds PM_PPM_INITIAL_PHOTONS photons where a whole iteration's photons
+ * spread evenly over the diffuse surfaces: the start that follows the photon density, whatever the
+ * scale. The first iteration emits fewer photons by design; to_whole scales what it stored up to
+ * a whole iteration's. (A deadline that cuts a pass is not scaled away: where the budget cuts the
+ * first pass it cuts the others too, and the radius follows the photons really traced.) */
+static double density_radius2(const pm_progressive *p, size_t stored, double to_whole) {
+    if (!stored || !(p->diffuse_area > 0.0)) return 0.0;
+    return PM_PPM_INITIAL_PHOTONS * p->diffuse_area / (PM_PI * (double)stored * to_whole);
+}
+
+/* A whole iteration's photons over those this iteration asks for (1 after the first). */
+static double whole_over_asked(uint64_t per_iteration, uint64_t asked) {
+    return asked ? (double)per_iteration / (double)asked : 1.0;
 }
 
 /* Photons to emit this iteration: the first after a start or a restart emits
@@ -371,9 +380,10 @@ static double density_radius2(const pm_progressive *p, size_t stored, uint64_t e
  * first after a camera move), and half the photons cost about half its photon pass and gather;
  * its estimate is as unbiased as any other (each photon carries flux / photons emitted) and only
  * noisier, which averaging over the iterations that follow dilutes at once. */
-static uint64_t photons_to_emit(uint64_t per_iteration, uint32_t iteration) {
+static uint64_t photons_to_emit(const pm_progressive_settings *set, uint64_t per_iteration, uint32_t iteration) {
     if (iteration > 0 || !per_iteration) return per_iteration;
-    uint64_t n = (uint64_t)((double)per_iteration * PM_PPM_FIRST_PHOTON_FRACTION);
+    double fraction = set->first_photon_fraction > 0.0 ? fmin(set->first_photon_fraction, 1.0) : PM_PPM_FIRST_PHOTON_FRACTION;
+    uint64_t n = (uint64_t)((double)per_iteration * fraction);
     return n ? n : 1;
 }
 
@@ -425,22 +435,24 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     bool ok = true;
     pm_photon_buffer *caustic = &p->buffer[KIND_CAUSTIC], *global = &p->buffer[KIND_INDIRECT];
     caustic->count = global->count = 0;
-    uint64_t caustic_emitted = photons_to_emit(set->caustic_photons, iteration);
-    uint64_t global_emitted = photons_to_emit(set->photons, iteration);
+    uint64_t asked[KIND_COUNT] = {photons_to_emit(set, set->caustic_photons, iteration),
+                                  photons_to_emit(set, set->photons, iteration)};
+    double to_whole[KIND_COUNT] = {whole_over_asked(set->caustic_photons, asked[KIND_CAUSTIC]),
+                                   whole_over_asked(set->photons, asked[KIND_INDIRECT])};
     if (p->trace_caustic) {
         pm_photon_tracer_set_splats(p->tracer, p->splatting ? &p->camera : NULL, film->width, film->height, &p->splats);
-        ok = pm_photon_tracer_trace_into(p->tracer, true, caustic_emitted, seed, caustic, &p->stats.photons);
+        ok = pm_photon_tracer_trace_into(p->tracer, true, asked[KIND_CAUSTIC], seed, caustic, &p->stats.photons);
         if (ok && p->splatting) add_splats(p, film);
     }
-    if (ok && p->trace_global) ok = pm_photon_tracer_trace_into(p->tracer, false, global_emitted, seed, global, &p->stats.photons);
+    if (ok && p->trace_global) ok = pm_photon_tracer_trace_into(p->tracer, false, asked[KIND_INDIRECT], seed, global, &p->stats.photons);
     if (!ok) return false;
     if (p->density_r2[KIND_CAUSTIC] == 0.0)
-        p->density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count, caustic_emitted, set->caustic_photons);
+        p->density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count, to_whole[KIND_CAUSTIC]);
     /* visible points read only indirect photons (direct light and caustics have their own
      * estimates); gather points read all of them */
     if (!p->gathering) keep_tagged(global, PM_PATH_INDIRECT);
     if (p->density_r2[KIND_INDIRECT] == 0.0)
-        p->density_r2[KIND_INDIRECT] = density_radius2(p, global->count, global_emitted, set->photons);
+        p->density_r2[KIND_INDIRECT] = density_radius2(p, global->count, to_whole[KIND_INDIRECT]);
     if (p->gathering && p->gather_r2 == 0.0)
         p->gather_r2 = set->initial_radius > 0.0 ? set->initial_radius * set->initial_radius
                                                  : p->density_r2[KIND_INDIRECT] * PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS;
@@ -460,6 +472,8 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     job->caustic = p->grid[KIND_CAUSTIC].count ? &p->grid[KIND_CAUSTIC] : NULL;
     job->global = p->grid[KIND_INDIRECT].count ? &p->grid[KIND_INDIRECT] : NULL;
     job->gather_r2 = p->gather_r2;
+    job->to_whole[KIND_CAUSTIC] = to_whole[KIND_CAUSTIC];
+    job->to_whole[KIND_INDIRECT] = to_whole[KIND_INDIRECT];
     bool photons_here = job->caustic || job->global;
     pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, iteration, film, p->gathering && job->global,
                           photons_here ? gather_tile : NULL, job, &p->stats.eye);

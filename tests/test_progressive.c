@@ -265,12 +265,42 @@ static void test_first_iteration_photons(void) {
     pm_scene_free(&s);
 }
 
+/* Where the first discs are narrowed to the photon density (dense caustics, bright corners), the
+ * half first iteration must narrow them as a whole one would: the radii after it agree with a run
+ * whose first iteration emits every photon (without the scaling they come out about sqrt 2 wider). */
+static void test_first_iteration_radii(void) {
+    pm_scene s;
+    pm_camera cam;
+    pm_accel *a = scaled_room(&s, 1.f, &cam);
+    enum { W = 32, H = 32 };
+    pm_radius_summary radii[2];
+    for (int k = 0; k < 2; k++) {
+        pm_progressive_settings ps = default_settings(W, H);
+        ps.indirect = PM_INDIRECT_PHOTONS;
+        ps.caustic_by_statistics = true;
+        ps.photons = ps.caustic_photons = 400000; /* dense: most first discs hold more than they start with */
+        ps.first_photon_fraction = k == 0 ? 1.0 : PM_PPM_FIRST_PHOTON_FRACTION;
+        session r;
+        if (!start(&r, &s, a, &cam, W, H, &ps)) break;
+        iterate(&r, 1);
+        radii[k] = pm_progressive_radii(r.p, &r.film);
+        stop(&r);
+    }
+    printf("first-iteration radii: whole first iteration mean %.5f min %.5f; %.2f of the photons: mean %.5f min %.5f\n",
+           radii[0].mean, radii[0].min, PM_PPM_FIRST_PHOTON_FRACTION, radii[1].mean, radii[1].min);
+    CHECK_NEAR(radii[1].initial_mean, radii[0].initial_mean, 0.03, 0, "mean first radius with fewer first photons");
+    CHECK_NEAR(radii[1].mean, radii[0].mean, 0.03, 0, "mean radius after the first iteration with fewer first photons");
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
     test_thin_wall();
     test_no_photon_pass_when_useless();
     test_threads_identical();
     test_restart();
     test_first_iteration_photons();
+    test_first_iteration_radii();
     test_scale_invariance();
     test_long_run();
     return pm_test_done("test_progressive");
