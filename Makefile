@@ -105,11 +105,11 @@ fuzz: fuzz-deps
 bench: deps pmview build/rel/bench_pm build/rel/photon_ceiling build/rel/caustic_error
 	@sh bench/run_bench.sh
 
-build/rel/bench_pm: bench/bench_pm.c build/rel/libpm.a
+build/rel/bench_pm: bench/bench_pm.c bench/bench_settings.h build/rel/libpm.a
 	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
 
 # The photon pass's own rays are recorded by wrapping pm_accel_intersect at link time, for this program only.
-build/rel/photon_ceiling: bench/photon_ceiling.c build/rel/libpm.a
+build/rel/photon_ceiling: bench/photon_ceiling.c bench/bench_settings.h build/rel/libpm.a
 	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ -Wl,--wrap=pm_accel_intersect $(LIBS)
 
 build/rel/caustic_error: bench/caustic_error.c tests/caustic_region.h build/rel/libpm.a

@@ -11,6 +11,7 @@
 #include <time.h>
 
 #include "accel.h"
+#include "bench_settings.h"
 #include "clock.h"
 #include "defaults.h"
 #include "eye.h"
@@ -76,17 +77,6 @@ static double raw_rate(const pm_accel *a, const vec3 *o, const vec3 *d, size_t n
         if (t > 0 && n / t > best) best = n / t;
     }
     return best;
-}
-
-/* The photon settings every photon bench uses: seed 1, 32 bounces, projection maps. */
-static pm_photon_settings bench_photon_settings(int threads) {
-    pm_photon_settings ps;
-    memset(&ps, 0, sizeof ps);
-    ps.seed = 1;
-    ps.threads = threads;
-    ps.max_bounces = 32;
-    ps.projection_maps = true;
-    return ps;
 }
 
 /* The raw rate on two threads, each tracing half the rays, over the wall time of both: the fair

@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "accel.h"
+#include "bench_settings.h"
 #include "loader.h"
 #include "photonmap.h"
 #include "scene.h"
@@ -36,17 +37,11 @@ bool __wrap_pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm
     return __real_pm_accel_intersect(a, o, d, tmax, hit);
 }
 
-/* One photon pass as bench_pm times it (seed 1, 32 bounces, projection maps), on one thread:
- * 500,000 photons of each kind the pass asks for. */
+/* One photon pass as bench_pm times it, on one thread: 500,000 photons of each kind the pass asks for. */
 typedef enum { PASS_CAUSTIC, PASS_GLOBAL, PASS_BOTH } pass_kind;
 static const char *const pass_name[] = {"caustic", "global", "both"};
 static bool photon_pass(const pm_scene *s, const pm_accel *a, pass_kind kind, pm_photon_stats *st) {
-    pm_photon_settings ps;
-    memset(&ps, 0, sizeof ps);
-    ps.seed = 1;
-    ps.threads = 1;
-    ps.max_bounces = 32;
-    ps.projection_maps = true;
+    pm_photon_settings ps = bench_photon_settings(1);
     ps.global_photons = kind == PASS_CAUSTIC ? 0 : 500000;
     ps.caustic_photons = kind == PASS_GLOBAL ? 0 : 500000;
     pm_photon_maps maps;

@@ -200,7 +200,7 @@ typedef struct {
     pm_film *film;
     const pm_photon_grid *caustic, *global;
     double gather_r2;
-    double to_whole[KIND_COUNT]; /* a whole iteration's photons over those this one traced (the first traces fewer) */
+    double to_whole[KIND_COUNT]; /* a whole iteration's photons over those this one asked for (the first asks fewer) */
     struct {
         double radius_sum;                   /* initial radii set in this iteration */
         uint64_t radius_count, found, dropped;
