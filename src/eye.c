@@ -445,7 +445,10 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
  * inverse of its probability.
  *
  * Gather rays add nothing through specular bounces (direct light and caustics at their origin
- * already count it), but go on through a sharp glossy lobe (GGX alpha below
+ * already count it); at their gather point they add its direct light, by shadow rays as at a
+ * visible point (out[lobe_component]), so the photons read there are only those of caustic and
+ * indirect paths: read as photons, direct light was most of the gather estimate's noise and its
+ * dark bias where a disc overhangs an edge. Gather rays go on through a sharp glossy lobe (GGX alpha below
  * PM_PPM_GATHER_LOBE_ALPHA) by sampling it, as photons do: read there, each photon weighted by a
  * lobe that peaks at 1 / (pi alpha^2), such a point turns a few photons into bright speckles that
  * take thousands of iterations to clear (the floor beside a smooth metal ball). The photons there
@@ -515,9 +518,12 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
                 if (depth >= 4 && !roulette_survives(&throughput, rng)) return false;
                 continue;
             }
-            if (camera_ray)
-                out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, sf, wo, rng, rays,
-                                                                              job->settings->shadow, shadow_counts, next)));
+            /* direct light at the point, by shadow rays: at a gather point it is the visible point's
+             * indirect light, and the photons read there are only those that bounced before */
+            out[camera_ray ? comp : lobe_component] =
+                v3_add(out[camera_ray ? comp : lobe_component],
+                       v3_mul(throughput, direct_light(s, job->accel, sf, wo, rng, rays, job->settings->shadow, shadow_counts,
+                                                       camera_ray ? next : NULL)));
             vp->p = sf->p;
             vp->n = ng;
             vp->glossy = sf->glossy;

@@ -26,6 +26,8 @@
 #define MAX_THREADS 256
 
 enum { KIND_CAUSTIC = 0, KIND_INDIRECT = 1, KIND_COUNT = 2 };
+/* the photons a gather point reads */
+#define GATHERED_PATHS ((1u << PM_PATH_CAUSTIC) | (1u << PM_PATH_INDIRECT))
 
 struct pm_progressive {
     const pm_scene *scene;
@@ -338,12 +340,12 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
                 update_statistics(job, target[j], &visible[point[j]], result[j].found, result[j].power, kind, thread);
             }
         }
-        /* estimates at gather points: every photon there, its direct, caustic and indirect light */
+        /* estimates at gather points: the caustic and indirect light there (the eye pass traced its direct light) */
         if (!gathered || !job->global || !(job->gather_r2 > 0.0)) continue;
         size_t n = 0;
         for (size_t k = base; k < end; k++)
             if (gathered[k].valid) {
-                query[n] = disc_query(&gathered[k], job->gather_r2, 7u);
+                query[n] = disc_query(&gathered[k], job->gather_r2, GATHERED_PATHS);
                 point[n++] = k;
             }
         pm_photon_grid_sum_many(job->global, query, n, result);
@@ -398,10 +400,11 @@ static void add_splats(pm_progressive *p, pm_film *film) {
 }
 
 /* Keeps only the photons with the given path tag, in order. */
-static void keep_tagged(pm_photon_buffer *b, int path) {
+/* Keeps the photons whose path tag is in paths (a mask of 1 << PM_PATH_...), in order. */
+static void keep_tagged(pm_photon_buffer *b, unsigned paths) {
     size_t kept = 0;
     for (size_t i = 0; i < b->count; i++)
-        if (pm_photon_path(&b->data[i]) == path) b->data[kept++] = b->data[i];
+        if (paths >> pm_photon_path(&b->data[i]) & 1u) b->data[kept++] = b->data[i];
     b->count = kept;
 }
 
@@ -449,8 +452,9 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     if (p->density_r2[KIND_CAUSTIC] == 0.0)
         p->density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count, to_whole[KIND_CAUSTIC]);
     /* visible points read only indirect photons (direct light and caustics have their own
-     * estimates); gather points read all of them */
-    if (!p->gathering) keep_tagged(global, PM_PATH_INDIRECT);
+     * estimates); gather points read caustic and indirect ones (their direct light is traced) */
+    keep_tagged(global, p->gathering ? GATHERED_PATHS : 1u << PM_PATH_INDIRECT);
+    p->stats.global_kept += global->count;
     if (p->density_r2[KIND_INDIRECT] == 0.0)
         p->density_r2[KIND_INDIRECT] = density_radius2(p, global->count, to_whole[KIND_INDIRECT]);
     if (p->gathering && p->gather_r2 == 0.0)

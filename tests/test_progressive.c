@@ -247,8 +247,12 @@ static void test_first_iteration_photons(void) {
         const pm_material *m = &s.materials[s.triangle_material[t]];
         if (m->may_diffuse || m->may_glossy) area += pm_triangle_area(&s, t);
     }
-    /* a disc holding PM_PPM_GATHER_PHOTONS of a whole iteration's stored photons, shrunk once */
-    double stored_whole = (double)st->photons.stored_global * (double)ps.photons / (double)global_first;
+    /* a disc holding PM_PPM_GATHER_PHOTONS of a whole iteration's photons that gather points read
+     * (those past their first hit), shrunk once */
+    CHECK(st->global_kept > 0 && st->global_kept < st->photons.stored_global,
+          "gather points read the photons past their first hit: %llu of %llu", (unsigned long long)st->global_kept,
+          (unsigned long long)st->photons.stored_global);
+    double stored_whole = (double)st->global_kept * (double)ps.photons / (double)global_first;
     double want = sqrt(PM_PPM_GATHER_PHOTONS * area / (PM_PI * stored_whole) * (1.0 + ps.alpha) / 2.0);
     double got = pm_progressive_radii(r.p, &r.film).gather;
     CHECK_NEAR(got, want, 1e-9, 1e-6, "final-gather radius after the first iteration, from a whole iteration's density");
