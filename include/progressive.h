@@ -58,7 +58,7 @@ typedef struct {
     pm_photon_stats photons;   /* totals over the run */
     double gather_seconds;
     uint64_t photons_found;    /* photons that fell inside a visible or gather point's disc */
-    uint64_t global_kept;      /* global photons kept for the points to read (not first hits, whose light is traced) */
+    uint64_t global_kept;      /* global photons kept for the points to read (gather points: past their first hit; visible points: indirect) */
     uint64_t splats;           /* caustic photons splatted to the camera */
 } pm_progressive_stats;
 

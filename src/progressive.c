@@ -479,7 +479,8 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     job->to_whole[KIND_CAUSTIC] = to_whole[KIND_CAUSTIC];
     job->to_whole[KIND_INDIRECT] = to_whole[KIND_INDIRECT];
     bool photons_here = job->caustic || job->global;
-    pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, iteration, film, p->gathering && job->global,
+    /* gather points even with no photon to read there: their direct light is traced */
+    pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, iteration, film, p->gathering,
                           photons_here ? gather_tile : NULL, job, &p->stats.eye);
     if (p->stats.eye.failed) { free(job); return false; }
     int threads = set->threads < 1 ? 1 : (set->threads > MAX_THREADS ? MAX_THREADS : set->threads);

@@ -298,12 +298,44 @@ static void test_first_iteration_radii(void) {
     pm_scene_free(&s);
 }
 
+/* Photons that stop at their first hit leave gather points nothing to read, yet the light of
+ * one bounce is still found: a gather point's direct light is traced, photons or none. */
+static void test_gather_without_photons_to_read(void) {
+    pm_scene s;
+    pm_camera cam;
+    pm_accel *a = scaled_room(&s, 1.f, &cam);
+    enum { W = 16, H = 16 };
+    double indirect[2] = {0, 0};
+    float *img = malloc(sizeof(float) * 3 * W * H);
+    for (int first_hit_only = 0; first_hit_only < 2 && img; first_hit_only++) {
+        pm_progressive_settings ps = default_settings(W, H);
+        if (first_hit_only) ps.max_photon_bounces = 1;
+        session r;
+        if (!start(&r, &s, a, &cam, W, H, &ps)) break;
+        iterate(&r, 16);
+        pm_film_resolve(&r.film, PM_INDIRECT, img);
+        indirect[first_hit_only] = mean_of(img, 3 * W * H);
+        if (first_hit_only)
+            CHECK(pm_progressive_get_stats(r.p)->global_kept == 0, "one bounce: no photon for gather points (%llu)",
+                  (unsigned long long)pm_progressive_get_stats(r.p)->global_kept);
+        stop(&r);
+    }
+    /* in this bright room one bounce is about 0.3 of the indirect light (about 1 - albedo); with
+     * gather points skipped when they had no photon to read, it was 0 */
+    CHECK(indirect[1] > 0.15 * indirect[0] && indirect[1] < 0.6 * indirect[0], "indirect light of one bounce %.4f of all %.4f",
+          indirect[1], indirect[0]);
+    free(img);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
     test_thin_wall();
     test_no_photon_pass_when_useless();
     test_threads_identical();
     test_restart();
     test_first_iteration_photons();
+    test_gather_without_photons_to_read();
     test_first_iteration_radii();
     test_scale_invariance();
     test_long_run();
