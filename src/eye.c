@@ -520,10 +520,9 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
             }
             /* direct light at the point, by shadow rays: at a gather point it is the visible point's
              * indirect light, and the photons read there are only those that bounced before */
-            out[camera_ray ? comp : lobe_component] =
-                v3_add(out[camera_ray ? comp : lobe_component],
-                       v3_mul(throughput, direct_light(s, job->accel, sf, wo, rng, rays, job->settings->shadow, shadow_counts,
-                                                       camera_ray ? next : NULL)));
+            int lit = camera_ray ? comp : lobe_component;
+            out[lit] = v3_add(out[lit], v3_mul(throughput, direct_light(s, job->accel, sf, wo, rng, rays, job->settings->shadow,
+                                                                        shadow_counts, camera_ray ? next : NULL)));
             vp->p = sf->p;
             vp->n = ng;
             vp->glossy = sf->glossy;

@@ -399,7 +399,6 @@ static void add_splats(pm_progressive *p, pm_film *film) {
     p->stats.splats += p->splats.count;
 }
 
-/* Keeps only the photons with the given path tag, in order. */
 /* Keeps the photons whose path tag is in paths (a mask of 1 << PM_PATH_...), in order. */
 static void keep_tagged(pm_photon_buffer *b, unsigned paths) {
     size_t kept = 0;
