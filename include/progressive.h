@@ -8,14 +8,14 @@
  *   2. eye pass: a fresh jittered sample per pixel is followed through mirrors and glass to its
  *      first diffuse point (the visible point); emission and direct light (shadow rays) go to
  *      the film as in the classic mode; with final gathering, the gather ray (the surface's own
- *      sample that direct light traced) finds a gather point, whose direct light is traced the
- *      same way (the visible point's indirect light);
+ *      sample that direct light traced) finds a gather point, whose light from punctual lights
+ *      is traced the same way (the visible point's indirect light);
  *   3. gather, tile by tile inside the eye pass: every visible point collects the new photons
  *      within its pixel's radius and updates the pixel's statistics (Hachisuka and Jensen 2009):
  *          N' = N + alpha M,  R'^2 = R^2 (N + alpha M) / (N + M),  tau' = (tau + Phi) R'^2 / R^2
  *      with caustic (seen through mirrors and glass; seen directly only when splats are off) and
  *      indirect photons in separate statistics; a gather point instead makes an independent
- *      estimate from the photons past their first hit with a radius shared by all pixels that shrinks with the iteration count,
+ *      estimate (from every photon but a punctual light's first hits) with a radius shared by all pixels that shrinks with the iteration count,
  *      r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1) (Knaus and Zwicker 2011).
  * The film resolves a pixel's photon part as tau / (pi R^2 iterations), its splats and gather
  * estimates as their sum over iterations.
@@ -58,7 +58,6 @@ typedef struct {
     pm_photon_stats photons;   /* totals over the run */
     double gather_seconds;
     uint64_t photons_found;    /* photons that fell inside a visible or gather point's disc */
-    uint64_t global_kept;      /* global photons kept for the points to read (gather points: past their first hit; visible points: indirect) */
     uint64_t splats;           /* caustic photons splatted to the camera */
 } pm_progressive_stats;
 

@@ -86,6 +86,7 @@ typedef struct {
     atomic_bool out_of_memory;
     uint64_t dropped;         /* photons of the last pass whose power was not finite (ended, not stored) */
     /* camera splats of the caustic pass (pm_photon_tracer_set_splats): per chunk, merged in order */
+    bool punctual_first_hits_traced; /* global pass: no record of a punctual light's first hit (the reader traces that light) */
     bool splat;               /* splat_view is set */
     pm_camera_view splat_view;
     pm_splat_buffer *splat_out;
@@ -560,6 +561,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
         const light_source *l = &ps->sources[pick_source(ps, pm_rng_float(&rng), &source_pdf)];
         vec3 o, d, flux;
         if (source_pdf <= 0.f || !emit(ps, l, &rng, &o, &d, &flux)) continue;
+        bool first_hit_traced = ps->punctual_first_hits_traced && l->kind == SOURCE_PUNCTUAL;
         vec3 power = v3_scale(flux, 1.f / ((float)ps->photons * source_pdf));
         int specular_bounces = 0;
         bool diffuse_seen = false;
@@ -584,7 +586,7 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                     }
                 } else {
                     int path = bounce == 0 ? PM_PATH_DIRECT : (diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
-                    push(&list, sf.p, ng, d, power, path);
+                    if (bounce > 0 || !first_hit_traced) push(&list, sf.p, ng, d, power, path);
                 }
             }
             float x = pm_rng_float(&rng), S = Sm + St;
@@ -935,6 +937,8 @@ bool pm_photon_tracer_trace(pm_photon_tracer *t, bool caustic, uint64_t photons,
 }
 
 void pm_photon_tracer_set_deadline(pm_photon_tracer *t, double deadline) { t->deadline = deadline; }
+
+void pm_photon_tracer_trace_punctual_first_hits(pm_photon_tracer *t, bool traced) { t->ps.punctual_first_hits_traced = traced; }
 
 void pm_photon_tracer_set_splats(pm_photon_tracer *t, const pm_camera *camera, int width, int height, pm_splat_buffer *out) {
     t->ps.splat = camera && out && width > 0 && height > 0;

@@ -26,8 +26,6 @@
 #define MAX_THREADS 256
 
 enum { KIND_CAUSTIC = 0, KIND_INDIRECT = 1, KIND_COUNT = 2 };
-/* the photons a gather point reads */
-#define GATHERED_PATHS ((1u << PM_PATH_CAUSTIC) | (1u << PM_PATH_INDIRECT))
 
 struct pm_progressive {
     const pm_scene *scene;
@@ -107,6 +105,8 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
     }
     bool specular = an->component_possible[PM_SPECULAR];
     p->gathering = p->trace_global && settings->indirect == PM_INDIRECT_GATHER;
+    /* gather points trace the punctual lights' direct light: their first hits are not stored */
+    if (p->tracer) pm_photon_tracer_trace_punctual_first_hits(p->tracer, p->gathering);
     p->splatting = p->trace_caustic && !settings->caustic_by_statistics;
     p->slot_used[PM_SLOT_CAUSTIC] = p->trace_caustic && !p->splatting;
     p->slot_used[PM_SLOT_SPECULAR_CAUSTIC] = p->trace_caustic && specular;
@@ -340,12 +340,13 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
                 update_statistics(job, target[j], &visible[point[j]], result[j].found, result[j].power, kind, thread);
             }
         }
-        /* estimates at gather points: the caustic and indirect light there (the eye pass traced its direct light) */
+        /* estimates at gather points: every photon stored there (the punctual lights' direct light
+         * was traced by the eye pass, and their first hits were not stored) */
         if (!gathered || !job->global || !(job->gather_r2 > 0.0)) continue;
         size_t n = 0;
         for (size_t k = base; k < end; k++)
             if (gathered[k].valid) {
-                query[n] = disc_query(&gathered[k], job->gather_r2, GATHERED_PATHS);
+                query[n] = disc_query(&gathered[k], job->gather_r2, 7u);
                 point[n++] = k;
             }
         pm_photon_grid_sum_many(job->global, query, n, result);
@@ -451,9 +452,8 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     if (p->density_r2[KIND_CAUSTIC] == 0.0)
         p->density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count, to_whole[KIND_CAUSTIC]);
     /* visible points read only indirect photons (direct light and caustics have their own
-     * estimates); gather points read caustic and indirect ones (their direct light is traced) */
-    keep_tagged(global, p->gathering ? GATHERED_PATHS : 1u << PM_PATH_INDIRECT);
-    p->stats.global_kept += global->count;
+     * estimates); gather points read all of them */
+    if (!p->gathering) keep_tagged(global, 1u << PM_PATH_INDIRECT);
     if (p->density_r2[KIND_INDIRECT] == 0.0)
         p->density_r2[KIND_INDIRECT] = density_radius2(p, global->count, to_whole[KIND_INDIRECT]);
     if (p->gathering && p->gather_r2 == 0.0)
