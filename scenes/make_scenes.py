@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, mirror-caustic.gltf) and exposes them as Python data.
+# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, mirror-caustic.gltf, point-room.gltf) and exposes them as Python data.
 """Scene generator for pmview (standard library only, deterministic).
 
     python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, mirror-caustic.gltf
@@ -152,6 +152,28 @@ def mirror_caustic(segments=64, light_strength=50.0, light_radius=0.2):
     return {"meshes": meshes, "camera": camera, "lights": []}
 
 
+def point_room(segments=48):
+    """A closed room lit only by a point light near the ceiling, with a rough metal ball (roughness
+    0.4) and a diffuse ball: a path tracer's best case (its next-event estimate of a point light
+    has no sampling noise), the room where photon mapping must still keep up."""
+    diffuse = lambda c: {"kind": "diffuse", "color": c}
+    meshes = [
+        mesh("floor", quad([(-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1)], (0, 1, 0)), diffuse((0.75, 0.75, 0.7))),
+        mesh("ceiling", quad([(-1, 2, -1), (1, 2, -1), (1, 2, 1), (-1, 2, 1)], (0, -1, 0)), diffuse((0.8, 0.8, 0.8))),
+        mesh("back", quad([(-1, 0, -1), (1, 0, -1), (1, 2, -1), (-1, 2, -1)], (0, 0, 1)), diffuse((0.6, 0.65, 0.8))),
+        mesh("left", quad([(-1, 0, 1), (-1, 0, -1), (-1, 2, -1), (-1, 2, 1)], (1, 0, 0)), diffuse((0.7, 0.3, 0.2))),
+        mesh("right", quad([(1, 0, -1), (1, 0, 1), (1, 2, 1), (1, 2, -1)], (-1, 0, 0)), diffuse((0.3, 0.6, 0.3))),
+        mesh("front", quad([(1, 0, 1), (-1, 0, 1), (-1, 2, 1), (1, 2, 1)], (0, 0, -1)), diffuse((0.7, 0.7, 0.7))),
+        mesh("metal_ball", uv_sphere(segments, segments // 2), {"kind": "metal", "color": (1, 1, 1), "roughness": 0.4},
+             translation=(-0.4, 0.4, -0.3), scale=0.4),
+        mesh("white_ball", uv_sphere(segments, segments // 2), diffuse((0.85, 0.85, 0.85)),
+             translation=(0.5, 0.3, 0.3), scale=0.3),
+    ]
+    camera = {"eye": (0.0, 1.0, 0.95), "target": (0.0, 0.8, -1.0), "yfov": math.radians(70.0), "aspect": 1.0}
+    lights = [{"type": "point", "position": (0.4, 1.6, -0.5), "color": (1.0, 0.9, 0.8), "intensity": 2.0}]
+    return {"meshes": meshes, "camera": camera, "lights": lights}
+
+
 def gltf_material(m):
     out = {"name": m["kind"], "pbrMetallicRoughness": {"baseColorFactor": list(m.get("color", (1, 1, 1))) + [1.0]}}
     pbr = out["pbrMetallicRoughness"]
@@ -253,7 +275,8 @@ def main():
     for name, scene in (("cornell-box.gltf", cornell_box(args.segments, args.light_strength)),
                         ("caustic.gltf", caustic(max(args.segments, 64), args.point_intensity)),
                         ("glossy-spheres.gltf", glossy_spheres(args.segments)),
-                        ("mirror-caustic.gltf", mirror_caustic(max(args.segments, 64)))):
+                        ("mirror-caustic.gltf", mirror_caustic(max(args.segments, 64))),
+                        ("point-room.gltf", point_room(args.segments))):
         path = os.path.join(args.out, name)
         with open(path, "w") as f:
             json.dump(to_gltf(scene), f, separators=(",", ":"))

@@ -28,7 +28,7 @@ import mitsuba as mi  # noqa: E402
 mi.set_variant("scalar_rgb")
 
 SCENES = {"cornell": make_scenes.cornell_box, "caustic": make_scenes.caustic, "glossy": make_scenes.glossy_spheres,
-          "mirror": make_scenes.mirror_caustic}
+          "mirror": make_scenes.mirror_caustic, "point_room": make_scenes.point_room}
 
 
 def rgb(c):
