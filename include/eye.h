@@ -96,8 +96,9 @@ void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, 
  * sums. With gather_points, one gather ray from each visible point (the ray direct light drew from
  * the material there, cosine or glossy lobe) finds the point its final gather reads, through
  * mirrors, glass and sharp glossy lobes, and adds the punctual lights' direct light there (shadow
- * rays, as at the visible point) as the visible point's indirect light; past a sharp lobe the light it meets, and a shadow ray
- * from the lobe to each punctual light, go to the film as the visible point's indirect light
+ * rays, as at the visible point) as the visible point's indirect light; past a sharp lobe the
+ * light it meets, and a shadow ray from the lobe to each punctual light, go to the film as the
+ * visible point's indirect light
  * (see walk_to_diffuse in eye.c for when it does not go on). Each tile's
  * points go to visit (when not NULL) at the end of the tile, on the thread that traced them: the
  * caller gathers this iteration's photons there while the points are still in cache, and no

@@ -15,7 +15,8 @@
  *          N' = N + alpha M,  R'^2 = R^2 (N + alpha M) / (N + M),  tau' = (tau + Phi) R'^2 / R^2
  *      with caustic (seen through mirrors and glass; seen directly only when splats are off) and
  *      indirect photons in separate statistics; a gather point instead makes an independent
- *      estimate (from every photon but a punctual light's first hits) with a radius shared by all pixels that shrinks with the iteration count,
+ *      estimate (from every photon but a punctual light's first hits) with a radius shared by
+ *      all pixels that shrinks with the iteration count,
  *      r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1) (Knaus and Zwicker 2011).
  * The film resolves a pixel's photon part as tau / (pi R^2 iterations), its splats and gather
  * estimates as their sum over iterations.

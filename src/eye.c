@@ -451,9 +451,9 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
  * most of a gather estimate's noise and its dark bias where a disc overhangs an edge, while shadow
  * photons make most of its rays free. Emitters and the sky stay with the photons: an area sample
  * and its MIS partner would be two more rays a pixel (an iteration 30% longer on the Cornell box
- * at 512x512 for the same error at 320x320). Gather rays go on through a sharp glossy lobe (GGX alpha below
- * PM_PPM_GATHER_LOBE_ALPHA) by sampling it, as photons do: read there, each photon weighted by a
- * lobe that peaks at 1 / (pi alpha^2), such a point turns a few photons into bright speckles that
+ * at 512x512 for the same error at 320x320). Gather rays go on through a sharp glossy lobe (GGX
+ * alpha below PM_PPM_GATHER_LOBE_ALPHA) by sampling it, as photons do: read there, each photon
+ * weighted by a lobe that peaks at 1 / (pi alpha^2), such a point turns a few photons into bright speckles that
  * take thousands of iterations to clear (the floor beside a smooth metal ball). The photons there
  * counted all light arriving at the lobe; now the ray finds it: punctual lights by a shadow ray
  * from the lobe, emission and sky where the ray meets them past the lobe (through mirrors and

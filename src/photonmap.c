@@ -85,8 +85,8 @@ typedef struct {
     _Atomic uint64_t records; /* stored so far in this pass */
     atomic_bool out_of_memory;
     uint64_t dropped;         /* photons of the last pass whose power was not finite (ended, not stored) */
-    /* camera splats of the caustic pass (pm_photon_tracer_set_splats): per chunk, merged in order */
     bool punctual_first_hits_traced; /* global pass: no record of a punctual light's first hit (the reader traces that light) */
+    /* camera splats of the caustic pass (pm_photon_tracer_set_splats): per chunk, merged in order */
     bool splat;               /* splat_view is set */
     pm_camera_view splat_view;
     pm_splat_buffer *splat_out;
