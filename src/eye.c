@@ -105,6 +105,12 @@ static inline vec3 reflected(const pm_surface *sf, vec3 ns, vec3 wo, vec3 wi, fl
     return sf->glossy ? v3_scale(pm_brdf_eval(&sf->brdf, ns, wo, wi), cos_s) : v3s(cos_s);
 }
 
+/* The radiance a light sum of punctual_light or direct_light stands for: a glossy lobe's already
+ * is, Lambert's irradiance takes kd/pi. */
+static inline vec3 radiance_from_light_sum(const pm_surface *sf, vec3 e) {
+    return sf->glossy ? e : v3_scale(v3_mul(sf->kd, e), PM_INV_PI);
+}
+
 /* The punctual lights' share of direct_light (below): their light reflected toward wo, Lambert's
  * as irradiance (kd/pi not applied), a glossy lobe's as radiance; *cast and *saved count shadow
  * rays cast and made unnecessary by shadow photons. */
@@ -295,7 +301,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         shadow_counts[0] += cast;
         shadow_counts[1] += saved;
     }
-    return sf->glossy ? e : v3_scale(v3_mul(sf->kd, e), PM_INV_PI);
+    return radiance_from_light_sum(sf, e);
 }
 
 static inline vec3 side_normal(const pm_surface *sf, vec3 ng) { return v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns; }
@@ -438,6 +444,19 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
     }
 }
 
+/* A gather path's punctual light at a vertex (a sharp lobe it goes on through, or its gather
+ * point): reflected toward wo, times throughput, added to *out; its shadow rays counted. */
+static void add_punctual_light(const eye_job *job, const pm_surface *sf, vec3 wo, vec3 ng, vec3 ns, vec3 origin,
+                               vec3 throughput, pm_rng *rng, uint64_t *rays, uint64_t shadow_counts[2], vec3 *out) {
+    uint64_t cast = 0, saved = 0;
+    vec3 e = punctual_light(job->scene, job->accel, sf, wo, ng, ns, origin, rng, rays, job->settings->shadow, &cast, &saved);
+    *out = v3_add(*out, v3_mul(throughput, radiance_from_light_sum(sf, e)));
+    if (shadow_counts) {
+        shadow_counts[0] += cast;
+        shadow_counts[1] += saved;
+    }
+}
+
 /* Follows a ray through specular bounces to the first surface where it becomes diffuse, and
  * returns that point (false when the path leaves the scene, is absorbed or cut). Camera rays add
  * the emission they see on the way to out[] and direct light at the point. A mixed surface is the
@@ -453,8 +472,8 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
  * and its MIS partner would be two more rays a pixel (an iteration 30% longer on the Cornell box
  * at 512x512 for the same error at 320x320). Gather rays go on through a sharp glossy lobe (GGX
  * alpha below PM_PPM_GATHER_LOBE_ALPHA) by sampling it, as photons do: read there, each photon
- * weighted by a lobe that peaks at 1 / (pi alpha^2), such a point turns a few photons into bright speckles that
- * take thousands of iterations to clear (the floor beside a smooth metal ball). The photons there
+ * weighted by a lobe that peaks at 1 / (pi alpha^2), such a point turns a few photons into bright
+ * speckles that take thousands of iterations to clear (the floor beside a smooth metal ball). The photons there
  * counted all light arriving at the lobe; now the ray finds it: punctual lights by a shadow ray
  * from the lobe, emission and sky where the ray meets them past the lobe (through mirrors and
  * glass too), the rest in the photons at the next diffuse point; all but that last go to
@@ -501,16 +520,8 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
                 depth < job->settings->max_specular_depth) {
                 vec3 ns = side_normal(sf, ng), from = pm_surface_origin(sf, ng, s->ray_scale), wi, f;
                 float pdf;
-                if (s->light_count) {
-                    uint64_t cast = 0, saved = 0;
-                    vec3 e = punctual_light(s, job->accel, sf, wo, ng, ns, from, rng, rays, job->settings->shadow, &cast,
-                                            &saved);
-                    out[lobe_component] = v3_add(out[lobe_component], v3_mul(throughput, e));
-                    if (shadow_counts) {
-                        shadow_counts[0] += cast;
-                        shadow_counts[1] += saved;
-                    }
-                }
+                if (s->light_count)
+                    add_punctual_light(job, sf, wo, ng, ns, from, throughput, rng, rays, shadow_counts, &out[lobe_component]);
                 if (!pm_brdf_sample(&sf->brdf, ns, wo, pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), &wi, &f, &pdf) ||
                     v3_dot(wi, ng) <= 0.f)
                     return false;
@@ -527,15 +538,8 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
             } else if (s->light_count) {
                 /* the punctual lights at a gather point: the visible point's indirect light, traced
                  * (their first-hit photons are not stored, see above) */
-                uint64_t cast = 0, saved = 0;
-                vec3 e = punctual_light(s, job->accel, sf, wo, ng, side_normal(sf, ng), pm_surface_origin(sf, ng, s->ray_scale),
-                                        rng, rays, job->settings->shadow, &cast, &saved);
-                if (!sf->glossy) e = v3_scale(v3_mul(sf->kd, e), PM_INV_PI);
-                out[lobe_component] = v3_add(out[lobe_component], v3_mul(throughput, e));
-                if (shadow_counts) {
-                    shadow_counts[0] += cast;
-                    shadow_counts[1] += saved;
-                }
+                add_punctual_light(job, sf, wo, ng, side_normal(sf, ng), pm_surface_origin(sf, ng, s->ray_scale), throughput,
+                                   rng, rays, shadow_counts, &out[lobe_component]);
             }
             vp->p = sf->p;
             vp->n = ng;

@@ -478,7 +478,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     job->to_whole[KIND_CAUSTIC] = to_whole[KIND_CAUSTIC];
     job->to_whole[KIND_INDIRECT] = to_whole[KIND_INDIRECT];
     bool photons_here = job->caustic || job->global;
-    /* gather points even with no photon to read there: their direct light is traced */
+    /* gather points even with no photon to read there: their punctual light is traced */
     pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, iteration, film, p->gathering,
                           photons_here ? gather_tile : NULL, job, &p->stats.eye);
     if (p->stats.eye.failed) { free(job); return false; }
