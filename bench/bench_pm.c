@@ -142,6 +142,7 @@ static progressive_rate progressive_iterations(const pm_scene *s, const pm_accel
     ps.indirect = PM_INDIRECT_GATHER;
     ps.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
     ps.max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
+    ps.eye_passes = 1; /* an iteration here is one photon pass and one eye pass, as the speed goals count it */
     char err[256];
     pm_progressive *p = pm_progressive_create(s, a, cam, &ps, err, sizeof err);
     if (!p) return r;
@@ -155,11 +156,11 @@ static progressive_rate progressive_iterations(const pm_scene *s, const pm_accel
     /* the first iteration emits fewer photons (PM_PPM_FIRST_PHOTON_FRACTION): it is timed on its
      * own, and the per-iteration figures come from the iterations after it */
     double t0 = pm_now_seconds();
-    pm_progressive_iterate(p, &film);
+    pm_progressive_iterate(p, &film, 0);
     double t1 = pm_now_seconds();
     const pm_progressive_stats *st = pm_progressive_get_stats(p);
     pm_progressive_stats first = *st;
-    for (int i = 1; i < iterations; i++) pm_progressive_iterate(p, &film);
+    for (int i = 1; i < iterations; i++) pm_progressive_iterate(p, &film, 0);
     double steady = pm_now_seconds() - t1;
     int n = iterations > 1 ? iterations - 1 : 1;
     double rays = (double)(st->eye.rays - first.eye.rays + st->photons.rays - first.photons.rays);

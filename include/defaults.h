@@ -59,6 +59,10 @@
 #define PM_PPM_CURVED_RADIUS 0.43         /* ... and at most this many radii of the surface's curvature (the chord of the photons' 25-degree normal test) */
 #define PM_PPM_INITIAL_PHOTONS 16.0        /* ... and wide enough to hold this many first-iteration photons at the scene's mean density */
 #define PM_PPM_GATHER_LOBE_ALPHA 0.1f      /* final gathering goes on through a glossy lobe sharper than this GGX alpha (roughness 0.32) instead of reading photons there */
+#define PM_PPM_MAX_EYE_PASSES 8            /* automatic eye passes per photon pass: at most this many (--eye-passes sets any) */
+#define PM_PPM_EYE_RAY_COST 2.0            /* an eye ray with its gathering costs this many photon rays (each with its storing) */
+#define PM_PPM_PROBE_PIXELS 1024           /* the noise probe that chooses them watches about this many pixels ... */
+#define PM_PPM_PROBE_ITERATIONS 8          /* ... over at least this many iterations of two eye passes first */
 #define PM_PPM_GATHER_PHOTONS 8.0          /* final gathering: the shared radius starts holding this many (each estimate is averaged over pixels and iterations) */
 
 /* photon mapping (classic two-pass mode) */

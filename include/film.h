@@ -35,7 +35,8 @@ extern const pm_component pm_slot_component[PM_SLOT_COUNT];
 typedef struct {
     int width, height;
     float *sum[PM_COMPONENT_COUNT]; /* 3*width*height floats each, row 0 = top; NULL = always black */
-    uint32_t samples;               /* samples per pixel accumulated so far (= photon passes in the progressive mode) */
+    uint32_t samples;               /* samples per pixel accumulated so far (eye passes) */
+    uint32_t photon_passes;         /* the progressive mode's photon passes so far: what the statistics divide by */
     pm_ppm_stat *ppm[PM_SLOT_COUNT];/* width*height each, or NULL: the progressive mode's photon statistics */
 } pm_film;
 
@@ -45,7 +46,7 @@ bool pm_film_enable_ppm(pm_film *f, const bool slot_enabled[PM_SLOT_COUNT]);
 void pm_film_free(pm_film *f);
 void pm_film_clear(pm_film *f);
 /* Radiance of one component into out (3*w*h floats): the mean of its samples plus, in the
- * progressive mode, tau / (pi r^2 iterations) of each slot that feeds it; zeros for an absent
+ * progressive mode, tau / (pi r^2 photon passes) of each slot that feeds it; zeros for an absent
  * component. The one way an image leaves the film. */
 void pm_film_resolve(const pm_film *f, pm_component c, float *out);
 /* The sum of all components (false, and zeros, when out of memory for the scratch buffer). */

@@ -51,10 +51,12 @@ typedef struct {
     int max_photon_bounces;
     bool caustic_by_statistics; /* the caustic seen directly from visible-point statistics, no camera splats (to compare) */
     double first_photon_fraction; /* share of the photons the first iteration after a start or a restart emits; 0 = PM_PPM_FIRST_PHOTON_FRACTION */
+    int eye_passes;            /* eye passes reading each photon pass; 0 = automatic (from the rays of both, see pm_progressive_iterate) */
 } pm_progressive_settings;
 
 typedef struct {
-    uint32_t iterations;
+    uint32_t iterations;       /* samples per pixel: eye passes */
+    uint32_t photon_passes;
     pm_eye_stats eye;
     pm_photon_stats photons;   /* totals over the run */
     double gather_seconds;
@@ -75,6 +77,9 @@ typedef struct pm_progressive pm_progressive;
 /* The automatic photon count per iteration: PM_PPM_PHOTONS_PER_PIXEL per pixel, clamped. */
 uint64_t pm_progressive_default_photons(int width, int height);
 
+/* The eye passes the next iteration will run per photon pass (before any max_samples cut). */
+uint32_t pm_progressive_eye_passes(const pm_progressive *p);
+
 /* NULL with err set when out of memory. The camera is copied. */
 pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, const pm_camera *camera,
                                       const pm_progressive_settings *settings, char *err, size_t err_size);
@@ -83,8 +88,11 @@ void pm_progressive_destroy(pm_progressive *p);
 void pm_progressive_components(const pm_progressive *p, bool enabled[PM_COMPONENT_COUNT]);
 /* Allocates the per-pixel state for a film made with those components. */
 bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err_size);
-/* One iteration: eye pass, photon passes, gather; adds one sample to the film. False when out of memory. */
-bool pm_progressive_iterate(pm_progressive *p, pm_film *film);
+/* One iteration: a photon pass (caustic and global photons) and the eye passes that gather from
+ * it, each adding a sample per pixel to the film: --eye-passes of them, or automatically 1 to
+ * PM_PPM_MAX_EYE_PASSES, more where a photon pass costs more rays than an eye pass; at most
+ * max_samples (0: no limit). False when out of memory. */
+bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_samples);
 /* Starts again from nothing (a new camera, or the same one): clears the film and per-pixel
  * state; allocates nothing. */
 void pm_progressive_restart(pm_progressive *p, pm_film *film, const pm_camera *camera);

@@ -28,8 +28,10 @@ void pm_reference_free(pm_reference_image *ref);
  * a pixel. */
 double pm_reference_relmse(const pm_film *film, const pm_reference_image *ref, float *scratch, double mean_ratio[3]);
 
-/* Whether iteration gets a row: every one up to PM_LOG_EVERY_ITERATION_UNTIL, then the powers of two. */
-bool pm_log_wanted(uint32_t iteration);
+/* Whether the film's sample count gets a row, the last row having been at `logged`: every count up
+ * to PM_LOG_EVERY_ITERATION_UNTIL, then the first count at or past each power of two (a
+ * progressive iteration may add several samples). */
+bool pm_log_wanted(uint32_t logged, uint32_t samples);
 void pm_log_header(FILE *f);
 /* One row: the film as it is after `seconds` of rendering, `photons` emitted so far. scratch: 3
  * floats a pixel, or NULL without a reference. */

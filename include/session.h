@@ -53,8 +53,10 @@ pm_session *pm_session_create(const pm_scene *s, const pm_accel *a, const pm_cam
 /* Stops the worker, if any, and frees everything the session owns. */
 void pm_session_destroy(pm_session *s);
 
-/* One iteration on the calling thread (synchronous use only). False when out of memory. */
-bool pm_session_iterate(pm_session *s);
+/* One iteration on the calling thread (synchronous use only), adding at most max_samples samples
+ * per pixel (0: no limit; a progressive iteration may add several, see pm_progressive_iterate).
+ * False when out of memory. */
+bool pm_session_iterate(pm_session *s, uint32_t max_samples);
 const pm_film *pm_session_film(const pm_session *s);
 pm_progressive *pm_session_progressive(pm_session *s);               /* NULL in the classic mode */
 const pm_photon_maps *pm_session_classic_maps(const pm_session *s);  /* NULL in the progressive mode */

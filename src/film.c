@@ -51,6 +51,7 @@ void pm_film_clear(pm_film *f) {
     for (int k = 0; k < PM_SLOT_COUNT; k++)
         if (f->ppm[k]) memset(f->ppm[k], 0, (n / 3) * sizeof(pm_ppm_stat));
     f->samples = 0;
+    f->photon_passes = 0;
 }
 
 void pm_film_resolve(const pm_film *f, pm_component c, float *out) {
@@ -62,8 +63,8 @@ void pm_film_resolve(const pm_film *f, pm_component c, float *out) {
         if (pm_slot_component[k] != c || !f->ppm[k]) continue;
         const pm_ppm_stat *st = f->ppm[k];
         for (size_t i = 0; i < pixels; i++) {
-            if (!(st[i].r2 > 0.0)) continue;
-            double scale = 1.0 / (PM_PI * st[i].r2 * (double)f->samples);
+            if (!(st[i].r2 > 0.0) || !f->photon_passes) continue;
+            double scale = 1.0 / (PM_PI * st[i].r2 * (double)f->photon_passes);
             /* the statistics are doubles: their estimate is clamped into float range, never an Inf */
             for (int ch = 0; ch < 3; ch++) out[3 * i + ch] = (float)fmin(out[3 * i + ch] + st[i].tau[ch] * scale, FLT_MAX);
         }

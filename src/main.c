@@ -57,6 +57,7 @@ typedef struct {
     bool pathtrace;       /* --mode pathtrace */
     const char *log;      /* --log: CSV of the run, one row per logged iteration */
     double alpha, radius; /* progressive: radius reduction, initial radius (0 = from the scene) */
+    int eye_passes;       /* progressive: per photon pass (0 = automatic) */
     bool components_given, components[PM_COMPONENT_COUNT]; /* --components: what a PNG (and the window) shows */
     const char *sky;      /* --sky: none, white, gradient or an .exr/.hdr file; NULL = the default policy */
 } options;
@@ -83,6 +84,8 @@ static const char usage_text[] =
     "                       classic: photons for the global map (default: from the image size and --time)\n"
     "  --caustic-photons N  caustic photons per iteration / for the caustic map (default: as many as --photons)\n"
     "  --alpha A            progressive: radius reduction per iteration, 0 < A < 1 (default 2/3)\n"
+    "  --eye-passes N|auto  progressive: eye passes (samples per pixel) reading each photon pass (default auto:\n"
+    "                       1 to 8, more where a photon pass costs more rays than an eye pass, as on small images)\n"
     "  --radius R           progressive: initial radius in scene units (default: from the pixel footprint\n"
     "                       and the photon density of one iteration)\n"
     "  --k N                photons per radiance estimate (default 64)\n"
@@ -169,7 +172,7 @@ static int parse_options(int argc, char **argv, options *o) {
                                              "--caustic-photons", "--k", "--max-radius", "--kernel", "--indirect",
                                              "--gather-rays", "--view", "--precompute", "--reference", "--alpha",
                                              "--radius", "--components", "--sky", "--log", "--shadow-photons", "--max-memory",
-                                             "--caustic-splats"};
+                                             "--caustic-splats", "--eye-passes"};
         int which = -1;
         for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
             if (!strcmp(a, valued[k])) which = k;
@@ -237,6 +240,11 @@ static int parse_options(int argc, char **argv, options *o) {
             else if (!strcmp(v, "off")) o->caustic_statistics = true;
             else return usage_error("unknown --caustic-splats '%s' (on, off)", v);
             break;
+        case 29:
+            if (!strcmp(v, "auto")) o->eye_passes = 0;
+            else if (!parse_long(v, 1, 4096, &n)) return usage_error("bad --eye-passes '%s' (1 to 4096, or auto)", v);
+            else o->eye_passes = (int)n;
+            break;
         case 27: if (!pm_memory_parse_size(v, &o->max_memory)) return usage_error("bad --max-memory '%s' (bytes, or with K, M, G, T)", v); break;
         case 23: {
             o->components_given = true;
@@ -262,15 +270,19 @@ static int parse_options(int argc, char **argv, options *o) {
                     return usage_error("%s belongs to --mode classic (the other modes have no k-nearest estimates)", argv[i]);
     }
     if (o->pathtrace) {
-        static const char *const photon_only[] = {"--alpha", "--radius", "--photons", "--caustic-photons", "--indirect", "--no-photons"};
+        static const char *const photon_only[] = {"--alpha", "--radius", "--photons", "--caustic-photons", "--indirect", "--no-photons",
+                                                  "--eye-passes"};
         for (int i = 1; i < argc; i++)
             for (int k = 0; k < (int)(sizeof photon_only / sizeof *photon_only); k++)
                 if (!strcmp(argv[i], photon_only[k]))
                     return usage_error("%s belongs to the photon-mapping modes (the path tracer has no photons)", argv[i]);
     } else if (o->classic) {
-        for (int i = 1; i < argc; i++)
+        for (int i = 1; i < argc; i++) {
             if (!strcmp(argv[i], "--alpha") || !strcmp(argv[i], "--radius"))
                 return usage_error("%s belongs to --mode progressive (the classic mode's radii do not shrink)", argv[i]);
+            if (!strcmp(argv[i], "--eye-passes"))
+                return usage_error("%s belongs to --mode progressive (the classic mode traces its photons once)", argv[i]);
+        }
     }
     if (o->log && !o->snapshot) return usage_error("--log '%s' needs --snapshot (the window restarts its runs)", o->log);
     return -1;
@@ -309,6 +321,7 @@ static bool configure(const options *opt, const pm_scene *scene, const pm_accel 
         pp->photons = photons;
         pp->caustic_photons = opt->no_photons ? 0 : (opt->caustic_photons >= 0 ? (uint64_t)opt->caustic_photons : photons);
         pp->alpha = opt->alpha;
+        pp->eye_passes = opt->eye_passes;
         pp->initial_radius = opt->radius;
         pp->indirect = opt->indirect;
         pp->caustic_by_statistics = opt->caustic_statistics;
@@ -458,7 +471,7 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
     /* --time and the reported render time count from here: the photon pass is part of what a
      * budget buys. A budget spent before the first iteration still gets that iteration. */
     double start = pm_now_seconds(), last_iteration = 0.0, fixed_before = 0.0;
-    uint32_t next_progress = 1;
+    uint64_t next_progress = 1;
     if (opt->time_limit > 0) pm_session_set_deadline(session, start + opt->time_limit);
     while ((long)film->samples < target && !interrupted_by) {
         /* --time: start an iteration only if it is expected to end nearer the budget than
@@ -467,7 +480,7 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
         if (opt->time_limit > 0 && film->samples > 0 && pm_now_seconds() + 0.5 * last_iteration - start >= opt->time_limit) break;
         double iteration_start = pm_now_seconds();
         fixed_before = repeating_seconds(session);
-        bool iterated = pm_session_iterate(session);
+        bool iterated = pm_session_iterate(session, (uint32_t)(target - (long)film->samples));
         rendered += pm_now_seconds() - iteration_start;
         if (!iterated) {
             fprintf(stderr, "%spmview: error: %s: out of memory (%s) in iteration %u\n", tty ? "\n" : "", opt->scene_path,
@@ -476,14 +489,15 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
             if (log) fclose(log);
             return 1;
         }
-        if (log && pm_log_wanted(film->samples)) {
+        if (log && pm_log_wanted(logged, film->samples)) {
             pm_log_row(log, session, session_photons(session), reference, scratch, rendered);
             logged = film->samples;
         }
-        if (scratch && opt->stats && film->samples == next_progress) {
+        if (scratch && opt->stats && film->samples >= next_progress) {
+            /* at 1, 2, 4, 8, ... samples, or the first count past each when an iteration adds several */
             double ratio[3], e = pm_reference_relmse(film, reference, scratch, ratio);
             printf("stat progress iterations=%u seconds=%.4f relmse=%.6f\n", film->samples, pm_now_seconds() - start, e);
-            next_progress *= 2;
+            while (next_progress <= film->samples) next_progress *= 2;
         }
         last_iteration = fmin(pm_now_seconds() - iteration_start, repeating_seconds(session) - fixed_before);
         show_progress(tty, film->samples, opt->iterations ? opt->iterations : 0, pm_now_seconds() - start, opt->time_limit,

@@ -27,6 +27,22 @@
 
 enum { KIND_CAUSTIC = 0, KIND_INDIRECT = 1, KIND_COUNT = 2 };
 
+/* The noise of a sparse set of pixels, split into the part eye passes can average away and the
+ * part only new photons can (see choose_eye_passes). A probed pixel's sample is its total over the
+ * components (splats included, at their share of one eye pass); statistics at visible points are
+ * not in the sums and are left out. Relative, as relMSE: each variance over (mean^2 + 0.01). Only
+ * the first two samples of an iteration are probed, and only in iterations that have two. */
+enum { PROBE_ARRAYS = 6 };
+typedef struct {
+    size_t stride, count;        /* every stride-th pixel, count of them */
+    double *total;               /* a probed pixel's total so far, per probed pixel */
+    double *splats;              /* the splats' share of one eye pass's sample, this iteration */
+    double *first;               /* its first sample of this iteration */
+    double *mean, *m2;           /* Welford's running mean and squared deviations of the pair's mean over iterations */
+    double *within;              /* the sum over iterations of (first - second)^2 / 2 */
+    uint32_t pairs;              /* iterations probed */
+} noise_probe;
+
 struct pm_progressive {
     const pm_scene *scene;
     const pm_accel *accel;
@@ -51,6 +67,8 @@ struct pm_progressive {
     double initial_radius_sum;
     uint64_t initial_radius_count;
     double query_radius[KIND_COUNT];     /* mean radius gathered with last iteration: sets the grid's cell */
+    uint32_t eye_passes;                 /* per photon pass in the next iteration (settings, or from the probe) */
+    noise_probe probe;                   /* automatic eye passes only */
     pm_photon_buffer buffer[KIND_COUNT]; /* this iteration's photons, reused */
     pm_photon_grid grid[KIND_COUNT];
     pm_progressive_stats stats;
@@ -124,6 +142,7 @@ void pm_progressive_destroy(pm_progressive *p) {
         pm_photon_grid_free(&p->grid[k]);
     }
     free(p->splats.data);
+    free(p->probe.total);
     free(p);
 }
 
@@ -132,6 +151,8 @@ bool pm_progressive_uses_photons(const pm_progressive *p) { return p->trace_caus
 uint64_t pm_progressive_photons_per_iteration(const pm_progressive *p) {
     return (p->trace_caustic ? p->settings.caustic_photons : 0) + (p->trace_global ? p->settings.photons : 0);
 }
+
+uint32_t pm_progressive_eye_passes(const pm_progressive *p) { return p->eye_passes; }
 
 double pm_progressive_projection_fraction(const pm_progressive *p) {
     return p->tracer ? pm_photon_tracer_projection_fraction(p->tracer) : 0.0;
@@ -144,6 +165,100 @@ void pm_progressive_components(const pm_progressive *p, bool enabled[PM_COMPONEN
     enabled[PM_CAUSTIC] = p->trace_caustic;
     enabled[PM_INDIRECT] = p->trace_global;
 }
+
+/* ---- eye passes per photon pass ---- */
+
+/* A pixel's total over the components so far (the mean of its channels' sums). */
+static double probed_total(const pm_film *film, size_t pixel) {
+    double t = 0.0;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (film->sum[c]) t += (double)film->sum[c][3 * pixel] + film->sum[c][3 * pixel + 1] + film->sum[c][3 * pixel + 2];
+    return t / 3.0;
+}
+
+static bool probe_alloc(noise_probe *pr, size_t pixels) {
+    pr->stride = pixels > PM_PPM_PROBE_PIXELS ? pixels / PM_PPM_PROBE_PIXELS : 1;
+    pr->count = (pixels + pr->stride - 1) / pr->stride;
+    pr->total = pm_calloc(PROBE_ARRAYS * pr->count, sizeof(double), "noise probe");
+    if (!pr->total) return false;
+    pr->splats = pr->total + pr->count;
+    pr->first = pr->splats + pr->count;
+    pr->mean = pr->first + pr->count;
+    pr->m2 = pr->mean + pr->count;
+    pr->within = pr->m2 + pr->count;
+    return true;
+}
+
+static void probe_reset(noise_probe *pr) {
+    if (pr->total) memset(pr->total, 0, PROBE_ARRAYS * pr->count * sizeof(double));
+    pr->pairs = 0;
+}
+
+/* Before an iteration's splats: where each probed pixel's total stands. */
+static void probe_begin(noise_probe *pr, const pm_film *film) {
+    for (size_t i = 0; i < pr->count; i++) pr->total[i] = probed_total(film, i * pr->stride);
+}
+
+/* After the splats: their share of one eye pass's sample (add_splats weighed them by the eye passes). */
+static void probe_splats(noise_probe *pr, const pm_film *film, uint32_t eye_passes) {
+    for (size_t i = 0; i < pr->count; i++) {
+        double now = probed_total(film, i * pr->stride);
+        pr->splats[i] = (now - pr->total[i]) / eye_passes;
+        pr->total[i] = now;
+    }
+}
+
+/* After each of the first two eye passes of an iteration: the pair's mean goes into the running
+ * variance over iterations (Vp + Ve / 2: what photons and eye passes leave together), their
+ * difference into the variance within an iteration (Ve: what eye passes leave, the photons being
+ * the same). Both from the same samples, so that a rare bright sample weighs in both alike. */
+static void probe_eye_pass(noise_probe *pr, const pm_film *film, uint32_t pass) {
+    for (size_t i = 0; i < pr->count; i++) {
+        double now = probed_total(film, i * pr->stride), y = pr->splats[i] + (now - pr->total[i]);
+        pr->total[i] = now;
+        if (pass == 0) {
+            pr->first[i] = y;
+            continue;
+        }
+        double pair = 0.5 * (pr->first[i] + y), delta = pair - pr->mean[i], d = pr->first[i] - y;
+        pr->mean[i] += delta / (pr->pairs + 1.0);
+        pr->m2[i] += delta * (pair - pr->mean[i]);
+        pr->within[i] += 0.5 * d * d;
+    }
+    if (pass == 1) pr->pairs++;
+}
+
+/* Eye passes per photon pass for the next iteration. One iteration of K eye passes has variance
+ * Vp + Ve / K (Vp what only new photons average away, Ve what eye passes do: a gather direction, a
+ * pixel's jitter) and costs Cp + K Ce; their product is least at K = sqrt(Ve Cp / (Vp Ce)). The
+ * probe measures Ve and Vp over the first two eye passes of iterations, the costs are rays (an
+ * eye ray, with the gathering it leads to, costing PM_PPM_EYE_RAY_COST photon rays): counts, not
+ * seconds, so the choice and the image are the same at any thread count and on any machine.
+ * The first iteration has one eye pass (the first image waits for nothing); then two until the
+ * probe has PM_PPM_PROBE_ITERATIONS pairs, and at least two every PM_PPM_PROBE_ITERATIONS-th
+ * iteration after, so that it goes on measuring. Where photons cost little against pixels (large
+ * images) K is 1 or 2; on small images at the photon floor it grows where eye noise dominates (a
+ * room lit by bounces) and stays low where photon noise does (a caustic seen directly). */
+static uint32_t choose_eye_passes(const noise_probe *pr, uint32_t photon_passes, double photon_rays, double eye_rays) {
+    if (pr->pairs < PM_PPM_PROBE_ITERATIONS) return photon_passes ? 2 : 1;
+    double pair = 0.0, eye = 0.0;
+    for (size_t i = 0; i < pr->count; i++) {
+        double scale = 1.0 / (pr->mean[i] * pr->mean[i] + 0.01);
+        pair += pr->m2[i] / (pr->pairs - 1.0) * scale;
+        eye += pr->within[i] / pr->pairs * scale;
+    }
+    /* the pair's mean has Vp + Ve / 2; a share of it is photon noise at the least (two estimates of
+     * a difference can cross) */
+    double photon = fmax(pair - 0.5 * eye, 0.02 * pair);
+    uint32_t k = 1;
+    if (eye > 0.0 && photon > 0.0 && eye_rays > 0.0) {
+        double best = floor(sqrt(eye / photon * photon_rays / (PM_PPM_EYE_RAY_COST * eye_rays)) + 0.5);
+        k = best < 1.0 ? 1 : (best > PM_PPM_MAX_EYE_PASSES ? PM_PPM_MAX_EYE_PASSES : (uint32_t)best);
+    }
+    return k < 2 && photon_passes % PM_PPM_PROBE_ITERATIONS == 0 ? 2 : k;
+}
+
+/* ---- restarts ---- */
 
 /* The mean pixel footprint (the first radius of a visible point seen directly) over a sparse grid
  * of camera rays: before any visible point exists, the first grid's cell follows it. Only the
@@ -174,6 +289,8 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     p->pixel_angle = p->camera.orthographic ? 0.0 : pm_camera_pixel_size(&p->camera, film->height, 1.f);
     p->pixel_width = p->camera.orthographic ? pm_camera_pixel_size(&p->camera, film->height, 0.f) : 0.0;
     p->probe_footprint = pm_progressive_uses_photons(p) ? probe_footprint(p, film) : 0.0;
+    p->eye_passes = p->settings.eye_passes > 0 ? (uint32_t)p->settings.eye_passes : 1;
+    probe_reset(&p->probe);
     memset(&p->stats, 0, sizeof p->stats);
 }
 
@@ -183,6 +300,11 @@ bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err
         if (pm_memory_failure()) { snprintf(err, err_size, "out of memory (%s) for %dx%d pixels", pm_memory_failure(), film->width, film->height); return false; }
         snprintf(err, err_size, "out of memory (progressive state for %dx%d pixels, %zu bytes)", film->width,
                  film->height, p->pixels * sizeof(pm_ppm_stat) * PM_SLOT_COUNT);
+        return false;
+    }
+    /* the automatic eye passes' noise probe: only where there are photon passes to weigh them against */
+    if (p->settings.eye_passes <= 0 && pm_progressive_uses_photons(p) && !p->probe.total && !probe_alloc(&p->probe, p->pixels)) {
+        snprintf(err, err_size, "out of memory (noise probe, %zu bytes)", PROBE_ARRAYS * sizeof(double) * (p->pixels < PM_PPM_PROBE_PIXELS ? p->pixels : PM_PPM_PROBE_PIXELS + 1));
         return false;
     }
     reset_state(p, film);
@@ -201,6 +323,7 @@ typedef struct {
     pm_progressive *p;
     pm_film *film;
     const pm_photon_grid *caustic, *global;
+    bool statistics;             /* this eye pass updates the visible points' statistics (the first after a photon pass) */
     double gather_r2;
     double to_whole[KIND_COUNT]; /* a whole iteration's photons over those this one asked for (the first asks fewer) */
     struct {
@@ -311,8 +434,9 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
     bool fresh[BATCH];
     for (size_t base = 0; base < count; base += BATCH) {
         size_t end = count - base < BATCH ? count : base + BATCH;
-        /* statistics at visible points: caustic photons, and indirect ones without final gathering */
-        for (int kind = 0; kind < KIND_COUNT; kind++) {
+        /* statistics at visible points: caustic photons, and indirect ones without final gathering;
+         * once per photon pass, since N and tau count the photons a pixel has seen */
+        for (int kind = 0; kind < KIND_COUNT && job->statistics; kind++) {
             const pm_photon_grid *grid = kind == KIND_CAUSTIC ? job->caustic : job->global;
             if (!grid) continue;
             size_t n = 0;
@@ -390,12 +514,16 @@ static uint64_t photons_to_emit(const pm_progressive_settings *set, uint64_t per
     return n ? n : 1;
 }
 
-/* This iteration's camera splats into the film's caustic sums, in photon order. */
-static void add_splats(pm_progressive *p, pm_film *film) {
+/* This iteration's camera splats into the film's caustic sums, in photon order, times the eye
+ * passes that will read the pass: the sums are divided by the film's samples, one per eye pass,
+ * and the splats are one photon pass's estimate. */
+static void add_splats(pm_progressive *p, pm_film *film, uint32_t eye_passes) {
     if (!film->sum[PM_CAUSTIC]) return;
+    float weight = (float)eye_passes;
     for (size_t i = 0; i < p->splats.count; i++) {
         const pm_camera_splat *sp = &p->splats.data[i];
-        if (!pm_film_add(film, PM_CAUSTIC, sp->pixel, v3(sp->rgb[0], sp->rgb[1], sp->rgb[2]))) p->stats.eye.dropped_samples++;
+        vec3 l = v3_scale(v3(sp->rgb[0], sp->rgb[1], sp->rgb[2]), weight);
+        if (!pm_film_add(film, PM_CAUSTIC, sp->pixel, l)) p->stats.eye.dropped_samples++;
     }
     p->stats.splats += p->splats.count;
 }
@@ -427,15 +555,18 @@ static bool build_grid(pm_progressive *p, int kind) {
     return pm_photon_grid_build(&p->grid[kind], p->buffer[kind].data, p->buffer[kind].count, (float)(3.0 * r));
 }
 
-bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
+bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
     assert((size_t)film->width * film->height == p->pixels);
-    uint32_t iteration = film->samples;
+    uint32_t iteration = film->photon_passes;
     const pm_progressive_settings *set = &p->settings;
+    uint32_t eye_passes = max_samples && p->eye_passes > max_samples ? max_samples : p->eye_passes;
 
     /* 1. photon passes: a fresh, independent set every iteration, sorted into hash grids */
     uint64_t seed = pm_hash64(set->seed * 0x9e3779b97f4a7c15ULL + iteration);
     double t0 = pm_now_seconds();
-    bool ok = true;
+    uint64_t photon_rays_before = p->stats.photons.rays, eye_rays_before = p->stats.eye.rays;
+    bool ok = true, probing = p->probe.total != NULL;
+    if (probing) probe_begin(&p->probe, film);
     pm_photon_buffer *caustic = &p->buffer[KIND_CAUSTIC], *global = &p->buffer[KIND_INDIRECT];
     caustic->count = global->count = 0;
     uint64_t asked[KIND_COUNT] = {photons_to_emit(set, set->caustic_photons, iteration),
@@ -445,10 +576,14 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     if (p->trace_caustic) {
         pm_photon_tracer_set_splats(p->tracer, p->splatting ? &p->camera : NULL, film->width, film->height, &p->splats);
         ok = pm_photon_tracer_trace_into(p->tracer, true, asked[KIND_CAUSTIC], seed, caustic, &p->stats.photons);
-        if (ok && p->splatting) add_splats(p, film);
+        if (ok && p->splatting) add_splats(p, film, eye_passes);
     }
     if (ok && p->trace_global) ok = pm_photon_tracer_trace_into(p->tracer, false, asked[KIND_INDIRECT], seed, global, &p->stats.photons);
     if (!ok) return false;
+    if (probing) probe_splats(&p->probe, film, eye_passes);
+    /* a whole pass's rays (the first pass asks fewer photons), for the next iteration's eye passes */
+    double photon_rays = (double)(p->stats.photons.rays - photon_rays_before) *
+                         (p->trace_global ? to_whole[KIND_INDIRECT] : to_whole[KIND_CAUSTIC]);
     if (p->density_r2[KIND_CAUSTIC] == 0.0)
         p->density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count, to_whole[KIND_CAUSTIC]);
     /* visible points read only indirect photons (direct light and caustics have their own
@@ -465,9 +600,9 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     p->stats.photons.kdtree_seconds += t1 - t_grid;
     p->stats.photons.seconds += t1 - t0;
 
-    /* 2. eye pass: visible points (and gather points), emission and direct light; each tile's
+    /* 2. eye passes: visible points (and gather points), emission and direct light; each tile's
      * points gather this iteration's photons as soon as the tile is traced (statistics at visible
-     * points, estimates at gather points) */
+     * points in the first pass, estimates at gather points in every pass) */
     gather_job *job = pm_calloc(1, sizeof *job, "gather job");
     if (!job) return false;
     job->p = p;
@@ -478,10 +613,16 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
     job->to_whole[KIND_CAUSTIC] = to_whole[KIND_CAUSTIC];
     job->to_whole[KIND_INDIRECT] = to_whole[KIND_INDIRECT];
     bool photons_here = job->caustic || job->global;
-    /* gather points even with no photon to read there: their punctual light is traced */
-    pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, iteration, film, p->gathering,
-                          photons_here ? gather_tile : NULL, job, &p->stats.eye);
-    if (p->stats.eye.failed) { free(job); return false; }
+    for (uint32_t pass = 0; pass < eye_passes; pass++) {
+        job->statistics = pass == 0;
+        /* gather points even with no photon to read there: their punctual light is traced */
+        pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, film->samples, film, p->gathering,
+                              photons_here ? gather_tile : NULL, job, &p->stats.eye);
+        if (p->stats.eye.failed) { free(job); return false; }
+        film->samples++;
+        if (pass == 0) film->photon_passes++;
+        if (probing && pass < 2) probe_eye_pass(&p->probe, film, pass);
+    }
     int threads = set->threads < 1 ? 1 : (set->threads > MAX_THREADS ? MAX_THREADS : set->threads);
     double query_sum[KIND_COUNT] = {0, 0}, gather_seconds = 0.0;
     uint64_t query_count[KIND_COUNT] = {0, 0};
@@ -509,8 +650,11 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film) {
         double i = (double)iteration + 1.0;
         p->gather_r2 *= (i + set->alpha) / (i + 1.0);
     }
-    film->samples++;
+    if (probing)
+        p->eye_passes = choose_eye_passes(&p->probe, film->photon_passes, photon_rays,
+                                          (double)(p->stats.eye.rays - eye_rays_before) / eye_passes);
     p->stats.iterations = film->samples;
+    p->stats.photon_passes = film->photon_passes;
     return true;
 }
 

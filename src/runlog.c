@@ -68,8 +68,12 @@ double pm_reference_relmse(const pm_film *film, const pm_reference_image *ref, f
 
 static const char *const log_measures[3] = {"relmse", "rmse", "rel_bias"};
 
-bool pm_log_wanted(uint32_t iteration) {
-    return iteration <= PM_LOG_EVERY_ITERATION_UNTIL || (iteration & (iteration - 1)) == 0;
+bool pm_log_wanted(uint32_t logged, uint32_t samples) {
+    if (samples <= logged) return false;
+    if (samples <= PM_LOG_EVERY_ITERATION_UNTIL) return true;
+    uint32_t power = 1; /* the largest power of two at or below samples */
+    while (power <= samples / 2) power *= 2;
+    return logged < power;
 }
 
 void pm_log_header(FILE *f) {

@@ -133,13 +133,13 @@ static bool decide_shadow_map(pm_session *s) {
     return true;
 }
 
-bool pm_session_iterate(pm_session *s) {
+bool pm_session_iterate(pm_session *s, uint32_t max_samples) {
     double t0 = pm_now_seconds();
     bool ok = decide_shadow_map(s);
     if (!ok) return false;
     if (s->progressive) {
         pm_progressive_set_shadow_map(s->progressive, s->shadow);
-        ok = pm_progressive_iterate(s->progressive, &s->film);
+        ok = pm_progressive_iterate(s->progressive, &s->film, max_samples);
     } else {
         if (!s->maps_built && s->config.classic_photon_pass && s->config.mode == PM_MODE_CLASSIC) {
             ok = pm_photon_maps_build(s->scene, s->accel, &s->config.classic_photons, &s->maps, &s->classic_photon_stats);
@@ -327,7 +327,8 @@ static void *worker_main(void *arg) {
             preview(s);
             need_preview = false;
         }
-        bool ok = atomic_load(&s->cancel) ? true : pm_session_iterate(s);
+        uint32_t left = s->config.max_iterations ? s->config.max_iterations - s->film.samples : 0;
+        bool ok = atomic_load(&s->cancel) ? true : pm_session_iterate(s, left);
         if (!ok)
             fprintf(stderr, "pmview: error: out of memory (%s) in an iteration; rendering stops\n",
                     pm_memory_failure() ? pm_memory_failure() : "unknown");

@@ -50,9 +50,24 @@ static void stop(session *r) {
     pm_film_free(&r->film);
 }
 
+/* n more samples per pixel (an iteration may add several: pm_progressive_iterate) */
 static bool iterate(session *r, int n) {
-    for (int i = 0; i < n; i++)
-        if (!pm_progressive_iterate(r->p, &r->film)) { CHECK(false, "iteration %u failed", r->film.samples); return false; }
+    uint32_t target = r->film.samples + (uint32_t)n;
+    while (r->film.samples < target)
+        if (!pm_progressive_iterate(r->p, &r->film, target - r->film.samples)) {
+            CHECK(false, "iteration %u failed", r->film.samples);
+            return false;
+        }
+    return true;
+}
+
+/* Iterations until the film holds n photon passes (the radii shrink per photon pass). */
+static inline bool iterate_passes(session *r, uint32_t n) {
+    while (r->film.photon_passes < n)
+        if (!pm_progressive_iterate(r->p, &r->film, 0)) {
+            CHECK(false, "iteration %u failed", r->film.samples);
+            return false;
+        }
     return true;
 }
 

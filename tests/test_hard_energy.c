@@ -184,6 +184,7 @@ static void test_ten_thousand_gather(void) {
     pm_progressive_settings ps = default_settings(W, H);
     ps.photons = ps.caustic_photons = 200; /* the discs overhang the box edges: -1.4% at 100 photons, -0.7% at 400 */
     ps.threads = 1;
+    ps.eye_passes = 1; /* 10^4 photon passes, each shrinking the gather radius */
     session r;
     float img[3 * W * H];
     double t0 = pm_now_seconds();
@@ -201,7 +202,8 @@ static void test_ten_thousand_gather(void) {
            100.0 * (got / want - 1.0), nonfinite, (unsigned long long)dropped, pm_now_seconds() - t0);
     CHECK(nonfinite == 0 && dropped == 0, "criterion: finite after 10^4 iterations (%d non-finite, %llu dropped)", nonfinite,
           (unsigned long long)dropped);
-    CHECK(r.film.samples == 10000, "10^4 samples (%u)", r.film.samples);
+    CHECK(r.film.samples == 10000 && r.film.photon_passes == 10000, "10^4 samples and photon passes (%u, %u)",
+          r.film.samples, r.film.photon_passes);
     CHECK_NEAR(got, want, 0.02, 0.0, "criterion: the furnace answer within 2% after 10^4 gather iterations");
     stop(&r);
     pm_accel_destroy(a);

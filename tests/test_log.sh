@@ -85,7 +85,7 @@ tail -n 1 "$tmp/out" | grep -q "^stat error iterations=16 " || grep -q "^stat er
 # a reference with layers (a path-traced EXR of pmview's): every layer's columns filled, in the
 # progressive mode (photons grow, radii shrink) and the classic one (photons once, no radius)
 expect "a layered reference" 0 $bin scenes/cornell-box.gltf --mode pathtrace --width 16 --iterations 64 --snapshot "$tmp/ref.exr" --quiet
-expect "progressive run with a log" 0 $bin scenes/cornell-box.gltf --width 16 --iterations 6 --photons 10000 \
+expect "progressive run with a log" 0 $bin scenes/cornell-box.gltf --width 16 --iterations 6 --photons 10000 --eye-passes 1 \
     --reference "$tmp/ref.exr" --log "$tmp/ppm.csv" --snapshot "$tmp/ppm.exr" --quiet
 check_csv "progressive log against a layered reference" "$tmp/ppm.csv" '
 assert it == list(range(1, 7)), it
@@ -98,6 +98,14 @@ check_csv "classic log" "$tmp/classic.csv" '
 assert it == [1, 2, 3], it
 assert all(r["photons"] == rows[0]["photons"] > 0 for r in rows)
 assert all(r["mean_radius"] is None and r["indirect_relmse"] is not None for r in rows)'
+
+# automatic eye passes: an iteration adds 1 (the first), then 2 or more samples; a row each, the last
+# at the count asked for, photons growing with the photon passes only
+expect "progressive run, automatic eye passes" 0 $bin scenes/cornell-box.gltf --width 16 --iterations 40 --photons 10000 \
+    --reference "$tmp/ref.exr" --log "$tmp/auto.csv" --snapshot "$tmp/auto.exr" --quiet
+check_csv "progressive log with automatic eye passes" "$tmp/auto.csv" '
+assert it[0] == 1 and it[1] == 3 and it[-1] == 40 and len(it) < 40, it
+assert [r["photons"] for r in rows][:2] == [10000, 30000], [r["photons"] for r in rows]'
 
 # long runs: a row per iteration up to 64, then at every doubling, and the last; no reference: empty error columns
 expect "a long run" 0 $bin scenes/cornell-box.gltf --mode pathtrace --width 8 --iterations 130 --log "$tmp/long.csv" --snapshot "$tmp/long.exr" --quiet

@@ -50,7 +50,7 @@ static void test_allocation_failures(bool caustics) {
         bool components[PM_COMPONENT_COUNT];
         if (ok) pm_progressive_components(p, components);
         if (ok && (!pm_film_init(&film, W, H, components) || !pm_progressive_bind(p, &film, err, sizeof err))) ok = false;
-        for (int i = 0; ok && i < 2; i++) ok = pm_progressive_iterate(p, &film);
+        for (int i = 0; ok && i < 2; i++) ok = pm_progressive_iterate(p, &film, 0);
         pm_progressive_destroy(p);
         pm_film_free(&film);
         if (n == 0) {

@@ -34,7 +34,7 @@ static pm_session *run(const pm_scene *s, const pm_accel *a, const pm_camera *ca
     char err[256];
     pm_session *session = pm_session_create(s, a, cam, c, err, sizeof err);
     CHECK(session != NULL, "session: %s", err);
-    for (int i = 0; session && i < iterations; i++) CHECK(pm_session_iterate(session), "iteration %d", i);
+    for (int i = 0; session && i < iterations; i++) CHECK(pm_session_iterate(session, 0), "iteration %d", i);
     return session;
 }
 

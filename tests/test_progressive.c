@@ -162,6 +162,7 @@ static void test_long_run(void) {
     pm_progressive_settings ps = default_settings(W, H);
     ps.photons = ps.caustic_photons = 400;
     ps.indirect = PM_INDIRECT_PHOTONS;
+    ps.eye_passes = 1; /* 10^4 photon passes, each shrinking the radii */
     session r;
     if (!start(&r, &s, a, &cam, W, H, &ps)) return;
     iterate(&r, 100);
@@ -190,7 +191,8 @@ static void test_long_run(void) {
         for (int i = 0; i < 3 * W * H; i++) nonfinite += !isfinite(img[i]) || img[i] < 0.f;
         CHECK(nonfinite == 0, "component %s: %d bad values after 10^4 iterations", pm_component_names[c], nonfinite);
     }
-    CHECK(r.film.samples == 10000, "10^4 samples (%u)", r.film.samples);
+    CHECK(r.film.samples == 10000 && r.film.photon_passes == 10000, "10^4 samples and photon passes (%u, %u)",
+          r.film.samples, r.film.photon_passes);
     free(img);
     stop(&r);
     pm_accel_destroy(a);
@@ -232,6 +234,7 @@ static void test_first_iteration_photons(void) {
     pm_accel *a = scaled_room(&s, 1.f, &cam);
     enum { W = 16, H = 16 };
     pm_progressive_settings ps = default_settings(W, H);
+    ps.eye_passes = 1; /* an iteration per sample: photons counted per iteration */
     session r;
     if (!start(&r, &s, a, &cam, W, H, &ps)) return;
     uint64_t whole = pm_progressive_photons_per_iteration(r.p);
@@ -339,7 +342,112 @@ static void test_gather_traces_punctual_light(void) {
     pm_scene_free(&s);
 }
 
+/* Several eye passes reading one photon pass. The film divides its sums by eye passes and the
+ * statistics by photon passes: with the same photon passes, 1 or 4 eye passes each give the same
+ * caustic splats (each splat weighed by the eye passes of its pass; exact, the weights are powers
+ * of two) and the same light on average in every component, indirect light read at gather points
+ * or from statistics at visible points (--indirect photons); and 4 eye passes average the noise a
+ * photon pass cannot (a gather direction, a pixel's jitter): two seeds' images differ less. */
+static void test_eye_passes(void) {
+    pm_scene s;
+    pm_camera cam;
+    pm_accel *a = scaled_room(&s, 1.f, &cam);
+    enum { W = 16, H = 16, PASSES = 48, N = 3 * W * H };
+    for (int mode = 0; mode < 2; mode++) {
+        pm_indirect_mode indirect = mode ? PM_INDIRECT_PHOTONS : PM_INDIRECT_GATHER;
+        const char *name = mode ? "photons" : "gather";
+        float *img[2][2][PM_COMPONENT_COUNT]; /* [eye passes 1 or 4][seed][component] */
+        for (int k = 0; k < 2; k++)
+            for (int seed = 0; seed < 2; seed++) {
+                pm_progressive_settings ps = default_settings(W, H);
+                ps.eye_passes = k ? 4 : 1;
+                ps.seed = 1 + (uint64_t)seed;
+                ps.indirect = indirect;
+                session r;
+                for (int c = 0; c < PM_COMPONENT_COUNT; c++) img[k][seed][c] = calloc(N, sizeof(float));
+                if (!start(&r, &s, a, &cam, W, H, &ps)) continue;
+                iterate(&r, PASSES * ps.eye_passes);
+                CHECK(r.film.photon_passes == PASSES && r.film.samples == PASSES * (uint32_t)ps.eye_passes,
+                      "%d eye passes: %u photon passes, %u samples", ps.eye_passes, r.film.photon_passes, r.film.samples);
+                for (int c = 0; c < PM_COMPONENT_COUNT; c++) pm_film_resolve(&r.film, c, img[k][seed][c]);
+                stop(&r);
+            }
+        CHECK(memcmp(img[0][0][PM_CAUSTIC], img[1][0][PM_CAUSTIC], N * sizeof(float)) == 0,
+              "--indirect %s: the caustic seen directly (camera splats), the same image with 1 and 4 eye passes a photon pass", name);
+        for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+            double m1 = (mean_of(img[0][0][c], N) + mean_of(img[0][1][c], N)) / 2;
+            double m4 = (mean_of(img[1][0][c], N) + mean_of(img[1][1][c], N)) / 2;
+            printf("eye passes, --indirect %s: %-9s mean %.5f with 1 a photon pass, %.5f with 4\n", name,
+                   pm_component_names[c], m1, m4);
+            CHECK(fabs(m4 - m1) <= 0.05 * m1 + 1e-4, "--indirect %s, %s: the same light with 4 eye passes a photon pass (%.5f against %.5f)",
+                  name, pm_component_names[c], m4, m1);
+        }
+        double diff[2] = {0, 0};
+        for (int k = 0; k < 2; k++)
+            for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+                for (int i = 0; i < N; i++) {
+                    double d = img[k][0][c][i] - img[k][1][c][i];
+                    diff[k] += d * d / N;
+                }
+        printf("eye passes, --indirect %s: two seeds differ by %.6f (mean square) with 1 eye pass a photon pass, %.6f with 4\n",
+               name, diff[0], diff[1]);
+        if (indirect == PM_INDIRECT_GATHER)
+            CHECK(diff[1] < 0.6 * diff[0], "4 eye passes a photon pass average more noise: %.6f against %.6f", diff[1], diff[0]);
+        for (int k = 0; k < 2; k++)
+            for (int seed = 0; seed < 2; seed++)
+                for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(img[k][seed][c]);
+    }
+
+    /* automatic, past the probe's first iterations (one eye pass, then two): many where photons
+     * cost more rays than pixels and eye noise dominates (a small image of a room at the photon
+     * floor), one where photons cost next to nothing; never past the samples asked for */
+    pm_progressive_settings ps = default_settings(W, H);
+    session r;
+    if (start(&r, &s, a, &cam, W, H, &ps)) {
+        CHECK(pm_progressive_iterate(r.p, &r.film, 0) && r.film.samples == 1, "the first iteration has one eye pass (%u)",
+              r.film.samples);
+        CHECK(pm_progressive_iterate(r.p, &r.film, 1) && r.film.samples == 2 && r.film.photon_passes == 2,
+              "at most the samples asked for (%u samples, %u photon passes)", r.film.samples, r.film.photon_passes);
+        while (r.film.photon_passes < 2 * PM_PPM_PROBE_ITERATIONS + 4 && pm_progressive_iterate(r.p, &r.film, 0)) {}
+        uint32_t automatic = pm_progressive_eye_passes(r.p);
+        printf("eye passes: %u a photon pass in the room at %dx%d\n", automatic, W, H);
+        CHECK(automatic > 2 && automatic <= PM_PPM_MAX_EYE_PASSES, "%dx%d at %llu photons: %u eye passes a photon pass", W, H,
+              (unsigned long long)ps.photons, automatic);
+        stop(&r);
+    }
+    /* a lamp's caustic seen in a mirror: photon noise dominates, more eye passes would not pay */
+    pm_scene mirror;
+    pm_load_report rep;
+    char err[256];
+    if (pm_load_gltf("scenes/mirror-caustic.gltf", true, &mirror, &rep, err, sizeof err)) {
+        pm_scene_finalize(&mirror, true, NULL);
+        pm_accel *ma = pm_accel_create(&mirror, err, sizeof err);
+        pm_progressive_settings ms = default_settings(64, 64);
+        if (ma && start(&r, &mirror, ma, &mirror.cameras[0], 64, 64, &ms)) {
+            iterate_passes(&r, 2 * PM_PPM_PROBE_ITERATIONS + 4);
+            uint32_t k = pm_progressive_eye_passes(r.p);
+            printf("eye passes: %u a photon pass on the mirror caustic at 64x64\n", k);
+            CHECK(k <= 2, "the mirror caustic at 64x64: %u eye passes a photon pass", k);
+            stop(&r);
+        }
+        pm_accel_destroy(ma);
+        pm_scene_free(&mirror);
+    } else {
+        CHECK(false, "load: %s", err);
+    }
+    ps.photons = ps.caustic_photons = 16;
+    if (start(&r, &s, a, &cam, W, H, &ps)) {
+        while (r.film.photon_passes < 2 * PM_PPM_PROBE_ITERATIONS + 4 && pm_progressive_iterate(r.p, &r.film, 0)) {}
+        CHECK(pm_progressive_eye_passes(r.p) == 1, "16 photons a pass for %d pixels: %u eye passes a photon pass", W * H,
+              pm_progressive_eye_passes(r.p));
+        stop(&r);
+    }
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
+    test_eye_passes();
     test_thin_wall();
     test_no_photon_pass_when_useless();
     test_threads_identical();

@@ -24,6 +24,7 @@ static run_result render(const pm_scene *s, const pm_accel *a, const pm_camera *
     pm_progressive_settings ps = default_settings(w, h);
     ps.caustic_by_statistics = !splats;
     ps.threads = threads;
+    ps.eye_passes = 1; /* equal photon passes for both estimators */
     session r;
     if (!start(&r, s, a, cam, w, h, &ps)) return out;
     iterate(&r, iterations);

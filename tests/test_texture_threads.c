@@ -74,7 +74,7 @@ static float *render(const pm_scene *s, const pm_accel *a, const pm_camera *cam,
     pm_film film;
     pm_film_init(&film, W, H, components);
     CHECK(pm_progressive_bind(p, &film, err, sizeof err), "bind: %s", err);
-    for (int i = 0; i < 2; i++) CHECK(pm_progressive_iterate(p, &film), "iteration");
+    for (int i = 0; i < 2; i++) CHECK(pm_progressive_iterate(p, &film, 0), "iteration");
     float *direct = malloc(sizeof(float) * 3 * W * H), *total = malloc(sizeof(float) * 3 * W * H);
     pm_film_resolve(&film, PM_DIRECT, direct);
     pm_film_resolve_total(&film, total);

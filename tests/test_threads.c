@@ -136,7 +136,7 @@ int main(void) {
             pm_progressive_components(p, components);
             pm_film_init(&films[t], 40, 36, components);
             CHECK(pm_progressive_bind(p, &films[t], err, sizeof err), "bind: %s", err);
-            for (int i = 0; i < 3; i++) CHECK(pm_progressive_iterate(p, &films[t]), "progressive iteration");
+            for (int i = 0; i < 3; i++) CHECK(pm_progressive_iterate(p, &films[t], 0), "progressive iteration");
             images[t] = malloc(sizeof(float) * n);
             pm_film_resolve_total(&films[t], images[t]);
             pm_progressive_destroy(p);

@@ -72,7 +72,7 @@ static pm_fuzz_result pm_fuzz_run(const uint8_t *data, size_t size) {
     ps->max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
     session = pm_session_create(&scene, accel, &camera, &config, r.error, sizeof r.error);
     if (!session) goto done;
-    if (!pm_session_iterate(session)) {
+    if (!pm_session_iterate(session, 0)) {
         snprintf(r.error, sizeof r.error, "out of memory (the iteration)");
         goto done;
     }
