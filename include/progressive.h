@@ -18,8 +18,12 @@
  *      estimate (from every photon but a punctual light's first hits) with a radius shared by
  *      all pixels that shrinks with the iteration count,
  *      r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1) (Knaus and Zwicker 2011).
- * The film resolves a pixel's photon part as tau / (pi R^2 iterations), its splats and gather
- * estimates as their sum over iterations.
+ *   4. steps 2 and 3 may run K times on the same photons (K eye passes, each a sample per pixel;
+ *      statistics updated by the first, splats weighed by K): K = --eye-passes, or chosen each
+ *      iteration by a noise probe that weighs the noise eye passes average against the noise only
+ *      photons do, and their costs in rays (see choose_eye_passes in progressive.c).
+ * The film resolves a pixel's photon part as tau / (pi R^2 photon passes), its splats and gather
+ * estimates as their mean over samples.
  *
  * The first iteration after a start or a restart emits PM_PPM_FIRST_PHOTON_FRACTION of the
  * photons: it is the one a user waits for.

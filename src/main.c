@@ -471,16 +471,30 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
     /* --time and the reported render time count from here: the photon pass is part of what a
      * budget buys. A budget spent before the first iteration still gets that iteration. */
     double start = pm_now_seconds(), last_iteration = 0.0, fixed_before = 0.0;
+    uint32_t last_samples = 0; /* the samples the last iteration added (a progressive one may add several) */
     uint64_t next_progress = 1;
     if (opt->time_limit > 0) pm_session_set_deadline(session, start + opt->time_limit);
     while ((long)film->samples < target && !interrupted_by) {
         /* --time: start an iteration only if it is expected to end nearer the budget than
          * stopping now would. The last iteration predicts the next one's eye pass and gather;
          * photon passes shrink to fit the time left (pm_progressive_set_deadline). */
-        if (opt->time_limit > 0 && film->samples > 0 && pm_now_seconds() + 0.5 * last_iteration - start >= opt->time_limit) break;
+        uint32_t limit = (uint32_t)(target - (long)film->samples);
+        if (opt->time_limit > 0 && film->samples > 0 && last_samples > 0) {
+            /* the next iteration's samples, at the last one's time a sample (its photon pass shared
+             * out: an over-estimate for more samples, so the cap below errs short), at most as many as
+             * fit in the time left */
+            const pm_progressive *pp = pm_session_progressive(session);
+            double per_sample = last_iteration / last_samples, left = opt->time_limit - (pm_now_seconds() - start);
+            uint32_t next = pp ? pm_progressive_eye_passes(pp) : 1;
+            double fit = floor(left / per_sample);
+            if (fit < next) next = fit < 1.0 ? 1 : (uint32_t)fit;
+            if (next < limit) limit = next;
+            if (left <= 0.5 * per_sample * limit) break;
+        }
         double iteration_start = pm_now_seconds();
         fixed_before = repeating_seconds(session);
-        bool iterated = pm_session_iterate(session, (uint32_t)(target - (long)film->samples));
+        uint32_t samples_before = film->samples;
+        bool iterated = pm_session_iterate(session, limit);
         rendered += pm_now_seconds() - iteration_start;
         if (!iterated) {
             fprintf(stderr, "%spmview: error: %s: out of memory (%s) in iteration %u\n", tty ? "\n" : "", opt->scene_path,
@@ -500,6 +514,7 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
             while (next_progress <= film->samples) next_progress *= 2;
         }
         last_iteration = fmin(pm_now_seconds() - iteration_start, repeating_seconds(session) - fixed_before);
+        last_samples = film->samples - samples_before;
         show_progress(tty, film->samples, opt->iterations ? opt->iterations : 0, pm_now_seconds() - start, opt->time_limit,
                       session_photons(session));
     }

@@ -1,4 +1,4 @@
-/* progressive.c: stochastic progressive photon mapping: the iteration's phases, initial radii from the scene, per-pixel statistics.
+/* progressive.c: stochastic progressive photon mapping: the iteration's phases, initial radii from the scene, per-pixel statistics, eye passes per photon pass.
  *
  * An iteration traces its photons first and sorts them into hash grids; then the eye pass finds
  * each pixel's visible point (and gather point) and hands every finished tile to gather_tile,
@@ -7,7 +7,9 @@
  * write the same statistics and the image is the same at any thread count (a grid over visible
  * points, filled by photons as pbrt-v4 does, would need atomic float adds whose order changes the
  * sums). The grid's cell is three times the mean radius its queries used the iteration before;
- * docs/progressive.md has the measurement against a kd-tree.
+ * docs/progressive.md has the measurement against a kd-tree. Where a photon pass costs more than
+ * an eye pass (small images, whose photon passes have a floor) and eye noise dominates, several
+ * eye passes read the same photons: the noise probe below chooses how many.
  */
 #include "progressive.h"
 #include "clock.h"
@@ -27,21 +29,26 @@
 
 enum { KIND_CAUSTIC = 0, KIND_INDIRECT = 1, KIND_COUNT = 2 };
 
-/* The noise of a sparse set of pixels, split into the part eye passes can average away and the
+/* The noise of a sparse grid of pixels, split into the part eye passes can average away and the
  * part only new photons can (see choose_eye_passes). A probed pixel's sample is its total over the
- * components (splats included, at their share of one eye pass); statistics at visible points are
- * not in the sums and are left out. Relative, as relMSE: each variance over (mean^2 + 0.01). Only
- * the first two samples of an iteration are probed, and only in iterations that have two. */
-enum { PROBE_ARRAYS = 6 };
+ * components and channels: what its eye pass added to the film's sums, plus what the iteration's
+ * photons added for all its eye passes alike (the splats, at their share of one eye pass, and the
+ * statistics' estimate from this photon pass alone, Phi / (pi R^2) at the radius it was gathered
+ * with). Relative, as relMSE: each variance over (mean^2 + 0.01). Only the first two samples of an
+ * iteration are probed, and only in iterations that have two. */
+enum { PROBE_ARRAYS = 8 };
 typedef struct {
-    size_t stride, count;        /* every stride-th pixel, count of them */
-    double *total;               /* a probed pixel's total so far, per probed pixel */
-    double *splats;              /* the splats' share of one eye pass's sample, this iteration */
+    size_t count;                /* pixels probed */
+    size_t *pixel;               /* which: a grid over the image */
+    double *total;               /* a probed pixel's sums so far */
+    double *statistics;          /* its statistics' tau / (pi R^2) summed over slots (passes x their estimate) */
+    double *shared;              /* this iteration's photons' share of each of its samples */
     double *first;               /* its first sample of this iteration */
     double *mean, *m2;           /* Welford's running mean and squared deviations of the pair's mean over iterations */
     double *within;              /* the sum over iterations of (first - second)^2 / 2 */
     uint32_t pairs;              /* iterations probed */
 } noise_probe;
+static void probe_free(noise_probe *pr);
 
 struct pm_progressive {
     const pm_scene *scene;
@@ -142,7 +149,7 @@ void pm_progressive_destroy(pm_progressive *p) {
         pm_photon_grid_free(&p->grid[k]);
     }
     free(p->splats.data);
-    free(p->probe.total);
+    probe_free(&p->probe);
     free(p);
 }
 
@@ -168,25 +175,50 @@ void pm_progressive_components(const pm_progressive *p, bool enabled[PM_COMPONEN
 
 /* ---- eye passes per photon pass ---- */
 
-/* A pixel's total over the components so far (the mean of its channels' sums). */
+/* A pixel's sums over the components and channels so far. */
 static double probed_total(const pm_film *film, size_t pixel) {
     double t = 0.0;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
         if (film->sum[c]) t += (double)film->sum[c][3 * pixel] + film->sum[c][3 * pixel + 1] + film->sum[c][3 * pixel + 2];
-    return t / 3.0;
+    return t;
 }
 
-static bool probe_alloc(noise_probe *pr, size_t pixels) {
-    pr->stride = pixels > PM_PPM_PROBE_PIXELS ? pixels / PM_PPM_PROBE_PIXELS : 1;
-    pr->count = (pixels + pr->stride - 1) / pr->stride;
+/* A pixel's statistics as a sum over photon passes: tau / (pi R^2) over slots and channels. */
+static double probed_statistics(const pm_film *film, size_t pixel) {
+    double t = 0.0;
+    for (int k = 0; k < PM_SLOT_COUNT; k++) {
+        const pm_ppm_stat *st = film->ppm[k] ? &film->ppm[k][pixel] : NULL;
+        if (st && st->r2 > 0.0) t += (st->tau[0] + st->tau[1] + st->tau[2]) / (PM_PI * st->r2);
+    }
+    return t;
+}
+
+/* A grid of about PM_PPM_PROBE_PIXELS pixels, evenly over the image's width and height. */
+static bool probe_alloc(noise_probe *pr, int width, int height) {
+    int nx = (int)fmax(1.0, floor(sqrt((double)PM_PPM_PROBE_PIXELS * width / height) + 0.5)), ny;
+    nx = nx < width ? nx : width;
+    ny = (int)fmax(1.0, floor((double)PM_PPM_PROBE_PIXELS / nx + 0.5));
+    ny = ny < height ? ny : height;
+    pr->count = (size_t)nx * ny;
+    pr->pixel = pm_malloc(pr->count * sizeof(size_t), "noise probe");
     pr->total = pm_calloc(PROBE_ARRAYS * pr->count, sizeof(double), "noise probe");
-    if (!pr->total) return false;
-    pr->splats = pr->total + pr->count;
-    pr->first = pr->splats + pr->count;
+    if (!pr->pixel || !pr->total) return false;
+    for (int y = 0; y < ny; y++)
+        for (int x = 0; x < nx; x++)
+            pr->pixel[(size_t)y * nx + x] = (size_t)((2 * y + 1) * height / (2 * ny)) * width + (size_t)((2 * x + 1) * width / (2 * nx));
+    pr->statistics = pr->total + pr->count;
+    pr->shared = pr->statistics + pr->count;
+    pr->first = pr->shared + pr->count;
     pr->mean = pr->first + pr->count;
     pr->m2 = pr->mean + pr->count;
     pr->within = pr->m2 + pr->count;
     return true;
+}
+
+static void probe_free(noise_probe *pr) {
+    free(pr->pixel);
+    free(pr->total);
+    memset(pr, 0, sizeof *pr);
 }
 
 static void probe_reset(noise_probe *pr) {
@@ -194,16 +226,19 @@ static void probe_reset(noise_probe *pr) {
     pr->pairs = 0;
 }
 
-/* Before an iteration's splats: where each probed pixel's total stands. */
+/* Before an iteration's splats: where each probed pixel's sums and statistics stand. */
 static void probe_begin(noise_probe *pr, const pm_film *film) {
-    for (size_t i = 0; i < pr->count; i++) pr->total[i] = probed_total(film, i * pr->stride);
+    for (size_t i = 0; i < pr->count; i++) {
+        pr->total[i] = probed_total(film, pr->pixel[i]);
+        pr->statistics[i] = probed_statistics(film, pr->pixel[i]);
+    }
 }
 
 /* After the splats: their share of one eye pass's sample (add_splats weighed them by the eye passes). */
 static void probe_splats(noise_probe *pr, const pm_film *film, uint32_t eye_passes) {
     for (size_t i = 0; i < pr->count; i++) {
-        double now = probed_total(film, i * pr->stride);
-        pr->splats[i] = (now - pr->total[i]) / eye_passes;
+        double now = probed_total(film, pr->pixel[i]);
+        pr->shared[i] = (now - pr->total[i]) / eye_passes;
         pr->total[i] = now;
     }
 }
@@ -214,7 +249,9 @@ static void probe_splats(noise_probe *pr, const pm_film *film, uint32_t eye_pass
  * the same). Both from the same samples, so that a rare bright sample weighs in both alike. */
 static void probe_eye_pass(noise_probe *pr, const pm_film *film, uint32_t pass) {
     for (size_t i = 0; i < pr->count; i++) {
-        double now = probed_total(film, i * pr->stride), y = pr->splats[i] + (now - pr->total[i]);
+        if (pass == 0) /* the statistics were updated by this eye pass, once for the iteration */
+            pr->shared[i] += probed_statistics(film, pr->pixel[i]) - pr->statistics[i];
+        double now = probed_total(film, pr->pixel[i]), y = pr->shared[i] + (now - pr->total[i]);
         pr->total[i] = now;
         if (pass == 0) {
             pr->first[i] = y;
@@ -303,8 +340,10 @@ bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err
         return false;
     }
     /* the automatic eye passes' noise probe: only where there are photon passes to weigh them against */
-    if (p->settings.eye_passes <= 0 && pm_progressive_uses_photons(p) && !p->probe.total && !probe_alloc(&p->probe, p->pixels)) {
-        snprintf(err, err_size, "out of memory (noise probe, %zu bytes)", PROBE_ARRAYS * sizeof(double) * (p->pixels < PM_PPM_PROBE_PIXELS ? p->pixels : PM_PPM_PROBE_PIXELS + 1));
+    probe_free(&p->probe); /* a film of another size: another grid */
+    if (p->settings.eye_passes <= 0 && pm_progressive_uses_photons(p) && !probe_alloc(&p->probe, film->width, film->height)) {
+        snprintf(err, err_size, "out of memory (noise probe, %zu bytes)", (PROBE_ARRAYS * sizeof(double) + sizeof(size_t)) * p->probe.count);
+        probe_free(&p->probe);
         return false;
     }
     reset_state(p, film);

@@ -135,17 +135,22 @@ static void test_threads_identical(void) {
     pm_accel *a = scaled_room(&s, 1.f, &cam);
     enum { W = 20, H = 16 };
     float *img[2];
+    uint32_t passes[2] = {0, 0};
     for (int t = 0; t < 2; t++) {
         pm_progressive_settings ps = default_settings(W, H);
         ps.threads = t + 1;
         img[t] = malloc(sizeof(float) * 3 * W * H);
         session r;
         if (start(&r, &s, a, &cam, W, H, &ps)) {
-            iterate(&r, 4);
+            /* past the probe's first iterations: the automatic eye passes are chosen, from counts */
+            iterate(&r, 40);
+            passes[t] = r.film.photon_passes;
             pm_film_resolve_total(&r.film, img[t]);
             stop(&r);
         }
     }
+    CHECK(passes[0] == passes[1] && passes[0] < 2 * PM_PPM_PROBE_ITERATIONS + 1,
+          "1 and 2 threads: the same photon passes (%u, %u), eye passes chosen past the probe's", passes[0], passes[1]);
     CHECK(memcmp(img[0], img[1], sizeof(float) * 3 * W * H) == 0, "1 and 2 threads give the same image, bit for bit");
     free(img[0]);
     free(img[1]);
@@ -342,6 +347,31 @@ static void test_gather_traces_punctual_light(void) {
     pm_scene_free(&s);
 }
 
+/* The automatic eye passes a photon pass for a shipped scene at 64x64, past the probe's first iterations. */
+static uint32_t automatic_eye_passes(const char *path, pm_indirect_mode indirect) {
+    pm_scene s;
+    pm_load_report rep;
+    char err[256];
+    uint32_t k = 0;
+    if (!pm_load_gltf(path, true, &s, &rep, err, sizeof err)) {
+        CHECK(false, "load: %s", err);
+        return 0;
+    }
+    pm_scene_finalize(&s, true, NULL);
+    pm_accel *a = pm_accel_create(&s, err, sizeof err);
+    pm_progressive_settings ps = default_settings(64, 64);
+    ps.indirect = indirect;
+    session r;
+    if (a && start(&r, &s, a, &s.cameras[0], 64, 64, &ps)) {
+        iterate_passes(&r, 2 * PM_PPM_PROBE_ITERATIONS + 4);
+        k = pm_progressive_eye_passes(r.p);
+        stop(&r);
+    }
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+    return k;
+}
+
 /* Several eye passes reading one photon pass. The film divides its sums by eye passes and the
  * statistics by photon passes: with the same photon passes, 1 or 4 eye passes each give the same
  * caustic splats (each splat weighed by the eye passes of its pass; exact, the weights are powers
@@ -415,26 +445,17 @@ static void test_eye_passes(void) {
               (unsigned long long)ps.photons, automatic);
         stop(&r);
     }
-    /* a lamp's caustic seen in a mirror: photon noise dominates, more eye passes would not pay */
-    pm_scene mirror;
-    pm_load_report rep;
-    char err[256];
-    if (pm_load_gltf("scenes/mirror-caustic.gltf", true, &mirror, &rep, err, sizeof err)) {
-        pm_scene_finalize(&mirror, true, NULL);
-        pm_accel *ma = pm_accel_create(&mirror, err, sizeof err);
-        pm_progressive_settings ms = default_settings(64, 64);
-        if (ma && start(&r, &mirror, ma, &mirror.cameras[0], 64, 64, &ms)) {
-            iterate_passes(&r, 2 * PM_PPM_PROBE_ITERATIONS + 4);
-            uint32_t k = pm_progressive_eye_passes(r.p);
-            printf("eye passes: %u a photon pass on the mirror caustic at 64x64\n", k);
-            CHECK(k <= 2, "the mirror caustic at 64x64: %u eye passes a photon pass", k);
-            stop(&r);
-        }
-        pm_accel_destroy(ma);
-        pm_scene_free(&mirror);
-    } else {
-        CHECK(false, "load: %s", err);
-    }
+    /* on shipped scenes at 64x64: a room lit by bounces read at gather points gets many; the same
+     * room read from statistics at visible points (--indirect photons, photon noise the eye passes
+     * cannot average) and a lamp's caustic seen in a mirror (photon noise again) get few */
+    uint32_t room_gather = automatic_eye_passes("scenes/point-room.gltf", PM_INDIRECT_GATHER);
+    uint32_t room_photons = automatic_eye_passes("scenes/point-room.gltf", PM_INDIRECT_PHOTONS);
+    uint32_t mirror = automatic_eye_passes("scenes/mirror-caustic.gltf", PM_INDIRECT_GATHER);
+    printf("eye passes at 64x64: point-lit room %u gathering, %u with --indirect photons; mirror caustic %u\n", room_gather,
+           room_photons, mirror);
+    CHECK(room_gather >= 4 && room_photons <= 2 && mirror <= 2,
+          "eye passes a photon pass: point-lit room %u gathering (at least 4), %u with --indirect photons (at most 2); "
+          "mirror caustic %u (at most 2)", room_gather, room_photons, mirror);
     ps.photons = ps.caustic_photons = 16;
     if (start(&r, &s, a, &cam, W, H, &ps)) {
         while (r.film.photon_passes < 2 * PM_PPM_PROBE_ITERATIONS + 4 && pm_progressive_iterate(r.p, &r.film, 0)) {}
