@@ -472,6 +472,7 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
      * budget buys. A budget spent before the first iteration still gets that iteration. */
     double start = pm_now_seconds(), last_iteration = 0.0, fixed_before = 0.0;
     uint32_t last_samples = 0; /* the samples the last iteration added (a progressive one may add several) */
+    double last_wall = 0.0;    /* and its wall time, photon pass included */
     uint64_t next_progress = 1;
     if (opt->time_limit > 0) pm_session_set_deadline(session, start + opt->time_limit);
     while ((long)film->samples < target && !interrupted_by) {
@@ -479,17 +480,20 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
          * stopping now would. The last iteration predicts the next one's eye pass and gather;
          * photon passes shrink to fit the time left (pm_progressive_set_deadline). */
         uint32_t limit = (uint32_t)(target - (long)film->samples);
+        /* a budget's first iteration: one sample, whatever the eye passes a photon pass (its cost is unknown) */
+        if (opt->time_limit > 0 && film->samples == 0) limit = 1;
         if (opt->time_limit > 0 && film->samples > 0 && last_samples > 0) {
-            /* the next iteration's samples, at the last one's time a sample (its photon pass shared
-             * out: an over-estimate for more samples, so the cap below errs short), at most as many as
-             * fit in the time left */
+            /* the next iteration's samples: at most as many as fit in the time left at the last
+             * iteration's wall time a sample (its photon pass shared out: an over-estimate for more
+             * samples, so the cap errs short); started only if expected to end nearer the budget
+             * than stopping now, by the repeating part of that time */
             const pm_progressive *pp = pm_session_progressive(session);
-            double per_sample = last_iteration / last_samples, left = opt->time_limit - (pm_now_seconds() - start);
+            double left = opt->time_limit - (pm_now_seconds() - start);
             uint32_t next = pp ? pm_progressive_eye_passes(pp) : 1;
-            double fit = floor(left / per_sample);
+            double fit = floor(left / (last_wall / last_samples));
             if (fit < next) next = fit < 1.0 ? 1 : (uint32_t)fit;
             if (next < limit) limit = next;
-            if (left <= 0.5 * per_sample * limit) break;
+            if (left <= 0.5 * (last_iteration / last_samples) * limit) break;
         }
         double iteration_start = pm_now_seconds();
         fixed_before = repeating_seconds(session);
@@ -515,6 +519,7 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
         }
         last_iteration = fmin(pm_now_seconds() - iteration_start, repeating_seconds(session) - fixed_before);
         last_samples = film->samples - samples_before;
+        last_wall = pm_now_seconds() - iteration_start;
         show_progress(tty, film->samples, opt->iterations ? opt->iterations : 0, pm_now_seconds() - start, opt->time_limit,
                       session_photons(session));
     }

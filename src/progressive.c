@@ -36,7 +36,7 @@ enum { KIND_CAUSTIC = 0, KIND_INDIRECT = 1, KIND_COUNT = 2 };
  * statistics' estimate from this photon pass alone, Phi / (pi R^2) at the radius it was gathered
  * with). Relative, as relMSE: each variance over (mean^2 + 0.01). Only the first two samples of an
  * iteration are probed, and only in iterations that have two. */
-enum { PROBE_ARRAYS = 8 };
+enum { PROBE_ARRAYS = 7 };
 typedef struct {
     size_t count;                /* pixels probed */
     size_t *pixel;               /* which: a grid over the image */
@@ -175,22 +175,22 @@ void pm_progressive_components(const pm_progressive *p, bool enabled[PM_COMPONEN
 
 /* ---- eye passes per photon pass ---- */
 
-/* A pixel's sums over the components and channels so far. */
+/* A pixel's sums over the components so far, the mean of its channels (relMSE's 0.01 is per channel). */
 static double probed_total(const pm_film *film, size_t pixel) {
     double t = 0.0;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
         if (film->sum[c]) t += (double)film->sum[c][3 * pixel] + film->sum[c][3 * pixel + 1] + film->sum[c][3 * pixel + 2];
-    return t;
+    return t / 3.0;
 }
 
-/* A pixel's statistics as a sum over photon passes: tau / (pi R^2) over slots and channels. */
+/* A pixel's statistics as a sum over photon passes: tau / (pi R^2) over slots, the mean of its channels. */
 static double probed_statistics(const pm_film *film, size_t pixel) {
     double t = 0.0;
     for (int k = 0; k < PM_SLOT_COUNT; k++) {
         const pm_ppm_stat *st = film->ppm[k] ? &film->ppm[k][pixel] : NULL;
         if (st && st->r2 > 0.0) t += (st->tau[0] + st->tau[1] + st->tau[2]) / (PM_PI * st->r2);
     }
-    return t;
+    return t / 3.0;
 }
 
 /* A grid of about PM_PPM_PROBE_PIXELS pixels, evenly over the image's width and height. */
@@ -199,6 +199,7 @@ static bool probe_alloc(noise_probe *pr, int width, int height) {
     nx = nx < width ? nx : width;
     ny = (int)fmax(1.0, floor((double)PM_PPM_PROBE_PIXELS / nx + 0.5));
     ny = ny < height ? ny : height;
+    if (nx > PM_PPM_PROBE_PIXELS / ny) nx = PM_PPM_PROBE_PIXELS / ny > 1 ? PM_PPM_PROBE_PIXELS / ny : 1; /* a very wide image */
     pr->count = (size_t)nx * ny;
     pr->pixel = pm_malloc(pr->count * sizeof(size_t), "noise probe");
     pr->total = pm_calloc(PROBE_ARRAYS * pr->count, sizeof(double), "noise probe");
