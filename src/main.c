@@ -270,8 +270,7 @@ static int parse_options(int argc, char **argv, options *o) {
                     return usage_error("%s belongs to --mode classic (the other modes have no k-nearest estimates)", argv[i]);
     }
     if (o->pathtrace) {
-        static const char *const photon_only[] = {"--alpha", "--radius", "--photons", "--caustic-photons", "--indirect", "--no-photons",
-                                                  "--eye-passes"};
+        static const char *const photon_only[] = {"--alpha", "--radius", "--photons", "--caustic-photons", "--indirect", "--no-photons"};
         for (int i = 1; i < argc; i++)
             for (int k = 0; k < (int)(sizeof photon_only / sizeof *photon_only); k++)
                 if (!strcmp(argv[i], photon_only[k]))
@@ -280,10 +279,12 @@ static int parse_options(int argc, char **argv, options *o) {
         for (int i = 1; i < argc; i++) {
             if (!strcmp(argv[i], "--alpha") || !strcmp(argv[i], "--radius"))
                 return usage_error("%s belongs to --mode progressive (the classic mode's radii do not shrink)", argv[i]);
-            if (!strcmp(argv[i], "--eye-passes"))
-                return usage_error("%s belongs to --mode progressive (the classic mode traces its photons once)", argv[i]);
         }
     }
+    if (o->classic || o->pathtrace)
+        for (int i = 1; i < argc; i++)
+            if (!strcmp(argv[i], "--eye-passes"))
+                return usage_error("%s belongs to --mode progressive (the other modes trace no photon pass per iteration)", argv[i]);
     if (o->log && !o->snapshot) return usage_error("--log '%s' needs --snapshot (the window restarts its runs)", o->log);
     return -1;
 }
