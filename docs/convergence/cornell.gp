@@ -24,5 +24,5 @@ plot 'data/cornell-ppm-a0.5-gather.csv' every ::1 using 1:5 with lines lc rgb "#
      'data/cornell-classic-1M-photons-disc.csv' every ::1 using 1:5 with lines lc rgb "#e377c2" lw 1.5 dt 3 title 'classic 1M, photons read directly, disc', \
      'data/cornell-classic-1M-photons-cone.csv' every ::1 using 1:5 with lines lc rgb "#e377c2" lw 1.5 dt 4 title 'classic 1M, photons read directly, cone', \
      'data/cornell-pt.csv' every ::1 using 1:5 with lines lc rgb "#000000" lw 3 dt 1 title 'path tracing', \
-     0.0904727*x**-1 with lines lc rgb '#aaaaaa' dt 2 title 'slope -1', \
-     0.0904727*x**(-2./3) with lines lc rgb '#aaaaaa' dt 3 title 'slope -2/3'
+     0.0953671*x**-1 with lines lc rgb '#aaaaaa' dt 2 title 'slope -1', \
+     0.0953671*x**(-2./3) with lines lc rgb '#aaaaaa' dt 3 title 'slope -2/3'
