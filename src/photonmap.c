@@ -75,7 +75,12 @@ typedef struct {
     const float *target_cdf;  /* target_count+1 entries, by r^2 */
     float target_area;        /* sum of pi r^2 */
     float target_reach;       /* a start this far back along the light is outside every target */
-    pm_photon **chunk_photons;
+    /* per worker thread, kept by the tracer across passes (a pass reuses their memory, no
+     * allocation or page faults per iteration): each chunk appends its records to its thread's
+     * arena, and the merge copies them out in chunk order */
+    struct record_arena { pm_photon *data; size_t count, capacity; char pad[40]; } arenas[MAX_THREADS];
+    uint32_t *chunk_arena;    /* the thread whose arena holds a chunk's records */
+    size_t *chunk_start;      /* where in that arena they begin */
     uint32_t *chunk_counts;
     bool *chunk_skipped;      /* started after the deadline */
     uint32_t *chunk_cut;      /* photons a chunk left untraced when the deadline passed during it */
@@ -450,35 +455,45 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
     return true;
 }
 
-typedef struct { pm_photon *data; uint32_t count, capacity; bool failed; pass *ps; } photon_list;
+/* A chunk's view of its thread's record arena: it appends from `start`; `room` is where the
+ * slow path must run next (the arena is full, or the chunk's next CHUNK records are to be
+ * counted against the pass's storage bound). */
+typedef struct { pm_photon *data; size_t count, capacity, start, counted, room; bool failed; pass *ps; } photon_list;
 typedef struct { pm_camera_splat *data; uint32_t count, capacity; } splat_list;
 
 
 static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings *settings, int threads);
 
-/* Doubles a chunk's record list; false (the pass has failed) past the pass's storage bound or
- * when memory runs out. */
-static bool grow(photon_list *list) {
+/* The slow path of push: counts the chunk's next CHUNK records against the pass's storage bound
+ * (per chunk, so whether the bound is crossed does not depend on the threads) and doubles the
+ * arena when it is full. False (the pass has failed) past the bound or when memory runs out. */
+static bool make_room(photon_list *list) {
     if (list->failed) return false;
-    uint32_t capacity = list->capacity ? 2 * list->capacity : 2 * CHUNK; /* about one record per photon traced */
-    /* the pass's storage bound, counted as chunks grow (whether it is crossed does not depend on the threads) */
-    uint64_t records = atomic_fetch_add(&list->ps->records, capacity - list->capacity) + (capacity - list->capacity);
-    if (records > list->ps->record_limit) {
-        pm_memory_admit(2 * records * sizeof(pm_photon), "photon records of one pass and their merged copy");
-        list->failed = true;
-        atomic_store(&list->ps->out_of_memory, true);
-        return false;
+    if (list->count == list->start + list->counted) {
+        uint64_t records = atomic_fetch_add(&list->ps->records, CHUNK) + CHUNK;
+        if (records > list->ps->record_limit) {
+            pm_memory_admit(2 * records * sizeof(pm_photon), "photon records of one pass and their merged copy");
+            list->failed = true;
+            atomic_store(&list->ps->out_of_memory, true);
+            return false;
+        }
+        list->counted += CHUNK;
     }
-    pm_photon *grown = pm_realloc(list->data, sizeof(pm_photon) * capacity, "photon records of a chunk");
-    if (!grown) { list->failed = true; atomic_store(&list->ps->out_of_memory, true); return false; }
-    list->data = grown;
-    list->capacity = capacity;
+    if (list->count == list->capacity) {
+        size_t capacity = list->capacity ? 2 * list->capacity : 4 * CHUNK;
+        pm_photon *grown = pm_realloc(list->data, sizeof(pm_photon) * capacity, "photon records of a thread");
+        if (!grown) { list->failed = true; atomic_store(&list->ps->out_of_memory, true); return false; }
+        list->data = grown;
+        list->capacity = capacity;
+    }
+    size_t counted_end = list->start + list->counted;
+    list->room = counted_end < list->capacity ? counted_end : list->capacity;
     return true;
 }
 
-/* Inline, the growth out of line: a record at every diffuse hit. */
+/* Inline, the slow path out of line: a record at every diffuse hit. */
 static inline void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path) {
-    if (list->count == list->capacity && !grow(list)) return;
+    if (list->count == list->room && !make_room(list)) return;
     pm_photon_set(&list->data[list->count++], p, n, d, power, path);
 }
 
@@ -538,7 +553,8 @@ static void splat_to_camera(pass *ps, splat_list *out, const pm_hit *h, bool *sh
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
     pass *ps = ctx;
     const pm_scene *s = ps->scene;
-    photon_list list = {NULL, 0, 0, false, ps};
+    struct record_arena *arena = &ps->arenas[thread];
+    photon_list list = {arena->data, arena->count, arena->capacity, arena->count, 0, arena->count, false, ps};
     splat_list splats = {NULL, 0, 0};
     if (atomic_load(&ps->out_of_memory)) return; /* the pass has failed: no use tracing on */
     /* the first chunk always runs: an iteration with no photon at all would bias its average */
@@ -645,8 +661,12 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             }
         }
     }
-    ps->chunk_photons[chunk] = list.data;
-    ps->chunk_counts[chunk] = list.count;
+    arena->data = list.data;
+    arena->capacity = list.capacity;
+    arena->count = list.count;
+    ps->chunk_arena[chunk] = (uint32_t)thread;
+    ps->chunk_start[chunk] = list.start;
+    ps->chunk_counts[chunk] = (uint32_t)(list.count - list.start);
     if (ps->chunk_splats) {
         ps->chunk_splats[chunk] = splats.data;
         ps->chunk_splat_counts[chunk] = splats.count;
@@ -683,63 +703,78 @@ static bool merge_chunks(void **chunk_data, const uint32_t *chunk_counts, size_t
     return ok;
 }
 
+/* Copies the chunks' records out of the thread arenas, in chunk order, into out (grown to
+ * hold them); *total is their count. False, with nothing copied, when growing fails. */
+static bool merge_records(const pass *ps, size_t chunks, pm_photon_buffer *out, size_t *total) {
+    *total = 0;
+    for (size_t c = 0; c < chunks; c++) *total += ps->chunk_counts[c];
+    if (*total > out->capacity) {
+        pm_photon *grown = pm_realloc(out->data, *total * sizeof(pm_photon), "merged photon records");
+        if (!grown) return false;
+        out->data = grown;
+        out->capacity = *total;
+    }
+    size_t at = 0;
+    for (size_t c = 0; c < chunks; c++) {
+        uint32_t n = ps->chunk_counts[c];
+        if (n) memcpy(out->data + at, ps->arenas[ps->chunk_arena[c]].data + ps->chunk_start[c], n * sizeof(pm_photon));
+        at += n;
+    }
+    return true;
+}
+
+static void free_chunk_lists(pass *ps) {
+    free(ps->chunk_arena);
+    free(ps->chunk_start);
+    free(ps->chunk_counts);
+    free(ps->chunk_skipped);
+    free(ps->chunk_cut);
+    free(ps->chunk_splats);
+    free(ps->chunk_splat_counts);
+    ps->chunk_arena = NULL;
+    ps->chunk_start = NULL;
+    ps->chunk_counts = NULL;
+    ps->chunk_skipped = NULL;
+    ps->chunk_cut = NULL;
+    ps->chunk_splats = NULL;
+    ps->chunk_splat_counts = NULL;
+}
+
 /* Traces ps->photons photons in chunks on all threads and merges the chunks' records, in chunk
  * order, into out (grown as needed): the same records at any thread count. */
 static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     out->count = 0;
-    size_t chunks = (size_t)((ps->photons + CHUNK - 1) / CHUNK);
-    ps->chunk_photons = pm_calloc(chunks ? chunks : 1, sizeof(pm_photon *), "photon pass chunk list");
-    ps->chunk_counts = pm_calloc(chunks ? chunks : 1, sizeof(uint32_t), "photon pass chunk list");
-    ps->chunk_skipped = pm_calloc(chunks ? chunks : 1, sizeof(bool), "photon pass chunk list");
-    ps->chunk_cut = pm_calloc(chunks ? chunks : 1, sizeof(uint32_t), "photon pass chunk list");
-    if (!ps->chunk_photons || !ps->chunk_counts || !ps->chunk_skipped || !ps->chunk_cut) {
-        free(ps->chunk_cut);
-        free(ps->chunk_photons);
-        free(ps->chunk_counts);
-        free(ps->chunk_skipped);
-        return false;
-    }
+    size_t chunks = (size_t)((ps->photons + CHUNK - 1) / CHUNK), lists = chunks ? chunks : 1;
     bool splatting = ps->splat && ps->caustic_pass && ps->splat_out;
+    ps->chunk_arena = pm_calloc(lists, sizeof(uint32_t), "photon pass chunk list");
+    ps->chunk_start = pm_calloc(lists, sizeof(size_t), "photon pass chunk list");
+    ps->chunk_counts = pm_calloc(lists, sizeof(uint32_t), "photon pass chunk list");
+    ps->chunk_skipped = pm_calloc(lists, sizeof(bool), "photon pass chunk list");
+    ps->chunk_cut = pm_calloc(lists, sizeof(uint32_t), "photon pass chunk list");
     if (splatting) {
         ps->splat_out->count = 0;
-        ps->chunk_splats = pm_calloc(chunks ? chunks : 1, sizeof(pm_camera_splat *), "camera splat chunk list");
-        ps->chunk_splat_counts = pm_calloc(chunks ? chunks : 1, sizeof(uint32_t), "camera splat chunk list");
-        if (!ps->chunk_splats || !ps->chunk_splat_counts) {
-            free(ps->chunk_splats);
-            free(ps->chunk_splat_counts);
-            ps->chunk_splats = NULL;
-            ps->chunk_splat_counts = NULL;
-            free(ps->chunk_cut);
-            free(ps->chunk_photons);
-            free(ps->chunk_counts);
-            free(ps->chunk_skipped);
-            return false;
-        }
+        ps->chunk_splats = pm_calloc(lists, sizeof(pm_camera_splat *), "camera splat chunk list");
+        ps->chunk_splat_counts = pm_calloc(lists, sizeof(uint32_t), "camera splat chunk list");
+    }
+    if (!ps->chunk_arena || !ps->chunk_start || !ps->chunk_counts || !ps->chunk_skipped || !ps->chunk_cut ||
+        (splatting && (!ps->chunk_splats || !ps->chunk_splat_counts))) {
+        free_chunk_lists(ps);
+        return false;
     }
     memset(ps->counters, 0, sizeof ps->counters);
     atomic_store(&ps->out_of_memory, false);
     atomic_store(&ps->records, out->capacity); /* the merged buffer kept from the last pass counts too */
     ps->record_limit = pm_memory_limit() / (2 * sizeof(pm_photon));
     int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
+    for (int t = 0; t < threads; t++) ps->arenas[t].count = 0;
     pm_parallel_for(threads, chunks, trace_chunk, ps);
     bool ok = !atomic_load(&ps->out_of_memory);
     size_t total = 0;
-    void *merged = out->data;
-    ok = merge_chunks((void **)ps->chunk_photons, ps->chunk_counts, chunks, sizeof(pm_photon), &merged, &out->capacity,
-                      &total, ok, "merged photon records");
-    out->data = merged;
+    if (ok) ok = merge_records(ps, chunks, out, &total);
     uint64_t traced = 0;
     for (size_t c = 0; c < chunks; c++)
         if (!ps->chunk_skipped[c])
             traced += ((c + 1) * (uint64_t)CHUNK < ps->photons ? CHUNK : ps->photons - c * (uint64_t)CHUNK) - ps->chunk_cut[c];
-    free(ps->chunk_photons);
-    free(ps->chunk_counts);
-    free(ps->chunk_skipped);
-    free(ps->chunk_cut);
-    ps->chunk_cut = NULL;
-    ps->chunk_photons = NULL;
-    ps->chunk_counts = NULL;
-    ps->chunk_skipped = NULL;
     ps->dropped = 0;
     for (int t = 0; t < threads; t++) {
         *rays += ps->counters[t].rays;
@@ -754,11 +789,8 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
                           &so->capacity, &splat_total, ok, "camera splats of a pass");
         so->data = splats;
         so->count = ok ? splat_total : 0;
-        free(ps->chunk_splats);
-        free(ps->chunk_splat_counts);
-        ps->chunk_splats = NULL;
-        ps->chunk_splat_counts = NULL;
     }
+    free_chunk_lists(ps);
     if (ok && traced < ps->photons) {
         /* cut by the deadline: each stored photon stands for photons / traced of the flux */
         float scale = traced ? (float)((double)ps->photons / (double)traced) : 0.f;
@@ -901,6 +933,7 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
 
 void pm_photon_tracer_destroy(pm_photon_tracer *t) {
     if (!t) return;
+    for (int i = 0; i < MAX_THREADS; i++) free(t->ps.arenas[i].data);
     if (t->sources)
         for (uint32_t i = 0; i < t->source_count; i++) {
             free(t->sources[i].marked);
