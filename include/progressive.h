@@ -81,9 +81,6 @@ typedef struct pm_progressive pm_progressive;
 /* The automatic photon count per iteration: PM_PPM_PHOTONS_PER_PIXEL per pixel, clamped. */
 uint64_t pm_progressive_default_photons(int width, int height);
 
-/* The eye passes the next iteration will run per photon pass (before any max_samples cut). */
-uint32_t pm_progressive_eye_passes(const pm_progressive *p);
-
 /* NULL with err set when out of memory. The camera is copied. */
 pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, const pm_camera *camera,
                                       const pm_progressive_settings *settings, char *err, size_t err_size);
@@ -113,6 +110,9 @@ bool pm_progressive_uses_photons(const pm_progressive *p);
 /* Photons a whole iteration emits, over the passes the scene uses (the first iteration after a
  * start or a restart emits PM_PPM_FIRST_PHOTON_FRACTION of them). */
 uint64_t pm_progressive_photons_per_iteration(const pm_progressive *p);
+/* The eye passes the next iteration will run per photon pass (before any max_samples cut). */
+uint32_t pm_progressive_eye_passes(const pm_progressive *p);
+
 /* Share of the caustic lights' emission the projection maps kept (0 without caustic photons). */
 double pm_progressive_projection_fraction(const pm_progressive *p);
 

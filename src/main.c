@@ -437,13 +437,6 @@ static uint64_t session_photons(pm_session *session) {
 /* Seconds spent so far in the parts of an iteration that repeat at their full length: the eye
  * pass and the gather in the progressive mode (its photon passes shrink to fit the time left),
  * the eye pass in the classic mode (its maps are built once, before the first). */
-static double repeating_seconds(pm_session *session) {
-    pm_progressive *p = pm_session_progressive(session);
-    if (!p) return pm_session_classic_eye_stats(session)->seconds;
-    const pm_progressive_stats *st = pm_progressive_get_stats(p);
-    return st->eye.seconds + st->gather_seconds;
-}
-
 /* Renders to --iterations or --time, then writes the file; SIGINT and SIGTERM end the loop after
  * the iteration under way, and the image so far is written before exiting 130 or 143. */
 static int run_snapshot(const options *opt, pm_session *session, const pm_reference_image *reference) {
@@ -471,34 +464,15 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
     uint32_t logged = 0;
     /* --time and the reported render time count from here: the photon pass is part of what a
      * budget buys. A budget spent before the first iteration still gets that iteration. */
-    double start = pm_now_seconds(), last_iteration = 0.0, fixed_before = 0.0;
-    uint32_t last_samples = 0; /* the samples the last iteration added (a progressive one may add several) */
-    double last_wall = 0.0;    /* and its wall time, photon pass included */
+    double start = pm_now_seconds();
     uint64_t next_progress = 1;
-    if (opt->time_limit > 0) pm_session_set_deadline(session, start + opt->time_limit);
+    if (opt->time_limit > 0) pm_session_set_budget(session, start, opt->time_limit);
     while ((long)film->samples < target && !interrupted_by) {
-        /* --time: start an iteration only if it is expected to end nearer the budget than
-         * stopping now would. The last iteration predicts the next one's eye pass and gather;
-         * photon passes shrink to fit the time left (pm_progressive_set_deadline). */
-        uint32_t limit = (uint32_t)(target - (long)film->samples);
-        /* a budget's first iteration: one sample, whatever the eye passes a photon pass (its cost is unknown) */
-        if (opt->time_limit > 0 && film->samples == 0) limit = 1;
-        if (opt->time_limit > 0 && film->samples > 0 && last_samples > 0) {
-            /* the next iteration's samples: at most as many as fit in the time left at the last
-             * iteration's wall time a sample (its photon pass shared out: an over-estimate for more
-             * samples, so the cap errs short); started only if expected to end nearer the budget
-             * than stopping now, by the repeating part of that time */
-            const pm_progressive *pp = pm_session_progressive(session);
-            double left = opt->time_limit - (pm_now_seconds() - start);
-            uint32_t next = pp ? pm_progressive_eye_passes(pp) : 1;
-            double fit = floor(left / (last_wall / last_samples));
-            if (fit < next) next = fit < 1.0 ? 1 : (uint32_t)fit;
-            if (next < limit) limit = next;
-            if (left <= 0.5 * (last_iteration / last_samples) * limit) break;
-        }
+        /* --time: the session shares the budget out (a first iteration of one sample, then as
+         * many as fit, none when the next would overshoot more than stopping falls short) */
+        uint32_t limit = pm_session_plan_samples(session, (uint32_t)(target - (long)film->samples));
+        if (!limit) break;
         double iteration_start = pm_now_seconds();
-        fixed_before = repeating_seconds(session);
-        uint32_t samples_before = film->samples;
         bool iterated = pm_session_iterate(session, limit);
         rendered += pm_now_seconds() - iteration_start;
         if (!iterated) {
@@ -518,9 +492,6 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
             printf("stat progress iterations=%u seconds=%.4f relmse=%.6f\n", film->samples, pm_now_seconds() - start, e);
             while (next_progress <= film->samples) next_progress *= 2;
         }
-        last_iteration = fmin(pm_now_seconds() - iteration_start, repeating_seconds(session) - fixed_before);
-        last_samples = film->samples - samples_before;
-        last_wall = pm_now_seconds() - iteration_start;
         show_progress(tty, film->samples, opt->iterations ? opt->iterations : 0, pm_now_seconds() - start, opt->time_limit,
                       session_photons(session));
     }

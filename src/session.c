@@ -30,6 +30,11 @@ struct pm_session {
     pm_shadow_stats shadow_stats;
     bool shadow_decided;                  /* built, or known to be unneeded */
     double render_seconds;                /* since the last restart */
+    /* a time budget (pm_session_set_budget) and what the last iteration cost, to plan the next */
+    double budget_start, budget_seconds;  /* seconds 0: no budget */
+    uint32_t last_samples;                /* the samples the last iteration added */
+    double last_wall;                     /* its wall time, photon pass included */
+    double last_repeating;                /* its eye passes and gather: what every iteration repeats */
 
     /* background rendering: everything below `lock` is shared with the worker */
     pthread_t worker;
@@ -133,8 +138,38 @@ static bool decide_shadow_map(pm_session *s) {
     return true;
 }
 
+void pm_session_set_budget(pm_session *s, double start, double seconds) {
+    s->budget_start = start;
+    s->budget_seconds = seconds > 0.0 ? seconds : 0.0;
+    if (s->budget_seconds > 0.0) pm_session_set_deadline(s, start + seconds);
+}
+
+/* The part of an iteration's time every iteration repeats (eye passes and gathering), summed. */
+static double repeating_seconds(const pm_session *s) {
+    if (!s->progressive) return s->classic_eye_stats.seconds;
+    const pm_progressive_stats *st = pm_progressive_get_stats(s->progressive);
+    return st->eye.seconds + st->gather_seconds;
+}
+
+uint32_t pm_session_plan_samples(pm_session *s, uint32_t wanted) {
+    if (!wanted || s->budget_seconds <= 0.0) return wanted;
+    /* the first iteration: one sample, whatever the eye passes a photon pass (its cost is unknown) */
+    if (s->film.samples == 0 || s->last_samples == 0) return 1;
+    /* at most as many samples as fit in the time left at the last iteration's wall time a sample
+     * (its photon pass shared out: an over-estimate for more samples, so the cap errs short) */
+    double left = s->budget_seconds - (pm_now_seconds() - s->budget_start);
+    uint32_t next = s->progressive ? pm_progressive_eye_passes(s->progressive) : 1;
+    double fit = floor(left / (s->last_wall / s->last_samples));
+    if (fit < next) next = fit < 1.0 ? 1 : (uint32_t)fit;
+    if (next > wanted) next = wanted;
+    /* started only if expected to end nearer the budget than stopping now, by the repeating part */
+    if (left <= 0.5 * (s->last_repeating / s->last_samples) * next) return 0;
+    return next;
+}
+
 bool pm_session_iterate(pm_session *s, uint32_t max_samples) {
-    double t0 = pm_now_seconds();
+    double t0 = pm_now_seconds(), repeating_before = repeating_seconds(s);
+    uint32_t samples_before = s->film.samples;
     bool ok = decide_shadow_map(s);
     if (!ok) return false;
     if (s->progressive) {
@@ -159,7 +194,11 @@ bool pm_session_iterate(pm_session *s, uint32_t max_samples) {
             ok = !s->classic_eye_stats.failed;
         }
     }
-    s->render_seconds += pm_now_seconds() - t0;
+    double t1 = pm_now_seconds();
+    s->render_seconds += t1 - t0;
+    s->last_samples = s->film.samples - samples_before;
+    s->last_wall = t1 - t0;
+    s->last_repeating = fmin(s->last_wall, repeating_seconds(s) - repeating_before);
     return ok;
 }
 
@@ -168,6 +207,7 @@ void pm_session_restart(pm_session *s, const pm_camera *camera) {
     if (s->progressive) pm_progressive_restart(s->progressive, &s->film, &s->camera);
     else pm_film_clear(&s->film);
     s->render_seconds = 0.0;
+    s->last_samples = 0;
 }
 
 /* ---- background rendering ---- */
