@@ -226,6 +226,9 @@ static inline vec3 pm_offset_surface_origin(vec3 p, vec3 centroid, vec3 side_nor
 
 /* Fills a surface from a triangle id and Embree-style barycentrics (b1, b2). */
 void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);
+/* The same without the emissive texture (emission is the material's factor alone): what
+ * scattering reads, for the photon pass, which never reads emission at a hit. */
+void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);
 
 /* The geometric part of a surface record in two steps: the point, the unit face normal ng (given)
  * and the material, then the shading normal (interpolated, on ng's side, before any normal map)
@@ -256,12 +259,12 @@ static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, flo
  * tracer that often ends its path at the hit. For a material with a uniform split and no normal
  * map in effect they are the geometry and the material's constants: inline, no texture
  * coordinate, and ns and centroid are left to pm_scene_surface_shading (returns true: the
- * caller makes them before it reads them); any other material takes pm_scene_surface (false). */
+ * caller makes them before it reads them); any other material takes pm_scene_surface_scattering (false). */
 static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
     const pm_material *m = &s->materials[s->triangle_material[tri]];
     bool normal_mapped = m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents;
     if (!m->uniform_split || normal_mapped || !s->face_normals) {
-        pm_scene_surface(s, tri, b1, b2, out);
+        pm_scene_surface_scattering(s, tri, b1, b2, out);
         return false;
     }
     pm_scene_surface_point(s, tri, b1, b2, s->face_normals[tri], out);

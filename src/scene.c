@@ -434,36 +434,53 @@ pm_camera pm_scene_fit_camera(const pm_scene *s, pm_camera c, float aspect) {
     return c;
 }
 
-static int wrap_index(int i, int n, int mode) {
-    if (mode == PM_WRAP_CLAMP) return i < 0 ? 0 : (i >= n ? n - 1 : i);
-    if (mode == PM_WRAP_MIRROR) {
-        int period = 2 * n, m = i % period;
-        if (m < 0) m += period;
-        return m < n ? m : period - 1 - m;
-    }
-    int m = i % n;
-    return m < 0 ? m + n : m;
-}
-
 static float srgb_table[256];
 static pthread_once_t srgb_table_once = PTHREAD_ONCE_INIT; /* filled once, before any thread reads it */
 static void init_srgb_table(void) {
     for (int i = 0; i < 256; i++) srgb_table[i] = pm_srgb_to_linear(i / 255.f);
 }
 
+/* floorf of a finite float without a libm call: from 2^23 up every float is an integer. */
+static inline float floor_finite(float x) {
+    if (!(fabsf(x) < 8388608.f)) return x;
+    float t = (float)(int)x;
+    return t > x ? t - 1.f : t;
+}
+
+/* One axis of a lookup: the two texels around coordinate c (in [0, 1] across the texture) with
+ * the wrap mode, and the weight of the second. The coordinate is first brought into one period
+ * (two for MIRROR, [-1, 2] for CLAMP), so the texel index needs compares, not an integer division:
+ * this runs four times for every texture of every hit. */
+static inline void wrap_axis(float c, int n, int mode, int *i0, int *i1, float *frac) {
+    if (mode == PM_WRAP_CLAMP) c = pm_minf(pm_maxf(c, -1.f), 2.f);
+    else if (mode == PM_WRAP_MIRROR) c -= 2.f * floor_finite(0.5f * c); /* [0, 2] */
+    else c -= floor_finite(c);                                         /* [0, 1] */
+    float x = c * (float)n - 0.5f, fx = floor_finite(x);
+    int x0 = (int)fx, x1 = x0 + 1;
+    *frac = x - fx;
+    if (mode == PM_WRAP_CLAMP) {
+        *i0 = x0 < 0 ? 0 : (x0 >= n ? n - 1 : x0);
+        *i1 = x1 < 0 ? 0 : (x1 >= n ? n - 1 : x1);
+    } else if (mode == PM_WRAP_MIRROR) {
+        /* x0 in [-1, 2n - 1], x1 in [0, 2n]: into [0, 2n), then folded at n */
+        int m0 = x0 < 0 ? x0 + 2 * n : x0, m1 = x1 >= 2 * n ? x1 - 2 * n : x1;
+        *i0 = m0 < n ? m0 : 2 * n - 1 - m0;
+        *i1 = m1 < n ? m1 : 2 * n - 1 - m1;
+    } else {
+        /* x0 in [-1, n - 1], x1 in [0, n] */
+        *i0 = x0 < 0 ? x0 + n : x0;
+        *i1 = x1 >= n ? x1 - n : x1;
+    }
+}
+
 /* The four texels around (u, v) and their bilinear weights, with the texture's wrap modes: the
- * footprint of every lookup (colour, data and alpha). */
+ * footprint of every lookup (colour, data and alpha). u and v are finite. */
 typedef struct { size_t texel[4]; float weight[4]; } bilinear_taps;
 static bilinear_taps bilinear(const pm_texture *t, float u, float v) {
-    /* Keep the coordinate small before converting to int, so huge uv values cannot overflow. */
-    float fu = u - floorf(u / 64.f) * 64.f, fv = v - floorf(v / 64.f) * 64.f;
-    if (t->wrap_s == PM_WRAP_CLAMP) fu = fminf(fmaxf(u, -1.f), 2.f);
-    if (t->wrap_t == PM_WRAP_CLAMP) fv = fminf(fmaxf(v, -1.f), 2.f);
-    float x = fu * t->width - 0.5f, y = fv * t->height - 0.5f;
-    int x0 = (int)floorf(x), y0 = (int)floorf(y);
-    float ax = x - x0, ay = y - y0;
-    int xa = wrap_index(x0, t->width, t->wrap_s), xb = wrap_index(x0 + 1, t->width, t->wrap_s);
-    int ya = wrap_index(y0, t->height, t->wrap_t), yb = wrap_index(y0 + 1, t->height, t->wrap_t);
+    int xa, xb, ya, yb;
+    float ax, ay;
+    wrap_axis(u, t->width, t->wrap_s, &xa, &xb, &ax);
+    wrap_axis(v, t->height, t->wrap_t, &ya, &yb, &ay);
     bilinear_taps b = {{(size_t)ya * t->width + xa, (size_t)ya * t->width + xb, (size_t)yb * t->width + xa,
                         (size_t)yb * t->width + xb},
                        {(1.f - ax) * (1.f - ay), ax * (1.f - ay), (1.f - ax) * ay, ax * ay}};
@@ -590,7 +607,7 @@ static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_
     return v3_add(v3_scale(ng, c_min), v3_scale(side, s_min / side_len));
 }
 
-void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
+void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
     const uint32_t *ix = s->indices + 3 * (size_t)tri;
     float b0 = 1.f - b1 - b2;
     vec3 ng = s->face_normals ? s->face_normals[tri]
@@ -636,11 +653,19 @@ void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_su
         if (out->glossy) out->brdf = pm_brdf_at(base, metallic, roughness, transmission);
     }
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
-    out->emission = m->emission;
-    if (m->emission_texture >= 0 && !v3_is_black(m->emission))
+    out->emission = m->emission; /* the factor alone: pm_scene_surface applies the texture */
+    out->double_sided = m->double_sided;
+}
+
+void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
+    pm_scene_surface_scattering(s, tri, b1, b2, out);
+    const pm_material *m = &s->materials[out->material];
+    if (m->emission_texture >= 0 && !v3_is_black(m->emission)) {
+        float uv[2][2] = {{out->u, out->v}, {0.f, 0.f}};
+        if (s->uvs1) interpolated_uv(s, s->indices + 3 * (size_t)tri, 1.f - b1 - b2, b1, b2, 1, &uv[1][0], &uv[1][1]);
         out->emission = v3_mul(m->emission, texture_at(s, uv, m->emission_texture, m->emission_texcoord,
                                                        &m->emission_transform, true));
-    out->double_sided = m->double_sided;
+    }
 }
 
 vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale) {
