@@ -310,6 +310,11 @@ static void shadow_photons(const char *path, int lights) {
     pm_scene_free(&s);
 }
 
+static int compare_doubles(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
 int main(int argc, char **argv) {
     const char *path = argc > 1 ? argv[1] : "scenes/cornell-box.gltf";
     if (argc > 2 && !strcmp(argv[2], "shadow")) {
@@ -379,6 +384,28 @@ int main(int argc, char **argv) {
                photon_rays[threads] / (raw_scattered * threads), kd_seconds[threads],
                photon_rays[threads] / (threads == 1 ? raw_scattered : raw_scattered2));
     printf("bench photons speedup=%.2f\n", photon_rate[2] / photon_rate[1]);
+    /* The same ratio on one thread, robust to other tenants: PAIRS pairs of a photon pass and the
+     * raw scattered rays right after it, each pair's ratio taken when the machine is in one state,
+     * and their median (the lines above pair a best pass with a raw rate taken seconds apart) */
+    {
+        enum { PAIRS = 9 };
+        double ratios[PAIRS];
+        for (int pair = 0; pair < PAIRS; pair++) {
+            pm_photon_settings ps = bench_photon_settings(1);
+            ps.global_photons = 200000;
+            ps.caustic_photons = 200000;
+            pm_photon_stats st;
+            pm_photon_maps pair_maps;
+            if (!pm_photon_maps_build(&s, a, &ps, &pair_maps, &st)) { fprintf(stderr, "bench: photon build failed\n"); return 1; }
+            pm_photon_maps_free(&pair_maps);
+            size_t hits;
+            double raw_seconds = pm_accel_bench_raw(a, o, d, ns, &hits);
+            ratios[pair] = (st.rays / st.trace_seconds) / (ns / raw_seconds);
+        }
+        qsort(ratios, PAIRS, sizeof *ratios, compare_doubles);
+        printf("bench photons_paired threads=1 pairs=%d ratio_to_raw_scattered=%.3f ratio_quartiles=%.3f,%.3f\n", PAIRS,
+               ratios[PAIRS / 2], ratios[PAIRS / 4], ratios[3 * PAIRS / 4]);
+    }
 
     /* the progressive mode's gather: a radius holding about PM_PPM_INITIAL_PHOTONS photons of this map */
     if (maps.global.count) {
