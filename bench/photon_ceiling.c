@@ -8,8 +8,11 @@
  * Embree answers far faster than the hits that photons aimed at glass make, so that ratio mixes
  * our own per-ray work with the difference of the two sets of rays. Here the pass's own rays are
  * recorded (the link wraps pm_accel_intersect for this program only: the renderer's code is the
- * same), then traced again in a bare rtcIntersect1 loop. Both rates come from one thread, as the
- * best of three interleaved runs; the pass's time is timed with recording off.
+ * same), then traced again in a bare rtcIntersect1 loop. One thread; the progressive mode's
+ * passes (a tracer and buffers kept across iterations); 15 pairs of a pass (recording off) and
+ * the replay right after it. ratio_to_raw_own_rays is the median of the pairs' ratios
+ * (ratio_quartiles its spread); the two rates printed are each the median of their own, so
+ * their quotient need not equal it.
  */
 #include <stdbool.h>
 #include <stdio.h>

@@ -68,14 +68,16 @@ const pm_shadow_stats *pm_session_shadow_stats(const pm_session *s);
  * built, may take PM_SHADOW_TIME_SHARE of the time left, and the progressive mode's photon passes
  * are cut to fit (pm_progressive_set_deadline). */
 void pm_session_set_deadline(pm_session *s, double deadline);
-/* A time budget (--time): `seconds` from `start` (CLOCK_MONOTONIC). Sets the deadline above and
- * lets pm_session_plan_samples share the time out between iterations. */
+/* A time budget (--time): `seconds` (> 0) from `start` (CLOCK_MONOTONIC). Sets the deadline
+ * above and lets pm_session_plan_samples share the time out between iterations. */
 void pm_session_set_budget(pm_session *s, double start, double seconds);
 /* The samples the next pm_session_iterate should add, at most `wanted`. Without a budget,
  * `wanted`. With one: 1 for the first iteration (its cost is unknown); then as many as fit in the
  * time left at the last iteration's wall time a sample; 0 (stop) when the next iteration would
- * end farther past the budget than stopping now falls short of it. */
-uint32_t pm_session_plan_samples(pm_session *s, uint32_t wanted);
+ * end farther past the budget than stopping now falls short of it. It predicts from the time
+ * spent inside pm_session_iterate: a caller's own work between iterations (a log row) is not
+ * foreseen, only paid from the budget. */
+uint32_t pm_session_plan_samples(const pm_session *s, uint32_t wanted);
 /* Clears the accumulation, optionally with a new camera (synchronous use). */
 void pm_session_restart(pm_session *s, const pm_camera *camera);
 

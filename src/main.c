@@ -434,9 +434,6 @@ static uint64_t session_photons(pm_session *session) {
     return p ? pm_progressive_get_stats(p)->photons.emitted : pm_session_classic_photon_stats(session)->emitted;
 }
 
-/* Seconds spent so far in the parts of an iteration that repeat at their full length: the eye
- * pass and the gather in the progressive mode (its photon passes shrink to fit the time left),
- * the eye pass in the classic mode (its maps are built once, before the first). */
 /* Renders to --iterations or --time, then writes the file; SIGINT and SIGTERM end the loop after
  * the iteration under way, and the image so far is written before exiting 130 or 143. */
 static int run_snapshot(const options *opt, pm_session *session, const pm_reference_image *reference) {

@@ -1,7 +1,8 @@
 /* photonmap.c: photon emission by light power, projection maps, Russian-roulette tracing, map building, radiance estimates.
  *
- * Photons are generated in fixed chunks, each with its own random stream and output list,
- * merged in chunk order: the maps do not depend on the thread count. Every photon starts
+ * Photons are generated in fixed chunks, each with its own random streams and its own run of
+ * records in its thread's arena, merged in chunk order: the maps do not depend on the thread
+ * count. Every photon starts
  * with its share of the light's flux (power / (photons x pick probability)) and keeps it
  * through Russian roulette (only rescaled per channel by colour), except on surfaces whose
  * reflectance passes PM_PHOTON_MAX_SURVIVAL: there survival is capped and the weight grows by
@@ -78,6 +79,8 @@ typedef struct {
     /* per worker thread, kept by the tracer across passes (a pass reuses their memory, no
      * allocation or page faults per iteration): each chunk appends its records to its thread's
      * arena, and the merge copies them out in chunk order */
+    /* 64 bytes each, so two threads' arenas rarely share a cache line (not _Alignas: the tracer
+     * comes from calloc, which promises 16) */
     struct record_arena { pm_photon *data; size_t count, capacity; char pad[40]; } arenas[MAX_THREADS];
     uint32_t *chunk_arena;    /* the thread whose arena holds a chunk's records */
     size_t *chunk_start;      /* where in that arena they begin */
@@ -86,7 +89,11 @@ typedef struct {
     uint32_t *chunk_cut;      /* photons a chunk left untraced when the deadline passed during it */
     double deadline;          /* pm_now_seconds() past which no chunk starts; 0 = none */
     uint64_t traced;          /* photons the last pass traced (fewer than asked when cut) */
-    uint64_t record_limit;    /* records one pass may store: they and their merged copy fit the memory limit */
+    /* records one pass may store: counted per chunk in steps of CHUNK (the same total at any
+     * thread count) and bounded so that they fit the memory limit four times over: their merged
+     * copy, the arenas (up to twice the records they hold, as they double; one set serves both
+     * kinds of pass) and the other kind's merged buffer, which the progressive mode keeps */
+    uint64_t record_limit;
     _Atomic uint64_t records; /* stored so far in this pass */
     atomic_bool out_of_memory;
     uint64_t dropped;         /* photons of the last pass whose power was not finite (ended, not stored) */
@@ -472,7 +479,7 @@ static bool make_room(photon_list *list) {
     if (list->count == list->start + list->counted) {
         uint64_t records = atomic_fetch_add(&list->ps->records, CHUNK) + CHUNK;
         if (records > list->ps->record_limit) {
-            pm_memory_admit(2 * records * sizeof(pm_photon), "photon records of one pass and their merged copy");
+            pm_memory_admit(4 * records * sizeof(pm_photon), "photon records of one pass, their arenas and merged copies");
             list->failed = true;
             atomic_store(&list->ps->out_of_memory, true);
             return false;
@@ -764,7 +771,7 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     memset(ps->counters, 0, sizeof ps->counters);
     atomic_store(&ps->out_of_memory, false);
     atomic_store(&ps->records, out->capacity); /* the merged buffer kept from the last pass counts too */
-    ps->record_limit = pm_memory_limit() / (2 * sizeof(pm_photon));
+    ps->record_limit = pm_memory_limit() / (4 * sizeof(pm_photon));
     int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
     for (int t = 0; t < threads; t++) ps->arenas[t].count = 0;
     pm_parallel_for(threads, chunks, trace_chunk, ps);
@@ -809,10 +816,22 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     return ok;
 }
 
+static void free_arenas(pass *ps) {
+    for (int i = 0; i < MAX_THREADS; i++) {
+        free(ps->arenas[i].data);
+        ps->arenas[i].data = NULL;
+        ps->arenas[i].count = ps->arenas[i].capacity = 0;
+    }
+}
+
+/* One pass into a new tree (the classic maps, built once): its arenas are freed before the tree
+ * is built, since no pass will reuse them soon. */
 static bool run_pass(pass *ps, pm_kdtree *tree, uint64_t *stored, uint64_t *rays, pm_photon_stats *st) {
     double t0 = pm_now_seconds();
     pm_photon_buffer all = {NULL, 0, 0};
-    if (!trace_into(ps, &all, rays)) { free(all.data); return false; }
+    bool traced = trace_into(ps, &all, rays);
+    free_arenas(ps);
+    if (!traced) { free(all.data); return false; }
     *stored = all.count;
     double t1 = pm_now_seconds();
     int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
@@ -933,7 +952,7 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
 
 void pm_photon_tracer_destroy(pm_photon_tracer *t) {
     if (!t) return;
-    for (int i = 0; i < MAX_THREADS; i++) free(t->ps.arenas[i].data);
+    free_arenas(&t->ps);
     if (t->sources)
         for (uint32_t i = 0; i < t->source_count; i++) {
             free(t->sources[i].marked);

@@ -1,4 +1,4 @@
-/* session.c: the render session: mode state and film, synchronous iterations, and the worker thread that publishes double-buffered images. */
+/* session.c: the render session: mode state and film, synchronous iterations planned to a time budget, and the worker thread that publishes double-buffered images. */
 #include "session.h"
 #include "clock.h"
 #include "memory.h"
@@ -144,14 +144,16 @@ void pm_session_set_budget(pm_session *s, double start, double seconds) {
     if (s->budget_seconds > 0.0) pm_session_set_deadline(s, start + seconds);
 }
 
-/* The part of an iteration's time every iteration repeats (eye passes and gathering), summed. */
+/* Seconds spent so far in the parts of an iteration that repeat at their full length: the eye
+ * passes and the gather in the progressive mode (its photon passes shrink to fit the time left),
+ * the eye pass in the classic mode (its maps are built once, before the first). */
 static double repeating_seconds(const pm_session *s) {
     if (!s->progressive) return s->classic_eye_stats.seconds;
     const pm_progressive_stats *st = pm_progressive_get_stats(s->progressive);
     return st->eye.seconds + st->gather_seconds;
 }
 
-uint32_t pm_session_plan_samples(pm_session *s, uint32_t wanted) {
+uint32_t pm_session_plan_samples(const pm_session *s, uint32_t wanted) {
     if (!wanted || s->budget_seconds <= 0.0) return wanted;
     /* the first iteration: one sample, whatever the eye passes a photon pass (its cost is unknown) */
     if (s->film.samples == 0 || s->last_samples == 0) return 1;
