@@ -262,29 +262,21 @@ static int parse_options(int argc, char **argv, options *o) {
         }
         }
     }
-    if (!o->classic) {
-        static const char *const classic_only[] = {"--k", "--max-radius", "--kernel", "--gather-rays", "--precompute", "--view"};
-        for (int i = 1; i < argc; i++)
-            for (int k = 0; k < (int)(sizeof classic_only / sizeof *classic_only); k++)
-                if (!strcmp(argv[i], classic_only[k]))
-                    return usage_error("%s belongs to --mode classic (the other modes have no k-nearest estimates)", argv[i]);
-    }
-    if (o->pathtrace) {
-        static const char *const photon_only[] = {"--alpha", "--radius", "--photons", "--caustic-photons", "--indirect", "--no-photons"};
-        for (int i = 1; i < argc; i++)
-            for (int k = 0; k < (int)(sizeof photon_only / sizeof *photon_only); k++)
-                if (!strcmp(argv[i], photon_only[k]))
-                    return usage_error("%s belongs to the photon-mapping modes (the path tracer has no photons)", argv[i]);
-    } else if (o->classic) {
-        for (int i = 1; i < argc; i++) {
-            if (!strcmp(argv[i], "--alpha") || !strcmp(argv[i], "--radius"))
-                return usage_error("%s belongs to --mode progressive (the classic mode's radii do not shrink)", argv[i]);
-        }
-    }
-    if (o->classic || o->pathtrace)
-        for (int i = 1; i < argc; i++)
-            if (!strcmp(argv[i], "--eye-passes"))
-                return usage_error("%s belongs to --mode progressive (the other modes trace no photon pass per iteration)", argv[i]);
+    /* options that belong to some modes only: elsewhere a usage error, the first rule first */
+    static const char *const classic_only[] = {"--k", "--max-radius", "--kernel", "--gather-rays", "--precompute", "--view", NULL};
+    static const char *const photon_only[] = {"--alpha", "--radius", "--photons", "--caustic-photons", "--indirect", "--no-photons", NULL};
+    static const char *const shrinking_only[] = {"--alpha", "--radius", NULL};
+    static const char *const per_pass_only[] = {"--eye-passes", NULL};
+    const struct { bool refused; const char *const *options; const char *why; } mode_rules[] = {
+        {!o->classic, classic_only, "%s belongs to --mode classic (the other modes have no k-nearest estimates)"},
+        {o->pathtrace, photon_only, "%s belongs to the photon-mapping modes (the path tracer has no photons)"},
+        {o->classic, shrinking_only, "%s belongs to --mode progressive (the classic mode's radii do not shrink)"},
+        {o->classic || o->pathtrace, per_pass_only, "%s belongs to --mode progressive (the other modes trace no photon pass per iteration)"},
+    };
+    for (size_t r = 0; r < sizeof mode_rules / sizeof *mode_rules; r++)
+        for (int i = 1; mode_rules[r].refused && i < argc; i++)
+            for (const char *const *opt = mode_rules[r].options; *opt; opt++)
+                if (!strcmp(argv[i], *opt)) return usage_error(mode_rules[r].why, argv[i]);
     if (o->log && !o->snapshot) return usage_error("--log '%s' needs --snapshot (the window restarts its runs)", o->log);
     return -1;
 }
