@@ -21,6 +21,20 @@ typedef struct { float x, y, z; } vec3;
 static inline float pm_minf(float a, float b) { return a < b ? a : b; }
 static inline float pm_maxf(float a, float b) { return a > b ? a : b; }
 
+/* The last i < n with cdf[i] <= u, for a nondecreasing cdf with cdf[0] <= u: the interval of a
+ * sampled CDF that holds u (0 when n is 0 or u is NaN). Each of its log2 n steps is a compare and
+ * a select, not a branch: u is random, so a branch would be mispredicted half the time (one pick
+ * per photon, per light sample). */
+static inline uint32_t pm_cdf_interval(const float *cdf, uint32_t n, float u) {
+    uint32_t lo = 0;
+    while (n > 1) {
+        uint32_t half = n / 2;
+        lo = cdf[lo + half] <= u ? lo + half : lo;
+        n -= half;
+    }
+    return lo;
+}
+
 static inline vec3 v3(float x, float y, float z) { vec3 r = {x, y, z}; return r; }
 static inline vec3 v3s(float s) { return v3(s, s, s); }
 static inline vec3 v3_add(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }

@@ -374,11 +374,7 @@ uint32_t pm_scene_pick_light(const pm_scene *s, float u, float *pick_pdf);
 uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf);
 /* The same pick as a position in s->emitters (for data kept per emitter). */
 static inline uint32_t pm_scene_pick_emitter_index(const pm_scene *s, float u, float *pick_pdf) {
-    uint32_t lo = 0, hi = s->emitter_count; /* first i with cdf[i+1] > u */
-    while (lo + 1 < hi) {
-        uint32_t mid = (lo + hi) / 2;
-        if (s->emitter_cdf[mid] <= u) lo = mid; else hi = mid;
-    }
+    uint32_t lo = pm_cdf_interval(s->emitter_cdf, s->emitter_count, u);
     *pick_pdf = s->emitter_cdf[lo + 1] - s->emitter_cdf[lo];
     return lo;
 }

@@ -368,12 +368,7 @@ static float parallel_start(const pass *ps, vec3 dir, pm_rng *rng, vec3 *o) {
     float u = pm_rng_float(rng);
     pm_sample_disc(pm_rng_float(rng), pm_rng_float(rng), &x, &y);
     if (ps->caustic_pass && ps->targets && ps->target_count) {
-        uint32_t lo = 0, hi = ps->target_count;
-        while (lo + 1 < hi) {
-            uint32_t mid = (lo + hi) / 2;
-            if (ps->target_cdf[mid] <= u) lo = mid; else hi = mid;
-        }
-        const sphere *c = &ps->targets[lo];
+        const sphere *c = &ps->targets[pm_cdf_interval(ps->target_cdf, ps->target_count, u)];
         vec3 rel = v3_sub(c->center, s->center);
         x = v3_dot(rel, t) + x * c->radius;
         y = v3_dot(rel, b) + y * c->radius;
@@ -505,11 +500,7 @@ static inline void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, i
 }
 
 static uint32_t pick_source(const pass *ps, float u, float *pdf) {
-    uint32_t lo = 0, hi = ps->source_count; /* the last i with cdf[i] <= u: binary, for scenes of many lights */
-    while (lo + 1 < hi) {
-        uint32_t mid = (lo + hi) / 2;
-        if (ps->source_cdf[mid] <= u) lo = mid; else hi = mid;
-    }
+    uint32_t lo = pm_cdf_interval(ps->source_cdf, ps->source_count, u);
     *pdf = ps->source_cdf[lo + 1] - ps->source_cdf[lo];
     return lo;
 }

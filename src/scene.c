@@ -279,11 +279,7 @@ uint32_t pm_scene_pick_light(const pm_scene *s, float u, float *pick_pdf) {
         *pick_pdf = 1.f / (float)n;
         return i < n ? i : n - 1;
     }
-    uint32_t lo = 0, hi = n; /* the last i with cdf[i] <= u */
-    while (lo + 1 < hi) {
-        uint32_t mid = (lo + hi) / 2;
-        if (s->light_cdf[mid] <= u) lo = mid; else hi = mid;
-    }
+    uint32_t lo = pm_cdf_interval(s->light_cdf, n, u);
     *pick_pdf = s->light_cdf[lo + 1] - s->light_cdf[lo];
     return lo;
 }

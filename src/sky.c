@@ -104,16 +104,6 @@ vec3 pm_sky_map_radiance(const pm_sky_map *m, vec3 dir) {
     return v3(t[0], t[1], t[2]);
 }
 
-/* The last index i with cdf[i] <= u, among n intervals. */
-static int find_interval(const float *cdf, int n, float u) {
-    int lo = 0, hi = n;
-    while (lo + 1 < hi) {
-        int mid = (lo + hi) / 2;
-        if (cdf[mid] <= u) lo = mid; else hi = mid;
-    }
-    return lo;
-}
-
 float pm_sky_map_pdf(const pm_sky_map *m, vec3 dir) {
     int x, y;
     texel_of(m, dir, &x, &y);
@@ -124,11 +114,11 @@ float pm_sky_map_pdf(const pm_sky_map *m, vec3 dir) {
 }
 
 vec3 pm_sky_map_sample(const pm_sky_map *m, float u1, float u2, vec3 *dir, float *pdf) {
-    int y = find_interval(m->row_cdf, m->height, u1);
+    int y = (int)pm_cdf_interval(m->row_cdf, (uint32_t)m->height, u1);
     float row_p = m->row_cdf[y + 1] - m->row_cdf[y];
     float v = row_p > 0.f ? (u1 - m->row_cdf[y]) / row_p : 0.5f; /* reused: uniform within the row's slice */
     const float *cdf = m->column_cdf + (size_t)y * (m->width + 1);
-    int x = find_interval(cdf, m->width, u2);
+    int x = (int)pm_cdf_interval(cdf, (uint32_t)m->width, u2);
     float col_p = cdf[x + 1] - cdf[x];
     float w = col_p > 0.f ? (u2 - cdf[x]) / col_p : 0.5f;
     v = v < 0.f ? 0.f : (v > 1.f ? 1.f : v);
