@@ -1,4 +1,4 @@
-/* test_math.c: the shared maths of pm_math.h, photon.h and rng.h: the libm-free sincos, cosine and disc sampling moments, min/max, uniform floats, ray offsets, octahedral codes, pinned streams. */
+/* test_math.c: the shared maths of pm_math.h, photon.h and rng.h: the libm-free sincos, cosine and disc sampling moments, min/max, CDF search, uniform floats, ray offsets, octahedral codes, pinned streams. */
 #include "photon.h"
 #include "pm_math.h"
 #include "rng.h"
@@ -57,7 +57,34 @@ static void test_octahedral_codes(void) {
     printf("octahedral round trip: at most %.3f degrees at 7 bits, %.3f at 8\n", worst[0], worst[1]);
 }
 
+/* pm_cdf_interval against a linear scan (the last i < n with cdf[i] <= u) on CDFs of every size
+ * to 40, with runs of equal entries (lights of no power) and u on, between and past the entries */
+static void test_cdf_interval(void) {
+    pm_rng rng = pm_rng_for(5, 1, 2);
+    long differ = 0, cases = 0;
+    for (uint32_t n = 0; n <= 40; n++) {
+        for (int trial = 0; trial < 50; trial++) {
+            float cdf[41];
+            cdf[0] = 0.f;
+            for (uint32_t i = 1; i <= n; i++) cdf[i] = cdf[i - 1] + (pm_rng_float(&rng) < 0.3f ? 0.f : pm_rng_float(&rng));
+            for (int k = 0; k < 40; k++) {
+                float u = k < 20 ? cdf[(uint32_t)(pm_rng_float(&rng) * (float)(n + 1))] : pm_rng_float(&rng) * (cdf[n] + 0.1f);
+                uint32_t expect = 0;
+                for (uint32_t i = 0; i < n; i++)
+                    if (cdf[i] <= u) expect = i;
+                differ += pm_cdf_interval(cdf, n, u) != expect;
+                cases++;
+            }
+        }
+    }
+    CHECK(differ == 0, "pm_cdf_interval differs from a linear scan in %ld of %ld cases", differ, cases);
+    float one[2] = {0.f, 1.f};
+    CHECK(pm_cdf_interval(one, 1, 0.5f) == 0 && pm_cdf_interval(one, 0, 0.5f) == 0 && pm_cdf_interval(one, 1, NAN) == 0,
+          "one interval, none, NaN");
+}
+
 int main(void) {
+    test_cdf_interval();
     test_octahedral_codes();
     /* sin and cos of 2 pi u on a dense grid, and at the quadrant seams */
     double worst = 0;
