@@ -110,7 +110,7 @@ build/rel/bench_pm: bench/bench_pm.c bench/bench_settings.h build/rel/libpm.a
 
 # The photon pass's own rays are recorded by wrapping pm_accel_intersect at link time, for this program only.
 build/rel/photon_ceiling: bench/photon_ceiling.c bench/bench_settings.h build/rel/libpm.a
-	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ -Wl,--wrap=pm_accel_intersect $(LIBS)
+	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ -Wl,--wrap=pm_accel_intersect -Wl,--wrap=pm_accel_intersect_packets $(LIBS)
 
 build/rel/caustic_error: bench/caustic_error.c tests/caustic_region.h build/rel/libpm.a
 	$(CC) $(CFLAGS) -Itests $< build/rel/libpm.a -o $@ $(LIBS)

@@ -73,7 +73,7 @@ static double raw_rate(const pm_accel *a, const vec3 *o, const vec3 *d, size_t n
     size_t hits;
     double best = 0;
     for (int r = 0; r < 3; r++) {
-        double t = pm_accel_bench_raw(a, o, d, n, &hits);
+        double t = pm_accel_bench_raw(a, o, d, n, false, &hits);
         if (t > 0 && n / t > best) best = n / t;
     }
     return best;
@@ -85,7 +85,7 @@ typedef struct { const pm_accel *a; const vec3 *o, *d; size_t n; } raw_job;
 static void raw_half(void *ctx, size_t task, int thread) {
     const raw_job *j = ctx;
     size_t first = task * (j->n / 2), count = task ? j->n - first : j->n / 2, hits;
-    pm_accel_bench_raw(j->a, j->o + first, j->d + first, count, &hits);
+    pm_accel_bench_raw(j->a, j->o + first, j->d + first, count, false, &hits);
 }
 static double raw_rate_2(const pm_accel *a, const vec3 *o, const vec3 *d, size_t n) {
     raw_job job = {a, o, d, n};
@@ -399,7 +399,7 @@ int main(int argc, char **argv) {
             if (!pm_photon_maps_build(&s, a, &ps, &pair_maps, &st)) { fprintf(stderr, "bench: photon build failed\n"); return 1; }
             pm_photon_maps_free(&pair_maps);
             size_t hits;
-            double raw_seconds = pm_accel_bench_raw(a, o, d, ns, &hits);
+            double raw_seconds = pm_accel_bench_raw(a, o, d, ns, false, &hits);
             ratios[pair] = (st.rays / st.trace_seconds) / (ns / raw_seconds);
         }
         qsort(ratios, PAIRS, sizeof *ratios, compare_doubles);

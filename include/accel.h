@@ -5,8 +5,9 @@
  * where alpha < alphaCutoff, BLEND lets each ray through with probability 1 - alpha, decided by a
  * hash of the ray and the triangle (see accel.c), so callers pass no random numbers. Rays are
  * single (rtcIntersect1 / rtcOccluded1), the integrators being incoherent path tracers, except
- * where rays start together and point alike (a tile's camera rays): those go in packets of 8,
- * which Embree traces about twice as fast, with the same answers. A scene with alpha-tested
+ * in two places, where rays go in packets of 8 with the same answers: where they start together
+ * and point alike (a tile's camera rays: twice as fast), and the photon tracer's waves of
+ * unrelated photons, whose rays Embree answers faster 8 to a call than one by one. A scene with alpha-tested
  * triangles must outlive its accel.
  */
 #ifndef PM_ACCEL_H
@@ -30,9 +31,14 @@ void pm_accel_destroy(pm_accel *a);
 /* Closest hit in (0, tmax); d must be unit length. */
 bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *hit);
 /* pm_accel_intersect(o[i], d[i], INFINITY, &hits[i]) for i < n, its answer in hit[i] (hits[i] is
- * written only where hit[i]), traced in packets of 8 consecutive rays: for rays that start
- * together and point alike, in that order (a 4 x 2 block of camera rays, not a row of 8). */
-void pm_accel_intersect_coherent(const pm_accel *a, size_t n, const vec3 *o, const vec3 *d, bool *hit, pm_hit *hits);
+ * written only where hit[i]), traced in packets of PM_ACCEL_PACKET consecutive rays. coherent:
+ * rays that start together and point alike, in that order (a 4 x 2 block of camera rays, not a
+ * row of 8), which Embree traces about twice as fast as single rays. Not coherent: unrelated
+ * rays (a wave of photons), which Embree still answers 10-25% faster in a packet than one call
+ * each when called in a tight loop (docs/progressive.md, eleventh session). */
+#define PM_ACCEL_PACKET 8
+void pm_accel_intersect_packets(const pm_accel *a, size_t n, const vec3 *o, const vec3 *d, bool coherent, bool *hit,
+                                pm_hit *hits);
 /* True when anything blocks (0, tmax). */
 bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax);
 size_t pm_accel_bytes(const pm_accel *a);
@@ -40,8 +46,9 @@ double pm_accel_build_seconds(const pm_accel *a);
 /* Triangles behind the alpha filter; 0 means no filter is installed (an opaque scene). */
 uint32_t pm_accel_alpha_tested_triangles(const pm_accel *a);
 
-/* Benchmark hook: casts n rays (o, d pairs) with plain rtcIntersect1 and returns the seconds
- * taken, so raw Embree throughput can be set beside ours in one run. */
-double pm_accel_bench_raw(const pm_accel *a, const vec3 *origins, const vec3 *dirs, size_t n, size_t *hits);
+/* Benchmark hook: casts n rays (o, d pairs) with plain rtcIntersect1 (packet false) or as
+ * incoherent packets of PM_ACCEL_PACKET consecutive rays (rtcIntersect8, packet true) and returns
+ * the seconds taken, so raw Embree throughput can be set beside ours in one run. */
+double pm_accel_bench_raw(const pm_accel *a, const vec3 *origins, const vec3 *dirs, size_t n, bool packet, size_t *hits);
 
 #endif

@@ -279,16 +279,15 @@ bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *h
     return true;
 }
 
-void pm_accel_intersect_coherent(const pm_accel *a, size_t n, const vec3 *o, const vec3 *d, bool *hit, pm_hit *hits) {
-    enum { PACKET = 8 };
+void pm_accel_intersect_packets(const pm_accel *a, size_t n, const vec3 *o, const vec3 *d, bool coherent, bool *hit, pm_hit *hits) {
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
-    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    for (size_t base = 0; base < n; base += PACKET) {
-        size_t m = n - base < PACKET ? n - base : PACKET;
-        _Alignas(32) int valid[PACKET]; /* Embree asks for the mask aligned like the packet */
+    ctx.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    for (size_t base = 0; base < n; base += PM_ACCEL_PACKET) {
+        size_t m = n - base < PM_ACCEL_PACKET ? n - base : PM_ACCEL_PACKET;
+        _Alignas(32) int valid[PM_ACCEL_PACKET]; /* Embree asks for the mask aligned like the packet */
         struct RTCRayHit8 rh;
-        for (size_t j = 0; j < PACKET; j++) {
+        for (size_t j = 0; j < PM_ACCEL_PACKET; j++) {
             /* lanes past the end and rays Embree must not see stay invalid: a miss */
             size_t i = base + (j < m ? j : 0);
             valid[j] = j < m && ray_in_range(o[i], d[i], INFINITY) ? -1 : 0;
@@ -334,17 +333,40 @@ size_t pm_accel_bytes(const pm_accel *a) {
 double pm_accel_build_seconds(const pm_accel *a) { return a->build_seconds; }
 uint32_t pm_accel_alpha_tested_triangles(const pm_accel *a) { return a->alpha_tested; }
 
-double pm_accel_bench_raw(const pm_accel *a, const vec3 *origins, const vec3 *dirs, size_t n, size_t *hits) {
+double pm_accel_bench_raw(const pm_accel *a, const vec3 *origins, const vec3 *dirs, size_t n, bool packet, size_t *hits) {
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     size_t count = 0;
     double start = pm_now_seconds();
-    for (size_t i = 0; i < n; i++) {
-        struct RTCRayHit rh;
-        fill_ray(&rh.ray, origins[i], dirs[i], a->tnear, INFINITY);
-        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        rtcIntersect1(a->scene, &ctx, &rh);
-        count += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+    if (packet) {
+        for (size_t base = 0; base < n; base += PM_ACCEL_PACKET) {
+            size_t m = n - base < PM_ACCEL_PACKET ? n - base : PM_ACCEL_PACKET;
+            _Alignas(32) int valid[PM_ACCEL_PACKET];
+            struct RTCRayHit8 rh;
+            for (size_t j = 0; j < PM_ACCEL_PACKET; j++) {
+                size_t i = base + (j < m ? j : 0);
+                valid[j] = j < m ? -1 : 0;
+                rh.ray.org_x[j] = origins[i].x; rh.ray.org_y[j] = origins[i].y; rh.ray.org_z[j] = origins[i].z;
+                rh.ray.dir_x[j] = dirs[i].x; rh.ray.dir_y[j] = dirs[i].y; rh.ray.dir_z[j] = dirs[i].z;
+                rh.ray.tnear[j] = a->tnear;
+                rh.ray.tfar[j] = INFINITY;
+                rh.ray.time[j] = 0.f;
+                rh.ray.mask[j] = 0xFFFFFFFFu;
+                rh.ray.id[j] = 0;
+                rh.ray.flags[j] = 0;
+                rh.hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
+            }
+            rtcIntersect8(valid, a->scene, &ctx, &rh);
+            for (size_t j = 0; j < m; j++) count += rh.hit.geomID[j] != RTC_INVALID_GEOMETRY_ID;
+        }
+    } else {
+        for (size_t i = 0; i < n; i++) {
+            struct RTCRayHit rh;
+            fill_ray(&rh.ray, origins[i], dirs[i], a->tnear, INFINITY);
+            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rtcIntersect1(a->scene, &ctx, &rh);
+            count += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+        }
     }
     double seconds = pm_now_seconds() - start;
     if (hits) *hits = count;

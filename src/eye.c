@@ -701,7 +701,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
                     ray_of[(y - y0) * TILE + (x - x0)] = (uint16_t)traced++;
                 }
     if (!traced) return; /* an empty tile: none is ever made */
-    pm_accel_intersect_coherent(job->accel, traced, origin, direction, hit, hits);
+    pm_accel_intersect_packets(job->accel, traced, origin, direction, true, hit, hits);
     rays += traced;
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {

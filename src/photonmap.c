@@ -2,7 +2,8 @@
  *
  * Photons are generated in fixed chunks, each with its own random streams and its own run of
  * records in its thread's arena, merged in chunk order: the maps do not depend on the thread
- * count. Every photon starts
+ * count. A chunk is traced in waves (trace_chunk): Embree takes all of a wave's rays, then all
+ * of its hits bounce, each phase one tight loop. Every photon starts
  * with its share of the light's flux (power / (photons x pick probability)) and keeps it
  * through Russian roulette (only rescaled per channel by colour), except on surfaces whose
  * reflectance passes PM_PHOTON_MAX_SURVIVAL: there survival is capped and the weight grows by
@@ -494,7 +495,7 @@ static bool make_room(photon_list *list) {
 }
 
 /* Inline, the slow path out of line: a record at every diffuse hit. */
-static inline void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path) {
+static inline __attribute__((always_inline)) void push(photon_list *list, vec3 p, vec3 n, vec3 d, vec3 power, int path) {
     if (list->count == list->room && !make_room(list)) return;
     pm_photon_set(&list->data[list->count++], p, n, d, power, path);
 }
@@ -548,9 +549,129 @@ static void splat_to_camera(pass *ps, splat_list *out, const pm_hit *h, bool *sh
     sp->rgb[2] = l.z;
 }
 
+/* One photon in flight: what its next bounce needs besides its ray. */
+typedef struct {
+    pm_rng rng;
+    vec3 power;
+    int bounce, specular_bounces;
+    bool diffuse_seen;
+    bool first_hit_traced; /* its light is punctual and the reader traces its first hits */
+} photon_path;
+
+/* Starts photon number i of the pass (its own random stream): false when it carries nothing. */
+static bool start_photon(const pass *ps, pm_rng_family streams, uint64_t i, photon_path *p, vec3 *o, vec3 *d) {
+    p->rng = pm_rng_member(streams, i);
+    float source_pdf;
+    const light_source *l = &ps->sources[pick_source(ps, pm_rng_float(&p->rng), &source_pdf)];
+    vec3 flux;
+    if (source_pdf <= 0.f || !emit(ps, l, &p->rng, o, d, &flux)) return false;
+    p->first_hit_traced = ps->punctual_first_hits_traced && l->kind == SOURCE_PUNCTUAL;
+    p->power = v3_scale(flux, 1.f / ((float)ps->photons * source_pdf));
+    p->bounce = p->specular_bounces = 0;
+    p->diffuse_seen = false;
+    return true;
+}
+
+/* What photon p does where its ray (*o, *d) hit h: a record (and a camera splat) at a diffuse or
+ * glossy surface, then Russian roulette; true with its next ray in *o, *d, false when the path ends. */
+static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, vec3 *d, photon_list *list,
+                          splat_list *splats, uint64_t *rays) {
+    const pm_scene *s = ps->scene;
+    pm_rng *rng = &p->rng;
+    pm_surface sf;
+    bool shading_left = pm_scene_surface_lean(s, h->tri, h->b1, h->b2, &sf);
+    if (ps->volumes) p->power = v3_mul(p->power, pm_volume_transmittance(s, &sf, *d, h->t));
+    vec3 ng = facing(sf.ng, v3_neg(*d));
+    float D = v3_average(sf.kd), Sm = v3_average(sf.ks), St = v3_average(sf.kt);
+    if (D > 0.f || sf.glossy) {
+        if (ps->caustic_pass) {
+            /* stored, and the roulette below decides: a diffuse bounce ends the caustic
+             * path, while the specular part of a mixed surface carries it on (L S+ D is
+             * stored again at the next diffuse surface it reaches) */
+            if (p->specular_bounces > 0) {
+                push(list, sf.p, ng, *d, p->power, PM_PATH_CAUSTIC);
+                if (ps->splat) splat_to_camera(ps, splats, h, &shading_left, &sf, ng, *d, p->power, rays);
+            }
+        } else {
+            int path = p->bounce == 0 ? PM_PATH_DIRECT : (p->diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
+            if (p->bounce > 0 || !p->first_hit_traced) push(list, sf.p, ng, *d, p->power, path);
+        }
+    }
+    float x = pm_rng_float(rng), S = Sm + St;
+    if (sf.glossy) {
+        /* the glass share by its weight, else the lobe: sample it, then survive with the
+         * probability of its mean weight, so power is only rescaled per channel by colour; the
+         * glass share's probability is capped like every survival (a nearly clear glossy glass) */
+        float Sg = pm_minf(St, PM_PHOTON_MAX_SURVIVAL);
+        if (x < Sg) {
+            pm_specular_sample sp;
+            going_on(s, h, shading_left, ng, &sf);
+            if (!pm_scatter_specular(&sf, *d, rng, s->ray_scale, &sp)) return false;
+            p->power = v3_scale(v3_mul(p->power, sp.weight), 1.f / Sg);
+            *d = sp.direction;
+            *o = sp.origin;
+            p->specular_bounces++;
+            return true;
+        }
+        if (ps->caustic_pass) return false; /* a glossy bounce ends a caustic path, as a diffuse one does */
+        vec3 ns = going_on(s, h, shading_left, ng, &sf), wi, f;
+        float pdf;
+        if (!pm_brdf_sample(&sf.brdf, ns, v3_neg(*d), pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), &wi, &f,
+                            &pdf) || v3_dot(wi, ng) <= 0.f)
+            return false;
+        vec3 w = v3_scale(f, v3_dot(ns, wi) / pdf);
+        float q = pm_minf(PM_PHOTON_MAX_SURVIVAL, v3_average(w) / (1.f - Sg));
+        if (!(q > 0.f) || pm_rng_float(rng) >= q) return false;
+        p->power = v3_scale(v3_mul(p->power, w), 1.f / ((1.f - Sg) * q));
+        *d = wi;
+        *o = pm_offset_surface_origin(sf.p, sf.centroid, ng, s->ray_scale);
+        p->diffuse_seen = true;
+        return true;
+    }
+    /* survival D + S, capped: scale both choices by q and let the weights make up for it */
+    float q = D + S > PM_PHOTON_MAX_SURVIVAL ? PM_PHOTON_MAX_SURVIVAL / (D + S) : 1.f;
+    D *= q;
+    S *= q;
+    if (x < D) {
+        if (ps->caustic_pass) return false; /* a diffuse bounce ends any caustic path */
+        p->power = v3_scale(v3_mul(p->power, sf.kd), 1.f / D);
+        vec3 ns = going_on(s, h, shading_left, ng, &sf);
+        *d = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
+        if (v3_dot(*d, ng) <= 0.f) return false;
+        *o = pm_offset_surface_origin(sf.p, sf.centroid, ng, s->ray_scale);
+        p->diffuse_seen = true;
+        return true;
+    }
+    if (x < D + S) {
+        pm_specular_sample sp;
+        going_on(s, h, shading_left, ng, &sf);
+        if (!pm_scatter_specular(&sf, *d, rng, s->ray_scale, &sp)) return false;
+        p->power = v3_scale(v3_mul(p->power, sp.weight), 1.f / S);
+        *d = sp.direction;
+        *o = sp.origin;
+        p->specular_bounces++;
+        return true;
+    }
+    return false; /* absorbed */
+}
+
+/* A chunk's photons in waves of WAVE: a wave starts with that many photons (fewer at the end of
+ * the chunk), then repeats two phases while any path goes on: every ray of the wave to Embree,
+ * in packets of PM_ACCEL_PACKET, then every hit's bounce, the paths that go on packed to the
+ * front. Each phase is one tight loop (Embree's code and ours each stay hot, their branches
+ * predicted among their own), and Embree answers a packet of unrelated rays faster than one
+ * call each. Each photon keeps its own random stream, so its path is what it would be traced
+ * alone; only the order of the chunk's records depends on the waves, the same at any thread count. */
+enum { WAVE = 256 };
+typedef struct {
+    vec3 origin[WAVE], direction[WAVE];
+    photon_path path[WAVE];
+    bool hit[WAVE];
+    pm_hit hits[WAVE];
+} photon_wave;
+
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
     pass *ps = ctx;
-    const pm_scene *s = ps->scene;
     struct record_arena *arena = &ps->arenas[thread];
     photon_list list = {arena->data, arena->count, arena->capacity, arena->count, 0, arena->count, false, ps};
     splat_list splats = {NULL, 0, 0};
@@ -560,103 +681,47 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
         ps->chunk_skipped[chunk] = true;
         return;
     }
+    photon_wave wave, *w = &wave; /* 20 KB of the worker's stack */
     uint64_t first = (uint64_t)chunk * CHUNK, last = first + CHUNK < ps->photons ? first + CHUNK : ps->photons;
-    uint64_t rays = 0, dropped = 0;
+    uint64_t rays = 0, dropped = 0, next = first;
+    int max_bounces = ps->settings->max_bounces;
     pm_rng_family streams = pm_rng_family_for(ps->seed, ps->caustic_pass ? 0x51u : 0x61u);
-    for (uint64_t i = first; i < last && !atomic_load_explicit(&ps->out_of_memory, memory_order_relaxed); i++) {
-        /* long paths (a room of albedo 1: 100 bounces a photon) make a chunk long: the deadline is
-         * also checked inside it, every 64 photons */
-        if (chunk > 0 && ps->deadline > 0.0 && (i & 63) == 0 && i > first && pm_now_seconds() > ps->deadline) {
-            ps->chunk_cut[chunk] = (uint32_t)(last - i);
-            break;
+    while (next < last) {
+        size_t n = 0;
+        while (n < WAVE && next < last) {
+            if (atomic_load_explicit(&ps->out_of_memory, memory_order_relaxed)) {
+                next = last;
+                break;
+            }
+            /* long paths (a room of albedo 1: 100 bounces a photon) make a chunk long: the
+             * deadline is also checked inside it, every 64 photons started */
+            if (chunk > 0 && ps->deadline > 0.0 && (next & 63) == 0 && next > first && pm_now_seconds() > ps->deadline) {
+                ps->chunk_cut[chunk] = (uint32_t)(last - next);
+                next = last;
+                break;
+            }
+            if (!start_photon(ps, streams, next++, &w->path[n], &w->origin[n], &w->direction[n]) || max_bounces < 1) continue;
+            if (!v3_is_finite(w->path[n].power)) { dropped++; continue; } /* an overflowing light: never stored */
+            n++;
         }
-        pm_rng rng = pm_rng_member(streams, i);
-        float source_pdf;
-        const light_source *l = &ps->sources[pick_source(ps, pm_rng_float(&rng), &source_pdf)];
-        vec3 o, d, flux;
-        if (source_pdf <= 0.f || !emit(ps, l, &rng, &o, &d, &flux)) continue;
-        bool first_hit_traced = ps->punctual_first_hits_traced && l->kind == SOURCE_PUNCTUAL;
-        vec3 power = v3_scale(flux, 1.f / ((float)ps->photons * source_pdf));
-        int specular_bounces = 0;
-        bool diffuse_seen = false;
-        for (int bounce = 0; bounce < ps->settings->max_bounces; bounce++) {
-            pm_hit h;
-            if (!v3_is_finite(power)) { dropped++; break; } /* an overflowing light or weight: never stored */
-            rays++;
-            if (!pm_accel_intersect(ps->accel, o, d, INFINITY, &h)) break;
-            pm_surface sf;
-            bool shading_left = pm_scene_surface_lean(s, h.tri, h.b1, h.b2, &sf);
-            if (ps->volumes) power = v3_mul(power, pm_volume_transmittance(s, &sf, d, h.t));
-            vec3 ng = facing(sf.ng, v3_neg(d));
-            float D = v3_average(sf.kd), Sm = v3_average(sf.ks), St = v3_average(sf.kt);
-            if (D > 0.f || sf.glossy) {
-                if (ps->caustic_pass) {
-                    /* stored, and the roulette below decides: a diffuse bounce ends the caustic
-                     * path, while the specular part of a mixed surface carries it on (L S+ D is
-                     * stored again at the next diffuse surface it reaches) */
-                    if (specular_bounces > 0) {
-                        push(&list, sf.p, ng, d, power, PM_PATH_CAUSTIC);
-                        if (ps->splat) splat_to_camera(ps, &splats, &h, &shading_left, &sf, ng, d, power, &rays);
-                    }
-                } else {
-                    int path = bounce == 0 ? PM_PATH_DIRECT : (diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
-                    if (bounce > 0 || !first_hit_traced) push(&list, sf.p, ng, d, power, path);
-                }
-            }
-            float x = pm_rng_float(&rng), S = Sm + St;
-            if (sf.glossy) {
-                /* the glass share by its weight, else the lobe: sample it, then survive with the
-                 * probability of its mean weight, so power is only rescaled per channel by colour; the
-                 * glass share's probability is capped like every survival (a nearly clear glossy glass) */
-                float Sg = pm_minf(St, PM_PHOTON_MAX_SURVIVAL);
-                if (x < Sg) {
-                    pm_specular_sample sp;
-                    going_on(s, &h, shading_left, ng, &sf);
-                    if (!pm_scatter_specular(&sf, d, &rng, s->ray_scale, &sp)) break;
-                    power = v3_scale(v3_mul(power, sp.weight), 1.f / Sg);
-                    d = sp.direction;
-                    o = sp.origin;
-                    specular_bounces++;
+        while (n > 0) {
+            rays += n;
+            pm_accel_intersect_packets(ps->accel, n, w->origin, w->direction, false, w->hit, w->hits);
+            size_t going_on = 0;
+            for (size_t i = 0; i < n; i++) {
+                photon_path *p = &w->path[i];
+                if (!w->hit[i] || !photon_bounce(ps, p, &w->hits[i], &w->origin[i], &w->direction[i], &list, &splats, &rays))
                     continue;
+                if (++p->bounce >= max_bounces) continue;
+                if (!v3_is_finite(p->power)) { dropped++; continue; } /* an overflowing weight: never stored */
+                if (going_on != i) {
+                    w->path[going_on] = *p;
+                    w->origin[going_on] = w->origin[i];
+                    w->direction[going_on] = w->direction[i];
                 }
-                if (ps->caustic_pass) break; /* a glossy bounce ends a caustic path, as a diffuse one does */
-                vec3 ns = going_on(s, &h, shading_left, ng, &sf), wi, f;
-                float pdf;
-                if (!pm_brdf_sample(&sf.brdf, ns, v3_neg(d), pm_rng_float(&rng), pm_rng_float(&rng), pm_rng_float(&rng),
-                                    &wi, &f, &pdf) || v3_dot(wi, ng) <= 0.f)
-                    break;
-                vec3 w = v3_scale(f, v3_dot(ns, wi) / pdf);
-                float q = pm_minf(PM_PHOTON_MAX_SURVIVAL, v3_average(w) / (1.f - Sg));
-                if (!(q > 0.f) || pm_rng_float(&rng) >= q) break;
-                power = v3_scale(v3_mul(power, w), 1.f / ((1.f - Sg) * q));
-                d = wi;
-                o = pm_offset_surface_origin(sf.p, sf.centroid, ng, s->ray_scale);
-                diffuse_seen = true;
-                continue;
+                going_on++;
             }
-            /* survival D + S, capped: scale both choices by q and let the weights make up for it */
-            float q = D + S > PM_PHOTON_MAX_SURVIVAL ? PM_PHOTON_MAX_SURVIVAL / (D + S) : 1.f;
-            D *= q;
-            S *= q;
-            if (x < D) {
-                if (ps->caustic_pass) break; /* a diffuse bounce ends any caustic path */
-                power = v3_scale(v3_mul(power, sf.kd), 1.f / D);
-                vec3 ns = going_on(s, &h, shading_left, ng, &sf);
-                d = pm_sample_cosine(ns, pm_rng_float(&rng), pm_rng_float(&rng));
-                if (v3_dot(d, ng) <= 0.f) break;
-                o = pm_offset_surface_origin(sf.p, sf.centroid, ng, s->ray_scale);
-                diffuse_seen = true;
-            } else if (x < D + S) {
-                pm_specular_sample sp;
-                going_on(s, &h, shading_left, ng, &sf);
-                if (!pm_scatter_specular(&sf, d, &rng, s->ray_scale, &sp)) break;
-                power = v3_scale(v3_mul(power, sp.weight), 1.f / S);
-                d = sp.direction;
-                o = sp.origin;
-                specular_bounces++;
-            } else {
-                break; /* absorbed */
-            }
+            n = going_on;
         }
     }
     arena->data = list.data;

@@ -140,10 +140,11 @@ static void check_out_of_range(void) {
     pm_scene_free(&s);
 }
 
-/* Packets of camera rays (pm_accel_intersect_coherent) answer exactly as single rays do: the same
- * hits, distances and barycentrics, bit for bit, through a BLEND pane's stochastic alpha test, for
- * rays Embree cannot take, and for a count that is not a multiple of the packet. */
-static void check_coherent_packets(void) {
+/* Packets (pm_accel_intersect_packets), coherent (camera rays) or not (photons in flight), answer
+ * exactly as single rays do: the same hits, distances and barycentrics, bit for bit, through a
+ * BLEND pane's stochastic alpha test, for rays Embree cannot take, and for a count that is not a
+ * multiple of the packet. */
+static void check_packets(bool coherent) {
     pm_scene s;
     memset(&s, 0, sizeof s);
     uint32_t m = sb_lambert(&s, v3s(0.5f)), pane = sb_lambert(&s, v3s(0.5f));
@@ -171,7 +172,7 @@ static void check_coherent_packets(void) {
     }
     o[N / 2 + 5] = v3(0.f, 0.f, 1e20f);
     d[N / 2 + 9] = v3(NAN, 0.f, -1.f);
-    pm_accel_intersect_coherent(a, N, o, d, hit, hits);
+    pm_accel_intersect_packets(a, N, o, d, coherent, hit, hits);
     int differ = 0, hits_seen = 0, pane_hits = 0;
     for (int i = 0; i < N; i++) {
         pm_hit h;
@@ -182,7 +183,8 @@ static void check_coherent_packets(void) {
                                             memcmp(&h.b1, &hits[i].b1, 4) || memcmp(&h.b2, &hits[i].b2, 4))))
             differ++;
     }
-    printf("coherent packets: %d rays, %d hits (%d on the pane), %d differ from single rays\n", N, hits_seen, pane_hits, differ);
+    printf("%s packets: %d rays, %d hits (%d on the pane), %d differ from single rays\n", coherent ? "coherent" : "incoherent",
+           N, hits_seen, pane_hits, differ);
     CHECK(differ == 0, "packets must answer as single rays: %d differ", differ);
     CHECK(hits_seen == N - 2, "every ray in range hits the closed room: %d of %d", hits_seen, N - 2);
     CHECK(!hit[N / 2 + 5] && !hit[N / 2 + 9], "rays Embree cannot take are misses in a packet too");
@@ -192,7 +194,8 @@ static void check_coherent_packets(void) {
 }
 
 int main(void) {
-    check_coherent_packets();
+    check_packets(true);
+    check_packets(false);
     check_out_of_range();
     check_sphere_crossings(0.3f, v3(0.f, 0.35f, 0.f));
     check_sphere_crossings(0.3f, v3(3.f, -2.f, 1.f));
