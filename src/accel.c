@@ -279,6 +279,24 @@ bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *h
     return true;
 }
 
+/* A packet of the m <= PM_ACCEL_PACKET rays o[j], d[j]; lanes past m repeat the first ray (Embree
+ * reads every lane; the caller leaves them invalid). */
+static void fill_packet(struct RTCRayHit8 *rh, const vec3 *o, const vec3 *d, size_t m, float tnear) {
+    for (size_t j = 0; j < PM_ACCEL_PACKET; j++) {
+        size_t i = j < m ? j : 0;
+        rh->ray.org_x[j] = o[i].x; rh->ray.org_y[j] = o[i].y; rh->ray.org_z[j] = o[i].z;
+        rh->ray.dir_x[j] = d[i].x; rh->ray.dir_y[j] = d[i].y; rh->ray.dir_z[j] = d[i].z;
+        rh->ray.tnear[j] = tnear;
+        rh->ray.tfar[j] = INFINITY;
+        rh->ray.time[j] = 0.f;
+        rh->ray.mask[j] = 0xFFFFFFFFu;
+        rh->ray.id[j] = 0;
+        rh->ray.flags[j] = 0;
+        rh->hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
+        rh->hit.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
+    }
+}
+
 void pm_accel_intersect_packets(const pm_accel *a, size_t n, const vec3 *o, const vec3 *d, bool coherent, bool *hit, pm_hit *hits) {
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
@@ -287,21 +305,9 @@ void pm_accel_intersect_packets(const pm_accel *a, size_t n, const vec3 *o, cons
         size_t m = n - base < PM_ACCEL_PACKET ? n - base : PM_ACCEL_PACKET;
         _Alignas(32) int valid[PM_ACCEL_PACKET]; /* Embree asks for the mask aligned like the packet */
         struct RTCRayHit8 rh;
-        for (size_t j = 0; j < PM_ACCEL_PACKET; j++) {
-            /* lanes past the end and rays Embree must not see stay invalid: a miss */
-            size_t i = base + (j < m ? j : 0);
-            valid[j] = j < m && ray_in_range(o[i], d[i], INFINITY) ? -1 : 0;
-            rh.ray.org_x[j] = o[i].x; rh.ray.org_y[j] = o[i].y; rh.ray.org_z[j] = o[i].z;
-            rh.ray.dir_x[j] = d[i].x; rh.ray.dir_y[j] = d[i].y; rh.ray.dir_z[j] = d[i].z;
-            rh.ray.tnear[j] = a->tnear;
-            rh.ray.tfar[j] = INFINITY;
-            rh.ray.time[j] = 0.f;
-            rh.ray.mask[j] = 0xFFFFFFFFu;
-            rh.ray.id[j] = 0;
-            rh.ray.flags[j] = 0;
-            rh.hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
-            rh.hit.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
-        }
+        fill_packet(&rh, o + base, d + base, m, a->tnear);
+        /* lanes past the end and rays Embree must not see stay invalid: a miss */
+        for (size_t j = 0; j < PM_ACCEL_PACKET; j++) valid[j] = j < m && ray_in_range(o[base + j], d[base + j], INFINITY) ? -1 : 0;
         rtcIntersect8(valid, a->scene, &ctx, &rh);
         for (size_t j = 0; j < m; j++) {
             size_t i = base + j;
@@ -343,19 +349,8 @@ double pm_accel_bench_raw(const pm_accel *a, const vec3 *origins, const vec3 *di
             size_t m = n - base < PM_ACCEL_PACKET ? n - base : PM_ACCEL_PACKET;
             _Alignas(32) int valid[PM_ACCEL_PACKET];
             struct RTCRayHit8 rh;
-            for (size_t j = 0; j < PM_ACCEL_PACKET; j++) {
-                size_t i = base + (j < m ? j : 0);
-                valid[j] = j < m ? -1 : 0;
-                rh.ray.org_x[j] = origins[i].x; rh.ray.org_y[j] = origins[i].y; rh.ray.org_z[j] = origins[i].z;
-                rh.ray.dir_x[j] = dirs[i].x; rh.ray.dir_y[j] = dirs[i].y; rh.ray.dir_z[j] = dirs[i].z;
-                rh.ray.tnear[j] = a->tnear;
-                rh.ray.tfar[j] = INFINITY;
-                rh.ray.time[j] = 0.f;
-                rh.ray.mask[j] = 0xFFFFFFFFu;
-                rh.ray.id[j] = 0;
-                rh.ray.flags[j] = 0;
-                rh.hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
-            }
+            fill_packet(&rh, origins + base, dirs + base, m, a->tnear);
+            for (size_t j = 0; j < PM_ACCEL_PACKET; j++) valid[j] = j < m ? -1 : 0;
             rtcIntersect8(valid, a->scene, &ctx, &rh);
             for (size_t j = 0; j < m; j++) count += rh.hit.geomID[j] != RTC_INVALID_GEOMETRY_ID;
         }

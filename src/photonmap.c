@@ -572,6 +572,20 @@ static bool start_photon(const pass *ps, pm_rng_family streams, uint64_t i, phot
     return true;
 }
 
+/* Photon p's mirror or glass bounce at hit h, chosen with probability `chosen`: the shared
+ * scattering function decides reflection or refraction; false when nothing goes on. */
+static inline bool specular_bounce(const pm_scene *s, const pm_hit *h, bool shading_left, vec3 ng, pm_surface *sf,
+                                   float chosen, photon_path *p, vec3 *o, vec3 *d) {
+    pm_specular_sample sp;
+    going_on(s, h, shading_left, ng, sf);
+    if (!pm_scatter_specular(sf, *d, &p->rng, s->ray_scale, &sp)) return false;
+    p->power = v3_scale(v3_mul(p->power, sp.weight), 1.f / chosen);
+    *d = sp.direction;
+    *o = sp.origin;
+    p->specular_bounces++;
+    return true;
+}
+
 /* What photon p does where its ray (*o, *d) hit h: a record (and a camera splat) at a diffuse or
  * glossy surface, then Russian roulette; true with its next ray in *o, *d, false when the path ends. */
 static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, vec3 *d, photon_list *list,
@@ -603,16 +617,7 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
          * probability of its mean weight, so power is only rescaled per channel by colour; the
          * glass share's probability is capped like every survival (a nearly clear glossy glass) */
         float Sg = pm_minf(St, PM_PHOTON_MAX_SURVIVAL);
-        if (x < Sg) {
-            pm_specular_sample sp;
-            going_on(s, h, shading_left, ng, &sf);
-            if (!pm_scatter_specular(&sf, *d, rng, s->ray_scale, &sp)) return false;
-            p->power = v3_scale(v3_mul(p->power, sp.weight), 1.f / Sg);
-            *d = sp.direction;
-            *o = sp.origin;
-            p->specular_bounces++;
-            return true;
-        }
+        if (x < Sg) return specular_bounce(s, h, shading_left, ng, &sf, Sg, p, o, d);
         if (ps->caustic_pass) return false; /* a glossy bounce ends a caustic path, as a diffuse one does */
         vec3 ns = going_on(s, h, shading_left, ng, &sf), wi, f;
         float pdf;
@@ -642,16 +647,7 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
         p->diffuse_seen = true;
         return true;
     }
-    if (x < D + S) {
-        pm_specular_sample sp;
-        going_on(s, h, shading_left, ng, &sf);
-        if (!pm_scatter_specular(&sf, *d, rng, s->ray_scale, &sp)) return false;
-        p->power = v3_scale(v3_mul(p->power, sp.weight), 1.f / S);
-        *d = sp.direction;
-        *o = sp.origin;
-        p->specular_bounces++;
-        return true;
-    }
+    if (x < D + S) return specular_bounce(s, h, shading_left, ng, &sf, S, p, o, d);
     return false; /* absorbed */
 }
 
