@@ -35,6 +35,9 @@ typedef struct {
     uint64_t seed;
     int threads;
     int max_bounces;
+    /* photons a chunk traces side by side (0: PM_PHOTON_WAVE, also the most): any size stores
+     * the same records, in another order; 1 traces one photon's path after another */
+    int wave;
     bool projection_maps;      /* aim caustic photons at specular objects */
     /* Christensen's precomputation for final gathering: irradiance estimated once at every
      * irradiance_stride-th global photon (0 = none), with irradiance_estimate; a gather ray

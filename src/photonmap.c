@@ -651,14 +651,14 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
     return false; /* absorbed */
 }
 
-/* A chunk's photons in waves of WAVE: a wave starts with that many photons (fewer at the end of
+/* A chunk's photons in waves of WAVE (settings->wave if smaller): a wave starts with that many photons (fewer at the end of
  * the chunk), then repeats two phases while any path goes on: every ray of the wave to Embree,
  * in packets of PM_ACCEL_PACKET, then every hit's bounce, the paths that go on packed to the
  * front. Each phase is one tight loop (Embree's code and ours each stay hot, their branches
  * predicted among their own), and Embree answers a packet of unrelated rays faster than one
  * call each. Each photon keeps its own random stream, so its path is what it would be traced
  * alone; only the order of the chunk's records depends on the waves, the same at any thread count. */
-enum { WAVE = 256 };
+enum { WAVE = PM_PHOTON_WAVE };
 typedef struct {
     vec3 origin[WAVE], direction[WAVE];
     photon_path path[WAVE];
@@ -681,10 +681,11 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     uint64_t first = (uint64_t)chunk * CHUNK, last = first + CHUNK < ps->photons ? first + CHUNK : ps->photons;
     uint64_t rays = 0, dropped = 0, next = first;
     int max_bounces = ps->settings->max_bounces;
+    size_t wave_size = ps->settings->wave > 0 && ps->settings->wave < WAVE ? (size_t)ps->settings->wave : WAVE;
     pm_rng_family streams = pm_rng_family_for(ps->seed, ps->caustic_pass ? 0x51u : 0x61u);
     while (next < last) {
         size_t n = 0;
-        while (n < WAVE && next < last) {
+        while (n < wave_size && next < last) {
             if (atomic_load_explicit(&ps->out_of_memory, memory_order_relaxed)) {
                 next = last;
                 break;

@@ -1,4 +1,4 @@
-/* test_photons.c: the photon pass against known answers: furnace, inverse-square, power bookkeeping, caustic energy, maps only where needed. */
+/* test_photons.c: the photon pass against known answers: furnace, inverse-square, power bookkeeping, caustic energy, maps only where needed, waves against one photon at a time. */
 #include "accel.h"
 #include "defaults.h"
 #include "eye.h"
@@ -368,7 +368,78 @@ static void roulette_both_branches(void) {
     pm_scene_free(&s);
 }
 
+static int compare_records(const void *a, const void *b) { return memcmp(a, b, sizeof(pm_photon)); }
+static int compare_splats(const void *a, const void *b) { return memcmp(a, b, sizeof(pm_camera_splat)); }
+
+/* Waves (PM_PHOTON_WAVE photons side by side) against the plain tracer, one photon's path after
+ * another (wave 1), and an odd wave of 7: the same records and camera splats, bit for bit, only
+ * in another order, and the same ray count, in both kinds of pass, on a room with glass, a mirror,
+ * rough metal, an area light and a point light (every branch of a bounce). */
+static void waves_change_only_order(void) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    sb_box(&s, v3(-2, 0, -2), v3(2, 3, 2), sb_lambert(&s, v3(0.7f, 0.6f, 0.5f)), true);
+    add_sphere(&s, v3(-0.9f, 0.5f, 0.f), 0.45f, sb_material(&s, v3s(1.f), 0, 0, 1, v3s(0), false), 48, 24);
+    add_sphere(&s, v3(0.2f, 0.5f, 0.6f), 0.4f, sb_material(&s, v3s(0.9f), 1, 0, 0, v3s(0), false), 48, 24);
+    add_sphere(&s, v3(0.9f, 0.5f, -0.5f), 0.4f, sb_material(&s, v3(0.9f, 0.7f, 0.4f), 1, 0.5f, 0, v3s(0), false), 48, 24);
+    sb_quad(&s, v3(-0.4f, 2.99f, -0.4f), v3(0.4f, 2.99f, -0.4f), v3(0.4f, 2.99f, 0.4f), v3(-0.4f, 2.99f, 0.4f),
+            sb_material(&s, v3s(0.f), 0, 1, 0, v3s(8.f), false));
+    sb_point_light(&s, v3(1.2f, 2.4f, 1.2f), v3s(3.f));
+    pm_accel *a = sb_finish(&s);
+    pm_camera cam = sb_camera(v3(0.f, 1.5f, 1.95f), v3(0.f, 0.8f, 0.f), v3(0.f, 1.f, 0.f), 70.f);
+    int waves[3] = {1, 7, 0};
+    pm_photon_buffer records[2][3];
+    pm_splat_buffer splats[3];
+    uint64_t rays[2][3];
+    memset(records, 0, sizeof records);
+    memset(splats, 0, sizeof splats);
+    bool ok = true;
+    for (int w = 0; w < 3; w++) {
+        pm_photon_settings ps = photon_settings(0, 0);
+        ps.wave = waves[w];
+        pm_photon_tracer *t = pm_photon_tracer_create(&s, a, &ps);
+        ok = ok && t;
+        if (!t) break;
+        pm_photon_tracer_set_splats(t, &cam, 64, 48, &splats[w]);
+        for (int caustic = 0; caustic < 2; caustic++) {
+            pm_photon_stats st;
+            memset(&st, 0, sizeof st);
+            ok = ok && pm_photon_tracer_trace_into(t, caustic, 40000, 9, &records[caustic][w], &st);
+            rays[caustic][w] = st.rays;
+            qsort(records[caustic][w].data, records[caustic][w].count, sizeof(pm_photon), compare_records);
+        }
+        qsort(splats[w].data, splats[w].count, sizeof(pm_camera_splat), compare_splats);
+        pm_photon_tracer_destroy(t);
+    }
+    CHECK(ok, "three tracers and their passes");
+    for (int caustic = 0; ok && caustic < 2; caustic++) {
+        size_t n = records[caustic][0].count;
+        printf("waves: %s pass, %zu records, %llu rays with one photon at a time\n", caustic ? "caustic" : "global", n,
+               (unsigned long long)rays[caustic][0]);
+        CHECK(n > 1000, "the %s pass stores photons (%zu)", caustic ? "caustic" : "global", n);
+        for (int w = 1; w < 3; w++) {
+            CHECK(records[caustic][w].count == n && rays[caustic][w] == rays[caustic][0] &&
+                      !memcmp(records[caustic][w].data, records[caustic][0].data, n * sizeof(pm_photon)),
+                  "wave %d: the same %s records and rays as one photon at a time (%zu of %zu records, %llu of %llu rays)",
+                  waves[w], caustic ? "caustic" : "global", records[caustic][w].count, n, (unsigned long long)rays[caustic][w],
+                  (unsigned long long)rays[caustic][0]);
+        }
+    }
+    CHECK(splats[0].count > 100, "caustic photons seen by the camera (%zu splats)", splats[0].count);
+    for (int w = 1; ok && w < 3; w++)
+        CHECK(splats[w].count == splats[0].count && !memcmp(splats[w].data, splats[0].data, splats[0].count * sizeof(pm_camera_splat)),
+              "wave %d: the same camera splats (%zu of %zu)", waves[w], splats[w].count, splats[0].count);
+    for (int w = 0; w < 3; w++) {
+        free(records[0][w].data);
+        free(records[1][w].data);
+        free(splats[w].data);
+    }
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 int main(void) {
+    waves_change_only_order();
     record_round_trip();
     roulette_both_branches();
     parallel_light_projection(false);
