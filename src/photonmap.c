@@ -651,13 +651,14 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
     return false; /* absorbed */
 }
 
-/* A chunk's photons in waves of WAVE (settings->wave if smaller): a wave starts with that many photons (fewer at the end of
- * the chunk), then repeats two phases while any path goes on: every ray of the wave to Embree,
- * in packets of PM_ACCEL_PACKET, then every hit's bounce, the paths that go on packed to the
- * front. Each phase is one tight loop (Embree's code and ours each stay hot, their branches
- * predicted among their own), and Embree answers a packet of unrelated rays faster than one
- * call each. Each photon keeps its own random stream, so its path is what it would be traced
- * alone; only the order of the chunk's records depends on the waves, the same at any thread count. */
+/* A chunk's photons in waves of WAVE (settings->wave if smaller): a wave starts with that many
+ * photons (fewer at the end of the chunk), then repeats two phases while any path goes on: every
+ * ray of the wave to Embree, in packets of PM_ACCEL_PACKET, then every hit's bounce, the paths
+ * that go on packed to the front. Each phase is one tight loop (Embree's code and ours each stay
+ * hot, their branches predicted among their own), and Embree answers a packet of unrelated rays
+ * faster than one call each. Each photon keeps its own random stream, so its path is what it would
+ * be traced alone; only the order of the chunk's records depends on the waves, the same at any
+ * thread count. */
 enum { WAVE = PM_PHOTON_WAVE };
 typedef struct {
     vec3 origin[WAVE], direction[WAVE];
