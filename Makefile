@@ -108,7 +108,7 @@ bench: deps pmview build/rel/bench_pm build/rel/photon_ceiling build/rel/caustic
 build/rel/bench_pm: bench/bench_pm.c bench/bench_settings.h build/rel/libpm.a
 	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
 
-# The photon pass's own rays are recorded by wrapping pm_accel_intersect at link time, for this program only.
+# The photon pass's own rays are recorded by wrapping pm_accel_intersect and pm_accel_intersect_packets at link time, for this program only.
 build/rel/photon_ceiling: bench/photon_ceiling.c bench/bench_settings.h build/rel/libpm.a
 	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ -Wl,--wrap=pm_accel_intersect -Wl,--wrap=pm_accel_intersect_packets $(LIBS)
 

@@ -17,8 +17,8 @@
  * faster than rtcIntersect1; the same rays, in the same packets, replayed bare (rtcIntersect8)
  * give the second ceiling, raw_packet_rays_per_second, and ratio_to_raw_packets: about the share
  * of the pass's time that is Embree's, the rest being our own work per ray. The rays are logged
- * in the pass's order (a wave's first rays, then its second, ...); rtcIntersect1 takes them at
- * about the rate it takes one photon's bounces after another (within 4%, docs/progressive.md).
+ * in the pass's order (a wave's first rays, then its second, ...); rtcIntersect1 takes them 2-6%
+ * slower than one photon's bounces after another (docs/progressive.md, eleventh session).
  */
 #include <stdbool.h>
 #include <stdio.h>

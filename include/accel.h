@@ -7,8 +7,8 @@
  * single (rtcIntersect1 / rtcOccluded1), the integrators being incoherent path tracers, except
  * in two places, where rays go in packets of 8 with the same answers: where they start together
  * and point alike (a tile's camera rays: twice as fast), and the photon tracer's waves of
- * unrelated photons, whose rays Embree answers faster 8 to a call than one by one. A scene with alpha-tested
- * triangles must outlive its accel.
+ * unrelated photons, whose rays Embree answers faster 8 to a call than one by one. A scene with
+ * alpha-tested triangles must outlive its accel.
  */
 #ifndef PM_ACCEL_H
 #define PM_ACCEL_H
