@@ -65,6 +65,10 @@
 #define PM_PPM_PROBE_ITERATIONS 8          /* ... over at least this many iterations of two eye passes first */
 #define PM_PPM_GATHER_PHOTONS 8.0          /* final gathering: the shared radius starts holding this many (each estimate is averaged over pixels and iterations) */
 
+/* estimates stay on their side of the geometry (clip.h), in both photon modes */
+#define PM_CLIP_PROBES 4                   /* rays along a gather point's tangent plane that look for walls across its disc (each reaches r / cos(pi / this)) */
+#define PM_CLIP_LIFT 0.002f                /* ... lifted this share of the disc's radius off the surface, so that they do not graze it */
+
 /* photon mapping (classic two-pass mode) */
 #define PM_DEFAULT_PHOTONS_PER_PIXEL 1.0   /* global photons = pixels x this, clamped below */
 #define PM_MIN_DEFAULT_PHOTONS 100000

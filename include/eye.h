@@ -31,6 +31,7 @@ typedef struct {
     bool view_photons;        /* show the maps' estimates at the first diffuse hit, no shadow rays */
     bool path_trace;          /* the path tracer (--mode pathtrace): maps are ignored, see pm_eye_iterate */
     const pm_shadow_map *shadow; /* shadow photons; NULL: every punctual light sample casts its shadow ray */
+    bool unclipped;           /* classic estimates read their whole disc, through walls (no clip.h): only to measure what clipping mends */
 } pm_eye_settings;
 
 typedef struct {

@@ -12,6 +12,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include "brdf.h"
+#include "clip.h"
 #include "photon.h"
 
 typedef struct {
@@ -30,6 +31,10 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
 void pm_photon_grid_free(pm_photon_grid *g);
 size_t pm_photon_grid_bytes(const pm_photon_grid *g);
 
+/* Whether a disc of that radius around p may hold any photon: false when it lies outside the
+ * photons' bounds or meets only empty cells (a cheap look at the grid, no photon read). */
+bool pm_photon_grid_may_find(const pm_photon_grid *g, vec3 p, float radius2);
+
 /* The summed power and count of the photons within sqrt(radius2) of p that pm_photon_counts_for
  * a surface facing n with that path mask. */
 uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
@@ -40,13 +45,15 @@ uint32_t pm_photon_grid_sum_brdf(const pm_photon_grid *g, vec3 p, vec3 n, float 
                                  const pm_brdf *b, vec3 ns, vec3 wo, vec3 *reflected);
 
 /* One disc query of a batch: lobe NULL for the plain sum (pm_photon_grid_sum_facing), else the
- * lobe-weighted one (pm_photon_grid_sum_brdf) with its ns and wo. */
+ * lobe-weighted one (pm_photon_grid_sum_brdf) with its ns and wo; clip NULL for the whole disc,
+ * else only the photons it keeps count (the caller divides by the kept area). */
 typedef struct {
     vec3 p, n;
     float radius2;
     unsigned path_mask;
     const pm_brdf *lobe;
     vec3 ns, wo;
+    const pm_clip *clip;
 } pm_grid_query;
 typedef struct {
     vec3 power;

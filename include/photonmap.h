@@ -13,6 +13,7 @@
 #include <stdint.h>
 #include "accel.h"
 #include "brdf.h"
+#include "clip.h"
 #include "kdtree.h"
 #include "scene.h"
 
@@ -44,6 +45,7 @@ typedef struct {
      * then needs only the nearest such point instead of a k-nearest estimate. */
     int irradiance_stride;
     pm_estimate_settings irradiance_estimate;
+    bool unclipped;            /* the precomputed estimates read their whole disc, through walls (to measure clip.h) */
 } pm_photon_settings;
 
 typedef struct {
@@ -120,16 +122,18 @@ void pm_photon_maps_free(pm_photon_maps *maps);
 /* Irradiance-like estimate E at point p with side normal n (facing the viewer), so that the
  * reflected radiance off a Lambert surface is kd/pi * E: the sum of the power of the k nearest
  * photons that arrived from the front of this surface, divided by the kernel's area. */
-vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e);
+/* With a site, only the photons on p's side of the geometry count (clip.h), over the area of the
+ * disc they stand for; the clip is made only when the query found photons. */
+vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e, const pm_clip_site *site);
 
 /* The reflected radiance toward wo at a glossy point (Jensen's estimate with any BRDF): the same
  * photons, each one's power weighted by f(wo, wi) for the direction wi it arrived from; ns is
  * the shading normal on wo's side. */
 vec3 pm_photon_estimate_brdf(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e, const pm_brdf *b,
-                             vec3 ns, vec3 wo);
+                             vec3 ns, vec3 wo, const pm_clip_site *site);
 
-/* The precomputed irradiance nearest p on a surface facing n; false when there is none within
- * irradiance_radius (the caller then makes a full estimate). */
-bool pm_photon_irradiance_lookup(const pm_photon_maps *maps, vec3 p, vec3 n, vec3 *irradiance);
+/* The precomputed irradiance nearest p on a surface facing n (and kept by clip, when not NULL);
+ * false when there is none within irradiance_radius (the caller then makes a full estimate). */
+bool pm_photon_irradiance_lookup(const pm_photon_maps *maps, vec3 p, vec3 n, const pm_clip *clip, vec3 *irradiance);
 
 #endif

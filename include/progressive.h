@@ -56,6 +56,7 @@ typedef struct {
     bool caustic_by_statistics; /* the caustic seen directly from visible-point statistics, no camera splats (to compare) */
     double first_photon_fraction; /* share of the photons the first iteration after a start or a restart emits; 0 = PM_PPM_FIRST_PHOTON_FRACTION */
     int eye_passes;            /* eye passes reading each photon pass; 0 = automatic (from the rays of both, see pm_progressive_iterate) */
+    bool unclipped;            /* estimates read their whole disc, through walls (no clip.h): only to measure what clipping costs and mends */
 } pm_progressive_settings;
 
 typedef struct {
@@ -66,6 +67,7 @@ typedef struct {
     double gather_seconds;
     uint64_t photons_found;    /* photons that fell inside a visible or gather point's disc */
     uint64_t splats;           /* caustic photons splatted to the camera */
+    uint64_t clip_rays;        /* rays the clips' probes cast (clip.h) */
 } pm_progressive_stats;
 
 /* Radii over the pixels whose statistics have started (scene units). */

@@ -308,9 +308,23 @@ static inline vec3 side_normal(const pm_surface *sf, vec3 ng) { return v3_dot(sf
 
 /* Radiance reflected toward wo by a photon map's estimate at a diffuse or glossy point: kd/pi x
  * the irradiance estimate, or each photon weighted by the lobe. */
-static vec3 map_estimate(const pm_kdtree *map, const pm_surface *sf, vec3 ng, vec3 wo, const pm_estimate_settings *e) {
-    if (sf->glossy) return pm_photon_estimate_brdf(map, sf->p, ng, e, &sf->brdf, side_normal(sf, ng), wo);
-    return v3_scale(v3_mul(sf->kd, pm_photon_estimate(map, sf->p, ng, e)), PM_INV_PI);
+/* Where a classic estimate at sf (on triangle tri) is clipped to its side of the geometry
+ * (clip.h): its probes' rotation follows the point and the iteration, not the thread. made: a
+ * clip already made there, or NULL. */
+static pm_clip_site clip_site(const eye_job *job, const pm_surface *sf, uint32_t tri, const pm_clip *made, uint64_t *rays) {
+    uint32_t bits[3];
+    memcpy(bits, &sf->p, sizeof bits);
+    uint64_t seed = job->settings->seed ^ pm_hash64(((uint64_t)bits[0] << 32 | bits[1]) ^ pm_hash64((uint64_t)bits[2] << 32 | job->iteration));
+    pm_clip_site site = {job->scene, job->accel, tri, seed, rays, made};
+    return site;
+}
+
+static vec3 map_estimate(const eye_job *job, const pm_kdtree *map, const pm_surface *sf, uint32_t tri, vec3 ng, vec3 wo,
+                         const pm_estimate_settings *e, uint64_t *rays) {
+    pm_clip_site site = clip_site(job, sf, tri, NULL, rays);
+    const pm_clip_site *clip = job->settings->unclipped ? NULL : &site;
+    if (sf->glossy) return pm_photon_estimate_brdf(map, sf->p, ng, e, &sf->brdf, side_normal(sf, ng), wo, clip);
+    return v3_scale(v3_mul(sf->kd, pm_photon_estimate(map, sf->p, ng, e, clip)), PM_INV_PI);
 }
 
 /* A direction leaving a diffuse or glossy point (ng, ns on wo's side) by its own sampling and the
@@ -347,11 +361,16 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, v
         weight = v3_mul(weight, pm_volume_transmittance(s, &y, d, h.t));
         vec3 wo = v3_neg(d), yng = facing(y.ng, wo);
         if (y.glossy) {
-            result = v3_add(result, v3_mul(weight, map_estimate(&set->maps->global, &y, yng, wo, &set->global_estimate)));
+            result = v3_add(result, v3_mul(weight, map_estimate(job, &set->maps->global, &y, h.tri, yng, wo, &set->global_estimate, rays)));
         } else if (!v3_is_black(y.kd)) {
             vec3 e;
-            if (!pm_photon_irradiance_lookup(set->maps, y.p, yng, &e))
-                e = pm_photon_estimate(&set->maps->global, y.p, yng, &set->global_estimate);
+            /* one clip for the lookup and the estimate it may fall back to */
+            pm_clip clip;
+            float reach = fmaxf(set->maps->irradiance_radius, set->global_estimate.max_radius);
+            if (!set->unclipped) pm_clip_make(&clip, s, job->accel, y.p, yng, h.tri, reach, clip_site(job, &y, h.tri, NULL, NULL).seed, rays);
+            pm_clip_site site = clip_site(job, &y, h.tri, &clip, rays);
+            if (!pm_photon_irradiance_lookup(set->maps, y.p, yng, set->unclipped ? NULL : &clip, &e))
+                e = pm_photon_estimate(&set->maps->global, y.p, yng, &set->global_estimate, set->unclipped ? NULL : &site);
             result = v3_add(result, v3_mul(weight, v3_scale(v3_mul(y.kd, e), PM_INV_PI)));
         }
         /* the specular part of the same surface (a mixed material) reflects what it sees too */
@@ -406,16 +425,16 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
                 pm_estimate_settings direct_only = set->global_estimate, indirect_only = set->global_estimate;
                 direct_only.path_mask = 1u << PM_PATH_DIRECT;
                 indirect_only.path_mask = 1u << PM_PATH_INDIRECT;
-                out[comp] = v3_add(out[comp], v3_mul(throughput, map_estimate(&set->maps->global, &sf, ng, wo, &direct_only)));
+                out[comp] = v3_add(out[comp], v3_mul(throughput, map_estimate(job, &set->maps->global, &sf, h.tri, ng, wo, &direct_only, rays)));
                 out[depth == 0 ? PM_INDIRECT : PM_SPECULAR] = v3_add(out[depth == 0 ? PM_INDIRECT : PM_SPECULAR],
-                    v3_mul(throughput, map_estimate(&set->maps->global, &sf, ng, wo, &indirect_only)));
+                    v3_mul(throughput, map_estimate(job, &set->maps->global, &sf, h.tri, ng, wo, &indirect_only, rays)));
             } else {
                 out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, &sf, wo, rng, rays, set->shadow,
                                                                               shadow_counts, NULL)));
             }
             if (set->maps && set->maps->caustic.count) {
                 int c = depth == 0 ? PM_CAUSTIC : PM_SPECULAR;
-                out[c] = v3_add(out[c], v3_mul(throughput, map_estimate(&set->maps->caustic, &sf, ng, wo, &set->caustic_estimate)));
+                out[c] = v3_add(out[c], v3_mul(throughput, map_estimate(job, &set->maps->caustic, &sf, h.tri, ng, wo, &set->caustic_estimate, rays)));
             }
             if (set->maps && set->maps->global.count && !set->view_photons) {
                 int c = depth == 0 ? PM_INDIRECT : PM_SPECULAR;
@@ -428,7 +447,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
                 } else {
                     pm_estimate_settings indirect_only = set->global_estimate;
                     indirect_only.path_mask = 1u << PM_PATH_INDIRECT;
-                    l = v3_mul(throughput, map_estimate(&set->maps->global, &sf, ng, wo, &indirect_only));
+                    l = v3_mul(throughput, map_estimate(job, &set->maps->global, &sf, h.tri, ng, wo, &indirect_only, rays));
                 }
                 out[c] = v3_add(out[c], l);
             }

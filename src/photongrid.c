@@ -106,9 +106,10 @@ static inline __attribute__((always_inline)) bool within(const pm_photon *ph, pm
 /* The share of a photon within the radius: counting for the surface, weighted by the lobe's
  * f(wo, wi) when a lobe is given. */
 static inline __attribute__((always_inline)) void sum_inside(const pm_photon *ph, vec3 n, unsigned path_mask,
-                                                             const pm_brdf *lobe, vec3 ns, vec3 wo, vec3 *sum,
-                                                             uint32_t *found) {
+                                                             const pm_brdf *lobe, vec3 ns, vec3 wo, const pm_clip *clip,
+                                                             vec3 *sum, uint32_t *found) {
     if (!pm_photon_counts_for(ph, n, path_mask)) return;
+    if (clip && !pm_clip_keeps(clip, pm_photon_position(ph))) return;
     vec3 q = pm_photon_power(ph);
     if (lobe) q = v3_mul(q, pm_brdf_eval(lobe, ns, wo, v3_neg(pm_photon_direction(ph))));
     *sum = v3_add(*sum, q);
@@ -118,8 +119,8 @@ static inline __attribute__((always_inline)) void sum_inside(const pm_photon *ph
 /* One photon's share of a disc sum (the rare wide discs: every photon, or cell by cell). */
 static inline __attribute__((always_inline)) void sum_photon(const pm_photon *ph, pm_f4_ p4, vec3 n, float radius2,
                                                              unsigned path_mask, const pm_brdf *lobe, vec3 ns, vec3 wo,
-                                                             vec3 *sum, uint32_t *found) {
-    if (within(ph, p4, radius2)) sum_inside(ph, n, path_mask, lobe, ns, wo, sum, found);
+                                                             const pm_clip *clip, vec3 *sum, uint32_t *found) {
+    if (within(ph, p4, radius2)) sum_inside(ph, n, path_mask, lobe, ns, wo, clip, sum, found);
 }
 
 /* Where a disc's photons are: nothing, every photon (a disc wider than the photons' cells), the
@@ -169,6 +170,12 @@ static inline void plan_disc(const pm_photon_grid *g, vec3 p, float radius2, dis
             }
 }
 
+bool pm_photon_grid_may_find(const pm_photon_grid *g, vec3 p, float radius2) {
+    disc_plan plan;
+    plan_disc(g, p, radius2, &plan);
+    return plan.kind == PLAN_ALL || plan.kind == PLAN_CELLS || (plan.kind == PLAN_BUCKETS && plan.buckets > 0);
+}
+
 /* Reads the planned buckets' bounds and prefetches each bucket's first photons. */
 static inline void locate_buckets(const pm_photon_grid *g, disc_plan *plan) {
     for (int k = 0; k < plan->buckets; k++) {
@@ -188,12 +195,13 @@ static inline void locate_buckets(const pm_photon_grid *g, disc_plan *plan) {
  * per-photon branch. */
 static inline __attribute__((always_inline)) uint32_t sum_planned(const pm_photon_grid *g, const disc_plan *plan, vec3 p,
                                                                   vec3 n, float radius2, unsigned path_mask,
-                                                                  const pm_brdf *lobe, vec3 ns, vec3 wo, vec3 *power) {
+                                                                  const pm_brdf *lobe, vec3 ns, vec3 wo,
+                                                                  const pm_clip *clip, vec3 *power) {
     vec3 sum = v3s(0.f);
     uint32_t found = 0;
     const pm_f4_ p4 = {p.x, p.y, p.z, 0.f};
     if (plan->kind == PLAN_ALL) {
-        for (size_t i = 0; i < g->count; i++) sum_photon(&g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
+        for (size_t i = 0; i < g->count; i++) sum_photon(&g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, clip, &sum, &found);
     } else if (plan->kind == PLAN_CELLS) {
         size_t mask = g->bucket_count - 1;
         for (int32_t z = plan->lo[2]; z <= plan->hi[2]; z++)
@@ -204,7 +212,7 @@ static inline __attribute__((always_inline)) uint32_t sum_planned(const pm_photo
                         const float *q = g->photons[i].pos;
                         if (cell_coord(q[0], g->origin.x, g->inv_cell) == x && cell_coord(q[1], g->origin.y, g->inv_cell) == y &&
                             cell_coord(q[2], g->origin.z, g->inv_cell) == z)
-                            sum_photon(&g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, &sum, &found);
+                            sum_photon(&g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, clip, &sum, &found);
                     }
                 }
     } else if (plan->kind == PLAN_BUCKETS) {
@@ -219,11 +227,11 @@ static inline __attribute__((always_inline)) uint32_t sum_planned(const pm_photo
                 inside[noted] = i;
                 noted += within(&g->photons[i], p4, radius2);
                 if (noted == NOTES) {
-                    for (int j = 0; j < noted; j++) sum_inside(&g->photons[inside[j]], n, path_mask, lobe, ns, wo, &sum, &found);
+                    for (int j = 0; j < noted; j++) sum_inside(&g->photons[inside[j]], n, path_mask, lobe, ns, wo, clip, &sum, &found);
                     noted = 0;
                 }
             }
-        for (int j = 0; j < noted; j++) sum_inside(&g->photons[inside[j]], n, path_mask, lobe, ns, wo, &sum, &found);
+        for (int j = 0; j < noted; j++) sum_inside(&g->photons[inside[j]], n, path_mask, lobe, ns, wo, clip, &sum, &found);
     }
     *power = sum;
     return found;
@@ -235,7 +243,7 @@ static inline __attribute__((always_inline)) uint32_t sum_disc(const pm_photon_g
     disc_plan plan;
     plan_disc(g, p, radius2, &plan);
     if (plan.kind == PLAN_BUCKETS) locate_buckets(g, &plan);
-    return sum_planned(g, &plan, p, n, radius2, path_mask, lobe, ns, wo, power);
+    return sum_planned(g, &plan, p, n, radius2, path_mask, lobe, ns, wo, NULL, power);
 }
 
 /* Queries in groups: every disc's bucket bounds are requested, then every disc's first photons,
@@ -253,8 +261,8 @@ void pm_photon_grid_sum_many(const pm_photon_grid *g, const pm_grid_query *q, si
         for (size_t k = 0; k < n; k++) {
             const pm_grid_query *x = &q[base + k];
             pm_grid_result *r = &out[base + k];
-            r->found = x->lobe ? sum_planned(g, &plan[k], x->p, x->n, x->radius2, x->path_mask, x->lobe, x->ns, x->wo, &r->power)
-                               : sum_planned(g, &plan[k], x->p, x->n, x->radius2, x->path_mask, NULL, x->n, x->n, &r->power);
+            r->found = x->lobe ? sum_planned(g, &plan[k], x->p, x->n, x->radius2, x->path_mask, x->lobe, x->ns, x->wo, x->clip, &r->power)
+                               : sum_planned(g, &plan[k], x->p, x->n, x->radius2, x->path_mask, NULL, x->n, x->n, x->clip, &r->power);
         }
     }
 }

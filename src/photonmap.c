@@ -465,7 +465,8 @@ typedef struct { pm_photon *data; size_t count, capacity, start, counted, room; 
 typedef struct { pm_camera_splat *data; uint32_t count, capacity; } splat_list;
 
 
-static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings *settings, int threads);
+static bool precompute_irradiance(pm_photon_maps *maps, const pm_scene *s, const pm_accel *a,
+                                  const pm_photon_settings *settings, int threads);
 
 /* The slow path of push: counts the chunk's next CHUNK records against the pass's storage bound
  * (per chunk, so whether the bound is crossed does not depend on the threads) and doubles the
@@ -1089,7 +1090,7 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
         if (ok && settings->irradiance_stride > 0 && maps->global.count) {
             double t0 = pm_now_seconds();
             int threads = settings->threads < 1 ? 1 : (settings->threads > MAX_THREADS ? MAX_THREADS : settings->threads);
-            ok = precompute_irradiance(maps, settings, threads);
+            ok = precompute_irradiance(maps, s, a, settings, threads);
             local.irradiance_seconds = pm_now_seconds() - t0;
         }
     }
@@ -1108,6 +1109,8 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
 typedef struct {
     const pm_photon_maps *maps;
     const pm_photon_settings *settings;
+    const pm_scene *scene;
+    const pm_accel *accel;
     size_t stride, points;
     pm_photon *out;
 } irradiance_job;
@@ -1118,15 +1121,18 @@ static void irradiance_chunk(void *ctx, size_t chunk, int thread) {
     for (size_t i = first; i < last; i++) {
         const pm_photon *ph = &job->maps->global.photons[i * job->stride];
         vec3 p = pm_photon_position(ph), n = pm_photon_normal(ph);
-        vec3 e = pm_photon_estimate(&job->maps->global, p, n, &job->settings->irradiance_estimate);
+        pm_clip_site site = {job->scene, job->accel, PM_CLIP_NO_TRIANGLE, job->settings->seed ^ pm_hash64(i), NULL, NULL};
+        vec3 e = pm_photon_estimate(&job->maps->global, p, n, &job->settings->irradiance_estimate,
+                                    job->settings->unclipped ? NULL : &site);
         /* stored as if it arrived head-on, so the estimate's front filter would accept it */
         pm_photon_set(&job->out[i], p, n, v3_neg(n), e, PM_PATH_DIRECT);
     }
 }
 
 /* Samples the global map at every stride-th photon of its (deterministic) tree order. */
-static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings *settings, int threads) {
-    irradiance_job job = {maps, settings, (size_t)settings->irradiance_stride, 0, NULL};
+static bool precompute_irradiance(pm_photon_maps *maps, const pm_scene *s, const pm_accel *a,
+                                  const pm_photon_settings *settings, int threads) {
+    irradiance_job job = {maps, settings, s, a, (size_t)settings->irradiance_stride, 0, NULL};
     job.points = (maps->global.count + job.stride - 1) / job.stride;
     job.out = pm_malloc(sizeof(pm_photon) * (job.points ? job.points : 1), "precomputed irradiance points");
     if (!job.out) return false;
@@ -1135,7 +1141,7 @@ static bool precompute_irradiance(pm_photon_maps *maps, const pm_photon_settings
     return pm_kdtree_build(&maps->irradiance, job.out, job.points, threads);
 }
 
-bool pm_photon_irradiance_lookup(const pm_photon_maps *maps, vec3 p, vec3 n, vec3 *irradiance) {
+bool pm_photon_irradiance_lookup(const pm_photon_maps *maps, vec3 p, vec3 n, const pm_clip *clip, vec3 *irradiance) {
     enum { CANDIDATES = 8 };
     uint32_t idx[CANDIDATES];
     float d2[CANDIDATES], r2;
@@ -1146,6 +1152,7 @@ bool pm_photon_irradiance_lookup(const pm_photon_maps *maps, vec3 p, vec3 n, vec
     for (size_t i = 0; i < found; i++) {
         const pm_photon *ph = &maps->irradiance.photons[idx[i]];
         if (v3_dot(pm_photon_normal(ph), n) < 0.9f) continue; /* another surface, or its back */
+        if (clip && !pm_clip_keeps(clip, pm_photon_position(ph))) continue; /* across a wall */
         if (best < 0 || d2[i] < d2[best]) best = (int)i;
     }
     if (best < 0) return false;
@@ -1169,7 +1176,7 @@ static const float gauss_beta = 1.953f;
 /* Inlined into both callers so that the Lambert one (b == NULL) carries no per-photon branch. */
 static inline __attribute__((always_inline)) vec3 estimate(const pm_kdtree *map, vec3 p, vec3 n,
                                                            const pm_estimate_settings *e, const pm_brdf *b, vec3 ns,
-                                                           vec3 wo) {
+                                                           vec3 wo, const pm_clip_site *site) {
     enum { MAX_K = 2048 };
     uint32_t idx[MAX_K];
     float d2[MAX_K], r2 = 0.f;
@@ -1180,6 +1187,12 @@ static inline __attribute__((always_inline)) vec3 estimate(const pm_kdtree *map,
     /* With fewer than k photons inside the maximum radius, the disc is the maximum radius. */
     if ((int)found < k) r2 = e->max_radius * e->max_radius;
     float r = sqrtf(r2);
+    pm_clip made;
+    const pm_clip *clip = site ? site->made : NULL;
+    if (site && !clip) {
+        pm_clip_make(&made, site->scene, site->accel, p, n, site->tri, r, site->seed, site->rays);
+        clip = &made;
+    }
     vec3 sum = v3s(0.f);
     const float cone_k = 1.1f;
     float gauss_norm = 0.f;
@@ -1193,6 +1206,7 @@ static inline __attribute__((always_inline)) vec3 estimate(const pm_kdtree *map,
         if (!((e->path_mask >> pm_photon_path(ph)) & 1u)) continue;
         if (v3_dot(pm_photon_direction(ph), n) >= 0.f) continue;       /* arrived from behind */
         if (v3_dot(pm_photon_normal(ph), n) < 0.9f) continue;            /* another surface */
+        if (clip && !pm_clip_keeps(clip, pm_photon_position(ph))) continue; /* across a wall, below a floor */
         float w = 1.f;
         if (e->kernel == PM_KERNEL_GAUSSIAN) {
             float t = 1.f - (1.f - expf(-gauss_beta * d2[i] / (2.f * r2))) / (1.f - expf(-gauss_beta));
@@ -1204,14 +1218,15 @@ static inline __attribute__((always_inline)) vec3 estimate(const pm_kdtree *map,
         if (b) power = v3_mul(power, pm_brdf_eval(b, ns, wo, v3_neg(pm_photon_direction(ph))));
         sum = v3_madd(sum, power, w);
     }
-    return v3_scale(sum, 1.f / (PM_PI * r2));
+    float kept = clip ? pm_clip_area_fraction(clip, r) : 1.f;
+    return v3_scale(sum, 1.f / (PM_PI * r2 * kept));
 }
 
-vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e) {
-    return estimate(map, p, n, e, NULL, n, n);
+vec3 pm_photon_estimate(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e, const pm_clip_site *site) {
+    return estimate(map, p, n, e, NULL, n, n, site);
 }
 
 vec3 pm_photon_estimate_brdf(const pm_kdtree *map, vec3 p, vec3 n, const pm_estimate_settings *e, const pm_brdf *b,
-                             vec3 ns, vec3 wo) {
-    return estimate(map, p, n, e, b, ns, wo);
+                             vec3 ns, vec3 wo, const pm_clip_site *site) {
+    return estimate(map, p, n, e, b, ns, wo, site);
 }

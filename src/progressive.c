@@ -364,6 +364,7 @@ typedef struct {
     pm_film *film;
     const pm_photon_grid *caustic, *global;
     bool statistics;             /* this eye pass updates the visible points' statistics (the first after a photon pass) */
+    uint32_t sample;             /* the film's sample this eye pass adds: the clips' probes follow it */
     double gather_r2;
     double to_whole[KIND_COUNT]; /* a whole iteration's photons over those this one asked for (the first asks fewer) */
     struct {
@@ -372,6 +373,7 @@ typedef struct {
         double query_sum[KIND_COUNT];        /* radii gathered with, for the next grid's cell */
         uint64_t query_count[KIND_COUNT];
         double seconds;                      /* spent gathering, on this thread */
+        uint64_t clip_rays;                  /* probes of the clips (clip.h) */
         char pad[56];
     } counters[MAX_THREADS];
 } gather_job;
@@ -454,9 +456,32 @@ static void update_statistics(gather_job *job, pm_ppm_stat *st, const pm_visible
     assert(st->r2 > 0.0 && st->n >= 0.0);
 }
 
-static pm_grid_query disc_query(const pm_visible_point *vp, double r2, unsigned path_mask) {
-    pm_grid_query q = {vp->p, vp->n, (float)r2, path_mask, vp->glossy ? &vp->brdf : NULL, vp->ns, vp->wo};
+static uint64_t clip_seed(const gather_job *job, size_t pixel, int kind) {
+    return job->p->settings.seed ^ pm_hash64(((uint64_t)job->sample << 32 | (uint64_t)kind << 28) ^ (uint64_t)pixel * 0x9e3779b97f4a7c15ULL);
+}
+
+/* A disc query at a point, clipped to its side of the geometry (clip.h) where the settings ask
+ * and the disc may find photons at all; clip is filled (an open clip otherwise) and the rays its
+ * probes cast are counted. seed: the pixel, the iteration and the kind, so the probes do not
+ * depend on the threads. */
+static pm_grid_query disc_query(gather_job *job, const pm_photon_grid *grid, const pm_visible_point *vp, double r2,
+                                unsigned path_mask, uint64_t seed, pm_clip *clip, int thread) {
+    pm_grid_query q = {vp->p, vp->n, (float)r2, path_mask, vp->glossy ? &vp->brdf : NULL, vp->ns, vp->wo, NULL};
+    const pm_progressive *p = job->p;
+    if (!p->settings.unclipped && pm_photon_grid_may_find(grid, vp->p, (float)r2)) {
+        pm_clip_make(clip, p->scene, p->accel, vp->p, vp->n, vp->tri, (float)sqrt(r2), seed,
+                     &job->counters[thread].clip_rays);
+        q.clip = clip;
+    } else {
+        pm_clip_open(clip, vp->p, vp->n);
+    }
     return q;
+}
+
+/* A photon sum over the disc it was found in, scaled to the whole disc: divided by the share of
+ * it the clip keeps (the estimate divides by pi r^2). */
+static vec3 whole_disc(const pm_clip *clip, double r2, vec3 power) {
+    return v3_scale(power, 1.f / pm_clip_area_fraction(clip, (float)sqrt(r2)));
 }
 
 /* The eye pass's visit: one tile's visible and gather points, on the thread that found them. The
@@ -469,6 +494,7 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
     double t0 = pm_now_seconds();
     pm_grid_query query[BATCH];
     pm_grid_result result[BATCH];
+    pm_clip clip[BATCH];
     pm_ppm_stat *target[BATCH];
     size_t point[BATCH];
     bool fresh[BATCH];
@@ -489,7 +515,8 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
                 pm_ppm_stat *st = &film->ppm[slot][pixels[k]];
                 int start = start_radius(job, st, vp, kind);
                 if (start == START_NONE) continue;
-                query[n] = disc_query(vp, st->r2, 1u << (kind == KIND_CAUSTIC ? PM_PATH_CAUSTIC : PM_PATH_INDIRECT));
+                query[n] = disc_query(job, grid, vp, st->r2, 1u << (kind == KIND_CAUSTIC ? PM_PATH_CAUSTIC : PM_PATH_INDIRECT),
+                                      clip_seed(job, pixels[k], kind), &clip[n], thread);
                 target[n] = st;
                 fresh[n] = start == START_FRESH;
                 point[n++] = k;
@@ -501,7 +528,8 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
                     job->counters[thread].radius_sum += sqrt(target[j]->r2);
                     job->counters[thread].radius_count++;
                 }
-                update_statistics(job, target[j], &visible[point[j]], result[j].found, result[j].power, kind, thread);
+                update_statistics(job, target[j], &visible[point[j]], result[j].found,
+                                  whole_disc(&clip[j], target[j]->r2, result[j].power), kind, thread);
             }
         }
         /* estimates at gather points: every photon stored there (the punctual lights' direct light
@@ -510,7 +538,8 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
         size_t n = 0;
         for (size_t k = base; k < end; k++)
             if (gathered[k].valid) {
-                query[n] = disc_query(&gathered[k], job->gather_r2, 7u);
+                query[n] = disc_query(job, job->global, &gathered[k], job->gather_r2, 7u, clip_seed(job, pixels[k], KIND_COUNT),
+                                      &clip[n], thread);
                 point[n++] = k;
             }
         pm_photon_grid_sum_many(job->global, query, n, result);
@@ -519,7 +548,8 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
             size_t i = pixels[point[j]];
             uint32_t m = result[j].found;
             job->counters[thread].found += m;
-            vec3 l = v3_scale(v3_mul(gp->weight, result[j].power), (float)(1.0 / (PM_PI * job->gather_r2)));
+            vec3 power = whole_disc(&clip[j], job->gather_r2, result[j].power);
+            vec3 l = v3_scale(v3_mul(gp->weight, power), (float)(1.0 / (PM_PI * job->gather_r2)));
             pm_component c = gp->seen_directly ? PM_INDIRECT : PM_SPECULAR;
             if (m && film->sum[c] && !pm_film_add(film, c, i, l)) job->counters[thread].dropped++;
         }
@@ -655,6 +685,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     bool photons_here = job->caustic || job->global;
     for (uint32_t pass = 0; pass < eye_passes; pass++) {
         job->statistics = pass == 0;
+        job->sample = film->samples;
         /* gather points even with no photon to read there: their punctual light is traced */
         pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, film->samples, film, p->gathering,
                               photons_here ? gather_tile : NULL, job, &p->stats.eye);
@@ -671,6 +702,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         p->initial_radius_count += job->counters[t].radius_count;
         p->stats.photons_found += job->counters[t].found;
         p->stats.eye.dropped_samples += job->counters[t].dropped;
+        p->stats.clip_rays += job->counters[t].clip_rays;
         gather_seconds += job->counters[t].seconds;
         for (int k = 0; k < KIND_COUNT; k++) {
             query_sum[k] += job->counters[t].query_sum[k];

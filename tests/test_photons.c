@@ -78,18 +78,18 @@ static void inverse_square(void) {
         for (int i = 0; i < n; i++) {
             float phi = 2.f * PM_PI * i / n;
             vec3 p = v3(radii[r] * cosf(phi), 0, radii[r] * sinf(phi));
-            sum += pm_photon_estimate(&maps.global, p, v3(0, 1, 0), &est).x;
+            sum += pm_photon_estimate(&maps.global, p, v3(0, 1, 0), &est, NULL).x;
         }
         float d2 = h * h + radii[r] * radii[r];
         CHECK_NEAR(sum / n, intensity * h / sqrtf(d2) / d2, r == 0 ? 0.05 : 0.03, 0, "photon irradiance vs inverse-square law");
     }
     est.kernel = PM_KERNEL_GAUSSIAN;
-    CHECK_NEAR(pm_photon_estimate(&maps.global, v3(0.5f, 0, 0), v3(0, 1, 0), &est).x,
+    CHECK_NEAR(pm_photon_estimate(&maps.global, v3(0.5f, 0, 0), v3(0, 1, 0), &est, NULL).x,
                intensity * h / powf(h * h + 0.25f, 1.5f), 0.06, 0, "Gaussian kernel is normalised");
     est.kernel = PM_KERNEL_CONE;
-    CHECK_NEAR(pm_photon_estimate(&maps.global, v3(0.5f, 0, 0), v3(0, 1, 0), &est).x,
+    CHECK_NEAR(pm_photon_estimate(&maps.global, v3(0.5f, 0, 0), v3(0, 1, 0), &est, NULL).x,
                intensity * h / powf(h * h + 0.25f, 1.5f), 0.06, 0, "cone kernel is normalised");
-    CHECK(pm_photon_estimate(&maps.global, v3(0.5f, 0, 0), v3(0, -1, 0), &est).x == 0.f,
+    CHECK(pm_photon_estimate(&maps.global, v3(0.5f, 0, 0), v3(0, -1, 0), &est, NULL).x == 0.f,
           "photons arriving at the other side do not count");
     pm_photon_maps_free(&maps);
     pm_accel_destroy(a);
@@ -134,7 +134,7 @@ static void glass_ball_caustic(void) {
     /* the tessellated ball is a little smaller than the sphere: allow 1.5% */
     CHECK_NEAR(stored_power(&maps.caustic, -1).x, intensity * omega, 0.015, 0, "caustic power = power through the ball");
     pm_estimate_settings est = {PM_KERNEL_DISC, 100, 0.2f, 7u};
-    float focus = pm_photon_estimate(&maps.caustic, v3(0, 0, 0), v3(0, 1, 0), &est).x;
+    float focus = pm_photon_estimate(&maps.caustic, v3(0, 0, 0), v3(0, 1, 0), &est, NULL).x;
     float floor_direct = intensity * 2.5f / powf(2.5f * 2.5f + 0.8f * 0.8f, 1.5f);
     CHECK(focus > 3.f * floor_direct, "caustic focus %g must outshine the lit floor nearby %g", focus, floor_direct);
     pm_photon_maps_free(&maps);

@@ -1,0 +1,80 @@
+/* clip.h: the part of a photon-gather disc on the gather point's side of the geometry, so that no estimate reads light through a wall, from a floor below a floor or across a room's corner.
+ *
+ * A density estimate at a point p counts the photons within a radius r. The 25-degree normal
+ * test (pm_photon_counts_for) already refuses photons on the back of a thin panel and on surfaces
+ * turned away, but not photons on a surface that faces the same way beyond a wall (the next room's
+ * floor, the sunlit ground outside a window) or a little below or above p (the ground under a
+ * raised floor, a shelf). A clip bounds the disc by what the geometry around p shows:
+ *   - probes along the tangent plane (PM_CLIP_PROBES rays, lifted a little off the surface, in a
+ *     fan whose rotation is random per query) that meet a surface not continuing p's (its normal
+ *     more than about 25 degrees from n) within reach: each adds that surface's plane, and
+ *     photons behind the plane do not count;
+ *   - one probe behind p (along -n) and one above it (along n) that meet a surface facing the way
+ *     p's does: photons farther off p's tangent plane than half that distance do not count.
+ * The estimate then divides by the area of the disc that the planes keep (pm_clip_area_fraction
+ * times pi r^2), not by the whole disc: where the photons' density is uniform the clipped estimate
+ * is as unbiased as the disc's, and corners lose the darkening a disc reaching into a wall gives.
+ * As r shrinks, the planes leave every point off the geometry unclipped: the limit is unchanged.
+ * The design and its cost: docs/design.md, "Estimates stay on their side of the geometry".
+ */
+#ifndef PM_CLIP_H
+#define PM_CLIP_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include "accel.h"
+#include "defaults.h"
+#include "pm_math.h"
+#include "scene.h"
+
+#define PM_CLIP_MAX_PLANES (2 * PM_CLIP_PROBES) /* a plane where each probe stops, one more where it slides on */
+
+typedef struct {
+    vec3 p, n;               /* the gather point and its unit normal on the photons' side */
+    vec3 t1, t2;             /* tangent basis, for the kept area */
+    float below, above;      /* photons count within this distance of p's tangent plane, behind and in front */
+    int planes;
+    float tolerance;         /* a photon counts up to this far behind a plane (photons on the plane's own surface) */
+    float rotation;          /* of the area pattern, radians */
+    vec3 plane_point[PM_CLIP_MAX_PLANES];
+    vec3 plane_normal[PM_CLIP_MAX_PLANES]; /* unit, toward p's side */
+} pm_clip;
+
+/* Probes the geometry around p (on triangle tri, or PM_CLIP_NO_TRIANGLE where it is not known;
+ * unit normal n on the side photons arrive) for a disc of radius up to reach; seed rotates the
+ * probe fan (a hash of the pixel and the iteration, so the image does not depend on the threads).
+ * Adds the rays it cast to *rays when not NULL. */
+#define PM_CLIP_NO_TRIANGLE UINT32_MAX
+void pm_clip_make(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                  uint64_t seed, uint64_t *rays);
+
+/* What a clip is made from, for an estimate that makes it only when its query found photons;
+ * or, in made, one already made for a reach at least as long as the estimate's radius. */
+typedef struct {
+    const pm_scene *scene;
+    const pm_accel *accel;
+    uint32_t tri;
+    uint64_t seed;
+    uint64_t *rays;
+    const pm_clip *made;
+} pm_clip_site;
+
+/* A clip that keeps everything (no probe cast). */
+void pm_clip_open(pm_clip *c, vec3 p, vec3 n);
+
+/* Whether a photon at x lies on p's side of every plane and within the slab. */
+static inline __attribute__((always_inline)) bool pm_clip_keeps(const pm_clip *c, vec3 x) {
+    vec3 d = v3_sub(x, c->p);
+    float z = v3_dot(d, c->n);
+    if (z < -c->below || z > c->above) return false;
+    for (int k = 0; k < c->planes; k++)
+        if (v3_dot(v3_sub(x, c->plane_point[k]), c->plane_normal[k]) < -c->tolerance) return false;
+    return true;
+}
+
+/* The share of the disc of the given radius around p, in its tangent plane, that the planes keep:
+ * 1 without planes, else counted over a fixed pattern of points rotated by c->rotation (at least
+ * one point's share: p's own side is never empty). */
+float pm_clip_area_fraction(const pm_clip *c, float radius);
+
+#endif

@@ -1,0 +1,148 @@
+/* clip.c: probes the geometry around a gather point for the planes and slab that bound its disc, and the share of the disc they keep. */
+#include "clip.h"
+
+#include <math.h>
+
+#include "defaults.h"
+#include "rng.h"
+
+/* A surface continues p's when its normal is within the photons' normal test of p's (cos 0.9). */
+#define CONTINUES_COS 0.9f
+/* Surfaces a probe may pass (continuations of p's surface, or the wrong way round) before it gives up. */
+#define PROBE_HITS 4
+
+static vec3 triangle_normal(const pm_scene *s, uint32_t tri) {
+    if (s->face_normals) return s->face_normals[tri];
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    vec3 a = s->positions[ix[0]], b = s->positions[ix[1]], c = s->positions[ix[2]];
+    return v3_normalize(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+}
+
+static vec3 triangle_centroid(const pm_scene *s, uint32_t tri) {
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    return v3_scale(v3_add(v3_add(s->positions[ix[0]], s->positions[ix[1]]), s->positions[ix[2]]), 1.f / 3.f);
+}
+
+/* A step past a surface a probe goes through: far enough to leave its plane at any position. */
+static float step_past(vec3 q, float scale) {
+    float m = pm_maxf(fabsf(q.x), pm_maxf(fabsf(q.y), fabsf(q.z)));
+    return pm_maxf(scale * 1e-6f, m * 1e-6f);
+}
+
+void pm_clip_open(pm_clip *c, vec3 p, vec3 n) {
+    c->p = p;
+    c->n = n;
+    v3_basis(n, &c->t1, &c->t2);
+    c->below = c->above = INFINITY;
+    c->planes = 0;
+    c->tolerance = 0.f;
+    c->rotation = 0.f;
+}
+
+/* Along a tangent probe: the first surface within reach that does not continue p's, as a plane
+ * facing the probe's origin. A probe that meets such a surface near a corner (the floor, seen from
+ * a wall just above it) would hide what lies beyond along the corner (the next room's wall): it
+ * slides on once along the surface it met, lifted off it, for the rest of its reach. */
+static void tangent_probe(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 o, vec3 d, float reach, float lift,
+                          uint64_t *rays) {
+    int slides = 1;
+    for (int k = 0; k < PROBE_HITS && reach > 0.f && c->planes < PM_CLIP_MAX_PLANES; k++) {
+        pm_hit h;
+        if (rays) (*rays)++;
+        if (!pm_accel_intersect(a, o, d, reach, &h)) return;
+        vec3 at = v3_madd(o, d, h.t), m = triangle_normal(s, h.tri);
+        if (v3_dot(m, d) > 0.f) m = v3_neg(m);
+        if (v3_dot(m, c->n) < CONTINUES_COS) {
+            c->plane_point[c->planes] = at;
+            c->plane_normal[c->planes] = m;
+            c->planes++;
+            vec3 along = v3_sub(d, v3_scale(m, v3_dot(d, m)));
+            float len = v3_length(along);
+            if (!slides-- || len < 0.2f) return;
+            d = v3_scale(along, 1.f / len);
+            o = v3_madd(at, m, lift);
+            reach -= h.t;
+            continue;
+        }
+        float step = step_past(at, s->ray_scale);
+        o = v3_madd(at, d, step);
+        reach -= h.t + step;
+    }
+}
+
+/* Along n (up) or -n (down): the distance to the first surface that may hold photons facing the
+ * way p's do (its front faces that way, or it is double sided); INFINITY when none is within reach. */
+static float normal_probe(const pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 o, vec3 d, float reach, uint64_t *rays) {
+    float travelled = 0.f;
+    for (int k = 0; k < PROBE_HITS && travelled < reach; k++) {
+        pm_hit h;
+        if (rays) (*rays)++;
+        if (!pm_accel_intersect(a, o, d, reach - travelled, &h)) return INFINITY;
+        travelled += h.t;
+        const pm_material *mat = &s->materials[s->triangle_material[h.tri]];
+        if (mat->double_sided || v3_dot(triangle_normal(s, h.tri), c->n) >= CONTINUES_COS) return travelled;
+        vec3 at = v3_madd(o, d, h.t);
+        float step = step_past(at, s->ray_scale);
+        o = v3_madd(at, d, step);
+        travelled += step;
+    }
+    return INFINITY;
+}
+
+void pm_clip_make(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                  uint64_t seed, uint64_t *rays) {
+    pm_clip_open(c, p, n);
+    if (!(reach > 0.f) || !isfinite(reach)) return;
+    uint64_t h = pm_hash64(seed);
+    float fan = (float)(h >> 40) * (2.f * PM_PI / 16777216.f);
+    c->rotation = (float)(h & 0xffffffu) * (2.f * PM_PI / 16777216.f);
+    /* the origins are pulled toward the triangle's centroid, off shared edges, where it is known */
+    vec3 centroid = tri == PM_CLIP_NO_TRIANGLE ? p : triangle_centroid(s, tri);
+    /* the fan is lifted off the surface so that it does not graze its own triangles; a plane
+     * keeps what lies on it up to rounding (a wall of no thickness has the next room's photons
+     * just behind it) */
+    float lift = PM_CLIP_LIFT * reach;
+    c->tolerance = step_past(p, s->ray_scale);
+    vec3 o = v3_madd(pm_offset_surface_origin(p, centroid, n, s->ray_scale), n, lift);
+    /* a straight wall across the disc meets the nearest probe within reach / cos(pi / probes) */
+    float fan_reach = reach / cosf(PM_PI / PM_CLIP_PROBES);
+    for (int k = 0; k < PM_CLIP_PROBES; k++) {
+        float angle = fan + 2.f * PM_PI * (float)k / PM_CLIP_PROBES;
+        vec3 d = v3_add(v3_scale(c->t1, cosf(angle)), v3_scale(c->t2, sinf(angle)));
+        tangent_probe(c, s, a, o, d, fan_reach, lift, rays);
+    }
+    /* a photon of the disc lies within reach of p: surfaces farther than twice that need no bound */
+    float below = normal_probe(c, s, a, pm_offset_surface_origin(p, centroid, v3_neg(n), s->ray_scale), v3_neg(n),
+                               2.f * reach, rays);
+    float above = normal_probe(c, s, a, o, n, 2.f * reach, rays);
+    c->below = 0.5f * below;
+    c->above = 0.5f * (above + lift);
+}
+
+/* Points spread evenly over the unit disc (Vogel's sunflower), fixed: the kept share is counted on them. */
+#define AREA_POINTS 128
+
+float pm_clip_area_fraction(const pm_clip *c, float radius) {
+    if (!c->planes) return 1.f;
+    /* each plane as a line in the tangent plane: kept where base + radius (u a + v b) >= 0 */
+    float base[PM_CLIP_MAX_PLANES], along1[PM_CLIP_MAX_PLANES], along2[PM_CLIP_MAX_PLANES];
+    for (int k = 0; k < c->planes; k++) {
+        base[k] = v3_dot(v3_sub(c->p, c->plane_point[k]), c->plane_normal[k]) + c->tolerance;
+        along1[k] = radius * v3_dot(c->t1, c->plane_normal[k]);
+        along2[k] = radius * v3_dot(c->t2, c->plane_normal[k]);
+    }
+    /* the i-th point at angle rotation + i x golden: turned by one golden angle a step */
+    const float golden_cos = -0.73736887f, golden_sin = 0.67549029f; /* the angle pi (3 - sqrt 5) */
+    float dir_u = cosf(c->rotation), dir_v = sinf(c->rotation);
+    int kept = 0;
+    for (int i = 0; i < AREA_POINTS; i++) {
+        float rho = sqrtf((i + 0.5f) / AREA_POINTS), u = rho * dir_u, v = rho * dir_v;
+        bool in = true;
+        for (int k = 0; k < c->planes; k++) in &= base[k] + u * along1[k] + v * along2[k] >= 0.f;
+        kept += in;
+        float next_u = dir_u * golden_cos - dir_v * golden_sin;
+        dir_v = dir_u * golden_sin + dir_v * golden_cos;
+        dir_u = next_u;
+    }
+    return kept ? (float)kept / AREA_POINTS : 1.f / AREA_POINTS;
+}

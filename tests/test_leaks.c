@@ -1,0 +1,183 @@
+/* test_leaks.c: no estimate reads light through a wall, in either photon mode: two rooms sharing a 1 cm wall, the floor under a box, and the unclipped estimates that do leak there.
+ *
+ * Each scene has a part no light can reach: the room without the lamp, the floor inside a closed
+ * box. The camera looks only at that part, so every pixel must stay exactly black in every
+ * iteration: no photon lands there, and no estimate may count the photons just across the wall
+ * (the floor runs on under the wall and the box, coplanar with the lit floor, so the normal test
+ * cannot tell them apart). The same scenes rendered with unclipped estimates show the leak, so the
+ * checks can fail.
+ */
+#include <stdlib.h>
+#include <string.h>
+
+#include "accel.h"
+#include "defaults.h"
+#include "eye.h"
+#include "film.h"
+#include "photonmap.h"
+#include "progressive.h"
+#include "scene_builder.h"
+#include "progressive_harness.h"
+#include "testing.h"
+
+enum { W = 24, H = 24, ITERATIONS = 6 };
+
+/* Two rooms, x < -0.005 and x > 0.005, under one ceiling and over one floor that runs on under the
+ * 1 cm wall between them; a lamp in the first. */
+static pm_accel *two_rooms(pm_scene *s) {
+    memset(s, 0, sizeof *s);
+    uint32_t white = sb_lambert(s, v3s(0.8f));
+    sb_quad(s, v3(-2, 0, -2), v3(-2, 0, 2), v3(2, 0, 2), v3(2, 0, -2), white);         /* floor, facing up */
+    sb_quad(s, v3(-2, 2.5f, -2), v3(2, 2.5f, -2), v3(2, 2.5f, 2), v3(-2, 2.5f, 2), white); /* ceiling, facing down */
+    sb_quad(s, v3(-2, 0, -2), v3(-2, 2.5f, -2), v3(-2, 2.5f, 2), v3(-2, 0, 2), white);   /* x = -2, facing +x */
+    sb_quad(s, v3(2, 0, 2), v3(2, 2.5f, 2), v3(2, 2.5f, -2), v3(2, 0, -2), white);       /* x = 2, facing -x */
+    sb_quad(s, v3(-2, 0, 2), v3(-2, 2.5f, 2), v3(2, 2.5f, 2), v3(2, 0, 2), white);       /* z = 2, facing -z */
+    sb_quad(s, v3(2, 0, -2), v3(2, 2.5f, -2), v3(-2, 2.5f, -2), v3(-2, 0, -2), white);   /* z = -2, facing +z */
+    sb_box(s, v3(-0.005f, 0, -2), v3(0.005f, 2.5f, 2), white, false);                  /* the shared wall */
+    sb_point_light(s, v3(-1, 2, 0), v3s(4.f));
+    return sb_finish(s);
+}
+
+/* A closed box on a floor that runs on under it, lit from above and beside. */
+static pm_accel *box_on_floor(pm_scene *s) {
+    memset(s, 0, sizeof *s);
+    uint32_t white = sb_lambert(s, v3s(0.8f)), wall = sb_lambert(s, v3s(0.6f));
+    sb_quad(s, v3(-3, 0, -3), v3(-3, 0, 3), v3(3, 0, 3), v3(3, 0, -3), white);
+    sb_quad(s, v3(-3, 0, -3), v3(-3, 3, -3), v3(-3, 3, 3), v3(-3, 0, 3), wall); /* a wall beside, for bounced light */
+    sb_box(s, v3(-0.5f, 0, -0.5f), v3(0.5f, 1, 0.5f), white, false);
+    sb_point_light(s, v3(-1.2f, 2, 0.3f), v3s(6.f));
+    return sb_finish(s);
+}
+
+/* The largest value of any component's layer. */
+static float brightest(const pm_film *film) {
+    float *layer = malloc(sizeof(float) * 3 * W * H), most = 0.f;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        if (!film->sum[c]) continue;
+        pm_film_resolve(film, c, layer);
+        for (int i = 0; i < 3 * W * H; i++) most = fmaxf(most, layer[i]);
+    }
+    free(layer);
+    return most;
+}
+
+static double mean_total(const pm_film *film) {
+    float *total = malloc(sizeof(float) * 3 * W * H);
+    pm_film_resolve_total(film, total);
+    double m = mean_of(total, 3 * W * H);
+    free(total);
+    return m;
+}
+
+/* The progressive mode: the brightest pixel over ITERATIONS iterations (each one checked). */
+static float progressive_dark(const pm_scene *s, const pm_accel *a, const pm_camera *cam, pm_indirect_mode indirect,
+                              bool unclipped, double *lit_mean) {
+    pm_progressive_settings ps = default_settings(W, H);
+    ps.indirect = indirect;
+    ps.unclipped = unclipped;
+    ps.photons = ps.caustic_photons = 40000;
+    session r;
+    float worst = 0.f;
+    if (!start(&r, s, a, cam, W, H, &ps)) return INFINITY;
+    for (int i = 0; i < ITERATIONS; i++) {
+        if (!iterate(&r, 1)) break;
+        worst = fmaxf(worst, brightest(&r.film));
+    }
+    if (lit_mean) *lit_mean = mean_total(&r.film);
+    stop(&r);
+    return worst;
+}
+
+/* The classic mode: maps built once, the eye pass repeated; also whether a photon landed in the
+ * dark part (inside(x) true). */
+static float classic_dark(const pm_scene *s, const pm_accel *a, const pm_camera *cam, bool unclipped,
+                          bool (*inside)(vec3), size_t *photons_inside, double *lit_mean) {
+    pm_photon_settings ps = {.global_photons = 60000, .caustic_photons = 0, .seed = 1, .threads = 2,
+                             .max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES, .irradiance_stride = 4,
+                             .irradiance_estimate = {PM_KERNEL_DISC, 64, 0.1f * s->ray_scale, 7u}, .unclipped = unclipped};
+    pm_photon_maps maps;
+    if (!pm_photon_maps_build(s, a, &ps, &maps, NULL)) { CHECK(false, "photon maps"); return INFINITY; }
+    *photons_inside = 0;
+    for (size_t i = 0; i < maps.global.count; i++) *photons_inside += inside(pm_photon_position(&maps.global.photons[i]));
+    pm_film film;
+    pm_film_init(&film, W, H, s->analysis.component_possible);
+    pm_eye_settings es;
+    memset(&es, 0, sizeof es);
+    es.seed = 1;
+    es.threads = 2;
+    es.max_specular_depth = 12;
+    es.maps = &maps;
+    es.global_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.1f * s->ray_scale, 7u};
+    es.caustic_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.025f * s->ray_scale, 7u};
+    es.gather_rays = 1;
+    es.unclipped = unclipped;
+    pm_eye_stats st = {0};
+    float worst = 0.f;
+    for (int i = 0; i < ITERATIONS; i++) {
+        pm_eye_iterate(s, a, cam, &es, (uint32_t)i, &film, &st);
+        film.samples++;
+        worst = fmaxf(worst, brightest(&film));
+    }
+    /* the estimates straight from the map at the first hit too (--indirect photons) */
+    es.indirect = PM_INDIRECT_PHOTONS;
+    pm_film_clear(&film);
+    for (int i = 0; i < 2; i++) {
+        pm_eye_iterate(s, a, cam, &es, (uint32_t)i, &film, &st);
+        film.samples++;
+        worst = fmaxf(worst, brightest(&film));
+    }
+    if (lit_mean) *lit_mean = mean_total(&film);
+    pm_film_free(&film);
+    pm_photon_maps_free(&maps);
+    return worst;
+}
+
+static bool in_dark_room(vec3 x) { return x.x > 0.005f; }
+static bool under_box(vec3 x) { return fabsf(x.x) < 0.499f && fabsf(x.z) < 0.499f && x.y < 0.999f; }
+
+static void check_scene(const char *name, const pm_scene *s, const pm_accel *a, const pm_camera *dark_cam,
+                        const pm_camera *lit_cam, bool (*inside)(vec3)) {
+    for (int indirect = 0; indirect < 2; indirect++) {
+        const char *how = indirect == PM_INDIRECT_GATHER ? "gather" : "photons";
+        double lit = 0.0;
+        float dark = progressive_dark(s, a, dark_cam, (pm_indirect_mode)indirect, false, NULL);
+        progressive_dark(s, a, lit_cam, (pm_indirect_mode)indirect, false, &lit);
+        float leaked = progressive_dark(s, a, dark_cam, (pm_indirect_mode)indirect, true, NULL);
+        printf("%s, progressive (%s): dark part's brightest pixel %g (unclipped: %g), lit part's mean %.4f\n", name, how,
+               dark, leaked, lit);
+        CHECK(dark == 0.f, "%s, progressive (%s): the dark part stays black in every iteration (%g)", name, how, dark);
+        CHECK(lit > 0.01, "%s, progressive (%s): the lit part is lit (%g)", name, how, lit);
+        CHECK(leaked > 0.f, "%s, progressive (%s): unclipped estimates leak here, so the check can fail (%g)", name, how, leaked);
+    }
+    size_t landed = 0, landed_unclipped = 0;
+    double lit = 0.0;
+    float dark = classic_dark(s, a, dark_cam, false, inside, &landed, NULL);
+    classic_dark(s, a, lit_cam, false, inside, &landed, &lit);
+    float leaked = classic_dark(s, a, dark_cam, true, inside, &landed_unclipped, NULL);
+    printf("%s, classic: dark part's brightest pixel %g (unclipped: %g), photons there %zu, lit part's mean %.4f\n", name,
+           dark, leaked, landed, lit);
+    CHECK(landed == 0, "%s: no photon lands in the dark part (%zu)", name, landed);
+    CHECK(dark == 0.f, "%s, classic: the dark part stays black in every iteration (%g)", name, dark);
+    CHECK(lit > 0.01, "%s, classic: the lit part is lit (%g)", name, lit);
+    CHECK(leaked > 0.f, "%s, classic: unclipped estimates leak here, so the check can fail (%g)", name, leaked);
+}
+
+int main(void) {
+    pm_scene s;
+    pm_accel *a = two_rooms(&s);
+    /* from the dark room's far corner toward the shared wall and the floor along it */
+    pm_camera dark = sb_camera(v3(1.9f, 1.6f, 1.8f), v3(0.0f, 0.1f, 0.0f), v3(0, 1, 0), 70.f);
+    pm_camera lit = sb_camera(v3(-1.9f, 1.6f, 1.8f), v3(-0.0f, 0.1f, 0.0f), v3(0, 1, 0), 70.f);
+    check_scene("two rooms", &s, a, &dark, &lit, in_dark_room);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+
+    a = box_on_floor(&s);
+    /* inside the box, looking down at the floor under it */
+    pm_camera under = sb_camera(v3(0.3f, 0.6f, 0.3f), v3(-0.25f, 0.0f, -0.3f), v3(0, 1, 0), 80.f);
+    pm_camera beside = sb_camera(v3(-2.5f, 1.5f, 2.5f), v3(-0.5f, 0.0f, 0.5f), v3(0, 1, 0), 60.f);
+    check_scene("box on a floor", &s, a, &under, &beside, under_box);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+    return pm_test_done("test_leaks");
+}
