@@ -19,6 +19,7 @@ typedef struct {
     pm_photon *photons;     /* sorted by bucket */
     uint32_t *bucket_start; /* bucket_count + 1 offsets into photons */
     uint64_t *occupied;     /* a bit per bucket: holds a photon */
+    uint8_t *read;          /* a mark per photon (in sorted order): some query counted it */
     size_t count, capacity;
     size_t bucket_count, bucket_capacity; /* bucket_count is a power of two */
     vec3 origin, upper;     /* the photons' bounds: a disc outside them finds nothing without a lookup */
@@ -29,6 +30,8 @@ typedef struct {
  * (the grid is then empty). */
 bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t count, float cell);
 void pm_photon_grid_free(pm_photon_grid *g);
+/* The photons some query has counted since the grid was built: the useful ones. */
+size_t pm_photon_grid_read_count(const pm_photon_grid *g);
 size_t pm_photon_grid_bytes(const pm_photon_grid *g);
 
 /* Whether a disc of that radius around p may hold any photon: false when it lies outside the

@@ -68,6 +68,8 @@ typedef struct {
     uint64_t photons_found;    /* photons that fell inside a visible or gather point's disc */
     uint64_t splats;           /* caustic photons splatted to the camera */
     uint64_t clip_rays;        /* rays the clips' probes cast (clip.h) */
+    uint64_t photons_stored;   /* photon records the passes stored */
+    uint64_t photons_read;     /* ... of which some estimate counted (the useful ones) */
 } pm_progressive_stats;
 
 /* Radii over the pixels whose statistics have started (scene units). */

@@ -23,11 +23,12 @@ void pm_photon_grid_free(pm_photon_grid *g) {
     free(g->photons);
     free(g->bucket_start);
     free(g->occupied);
+    free(g->read);
     memset(g, 0, sizeof *g);
 }
 
 size_t pm_photon_grid_bytes(const pm_photon_grid *g) {
-    return g->capacity * sizeof(pm_photon) + (g->bucket_capacity + 1) * sizeof(uint32_t) + g->bucket_capacity / 8;
+    return g->capacity * (sizeof(pm_photon) + 1) + (g->bucket_capacity + 1) * sizeof(uint32_t) + g->bucket_capacity / 8;
 }
 
 bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t count, float cell) {
@@ -39,6 +40,9 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
         pm_photon *grown = pm_realloc(g->photons, count * sizeof *grown, "photon grid");
         if (!grown) { pm_photon_grid_free(g); return false; }
         g->photons = grown;
+        uint8_t *read = pm_realloc(g->read, count, "photon grid read marks");
+        if (!read) { pm_photon_grid_free(g); return false; }
+        g->read = read;
         g->capacity = count;
     }
     if (buckets > g->bucket_capacity) {
@@ -83,6 +87,7 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
     /* the fill moved each start to the next bucket's: shift back */
     for (size_t b = buckets; b > 0; b--) start[b] = start[b - 1];
     start[0] = 0;
+    if (count) memset(g->read, 0, count);
     g->count = count;
     return true;
 }
@@ -105,11 +110,13 @@ static inline __attribute__((always_inline)) bool within(const pm_photon *ph, pm
 
 /* The share of a photon within the radius: counting for the surface, weighted by the lobe's
  * f(wo, wi) when a lobe is given. */
-static inline __attribute__((always_inline)) void sum_inside(const pm_photon *ph, vec3 n, unsigned path_mask,
-                                                             const pm_brdf *lobe, vec3 ns, vec3 wo, const pm_clip *clip,
-                                                             vec3 *sum, uint32_t *found) {
+static inline __attribute__((always_inline)) void sum_inside(const pm_photon_grid *g, const pm_photon *ph, vec3 n,
+                                                             unsigned path_mask, const pm_brdf *lobe, vec3 ns, vec3 wo,
+                                                             const pm_clip *clip, vec3 *sum, uint32_t *found) {
     if (!pm_photon_counts_for(ph, n, path_mask)) return;
     if (clip && !pm_clip_keeps(clip, pm_photon_position(ph))) return;
+    /* several threads may mark one photon: the same byte, the same value, relaxed */
+    __atomic_store_n(&g->read[ph - g->photons], (uint8_t)1, __ATOMIC_RELAXED);
     vec3 q = pm_photon_power(ph);
     if (lobe) q = v3_mul(q, pm_brdf_eval(lobe, ns, wo, v3_neg(pm_photon_direction(ph))));
     *sum = v3_add(*sum, q);
@@ -117,10 +124,10 @@ static inline __attribute__((always_inline)) void sum_inside(const pm_photon *ph
 }
 
 /* One photon's share of a disc sum (the rare wide discs: every photon, or cell by cell). */
-static inline __attribute__((always_inline)) void sum_photon(const pm_photon *ph, pm_f4_ p4, vec3 n, float radius2,
+static inline __attribute__((always_inline)) void sum_photon(const pm_photon_grid *g, const pm_photon *ph, pm_f4_ p4, vec3 n, float radius2,
                                                              unsigned path_mask, const pm_brdf *lobe, vec3 ns, vec3 wo,
                                                              const pm_clip *clip, vec3 *sum, uint32_t *found) {
-    if (within(ph, p4, radius2)) sum_inside(ph, n, path_mask, lobe, ns, wo, clip, sum, found);
+    if (within(ph, p4, radius2)) sum_inside(g, ph, n, path_mask, lobe, ns, wo, clip, sum, found);
 }
 
 /* Where a disc's photons are: nothing, every photon (a disc wider than the photons' cells), the
@@ -201,7 +208,7 @@ static inline __attribute__((always_inline)) uint32_t sum_planned(const pm_photo
     uint32_t found = 0;
     const pm_f4_ p4 = {p.x, p.y, p.z, 0.f};
     if (plan->kind == PLAN_ALL) {
-        for (size_t i = 0; i < g->count; i++) sum_photon(&g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, clip, &sum, &found);
+        for (size_t i = 0; i < g->count; i++) sum_photon(g, &g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, clip, &sum, &found);
     } else if (plan->kind == PLAN_CELLS) {
         size_t mask = g->bucket_count - 1;
         for (int32_t z = plan->lo[2]; z <= plan->hi[2]; z++)
@@ -212,7 +219,7 @@ static inline __attribute__((always_inline)) uint32_t sum_planned(const pm_photo
                         const float *q = g->photons[i].pos;
                         if (cell_coord(q[0], g->origin.x, g->inv_cell) == x && cell_coord(q[1], g->origin.y, g->inv_cell) == y &&
                             cell_coord(q[2], g->origin.z, g->inv_cell) == z)
-                            sum_photon(&g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, clip, &sum, &found);
+                            sum_photon(g, &g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, clip, &sum, &found);
                     }
                 }
     } else if (plan->kind == PLAN_BUCKETS) {
@@ -227,11 +234,11 @@ static inline __attribute__((always_inline)) uint32_t sum_planned(const pm_photo
                 inside[noted] = i;
                 noted += within(&g->photons[i], p4, radius2);
                 if (noted == NOTES) {
-                    for (int j = 0; j < noted; j++) sum_inside(&g->photons[inside[j]], n, path_mask, lobe, ns, wo, clip, &sum, &found);
+                    for (int j = 0; j < noted; j++) sum_inside(g, &g->photons[inside[j]], n, path_mask, lobe, ns, wo, clip, &sum, &found);
                     noted = 0;
                 }
             }
-        for (int j = 0; j < noted; j++) sum_inside(&g->photons[inside[j]], n, path_mask, lobe, ns, wo, clip, &sum, &found);
+        for (int j = 0; j < noted; j++) sum_inside(g, &g->photons[inside[j]], n, path_mask, lobe, ns, wo, clip, &sum, &found);
     }
     *power = sum;
     return found;
@@ -275,4 +282,10 @@ uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, floa
 uint32_t pm_photon_grid_sum_brdf(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
                                  const pm_brdf *b, vec3 ns, vec3 wo, vec3 *reflected) {
     return sum_disc(g, p, n, radius2, path_mask, b, ns, wo, reflected);
+}
+
+size_t pm_photon_grid_read_count(const pm_photon_grid *g) {
+    size_t n = 0;
+    for (size_t i = 0; i < g->count; i++) n += g->read[i];
+    return n;
 }

@@ -28,6 +28,7 @@
 #define MAX_THREADS 256
 
 enum { KIND_CAUSTIC = 0, KIND_INDIRECT = 1, KIND_COUNT = 2 };
+enum { SEEN_GRID = 32, SEEN_POINTS = SEEN_GRID * SEEN_GRID };
 
 /* The noise of a sparse grid of pixels, split into the part eye passes can average away and the
  * part only new photons can (see choose_eye_passes). A probed pixel's sample is its total over the
@@ -68,9 +69,16 @@ struct pm_progressive {
      * photon (0 until known); the final-gather radius shrinks per iteration from its own start */
     double density_r2[KIND_COUNT];
     double gather_r2;
+    bool seen_measured;                  /* the radii above were measured where the camera looks */
     double pixel_angle;                  /* radians per pixel, vertically (0 for an orthographic camera) */
     double pixel_width;                  /* scene units per pixel at the camera (orthographic only) */
     double probe_footprint;              /* mean first radius of a sparse grid of camera rays: the first grid's cell */
+    /* where the camera's points will be: the diffuse or glossy first hits of a sparse grid of camera
+     * rays (seen[0]) and one cosine bounce from each (seen[1], where gather points will be); the
+     * first photon pass's density there sets the initial and shared radii (seen_density) */
+    struct { vec3 p, n; uint32_t tri; } seen[2][SEEN_POINTS];
+    int seen_count[2];
+    double seen_density[SEEN_POINTS];    /* seen_density_radius2's scratch */
     double initial_radius_sum;
     uint64_t initial_radius_count;
     double query_radius[KIND_COUNT];     /* mean radius gathered with last iteration: sets the grid's cell */
@@ -300,20 +308,37 @@ static uint32_t choose_eye_passes(const noise_probe *pr, uint32_t photon_passes,
 
 /* The mean pixel footprint (the first radius of a visible point seen directly) over a sparse grid
  * of camera rays: before any visible point exists, the first grid's cell follows it. Only the
- * grid's speed depends on it, never the image. */
-static double probe_footprint(const pm_progressive *p, const pm_film *film) {
-    enum { PROBE = 32 };
+ * grid's speed depends on it, never the image. The rays' diffuse and glossy hits, and one cosine
+ * bounce from each, are kept as the points whose photon density sets the first radii. */
+static double probe_footprint(pm_progressive *p, const pm_film *film) {
+    const pm_scene *s = p->scene;
     double sum = 0.0;
     int hits = 0;
-    for (int j = 0; j < PROBE; j++)
-        for (int i = 0; i < PROBE; i++) {
+    p->seen_count[0] = p->seen_count[1] = 0;
+    for (int j = 0; j < SEEN_GRID; j++)
+        for (int i = 0; i < SEEN_GRID; i++) {
             vec3 o, d;
-            pm_camera_ray(&p->camera, film->width, film->height, (i + 0.5f) * film->width / PROBE,
-                          (j + 0.5f) * film->height / PROBE, &o, &d);
+            pm_camera_ray(&p->camera, film->width, film->height, (i + 0.5f) * film->width / SEEN_GRID,
+                          (j + 0.5f) * film->height / SEEN_GRID, &o, &d);
             pm_hit h;
             if (!pm_accel_intersect(p->accel, o, d, INFINITY, &h)) continue;
             sum += PM_PPM_FOOTPRINT_PIXELS * ((double)h.t * p->pixel_angle + p->pixel_width);
             hits++;
+            pm_rng rng = pm_rng_for(p->settings.seed, 0x5ee17, (uint64_t)j * SEEN_GRID + i);
+            for (int bounce = 0; bounce < 2; bounce++) {
+                pm_surface sf;
+                pm_scene_surface(s, h.tri, h.b1, h.b2, &sf);
+                if (v3_is_black(sf.kd) && !sf.glossy) break;
+                vec3 n = v3_dot(sf.ng, d) < 0.f ? sf.ng : v3_neg(sf.ng);
+                int k = p->seen_count[bounce]++;
+                p->seen[bounce][k].p = sf.p;
+                p->seen[bounce][k].n = n;
+                p->seen[bounce][k].tri = h.tri;
+                if (bounce) break;
+                d = pm_sample_cosine(n, pm_rng_float(&rng), pm_rng_float(&rng));
+                o = pm_surface_origin(&sf, n, s->ray_scale);
+                if (!pm_accel_intersect(p->accel, o, d, INFINITY, &h)) break;
+            }
         }
     return hits ? sum / hits : 0.0;
 }
@@ -321,6 +346,7 @@ static double probe_footprint(const pm_progressive *p, const pm_film *film) {
 static void reset_state(pm_progressive *p, const pm_film *film) {
     p->density_r2[KIND_CAUSTIC] = p->density_r2[KIND_INDIRECT] = 0.0;
     p->gather_r2 = 0.0;
+    p->seen_measured = false;
     p->query_radius[KIND_CAUSTIC] = p->query_radius[KIND_INDIRECT] = 0.0;
     p->initial_radius_sum = 0.0;
     p->initial_radius_count = 0;
@@ -625,6 +651,46 @@ static bool build_grid(pm_progressive *p, int kind) {
     return pm_photon_grid_build(&p->grid[kind], p->buffer[kind].data, p->buffer[kind].count, (float)(3.0 * r));
 }
 
+/* r^2 at which a disc holds `photons` of a whole iteration's photons where the camera's points
+ * are (seen[which]): each point's disc, clipped to its side of the geometry, grows from the
+ * radius of the scene's mean density until it holds PM_PPM_INITIAL_PHOTONS of this pass's
+ * photons (or reaches SEEN_GROWTH times that radius); the density is the median over the points
+ * that found any. A room lit by a lamp inside a large dark landscape thus starts with a radius
+ * fitting the room's light, not the landscape's mean. 0 when too few points found photons. The
+ * caller keeps the mean's radius where the seen light is sparser: a wider disc would blur more
+ * than the mean's did, and only more photons where the camera looks can make it denser. */
+static double seen_density_radius2(pm_progressive *p, const pm_photon_grid *grid, int which, double mean_r2,
+                                   double photons, double to_whole) {
+    enum { SEEN_STEPS = 5, MIN_POINTS = 16 };
+    if (!grid->count || !(mean_r2 > 0.0)) return 0.0;
+    double *density = p->seen_density;
+    int known = 0;
+    for (int k = 0; k < p->seen_count[which]; k++) {
+        double r2 = mean_r2 / 4.0;
+        for (int step = 0; step < SEEN_STEPS; step++, r2 *= 4.0) {
+            pm_clip clip;
+            pm_clip_make(&clip, p->scene, p->accel, p->seen[which][k].p, p->seen[which][k].n, p->seen[which][k].tri,
+                         (float)sqrt(r2), pm_hash64((uint64_t)which << 32 | (uint64_t)k), &p->stats.clip_rays);
+            pm_grid_query q = {p->seen[which][k].p, p->seen[which][k].n, (float)r2, 7u, NULL, v3s(0.f), v3s(0.f), &clip};
+            pm_grid_result r;
+            pm_photon_grid_sum_many(grid, &q, 1, &r);
+            if (r.found >= PM_PPM_INITIAL_PHOTONS || step == SEEN_STEPS - 1) {
+                if (r.found) density[known++] = r.found * to_whole / (PM_PI * r2 * pm_clip_area_fraction(&clip, (float)sqrt(r2)));
+                break;
+            }
+        }
+    }
+    double r2 = 0.0;
+    if (known >= MIN_POINTS) {
+        /* the median, by a partial selection sort's middle: a few hundred values once a restart */
+        for (int i = 0; i <= known / 2; i++)
+            for (int j = i + 1; j < known; j++)
+                if (density[j] < density[i]) { double t = density[i]; density[i] = density[j]; density[j] = t; }
+        r2 = photons / (PM_PI * density[known / 2]);
+    }
+    return r2;
+}
+
 bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
     assert((size_t)film->width * film->height == p->pixels);
     uint32_t iteration = film->photon_passes;
@@ -656,6 +722,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
                          (p->trace_global ? to_whole[KIND_INDIRECT] : to_whole[KIND_CAUSTIC]);
     if (p->density_r2[KIND_CAUSTIC] == 0.0)
         p->density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count, to_whole[KIND_CAUSTIC]);
+    p->stats.photons_stored += caustic->count + global->count;
     /* visible points read only indirect photons (direct light and caustics have their own
      * estimates); gather points read all of them */
     if (!p->gathering) keep_tagged(global, 1u << PM_PATH_INDIRECT);
@@ -666,6 +733,18 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
                                                  : p->density_r2[KIND_INDIRECT] * PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS;
     double t_grid = pm_now_seconds();
     if (!build_grid(p, KIND_CAUSTIC) || !build_grid(p, KIND_INDIRECT)) return false;
+    /* the first pass with global photons: the radii from their density where the camera looks */
+    if (!p->seen_measured && global->count && set->initial_radius <= 0.0) {
+        p->seen_measured = true;
+        const pm_photon_grid *g = &p->grid[KIND_INDIRECT];
+        double mean_r2 = p->density_r2[KIND_INDIRECT] * (p->gathering ? PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS : 1.0);
+        double seen = seen_density_radius2(p, g, 0, mean_r2, PM_PPM_INITIAL_PHOTONS, to_whole[KIND_INDIRECT]);
+        if (seen > 0.0 && !p->gathering) p->density_r2[KIND_INDIRECT] = fmin(seen, p->density_r2[KIND_INDIRECT]);
+        if (p->gathering) {
+            double gathered = seen_density_radius2(p, g, 1, mean_r2, PM_PPM_GATHER_PHOTONS, to_whole[KIND_INDIRECT]);
+            if (gathered > 0.0) p->gather_r2 = fmin(gathered, p->gather_r2);
+        }
+    }
     double t1 = pm_now_seconds();
     p->stats.photons.kdtree_seconds += t1 - t_grid;
     p->stats.photons.seconds += t1 - t0;
@@ -709,8 +788,10 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
             query_count[k] += job->counters[t].query_count[k];
         }
     }
-    for (int k = 0; k < KIND_COUNT; k++)
+    for (int k = 0; k < KIND_COUNT; k++) {
         if (query_count[k]) p->query_radius[k] = query_sum[k] / (double)query_count[k];
+        p->stats.photons_read += pm_photon_grid_read_count(&p->grid[k]);
+    }
     free(job);
     /* the gathering ran inside the eye pass's wall time: its share (thread seconds over threads)
      * is reported as gather time, the rest as the eye pass's */
