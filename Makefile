@@ -115,7 +115,7 @@ build/rel/photon_ceiling: bench/photon_ceiling.c bench/bench_settings.h build/re
 build/rel/caustic_error: bench/caustic_error.c tests/caustic_region.h build/rel/libpm.a
 	$(CC) $(CFLAGS) -Itests $< build/rel/libpm.a -o $@ $(LIBS)
 
-# Takes about 50 minutes (45 runs of 64 s, one at a time); QUICK=1 about 3 minutes. gnuplot draws the plots.
+# Takes about 75 minutes (68 runs of 64 s, one at a time); QUICK=1 about 3 minutes. gnuplot draws the plots.
 convergence: deps pmview build/rel/error_map
 	@sh tools/install-deps.sh convergence
 	@QUICK=$(QUICK) sh tools/convergence.sh

@@ -69,6 +69,13 @@
 #define PM_CLIP_PROBES 4                   /* rays along a gather point's tangent plane that look for walls across its disc (each reaches r / cos(pi / this)) */
 #define PM_CLIP_LIFT 0.002f                /* ... lifted this share of the disc's radius off the surface, so that they do not graze it */
 
+/* photons sent where the camera looks (guide.h), progressive mode */
+#define PM_GUIDE_CELLS 32                  /* a guided source's two placing numbers split into this many x this many cells */
+#define PM_GUIDE_UNIFORM 0.1               /* share of the photons drawn uniformly whatever was learned (every emission stays possible) */
+#define PM_GUIDE_PRIOR 16.0                /* a cell's learned rate counts this many photons at the source's mean rate besides its own */
+#define PM_GUIDE_MAX_SOURCES 16            /* lights past this many are not guided */
+#define PM_GUIDE_MARK_BITS (1u << 22)      /* the marks' hashed bit set: 512 KB */
+
 /* photon mapping (classic two-pass mode) */
 #define PM_DEFAULT_PHOTONS_PER_PIXEL 1.0   /* global photons = pixels x this, clamped below */
 #define PM_MIN_DEFAULT_PHOTONS 100000

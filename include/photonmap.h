@@ -14,6 +14,7 @@
 #include "accel.h"
 #include "brdf.h"
 #include "clip.h"
+#include "guide.h"
 #include "kdtree.h"
 #include "scene.h"
 
@@ -108,6 +109,12 @@ typedef struct {
     size_t count, capacity;
 } pm_splat_buffer;
 void pm_photon_tracer_set_splats(pm_photon_tracer *t, const pm_camera *camera, int width, int height, pm_splat_buffer *out);
+
+/* The emission guide (guide.h): how many of the tracer's sources it may steer; with a guide of
+ * that many sources, every later global pass draws guided photons from it, counts their records
+ * in marked cells, and teaches it from them (NULL: unguided, as before). False when out of memory. */
+uint32_t pm_photon_tracer_guided_sources(const pm_photon_tracer *t);
+bool pm_photon_tracer_set_guide(pm_photon_tracer *t, pm_guide *guide, const pm_marks *marks);
 
 /* A growable array of photon records, reused from pass to pass. */
 typedef struct { pm_photon *data; size_t count, capacity; } pm_photon_buffer;

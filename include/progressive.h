@@ -57,6 +57,7 @@ typedef struct {
     double first_photon_fraction; /* share of the photons the first iteration after a start or a restart emits; 0 = PM_PPM_FIRST_PHOTON_FRACTION */
     int eye_passes;            /* eye passes reading each photon pass; 0 = automatic (from the rays of both, see pm_progressive_iterate) */
     bool unclipped;            /* estimates read their whole disc, through walls (no clip.h): only to measure what clipping costs and mends */
+    bool unguided;             /* photons emitted without the learned guide (guide.h): only to measure what guiding gains */
 } pm_progressive_settings;
 
 typedef struct {

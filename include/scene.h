@@ -251,7 +251,16 @@ static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, flo
     /* Shading normals that disagree with the winding would light back faces: trust the winding. */
     out->ns = v3_dot(n, out->ng) < 0.f ? v3_neg(n) : n;
     vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
-    out->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
+    /* Rays leave from the point pulled toward the centroid (pm_offset_surface_origin) only near
+     * the triangle's edges, where a wall sharing the edge needs it: deep inside a large triangle
+     * (a floor running on under a wall) the pull could carry the origin into a wall standing on
+     * it, and the ray would start inside that wall. Near: closer to an edge than four of the
+     * pull's steps. */
+    float twice_area = v3_length(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
+    float edge = pm_minf(b0 / v3_length(v3_sub(p2, p1)), pm_minf(b1 / v3_length(v3_sub(p2, p0)), b2 / v3_length(v3_sub(p1, p0))));
+    float m = pm_maxf(fabsf(out->p.x), pm_maxf(fabsf(out->p.y), fabsf(out->p.z)));
+    float pull = pm_maxf(s->ray_scale * (1.f / 65536.f), m * 4e-6f);
+    out->centroid = edge * twice_area > 4.f * pull ? out->p : v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
 }
 
 /* The fields of pm_scene_surface that light transport reads (p, ng, ns, centroid, material, kd,

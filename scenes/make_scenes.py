@@ -1,13 +1,16 @@
 #!/usr/bin/env python3
-# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, mirror-caustic.gltf, point-room.gltf) and exposes them as Python data.
+# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, mirror-caustic.gltf, point-room.gltf, window-room.gltf) and exposes them as Python data.
 """Scene generator for pmview (standard library only, deterministic).
 
-    python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, mirror-caustic.gltf
+    python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, mirror-caustic.gltf,
+                                             # point-room.gltf, window-room.gltf
     python3 scenes/make_scenes.py --segments 96 --light-strength 40 --out /tmp
 
 Each scene is a dict: {"meshes": [mesh], "camera": camera, "lights": [light]} where a mesh is
-{"name", "positions" (local), "normals", "indices", "material", "translation", "scale"} and a
-material is {"kind": "diffuse"|"mirror"|"glass"|"emitter"|"metal", "color", "strength", "roughness"}. The glTF
+{"name", "positions" (local), "normals", "indices", "material", "translation", "scale"}, a
+material is {"kind": "diffuse"|"mirror"|"glass"|"emitter"|"metal", "color", "strength", "roughness"}
+and a light is {"type": "point", "position", "color", "intensity" (W/sr)} or {"type": "directional",
+"direction" (unit, the way the light travels), "color", "intensity" (W/m^2 across the beam)}. The glTF
 writer and tools/mitsuba_reference.py both read these dicts, so the reference renders see the
 very same triangles. Units are metres, +Y up, the camera looks down -Z.
 """
@@ -26,6 +29,30 @@ GREEN = (0.14, 0.45, 0.091)
 def quad(corners, normal):
     """Two triangles of a quad given counter-clockwise as seen from its front (normal side)."""
     return {"positions": list(corners), "normals": [normal] * 4, "indices": [0, 1, 2, 0, 2, 3]}
+
+
+def box(lo, hi):
+    """A closed axis-aligned box from corner lo to corner hi: six quads, each facing outward."""
+    geometry = {"positions": [], "normals": [], "indices": []}
+    for k in range(3):
+        u, v = (k + 1) % 3, (k + 2) % 3  # e_u x e_v = e_k
+        for sign in (-1, 1):
+            def corner(a, b):
+                p = [0.0, 0.0, 0.0]
+                p[k] = float(hi[k] if sign > 0 else lo[k])
+                p[u] = float(hi[u] if a else lo[u])
+                p[v] = float(hi[v] if b else lo[v])
+                return tuple(p)
+            # counter-clockwise seen from outside: u then v on the + face, v then u on the - face
+            order = [(0, 0), (1, 0), (1, 1), (0, 1)] if sign > 0 else [(0, 0), (0, 1), (1, 1), (1, 0)]
+            normal = [0.0, 0.0, 0.0]
+            normal[k] = float(sign)
+            face = quad([corner(a, b) for a, b in order], tuple(normal))
+            base = len(geometry["positions"])
+            geometry["positions"] += face["positions"]
+            geometry["normals"] += face["normals"]
+            geometry["indices"] += [base + i for i in face["indices"]]
+    return geometry
 
 
 def uv_sphere(segments, rings):
@@ -174,6 +201,41 @@ def point_room(segments=48):
     return {"meshes": meshes, "camera": camera, "lights": lights}
 
 
+def window_room(sun_elevation=40.0, sun_azimuth=20.0, sun_irradiance=5.0):
+    """A room 4 m x 2.6 m x 4 m inside (x, z in [-2, 2], floor top y = 0) with solid walls, floor and
+    ceiling slabs (closed boxes 15 cm thick, outside faces included), one unglazed window 1.4 m x
+    1.2 m (sill at 0.8 m) in the +z wall, standing on a large blue-grey ground 2 cm below the floor
+    top that continues under the room. The sun (a directional light, sun_elevation degrees above
+    the horizon, its travel turned sun_azimuth degrees from -z toward +x) shines in through the
+    window onto the floor the camera sees; the sky is not in the file (pmview --sky white, radiance 1).
+    The boxes meet face to face without overlapping (walls stand on the floor slab, the ceiling slab
+    rests on them, the side walls end against the back and window walls); the ground plane passes
+    through the floor slab's inside."""
+    diffuse = lambda c: {"kind": "diffuse", "color": c}
+    wall, floor = diffuse((0.7, 0.7, 0.7)), diffuse((0.6, 0.45, 0.3))
+    t, w, h = 0.15, 2.0, 2.6  # thickness, interior half width (x and z), interior height
+    wx, sill, top = 0.7, 0.8, 2.0  # window half width, sill and head heights
+    meshes = [
+        mesh("ground", quad([(-60, -0.02, 60), (60, -0.02, 60), (60, -0.02, -60), (-60, -0.02, -60)], (0, 1, 0)),
+             diffuse((0.30, 0.35, 0.55))),
+        mesh("floor_slab", box((-w - t, -t, -w - t), (w + t, 0.0, w + t)), floor),
+        mesh("ceiling_slab", box((-w - t, h, -w - t), (w + t, h + t, w + t)), wall),
+        mesh("back_wall", box((-w - t, 0.0, -w - t), (w + t, h, -w)), wall),
+        mesh("left_wall", box((-w - t, 0.0, -w), (-w, h, w)), wall),
+        mesh("right_wall", box((w, 0.0, -w), (w + t, h, w)), wall),
+        # the +z wall, around the window opening
+        mesh("window_wall_left", box((-w - t, 0.0, w), (-wx, h, w + t)), wall),
+        mesh("window_wall_right", box((wx, 0.0, w), (w + t, h, w + t)), wall),
+        mesh("window_wall_below", box((-wx, 0.0, w), (wx, sill, w + t)), wall),
+        mesh("window_wall_above", box((-wx, top, w), (wx, h, w + t)), wall),
+    ]
+    el, az = math.radians(sun_elevation), math.radians(sun_azimuth)
+    sun = (math.cos(el) * math.sin(az), -math.sin(el), -math.cos(el) * math.cos(az))
+    camera = {"eye": (1.4, 1.5, -1.6), "target": (0.2, 0.1, 1.2), "yfov": math.radians(70.0), "aspect": 1.0}
+    lights = [{"type": "directional", "direction": sun, "color": (1.0, 1.0, 1.0), "intensity": sun_irradiance}]
+    return {"meshes": meshes, "camera": camera, "lights": lights}
+
+
 def gltf_material(m):
     out = {"name": m["kind"], "pbrMetallicRoughness": {"baseColorFactor": list(m.get("color", (1, 1, 1))) + [1.0]}}
     pbr = out["pbrMetallicRoughness"]
@@ -256,8 +318,14 @@ def to_gltf(scene):
         doc["extensions"] = {"KHR_lights_punctual": {"lights": [
             {"type": l["type"], "color": list(l["color"]), "intensity": l["intensity"]} for l in scene["lights"]]}}
         for i, l in enumerate(scene["lights"]):
-            doc["nodes"].append({"name": "light%d" % i, "translation": list(l["position"]),
-                                 "extensions": {"KHR_lights_punctual": {"light": i}}})
+            node = {"name": "light%d" % i}
+            if "position" in l:
+                node["translation"] = list(l["position"])
+            if "direction" in l:
+                # the node's rotation turns the light's local -Z into the direction it travels
+                node["rotation"] = list(look_at_rotation((0.0, 0.0, 0.0), l["direction"]))
+            node["extensions"] = {"KHR_lights_punctual": {"light": i}}
+            doc["nodes"].append(node)
             doc["scenes"][0]["nodes"].append(len(doc["nodes"]) - 1)
         extensions_used.append("KHR_lights_punctual")
     if extensions_used:
@@ -276,7 +344,8 @@ def main():
                         ("caustic.gltf", caustic(max(args.segments, 64), args.point_intensity)),
                         ("glossy-spheres.gltf", glossy_spheres(args.segments)),
                         ("mirror-caustic.gltf", mirror_caustic(max(args.segments, 64))),
-                        ("point-room.gltf", point_room(args.segments))):
+                        ("point-room.gltf", point_room(args.segments)),
+                        ("window-room.gltf", window_room())):
         path = os.path.join(args.out, name)
         with open(path, "w") as f:
             json.dump(to_gltf(scene), f, separators=(",", ":"))

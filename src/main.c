@@ -53,6 +53,8 @@ typedef struct {
     bool view_photons, no_photons;
     pm_shadow_mode shadow_photons; /* --shadow-photons on|off; default: where they pay */
     bool caustic_statistics;       /* --caustic-splats off */
+    bool unclipped;                /* --clip off */
+    bool unguided;                 /* --guide off */
     bool classic;         /* --mode classic; else progressive (or pathtrace) */
     bool pathtrace;       /* --mode pathtrace */
     const char *log;      /* --log: CSV of the run, one row per logged iteration */
@@ -100,6 +102,8 @@ static const char usage_text[] =
     "                       (default: on for point, spot and directional lights where they pay)\n"
     "  --caustic-splats on|off  progressive: the caustic seen directly by connecting caustic photons to\n"
     "                       the camera (light tracing; default on), or off: from visible-point statistics\n"
+    "  --clip on|off        photon estimates stay on their side of walls (default on; off only to measure the leak)\n"
+    "  --guide on|off       progressive: photons sent where the camera reads them, learned (default on)\n"
     "  --reference REF.exr  measure the total against REF's R,G,B (same size): relMSE and mean ratios;\n"
     "                       with --stats also at iterations 1, 2, 4, 8, ... (an error-against-time curve)\n"
     "  --log FILE.csv       with --snapshot: one CSV row per iteration (then per doubling past 64): seconds,\n"
@@ -172,7 +176,7 @@ static int parse_options(int argc, char **argv, options *o) {
                                              "--caustic-photons", "--k", "--max-radius", "--kernel", "--indirect",
                                              "--gather-rays", "--view", "--precompute", "--reference", "--alpha",
                                              "--radius", "--components", "--sky", "--log", "--shadow-photons", "--max-memory",
-                                             "--caustic-splats", "--eye-passes"};
+                                             "--caustic-splats", "--eye-passes", "--clip", "--guide"};
         int which = -1;
         for (int k = 0; k < (int)(sizeof valued / sizeof *valued); k++)
             if (!strcmp(a, valued[k])) which = k;
@@ -240,6 +244,14 @@ static int parse_options(int argc, char **argv, options *o) {
             else if (!strcmp(v, "off")) o->caustic_statistics = true;
             else return usage_error("unknown --caustic-splats '%s' (on, off)", v);
             break;
+        case 30:
+        case 31: {
+            bool *off = which == 30 ? &o->unclipped : &o->unguided;
+            if (!strcmp(v, "on")) *off = false;
+            else if (!strcmp(v, "off")) *off = true;
+            else return usage_error(which == 30 ? "unknown --clip '%s' (on, off)" : "unknown --guide '%s' (on, off)", v);
+            break;
+        }
         case 29:
             if (!strcmp(v, "auto")) o->eye_passes = 0;
             else if (!parse_long(v, 1, 4096, &n)) return usage_error("bad --eye-passes '%s' (1 to 4096, or auto)", v);
@@ -264,9 +276,9 @@ static int parse_options(int argc, char **argv, options *o) {
     }
     /* options that belong to some modes only: elsewhere a usage error, the first rule first */
     static const char *const classic_only[] = {"--k", "--max-radius", "--kernel", "--gather-rays", "--precompute", "--view", NULL};
-    static const char *const photon_only[] = {"--alpha", "--radius", "--photons", "--caustic-photons", "--indirect", "--no-photons", NULL};
+    static const char *const photon_only[] = {"--alpha", "--radius", "--photons", "--caustic-photons", "--indirect", "--no-photons", "--clip", NULL};
     static const char *const shrinking_only[] = {"--alpha", "--radius", NULL};
-    static const char *const per_pass_only[] = {"--eye-passes", NULL};
+    static const char *const per_pass_only[] = {"--eye-passes", "--guide", NULL};
     const struct { bool refused; const char *const *options; const char *why; } mode_rules[] = {
         {!o->classic, classic_only, "%s belongs to --mode classic (the other modes have no k-nearest estimates)"},
         {o->pathtrace, photon_only, "%s belongs to the photon-mapping modes (the path tracer has no photons)"},
@@ -318,6 +330,8 @@ static bool configure(const options *opt, const pm_scene *scene, const pm_accel 
         pp->initial_radius = opt->radius;
         pp->indirect = opt->indirect;
         pp->caustic_by_statistics = opt->caustic_statistics;
+        pp->unclipped = opt->unclipped;
+        pp->unguided = opt->unguided;
         if (opt->stats)
             printf("stat progressive_setup photon_pass=%d caustic_photons=%llu global_photons=%llu indirect=%s caustic_splats=%d\n",
                    (scene->analysis.component_possible[PM_CAUSTIC] && pp->caustic_photons) ||
@@ -340,6 +354,7 @@ static bool configure(const options *opt, const pm_scene *scene, const pm_accel 
     ps->threads = opt->threads;
     ps->max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
     ps->projection_maps = true;
+    ps->unclipped = eye->unclipped = opt->unclipped;
     float extent = scene->ray_scale;
     eye->global_estimate.kernel = eye->caustic_estimate.kernel = opt->kernel;
     eye->global_estimate.k = opt->k ? opt->k : PM_DEFAULT_K_GLOBAL;

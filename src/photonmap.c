@@ -24,6 +24,7 @@
 #include "camera.h"
 #include "clock.h"
 #include "defaults.h"
+#include "guide.h"
 #include "memory.h"
 #include "parallel.h"
 #include "rng.h"
@@ -44,6 +45,10 @@ typedef struct {
     float radius;            /* bounding radius of that region (0 for a point) */
     uint32_t *marked;        /* projection map (caustic pass): the marked cells' indices; NULL = every direction */
     uint32_t marked_count;
+    /* its slots among the emission guide's sources (guide.h), -1 where not guided: the two numbers
+     * that place its photons (the start on the disc across the scene for a directional light and
+     * the sky, the direction for a point or spot light), and the sky's direction */
+    int guided, guided_direction;
 } light_source;
 
 typedef struct { vec3 center; float radius; } sphere;
@@ -106,6 +111,12 @@ typedef struct {
     pm_camera_splat **chunk_splats;
     uint32_t *chunk_splat_counts;
     struct { uint64_t rays, dropped; char pad[48]; } counters[MAX_THREADS];
+    /* the emission guide (global pass, guide.h): where guided photons start, and per thread the
+     * photons each cell emitted and the records they stored in marked cells (2 x guide_cells each) */
+    const pm_guide *guide;
+    const pm_marks *marks;
+    uint32_t *guide_counts;
+    size_t guide_cells;       /* guided sources x PM_GUIDE_CELL_COUNT */
 } pass;
 
 static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
@@ -361,11 +372,16 @@ static float emitter_point(const pass *ps, uint32_t e, float b1, float b2, pm_su
  * pass), uniform on the union of the targets' projected discs: pick a disc by area, a point in
  * it, and divide by how many discs cover that point, so overlaps are not counted twice.
  * Returns the area that the sampling stands for: flux = irradiance x that area. */
-static float parallel_start(const pass *ps, vec3 dir, pm_rng *rng, vec3 *o) {
+static float parallel_start(const pass *ps, vec3 dir, pm_rng *rng, const float *guided, vec3 *o) {
     const pm_scene *s = ps->scene;
     float R = s->radius > 0.f ? s->radius : 1.f, x, y, area, back = 1.01f * R;
     vec3 t, b;
     v3_basis(dir, &t, &b);
+    if (guided) {
+        pm_sample_disc(guided[0], guided[1], &x, &y);
+        *o = v3_add(v3_madd(s->center, dir, -back), v3_add(v3_scale(t, x * R), v3_scale(b, y * R)));
+        return PM_PI * R * R;
+    }
     float u = pm_rng_float(rng);
     pm_sample_disc(pm_rng_float(rng), pm_rng_float(rng), &x, &y);
     if (ps->caustic_pass && ps->targets && ps->target_count) {
@@ -391,8 +407,11 @@ static float parallel_start(const pass *ps, vec3 dir, pm_rng *rng, vec3 *o) {
 }
 
 /* Starts one photon from source l: origin, direction and flux (before dividing by the photon
- * count and the pick probability). Returns false when it carries nothing. */
-static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, vec3 *d, vec3 *flux) {
+ * count and the pick probability). Returns false when it carries nothing. guided: the emission
+ * guide's two numbers for the start on the disc across the scene (directional light, sky) or the
+ * direction (point, spot), NULL to draw them. */
+static bool emit(const pass *ps, const light_source *l, pm_rng *rng, const float *guided, const float *guided_direction,
+                 vec3 *o, vec3 *d, vec3 *flux) {
     const pm_scene *s = ps->scene;
     bool aimed = ps->caustic_pass && l->marked; /* projection maps aim caustic photons only */
     if (l->kind == SOURCE_EMITTERS) {
@@ -422,14 +441,15 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
         const pm_light *pl = &s->lights[l->light];
         if (pl->type == PM_LIGHT_DIRECTIONAL) {
             *d = pl->direction;
-            *flux = v3_scale(pl->intensity, parallel_start(ps, *d, rng, o));
+            *flux = v3_scale(pl->intensity, parallel_start(ps, *d, rng, guided, o));
             return true;
         }
         *o = pl->position;
         if (pl->type == PM_LIGHT_SPOT && !aimed) {
             /* uniform in the outer cone */
-            float z = 1.f - pm_rng_float(rng) * (1.f - pl->cos_outer), r = sqrtf(pm_maxf(0.f, 1.f - z * z));
-            float phi = 2.f * PM_PI * pm_rng_float(rng);
+            float uz = guided ? guided[0] : pm_rng_float(rng), uphi = guided ? guided[1] : pm_rng_float(rng);
+            float z = 1.f - uz * (1.f - pl->cos_outer), r = sqrtf(pm_maxf(0.f, 1.f - z * z));
+            float phi = 2.f * PM_PI * uphi;
             vec3 t, b;
             v3_basis(pl->direction, &t, &b);
             *d = v3_add(v3_scale(pl->direction, z), v3_add(v3_scale(t, r * cosf(phi)), v3_scale(b, r * sinf(phi))));
@@ -437,7 +457,13 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
             *flux = v3_scale(pl->intensity, spot_falloff(pl, *d) * omega);
             return !v3_is_black(*flux);
         }
-        float omega = sample_direction(l, aimed, rng, d);
+        float omega;
+        if (guided && !aimed) {
+            *d = pm_sample_sphere(guided[0], guided[1]);
+            omega = 4.f * PM_PI;
+        } else {
+            omega = sample_direction(l, aimed, rng, d);
+        }
         float falloff = pl->type == PM_LIGHT_SPOT ? spot_falloff(pl, *d) : 1.f;
         *flux = v3_scale(pl->intensity, falloff * omega);
         return falloff > 0.f;
@@ -447,21 +473,25 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, vec3 *o, ve
     if (s->sky_map) {
         vec3 toward;
         float pdf;
-        vec3 radiance = pm_sky_map_sample(s->sky_map, pm_rng_float(rng), pm_rng_float(rng), &toward, &pdf);
+        float u1 = guided_direction ? guided_direction[0] : pm_rng_float(rng);
+        float u2 = guided_direction ? guided_direction[1] : pm_rng_float(rng);
+        vec3 radiance = pm_sky_map_sample(s->sky_map, u1, u2, &toward, &pdf);
         if (!(pdf > 0.f)) return false;
         *d = v3_neg(toward);
-        *flux = v3_scale(v3_mul(s->sky_radiance, radiance), parallel_start(ps, *d, rng, o) / pdf);
+        *flux = v3_scale(v3_mul(s->sky_radiance, radiance), parallel_start(ps, *d, rng, guided, o) / pdf);
         return true;
     }
-    *d = v3_neg(pm_sample_sphere(pm_rng_float(rng), pm_rng_float(rng)));
-    *flux = v3_scale(s->sky_radiance, 4.f * PM_PI * parallel_start(ps, *d, rng, o));
+    float u1 = guided_direction ? guided_direction[0] : pm_rng_float(rng);
+    float u2 = guided_direction ? guided_direction[1] : pm_rng_float(rng);
+    *d = v3_neg(pm_sample_sphere(u1, u2));
+    *flux = v3_scale(s->sky_radiance, 4.f * PM_PI * parallel_start(ps, *d, rng, guided, o));
     return true;
 }
 
 /* A chunk's view of its thread's record arena: it appends from `start`; `room` is where the
  * slow path must run next (the arena is full, or the chunk's next CHUNK records are to be
  * counted against the pass's storage bound). */
-typedef struct { pm_photon *data; size_t count, capacity, start, counted, room; bool failed; pass *ps; } photon_list;
+typedef struct { pm_photon *data; size_t count, capacity, start, counted, room; bool failed; pass *ps; uint32_t *guide_counts; } photon_list;
 typedef struct { pm_camera_splat *data; uint32_t count, capacity; } splat_list;
 
 
@@ -557,17 +587,40 @@ typedef struct {
     int bounce, specular_bounces;
     bool diffuse_seen;
     bool first_hit_traced; /* its light is punctual and the reader traces its first hits */
+    uint32_t guide_cell[2]; /* the emission guide's slots and cells it left from (guided, guided_direction), UINT32_MAX where unguided */
 } photon_path;
 
 /* Starts photon number i of the pass (its own random stream): false when it carries nothing. */
-static bool start_photon(const pass *ps, pm_rng_family streams, uint64_t i, photon_path *p, vec3 *o, vec3 *d) {
+static bool start_photon(const pass *ps, pm_rng_family streams, uint64_t i, photon_path *p, vec3 *o, vec3 *d,
+                         uint32_t *guide_counts) {
     p->rng = pm_rng_member(streams, i);
     float source_pdf;
     const light_source *l = &ps->sources[pick_source(ps, pm_rng_float(&p->rng), &source_pdf)];
     vec3 flux;
-    if (source_pdf <= 0.f || !emit(ps, l, &p->rng, o, d, &flux)) return false;
+    float pair[2][2], weight = 1.f;
+    int slot[2] = {l->guided, l->guided_direction};
+    p->guide_cell[0] = p->guide_cell[1] = UINT32_MAX;
+    if (ps->guide && l->guided >= 0) {
+        /* all guided numbers uniform, or all learned: one mixture over the whole photon (guide.h) */
+        bool uniform = pm_rng_float(&p->rng) < PM_GUIDE_UNIFORM;
+        double learned = 1.0;
+        for (int k = 0; k < 2 && slot[k] >= 0; k++) {
+            float u_cell = pm_rng_float(&p->rng);
+            pair[k][0] = pm_rng_float(&p->rng);
+            pair[k][1] = pm_rng_float(&p->rng);
+            uint32_t cell = uniform ? pm_guide_cell_of(pair[k][0], pair[k][1])
+                                    : pm_guide_pick(ps->guide, (uint32_t)slot[k], u_cell, &pair[k][0], &pair[k][1]);
+            learned *= pm_guide_density(ps->guide, (uint32_t)slot[k], cell);
+            p->guide_cell[k] = (uint32_t)slot[k] * PM_GUIDE_CELL_COUNT + cell;
+            guide_counts[p->guide_cell[k]]++;
+        }
+        weight = (float)(1.0 / (PM_GUIDE_UNIFORM + (1.0 - PM_GUIDE_UNIFORM) * learned));
+    }
+    if (source_pdf <= 0.f || !emit(ps, l, &p->rng, p->guide_cell[0] != UINT32_MAX ? pair[0] : NULL,
+                                   p->guide_cell[1] != UINT32_MAX ? pair[1] : NULL, o, d, &flux))
+        return false;
     p->first_hit_traced = ps->punctual_first_hits_traced && l->kind == SOURCE_PUNCTUAL;
-    p->power = v3_scale(flux, 1.f / ((float)ps->photons * source_pdf));
+    p->power = v3_scale(flux, weight / ((float)ps->photons * source_pdf));
     p->bounce = p->specular_bounces = 0;
     p->diffuse_seen = false;
     return true;
@@ -610,6 +663,12 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
         } else {
             int path = p->bounce == 0 ? PM_PATH_DIRECT : (p->diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
             if (p->bounce > 0 || !p->first_hit_traced) push(list, sf.p, ng, *d, p->power, path);
+            /* a guided photon's hit where a camera point read photons last iteration: stored or
+             * not (a punctual light's first hit, which the reader traces, shows the way in too) */
+            if (p->guide_cell[0] != UINT32_MAX && pm_marks_test(ps->marks, sf.p)) {
+                list->guide_counts[ps->guide_cells + p->guide_cell[0]]++;
+                if (p->guide_cell[1] != UINT32_MAX) list->guide_counts[ps->guide_cells + p->guide_cell[1]]++;
+            }
         }
     }
     float x = pm_rng_float(rng), S = Sm + St;
@@ -671,7 +730,8 @@ typedef struct {
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
     pass *ps = ctx;
     struct record_arena *arena = &ps->arenas[thread];
-    photon_list list = {arena->data, arena->count, arena->capacity, arena->count, 0, arena->count, false, ps};
+    photon_list list = {arena->data, arena->count, arena->capacity, arena->count, 0, arena->count, false, ps,
+                        ps->guide ? ps->guide_counts + (size_t)thread * 2 * ps->guide_cells : NULL};
     splat_list splats = {NULL, 0, 0};
     if (atomic_load(&ps->out_of_memory)) return; /* the pass has failed: no use tracing on */
     /* the first chunk always runs: an iteration with no photon at all would bias its average */
@@ -699,7 +759,9 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                 next = last;
                 break;
             }
-            if (!start_photon(ps, streams, next++, &w->path[n], &w->origin[n], &w->direction[n]) || max_bounces < 1) continue;
+            if (!start_photon(ps, streams, next++, &w->path[n], &w->origin[n], &w->direction[n], list.guide_counts) ||
+                max_bounces < 1)
+                continue;
             if (!v3_is_finite(w->path[n].power)) { dropped++; continue; } /* an overflowing light: never stored */
             n++;
         }
@@ -911,6 +973,8 @@ struct pm_photon_tracer {
     bool global_possible, caustic_possible;
     double projection_fraction;
     double deadline;           /* of the time budget, 0 = none */
+    uint32_t guided_sources;   /* sources the emission guide may steer (directional, sky, point, spot) */
+    pm_guide *guide;           /* set by pm_photon_tracer_set_guide: learns from each global pass */
 };
 
 static float source_weight(const light_source *l) {
@@ -929,6 +993,16 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
     if (!t->sources || !t->cdf || !t->emitter_shapes) { pm_photon_tracer_destroy(t); return NULL; }
     uint32_t source_count = build_sources(s, t->sources);
     t->source_count = source_count;
+    /* an emitter set's photons start all over its triangles: not guided; the sky's direction and
+     * start are guided apart (the product of two learned marginals) */
+    for (uint32_t i = 0; i < source_count; i++) {
+        light_source *l = &t->sources[i];
+        bool sky = l->kind == SOURCE_SKY, room = t->guided_sources + (sky ? 2 : 1) <= PM_GUIDE_MAX_SOURCES;
+        l->guided = l->guided_direction = -1;
+        if (l->kind == SOURCE_EMITTERS || !room) continue;
+        if (sky) l->guided_direction = (int)t->guided_sources++;
+        l->guided = (int)t->guided_sources++;
+    }
     float *cdf = t->cdf;
     double total = 0.0, run = 0.0;
     for (uint32_t i = 0; i < source_count; i++) total += source_weight(&t->sources[i]);
@@ -1017,7 +1091,27 @@ void pm_photon_tracer_destroy(pm_photon_tracer *t) {
     free(t->emitter_shapes);
     free(t->sources);
     free(t->cdf);
+    free(t->ps.guide_counts);
     free(t);
+}
+
+uint32_t pm_photon_tracer_guided_sources(const pm_photon_tracer *t) { return t->guided_sources; }
+
+bool pm_photon_tracer_set_guide(pm_photon_tracer *t, pm_guide *guide, const pm_marks *marks) {
+    free(t->ps.guide_counts);
+    t->ps.guide_counts = NULL;
+    t->guide = NULL;
+    t->ps.guide = NULL;
+    t->ps.marks = NULL;
+    if (!guide || !t->guided_sources) return true;
+    assert(guide->sources == t->guided_sources);
+    int threads = t->settings.threads < 1 ? 1 : (t->settings.threads > MAX_THREADS ? MAX_THREADS : t->settings.threads);
+    t->ps.guide_cells = (size_t)t->guided_sources * PM_GUIDE_CELL_COUNT;
+    t->ps.guide_counts = pm_calloc((size_t)threads * 2 * t->ps.guide_cells, sizeof(uint32_t), "photon guide counts");
+    if (!t->ps.guide_counts) return false;
+    t->guide = guide;
+    t->ps.marks = marks;
+    return true;
 }
 
 bool pm_photon_tracer_can_trace(const pm_photon_tracer *t, bool caustic) {
@@ -1064,8 +1158,19 @@ bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t pho
     t->ps.caustic_pass = caustic;
     t->ps.photons = photons;
     t->ps.seed = caustic ? seed ^ 0xca05u : seed;
+    /* the global pass is guided (the caustic pass has its projection maps) */
+    t->ps.guide = !caustic ? t->guide : NULL;
+    int threads = t->settings.threads < 1 ? 1 : (t->settings.threads > MAX_THREADS ? MAX_THREADS : t->settings.threads);
+    if (t->ps.guide) memset(t->ps.guide_counts, 0, sizeof(uint32_t) * (size_t)threads * 2 * t->ps.guide_cells);
     uint64_t rays = 0;
     bool ok = trace_into(&t->ps, out, &rays);
+    if (ok && t->ps.guide && t->ps.marks->any) {
+        /* the threads' counts summed into the first's, then learned from */
+        uint32_t *sum = t->ps.guide_counts;
+        for (int k = 1; k < threads; k++)
+            for (size_t c = 0; c < 2 * t->ps.guide_cells; c++) sum[c] += t->ps.guide_counts[(size_t)k * 2 * t->ps.guide_cells + c];
+        pm_guide_learn(t->guide, sum, sum + t->ps.guide_cells);
+    }
     stats->rays += rays;
     stats->dropped += t->ps.dropped;
     stats->emitted += t->ps.traced;

@@ -86,6 +86,11 @@ struct pm_progressive {
     noise_probe probe;                   /* automatic eye passes only */
     pm_photon_buffer buffer[KIND_COUNT]; /* this iteration's photons, reused */
     pm_photon_grid grid[KIND_COUNT];
+    /* photons sent where the camera looks (guide.h): the eye passes mark where global photons are
+     * read, the next global pass learns from them */
+    bool guiding;
+    pm_marks marks;
+    pm_guide guide;
     pm_progressive_stats stats;
 };
 
@@ -146,6 +151,16 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
     p->slot_used[PM_SLOT_INDIRECT] = p->trace_global && !p->gathering;
     p->slot_used[PM_SLOT_SPECULAR_INDIRECT] = p->trace_global && !p->gathering && specular;
     p->diffuse_area = diffuse_area(s);
+    uint32_t guided = p->trace_global && !settings->unguided ? pm_photon_tracer_guided_sources(p->tracer) : 0;
+    if (guided) {
+        p->guiding = true;
+        if (!pm_marks_init(&p->marks) || !pm_guide_init(&p->guide, guided) ||
+            !pm_photon_tracer_set_guide(p->tracer, &p->guide, &p->marks)) {
+            snprintf(err, err_size, "out of memory (%s)", pm_memory_failure() ? pm_memory_failure() : "photon guide");
+            pm_progressive_destroy(p);
+            return NULL;
+        }
+    }
     return p;
 }
 
@@ -158,6 +173,8 @@ void pm_progressive_destroy(pm_progressive *p) {
     }
     free(p->splats.data);
     probe_free(&p->probe);
+    pm_marks_free(&p->marks);
+    pm_guide_free(&p->guide);
     free(p);
 }
 
@@ -347,6 +364,10 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     p->density_r2[KIND_CAUSTIC] = p->density_r2[KIND_INDIRECT] = 0.0;
     p->gather_r2 = 0.0;
     p->seen_measured = false;
+    if (p->guiding) {
+        pm_guide_reset(&p->guide);
+        pm_marks_clear(&p->marks, 1.f);
+    }
     p->query_radius[KIND_CAUSTIC] = p->query_radius[KIND_INDIRECT] = 0.0;
     p->initial_radius_sum = 0.0;
     p->initial_radius_count = 0;
@@ -524,6 +545,12 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
     pm_ppm_stat *target[BATCH];
     size_t point[BATCH];
     bool fresh[BATCH];
+    if (job->p->guiding) {
+        /* where global photons are read: the next global pass's guide learns from these marks */
+        const pm_visible_point *readers = job->p->gathering ? gathered : visible;
+        for (size_t k = 0; readers && k < count; k++)
+            if (readers[k].valid) pm_marks_set(&job->p->marks, readers[k].p);
+    }
     for (size_t base = 0; base < count; base += BATCH) {
         size_t end = count - base < BATCH ? count : base + BATCH;
         /* statistics at visible points: caustic photons, and indirect ones without final gathering;
@@ -733,17 +760,25 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
                                                  : p->density_r2[KIND_INDIRECT] * PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS;
     double t_grid = pm_now_seconds();
     if (!build_grid(p, KIND_CAUSTIC) || !build_grid(p, KIND_INDIRECT)) return false;
-    /* the first pass with global photons: the radii from their density where the camera looks */
-    if (!p->seen_measured && global->count && set->initial_radius <= 0.0) {
-        p->seen_measured = true;
+    /* the first pass with global photons: the radii from their density where the camera looks;
+     * while the guide learns to send photons there (iterations 2, 4, 8 and 16 after it), the
+     * shared gather radius may shrink again to the denser light's (a deterministic sequence that
+     * only ever shrinks faster, so the limit is unchanged) */
+    bool remeasure = p->guiding && p->gathering && p->seen_measured && iteration >= 2 && iteration <= 16 &&
+                     (iteration & (iteration - 1)) == 0;
+    if ((!p->seen_measured || remeasure) && global->count && set->initial_radius <= 0.0) {
         const pm_photon_grid *g = &p->grid[KIND_INDIRECT];
         double mean_r2 = p->density_r2[KIND_INDIRECT] * (p->gathering ? PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS : 1.0);
-        double seen = seen_density_radius2(p, g, 0, mean_r2, PM_PPM_INITIAL_PHOTONS, to_whole[KIND_INDIRECT]);
-        if (seen > 0.0 && !p->gathering) p->density_r2[KIND_INDIRECT] = fmin(seen, p->density_r2[KIND_INDIRECT]);
+        if (!p->seen_measured) {
+            double seen = seen_density_radius2(p, g, 0, mean_r2, PM_PPM_INITIAL_PHOTONS, to_whole[KIND_INDIRECT]);
+            if (seen > 0.0 && !p->gathering) p->density_r2[KIND_INDIRECT] = fmin(seen, p->density_r2[KIND_INDIRECT]);
+        }
         if (p->gathering) {
-            double gathered = seen_density_radius2(p, g, 1, mean_r2, PM_PPM_GATHER_PHOTONS, to_whole[KIND_INDIRECT]);
+            double gathered = seen_density_radius2(p, g, 1, remeasure ? p->gather_r2 : mean_r2, PM_PPM_GATHER_PHOTONS,
+                                                   to_whole[KIND_INDIRECT]);
             if (gathered > 0.0) p->gather_r2 = fmin(gathered, p->gather_r2);
         }
+        p->seen_measured = true;
     }
     double t1 = pm_now_seconds();
     p->stats.photons.kdtree_seconds += t1 - t_grid;
@@ -762,6 +797,13 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     job->to_whole[KIND_CAUSTIC] = to_whole[KIND_CAUSTIC];
     job->to_whole[KIND_INDIRECT] = to_whole[KIND_INDIRECT];
     bool photons_here = job->caustic || job->global;
+    if (p->guiding) {
+        /* a mark's cell: twice the radius global photons are read with */
+        double read_radius = p->gathering ? sqrt(p->gather_r2)
+                                          : (p->query_radius[KIND_INDIRECT] > 0.0 ? p->query_radius[KIND_INDIRECT]
+                                                                                  : mean_initial_radius(p, KIND_INDIRECT));
+        pm_marks_clear(&p->marks, (float)(0.25 * read_radius));
+    }
     for (uint32_t pass = 0; pass < eye_passes; pass++) {
         job->statistics = pass == 0;
         job->sample = film->samples;

@@ -232,7 +232,8 @@ static void test_restart(void) {
 
 /* The first iteration after a start or a restart emits PM_PPM_FIRST_PHOTON_FRACTION of the
  * photons, and the radii start from a whole iteration's density all the same: the final-gather
- * radius after it is recomputed here from the stored photons, scaled to a whole iteration. */
+ * radius after it is at most the one recomputed here from the scene's mean density of the stored
+ * photons, scaled to a whole iteration (the density where the camera looks may be higher). */
 static void test_first_iteration_photons(void) {
     pm_scene s;
     pm_camera cam;
@@ -259,7 +260,9 @@ static void test_first_iteration_photons(void) {
     double stored_whole = (double)st->photons.stored_global * (double)ps.photons / (double)global_first;
     double want = sqrt(PM_PPM_GATHER_PHOTONS * area / (PM_PI * stored_whole) * (1.0 + ps.alpha) / 2.0);
     double got = pm_progressive_radii(r.p, &r.film).gather;
-    CHECK_NEAR(got, want, 1e-9, 1e-6, "final-gather radius after the first iteration, from a whole iteration's density");
+    /* the radius comes from the density where the camera looks, and is never wider than the mean's */
+    CHECK(got <= want + 1e-6 && got > 0.2 * want, "final-gather radius after the first iteration %g: from a whole "
+          "iteration's density, at most the mean density's %g", got, want);
     iterate(&r, 2);
     CHECK(st->photons.emitted == first + 2 * whole, "later iterations emit the whole count (%llu)",
           (unsigned long long)st->photons.emitted);

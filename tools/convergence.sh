@@ -1,7 +1,7 @@
 #!/bin/sh
 # convergence.sh: renders the shipped scenes with every method for a fixed time, logging error against time, and writes the report docs/convergence.md (`make convergence`).
 #
-#   make convergence            every method on the three scenes, 64 s each (about 50 minutes)
+#   make convergence            every method on the four scenes, 64 s each (about 75 minutes)
 #   make convergence QUICK=1    four methods, 12 s each (about 3 minutes)
 #
 # Each run is one pmview process with --time T --log run.csv --reference REF.exr: the log has a
@@ -13,7 +13,7 @@
 # names as the one that made it).
 cd "$(dirname "$0")/.." || exit 1
 
-all_methods="ppm-a0.5-gather ppm-a0.67-gather ppm-a0.9-gather ppm-a0.5-photons ppm-a0.67-photons ppm-a0.9-photons
+all_methods="ppm-a0.5-gather ppm-a0.67-gather ppm-a0.9-gather ppm-a0.5-photons ppm-a0.67-photons ppm-a0.9-photons ppm-unguided ppm-unclipped-unguided
  classic-100k-gather-disc classic-100k-gather-cone classic-100k-photons-disc classic-100k-photons-cone
  classic-1M-gather-disc classic-1M-gather-cone classic-1M-photons-disc classic-1M-photons-cone pt"
 if [ "$QUICK" = 1 ]; then
@@ -25,7 +25,7 @@ else
     seconds=${CONV_SECONDS:-64}
     command=${CONV_COMMAND:-make convergence}
 fi
-scenes=${CONV_SCENES:-cornell caustic mirror}
+scenes=${CONV_SCENES:-cornell caustic mirror window}
 out=${CONV_OUT:-docs}
 threads=${CONV_THREADS:-$(nproc)}
 pmview=${PMVIEW:-./pmview}
@@ -42,6 +42,7 @@ scene_file() {
         cornell) echo scenes/cornell-box.gltf ;;
         caustic) echo scenes/caustic.gltf ;;
         mirror) echo scenes/mirror-caustic.gltf ;;
+        window) echo scenes/window-room.gltf ;;
         *) return 1 ;;
     esac
 }
@@ -50,6 +51,7 @@ scene_ref() {
         cornell) echo tests/ref/cornell_path_64.exr ;;
         caustic) echo tests/ref/caustic_floor_64.exr ;;
         mirror) echo tests/ref/mirror_path_64.exr ;;
+        window) echo tests/ref/window_room_64.exr ;;
         *) return 1 ;;
     esac
 }
@@ -58,6 +60,13 @@ scene_ev() {
     case $1 in
         caustic) echo -3 ;;
         *) echo 0 ;;
+    esac
+}
+# scene name -> its environment (the window room's reference has Mitsuba's constant sky of radiance 1)
+scene_sky() {
+    case $1 in
+        window) echo white ;;
+        *) echo none ;;
     esac
 }
 # method name -> pmview options (alpha 2/3 is the default; the classic maps hold a fixed number of
@@ -70,6 +79,8 @@ method_args() {
         ppm-a0.5-photons) echo "--alpha 0.5 --indirect photons" ;;
         ppm-a0.67-photons) echo "--indirect photons" ;;
         ppm-a0.9-photons) echo "--alpha 0.9 --indirect photons" ;;
+        ppm-unguided) echo "--guide off" ;;
+        ppm-unclipped-unguided) echo "--clip off --guide off" ;;
         classic-100k-*|classic-1M-*)
             n=$(echo "$1" | cut -d- -f2); ind=$(echo "$1" | cut -d- -f3); kernel=$(echo "$1" | cut -d- -f4)
             case $n in 100k) n=100000 ;; 1M) n=1000000 ;; esac
@@ -106,9 +117,9 @@ for s in $scenes; do
         args=$(method_args "$m")
         load=$(cut -d' ' -f1 /proc/loadavg)
         t0=$(date +%s)
-        # --sky none: the references have no environment (the defaults agree on these scenes; this makes sure)
+        # the environment the reference has (none but the window room's; the defaults agree, this makes sure)
         # shellcheck disable=SC2086
-        "$pmview" "$file" $args --sky none --width 64 --height 64 --time "$seconds" --threads "$threads" --seed 1 --quiet \
+        "$pmview" "$file" $args --sky "$(scene_sky "$s")" --width 64 --height 64 --time "$seconds" --threads "$threads" --seed 1 --quiet \
             --snapshot "$tmp/$s-$m.exr" --reference "$ref" --log "$dir/data/$s-$m.csv" >"$tmp/out" 2>"$tmp/err" ||
             { cat "$tmp/err" >&2; die "pmview failed: $file $args"; }
         wall=$(( $(date +%s) - t0 ))

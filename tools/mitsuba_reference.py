@@ -28,7 +28,8 @@ import mitsuba as mi  # noqa: E402
 mi.set_variant("scalar_rgb")
 
 SCENES = {"cornell": make_scenes.cornell_box, "caustic": make_scenes.caustic, "glossy": make_scenes.glossy_spheres,
-          "mirror": make_scenes.mirror_caustic, "point_room": make_scenes.point_room}
+          "mirror": make_scenes.mirror_caustic, "point_room": make_scenes.point_room,
+          "window_room": make_scenes.window_room}
 
 
 def rgb(c):
@@ -106,18 +107,30 @@ def camera_to_world(cam):
     return mi.ScalarTransform4f(rows)
 
 
-def build_scene(name, width, height, integrator, spp, segments=None):
-    scene = SCENES[name]() if segments is None else SCENES[name](segments)
+def build_scene(name, width, height, integrator, spp, segments=None, sky="none"):
+    scene = SCENES[name]() if segments is None else SCENES[name](segments=segments)
     d = {"type": "scene"}
     for i, m in enumerate(scene["meshes"]):
         d["mesh_%02d_%s" % (i, m["name"])] = build_mesh(m)
     for i, light in enumerate(scene["lights"]):
-        if light["type"] != "point":
-            raise ValueError("only point lights are mapped (got %r)" % light["type"])
-        # KHR_lights_punctual point intensity is candela-like W/sr, which is what Mitsuba's
-        # 'intensity' means too; pmview multiplies color by it the same way.
-        d["light_%d" % i] = {"type": "point", "position": [float(c) for c in light["position"]],
-                             "intensity": rgb([c * light["intensity"] for c in light["color"]])}
+        if light["type"] == "point":
+            # KHR_lights_punctual point intensity is candela-like W/sr, which is what Mitsuba's
+            # 'intensity' means too; pmview multiplies color by it the same way.
+            d["light_%d" % i] = {"type": "point", "position": [float(c) for c in light["position"]],
+                                 "intensity": rgb([c * light["intensity"] for c in light["color"]])}
+        elif light["type"] == "directional":
+            # KHR_lights_punctual directional intensity is W/m^2 on a surface facing the light, and
+            # so is Mitsuba's 'irradiance'; Mitsuba's 'direction' is the way the light travels, the
+            # glTF node's -Z (make_scenes' "direction").
+            d["light_%d" % i] = {"type": "directional", "direction": [float(c) for c in light["direction"]],
+                                 "irradiance": rgb([c * light["intensity"] for c in light["color"]])}
+        else:
+            raise ValueError("only point and directional lights are mapped (got %r)" % light["type"])
+    if sky == "white":
+        # pmview --sky white: radiance 1 from every direction, no geometry (the file has no sky)
+        d["sky"] = {"type": "constant", "radiance": 1.0}
+    elif sky != "none":
+        raise ValueError("unknown sky %r" % sky)
     cam = scene["camera"]
     d["sensor"] = {
         "type": "perspective",
@@ -154,6 +167,22 @@ def halves_relmse(a, b, mean):
     return float(dr.sum((aa - ba) * (aa - ba) / (ma * ma + 0.01))) / len(ma)
 
 
+def channel_means(img):
+    """The image's mean per channel (R, G, B) of an (height, width, 3) image."""
+    flat = list(img.array)
+    n = len(flat) // 3
+    return [sum(flat[c::3]) / n for c in range(3)]
+
+
+def halves_mean_error(a, b):
+    """Per channel: the standard error of the mean image's channel mean, from the pixels' own
+    spread between the halves: a pixel of (a + b) / 2 has variance E[(a - b)^2] / 4, pixels are
+    independent, so var(channel mean) = sum (a - b)^2 / 4 / n^2."""
+    fa, fb = list(a.array), list(b.array)
+    n = len(fa) // 3
+    return [math.sqrt(sum((x - y) ** 2 for x, y in zip(fa[c::3], fb[c::3])) / 4.0) / n for c in range(3)]
+
+
 def box_downsample(img, width, height, factor):
     """Average factor x factor pixel blocks of an (height, width, 3) image."""
     if width % factor or height % factor:
@@ -181,6 +210,9 @@ def main():
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--rr-depth", type=int, default=5, help="path length where Russian roulette starts")
     ap.add_argument("--segments", type=int, default=None, help="sphere tessellation (default: make_scenes' default)")
+    ap.add_argument("--sky", choices=["none", "white"], default="none",
+                    help="environment: none, or white (a constant emitter of radiance 1, as pmview --sky white)")
+    ap.add_argument("--threads", type=int, default=None, help="Mitsuba's render threads (default: all cores)")
     ap.add_argument("--halves", action="store_true",
                     help="render spp/2 twice with seeds seed and seed+1, write their mean and print relMSE(half1, half2)/4, "
                          "an estimate of the written image's own relMSE against the converged image")
@@ -189,9 +221,12 @@ def main():
                     help="also write the image averaged over FACTORxFACTOR blocks: with pmview's box pixel filter that is "
                          "exactly the image at 1/FACTOR resolution, with FACTOR^2 times the samples per pixel")
     args = ap.parse_args()
+    all_threads = dr.thread_count()
+    if args.threads is not None:
+        dr.set_thread_count(args.threads)  # the pool mi.render's scalar variants render blocks on
 
     scene = build_scene(args.scene, args.width, args.height, integrator_dict(args.integrator, args.rr_depth), args.spp,
-                        args.segments)
+                        args.segments, args.sky)
     t0 = time.time()
     if args.halves:
         half = max(1, args.spp // 2)
@@ -200,20 +235,31 @@ def main():
         img = (a + b) * 0.5
         # E[(a-b)^2] = 2 var(half) = 4 var(mean): the divide by 4 makes it the mean's own error.
         noise = halves_relmse(a, b, img) / 4.0
+        mean_a, mean_b, mean_se = channel_means(a), channel_means(b), halves_mean_error(a, b)
         spp = 2 * half
     else:
         img = mi.render(scene, seed=args.seed, spp=args.spp)
         noise, spp = None, args.spp
     seconds = time.time() - t0
+    # Mitsuba 3.9.1's EXR writer never returns when the pool has a single thread (seen here: it
+    # waits on OpenEXR's own thread pool forever), so writing gets the default pool back.
+    dr.set_thread_count(all_threads)
 
     out_dir = os.path.dirname(os.path.abspath(args.out))
     os.makedirs(out_dir, exist_ok=True)
     # Mitsuba writes EXR as lossless PIZ; pmview reads it with OpenEXRCore.
     mi.Bitmap(img, pixel_format=mi.Bitmap.PixelFormat.RGB).write(args.out)
-    print("wrote %s: %s %s %dx%d, %d spp, seed %d, %.1f s, mitsuba %s" % (
-        args.out, args.scene, args.integrator, args.width, args.height, spp, args.seed, seconds, mi.__version__))
+    print("wrote %s: %s %s %dx%d, %d spp, seed %d, sky %s, %.1f s, mitsuba %s" % (
+        args.out, args.scene, args.integrator, args.width, args.height, spp, args.seed, args.sky, seconds,
+        mi.__version__))
+    means = channel_means(img)
+    print("channel means (R, G, B): %.6g %.6g %.6g" % tuple(means))
     if noise is not None:
         print("estimated relMSE of the written image (independent halves): %.3g" % noise)
+        print("halves' channel means: %.6g %.6g %.6g and %.6g %.6g %.6g; relative difference %s" % (
+            tuple(mean_a) + tuple(mean_b) + (" ".join("%+.2e" % ((x - y) / m) for x, y, m in zip(mean_a, mean_b, means)),)))
+        print("estimated relative standard error of the channel means (pixel spread between halves): %s" %
+              " ".join("%.2e" % (e / m) for e, m in zip(mean_se, means)))
     if args.box_downsample:
         factor, small_path = int(args.box_downsample[0]), args.box_downsample[1]
         small = box_downsample(img, args.width, args.height, factor)

@@ -1,0 +1,71 @@
+/* guide.h: photons sent where the camera looks: marks of where estimates read photons, and an emission guide per light learned from them.
+ *
+ * Most photons of a sun or a sky land where no camera point ever reads them (outside the room a
+ * window lights). The progressive mode learns, iteration after iteration, which emissions pay:
+ *   - the marks are a hashed bit set over space: the eye pass marks the cell of every point that
+ *     reads global photons (gather points, or visible points without final gathering), the cell
+ *     twice the radius it reads with;
+ *   - the guide splits the two random numbers that place a guided source's photon (the start on
+ *     the disc across the scene for a directional light and the sky, the direction for a point
+ *     or spot light; the sky's direction and start, each apart) into PM_GUIDE_CELLS x PM_GUIDE_CELLS
+ *     cells, and counts per cell the photons emitted and their hits in marked cells; a cell's
+ *     learned probability is its share of the useful hits per photon.
+ * A photon draws all its guided numbers uniformly with probability PM_GUIDE_UNIFORM, else each
+ * from its learned distribution, and carries its power divided by that mixture's density (against
+ * the uniform's): every emission the unguided pass could make stays possible, the estimate is
+ * unbiased whatever was learned, and no weight exceeds 1 / PM_GUIDE_UNIFORM (a defensive mixture
+ * over the whole photon: mixing each number apart, the sky's two would multiply their weights to
+ * 1 / PM_GUIDE_UNIFORM^2, and such rare heavy photons leave a finite run looking dark). Counts are
+ * integers summed over threads, so the guide, like the image, does not depend on the thread count.
+ */
+#ifndef PM_GUIDE_H
+#define PM_GUIDE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include "defaults.h"
+#include "pm_math.h"
+
+/* ---- marks ---- */
+typedef struct {
+    uint64_t *bits;      /* PM_GUIDE_MARK_BITS bits */
+    float cell, inv_cell;
+    bool any;            /* some cell is marked */
+} pm_marks;
+
+bool pm_marks_init(pm_marks *m);
+void pm_marks_free(pm_marks *m);
+/* Forgets every mark and sets the cell size for the next ones. */
+void pm_marks_clear(pm_marks *m, float cell);
+/* Marks p's cell (several threads may mark at once). */
+void pm_marks_set(pm_marks *m, vec3 p);
+bool pm_marks_test(const pm_marks *m, vec3 p);
+
+/* ---- the emission guide ---- */
+#define PM_GUIDE_CELL_COUNT (PM_GUIDE_CELLS * PM_GUIDE_CELLS)
+
+typedef struct {
+    uint32_t sources;            /* guided sources, at most PM_GUIDE_MAX_SOURCES */
+    float *cdf;                  /* per source, PM_GUIDE_CELL_COUNT + 1 entries */
+    uint64_t *emitted, *useful;  /* per source and cell, summed over the run */
+} pm_guide;
+
+bool pm_guide_init(pm_guide *g, uint32_t sources);
+void pm_guide_free(pm_guide *g);
+/* Back to uniform, the counts forgotten (a restart). */
+void pm_guide_reset(pm_guide *g);
+/* Draws a cell of source s's learned distribution with u_cell, and places u1, u2 (uniform in
+ * [0, 1)) within it; returns the cell. */
+uint32_t pm_guide_pick(const pm_guide *g, uint32_t s, float u_cell, float *u1, float *u2);
+/* The cell two numbers in [0, 1) fall in. */
+uint32_t pm_guide_cell_of(float u1, float u2);
+/* The learned density of source s at a cell, against the uniform's 1. A photon whose guided
+ * numbers were drawn with probability PM_GUIDE_UNIFORM all uniformly, else all from their
+ * sources' learned distributions, has the density PM_GUIDE_UNIFORM + (1 - PM_GUIDE_UNIFORM) x the
+ * product of these (at least PM_GUIDE_UNIFORM: its weight is at most 1 / PM_GUIDE_UNIFORM). */
+double pm_guide_density(const pm_guide *g, uint32_t s, uint32_t cell);
+/* Adds a pass's counts (per source and cell) and draws the probabilities anew from all so far. */
+void pm_guide_learn(pm_guide *g, const uint32_t *emitted, const uint32_t *useful);
+
+#endif

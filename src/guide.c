@@ -1,0 +1,143 @@
+/* guide.c: the marks of where estimates read photons (a hashed bit set) and the learned emission guide's cells, probabilities and sampling. */
+#include "guide.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "memory.h"
+
+#define MARK_WORDS (PM_GUIDE_MARK_BITS / 64)
+
+static inline int32_t mark_coord(float x, float inv_cell) {
+    float c = x * inv_cell;
+    c = c < -1e9f ? -1e9f : (c > 1e9f ? 1e9f : c);
+    int32_t i = (int32_t)c;
+    return i - (c < (float)i);
+}
+
+static inline size_t mark_bit(const pm_marks *m, vec3 p) {
+    uint32_t x = (uint32_t)mark_coord(p.x, m->inv_cell), y = (uint32_t)mark_coord(p.y, m->inv_cell),
+             z = (uint32_t)mark_coord(p.z, m->inv_cell);
+    uint32_t h = (x * 73856093u) ^ (y * 19349663u) ^ (z * 83492791u);
+    h ^= h >> 15;
+    h *= 0x2c1b3c6du;
+    h ^= h >> 12;
+    return (size_t)h & (PM_GUIDE_MARK_BITS - 1);
+}
+
+bool pm_marks_init(pm_marks *m) {
+    memset(m, 0, sizeof *m);
+    m->bits = pm_calloc(MARK_WORDS, sizeof(uint64_t), "photon guide marks");
+    return m->bits != NULL;
+}
+
+void pm_marks_free(pm_marks *m) {
+    free(m->bits);
+    memset(m, 0, sizeof *m);
+}
+
+void pm_marks_clear(pm_marks *m, float cell) {
+    memset(m->bits, 0, MARK_WORDS * sizeof(uint64_t));
+    m->cell = cell > 0.f && isfinite(cell) ? cell : 1.f;
+    m->inv_cell = 1.f / m->cell;
+    m->any = false;
+}
+
+void pm_marks_set(pm_marks *m, vec3 p) {
+    size_t b = mark_bit(m, p);
+    uint64_t bit = 1ull << (b & 63);
+    /* most points mark a cell already marked: read before the atomic write */
+    if (!(__atomic_load_n(&m->bits[b >> 6], __ATOMIC_RELAXED) & bit)) __atomic_fetch_or(&m->bits[b >> 6], bit, __ATOMIC_RELAXED);
+    if (!__atomic_load_n(&m->any, __ATOMIC_RELAXED)) __atomic_store_n(&m->any, true, __ATOMIC_RELAXED);
+}
+
+bool pm_marks_test(const pm_marks *m, vec3 p) {
+    size_t b = mark_bit(m, p);
+    return (m->bits[b >> 6] >> (b & 63)) & 1u;
+}
+
+bool pm_guide_init(pm_guide *g, uint32_t sources) {
+    memset(g, 0, sizeof *g);
+    g->sources = sources;
+    if (!sources) return true;
+    g->cdf = pm_malloc(sizeof(float) * sources * (PM_GUIDE_CELL_COUNT + 1), "photon guide");
+    g->emitted = pm_calloc((size_t)sources * PM_GUIDE_CELL_COUNT, sizeof(uint64_t), "photon guide counts");
+    g->useful = pm_calloc((size_t)sources * PM_GUIDE_CELL_COUNT, sizeof(uint64_t), "photon guide counts");
+    if (!g->cdf || !g->emitted || !g->useful) { pm_guide_free(g); return false; }
+    pm_guide_reset(g);
+    return true;
+}
+
+void pm_guide_free(pm_guide *g) {
+    free(g->cdf);
+    free(g->emitted);
+    free(g->useful);
+    memset(g, 0, sizeof *g);
+}
+
+/* Source s's CDF from its counts: each cell's useful records per photon (the mean rate where a
+ * cell has emitted few, see below); uniform before anything useful was seen. The uniform share that
+ * keeps every emission possible is mixed in per photon, over all of its guided numbers at once
+ * (pm_guide_density). */
+static void draw_cdf(pm_guide *g, uint32_t s) {
+    const uint64_t *emitted = g->emitted + (size_t)s * PM_GUIDE_CELL_COUNT, *useful = g->useful + (size_t)s * PM_GUIDE_CELL_COUNT;
+    float *cdf = g->cdf + (size_t)s * (PM_GUIDE_CELL_COUNT + 1);
+    double all_emitted = 0.0, all_useful = 0.0, total = 0.0;
+    for (int c = 0; c < PM_GUIDE_CELL_COUNT; c++) {
+        all_emitted += (double)emitted[c];
+        all_useful += (double)useful[c];
+    }
+    /* a cell's rate is shrunk toward the mean by PM_GUIDE_PRIOR photons' worth: a cell that sent
+     * few photons, none of them useful yet, keeps a share, so the photons it does send when it
+     * is useful are not rare and heavy */
+    double mean_rate = all_emitted > 0.0 ? all_useful / all_emitted : 0.0;
+#define CELL_RATE(c) (((double)useful[c] + PM_GUIDE_PRIOR * mean_rate) / ((double)emitted[c] + PM_GUIDE_PRIOR))
+    for (int c = 0; c < PM_GUIDE_CELL_COUNT; c++) total += CELL_RATE(c);
+    double acc = 0.0;
+    cdf[0] = 0.f;
+    for (int c = 0; c < PM_GUIDE_CELL_COUNT; c++) {
+        double rate = CELL_RATE(c);
+        acc += total > 0.0 ? rate / total : 1.0 / PM_GUIDE_CELL_COUNT;
+        cdf[c + 1] = (float)acc;
+    }
+#undef CELL_RATE
+    for (int c = 1; c <= PM_GUIDE_CELL_COUNT; c++) cdf[c] = (float)(cdf[c] / acc);
+    cdf[PM_GUIDE_CELL_COUNT] = 1.f;
+}
+
+void pm_guide_reset(pm_guide *g) {
+    if (!g->sources) return;
+    memset(g->emitted, 0, sizeof(uint64_t) * g->sources * PM_GUIDE_CELL_COUNT);
+    memset(g->useful, 0, sizeof(uint64_t) * g->sources * PM_GUIDE_CELL_COUNT);
+    for (uint32_t s = 0; s < g->sources; s++) draw_cdf(g, s);
+}
+
+uint32_t pm_guide_pick(const pm_guide *g, uint32_t s, float u_cell, float *u1, float *u2) {
+    uint32_t c = pm_cdf_interval(g->cdf + (size_t)s * (PM_GUIDE_CELL_COUNT + 1), PM_GUIDE_CELL_COUNT, u_cell);
+    *u1 = pm_minf(((float)(c % PM_GUIDE_CELLS) + *u1) * (1.f / PM_GUIDE_CELLS), 0x1.fffffep-1f);
+    *u2 = pm_minf(((float)(c / PM_GUIDE_CELLS) + *u2) * (1.f / PM_GUIDE_CELLS), 0x1.fffffep-1f);
+    return c;
+}
+
+uint32_t pm_guide_cell_of(float u1, float u2) {
+    uint32_t x = (uint32_t)(u1 * PM_GUIDE_CELLS), y = (uint32_t)(u2 * PM_GUIDE_CELLS);
+    x = x < PM_GUIDE_CELLS ? x : PM_GUIDE_CELLS - 1;
+    y = y < PM_GUIDE_CELLS ? y : PM_GUIDE_CELLS - 1;
+    return y * PM_GUIDE_CELLS + x;
+}
+
+double pm_guide_density(const pm_guide *g, uint32_t s, uint32_t cell) {
+    const float *cdf = g->cdf + (size_t)s * (PM_GUIDE_CELL_COUNT + 1);
+    return ((double)cdf[cell + 1] - (double)cdf[cell]) * PM_GUIDE_CELL_COUNT;
+}
+
+void pm_guide_learn(pm_guide *g, const uint32_t *emitted, const uint32_t *useful) {
+    for (uint32_t s = 0; s < g->sources; s++) {
+        for (int c = 0; c < PM_GUIDE_CELL_COUNT; c++) {
+            size_t k = (size_t)s * PM_GUIDE_CELL_COUNT + c;
+            g->emitted[k] += emitted[k];
+            g->useful[k] += useful[k];
+        }
+        draw_cdf(g, s);
+    }
+}
