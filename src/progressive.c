@@ -681,8 +681,9 @@ static bool build_grid(pm_progressive *p, int kind) {
 /* r^2 at which a disc holds `photons` of a whole iteration's photons where the camera's points
  * are (seen[which]): each point's disc, clipped to its side of the geometry, grows from the
  * radius of the scene's mean density until it holds PM_PPM_INITIAL_PHOTONS of this pass's
- * photons (or reaches SEEN_GROWTH times that radius); the density is the median over the points
- * that found any. A room lit by a lamp inside a large dark landscape thus starts with a radius
+ * photons (or is four times as wide); the density is the mean over the points that found any
+ * (the median left the shared gather radius so wide that the dense places near a sunlit patch
+ * held hundreds of photons a disc: slow, and blurred). A room lit by a lamp inside a large dark landscape thus starts with a radius
  * fitting the room's light, not the landscape's mean. 0 when too few points found photons. The
  * caller keeps the mean's radius where the seen light is sparser: a wider disc would blur more
  * than the mean's did, and only more photons where the camera looks can make it denser. */
@@ -709,11 +710,9 @@ static double seen_density_radius2(pm_progressive *p, const pm_photon_grid *grid
     }
     double r2 = 0.0;
     if (known >= MIN_POINTS) {
-        /* the median, by a partial selection sort's middle: a few hundred values once a restart */
-        for (int i = 0; i <= known / 2; i++)
-            for (int j = i + 1; j < known; j++)
-                if (density[j] < density[i]) { double t = density[i]; density[i] = density[j]; density[j] = t; }
-        r2 = photons / (PM_PI * density[known / 2]);
+        double mean = 0.0;
+        for (int i = 0; i < known; i++) mean += density[i] / known;
+        r2 = photons / (PM_PI * mean);
     }
     return r2;
 }
@@ -761,10 +760,10 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     double t_grid = pm_now_seconds();
     if (!build_grid(p, KIND_CAUSTIC) || !build_grid(p, KIND_INDIRECT)) return false;
     /* the first pass with global photons: the radii from their density where the camera looks;
-     * while the guide learns to send photons there (iterations 2, 4, 8 and 16 after it), the
+     * while the guide learns to send photons there (at every power of two of the iterations), the
      * shared gather radius may shrink again to the denser light's (a deterministic sequence that
      * only ever shrinks faster, so the limit is unchanged) */
-    bool remeasure = p->guiding && p->gathering && p->seen_measured && iteration >= 2 && iteration <= 16 &&
+    bool remeasure = p->guiding && p->gathering && p->seen_measured && iteration >= 2 &&
                      (iteration & (iteration - 1)) == 0;
     if ((!p->seen_measured || remeasure) && global->count && set->initial_radius <= 0.0) {
         const pm_photon_grid *g = &p->grid[KIND_INDIRECT];

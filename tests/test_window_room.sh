@@ -2,8 +2,8 @@
 # test_window_room.sh: a room lit by sun and sky through a window in a 120 m landscape against Mitsuba 3's reference (tests/ref/window_room_64.exr): channel means, the error falling at the theory's slope, photons sent where the camera looks.
 #
 # Progressive photon mapping's error falls as N^(-2/3) for alpha = 2/3 (variance and squared
-# bias both; Knaus and Zwicker 2011): the relMSE from about 512 to 4096 iterations must fall with
-# a log-log slope of -0.45 or steeper. The release binary: 4096 iterations take some 20 s.
+# bias both; Knaus and Zwicker 2011): the relMSE from about 512 to 2048 iterations must fall with
+# a log-log slope of -0.45 or steeper. The release binary: 2048 iterations take some 14 s.
 cd "$(dirname "$0")/.." || exit 1
 bin=./pmview
 ref=tests/ref/window_room_64.exr
@@ -38,10 +38,10 @@ run() { # name, options...
     "$bin" scenes/window-room.gltf --sky white --width 64 --height 64 --reference "$ref" --stats --quiet \
         --snapshot "$tmp/$name.exr" "$@" >"$tmp/$name" 2>&1 || echo "pmview failed: $(tail -n 1 "$tmp/$name")"
 }
-run guided --photons 40000 --iterations 4096
-check "every channel's mean within 1.5% of the reference after 4096 iterations" \
+run guided --photons 100000 --iterations 2048
+check "every channel's mean within 1.5% of the reference after 2048 iterations" \
     "all(abs(s['error']['mean_ratio_' + c] - 1) < 0.015 for c in 'rgb')" guided
-check "the relMSE falls from about 512 to 4096 iterations with a log-log slope of -0.45 or steeper (theory -2/3)" \
+check "the relMSE falls from about 512 to 2048 iterations with a log-log slope of -0.45 or steeper (theory -2/3)" \
     "(lambda a, b: math.log(b['relmse'] / a['relmse']) / math.log(b['iterations'] / a['iterations']) <= -0.45)(min((r for r in p if r['iterations'] >= 512), key=lambda r: r['iterations']), p[-1])" guided
 check "the estimates are clipped at the walls (stat progressive clip_rays > 0)" "s['progressive']['clip_rays'] > 0" guided
 run unguided --photons 40000 --iterations 64 --guide off
