@@ -245,8 +245,9 @@ def main():
       % (args.command, args.finished, commit or "?", args.cores, args.threads, args.started, args.finished,
          min(loads), max(loads)))
     w("")
-    w("Each curve is one pmview run: `pmview SCENE OPTIONS --sky none --width 64 --height 64 --time %g "
-      "--threads %s --seed 1 --snapshot run.exr --reference REF.exr --log run.csv`. The log holds a row per "
+    w("Each curve is one pmview run: `pmview SCENE OPTIONS --sky SKY --width 64 --height 64 --time %g "
+      "--threads %s --seed 1 --snapshot run.exr --reference REF.exr --log run.csv`, SKY the environment the "
+      "reference has (white for the window room, none elsewhere). The log holds a row per "
       "iteration (then per doubling past 64) with the seconds so far and the relMSE of the image at that "
       "point, mean over pixels and channels of (x-r)^2/(r^2+0.01), against an independent reference. Its last "
       "image is the equal-time image below. The logs are in [%s/data/](%s/data/)." % (T, args.threads, rel, rel))
