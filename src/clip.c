@@ -126,11 +126,16 @@ float pm_clip_area_fraction(const pm_clip *c, float radius) {
     if (!c->planes) return 1.f;
     /* each plane as a line in the tangent plane: kept where base + radius (u a + v b) >= 0 */
     float base[PM_CLIP_MAX_PLANES], along1[PM_CLIP_MAX_PLANES], along2[PM_CLIP_MAX_PLANES];
+    int cutting = 0;
     for (int k = 0; k < c->planes; k++) {
-        base[k] = v3_dot(v3_sub(c->p, c->plane_point[k]), c->plane_normal[k]) + c->tolerance;
-        along1[k] = radius * v3_dot(c->t1, c->plane_normal[k]);
-        along2[k] = radius * v3_dot(c->t2, c->plane_normal[k]);
+        base[cutting] = v3_dot(v3_sub(c->p, c->plane_point[k]), c->plane_normal[k]) + c->tolerance;
+        along1[cutting] = radius * v3_dot(c->t1, c->plane_normal[k]);
+        along2[cutting] = radius * v3_dot(c->t2, c->plane_normal[k]);
+        /* a line no nearer p than the radius keeps the whole disc: only the others are counted */
+        cutting += base[cutting] * base[cutting] < along1[cutting] * along1[cutting] + along2[cutting] * along2[cutting] ||
+                   base[cutting] < 0.f;
     }
+    if (!cutting) return 1.f;
     /* the i-th point at angle rotation + i x golden: turned by one golden angle a step */
     const float golden_cos = -0.73736887f, golden_sin = 0.67549029f; /* the angle pi (3 - sqrt 5) */
     float dir_u = cosf(c->rotation), dir_v = sinf(c->rotation);
@@ -138,7 +143,7 @@ float pm_clip_area_fraction(const pm_clip *c, float radius) {
     for (int i = 0; i < AREA_POINTS; i++) {
         float rho = sqrtf((i + 0.5f) / AREA_POINTS), u = rho * dir_u, v = rho * dir_v;
         bool in = true;
-        for (int k = 0; k < c->planes; k++) in &= base[k] + u * along1[k] + v * along2[k] >= 0.f;
+        for (int k = 0; k < cutting; k++) in &= base[k] + u * along1[k] + v * along2[k] >= 0.f;
         kept += in;
         float next_u = dir_u * golden_cos - dir_v * golden_sin;
         dir_v = dir_u * golden_sin + dir_v * golden_cos;
