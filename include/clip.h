@@ -11,6 +11,9 @@
  *     photons behind the plane do not count;
  *   - one probe behind p (along -n) and one above it (along n) that meet a surface facing the way
  *     p's does: photons farther off p's tangent plane than half that distance do not count.
+ *   - where a probe's clear stretch leaves p's triangle, a ray down to the surface from the
+ *     stretch's end: where p's surface is gone (a shelf's edge, a sill, a hole), the edge found by
+ *     halving the stretch adds its plane, so the disc's part over nothing is not counted as area.
  * The estimate then divides by the area of the disc that the planes keep (pm_clip_area_fraction
  * times pi r^2), not by the whole disc: where the photons' density is uniform the clipped estimate
  * is as unbiased as the disc's, and corners lose the darkening a disc reaching into a wall gives.
@@ -27,7 +30,7 @@
 #include "pm_math.h"
 #include "scene.h"
 
-#define PM_CLIP_MAX_PLANES (2 * PM_CLIP_PROBES) /* a plane where each probe stops, one more where it slides on */
+#define PM_CLIP_MAX_PLANES (3 * PM_CLIP_PROBES) /* per probe: a plane where it stops, one where it slides on, one where p's surface ends */
 
 typedef struct {
     vec3 p, n;               /* the gather point and its unit normal on the photons' side */

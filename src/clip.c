@@ -42,14 +42,18 @@ void pm_clip_open(pm_clip *c, vec3 p, vec3 n) {
 /* Along a tangent probe: the first surface within reach that does not continue p's, as a plane
  * facing the probe's origin. A probe that meets such a surface near a corner (the floor, seen from
  * a wall just above it) would hide what lies beyond along the corner (the next room's wall): it
- * slides on once along the surface it met, lifted off it, for the rest of its reach. */
-static void tangent_probe(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 o, vec3 d, float reach, float lift,
-                          uint64_t *rays) {
+ * slides on once along the surface it met, lifted off it, for the rest of its reach. Returns how
+ * far the probe went before it first met anything (reach when it met nothing): the stretch of
+ * the probe known to run above p's surface. */
+static float tangent_probe(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 o, vec3 d, float reach, float lift,
+                           uint64_t *rays) {
     int slides = 1;
+    float clear = -1.f;
     for (int k = 0; k < PROBE_HITS && reach > 0.f && c->planes < PM_CLIP_MAX_PLANES; k++) {
         pm_hit h;
         if (rays) (*rays)++;
-        if (!pm_accel_intersect(a, o, d, reach, &h)) return;
+        if (!pm_accel_intersect(a, o, d, reach, &h)) break;
+        if (clear < 0.f) clear = h.t;
         vec3 at = v3_madd(o, d, h.t), m = triangle_normal(s, h.tri);
         if (v3_dot(m, d) > 0.f) m = v3_neg(m);
         if (v3_dot(m, c->n) < CONTINUES_COS) {
@@ -58,7 +62,7 @@ static void tangent_probe(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3
             c->planes++;
             vec3 along = v3_sub(d, v3_scale(m, v3_dot(d, m)));
             float len = v3_length(along);
-            if (!slides-- || len < 0.2f) return;
+            if (!slides-- || len < 0.2f) break;
             d = v3_scale(along, 1.f / len);
             o = v3_madd(at, m, lift);
             reach -= h.t;
@@ -68,6 +72,88 @@ static void tangent_probe(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3
         o = v3_madd(at, d, step);
         reach -= h.t + step;
     }
+    return clear;
+}
+
+/* How far a line from q along d (both in triangle tri's plane, q inside it) runs before it
+ * leaves the triangle, and through which edge (its first vertex's index 0..2 in *edge). */
+static float triangle_exit(const pm_scene *s, uint32_t tri, vec3 q, vec3 d, int *edge) {
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    vec3 v[3] = {s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]};
+    vec3 m = v3_cross(v3_sub(v[1], v[0]), v3_sub(v[2], v[0]));
+    float best = INFINITY;
+    *edge = -1;
+    for (int k = 0; k < 3; k++) {
+        vec3 a = v[k], b = v[(k + 1) % 3];
+        vec3 inward = v3_cross(m, v3_sub(b, a)); /* in the plane, toward the triangle's inside */
+        float toward = v3_dot(d, inward);
+        if (toward >= 0.f) continue;
+        float t = pm_maxf(v3_dot(v3_sub(q, a), inward), 0.f) / -toward;
+        if (t < best) { best = t; *edge = k; }
+    }
+    return best;
+}
+
+/* Whether p's surface lies under the point o + d t of a probe line lifted `lift` above it: a ray
+ * down from there meets a surface continuing p's (its normal within the normal test, no farther
+ * below the line than its slope allows: a curved surface falls away from the tangent plane, a
+ * step down to a lower floor does not count). The surface met is left in *tri. */
+static bool surface_under(const pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 o, vec3 d, float t, float lift,
+                          uint32_t *tri, uint64_t *rays) {
+    float depth = 2.f * lift + 0.5f * t;
+    pm_hit h;
+    if (rays) (*rays)++;
+    if (!pm_accel_intersect(a, v3_madd(o, d, t), v3_neg(c->n), depth, &h)) return false;
+    vec3 m = triangle_normal(s, h.tri);
+    if (fabsf(v3_dot(m, c->n)) < CONTINUES_COS) return false;
+    *tri = h.tri;
+    return true;
+}
+
+/* Where p's surface ends along a probe (the edge of a shelf, a sill, a table, a hole in a floor)
+ * within the stretch the probe ran clear of anything, the disc hangs over nothing: no photon can
+ * land there, so the kept area must leave it out as it leaves out what lies behind a wall. The
+ * edge is found by halving the stretch with rays down to the surface; its plane is the last
+ * triangle met's edge the probe crosses, standing on p's tangent plane and facing p. */
+static void ledge_probe(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 o, vec3 d, float clear, float lift,
+                        uint32_t tri, uint64_t *rays) {
+    enum { HALVINGS = 5 };
+    if (c->planes >= PM_CLIP_MAX_PLANES || !(clear > 0.f)) return;
+    vec3 foot = v3_madd(o, c->n, -lift); /* the probe's origin on p's tangent plane */
+    int edge;
+    /* the line leaves no part of p's own triangle within the stretch: nothing to look for */
+    if (tri != PM_CLIP_NO_TRIANGLE && triangle_exit(s, tri, foot, d, &edge) >= clear) return;
+    uint32_t met;
+    if (surface_under(c, s, a, o, d, clear, lift, &met, rays)) return;
+    float lo = 0.f, hi = clear;
+    uint32_t last = tri;
+    for (int k = 0; k < HALVINGS; k++) {
+        float mid = 0.5f * (lo + hi);
+        if (surface_under(c, s, a, o, d, mid, lift, &met, rays)) { lo = mid; last = met; }
+        else hi = mid;
+    }
+    vec3 point = v3_madd(foot, d, 0.5f * (lo + hi)), normal = v3_neg(d);
+    if (last != PM_CLIP_NO_TRIANGLE) {
+        float out = triangle_exit(s, last, v3_madd(foot, d, lo), d, &edge);
+        /* a triangle going on past the miss: the ray down slipped through a crack between triangles */
+        if (edge >= 0 && out > (hi - lo) * 1.01f + step_past(foot, s->ray_scale)) return;
+        if (edge >= 0) {
+            const uint32_t *ix = s->indices + 3 * (size_t)last;
+            vec3 ea = s->positions[ix[edge]], eb = s->positions[ix[(edge + 1) % 3]];
+            vec3 across = v3_cross(c->n, v3_sub(eb, ea)); /* in p's tangent plane, across the edge */
+            float len = v3_length(across);
+            if (len > 0.f) {
+                across = v3_scale(across, 1.f / len);
+                if (v3_dot(across, d) > 0.f) across = v3_neg(across);
+                /* the edge's point where the probe crosses it, on p's tangent plane */
+                point = v3_madd(foot, d, lo + out);
+                normal = across;
+            }
+        }
+    }
+    c->plane_point[c->planes] = point;
+    c->plane_normal[c->planes] = normal;
+    c->planes++;
 }
 
 /* Along n (up) or -n (down): the distance to the first surface that may hold photons facing the
@@ -109,7 +195,8 @@ void pm_clip_make(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3
     for (int k = 0; k < PM_CLIP_PROBES; k++) {
         float angle = fan + 2.f * PM_PI * (float)k / PM_CLIP_PROBES;
         vec3 d = v3_add(v3_scale(c->t1, cosf(angle)), v3_scale(c->t2, sinf(angle)));
-        tangent_probe(c, s, a, o, d, fan_reach, lift, rays);
+        float clear = tangent_probe(c, s, a, o, d, fan_reach, lift, rays);
+        ledge_probe(c, s, a, o, d, clear < 0.f ? fan_reach : clear * 0.98f, lift, tri, rays);
     }
     /* a photon of the disc lies within reach of p: surfaces farther than twice that need no bound */
     float below = normal_probe(c, s, a, pm_offset_surface_origin(p, centroid, v3_neg(n), s->ray_scale), v3_neg(n),

@@ -1,4 +1,4 @@
-/* test_leaks.c: no estimate reads light through a wall, in either photon mode: two rooms sharing a 1 cm wall, the floor under a box, and the unclipped estimates that do leak there.
+/* test_leaks.c: no estimate reads light through a wall, in either photon mode: two rooms sharing a 1 cm wall, the floor under a box, and the unclipped estimates that do leak there; no estimate darkens where its surface ends (a shelf in a furnace).
  *
  * Each scene has a part no light can reach: the room without the lamp, the floor inside a closed
  * box. The camera looks only at that part, so every pixel must stay exactly black in every
@@ -6,6 +6,11 @@
  * (the floor runs on under the wall and the box, coplanar with the lit floor, so the normal test
  * cannot tell them apart). The same scenes rendered with unclipped estimates show the leak, so the
  * checks can fail.
+ *
+ * The other side of the same mechanism: where a surface ends within a disc (a shelf's edge, a
+ * sill), the disc hangs over nothing, and an estimate that divides by the whole disc reads the edge
+ * darker than it is. A shelf inside a white furnace, where every surface has the same radiance
+ * Le / (1 - rho), shows it: wide discs (r = 0.3 on a shelf 5 cm thick) must read the answer there too.
  */
 #include <stdlib.h>
 #include <string.h>
@@ -162,7 +167,63 @@ static void check_scene(const char *name, const pm_scene *s, const pm_accel *a, 
     CHECK(leaked > 0.f, "%s, classic: unclipped estimates leak here, so the check can fail (%g)", name, leaked);
 }
 
+/* A white furnace (walls and a shelf 1 m x 5 cm x 0.8 m inside it, all emitting Le and reflecting
+ * rho): the image mean and its darkest pixels against Le / (1 - rho), with wide starting discs. */
+static void check_shelf(pm_indirect_mode indirect, bool unclipped, double *error, int *dark_pixels) {
+    enum { SW = 48, SH = 48 };
+    const float rho = 0.5f, le = 0.5f;
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    uint32_t m = sb_material(&s, v3s(rho), 0, 1, 0, v3s(le), false);
+    sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), m, true);
+    sb_box(&s, v3(-0.5f, -0.3f, -0.6f), v3(0.5f, -0.25f, 0.2f), m, false);
+    pm_camera cam = sb_camera(v3(0, 0.4f, 0.9f), v3(0, -0.3f, -0.2f), v3(0, 1, 0), 50.f);
+    pm_accel *a = sb_finish(&s);
+    pm_progressive_settings ps = default_settings(SW, SH);
+    ps.indirect = indirect;
+    ps.initial_radius = 0.3;
+    ps.unclipped = unclipped;
+    session r;
+    float *total = malloc(sizeof(float) * 3 * SW * SH);
+    *error = 1.0;
+    *dark_pixels = SW * SH;
+    if (total && start(&r, &s, a, &cam, SW, SH, &ps)) {
+        iterate_passes(&r, 48);
+        pm_film_resolve_total(&r.film, total);
+        double want = le / (1.0 - rho), sum = 0.0;
+        int dark = 0;
+        for (int i = 0; i < SW * SH; i++) {
+            sum += total[3 * i];
+            dark += total[3 * i] < 0.95 * want;
+        }
+        *error = sum / (SW * SH) / want - 1.0;
+        *dark_pixels = dark;
+        stop(&r);
+    }
+    free(total);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+static void test_shelf_edges(void) {
+    for (int indirect = 0; indirect < 2; indirect++) {
+        const char *how = indirect == PM_INDIRECT_GATHER ? "gather" : "photons";
+        double error, error_unclipped;
+        int dark, dark_unclipped;
+        check_shelf((pm_indirect_mode)indirect, false, &error, &dark);
+        check_shelf((pm_indirect_mode)indirect, true, &error_unclipped, &dark_unclipped);
+        printf("shelf in a furnace, progressive (%s): mean %+.3f%%, %d pixels 5%% dark (unclipped: %+.3f%%, %d)\n", how,
+               100.0 * error, dark, 100.0 * error_unclipped, dark_unclipped);
+        CHECK(fabs(error) < 0.004, "shelf in a furnace (%s): the image mean within 0.4%% of Le / (1 - rho) (%+.3f%%)", how,
+              100.0 * error);
+        CHECK(dark <= 5, "shelf in a furnace (%s): at most 5 of 2304 pixels 5%% dark (%d)", how, dark);
+        CHECK(error_unclipped < -0.008, "shelf in a furnace (%s): unclipped discs read the edges dark, so the check can fail (%+.3f%%)",
+              how, 100.0 * error_unclipped);
+    }
+}
+
 int main(void) {
+    test_shelf_edges();
     pm_scene s;
     pm_accel *a = two_rooms(&s);
     /* from the dark room's far corner toward the shared wall and the floor along it */
