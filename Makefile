@@ -3,7 +3,8 @@
 #   make          build ./pmview                 make run    install, build, render the default scene
 #   make test     install, build, run all tests  make bench  speed figures (ratios measured in one run)
 #   make check    the whole suite under ASan+UBSan, the threaded tests under TSan, a render under valgrind
-#   make fuzz     libFuzzer (clang) over load, set-up, accel and a tiny render for FUZZ_SECONDS (600)
+#   make fuzz     libFuzzer (clang): glTF through load, set-up, accel and a tiny render, then the sky, reference
+#                 and writers' inputs, FUZZ_SECONDS (600) each
 #   make convergence  error against time for every method and shipped scene: docs/convergence.md (QUICK=1: a short one)
 #   make clean
 
@@ -98,8 +99,12 @@ build/fuzz/fuzz_gltf: tests/fuzz/fuzz_target.c tests/fuzz/fuzz_entry.h build/fuz
 fuzz-deps:
 	@sh tools/install-deps.sh fuzz
 
+build/fuzz/fuzz_inputs: tests/fuzz/fuzz_inputs.c tests/fuzz/fuzz_inputs_entry.h build/fuzz/libpm.a
+	$(FUZZ_CC) $(CFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer -Itests/fuzz -c $< -o build/fuzz/fuzz_inputs.o
+	$(FUZZ_CXX) $(FUZZ_SAN) -fsanitize=fuzzer build/fuzz/fuzz_inputs.o build/fuzz/libpm.a -o $@ $(LIBS)
+
 fuzz: fuzz-deps
-	@$(MAKE) --no-print-directory build/fuzz/fuzz_gltf
+	@$(MAKE) --no-print-directory build/fuzz/fuzz_gltf build/fuzz/fuzz_inputs
 	@sh tools/run-fuzz.sh $(FUZZ_SECONDS)
 
 bench: deps pmview build/rel/bench_pm build/rel/photon_ceiling build/rel/caustic_error

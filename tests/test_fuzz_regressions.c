@@ -1,4 +1,4 @@
-/* test_fuzz_regressions.c: replays every input in tests/fuzz/regressions/ through the fuzz entry (load from memory, set-up, accel, 8x8 render) without libFuzzer, and checks the in-memory loader against the file loader.
+/* test_fuzz_regressions.c: replays every input in tests/fuzz/regressions/ through the glTF fuzz entry (load from memory, set-up, accel, 8x8 render) and every one in tests/fuzz/regressions-inputs/ through the file-inputs entry (sky maps, references, writers) without libFuzzer, and checks the in-memory loader against the file loader.
  *
  * Built with gcc under ASan/UBSan like every test: a regression that crashes, overflows or leaks
  * again fails here; one that runs longer than PM_FUZZ_REPLAY_SECONDS has run away again.
@@ -11,10 +11,12 @@
 #include <time.h>
 
 #include "fuzz/fuzz_entry.h"
+#include "fuzz/fuzz_inputs_entry.h"
 #include "testing.h"
 
 #define PM_FUZZ_REPLAY_SECONDS 20.0  /* libFuzzer's -timeout is 30 s (tools/run-fuzz.sh) */
 #define REGRESSIONS "tests/fuzz/regressions"
+#define INPUT_REGRESSIONS "tests/fuzz/regressions-inputs"
 
 static unsigned char *read_all(const char *path, size_t *size) {
     FILE *f = fopen(path, "rb");
@@ -123,8 +125,69 @@ static void check_anchors(void) {
     CHECK(!memory_ok && strstr(err, "empty file"), "empty input is refused: %s", err);
 }
 
+/* The file-inputs entry on inputs whose outcome is known: the writers' round trip, a sky map it
+ * wrote, garbage as a sky and as a reference. */
+static void check_input_anchors(void) {
+    uint8_t film[1 + 3 + 16];
+    film[0] = PM_FUZZ_INPUT_WRITERS;
+    film[1] = 3;  /* 4 x 2 pixels, every layer */
+    film[2] = 1;
+    film[3] = 15;
+    for (int i = 0; i < 16; i++) film[4 + i] = (uint8_t)(i < 4 ? (i == 3 ? 0x3f : 0) : 0x20 + i); /* 0.5f, then small floats */
+    pm_fuzz_input_result r = pm_fuzz_inputs_run(film, sizeof film);
+    printf("anchor writers (4x2 film): %s %s\n", r.accepted ? "written and read back" : "refused", r.error);
+    CHECK(r.accepted, "the writers write a 4x2 film and read it back as a reference: %s", r.error);
+    static const uint8_t garbage[] = {PM_FUZZ_INPUT_SKY_EXR, 'n', 'o', 't', ' ', 'a', 'n', ' ', 'e', 'x', 'r'};
+    r = pm_fuzz_inputs_run(garbage, sizeof garbage);
+    printf("anchor garbage sky: %s\n", r.error);
+    CHECK(!r.accepted && r.error[0], "garbage as an .exr sky is refused with a reason: %s", r.error);
+    uint8_t as_reference[sizeof garbage];
+    memcpy(as_reference, garbage, sizeof garbage);
+    as_reference[0] = PM_FUZZ_INPUT_REFERENCE;
+    r = pm_fuzz_inputs_run(as_reference, sizeof as_reference);
+    CHECK(!r.accepted && r.error[0], "garbage as a reference is refused with a reason: %s", r.error);
+    static const char hdr[] = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n\x80\x80\x80\x81\x40\x40\x40\x81";
+    uint8_t sky[1 + sizeof hdr - 1];
+    sky[0] = PM_FUZZ_INPUT_SKY_HDR;
+    memcpy(sky + 1, hdr, sizeof hdr - 1);
+    r = pm_fuzz_inputs_run(sky, sizeof sky);
+    printf("anchor 2x1 .hdr sky: %s %s\n", r.accepted ? "accepted" : "refused", r.error);
+    CHECK(r.accepted, "a 2x1 Radiance sky is read and sampled: %s", r.error);
+}
+
+/* Every input of the file-inputs regressions, each within the time limit. */
+static void replay_inputs(void) {
+    char **names;
+    int n = list_files(INPUT_REGRESSIONS, &names);
+    CHECK(n >= 0, "%s is readable (run from the project root)", INPUT_REGRESSIONS);
+    int accepted = 0;
+    for (int i = 0; i < n; i++) {
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s", INPUT_REGRESSIONS, names[i]);
+        size_t size = 0;
+        unsigned char *data = read_all(path, &size);
+        CHECK(data != NULL, "%s is readable", path);
+        if (data) {
+            double start = now();
+            pm_fuzz_input_result r = pm_fuzz_inputs_run(data, size);
+            double seconds = now() - start;
+            accepted += r.accepted;
+            printf("%-60s %6zu bytes  kind %d  %s %.2f s  %s\n", names[i], size, r.kind, r.accepted ? "accepted" : "refused",
+                   seconds, r.error);
+            CHECK(seconds < PM_FUZZ_REPLAY_SECONDS, "%s takes %.1f s, limit %.0f s", names[i], seconds, PM_FUZZ_REPLAY_SECONDS);
+            free(data);
+        }
+        free(names[i]);
+    }
+    free(names);
+    printf("replayed %d file inputs: %d accepted\n", n > 0 ? n : 0, accepted);
+    pm_memory_set_limit(0); /* the glTF entry runs under the default limit */
+}
+
 int main(void) {
     check_anchors();
+    check_input_anchors();
+    replay_inputs();
     char **names;
     int n = list_files(REGRESSIONS, &names);
     CHECK(n >= 0, "%s is readable (run from the project root)", REGRESSIONS);

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""fuzz_seeds.py: turns the glTF files under the given folders into self-contained fuzz seeds (one file each) in OUT.
+"""fuzz_seeds.py: turns the glTF files under the given folders into self-contained fuzz seeds (one file each) in OUT; with --inputs, seeds for the file-inputs target instead.
 
 The fuzz target loads from memory, so a .gltf's external buffers and images are embedded as
 data: URIs; an image file above IMAGE_LIMIT bytes is replaced by a 2x2 PNG (the mutator gains
@@ -8,6 +8,11 @@ it is. Seeds above SEED_LIMIT are left out: each execution of one costs seconds 
 ASan (run-fuzz.sh gives libFuzzer the same -max_len). Missing folders are skipped. Standard library only.
 
     python3 tools/fuzz_seeds.py OUT DIR...
+    python3 tools/fuzz_seeds.py --inputs OUT DIR...
+
+With --inputs (tests/fuzz/fuzz_inputs_entry.h: the first byte picks the entry): every .exr under
+the folders as a sky map (0) and as a reference (2), small Radiance .hdr files written here, flat
+and run-length encoded (1), and a few films for the writers (3).
 """
 import base64
 import json
@@ -57,7 +62,69 @@ def embedded_gltf(path):
     return json.dumps(doc, separators=(",", ":")).encode("utf-8")
 
 
+def rgbe(r, g, b):
+    m = max(r, g, b)
+    if m < 1e-32:
+        return bytes(4)
+    e = 0
+    while m >= 1.0:
+        m /= 2.0
+        e += 1
+    while m < 0.5:
+        m *= 2.0
+        e -= 1
+    scale = 256.0 / (2.0 ** e)
+    return bytes([min(255, int(r * scale)), min(255, int(g * scale)), min(255, int(b * scale)), e + 128])
+
+
+def hdr_file(width, height, run_length):
+    """A small Radiance picture: a gradient, its rows flat RGBE or in the new run-length form."""
+    out = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n" % (height, width)
+    for y in range(height):
+        pixels = [rgbe(0.1 + x / width, 0.5, 1.0 - y / height) for x in range(width)]
+        if not run_length:
+            out += b"".join(pixels)
+            continue
+        out += bytes([2, 2, width >> 8, width & 255])
+        for c in range(4):
+            channel = bytes(p[c] for p in pixels)
+            for i in range(0, width, 128):  # literal runs of up to 128
+                chunk = channel[i:i + 128]
+                out += bytes([len(chunk)]) + chunk
+    return out
+
+
+def input_seeds(out, folders):
+    os.makedirs(out, exist_ok=True)
+    written = 0
+
+    def put(name, data):
+        nonlocal written
+        if len(data) <= SEED_LIMIT:
+            with open(os.path.join(out, name), "wb") as f:
+                f.write(data)
+            written += 1
+    for top in folders:
+        if not os.path.isdir(top):
+            print("fuzz_seeds: %s is absent, skipped" % top)
+            continue
+        for name in sorted(os.listdir(top)):
+            if name.lower().endswith(".exr"):
+                with open(os.path.join(top, name), "rb") as f:
+                    data = f.read()
+                put("sky-" + name, b"\x00" + data)
+                put("reference-" + name, b"\x02" + data)
+    put("sky-flat.hdr", b"\x01" + hdr_file(16, 8, False))
+    put("sky-rle.hdr", b"\x01" + hdr_file(32, 16, True))
+    put("writers-small", b"\x03" + bytes([7, 5, 15]) + bytes(range(64)))
+    put("writers-nan-inf", b"\x03" + bytes([3, 3, 9]) + b"\x00\x00\xc0\x7f" + b"\x00\x00\x80\x7f" + b"\xff\xff\x7f\x7f")
+    print("fuzz_seeds: %d input seeds in %s" % (written, out))
+
+
 def main():
+    if len(sys.argv) >= 3 and sys.argv[1] == "--inputs":
+        input_seeds(sys.argv[2], sys.argv[3:])
+        return
     if len(sys.argv) < 3:
         sys.exit("usage: fuzz_seeds.py OUT DIR...")
     out = sys.argv[1]
