@@ -1,4 +1,4 @@
-/* image_io.h: files out of the film and the view: multi-layer OpenEXR (C API) and PNG (stb_image_write).
+/* image_io.h: files out of the film and the view, multi-layer OpenEXR (C API) and PNG (stb_image_write), and the EXR and .hdr files read back in.
  *
  * EXR channels: R, G, B (the total) and direct.R/G/B, specular.R/G/B, caustic.R/G/B,
  * indirect.R/G/B, linear radiance, FLOAT, ZIP compression. The layers sum to the total.
@@ -19,16 +19,26 @@ bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_s
 bool pm_check_output_path(const char *path, char *err, size_t err_size);
 
 /* Reads one channel ("R", "direct.G", ...) of a scanline EXR into a malloc'ed w*h float array
- * (row 0 = top). For tests and tools; returns NULL with err set on failure. */
+ * (row 0 = top). For tests and tools; returns NULL with err set on failure. Every input file
+ * here must be a regular file (a FIFO is refused rather than waited on). */
 float *pm_read_exr_channel(const char *path, const char *channel, int *width, int *height,
                            char *err, size_t err_size);
+/* The data window's size from the header alone (no pixel decoded), after checking that the
+ * file is a scanline EXR whose `count` channels named are HALF or FLOAT at full resolution. */
+bool pm_read_exr_size(const char *path, int count, const char *const channels[], int *width, int *height, char *err,
+                      size_t err_size);
 
 /* Whether path ends in ext (".exr", ...), ignoring case, with something before it. */
 bool pm_has_extension(const char *path, const char *ext);
 
 /* An equirectangular environment map as linear RGB floats (w*h*3, row 0 = top), malloc'ed:
- * .exr (its R, G, B channels) or .hdr (Radiance RGBE). NULL with err set on failure. */
+ * .exr (its R, G, B channels) or .hdr (Radiance RGBE). NULL with err set on failure, "PATH: what
+ * (where)": a .hdr without its signature, cut short ("the file ends in row 257 of 512") or with
+ * broken runs is refused, never read as black. */
 float *pm_read_environment(const char *path, int *width, int *height, char *err, size_t err_size);
+/* The map's size from its header alone, to estimate its memory before any pixel is decoded; a
+ * .hdr with no byte after its header is refused here already. */
+bool pm_environment_size(const char *path, int *width, int *height, char *err, size_t err_size);
 
 /* rgba: width*height*4 bytes, row 0 = top. */
 bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, char *err, size_t err_size);

@@ -19,7 +19,12 @@
  * reference marks the pixels it cannot vouch for NaN; they are left out of every measure) */
 typedef struct { float *rgb[3]; float *layer[PM_COMPONENT_COUNT][3]; unsigned char *known; int width, height; } pm_reference_image;
 
-/* False with err set when the file cannot be read, memory runs out or no pixel is finite; the
+/* From the header alone (no pixel decoded), before the scene is loaded and the image rendered:
+ * whether path is an EXR with R, G, B of the image's size; height 0 when the image's height is not
+ * known yet (it comes from the scene's camera), then only the width is compared. */
+bool pm_reference_check(const char *path, int width, int height, char *err, size_t err_size);
+/* False with err set when the file cannot be read, memory runs out (the estimate from the header
+ * is refused above the memory limit before any pixel is decoded) or no pixel is finite; the
  * caller frees ref with pm_reference_free either way. */
 bool pm_reference_load(const char *path, bool with_layers, pm_reference_image *ref, char *err, size_t err_size);
 void pm_reference_free(pm_reference_image *ref);

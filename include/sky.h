@@ -12,6 +12,7 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 #include "pm_math.h"
 
 typedef struct {
@@ -20,11 +21,21 @@ typedef struct {
     float *row_cdf;      /* height+1: rows by their summed weight */
     float *column_cdf;   /* height*(width+1): texels within each row */
     vec3 mean;           /* radiance averaged over the sphere (per solid angle) */
+    size_t clamped;      /* texels above PM_MAX_EMISSION or not finite, clamped: the caller warns */
 } pm_sky_map;
 
-/* Copies w*h linear RGB texels (negative and non-finite values read as 0). NULL with err set
- * when out of memory or when the map holds no light at all. */
+#define PM_SKY_MAX_TEXELS ((uint64_t)1 << 28) /* 16384 x 16384: past that a map is refused */
+
+/* Copies w*h linear RGB texels. Each is clamped as the scene's emission is: negative and NaN
+ * components read as 0, +Inf as the largest float, and a texel whose largest component exceeds
+ * PM_MAX_EMISSION is scaled down to it (counted in `clamped`, as are non-finite ones). NULL with
+ * err set when out of memory or when the map holds no light at all. */
 pm_sky_map *pm_sky_map_create(int width, int height, const float *rgb, char *err, size_t err_size);
+/* The same, taking the malloc'ed texels over (freed on failure too) instead of copying them. */
+pm_sky_map *pm_sky_map_adopt(int width, int height, float *rgb, char *err, size_t err_size);
+/* The bytes a map of width x height texels takes: its texels and its sampling tables, and what
+ * building them holds for a while; for the memory limit before a file is decoded. */
+uint64_t pm_sky_map_bytes(int width, int height);
 /* pmview's default environment: a bright zenith fading to a dimmer horizon above a grey ground,
  * so that a lit white object stands out from the background. */
 pm_sky_map *pm_sky_map_gradient(char *err, size_t err_size);

@@ -1,4 +1,4 @@
-/* image_io.c: the film to a multi-layer OpenEXR file (OpenEXR C API), one EXR channel back to floats, RGBA8 to PNG. */
+/* image_io.c: the film to a multi-layer OpenEXR file (OpenEXR C API), EXR channels and environment maps (.exr, .hdr) back to floats, RGBA8 to PNG. */
 
 /*
  * EXR files always carry the same 15 FLOAT channels (R, G, B and the four component layers),
@@ -11,6 +11,7 @@
  * as one line, "PATH: what went wrong (library detail)", instead of text on stderr.
  */
 #include "image_io.h"
+#include "memory.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -23,7 +24,6 @@
 #include <unistd.h>
 
 #include <openexr.h>
-#include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
 #define PM_EXR_CHANNELS (3 + 3 * PM_COMPONENT_COUNT)
@@ -288,12 +288,109 @@ static void list_channels(const exr_attr_chlist_t *chl, char *buf, size_t size) 
     }
 }
 
-float *pm_read_exr_channel(const char *path, const char *channel, int *width_out, int *height_out,
-                           char *err, size_t err_size) {
+/* Input files are opened by name: stat says first whether it is one, since opening a FIFO (as
+ * OpenEXR and fopen do) waits for a writer that never comes. */
+static bool regular_file(const char *path, char *err, size_t err_size) {
+    struct stat st;
+    char what[320];
+    if (stat(path, &st) != 0) {
+        snprintf(what, sizeof what, "cannot open (%s)", strerror(errno));
+        set_error(err, err_size, path, what);
+        return false;
+    }
+    if (S_ISREG(st.st_mode)) return true;
+    const char *kind = S_ISDIR(st.st_mode)                         ? "a directory"
+                       : S_ISFIFO(st.st_mode)                      ? "a FIFO"
+                       : S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device"
+                       : S_ISSOCK(st.st_mode)                      ? "a socket"
+                                                                   : "something else";
+    snprintf(what, sizeof what, "is %s, not a regular file", kind);
+    set_error(err, err_size, path, what);
+    return false;
+}
+
+/* Opens path's header and checks what pmview can read of it, before a pixel is decoded: a
+ * scanline part, each of the `count` channels named as HALF or FLOAT at full resolution, a data
+ * window of a usable size. On success the caller finishes *ctxt. */
+static bool exr_open_checked(const char *path, int count, const char *const names[], exr_context_t *ctxt,
+                             exr_attr_box2i_t *dw, int *width, int *height, char *err, size_t err_size) {
+    *ctxt = NULL;
+    if (!path || !*path) { set_error(err, err_size, path ? path : "", "no input file name given"); return false; }
+    if (!regular_file(path, err, err_size)) return false;
+    char what[512];
+    exr_context_initializer_t init = exr_initializer();
+    exr_result_t rv = exr_start_read(ctxt, path, &init);
+    if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot read as OpenEXR", rv); goto fail; }
+
+    const int part = 0;
+    exr_storage_t storage;
+    rv = exr_get_storage(*ctxt, part, &storage);
+    if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot read the EXR storage type", rv); goto fail; }
+    if (storage != EXR_STORAGE_SCANLINE) {
+        set_error(err, err_size, path, storage == EXR_STORAGE_TILED ? "tiled EXR files are not supported (scanline only)"
+                                                                    : "deep EXR files are not supported (scanline only)");
+        goto fail;
+    }
+    const exr_attr_chlist_t *chl = NULL;
+    rv = exr_get_channels(*ctxt, part, &chl);
+    if (rv != EXR_ERR_SUCCESS || !chl) { set_exr_error(err, err_size, path, "cannot read the channel list", rv); goto fail; }
+    for (int k = 0; k < count; k++) {
+        const exr_attr_chlist_entry_t *entry = NULL;
+        for (int i = 0; i < chl->num_channels; i++)
+            if (attr_string_is(&chl->entries[i].name, names[k])) entry = &chl->entries[i];
+        if (!entry) {
+            char have[256];
+            list_channels(chl, have, sizeof have);
+            snprintf(what, sizeof what, "no channel \"%s\" (the file has: %s)", names[k], have);
+            set_error(err, err_size, path, what);
+            goto fail;
+        }
+        if (entry->pixel_type != EXR_PIXEL_HALF && entry->pixel_type != EXR_PIXEL_FLOAT) {
+            snprintf(what, sizeof what, "channel \"%s\" holds integers, not HALF or FLOAT radiance", names[k]);
+            set_error(err, err_size, path, what);
+            goto fail;
+        }
+        if (entry->x_sampling != 1 || entry->y_sampling != 1) {
+            snprintf(what, sizeof what, "channel \"%s\" is subsampled (%dx%d), which is not supported", names[k],
+                     entry->x_sampling, entry->y_sampling);
+            set_error(err, err_size, path, what);
+            goto fail;
+        }
+    }
+    rv = exr_get_data_window(*ctxt, part, dw);
+    if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot read the data window", rv); goto fail; }
+    int64_t w64 = (int64_t)dw->max.x - dw->min.x + 1, h64 = (int64_t)dw->max.y - dw->min.y + 1;
+    if (w64 <= 0 || h64 <= 0 || w64 > INT32_MAX / 4 || h64 > INT_MAX ||
+        (uint64_t)w64 * (uint64_t)h64 > SIZE_MAX / sizeof(float) / (count > 0 ? (size_t)count : 1)) {
+        set_error(err, err_size, path, "the data window is empty or too large");
+        goto fail;
+    }
+    *width = (int)w64;
+    *height = (int)h64;
+    return true;
+fail:
+    if (*ctxt) exr_finish(ctxt);
+    *ctxt = NULL;
+    return false;
+}
+
+bool pm_read_exr_size(const char *path, int count, const char *const channels[], int *width, int *height, char *err,
+                      size_t err_size) {
+    exr_context_t ctxt;
+    exr_attr_box2i_t dw;
+    if (!exr_open_checked(path, count, channels, &ctxt, &dw, width, height, err, err_size)) return false;
+    exr_finish(&ctxt);
+    return true;
+}
+
+/* The channels named, decoded together chunk by chunk: `count` floats a pixel, in the order named. */
+static float *read_exr_channels(const char *path, int count, const char *const names[], int *width_out,
+                                int *height_out, char *err, size_t err_size) {
     if (width_out) *width_out = 0;
     if (height_out) *height_out = 0;
-    if (!path || !*path) { set_error(err, err_size, path ? path : "", "no input file name given"); return NULL; }
-    if (!channel || !*channel) { set_error(err, err_size, path, "no channel name given"); return NULL; }
+    if (count < 1 || count > 32) { set_error(err, err_size, path ? path : "", "1 to 32 channels can be read at once"); return NULL; }
+    for (int k = 0; k < count; k++)
+        if (!names[k] || !*names[k]) { set_error(err, err_size, path ? path : "", "no channel name given"); return NULL; }
 
     char what[512];
     float *out = NULL;
@@ -303,67 +400,26 @@ float *pm_read_exr_channel(const char *path, const char *channel, int *width_out
     bool dec_started = false;
     uint8_t *scratch = NULL;
     size_t scratch_size = 0;
-
-    exr_context_initializer_t init = exr_initializer();
-    exr_result_t rv = exr_start_read(&ctxt, path, &init);
-    if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot read as OpenEXR", rv); goto done; }
+    exr_attr_box2i_t dw;
+    int width = 0, height = 0;
+    if (!exr_open_checked(path, count, names, &ctxt, &dw, &width, &height, err, err_size)) return NULL;
 
     const int part = 0;
-    exr_storage_t storage;
-    rv = exr_get_storage(ctxt, part, &storage);
-    if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot read the EXR storage type", rv); goto done; }
-    if (storage != EXR_STORAGE_SCANLINE) {
-        set_error(err, err_size, path, storage == EXR_STORAGE_TILED ? "tiled EXR files are not supported (scanline only)"
-                                                                    : "deep EXR files are not supported (scanline only)");
-        goto done;
-    }
-
-    const exr_attr_chlist_t *chl = NULL;
-    rv = exr_get_channels(ctxt, part, &chl);
-    if (rv != EXR_ERR_SUCCESS || !chl) { set_exr_error(err, err_size, path, "cannot read the channel list", rv); goto done; }
-    const exr_attr_chlist_entry_t *entry = NULL;
-    for (int i = 0; i < chl->num_channels; i++)
-        if (attr_string_is(&chl->entries[i].name, channel)) entry = &chl->entries[i];
-    if (!entry) {
-        char have[256];
-        list_channels(chl, have, sizeof have);
-        snprintf(what, sizeof what, "no channel \"%s\" (the file has: %s)", channel, have);
-        set_error(err, err_size, path, what);
-        goto done;
-    }
-    if (entry->pixel_type != EXR_PIXEL_HALF && entry->pixel_type != EXR_PIXEL_FLOAT) {
-        snprintf(what, sizeof what, "channel \"%s\" holds integers, not HALF or FLOAT radiance", channel);
-        set_error(err, err_size, path, what);
-        goto done;
-    }
-    if (entry->x_sampling != 1 || entry->y_sampling != 1) {
-        snprintf(what, sizeof what, "channel \"%s\" is subsampled (%dx%d), which is not supported", channel,
-                 entry->x_sampling, entry->y_sampling);
-        set_error(err, err_size, path, what);
-        goto done;
-    }
-
-    exr_attr_box2i_t dw;
-    rv = exr_get_data_window(ctxt, part, &dw);
-    if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot read the data window", rv); goto done; }
-    int64_t w64 = (int64_t)dw.max.x - dw.min.x + 1, h64 = (int64_t)dw.max.y - dw.min.y + 1;
-    if (w64 <= 0 || h64 <= 0 || w64 > INT32_MAX / 4 || h64 > INT_MAX ||
-        (uint64_t)w64 * (uint64_t)h64 > SIZE_MAX / sizeof(float)) {
-        set_error(err, err_size, path, "the data window is empty or too large");
-        goto done;
-    }
-    const int width = (int)w64, height = (int)h64;
     int32_t lines_per_chunk = 0, chunks = 0;
-    rv = exr_get_scanlines_per_chunk(ctxt, part, &lines_per_chunk);
+    exr_result_t rv = exr_get_scanlines_per_chunk(ctxt, part, &lines_per_chunk);
     if (rv == EXR_ERR_SUCCESS) rv = exr_get_chunk_count(ctxt, part, &chunks);
-    if (rv != EXR_ERR_SUCCESS || lines_per_chunk <= 0 || chunks <= 0 ||
-        (int64_t)chunks * lines_per_chunk < h64) {
+    if (rv != EXR_ERR_SUCCESS || lines_per_chunk <= 0 || chunks <= 0 || (int64_t)chunks * lines_per_chunk < height) {
         set_exr_error(err, err_size, path, "cannot size the EXR chunks", rv);
         goto done;
     }
 
-    out = malloc((size_t)width * height * sizeof(float));
-    if (!out) { set_error(err, err_size, path, "out of memory for the channel"); goto done; }
+    size_t out_bytes = (size_t)width * height * (size_t)count * sizeof(float);
+    out = pm_malloc(out_bytes, "EXR channels");
+    if (!out) {
+        snprintf(what, sizeof what, "out of memory for the channels (%zu bytes)", out_bytes);
+        set_error(err, err_size, path, what);
+        goto done;
+    }
 
     for (int32_t k = 0; k < chunks; k++) {
         int64_t y = (int64_t)dw.min.y + (int64_t)k * lines_per_chunk;
@@ -412,10 +468,12 @@ float *pm_read_exr_channel(const char *path, const char *channel, int *width_out
             scratch_size = scratch_need;
         }
         uint8_t *next_scratch = scratch;
-        bool found = false;
+        unsigned found = 0; /* bit k: names[k] has its destination (a duplicate name in the file goes to scratch) */
         for (int i = 0; i < dec.channel_count; i++) {
             exr_coding_channel_info_t *chan = &dec.channels[i];
-            if (strcmp(chan->channel_name, channel) != 0 || found) {
+            int k = 0;
+            while (k < count && (strcmp(chan->channel_name, names[k]) != 0 || (found >> k & 1u))) k++;
+            if (k == count) {
                 chan->user_bytes_per_element = chan->bytes_per_element;
                 chan->user_data_type = chan->data_type;
                 chan->user_pixel_stride = chan->bytes_per_element;
@@ -428,18 +486,19 @@ float *pm_read_exr_channel(const char *path, const char *channel, int *width_out
                 set_error(err, err_size, path, "a chunk's channel size disagrees with the data window");
                 goto done;
             }
-            found = true;
+            found |= 1u << k;
             chan->user_bytes_per_element = 4;
             chan->user_data_type = EXR_PIXEL_FLOAT;
-            chan->user_pixel_stride = 4;
-            chan->user_line_stride = 4 * width;
-            chan->decode_to_ptr = (uint8_t *)(out + (size_t)(cinfo.start_y - dw.min.y) * width);
+            chan->user_pixel_stride = 4 * count;
+            chan->user_line_stride = 4 * count * width;
+            chan->decode_to_ptr = (uint8_t *)(out + ((size_t)(cinfo.start_y - dw.min.y) * width) * count + k);
         }
-        if (!found) {
-            snprintf(what, sizeof what, "channel \"%s\" missing from the chunk at line %lld", channel, (long long)y);
-            set_error(err, err_size, path, what);
-            goto done;
-        }
+        for (int k = 0; k < count; k++)
+            if (!(found >> k & 1u)) {
+                snprintf(what, sizeof what, "channel \"%s\" missing from the chunk at line %lld", names[k], (long long)y);
+                set_error(err, err_size, path, what);
+                goto done;
+            }
         /* after the pointers: the routine chosen depends on the output layout */
         rv = exr_decoding_choose_default_routines(ctxt, part, &dec);
         if (rv == EXR_ERR_SUCCESS) rv = exr_decoding_run(ctxt, part, &dec);
@@ -459,6 +518,17 @@ done:
     free(scratch);
     if (!ok) { free(out); out = NULL; }
     return out;
+}
+
+float *pm_read_exr_channel(const char *path, const char *channel, int *width, int *height, char *err, size_t err_size) {
+    if (!channel || !*channel) {
+        if (width) *width = 0;
+        if (height) *height = 0;
+        set_error(err, err_size, path ? path : "", "no channel name given");
+        return NULL;
+    }
+    const char *const names[1] = {channel};
+    return read_exr_channels(path, 1, names, width, height, err, err_size);
 }
 
 /* ---------------------------------------------------------------------------------------------- */
@@ -508,48 +578,197 @@ bool pm_has_extension(const char *path, const char *ext) {
     return n > e && strcasecmp(path + n - e, ext) == 0;
 }
 
-float *pm_read_environment(const char *path, int *width, int *height, char *err, size_t err_size) {
-    char inner[512];
+/* ---- Radiance .hdr (RGBE) ----
+ *
+ * Read here rather than by stb_image, which fills the rows of a truncated file with black and
+ * takes any file for one: a header with "#?RADIANCE" or "#?RGBE", lines up to a blank one, then
+ * "-Y H +X W"; each row either run-length encoded (2, 2, W as two bytes, then each of the four
+ * components as runs: a count above 128 repeats the next byte count - 128 times, else that many
+ * bytes follow) or flat (four bytes a texel). */
+
+#define HDR_MAX_HEADER 65536 /* bytes: a header that long is no Radiance header */
+
+typedef struct {
+    FILE *f;
+    int width, height;
+} hdr_file;
+
+/* One header line without its newline; false at the end of the file or past the header's budget. */
+static bool hdr_line(FILE *f, char *line, size_t size, size_t *budget) {
+    size_t n = 0;
+    for (int c; (c = getc(f)) != EOF;) {
+        if (*budget == 0) return false;
+        (*budget)--;
+        if (c == '\n') { line[n] = '\0'; return true; }
+        if (n + 1 < size) line[n++] = (char)c;
+    }
+    return false;
+}
+
+static bool hdr_open(const char *path, hdr_file *h, char *err, size_t err_size) {
+    h->f = NULL;
+    if (!regular_file(path, err, err_size)) return false;
+    char what[400], line[256];
+    h->f = fopen(path, "rb");
+    if (!h->f) {
+        snprintf(what, sizeof what, "cannot open (%s)", strerror(errno));
+        set_error(err, err_size, path, what);
+        return false;
+    }
+    size_t budget = HDR_MAX_HEADER;
+    if (!hdr_line(h->f, line, sizeof line, &budget) || (strncmp(line, "#?RADIANCE", 10) && strncmp(line, "#?RGBE", 6))) {
+        set_error(err, err_size, path, "not a Radiance .hdr file (it does not begin with #?RADIANCE or #?RGBE)");
+        goto fail;
+    }
+    for (;;) {
+        if (!hdr_line(h->f, line, sizeof line, &budget)) {
+            set_error(err, err_size, path, budget ? "the file ends inside its header (no blank line, no resolution line)"
+                                                  : "the header does not end within 64 KiB");
+            goto fail;
+        }
+        if (!line[0]) break;
+        if (!strncmp(line, "FORMAT=", 7) && strcmp(line + 7, "32-bit_rle_rgbe")) {
+            snprintf(what, sizeof what, "pixels of FORMAT=%.64s are not supported (32-bit_rle_rgbe only)", line + 7);
+            set_error(err, err_size, path, what);
+            goto fail;
+        }
+    }
+    long rows = 0, columns = 0;
+    int used = 0;
+    if (!hdr_line(h->f, line, sizeof line, &budget) || sscanf(line, "-Y %ld +X %ld%n", &rows, &columns, &used) != 2 ||
+        line[used] != '\0') {
+        snprintf(what, sizeof what, "the resolution line \"%.64s\" is not \"-Y HEIGHT +X WIDTH\" (other orientations are not supported)",
+                 line);
+        set_error(err, err_size, path, what);
+        goto fail;
+    }
+    if (rows < 1 || columns < 1 || rows > INT_MAX || columns > INT32_MAX / 4 ||
+        (uint64_t)rows * (uint64_t)columns > SIZE_MAX / (3 * sizeof(float))) {
+        snprintf(what, sizeof what, "the resolution line claims %ldx%ld texels, which is not usable", columns, rows);
+        set_error(err, err_size, path, what);
+        goto fail;
+    }
+    h->width = (int)columns;
+    h->height = (int)rows;
+    return true;
+fail:
+    fclose(h->f);
+    h->f = NULL;
+    return false;
+}
+
+/* Row y's texels as RGBE bytes; false (err says where) when the file ends or the runs are broken. */
+static bool hdr_row(const char *path, hdr_file *h, int y, uint8_t *rgbe, char *err, size_t err_size) {
+    char what[200];
+    const int w = h->width;
+    int lead[4];
+    for (int k = 0; k < 4; k++) lead[k] = getc(h->f);
+    bool nothing = y == 0 && lead[0] == EOF;
+    if (lead[3] == EOF) goto truncated;
+    bool encoded = w >= 8 && w < 32768 && lead[0] == 2 && lead[1] == 2 && lead[2] < 128;
+    if (!encoded) {
+        for (int k = 0; k < 4; k++) rgbe[k] = (uint8_t)lead[k];
+        size_t rest = 4 * ((size_t)w - 1);
+        if (fread(rgbe + 4, 1, rest, h->f) != rest) goto truncated;
+        return true;
+    }
+    if ((lead[2] << 8 | lead[3]) != w) {
+        snprintf(what, sizeof what, "row %d of %d is encoded %d texels wide in a map %d wide", y + 1, h->height,
+                 lead[2] << 8 | lead[3], w);
+        set_error(err, err_size, path, what);
+        return false;
+    }
+    for (int k = 0; k < 4; k++) {
+        for (int x = 0; x < w;) {
+            int count = getc(h->f), value;
+            if (count == EOF) goto truncated;
+            if (count > 128) {
+                count -= 128;
+                if ((value = getc(h->f)) == EOF) goto truncated;
+                if (x + count > w) goto broken;
+                for (int i = 0; i < count; i++) rgbe[4 * (x + i) + k] = (uint8_t)value;
+            } else {
+                if (count == 0 || x + count > w) goto broken;
+                for (int i = 0; i < count; i++) {
+                    if ((value = getc(h->f)) == EOF) goto truncated;
+                    rgbe[4 * (x + i) + k] = (uint8_t)value;
+                }
+            }
+            x += count;
+        }
+    }
+    return true;
+truncated:
+    if (nothing) snprintf(what, sizeof what, "the file ends after its header: no pixels (truncated or empty)");
+    else snprintf(what, sizeof what, "the file ends in row %d of %d (truncated)", y + 1, h->height);
+    set_error(err, err_size, path, what);
+    return false;
+broken:
+    snprintf(what, sizeof what, "bad run-length data in row %d of %d", y + 1, h->height);
+    set_error(err, err_size, path, what);
+    return false;
+}
+
+static float *read_hdr(const char *path, int *width, int *height, char *err, size_t err_size) {
+    hdr_file h;
+    if (!hdr_open(path, &h, err, err_size)) return NULL;
+    size_t n = (size_t)h.width * h.height;
+    float *rgb = pm_malloc(3 * n * sizeof(float), "environment map texels");
+    uint8_t *row = malloc(4 * (size_t)h.width);
+    bool ok = rgb && row;
+    if (!ok) {
+        char what[200];
+        snprintf(what, sizeof what, "out of memory (environment map, %zu bytes)", 3 * n * sizeof(float));
+        set_error(err, err_size, path, what);
+    }
+    for (int y = 0; ok && y < h.height; y++) {
+        ok = hdr_row(path, &h, y, row, err, err_size);
+        float *out = rgb + 3 * (size_t)y * h.width;
+        for (int x = 0; ok && x < h.width; x++) {
+            const uint8_t *t = row + 4 * x;
+            /* mantissas of 8 bits under a shared exponent biased by 128 */
+            float scale = t[3] ? ldexpf(1.f, t[3] - (128 + 8)) : 0.f;
+            for (int c = 0; c < 3; c++) out[3 * x + c] = t[c] * scale;
+        }
+    }
+    fclose(h.f);
+    free(row);
+    if (!ok) { free(rgb); return NULL; }
+    *width = h.width;
+    *height = h.height;
+    return rgb;
+}
+
+static const char *const rgb_channels[3] = {"R", "G", "B"};
+
+bool pm_environment_size(const char *path, int *width, int *height, char *err, size_t err_size) {
     if (pm_has_extension(path, ".hdr")) {
-        int channels = 0;
-        float *data = stbi_loadf(path, width, height, &channels, 3);
-        if (!data) snprintf(err, err_size, "%s: cannot read the environment map (%s)", path, stbi_failure_reason());
-        if (!data) return NULL;
-        /* stb's buffer goes back to stb: hand the caller its own copy */
-        size_t bytes = sizeof(float) * 3 * (size_t)*width * (size_t)*height;
-        float *copy = malloc(bytes);
-        if (copy) memcpy(copy, data, bytes);
-        else snprintf(err, err_size, "%s: out of memory (environment map, %zu bytes)", path, bytes);
-        stbi_image_free(data);
-        return copy;
+        hdr_file h;
+        if (!hdr_open(path, &h, err, err_size)) return false;
+        /* at the least one byte a texel component, or a header that ends the file */
+        int first = getc(h.f);
+        fclose(h.f);
+        if (first == EOF) {
+            set_error(err, err_size, path, "the file ends after its header: no pixels (truncated or empty)");
+            return false;
+        }
+        *width = h.width;
+        *height = h.height;
+        return true;
     }
     if (!pm_has_extension(path, ".exr")) {
-        snprintf(err, err_size, "%s: an environment map must be .exr or .hdr", path);
+        set_error(err, err_size, path, "an environment map must be .exr or .hdr");
+        return false;
+    }
+    return pm_read_exr_size(path, 3, rgb_channels, width, height, err, err_size);
+}
+
+float *pm_read_environment(const char *path, int *width, int *height, char *err, size_t err_size) {
+    *width = *height = 0;
+    if (pm_has_extension(path, ".hdr")) return read_hdr(path, width, height, err, err_size);
+    if (!pm_has_extension(path, ".exr")) {
+        set_error(err, err_size, path, "an environment map must be .exr or .hdr");
         return NULL;
     }
-    static const char *const names[3] = {"R", "G", "B"};
-    float *channel[3] = {NULL, NULL, NULL};
-    for (int c = 0; c < 3; c++) {
-        int w = 0, h = 0;
-        channel[c] = pm_read_exr_channel(path, names[c], &w, &h, inner, sizeof inner);
-        if (channel[c] && c > 0 && (w != *width || h != *height)) {
-            snprintf(inner, sizeof inner, "channels of different sizes");
-            free(channel[c]);
-            channel[c] = NULL;
-        }
-        if (!channel[c]) {
-            snprintf(err, err_size, "%s: cannot read the environment map (%s)", path, inner);
-            for (int k = 0; k < c; k++) free(channel[k]);
-            return NULL;
-        }
-        *width = w;
-        *height = h;
-    }
-    size_t n = (size_t)*width * (size_t)*height;
-    float *rgb = malloc(sizeof(float) * 3 * n);
-    if (!rgb) snprintf(err, err_size, "%s: out of memory (environment map, %zu bytes)", path, sizeof(float) * 3 * n);
-    for (size_t i = 0; rgb && i < n; i++)
-        for (int c = 0; c < 3; c++) rgb[3 * i + c] = channel[c][i];
-    for (int c = 0; c < 3; c++) free(channel[c]);
-    return rgb;
+    return read_exr_channels(path, 3, rgb_channels, width, height, err, err_size);
 }

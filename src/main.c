@@ -110,7 +110,7 @@ static const char usage_text[] =
     "                       iterations, photons, mean radius, and with --reference each layer's relMSE, RMSE, bias\n"
     "  --components LIST    what a PNG snapshot and the window show at first: direct,specular,caustic,indirect (default all)\n"
     "  --stats              print 'stat STAGE key=value ...' lines\n"
-    "  --max-memory SIZE    refuse a structure (scene, photon records, film, texture) estimated above SIZE bytes\n"
+    "  --max-memory SIZE    refuse a structure (scene, photon records, film, texture, sky map) estimated above SIZE bytes\n"
     "                       (K, M, G, T suffixes; default half the physical memory)\n"
     "  --quiet              no warnings\n"
     "  --help               this text\n"
@@ -733,10 +733,22 @@ int main(int argc, char **argv) {
         fprintf(stderr, "pmview: error: %s\n", err);
         return 1;
     }
+    /* before the scene too: a sky map or a reference that cannot be used costs no load and no BVH
+     * build (the reference's height is compared once the camera gives the image's) */
+    pm_sky_request sky = {.sky = opt.sky, .no_default_light = opt.no_default_light, .scene_path = opt.scene_path,
+                          .quiet = opt.quiet, .stats = opt.stats};
+    if (!pm_sky_prepare(&sky)) return 1;
+    int width = opt.width ? opt.width : PM_DEFAULT_WIDTH, height = opt.height;
+    if (opt.reference && !pm_reference_check(opt.reference, width, height, err, sizeof err)) {
+        fprintf(stderr, "pmview: error: %s\n", err);
+        pm_sky_release(&sky);
+        return 1;
+    }
     pm_scene scene;
     pm_load_report report;
     if (!pm_load_gltf(opt.scene_path, opt.quiet, &scene, &report, err, sizeof err)) {
         fprintf(stderr, "pmview: error: %s\n", err);
+        pm_sky_release(&sky);
         return 1;
     }
     pm_scene_finalize(&scene, false, NULL);
@@ -747,6 +759,7 @@ int main(int argc, char **argv) {
         fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", opt.scene_path,
                 pm_memory_failure() ? pm_memory_failure() : "emitter distribution");
         pm_scene_free(&scene);
+        pm_sky_release(&sky);
         return 1;
     }
     if (opt.stats) pm_print_load_stats(&report, &scene);
@@ -767,7 +780,6 @@ int main(int argc, char **argv) {
         exit_code = 1;
         goto done;
     }
-    int width = opt.width ? opt.width : PM_DEFAULT_WIDTH, height = opt.height;
     if (scene.camera_count) {
         camera = scene.cameras[opt.camera >= 0 ? opt.camera : 0];
         if (!height) height = camera.aspect > 0.f ? (int)lroundf(width / camera.aspect) : width;
@@ -777,12 +789,15 @@ int main(int argc, char **argv) {
     }
     if (height < 1) height = 1;
     if (height > PM_MAX_IMAGE_SIDE) height = PM_MAX_IMAGE_SIDE;
+    if (opt.reference && !opt.height && !pm_reference_check(opt.reference, width, height, err, sizeof err)) {
+        fprintf(stderr, "pmview: error: %s\n", err);
+        exit_code = 1;
+        goto done;
+    }
 
     accel = pm_accel_create(&scene, err, sizeof err);
     if (!accel) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
     if (opt.stats) pm_print_bvh_stats(accel);
-    pm_sky_request sky = {.sky = opt.sky, .no_default_light = opt.no_default_light, .scene_path = opt.scene_path,
-                          .quiet = opt.quiet, .stats = opt.stats};
     if (!pm_choose_sky(&sky, &scene, accel, &camera, (float)width / height)) { exit_code = 1; goto done; }
     if (opt.stats) pm_print_analysis_stats(&scene);
 
@@ -809,6 +824,7 @@ int main(int argc, char **argv) {
     if (opt.stats) pm_print_final_stats(session, accel, opt.threads, opt.alpha, opt.pathtrace);
 
 done:
+    pm_sky_release(&sky);
     pm_reference_free(&reference);
     pm_session_destroy(session);
     pm_accel_destroy(accel);

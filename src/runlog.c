@@ -6,12 +6,35 @@
 
 #include "defaults.h"
 #include "image_io.h"
+#include "memory.h"
 #include "progressive.h"
 #include "runlog.h"
 
+static const char *const names[3] = {"R", "G", "B"};
+
+bool pm_reference_check(const char *path, int width, int height, char *err, size_t err_size) {
+    int w = 0, h = 0;
+    if (!pm_read_exr_size(path, 3, names, &w, &h, err, err_size)) return false;
+    if (w == width && (height <= 0 || h == height)) return true;
+    if (height > 0)
+        snprintf(err, err_size, "%s: the reference is %dx%d but the image is %dx%d (use --width/--height)", path, w, h,
+                 width, height);
+    else
+        snprintf(err, err_size, "%s: the reference is %dx%d but the image is %d wide (use --width/--height)", path, w, h,
+                 width);
+    return false;
+}
+
 bool pm_reference_load(const char *path, bool with_layers, pm_reference_image *ref, char *err, size_t err_size) {
-    static const char *const names[3] = {"R", "G", "B"};
     memset(ref, 0, sizeof *ref);
+    int w = 0, h = 0;
+    if (!pm_read_exr_size(path, 3, names, &w, &h, err, err_size)) return false;
+    /* R, G, B, each layer's three when asked for, and the mask of unknown pixels */
+    uint64_t bytes = (uint64_t)w * (uint64_t)h * ((3 + (with_layers ? 3 * PM_COMPONENT_COUNT : 0)) * sizeof(float) + 1);
+    if (!pm_memory_admit(bytes, "reference image")) {
+        snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure());
+        return false;
+    }
     for (int c = 0; c < 3; c++) {
         int w, h;
         ref->rgb[c] = pm_read_exr_channel(path, names[c], &w, &h, err, err_size);

@@ -1,9 +1,11 @@
-/* sky.c: equirectangular environment maps: building the sampling distribution, lookup, sampling, the default gradient. */
+/* sky.c: equirectangular environment maps: clamping their texels, building the sampling distribution, lookup, sampling, the default gradient. */
 #include "sky.h"
 #include "memory.h"
 
+#include <float.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "defaults.h"
 
@@ -21,54 +23,102 @@ static double texel_solid_angle(const pm_sky_map *m, int row) {
     return 2.0 * PM_PI / m->width * (cos(t0) - cos(t1));
 }
 
-static float texel_weight(const float *rgb) { return (rgb[0] + rgb[1] + rgb[2]) * (1.f / 3.f); }
+static double texel_weight(const float *rgb) { return ((double)rgb[0] + rgb[1] + rgb[2]) * (1.0 / 3.0); }
+
+/* Scales a texel down to PM_MAX_EMISSION in its largest component, as the scene clamps emission
+ * (hue kept; +Inf counts as the largest float, NaN and negative components read as 0): a float
+ * film could not sum more, and the sampler's sums would overflow. True when it had to, except
+ * for finite negatives (the ringing of a resampled map), which need no warning. */
+static bool clamp_texel(float *t) {
+    bool changed = false;
+    float m = 0.f;
+    for (int c = 0; c < 3; c++) {
+        if (!isfinite(t[c])) changed = true;
+        if (!(t[c] > 0.f)) t[c] = 0.f;
+        if (t[c] > FLT_MAX) t[c] = FLT_MAX;
+        if (t[c] > m) m = t[c];
+    }
+    if (m > PM_MAX_EMISSION) {
+        double scale = PM_MAX_EMISSION / (double)m;
+        for (int c = 0; c < 3; c++) t[c] = (float)(t[c] * scale);
+        changed = true;
+    }
+    return changed;
+}
+
+uint64_t pm_sky_map_bytes(int width, int height) {
+    uint64_t w = width > 0 ? (uint64_t)width : 0, h = height > 0 ? (uint64_t)height : 0;
+    /* texels, each row's column cdf, the row cdf, and the row sums while the cdfs are built */
+    return sizeof(pm_sky_map) + 3 * sizeof(float) * w * h + sizeof(float) * h * (w + 1) + sizeof(float) * (h + 1) +
+           sizeof(double) * h;
+}
 
 pm_sky_map *pm_sky_map_create(int width, int height, const float *rgb, char *err, size_t err_size) {
-    if (width < 1 || height < 1 || (size_t)width * (size_t)height > ((size_t)1 << 28)) {
+    if (width < 1 || height < 1 || (uint64_t)width * (uint64_t)height > PM_SKY_MAX_TEXELS) {
+        snprintf(err, err_size, "environment map of %dx%d texels is not usable", width, height);
+        return NULL;
+    }
+    size_t bytes = sizeof(float) * 3 * (size_t)width * (size_t)height;
+    float *copy = pm_malloc(bytes, "environment map");
+    if (!copy) {
+        snprintf(err, err_size, "out of memory (environment map, %zu bytes)", bytes);
+        return NULL;
+    }
+    memcpy(copy, rgb, bytes);
+    return pm_sky_map_adopt(width, height, copy, err, err_size);
+}
+
+pm_sky_map *pm_sky_map_adopt(int width, int height, float *rgb, char *err, size_t err_size) {
+    if (width < 1 || height < 1 || (uint64_t)width * (uint64_t)height > PM_SKY_MAX_TEXELS) {
+        free(rgb);
         snprintf(err, err_size, "environment map of %dx%d texels is not usable", width, height);
         return NULL;
     }
     size_t n = (size_t)width * height;
-    pm_sky_map *m = calloc(1, sizeof *m);
+    pm_sky_map *m = pm_calloc(1, sizeof *m, "environment map");
+    double *row_sum = NULL;
     if (m) {
-        m->rgb = pm_malloc(sizeof(float) * 3 * n, "environment map");
+        m->rgb = rgb;
+        rgb = NULL;
         m->row_cdf = pm_malloc(sizeof(float) * ((size_t)height + 1), "environment map");
         m->column_cdf = pm_malloc(sizeof(float) * (size_t)height * ((size_t)width + 1), "environment map");
+        row_sum = pm_malloc(sizeof(double) * (size_t)height, "environment map");
     }
-    if (!m || !m->rgb || !m->row_cdf || !m->column_cdf) {
+    if (!m || !m->row_cdf || !m->column_cdf || !row_sum) {
+        free(rgb);
+        free(row_sum);
         pm_sky_map_free(m);
-        snprintf(err, err_size, "out of memory (environment map, %zu bytes)", n * sizeof(float) * 4);
+        snprintf(err, err_size, "out of memory (environment map, %llu bytes)", (unsigned long long)pm_sky_map_bytes(width, height));
         return NULL;
     }
     m->width = width;
     m->height = height;
-    for (size_t i = 0; i < 3 * n; i++) m->rgb[i] = isfinite(rgb[i]) && rgb[i] > 0.f ? rgb[i] : 0.f;
-    /* cdfs in double, stored normalised as floats; a row of zero weight keeps a uniform column cdf
-     * (it is never picked, and lookups need no special case) */
+    for (size_t i = 0; i < n; i++) m->clamped += clamp_texel(m->rgb + 3 * i);
+    /* Sums in double (2^28 texels of at most 1e20 stay far inside its range), stored normalised as
+     * floats; a row of zero weight keeps a uniform column cdf (it is never picked, and lookups
+     * need no special case) */
     double total = 0.0, mean[3] = {0, 0, 0};
     m->row_cdf[0] = 0.f;
-    double *row_sum = malloc(sizeof(double) * (size_t)height);
-    if (!row_sum) {
-        pm_sky_map_free(m);
-        snprintf(err, err_size, "out of memory (environment map)");
-        return NULL;
-    }
     for (int y = 0; y < height; y++) {
-        double omega = texel_solid_angle(m, y), sum = 0.0;
+        double omega = texel_solid_angle(m, y);
         float *cdf = m->column_cdf + (size_t)y * (width + 1);
-        cdf[0] = 0.f;
+        const float *row = m->rgb + 3 * (size_t)y * width;
         double run = 0.0;
         for (int x = 0; x < width; x++) {
-            const float *t = m->rgb + 3 * ((size_t)y * width + x);
-            run += texel_weight(t);
-            for (int c = 0; c < 3; c++) mean[c] += t[c] * omega;
-            cdf[x + 1] = (float)run;
+            run += texel_weight(row + 3 * x);
+            for (int c = 0; c < 3; c++) mean[c] += row[3 * x + c] * omega;
         }
-        for (int x = 1; x <= width; x++) cdf[x] = run > 0.0 ? (float)(cdf[x] / run) : (float)x / width;
+        /* a second pass, so that the partial sums reach the division in double rather than stored
+         * in the float cdf first (a row of texels near the float limit overflowed it: inf / inf) */
+        double partial = 0.0;
+        cdf[0] = 0.f;
+        for (int x = 0; x < width; x++) {
+            partial += texel_weight(row + 3 * x);
+            cdf[x + 1] = run > 0.0 ? (float)(partial / run) : (float)(x + 1) / width;
+        }
         cdf[width] = 1.f;
-        sum = run * omega;
-        row_sum[y] = sum;
-        total += sum;
+        row_sum[y] = run * omega;
+        total += row_sum[y];
     }
     if (!(total > 0.0)) {
         free(row_sum);

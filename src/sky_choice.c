@@ -6,10 +6,66 @@
 #include "defaults.h"
 #include "eye.h"
 #include "image_io.h"
+#include "memory.h"
 #include "sky.h"
 #include "sky_choice.h"
 
-bool pm_choose_sky(const pm_sky_request *request, pm_scene *scene, const pm_accel *accel, const pm_camera *camera, float aspect) {
+static bool names_file(const char *sky) {
+    return sky && strcmp(sky, "none") && strcmp(sky, "white") && strcmp(sky, "gradient");
+}
+
+bool pm_sky_prepare(pm_sky_request *request) {
+    const char *path = request->sky;
+    if (!names_file(path) || request->map) return true;
+    char err[1024];
+    int w = 0, h = 0;
+    if (!pm_environment_size(path, &w, &h, err, sizeof err)) {
+        fprintf(stderr, "pmview: error: %s\n", err);
+        return false;
+    }
+    /* from the header, before a pixel is decoded: a small file can claim billions of texels */
+    char what[128];
+    snprintf(what, sizeof what, "sky map of %dx%d texels", w, h);
+    if (!pm_memory_admit(pm_sky_map_bytes(w, h), what)) {
+        fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", path, pm_memory_failure());
+        return false;
+    }
+    if ((uint64_t)w * (uint64_t)h > PM_SKY_MAX_TEXELS) {
+        fprintf(stderr, "pmview: error: %s: an environment map of %dx%d texels is too large (at most %llu texels)\n", path,
+                w, h, (unsigned long long)PM_SKY_MAX_TEXELS);
+        return false;
+    }
+    int rw = 0, rh = 0;
+    float *rgb = pm_read_environment(path, &rw, &rh, err, sizeof err);
+    if (!rgb) {
+        fprintf(stderr, "pmview: error: %s\n", err);
+        return false;
+    }
+    if (rw != w || rh != h) { /* the memory was admitted for the header's size */
+        free(rgb);
+        fprintf(stderr, "pmview: error: %s: the file changed while it was read (%dx%d, then %dx%d texels)\n", path, w, h, rw, rh);
+        return false;
+    }
+    char inner[512];
+    request->map = pm_sky_map_adopt(w, h, rgb, inner, sizeof inner);
+    if (!request->map) {
+        fprintf(stderr, "pmview: error: %s: %s\n", path, inner);
+        return false;
+    }
+    if (request->map->clamped && !request->quiet)
+        fprintf(stderr, "pmview: warning: %s: %zu of %llu texels above %g or not finite clamped (NaN to 0, the rest to %g): "
+                "a float film could not sum them\n",
+                path, request->map->clamped, (unsigned long long)w * (unsigned long long)h, (double)PM_MAX_EMISSION,
+                (double)PM_MAX_EMISSION);
+    return true;
+}
+
+void pm_sky_release(pm_sky_request *request) {
+    pm_sky_map_free(request->map);
+    request->map = NULL;
+}
+
+bool pm_choose_sky(pm_sky_request *request, pm_scene *scene, const pm_accel *accel, const pm_camera *camera, float aspect) {
     float view_fraction, around_fraction;
     pm_eye_enclosure(scene, accel, camera, aspect, &view_fraction, &around_fraction);
     const char *sky = request->sky;
@@ -30,14 +86,9 @@ bool pm_choose_sky(const pm_sky_request *request, pm_scene *scene, const pm_acce
         if (!strcmp(sky, "gradient")) {
             map = pm_sky_map_gradient(err, sizeof err);
         } else {
-            int w = 0, h = 0;
-            float *rgb = pm_read_environment(sky, &w, &h, err, sizeof err);
-            if (rgb) {
-                char inner[512];
-                map = pm_sky_map_create(w, h, rgb, inner, sizeof inner);
-                if (!map) snprintf(err, sizeof err, "%s: %s", sky, inner);
-                free(rgb);
-            }
+            if (!pm_sky_prepare(request)) return false;
+            map = request->map;
+            request->map = NULL;
         }
         if (!map) { fprintf(stderr, "pmview: error: %s\n", err); return false; }
         pm_scene_set_sky(scene, true, v3s(1.f), map);
@@ -55,8 +106,8 @@ bool pm_choose_sky(const pm_sky_request *request, pm_scene *scene, const pm_acce
                 request->scene_path, 100.0 * reflective, 100.0 * PM_ENERGY_CONSERVING_ALBEDO, 100.0 * PM_PHOTON_MAX_SURVIVAL,
                 PM_DEFAULT_MAX_PHOTON_BOUNCES);
     if (request->stats)
-        printf("stat sky kind=%s view_enclosed=%.3f camera_enclosed=%.3f\n",
+        printf("stat sky kind=%s view_enclosed=%.3f camera_enclosed=%.3f clamped_texels=%zu\n",
                !scene->sky ? "none" : (!scene->sky_map ? "white" : (!strcmp(sky, "gradient") ? "gradient" : "map")),
-               view_fraction, around_fraction);
+               view_fraction, around_fraction, scene->sky_map ? scene->sky_map->clamped : (size_t)0);
     return true;
 }

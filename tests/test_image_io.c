@@ -1,4 +1,4 @@
-/* test_image_io.c: EXR layers round-trip bit for bit and sum to the total; EXR/PNG failures are clean one-line errors. */
+/* test_image_io.c: EXR layers round-trip bit for bit and sum to the total; environment maps (.exr, .hdr) decode exactly; EXR, .hdr and PNG failures are clean one-line errors. */
 #include "image_io.h"
 #include "testing.h"
 
@@ -394,9 +394,165 @@ static void test_exr_half_and_windows(void) {
                   comp_name, nchan, names[c], bad);
             free(px);
         }
+        /* the same file as an environment map: R, G, B decoded together, interleaved */
+        int w = 0, h = 0;
+        float *env = pm_read_environment(path, &w, &h, err, sizeof err);
+        CHECK(env != NULL && w == HW && h == HH, "HALF %s %d-channel file as a map: %s", comp_name, nchan, err);
+        int bad = 0;
+        for (int i = 0; env && i < HW * HH; i++)
+            for (int c = 0; c < 3; c++) bad += env[3 * i + c] != planes[c][i];
+        CHECK(bad == 0, "HALF %s %d-channel file as a map: %d values differ from the planes", comp_name, nchan, bad);
+        free(env);
+        unlink(path);
+    }
+    /* cut in half: the header still gives the size (nothing decoded), the pixels are refused */
+    if (write_half_exr(path, EXR_COMPRESSION_NONE, &dw, 3, (const float **)planes)) {
+        size_t n = 0;
+        uint8_t *bytes = read_bytes(path, &n);
+        CHECK(bytes && write_bytes(path, bytes, n / 2), "cut %s", path);
+        free(bytes);
+        int w = 0, h = 0;
+        CHECK(pm_environment_size(path, &w, &h, err, sizeof err) && w == HW && h == HH,
+              "the size of a cut EXR from its header: %dx%d (%s)", w, h, err);
+        float *env = pm_read_environment(path, &w, &h, err, sizeof err);
+        CHECK(env == NULL && strncmp(err, path, strlen(path)) == 0 && strstr(err, "chunk") && !strchr(err, '\n'),
+              "a cut EXR map is refused naming the chunk: \"%s\"", err);
+        free(env);
         unlink(path);
     }
     for (int c = 0; c < 4; c++) free(planes[c]);
+}
+
+/* A Radiance .hdr written byte by byte: header, resolution, then rows. */
+static bool write_hdr(const char *path, const char *header, const uint8_t *rows, size_t n) {
+    FILE *f = fopen(path, "wb");
+    if (!f) return false;
+    bool ok = fputs(header, f) >= 0 && fwrite(rows, 1, n, f) == n;
+    return fclose(f) == 0 && ok;
+}
+
+/* .hdr maps: run-length and flat rows decoded exactly; a file cut anywhere, runs past the row,
+ * a file that is not Radiance's, or a header pmview cannot use are refused with one line saying
+ * what and where (stb_image read a cut file's missing rows as black and took a PNG for a map). */
+static void test_hdr_maps(void) {
+    char path[256], err[512];
+    tmp_path(path, sizeof path, "sky.hdr");
+    const char *header = "#?RADIANCE\n# a comment\nFORMAT=32-bit_rle_rgbe\nEXPOSURE=1\n\n-Y 2 +X 9\n";
+    /* row 0 run-length encoded: R a run of five 128s then 64 32 16 8 literally, G a run of 128,
+     * B nine literal values, exponents a run of 129 (x 2^-7); row 1 flat: nine texels (1, 2, 3) x 2^0 */
+    const uint8_t rows[] = {2, 2, 0, 9,
+                            128 + 5, 128, 4, 64, 32, 16, 8,
+                            128 + 9, 128,
+                            9, 0, 10, 20, 30, 40, 50, 60, 70, 80,
+                            128 + 9, 129,
+                            1, 2, 3, 136, 1, 2, 3, 136, 1, 2, 3, 136, 1, 2, 3, 136, 1, 2, 3, 136,
+                            1, 2, 3, 136, 1, 2, 3, 136, 1, 2, 3, 136, 1, 2, 3, 136};
+    const size_t row0 = 4 + 7 + 2 + 10 + 2;
+    CHECK(write_hdr(path, header, rows, sizeof rows), "write %s", path);
+    int w = 0, h = 0;
+    CHECK(pm_environment_size(path, &w, &h, err, sizeof err) && w == 9 && h == 2, "size %dx%d: %s", w, h, err);
+    float *px = pm_read_environment(path, &w, &h, err, sizeof err);
+    CHECK(px != NULL && w == 9 && h == 2, "read the .hdr: %s", err);
+    if (px) {
+        static const float r0[9] = {1, 1, 1, 1, 1, 0.5f, 0.25f, 0.125f, 0.0625f};
+        int bad = 0;
+        for (int x = 0; x < 9; x++) {
+            bad += px[3 * x] != r0[x] || px[3 * x + 1] != 1.f || px[3 * x + 2] != 10.f * x / 128.f;
+            bad += px[27 + 3 * x] != 1.f || px[27 + 3 * x + 1] != 2.f || px[27 + 3 * x + 2] != 3.f;
+        }
+        CHECK(bad == 0, "%d texels decoded wrong", bad);
+        free(px);
+    }
+    /* every cut: row 1 or 2 named, "no pixels" right after the header */
+    for (size_t n = 0; n < sizeof rows; n++) {
+        CHECK(write_hdr(path, header, rows, n), "write %s", path);
+        err[0] = '\0';
+        px = pm_read_environment(path, &w, &h, err, sizeof err);
+        const char *want = n == 0 ? "no pixels" : (n < row0 ? "ends in row 1 of 2 (truncated)" : "ends in row 2 of 2 (truncated)");
+        CHECK(px == NULL && strncmp(err, path, strlen(path)) == 0 && strstr(err, want) && !strchr(err, '\n'),
+              "cut at %zu of %zu bytes: want \"%s\", got \"%s\"", n, sizeof rows, want, err);
+        free(px);
+    }
+    CHECK(write_hdr(path, header, rows, 0), "write %s", path);
+    CHECK(!pm_environment_size(path, &w, &h, err, sizeof err) && strstr(err, "no pixels"),
+          "a header without pixels is refused from its header: \"%s\"", err);
+
+    /* runs that overrun the row, and a row encoded at another width */
+    uint8_t broken[sizeof rows];
+    memcpy(broken, rows, sizeof rows);
+    broken[4] = 128 + 10; /* a run of ten in a row of nine */
+    CHECK(write_hdr(path, header, broken, sizeof broken), "write %s", path);
+    px = pm_read_environment(path, &w, &h, err, sizeof err);
+    CHECK(px == NULL && strstr(err, "bad run-length data in row 1 of 2"), "overrun: \"%s\"", err);
+    free(px);
+    memcpy(broken, rows, sizeof rows);
+    broken[3] = 8;
+    CHECK(write_hdr(path, header, broken, sizeof broken), "write %s", path);
+    px = pm_read_environment(path, &w, &h, err, sizeof err);
+    CHECK(px == NULL && strstr(err, "row 1 of 2 is encoded 8 texels wide"), "wrong width: \"%s\"", err);
+    free(px);
+
+    /* headers: #?RGBE is Radiance's too; the rest is refused, with the reason */
+    CHECK(write_hdr(path, "#?RGBE\n\n-Y 2 +X 9\n", rows, sizeof rows), "write %s", path);
+    px = pm_read_environment(path, &w, &h, err, sizeof err);
+    CHECK(px != NULL, "#?RGBE is a Radiance signature: %s", err);
+    free(px);
+    static const struct { const char *header, *want; } refused[] = {
+        {"\x89PNG\r\n\x1a\n", "not a Radiance .hdr file"},
+        {"", "not a Radiance .hdr file"},
+        {"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 2 +X 9\n", "FORMAT=32-bit_rle_xyze are not supported"},
+        {"#?RADIANCE\n\n+Y 2 +X 9\n", "is not \"-Y HEIGHT +X WIDTH\""},
+        {"#?RADIANCE\n\n-Y 2 +X 9 extra\n", "is not \"-Y HEIGHT +X WIDTH\""},
+        {"#?RADIANCE\n\n-Y 0 +X 9\n", "not usable"},
+        {"#?RADIANCE\n\n-Y 99999999999 +X 9\n", "not usable"},
+        {"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n", "ends inside its header"},
+    };
+    for (size_t i = 0; i < sizeof refused / sizeof *refused; i++) {
+        CHECK(write_hdr(path, refused[i].header, rows, strlen(refused[i].header) ? 0 : sizeof rows), "write %s", path);
+        err[0] = '\0';
+        bool sized = pm_environment_size(path, &w, &h, err, sizeof err);
+        CHECK(!sized && strncmp(err, path, strlen(path)) == 0 && strstr(err, refused[i].want) && !strchr(err, '\n'),
+              "header %zu: want \"%s\", got \"%s\"", i, refused[i].want, err);
+    }
+    /* a header that never ends is read no further than 64 KiB */
+    FILE *f = fopen(path, "wb");
+    if (f) {
+        fputs("#?RADIANCE\n", f);
+        for (int i = 0; i < 20000; i++) fputs("# comment\n", f);
+        fclose(f);
+    }
+    CHECK(!pm_environment_size(path, &w, &h, err, sizeof err) && strstr(err, "does not end within 64 KiB"),
+          "an endless header: \"%s\"", err);
+    unlink(path);
+}
+
+/* Inputs that are not regular files are refused by what stat says, at once: opening a FIFO
+ * waited for a writer forever (after the scene and its BVH were built). */
+static void test_not_regular_files(void) {
+    char fifo[256], dir[256], err[512];
+    int w, h;
+    static const char *const names[2] = {"fifo.exr", "fifo.hdr"};
+    for (int i = 0; i < 2; i++) {
+        tmp_path(fifo, sizeof fifo, names[i]);
+        CHECK(mkfifo(fifo, 0600) == 0, "mkfifo %s", fifo);
+        CHECK(!pm_environment_size(fifo, &w, &h, err, sizeof err) && strstr(err, "is a FIFO, not a regular file"),
+              "a FIFO's size: \"%s\"", err);
+        float *px = pm_read_environment(fifo, &w, &h, err, sizeof err);
+        CHECK(px == NULL && strstr(err, "is a FIFO"), "a FIFO as a map: \"%s\"", err);
+        free(px);
+        if (i == 0) {
+            px = pm_read_exr_channel(fifo, "R", &w, &h, err, sizeof err);
+            CHECK(px == NULL && strstr(err, "is a FIFO"), "a FIFO's channel: \"%s\"", err);
+            free(px);
+        }
+        unlink(fifo);
+    }
+    tmp_path(dir, sizeof dir, "folder.exr");
+    CHECK(mkdir(dir, 0700) == 0, "mkdir %s", dir);
+    float *px = pm_read_environment(dir, &w, &h, err, sizeof err);
+    CHECK(px == NULL && strstr(err, "is a directory, not a regular file"), "a directory as a map: \"%s\"", err);
+    free(px);
+    rmdir(dir);
 }
 
 /* The committed Mitsuba 3 reference, when present: R, G, B read, finite, lit. */
@@ -471,6 +627,8 @@ int main(void) {
     test_exr_round_trip();
     test_exr_failures();
     test_exr_half_and_windows();
+    test_hdr_maps();
+    test_not_regular_files();
     test_mitsuba_reference();
     test_png();
     if (rmdir(tmp_dir_path) != 0) CHECK(false, "temporary directory %s left non-empty", tmp_dir_path);

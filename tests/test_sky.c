@@ -1,10 +1,11 @@
-/* test_sky.c: environment maps against exact answers: the sampler's density, a plane's irradiance under a map (eye pass and photons), orthographic cameras and framing. */
+/* test_sky.c: environment maps against exact answers: the sampler's density, a plane's irradiance under a map (eye pass and photons), texels past the float range clamped, orthographic cameras and framing. */
 #include "accel.h"
 #include "eye.h"
 #include "film.h"
 #include "photonmap.h"
 #include "rng.h"
 #include "scene_builder.h"
+#include "defaults.h"
 #include "sky.h"
 #include "testing.h"
 
@@ -78,19 +79,20 @@ static void sampler_matches_density(void) {
     pm_sky_map_free(m);
 }
 
-/* A large plane of albedo rho under the sun map: radiance rho/pi x E, E exact from the texels,
- * by the eye pass (map samples and cosine rays under MIS). */
-static void plane_under_map(void) {
+/* A large plane of albedo rho under map m (the plane takes it): radiance rho/pi x E, E exact from
+ * the texels, by the eye pass (map samples and cosine rays under MIS) within eye_rel, and the same
+ * irradiance from the map's photons within photon_rel; nothing dropped as non-finite on the way.
+ * measured: the eye pass's radiance and the photons' irradiance (R, G, B), for comparisons. */
+static void plane_under(pm_sky_map *m, const char *name, int photons, double eye_rel, double photon_rel,
+                        double measured[2][3]) {
     pm_scene s;
     memset(&s, 0, sizeof s);
     const float rho = 0.5f;
     uint32_t mat = sb_lambert(&s, v3s(rho));
     sb_quad(&s, v3(-1e3f, 0, -1e3f), v3(-1e3f, 0, 1e3f), v3(1e3f, 0, 1e3f), v3(1e3f, 0, -1e3f), mat);
     pm_scene_finalize(&s, false, NULL);
-    pm_sky_map *m = sun_map();
-    if (!m) { pm_scene_free(&s); return; }
     pm_scene_set_sky(&s, true, v3s(1.f), m);
-    CHECK(s.analysis.has_sky && s.analysis.component_possible[PM_DIRECT], "the analysis sees the new sky");
+    CHECK(s.analysis.has_sky && s.analysis.component_possible[PM_DIRECT], "%s: the analysis sees the new sky", name);
     vec3 e = exact_irradiance_up(m);
     char err[256];
     pm_accel *a = pm_accel_create(&s, err, sizeof err);
@@ -102,12 +104,16 @@ static void plane_under_map(void) {
     set.seed = 5;
     set.threads = 2;
     set.max_specular_depth = 4;
-    for (int i = 0; i < 256; i++) pm_eye_iterate(&s, a, &cam, &set, i, &film, NULL);
+    pm_eye_stats eye_stats;
+    memset(&eye_stats, 0, sizeof eye_stats);
+    for (int i = 0; i < 256; i++) pm_eye_iterate(&s, a, &cam, &set, i, &film, &eye_stats);
     double sum[3] = {0, 0, 0};
     for (int i = 0; i < 256; i++)
         for (int c = 0; c < 3; c++) sum[c] += film.sum[PM_DIRECT][3 * i + c] / film.samples;
-    CHECK_NEAR(sum[0] / 256, rho / PM_PI * e.x, 0.01, 0, "plane under the map: radiance = rho/pi x E (R)");
-    CHECK_NEAR(sum[2] / 256, rho / PM_PI * e.z, 0.01, 0, "plane under the map: radiance = rho/pi x E (B)");
+    CHECK(eye_stats.dropped_samples == 0, "%s: %llu eye samples dropped as not finite", name,
+          (unsigned long long)eye_stats.dropped_samples);
+    CHECK_NEAR(sum[0] / 256, rho / PM_PI * e.x, eye_rel, 0, "plane under the map: radiance = rho/pi x E (R)");
+    CHECK_NEAR(sum[2] / 256, rho / PM_PI * e.z, eye_rel, 0, "plane under the map: radiance = rho/pi x E (B)");
 
     /* photons from the map: the direct photons on a patch of the plane carry E x area */
     pm_photon_settings ps;
@@ -119,7 +125,8 @@ static void plane_under_map(void) {
     pm_photon_buffer buf = {NULL, 0, 0};
     pm_photon_stats st;
     memset(&st, 0, sizeof st);
-    CHECK(t && pm_photon_tracer_trace_into(t, false, 2000000, 1, &buf, &st), "photon pass");
+    CHECK(t && pm_photon_tracer_trace_into(t, false, (uint64_t)photons, 1, &buf, &st), "%s: photon pass", name);
+    CHECK(st.dropped == 0, "%s: %llu photons dropped as not finite", name, (unsigned long long)st.dropped);
     const float half = 100.f; /* well inside the plane and the disc the sky's photons start from */
     double power[3] = {0, 0, 0};
     for (size_t i = 0; i < buf.count; i++) {
@@ -130,16 +137,115 @@ static void plane_under_map(void) {
             continue;
         vec3 w = pm_photon_power(&buf.data[i]);
         power[0] += w.x;
+        power[1] += w.y;
         power[2] += w.z;
     }
     double area = 4.0 * half * half;
-    CHECK_NEAR(power[0] / area, e.x, 0.03, 0, "photons from the map: irradiance on the patch (R)");
-    CHECK_NEAR(power[2] / area, e.z, 0.03, 0, "photons from the map: irradiance on the patch (B)");
+    CHECK_NEAR(power[0] / area, e.x, photon_rel, 0, "photons from the map: irradiance on the patch (R)");
+    CHECK_NEAR(power[2] / area, e.z, photon_rel, 0, "photons from the map: irradiance on the patch (B)");
+    for (int c = 0; measured && c < 3; c++) {
+        measured[0][c] = sum[c] / 256;
+        measured[1][c] = power[c] / area;
+    }
     free(buf.data);
     pm_photon_tracer_destroy(t);
     pm_film_free(&film);
     pm_accel_destroy(a);
     pm_scene_free(&s);
+}
+
+static void plane_under_map(void) {
+    pm_sky_map *m = sun_map();
+    if (m) plane_under(m, "sun map", 2000000, 0.01, 0.03, NULL);
+}
+
+/* W x H texels of radiance `value`, texel (hx, hy) (row 0 = the zenith) set to `hot` when hx >= 0. */
+static float *flat_texels(int w, int h, float value, int hx, int hy, const float hot[3]) {
+    float *rgb = malloc(sizeof(float) * 3 * w * h);
+    for (int i = 0; i < 3 * w * h; i++) rgb[i] = value;
+    if (hx >= 0)
+        for (int c = 0; c < 3; c++) rgb[3 * (hy * w + hx) + c] = hot[c];
+    return rgb;
+}
+
+/* Texels past a float film's range are clamped as emission is (PM_MAX_EMISSION), counted for the
+ * warning, and the sampling distribution stays a density. A single texel at 3e38 (its channel sum
+ * overflowed a float) left a cdf of NaN: no sky sample, no photon; a map of 1e38 everywhere
+ * overflowed L / pdf, dropping most samples. Both now light a plane exactly, nothing dropped. */
+static void clamped_maps(void) {
+    enum { W = 32, H = 16 };
+    char err[256];
+    /* one hot texel above the horizon (row 2: 22.5 to 33.75 degrees from the zenith) on radiance 1 */
+    const float hot[3] = {3e38f, 3e38f, 3e38f};
+    float *rgb = flat_texels(W, H, 1.f, 5, 2, hot);
+    pm_sky_map *m = pm_sky_map_create(W, H, rgb, err, sizeof err);
+    free(rgb);
+    CHECK(m != NULL, "one hot texel: %s", err);
+    if (m) {
+        CHECK(m->clamped == 1, "one hot texel: %zu clamped, want 1", m->clamped);
+        const float *t = m->rgb + 3 * (2 * W + 5);
+        CHECK(t[0] == PM_MAX_EMISSION && t[1] == PM_MAX_EMISSION && t[2] == PM_MAX_EMISSION,
+              "the hot texel clamped to %g (got %g %g %g)", (double)PM_MAX_EMISSION, t[0], t[1], t[2]);
+        bool finite = true;
+        for (int i = 0; i <= H; i++) finite = finite && isfinite(m->row_cdf[i]) && (i == 0 || m->row_cdf[i] >= m->row_cdf[i - 1]);
+        for (int i = 0; i < H * (W + 1); i++) finite = finite && isfinite(m->column_cdf[i]);
+        CHECK(finite, "the sampling tables are finite and rising");
+        /* nearly every sample is the hot texel, and its pdf there is its share over its solid angle */
+        vec3 dir;
+        float pdf;
+        vec3 l = pm_sky_map_sample(m, 0.1f, 0.2f, &dir, &pdf);
+        double omega = 2.0 * PM_PI / W * (cos(PM_PI * 2 / H) - cos(PM_PI * 3 / H));
+        CHECK(l.x == PM_MAX_EMISSION && pdf > 0.f, "a sample finds the hot texel (L %g, pdf %g)", l.x, pdf);
+        CHECK_NEAR(pdf, 1.0 / omega, 1e-4, 0, "its pdf: all the weight over the texel's solid angle");
+        plane_under(m, "one hot texel", 2000000, 0.01, 0.03, NULL);
+    }
+
+    /* 1e38 everywhere: a uniform map of PM_MAX_EMISSION, sampled uniformly, lights the plane
+     * as a uniform map of 1 does, times PM_MAX_EMISSION (the same seeds draw the same directions;
+     * a photon's power is RGBE, rounded differently at each scale); photons from every direction
+     * are noisy: 6% is over 4 sigma at 2M photons */
+    double one[2][3], limit[2][3];
+    rgb = flat_texels(W, H, 1.f, -1, 0, NULL);
+    m = pm_sky_map_create(W, H, rgb, err, sizeof err);
+    free(rgb);
+    CHECK(m != NULL && m->clamped == 0, "a uniform map of 1: %s", err);
+    if (m) plane_under(m, "uniform 1", 2000000, 0.01, 0.06, one);
+    rgb = flat_texels(W, H, 1e38f, -1, 0, NULL);
+    m = pm_sky_map_create(W, H, rgb, err, sizeof err);
+    free(rgb);
+    CHECK(m != NULL, "1e38 everywhere: %s", err);
+    if (m) {
+        CHECK(m->clamped == W * H, "1e38 everywhere: %zu clamped, want %d", m->clamped, W * H);
+        CHECK_NEAR(m->mean.x, PM_MAX_EMISSION, 1e-5, 0, "the mean radiance is the limit");
+        CHECK_NEAR(pm_sky_map_pdf(m, v3(0.3f, 0.5f, -0.2f)), 1.0 / (4.0 * PM_PI), 1e-4, 0, "uniform density 1/4pi");
+        plane_under(m, "1e38 everywhere", 2000000, 0.01, 0.06, limit);
+        for (int k = 0; k < 2; k++)
+            CHECK_NEAR(limit[k][1], PM_MAX_EMISSION * one[k][1], k ? 0.004 : 1e-4, 0,
+                       k ? "1e38 everywhere: the photons' irradiance is the uniform map's times the limit"
+                         : "1e38 everywhere: the eye pass's radiance is the uniform map's times the limit");
+    }
+
+    /* non-finite texels: NaN and -Inf to 0, +Inf to the limit with the hue kept; finite negatives
+     * to 0 without being counted */
+    rgb = flat_texels(4, 2, 1.f, -1, 0, NULL);
+    rgb[0] = NAN;
+    rgb[3] = INFINITY;
+    rgb[4] = 1.f;
+    rgb[5] = 0.f;
+    rgb[6] = -INFINITY;
+    rgb[9] = -0.5f;
+    m = pm_sky_map_create(4, 2, rgb, err, sizeof err);
+    free(rgb);
+    CHECK(m != NULL, "non-finite texels: %s", err);
+    if (m) {
+        CHECK(m->clamped == 3, "NaN, +Inf and -Inf texels counted: %zu, want 3", m->clamped);
+        CHECK(m->rgb[0] == 0.f && m->rgb[6] == 0.f && m->rgb[9] == 0.f, "NaN, -Inf and negatives read as 0");
+        CHECK(m->rgb[3] == PM_MAX_EMISSION && m->rgb[4] < 1e-15f && m->rgb[5] == 0.f,
+              "+Inf as the limit, the other channels scaled with it (%g %g %g)", m->rgb[3], m->rgb[4], m->rgb[5]);
+        pm_sky_map_free(m);
+    }
+    CHECK(pm_sky_map_bytes(16384, 16384) > ((uint64_t)4 << 30) && pm_sky_map_bytes(4096, 2048) > 128 * 1000 * 1000,
+          "the memory estimate counts 16 bytes a texel and more");
 }
 
 /* The gradient: brighter overhead than at the horizon, so a white top stands out against it. */
@@ -215,6 +321,7 @@ static void orthographic_and_framing(void) {
 int main(void) {
     sampler_matches_density();
     plane_under_map();
+    clamped_maps();
     gradient_default();
     orthographic_and_framing();
     return pm_test_done("test_sky");
