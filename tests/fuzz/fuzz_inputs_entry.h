@@ -1,7 +1,7 @@
 /* fuzz_inputs_entry.h: one fuzz input through the file readers and writers besides glTF (a sky map, a reference, the EXR and PNG writers and the log's measures), shared by the libFuzzer target and the regression replay.
  *
  * The first byte picks the entry, the rest is the payload:
- *   0  a sky map as .exr: read (pm_read_environment), made a sampled map, sampled;
+ *   0  a sky map as .exr: read as --sky reads it (pm_sky_prepare), sampled;
  *   1  the same as .hdr (Radiance RGBE);
  *   2  a reference as .exr with its layers (pm_reference_load, what --reference and --log read),
  *      measured against a grey film of its size;
@@ -28,6 +28,7 @@
 #include "memory.h"
 #include "runlog.h"
 #include "sky.h"
+#include "sky_choice.h"
 
 enum { PM_FUZZ_INPUT_SKY_EXR = 0, PM_FUZZ_INPUT_SKY_HDR = 1, PM_FUZZ_INPUT_REFERENCE = 2, PM_FUZZ_INPUT_WRITERS = 3,
        PM_FUZZ_INPUT_KINDS = 4 };
@@ -54,23 +55,29 @@ static void pm_fuzz_temp_path(char *path, size_t size, const char *ext) {
 }
 
 static void pm_fuzz_sky(const char *path, pm_fuzz_input_result *r) {
-    int w = 0, h = 0;
-    float *rgb = pm_read_environment(path, &w, &h, r->error, sizeof r->error);
-    if (!rgb) return;
-    pm_sky_map *m = pm_sky_map_create(w, h, rgb, r->error, sizeof r->error);
-    free(rgb);
-    if (!m) return;
+    /* as a run reads --sky: the checks and the memory estimate from the header come first; the
+     * refusal is printed as the run's one error line */
+    pm_sky_request request;
+    memset(&request, 0, sizeof request);
+    request.sky = path;
+    request.scene_path = "fuzz-input.gltf";
+    request.quiet = true;
+    if (!pm_sky_prepare(&request) || !request.map) {
+        snprintf(r->error, sizeof r->error, "%s: refused as a sky (the line above)", path);
+        pm_sky_release(&request);
+        return;
+    }
+    pm_sky_map *m = request.map;
     r->accepted = true;
     /* every lookup and sample must be finite and its pdf agree with the sampler's */
     for (int i = 0; i < 16; i++) {
         vec3 dir;
         float pdf;
-        vec3 l = pm_sky_map_sample(m, (i + 0.5f) / 16.f, (float)((i * 7) % 16 + 0.5f) / 16.f, &dir, &pdf);
+        (void)pm_sky_map_sample(m, (i + 0.5f) / 16.f, (float)((i * 7) % 16 + 0.5f) / 16.f, &dir, &pdf);
         (void)pm_sky_map_radiance(m, dir);
         (void)pm_sky_map_pdf(m, dir);
-        (void)l;
     }
-    pm_sky_map_free(m);
+    pm_sky_release(&request);
 }
 
 static void pm_fuzz_reference(const char *path, pm_fuzz_input_result *r) {
