@@ -38,6 +38,7 @@ typedef struct {
     uint32_t samples;               /* samples per pixel accumulated so far (eye passes) */
     uint32_t photon_passes;         /* the progressive mode's photon passes so far: what the statistics divide by */
     pm_ppm_stat *ppm[PM_SLOT_COUNT];/* width*height each, or NULL: the progressive mode's photon statistics */
+    uint64_t admitted;              /* bytes admitted against --max-memory for the buffers, given back by pm_film_free */
 } pm_film;
 
 bool pm_film_init(pm_film *f, int width, int height, const bool component_enabled[PM_COMPONENT_COUNT]);

@@ -11,11 +11,30 @@
 #include <stdint.h>
 #include "film.h"
 
+/* Written to a hidden temporary file beside path, renamed over it at the end; an existing path
+ * must be a file the user may write. Its buffers (pm_exr_write_bytes) are admitted against
+ * --max-memory for the time of the write. */
 bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_size);
 
+/* What the writers take beside their input while they write, admitted by them for that time: the
+ * EXR writer's channel planes (72 bytes a pixel) and stb's PNG encoder. A caller that must know
+ * before rendering that its file can be written admits these first and gives them back just
+ * before the write. */
+uint64_t pm_exr_write_bytes(int width, int height);
+uint64_t pm_png_write_bytes(int width, int height);
+
+/* For a SIGINT or SIGTERM handler: removes the file a writer has under way (an EXR's temporary
+ * file, a PNG begun in place), if any. Async-signal-safe; the handler then exits. */
+void pm_remove_partial_output(void);
+
+/* Whether a and b name the same file: the same device and inode when both exist, else the same
+ * path once their folders are resolved (links, "./" and ".." do not hide a match). */
+bool pm_same_file(const char *a, const char *b);
+
 /* Whether an output file can be written at path, checked before any work: not a directory, an
- * existing PNG writable in place, and a new file (or an EXR's temporary file) creatable in its
- * folder. On refusal err holds "PATH: the cause". Creates nothing that outlives the call. */
+ * existing file writable by the user (a PNG is written in place, an EXR must not replace a
+ * read-only file), and a new file (or an EXR's temporary file) creatable in its folder. On refusal
+ * err holds "PATH: the cause". Creates nothing that outlives the call. */
 bool pm_check_output_path(const char *path, char *err, size_t err_size);
 
 /* Reads one channel ("R", "direct.G", ...) of a scanline EXR into a malloc'ed w*h float array
@@ -40,7 +59,8 @@ float *pm_read_environment(const char *path, int *width, int *height, char *err,
  * .hdr with no byte after its header is refused here already. */
 bool pm_environment_size(const char *path, int *width, int *height, char *err, size_t err_size);
 
-/* rgba: width*height*4 bytes, row 0 = top. */
+/* rgba: width*height*4 bytes, row 0 = top. The encoder's memory (pm_png_write_bytes) is admitted
+ * against --max-memory for the time of the write. */
 bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, char *err, size_t err_size);
 
 #endif

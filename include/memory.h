@@ -2,8 +2,11 @@
  *
  * pm_malloc/pm_calloc/pm_realloc behave as the C library's and, on failure, record the first
  * failure's description (what, bytes) for the one error line main prints. pm_memory_admit()
- * refuses a structure estimated in bytes before it is allocated when it exceeds the memory limit
- * (--max-memory; by default PM_DEFAULT_MEMORY_SHARE of physical memory). For tests, the
+ * refuses a structure estimated in bytes before it is allocated when it does not fit the memory
+ * limit (--max-memory; by default PM_DEFAULT_MEMORY_SHARE of physical memory) beside everything
+ * admitted and not yet released: the limit bounds the sum of the structures alive at once, not
+ * each one alone. Whoever frees an admitted structure gives its bytes back with
+ * pm_memory_release(). For tests, the
  * environment variable PMVIEW_FAIL_ALLOC=N makes the N-th checked allocation fail (and every
  * one after it when N is followed by '+'), so each failure path can be driven without running
  * out of memory for real.
@@ -19,13 +22,23 @@ void *pm_malloc(size_t bytes, const char *what);
 void *pm_calloc(size_t count, size_t size, const char *what);
 void *pm_realloc(void *p, size_t bytes, const char *what);
 
-/* The limit in bytes for one estimated structure (0 before any set: the default). */
+/* The limit in bytes for all admitted structures together (0 before any set: the default). */
 void pm_memory_set_limit(uint64_t bytes);
 uint64_t pm_memory_limit(void);
 /* PM_DEFAULT_MEMORY_SHARE of physical memory (sysconf), or 4 GiB when it cannot be read. */
 uint64_t pm_memory_default_limit(void);
-/* True when `bytes` for `what` fits the limit; else records why and returns false. */
+/* True when `bytes` for `what` fit beside what is committed: they are then committed until
+ * pm_memory_release(bytes). Else nothing is committed, and the refusal (what, bytes, what was
+ * already committed, the limit, --max-memory) is recorded. Thread-safe. */
 bool pm_memory_admit(uint64_t bytes, const char *what);
+/* Gives back bytes admitted earlier, when their structure is freed. */
+void pm_memory_release(uint64_t bytes);
+/* Bytes admitted and not yet released, and what the limit leaves beside them (0 when none). */
+uint64_t pm_memory_committed(void);
+uint64_t pm_memory_available(void);
+/* Records the refusal line of pm_memory_admit for `bytes` of `what`, without committing: for a
+ * structure that bounds itself by pm_memory_available() as it grows. */
+void pm_memory_refuse(uint64_t bytes, const char *what);
 /* Records a failure found elsewhere (an allocation inside a library), if none is recorded yet. */
 void pm_memory_fail(uint64_t bytes, const char *what);
 

@@ -17,7 +17,13 @@
  * layer it has (direct.R, ...; NULL when the file lacks one of the layer's channels). */
 /* known: NULL when every pixel is compared, else 1 for the pixels whose R, G and B are finite (a
  * reference marks the pixels it cannot vouch for NaN; they are left out of every measure) */
-typedef struct { float *rgb[3]; float *layer[PM_COMPONENT_COUNT][3]; unsigned char *known; int width, height; } pm_reference_image;
+typedef struct {
+    float *rgb[3];
+    float *layer[PM_COMPONENT_COUNT][3];
+    unsigned char *known;
+    int width, height;
+    uint64_t admitted; /* bytes admitted against --max-memory (memory.h), given back by pm_reference_free */
+} pm_reference_image;
 
 /* From the header alone (no pixel decoded), before the scene is loaded and the image rendered:
  * whether path is an EXR with R, G, B of the image's size; height 0 when the image's height is not

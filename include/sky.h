@@ -22,6 +22,7 @@ typedef struct {
     float *column_cdf;   /* height*(width+1): texels within each row */
     vec3 mean;           /* radiance averaged over the sphere (per solid angle) */
     size_t clamped;      /* texels above PM_MAX_EMISSION or not finite, clamped: the caller warns */
+    uint64_t admitted;   /* bytes admitted against --max-memory for it (memory.h), given back when it is freed */
 } pm_sky_map;
 
 #define PM_SKY_MAX_TEXELS ((uint64_t)1 << 28) /* 16384 x 16384: past that a map is refused */

@@ -24,6 +24,7 @@ struct pm_accel {
     RTCDevice device;
     RTCScene scene;
     _Atomic long long bytes; /* Embree reports from its build threads */
+    _Atomic uint64_t admitted; /* of those, what is committed against --max-memory now */
     double build_seconds;
     /* Rejects hits at t == 0: an offset origin can still lie exactly in the plane of a
      * neighbouring wall (corner hits, float grids far from the origin), and such a hit would
@@ -100,13 +101,21 @@ static void alpha_filter(const struct RTCFilterFunctionNArguments *args) {
 
 static bool track_memory(void *user, ssize_t bytes, bool post) {
     pm_accel *a = user;
-    long long now = atomic_fetch_add(&a->bytes, (long long)bytes) + (long long)bytes; /* negative on release */
-    /* Embree asks before it allocates: past the memory limit it is refused (Embree then fails the
-     * build with RTC_ERROR_OUT_OF_MEMORY, reported below), instead of exhausting the machine */
-    if (bytes > 0 && !post && (uint64_t)now > pm_memory_limit()) {
-        pm_memory_admit((uint64_t)now, "acceleration structure");
-        return false;
+    atomic_fetch_add(&a->bytes, (long long)bytes); /* negative on release */
+    if (bytes < 0) {
+        /* give back no more than this device committed: Embree's own bookkeeping need not pair up */
+        uint64_t had = atomic_load(&a->admitted), back;
+        do back = had < (uint64_t)-bytes ? had : (uint64_t)-bytes;
+        while (!atomic_compare_exchange_weak(&a->admitted, &had, had - back));
+        pm_memory_release(back);
+        return true;
     }
+    /* Embree asks before it allocates: what does not fit beside everything else admitted is
+     * refused (Embree then fails the build with RTC_ERROR_OUT_OF_MEMORY, reported below),
+     * instead of exhausting the machine. A report after the fact can no longer be refused. */
+    if (post) return true;
+    if (!pm_memory_admit((uint64_t)bytes, "acceleration structure")) return false;
+    atomic_fetch_add(&a->admitted, (uint64_t)bytes);
     return true;
 }
 
@@ -245,6 +254,7 @@ void pm_accel_destroy(pm_accel *a) {
     if (!a) return;
     if (a->scene) rtcReleaseScene(a->scene);
     if (a->device) rtcReleaseDevice(a->device);
+    pm_memory_release(atomic_load(&a->admitted)); /* whatever Embree did not report freeing */
     free(a->tri_of_prim[OPAQUE_GEOMETRY]);
     free(a->tri_of_prim[ALPHA_GEOMETRY]);
     free(a);

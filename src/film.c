@@ -18,6 +18,7 @@ bool pm_film_init(pm_film *f, int width, int height, const bool enabled[PM_COMPO
     uint64_t bytes = 0;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) bytes += enabled[c] ? n * sizeof(float) : 0;
     if (!pm_memory_admit(bytes, "film")) return false;
+    f->admitted = bytes;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         if (!enabled[c]) continue;
         f->sum[c] = pm_calloc(n, sizeof(float), "film");
@@ -32,6 +33,7 @@ bool pm_film_enable_ppm(pm_film *f, const bool slot_enabled[PM_SLOT_COUNT]) {
         if (!slot_enabled[k] || f->ppm[k]) continue;
         if (!f->sum[pm_slot_component[k]]) return false; /* a slot feeds a component that must exist */
         if (!pm_memory_admit((uint64_t)n * sizeof(pm_ppm_stat), "progressive photon statistics")) return false;
+        f->admitted += (uint64_t)n * sizeof(pm_ppm_stat);
         f->ppm[k] = pm_calloc(n, sizeof(pm_ppm_stat), "progressive photon statistics");
         if (!f->ppm[k]) return false;
     }
@@ -41,6 +43,7 @@ bool pm_film_enable_ppm(pm_film *f, const bool slot_enabled[PM_SLOT_COUNT]) {
 void pm_film_free(pm_film *f) {
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(f->sum[c]);
     for (int k = 0; k < PM_SLOT_COUNT; k++) free(f->ppm[k]);
+    pm_memory_release(f->admitted);
     memset(f, 0, sizeof *f);
 }
 

@@ -172,11 +172,21 @@ std::string join_path(const std::string &folder, const std::string &relative) {
     return folder.back() == '/' ? folder + relative : folder + "/" + relative;
 }
 
+// Bytes admitted against --max-memory, given back when the holder goes (a failed load included).
+struct Admitted {
+    uint64_t bytes = 0;
+    Admitted() = default;
+    Admitted(const Admitted &) = delete;
+    Admitted &operator=(const Admitted &) = delete;
+    ~Admitted() { pm_memory_release(bytes); }
+};
+
 // What the file-system hooks and the image hook need; their refusals are kept to report them in our words.
 struct TinygltfHooks {
     LexicalPath folder;
     bool no_files = false;  // loading from memory: there is no folder to read external files from
     std::vector<char> image_wanted;  // per image: used by a texture pmview renders (base colour, emissive, data)
+    Admitted decoded;                // the decoded images, held by the model as long as the loader lives
     std::string error;
     std::vector<std::string> warnings;
 };
@@ -209,7 +219,9 @@ bool refuse_write(std::string *err, const std::string &, const std::vector<unsig
 }
 
 // Decodes (with tinygltf's own stb_image loader) only the images a rendered texture uses,
-// after checking their dimensions; an image that cannot be decoded becomes a warning, not a failure.
+// after checking their dimensions and admitting their decoded size from the header alone (a
+// 16384-square image must be refused before its gigabytes are spent); an image that cannot be
+// decoded becomes a warning, not a failure.
 bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, std::string *, int req_width,
                        int req_height, const unsigned char *bytes, int size, void *user) {
     TinygltfHooks *hooks = static_cast<TinygltfHooks *>(user);
@@ -231,9 +243,22 @@ bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, s
                        " (image " + str(index) + ")";
         return false;
     }
+    // tinygltf asks stb for 4 channels (8 or 16 bits) and copies stb's buffer before freeing it:
+    // the decode needs twice what the model then holds
+    uint64_t held = static_cast<uint64_t>(width) * static_cast<uint64_t>(height) * 4 *
+                    (stbi_is_16_bit_from_memory(bytes, size) ? 2 : 1);
+    if (!pm_memory_admit(2 * held, "decoded image")) {
+        hooks->error = "out of memory (" + std::string(pm_memory_failure()) + "): image " + str(index);
+        return false;
+    }
+    hooks->decoded.bytes += 2 * held;  // given back with the hooks should the decode throw
     std::string decode_error, decode_warning;
-    if (!tinygltf::LoadImageData(image, index, &decode_error, &decode_warning, req_width, req_height, bytes, size,
-                                 nullptr))
+    bool decoded = tinygltf::LoadImageData(image, index, &decode_error, &decode_warning, req_width, req_height, bytes,
+                                           size, nullptr);
+    uint64_t unused = decoded ? held : 2 * held;
+    hooks->decoded.bytes -= unused;
+    pm_memory_release(unused);
+    if (!decoded)
         hooks->warnings.push_back("image " + str(index) + " could not be decoded (" + one_line(decode_error, 120) +
                                   "); its textures are ignored");
     return true;
@@ -852,6 +877,7 @@ private:
     std::vector<pm_material> materials_;
     bool default_material_used_ = false;
     TextureList textures_;
+    Admitted admitted_;  // the textures' texels and the geometry, until emit() hands them to the scene
     std::map<int, int> texture_of_gltf_;
     std::vector<pm_light> lights_;
     std::vector<pm_camera> cameras_;
@@ -1629,6 +1655,7 @@ int Loader::texture_for(int gltf_texture, const std::string &where) {
     textures_.items.reserve(textures_.items.size() + 1);  // so push_back below cannot throw and leak the texels
     if (!pm_memory_admit(static_cast<uint64_t>(pixels) * 4, "texture"))
         fail("out of memory (" + std::string(pm_memory_failure()) + "): image " + str(t.source));
+    admitted_.bytes += static_cast<uint64_t>(pixels) * 4;
     tex.rgba = static_cast<uint8_t *>(pm_malloc(pixels * 4, "texture"));
     if (!tex.rgba) throw std::bad_alloc();
     const unsigned char *src = image.image.data();
@@ -2019,6 +2046,8 @@ void Loader::emit(pm_scene *out) {
     s.material_count = static_cast<uint32_t>(materials_.size());
     s.light_count = static_cast<uint32_t>(lights_.size());
     s.camera_count = static_cast<uint32_t>(cameras_.size());
+    s.memory_admitted = admitted_.bytes;
+    admitted_.bytes = 0;
     *out = s;
 }
 
@@ -2102,6 +2131,9 @@ void Loader::load(pm_scene *out) {
         if (!pm_memory_admit(bytes, "scene geometry and its acceleration structure"))
             fail("out of memory (" + std::string(pm_memory_failure()) + "): " + str(triangles) +
                  " triangles after instancing");
+        // the acceleration structure's share was a forecast: Embree's allocations are admitted as they happen
+        pm_memory_release(triangles * PM_ACCEL_BYTES_PER_TRIANGLE);
+        admitted_.bytes += bytes - triangles * PM_ACCEL_BYTES_PER_TRIANGLE;
     }
     choose_frame();
     if (default_material_used_) {

@@ -10,11 +10,15 @@
  * a thread-local buffer keeps the first message of the current call so every failure ends up
  * as one line, "PATH: what went wrong (library detail)", instead of text on stderr.
  */
+/* realpath is XSI, beyond the POSIX level the build asks for */
+#define _XOPEN_SOURCE 700
 #include "image_io.h"
 #include "memory.h"
 
 #include <errno.h>
 #include <limits.h>
+#include <signal.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,7 +30,37 @@
 #include <openexr.h>
 #include <stb/stb_image_write.h>
 
+#include "memory.h"
+
 #define PM_EXR_CHANNELS (3 + 3 * PM_COMPONENT_COUNT)
+
+/* The file being written, for pm_remove_partial_output() from a signal handler: one writer at a
+ * time holds the claim (another writes unregistered). The name lives here, and mkstemp fills it in
+ * place after it is armed, so the file never exists under a name the handler cannot see. */
+static char partial_path[4096];
+static volatile sig_atomic_t partial_armed;
+static atomic_flag partial_claimed = ATOMIC_FLAG_INIT;
+
+void pm_remove_partial_output(void) {
+    if (partial_armed) unlink(partial_path); /* async-signal-safe: a flag read and unlink */
+}
+
+static void disarm_partial(bool claimed) {
+    if (!claimed) return;
+    partial_armed = 0;
+    atomic_flag_clear(&partial_claimed);
+}
+
+uint64_t pm_exr_write_bytes(int width, int height) {
+    /* the channel planes and one resolved component */
+    return (uint64_t)(PM_EXR_CHANNELS + 3) * sizeof(float) * (uint64_t)(width > 0 ? width : 0) * (uint64_t)(height > 0 ? height : 0);
+}
+
+uint64_t pm_png_write_bytes(int width, int height) {
+    /* stb's filtered rows (4 bytes a pixel), its zlib stream grown by doubling (up to 8 while it
+     * is copied), the file's copy of it (4), and its hash chains (at most 16384 x 16 pointers) */
+    return 16 * (uint64_t)(width > 0 ? width : 0) * (uint64_t)(height > 0 ? height : 0) + (2u << 20);
+}
 
 static _Thread_local char exr_detail[256];
 
@@ -73,8 +107,10 @@ static void folder_of(const char *path, char *out, size_t size) {
     else snprintf(out, size, "%.*s", (int)(slash - path), path);
 }
 
-/* Creates an empty, uniquely named hidden file in path's folder: ".NAME.XXXXXX". */
-static bool temporary_beside(const char *path, char *temp, size_t size, char *err, size_t err_size) {
+/* Creates an empty, uniquely named hidden file in path's folder: ".NAME.XXXXXX"; *armed (when
+ * given) is set once temp holds the whole template, before the file can exist. */
+static bool temporary_beside(const char *path, char *temp, size_t size, volatile sig_atomic_t *armed, char *err,
+                             size_t err_size) {
     char folder[4096];
     folder_of(path, folder, sizeof folder);
     const char *slash = strrchr(path, '/');
@@ -84,10 +120,13 @@ static bool temporary_beside(const char *path, char *temp, size_t size, char *er
         set_error(err, err_size, path, "the file name is too long");
         return false;
     }
+    atomic_thread_fence(memory_order_seq_cst); /* the whole name is in place before the flag says so */
+    if (armed) *armed = 1;
     int fd = mkstemp(temp);
     if (fd < 0) {
         char what[4200];
         snprintf(what, sizeof what, "cannot create a file in the folder %s (%s)", folder, strerror(errno));
+        if (armed) *armed = 0;
         temp[0] = '\0';
         set_error(err, err_size, path, what);
         return false;
@@ -96,6 +135,19 @@ static bool temporary_beside(const char *path, char *temp, size_t size, char *er
     mode_t mask = umask(0);
     umask(mask);
     fchmod(fd, 0666 & ~mask);
+    close(fd);
+    return true;
+}
+
+/* Whether an existing file opens for writing (nothing is truncated); else err says why. */
+static bool file_takes_writing(const char *path, char *err, size_t err_size) {
+    int fd = open(path, O_WRONLY | O_NOCTTY | O_NONBLOCK);
+    if (fd < 0) {
+        char what[320];
+        snprintf(what, sizeof what, "cannot write the file (%s)", strerror(errno));
+        set_error(err, err_size, path, what);
+        return false;
+    }
     close(fd);
     return true;
 }
@@ -116,19 +168,14 @@ bool pm_check_output_path(const char *path, char *err, size_t err_size) {
         set_error(err, err_size, path, "is not a regular file (an EXR is written beside it and renamed over it)");
         return false;
     }
-    if (exists && !exr) { /* a PNG is written in place: the file itself must take writing (not truncated here) */
-        int fd = open(path, O_WRONLY | O_NOCTTY | O_NONBLOCK);
-        if (fd < 0) {
-            snprintf(what, sizeof what, "cannot write the file (%s)", strerror(errno));
-            set_error(err, err_size, path, what);
-            return false;
-        }
-        close(fd);
-        return true;
-    }
+    /* A PNG is written in place: the file itself must take writing (not truncated here). An EXR
+     * is renamed over it, which the folder alone allows: the same test keeps it from replacing a
+     * file its owner made read-only. */
+    if (exists && !file_takes_writing(path, err, err_size)) return false;
+    if (exists && !exr) return true;
     /* a new file (or an EXR's temporary one) must be creatable in the folder: try it */
     char temp[4096];
-    if (!temporary_beside(path, temp, sizeof temp, err, err_size)) return false;
+    if (!temporary_beside(path, temp, sizeof temp, NULL, err, err_size)) return false;
     unlink(temp);
     return true;
 }
@@ -156,14 +203,34 @@ bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_s
             snprintf(names[3 + 3 * c + k], sizeof names[0], "%s.%s", pm_component_names[c], rgb_names[k]);
     }
 
+    /* an existing target replaced by the rename must be one its owner lets us write */
+    struct stat st;
+    if (stat(path, &st) == 0 && S_ISREG(st.st_mode) && !file_takes_writing(path, err, err_size)) return false;
+    const uint64_t buffer_bytes = pm_exr_write_bytes(width, height);
+    if (!pm_memory_admit(buffer_bytes, "EXR output buffers")) {
+        char what[400];
+        snprintf(what, sizeof what, "out of memory (%s)", pm_memory_failure());
+        set_error(err, err_size, path, what);
+        return false;
+    }
+
     bool ok = false;
     exr_context_t ctxt = NULL;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
     bool enc_started = false;
-    char temp_path[4096] = "";
-    float *planes = malloc(PM_EXR_CHANNELS * npix * sizeof(float));
-    float *rgb = malloc(3 * npix * sizeof(float));
-    if (!planes || !rgb) { set_error(err, err_size, path, "out of memory preparing the EXR channels"); goto done; }
+    /* the temporary file's name in the registered buffer when free, so a signal can remove it */
+    const bool claimed = !atomic_flag_test_and_set(&partial_claimed);
+    char own_temp[sizeof partial_path] = "";
+    char *temp_path = claimed ? partial_path : own_temp;
+    temp_path[0] = '\0';
+    float *planes = pm_malloc(PM_EXR_CHANNELS * npix * sizeof(float), "EXR output buffers");
+    float *rgb = planes ? pm_malloc(3 * npix * sizeof(float), "EXR output buffers") : NULL;
+    if (!planes || !rgb) {
+        char what[400];
+        snprintf(what, sizeof what, "out of memory (%s)", pm_memory_failure() ? pm_memory_failure() : "EXR output buffers");
+        set_error(err, err_size, path, what);
+        goto done;
+    }
 
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         pm_film_resolve(film, (pm_component)c, rgb);
@@ -186,7 +253,7 @@ bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_s
     /* A temporary file beside the target, renamed over it at the end: a failed write leaves any
      * previous file untouched, and the temporary file is removed on every failure (OpenEXR's own
      * temporary file outlived a failed rename) */
-    if (!temporary_beside(path, temp_path, sizeof temp_path, err, err_size)) goto done;
+    if (!temporary_beside(path, temp_path, sizeof partial_path, claimed ? &partial_armed : NULL, err, err_size)) goto done;
     exr_result_t rv = exr_start_write(&ctxt, temp_path, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot create the file", rv); goto done; }
 
@@ -264,8 +331,10 @@ done:
         ok = false;
     }
     if (!ok && temp_path[0]) unlink(temp_path);
+    disarm_partial(claimed);
     free(rgb);
     free(planes);
+    pm_memory_release(buffer_bytes);
     return ok;
 }
 
@@ -553,24 +622,62 @@ bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, 
         set_error(err, err_size, path, "cannot write a PNG of an empty or oversized image");
         return false;
     }
-    char what[320];
+    char what[400];
+    /* stb's encoder allocates inside the library: its share is admitted for it, before the target is touched */
+    const uint64_t encoder_bytes = pm_png_write_bytes(width, height);
+    if (!pm_memory_admit(encoder_bytes, "PNG encoder")) {
+        snprintf(what, sizeof what, "out of memory (%s)", pm_memory_failure());
+        set_error(err, err_size, path, what);
+        return false;
+    }
     /* our own FILE rather than stbi_write_png: stb reports only "failed", errno says why */
     png_sink sink = {fopen(path, "wb"), false, 0};
     if (!sink.f) {
+        pm_memory_release(encoder_bytes);
         snprintf(what, sizeof what, "cannot create the file (%s)", strerror(errno));
         set_error(err, err_size, path, what);
         return false;
     }
+    /* truncated now: a signal before the end removes it rather than leave half an image */
+    const bool claimed = strlen(path) < sizeof partial_path && !atomic_flag_test_and_set(&partial_claimed);
+    if (claimed) {
+        memcpy(partial_path, path, strlen(path) + 1);
+        atomic_thread_fence(memory_order_seq_cst);
+        partial_armed = 1;
+    }
     int encoded = stbi_write_png_to_func(png_write_bytes, &sink, width, height, 4, rgba, 4 * width);
+    pm_memory_release(encoder_bytes);
     if (fclose(sink.f) != 0 && !sink.failed) { sink.failed = true; sink.failed_errno = errno; }
     if (!encoded || sink.failed) {
         if (!encoded) snprintf(what, sizeof what, "PNG encoding failed (out of memory?)");
         else snprintf(what, sizeof what, "cannot write the file (%s)", strerror(sink.failed_errno));
         set_error(err, err_size, path, what);
         remove(path); /* a truncated PNG would look like a valid file to a quick glance */
+        disarm_partial(claimed);
         return false;
     }
+    disarm_partial(claimed);
     return true;
+}
+
+/* path with its folder resolved (the name kept: it need not exist yet) into out; false when the
+ * folder cannot be resolved. */
+static bool resolved(const char *path, char *out, size_t size) {
+    char folder[4096], real[PATH_MAX];
+    folder_of(path, folder, sizeof folder);
+    if (!realpath(folder, real)) return false;
+    const char *slash = strrchr(path, '/'), *name = slash ? slash + 1 : path;
+    int n = snprintf(out, size, "%s/%s", strcmp(real, "/") ? real : "", name);
+    return n >= 0 && (size_t)n < size;
+}
+
+bool pm_same_file(const char *a, const char *b) {
+    if (!a || !b) return false;
+    struct stat sa, sb;
+    if (stat(a, &sa) == 0 && stat(b, &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    char ra[4200], rb[4200];
+    if (resolved(a, ra, sizeof ra) && resolved(b, rb, sizeof rb)) return strcmp(ra, rb) == 0;
+    return strcmp(a, b) == 0;
 }
 
 bool pm_has_extension(const char *path, const char *ext) {

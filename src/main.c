@@ -46,7 +46,7 @@ typedef struct {
     long photons, caustic_photons;
     int k, gather_rays, irradiance_stride;
     const char *reference;  /* EXR to measure the error against */
-    uint64_t max_memory;    /* --max-memory: bytes one estimated structure may take (0 = the default) */
+    uint64_t max_memory;    /* --max-memory: bytes the admitted structures may take together (0 = the default) */
     double max_radius;
     pm_kernel kernel;
     pm_indirect_mode indirect;
@@ -110,8 +110,9 @@ static const char usage_text[] =
     "                       iterations, photons, mean radius, and with --reference each layer's relMSE, RMSE, bias\n"
     "  --components LIST    what a PNG snapshot and the window show at first: direct,specular,caustic,indirect (default all)\n"
     "  --stats              print 'stat STAGE key=value ...' lines\n"
-    "  --max-memory SIZE    refuse a structure (scene, photon records, film, texture, sky map) estimated above SIZE bytes\n"
-    "                       (K, M, G, T suffixes; default half the physical memory)\n"
+    "  --max-memory SIZE    refuse a structure (scene, texture, sky map, film, photon records, output buffers) whose\n"
+    "                       estimate would take all of them together above SIZE bytes (K, M, G, T suffixes; default\n"
+    "                       half the physical memory)\n"
     "  --quiet              no warnings\n"
     "  --help               this text\n"
     "window: left drag orbit, right/middle drag pan, wheel dolly, double click pivot, W A S D Q E fly (Shift faster),\n"
@@ -389,6 +390,38 @@ static bool configure(const options *opt, const pm_scene *scene, const pm_accel 
     return true;
 }
 
+/* ---- outputs and inputs ---- */
+
+/* No output may be an input (the scene, the reference, the sky map) or another output: --log
+ * naming the scene used to overwrite it with CSV. One error line, before any work. */
+static bool outputs_spare_inputs(const options *o, bool window) {
+    char screenshot_exr[4096] = "";
+    if (window) snprintf(screenshot_exr, sizeof screenshot_exr, "%.*s.exr", (int)strlen(o->screenshot) - 4, o->screenshot);
+    bool sky_file = o->sky && (pm_has_extension(o->sky, ".exr") || pm_has_extension(o->sky, ".hdr"));
+    const struct { const char *path, *what; } inputs[] = {
+        {o->scene_path, "the scene file"}, {o->reference, "the --reference image"}, {sky_file ? o->sky : NULL, "the --sky map"}};
+    const struct { const char *path, *flag; } outputs[] = {
+        {o->snapshot, "--snapshot"}, {o->log, "--log"}, {window ? o->screenshot : NULL, "--screenshot"},
+        {window ? screenshot_exr : NULL, "--screenshot's EXR"}};
+    const int n_in = sizeof inputs / sizeof *inputs, n_out = sizeof outputs / sizeof *outputs;
+    for (int i = 0; i < n_out; i++) {
+        if (!outputs[i].path) continue;
+        for (int k = 0; k < n_in; k++)
+            if (inputs[k].path && pm_same_file(outputs[i].path, inputs[k].path)) {
+                fprintf(stderr, "pmview: error: %s: %s would overwrite %s, an input\n", outputs[i].path, outputs[i].flag,
+                        inputs[k].what);
+                return false;
+            }
+        for (int k = i + 1; k < n_out; k++)
+            if (outputs[k].path && pm_same_file(outputs[i].path, outputs[k].path)) {
+                fprintf(stderr, "pmview: error: %s: %s and %s name the same file\n", outputs[i].path, outputs[i].flag,
+                        outputs[k].flag);
+                return false;
+            }
+    }
+    return true;
+}
+
 /* ---- snapshots ---- */
 
 static double process_start; /* for the window's time to its first frame */
@@ -396,6 +429,30 @@ static double process_start; /* for the window's time to its first frame */
 static volatile sig_atomic_t interrupted_by;
 
 static void on_signal(int sig) { interrupted_by = sig; }
+
+/* Where no render loop is left to notice a flag (a snapshot being written, the window, which a
+ * signal ends outright): the file under way goes with the process (an EXR's hidden temporary
+ * file stayed behind), and the exit status is an interrupted run's. */
+static void on_signal_while_writing(int sig) {
+    pm_remove_partial_output();
+    _exit(sig == SIGINT ? 130 : 143);
+}
+
+/* The offscreen view's share of a PNG: its RGBA8 target, OSMesa's buffer, four RGB float
+ * component textures (16 bytes a texel: a driver may pad them to RGBA) and the RGBA8 copy read
+ * back. */
+static uint64_t png_view_bytes(int width, int height) { return (4 + 4 + 4 * 16 + 4) * (uint64_t)width * height; }
+
+/* Everything writing the snapshot takes beside the film: admitted before the render, so a run
+ * that could not write its file is refused at once, not after the render. A PNG also resolves
+ * each component the film has into a layer of its own. */
+static uint64_t snapshot_output_bytes(const char *path, const pm_film *film) {
+    if (!pm_has_extension(path, ".png")) return pm_exr_write_bytes(film->width, film->height);
+    uint64_t layers = 0;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (film->sum[c]) layers += 3 * sizeof(float) * (uint64_t)film->width * film->height;
+    return layers + png_view_bytes(film->width, film->height) + pm_png_write_bytes(film->width, film->height);
+}
 
 /* The snapshot's progress: a bar redrawn on a terminal, nothing otherwise (one summary at the end). */
 static void show_progress(bool tty, uint32_t done, long target, double elapsed, double budget, uint64_t photons) {
@@ -414,19 +471,26 @@ static void show_progress(bool tty, uint32_t done, long target, double elapsed, 
 
 static bool write_png_from_layers(const float *const layers[PM_COMPONENT_COUNT], int width, int height,
                                   const pm_display *display, const char *path, char *err, size_t err_size) {
-    pm_view *view = pm_view_create_offscreen(width, height, err, err_size);
-    if (!view) return false;
-    pm_view_upload_layers(view, width, height, layers);
-    pm_view_draw(view, display);
-    uint8_t *rgba = malloc(4 * (size_t)width * height);
-    bool ok = false;
-    if (!rgba) snprintf(err, err_size, "%s: out of memory", path);
-    else {
-        pm_view_read_rgba8(view, rgba);
-        ok = pm_write_png(path, width, height, rgba, err, err_size);
+    uint64_t view_bytes = png_view_bytes(width, height);
+    if (!pm_memory_admit(view_bytes, "PNG offscreen view")) {
+        snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure());
+        return false;
     }
-    free(rgba);
-    pm_view_destroy(view);
+    pm_view *view = pm_view_create_offscreen(width, height, err, err_size);
+    bool ok = false;
+    if (view) {
+        pm_view_upload_layers(view, width, height, layers);
+        pm_view_draw(view, display);
+        uint8_t *rgba = pm_malloc(4 * (size_t)width * height, "PNG offscreen view");
+        if (!rgba) snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure());
+        else {
+            pm_view_read_rgba8(view, rgba);
+            ok = pm_write_png(path, width, height, rgba, err, err_size);
+        }
+        free(rgba);
+        pm_view_destroy(view);
+    }
+    pm_memory_release(view_bytes);
     return ok;
 }
 
@@ -443,7 +507,8 @@ static uint64_t session_photons(pm_session *session) {
 
 /* Renders to --iterations or --time, then writes the file; SIGINT and SIGTERM end the loop after
  * the iteration under way, and the image so far is written before exiting 130 or 143. */
-static int run_snapshot(const options *opt, pm_session *session, const pm_reference_image *reference) {
+static int run_snapshot(const options *opt, pm_session *session, const pm_reference_image *reference,
+                        uint64_t *reserved) {
     char err[1024];
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
@@ -511,22 +576,30 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
         }
     }
     if (tty) fputc('\n', stderr);
-    signal(SIGINT, SIG_DFL);
-    signal(SIGTERM, SIG_DFL);
+    signal(SIGINT, on_signal_while_writing);
+    signal(SIGTERM, on_signal_while_writing);
+    /* the writers admit what they take themselves: the room kept for them since before the render is theirs now */
+    pm_memory_release(*reserved);
+    *reserved = 0;
     bool ok;
     if (pm_has_extension(opt->snapshot, ".png")) {
         pm_display display;
         initial_display(opt, &display);
         float *layers[PM_COMPONENT_COUNT] = {NULL, NULL, NULL, NULL};
-        ok = true;
+        uint64_t layer_bytes = 0;
+        for (int c = 0; c < PM_COMPONENT_COUNT; c++) layer_bytes += film->sum[c] ? sizeof(float) * 3 * n : 0;
+        const bool admitted = pm_memory_admit(layer_bytes, "PNG output layers");
+        ok = admitted;
+        if (!ok) snprintf(err, sizeof err, "%s: out of memory (%s)", opt->snapshot, pm_memory_failure());
         for (int c = 0; c < PM_COMPONENT_COUNT && ok; c++) {
             if (!film->sum[c]) continue;
-            layers[c] = malloc(sizeof(float) * 3 * n);
-            if (!layers[c]) { snprintf(err, sizeof err, "%s: out of memory", opt->snapshot); ok = false; break; }
+            layers[c] = pm_malloc(sizeof(float) * 3 * n, "PNG output layers");
+            if (!layers[c]) { snprintf(err, sizeof err, "%s: out of memory (%s)", opt->snapshot, pm_memory_failure()); ok = false; break; }
             pm_film_resolve(film, (pm_component)c, layers[c]);
         }
         if (ok) ok = write_png_from_layers((const float *const *)layers, film->width, film->height, &display, opt->snapshot, err, sizeof err);
         for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(layers[c]);
+        if (admitted) pm_memory_release(layer_bytes);
     } else {
         ok = pm_write_exr(opt->snapshot, film, err, sizeof err);
     }
@@ -573,6 +646,9 @@ static void save_from_window(const options *opt, const float *const layers[PM_CO
 static int run_window(const options *opt, const pm_scene *scene, const pm_accel *accel, pm_session **session_io,
                       const pm_session_config *config_in, const pm_camera *start_camera) {
     char err[1024];
+    /* Ctrl-C in the terminal during a P save: the half-written file goes with the process */
+    signal(SIGINT, on_signal_while_writing);
+    signal(SIGTERM, on_signal_while_writing);
     pm_session *session = *session_io;
     pm_session_config config = *config_in;
     const pm_film *film = pm_session_film(session);
@@ -728,6 +804,7 @@ int main(int argc, char **argv) {
     }
 
     char err[1024] = "";
+    if (!outputs_spare_inputs(&opt, window)) return 1;
     /* before any work: a snapshot that cannot be written would waste the whole render */
     if (opt.snapshot && !pm_check_output_path(opt.snapshot, err, sizeof err)) {
         fprintf(stderr, "pmview: error: %s\n", err);
@@ -768,6 +845,7 @@ int main(int argc, char **argv) {
     opt.max_radius *= report.unit_scale;
 
     int exit_code = 0;
+    uint64_t output_reserved = 0; /* the snapshot writers' room, admitted before the render */
     pm_accel *accel = NULL;
     pm_session *session = NULL;
     pm_reference_image reference;
@@ -806,6 +884,15 @@ int main(int argc, char **argv) {
     session = pm_session_create(&scene, accel, &camera, &config, err, sizeof err);
     if (!session) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
     if (opt.stats) pm_print_film_stats(pm_session_film(session));
+    if (opt.snapshot) {
+        uint64_t bytes = snapshot_output_bytes(opt.snapshot, pm_session_film(session));
+        if (!pm_memory_admit(bytes, pm_has_extension(opt.snapshot, ".png") ? "PNG output buffers" : "EXR output buffers")) {
+            fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", opt.snapshot, pm_memory_failure());
+            exit_code = 1;
+            goto done;
+        }
+        output_reserved = bytes;
+    }
     if (opt.reference) {
         if (!pm_reference_load(opt.reference, opt.log != NULL, &reference, err, sizeof err)) {
             fprintf(stderr, "pmview: error: %s\n", err);
@@ -819,12 +906,13 @@ int main(int argc, char **argv) {
             goto done;
         }
     }
-    exit_code = window ? run_window(&opt, &scene, accel, &session, &config, &camera) : run_snapshot(&opt, session, &reference);
+    exit_code = window ? run_window(&opt, &scene, accel, &session, &config, &camera) : run_snapshot(&opt, session, &reference, &output_reserved);
     if (exit_code == 1) goto done;
     if (opt.stats) pm_print_final_stats(session, accel, opt.threads, opt.alpha, opt.pathtrace);
 
 done:
     pm_sky_release(&sky);
+    pm_memory_release(output_reserved);
     pm_reference_free(&reference);
     pm_session_destroy(session);
     pm_accel_destroy(accel);

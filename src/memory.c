@@ -1,4 +1,4 @@
-/* memory.c: checked allocation with failure recording, the memory limit for estimated structures, and allocation-failure injection for tests. */
+/* memory.c: checked allocation with failure recording, the memory limit on the sum of admitted structures, and allocation-failure injection for tests. */
 #include "memory.h"
 
 #include <ctype.h>
@@ -13,12 +13,13 @@
 #include "defaults.h"
 
 static _Atomic uint64_t limit_bytes;
+static _Atomic uint64_t committed_bytes;
 static _Atomic uint64_t allocations;
 static _Atomic uint64_t fail_at;       /* 0: no injection */
 static atomic_bool fail_after;
 static pthread_once_t env_once = PTHREAD_ONCE_INIT;
 static pthread_mutex_t failure_lock = PTHREAD_MUTEX_INITIALIZER;
-static char failure[192];
+static char failure[320];
 static bool failed;
 
 static void read_env(void) {
@@ -100,15 +101,43 @@ uint64_t pm_memory_limit(void) {
     return l;
 }
 
+static void refuse(uint64_t bytes, uint64_t committed, const char *what) {
+    char text[320];
+    snprintf(text, sizeof text,
+             "%s, %" PRIu64 " bytes, with %" PRIu64 " bytes already committed, over the limit of %" PRIu64
+             " bytes; see --max-memory",
+             what, bytes, committed, pm_memory_limit());
+    record(text);
+}
+
 bool pm_memory_admit(uint64_t bytes, const char *what) {
     uint64_t limit = pm_memory_limit();
-    if (bytes <= limit) return true;
-    char text[192];
-    snprintf(text, sizeof text, "%s, %" PRIu64 " bytes, over the limit of %" PRIu64 " bytes; see --max-memory", what,
-             bytes, limit);
-    record(text);
-    return false;
+    uint64_t committed = atomic_load(&committed_bytes);
+    /* a compare-and-swap loop: two threads admitting at once must not both take the last room */
+    do {
+        if (bytes > limit || committed > limit - bytes) {
+            refuse(bytes, committed, what);
+            return false;
+        }
+    } while (!atomic_compare_exchange_weak(&committed_bytes, &committed, committed + bytes));
+    return true;
 }
+
+void pm_memory_release(uint64_t bytes) {
+    uint64_t committed = atomic_load(&committed_bytes);
+    /* never below zero: a release without its admission is a bug, and wrapping round would refuse all after it */
+    while (!atomic_compare_exchange_weak(&committed_bytes, &committed, committed > bytes ? committed - bytes : 0)) {
+    }
+}
+
+uint64_t pm_memory_committed(void) { return atomic_load(&committed_bytes); }
+
+uint64_t pm_memory_available(void) {
+    uint64_t limit = pm_memory_limit(), committed = atomic_load(&committed_bytes);
+    return committed < limit ? limit - committed : 0;
+}
+
+void pm_memory_refuse(uint64_t bytes, const char *what) { refuse(bytes, atomic_load(&committed_bytes), what); }
 
 const char *pm_memory_failure(void) {
     pthread_mutex_lock(&failure_lock);

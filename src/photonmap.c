@@ -506,7 +506,7 @@ static bool make_room(photon_list *list) {
     if (list->count == list->start + list->counted) {
         uint64_t records = atomic_fetch_add(&list->ps->records, CHUNK) + CHUNK;
         if (records > list->ps->record_limit) {
-            pm_memory_admit(4 * records * sizeof(pm_photon), "photon records of one pass, their arenas and merged copies");
+            pm_memory_refuse(4 * records * sizeof(pm_photon), "photon records of one pass, their arenas and merged copies");
             list->failed = true;
             atomic_store(&list->ps->out_of_memory, true);
             return false;
@@ -888,7 +888,8 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     memset(ps->counters, 0, sizeof ps->counters);
     atomic_store(&ps->out_of_memory, false);
     atomic_store(&ps->records, out->capacity); /* the merged buffer kept from the last pass counts too */
-    ps->record_limit = pm_memory_limit() / (4 * sizeof(pm_photon));
+    /* the pass shares the limit with everything admitted before it (film, scene, textures, outputs) */
+    ps->record_limit = pm_memory_available() / (4 * sizeof(pm_photon));
     int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
     for (int t = 0; t < threads; t++) ps->arenas[t].count = 0;
     pm_parallel_for(threads, chunks, trace_chunk, ps);

@@ -35,6 +35,7 @@ bool pm_reference_load(const char *path, bool with_layers, pm_reference_image *r
         snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure());
         return false;
     }
+    ref->admitted = bytes;
     for (int c = 0; c < 3; c++) {
         int w, h;
         ref->rgb[c] = pm_read_exr_channel(path, names[c], &w, &h, err, err_size);
@@ -73,6 +74,8 @@ bool pm_reference_load(const char *path, bool with_layers, pm_reference_image *r
 }
 
 void pm_reference_free(pm_reference_image *ref) {
+    pm_memory_release(ref->admitted);
+    ref->admitted = 0;
     free(ref->known);
     for (int c = 0; c < 3; c++) free(ref->rgb[c]);
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)

@@ -383,6 +383,7 @@ void pm_scene_free(pm_scene *s) {
     free(s->emitter_cdf);
     free(s->emitter_radiance);
     free(s->light_cdf);
+    pm_memory_release(s->memory_admitted);
     memset(s, 0, sizeof *s);
 }
 

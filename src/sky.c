@@ -11,6 +11,7 @@
 
 void pm_sky_map_free(pm_sky_map *m) {
     if (!m) return;
+    pm_memory_release(m->admitted);
     free(m->rgb);
     free(m->row_cdf);
     free(m->column_cdf);

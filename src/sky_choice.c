@@ -26,11 +26,13 @@ bool pm_sky_prepare(pm_sky_request *request) {
     /* from the header, before a pixel is decoded: a small file can claim billions of texels */
     char what[128];
     snprintf(what, sizeof what, "sky map of %dx%d texels", w, h);
-    if (!pm_memory_admit(pm_sky_map_bytes(w, h), what)) {
+    uint64_t bytes = pm_sky_map_bytes(w, h);
+    if (!pm_memory_admit(bytes, what)) {
         fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", path, pm_memory_failure());
         return false;
     }
     if ((uint64_t)w * (uint64_t)h > PM_SKY_MAX_TEXELS) {
+        pm_memory_release(bytes);
         fprintf(stderr, "pmview: error: %s: an environment map of %dx%d texels is too large (at most %llu texels)\n", path,
                 w, h, (unsigned long long)PM_SKY_MAX_TEXELS);
         return false;
@@ -38,20 +40,24 @@ bool pm_sky_prepare(pm_sky_request *request) {
     int rw = 0, rh = 0;
     float *rgb = pm_read_environment(path, &rw, &rh, err, sizeof err);
     if (!rgb) {
+        pm_memory_release(bytes);
         fprintf(stderr, "pmview: error: %s\n", err);
         return false;
     }
     if (rw != w || rh != h) { /* the memory was admitted for the header's size */
         free(rgb);
+        pm_memory_release(bytes);
         fprintf(stderr, "pmview: error: %s: the file changed while it was read (%dx%d, then %dx%d texels)\n", path, w, h, rw, rh);
         return false;
     }
     char inner[512];
     request->map = pm_sky_map_adopt(w, h, rgb, inner, sizeof inner);
     if (!request->map) {
+        pm_memory_release(bytes);
         fprintf(stderr, "pmview: error: %s: %s\n", path, inner);
         return false;
     }
+    request->map->admitted = bytes;
     if (request->map->clamped && !request->quiet)
         fprintf(stderr, "pmview: warning: %s: %zu of %llu texels above %g or not finite clamped (NaN to 0, the rest to %g): "
                 "a float film could not sum them\n",

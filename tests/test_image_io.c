@@ -1,5 +1,6 @@
-/* test_image_io.c: EXR layers round-trip bit for bit and sum to the total; environment maps (.exr, .hdr) decode exactly; EXR, .hdr and PNG failures are clean one-line errors. */
+/* test_image_io.c: EXR layers round-trip bit for bit and sum to the total; environment maps (.exr, .hdr) decode exactly; EXR, .hdr and PNG failures are clean one-line errors; writers stay within --max-memory and never replace what they may not. */
 #include "image_io.h"
+#include "memory.h"
 #include "testing.h"
 
 #include <openexr.h>
@@ -8,6 +9,7 @@
 #include <stdint.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #define W 37
@@ -618,6 +620,140 @@ static void test_png(void) {
     free(rgba);
 }
 
+static bool file_holds(const char *path, const char *text) {
+    size_t n = 0;
+    uint8_t *bytes = read_bytes(path, &n);
+    bool same = bytes && n == strlen(text) && memcmp(bytes, text, n) == 0;
+    free(bytes);
+    return same;
+}
+
+/* Two spellings of one file are one file, whether it exists (device and inode) or not yet
+ * (resolved folders): what main() relies on to keep outputs off its inputs. */
+static void test_same_file(void) {
+    char a[320], b[320], folder[256];
+    tmp_path(folder, sizeof folder, "same");
+    mkdir(folder, 0700);
+    snprintf(a, sizeof a, "%s/scene.gltf", folder);
+    CHECK(write_bytes(a, "{}", 2), "write %s", a);
+    snprintf(b, sizeof b, "%s/./../same/scene.gltf", folder);
+    CHECK(pm_same_file(a, b), "criterion: %s and %s are the same file", a, b);
+    snprintf(b, sizeof b, "%s/link.gltf", folder);
+    CHECK(symlink("scene.gltf", b) == 0 && pm_same_file(b, a), "criterion: a symbolic link is the file it names");
+    unlink(b);
+    CHECK(link(a, b) == 0 && pm_same_file(b, a), "criterion: a hard link is the same file");
+    unlink(b);
+    CHECK(write_bytes(b, "{}", 2) && !pm_same_file(a, b), "two files with the same bytes are two files");
+    unlink(b);
+    char c[320];
+    snprintf(b, sizeof b, "%s/new.csv", folder);
+    snprintf(c, sizeof c, "%s/../same/new.csv", folder);
+    CHECK(pm_same_file(b, c), "criterion: two spellings of a file yet to be written are the same file");
+    snprintf(c, sizeof c, "%s/other.csv", folder);
+    CHECK(!pm_same_file(b, c), "different new files are different");
+    unlink(a);
+    rmdir(folder);
+}
+
+/* The writers admit their buffers against --max-memory before they touch the target, and give
+ * them back afterwards. */
+static void test_writers_within_the_limit(void) {
+    char path[256], err[512];
+    pm_film film;
+    make_film(&film);
+    pm_memory_clear_failure();
+    const uint64_t base = pm_memory_committed(), exr = pm_exr_write_bytes(W, H);
+    CHECK(exr == 72ull * W * H, "the EXR writer takes 72 bytes a pixel: %llu", (unsigned long long)exr);
+    tmp_path(path, sizeof path, "limited.exr");
+    CHECK(write_bytes(path, "previous", 8), "write %s", path);
+    pm_memory_set_limit(base + exr - 1);
+    err[0] = '\0';
+    CHECK(!pm_write_exr(path, &film, err, sizeof err), "criterion: an EXR whose buffers pass the limit is refused");
+    CHECK(strstr(err, "out of memory (EXR output buffers, ") && strstr(err, "--max-memory") && !strchr(err, '\n'),
+          "one line naming the buffers and --max-memory: \"%s\"", err);
+    CHECK(file_holds(path, "previous"), "criterion: the refused write leaves the previous file as it was");
+    CHECK(pm_memory_committed() == base, "a refusal commits nothing");
+    pm_memory_clear_failure();
+    pm_memory_set_limit(base + exr);
+    CHECK(pm_write_exr(path, &film, err, sizeof err), "criterion: with room for exactly its buffers it writes: \"%s\"", err);
+    CHECK(pm_memory_committed() == base, "criterion: the EXR writer gives its buffers back (%llu left)",
+          (unsigned long long)(pm_memory_committed() - base));
+    unlink(path);
+
+    uint8_t rgba[4 * W * H];
+    memset(rgba, 90, sizeof rgba);
+    tmp_path(path, sizeof path, "limited.png");
+    CHECK(write_bytes(path, "previous", 8), "write %s", path);
+    pm_memory_set_limit(base + pm_png_write_bytes(W, H) - 1);
+    err[0] = '\0';
+    CHECK(!pm_write_png(path, W, H, rgba, err, sizeof err) && strstr(err, "out of memory (PNG encoder, ") &&
+              strstr(err, "--max-memory"), "criterion: a PNG whose encoder passes the limit is refused: \"%s\"", err);
+    CHECK(file_holds(path, "previous"), "criterion: refused before the PNG written in place is truncated");
+    pm_memory_clear_failure();
+    pm_memory_set_limit(base + pm_png_write_bytes(W, H));
+    CHECK(pm_write_png(path, W, H, rgba, err, sizeof err) && pm_memory_committed() == base,
+          "with room for the encoder it writes, and gives the room back: \"%s\"", err);
+    unlink(path);
+    pm_memory_set_limit(pm_memory_default_limit());
+    pm_memory_clear_failure();
+    pm_film_free(&film);
+}
+
+/* A read-only file is refused as a target, EXR as PNG: the EXR's rename over it would have
+ * replaced what its owner protected. Root may write anything, so as root the checks run in a
+ * child that has become nobody. Returns a bit per failed expectation. */
+static int read_only_expectations(const char *folder) {
+    char exr[300], png[300], err[512];
+    snprintf(exr, sizeof exr, "%s/locked.exr", folder);
+    snprintf(png, sizeof png, "%s/locked.png", folder);
+    int failed = 0;
+    if (pm_check_output_path(exr, err, sizeof err) || !strstr(err, "cannot write the file (Permission denied)")) failed |= 1;
+    if (pm_check_output_path(png, err, sizeof err) || !strstr(err, "cannot write the file (Permission denied)")) failed |= 2;
+    pm_film film;
+    make_film(&film);
+    if (pm_write_exr(exr, &film, err, sizeof err) || !strstr(err, "Permission denied")) failed |= 4;
+    pm_film_free(&film);
+    if (!file_holds(exr, "locked")) failed |= 8;
+    return failed;
+}
+
+static void test_read_only_targets(void) {
+    char folder[256], path[300];
+    tmp_path(folder, sizeof folder, "read-only");
+    mkdir(folder, 0777);
+    chmod(folder, 0777); /* whatever the umask: the folder itself is writable, only the files are not */
+    const char *names[2] = {"locked.exr", "locked.png"};
+    for (int i = 0; i < 2; i++) {
+        snprintf(path, sizeof path, "%s/%s", folder, names[i]);
+        CHECK(write_bytes(path, "locked", 6) && chmod(path, 0444) == 0, "write %s", path);
+    }
+    int failed = -1;
+    if (geteuid() != 0) {
+        failed = read_only_expectations(folder);
+    } else {
+        chmod(tmp_dir_path, 0711); /* nobody must reach the folder */
+        fflush(NULL);
+        pid_t child = fork();
+        if (child == 0) _exit(setgid(65534) == 0 && setuid(65534) == 0 ? read_only_expectations(folder) : 99);
+        int status = 0;
+        if (child > 0 && waitpid(child, &status, 0) == child && WIFEXITED(status)) failed = WEXITSTATUS(status);
+        chmod(tmp_dir_path, 0700);
+    }
+    if (failed == 99) printf("SKIP: read-only targets: cannot become nobody to test them\n");
+    else {
+        printf("read-only targets%s: expectations missed: %d (a bit each)\n", geteuid() ? "" : " (as nobody)", failed);
+        CHECK(!(failed & 1), "criterion: a read-only EXR target is refused by the check before rendering (%d)", failed);
+        CHECK(!(failed & 2), "a read-only PNG target is refused by the check (%d)", failed);
+        CHECK(!(failed & 4), "criterion: pm_write_exr refuses a read-only target (%d)", failed);
+        CHECK(!(failed & 8), "criterion: the read-only EXR target is left as it was (%d)", failed);
+    }
+    for (int i = 0; i < 2; i++) {
+        snprintf(path, sizeof path, "%s/%s", folder, names[i]);
+        unlink(path);
+    }
+    rmdir(folder);
+}
+
 int main(void) {
     snprintf(tmp_dir_path, sizeof tmp_dir_path, "/tmp/pmview-test-image-io-%ld", (long)getpid());
     if (mkdir(tmp_dir_path, 0700) != 0) {
@@ -631,6 +767,9 @@ int main(void) {
     test_not_regular_files();
     test_mitsuba_reference();
     test_png();
+    test_same_file();
+    test_writers_within_the_limit();
+    test_read_only_targets();
     if (rmdir(tmp_dir_path) != 0) CHECK(false, "temporary directory %s left non-empty", tmp_dir_path);
     return pm_test_done("test_image_io");
 }

@@ -1,8 +1,12 @@
 #!/bin/sh
-# test_memory.sh: the progressive mode runs in constant memory: peak RSS after 2,000 iterations within 5% of 100 (optimised build; ASan's quarantine would hide a leak's growth in its own). 2,000 photons a pass: what must stay flat is the per-iteration structures, whatever their size.
+# test_memory.sh: the progressive mode runs in constant memory (peak RSS after 2,000 iterations within 5% of 100), and --max-memory bounds the whole run: textures, film and output buffers together, refused before they are spent (optimised build: ASan's quarantine would hide the growth measured).
 cd "$(dirname "$0")/.." || exit 1
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
+checks=0; fails=0
+fail() { fails=$((fails + 1)); echo "FAIL: $*"; }
+
+# 2,000 photons a pass: what must stay flat is the per-iteration structures, whatever their size
 rss() { # iterations -> peak RSS bytes
     ./pmview scenes/cornell-box.gltf --width 32 --height 32 --photons 2000 --iterations "$1" --snapshot "$tmp/m.exr" --stats |
         sed -n 's/^stat memory peak_rss_bytes=\([0-9]*\).*/\1/p'
@@ -10,8 +14,76 @@ rss() { # iterations -> peak RSS bytes
 a=$(rss 100)
 b=$(rss 2000)
 echo "peak RSS: $a bytes after 100 iterations, $b after 2000"
-if [ -z "$a" ] || [ -z "$b" ]; then echo "test_memory: 1 checks, 1 failed (no stat memory line)"; exit 1; fi
-if [ "$b" -le $((a + a / 20)) ]; then echo "test_memory: 1 checks, 0 failed"; exit 0; fi
-echo "FAIL: peak RSS grew by more than 5% from 100 to 2000 iterations"
-echo "test_memory: 1 checks, 1 failed"
-exit 1
+checks=$((checks + 1))
+if [ -z "$a" ] || [ -z "$b" ]; then fail "no stat memory line"
+elif [ "$b" -gt $((a + a / 20)) ]; then fail "peak RSS grew by more than 5% from 100 to 2000 iterations"; fi
+
+# run LIMIT ARGS...: pmview under --max-memory LIMIT (MiB); $rc, $kb (peak RSS, KiB), $tmp/err
+run() {
+    limit=$1; shift
+    /usr/bin/time -f %M -o "$tmp/rss" ./pmview "$@" --quiet --max-memory "${limit}M" >"$tmp/out" 2>"$tmp/err"
+    rc=$?
+    kb=$(tail -n 1 "$tmp/rss")
+}
+# refused DESCRIPTION PATTERN: exit 1 and one error line matching PATTERN that names what was already committed and --max-memory
+refused() {
+    checks=$((checks + 1))
+    if [ "$rc" -ne 1 ] || [ "$(wc -l < "$tmp/err")" -ne 1 ] || ! grep -q "^pmview: error: .*out of memory ($2" "$tmp/err" ||
+       ! grep -q "bytes already committed, over the limit of [0-9]* bytes; see --max-memory" "$tmp/err"; then
+        fail "$1: want exit 1 and one line \"out of memory ($2...\" with the committed bytes and --max-memory, got exit $rc:"
+        cat "$tmp/err"
+    fi
+}
+# within DESCRIPTION LIMIT: the run's peak RSS above the process's own (a tiny run's) is within LIMIT MiB
+within() {
+    checks=$((checks + 1))
+    above=$(( (kb - base_kb) / 1024 ))
+    echo "$1: exit $rc, peak RSS $((kb / 1024)) MiB, $above MiB above a tiny run's, under --max-memory ${2}M"
+    [ "$above" -le "$2" ] || fail "$1: $above MiB above a tiny run's, more than --max-memory ${2}M"
+}
+
+# textures: the limit covers their sum (each fits alone, three do not), and an image is refused
+# from its header before its decoding is spent: a real 2048-square one (16 MiB decoded, 32 while
+# stb's copy is made) and one whose header alone claims 16384 x 16384
+python3 tests/texture_scene.py "$tmp/one.gltf" 1024
+python3 tests/texture_scene.py "$tmp/three.gltf" 1024 1024 1024
+python3 tests/texture_scene.py "$tmp/tiny.gltf" 64
+python3 tests/texture_scene.py "$tmp/big.gltf" 2048
+python3 tests/texture_scene.py "$tmp/claims.gltf" claim:16384
+run 18 "$tmp/tiny.gltf" --width 8 --iterations 1 --snapshot "$tmp/x.exr"
+base_kb=$kb
+checks=$((checks + 1)); [ "$rc" -eq 0 ] || { fail "a 64-square texture: exit $rc"; cat "$tmp/err"; }
+run 18 "$tmp/one.gltf" --width 8 --iterations 1 --snapshot "$tmp/x.exr"
+checks=$((checks + 1)); [ "$rc" -eq 0 ] || { fail "one 1024-square texture under 18 MiB: exit $rc"; cat "$tmp/err"; }
+run 18 "$tmp/three.gltf" --width 8 --iterations 1 --snapshot "$tmp/x.exr"
+refused "three 1024-square textures under 18 MiB" "texture, 4194304 bytes, with "
+run 64 "$tmp/three.gltf" --width 8 --iterations 1 --snapshot "$tmp/x.exr"
+checks=$((checks + 1)); [ "$rc" -eq 0 ] || { fail "three 1024-square textures under 64 MiB: exit $rc"; cat "$tmp/err"; }
+run 16 "$tmp/big.gltf" --width 8 --iterations 1 --snapshot "$tmp/x.exr"
+refused "a 2048-square texture under 16 MiB" "decoded image, 33554432 bytes, with "
+within "a 2048-square texture refused" 16
+start=$(date +%s)
+run 256 "$tmp/claims.gltf" --width 8 --iterations 1 --snapshot "$tmp/x.exr"
+refused "a PNG header claiming 16384 x 16384 under 256 MiB" "decoded image, 2147483648 bytes, with "
+within "a PNG header claiming 16384 x 16384" 256
+checks=$((checks + 1)); [ $(( $(date +%s) - start )) -le 5 ] || fail "the claimed 16384-square image took more than 5 s to refuse"
+
+# the snapshot's output buffers are part of the estimate, before the render: 1024 x 1024 of
+# direct and specular light is a 24 MiB film; the EXR writer takes 72 MiB beside it, the PNG's
+# layers, offscreen view and encoder 116
+for case in "exr 64 refused" "exr 128 written" "png 128 refused" "png 192 written"; do
+    set -- $case
+    start=$(date +%s)
+    run "$2" scenes/cornell-box.gltf --width 1024 --height 1024 --iterations 1 --no-photons --snapshot "$tmp/out.$1"
+    if [ "$3" = refused ]; then
+        [ "$1" = exr ] && what="EXR" || what="PNG"
+        refused "a 1024-square $1 under $2 MiB" "$what output buffers, [0-9]* bytes, with "
+        checks=$((checks + 1)); [ ! -e "$tmp/out.$1" ] && [ $(( $(date +%s) - start )) -le 1 ] ||
+            fail "a 1024-square $1 under $2 MiB must be refused before rendering"
+    else
+        checks=$((checks + 1)); [ "$rc" -eq 0 ] && [ -s "$tmp/out.$1" ] || { fail "a 1024-square $1 under $2 MiB: exit $rc"; cat "$tmp/err"; }
+    fi
+    within "a 1024-square $1, $3" "$2"
+done
+echo "test_memory: $checks checks, $fails failed"
+[ "$fails" -eq 0 ]

@@ -1,4 +1,6 @@
-/* test_memory_failures.c: every checked allocation of a render made to fail in turn, and the memory limit refusing a photon pass: a reason each time, never a crash or (ASan) a leak. */
+/* test_memory_failures.c: every checked allocation of a render made to fail in turn, the memory limit refusing a photon pass, and the limit bounding the sum of what is admitted: a reason each time, never a crash, a leak (ASan) or a commitment left behind. */
+#include <pthread.h>
+#include <sched.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -6,6 +8,8 @@
 #include "accel.h"
 #include "clock.h"
 #include "defaults.h"
+#include "film.h"
+#include "loader.h"
 #include "memory.h"
 #include "photonmap.h"
 #include "progressive.h"
@@ -36,8 +40,8 @@ static void test_allocation_failures(bool caustics) {
     pm_progressive_settings ps = {.seed = 1, .threads = 2, .photons = 3000, .caustic_photons = 3000, .alpha = PM_DEFAULT_ALPHA,
                                   .indirect = PM_INDIRECT_GATHER, .max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH,
                                   .max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES};
-    uint64_t total = 0;
-    int failures_seen = 0, unreported = 0;
+    uint64_t total = 0, committed = pm_memory_committed();
+    int failures_seen = 0, unreported = 0, unreleased = 0;
     for (uint64_t n = 0;; n++) {
         pm_memory_clear_failure();
         pm_memory_fail_at(n, false);
@@ -53,6 +57,7 @@ static void test_allocation_failures(bool caustics) {
         for (int i = 0; ok && i < 2; i++) ok = pm_progressive_iterate(p, &film, 0);
         pm_progressive_destroy(p);
         pm_film_free(&film);
+        if (pm_memory_committed() != committed) unreleased++;
         if (n == 0) {
             total = pm_memory_allocations();
             CHECK(ok, "the run without an injected failure succeeds");
@@ -70,6 +75,7 @@ static void test_allocation_failures(bool caustics) {
           "criterion: every injected allocation failure fails the run cleanly (%d of %llu)", failures_seen,
           (unsigned long long)total);
     CHECK(unreported == 0, "criterion: every failure names what could not be allocated (%d did not)", unreported);
+    CHECK(unreleased == 0, "criterion: every run gives back all it admitted, failed or not (%d did not)", unreleased);
     pm_accel_destroy(a);
     pm_scene_free(&s);
 }
@@ -104,7 +110,163 @@ static void test_photon_record_limit(void) {
     pm_scene_free(&s);
 }
 
+/* Admits and releases 1 MiB at a time from several threads with room for one and a half: the
+ * committed total must never pass the limit, and must end where it began. */
+enum { RACE_THREADS = 4, RACE_ROUNDS = 5000 };
+static uint64_t race_limit;
+static _Atomic int race_over, race_refused;
+static pthread_barrier_t race_start;
+
+static void *race(void *arg) {
+    (void)arg;
+    pthread_barrier_wait(&race_start);
+    for (int i = 0; i < RACE_ROUNDS; i++) {
+        if (!pm_memory_admit(1 << 20, "race")) { race_refused++; continue; }
+        if (pm_memory_committed() > race_limit) race_over++;
+        sched_yield(); /* holding it, so that the others meet it even when the threads share a core */
+        pm_memory_release(1 << 20);
+    }
+    return NULL;
+}
+
+/* --max-memory bounds the sum: what is admitted stays committed until released, a structure
+ * that fits alone is refused beside others, and the refusal says what was already committed. */
+static void test_committed_sum(void) {
+    pm_memory_clear_failure();
+    const uint64_t base = pm_memory_committed(), MiB = 1 << 20, limit = base + 10 * MiB;
+    pm_memory_set_limit(limit);
+    CHECK(pm_memory_admit(6 * MiB, "first structure"), "6 MiB under a 10 MiB room");
+    CHECK(pm_memory_committed() == base + 6 * MiB, "committed %llu, want %llu", (unsigned long long)pm_memory_committed(),
+          (unsigned long long)(base + 6 * MiB));
+    CHECK(pm_memory_available() == 4 * MiB, "available %llu, want 4 MiB", (unsigned long long)pm_memory_available());
+    CHECK(!pm_memory_admit(6 * MiB, "second structure"), "criterion: a second 6 MiB beside the first is refused");
+    char want[320];
+    snprintf(want, sizeof want,
+             "second structure, 6291456 bytes, with %llu bytes already committed, over the limit of %llu bytes; see --max-memory",
+             (unsigned long long)(base + 6 * MiB), (unsigned long long)limit);
+    const char *why = pm_memory_failure();
+    CHECK(why && !strcmp(why, want), "criterion: the refusal names the structure, its bytes, the committed bytes and "
+                                     "--max-memory:\n  got  %s\n  want %s", why ? why : "(none)", want);
+    CHECK(pm_memory_committed() == base + 6 * MiB, "a refusal commits nothing");
+    pm_memory_release(6 * MiB);
+    pm_memory_clear_failure();
+    CHECK(pm_memory_admit(6 * MiB, "second structure"), "after the release the second one fits");
+    pm_memory_release(6 * MiB);
+    CHECK(pm_memory_committed() == base, "all given back");
+
+    race_limit = base + MiB + MiB / 2;
+    pm_memory_set_limit(race_limit);
+    pthread_t threads[RACE_THREADS];
+    pthread_barrier_init(&race_start, NULL, RACE_THREADS);
+    for (int t = 0; t < RACE_THREADS; t++) pthread_create(&threads[t], NULL, race, NULL);
+    for (int t = 0; t < RACE_THREADS; t++) pthread_join(threads[t], NULL);
+    pthread_barrier_destroy(&race_start);
+    printf("%d threads x %d admissions of 1 MiB with room for 1.5: %d refused, %d saw the total over the limit\n",
+           RACE_THREADS, RACE_ROUNDS, (int)race_refused, (int)race_over);
+    CHECK(race_refused > 0, "the threads never met: nothing was tested");
+    CHECK(race_over == 0, "criterion: the committed total never passes the limit (%d times it did)", (int)race_over);
+    CHECK(pm_memory_committed() == base, "criterion: the race ends where it began (%llu, want %llu)",
+          (unsigned long long)pm_memory_committed(), (unsigned long long)base);
+    pm_memory_clear_failure();
+    pm_memory_set_limit(pm_memory_default_limit());
+}
+
+static void base64_append(char *out, const unsigned char *in, size_t n) {
+    static const char digits[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    out += strlen(out);
+    for (size_t i = 0; i < n; i += 3) {
+        uint32_t v = (uint32_t)in[i] << 16 | (i + 1 < n ? (uint32_t)in[i + 1] << 8 : 0) | (i + 2 < n ? in[i + 2] : 0);
+        *out++ = digits[v >> 18 & 63];
+        *out++ = digits[v >> 12 & 63];
+        *out++ = i + 1 < n ? digits[v >> 6 & 63] : '=';
+        *out++ = i + 2 < n ? digits[v & 63] : '=';
+    }
+    *out = 0;
+}
+
+/* In libstb; stb_image_write.h declares it only inside its implementation section. */
+unsigned char *stbi_write_png_to_mem(const unsigned char *pixels, int stride_bytes, int x, int y, int n, int *out_len);
+
+/* A triangle with a 64 x 64 texture, all in data: URIs. */
+static char *textured_triangle(void) {
+    enum { SIDE = 64 };
+    static unsigned char texels[SIDE * SIDE * 4];
+    for (int i = 0; i < SIDE * SIDE * 4; i++) texels[i] = (unsigned char)(i * 7);
+    int png_size = 0;
+    unsigned char *png = stbi_write_png_to_mem(texels, SIDE * 4, SIDE, SIDE, 4, &png_size);
+    const float geometry[15] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 1}; /* 3 positions, 3 uvs */
+    char *json = malloc(4096 + 2 * (size_t)png_size);
+    if (!json || !png) abort();
+    snprintf(json, 4096,
+             "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+             "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1},\"material\":0}]}],"
+             "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],"
+             "\"textures\":[{\"source\":0}],"
+             "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]},"
+             "{\"bufferView\":0,\"byteOffset\":36,\"componentType\":5126,\"count\":3,\"type\":\"VEC2\"}],"
+             "\"bufferViews\":[{\"buffer\":0,\"byteLength\":60}],"
+             "\"buffers\":[{\"byteLength\":60,\"uri\":\"data:application/octet-stream;base64,");
+    base64_append(json, (const unsigned char *)geometry, sizeof geometry);
+    strcat(json, "\"}],\"images\":[{\"uri\":\"data:image/png;base64,");
+    base64_append(json, png, (size_t)png_size);
+    strcat(json, "\"}]}");
+    free(png);
+    return json;
+}
+
+/* What the film, the loaded scene and the acceleration structure admit is given back when they
+ * are freed, and a load refused halfway keeps nothing committed. */
+static void test_structures_give_back(void) {
+    pm_memory_clear_failure();
+    const uint64_t base = pm_memory_committed();
+    pm_film film;
+    const bool all[PM_COMPONENT_COUNT] = {true, true, true, true};
+    CHECK(pm_film_init(&film, 64, 32, all), "film");
+    CHECK(pm_memory_committed() == base + 4 * 3 * 4 * 64 * 32, "the film commits its buffers: %llu bytes",
+          (unsigned long long)(pm_memory_committed() - base));
+    pm_film_free(&film);
+    CHECK(pm_memory_committed() == base, "pm_film_free gives the film's bytes back");
+
+    char *json = textured_triangle();
+    pm_scene s;
+    char err[512] = "";
+    bool ok = pm_load_gltf_memory(json, strlen(json), "textured.gltf", true, &s, NULL, err, sizeof err);
+    CHECK(ok && s.texture_count == 1, "the textured triangle loads: %s", err);
+    if (ok) {
+        printf("a triangle with a 64 x 64 texture keeps %llu bytes committed (the texels: 16384)\n",
+               (unsigned long long)(pm_memory_committed() - base));
+        CHECK(s.memory_admitted >= 64 * 64 * 4 && pm_memory_committed() == base + s.memory_admitted,
+              "criterion: the scene holds the texels and geometry it admitted (%llu), the decoded image is given back "
+              "(committed %llu)", (unsigned long long)s.memory_admitted, (unsigned long long)(pm_memory_committed() - base));
+        pm_scene_finalize(&s, false, NULL);
+        pm_accel *a = pm_accel_create(&s, err, sizeof err);
+        CHECK(a && pm_memory_committed() > base + s.memory_admitted, "criterion: Embree's allocations are admitted too");
+        pm_accel_destroy(a);
+        CHECK(pm_memory_committed() == base + s.memory_admitted, "pm_accel_destroy gives Embree's bytes back (%llu left)",
+              (unsigned long long)(pm_memory_committed() - base - s.memory_admitted));
+        pm_scene_free(&s);
+        CHECK(pm_memory_committed() == base, "criterion: pm_scene_free gives the scene's bytes back (%llu left)",
+              (unsigned long long)(pm_memory_committed() - base));
+    }
+    /* room for decoding the image (twice its 16384 bytes), which is also room for its texels beside
+     * the decoded copy the model keeps, but not for the geometry beside both */
+    pm_memory_set_limit(base + 2 * 16384 + 16);
+    ok = pm_load_gltf_memory(json, strlen(json), "textured.gltf", true, &s, NULL, err, sizeof err);
+    char want[96];
+    snprintf(want, sizeof want, "with %llu bytes already committed", (unsigned long long)(base + 2 * 16384));
+    CHECK(!ok && strstr(err, "out of memory (scene geometry and its acceleration structure, ") && strstr(err, want) &&
+              strstr(err, "--max-memory"),
+          "criterion: the geometry beside the texels and the decoded image passes the limit: \"%s\"", err);
+    CHECK(pm_memory_committed() == base, "criterion: a refused load keeps nothing committed (%llu)",
+          (unsigned long long)(pm_memory_committed() - base));
+    pm_memory_set_limit(pm_memory_default_limit());
+    pm_memory_clear_failure();
+    free(json);
+}
+
 int main(void) {
+    test_committed_sum();
+    test_structures_give_back();
     test_allocation_failures(false);
     test_allocation_failures(true);
     test_photon_record_limit();
