@@ -73,6 +73,13 @@ struct LoadError {
 
 std::string str(uint64_t n) { return std::to_string(n); }
 
+// A value from the file as it appears in a warning.
+std::string num(double v) {
+    char text[32];
+    snprintf(text, sizeof text, "%.6g", v);
+    return text;
+}
+
 // Bytes of the character at s[i] when it is printable ASCII or well-formed UTF-8 that is not a
 // control character (C1 controls such as U+009B act on terminals too), else 0.
 size_t printable_character(const std::string &s, size_t i) {
@@ -736,6 +743,7 @@ struct WorldTransform {
 
 struct DecodedPrimitive {
     bool triangles = false;             // false: points or lines, skipped
+    uint64_t flat_triangles = 0;        // triangles with a corner whose NORMAL is unusable: they get their own vertices
     std::vector<float> positions;       // 3 per vertex, mesh space
     std::vector<float> normals, uvs, uvs1;  // empty when the primitive has none (uvs1: or no texture reads it)
     std::vector<float> tangents;        // TANGENT, 4 per vertex; empty when absent or no material has a normal map
@@ -820,8 +828,12 @@ private:
     int texture_for(int gltf_texture, const std::string &where);
     bool convert_reference(const TextureReference &r, const std::string &where, int *texture, int *texcoord,
                            pm_uv_transform *transform);
-    float checked(double value, double lo, double hi, const char *name, const std::string &where);
-    vec3 volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &where);
+    double checked(double value, double lo, double hi, const char *field, const std::string &object);
+    vec3 emission_within_film(const double hue[3], double magnitude, const char *field, const std::string &made_of,
+                              const std::string &object);
+    void volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &object, double sigma[3]);
+    std::string material_label(size_t material) const;
+    std::string mesh_label(int mesh, int primitive) const;
     // Stores vertex i's generated tangent: dp/du made unit and perpendicular to the normal, or
     // any perpendicular when the UV mapping gives none there.
     void set_tangent(size_t i, vec3 du, vec3 normal, float hand) {
@@ -844,6 +856,22 @@ private:
     void emit(pm_scene *out);
 
     void warn(const std::string &message) { warnings_.push_back(message); }
+    // A clamped or replaced value: one warning per object and field, the first value's; later
+    // ones only count (unless they are the same value met again), and the warning ends with
+    // their number (see finish_notes).
+    void note(const std::string &object, const std::string &field, const std::string &what, bool count_repeats = true) {
+        auto it = noted_.find(object + '\n' + field);
+        if (it != noted_.end()) {
+            it->second.repeats += count_repeats;
+            return;
+        }
+        noted_[object + '\n' + field] = {warnings_.size(), 0};
+        warn(object + " " + field + " " + what);
+    }
+    void finish_notes() {
+        for (const auto &n : noted_)
+            if (n.second.repeats) warnings_[n.second.warning] += " (and " + str(n.second.repeats) + " more of its values)";
+    }
 
     std::string path_, folder_;
     const unsigned char *memory_ = nullptr;  // non-null: load these bytes instead of reading path_
@@ -890,7 +918,12 @@ private:
     bool quantization_ = false; // KHR_mesh_quantization is used: integer vertex attributes are allowed
     std::vector<std::array<TextureReference, kReferenceKinds>> references_;  // per material
     std::vector<uint32_t> indices_, triangle_material_;
-    uint64_t degenerate_ = 0, skipped_prims_ = 0, repaired_normals_ = 0, clamped_values_ = 0;
+    uint64_t degenerate_ = 0, skipped_prims_ = 0;
+    struct Noted { size_t warning; uint64_t repeats; };
+    std::map<std::string, Noted> noted_;  // object and field -> its warning (see note)
+    std::vector<std::array<double, 3>> attenuation_;  // per material, per unit length of the file, framed in choose_frame
+    uint64_t collapsed_normals_ = 0;  // usable NORMAL values the node's transform reduced to nothing
+    std::string first_collapsed_;
     uint32_t ignored_inputs_ = 0;  // materials using an input pmview does not render (each kind warned once)
     struct Ignored { uint32_t count; std::string first; };
     std::map<std::string, Ignored> ignored_;  // kind -> materials using it, the first one's name
@@ -1480,13 +1513,42 @@ void Loader::traverse_default_scene() {
     }
 }
 
-float Loader::checked(double value, double lo, double hi, const char *name, const std::string &where) {
-    if (!std::isfinite(value)) fail(std::string("non-finite ") + name + " (" + where + ")");
+// A number the preflight found finite, brought into [lo, hi] with a warning naming it.
+double Loader::checked(double value, double lo, double hi, const char *field, const std::string &object) {
+    if (!std::isfinite(value)) fail(std::string("non-finite ") + field + " (" + object + ")");
     if (value < lo || value > hi) {
-        clamped_values_++;
-        value = std::min(std::max(value, lo), hi);
+        double bound = value < lo ? lo : hi;
+        note(object, field, num(value) + " clamped to " + num(bound));
+        value = bound;
     }
-    return static_cast<float>(value);
+    return value;
+}
+
+// An emission radiance or light intensity (in the scene's frame), hue (each in [0, 1]) times
+// magnitude (>= 0, possibly infinite in double), as floats no larger than PM_MAX_EMISSION, which a
+// float film can sum; a larger one keeps its hue, with a warning. made_of: how the value came from
+// the file's numbers, for the warning.
+vec3 Loader::emission_within_film(const double hue[3], double magnitude, const char *field, const std::string &made_of,
+                                  const std::string &object) {
+    double top = std::max(hue[0], std::max(hue[1], hue[2])), value[3];
+    double largest = top > 0 ? top * magnitude : 0;
+    for (int k = 0; k < 3; k++) value[k] = hue[k] > 0 ? hue[k] * magnitude : 0;
+    if (largest > PM_MAX_EMISSION) {
+        note(object, field, num(largest) + " (" + made_of + ") clamped to " + num(PM_MAX_EMISSION) +
+                                " (PM_MAX_EMISSION: a float film could not sum more), hue kept");
+        for (int k = 0; k < 3; k++) value[k] = hue[k] / top * PM_MAX_EMISSION;
+    }
+    return v3(static_cast<float>(value[0]), static_cast<float>(value[1]), static_cast<float>(value[2]));
+}
+
+std::string Loader::material_label(size_t material) const {
+    const std::string &name = model_.materials[material].name;
+    return "material " + str(material) + (name.empty() ? "" : " (" + printable(name) + ")");
+}
+
+std::string Loader::mesh_label(int mesh, int primitive) const {
+    const std::string &name = model_.meshes[mesh].name;
+    return "mesh " + str(mesh) + (name.empty() ? "" : " (" + printable(name) + ")") + " primitive " + str(primitive);
 }
 
 double extension_number(const tinygltf::ExtensionMap &extensions, const char *extension, const char *key,
@@ -1500,68 +1562,75 @@ double extension_number(const tinygltf::ExtensionMap &extensions, const char *ex
 // KHR_materials_volume's attenuation coefficient: -ln(attenuationColor) / attenuationDistance per
 // channel, for a material with a volume (thicknessFactor > 0; 0 is thin-walled) and a finite
 // distance; 0 otherwise. thicknessFactor itself is for rasterizers: a ray tracer measures the
-// distance inside the mesh.
-vec3 Loader::volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &where) {
+// distance inside the mesh. In double, per unit length of the file: choose_frame rescales it
+// before it becomes a float.
+void Loader::volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &object, double sigma[3]) {
+    std::fill(sigma, sigma + 3, 0.0);
     auto it = extensions.find("KHR_materials_volume");
-    if (it == extensions.end() || !it->second.IsObject()) return v3(0, 0, 0);
-    double thickness = checked(extension_number(extensions, "KHR_materials_volume", "thicknessFactor", 0), 0, FLT_MAX,
-                               "thicknessFactor", where);
+    if (it == extensions.end() || !it->second.IsObject()) return;
+    double thickness = checked(extension_number(extensions, "KHR_materials_volume", "thicknessFactor", 0), 0, INFINITY,
+                               "KHR_materials_volume thicknessFactor", object);
     double distance = extension_number(extensions, "KHR_materials_volume", "attenuationDistance", INFINITY);
-    if (!(distance > 0)) fail("attenuationDistance must be positive (" + where + ")");
+    if (!(distance > 0)) fail("attenuationDistance must be positive (" + object + ")");
     double color[3] = {1, 1, 1};
     if (it->second.Has("attenuationColor")) {
         const tinygltf::Value &c = it->second.Get("attenuationColor");
-        if (!c.IsArray() || c.ArrayLen() != 3) fail("attenuationColor must have 3 numbers (" + where + ")");
+        if (!c.IsArray() || c.ArrayLen() != 3) fail("attenuationColor must have 3 numbers (" + object + ")");
         for (int k = 0; k < 3; k++) {
-            if (!c.Get(k).IsNumber()) fail("attenuationColor must have 3 numbers (" + where + ")");
-            color[k] = checked(c.Get(k).GetNumberAsDouble(), 0, 1, "attenuationColor", where);
+            if (!c.Get(k).IsNumber()) fail("attenuationColor must have 3 numbers (" + object + ")");
+            color[k] = checked(c.Get(k).GetNumberAsDouble(), 0, 1, "KHR_materials_volume attenuationColor", object);
         }
     }
-    if (!(thickness > 0) || !std::isfinite(distance)) return v3(0, 0, 0);
-    float sigma[3];
-    for (int k = 0; k < 3; k++) sigma[k] = static_cast<float>(-std::log(std::max(color[k], 1e-30)) / distance);
-    return v3(sigma[0], sigma[1], sigma[2]);
+    if (!(thickness > 0) || !std::isfinite(distance)) return;
+    for (int k = 0; k < 3; k++) sigma[k] = -std::log(std::max(color[k], 1e-30)) / distance;
 }
 
 void Loader::add_light(int index, const WorldTransform &world, int node) {
     const tinygltf::Light &l = model_.lights[index];
     std::string where = "light " + str(index);
+    std::string label = "KHR_lights_punctual " + where + (l.name.empty() ? "" : " (" + printable(l.name) + ")");
     pm_light light;
     memset(&light, 0, sizeof light);
     if (l.type == "point") light.type = PM_LIGHT_POINT;
     else if (l.type == "spot") light.type = PM_LIGHT_SPOT;
     else if (l.type == "directional") light.type = PM_LIGHT_DIRECTIONAL;
-    else return warn(where + " has unknown type " + printable(l.type) + "; skipped");
+    else return warn(label + " has unknown type " + printable(l.type) + "; skipped");
     if (!l.color.empty() && l.color.size() != 3)
         fail("color must have 3 numbers, got " + str(l.color.size()) + " (" + where + ")");
+    if (light.type == PM_LIGHT_SPOT) {
+        // KHR_lights_punctual: 0 <= innerConeAngle < outerConeAngle <= pi/2
+        double outer = l.spot.outerConeAngle, inner = l.spot.innerConeAngle;
+        if (!(outer > 0))
+            return warn(label + " spot.outerConeAngle " + num(outer) +
+                        " is not above 0: its cone is empty and it emits no light; dropped");
+        outer = checked(outer, 0, M_PI / 2, "spot.outerConeAngle", label);
+        inner = checked(inner, 0, M_PI / 2, "spot.innerConeAngle", label);
+        if (inner >= outer) {
+            note(label, "spot.innerConeAngle", num(inner) + " is not below outerConeAngle " + num(outer) +
+                                                   ": set to it (a hard-edged cone)");
+            inner = outer;
+        }
+        light.cos_inner = static_cast<float>(std::cos(inner));
+        light.cos_outer = static_cast<float>(std::cos(outer));
+    }
     double color[3] = {1, 1, 1};
     std::copy(l.color.begin(), l.color.end(), color);
-    float intensity = checked(l.intensity, 0, FLT_MAX, "intensity", where);
-    light.intensity = v3(checked(color[0], 0, 1, "color", where) * intensity,
-                         checked(color[1], 0, 1, "color", where) * intensity,
-                         checked(color[2], 0, 1, "color", where) * intensity);
-    light.range = checked(l.range, 0, FLT_MAX, "range", where);
-    if (light.type == PM_LIGHT_SPOT) {
-        float outer = checked(l.spot.outerConeAngle, 0, M_PI / 2, "outerConeAngle", where);
-        float inner = checked(l.spot.innerConeAngle, 0, outer, "innerConeAngle", where);
-        light.cos_inner = cosf(inner);
-        light.cos_outer = cosf(outer);
-    }
+    double intensity = checked(l.intensity, 0, INFINITY, "intensity", label);
+    // In double until the scene's frame is applied: point and spot intensities scale by its
+    // square (the same irradiance I / d^2 once distances are frame_scale_ times longer), so a
+    // huge scene's huge intensity comes back to an ordinary one before any float or clamp.
+    for (double &c : color) c = checked(c, 0, 1, "color", label);
+    double framing = light.type == PM_LIGHT_DIRECTIONAL ? 1 : frame_scale_;
+    double framed = intensity * framing * framing;  // one factor at a time: a range either would leave alone
+    std::string made_of = "intensity " + num(intensity) + " x color" +
+                          (framing != 1 ? " x unit_scale^2 " + num(framing * framing) : std::string());
+    light.intensity = emission_within_film(color, framed, "intensity", made_of, label);
+    double range = checked(l.range, 0, INFINITY, "range", label) * (light.type == PM_LIGHT_DIRECTIONAL ? 1 : frame_scale_);
+    if (range > FLT_MAX) note(label, "range", num(range) + " (in the scene's frame) clamped to " + num(FLT_MAX));
+    light.range = static_cast<float>(std::min<double>(range, FLT_MAX));  // unused by the renderer (README: Lights)
     const double minus_z[3] = {0, 0, -1};
     light.position = world.origin();
     light.direction = world.unit(minus_z, false);
-    if (light.type != PM_LIGHT_DIRECTIONAL) {
-        // the same irradiance I / d^2 at every point once distances are frame_scale_ times longer
-        double k = frame_scale_ * frame_scale_, framed[3] = {light.intensity.x * k, light.intensity.y * k,
-                                                             light.intensity.z * k};
-        for (double &v : framed)
-            if (v > FLT_MAX) {  // an irradiance beyond a float's range in the file's own units
-                v = FLT_MAX;
-                clamped_values_++;
-            }
-        light.intensity = v3(static_cast<float>(framed[0]), static_cast<float>(framed[1]), static_cast<float>(framed[2]));
-        light.range = static_cast<float>(std::min<double>(light.range * frame_scale_, FLT_MAX));
-    }
     if (!v3_is_finite(light.position) || (light.type != PM_LIGHT_POINT && v3_is_black(light.direction)))
         fail("degenerate transform for " + where + " (node " + str(node) + ")");
     lights_.push_back(light);
@@ -1609,7 +1678,9 @@ void Loader::add_camera(int index, const WorldTransform &world, int node) {
     } else {
         cam.yfov = static_cast<float>(p.yfov);
         cam.aspect = (p.aspectRatio > 0 && p.aspectRatio < FLT_MAX) ? static_cast<float>(p.aspectRatio) : 0.f;
-        cam.znear = static_cast<float>(std::min<double>(p.znear * frame_scale_, FLT_MAX));
+        double znear = p.znear * frame_scale_;
+        if (znear > FLT_MAX) note(where, "znear", num(znear) + " (in the scene's frame) clamped to " + num(FLT_MAX));
+        cam.znear = static_cast<float>(std::min<double>(znear, FLT_MAX));
     }
     cameras_.push_back(cam);
 }
@@ -1645,11 +1716,13 @@ int Loader::texture_for(int gltf_texture, const std::string &where) {
         const tinygltf::Sampler &s = model_.samplers[t.sampler];
         int *wraps[2] = {&tex.wrap_s, &tex.wrap_t};
         int modes[2] = {s.wrapS, s.wrapT};
+        const char *fields[2] = {"wrapS", "wrapT"};
         for (int k = 0; k < 2; k++) {
             if (modes[k] == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE) *wraps[k] = PM_WRAP_CLAMP;
             else if (modes[k] == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT) *wraps[k] = PM_WRAP_MIRROR;
             else if (modes[k] != TINYGLTF_TEXTURE_WRAP_REPEAT)
-                warn("sampler " + str(t.sampler) + " has unknown wrap mode " + std::to_string(modes[k]) + "; using REPEAT");
+                note("sampler " + str(t.sampler), fields[k], std::to_string(modes[k]) + " is not a glTF wrap mode; using REPEAT",
+                     false);  // a second texture on the same sampler
         }
     }
     textures_.items.reserve(textures_.items.size() + 1);  // so push_back below cannot throw and leak the texels
@@ -1714,28 +1787,31 @@ void Loader::convert_materials() {
                 note_ignored(e.first, name);
         pm_material m;
         memset(&m, 0, sizeof m);
-        m.base_color = v3(checked(pbr.baseColorFactor[0], 0, 1, "baseColorFactor", where),
-                          checked(pbr.baseColorFactor[1], 0, 1, "baseColorFactor", where),
-                          checked(pbr.baseColorFactor[2], 0, 1, "baseColorFactor", where));
-        m.metallic = checked(pbr.metallicFactor, 0, 1, "metallicFactor", where);
-        m.roughness = checked(pbr.roughnessFactor, 0, 1, "roughnessFactor", where);
-        m.transmission = checked(extension_number(mat.extensions, "KHR_materials_transmission", "transmissionFactor", 0),
-                                 0, 1, "transmissionFactor", where);
-        m.ior = checked(extension_number(mat.extensions, "KHR_materials_ior", "ior", 1.5), 1, FLT_MAX, "ior", where);
-        float strength = checked(extension_number(mat.extensions, "KHR_materials_emissive_strength",
-                                                  "emissiveStrength", 1),
-                                 0, FLT_MAX, "emissiveStrength", where);
-        m.emission = v3(checked(mat.emissiveFactor[0], 0, 1, "emissiveFactor", where) * strength,
-                        checked(mat.emissiveFactor[1], 0, 1, "emissiveFactor", where) * strength,
-                        checked(mat.emissiveFactor[2], 0, 1, "emissiveFactor", where) * strength);
+        std::string label = material_label(i);
+        float base[3];  // in order, so the warning quotes the first value clamped
+        for (int k = 0; k < 3; k++) base[k] = static_cast<float>(checked(pbr.baseColorFactor[k], 0, 1, "baseColorFactor", label));
+        m.base_color = v3(base[0], base[1], base[2]);
+        m.metallic = static_cast<float>(checked(pbr.metallicFactor, 0, 1, "metallicFactor", label));
+        m.roughness = static_cast<float>(checked(pbr.roughnessFactor, 0, 1, "roughnessFactor", label));
+        m.transmission = static_cast<float>(
+            checked(extension_number(mat.extensions, "KHR_materials_transmission", "transmissionFactor", 0), 0, 1,
+                    "KHR_materials_transmission transmissionFactor", label));
+        m.ior = static_cast<float>(
+            checked(extension_number(mat.extensions, "KHR_materials_ior", "ior", 1.5), 1, FLT_MAX, "KHR_materials_ior ior", label));
+        double strength = checked(extension_number(mat.extensions, "KHR_materials_emissive_strength", "emissiveStrength", 1),
+                                  0, INFINITY, "KHR_materials_emissive_strength emissiveStrength", label);
+        double factor[3];
+        for (int k = 0; k < 3; k++) factor[k] = checked(mat.emissiveFactor[k], 0, 1, "emissiveFactor", label);
+        m.emission = emission_within_film(factor, strength, "emission", "emissiveFactor x emissiveStrength " + num(strength), label);
         m.double_sided = mat.doubleSided;
-        m.attenuation = volume_attenuation(mat.extensions, where);
-        m.alpha = checked(pbr.baseColorFactor[3], 0, 1, "baseColorFactor", where);
-        m.alpha_cutoff = checked(mat.alphaCutoff, 0, FLT_MAX, "alphaCutoff", where);
+        attenuation_.emplace_back();
+        volume_attenuation(mat.extensions, label, attenuation_.back().data());
+        m.alpha = static_cast<float>(checked(pbr.baseColorFactor[3], 0, 1, "baseColorFactor", label));
+        m.alpha_cutoff = static_cast<float>(checked(mat.alphaCutoff, 0, FLT_MAX, "alphaCutoff", label));
         if (mat.alphaMode == "MASK") m.alpha_mode = PM_ALPHA_MASK;
         else if (mat.alphaMode == "BLEND") m.alpha_mode = PM_ALPHA_BLEND;
         else if (mat.alphaMode != "OPAQUE")
-            warn(where + " has unknown alphaMode " + printable(mat.alphaMode) + "; treated as OPAQUE");
+            warn(label + " has unknown alphaMode " + printable(mat.alphaMode) + "; treated as OPAQUE");
         const std::array<TextureReference, kReferenceKinds> &refs = references_[i];
         TextureReference none;
         bool sets_ok = convert_reference(refs[kBaseColor], where, &m.base_color_texture, &m.base_color_texcoord,
@@ -1749,7 +1825,7 @@ void Loader::convert_materials() {
         sets_ok &= convert_reference(m.transmission > 0 ? refs[kTransmission] : none, where, &m.transmission_texture,
                                      &m.transmission_texcoord, &m.transmission_transform);
         sets_ok &= convert_reference(refs[kNormal], where, &m.normal_texture, &m.normal_texcoord, &m.normal_transform);
-        m.normal_scale = checked(mat.normalTexture.scale, -FLT_MAX, FLT_MAX, "normalTexture scale", where);
+        m.normal_scale = static_cast<float>(checked(mat.normalTexture.scale, -FLT_MAX, FLT_MAX, "normalTexture scale", label));
         if (m.normal_texture >= 0) tangents_needed_ = true;
         if (!sets_ok) note_ignored("texture coordinate sets above TEXCOORD_1 (TEXCOORD_0 is read instead)", name);
         materials_.push_back(m);
@@ -1776,6 +1852,13 @@ bool vertex_type_allowed(const AccessorLayout &l, VertexRole role, bool quantiza
     case VertexRole::kTexcoord: return (unsigned_int && l.normalized) || (quantization && (signed_int || unsigned_int));
     }
     return false;
+}
+
+// A NORMAL value that gives a direction (mesh space; the node's transform may still collapse it).
+bool usable_normal(const float *n) {
+    double length = std::sqrt(static_cast<double>(n[0]) * n[0] + static_cast<double>(n[1]) * n[1] +
+                              static_cast<double>(n[2]) * n[2]);
+    return length > 0 && std::isfinite(length);
 }
 
 int attribute(const tinygltf::Primitive &prim, const char *name) {
@@ -1829,6 +1912,25 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
             fail(std::string(o.name) + " count " + str(l.count) + " != POSITION count " + str(vertices) + " (" + where + ")");
         *o.into = read_accessor<float>(l, a);
     }
+    // glTF: TANGENT's w is +1 or -1. Any other is read by its sign (0 and NaN as +1), counted in
+    // one warning; only where a normal map reads it.
+    bool mapped = !out.tangents.empty() && prim.material >= 0 && materials_[prim.material].normal_texture >= 0;
+    uint64_t odd_w = 0;
+    size_t first_odd = 0;
+    float first_w = 0;
+    for (size_t i = 0; mapped && i < vertices; i++) {
+        float &w = out.tangents[4 * i + 3];
+        if (w == 1.f || w == -1.f) continue;
+        if (odd_w++ == 0) {
+            first_odd = i;
+            first_w = w;
+        }
+        w = w < 0 ? -1.f : 1.f;
+    }
+    if (odd_w)
+        warn(mesh_label(mesh, index) + " TANGENT: " + str(odd_w) + " of its " + str(vertices) +
+             " w values are not +1 or -1 (first " + num(first_w) + " at vertex " + str(first_odd) +
+             "); read by their sign, 0 or NaN as +1");
 
     std::vector<uint32_t> sequence;
     if (prim.indices >= 0) {
@@ -1867,6 +1969,26 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
             out.corners.insert(out.corners.end(), tri, tri + 3);
         }
     }
+    // glTF gives a primitive without NORMAL flat normals; a NORMAL of zero length or not finite
+    // says as little, so each triangle with such a corner is flat too (its own three vertices
+    // with the face normal): the same shading as without NORMAL, where the file gives nothing.
+    if (!out.normals.empty()) {
+        uint64_t unusable = 0;
+        size_t first = 0;
+        for (size_t i = 0; i < vertices; i++)
+            if (!usable_normal(&out.normals[3 * i]) && unusable++ == 0) first = i;
+        for (size_t t = 0; unusable && t < out.corners.size(); t += 3)
+            for (int k = 0; k < 3; k++)
+                if (!usable_normal(&out.normals[3 * out.corners[t + k]])) {
+                    out.flat_triangles++;
+                    break;
+                }
+        if (unusable)
+            warn(mesh_label(mesh, index) + " NORMAL: " + str(unusable) + " of its " + str(vertices) +
+                 " values have zero length or are not finite (first (" + num(out.normals[3 * first]) + ", " +
+                 num(out.normals[3 * first + 1]) + ", " + num(out.normals[3 * first + 2]) + ") at vertex " + str(first) +
+                 "); the " + str(out.flat_triangles) + " triangle(s) with such a corner get flat normals, as without NORMAL");
+    }
     return out;
 }
 
@@ -1878,7 +2000,7 @@ const DecodedMesh &Loader::decoded_mesh(int mesh) {
             const DecodedPrimitive &prim = d->primitives.back();
             uint64_t tris = prim.corners.size() / 3;
             d->triangles += tris;
-            d->vertices += prim.normals.empty() ? 3 * tris : prim.positions.size() / 3;
+            d->vertices += prim.normals.empty() ? 3 * tris : prim.positions.size() / 3 + 3 * prim.flat_triangles;
         }
         meshes_[mesh] = std::move(d);
     }
@@ -1906,8 +2028,12 @@ void Loader::instance_mesh(const Instance &instance) {
             normals.resize(count);
             for (size_t i = 0; i < count; i++) {
                 const double n[3] = {prim.normals[3 * i], prim.normals[3 * i + 1], prim.normals[3 * i + 2]};
-                normals[i] = world.unit(n, true);  // (0,0,0) marks a normal to repair from its face
+                normals[i] = world.unit(n, true);  // (0,0,0): no direction, its triangles are flat
+                if (v3_is_black(normals[i]) && usable_normal(&prim.normals[3 * i]) && collapsed_normals_++ == 0)
+                    first_collapsed_ = where;
             }
+            // no direction anywhere: exactly the primitive without NORMAL, without unused shared vertices
+            flat = std::all_of(normals.begin(), normals.end(), [](vec3 n) { return v3_is_black(n); });
         }
         bool has_uv = !prim.uvs.empty(), has_uv1 = !prim.uvs1.empty();
         any_uv_ = any_uv_ || has_uv;
@@ -1984,28 +2110,26 @@ void Loader::instance_mesh(const Instance &instance) {
                     hand = -sign;
                 }
             }
-            if (!du_sum.empty())
+            // without NORMAL, or with a corner whose NORMAL gives no direction: flat, on vertices of its own
+            bool flat_triangle = flat || v3_is_black(normals[c[0]]) || v3_is_black(normals[c[1]]) || v3_is_black(normals[c[2]]);
+            if (!du_sum.empty() && !flat_triangle)
                 for (int k = 0; k < 3; k++) {
                     du_sum[c[k]] = v3_add(du_sum[c[k]], du);
                     hand_sum[c[k]] += hand * length;
                 }
             for (int k = 0; k < 3; k++) {
-                if (flat) {
+                if (flat_triangle) {
                     indices_.push_back(static_cast<uint32_t>(positions_.size()));
                     append_vertex(c[k], face);
                     if (mapped && !given_tangents) set_tangent(positions_.size() - 1, du, face, hand < 0 ? -1.f : 1.f);
                 } else {
                     indices_.push_back(base + c[k]);
-                    if (v3_is_black(normals_[base + c[k]])) {
-                        normals_[base + c[k]] = face;
-                        repaired_normals_++;
-                    }
                 }
             }
             triangle_material_.push_back(prim.material);
         }
-        if (!flat)  // vertices no triangle repaired keep a unit normal
-            for (size_t i = base; i < positions_.size(); i++)
+        if (!flat)  // a shared vertex without a direction serves no triangle; it still holds a unit normal
+            for (size_t i = base; i < base + count; i++)
                 if (v3_is_black(normals_[i])) normals_[i] = v3(0, 0, 1);
         for (size_t i = 0; i < du_sum.size(); i++) set_tangent(base + i, du_sum[i], normals_[base + i], hand_sum[i] < 0 ? -1.f : 1.f);
     }
@@ -2093,11 +2217,18 @@ void Loader::choose_frame() {
             frame.m[12 + r] = -frame_center_[r] * frame_scale_;
         }
         for (Mat4 &w : world_) w = multiply(frame, w);
-        for (pm_material &m : materials_) {
-            double k = 1 / frame_scale_;
-            m.attenuation = v3(static_cast<float>(m.attenuation.x * k), static_cast<float>(m.attenuation.y * k),
-                               static_cast<float>(m.attenuation.z * k));
+    }
+    // attenuation per unit length: divided by the frame's scale, in double before it becomes a float
+    for (size_t i = 0; i < materials_.size(); i++) {
+        float sigma[3];
+        for (int k = 0; k < 3; k++) {
+            double framed = attenuation_[i][k] / frame_scale_;
+            if (framed > FLT_MAX) note(material_label(i), "KHR_materials_volume attenuation", num(framed) +
+                                       " per unit length (-ln attenuationColor / attenuationDistance) clamped to " +
+                                       num(FLT_MAX));
+            sigma[k] = static_cast<float>(std::min<double>(framed, FLT_MAX));
         }
+        materials_[i].attenuation = v3(sigma[0], sigma[1], sigma[2]);
     }
     for (const Placed &p : placed_) {
         WorldTransform world(world_[p.node]);
@@ -2170,10 +2301,10 @@ void Loader::load(pm_scene *out) {
 
     if (degenerate_) warn("skipped " + str(degenerate_) + " degenerate triangle(s) (zero area or non-finite normal)");
     if (skipped_prims_) warn("skipped " + str(skipped_prims_) + " points/lines primitive(s) (only triangles render)");
-    if (repaired_normals_)
-        warn("replaced " + str(repaired_normals_) + " zero or non-finite vertex normal(s) by face normals");
-    if (clamped_values_)
-        warn("clamped " + str(clamped_values_) + " out-of-range material or light value(s) into their valid range");
+    if (collapsed_normals_)
+        warn(str(collapsed_normals_) + " NORMAL value(s) lost their direction to their node's transform (first: " +
+             first_collapsed_ + "): their triangles get flat normals, as without NORMAL");
+    finish_notes();
     emit(out);
 }
 

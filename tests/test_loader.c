@@ -1,4 +1,4 @@
-/* test_loader.c: the glTF loader on small files written here: transforms, winding, normals, indices, strips, textures (sets, transforms, data textures), quantized meshes, cameras, lights, materials, rejections.
+/* test_loader.c: the glTF loader on small files written here: transforms, winding, normals, indices, strips, textures (sets, transforms, data textures), quantized meshes, cameras, lights (spot cones), materials, clamp and repair warnings naming their object and field, rejections.
  *
  * Each test builds a glTF document in C (one mesh whose primitives' data go into a single base64
  * data: buffer), writes it into a mkdtemp folder, loads it with pm_load_gltf and checks the
@@ -15,6 +15,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "defaults.h"
 #include "loader.h"
 #include "testing.h"
 
@@ -203,6 +204,39 @@ static void check_rejected(const char *name, const char *expect) {
     CHECK(strchr(err, '\n') == NULL, "%s: error has a newline: %s", name, err);
     CHECK(scene_is_empty(&s), "%s: scene not left zeroed after a failure", name);
 }
+
+/* load_ok with the warnings printed (quiet off) and caught from stderr into `warnings`, a line each. */
+static bool load_warned(const char *name, pm_scene *s, pm_load_report *report, char *warnings, size_t size) {
+    char path[256], log[256], err[512];
+    model_path(name, path, sizeof path);
+    snprintf(log, sizeof log, "%s/warnings.txt", test_dir);
+    FILE *f = fopen(log, "w+");
+    if (!f) abort();
+    fflush(stderr);
+    int saved = dup(2);
+    if (saved < 0 || dup2(fileno(f), 2) < 0) abort();
+    bool ok = pm_load_gltf(path, false, s, report, err, sizeof err);
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    rewind(f);
+    size_t n = fread(warnings, 1, size - 1, f);
+    warnings[n] = '\0';
+    fclose(f);
+    CHECK(ok, "%s failed to load: %s", name, err);
+    return ok;
+}
+
+/* Lines in text. */
+static unsigned line_count(const char *text) {
+    unsigned n = 0;
+    for (; *text; text++) n += *text == '\n';
+    return n;
+}
+
+/* A warning line holding `expect` must be in `warnings`. */
+#define CHECK_WARNED(warnings, expect) \
+    CHECK(strstr((warnings), (expect)) != NULL, "no warning says \"%s\"; got:\n%s", (expect), (warnings))
 
 static void write_text(const char *name, const char *content) {
     char path[256];
@@ -393,6 +427,86 @@ static void test_flat_normals(void) {
     }
 }
 
+/* glTF gives a primitive without NORMAL flat normals; a NORMAL of zero length or not finite gives
+ * no more, so a triangle with such a corner is flat too. The box with shared corners and all-zero
+ * normals is the box without NORMAL, vertex for vertex (each shared corner took one face's normal:
+ * its image was 0.65 of the box's). */
+static void test_unusable_normals(void) {
+    static const float corners[24] = {-1, -1, -1, 1, -1, -1, -1, 1, -1, 1, 1, -1, -1, -1, 1, 1, -1, 1, -1, 1, 1, 1, 1, 1};
+    static const uint32_t box[36] = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
+                                     2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
+    static const float zeros[24] = {0};
+    prim_spec bare = {corners, 8, NULL, NULL, 0, box, 36, 5123, -1, -1};
+    prim_spec zero = {corners, 8, zeros, NULL, 0, box, 36, 5123, -1, -1};
+    write_model("box_bare.gltf", &bare, 1, NULL);
+    write_model("box_zero_normals.gltf", &zero, 1, NULL);
+    pm_scene a, b;
+    pm_load_report ra, rb;
+    char warnings[4096];
+    if (load_ok("box_bare.gltf", &a, &ra)) {
+        if (load_warned("box_zero_normals.gltf", &b, &rb, warnings, sizeof warnings)) {
+            CHECK(a.triangle_count == 12 && b.triangle_count == 12 && a.vertex_count == 36 && b.vertex_count == 36,
+                  "triangles %u %u, vertices %u %u (want 12, 36: flat, three vertices a triangle)", a.triangle_count,
+                  b.triangle_count, a.vertex_count, b.vertex_count);
+            int differ = 0;
+            for (uint32_t i = 0; a.triangle_count == b.triangle_count && i < 3 * a.triangle_count; i++) {
+                vec3 na = a.normals[a.indices[i]], nb = b.normals[b.indices[i]], pa = a.positions[a.indices[i]],
+                     pb = b.positions[b.indices[i]];
+                differ += !(na.x == nb.x && na.y == nb.y && na.z == nb.z && pa.x == pb.x && pa.y == pb.y && pa.z == pb.z);
+                vec3 g = tri_geometric_normal(&b, i / 3);
+                differ += v3_length(v3_sub(nb, g)) > 1e-6f;
+            }
+            CHECK(differ == 0, "%d corners differ from the box without NORMAL or from their face", differ);
+            CHECK(rb.warnings == 1 && line_count(warnings) == 1, "one warning, got %u:\n%s", rb.warnings, warnings);
+            CHECK_WARNED(warnings, "mesh 0 primitive 0 NORMAL: 8 of its 8 values have zero length or are not finite (first (0, 0, 0) at vertex 0)");
+            CHECK_WARNED(warnings, "the 12 triangle(s) with such a corner get flat normals, as without NORMAL");
+            pm_scene_free(&b);
+        }
+        CHECK(ra.warnings == 0, "the box without NORMAL warns %u times", ra.warnings);
+        pm_scene_free(&a);
+    }
+
+    /* a quad whose normals lean to +y, vertex 3's not a number: triangle 0-1-2 keeps the given
+     * normals on shared vertices, triangle 0-2-3 is flat (+z) on three vertices of its own */
+    static const float quad[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+    static const uint32_t two[6] = {0, 1, 2, 0, 2, 3};
+    float leaning[12] = {0, 0.6f, 0.8f, 0, 0.6f, 0.8f, 0, 0.6f, 0.8f, NAN, 0, 1};
+    prim_spec mixed = {quad, 4, leaning, NULL, 0, two, 6, 5123, -1, -1};
+    write_model("quad_nan_normal.gltf", &mixed, 1, NULL);
+    if (load_warned("quad_nan_normal.gltf", &b, &rb, warnings, sizeof warnings)) {
+        CHECK(b.triangle_count == 2 && b.vertex_count == 7, "triangles %u vertices %u (want 2, 4 shared + 3)", b.triangle_count,
+              b.vertex_count);
+        if (b.triangle_count == 2) {
+            for (int k = 0; k < 3; k++) {
+                CHECK_VEC(b.normals[b.indices[k]], 0, 0.6, 0.8, 1e-6, "smooth triangle keeps NORMAL");
+                CHECK(b.indices[k] == two[k], "smooth triangle corner %d on vertex %u, want %u", k, b.indices[k], two[k]);
+                CHECK_VEC(b.normals[b.indices[3 + k]], 0, 0, 1, 1e-6, "flat triangle's face normal");
+                CHECK(b.indices[3 + k] >= 4, "flat triangle corner %d on shared vertex %u", k, b.indices[3 + k]);
+                CHECK_VEC(tri_vertex(&b, 1, k), quad[3 * two[3 + k]], quad[3 * two[3 + k] + 1], 0, 0, "flat corner position");
+            }
+        }
+        CHECK(rb.warnings == 1, "warnings %u:\n%s", rb.warnings, warnings);
+        CHECK_WARNED(warnings, "mesh 0 primitive 0 NORMAL: 1 of its 4 values have zero length or are not finite (first (nan, 0, 1) at vertex 3)");
+        CHECK_WARNED(warnings, "the 1 triangle(s) with such a corner get flat normals");
+        pm_scene_free(&b);
+    }
+
+    /* a usable normal the node's transform collapses: scale (1,0,1) takes (1,0,0) to nothing, so
+     * the triangle in y = 0 is flat (+y); the warning names the instance */
+    static const float floor_tri[9] = {0, 0, 0, 0, 0, 1, 1, 0, 0};
+    static const float sideways[9] = {1, 0, 0, 0, 1, 0, 0, 1, 0};
+    prim_spec collapsing = {floor_tri, 3, sideways, NULL, 0, NULL, 0, 0, -1, -1};
+    doc_spec squash = {"[{\"mesh\":0,\"scale\":[1,0,1]}]", NULL, NULL, NULL};
+    write_model("collapsed_normal.gltf", &collapsing, 1, &squash);
+    if (load_warned("collapsed_normal.gltf", &b, &rb, warnings, sizeof warnings)) {
+        CHECK(b.triangle_count == 1, "triangles %u", b.triangle_count);
+        for (int k = 0; b.triangle_count == 1 && k < 3; k++) CHECK_VEC(b.normals[b.indices[k]], 0, 1, 0, 1e-6, "flat +y");
+        CHECK(rb.warnings == 1, "warnings %u:\n%s", rb.warnings, warnings);
+        CHECK_WARNED(warnings, "1 NORMAL value(s) lost their direction to their node's transform (first: mesh 0 primitive 0 on node 0)");
+        pm_scene_free(&b);
+    }
+}
+
 /* A 1x1 RGB PNG with 16-bit channels (written with Python's zlib; stb_image_write only writes 8-bit). */
 static const unsigned char png_16bit[72] = {
     0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48, 0x44, 0x52, 0x00, 0x00,
@@ -569,6 +683,93 @@ static void test_lights(void) {
         CHECK_NEAR(plain->cos_outer, cos(PM_PI / 4), 0, 1e-6, "default outerConeAngle pi/4");
         CHECK_VEC(plain->intensity, 1, 1, 1, 0, "default color and intensity");
     }
+    pm_scene_free(&s);
+}
+
+/* KHR_lights_punctual asks 0 <= innerConeAngle < outerConeAngle <= pi/2. A cone of outer angle 0
+ * or less is empty: the light is dropped; outer above pi/2 and inner below 0 are clamped; inner at
+ * or above outer becomes outer (a hard edge). Each says so in a line naming the light and field. */
+static void test_spot_cones(void) {
+    prim_spec tri = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1};
+    text nodes = {0};
+    text_append(&nodes, "[{\"mesh\":0}");
+    for (int i = 0; i < 6; i++) text_append(&nodes, ",{\"extensions\":{\"KHR_lights_punctual\":{\"light\":%d}}}", i);
+    text_append(&nodes, "]");
+    doc_spec doc = {nodes.data, "[0,1,2,3,4,5,6]", NULL,
+                    "\"extensionsUsed\":[\"KHR_lights_punctual\"],"
+                    "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":["
+                    "{\"type\":\"spot\",\"name\":\"shut\",\"spot\":{\"outerConeAngle\":0}},"
+                    "{\"type\":\"spot\",\"spot\":{\"innerConeAngle\":0.2,\"outerConeAngle\":2}},"
+                    "{\"type\":\"spot\",\"spot\":{\"innerConeAngle\":0.5,\"outerConeAngle\":0.5}},"
+                    "{\"type\":\"spot\",\"spot\":{\"innerConeAngle\":-0.1,\"outerConeAngle\":0.4}},"
+                    "{\"type\":\"spot\",\"spot\":{\"outerConeAngle\":-1}},"
+                    "{\"type\":\"spot\",\"spot\":{\"innerConeAngle\":0.1,\"outerConeAngle\":0.3}}]}},"};
+    write_model("spot_cones.gltf", &tri, 1, &doc);
+    free(nodes.data);
+    pm_scene s;
+    pm_load_report r;
+    char warnings[4096];
+    if (!load_warned("spot_cones.gltf", &s, &r, warnings, sizeof warnings)) return;
+    CHECK(s.light_count == 4, "light_count %u: the two empty cones are dropped, four stay", s.light_count);
+    if (s.light_count == 4) {
+        const pm_light *l = s.lights;
+        CHECK_NEAR(l[0].cos_outer, 0, 0, 1e-7, "outer 2 clamped to pi/2");
+        CHECK_NEAR(l[0].cos_inner, cos(0.2), 0, 1e-6, "inner 0.2 kept");
+        CHECK(l[1].cos_inner == l[1].cos_outer && fabs(l[1].cos_outer - cos(0.5)) < 1e-6, "inner = outer = 0.5: cos %g %g",
+              l[1].cos_inner, l[1].cos_outer);
+        CHECK_NEAR(l[2].cos_inner, 1, 0, 0, "inner -0.1 clamped to 0");
+        CHECK_NEAR(l[2].cos_outer, cos(0.4), 0, 1e-6, "outer 0.4 kept");
+        CHECK_NEAR(l[3].cos_inner, cos(0.1), 0, 1e-6, "valid cone inner");
+        CHECK_NEAR(l[3].cos_outer, cos(0.3), 0, 1e-6, "valid cone outer");
+    }
+    CHECK(r.warnings == 5 && line_count(warnings) == 5, "5 warnings, got %u:\n%s", r.warnings, warnings);
+    CHECK_WARNED(warnings, "KHR_lights_punctual light 0 (shut) spot.outerConeAngle 0 is not above 0: its cone is empty and it emits no light; dropped");
+    CHECK_WARNED(warnings, "KHR_lights_punctual light 1 spot.outerConeAngle 2 clamped to 1.5708");
+    CHECK_WARNED(warnings, "KHR_lights_punctual light 2 spot.innerConeAngle 0.5 is not below outerConeAngle 0.5: set to it (a hard-edged cone)");
+    CHECK_WARNED(warnings, "KHR_lights_punctual light 3 spot.innerConeAngle -0.1 clamped to 0");
+    CHECK_WARNED(warnings, "KHR_lights_punctual light 4 spot.outerConeAngle -1 is not above 0");
+    CHECK(strstr(warnings, "light 5") == NULL, "the valid cone warns:\n%s", warnings);
+    pm_scene_free(&s);
+}
+
+/* Every clamped value is warned in one line naming its object and field, once per object and
+ * field (more values of the same field are counted in that line); emission and intensities
+ * above PM_MAX_EMISSION are brought down to it in the loader, hue kept, with such a line. */
+static void test_clamp_warnings(void) {
+    prim_spec prims[2] = {{unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, 0}, {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, 1}};
+    doc_spec doc = {"[{\"mesh\":0},{\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},"
+                    "{\"translation\":[0,0,2],\"extensions\":{\"KHR_lights_punctual\":{\"light\":1}}}]",
+                    "[0,1,2]",
+                    "[{\"name\":\"Lamp\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[1.5,2,0.5,1],\"roughnessFactor\":2},"
+                    "\"emissiveFactor\":[1,0.5,0],\"extensions\":{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":1e40}}},"
+                    "{\"pbrMetallicRoughness\":{\"metallicFactor\":-1}}]",
+                    "\"extensionsUsed\":[\"KHR_lights_punctual\",\"KHR_materials_emissive_strength\"],"
+                    "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":["
+                    "{\"type\":\"directional\",\"name\":\"Sun\",\"intensity\":-3},"
+                    "{\"type\":\"point\",\"color\":[2,0.5,0.25],\"intensity\":1e30}]}},"};
+    write_model("clamps.gltf", prims, 2, &doc);
+    pm_scene s;
+    pm_load_report r;
+    char warnings[4096];
+    if (!load_warned("clamps.gltf", &s, &r, warnings, sizeof warnings)) return;
+    CHECK(r.warnings == 7 && line_count(warnings) == 7, "7 warnings, got %u:\n%s", r.warnings, warnings);
+    CHECK_WARNED(warnings, "material 0 (Lamp) baseColorFactor 1.5 clamped to 1 (and 1 more of its values)\n");
+    CHECK_WARNED(warnings, "material 0 (Lamp) roughnessFactor 2 clamped to 1\n");
+    CHECK_WARNED(warnings, "material 0 (Lamp) emission 1e+40 (emissiveFactor x emissiveStrength 1e+40) clamped to 1e+20");
+    CHECK_WARNED(warnings, "material 1 metallicFactor -1 clamped to 0\n");
+    CHECK_WARNED(warnings, "KHR_lights_punctual light 0 (Sun) intensity -3 clamped to 0\n");
+    CHECK_WARNED(warnings, "KHR_lights_punctual light 1 color 2 clamped to 1\n");
+    CHECK_WARNED(warnings, "KHR_lights_punctual light 1 intensity 1e+30 (intensity 1e+30 x color) clamped to 1e+20");
+    if (s.material_count == 2 && s.light_count == 2) {
+        CHECK_VEC(s.materials[0].base_color, 1, 1, 0.5, 0, "base colour clamped");
+        CHECK_VEC(s.materials[0].emission, PM_MAX_EMISSION, 0.5 * PM_MAX_EMISSION, 0, 1e-6 * PM_MAX_EMISSION, "emission, hue kept");
+        CHECK(s.materials[1].metallic == 0, "metallic %g", s.materials[1].metallic);
+        CHECK_VEC(s.lights[0].intensity, 0, 0, 0, 0, "negative intensity clamped to 0");
+        CHECK_VEC(s.lights[1].intensity, PM_MAX_EMISSION, 0.5 * PM_MAX_EMISSION, 0.25 * PM_MAX_EMISSION, 1e-6 * PM_MAX_EMISSION,
+                  "intensity, hue kept");
+    } else CHECK(0, "materials %u lights %u", s.material_count, s.light_count);
+    pm_scene_finalize(&s, false, NULL);
+    CHECK(s.clamped_emission == 0, "set-up finds %u values still to clamp", s.clamped_emission);
     pm_scene_free(&s);
 }
 
@@ -1172,6 +1373,43 @@ static void test_normal_maps(void) {
     pm_scene_free(&s);
 }
 
+/* glTF: TANGENT's w is +1 or -1. Others are read by their sign (0 and NaN as +1), in one warning
+ * per primitive that counts them. */
+static void test_tangent_w(void) {
+    static const unsigned char flat_texel[1][16] = {{128, 128, 255, 255}};
+    static const int width[1] = {1};
+    static const float uv0[8] = {0, 1, 1, 1, 1, 0, 0, 0};
+    static const float normals[12] = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+    static const float tangents[16] = {1, 0, 0, 0, 1, 0, 0, 0.5f, 1, 0, 0, -0.5f, 1, 0, 0, -1};
+    blob *b = calloc(1, sizeof *b);
+    text body = {0};
+    int pos = blob_accessor(b, quad_positions, sizeof quad_positions, 4, 5126, "VEC3", 0);
+    int t0 = blob_accessor(b, uv0, sizeof uv0, 4, 5126, "VEC2", 0);
+    int ix = blob_accessor(b, quad_indices, sizeof quad_indices, 6, 5123, "SCALAR", 0);
+    int nrm = blob_accessor(b, normals, sizeof normals, 4, 5126, "VEC3", 0);
+    int tan = blob_accessor(b, tangents, sizeof tangents, 4, 5126, "VEC4", 0);
+    append_strip_images(&body, flat_texel, width, 1);
+    text_append(&body, "\"materials\":[{\"normalTexture\":{\"index\":0}}],\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+                       "\"meshes\":[{\"name\":\"panel\",\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d,"
+                       "\"TEXCOORD_0\":%d,\"TANGENT\":%d},\"indices\":%d,\"material\":0}]}]",
+                pos, nrm, t0, tan, ix);
+    write_blob_model("tangent_w.gltf", b, body.data);
+    free(body.data);
+    free(b);
+    pm_scene s;
+    pm_load_report r;
+    char warnings[4096];
+    if (!load_warned("tangent_w.gltf", &s, &r, warnings, sizeof warnings)) return;
+    static const float want_w[4] = {1, 1, -1, -1};
+    if (s.vertex_count == 4 && s.tangents)
+        for (int i = 0; i < 4; i++) CHECK(s.tangents[4 * i + 3] == want_w[i], "vertex %d: w %g, want %g", i, s.tangents[4 * i + 3], want_w[i]);
+    else CHECK(0, "vertices %u tangents %p", s.vertex_count, (void *)s.tangents);
+    CHECK(r.warnings == 1 && line_count(warnings) == 1, "one warning, got %u:\n%s", r.warnings, warnings);
+    CHECK_WARNED(warnings, "mesh 0 (panel) primitive 0 TANGENT: 3 of its 4 w values are not +1 or -1 (first 0 at vertex 0); "
+                           "read by their sign, 0 or NaN as +1\n");
+    pm_scene_free(&s);
+}
+
 /* ---------------------------------------------------------------- main */
 
 /* Inputs pmview does not render are counted (stat load ignored_inputs) and warned once per kind;
@@ -1411,12 +1649,36 @@ static void test_any_scale(void) {
             CHECK_NEAR(s.cameras[0].znear, fmin(0.5 * r.unit_scale, FLT_MAX), 1e-6, 0, "znear framed with the scene");
             CHECK_VEC(s.lights[0].position, 0, 0, 2 * k, 1e-6 * k, "light framed with the scene");
             /* the irradiance the light gives the triangle, 8 / (2 scale)^2, is kept: 8 unit_scale^2
-             * over the framed distance squared; beyond a float it is clamped (with a warning) */
+             * over the framed distance squared; beyond what a film can sum it is clamped (with a warning) */
             double want = 8 * r.unit_scale * r.unit_scale;
-            if (want <= FLT_MAX) CHECK_NEAR(s.lights[0].intensity.x, want, 1e-6, 1e-44, "point light irradiance kept");
-            else CHECK(s.lights[0].intensity.x == FLT_MAX && r.warnings >= 1, "scale %g: intensity %g, want FLT_MAX and a warning",
-                       scales[i], s.lights[0].intensity.x);
+            if (want <= PM_MAX_EMISSION) CHECK_NEAR(s.lights[0].intensity.x, want, 1e-6, 1e-44, "point light irradiance kept");
+            else CHECK(s.lights[0].intensity.x == PM_MAX_EMISSION && r.warnings >= 1,
+                       "scale %g: intensity %g, want PM_MAX_EMISSION and a warning", scales[i], s.lights[0].intensity.x);
         } else CHECK(0, "scale %g: cameras %u lights %u", scales[i], s.camera_count, s.light_count);
+        pm_scene_free(&s);
+    }
+
+    /* The light scaled with the scene, 8 scale^2 (the same irradiance on the triangle at any
+     * scale), is 8 x (scene units per triangle unit)^2 once framed: the framing is applied in
+     * double before any float or clamp (8e76 became FLT_MAX first, 1e-60 of the irradiance, and 8e-80 became 0). */
+    for (size_t i = 0; i < sizeof scales / sizeof scales[0]; i++) {
+        char nodes[512], extra[512];
+        snprintf(nodes, sizeof nodes,
+                 "[{\"scale\":[%.17g,%.17g,%.17g],\"children\":[1,2]},{\"mesh\":0},"
+                 "{\"translation\":[0,0,2],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}]",
+                 scales[i], scales[i], scales[i]);
+        snprintf(extra, sizeof extra,
+                 "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"spot\",\"spot\":{},\"intensity\":%.17g}]}},",
+                 8 * scales[i] * scales[i]);
+        doc_spec doc = {nodes, NULL, NULL, extra};
+        prim_spec tri = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, -1};
+        write_model("scaled_light.gltf", &tri, 1, &doc);
+        pm_scene s;
+        pm_load_report r;
+        if (!load_ok("scaled_light.gltf", &s, &r)) continue;
+        double k = r.unit_scale * scales[i];
+        CHECK(s.light_count == 1 && r.warnings == 0, "scale %g: lights %u warnings %u", scales[i], s.light_count, r.warnings);
+        if (s.light_count == 1) CHECK_NEAR(s.lights[0].intensity.x, 8 * k * k, 1e-6, 0, "a light scaled with the scene");
         pm_scene_free(&s);
     }
 
@@ -1532,9 +1794,12 @@ int main(void) {
     test_index_types();
     test_strips_and_fans();
     test_flat_normals();
+    test_unusable_normals();
     test_texcoords_and_texture();
     test_cameras();
     test_lights();
+    test_spot_cones();
+    test_clamp_warnings();
     test_materials();
     test_ignored_inputs();
     test_texcoord_sets();
@@ -1542,6 +1807,7 @@ int main(void) {
     test_data_textures();
     test_mesh_quantization();
     test_normal_maps();
+    test_tangent_w();
     test_skips();
     test_sparse();
     test_rejections();
