@@ -23,6 +23,7 @@ typedef struct {
     size_t count, capacity;
     size_t bucket_count, bucket_capacity; /* bucket_count is a power of two */
     vec3 origin, upper;     /* the photons' bounds: a disc outside them finds nothing without a lookup */
+    int32_t top[3];         /* the cell of upper: every photon's cell lies in [0, top] on each axis */
     float cell, inv_cell;
 } pm_photon_grid;
 

@@ -209,7 +209,7 @@ static int parse_options(int argc, char **argv, options *o) {
         case 11: if (!parse_long(v, 0, 2000000000L, &n)) return usage_error("bad --photons '%s'", v); o->photons = n; break;
         case 12: if (!parse_long(v, 0, 2000000000L, &n)) return usage_error("bad --caustic-photons '%s'", v); o->caustic_photons = n; break;
         case 13: if (!parse_long(v, 1, 2048, &n)) return usage_error("bad --k '%s' (1 to 2048)", v); o->k = (int)n; break;
-        case 14: if (!parse_double(v, 1e-30, 1e30, &x)) return usage_error("bad --max-radius '%s' (> 0)", v); o->max_radius = x; break;
+        case 14: if (!parse_double(v, PM_MIN_RADIUS, PM_MAX_RADIUS, &x)) return usage_error("bad --max-radius '%s' (1e-18 to 1e18)", v); o->max_radius = x; break;
         case 15:
             if (!strcmp(v, "disc")) o->kernel = PM_KERNEL_DISC;
             else if (!strcmp(v, "gaussian")) o->kernel = PM_KERNEL_GAUSSIAN;
@@ -238,7 +238,7 @@ static int parse_options(int argc, char **argv, options *o) {
             break;
         case 18: if (strcmp(v, "photons")) return usage_error("unknown --view '%s' (photons)", v); o->view_photons = true; break;
         case 21: if (!parse_double(v, 1e-3, 0.999, &x)) return usage_error("bad --alpha '%s' (0.001 to 0.999)", v); o->alpha = x; break;
-        case 22: if (!parse_double(v, 1e-30, 1e30, &x)) return usage_error("bad --radius '%s' (> 0, scene units)", v); o->radius = x; break;
+        case 22: if (!parse_double(v, PM_MIN_RADIUS, PM_MAX_RADIUS, &x)) return usage_error("bad --radius '%s' (1e-18 to 1e18 scene units)", v); o->radius = x; break;
         case 28:
             if (!strcmp(v, "on")) o->caustic_statistics = false;
             else if (!strcmp(v, "off")) o->caustic_statistics = true;
@@ -753,6 +753,13 @@ int main(int argc, char **argv) {
     /* the options' lengths are in the file's units; the loader may have rescaled the scene */
     opt.radius *= report.unit_scale;
     opt.max_radius *= report.unit_scale;
+    if (opt.radius > PM_MAX_RADIUS || opt.max_radius > PM_MAX_RADIUS || (opt.radius > 0 && opt.radius < PM_MIN_RADIUS) ||
+        (opt.max_radius > 0 && opt.max_radius < PM_MIN_RADIUS)) {
+        fprintf(stderr, "pmview: %s: the file's units are scaled by %g: --radius or --max-radius is then outside 1e-18 to 1e18 scene units\n",
+                opt.scene_path, report.unit_scale);
+        pm_scene_free(&scene);
+        return 2;
+    }
 
     int exit_code = 0;
     pm_accel *accel = NULL;
