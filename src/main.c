@@ -394,8 +394,12 @@ static bool configure(const options *opt, const pm_scene *scene, const pm_accel 
 static double process_start; /* for the window's time to its first frame */
 
 static volatile sig_atomic_t interrupted_by;
+static pm_session *volatile signalled_session; /* its passes stop at the signal, not at the end of the iteration */
 
-static void on_signal(int sig) { interrupted_by = sig; }
+static void on_signal(int sig) {
+    interrupted_by = sig;
+    if (signalled_session) pm_session_cancel(signalled_session);
+}
 
 /* The snapshot's progress: a bar redrawn on a terminal, nothing otherwise (one summary at the end). */
 static void show_progress(bool tty, uint32_t done, long target, double elapsed, double budget, uint64_t photons) {
@@ -441,10 +445,12 @@ static uint64_t session_photons(pm_session *session) {
     return p ? pm_progressive_get_stats(p)->photons.emitted : pm_session_classic_photon_stats(session)->emitted;
 }
 
-/* Renders to --iterations or --time, then writes the file; SIGINT and SIGTERM end the loop after
- * the iteration under way, and the image so far is written before exiting 130 or 143. */
+/* Renders to --iterations or --time, then writes the file; SIGINT and SIGTERM cut the iteration
+ * under way short (at its next photon chunk or eye tile), and the image so far is written before
+ * exiting 130 or 143, whatever that iteration ran into. */
 static int run_snapshot(const options *opt, pm_session *session, const pm_reference_image *reference) {
     char err[1024];
+    signalled_session = session;
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
     bool tty = isatty(2) && !opt->quiet;
@@ -468,7 +474,7 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
     uint32_t logged = 0;
     /* --time and the reported render time count from here: the photon pass is part of what a
      * budget buys. A budget spent before the first iteration still gets that iteration. */
-    double start = pm_now_seconds();
+    double start = pm_now_seconds(), first_iteration = 0.0;
     uint64_t next_progress = 1;
     if (opt->time_limit > 0) pm_session_set_budget(session, start, opt->time_limit);
     while ((long)film->samples < target && !interrupted_by) {
@@ -479,7 +485,8 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
         double iteration_start = pm_now_seconds();
         bool iterated = pm_session_iterate(session, limit);
         rendered += pm_now_seconds() - iteration_start;
-        if (!iterated) {
+        if (first_iteration == 0.0) first_iteration = pm_now_seconds() - start;
+        if (!iterated && !interrupted_by) {
             fprintf(stderr, "%spmview: error: %s: out of memory (%s) in iteration %u\n", tty ? "\n" : "", opt->scene_path,
                     pm_memory_failure() ? pm_memory_failure() : "unknown", film->samples + 1);
             free(scratch);
@@ -511,8 +518,12 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
         }
     }
     if (tty) fputc('\n', stderr);
+    if (opt->time_limit > 0 && first_iteration > opt->time_limit && !interrupted_by && !opt->quiet)
+        fprintf(stderr, "pmview: note: --time %g s is shorter than the first iteration (%.2f s): a first pass over every pixel is always finished\n",
+                opt->time_limit, first_iteration);
     signal(SIGINT, SIG_DFL);
     signal(SIGTERM, SIG_DFL);
+    signalled_session = NULL;
     bool ok;
     if (pm_has_extension(opt->snapshot, ".png")) {
         pm_display display;

@@ -1,6 +1,7 @@
 /* photongrid.c: the hashed photon grid: counting sort by cell hash, and the fixed-radius gather over overlapped cells. */
 #include "photongrid.h"
 #include "memory.h"
+#include "parallel.h"
 
 #include <float.h>
 #include <stdlib.h>
@@ -71,8 +72,11 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
     size_t mask = buckets - 1;
     uint32_t *start = g->bucket_start;
     memset(start, 0, (buckets + 1) * sizeof *start);
-    /* counting sort: sizes, offsets, then each photon into its bucket's next slot */
+    /* counting sort: sizes, offsets, then each photon into its bucket's next slot. A sort is about
+     * 300 ns a photon (two cache misses), 30 s for the 100 million records of a room of albedo 1:
+     * the calling thread's cancel flag is looked at every 64k photons, and a cancelled build is empty. */
     for (size_t i = 0; i < count; i++) {
+        if ((i & 0xffff) == 0 && pm_parallel_cancelled()) return true;
         const float *q = photons[i].pos;
         start[bucket_of(cell_coord(q[0], g->origin.x, g->inv_cell), cell_coord(q[1], g->origin.y, g->inv_cell),
                         cell_coord(q[2], g->origin.z, g->inv_cell), mask) + 1]++;
@@ -82,6 +86,7 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
         if (start[b + 1]) g->occupied[b >> 6] |= 1ull << (b & 63);
     for (size_t b = 0; b < buckets; b++) start[b + 1] += start[b];
     for (size_t i = 0; i < count; i++) {
+        if ((i & 0xffff) == 0 && pm_parallel_cancelled()) return true;
         const float *q = photons[i].pos;
         size_t b = bucket_of(cell_coord(q[0], g->origin.x, g->inv_cell), cell_coord(q[1], g->origin.y, g->inv_cell),
                              cell_coord(q[2], g->origin.z, g->inv_cell), mask);
