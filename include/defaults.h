@@ -64,6 +64,8 @@
 #define PM_PPM_PROBE_PIXELS 1024           /* the noise probe that chooses them watches about this many pixels ... */
 #define PM_PPM_PROBE_ITERATIONS 8          /* ... over at least this many iterations of two eye passes first */
 #define PM_PPM_GATHER_PHOTONS 8.0          /* final gathering: the shared radius starts holding this many (each estimate is averaged over pixels and iterations) */
+#define PM_MAX_RADIUS 1e18                 /* --radius and --max-radius (scene units) at most: a disc query squares the radius in float */
+#define PM_MIN_RADIUS 1e-18                /* ... and at least: (FLT_MAX 3.4e38, FLT_MIN 1.2e-38), with room for the sums of squares */
 
 /* estimates stay on their side of the geometry (clip.h), in both photon modes */
 #define PM_CLIP_PROBES 4                   /* rays along a gather point's tangent plane that look for walls across its disc (each reaches r / cos(pi / this)) */

@@ -6,6 +6,15 @@
  * photon estimates at a first-hit diffuse surface (black until a photon pass supplies maps).
  * One iteration adds one sample per pixel to the film, on all threads, tile by tile; every
  * sample's random stream depends on (seed, iteration, pixel) only.
+ *
+ * A pass is cut short between tiles when the calling thread's cancel flag is set (parallel.h: a
+ * restart, a quit, a signal) or settings->deadline passes (--time at any image size). The tiles
+ * it traced are then marked in the film (pm_film_mark_ahead), whose resolve divides each pixel by
+ * its own sample count: pixels the cut pass reached and pixels it did not are each unbiased, and
+ * no sample is thrown away. Two passes are never cut by the deadline: a film's first pass (an
+ * image needs every pixel once, so a budget shorter than one pass gets that one whole pass, late,
+ * rather than a partly black image) and any pass over a film already ragged (a cut is the end of a
+ * run; such a pass is not cancelled either, since a pixel could then hold two samples more).
  */
 #ifndef PM_EYE_H
 #define PM_EYE_H
@@ -32,6 +41,7 @@ typedef struct {
     bool path_trace;          /* the path tracer (--mode pathtrace): maps are ignored, see pm_eye_iterate */
     const pm_shadow_map *shadow; /* shadow photons; NULL: every punctual light sample casts its shadow ray */
     bool unclipped;           /* classic estimates read their whole disc, through walls (no clip.h): only to measure what clipping mends */
+    double deadline;          /* CLOCK_MONOTONIC seconds (0 = none): tiles not started by then are left out (see above) */
 } pm_eye_settings;
 
 typedef struct {
@@ -105,11 +115,13 @@ void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, 
  * caller gathers this iteration's photons there while the points are still in cache, and no
  * per-pixel point array exists. pixels[k] is the film index of visible[k] (and gathered[k], NULL
  * without gather_points); an invalid point found no diffuse surface. The film's sample count is
- * left to the caller. */
+ * left to the caller: true when the pass reached every pixel; false when it was cut short (or
+ * failed), the pixels it reached then marked `reached` (PM_FILM_AHEAD_*: its sample, and the
+ * photon pass when visit updated their statistics). */
 typedef void (*pm_visible_points_fn)(void *ctx, const size_t *pixels, const pm_visible_point *visible,
                                      const pm_visible_point *gathered, size_t count, int thread);
-void pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
+bool pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                            uint32_t iteration, pm_film *film, bool gather_points, pm_visible_points_fn visit, void *ctx,
-                           pm_eye_stats *stats);
+                           unsigned reached, pm_eye_stats *stats);
 
 #endif

@@ -2,10 +2,12 @@
  *
  * A component the scene analysis rules out gets no buffer at all (sum[c] == NULL): it is
  * black by construction and costs no memory. The film stores sums of samples; every pixel
- * holds the same sample count. The progressive mode adds per-pixel photon statistics (slots,
- * each allocated only when the scene can use it). Everything that reads an image, the view,
- * the EXR writer, the error measures, goes through pm_film_resolve(): nothing else knows how
- * a mode accumulates.
+ * holds the same sample count, except after a pass cut short (a deadline, a cancel), which
+ * reached only some pixels: those hold one sample more, and the resolve divides each pixel by
+ * its own count, so neither kind of pixel is biased. The progressive mode adds per-pixel photon
+ * statistics (slots, each allocated only when the scene can use it). Everything that reads an
+ * image, the view, the EXR writer, the error measures, goes through pm_film_resolve(): nothing
+ * else knows how a mode accumulates.
  */
 #ifndef PM_FILM_H
 #define PM_FILM_H
@@ -32,13 +34,21 @@ typedef enum {
 } pm_ppm_slot;
 extern const pm_component pm_slot_component[PM_SLOT_COUNT];
 
+/* What a pixel a cut pass reached holds beyond the film's counts (bits of pm_film.ahead). */
+enum { PM_FILM_AHEAD_SAMPLE = 1, PM_FILM_AHEAD_PHOTON_PASS = 2 };
+
 typedef struct {
     int width, height;
     float *sum[PM_COMPONENT_COUNT]; /* 3*width*height floats each, row 0 = top; NULL = always black */
-    uint32_t samples;               /* samples per pixel accumulated so far (eye passes) */
-    uint32_t photon_passes;         /* the progressive mode's photon passes so far: what the statistics divide by */
+    uint32_t samples;               /* samples every pixel holds (eye passes that reached every pixel) */
+    uint32_t photon_passes;         /* the progressive mode's photon passes every pixel's statistics hold: what they divide by */
     pm_ppm_stat *ppm[PM_SLOT_COUNT];/* width*height each, or NULL: the progressive mode's photon statistics */
     uint64_t admitted;              /* bytes admitted against --max-memory for the buffers, given back by pm_film_free */
+    /* width*height PM_FILM_AHEAD_* bits (NULL in a film made by hand: never ragged): a pixel the
+     * cut pass reached holds one sample more than `samples`, and one photon pass more than
+     * `photon_passes` when the cut pass updated its statistics */
+    uint8_t *ahead;
+    bool ragged;                    /* a pass was cut: the end of a run, to be read or cleared, never passed over again */
 } pm_film;
 
 bool pm_film_init(pm_film *f, int width, int height, const bool component_enabled[PM_COMPONENT_COUNT]);
@@ -46,9 +56,17 @@ bool pm_film_init(pm_film *f, int width, int height, const bool component_enable
 bool pm_film_enable_ppm(pm_film *f, const bool slot_enabled[PM_SLOT_COUNT]);
 void pm_film_free(pm_film *f);
 void pm_film_clear(pm_film *f);
+/* A pass cut short reached the pixels [x0, x1) x [y0, y1): they hold `what` (PM_FILM_AHEAD_*)
+ * beyond the film's counts, and the film is ragged. */
+void pm_film_mark_ahead(pm_film *f, int x0, int y0, int x1, int y1, unsigned what);
+/* The samples pixel i holds (samples, or one more where a cut pass reached it). */
+uint32_t pm_film_samples_at(const pm_film *f, size_t pixel);
+/* How many pixels hold a sample more than f->samples (0 unless a pass was cut). */
+size_t pm_film_pixels_ahead(const pm_film *f);
 /* Radiance of one component into out (3*w*h floats): the mean of its samples plus, in the
- * progressive mode, tau / (pi r^2 photon passes) of each slot that feeds it; zeros for an absent
- * component. The one way an image leaves the film. */
+ * progressive mode, tau / (pi r^2 photon passes) of each slot that feeds it, each pixel by its
+ * own counts; zeros for an absent component and where a pixel holds nothing yet. The one way an
+ * image leaves the film. */
 void pm_film_resolve(const pm_film *f, pm_component c, float *out);
 /* The sum of all components (false, and zeros, when out of memory for the scratch buffer). */
 bool pm_film_resolve_total(const pm_film *f, float *out);

@@ -7,6 +7,7 @@
 #define PM_PARALLEL_H
 
 #include <stdatomic.h>
+#include <stdbool.h>
 #include <stddef.h>
 
 /* Calls fn(ctx, task, thread) for task in [0, count), on `threads` threads (the caller's one
@@ -16,6 +17,11 @@ void pm_parallel_for(int threads, size_t count, void (*fn)(void *ctx, size_t tas
  * true (NULL: never). A render session's worker sets it, so a restart or a quit is answered within
  * one task however long the pass; the work then left undone is discarded by the caller. */
 void pm_parallel_set_cancel(const atomic_bool *flag);
+/* The calling thread's flag (NULL: none), for work that also looks at it inside a long task (a
+ * photon chunk of long paths) or must tell a pass cut short from a finished one. */
+const atomic_bool *pm_parallel_get_cancel(void);
+/* Whether the calling thread's flag is set. */
+bool pm_parallel_cancelled(void);
 /* Number of online cores. */
 int pm_cpu_count(void);
 

@@ -23,11 +23,13 @@ typedef struct {
     size_t count, capacity;
     size_t bucket_count, bucket_capacity; /* bucket_count is a power of two */
     vec3 origin, upper;     /* the photons' bounds: a disc outside them finds nothing without a lookup */
+    int32_t top[3];         /* the cell of upper: every photon's cell lies in [0, top] on each axis */
     float cell, inv_cell;
 } pm_photon_grid;
 
 /* Sorts count photons into the grid with the given cell size (> 0). False when out of memory
- * (the grid is then empty). */
+ * (the grid is then empty); empty too, and true, when the calling thread's cancel flag
+ * (parallel.h) stops it. */
 bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t count, float cell);
 void pm_photon_grid_free(pm_photon_grid *g);
 /* The photons some query has counted since the grid was built: the useful ones. */

@@ -118,7 +118,9 @@ bool pm_photon_tracer_set_guide(pm_photon_tracer *t, pm_guide *guide, const pm_m
 
 /* A growable array of photon records, reused from pass to pass. */
 typedef struct { pm_photon *data; size_t count, capacity; } pm_photon_buffer;
-/* The same pass into a buffer (grown when needed, never shrunk) instead of a new tree. */
+/* The same pass into a buffer (grown when needed, never shrunk) instead of a new tree. A pass the
+ * calling thread's cancel flag stops (pm_parallel_set_cancel) is answered within a wave of
+ * paths, stores nothing and returns true, out of memory or not: its caller discards it. */
 bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t photons, uint64_t seed,
                                  pm_photon_buffer *out, pm_photon_stats *stats);
 

@@ -28,6 +28,13 @@
  * The first iteration after a start or a restart emits PM_PPM_FIRST_PHOTON_FRACTION of the
  * photons: it is the one a user waits for.
  *
+ * An iteration may be cut short: by the calling thread's cancel flag (parallel.h) anywhere, or
+ * by the deadline in its photon pass (fewer photons, rescaled) and in an eye pass after the film's
+ * first (eye.h). A cancelled photon pass drops the iteration before it touches the film; a cut
+ * eye pass is the iteration's last, the pixels it reached marked in the film (its sample, and the
+ * photon pass when it was the pass that updates the statistics). The camera splats go to the film
+ * after the eye passes, each weighed by the samples its pixel got in the iteration.
+ *
  * Memory stops growing after the first iterations (the photon buffers keep the largest
  * iteration's size): the statistics in the film, one iteration's photons and splats, and one
  * tile's points per thread. Restarting (a camera move) clears per-pixel state only.
@@ -103,7 +110,8 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
  * state; allocates nothing. */
 void pm_progressive_restart(pm_progressive *p, pm_film *film, const pm_camera *camera);
 /* A time budget's end (CLOCK_MONOTONIC seconds, 0 = none): photon passes running past it are
- * cut short (see pm_photon_tracer_set_deadline). */
+ * cut short (see pm_photon_tracer_set_deadline), and so are eye passes after the film's first,
+ * between tiles (eye.h). */
 void pm_progressive_set_deadline(pm_progressive *p, double deadline);
 /* Shadow photons for direct light at the visible points (NULL: shadow rays only); the map must
  * outlive its use. */

@@ -55,8 +55,15 @@ void pm_session_destroy(pm_session *s);
 
 /* One iteration on the calling thread (synchronous use only), adding at most max_samples samples
  * per pixel (0: no limit; a progressive iteration may add several, see pm_progressive_iterate).
- * False when out of memory. */
+ * False when out of memory. The deadline (pm_session_set_deadline) or pm_session_cancel may cut
+ * it short, between photon chunks or eye tiles: the film then holds what was finished, marked
+ * ragged where an eye pass reached only some pixels (film.h), and that ends the run: the next
+ * iteration starts the film again (pm_session_restart). */
 bool pm_session_iterate(pm_session *s, uint32_t max_samples);
+/* Cuts the running iteration short at its next photon chunk or eye tile, and every later one:
+ * the flag stays set until pm_session_start or the worker's next restart clears it. Only stores
+ * an atomic flag: safe in a signal handler (SIGINT during a snapshot). */
+void pm_session_cancel(pm_session *s);
 const pm_film *pm_session_film(const pm_session *s);
 pm_progressive *pm_session_progressive(pm_session *s);               /* NULL in the classic mode */
 const pm_photon_maps *pm_session_classic_maps(const pm_session *s);  /* NULL in the progressive mode */
@@ -65,18 +72,19 @@ const pm_eye_stats *pm_session_classic_eye_stats(const pm_session *s); /* classi
 /* The shadow photons: whether there are any, why not, and what they cost (zeros before the first iteration). */
 const pm_shadow_stats *pm_session_shadow_stats(const pm_session *s);
 /* A time budget's end (CLOCK_MONOTONIC seconds): the shadow photons, when they are still to be
- * built, may take PM_SHADOW_TIME_SHARE of the time left, and the progressive mode's photon passes
- * are cut to fit (pm_progressive_set_deadline). */
+ * built, may take PM_SHADOW_TIME_SHARE of the time left, the progressive mode's photon passes
+ * are cut to fit (pm_progressive_set_deadline), and an eye pass running past it stops at its
+ * tile under way, unless it is the film's first (eye.h). */
 void pm_session_set_deadline(pm_session *s, double deadline);
 /* A time budget (--time): `seconds` (> 0) from `start` (CLOCK_MONOTONIC). Sets the deadline
  * above and lets pm_session_plan_samples share the time out between iterations. */
 void pm_session_set_budget(pm_session *s, double start, double seconds);
 /* The samples the next pm_session_iterate should add, at most `wanted`. Without a budget,
  * `wanted`. With one: 1 for the first iteration (its cost is unknown); then as many as fit in the
- * time left at the last iteration's wall time a sample; 0 (stop) when the next iteration would
- * end farther past the budget than stopping now falls short of it. It predicts from the time
+ * time left at the last iteration's wall time a sample (the deadline cuts the last one short);
+ * 0 (stop) when too little time is left for an iteration to add anything. It predicts from the time
  * spent inside pm_session_iterate: a caller's own work between iterations (a log row) is not
- * foreseen, only paid from the budget. */
+ * foreseen, only paid from the budget. 0 once a pass was cut short (the run is over). */
 uint32_t pm_session_plan_samples(const pm_session *s, uint32_t wanted);
 /* Clears the accumulation, optionally with a new camera (synchronous use). */
 void pm_session_restart(pm_session *s, const pm_camera *camera);

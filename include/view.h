@@ -35,7 +35,8 @@ typedef struct {
     float fly[3];               /* W/S, D/A, E/Q key presses: forward, right, up */
     bool fast;                  /* Shift held */
     bool frame, next_camera, home, toggle_gather, cycle_view, pause, restart, help;
-    int resized_width, resized_height; /* the window's new size in pixels, 0 when unchanged */
+    int resized_width, resized_height; /* the film size for the window's new size, 0 when unchanged: its pixels, at
+                                          most the primary monitor's (the shape kept; the picture is scaled up) */
 } pm_view_events;
 
 /* The shaders in shaders/ are compiled into the binary (build/shaders.inc, made by the Makefile). */

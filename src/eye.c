@@ -33,7 +33,9 @@ typedef struct {
     pm_visible_points_fn visit;
     void *visit_ctx;
     int tiles_x;
+    double deadline;                     /* tiles not started by then are left out (0 = none) */
     struct { uint64_t rays, dropped, vertices, shadow[2]; char pad[24]; } counters[MAX_THREADS];
+    uint8_t done[];                      /* per tile: traced (a cut pass marks these in the film) */
 } eye_job;
 
 static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
@@ -685,6 +687,8 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
 static void render_tile(void *ctx, size_t task, int thread) {
     eye_job *job = ctx;
     pm_film *film = job->film;
+    if (job->deadline > 0.0 && pm_now_seconds() > job->deadline) return;
+    job->done[task] = 1;
     int tx = (int)(task % job->tiles_x), ty = (int)(task / job->tiles_x);
     int x0 = tx * TILE, y0 = ty * TILE;
     int x1 = x0 + TILE < film->width ? x0 + TILE : film->width;
@@ -754,12 +758,16 @@ static void render_tile(void *ctx, size_t task, int thread) {
     job->counters[thread].shadow[1] += shadow_counts[1];
 }
 
-static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
+/* True when every tile was traced; else the traced tiles' pixels are marked `reached` in the film
+ * (none when the job could not be allocated: stats->failed). */
+static bool run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                          uint32_t iteration, pm_film *film, bool visible_points, bool gather_points,
-                         pm_visible_points_fn visit, void *visit_ctx, pm_eye_stats *stats) {
+                         pm_visible_points_fn visit, void *visit_ctx, unsigned reached, pm_eye_stats *stats) {
     double start = pm_now_seconds();
-    eye_job *job = pm_calloc(1, sizeof *job, "eye pass job");
-    if (!job) { if (stats) stats->failed = true; return; }
+    int tiles_x = (film->width + TILE - 1) / TILE, tiles_y = (film->height + TILE - 1) / TILE;
+    size_t tiles = (size_t)tiles_x * tiles_y;
+    eye_job *job = pm_calloc(1, sizeof *job + tiles, "eye pass job");
+    if (!job) { if (stats) stats->failed = true; return false; }
     job->scene = s;
     job->accel = a;
     job->camera = cam;
@@ -772,10 +780,23 @@ static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
     job->through_lobes = !(s->analysis.has_punctual_lights && (s->analysis.has_mirror || s->analysis.has_glass));
     job->visit = visit;
     job->visit_ctx = visit_ctx;
-    job->tiles_x = (film->width + TILE - 1) / TILE;
-    int tiles_y = (film->height + TILE - 1) / TILE;
+    job->tiles_x = tiles_x;
+    job->deadline = film->samples > 0 && !film->ragged ? settings->deadline : 0.0;
     int threads = settings->threads < 1 ? 1 : (settings->threads > MAX_THREADS ? MAX_THREADS : settings->threads);
-    pm_parallel_for(threads, (size_t)job->tiles_x * tiles_y, render_tile, job);
+    bool uncancelled = film->ragged;
+    const atomic_bool *cancel = pm_parallel_get_cancel();
+    if (uncancelled) pm_parallel_set_cancel(NULL);
+    pm_parallel_for(threads, tiles, render_tile, job);
+    if (uncancelled) pm_parallel_set_cancel(cancel);
+    size_t traced = 0;
+    for (size_t t = 0; t < tiles; t++) traced += job->done[t];
+    if (traced < tiles)
+        for (size_t t = 0; t < tiles; t++) {
+            if (!job->done[t]) continue;
+            int x0 = (int)(t % (size_t)tiles_x) * TILE, y0 = (int)(t / (size_t)tiles_x) * TILE;
+            pm_film_mark_ahead(film, x0, y0, x0 + TILE < film->width ? x0 + TILE : film->width,
+                               y0 + TILE < film->height ? y0 + TILE : film->height, reached);
+        }
     if (stats) {
         for (int t = 0; t < threads; t++) {
             stats->rays += job->counters[t].rays;
@@ -787,18 +808,18 @@ static void run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
         stats->seconds += pm_now_seconds() - start;
     }
     free(job);
+    return traced == tiles;
 }
 
 void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                     uint32_t iteration, pm_film *film, pm_eye_stats *stats) {
-    bool failed_before = stats && stats->failed;
-    run_eye_pass(s, a, cam, settings, iteration, film, false, false, NULL, NULL, stats);
-    if (stats && stats->failed && !failed_before) return; /* out of memory: no sample was added */
-    film->samples++;
+    /* out of memory adds no sample; a cut pass marked the pixels it reached */
+    if (run_eye_pass(s, a, cam, settings, iteration, film, false, false, NULL, NULL, PM_FILM_AHEAD_SAMPLE, stats))
+        film->samples++;
 }
 
-void pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
+bool pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                            uint32_t iteration, pm_film *film, bool gather_points, pm_visible_points_fn visit, void *ctx,
-                           pm_eye_stats *stats) {
-    run_eye_pass(s, a, cam, settings, iteration, film, true, gather_points, visit, ctx, stats);
+                           unsigned reached, pm_eye_stats *stats) {
+    return run_eye_pass(s, a, cam, settings, iteration, film, true, gather_points, visit, ctx, reached, stats);
 }

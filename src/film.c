@@ -15,7 +15,7 @@ bool pm_film_init(pm_film *f, int width, int height, const bool enabled[PM_COMPO
     f->width = width;
     f->height = height;
     size_t n = 3 * (size_t)width * height;
-    uint64_t bytes = 0;
+    uint64_t bytes = n / 3;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) bytes += enabled[c] ? n * sizeof(float) : 0;
     if (!pm_memory_admit(bytes, "film")) return false;
     f->admitted = bytes;
@@ -24,6 +24,8 @@ bool pm_film_init(pm_film *f, int width, int height, const bool enabled[PM_COMPO
         f->sum[c] = pm_calloc(n, sizeof(float), "film");
         if (!f->sum[c]) { pm_film_free(f); return false; }
     }
+    f->ahead = pm_calloc(n / 3, 1, "film");
+    if (!f->ahead) { pm_film_free(f); return false; }
     return true;
 }
 
@@ -44,6 +46,7 @@ void pm_film_free(pm_film *f) {
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(f->sum[c]);
     for (int k = 0; k < PM_SLOT_COUNT; k++) free(f->ppm[k]);
     pm_memory_release(f->admitted);
+    free(f->ahead);
     memset(f, 0, sizeof *f);
 }
 
@@ -53,21 +56,51 @@ void pm_film_clear(pm_film *f) {
         if (f->sum[c]) memset(f->sum[c], 0, n * sizeof(float));
     for (int k = 0; k < PM_SLOT_COUNT; k++)
         if (f->ppm[k]) memset(f->ppm[k], 0, (n / 3) * sizeof(pm_ppm_stat));
+    if (f->ahead) memset(f->ahead, 0, n / 3);
     f->samples = 0;
     f->photon_passes = 0;
+    f->ragged = false;
+}
+
+void pm_film_mark_ahead(pm_film *f, int x0, int y0, int x1, int y1, unsigned what) {
+    if (!f->ahead) return;
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++) f->ahead[(size_t)y * f->width + x] |= (uint8_t)what;
+    f->ragged = true;
+}
+
+static inline unsigned ahead_of(const pm_film *f, size_t pixel) { return f->ragged && f->ahead ? f->ahead[pixel] : 0u; }
+
+uint32_t pm_film_samples_at(const pm_film *f, size_t pixel) {
+    return f->samples + (ahead_of(f, pixel) & PM_FILM_AHEAD_SAMPLE ? 1u : 0u);
+}
+
+size_t pm_film_pixels_ahead(const pm_film *f) {
+    size_t n = 0, pixels = (size_t)f->width * f->height;
+    for (size_t i = 0; f->ragged && f->ahead && i < pixels; i++) n += f->ahead[i] & PM_FILM_AHEAD_SAMPLE;
+    return n;
 }
 
 void pm_film_resolve(const pm_film *f, pm_component c, float *out) {
     size_t pixels = (size_t)f->width * f->height, n = 3 * pixels;
-    if (!f->sum[c] || f->samples == 0) { memset(out, 0, n * sizeof(float)); return; }
-    float inv = 1.f / (float)f->samples;
-    for (size_t i = 0; i < n; i++) out[i] = f->sum[c][i] * inv;
+    if (!f->sum[c] || (f->samples == 0 && !f->ragged)) { memset(out, 0, n * sizeof(float)); return; }
+    if (!f->ragged) {
+        float inv = 1.f / (float)f->samples;
+        for (size_t i = 0; i < n; i++) out[i] = f->sum[c][i] * inv;
+    } else {
+        for (size_t i = 0; i < pixels; i++) {
+            uint32_t samples = pm_film_samples_at(f, i);
+            float inv = samples ? 1.f / (float)samples : 0.f;
+            for (int ch = 0; ch < 3; ch++) out[3 * i + ch] = f->sum[c][3 * i + ch] * inv;
+        }
+    }
     for (int k = 0; k < PM_SLOT_COUNT; k++) {
         if (pm_slot_component[k] != c || !f->ppm[k]) continue;
         const pm_ppm_stat *st = f->ppm[k];
         for (size_t i = 0; i < pixels; i++) {
-            if (!(st[i].r2 > 0.0) || !f->photon_passes) continue;
-            double scale = 1.0 / (PM_PI * st[i].r2 * (double)f->photon_passes);
+            uint32_t passes = f->photon_passes + (ahead_of(f, i) & PM_FILM_AHEAD_PHOTON_PASS ? 1u : 0u);
+            if (!(st[i].r2 > 0.0) || !passes) continue;
+            double scale = 1.0 / (PM_PI * st[i].r2 * (double)passes);
             /* the statistics are doubles: their estimate is clamped into float range, never an Inf */
             for (int ch = 0; ch < 3; ch++) out[3 * i + ch] = (float)fmin(out[3 * i + ch] + st[i].tau[ch] * scale, FLT_MAX);
         }
@@ -104,6 +137,7 @@ size_t pm_film_bytes(const pm_film *f) {
         if (f->sum[c]) n += 3 * (size_t)f->width * f->height * sizeof(float);
     for (int k = 0; k < PM_SLOT_COUNT; k++)
         if (f->ppm[k]) n += (size_t)f->width * f->height * sizeof(pm_ppm_stat);
+    if (f->ahead) n += (size_t)f->width * f->height;
     return n;
 }
 

@@ -210,7 +210,7 @@ static int parse_options(int argc, char **argv, options *o) {
         case 11: if (!parse_long(v, 0, 2000000000L, &n)) return usage_error("bad --photons '%s'", v); o->photons = n; break;
         case 12: if (!parse_long(v, 0, 2000000000L, &n)) return usage_error("bad --caustic-photons '%s'", v); o->caustic_photons = n; break;
         case 13: if (!parse_long(v, 1, 2048, &n)) return usage_error("bad --k '%s' (1 to 2048)", v); o->k = (int)n; break;
-        case 14: if (!parse_double(v, 1e-30, 1e30, &x)) return usage_error("bad --max-radius '%s' (> 0)", v); o->max_radius = x; break;
+        case 14: if (!parse_double(v, PM_MIN_RADIUS, PM_MAX_RADIUS, &x)) return usage_error("bad --max-radius '%s' (1e-18 to 1e18)", v); o->max_radius = x; break;
         case 15:
             if (!strcmp(v, "disc")) o->kernel = PM_KERNEL_DISC;
             else if (!strcmp(v, "gaussian")) o->kernel = PM_KERNEL_GAUSSIAN;
@@ -239,7 +239,7 @@ static int parse_options(int argc, char **argv, options *o) {
             break;
         case 18: if (strcmp(v, "photons")) return usage_error("unknown --view '%s' (photons)", v); o->view_photons = true; break;
         case 21: if (!parse_double(v, 1e-3, 0.999, &x)) return usage_error("bad --alpha '%s' (0.001 to 0.999)", v); o->alpha = x; break;
-        case 22: if (!parse_double(v, 1e-30, 1e30, &x)) return usage_error("bad --radius '%s' (> 0, scene units)", v); o->radius = x; break;
+        case 22: if (!parse_double(v, PM_MIN_RADIUS, PM_MAX_RADIUS, &x)) return usage_error("bad --radius '%s' (1e-18 to 1e18 scene units)", v); o->radius = x; break;
         case 28:
             if (!strcmp(v, "on")) o->caustic_statistics = false;
             else if (!strcmp(v, "off")) o->caustic_statistics = true;
@@ -427,8 +427,12 @@ static bool outputs_spare_inputs(const options *o, bool window) {
 static double process_start; /* for the window's time to its first frame */
 
 static volatile sig_atomic_t interrupted_by;
+static pm_session *volatile signalled_session; /* its passes stop at the signal, not at the end of the iteration */
 
-static void on_signal(int sig) { interrupted_by = sig; }
+static void on_signal(int sig) {
+    interrupted_by = sig;
+    if (signalled_session) pm_session_cancel(signalled_session);
+}
 
 /* Where no render loop is left to notice a flag (a snapshot being written, the window, which a
  * signal ends outright): the file under way goes with the process (an EXR's hidden temporary
@@ -505,11 +509,13 @@ static uint64_t session_photons(pm_session *session) {
     return p ? pm_progressive_get_stats(p)->photons.emitted : pm_session_classic_photon_stats(session)->emitted;
 }
 
-/* Renders to --iterations or --time, then writes the file; SIGINT and SIGTERM end the loop after
- * the iteration under way, and the image so far is written before exiting 130 or 143. */
+/* Renders to --iterations or --time, then writes the file; SIGINT and SIGTERM cut the iteration
+ * under way short (at its next photon chunk or eye tile), and the image so far is written before
+ * exiting 130 or 143, whatever that iteration ran into. */
 static int run_snapshot(const options *opt, pm_session *session, const pm_reference_image *reference,
                         uint64_t *reserved) {
     char err[1024];
+    signalled_session = session;
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
     bool tty = isatty(2) && !opt->quiet;
@@ -533,7 +539,7 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
     uint32_t logged = 0;
     /* --time and the reported render time count from here: the photon pass is part of what a
      * budget buys. A budget spent before the first iteration still gets that iteration. */
-    double start = pm_now_seconds();
+    double start = pm_now_seconds(), first_iteration = 0.0;
     uint64_t next_progress = 1;
     if (opt->time_limit > 0) pm_session_set_budget(session, start, opt->time_limit);
     while ((long)film->samples < target && !interrupted_by) {
@@ -544,7 +550,8 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
         double iteration_start = pm_now_seconds();
         bool iterated = pm_session_iterate(session, limit);
         rendered += pm_now_seconds() - iteration_start;
-        if (!iterated) {
+        if (first_iteration == 0.0) first_iteration = pm_now_seconds() - start;
+        if (!iterated && !interrupted_by) {
             fprintf(stderr, "%spmview: error: %s: out of memory (%s) in iteration %u\n", tty ? "\n" : "", opt->scene_path,
                     pm_memory_failure() ? pm_memory_failure() : "unknown", film->samples + 1);
             free(scratch);
@@ -576,6 +583,10 @@ static int run_snapshot(const options *opt, pm_session *session, const pm_refere
         }
     }
     if (tty) fputc('\n', stderr);
+    if (opt->time_limit > 0 && first_iteration > opt->time_limit && !interrupted_by && !opt->quiet)
+        fprintf(stderr, "pmview: note: --time %g s is shorter than the first iteration (%.2f s): a first pass over every pixel is always finished\n",
+                opt->time_limit, first_iteration);
+    signalled_session = NULL;
     signal(SIGINT, on_signal_while_writing);
     signal(SIGTERM, on_signal_while_writing);
     /* the writers admit what they take themselves: the room kept for them since before the render is theirs now */
@@ -843,6 +854,13 @@ int main(int argc, char **argv) {
     /* the options' lengths are in the file's units; the loader may have rescaled the scene */
     opt.radius *= report.unit_scale;
     opt.max_radius *= report.unit_scale;
+    if (opt.radius > PM_MAX_RADIUS || opt.max_radius > PM_MAX_RADIUS || (opt.radius > 0 && opt.radius < PM_MIN_RADIUS) ||
+        (opt.max_radius > 0 && opt.max_radius < PM_MIN_RADIUS)) {
+        fprintf(stderr, "pmview: %s: the file's units are scaled by %g: --radius or --max-radius is then outside 1e-18 to 1e18 scene units\n",
+                opt.scene_path, report.unit_scale);
+        pm_scene_free(&scene);
+        return 2;
+    }
 
     int exit_code = 0;
     uint64_t output_reserved = 0; /* the snapshot writers' room, admitted before the render */

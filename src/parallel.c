@@ -18,6 +18,8 @@ typedef struct {
 static _Thread_local const atomic_bool *current_cancel;
 
 void pm_parallel_set_cancel(const atomic_bool *flag) { current_cancel = flag; }
+const atomic_bool *pm_parallel_get_cancel(void) { return current_cancel; }
+bool pm_parallel_cancelled(void) { return current_cancel && atomic_load_explicit(current_cancel, memory_order_relaxed); }
 
 typedef struct { job *j; int thread; } worker_arg;
 

@@ -1,6 +1,7 @@
 /* photongrid.c: the hashed photon grid: counting sort by cell hash, and the fixed-radius gather over overlapped cells. */
 #include "photongrid.h"
 #include "memory.h"
+#include "parallel.h"
 
 #include <float.h>
 #include <stdlib.h>
@@ -65,11 +66,17 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
     }
     g->origin = count ? lo : v3s(0.f);
     g->upper = count ? hi : v3s(0.f);
+    g->top[0] = cell_coord(g->upper.x, g->origin.x, g->inv_cell);
+    g->top[1] = cell_coord(g->upper.y, g->origin.y, g->inv_cell);
+    g->top[2] = cell_coord(g->upper.z, g->origin.z, g->inv_cell);
     size_t mask = buckets - 1;
     uint32_t *start = g->bucket_start;
     memset(start, 0, (buckets + 1) * sizeof *start);
-    /* counting sort: sizes, offsets, then each photon into its bucket's next slot */
+    /* counting sort: sizes, offsets, then each photon into its bucket's next slot. A sort is about
+     * 300 ns a photon (two cache misses), 30 s for the 100 million records of a room of albedo 1:
+     * the calling thread's cancel flag is looked at every 64k photons, and a cancelled build is empty. */
     for (size_t i = 0; i < count; i++) {
+        if ((i & 0xffff) == 0 && pm_parallel_cancelled()) return true;
         const float *q = photons[i].pos;
         start[bucket_of(cell_coord(q[0], g->origin.x, g->inv_cell), cell_coord(q[1], g->origin.y, g->inv_cell),
                         cell_coord(q[2], g->origin.z, g->inv_cell), mask) + 1]++;
@@ -79,6 +86,7 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
         if (start[b + 1]) g->occupied[b >> 6] |= 1ull << (b & 63);
     for (size_t b = 0; b < buckets; b++) start[b + 1] += start[b];
     for (size_t i = 0; i < count; i++) {
+        if ((i & 0xffff) == 0 && pm_parallel_cancelled()) return true;
         const float *q = photons[i].pos;
         size_t b = bucket_of(cell_coord(q[0], g->origin.x, g->inv_cell), cell_coord(q[1], g->origin.y, g->inv_cell),
                              cell_coord(q[2], g->origin.z, g->inv_cell), mask);
@@ -154,13 +162,21 @@ static inline void plan_disc(const pm_photon_grid *g, vec3 p, float radius2, dis
     if (p.x + r < g->origin.x || p.y + r < g->origin.y || p.z + r < g->origin.z || p.x - r > g->upper.x ||
         p.y - r > g->upper.y || p.z - r > g->upper.z)
         return;
+    /* The disc's cells, clamped to the photons' (no photon lies outside [0, top]), counted in 64
+     * bits axis by axis: a disc as wide as the scene spans at most the grid's cells, not 2e9 a
+     * side, and a disc wider than the cells, which would visit more cells than there are
+     * photons, scans the photons instead. A NaN centre leaves an empty range: nothing. */
+    const float centre[3] = {p.x, p.y, p.z}, origin[3] = {g->origin.x, g->origin.y, g->origin.z};
     int32_t *lo = plan->lo, *hi = plan->hi;
-    lo[0] = cell_coord(p.x - r, g->origin.x, g->inv_cell), hi[0] = cell_coord(p.x + r, g->origin.x, g->inv_cell);
-    lo[1] = cell_coord(p.y - r, g->origin.y, g->inv_cell), hi[1] = cell_coord(p.y + r, g->origin.y, g->inv_cell);
-    lo[2] = cell_coord(p.z - r, g->origin.z, g->inv_cell), hi[2] = cell_coord(p.z + r, g->origin.z, g->inv_cell);
-    int64_t cells = (int64_t)(hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1);
-    /* A disc far wider than the cells would visit more cells than there are photons: scan them all. */
-    if (cells > (int64_t)g->count) { plan->kind = PLAN_ALL; return; }
+    int64_t cells = 1;
+    for (int k = 0; k < 3; k++) {
+        int32_t a = cell_coord(centre[k] - r, origin[k], g->inv_cell), b = cell_coord(centre[k] + r, origin[k], g->inv_cell);
+        lo[k] = a > 0 ? a : 0;
+        hi[k] = b < g->top[k] ? b : g->top[k];
+        if (lo[k] > hi[k]) return;
+        cells *= (int64_t)hi[k] - lo[k] + 1; /* at most count x (1e9 + 1) before the test below */
+        if (cells > (int64_t)g->count) { plan->kind = PLAN_ALL; return; }
+    }
     if (cells > MAX_GATHER_CELLS) { plan->kind = PLAN_CELLS; return; }
     plan->kind = PLAN_BUCKETS;
     size_t mask = g->bucket_count - 1;

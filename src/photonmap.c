@@ -94,6 +94,9 @@ typedef struct {
     bool *chunk_skipped;      /* started after the deadline */
     uint32_t *chunk_cut;      /* photons a chunk left untraced when the deadline passed during it */
     double deadline;          /* pm_now_seconds() past which no chunk starts; 0 = none */
+    /* the calling thread's cancel flag (parallel.h), also looked at inside a chunk: in a room of
+     * albedo 1 one chunk is 200,000 rays, and a quit or a signal must not wait for it */
+    const atomic_bool *cancel;
     uint64_t traced;          /* photons the last pass traced (fewer than asked when cut) */
     /* records one pass may store: counted per chunk in steps of CHUNK (the same total at any
      * thread count) and bounded so that they fit the memory limit four times over: their merged
@@ -759,6 +762,10 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
                 next = last;
                 break;
             }
+            if (ps->cancel && atomic_load_explicit(ps->cancel, memory_order_relaxed)) {
+                next = last;
+                break;
+            }
             if (!start_photon(ps, streams, next++, &w->path[n], &w->origin[n], &w->direction[n], list.guide_counts) ||
                 max_bounces < 1)
                 continue;
@@ -766,6 +773,11 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             n++;
         }
         while (n > 0) {
+            /* a cancelled pass is thrown away whole: its paths in flight may stop anywhere */
+            if (ps->cancel && atomic_load_explicit(ps->cancel, memory_order_relaxed)) {
+                next = last;
+                break;
+            }
             rays += n;
             pm_accel_intersect_packets(ps->accel, n, w->origin, w->direction, false, w->hit, w->hits);
             size_t going_on = 0;
@@ -892,10 +904,14 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     ps->record_limit = pm_memory_available() / (4 * sizeof(pm_photon));
     int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
     for (int t = 0; t < threads; t++) ps->arenas[t].count = 0;
+    ps->cancel = pm_parallel_get_cancel();
     pm_parallel_for(threads, chunks, trace_chunk, ps);
-    bool ok = !atomic_load(&ps->out_of_memory);
+    /* A cancelled pass stores nothing and has not failed: whoever cancelled it (a restart, a quit,
+     * a signal) discards it, and a record bound it would have crossed later is no error of it. */
+    bool cancelled = pm_parallel_cancelled();
+    bool ok = cancelled || !atomic_load(&ps->out_of_memory);
     size_t total = 0;
-    if (ok) ok = merge_records(ps, chunks, out, &total);
+    if (ok && !cancelled) ok = merge_records(ps, chunks, out, &total);
     uint64_t traced = 0;
     for (size_t c = 0; c < chunks; c++)
         if (!ps->chunk_skipped[c])
@@ -911,11 +927,15 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
         size_t splat_total = 0;
         void *splats = so->data;
         ok = merge_chunks((void **)ps->chunk_splats, ps->chunk_splat_counts, chunks, sizeof(pm_camera_splat), &splats,
-                          &so->capacity, &splat_total, ok, "camera splats of a pass");
+                          &so->capacity, &splat_total, ok && !cancelled, "camera splats of a pass") || cancelled;
         so->data = splats;
-        so->count = ok ? splat_total : 0;
+        so->count = ok && !cancelled ? splat_total : 0;
     }
     free_chunk_lists(ps);
+    if (cancelled) {
+        ps->traced = 0;
+        return true;
+    }
     if (ok && traced < ps->photons) {
         /* cut by the deadline: each stored photon stands for photons / traced of the flux */
         float scale = traced ? (float)((double)ps->photons / (double)traced) : 0.f;
@@ -1165,7 +1185,7 @@ bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t pho
     if (t->ps.guide) memset(t->ps.guide_counts, 0, sizeof(uint32_t) * (size_t)threads * 2 * t->ps.guide_cells);
     uint64_t rays = 0;
     bool ok = trace_into(&t->ps, out, &rays);
-    if (ok && t->ps.guide && t->ps.marks->any) {
+    if (ok && t->ps.guide && t->ps.marks->any && !pm_parallel_cancelled()) {
         /* the threads' counts summed into the first's, then learned from */
         uint32_t *sum = t->ps.guide_counts;
         for (int k = 1; k < threads; k++)

@@ -22,6 +22,7 @@
 #include <time.h>
 
 #include "defaults.h"
+#include "parallel.h"
 #include "photongrid.h"
 #include "rng.h"
 
@@ -260,12 +261,22 @@ static void probe_begin(noise_probe *pr, const pm_film *film) {
     }
 }
 
-/* After the splats: their share of one eye pass's sample (add_splats weighed them by the eye passes). */
-static void probe_splats(noise_probe *pr, const pm_film *film, uint32_t eye_passes) {
-    for (size_t i = 0; i < pr->count; i++) {
-        double now = probed_total(film, pr->pixel[i]);
-        pr->shared[i] = (now - pr->total[i]) / eye_passes;
-        pr->total[i] = now;
+static int compare_pixels(const void *a, const void *b) {
+    size_t x = *(const size_t *)a, y = *(const size_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Before the eye passes: the splats' share of each eye pass's sample at each probed pixel (the
+ * film gets them after the eye passes, weighed by the samples each pixel got). The probed pixels
+ * are in increasing order. */
+static void probe_splats(noise_probe *pr, const pm_film *film, const pm_splat_buffer *splats) {
+    memset(pr->shared, 0, pr->count * sizeof *pr->shared);
+    if (!film->sum[PM_CAUSTIC]) return;
+    for (size_t k = 0; k < splats->count; k++) {
+        size_t pixel = splats->data[k].pixel;
+        const size_t *at = bsearch(&pixel, pr->pixel, pr->count, sizeof *pr->pixel, compare_pixels);
+        const float *rgb = splats->data[k].rgb;
+        if (at) pr->shared[at - pr->pixel] += ((double)rgb[0] + rgb[1] + rgb[2]) / 3.0;
     }
 }
 
@@ -637,15 +648,18 @@ static uint64_t photons_to_emit(const pm_progressive_settings *set, uint64_t per
     return n ? n : 1;
 }
 
-/* This iteration's camera splats into the film's caustic sums, in photon order, times the eye
- * passes that will read the pass: the sums are divided by the film's samples, one per eye pass,
- * and the splats are one photon pass's estimate. */
-static void add_splats(pm_progressive *p, pm_film *film, uint32_t eye_passes) {
+/* This iteration's camera splats into the film's caustic sums, in photon order, after its eye
+ * passes, each times the samples they gave its pixel: the sums are divided by each pixel's
+ * samples, and a splat is one photon pass's estimate. Those are the whole passes, and one more
+ * where a pass cut short (cut) reached the pixel: a splat is never counted for a sample that
+ * was not taken. */
+static void add_splats(pm_progressive *p, pm_film *film, uint32_t whole_passes, bool cut) {
     if (!film->sum[PM_CAUSTIC]) return;
-    float weight = (float)eye_passes;
     for (size_t i = 0; i < p->splats.count; i++) {
         const pm_camera_splat *sp = &p->splats.data[i];
-        vec3 l = v3_scale(v3(sp->rgb[0], sp->rgb[1], sp->rgb[2]), weight);
+        uint32_t samples = whole_passes + (cut && film->ahead && (film->ahead[sp->pixel] & PM_FILM_AHEAD_SAMPLE) ? 1u : 0u);
+        if (!samples) continue;
+        vec3 l = v3_scale(v3(sp->rgb[0], sp->rgb[1], sp->rgb[2]), (float)samples);
         if (!pm_film_add(film, PM_CAUSTIC, sp->pixel, l)) p->stats.eye.dropped_samples++;
     }
     p->stats.splats += p->splats.count;
@@ -738,11 +752,13 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     if (p->trace_caustic) {
         pm_photon_tracer_set_splats(p->tracer, p->splatting ? &p->camera : NULL, film->width, film->height, &p->splats);
         ok = pm_photon_tracer_trace_into(p->tracer, true, asked[KIND_CAUSTIC], seed, caustic, &p->stats.photons);
-        if (ok && p->splatting) add_splats(p, film, eye_passes);
     }
-    if (ok && p->trace_global) ok = pm_photon_tracer_trace_into(p->tracer, false, asked[KIND_INDIRECT], seed, global, &p->stats.photons);
+    if (ok && p->trace_global && !pm_parallel_cancelled())
+        ok = pm_photon_tracer_trace_into(p->tracer, false, asked[KIND_INDIRECT], seed, global, &p->stats.photons);
+    /* cancelled (a restart, a quit, a signal): the iteration is dropped before it touched the film */
+    if (pm_parallel_cancelled()) return true;
     if (!ok) return false;
-    if (probing) probe_splats(&p->probe, film, eye_passes);
+    if (probing) probe_splats(&p->probe, film, &p->splats);
     /* a whole pass's rays (the first pass asks fewer photons), for the next iteration's eye passes */
     double photon_rays = (double)(p->stats.photons.rays - photon_rays_before) *
                          (p->trace_global ? to_whole[KIND_INDIRECT] : to_whole[KIND_CAUSTIC]);
@@ -758,7 +774,9 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         p->gather_r2 = set->initial_radius > 0.0 ? set->initial_radius * set->initial_radius
                                                  : p->density_r2[KIND_INDIRECT] * PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS;
     double t_grid = pm_now_seconds();
-    if (!build_grid(p, KIND_CAUSTIC) || !build_grid(p, KIND_INDIRECT)) return false;
+    bool built = build_grid(p, KIND_CAUSTIC) && build_grid(p, KIND_INDIRECT);
+    if (pm_parallel_cancelled()) return true; /* a cancelled sort left the grids empty: dropped too */
+    if (!built) return false;
     /* the first pass with global photons: the radii from their density where the camera looks;
      * while the guide learns to send photons there (at every power of two of the iterations), the
      * shared gather radius may shrink again to the denser light's (a deterministic sequence that
@@ -803,17 +821,25 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
                                                                                   : mean_initial_radius(p, KIND_INDIRECT));
         pm_marks_clear(&p->marks, (float)(0.25 * read_radius));
     }
-    for (uint32_t pass = 0; pass < eye_passes; pass++) {
+    /* a pass cut short (the deadline, a cancel) is the iteration's last: the pixels it reached
+     * are marked in the film, which divides each pixel by its own counts */
+    uint32_t whole_passes = 0;
+    bool cut = false;
+    for (uint32_t pass = 0; pass < eye_passes && !cut; pass++) {
         job->statistics = pass == 0;
         job->sample = film->samples;
         /* gather points even with no photon to read there: their punctual light is traced */
-        pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, film->samples, film, p->gathering,
-                              photons_here ? gather_tile : NULL, job, &p->stats.eye);
+        unsigned reached = PM_FILM_AHEAD_SAMPLE | (pass == 0 ? PM_FILM_AHEAD_PHOTON_PASS : 0u);
+        cut = !pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, film->samples, film, p->gathering,
+                                     photons_here ? gather_tile : NULL, job, reached, &p->stats.eye);
         if (p->stats.eye.failed) { free(job); return false; }
+        if (cut) break;
         film->samples++;
         if (pass == 0) film->photon_passes++;
+        whole_passes++;
         if (probing && pass < 2) probe_eye_pass(&p->probe, film, pass);
     }
+    if (p->splatting) add_splats(p, film, whole_passes, cut);
     int threads = set->threads < 1 ? 1 : (set->threads > MAX_THREADS ? MAX_THREADS : set->threads);
     double query_sum[KIND_COUNT] = {0, 0}, gather_seconds = 0.0;
     uint64_t query_count[KIND_COUNT] = {0, 0};
@@ -839,12 +865,13 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     gather_seconds /= threads;
     p->stats.gather_seconds += gather_seconds;
     p->stats.eye.seconds -= fmin(gather_seconds, p->stats.eye.seconds);
-    /* Knaus and Zwicker's shrinking radius for the next iteration's gather points */
-    if (p->gathering && p->gather_r2 > 0.0) {
+    /* Knaus and Zwicker's shrinking radius for the next iteration's gather points (an iteration
+     * whose statistics pass was cut counts no photon pass: the next one reads with this radius) */
+    if (p->gathering && p->gather_r2 > 0.0 && whole_passes > 0) {
         double i = (double)iteration + 1.0;
         p->gather_r2 *= (i + set->alpha) / (i + 1.0);
     }
-    if (probing)
+    if (probing && !cut)
         p->eye_passes = choose_eye_passes(&p->probe, film->photon_passes, photon_rays,
                                           (double)(p->stats.eye.rays - eye_rays_before) / eye_passes);
     p->stats.iterations = film->samples;
@@ -854,6 +881,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
 
 void pm_progressive_set_deadline(pm_progressive *p, double deadline) {
     if (p->tracer) pm_photon_tracer_set_deadline(p->tracer, deadline);
+    p->eye.deadline = deadline;
 }
 
 void pm_progressive_set_shadow_map(pm_progressive *p, const pm_shadow_map *m) { p->eye.shadow = m; }

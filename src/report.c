@@ -96,11 +96,11 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
                eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, eye_stats.seconds > 0 ? paths / eye_stats.seconds : 0.0,
                paths > 0 ? eye_stats.path_vertices / paths : 0.0, PM_PATHTRACE_ROULETTE_VERTEX, PM_PATHTRACE_MAX_SURVIVAL);
     }
-    printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu shadow_rays=%llu shadow_rays_saved=%llu\n",
+    printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu shadow_rays=%llu shadow_rays_saved=%llu pixels_ahead=%zu\n",
            film->samples, (unsigned long long)eye_stats.rays, eye_stats.seconds,
            eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, threads,
            (unsigned long long)eye_stats.dropped_samples, (unsigned long long)eye_stats.shadow_rays,
-           (unsigned long long)eye_stats.shadow_rays_saved);
+           (unsigned long long)eye_stats.shadow_rays_saved, pm_film_pixels_ahead(film));
     printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu limit_bytes=%llu checked_allocations=%llu\n",
            peak_rss_bytes(), pm_film_bytes(film), pm_accel_bytes(accel), (unsigned long long)pm_memory_limit(),
            (unsigned long long)pm_memory_allocations());

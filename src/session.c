@@ -34,7 +34,6 @@ struct pm_session {
     double budget_start, budget_seconds;  /* seconds 0: no budget */
     uint32_t last_samples;                /* the samples the last iteration added */
     double last_wall;                     /* its wall time, photon pass included */
-    double last_repeating;                /* its eye passes and gather: what every iteration repeats */
 
     /* background rendering: everything below `lock` is shared with the worker */
     pthread_t worker;
@@ -120,8 +119,11 @@ const pm_shadow_stats *pm_session_shadow_stats(const pm_session *s) { return &s-
 void pm_session_set_deadline(pm_session *s, double deadline) {
     double now = pm_now_seconds();
     s->config.shadow.deadline = deadline > now ? now + (deadline - now) * PM_SHADOW_TIME_SHARE : now;
+    s->config.classic_eye.deadline = deadline;
     if (s->progressive) pm_progressive_set_deadline(s->progressive, deadline);
 }
+
+void pm_session_cancel(pm_session *s) { atomic_store(&s->cancel, true); }
 
 /* The shadow photons, once: they depend on the scene and its lights only, so camera moves and
  * restarts keep them. A build cut short by a restart is no map: it is built again next time. */
@@ -144,36 +146,40 @@ void pm_session_set_budget(pm_session *s, double start, double seconds) {
     if (s->budget_seconds > 0.0) pm_session_set_deadline(s, start + seconds);
 }
 
-/* Seconds spent so far in the parts of an iteration that repeat at their full length: the eye
- * passes and the gather in the progressive mode (its photon passes shrink to fit the time left),
- * the eye pass in the classic mode (its maps are built once, before the first). */
-static double repeating_seconds(const pm_session *s) {
-    if (!s->progressive) return s->classic_eye_stats.seconds;
-    const pm_progressive_stats *st = pm_progressive_get_stats(s->progressive);
-    return st->eye.seconds + st->gather_seconds;
-}
-
 uint32_t pm_session_plan_samples(const pm_session *s, uint32_t wanted) {
+    if (s->film.ragged) return 0; /* a pass was cut: the run is over */
     if (!wanted || s->budget_seconds <= 0.0) return wanted;
     /* the first iteration: one sample, whatever the eye passes a photon pass (its cost is unknown) */
-    if (s->film.samples == 0 || s->last_samples == 0) return 1;
+    if (s->film.samples == 0) return 1;
+    double left = s->budget_seconds - (pm_now_seconds() - s->budget_start);
+    if (left <= 0.0) return 0;
+    /* the last iteration added nothing (its eye pass was cut before a tile): none to plan from */
+    if (s->last_samples == 0) return 1;
     /* at most as many samples as fit in the time left at the last iteration's wall time a sample
      * (its photon pass shared out: an over-estimate for more samples, so the cap errs short) */
-    double left = s->budget_seconds - (pm_now_seconds() - s->budget_start);
     uint32_t next = s->progressive ? pm_progressive_eye_passes(s->progressive) : 1;
     double fit = floor(left / (s->last_wall / s->last_samples));
     if (fit < next) next = fit < 1.0 ? 1 : (uint32_t)fit;
     if (next > wanted) next = wanted;
-    /* started only if expected to end nearer the budget than stopping now, by the repeating part */
-    if (left <= 0.5 * (s->last_repeating / s->last_samples) * next) return 0;
+    /* The deadline cuts the eye passes between tiles (and the photon pass between chunks), so an
+     * iteration started with time left ends near the budget instead of a pass past it: it is
+     * started unless the time left is too short for its photon pass and sort to leave any for
+     * eye tiles (a twentieth of a sample's time). */
+    if (left <= 0.05 * (s->last_wall / s->last_samples)) return 0;
     return next;
 }
 
 bool pm_session_iterate(pm_session *s, uint32_t max_samples) {
-    double t0 = pm_now_seconds(), repeating_before = repeating_seconds(s);
+    /* a film a cut pass left ragged is a finished run's: passing over it again could leave a
+     * pixel two samples ahead, which the film does not count */
+    if (s->film.ragged) pm_session_restart(s, NULL);
+    /* the passes stop at the session's cancel flag, on this thread too (a snapshot's signal) */
+    const atomic_bool *cancel_before = pm_parallel_get_cancel();
+    pm_parallel_set_cancel(&s->cancel);
+    double t0 = pm_now_seconds();
     uint32_t samples_before = s->film.samples;
     bool ok = decide_shadow_map(s);
-    if (!ok) return false;
+    if (!ok) { pm_parallel_set_cancel(cancel_before); return false; }
     if (s->progressive) {
         pm_progressive_set_shadow_map(s->progressive, s->shadow);
         ok = pm_progressive_iterate(s->progressive, &s->film, max_samples);
@@ -200,8 +206,9 @@ bool pm_session_iterate(pm_session *s, uint32_t max_samples) {
     s->render_seconds += t1 - t0;
     s->last_samples = s->film.samples - samples_before;
     s->last_wall = t1 - t0;
-    s->last_repeating = fmin(s->last_wall, repeating_seconds(s) - repeating_before);
-    return ok;
+    pm_parallel_set_cancel(cancel_before);
+    /* what a cancel cut short is no failure, even where it ran out of memory on the way */
+    return ok || atomic_load(&s->cancel);
 }
 
 void pm_session_restart(pm_session *s, const pm_camera *camera) {
@@ -259,9 +266,12 @@ static void diagnostic_view(const pm_session *s, int view, float *out) {
     free(value);
 }
 
-/* Resolves into the back buffers, then swaps them in under the lock. */
+/* Resolves into the back buffers, then swaps them in under the lock. At 8192 x 8192 that is
+ * seconds of work (3 GB written): a cancel abandons it between components and row blocks, and
+ * nothing is published. */
 static void publish(pm_session *s, const pm_film *film, bool preview) {
     size_t n = 3 * (size_t)s->config.width * s->config.height;
+    if (atomic_load(&s->cancel)) return;
     int view = atomic_load(&s->view);
     if (view != PM_VIEW_SHADED && !preview && s->progressive && s->back[PM_DIRECT]) {
         for (int c = 0; c < PM_COMPONENT_COUNT; c++)
@@ -270,6 +280,7 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
         film = NULL;
     }
     for (int c = 0; c < PM_COMPONENT_COUNT && film; c++) {
+        if (atomic_load(&s->cancel)) return;
         if (!s->back[c]) continue;
         if (!film->sum[c]) { memset(s->back[c], 0, n * sizeof(float)); continue; }
         if (film->width == s->config.width && film->height == s->config.height) {
@@ -282,6 +293,7 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
         if (!tmp) return;
         pm_film_resolve(film, (pm_component)c, tmp);
         for (int y = 0; y < s->config.height; y++) {
+            if ((y & 63) == 0 && atomic_load(&s->cancel)) { free(tmp); return; }
             int sy = y * film->height / s->config.height;
             for (int x = 0; x < s->config.width; x++) {
                 int sx = x * film->width / s->config.width;
@@ -292,7 +304,8 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
         free(tmp);
     }
     pm_radius_summary r = {0, 0, 0, 0, 0, 0};
-    if (s->progressive && !preview) r = pm_progressive_radii(s->progressive, &s->film);
+    if (s->progressive && !preview && !atomic_load(&s->cancel)) r = pm_progressive_radii(s->progressive, &s->film);
+    if (atomic_load(&s->cancel)) return;
     pthread_mutex_lock(&s->lock);
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         float *t = s->front[c];

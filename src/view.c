@@ -32,6 +32,8 @@
     X(void, ClearColor, (GLfloat r, GLfloat g, GLfloat b, GLfloat a)) \
     X(void, Clear, (GLbitfield mask)) \
     X(void, Disable, (GLenum cap)) \
+    X(void, Enable, (GLenum cap)) \
+    X(void, Scissor, (GLint x, GLint y, GLsizei w, GLsizei h)) \
     X(void, PixelStorei, (GLenum pname, GLint param)) \
     X(void, ReadPixels, (GLint x, GLint y, GLsizei w, GLsizei h, GLenum format, GLenum type, void *pixels)) \
     X(void, GenTextures, (GLsizei n, GLuint *textures)) \
@@ -474,11 +476,63 @@ static void on_cursor(GLFWwindow *window, double x, double y) {
     else { v->pending.pan_dx += dx; v->pending.pan_dy += dy; }
 }
 
+/* A window's pixels that no monitor shows are not worth rendering: a film for a window larger
+ * than the primary monitor keeps the window's shape at the monitor's size (as a window made for a
+ * film larger than the screen is smaller than it), and the picture is scaled up into the window.
+ * An 8192 x 8192 window on a small screen thus renders, uploads and composes a screenful, not 67
+ * million pixels of float textures that took a software OpenGL half a minute to take in. */
 static void on_framebuffer_size(GLFWwindow *window, int width, int height) {
     pm_view *v = glfwGetWindowUserPointer(window);
     if (!v || width < 1 || height < 1) return; /* minimised: keep rendering at the old size */
+    GLFWmonitor *monitor = glfwGetPrimaryMonitor();
+    const GLFWvidmode *mode = monitor ? glfwGetVideoMode(monitor) : NULL;
+    int ww = 0, wh = 0;
+    glfwGetWindowSize(window, &ww, &wh);
+    if (mode && ww > 0 && wh > 0) {
+        /* the monitor's size in framebuffer pixels (screen coordinates times the window's pixel ratio) */
+        double mw = (double)mode->width * width / ww, mh = (double)mode->height * height / wh;
+        double s = fmin(1.0, fmin(mw / width, mh / height));
+        if (s < 1.0) {
+            width = (int)(width * s) > 0 ? (int)(width * s) : 1;
+            height = (int)(height * s) > 0 ? (int)(height * s) : 1;
+        }
+    }
     v->pending.resized_width = width;
     v->pending.resized_height = height;
+}
+
+/* The part of the window's framebuffer that some monitor shows, in GL's framebuffer coordinates
+ * (origin at the bottom): clearing and scaling the picture into the rest (most of an 8192 x 8192
+ * window on a small screen) took a software OpenGL seconds a frame. The whole framebuffer when
+ * GLFW knows no monitor or the window seems to be on none. */
+static void shown_part(const pm_view *v, int fw, int fh, int rect[4]) {
+    rect[0] = rect[1] = 0;
+    rect[2] = fw;
+    rect[3] = fh;
+    int ww = 0, wh = 0, wx = 0, wy = 0, count = 0;
+    glfwGetWindowSize(v->window, &ww, &wh);
+    glfwGetWindowPos(v->window, &wx, &wy);
+    GLFWmonitor **monitors = glfwGetMonitors(&count);
+    if (ww < 1 || wh < 1 || !monitors) return;
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int m = 0; m < count; m++) {
+        const GLFWvidmode *mode = glfwGetVideoMode(monitors[m]);
+        int mx = 0, my = 0;
+        glfwGetMonitorPos(monitors[m], &mx, &my);
+        if (!mode) continue;
+        /* the monitor's rectangle in window coordinates, clipped to the window */
+        double x0 = fmax(0.0, mx - wx), y0 = fmax(0.0, my - wy);
+        double x1 = fmin(ww, mx + mode->width - wx), y1 = fmin(wh, my + mode->height - wy);
+        if (x1 <= x0 || y1 <= y0) continue;
+        lo[0] = fmin(lo[0], x0), lo[1] = fmin(lo[1], y0), hi[0] = fmax(hi[0], x1), hi[1] = fmax(hi[1], y1);
+    }
+    if (!(hi[0] > lo[0] && hi[1] > lo[1])) return;
+    double sx = (double)fw / ww, sy = (double)fh / wh;
+    int x0 = (int)floor(lo[0] * sx), x1 = (int)ceil(hi[0] * sx), y0 = (int)floor(lo[1] * sy), y1 = (int)ceil(hi[1] * sy);
+    rect[0] = x0;
+    rect[1] = fh - (y1 < fh ? y1 : fh);
+    rect[2] = (x1 < fw ? x1 : fw) - x0;
+    rect[3] = (y1 < fh ? y1 : fh) - y0;
 }
 
 static void on_scroll(GLFWwindow *window, double xoffset, double yoffset) {
@@ -616,10 +670,15 @@ void pm_view_draw(pm_view *v, const pm_display *d) {
     v->gl.BindFramebuffer(GL_READ_FRAMEBUFFER, v->fbo);
     v->gl.BindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
     v->gl.Viewport(0, 0, fw, fh);
+    int shown[4];
+    shown_part(v, fw, fh, shown);
+    v->gl.Scissor(shown[0], shown[1], shown[2], shown[3]);
+    v->gl.Enable(GL_SCISSOR_TEST);
     v->gl.ClearColor(0.1f, 0.1f, 0.1f, 1.f);
     v->gl.Clear(GL_COLOR_BUFFER_BIT);
     v->gl.BlitFramebuffer(0, 0, v->width, v->height, dx, dy, dx + dw, dy + dh, GL_COLOR_BUFFER_BIT,
                           dw == v->width && dh == v->height ? GL_NEAREST : GL_LINEAR);
+    v->gl.Disable(GL_SCISSOR_TEST);
     v->gl.BindFramebuffer(GL_FRAMEBUFFER, 0);
     glfwSwapBuffers(v->window);
 }

@@ -1,8 +1,12 @@
-/* test_photongrid.c: the progressive mode's hashed photon grid against brute force: every disc finds exactly the photons a full scan finds, at any radius against the cell (one cell, the 27-cell fast path, wide discs, discs wider than the photon set) and with buckets shared by many cells; the batched query gives each single query's result bit for bit. */
+/* test_photongrid.c: the progressive mode's hashed photon grid against brute force: every disc finds exactly the photons a full scan finds, at any radius against the cell (one cell, the 27-cell fast path, wide discs, discs wider than the photon set, radii up to float's range) and with buckets shared by many cells; the batched query gives each single query's result bit for bit; a cancelled sort leaves an empty grid. */
+#include <float.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
+#include "parallel.h"
 #include "photongrid.h"
 #include "rng.h"
 #include "testing.h"
@@ -82,7 +86,54 @@ static void check_against_brute_force(const char *what, const pm_photon *ph, siz
     pm_photon_grid_free(&g);
 }
 
+/* Discs far wider than the scene (--radius up to 1e18, and a squared radius that overflowed float
+ * to infinity) against brute force: every photon that counts for the surface, found at once. Their
+ * cell range was once 2e9 cells a side in int32 (it overflowed and the plan looped for ever). */
+static void check_huge_discs(const pm_photon *ph, size_t count, pm_rng *rng) {
+    static const float radii[] = {1e6f, 1e18f, 1.8e19f, INFINITY};
+    static const float cells[] = {0.004f, 0.02f, 3e18f};
+    for (size_t c = 0; c < sizeof cells / sizeof *cells; c++) {
+        pm_photon_grid g;
+        memset(&g, 0, sizeof g);
+        CHECK(pm_photon_grid_build(&g, ph, count, cells[c]), "huge discs: build with cell %g", (double)cells[c]);
+        for (size_t k = 0; k < sizeof radii / sizeof *radii; k++)
+            for (int q = 0; q < 4; q++) {
+                vec3 p = v3(pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng)), n = v3(0.f, 1.f, 0.f);
+                float r2 = radii[k] * radii[k]; /* 1.8e19 squared is infinite in float */
+                vec3 want, got;
+                uint32_t nw = brute_force(ph, count, p, n, r2, 7u, &want);
+                uint32_t ng = pm_photon_grid_sum_facing(&g, p, n, r2, 7u, &got);
+                CHECK(nw == ng && nw > count / 8, "cell %g, radius %g: found %u, brute force %u of %zu", (double)cells[c],
+                      (double)radii[k], ng, nw, count);
+                CHECK(pm_photon_grid_may_find(&g, p, r2), "cell %g, radius %g: may find", (double)cells[c], (double)radii[k]);
+            }
+        /* a NaN centre: no disc at all, and no endless loop */
+        vec3 none;
+        CHECK(pm_photon_grid_sum_facing(&g, v3s(NAN), v3(0.f, 1.f, 0.f), 1.f, 7u, &none) == 0, "a NaN centre finds nothing");
+        pm_photon_grid_free(&g);
+    }
+}
+
+/* A sort the calling thread's cancel flag stops (a quit, a signal: the 100 million records of a
+ * room of albedo 1 take 30 s to sort) leaves the grid empty, and is no failure. */
+static void check_cancelled_build(const pm_photon *ph, size_t count) {
+    pm_photon_grid g;
+    memset(&g, 0, sizeof g);
+    atomic_bool cancel;
+    atomic_init(&cancel, true);
+    pm_parallel_set_cancel(&cancel);
+    bool built = pm_photon_grid_build(&g, ph, count, 0.02f);
+    pm_parallel_set_cancel(NULL);
+    vec3 power;
+    CHECK(built && g.count == 0, "a cancelled build: true and empty (%d, %zu photons)", built, g.count);
+    CHECK(pm_photon_grid_sum_facing(&g, pm_photon_position(&ph[0]), v3(0.f, 1.f, 0.f), 1.f, 7u, &power) == 0,
+          "a cancelled grid finds nothing");
+    CHECK(pm_photon_grid_build(&g, ph, count, 0.02f) && g.count == count, "built again uncancelled");
+    pm_photon_grid_free(&g);
+}
+
 int main(void) {
+    alarm(60); /* a query that loops for ever fails the test instead of hanging it */
     pm_rng rng = pm_rng_for(7, 0, 0);
     size_t count = 20000;
     pm_photon *ph = malloc(count * sizeof *ph);
@@ -92,6 +143,8 @@ int main(void) {
     /* few buckets for many cells: 2,048 buckets for 2,000 photons over a fine grid, so many
      * overlapped cells share a bucket and the bucket must be visited once */
     check_against_brute_force("shared buckets", ph, 2000, 0.0003f, 4000, &rng);
+    check_huge_discs(ph, 2000, &rng);
+    check_cancelled_build(ph, count);
     /* one photon set of a single point: every disc overlaps one cell */
     for (size_t i = 0; i < 64; i++) pm_photon_set(&ph[i], v3(0.3f, 0.f, 0.3f), v3(0.f, 1.f, 0.f), v3(0.f, -1.f, 0.f), v3s(1.f), 0);
     check_against_brute_force("one point", ph, 64, 0.05f, 400, &rng);

@@ -1,6 +1,8 @@
-/* test_threads.c: the same seed gives the same photon maps and image bit for bit at 1, 2 and 3 threads, classic and progressive (also run under TSan). */
+/* test_threads.c: the same seed gives the same photon maps and image bit for bit at 1, 2 and 3 threads, classic and progressive; a session cancelled from another thread and cut by its deadline (also run under TSan). */
+#include <pthread.h>
 #include <time.h>
 
+#include "clock.h"
 #include "accel.h"
 #include "eye.h"
 #include "film.h"
@@ -67,6 +69,64 @@ static void background_session(const pm_scene *s, const pm_accel *a, pm_camera c
     pm_session_stop(session);
     CHECK(images >= 8, "the worker published %d images", images);
     CHECK(sum > 0, "the published images are lit");
+    pm_session_destroy(session);
+}
+
+static void *cancel_soon(void *session) {
+    struct timespec ts = {0, 50000000};
+    nanosleep(&ts, NULL);
+    pm_session_cancel(session); /* what a snapshot's signal handler does */
+    return NULL;
+}
+
+/* A snapshot's way of rendering: pm_session_iterate on this thread while another cancels it in
+ * the middle of a photon pass far too long to wait for (5 million photons); then an eye pass cut
+ * between tiles by a deadline. Each is answered at once, and the film holds only whole work. */
+static void cut_sessions(const pm_scene *s, const pm_accel *a, pm_camera cam) {
+    pm_session_config config;
+    memset(&config, 0, sizeof config);
+    config.mode = PM_MODE_PROGRESSIVE;
+    config.width = 64;
+    config.height = 48;
+    config.progressive = (pm_progressive_settings){.seed = 3, .threads = 2, .photons = 5000000, .caustic_photons = 5000000,
+                                                   .alpha = 2.0 / 3.0, .indirect = PM_INDIRECT_GATHER,
+                                                   .max_specular_depth = 8, .max_photon_bounces = 16, .eye_passes = 1};
+    char err[256];
+    pm_session *session = pm_session_create(s, a, &cam, &config, err, sizeof err);
+    CHECK(session != NULL, "session: %s", err);
+    if (!session) return;
+    pthread_t canceller;
+    pthread_create(&canceller, NULL, cancel_soon, session);
+    double t0 = pm_now_seconds();
+    bool ok = pm_session_iterate(session, 0);
+    double waited = pm_now_seconds() - t0;
+    pthread_join(canceller, NULL);
+    const pm_film *film = pm_session_film(session);
+    printf("a 5-million-photon iteration cancelled from another thread returned after %.3f s\n", waited);
+    CHECK(ok && waited < 5.0, "the cancelled iteration returns at once, without failing (%.3f s)", waited);
+    CHECK(film->samples == 0 && !film->ragged && film->photon_passes == 0, "the cancelled iteration left the film empty");
+    pm_session_destroy(session);
+
+    config.progressive.photons = config.progressive.caustic_photons = 4000;
+    config.width = 256;
+    config.height = 192;
+    session = pm_session_create(s, a, &cam, &config, err, sizeof err);
+    CHECK(session != NULL, "session: %s", err);
+    if (!session) return;
+    CHECK(pm_session_iterate(session, 1), "first iteration");
+    film = pm_session_film(session);
+    pm_session_set_deadline(session, pm_now_seconds() + 0.005);
+    CHECK(pm_session_iterate(session, 1), "the iteration the deadline cuts");
+    size_t ahead = pm_film_pixels_ahead(film);
+    printf("the deadline cut the second eye pass after %zu of %d pixels\n", ahead, config.width * config.height);
+    CHECK(film->samples == 1 && ahead < (size_t)config.width * config.height, "the second pass did not finish (%u, %zu)",
+          film->samples, ahead);
+    float *image = malloc(sizeof(float) * 3 * (size_t)config.width * config.height);
+    CHECK(pm_film_resolve_total(film, image), "resolve");
+    double sum = 0;
+    for (size_t i = 0; i < 3 * (size_t)config.width * config.height; i++) sum += image[i];
+    CHECK(sum > 0 && isfinite(sum), "the cut film resolves to a lit image (%g)", sum);
+    free(image);
     pm_session_destroy(session);
 }
 
@@ -148,6 +208,7 @@ int main(void) {
         for (int t = 0; t < 3; t++) free(images[t]);
     }
     background_session(&s, a, cam);
+    cut_sessions(&s, a, cam);
     pm_accel_destroy(a);
     pm_scene_free(&s);
     return pm_test_done("test_threads");
