@@ -901,7 +901,17 @@ int main(int argc, char **argv) {
     if (!configure(&opt, &scene, accel, width, height, &config)) { exit_code = 1; goto done; }
     session = pm_session_create(&scene, accel, &camera, &config, err, sizeof err);
     if (!session) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
-    if (opt.stats) pm_print_film_stats(pm_session_film(session));
+    if (opt.snapshot) {
+        /* from here a signal is the snapshot's: the image so far (none yet) is written, 130 or 143;
+         * before, it ends the process at once */
+        signalled_session = session;
+        signal(SIGINT, on_signal);
+        signal(SIGTERM, on_signal);
+    }
+    if (opt.stats) {
+        pm_print_film_stats(pm_session_film(session));
+        fflush(stdout); /* a script waiting for the render to start sees it */
+    }
     if (opt.snapshot) {
         uint64_t bytes = snapshot_output_bytes(opt.snapshot, pm_session_film(session));
         if (!pm_memory_admit(bytes, pm_has_extension(opt.snapshot, ".png") ? "PNG output buffers" : "EXR output buffers")) {
