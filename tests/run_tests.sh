@@ -53,5 +53,5 @@ if [ "$check" = 1 ]; then
     done
 fi
 [ -n "$failed_names" ] && echo "failed:$failed_names"
-if [ "$skipped" -gt 0 ]; then echo "$passed passed, $failed failed, $skipped skipped"; else echo "$passed passed, $failed failed"; fi
+echo "$passed passed, $failed failed, $skipped skipped"
 [ "$failed" -eq 0 ]
