@@ -1,5 +1,5 @@
 #!/bin/sh
-# error_vs_time.sh: error against time, progressive (alpha 1/2, 2/3, 0.9; gather and photons) and classic, on the shipped scenes (docs/progressive.md).
+# error_vs_time.sh: error against time, progressive (alpha 1/2, 2/3, 0.9; gather and photons) and classic, on the shipped scenes (docs/convergence.md holds the current figures).
 #
 #   sh bench/error_vs_time.sh [SECONDS...]      default: 1 4 16 60
 #

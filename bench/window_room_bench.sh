@@ -1,8 +1,8 @@
 #!/bin/sh
-# window_room_bench.sh: the room lit by sun and sky through a window (scenes/window-room.gltf) at equal time against Mitsuba 3's reference: error, channel means and the share of useful photons before (no clipping, no guiding) and after, as ratios of one run ("bench window_room" lines).
+# window_room_bench.sh: the room lit by sun and sky through a window (scenes/window-room.gltf) at equal time against Mitsuba 3's reference: error, channel means and the share of useful photons unclipped and unguided, clipped, and with the defaults (clipped and guided), as ratios of one run ("bench window_room" lines).
 #
 # Each configuration renders 64x64 for the same wall time on all cores, one after another; the
-# ratio line divides the old configuration's relMSE by each other's (above 1: lower error at
+# ratio line divides the unclipped, unguided configuration's relMSE by each other's (above 1: lower error at
 # equal time). BENCH_SECONDS sets the time (default 10).
 cd "$(dirname "$0")/.." || exit 1
 seconds=${BENCH_SECONDS:-10}
@@ -11,7 +11,7 @@ ref=tests/ref/window_room_64.exr
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 field() { sed -n "s/.*$1=\([^ ]*\).*/\1/p" "$2" | tail -n 1; }
-for config in "before:--clip off --guide off" "clipped:--clip on --guide off" "after:--clip on --guide on"; do
+for config in "unclipped:--clip off --guide off" "clipped:--clip on --guide off" "default:--clip on --guide on"; do
     name=${config%%:*}; opts=${config#*:}
     # shellcheck disable=SC2086
     ./pmview scenes/window-room.gltf --sky white --width 64 --height 64 --photons 40000 --time "$seconds" --quiet \
@@ -24,10 +24,10 @@ for config in "before:--clip off --guide off" "clipped:--clip on --guide off" "a
         "$(field useful_share "$tmp/$name.progressive")" "$(field useful_photons_per_second "$tmp/$name.progressive")" \
         "$(field clip_rays "$tmp/$name.progressive")"
 done
-python3 - "$(field relmse "$tmp/before.error")" "$(field relmse "$tmp/clipped.error")" "$(field relmse "$tmp/after.error")" \
-    "$(field useful_share "$tmp/before.progressive")" "$(field useful_share "$tmp/after.progressive")" <<'EOF'
+python3 - "$(field relmse "$tmp/unclipped.error")" "$(field relmse "$tmp/clipped.error")" "$(field relmse "$tmp/default.error")" \
+    "$(field useful_share "$tmp/unclipped.progressive")" "$(field useful_share "$tmp/default.progressive")" <<'EOF'
 import sys
-before, clipped, after, share_before, share_after = map(float, sys.argv[1:])
-print("bench window_room_ratios relmse_before_over_clipped=%.2f relmse_before_over_after=%.2f useful_share_after_over_before=%.1f"
-      % (before / clipped, before / after, share_after / max(share_before, 1e-9)))
+unclipped, clipped, default, share_unclipped, share_default = map(float, sys.argv[1:])
+print("bench window_room_ratios relmse_unclipped_over_clipped=%.2f relmse_unclipped_over_default=%.2f useful_share_default_over_unclipped=%.1f"
+      % (unclipped / clipped, unclipped / default, share_default / max(share_unclipped, 1e-9)))
 EOF

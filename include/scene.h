@@ -37,7 +37,7 @@ typedef struct {
     float m[6];
 } pm_uv_transform;
 
-/* glTF metallic-roughness material plus the extensions we honour; see README for the mapping
+/* glTF metallic-roughness material plus the extensions we honour; see docs/design.md (Materials) for the mapping
  * to the diffuse (D) and specular (S) coefficients used by Russian roulette. Each texture has
  * its TEXCOORD set (0 or 1; 1 reads the scene's uvs1) and its transform. */
 typedef struct {
@@ -86,7 +86,7 @@ typedef struct {
     vec3 position;          /* world space (point, spot) */
     vec3 direction;         /* unit, the direction light travels: the node's -Z (spot, directional) */
     vec3 intensity;         /* color x intensity: W/sr (point, spot) or W/m^2 (directional) */
-    float range;            /* 0 = infinite; glTF's range is a cut-off hint, see README */
+    float range;            /* 0 = infinite; glTF's range is a cut-off hint, see docs/design.md (Lights) */
     float cos_inner, cos_outer; /* spot cone, cosines of the glTF angles */
 } pm_light;
 
@@ -291,7 +291,7 @@ static inline float pm_clamp01(float x) { return x < 0.f ? 0.f : (x > 1.f ? 1.f 
 
 /* Whether a point with these parameters has the glossy (GGX) lobe: some metal, and alpha =
  * roughness^2 at least PM_GLOSSY_MIN_ALPHA. Below that it is the perfect mirror; a metallic 0
- * material stays Lambert (the dielectric's 4% specular coat is not rendered; see README). */
+ * material stays Lambert (the dielectric's 4% specular coat is not rendered; see docs/design.md, Materials). */
 static inline bool pm_glossy_at(float metallic, float roughness) {
     float r = pm_clamp01(roughness);
     return pm_clamp01(metallic) > 0.f && r * r >= PM_GLOSSY_MIN_ALPHA;
@@ -300,7 +300,7 @@ static inline bool pm_glossy_at(float metallic, float roughness) {
 static inline bool pm_material_glossy(const pm_material *m) { return pm_glossy_at(m->metallic, m->roughness); }
 
 /* Splits a material at a point (its base colour, metallic, roughness and transmission there,
- * textures applied) into kd, ks, kt; see README. Inline: it runs at every hit of every path. A
+ * textures applied) into kd, ks, kt; see docs/design.md (Materials). Inline: it runs at every hit of every path. A
  * glossy point has kd = ks = 0: its lobe (pm_brdf_at) holds both its diffuse and its specular
  * parts, and kt its glass share. */
 static inline void pm_material_split_at(vec3 base, float metallic, float roughness, float transmission, vec3 *kd,

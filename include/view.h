@@ -47,8 +47,8 @@ void pm_view_destroy(pm_view *v);
 
 /* Uploads the film's components as pm_film_resolve gives them (absent components stay black). */
 void pm_view_upload(pm_view *v, const pm_film *film);
-/* Uploads already resolved components: width*height*3 floats each, NULL = black. A different size
- * than before reallocates the textures. */
+/* Uploads already resolved components: width*height*3 floats each, NULL = black. A size other than
+ * the last upload's reallocates the textures. */
 void pm_view_upload_layers(pm_view *v, int width, int height, const float *const layers[PM_COMPONENT_COUNT]);
 /* Window only: the title's status part (iterations, photons, time...), before the component flags. */
 void pm_view_set_status(pm_view *v, const char *status);

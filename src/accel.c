@@ -4,8 +4,8 @@
  * material can let rays through (MASK, BLEND) go into a second Embree geometry whose intersection
  * and occlusion filters reject a candidate hit the alpha test lets through, so every query (eye,
  * shadow, gather, photon) sees the same cut-outs; opaque triangles stay in a geometry without
- * filters, and a scene without such materials is built exactly as before (one geometry, no
- * filter). Only the alpha test reads the scene after creation, so the scene must outlive the
+ * filters, and a scene without such materials has one geometry and no filter, so it pays nothing
+ * for the alpha test. Only the alpha test reads the scene after creation, so the scene must outlive the
  * accel (it does: the session holds it too).
  */
 #include "accel.h"

@@ -1627,7 +1627,7 @@ void Loader::add_light(int index, const WorldTransform &world, int node) {
     light.intensity = emission_within_film(color, framed, "intensity", made_of, label);
     double range = checked(l.range, 0, INFINITY, "range", label) * (light.type == PM_LIGHT_DIRECTIONAL ? 1 : frame_scale_);
     if (range > FLT_MAX) note(label, "range", num(range) + " (in the scene's frame) clamped to " + num(FLT_MAX));
-    light.range = static_cast<float>(std::min<double>(range, FLT_MAX));  // unused by the renderer (README: Lights)
+    light.range = static_cast<float>(std::min<double>(range, FLT_MAX));  // unused by the renderer (docs/design.md: Lights and the environment)
     const double minus_z[3] = {0, 0, -1};
     light.position = world.origin();
     light.direction = world.unit(minus_z, false);

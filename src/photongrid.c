@@ -10,7 +10,7 @@
 /* Cell coordinates stay far from int overflow whatever the scene's scale or position. */
 static inline int32_t cell_coord(float x, float origin, float inv_cell) {
     float c = (x - origin) * inv_cell;
-    c = c < -1e9f ? -1e9f : (c > 1e9f ? 1e9f : c); /* NaN stays NaN: the conversion below gives INT32_MIN, as before */
+    c = c < -1e9f ? -1e9f : (c > 1e9f ? 1e9f : c); /* NaN stays NaN: the conversion gives INT32_MIN, a cell no query plans */
     int32_t i = (int32_t)c;                         /* floor without a libm call: truncate, then step down below zero */
     return i - (c < (float)i);
 }
@@ -102,8 +102,8 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
 
 #define MAX_GATHER_CELLS 27 /* a disc up to the cell's width overlaps at most 3 x 3 x 3 cells */
 
-/* Whether a photon lies within the radius (NaN distances pass, as they always did, and the
- * surface test then decides). The distance test is most of a query's work (about 8 photons read
+/* Whether a photon lies within the radius (NaN distances pass, so that the
+ * surface test alone decides for them on every path through the grid). The distance test is most of a query's work (about 8 photons read
  * for each one inside): the three differences in one register, summed in the scalar order
  * (dx^2 + dy^2) + dz^2, so the same photons pass. The fourth lane (the record's codes) is masked
  * off before any arithmetic. */

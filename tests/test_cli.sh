@@ -128,8 +128,8 @@ checks=$((checks + 1))
 { grep -q "^stat sky kind=none " "$tmp/out" && ! grep -q "warning" "$tmp/err"; } ||
     { fails=$((fails + 1)); echo "FAIL: the Cornell box's emitters enclose its view: no sky, no warning"; cat "$tmp/err"; }
 # snapshot paths that cannot be written are refused before any work, naming the cause, and no
-# temporary file is left behind (today's main rendered all 10^6 iterations of a directory.exr, then
-# said "Unable to rename temporary file: Success" and left tmp.PID<name> beside it)
+# temporary file is left behind (checked only at the end, a run would render all its iterations
+# before failing to rename onto a directory, and leave tmp.PID<name> beside it)
 mkdir -p "$tmp/out dir/taken.exr" "$tmp/out dir/taken.png"
 : > "$tmp/out dir/plain"
 for target in "taken.exr|is a directory" "taken.png|is a directory" "missing/x.exr|cannot create a file in the folder" \

@@ -34,14 +34,14 @@ near "$ratio" 1 0.01 && [ "$(stat_of eye dropped_samples)" = 0 ] && [ "$(stat_of
     [ "$(stat_of sky clamped_texels)" = 1 ] ||
     fail "one hot texel: mean ratio ${ratio:-?} to the exact plane (want 1 +- 1%), dropped $(stat_of eye dropped_samples), shadow rays $(stat_of eye shadow_rays)"
 echo "one texel at 3e38: mean ratio $ratio to the exact answer, warning: $(cut -c1-80 "$tmp/err")..."
-# photons from that map: traced, none dropped (before: none at all)
+# photons from that map: traced, none dropped (unclamped, the map's NaN cdf would emit none)
 $bin scenes/caustic.gltf --sky "$tmp/hot.exr" --width 16 --iterations 2 --stats --quiet --snapshot "$tmp/x.exr" >"$tmp/out" 2>"$tmp/err"
 rc=$?; checks=$((checks + 1))
 { [ $rc -eq 0 ] && [ "$(stat_of photons emitted)" -gt 0 ] && [ "$(stat_of photons dropped)" = 0 ] && [ "$(stat_of eye dropped_samples)" = 0 ]; } ||
     fail "photons from the clamped map: exit $rc, emitted $(stat_of photons emitted), dropped $(stat_of photons dropped)"
 
-# 1e38 everywhere: a uniform map of 1e20, the plane at 0.5e20 (before: 39,146 of 65,536 samples
-# dropped as infinite and the image 10x too dark, no warning)
+# 1e38 everywhere: a uniform map of 1e20, the plane at 0.5e20 (unclamped, L / pdf overflows:
+# most samples would be dropped as infinite and the image 10x too dark)
 files exr "$tmp/bright.exr" 32 16 1e38
 files exr "$tmp/bright_ref.exr" 32 32 0.5e20
 $bin "$tmp/plane.gltf" --sky "$tmp/bright.exr" --width 32 --height 32 --iterations 8 --stats --reference "$tmp/bright_ref.exr" \
@@ -85,8 +85,8 @@ refused_early "a directory as the sky" "folder.hdr: is a directory, not a regula
 expect_ok() { checks=$((checks + 1)); "$@" >"$tmp/out" 2>"$tmp/err" || fail "exit $? from: $*"; }
 expect_ok $bin scenes/caustic.gltf --sky "$tmp/full.hdr" --width 16 --iterations 1 --snapshot "$tmp/x.exr"
 
-# memory from the header, before a pixel is decoded (before: a 1.6 MB 16384x16384 EXR took 7.2 GB
-# under --max-memory 1G, a 30000x30000 one decoded for 86 s): tiny files claiming huge maps
+# memory from the header, before a pixel is decoded (decoding first would let a 1.6 MB
+# 16384x16384 EXR take 7.2 GB under --max-memory 1G, and a 30000x30000 one decode for 86 s): tiny files claiming huge maps
 files exr-header "$tmp/huge.exr" 16384 16384
 refused_early "a 16384x16384 EXR under --max-memory 1G" \
     "huge.exr: out of memory (sky map of 16384x16384 texels, [0-9]* bytes, with [0-9]* bytes already committed, over the limit of 1073741824 bytes; see --max-memory)" \
@@ -105,8 +105,8 @@ files exr-header "$tmp/wide.exr" 4096 2048
 refused_early "a 4096x2048 EXR under --max-memory 1M" "wide.exr: out of memory (sky map of 4096x2048 texels" \
     --sky "$tmp/wide.exr" --max-memory 1M
 
-# a reference of the wrong size, from its header, before the scene (before: refused after 103 s
-# and 3.9 GB with --log); the image's height comes from the camera, then the check runs again
+# a reference of the wrong size, from its header, before the scene (checked after the render, the
+# refusal would come after minutes and gigabytes); the image's height comes from the camera, then the check runs again
 files exr "$tmp/ref64.exr" 64 64 0.5
 refused_early "a 64x64 reference for a 16-wide image" "ref64.exr: the reference is 64x64 but the image is 16 wide" \
     --reference "$tmp/ref64.exr" --log "$tmp/l.csv"

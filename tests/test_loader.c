@@ -429,8 +429,8 @@ static void test_flat_normals(void) {
 
 /* glTF gives a primitive without NORMAL flat normals; a NORMAL of zero length or not finite gives
  * no more, so a triangle with such a corner is flat too. The box with shared corners and all-zero
- * normals is the box without NORMAL, vertex for vertex (each shared corner took one face's normal:
- * its image was 0.65 of the box's). */
+ * normals is the box without NORMAL, vertex for vertex (taking one face's normal at each shared
+ * corner would darken its image to 0.65 of the box's). */
 static void test_unusable_normals(void) {
     static const float corners[24] = {-1, -1, -1, 1, -1, -1, -1, 1, -1, 1, 1, -1, -1, -1, 1, 1, -1, 1, -1, 1, 1, 1, 1, 1};
     static const uint32_t box[36] = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
@@ -1413,7 +1413,7 @@ static void test_tangent_w(void) {
 /* ---------------------------------------------------------------- main */
 
 /* Inputs pmview does not render are counted (stat load ignored_inputs) and warned once per kind;
- * alpha modes are read (mode, cutoff, the base colour factor's alpha) and no longer warned. */
+ * alpha modes are read (mode, cutoff, the base colour factor's alpha) and so not warned about. */
 static void test_ignored_inputs(void) {
     prim_spec prims[4];
     for (int i = 0; i < 4; i++) {
@@ -1564,7 +1564,7 @@ static void test_wrong_types_and_indices(void) {
 }
 
 /* A 2x2 24-bit BMP stored top-down (negative height): stb_image's info call reports the height
- * as -2, which the loader used to take for 18446744073709551614 and refuse. */
+ * as -2, which an unsigned reading would take for 18446744073709551614 and refuse. */
 static void test_top_down_bmp(void) {
     static const unsigned char bmp[70] = {
         'B', 'M', 70, 0, 0, 0, 0, 0, 0, 0, 54, 0, 0, 0,                  /* file header: size 70, pixels at 54 */

@@ -4,7 +4,7 @@
 #include "rng.h"
 #include "testing.h"
 
-/* pm_offset_ray_origin one coordinate at a time, as the scalar form it replaced: the vector form
+/* pm_offset_ray_origin one coordinate at a time, the scalar definition: the vector form
  * must give the same bits (the sum wraps in unsigned arithmetic: -0 with a negative n would
  * overflow an int, in a result the near-zero step replaces anyway) */
 static float offset_reference(float p, float n, float scale) {

@@ -49,7 +49,7 @@ $bin "$tmp/scene.gltf" --width 16 --height 16 --iterations 2 --quiet --reference
 rc=$?; checks=$((checks + 1))
 [ $rc -eq 0 ] && [ -s "$tmp/run.csv" ] && [ -s "$tmp/run.exr" ] || { fail "distinct outputs: exit $rc"; cat "$tmp/err"; }
 
-# a read-only EXR target is refused before any work (it used to be renamed over); root may
+# a read-only EXR target is refused before any work (a rename would replace it although its owner protected it); root may
 # write anything, so as root the run is made as nobody
 mkdir "$tmp/locked"; chmod 777 "$tmp/locked"; chmod 711 "$tmp"
 printf 'keep' > "$tmp/locked/r.exr"; chmod 444 "$tmp/locked/r.exr"; printf 'keep' > "$tmp/orig/keep"

@@ -169,9 +169,9 @@ static float *flat_texels(int w, int h, float value, int hx, int hy, const float
 }
 
 /* Texels past a float film's range are clamped as emission is (PM_MAX_EMISSION), counted for the
- * warning, and the sampling distribution stays a density. A single texel at 3e38 (its channel sum
- * overflowed a float) left a cdf of NaN: no sky sample, no photon; a map of 1e38 everywhere
- * overflowed L / pdf, dropping most samples. Both now light a plane exactly, nothing dropped. */
+ * warning, and the sampling distribution stays a density. Unclamped, a single texel at 3e38 (its channel sum
+ * overflows a float) would leave a cdf of NaN: no sky sample, no photon; a map of 1e38 everywhere
+ * would overflow L / pdf, dropping most samples. Clamped, both light a plane exactly, nothing dropped. */
 static void clamped_maps(void) {
     enum { W = 32, H = 16 };
     char err[256];

@@ -4,8 +4,8 @@
  * The floor's direct light under a point light is albedo/pi x I cos / d^2, so the ratio of the
  * two halves measures the decode the table holds (0.2158, not 128/255 = 0.502).
  * Nothing decodes an sRGB texel before the 4-thread render (an emission texture would: the
- * scene set-up averages it on this thread), so under TSan the table's set-up is raced for: with
- * the lazy fill it replaced, `if (table[255] == 0) fill()`, TSan reports a data race here.
+ * scene set-up averages it on this thread), so under TSan the table's set-up is raced for: a
+ * lazy fill, `if (table[255] == 0) fill()`, would race here, and TSan reports it.
  */
 #include <stdlib.h>
 #include <string.h>

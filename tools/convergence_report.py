@@ -29,7 +29,7 @@ SCENES = {
                "Mitsuba 3 path tracer, 65536 spp with a constant sky of radiance 1 (tools/mitsuba_reference.py "
                "--scene window_room --sky white), channel means to 1e-4",
                "a room lit by the sun and a white sky through one window, inside a 120 m landscape (--sky white): "
-               "leaks through walls and photons wasted outside, before and after clipping and guiding"),
+               "leaks through walls and photons wasted outside, with and without clipping and guiding"),
 }
 TARGETS = (0.03, 0.01, 0.003)
 TABLE_SECONDS = (1, 4, 16, 64)
@@ -238,12 +238,12 @@ def main():
     w = out.append
     w("# Convergence: error against time for every method on the shipped scenes")
     w("")
-    w("Made by `%s` (tools/convergence.sh, tools/convergence_report.py, tools/error_map.c) on %s, "
+    # the commit identifies the figures; the run's dates are left out (git log has the history)
+    w("Made by `%s` (tools/convergence.sh, tools/convergence_report.py, tools/error_map.c) at "
       "pmview commit %s, on a machine with %s cores (`nproc`), every run with `--threads %s`, one run at a time. "
-      "Runs from %s to %s; the 1-minute load average when each run started was %.1f to %.1f "
+      "The 1-minute load average when each run started was %.1f to %.1f "
       "(other work shared the machine, so every time here is wall-clock time under that load)."
-      % (args.command, args.finished, commit or "?", args.cores, args.threads, args.started, args.finished,
-         min(loads), max(loads)))
+      % (args.command, commit or "?", args.cores, args.threads, min(loads), max(loads)))
     w("")
     w("Each curve is one pmview run: `pmview SCENE OPTIONS --sky SKY --width 64 --height 64 --time %g "
       "--threads %s --seed 1 --snapshot run.exr --reference REF.exr --log run.csv`, SKY the environment the "
