@@ -96,6 +96,7 @@
 #define PM_TIME_SHARE_PHOTONS 0.25        /* with --time: the photon pass's share of the budget */
 #define PM_PHOTON_PASS_TIME_SHARE 0.25     /* with --time: a photon pass stops starting chunks after this share of the time left (sorting what it stored takes as long again) */
 #define PM_ENERGY_CONSERVING_ALBEDO 0.98f /* a shut-in camera whose surroundings mostly reflect this much or more gets a warning */
+
 /* Russian roulette, one rule for every path (vertex.h): from the vertex given below on, a path
  * goes on with probability q = min(PM_MAX_SURVIVAL, mean weight of the bounce), its weight divided by q */
 #define PM_MAX_SURVIVAL 0.99f             /* the cap: a closed room of albedo 1 ends its paths after 100 bounces on average (so a
