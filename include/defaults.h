@@ -8,7 +8,9 @@
 #define PM_DEFAULT_WINDOW_ITERATIONS 100000 /* the window keeps converging until closed */
 #define PM_DEFAULT_SEED 1
 #define PM_DEFAULT_EXPOSURE_EV 0.0f
-#define PM_DEFAULT_MAX_SPECULAR_DEPTH 64 /* a safety stop: past depth 4, roulette on throughput ends eye paths */
+#define PM_DEFAULT_MAX_SPECULAR_DEPTH 1024 /* a safety stop only, as PM_DEFAULT_MAX_PHOTON_BOUNCES: roulette (PM_MAX_SURVIVAL)
+                                            ends specular chains; between 0.99 mirrors the chains past it carry 0.99^1024 = 3e-5
+                                            of the light (64 lost half of it) */
 #define PM_MAX_IMAGE_SIDE 16384
 #define PM_LOG_EVERY_ITERATION_UNTIL 64 /* --log: a row per iteration up to here, then at every doubling (and the last) */
 #define PM_DEFAULT_MEMORY_SHARE 0.5     /* --max-memory default: one estimated structure (triangles, photon records of a pass,
@@ -94,16 +96,23 @@
 #define PM_TIME_SHARE_PHOTONS 0.25        /* with --time: the photon pass's share of the budget */
 #define PM_PHOTON_PASS_TIME_SHARE 0.25     /* with --time: a photon pass stops starting chunks after this share of the time left (sorting what it stored takes as long again) */
 #define PM_ENERGY_CONSERVING_ALBEDO 0.98f /* a shut-in camera whose surroundings mostly reflect this much or more gets a warning */
-#define PM_PHOTON_MAX_SURVIVAL 0.99f      /* Russian roulette keeps a photon with at most this probability (the weight compensates):
-                                              a closed room of albedo 1 ends its paths after 100 bounces on average (so a pass stores
-                                              at most about 100 records a photon), not at the cap. Below albedo rho the weights grow by
-                                              rho/q a bounce and their variance stays finite only while q > rho^2: 0.99 keeps a room of
-                                              albedo 0.99 exact (tests/test_hard_energy.c), 0.95 left it 10% dark */
+
+/* Russian roulette, one rule for every path (vertex.h): from the vertex given below on, a path
+ * goes on with probability q = min(PM_MAX_SURVIVAL, mean weight of the bounce), its weight divided by q */
+#define PM_MAX_SURVIVAL 0.99f             /* the cap: a closed room of albedo 1 ends its paths after 100 bounces on average (so a
+                                              photon pass stores at most about 100 records a photon), not at a length cap. Below
+                                              albedo rho the weights grow by rho/q a bounce and their variance stays finite only
+                                              while q > rho^2: 0.99 keeps a room of albedo 0.99 exact (tests/test_hard_energy.c), 0.95
+                                              left it 10% dark, and a box of 0.99 mirrors reads its 100 x emission (tests/test_mirror_box.c) */
+#define PM_EYE_ROULETTE_VERTEX 3          /* eye paths (camera chains, gather walks, the path tracer) meet the roulette from the
+                                              fourth surface (index 3) on: their first bounces carry most of a pixel; photons from
+                                              the first, so a photon keeps its power (Jensen) */
+/* the names report.c, sky_choice.c and tests print or check: the same rule */
+#define PM_PHOTON_MAX_SURVIVAL PM_MAX_SURVIVAL
+#define PM_PATHTRACE_MAX_SURVIVAL PM_MAX_SURVIVAL
+#define PM_PATHTRACE_ROULETTE_VERTEX PM_EYE_ROULETTE_VERTEX
 
 /* path tracing (--mode pathtrace) */
-#define PM_PATHTRACE_ROULETTE_VERTEX 3     /* Russian roulette after the scattering at the fourth surface a path meets (index 3) and every later one ... */
-#define PM_PATHTRACE_MAX_SURVIVAL 0.99f    /* ... keeping it with probability min(this, max throughput component), the weight compensated;
-                                              0.99 for the reason PM_PHOTON_MAX_SURVIVAL gives (finite variance needs q > albedo^2) */
 #define PM_PATHTRACE_MAX_VERTICES 1024     /* a safety stop only, as PM_DEFAULT_MAX_PHOTON_BOUNCES: roulette ends paths first */
 
 #endif

@@ -32,7 +32,8 @@ typedef enum { PM_INDIRECT_GATHER = 0, PM_INDIRECT_PHOTONS = 1 } pm_indirect_mod
 typedef struct {
     uint64_t seed;
     int threads;
-    int max_specular_depth;   /* specular bounces followed before a path is cut */
+    int max_specular_depth;   /* specular bounces followed before a path is cut: a safety stop, roulette ends chains first
+                                 (PM_DEFAULT_MAX_SPECULAR_DEPTH) */
     const pm_photon_maps *maps; /* NULL: no caustic or indirect component */
     pm_estimate_settings caustic_estimate, global_estimate;
     pm_indirect_mode indirect;
@@ -83,13 +84,13 @@ void pm_eye_enclosure(const pm_scene *s, const pm_accel *a, const pm_camera *cam
  * glossy vertex it adds direct light by next-event estimation (the same direct_light() the other
  * modes call: punctual lights, an emissive triangle picked by power and the sky map, combined by
  * multiple importance sampling with a ray from the material's own sampling), then continues along
- * that same ray (cosine or the glossy lobe: one traced segment serves both); mirrors and glass scatter through
- * pm_scatter_specular() and a mixed surface picks its part by weight, as every eye path does.
+ * that same ray (cosine or the glossy lobe: one traced segment serves both); the choice of part, its
+ * sampling and the survival are the path-vertex kernel's (vertex.h), as for every eye path and photon.
  * Emission and the sky are counted where a segment meets them only when no light sampling could
  * have found them: on the camera ray and after a specular bounce (after a diffuse or glossy bounce
- * the vertex's direct light already holds them). Russian roulette on the throughput from the
- * scattering at the surface of index PM_PATHTRACE_ROULETTE_VERTEX (from 0) on (survival at most PM_PATHTRACE_MAX_SURVIVAL, the weight
- * divided by it); paths stop at PM_PATHTRACE_MAX_VERTICES as a safety. Components, by the first eye
+ * the vertex's direct light already holds them). Russian roulette is vertex.h's one rule from the
+ * surface of index PM_EYE_ROULETTE_VERTEX (from 0) on (survival min(PM_MAX_SURVIVAL, the bounce's
+ * mean weight), the weight divided by it); paths stop at PM_PATHTRACE_MAX_VERTICES as a safety. Components, by the first eye
  * vertex as in the photon modes: direct = emission and sky seen by the camera ray + direct light at
  * a first-hit diffuse vertex; specular = everything behind a first-hit specular vertex; caustic =
  * light the continuation from a first-hit diffuse vertex x1 finds through one or more specular

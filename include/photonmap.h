@@ -89,10 +89,15 @@ bool pm_photon_tracer_trace(pm_photon_tracer *t, bool caustic, uint64_t photons,
  * however long a pass would have run. Not for trees (the classic mode sizes its passes). */
 void pm_photon_tracer_set_deadline(pm_photon_tracer *t, double deadline);
 
-/* With traced true, global passes store no record of a photon's first hit when it left a punctual
+/* With skip true, global passes store no record of a photon's first hit when it left a punctual
  * light: the reader traces that light itself (the progressive mode's gather points, by shadow
  * rays). Its later hits are stored as before. */
-void pm_photon_tracer_trace_punctual_first_hits(pm_photon_tracer *t, bool traced);
+void pm_photon_tracer_skip_punctual_first_hits(pm_photon_tracer *t, bool skip);
+
+/* The area photon records can land on (triangles whose material has a diffuse or glossy share
+ * at some point, its textures' range of metallic and transmission included): the photon density
+ * that sets initial radii, and the shadow photons' cell, divide by it. */
+double pm_photon_receiving_area(const pm_scene *s);
 
 /* Camera splats: light tracing of the caustic seen directly. While set, every caustic pass also
  * connects each caustic photon it stores at a diffuse or glossy point to the camera (an image

@@ -2,8 +2,8 @@
  *
  * Eye paths and photons must scatter identically or photon estimates are biased, so every
  * tracer calls pm_scatter_specular() once it has chosen the specular part of a surface. The
- * caller owns the choice between the diffuse and specular parts (roulette on D and S for
- * photons, a weighted pick for eye paths); this function picks mirror or glass in proportion
+ * path-vertex kernel (vertex.h) owns the choice between the diffuse and specular parts and the
+ * survival after it; this function picks mirror or glass in proportion
  * to their mean weights, lets Fresnel pick reflection or refraction, and returns the lobe's
  * colour divided by the probability of the pick, relative to the specular total.
  */
@@ -14,6 +14,9 @@
 #include "pm_math.h"
 #include "rng.h"
 #include "scene.h"
+
+/* n turned to the side of `toward` (a face normal to the side a ray arrives from or leaves to). */
+static inline vec3 pm_facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
 
 typedef struct {
     vec3 direction;   /* unit, leaving the surface */
@@ -43,7 +46,7 @@ static inline bool pm_scatter_specular(const pm_surface *sf, vec3 d, pm_rng *rng
     vec3 wo = v3_neg(d);
     bool front = v3_dot(sf->ng, wo) > 0.f;
     vec3 ng = front ? sf->ng : v3_neg(sf->ng);
-    vec3 ns = v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
+    vec3 ns = pm_facing(sf->ns, ng);
     float wm = v3_average(sf->ks), wt = v3_average(sf->kt), total = wm + wt;
     out->radiance_scale = 1.f;
     out->transmitted = false;

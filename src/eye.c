@@ -1,8 +1,11 @@
-/* eye.c: the eye pass: camera rays, emission and shadow-ray direct light, recursive specular tracing, per-component accumulation.
+/* eye.c: the eye pass: camera rays, emission and shadow-ray direct light, specular chains, visible points, the path tracer, per-component accumulation.
  *
- * A path from the eye follows perfect mirrors and glass interfaces (one lobe picked by
- * weight, Fresnel picking reflection or refraction) and at every vertex with a diffuse or
- * glossy part adds emission and direct light (a glossy lobe evaluated per light sample). The first vertex decides the component; see eye.h.
+ * Every path from the eye (a classic chain, a walk to a visible or gather point, a path-traced
+ * sample, a classic gather ray) steps through the path-vertex kernel at each surface (vertex.h):
+ * it picks the part to go on with, samples it (mirrors and glass through the specular function
+ * photons share, the cosine or the glossy lobe otherwise) and meets the one survival rule; what
+ * the tracers add at a vertex (emission, direct light, photon estimates, a visible point) is
+ * theirs. The first vertex decides the component; see eye.h.
  */
 #include "eye.h"
 #include "clock.h"
@@ -14,8 +17,10 @@
 
 #include "defaults.h"
 #include "parallel.h"
+#include "light.h"
 #include "rng.h"
 #include "scatter.h"
+#include "vertex.h"
 
 #define TILE 16
 #define MAX_THREADS 256
@@ -38,7 +43,10 @@ typedef struct {
     uint8_t done[];                      /* per tile: traced (a cut pass marks these in the film) */
 } eye_job;
 
-static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
+/* The survival rules of the eye paths (vertex.h): a classic chain reads the diffuse part where it
+ * is and goes on with the specular part; a walk to a visible point and the path tracer choose. */
+static const pm_vertex_policy chain_policy = {.roulette_from = PM_EYE_ROULETTE_VERTEX, .diffuse_in_place = true};
+static const pm_vertex_policy choosing_policy = {.roulette_from = PM_EYE_ROULETTE_VERTEX};
 
 /* The ray direct_light() draws from the material's own sampling, handed on as the path's next
  * segment: a path that continues from a diffuse or glossy point (a final-gather ray, a path
@@ -70,7 +78,7 @@ void pm_eye_enclosure(const pm_scene *s, const pm_accel *a, const pm_camera *cam
             /* what the seen surface sees: light from outside reaches it only along rays that escape */
             pm_surface sf;
             pm_scene_surface(s, h.tri, h.b1, h.b2, &sf);
-            vec3 n = facing(sf.ng, v3_neg(d));
+            vec3 n = pm_facing(sf.ng, v3_neg(d));
             vec3 from = pm_surface_origin(&sf, n, s->ray_scale);
             for (int k = 0; k < BOUNCES; k++)
                 closed += pm_accel_intersect(a, from, pm_sample_cosine(n, pm_rng_float(&rng), pm_rng_float(&rng)), INFINITY, &h);
@@ -86,14 +94,6 @@ void pm_eye_enclosure(const pm_scene *s, const pm_accel *a, const pm_camera *cam
 }
 
 
-
-/* glTF's recommended spot cone falloff. */
-static float spot_falloff(const pm_light *l, vec3 light_to_point) {
-    float cd = v3_dot(l->direction, light_to_point);
-    float scale = 1.f / pm_maxf(1e-3f, l->cos_inner - l->cos_outer);
-    float t = pm_minf(pm_maxf(cd * scale - l->cos_outer * scale, 0.f), 1.f);
-    return t * t;
-}
 
 /* Veach's power heuristic (beta 2): the weight of a sample drawn with pdf a against another strategy's pdf b. */
 static inline float power_heuristic(float a, float b) {
@@ -146,7 +146,7 @@ static vec3 punctual_light(const pm_scene *s, const pm_accel *a, const pm_surfac
             if (d2 <= 0.f) continue;
             tmax = sqrtf(d2);
             wi = v3_scale(to_light, 1.f / tmax);
-            float falloff = l->type == PM_LIGHT_SPOT ? spot_falloff(l, v3_neg(wi)) : 1.f;
+            float falloff = l->type == PM_LIGHT_SPOT ? pm_spot_falloff(l, v3_neg(wi)) : 1.f;
             if (falloff <= 0.f) continue;
             radiance_scale = v3_scale(l->intensity, falloff / d2);
         }
@@ -178,7 +178,7 @@ static vec3 punctual_light(const pm_scene *s, const pm_accel *a, const pm_surfac
  * the ray-only estimate, random numbers included. */
 static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, vec3 wo, pm_rng *rng,
                          uint64_t *rays, const pm_shadow_map *shadow, uint64_t shadow_counts[2], surface_bounce *next) {
-    vec3 ng = facing(sf->ng, wo);
+    vec3 ng = pm_facing(sf->ng, wo);
     vec3 ns = v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
     vec3 origin = pm_surface_origin(sf, ng, s->ray_scale);
     uint64_t cast = 0, saved = 0;
@@ -190,12 +190,9 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         uint32_t tri = pm_scene_pick_emitter(s, pm_rng_float(rng), &pick_pdf);
         float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng);
         vec3 radiance = pm_scene_emitted_at(s, tri, r1 * (1.f - r2), r1 * r2); /* a point picked by area: cut-outs count */
-        const uint32_t *ix = s->indices + 3 * (size_t)tri;
-        vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
-        vec3 q = v3_add(v3_scale(p0, 1.f - r1), v3_add(v3_scale(p1, r1 * (1.f - r2)), v3_scale(p2, r1 * r2)));
-        vec3 cross = v3_cross(v3_sub(p1, p0), v3_sub(p2, p0));
-        float area = 0.5f * v3_length(cross);
-        vec3 nl = v3_normalize(cross);
+        pm_triangle_geometry g = pm_triangle_geometry_of(s, tri);
+        vec3 q = pm_triangle_point(&g, r1 * (1.f - r2), r1 * r2), nl = g.normal;
+        float area = g.area;
         const pm_material *m = &s->materials[s->triangle_material[tri]];
         vec3 to_light = v3_sub(q, origin);
         float dist = v3_length(to_light);
@@ -205,7 +202,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
             if (m->double_sided) cos_l = fabsf(cos_l);
             float cos_s = v3_dot(ns, wi);
             if (cos_l > 0.f && cos_s > 0.f && v3_dot(ng, wi) > 0.f) {
-                vec3 target = pm_offset_ray_origin(q, facing(nl, v3_neg(wi)), s->ray_scale);
+                vec3 target = pm_offset_ray_origin(q, pm_facing(nl, v3_neg(wi)), s->ray_scale);
                 vec3 seg = v3_sub(target, origin);
                 float seg_len = v3_length(seg);
                 (*rays)++;
@@ -245,26 +242,16 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
      * the path's next segment when the caller asks for one. */
     if (next) next->sampled = false;
     if (s->sky || s->emitter_count || next) {
-        vec3 wi, weight = v3s(PM_PI); /* Lambert: cos / (cos / pi) */
-        float pdf_surface = 0.f;
-        bool sampled = true;
-        if (sf->glossy) {
-            vec3 f;
-            sampled = pm_brdf_sample(&sf->brdf, ns, wo, pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), &wi, &f,
-                                     &pdf_surface);
-            if (sampled) weight = v3_scale(f, v3_dot(ns, wi) / pdf_surface);
-        } else {
-            wi = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
-        }
-        float cos_s = sampled ? v3_dot(ns, wi) : 0.f;
-        if (!sf->glossy) pdf_surface = cos_s * PM_INV_PI;
-        bool leaves = sampled && v3_dot(wi, ng) > 0.f;
+        pm_vertex_ray ray; /* the continuation's sampling: the same for every path (vertex.h) */
+        bool leaves = pm_vertex_sample_diffuse(sf, wo, rng, s->ray_scale, &ray);
+        vec3 wi = ray.direction, weight = sf->glossy ? ray.weight : v3s(PM_PI); /* Lambert: cos / (cos / pi), kd/pi at the end */
+        float pdf_surface = ray.pdf, cos_s = leaves ? v3_dot(ns, wi) : 0.f;
         bool lit = leaves && cos_s > 0.f && (s->sky || s->emitter_count);
         float sky_weight = lit && s->sky_map ? power_heuristic(pdf_surface, pm_sky_map_pdf(s->sky_map, wi)) : 1.f;
         if (leaves && next) {
             next->sampled = true;
             next->direction = wi;
-            next->weight = sf->glossy ? weight : sf->kd;
+            next->weight = ray.weight;
             next->origin = origin;
         }
         if (leaves && (next || s->emitter_count)) {
@@ -281,13 +268,11 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                 const pm_material *m = &s->materials[s->triangle_material[h.tri]];
                 float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
                 if (pick_pdf > 0.f) {
-                    const uint32_t *ix = s->indices + 3 * (size_t)h.tri;
-                    vec3 p0 = s->positions[ix[0]];
-                    vec3 cross = v3_cross(v3_sub(s->positions[ix[1]], p0), v3_sub(s->positions[ix[2]], p0));
-                    float len = v3_length(cross), cos_l = len > 0.f ? -v3_dot(cross, wi) / len : 0.f;
+                    pm_triangle_geometry g = pm_triangle_geometry_of(s, h.tri);
+                    float cos_l = g.area > 0.f ? -v3_dot(g.normal, wi) : 0.f;
                     if (m->double_sided) cos_l = fabsf(cos_l);
                     if (cos_l > 0.f) {
-                        float pdf_light = pick_pdf * h.t * h.t / (0.5f * len * cos_l);
+                        float pdf_light = pick_pdf * h.t * h.t / (g.area * cos_l);
                         e = v3_add(e, v3_mul(v3_scale(pm_scene_emission_at(s, h.tri, h.b1, h.b2),
                                                       power_heuristic(pdf_surface, pdf_light)), weight));
                     }
@@ -306,8 +291,6 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
     return radiance_from_light_sum(sf, e);
 }
 
-static inline vec3 side_normal(const pm_surface *sf, vec3 ng) { return v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns; }
-
 /* Radiance reflected toward wo by a photon map's estimate at a diffuse or glossy point: kd/pi x
  * the irradiance estimate, or each photon weighted by the lobe. */
 /* Where a classic estimate at sf (on triangle tri) is clipped to its side of the geometry
@@ -325,43 +308,28 @@ static vec3 map_estimate(const eye_job *job, const pm_kdtree *map, const pm_surf
                          const pm_estimate_settings *e, uint64_t *rays) {
     pm_clip_site site = clip_site(job, sf, tri, NULL, rays);
     const pm_clip_site *clip = job->settings->unclipped ? NULL : &site;
-    if (sf->glossy) return pm_photon_estimate_brdf(map, sf->p, ng, e, &sf->brdf, side_normal(sf, ng), wo, clip);
+    if (sf->glossy) return pm_photon_estimate_brdf(map, sf->p, ng, e, &sf->brdf, pm_facing(sf->ns, ng), wo, clip);
     return v3_scale(v3_mul(sf->kd, pm_photon_estimate(map, sf->p, ng, e, clip)), PM_INV_PI);
-}
-
-/* A direction leaving a diffuse or glossy point (ng, ns on wo's side) by its own sampling and the
- * weight f cos / pdf (kd for Lambert's cosine samples); false when the sample is lost. */
-static bool sample_reflection(const pm_surface *sf, vec3 ng, vec3 ns, vec3 wo, pm_rng *rng, vec3 *wi, vec3 *weight) {
-    if (sf->glossy) {
-        vec3 f;
-        float pdf;
-        if (!pm_brdf_sample(&sf->brdf, ns, wo, pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), wi, &f, &pdf))
-            return false;
-        *weight = v3_scale(f, v3_dot(ns, *wi) / pdf);
-    } else {
-        *wi = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
-        *weight = sf->kd; /* cosine-distributed: kd/pi x cos / (cos/pi) */
-    }
-    return v3_dot(*wi, ng) > 0.f;
 }
 
 /* Radiance reflected toward the gather ray from the first diffuse surface it reaches (through
  * any specular bounces): the global map's estimate there, emission excluded (direct light and
- * caustics at the gathering point already count it). */
-static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, vec3 wo0, pm_rng *rng, uint64_t *rays) {
+ * caustics at the gathering point already count it). The gather ray is the eye path's second
+ * vertex on: its walk is a classic chain (chain_policy) from vertex 1. */
+static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 wo0, pm_rng *rng, uint64_t *rays) {
     const pm_scene *s = job->scene;
     const pm_eye_settings *set = job->settings;
-    vec3 d, weight;
-    if (!sample_reflection(sf, ng, ns, wo0, rng, &d, &weight)) return v3s(0.f);
-    vec3 o = pm_surface_origin(sf, ng, s->ray_scale), result = v3s(0.f);
-    for (int depth = 0; depth <= set->max_specular_depth; depth++) {
+    pm_vertex_ray ray;
+    if (!pm_vertex_sample_diffuse(sf, wo0, rng, s->ray_scale, &ray)) return v3s(0.f);
+    vec3 d = ray.direction, o = ray.origin, weight = ray.weight, result = v3s(0.f);
+    for (int depth = 1; depth <= set->max_specular_depth; depth++) {
         pm_hit h;
         (*rays)++;
         if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) return result;
         pm_surface y;
         pm_scene_surface(s, h.tri, h.b1, h.b2, &y);
         weight = v3_mul(weight, pm_volume_transmittance(s, &y, d, h.t));
-        vec3 wo = v3_neg(d), yng = facing(y.ng, wo);
+        vec3 wo = v3_neg(d), yng = pm_facing(y.ng, wo);
         if (y.glossy) {
             result = v3_add(result, v3_mul(weight, map_estimate(job, &set->maps->global, &y, h.tri, yng, wo, &set->global_estimate, rays)));
         } else if (!v3_is_black(y.kd)) {
@@ -376,22 +344,13 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 ng, vec3 ns, v
             result = v3_add(result, v3_mul(weight, v3_scale(v3_mul(y.kd, e), PM_INV_PI)));
         }
         /* the specular part of the same surface (a mixed material) reflects what it sees too */
-        if (pm_specular_weight(&y) <= 0.f) return result;
-        pm_specular_sample sp;
-        if (!pm_scatter_specular(&y, d, rng, s->ray_scale, &sp)) return result;
+        pm_vertex_ray sp;
+        if (!pm_vertex_step(&y, d, depth, &chain_policy, rng, s->ray_scale, &sp)) return result;
         weight = v3_scale(v3_mul(weight, sp.weight), sp.radiance_scale);
         d = sp.direction;
         o = sp.origin;
     }
     return result;
-}
-
-/* Past a few bounces, roulette on throughput keeps long glass paths cheap and unbiased. */
-static inline bool roulette_survives(vec3 *throughput, pm_rng *rng) {
-    float q = pm_minf(0.95f, v3_max_component(*throughput));
-    if (pm_rng_float(rng) >= q) return false;
-    *throughput = v3_scale(*throughput, 1.f / q);
-    return true;
 }
 
 static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
@@ -422,7 +381,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
             out[comp] = v3_add(out[comp], v3_mul(throughput, sf.emission));
         if (!v3_is_black(sf.kd) || sf.glossy) {
             const pm_eye_settings *set = job->settings;
-            vec3 ng = facing(sf.ng, wo);
+            vec3 ng = pm_facing(sf.ng, wo);
             if (set->view_photons && set->maps) {
                 pm_estimate_settings direct_only = set->global_estimate, indirect_only = set->global_estimate;
                 direct_only.path_mask = 1u << PM_PATH_DIRECT;
@@ -442,9 +401,8 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
                 int c = depth == 0 ? PM_INDIRECT : PM_SPECULAR;
                 vec3 l = v3s(0.f);
                 if (set->indirect == PM_INDIRECT_GATHER && depth == 0 && set->gather_rays > 0) {
-                    vec3 ns = side_normal(&sf, ng);
                     /* each gather ray carries its sample's weight: kd x L for Lambert's cosine rays */
-                    for (int g = 0; g < set->gather_rays; g++) l = v3_add(l, gather(job, &sf, ng, ns, wo, rng, rays));
+                    for (int g = 0; g < set->gather_rays; g++) l = v3_add(l, gather(job, &sf, wo, rng, rays));
                     l = v3_scale(v3_mul(throughput, l), 1.f / set->gather_rays);
                 } else {
                     pm_estimate_settings indirect_only = set->global_estimate;
@@ -455,13 +413,13 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
             }
         }
 
-        if (pm_specular_weight(&sf) <= 0.f || depth >= job->settings->max_specular_depth) return;
-        pm_specular_sample sp;
-        if (!pm_scatter_specular(&sf, d, rng, s->ray_scale, &sp)) return; /* shading normal bent it outside: drop */
+        /* the specular part goes on; the diffuse part was read here */
+        if (depth >= job->settings->max_specular_depth) return;
+        pm_vertex_ray sp;
+        if (!pm_vertex_step(&sf, d, depth, &chain_policy, rng, s->ray_scale, &sp)) return;
         throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
         d = sp.direction;
         o = sp.origin;
-        if (depth >= 4 && !roulette_survives(&throughput, rng)) return;
     }
 }
 
@@ -487,7 +445,7 @@ static void add_punctual_light(const eye_job *job, const pm_surface *sf, vec3 wo
  * Gather rays add nothing through specular bounces (direct light and caustics at their origin
  * already count it); at their gather point they add the punctual lights' direct light, by shadow
  * rays as at a visible point (out[lobe_component]), and the global passes store no first hit of
- * a punctual light (pm_photon_tracer_trace_punctual_first_hits): read as photons, that light was
+ * a punctual light (pm_photon_tracer_skip_punctual_first_hits): read as photons, that light was
  * most of a gather estimate's noise and its dark bias where a disc overhangs an edge, while shadow
  * photons make most of its rays free. Emitters and the sky stay with the photons: an area sample
  * and its MIS partner would be two more rays a pixel (an iteration 30% longer on the Cornell box
@@ -502,7 +460,7 @@ static void add_punctual_light(const eye_job *job, const pm_surface *sf, vec3 wo
  * found by none of these, so a scene with punctual lights and mirrors or glass does not go on
  * (job->through_lobes). */
 static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bounce *traced, vec3 throughput,
-                            bool camera_ray, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], int lobe_component, uint64_t *rays,
+                            bool camera_ray, int first_vertex, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], int lobe_component, uint64_t *rays,
                             uint64_t shadow_counts[2], pm_visible_point *vp, pm_surface *sf, vec3 *point_throughput,
                             surface_bounce *next) {
     const pm_scene *s = job->scene;
@@ -533,33 +491,34 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
         if (adds_light && (front || sf->double_sided) && !v3_is_black(sf->emission))
             out[comp] = v3_add(out[comp], v3_mul(throughput, sf->emission));
         /* a glossy lobe is a visible point like Lambert's, chosen by its share of the surface */
-        float D = sf->glossy ? sf->brdf.weight : v3_average(sf->kd), S = pm_specular_weight(sf);
-        if (D > 0.f && (S <= 0.f || pm_rng_float(rng) * (D + S) < D)) {
-            throughput = v3_scale(throughput, (D + S) / D);
-            vec3 ng = facing(sf->ng, wo);
+        float choice;
+        pm_lobe lobe = pm_vertex_choose(sf, false, rng, &choice);
+        if (lobe == PM_LOBE_NONE) return false;
+        if (lobe == PM_LOBE_DIFFUSE) {
+            vec3 ng = pm_facing(sf->ng, wo);
             if (!camera_ray && job->through_lobes && sf->glossy && sf->brdf.alpha < PM_PPM_GATHER_LOBE_ALPHA &&
                 depth < job->settings->max_specular_depth) {
-                vec3 ns = side_normal(sf, ng), from = pm_surface_origin(sf, ng, s->ray_scale), wi, f;
-                float pdf;
                 if (s->light_count)
-                    add_punctual_light(job, sf, wo, ng, ns, from, throughput, rng, rays, shadow_counts, &out[lobe_component]);
-                if (!pm_brdf_sample(&sf->brdf, ns, wo, pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), &wi, &f, &pdf) ||
-                    v3_dot(wi, ng) <= 0.f)
-                    return false;
-                throughput = v3_mul(throughput, v3_scale(f, v3_dot(ns, wi) / pdf));
-                d = wi;
-                o = from;
+                    add_punctual_light(job, sf, wo, ng, pm_facing(sf->ns, ng), pm_surface_origin(sf, ng, s->ray_scale),
+                                       v3_scale(throughput, choice), rng, rays, shadow_counts, &out[lobe_component]);
+                pm_vertex_ray lobe_ray;
+                if (!pm_vertex_sample_diffuse(sf, wo, rng, s->ray_scale, &lobe_ray)) return false;
+                lobe_ray.weight = v3_scale(lobe_ray.weight, choice);
+                if (!pm_vertex_survives(first_vertex + depth, &choosing_policy, rng, &lobe_ray.weight)) return false;
+                throughput = v3_mul(throughput, lobe_ray.weight);
+                d = lobe_ray.direction;
+                o = lobe_ray.origin;
                 past_lobe = true;
-                if (depth >= 4 && !roulette_survives(&throughput, rng)) return false;
                 continue;
             }
+            throughput = v3_scale(throughput, choice);
             if (camera_ray) {
                 out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, sf, wo, rng, rays,
                                                                               job->settings->shadow, shadow_counts, next)));
             } else if (s->light_count) {
                 /* the punctual lights at a gather point: the visible point's indirect light, traced
                  * (their first-hit photons are not stored, see above) */
-                add_punctual_light(job, sf, wo, ng, side_normal(sf, ng), pm_surface_origin(sf, ng, s->ray_scale), throughput,
+                add_punctual_light(job, sf, wo, ng, pm_facing(sf->ns, ng), pm_surface_origin(sf, ng, s->ray_scale), throughput,
                                    rng, rays, shadow_counts, &out[lobe_component]);
             }
             vp->p = sf->p;
@@ -569,7 +528,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
             if (sf->glossy) {
                 vp->weight = throughput;
                 vp->brdf = sf->brdf;
-                vp->ns = side_normal(sf, ng);
+                vp->ns = pm_facing(sf->ns, ng);
             } else {
                 vp->weight = v3_mul(throughput, v3_scale(sf->kd, PM_INV_PI));
                 vp->ns = ng; /* read by nothing on a Lambert point, but every field is set */
@@ -581,14 +540,14 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
             *point_throughput = throughput;
             return true;
         }
-        if (S <= 0.f || depth >= job->settings->max_specular_depth) return false;
-        if (D > 0.f) throughput = v3_scale(throughput, (D + S) / S);
-        pm_specular_sample sp;
-        if (!pm_scatter_specular(sf, d, rng, s->ray_scale, &sp)) return false;
+        if (depth >= job->settings->max_specular_depth) return false;
+        pm_vertex_ray sp;
+        if (!pm_vertex_sample(sf, PM_LOBE_SPECULAR, d, rng, s->ray_scale, &sp)) return false;
+        sp.weight = v3_scale(sp.weight, choice);
+        if (!pm_vertex_survives(first_vertex + depth, &choosing_policy, rng, &sp.weight)) return false;
         throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
         d = sp.direction;
         o = sp.origin;
-        if (depth >= 4 && !roulette_survives(&throughput, rng)) return false;
     }
 }
 
@@ -605,13 +564,13 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
     pm_surface sf, y;
     vec3 throughput, unused;
     surface_bounce next;
-    if (!walk_to_diffuse(job, o, d, camera, v3s(1.f), true, rng, out, PM_DIRECT, rays, shadow_counts, vp, &sf, &throughput,
+    if (!walk_to_diffuse(job, o, d, camera, v3s(1.f), true, 0, rng, out, PM_DIRECT, rays, shadow_counts, vp, &sf, &throughput,
                          gp ? &next : NULL) ||
         !gp || !next.sampled)
         return;
     /* light the gather ray meets past a sharp lobe is the visible point's indirect light */
     int lobe_component = vp->seen_directly ? PM_INDIRECT : PM_SPECULAR;
-    if (walk_to_diffuse(job, next.origin, next.direction, &next, v3_mul(throughput, next.weight), false, rng, out,
+    if (walk_to_diffuse(job, next.origin, next.direction, &next, v3_mul(throughput, next.weight), false, 1, rng, out,
                         lobe_component, rays, shadow_counts, gp, &y, &unused, NULL))
         gp->seen_directly = vp->seen_directly; /* the component is the visible point's */
 }
@@ -649,37 +608,36 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
         bool front = v3_dot(sf.ng, wo) > 0.f;
         if (lit_by_segment && (front || sf.double_sided) && !v3_is_black(sf.emission))
             out[seen] = v3_add(out[seen], v3_mul(throughput, sf.emission));
-        float D = sf.glossy ? sf.brdf.weight : v3_average(sf.kd), S = pm_specular_weight(&sf);
-        if (D <= 0.f && S <= 0.f) return;
-        if (D > 0.f && (S <= 0.f || pm_rng_float(rng) * (D + S) < D)) {
-            throughput = v3_scale(throughput, (D + S) / D);
+        float choice;
+        pm_lobe lobe = pm_vertex_choose(&sf, false, rng, &choice);
+        if (lobe == PM_LOBE_NONE) return;
+        if (lobe == PM_LOBE_DIFFUSE) {
             int here = depth == 0 ? PM_DIRECT : (behind_specular ? PM_SPECULAR : PM_INDIRECT);
-            out[here] = v3_add(out[here], v3_mul(throughput, direct_light(s, job->accel, &sf, wo, rng, rays,
-                                                                          job->settings->shadow, shadow_counts, &next)));
+            /* direct light samples the continuation too (next): the kernel's diffuse sampling */
+            out[here] = v3_add(out[here], v3_mul(v3_scale(throughput, choice),
+                                                 direct_light(s, job->accel, &sf, wo, rng, rays, job->settings->shadow,
+                                                              shadow_counts, &next)));
             /* from a first-hit diffuse vertex, what specular bounces lead to is the caustic */
             seen = depth == 0 ? PM_CAUSTIC : here;
             lit_by_segment = false;
-            if (!next.sampled) return;
-            throughput = v3_mul(throughput, next.weight);
+            vec3 weight = v3_scale(next.weight, choice);
+            if (!next.sampled || !pm_vertex_survives(depth, &choosing_policy, rng, &weight)) return;
+            throughput = v3_mul(throughput, weight);
             d = next.direction;
             o = next.origin;
         } else {
-            if (D > 0.f) throughput = v3_scale(throughput, (D + S) / S);
             if (depth == 0) {
                 behind_specular = true;
                 seen = PM_SPECULAR;
             }
             lit_by_segment = true;
-            pm_specular_sample sp;
-            if (!pm_scatter_specular(&sf, d, rng, s->ray_scale, &sp)) return;
+            pm_vertex_ray sp;
+            if (!pm_vertex_sample(&sf, PM_LOBE_SPECULAR, d, rng, s->ray_scale, &sp)) return;
+            sp.weight = v3_scale(sp.weight, choice);
+            if (!pm_vertex_survives(depth, &choosing_policy, rng, &sp.weight)) return;
             throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
             d = sp.direction;
             o = sp.origin;
-        }
-        if (depth >= PM_PATHTRACE_ROULETTE_VERTEX) {
-            float q = pm_minf(PM_PATHTRACE_MAX_SURVIVAL, v3_max_component(throughput));
-            if (!(q > 0.f) || pm_rng_float(rng) >= q) return;
-            throughput = v3_scale(throughput, 1.f / q);
         }
     }
 }

@@ -4,10 +4,11 @@
  * records in its thread's arena, merged in chunk order: the maps do not depend on the thread
  * count. A chunk is traced in waves (trace_chunk): Embree takes all of a wave's rays, then all
  * of its hits bounce, each phase one tight loop. Every photon starts
- * with its share of the light's flux (power / (photons x pick probability)) and keeps it
- * through Russian roulette (only rescaled per channel by colour), except on surfaces whose
- * reflectance passes PM_PHOTON_MAX_SURVIVAL: there survival is capped and the weight grows by
- * the ratio, so an energy-conserving scene still ends its paths in bounded time.
+ * with its share of the light's flux (power / (photons x pick probability)); at each hit it steps
+ * through the path-vertex kernel that eye paths share (vertex.h), whose Russian roulette keeps
+ * that power (only rescaled per channel by colour), except on surfaces whose reflectance passes
+ * PM_MAX_SURVIVAL: there survival is capped and the weight grows by the ratio, so an
+ * energy-conserving scene still ends its paths in bounded time.
  * A pass given a deadline stops starting chunks when it passes and rescales what it stored by
  * photons asked / photons traced: fewer photons, the same expected power.
  */
@@ -27,8 +28,10 @@
 #include "guide.h"
 #include "memory.h"
 #include "parallel.h"
+#include "light.h"
 #include "rng.h"
 #include "scatter.h"
+#include "vertex.h"
 
 #define CHUNK 2048
 #define MAX_THREADS 256
@@ -106,7 +109,7 @@ typedef struct {
     _Atomic uint64_t records; /* stored so far in this pass */
     atomic_bool out_of_memory;
     uint64_t dropped;         /* photons of the last pass whose power was not finite (ended, not stored) */
-    bool punctual_first_hits_traced; /* global pass: no record of a punctual light's first hit (the reader traces that light) */
+    bool punctual_first_hits_skipped; /* global pass: no record of a punctual light's first hit (the reader traces that light) */
     /* camera splats of the caustic pass (pm_photon_tracer_set_splats): per chunk, merged in order */
     bool splat;               /* splat_view is set */
     pm_camera_view splat_view;
@@ -122,14 +125,9 @@ typedef struct {
     size_t guide_cells;       /* guided sources x PM_GUIDE_CELL_COUNT */
 } pass;
 
-static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
-
-static float spot_falloff(const pm_light *l, vec3 light_to_point) {
-    float cd = v3_dot(l->direction, light_to_point);
-    float scale = 1.f / pm_maxf(1e-3f, l->cos_inner - l->cos_outer);
-    float t = pm_minf(pm_maxf(cd * scale - l->cos_outer * scale, 0.f), 1.f);
-    return t * t;
-}
+/* Photons meet the one survival rule from their first surface on (Jensen: a photon keeps its power). */
+static const pm_vertex_policy photon_policy = {.roulette_from = 0};
+static const pm_vertex_policy caustic_photon_policy = {.roulette_from = 0, .diffuse_ends = true};
 
 /* Flux of a spot: I x integral of the falloff over the cone (midpoint rule in cos theta). */
 static float spot_solid_angle(const pm_light *l) {
@@ -140,9 +138,18 @@ static float spot_solid_angle(const pm_light *l) {
         float s = sqrtf((float)fmax(0.0, 1.0 - c * c));
         vec3 t, b;
         v3_basis(l->direction, &t, &b);
-        sum += spot_falloff(l, v3_add(v3_scale(l->direction, (float)c), v3_scale(t, s))) * step;
+        sum += pm_spot_falloff(l, v3_add(v3_scale(l->direction, (float)c), v3_scale(t, s))) * step;
     }
     return (float)(2.0 * PM_PI * sum);
+}
+
+double pm_photon_receiving_area(const pm_scene *s) {
+    double area = 0.0;
+    for (uint32_t t = 0; t < s->triangle_count; t++) {
+        const pm_material *m = &s->materials[s->triangle_material[t]];
+        if (m->may_diffuse || m->may_glossy) area += pm_triangle_area(s, t);
+    }
+    return area;
 }
 
 static uint32_t build_sources(const pm_scene *s, light_source *out) {
@@ -338,13 +345,10 @@ static emitter_shape *emitter_shapes(const pm_scene *s) {
     emitter_shape *out = pm_malloc(sizeof(emitter_shape) * (s->emitter_count ? s->emitter_count : 1), "photon emitters");
     for (uint32_t i = 0; out && i < s->emitter_count; i++) {
         uint32_t tri = s->emitters[i];
-        const uint32_t *ix = s->indices + 3 * (size_t)tri;
-        vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
-        vec3 cross = v3_cross(v3_sub(p1, p0), v3_sub(p2, p0));
-        float len = v3_length(cross);
+        pm_triangle_geometry g = pm_triangle_geometry_of(s, tri);
         const pm_material *m = &s->materials[s->triangle_material[tri]];
-        out[i].ng = len > 0.f ? v3_scale(cross, 1.f / len) : v3(0.f, 0.f, 1.f);
-        out[i].area = 0.5f * len;
+        out[i].ng = g.normal;
+        out[i].area = g.area;
         /* as pm_scene_emitted_at: the factor alone, unless a texture or a cut-out varies it */
         out[i].uniform_emission = (m->emission_texture < 0 || v3_is_black(m->emission)) && !m->may_see_through;
     }
@@ -431,7 +435,7 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, const float
             if (sf.double_sided) cos_t = fabsf(cos_t);
             if (cos_t <= 0.f) return false;
             *flux = v3_scale(sf.emission, cos_t * area / pick_pdf * omega);
-            n = facing(n, *d);
+            n = pm_facing(n, *d);
         } else {
             if (sf.double_sided && pm_rng_float(rng) < 0.5f) n = v3_neg(n);
             *d = pm_sample_cosine(n, pm_rng_float(rng), pm_rng_float(rng));
@@ -457,7 +461,7 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, const float
             v3_basis(pl->direction, &t, &b);
             *d = v3_add(v3_scale(pl->direction, z), v3_add(v3_scale(t, r * cosf(phi)), v3_scale(b, r * sinf(phi))));
             float omega = 2.f * PM_PI * (1.f - pl->cos_outer);
-            *flux = v3_scale(pl->intensity, spot_falloff(pl, *d) * omega);
+            *flux = v3_scale(pl->intensity, pm_spot_falloff(pl, *d) * omega);
             return !v3_is_black(*flux);
         }
         float omega;
@@ -467,7 +471,7 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, const float
         } else {
             omega = sample_direction(l, aimed, rng, d);
         }
-        float falloff = pl->type == PM_LIGHT_SPOT ? spot_falloff(pl, *d) : 1.f;
+        float falloff = pl->type == PM_LIGHT_SPOT ? pm_spot_falloff(pl, *d) : 1.f;
         *flux = v3_scale(pl->intensity, falloff * omega);
         return falloff > 0.f;
     }
@@ -542,7 +546,7 @@ static uint32_t pick_source(const pass *ps, float u, float *pdf) {
 
 /* The rest of a lean hit record (shading normal, centroid) once the path goes on from the hit;
  * returns the shading normal on the side of ng, the side the path leaves. */
-static inline vec3 going_on(const pm_scene *s, const pm_hit *h, bool shading_left, vec3 ng, pm_surface *sf) {
+static inline vec3 complete_shading(const pm_scene *s, const pm_hit *h, bool shading_left, vec3 ng, pm_surface *sf) {
     if (shading_left) pm_scene_surface_shading(s, h->tri, h->b1, h->b2, sf);
     return v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
 }
@@ -560,7 +564,7 @@ static void splat_to_camera(pass *ps, splat_list *out, const pm_hit *h, bool *sh
     if (!pm_camera_connect(&ps->splat_view, sf->p, &c)) return;
     float cos_x = v3_dot(ng, c.to_camera);
     if (!(cos_x > 0.f)) return; /* the camera sees the other side */
-    vec3 ns = going_on(ps->scene, h, *shading_left, ng, sf);
+    vec3 ns = complete_shading(ps->scene, h, *shading_left, ng, sf);
     *shading_left = false;
     vec3 f = sf->glossy ? pm_brdf_eval(&sf->brdf, ns, c.to_camera, v3_neg(d)) : v3_scale(sf->kd, PM_INV_PI);
     vec3 l = v3_scale(v3_mul(f, power), cos_x * c.importance);
@@ -589,7 +593,7 @@ typedef struct {
     vec3 power;
     int bounce, specular_bounces;
     bool diffuse_seen;
-    bool first_hit_traced; /* its light is punctual and the reader traces its first hits */
+    bool first_hit_skipped; /* its light is punctual and the reader traces its first hits: no record there */
     uint32_t guide_cell[2]; /* the emission guide's slots and cells it left from (guided, guided_direction), UINT32_MAX where unguided */
 } photon_path;
 
@@ -622,24 +626,10 @@ static bool start_photon(const pass *ps, pm_rng_family streams, uint64_t i, phot
     if (source_pdf <= 0.f || !emit(ps, l, &p->rng, p->guide_cell[0] != UINT32_MAX ? pair[0] : NULL,
                                    p->guide_cell[1] != UINT32_MAX ? pair[1] : NULL, o, d, &flux))
         return false;
-    p->first_hit_traced = ps->punctual_first_hits_traced && l->kind == SOURCE_PUNCTUAL;
+    p->first_hit_skipped = ps->punctual_first_hits_skipped && l->kind == SOURCE_PUNCTUAL;
     p->power = v3_scale(flux, weight / ((float)ps->photons * source_pdf));
     p->bounce = p->specular_bounces = 0;
     p->diffuse_seen = false;
-    return true;
-}
-
-/* Photon p's mirror or glass bounce at hit h, chosen with probability `chosen`: the shared
- * scattering function decides reflection or refraction; false when nothing goes on. */
-static inline bool specular_bounce(const pm_scene *s, const pm_hit *h, bool shading_left, vec3 ng, pm_surface *sf,
-                                   float chosen, photon_path *p, vec3 *o, vec3 *d) {
-    pm_specular_sample sp;
-    going_on(s, h, shading_left, ng, sf);
-    if (!pm_scatter_specular(sf, *d, &p->rng, s->ray_scale, &sp)) return false;
-    p->power = v3_scale(v3_mul(p->power, sp.weight), 1.f / chosen);
-    *d = sp.direction;
-    *o = sp.origin;
-    p->specular_bounces++;
     return true;
 }
 
@@ -652,9 +642,8 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
     pm_surface sf;
     bool shading_left = pm_scene_surface_lean(s, h->tri, h->b1, h->b2, &sf);
     if (ps->volumes) p->power = v3_mul(p->power, pm_volume_transmittance(s, &sf, *d, h->t));
-    vec3 ng = facing(sf.ng, v3_neg(*d));
-    float D = v3_average(sf.kd), Sm = v3_average(sf.ks), St = v3_average(sf.kt);
-    if (D > 0.f || sf.glossy) {
+    vec3 ng = pm_facing(sf.ng, v3_neg(*d));
+    if (pm_vertex_diffuse_weight(&sf) > 0.f) {
         if (ps->caustic_pass) {
             /* stored, and the roulette below decides: a diffuse bounce ends the caustic
              * path, while the specular part of a mixed surface carries it on (L S+ D is
@@ -665,7 +654,7 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
             }
         } else {
             int path = p->bounce == 0 ? PM_PATH_DIRECT : (p->diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
-            if (p->bounce > 0 || !p->first_hit_traced) push(list, sf.p, ng, *d, p->power, path);
+            if (p->bounce > 0 || !p->first_hit_skipped) push(list, sf.p, ng, *d, p->power, path);
             /* a guided photon's hit where a camera point read photons last iteration: stored or
              * not (a punctual light's first hit, which the reader traces, shows the way in too) */
             if (p->guide_cell[0] != UINT32_MAX && pm_marks_test(ps->marks, sf.p)) {
@@ -674,44 +663,21 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
             }
         }
     }
-    float x = pm_rng_float(rng), S = Sm + St;
-    if (sf.glossy) {
-        /* the glass share by its weight, else the lobe: sample it, then survive with the
-         * probability of its mean weight, so power is only rescaled per channel by colour; the
-         * glass share's probability is capped like every survival (a nearly clear glossy glass) */
-        float Sg = pm_minf(St, PM_PHOTON_MAX_SURVIVAL);
-        if (x < Sg) return specular_bounce(s, h, shading_left, ng, &sf, Sg, p, o, d);
-        if (ps->caustic_pass) return false; /* a glossy bounce ends a caustic path, as a diffuse one does */
-        vec3 ns = going_on(s, h, shading_left, ng, &sf), wi, f;
-        float pdf;
-        if (!pm_brdf_sample(&sf.brdf, ns, v3_neg(*d), pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), &wi, &f,
-                            &pdf) || v3_dot(wi, ng) <= 0.f)
-            return false;
-        vec3 w = v3_scale(f, v3_dot(ns, wi) / pdf);
-        float q = pm_minf(PM_PHOTON_MAX_SURVIVAL, v3_average(w) / (1.f - Sg));
-        if (!(q > 0.f) || pm_rng_float(rng) >= q) return false;
-        p->power = v3_scale(v3_mul(p->power, w), 1.f / ((1.f - Sg) * q));
-        *d = wi;
-        *o = pm_offset_surface_origin(sf.p, sf.centroid, ng, s->ray_scale);
-        p->diffuse_seen = true;
-        return true;
-    }
-    /* survival D + S, capped: scale both choices by q and let the weights make up for it */
-    float q = D + S > PM_PHOTON_MAX_SURVIVAL ? PM_PHOTON_MAX_SURVIVAL / (D + S) : 1.f;
-    D *= q;
-    S *= q;
-    if (x < D) {
-        if (ps->caustic_pass) return false; /* a diffuse bounce ends any caustic path */
-        p->power = v3_scale(v3_mul(p->power, sf.kd), 1.f / D);
-        vec3 ns = going_on(s, h, shading_left, ng, &sf);
-        *d = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
-        if (v3_dot(*d, ng) <= 0.f) return false;
-        *o = pm_offset_surface_origin(sf.p, sf.centroid, ng, s->ray_scale);
-        p->diffuse_seen = true;
-        return true;
-    }
-    if (x < D + S) return specular_bounce(s, h, shading_left, ng, &sf, S, p, o, d);
-    return false; /* absorbed */
+    /* the vertex kernel: the part to go on with, its sample and the survival (vertex.h); the
+     * caustic pass ends at a diffuse or glossy choice, as L S+ D was stored above (and where
+     * nothing specular could carry it on, before the shading record is completed) */
+    if (ps->caustic_pass && !(pm_specular_weight(&sf) > 0.f)) return false;
+    complete_shading(s, h, shading_left, ng, &sf);
+    pm_vertex_ray ray;
+    if (!pm_vertex_step(&sf, *d, p->bounce, ps->caustic_pass ? &caustic_photon_policy : &photon_policy, rng, s->ray_scale,
+                        &ray))
+        return false;
+    p->power = v3_mul(p->power, ray.weight); /* flux: no radiance_scale across a refraction */
+    *d = ray.direction;
+    *o = ray.origin;
+    if (ray.lobe == PM_LOBE_DIFFUSE) p->diffuse_seen = true;
+    else p->specular_bounces++;
+    return true;
 }
 
 /* A chunk's photons in waves of WAVE (settings->wave if smaller): a wave starts with that many
@@ -780,21 +746,21 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             }
             rays += n;
             pm_accel_intersect_packets(ps->accel, n, w->origin, w->direction, false, w->hit, w->hits);
-            size_t going_on = 0;
+            size_t alive = 0;
             for (size_t i = 0; i < n; i++) {
                 photon_path *p = &w->path[i];
                 if (!w->hit[i] || !photon_bounce(ps, p, &w->hits[i], &w->origin[i], &w->direction[i], &list, &splats, &rays))
                     continue;
                 if (++p->bounce >= max_bounces) continue;
                 if (!v3_is_finite(p->power)) { dropped++; continue; } /* an overflowing weight: never stored */
-                if (going_on != i) {
-                    w->path[going_on] = *p;
-                    w->origin[going_on] = w->origin[i];
-                    w->direction[going_on] = w->direction[i];
+                if (alive != i) {
+                    w->path[alive] = *p;
+                    w->origin[alive] = w->origin[i];
+                    w->direction[alive] = w->direction[i];
                 }
-                going_on++;
+                alive++;
             }
-            n = going_on;
+            n = alive;
         }
     }
     arena->data = list.data;
@@ -1160,7 +1126,7 @@ bool pm_photon_tracer_trace(pm_photon_tracer *t, bool caustic, uint64_t photons,
 
 void pm_photon_tracer_set_deadline(pm_photon_tracer *t, double deadline) { t->deadline = deadline; }
 
-void pm_photon_tracer_trace_punctual_first_hits(pm_photon_tracer *t, bool traced) { t->ps.punctual_first_hits_traced = traced; }
+void pm_photon_tracer_skip_punctual_first_hits(pm_photon_tracer *t, bool skip) { t->ps.punctual_first_hits_skipped = skip; }
 
 void pm_photon_tracer_set_splats(pm_photon_tracer *t, const pm_camera *camera, int width, int height, pm_splat_buffer *out) {
     t->ps.splat = camera && out && width > 0 && height > 0;

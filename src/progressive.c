@@ -100,16 +100,6 @@ uint64_t pm_progressive_default_photons(int width, int height) {
     return (uint64_t)(n < PM_PPM_MIN_PHOTONS ? PM_PPM_MIN_PHOTONS : (n > PM_PPM_MAX_PHOTONS ? PM_PPM_MAX_PHOTONS : n));
 }
 
-static double diffuse_area(const pm_scene *s) {
-    double area = 0.0;
-    for (uint32_t t = 0; t < s->triangle_count; t++) {
-        /* may_diffuse, may_glossy: at some point, its textures' range of metallic and transmission included */
-        const pm_material *m = &s->materials[s->triangle_material[t]];
-        if (m->may_diffuse || m->may_glossy) area += pm_triangle_area(s, t);
-    }
-    return area;
-}
-
 pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, const pm_camera *camera,
                                       const pm_progressive_settings *settings, char *err, size_t err_size) {
     assert(settings->alpha > 0.0 && settings->alpha < 1.0);
@@ -145,13 +135,13 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
     bool specular = an->component_possible[PM_SPECULAR];
     p->gathering = p->trace_global && settings->indirect == PM_INDIRECT_GATHER;
     /* gather points trace the punctual lights' direct light: their first hits are not stored */
-    if (p->tracer) pm_photon_tracer_trace_punctual_first_hits(p->tracer, p->gathering);
+    if (p->tracer) pm_photon_tracer_skip_punctual_first_hits(p->tracer, p->gathering);
     p->splatting = p->trace_caustic && !settings->caustic_by_statistics;
     p->slot_used[PM_SLOT_CAUSTIC] = p->trace_caustic && !p->splatting;
     p->slot_used[PM_SLOT_SPECULAR_CAUSTIC] = p->trace_caustic && specular;
     p->slot_used[PM_SLOT_INDIRECT] = p->trace_global && !p->gathering;
     p->slot_used[PM_SLOT_SPECULAR_INDIRECT] = p->trace_global && !p->gathering && specular;
-    p->diffuse_area = diffuse_area(s);
+    p->diffuse_area = pm_photon_receiving_area(s);
     uint32_t guided = p->trace_global && !settings->unguided ? pm_photon_tracer_guided_sources(p->tracer) : 0;
     if (guided) {
         p->guiding = true;

@@ -17,7 +17,10 @@
 #include "clock.h"
 #include "defaults.h"
 #include "parallel.h"
+#include "light.h"
+#include "photonmap.h"
 #include "rng.h"
+#include "scatter.h"
 
 #define CHUNK 4096
 #define MAX_THREADS 256
@@ -65,7 +68,6 @@ typedef struct {
     struct { uint64_t rays; char pad[56]; } counters[MAX_THREADS];
 } trace_job;
 
-static vec3 facing(vec3 n, vec3 toward) { return v3_dot(n, toward) < 0.f ? v3_neg(n) : n; }
 
 /* Which of the six axis directions n (the side's normal) is nearest, times two, plus one on a
  * triangle's front (its own normal is n): records and lookups on differently facing surfaces (a
@@ -158,10 +160,8 @@ static void trace_chunk(void *ctx, size_t task, int thread) {
             pm_hit h;
             rays++;
             if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) break;
-            const uint32_t *ix = s->indices + 3 * (size_t)h.tri;
-            vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
-            vec3 p = v3_add(v3_add(v3_scale(p0, 1.f - h.b1 - h.b2), v3_scale(p1, h.b1)), v3_scale(p2, h.b2));
-            vec3 face = v3_normalize(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0))), toward_light = facing(face, v3_neg(d));
+            pm_triangle_geometry g = pm_triangle_geometry_of(s, h.tri);
+            vec3 p = pm_triangle_point(&g, h.b1, h.b2), face = g.normal, toward_light = pm_facing(face, v3_neg(d));
             const pm_material *m = &s->materials[s->triangle_material[h.tri]];
             if (m->may_diffuse || m->may_glossy) {
                 record r = {p, (uint16_t)light, (uint8_t)side_code(toward_light, v3_dot(face, d) < 0.f), (uint8_t)state};
@@ -240,16 +240,6 @@ static bool add_record(pm_shadow_map *m, const record *r) {
     return true;
 }
 
-/* The area records can land on: surfaces with a diffuse or glossy share. */
-static double shaded_area(const pm_scene *s) {
-    double area = 0.0;
-    for (uint32_t t = 0; t < s->triangle_count; t++) {
-        const pm_material *m = &s->materials[s->triangle_material[t]];
-        if (m->may_diffuse || m->may_glossy) area += pm_triangle_area(s, t);
-    }
-    return area;
-}
-
 /* What lookups cost against the shadow rays they replace, timed on this machine at random points
  * of the surfaces that can have direct light (both sides, every light in front): the time of a
  * lookup and of a shadow ray, and the share of light samples the map decides. The image does not
@@ -258,7 +248,7 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
     enum { POINTS = 4096 };
     typedef struct { vec3 p, n, origin; bool front; } probe_point;
     probe_point *points = malloc(POINTS * sizeof *points);
-    double *cdf = malloc(((size_t)s->triangle_count + 1) * sizeof *cdf);
+    float *cdf = malloc(((size_t)s->triangle_count + 1) * sizeof *cdf);
     if (!points || !cdf) { free(points); free(cdf); return false; }
     cdf[0] = 0.0;
     for (uint32_t t = 0; t < s->triangle_count; t++) {
@@ -268,12 +258,7 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
     pm_rng rng = pm_rng_for(0x5ad0, 1, 2);
     size_t n = 0;
     for (int k = 0; k < POINTS && cdf[s->triangle_count] > 0.0; k++) {
-        double u = pm_rng_float(&rng) * cdf[s->triangle_count];
-        uint32_t lo = 0, hi = s->triangle_count;
-        while (lo + 1 < hi) {
-            uint32_t mid = (lo + hi) / 2;
-            if (cdf[mid] <= u) lo = mid; else hi = mid;
-        }
+        uint32_t lo = pm_cdf_interval(cdf, s->triangle_count, pm_rng_float(&rng) * cdf[s->triangle_count]);
         float r1 = sqrtf(pm_rng_float(&rng)), r2 = pm_rng_float(&rng);
         pm_surface sf;
         pm_scene_surface(s, lo, r1 * (1.f - r2), r1 * r2, &sf);
@@ -355,7 +340,7 @@ pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const p
      * one light on a surface where its records lie at their mean density */
     uint64_t records = 0;
     for (size_t t = 0; ok && t < tasks; t++) records += job->chunk_counts[t];
-    double area = shaded_area(s), density = area > 0.0 ? (double)records / s->light_count / area : 0.0;
+    double area = pm_photon_receiving_area(s), density = area > 0.0 ? (double)records / s->light_count / area : 0.0;
     double extent = s->ray_scale, cell = density > 0.0 ? sqrt(PM_SHADOW_LOOKUP_PHOTONS / (4.0 * density)) : extent;
     cell = fmin(fmax(cell, LAYERS * extent / ((1u << AXIS_BITS) - 4 * LAYERS)), extent);
     m->cell = (float)cell;

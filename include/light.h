@@ -1,0 +1,36 @@
+/* light.h: the small geometry of lights that direct light, photon emission and shadow photons share: a spot's cone falloff, an emitting triangle's corners, normal and area. */
+#ifndef PM_LIGHT_H
+#define PM_LIGHT_H
+
+#include "pm_math.h"
+#include "scene.h"
+
+/* glTF's recommended spot cone falloff toward the unit direction light_to_point. */
+static inline float pm_spot_falloff(const pm_light *l, vec3 light_to_point) {
+    float cd = v3_dot(l->direction, light_to_point);
+    float scale = 1.f / pm_maxf(1e-3f, l->cos_inner - l->cos_outer);
+    float t = pm_minf(pm_maxf(cd * scale - l->cos_outer * scale, 0.f), 1.f);
+    return t * t;
+}
+
+/* Triangle tri's corners, its unit face normal (by the winding; (0, 0, 1) when degenerate) and
+ * its area, from one cross product: an emitter's geometry where a light sample or a photon starts
+ * on it, or where a ray met it and its area pdf is wanted. */
+typedef struct { vec3 p0, p1, p2, normal; float area; } pm_triangle_geometry;
+
+static inline pm_triangle_geometry pm_triangle_geometry_of(const pm_scene *s, uint32_t tri) {
+    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    pm_triangle_geometry g = {s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]], v3(0.f, 0.f, 1.f), 0.f};
+    vec3 cross = v3_cross(v3_sub(g.p1, g.p0), v3_sub(g.p2, g.p0));
+    float len = v3_length(cross);
+    if (len > 0.f) g.normal = v3_scale(cross, 1.f / len);
+    g.area = 0.5f * len;
+    return g;
+}
+
+/* The point of the triangle at the barycentrics of p1 and p2. */
+static inline vec3 pm_triangle_point(const pm_triangle_geometry *g, float b1, float b2) {
+    return v3_add(v3_add(v3_scale(g->p0, 1.f - b1 - b2), v3_scale(g->p1, b1)), v3_scale(g->p2, b2));
+}
+
+#endif

@@ -1,0 +1,127 @@
+/* test_mirror_box.c: long specular chains under the one survival rule: a closed box of emissive 0.99 mirrors reads 100 x its emission in every mode, against Mitsuba 3.
+ *
+ * The box's six walls face inward, emit LE and are perfect mirrors of reflectance 0.99 (glTF
+ * metallic 1, roughness 0, baseColor 0.99; pmview's perfect mirror has no Fresnel falloff, see
+ * tools/mitsuba_mirror_box.py). Every ray from the camera bounces forever, each wall adding LE
+ * times the reflectance so far, so every pixel converges to LE / (1 - 0.99) = 100 LE, with 100
+ * bounces on average and a long tail: 37% of the light comes after bounce 100, 13% after 200.
+ * A chain ended by a depth cap instead of roulette loses that tail (a cap of 64, the eye paths'
+ * old one, reads 47% of the light; the check below keeps such a cap visible), and a survival
+ * probability below reflectance^2 leaves the estimate with infinite variance.
+ *
+ * Reference: tests/ref/mirror_box.txt, Mitsuba 3's path integrator on the same box, run to 3000
+ * bounces without roulette (tools/mitsuba_mirror_box.py). Criterion: the image mean of each of
+ * the three modes (progressive, classic, path tracing, through the session) within 1% of it per
+ * channel; at 32x32 and 128 samples a pixel the estimate's own noise is about 0.3% (a chain's
+ * length is geometric: its relative spread per sample is about 1).
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "accel.h"
+#include "defaults.h"
+#include "film.h"
+#include "scene_builder.h"
+#include "session.h"
+#include "testing.h"
+
+enum { W = 32, H = 32, ITERATIONS = 128 };
+static const vec3 LE = {0.01f, 0.02f, 0.005f}; /* as in tools/mitsuba_mirror_box.py */
+
+/* The reference's mean R G B: the last line of tests/ref/mirror_box.txt. */
+static bool read_reference(double rgb[3]) {
+    FILE *f = fopen("tests/ref/mirror_box.txt", "r");
+    if (!f) return false;
+    char line[512];
+    bool found = false;
+    while (fgets(line, sizeof line, f))
+        if (line[0] != '#' && sscanf(line, "%lf %lf %lf", &rgb[0], &rgb[1], &rgb[2]) == 3) found = true;
+    fclose(f);
+    return found;
+}
+
+static pm_session_config config_for(pm_mode mode, const pm_scene *s, int max_specular_depth) {
+    pm_session_config c;
+    memset(&c, 0, sizeof c);
+    c.mode = mode;
+    c.width = W;
+    c.height = H;
+    c.progressive.seed = c.classic_eye.seed = 1;
+    c.progressive.threads = c.classic_eye.threads = 2;
+    c.progressive.max_specular_depth = c.classic_eye.max_specular_depth = max_specular_depth;
+    c.progressive.max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
+    c.progressive.photons = c.progressive.caustic_photons = pm_progressive_default_photons(W, H);
+    c.progressive.alpha = PM_DEFAULT_ALPHA;
+    c.progressive.indirect = PM_INDIRECT_GATHER;
+    c.classic_eye.path_trace = mode == PM_MODE_PATHTRACE;
+    c.classic_photon_pass = mode == PM_MODE_CLASSIC &&
+                            (s->analysis.component_possible[PM_CAUSTIC] || s->analysis.component_possible[PM_INDIRECT]);
+    c.classic_photons.seed = 1;
+    c.classic_photons.threads = 2;
+    c.classic_photons.max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
+    c.classic_photons.global_photons = c.classic_photons.caustic_photons = 10000;
+    return c;
+}
+
+/* The image mean per channel after ITERATIONS samples a pixel; false when the session fails. */
+static bool render_mean(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_session_config *c, double mean[3]) {
+    char err[256];
+    pm_session *session = pm_session_create(s, a, cam, c, err, sizeof err);
+    CHECK(session != NULL, "session: %s", err);
+    if (!session) return false;
+    bool ok = true;
+    while (ok && pm_session_film(session)->samples < ITERATIONS) ok = pm_session_iterate(session, ITERATIONS - pm_session_film(session)->samples);
+    CHECK(ok, "iterations");
+    float *total = malloc(sizeof(float) * 3 * W * H);
+    pm_film_resolve_total(pm_session_film(session), total);
+    mean[0] = mean[1] = mean[2] = 0.0;
+    for (int i = 0; i < W * H; i++)
+        for (int k = 0; k < 3; k++) mean[k] += total[3 * i + k] / (double)(W * H);
+    free(total);
+    pm_session_destroy(session);
+    return ok;
+}
+
+int main(void) {
+    double reference[3];
+    CHECK(read_reference(reference), "tests/ref/mirror_box.txt: three numbers (run from the repository root)");
+    if (!read_reference(reference)) return pm_test_done("test_mirror_box");
+    const double series[3] = {LE.x / (1.0 - 0.99), LE.y / (1.0 - 0.99), LE.z / (1.0 - 0.99)};
+    for (int k = 0; k < 3; k++) CHECK_NEAR(reference[k], series[k], 1e-4, 0, "the reference is the series LE / (1 - R)");
+
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    uint32_t mirror = sb_material(&s, v3s(0.99f), 1.f, 0.f, 0.f, LE, false);
+    sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), mirror, true);
+    pm_accel *a = sb_finish(&s);
+    pm_camera cam = sb_camera(v3(0, 0, 0.5f), v3(0.3f, -0.2f, -1), v3(0, 1, 0), 60.f);
+
+    static const pm_mode modes[] = {PM_MODE_PROGRESSIVE, PM_MODE_CLASSIC, PM_MODE_PATHTRACE};
+    static const char *names[] = {"progressive", "classic", "pathtrace"};
+    for (int m = 0; a && m < 3; m++) {
+        pm_session_config c = config_for(modes[m], &s, PM_DEFAULT_MAX_SPECULAR_DEPTH);
+        double mean[3];
+        if (!render_mean(&s, a, &cam, &c, mean)) continue;
+        printf("%-11s mean %.5f %.5f %.5f, reference %.5f %.5f %.5f, ratio %.4f %.4f %.4f\n", names[m], mean[0], mean[1],
+               mean[2], reference[0], reference[1], reference[2], mean[0] / reference[0], mean[1] / reference[1],
+               mean[2] / reference[2]);
+        for (int k = 0; k < 3; k++)
+            CHECK(fabs(mean[k] - reference[k]) <= 0.01 * reference[k], "%s: channel %d within 1%% of Mitsuba (%.5f, %.5f)",
+                  names[m], k, mean[k], reference[k]);
+    }
+
+    /* The same chains cut at 64 bounces lose the tail: 1 - 0.99^65 = 48% of the light is all a
+     * capped chain can read, so a cap that ends chains before roulette does cannot pass above. */
+    if (a) {
+        pm_session_config c = config_for(PM_MODE_CLASSIC, &s, 64);
+        double mean[3];
+        if (render_mean(&s, a, &cam, &c, mean)) {
+            printf("classic, chains cut at 64 bounces: mean %.5f (%.1f%% of the reference)\n", mean[0], 100.0 * mean[0] / reference[0]);
+            CHECK(mean[0] < 0.6 * reference[0], "a 64-bounce cap loses the chains' tail (%.3f of the reference)", mean[0] / reference[0]);
+        }
+    }
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+    return pm_test_done("test_mirror_box");
+}
