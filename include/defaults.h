@@ -107,10 +107,6 @@
 #define PM_EYE_ROULETTE_VERTEX 3          /* eye paths (camera chains, gather walks, the path tracer) meet the roulette from the
                                               fourth surface (index 3) on: their first bounces carry most of a pixel; photons from
                                               the first, so a photon keeps its power (Jensen) */
-/* the names report.c, sky_choice.c and tests print or check: the same rule */
-#define PM_PHOTON_MAX_SURVIVAL PM_MAX_SURVIVAL
-#define PM_PATHTRACE_MAX_SURVIVAL PM_MAX_SURVIVAL
-#define PM_PATHTRACE_ROULETTE_VERTEX PM_EYE_ROULETTE_VERTEX
 
 /* path tracing (--mode pathtrace) */
 #define PM_PATHTRACE_MAX_VERTICES 1024     /* a safety stop only, as PM_DEFAULT_MAX_PHOTON_BOUNCES: roulette ends paths first */

@@ -94,7 +94,7 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
         printf("stat pathtrace iterations=%u paths=%.0f rays=%llu seconds=%.4f rays_per_second=%.0f paths_per_second=%.0f mean_path_vertices=%.4f roulette_vertex=%d max_survival=%.2f\n",
                film->samples, paths, (unsigned long long)eye_stats.rays, eye_stats.seconds,
                eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, eye_stats.seconds > 0 ? paths / eye_stats.seconds : 0.0,
-               paths > 0 ? eye_stats.path_vertices / paths : 0.0, PM_PATHTRACE_ROULETTE_VERTEX, PM_PATHTRACE_MAX_SURVIVAL);
+               paths > 0 ? eye_stats.path_vertices / paths : 0.0, PM_EYE_ROULETTE_VERTEX, PM_MAX_SURVIVAL);
     }
     printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu shadow_rays=%llu shadow_rays_saved=%llu pixels_ahead=%zu\n",
            film->samples, (unsigned long long)eye_stats.rays, eye_stats.seconds,

@@ -109,7 +109,7 @@ bool pm_choose_sky(pm_sky_request *request, pm_scene *scene, const pm_accel *acc
         fprintf(stderr, "pmview: warning: %s: a closed room that conserves energy (%.0f%% of the surface reflects %.0f%% or more; "
                 "glTF's default material is white): light does not die out by itself, so photon paths end by Russian roulette "
                 "capped at %.0f%% survival or after %d bounces, and renders are slower and noisier than usual\n",
-                request->scene_path, 100.0 * reflective, 100.0 * PM_ENERGY_CONSERVING_ALBEDO, 100.0 * PM_PHOTON_MAX_SURVIVAL,
+                request->scene_path, 100.0 * reflective, 100.0 * PM_ENERGY_CONSERVING_ALBEDO, 100.0 * PM_MAX_SURVIVAL,
                 PM_DEFAULT_MAX_PHOTON_BOUNCES);
     if (request->stats)
         printf("stat sky kind=%s view_enclosed=%.3f camera_enclosed=%.3f clamped_texels=%zu\n",

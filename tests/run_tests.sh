@@ -35,7 +35,7 @@ export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 # they run optimised (test_photons 45 s against 136 s); the code they drive runs under ASan/UBSan
 # in test_progressive, test_glossy, test_volume, the classic runs of test_cli and the path-traced
 # runs of test_log (build/asan/pmview), and under TSan in test_threads.
-OPTIMISED="test_convergence test_photons test_pathtrace test_hard_energy"
+OPTIMISED="test_convergence test_photons test_pathtrace test_hard_energy test_mirror_box"
 for t in build/asan/tests/test_*; do
     name=$(basename "$t")
     [ "$check" = 0 ] && case " $OPTIMISED " in *" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac

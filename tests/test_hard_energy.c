@@ -16,7 +16,7 @@
 #include "testing.h"
 
 /* Closed room of albedo 1 lit by a point light: Russian roulette alone would never end a path.
- * Criterion: records per photon within the stated bound 1/(1 - PM_PHOTON_MAX_SURVIVAL) (+10%
+ * Criterion: records per photon within the stated bound 1/(1 - PM_MAX_SURVIVAL) (+10%
  * for noise) and never above the path-length cap; the pass takes bounded time. */
 static void test_albedo_one_room(void) {
     pm_scene s;
@@ -34,7 +34,7 @@ static void test_albedo_one_room(void) {
     double t0 = pm_now_seconds();
     CHECK(pm_photon_tracer_trace_into(t, false, photons, 1, &buf, &st), "albedo-1 pass");
     double secs = pm_now_seconds() - t0;
-    double per_photon = (double)buf.count / photons, bound = 1.0 / (1.0 - PM_PHOTON_MAX_SURVIVAL);
+    double per_photon = (double)buf.count / photons, bound = 1.0 / (1.0 - PM_MAX_SURVIVAL);
     printf("albedo-1 room: %.2f records a photon (bound %.1f, cap %d), %.3f s for %llu photons\n", per_photon, bound,
            PM_DEFAULT_MAX_PHOTON_BOUNCES, secs, (unsigned long long)photons);
     CHECK(per_photon <= 1.1 * bound, "criterion: records per photon %.2f within the bound %.1f", per_photon, bound);
