@@ -24,6 +24,7 @@
 #include "progressive.h"
 #include "rng.h"
 #include "scene.h"
+#include "session.h"
 #include "shadowmap.h"
 
 /* Rays like the passes cast: camera rays and cosine bounces from their hits, half each. */
@@ -133,34 +134,23 @@ typedef struct {
 static progressive_rate progressive_iterations(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int width,
                                                int height, int threads, int iterations, bool photons) {
     progressive_rate r = {0, 0, 0, 0, 0, 0, 0};
-    pm_progressive_settings ps;
-    memset(&ps, 0, sizeof ps);
-    ps.seed = 1;
-    ps.threads = threads;
-    ps.photons = ps.caustic_photons = photons ? pm_progressive_default_photons(width, height) : 0;
-    ps.alpha = PM_DEFAULT_ALPHA;
-    ps.indirect = PM_INDIRECT_GATHER;
-    ps.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
-    ps.max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
-    ps.eye_passes = 1; /* an iteration here is one photon pass and one eye pass, as the speed goals count it */
+    pm_session_config config;
+    pm_session_config_defaults(&config, PM_MODE_PROGRESSIVE, width, height, 1, threads);
+    if (!photons) config.progressive.photons = config.progressive.caustic_photons = 0;
+    config.progressive.eye_passes = 1; /* an iteration here is one photon pass and one eye pass, as the speed goals count it */
+    config.shadow.mode = PM_SHADOW_OFF; /* the passes alone */
     char err[256];
-    pm_progressive *p = pm_progressive_create(s, a, cam, &ps, err, sizeof err);
-    if (!p) return r;
-    bool comps[PM_COMPONENT_COUNT];
-    pm_progressive_components(p, comps);
-    pm_film film;
-    if (!pm_film_init(&film, width, height, comps) || !pm_progressive_bind(p, &film, err, sizeof err)) {
-        pm_progressive_destroy(p);
-        return r;
-    }
+    pm_session *session = pm_session_create(s, a, cam, &config, err, sizeof err);
+    if (!session) return r;
+    pm_progressive *p = pm_session_progressive(session);
     /* the first iteration emits fewer photons (PM_PPM_FIRST_PHOTON_FRACTION): it is timed on its
      * own, and the per-iteration figures come from the iterations after it */
     double t0 = pm_now_seconds();
-    pm_progressive_iterate(p, &film, 0);
+    pm_session_iterate(session, 0);
     double t1 = pm_now_seconds();
     const pm_progressive_stats *st = pm_progressive_get_stats(p);
     pm_progressive_stats first = *st;
-    for (int i = 1; i < iterations; i++) pm_progressive_iterate(p, &film, 0);
+    for (int i = 1; i < iterations; i++) pm_session_iterate(session, 0);
     double steady = pm_now_seconds() - t1;
     int n = iterations > 1 ? iterations - 1 : 1;
     double rays = (double)(st->eye.rays - first.eye.rays + st->photons.rays - first.photons.rays);
@@ -171,8 +161,7 @@ static progressive_rate progressive_iterations(const pm_scene *s, const pm_accel
     r.eye_seconds = (st->eye.seconds - first.eye.seconds) / n;
     r.gather_seconds = (st->gather_seconds - first.gather_seconds) / n;
     r.rays = rays / n;
-    pm_progressive_destroy(p);
-    pm_film_free(&film);
+    pm_session_destroy(session);
     return r;
 }
 

@@ -7,6 +7,8 @@
 #define PM_DEFAULT_SNAPSHOT_ITERATIONS 64
 #define PM_DEFAULT_WINDOW_ITERATIONS 100000 /* the window keeps converging until closed */
 #define PM_DEFAULT_SEED 1
+#define PM_DEFAULT_SCREENSHOT "pmview-screenshot.png" /* the window's P key; the layers go beside it as .exr */
+#define PM_MAX_THREADS 256              /* worker threads at most (--threads; per-thread counters are sized by it) */
 #define PM_DEFAULT_EXPOSURE_EV 0.0f
 #define PM_DEFAULT_MAX_SPECULAR_DEPTH 1024 /* a safety stop only, as PM_DEFAULT_MAX_PHOTON_BOUNCES: roulette (PM_MAX_SURVIVAL)
                                             ends specular chains; between 0.99 mirrors the chains past it carry 0.99^1024 = 3e-5
@@ -94,6 +96,7 @@
 #define PM_DEFAULT_MAX_PHOTON_BOUNCES 1024 /* the path-length cap, a safety stop: Russian roulette ends paths; a closed room of albedo 0.99
                                              loses 0.99^1024 = 3e-5 of its light to it, one of albedo 1 reaches it with probability 3e-5 */
 #define PM_TIME_SHARE_PHOTONS 0.25        /* with --time: the photon pass's share of the budget */
+#define PM_PILOT_PHOTONS 20000            /* with --time and no --photons: the classic mode's pilot pass measures photon speed with these */
 #define PM_PHOTON_PASS_TIME_SHARE 0.25     /* with --time: a photon pass stops starting chunks after this share of the time left (sorting what it stored takes as long again) */
 #define PM_ENERGY_CONSERVING_ALBEDO 0.98f /* a shut-in camera whose surroundings mostly reflect this much or more gets a warning */
 

@@ -15,6 +15,10 @@
  * must be a file the user may write. Its buffers (pm_exr_write_bytes) are admitted against
  * --max-memory for the time of the write. */
 bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_size);
+/* The same file from already resolved layers (width*height*3 floats each, NULL = black): an image
+ * published for display, written as it is shown. */
+bool pm_write_exr_layers(const char *path, int width, int height, const float *const layers[PM_COMPONENT_COUNT], char *err,
+                         size_t err_size);
 
 /* What the writers take beside their input while they write, admitted by them for that time: the
  * EXR writer's channel planes (72 bytes a pixel) and stb's PNG encoder. A caller that must know

@@ -22,6 +22,8 @@ void pm_parallel_set_cancel(const atomic_bool *flag);
 const atomic_bool *pm_parallel_get_cancel(void);
 /* Whether the calling thread's flag is set. */
 bool pm_parallel_cancelled(void);
+/* A requested thread count made usable: at least 1, at most PM_MAX_THREADS (defaults.h). */
+int pm_thread_count(int requested);
 /* Number of online cores. */
 int pm_cpu_count(void);
 

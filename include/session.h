@@ -1,7 +1,8 @@
 /* session.h: one render session (scene, accel, camera, mode state, film) that the window, the snapshot path and the tests all drive.
  *
- * Synchronous use (snapshots, tests): pm_session_iterate() on the calling thread, then read the
- * film. Background use (the window): pm_session_start() runs iterations on a worker thread;
+ * Synchronous use (snapshots, tests, the bench): pm_session_run() to a goal (samples, a time
+ * budget, a cancel) with an observer called after each iteration, or pm_session_iterate() one
+ * iteration at a time, on the calling thread; then read the film or pm_session_save_exr(). Background use (the window): pm_session_start() runs iterations on a worker thread;
  * after each one the worker resolves the film's components into a back buffer and swaps it with
  * the front one under a lock, so the thread that owns the window only ever reads a complete
  * image (pm_session_lock_latest / pm_session_unlock_latest) and never waits for a pass.
@@ -24,17 +25,33 @@
 
 typedef enum { PM_MODE_PROGRESSIVE = 0, PM_MODE_CLASSIC = 1, PM_MODE_PATHTRACE = 2 } pm_mode;
 
+/* A photon count the session chooses (classic mode): pixels x PM_DEFAULT_PHOTONS_PER_PIXEL, or with a
+ * time budget what a pilot pass measures fits PM_TIME_SHARE_PHOTONS of it; clamped to
+ * PM_MIN_DEFAULT_PHOTONS .. PM_MAX_DEFAULT_PHOTONS. */
+#define PM_PHOTONS_AUTO UINT64_MAX
+
 typedef struct {
     pm_mode mode;
     int width, height;
     pm_progressive_settings progressive;   /* progressive mode */
-    pm_photon_settings classic_photons;    /* classic mode: the maps, built before the first iteration */
-    pm_eye_settings classic_eye;           /* classic mode: its maps pointer is the session's; path-tracing mode: the
-                                              eye pass too (no maps, path_trace set by the session) */
+    pm_photon_settings classic_photons;    /* classic mode: the maps, built before the first iteration (counts may be PM_PHOTONS_AUTO) */
+    pm_eye_settings eye;                   /* the eye pass of the classic and path-tracing modes: its maps pointer is the
+                                              session's, path_trace is set by the session from the mode */
     bool classic_photon_pass;              /* classic mode: build maps at all */
     uint32_t max_iterations;               /* background rendering stops there (0 = never) */
+    double time_budget;                    /* seconds a run is given (0 = none): sizes the classic mode's automatic photon counts */
     pm_shadow_settings shadow;             /* shadow photons, every mode: built before the first iteration */
 } pm_session_config;
+
+/* The defaults every driver starts from (pmview's options, the tests, the bench): the mode, the
+ * image size, the seed and threads (clamped by pm_thread_count) everywhere; the progressive
+ * mode's photons per iteration (pm_progressive_default_photons), radius reduction and final
+ * gathering; the depth and bounce caps; shadow photons where they pay. The classic mode's
+ * estimates (k, radii from the scene's size) are the caller's; its photon counts are
+ * PM_PHOTONS_AUTO and its photon pass on. */
+void pm_session_config_defaults(pm_session_config *config, pm_mode mode, int width, int height, uint64_t seed, int threads);
+/* The progressive part of those defaults alone. */
+pm_progressive_settings pm_session_progressive_defaults(int width, int height, uint64_t seed, int threads);
 
 typedef struct {
     uint32_t iterations;       /* in the published image (0: a preview) */
@@ -47,7 +64,8 @@ typedef struct {
 
 typedef struct pm_session pm_session;
 
-/* NULL with err set when out of memory. The scene and accel must outlive the session. */
+/* NULL with err set when out of memory. The scene and accel must outlive the session. In the
+ * classic mode with PM_PHOTONS_AUTO counts and a time budget, a pilot photon pass runs here. */
 pm_session *pm_session_create(const pm_scene *s, const pm_accel *a, const pm_camera *camera,
                               const pm_session_config *config, char *err, size_t err_size);
 /* Stops the worker, if any, and frees everything the session owns. */
@@ -68,7 +86,7 @@ const pm_film *pm_session_film(const pm_session *s);
 pm_progressive *pm_session_progressive(pm_session *s);               /* NULL in the classic mode */
 const pm_photon_maps *pm_session_classic_maps(const pm_session *s);  /* NULL in the progressive mode */
 const pm_photon_stats *pm_session_classic_photon_stats(const pm_session *s);
-const pm_eye_stats *pm_session_classic_eye_stats(const pm_session *s); /* classic and path-tracing modes */
+const pm_eye_stats *pm_session_eye_stats(const pm_session *s); /* classic and path-tracing modes */
 /* The shadow photons: whether there are any, why not, and what they cost (zeros before the first iteration). */
 const pm_shadow_stats *pm_session_shadow_stats(const pm_session *s);
 /* A time budget's end (CLOCK_MONOTONIC seconds): the shadow photons, when they are still to be
@@ -89,7 +107,53 @@ uint32_t pm_session_plan_samples(const pm_session *s, uint32_t wanted);
 /* Clears the accumulation, optionally with a new camera (synchronous use). */
 void pm_session_restart(pm_session *s, const pm_camera *camera);
 
+/* ---- errors ----
+ * The message of the last top-level call that failed (create, iterate, run, resize, start,
+ * save), "" when it succeeded. Each of those calls clears it, and memory.c's recorded failure
+ * (pm_memory_failure), at its start: a message names the failure of the call that returns it,
+ * never an earlier one that was handled. */
+const char *pm_session_error(const pm_session *s);
+
+/* ---- a run to a stop condition (synchronous use) ---- */
+typedef struct {
+    uint32_t samples;          /* stop once the film holds this many samples per pixel (0: the budget alone) */
+    double seconds;            /* a time budget from the run's start, photon passes included (0: none) */
+} pm_session_goal;
+
+typedef struct {
+    uint32_t samples;          /* in the film */
+    uint64_t photons;          /* emitted since the last restart */
+    double elapsed;            /* wall seconds since the run started */
+    double rendered;           /* seconds spent inside iterations (an observer's own work left out) */
+    double first_iteration;    /* wall seconds from the start to the end of the first iteration (0 before it) */
+} pm_session_run_state;
+
+/* Called after every iteration of a run, on the run's thread (a progress bar, a log row, an error
+ * curve); the session is between iterations and may be read. */
+typedef void (*pm_session_observer)(void *context, pm_session *s, const pm_session_run_state *state);
+
+typedef enum { PM_RUN_DONE = 0, PM_RUN_CANCELLED = 1, PM_RUN_FAILED = 2 } pm_session_run_result;
+
+/* Iterates until the goal's samples, its time budget (shared out by pm_session_plan_samples, the
+ * deadline cutting the last pass short), or pm_session_cancel (a signal). A budget spent before
+ * the first iteration still gets that iteration. FAILED with pm_session_error set ("out of memory
+ * (...) in iteration N"); the film then holds the iterations before. state (may be NULL) is the
+ * run's at its end. */
+pm_session_run_result pm_session_run(pm_session *s, const pm_session_goal *goal, pm_session_observer observer,
+                                     void *context, pm_session_run_state *state);
+
+/* Writes the film's layers as a multi-layer EXR (image_io.h); false with pm_session_error set. */
+bool pm_session_save_exr(pm_session *s, const char *path);
+
+/* A new image size, with the camera (NULL: the same): a new film and mode state at that size; the
+ * shadow photons and the classic mode's maps are kept (they do not depend on it). A running
+ * worker is stopped and started again on the new film (a preview first). When the new size's
+ * buffers cannot be had, the session keeps its size and film, goes on as before, and returns false
+ * with pm_session_error set. */
+bool pm_session_resize(pm_session *s, int width, int height, const pm_camera *camera);
+
 /* ---- background rendering ---- */
+/* Starts the worker; false with err (and pm_session_error) set. */
 bool pm_session_start(pm_session *s, char *err, size_t err_size);
 void pm_session_pause(pm_session *s, bool paused);
 /* Takes effect at once: the running pass stops at its next task. camera may be NULL (same camera).

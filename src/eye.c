@@ -23,7 +23,7 @@
 #include "vertex.h"
 
 #define TILE 16
-#define MAX_THREADS 256
+#define MAX_THREADS PM_MAX_THREADS
 
 typedef struct {
     const pm_scene *scene;
@@ -740,7 +740,7 @@ static bool run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
     job->visit_ctx = visit_ctx;
     job->tiles_x = tiles_x;
     job->deadline = film->samples > 0 && !film->ragged ? settings->deadline : 0.0;
-    int threads = settings->threads < 1 ? 1 : (settings->threads > MAX_THREADS ? MAX_THREADS : settings->threads);
+    int threads = pm_thread_count(settings->threads);
     bool uncancelled = film->ragged;
     const atomic_bool *cancel = pm_parallel_get_cancel();
     if (uncancelled) pm_parallel_set_cancel(NULL);

@@ -180,13 +180,14 @@ bool pm_check_output_path(const char *path, char *err, size_t err_size) {
     return true;
 }
 
-bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_size) {
+/* The layers come from the film (resolved) or, without one, from `layers` as they are. */
+static bool write_exr(const char *path, int width, int height, const pm_film *film,
+                      const float *const layers[PM_COMPONENT_COUNT], char *err, size_t err_size) {
     if (!path || !*path) { set_error(err, err_size, path ? path : "", "no output file name given"); return false; }
-    if (!film || film->width <= 0 || film->height <= 0) {
+    if (width <= 0 || height <= 0) {
         set_error(err, err_size, path, "cannot write an EXR of an empty film");
         return false;
     }
-    const int width = film->width, height = film->height;
     if ((size_t)width > SIZE_MAX / sizeof(float) / PM_EXR_CHANNELS / (size_t)height || width > INT32_MAX / 4) {
         set_error(err, err_size, path, "image too large for an EXR file");
         return false;
@@ -233,7 +234,9 @@ bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_s
     }
 
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        pm_film_resolve(film, (pm_component)c, rgb);
+        if (film) pm_film_resolve(film, (pm_component)c, rgb);
+        else if (layers[c]) memcpy(rgb, layers[c], 3 * npix * sizeof(float));
+        else memset(rgb, 0, 3 * npix * sizeof(float));
         for (int k = 0; k < 3; k++) {
             float *dst = planes + (size_t)(3 + 3 * c + k) * npix;
             for (size_t i = 0; i < npix; i++) dst[i] = rgb[3 * i + k];
@@ -336,6 +339,16 @@ done:
     free(planes);
     pm_memory_release(buffer_bytes);
     return ok;
+}
+
+bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_size) {
+    if (!film) return write_exr(path, 0, 0, NULL, NULL, err, err_size);
+    return write_exr(path, film->width, film->height, film, NULL, err, err_size);
+}
+
+bool pm_write_exr_layers(const char *path, int width, int height, const float *const layers[PM_COMPONENT_COUNT], char *err,
+                         size_t err_size) {
+    return write_exr(path, width, height, NULL, layers, err, err_size);
 }
 
 /* ---------------------------------------------------------------------------------------------- */

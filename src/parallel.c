@@ -1,6 +1,8 @@
 /* parallel.c: the parallel-for of parallel.h on plain pthreads with an atomic task counter. */
 #include "parallel.h"
 
+#include "defaults.h"
+
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -55,6 +57,8 @@ void pm_parallel_for(int threads, size_t count, void (*fn)(void *, size_t, int),
     free(ids);
     free(args);
 }
+
+int pm_thread_count(int requested) { return requested < 1 ? 1 : (requested > PM_MAX_THREADS ? PM_MAX_THREADS : requested); }
 
 int pm_cpu_count(void) {
     long n = sysconf(_SC_NPROCESSORS_ONLN);

@@ -34,7 +34,7 @@
 #include "vertex.h"
 
 #define CHUNK 2048
-#define MAX_THREADS 256
+#define MAX_THREADS PM_MAX_THREADS
 #define PROJ_Z 64     /* projection map cells: uniform in z = cos(theta) ... */
 #define PROJ_PHI 128  /* ... and in phi, so every cell has the same solid angle */
 
@@ -868,7 +868,7 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
     atomic_store(&ps->records, out->capacity); /* the merged buffer kept from the last pass counts too */
     /* the pass shares the limit with everything admitted before it (film, scene, textures, outputs) */
     ps->record_limit = pm_memory_available() / (4 * sizeof(pm_photon));
-    int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
+    int threads = pm_thread_count(ps->settings->threads);
     for (int t = 0; t < threads; t++) ps->arenas[t].count = 0;
     ps->cancel = pm_parallel_get_cancel();
     pm_parallel_for(threads, chunks, trace_chunk, ps);
@@ -938,7 +938,7 @@ static bool run_pass(pass *ps, pm_kdtree *tree, uint64_t *stored, uint64_t *rays
     if (!traced) { free(all.data); return false; }
     *stored = all.count;
     double t1 = pm_now_seconds();
-    int threads = ps->settings->threads < 1 ? 1 : (ps->settings->threads > MAX_THREADS ? MAX_THREADS : ps->settings->threads);
+    int threads = pm_thread_count(ps->settings->threads);
     if (!all.data) all.data = pm_malloc(sizeof(pm_photon), "photon records");
     bool ok = all.data && pm_kdtree_build(tree, all.data, all.count, threads);
     st->kdtree_seconds += pm_now_seconds() - t1;
@@ -1044,7 +1044,7 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
             for (uint32_t i = 0; mapped && cells && i < source_count; i++)
                 if (point_like(s, &t->sources[i])) mapped[count++] = i;
             projection_job job = {t->sources, mapped, cells, t->spheres, n, !mapped || !cells};
-            if (!atomic_load(&job.failed)) pm_parallel_for(settings->threads < 1 ? 1 : settings->threads, count, build_projection_map, &job);
+            if (!atomic_load(&job.failed)) pm_parallel_for(pm_thread_count(settings->threads), count, build_projection_map, &job);
             free(mapped);
             free(cells);
             if (atomic_load(&job.failed)) { pm_photon_tracer_destroy(t); return NULL; }
@@ -1092,7 +1092,7 @@ bool pm_photon_tracer_set_guide(pm_photon_tracer *t, pm_guide *guide, const pm_m
     t->ps.marks = NULL;
     if (!guide || !t->guided_sources) return true;
     assert(guide->sources == t->guided_sources);
-    int threads = t->settings.threads < 1 ? 1 : (t->settings.threads > MAX_THREADS ? MAX_THREADS : t->settings.threads);
+    int threads = pm_thread_count(t->settings.threads);
     t->ps.guide_cells = (size_t)t->guided_sources * PM_GUIDE_CELL_COUNT;
     t->ps.guide_counts = pm_calloc((size_t)threads * 2 * t->ps.guide_cells, sizeof(uint32_t), "photon guide counts");
     if (!t->ps.guide_counts) return false;
@@ -1147,7 +1147,7 @@ bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t pho
     t->ps.seed = caustic ? seed ^ 0xca05u : seed;
     /* the global pass is guided (the caustic pass has its projection maps) */
     t->ps.guide = !caustic ? t->guide : NULL;
-    int threads = t->settings.threads < 1 ? 1 : (t->settings.threads > MAX_THREADS ? MAX_THREADS : t->settings.threads);
+    int threads = pm_thread_count(t->settings.threads);
     if (t->ps.guide) memset(t->ps.guide_counts, 0, sizeof(uint32_t) * (size_t)threads * 2 * t->ps.guide_cells);
     uint64_t rays = 0;
     bool ok = trace_into(&t->ps, out, &rays);
@@ -1181,7 +1181,7 @@ bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_
         maps->global_emitted = settings->global_photons;
         if (ok && settings->irradiance_stride > 0 && maps->global.count) {
             double t0 = pm_now_seconds();
-            int threads = settings->threads < 1 ? 1 : (settings->threads > MAX_THREADS ? MAX_THREADS : settings->threads);
+            int threads = pm_thread_count(settings->threads);
             ok = precompute_irradiance(maps, s, a, settings, threads);
             local.irradiance_seconds = pm_now_seconds() - t0;
         }

@@ -26,7 +26,7 @@
 #include "photongrid.h"
 #include "rng.h"
 
-#define MAX_THREADS 256
+#define MAX_THREADS PM_MAX_THREADS
 
 enum { KIND_CAUSTIC = 0, KIND_INDIRECT = 1, KIND_COUNT = 2 };
 enum { SEEN_GRID = 32, SEEN_POINTS = SEEN_GRID * SEEN_GRID };
@@ -830,7 +830,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         if (probing && pass < 2) probe_eye_pass(&p->probe, film, pass);
     }
     if (p->splatting) add_splats(p, film, whole_passes, cut);
-    int threads = set->threads < 1 ? 1 : (set->threads > MAX_THREADS ? MAX_THREADS : set->threads);
+    int threads = pm_thread_count(set->threads);
     double query_sum[KIND_COUNT] = {0, 0}, gather_seconds = 0.0;
     uint64_t query_count[KIND_COUNT] = {0, 0};
     for (int t = 0; t < threads; t++) {

@@ -69,7 +69,7 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
                pm_progressive_eye_passes(progressive), useful,
                ph->seconds > 0 ? (double)ps->photons_read / ph->seconds : 0.0, (unsigned long long)ps->clip_rays);
     } else {
-        eye_stats = *pm_session_classic_eye_stats(session);
+        eye_stats = *pm_session_eye_stats(session);
         const pm_photon_maps *maps = pm_session_classic_maps(session);
         const pm_photon_stats *pst = pm_session_classic_photon_stats(session);
         if (maps && (maps->global.count || maps->caustic.count || pst->emitted)) {

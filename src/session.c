@@ -5,12 +5,15 @@
 
 #include <math.h>
 #include <pthread.h>
+#include <stdarg.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
+#include "defaults.h"
+#include "image_io.h"
 #include "parallel.h"
 
 #define PREVIEW_DIVISOR 4 /* the coarse preview after a restart: a quarter of the width and height */
@@ -25,7 +28,7 @@ struct pm_session {
     pm_photon_maps maps;                  /* classic mode */
     bool maps_built;
     pm_photon_stats classic_photon_stats;
-    pm_eye_stats classic_eye_stats;
+    pm_eye_stats eye_stats;
     pm_shadow_map *shadow;                /* both modes; NULL: shadow rays only */
     pm_shadow_stats shadow_stats;
     bool shadow_decided;                  /* built, or known to be unneeded */
@@ -34,6 +37,7 @@ struct pm_session {
     double budget_start, budget_seconds;  /* seconds 0: no budget */
     uint32_t last_samples;                /* the samples the last iteration added */
     double last_wall;                     /* its wall time, photon pass included */
+    char error[1024];                     /* the last top-level call's failure, "" when it succeeded */
 
     /* background rendering: everything below `lock` is shared with the worker */
     pthread_t worker;
@@ -50,31 +54,141 @@ struct pm_session {
     atomic_int view;                      /* pm_session_view: what publish() writes */
 };
 
+/* A failure of the call under way: its message, kept until the next top-level call. */
+static void fail(pm_session *s, const char *format, ...) {
+    va_list args;
+    va_start(args, format);
+    vsnprintf(s->error, sizeof s->error, format, args);
+    va_end(args);
+}
+
+/* The start of a top-level call: no earlier failure, handled or not, may name this one's. */
+static void begin(pm_session *s) {
+    s->error[0] = '\0';
+    pm_memory_clear_failure();
+}
+
+static const char *memory_failure_or(const char *what) { return pm_memory_failure() ? pm_memory_failure() : what; }
+
+/* The mode state and film for config, from camera: nothing of the session's is touched, so a
+ * caller whose build fails keeps what it had. */
+static bool build_state(const pm_session *s, const pm_session_config *config, const pm_camera *camera,
+                        pm_progressive **progressive, pm_film *film, char *err, size_t err_size) {
+    *progressive = NULL;
+    memset(film, 0, sizeof *film);
+    bool components[PM_COMPONENT_COUNT];
+    if (config->mode == PM_MODE_PROGRESSIVE) {
+        *progressive = pm_progressive_create(s->scene, s->accel, camera, &config->progressive, err, err_size);
+        if (!*progressive) return false;
+        pm_progressive_components(*progressive, components);
+    } else {
+        for (int c = 0; c < PM_COMPONENT_COUNT; c++) components[c] = s->scene->analysis.component_possible[c];
+        /* the maps are built at the first iteration; a component they cannot feed has no buffer
+         * (the path tracer feeds every component the scene can have) */
+        bool maps = config->mode == PM_MODE_CLASSIC;
+        components[PM_CAUSTIC] = components[PM_CAUSTIC] && (!maps || (config->classic_photon_pass && config->classic_photons.caustic_photons));
+        components[PM_INDIRECT] = components[PM_INDIRECT] && (!maps || (config->classic_photon_pass && config->classic_photons.global_photons));
+    }
+    bool ok = pm_film_init(film, config->width, config->height, components);
+    if (!ok)
+        snprintf(err, err_size, "out of memory (%s) for a %dx%d film", memory_failure_or("film"), config->width, config->height);
+    else if (*progressive)
+        ok = pm_progressive_bind(*progressive, film, err, err_size);
+    if (!ok) {
+        pm_progressive_destroy(*progressive);
+        *progressive = NULL;
+        pm_film_free(film);
+    }
+    return ok;
+}
+
 /* (Re)creates the mode state and the film for the current configuration. */
 static bool build_mode(pm_session *s, char *err, size_t err_size) {
     pm_progressive_destroy(s->progressive);
     s->progressive = NULL;
     pm_film_free(&s->film);
-    bool components[PM_COMPONENT_COUNT];
-    if (s->config.mode == PM_MODE_PROGRESSIVE) {
-        s->progressive = pm_progressive_create(s->scene, s->accel, &s->camera, &s->config.progressive, err, err_size);
-        if (!s->progressive) return false;
-        pm_progressive_components(s->progressive, components);
-    } else {
-        for (int c = 0; c < PM_COMPONENT_COUNT; c++) components[c] = s->scene->analysis.component_possible[c];
-        /* the maps are built at the first iteration; a component they cannot feed has no buffer
-         * (the path tracer feeds every component the scene can have) */
-        bool maps = s->config.mode == PM_MODE_CLASSIC;
-        components[PM_CAUSTIC] = components[PM_CAUSTIC] && (!maps || (s->config.classic_photon_pass && s->config.classic_photons.caustic_photons));
-        components[PM_INDIRECT] = components[PM_INDIRECT] && (!maps || (s->config.classic_photon_pass && s->config.classic_photons.global_photons));
+    return build_state(s, &s->config, &s->camera, &s->progressive, &s->film, err, err_size);
+}
+
+/* The front and back display buffers for a film: a component's pair where the film has it. */
+static bool alloc_display(const pm_film *film, float *front[PM_COMPONENT_COUNT], float *back[PM_COMPONENT_COUNT], char *err,
+                          size_t err_size) {
+    size_t n = 3 * (size_t)film->width * film->height;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        if (!film->sum[c] || front[c]) continue;
+        front[c] = pm_calloc(n, sizeof(float), "display buffers");
+        back[c] = pm_calloc(n, sizeof(float), "display buffers");
+        if (!front[c] || !back[c]) {
+            snprintf(err, err_size, "out of memory (display buffers, %zu bytes)", 2 * PM_COMPONENT_COUNT * n * sizeof(float));
+            return false;
+        }
     }
-    if (!pm_film_init(&s->film, s->config.width, s->config.height, components)) {
-        snprintf(err, err_size, "out of memory (%s) for a %dx%d film", pm_memory_failure() ? pm_memory_failure() : "film",
-                 s->config.width, s->config.height);
-        return false;
-    }
-    if (s->progressive && !pm_progressive_bind(s->progressive, &s->film, err, err_size)) return false;
     return true;
+}
+
+static void free_display(float *front[PM_COMPONENT_COUNT], float *back[PM_COMPONENT_COUNT]) {
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        free(front[c]);
+        free(back[c]);
+        front[c] = back[c] = NULL;
+    }
+}
+
+/* The classic mode's automatic photon counts: from the image size, or with a time budget from a
+ * pilot pass's photon speed, so the pass gets its share of the budget. The pilot's own failure
+ * is handled here (the image size's count stands) and forgotten. */
+static void choose_classic_photons(const pm_session *s, pm_photon_settings *ps) {
+    if (ps->global_photons != PM_PHOTONS_AUTO && ps->caustic_photons != PM_PHOTONS_AUTO) return;
+    double n = (double)s->config.width * s->config.height * PM_DEFAULT_PHOTONS_PER_PIXEL;
+    if (s->config.time_budget > 0) {
+        pm_photon_settings pilot = *ps;
+        pilot.global_photons = pilot.caustic_photons = PM_PILOT_PHOTONS;
+        pm_photon_stats pilot_stats;
+        pm_photon_maps pilot_maps;
+        if (pm_photon_maps_build(s->scene, s->accel, &pilot, &pilot_maps, &pilot_stats) && pilot_stats.seconds > 0)
+            n = PM_TIME_SHARE_PHOTONS * s->config.time_budget * (double)pilot_stats.emitted / pilot_stats.seconds / 2.0;
+        pm_photon_maps_free(&pilot_maps);
+        pm_memory_clear_failure();
+    }
+    if (n < PM_MIN_DEFAULT_PHOTONS) n = PM_MIN_DEFAULT_PHOTONS;
+    if (n > PM_MAX_DEFAULT_PHOTONS) n = PM_MAX_DEFAULT_PHOTONS;
+    if (ps->global_photons == PM_PHOTONS_AUTO) ps->global_photons = (uint64_t)n;
+    if (ps->caustic_photons == PM_PHOTONS_AUTO) ps->caustic_photons = (uint64_t)n;
+}
+
+pm_progressive_settings pm_session_progressive_defaults(int width, int height, uint64_t seed, int threads) {
+    pm_progressive_settings ps;
+    memset(&ps, 0, sizeof ps);
+    ps.seed = seed;
+    ps.threads = pm_thread_count(threads);
+    ps.photons = ps.caustic_photons = pm_progressive_default_photons(width, height);
+    ps.alpha = PM_DEFAULT_ALPHA;
+    ps.indirect = PM_INDIRECT_GATHER;
+    ps.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
+    ps.max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
+    return ps;
+}
+
+void pm_session_config_defaults(pm_session_config *c, pm_mode mode, int width, int height, uint64_t seed, int threads) {
+    memset(c, 0, sizeof *c);
+    c->mode = mode;
+    c->width = width;
+    c->height = height;
+    threads = pm_thread_count(threads);
+    c->progressive = pm_session_progressive_defaults(width, height, seed, threads);
+    c->eye.seed = seed;
+    c->eye.threads = threads;
+    c->eye.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
+    c->eye.path_trace = mode == PM_MODE_PATHTRACE;
+    c->classic_photon_pass = mode == PM_MODE_CLASSIC;
+    c->classic_photons.seed = seed;
+    c->classic_photons.threads = threads;
+    c->classic_photons.max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
+    c->classic_photons.projection_maps = true;
+    c->classic_photons.global_photons = c->classic_photons.caustic_photons = PM_PHOTONS_AUTO;
+    c->shadow.mode = PM_SHADOW_AUTO;
+    c->shadow.photons_per_light = pm_shadow_default_photons(width, height);
+    c->shadow.threads = threads;
 }
 
 pm_session *pm_session_create(const pm_scene *scene, const pm_accel *a, const pm_camera *camera,
@@ -89,6 +203,8 @@ pm_session *pm_session_create(const pm_scene *scene, const pm_accel *a, const pm
     pthread_mutex_init(&s->lock, NULL);
     pthread_cond_init(&s->wake, NULL);
     atomic_init(&s->cancel, false);
+    pm_memory_clear_failure();
+    if (s->config.mode == PM_MODE_CLASSIC && s->config.classic_photon_pass) choose_classic_photons(s, &s->config.classic_photons);
     if (!build_mode(s, err, err_size)) { pm_session_destroy(s); return NULL; }
     return s;
 }
@@ -100,10 +216,7 @@ void pm_session_destroy(pm_session *s) {
     pm_photon_maps_free(&s->maps);
     pm_shadow_map_free(s->shadow);
     pm_film_free(&s->film);
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        free(s->front[c]);
-        free(s->back[c]);
-    }
+    free_display(s->front, s->back);
     pthread_mutex_destroy(&s->lock);
     pthread_cond_destroy(&s->wake);
     free(s);
@@ -113,13 +226,14 @@ const pm_film *pm_session_film(const pm_session *s) { return &s->film; }
 pm_progressive *pm_session_progressive(pm_session *s) { return s->progressive; }
 const pm_photon_maps *pm_session_classic_maps(const pm_session *s) { return s->config.mode == PM_MODE_CLASSIC ? &s->maps : NULL; }
 const pm_photon_stats *pm_session_classic_photon_stats(const pm_session *s) { return &s->classic_photon_stats; }
-const pm_eye_stats *pm_session_classic_eye_stats(const pm_session *s) { return &s->classic_eye_stats; }
+const pm_eye_stats *pm_session_eye_stats(const pm_session *s) { return &s->eye_stats; }
+const char *pm_session_error(const pm_session *s) { return s->error; }
 const pm_shadow_stats *pm_session_shadow_stats(const pm_session *s) { return &s->shadow_stats; }
 
 void pm_session_set_deadline(pm_session *s, double deadline) {
     double now = pm_now_seconds();
     s->config.shadow.deadline = deadline > now ? now + (deadline - now) * PM_SHADOW_TIME_SHARE : now;
-    s->config.classic_eye.deadline = deadline;
+    s->config.eye.deadline = deadline;
     if (s->progressive) pm_progressive_set_deadline(s->progressive, deadline);
 }
 
@@ -169,7 +283,8 @@ uint32_t pm_session_plan_samples(const pm_session *s, uint32_t wanted) {
     return next;
 }
 
-bool pm_session_iterate(pm_session *s, uint32_t max_samples) {
+/* One iteration; false when it failed without a cancel (out of memory), the reason in memory.c's record. */
+static bool iterate_once(pm_session *s, uint32_t max_samples) {
     /* a film a cut pass left ragged is a finished run's: passing over it again could leave a
      * pixel two samples ahead, which the film does not count */
     if (s->film.ragged) pm_session_restart(s, NULL);
@@ -181,7 +296,8 @@ bool pm_session_iterate(pm_session *s, uint32_t max_samples) {
     bool ok = decide_shadow_map(s);
     if (!ok) { pm_parallel_set_cancel(cancel_before); return false; }
     if (s->progressive) {
-        pm_progressive_set_shadow_map(s->progressive, s->shadow);
+        /* a map the caller set on the mode state stands where the session has none (tests) */
+        if (s->shadow) pm_progressive_set_shadow_map(s->progressive, s->shadow);
         ok = pm_progressive_iterate(s->progressive, &s->film, max_samples);
     } else {
         if (!s->maps_built && s->config.classic_photon_pass && s->config.mode == PM_MODE_CLASSIC) {
@@ -194,12 +310,12 @@ bool pm_session_iterate(pm_session *s, uint32_t max_samples) {
             }
         }
         if (ok) {
-            pm_eye_settings eye = s->config.classic_eye;
+            pm_eye_settings eye = s->config.eye;
             eye.maps = s->maps_built ? &s->maps : NULL;
             eye.path_trace = s->config.mode == PM_MODE_PATHTRACE;
             eye.shadow = s->shadow;
-            pm_eye_iterate(s->scene, s->accel, &s->camera, &eye, s->film.samples, &s->film, &s->classic_eye_stats);
-            ok = !s->classic_eye_stats.failed;
+            pm_eye_iterate(s->scene, s->accel, &s->camera, &eye, s->film.samples, &s->film, &s->eye_stats);
+            ok = !s->eye_stats.failed;
         }
     }
     double t1 = pm_now_seconds();
@@ -209,6 +325,56 @@ bool pm_session_iterate(pm_session *s, uint32_t max_samples) {
     pm_parallel_set_cancel(cancel_before);
     /* what a cancel cut short is no failure, even where it ran out of memory on the way */
     return ok || atomic_load(&s->cancel);
+}
+
+static uint64_t run_photons(const pm_session *s) {
+    return s->progressive ? pm_progressive_get_stats(s->progressive)->photons.emitted : s->classic_photon_stats.emitted;
+}
+
+bool pm_session_iterate(pm_session *s, uint32_t max_samples) {
+    begin(s);
+    if (iterate_once(s, max_samples)) return true;
+    fail(s, "out of memory (%s) in iteration %u", memory_failure_or("unknown"), s->film.samples + 1);
+    return false;
+}
+
+pm_session_run_result pm_session_run(pm_session *s, const pm_session_goal *goal, pm_session_observer observer,
+                                     void *context, pm_session_run_state *state_out) {
+    begin(s);
+    pm_session_run_state state = {0, 0, 0.0, 0.0, 0.0};
+    uint32_t target = goal->samples ? goal->samples : UINT32_MAX;
+    /* the budget counts from here: the photon pass is part of what it buys */
+    double start = pm_now_seconds();
+    if (goal->seconds > 0) pm_session_set_budget(s, start, goal->seconds);
+    pm_session_run_result result = PM_RUN_DONE;
+    while (s->film.samples < target && !atomic_load(&s->cancel)) {
+        uint32_t limit = pm_session_plan_samples(s, target - s->film.samples);
+        if (!limit) break;
+        double iteration_start = pm_now_seconds();
+        bool iterated = iterate_once(s, limit);
+        state.rendered += pm_now_seconds() - iteration_start;
+        if (state.first_iteration == 0.0) state.first_iteration = pm_now_seconds() - start;
+        state.samples = s->film.samples;
+        state.photons = run_photons(s);
+        state.elapsed = pm_now_seconds() - start;
+        if (!iterated) {
+            fail(s, "out of memory (%s) in iteration %u", memory_failure_or("unknown"), s->film.samples + 1);
+            result = PM_RUN_FAILED;
+            break;
+        }
+        if (observer) observer(context, s, &state);
+    }
+    if (result == PM_RUN_DONE && atomic_load(&s->cancel)) result = PM_RUN_CANCELLED;
+    state.samples = s->film.samples;
+    state.photons = run_photons(s);
+    state.elapsed = pm_now_seconds() - start;
+    if (state_out) *state_out = state;
+    return result;
+}
+
+bool pm_session_save_exr(pm_session *s, const char *path) {
+    begin(s);
+    return pm_write_exr(path, &s->film, s->error, sizeof s->error);
 }
 
 void pm_session_restart(pm_session *s, const pm_camera *camera) {
@@ -239,8 +405,13 @@ static void heat_colour(double t, float *rgb) {
 static void diagnostic_view(const pm_session *s, int view, float *out) {
     size_t pixels = (size_t)s->config.width * s->config.height;
     double lo = INFINITY, hi = -INFINITY;
-    double *value = malloc(pixels * sizeof *value);
-    if (!value) return;
+    double *value = pm_malloc(pixels * sizeof *value, "density view");
+    if (!value) {
+        /* the view is a diagnostic: black, with the reason, rather than a stale picture */
+        fprintf(stderr, "pmview: error: out of memory (%s) for the density view\n", memory_failure_or("density view"));
+        memset(out, 0, 3 * pixels * sizeof(float));
+        return;
+    }
     for (size_t i = 0; i < pixels; i++) {
         double n = 0, r2 = 0;
         int slots = 0;
@@ -289,8 +460,11 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
         }
         /* the coarse preview, each of its pixels spread over the block it covers */
         size_t small = 3 * (size_t)film->width * film->height;
-        float *tmp = malloc(small * sizeof(float));
-        if (!tmp) return;
+        float *tmp = pm_malloc(small * sizeof(float), "preview");
+        if (!tmp) {
+            fprintf(stderr, "pmview: error: out of memory (%s) for the preview\n", memory_failure_or("preview"));
+            return;
+        }
         pm_film_resolve(film, (pm_component)c, tmp);
         for (int y = 0; y < s->config.height; y++) {
             if ((y & 63) == 0 && atomic_load(&s->cancel)) { free(tmp); return; }
@@ -331,7 +505,7 @@ static void preview(pm_session *s) {
     pm_eye_settings eye;
     memset(&eye, 0, sizeof eye);
     eye.seed = s->config.progressive.seed ^ 0x9e37u;
-    eye.threads = s->config.mode == PM_MODE_PROGRESSIVE ? s->config.progressive.threads : s->config.classic_eye.threads;
+    eye.threads = s->config.mode == PM_MODE_PROGRESSIVE ? s->config.progressive.threads : s->config.eye.threads;
     eye.max_specular_depth = 8;
     pm_eye_iterate(s->scene, s->accel, &s->camera, &eye, 0, &small, NULL);
     if (!atomic_load(&s->cancel)) publish(s, &small, true);
@@ -383,7 +557,7 @@ static void *worker_main(void *arg) {
             need_preview = false;
         }
         uint32_t left = s->config.max_iterations ? s->config.max_iterations - s->film.samples : 0;
-        bool ok = atomic_load(&s->cancel) ? true : pm_session_iterate(s, left);
+        bool ok = atomic_load(&s->cancel) ? true : iterate_once(s, left);
         if (!ok)
             fprintf(stderr, "pmview: error: out of memory (%s) in an iteration; rendering stops\n",
                     pm_memory_failure() ? pm_memory_failure() : "unknown");
@@ -398,25 +572,61 @@ static void *worker_main(void *arg) {
 }
 
 bool pm_session_start(pm_session *s, char *err, size_t err_size) {
+    begin(s);
     if (s->worker_running) return true;
-    size_t n = 3 * (size_t)s->config.width * s->config.height;
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        if (!s->film.sum[c] || s->front[c]) continue;
-        s->front[c] = pm_calloc(n, sizeof(float), "display buffers");
-        s->back[c] = pm_calloc(n, sizeof(float), "display buffers");
-        if (!s->front[c] || !s->back[c]) {
-            snprintf(err, err_size, "out of memory (display buffers, %zu bytes)", 2 * PM_COMPONENT_COUNT * n * sizeof(float));
-            return false;
-        }
+    if (!alloc_display(&s->film, s->front, s->back, s->error, sizeof s->error)) {
+        if (err != s->error) snprintf(err, err_size, "%s", s->error);
+        return false;
     }
     s->stop = false;
     atomic_store(&s->cancel, false);
     if (pthread_create(&s->worker, NULL, worker_main, s) != 0) {
-        snprintf(err, err_size, "cannot start the render thread");
+        fail(s, "cannot start the render thread");
+        if (err != s->error) snprintf(err, err_size, "%s", s->error);
         return false;
     }
     s->worker_running = true;
     return true;
+}
+
+bool pm_session_resize(pm_session *s, int width, int height, const pm_camera *camera) {
+    begin(s);
+    bool running = s->worker_running;
+    pm_session_stop(s);
+    if (camera) s->camera = *camera;
+    pm_session_config config = s->config;
+    config.width = width;
+    config.height = height;
+    pm_progressive *progressive;
+    pm_film film;
+    float *front[PM_COMPONENT_COUNT] = {NULL, NULL, NULL, NULL}, *back[PM_COMPONENT_COUNT] = {NULL, NULL, NULL, NULL};
+    bool built = build_state(s, &config, &s->camera, &progressive, &film, s->error, sizeof s->error);
+    if (built && running && !alloc_display(&film, front, back, s->error, sizeof s->error)) {
+        built = false;
+        free_display(front, back);
+        pm_progressive_destroy(progressive);
+        pm_film_free(&film);
+    }
+    if (built) {
+        pm_progressive_destroy(s->progressive);
+        pm_film_free(&s->film);
+        free_display(s->front, s->back);
+        s->progressive = progressive;
+        s->film = film;
+        memcpy(s->front, front, sizeof front);
+        memcpy(s->back, back, sizeof back);
+        s->config = config;
+        s->render_seconds = 0.0;
+        s->last_samples = 0;
+        memset(&s->published, 0, sizeof s->published);
+        s->published.paused = s->paused;
+    }
+    /* the running pass was cancelled by the stop: the worker goes on, at the new size or the old */
+    char error[sizeof s->error];
+    snprintf(error, sizeof error, "%s", s->error);
+    if (running && !pm_session_start(s, s->error, sizeof s->error)) return false;
+    snprintf(s->error, sizeof s->error, "%s", error);
+    return built;
 }
 
 void pm_session_pause(pm_session *s, bool paused) {

@@ -23,7 +23,7 @@
 #include "scatter.h"
 
 #define CHUNK 4096
-#define MAX_THREADS 256
+#define MAX_THREADS PM_MAX_THREADS
 #define AXIS_BITS 20                         /* cells per axis below 2^20 */
 #define LAYERS 4                             /* along the normal, cells are this many times thinner */
 #define GOLDEN_ANGLE 2.39996322972865332f    /* pi (3 - sqrt 5): the spherical Fibonacci set's turn */
@@ -332,7 +332,7 @@ pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const p
     job->chunk_counts = calloc(tasks, sizeof *job->chunk_counts);
     atomic_init(&job->out_of_memory, false);
     bool ok = job->chunk_records && job->chunk_counts;
-    int threads = set->threads < 1 ? 1 : (set->threads > MAX_THREADS ? MAX_THREADS : set->threads);
+    int threads = pm_thread_count(set->threads);
     if (ok) pm_parallel_for(threads, tasks, trace_chunk, job);
     ok = ok && !atomic_load(&job->out_of_memory);
 

@@ -1,4 +1,4 @@
-/* progressive_harness.h: what the progressive tests share: default settings, a progressive run over a film, small image helpers. */
+/* progressive_harness.h: what the progressive tests share: a progressive render session at the tests' defaults, run n samples at a time, and small image helpers. */
 #ifndef PM_PROGRESSIVE_HARNESS_H
 #define PM_PROGRESSIVE_HARNESS_H
 
@@ -10,62 +10,54 @@
 #include "film.h"
 #include "progressive.h"
 #include "scene_builder.h"
+#include "session.h"
 #include "testing.h"
 
-static pm_progressive_settings default_settings(int w, int h) {
-    pm_progressive_settings ps;
-    memset(&ps, 0, sizeof ps);
-    ps.seed = 1;
-    ps.threads = 2;
-    ps.photons = ps.caustic_photons = pm_progressive_default_photons(w, h);
-    ps.alpha = PM_DEFAULT_ALPHA;
-    ps.indirect = PM_INDIRECT_GATHER;
-    ps.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
-    ps.max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
-    return ps;
-}
+/* The session's defaults, seed 1 on two threads. */
+static pm_progressive_settings default_settings(int w, int h) { return pm_session_progressive_defaults(w, h, 1, 2); }
 
 typedef struct {
-    pm_progressive *p;
-    pm_film film;
+    pm_session *session;
+    pm_progressive *p;      /* the session's */
+    const pm_film *film;    /* the session's */
 } session;
 
+/* A progressive session without shadow photons (the tests that want them set their own map). */
 static bool start(session *r, const pm_scene *s, const pm_accel *a, const pm_camera *cam, int w, int h,
                   const pm_progressive_settings *ps) {
     char err[256];
     memset(r, 0, sizeof *r);
-    r->p = pm_progressive_create(s, a, cam, ps, err, sizeof err);
-    if (!r->p) { CHECK(false, "create: %s", err); return false; }
-    bool components[PM_COMPONENT_COUNT];
-    pm_progressive_components(r->p, components);
-    if (!pm_film_init(&r->film, w, h, components) || !pm_progressive_bind(r->p, &r->film, err, sizeof err)) {
-        CHECK(false, "bind: %s", err);
+    pm_session_config config;
+    pm_session_config_defaults(&config, PM_MODE_PROGRESSIVE, w, h, ps->seed, ps->threads);
+    config.progressive = *ps;
+    config.shadow.mode = PM_SHADOW_OFF;
+    r->session = pm_session_create(s, a, cam, &config, err, sizeof err);
+    if (!r->session) { CHECK(false, "create: %s", err); return false; }
+    r->p = pm_session_progressive(r->session);
+    r->film = pm_session_film(r->session);
+    return true;
+}
+
+static void stop(session *r) {
+    pm_session_destroy(r->session);
+    memset(r, 0, sizeof *r);
+}
+
+/* n more samples per pixel (an iteration may add several: pm_progressive_iterate) */
+static bool iterate(session *r, int n) {
+    pm_session_goal goal = {r->film->samples + (uint32_t)n, 0.0};
+    if (pm_session_run(r->session, &goal, NULL, NULL, NULL) == PM_RUN_FAILED) {
+        CHECK(false, "iteration %u failed: %s", r->film->samples, pm_session_error(r->session));
         return false;
     }
     return true;
 }
 
-static void stop(session *r) {
-    pm_progressive_destroy(r->p);
-    pm_film_free(&r->film);
-}
-
-/* n more samples per pixel (an iteration may add several: pm_progressive_iterate) */
-static bool iterate(session *r, int n) {
-    uint32_t target = r->film.samples + (uint32_t)n;
-    while (r->film.samples < target)
-        if (!pm_progressive_iterate(r->p, &r->film, target - r->film.samples)) {
-            CHECK(false, "iteration %u failed", r->film.samples);
-            return false;
-        }
-    return true;
-}
-
 /* Iterations until the film holds n photon passes (the radii shrink per photon pass). */
 static inline bool iterate_passes(session *r, uint32_t n) {
-    while (r->film.photon_passes < n)
-        if (!pm_progressive_iterate(r->p, &r->film, 0)) {
-            CHECK(false, "iteration %u failed", r->film.samples);
+    while (r->film->photon_passes < n)
+        if (!pm_session_iterate(r->session, 0)) {
+            CHECK(false, "iteration %u failed: %s", r->film->samples, pm_session_error(r->session));
             return false;
         }
     return true;

@@ -371,9 +371,9 @@ static void emissive_cutout(void) {
             session r;
             float *img = malloc(sizeof(float) * 3 * SIDE * SIDE);
             if (start(&r, &s, a, &cam, SIDE, SIDE, &ps) && iterate(&r, 64)) {
-                pm_film_resolve(&r.film, PM_DIRECT, img);
+                pm_film_resolve(r.film, PM_DIRECT, img);
                 mean[k][0] = mean_of(img, 3 * SIDE * SIDE);
-                pm_film_resolve(&r.film, PM_INDIRECT, img);
+                pm_film_resolve(r.film, PM_INDIRECT, img);
                 mean[k][1] = mean_of(img, 3 * SIDE * SIDE);
             }
             stop(&r);

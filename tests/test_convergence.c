@@ -57,8 +57,8 @@ static double furnace_error(float rho, pm_indirect_mode indirect, int iterations
         session r;
         if (start(&r, &s, a, &cam, W, H, &ps)) {
             iterate_passes(&r, (uint32_t)iterations);
-            pm_film_resolve_total(&r.film, total);
-            CHECK(r.film.ppm[PM_SLOT_CAUSTIC] == NULL && r.film.sum[PM_CAUSTIC] == NULL,
+            pm_film_resolve_total(r.film, total);
+            CHECK(r.film->ppm[PM_SLOT_CAUSTIC] == NULL && r.film->sum[PM_CAUSTIC] == NULL,
                   "furnace: no mirror or glass, so no caustic statistics and no caustic buffer");
         }
         got = mean_of(total, 3 * W * H);
@@ -145,17 +145,17 @@ static void test_reference_slope(const char *scene_path, const char *ref_path, i
     float *snapshots[16];
     int points = 0;
     for (int it = 1; it <= max_iterations && points < 16; it *= 2) {
-        iterate(&r, it - (int)r.film.samples);
+        iterate(&r, it - (int)r.film->samples);
         snapshots[points] = malloc(sizeof(float) * 3 * n);
-        pm_film_resolve_total(&r.film, snapshots[points]);
+        pm_film_resolve_total(r.film, snapshots[points]);
         xs[points++] = it;
     }
     if (caustic_region) {
         /* the floor in the light's full shadow (direct and specular exactly zero in every sample of
          * the whole run), lit by the caustic alone */
         mask = calloc(n, 1);
-        pm_film_resolve(&r.film, PM_DIRECT, direct);
-        pm_film_resolve(&r.film, PM_SPECULAR, specular);
+        pm_film_resolve(r.film, PM_DIRECT, direct);
+        pm_film_resolve(r.film, PM_SPECULAR, specular);
         for (size_t i = 0; i < n; i++) mask[i] = direct[3 * i] == 0.f && specular[3 * i] == 0.f && ref.rgb[0][i] > 0.f;
         /* the 5x5 pixels at the ball's focus are left out: an irradiance singularity, where a
          * pixel's value depends on how a density estimate spreads it (tests/caustic_region.h) */

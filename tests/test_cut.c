@@ -146,8 +146,8 @@ static void test_progressive_cut(const pm_scene *s, const pm_accel *a, const pm_
     ps.indirect = indirect;
     session A, B, C;
     if (!start(&A, s, a, cam, W, H, &ps) || !start(&B, s, a, cam, W, H, &ps) || !start(&C, s, a, cam, W, H, &ps)) return;
-    CHECK(A.film.sum[PM_CAUSTIC] && A.film.ppm[PM_SLOT_SPECULAR_CAUSTIC], "the scene has caustic splats and statistics");
-    CHECK(indirect == PM_INDIRECT_GATHER || A.film.ppm[PM_SLOT_INDIRECT], "%s: indirect statistics", mode);
+    CHECK(A.film->sum[PM_CAUSTIC] && A.film->ppm[PM_SLOT_SPECULAR_CAUSTIC], "the scene has caustic splats and statistics");
+    CHECK(indirect == PM_INDIRECT_GATHER || A.film->ppm[PM_SLOT_INDIRECT], "%s: indirect statistics", mode);
     float *whole = malloc(sizeof(float) * 12 * PIXELS), *before = malloc(sizeof(float) * 12 * PIXELS),
           *got = malloc(sizeof(float) * 12 * PIXELS);
     iterate(&C, 1);
@@ -155,40 +155,37 @@ static void test_progressive_cut(const pm_scene *s, const pm_accel *a, const pm_
     double t0 = pm_now_seconds();
     iterate(&A, 1);
     double pass = pm_now_seconds() - t0, share = 0.5;
-    resolve_all(&A.film, whole);
-    resolve_all(&C.film, before);
+    resolve_all(A.film, whole);
+    resolve_all(C.film, before);
     size_t ahead = 0;
     for (int attempt = 0; attempt < 12; attempt++) {
         stop(&B);
         if (!start(&B, s, a, cam, W, H, &ps)) break;
         iterate(&B, 1);
-        pm_progressive_set_deadline(B.p, pm_now_seconds() + share * pass);
-        CHECK(pm_progressive_iterate(B.p, &B.film, 0), "the cut iteration succeeds");
-        ahead = pm_film_pixels_ahead(&B.film);
+        pm_session_set_deadline(B.session, pm_now_seconds() + share * pass);
+        CHECK(pm_session_iterate(B.session, 0), "the cut iteration succeeds: %s", pm_session_error(B.session));
+        ahead = pm_film_pixels_ahead(B.film);
         if (ahead > 0 && ahead < PIXELS) break;
         /* the pass finished before the deadline, or reached every pixel: an earlier deadline; cut
          * before its first tile: a later one (a shared machine's timings wander) */
-        share = ahead == 0 && B.film.samples == 1 ? share * 1.5 + 0.05 : share * 0.5;
+        share = ahead == 0 && B.film->samples == 1 ? share * 1.5 + 0.05 : share * 0.5;
     }
     printf("progressive (%s): the eye pass cut by a deadline reached %zu of %d pixels\n", mode, ahead, PIXELS);
-    CHECK(ahead > 0 && ahead < PIXELS && B.film.samples == 1 && B.film.photon_passes == 1,
+    CHECK(ahead > 0 && ahead < PIXELS && B.film->samples == 1 && B.film->photon_passes == 1,
           "%s: the deadline cut the statistics pass part way (%zu of %d pixels, %u samples, %u photon passes)", mode, ahead,
-          PIXELS, B.film.samples, B.film.photon_passes);
-    resolve_all(&B.film, got);
+          PIXELS, B.film->samples, B.film->photon_passes);
+    resolve_all(B.film, got);
     printf("progressive (%s): image mean %.5f after one iteration and a cut one, %.5f after two whole ones\n", mode,
            mean_of(got, 12 * PIXELS), mean_of(whole, 12 * PIXELS));
-    check_pixels(mode, &B.film, got, whole, before);
+    check_pixels(mode, B.film, got, whole, before);
     /* a cancel during an iteration: dropped before it touched the film */
-    atomic_bool cancel;
-    atomic_init(&cancel, true);
-    pm_parallel_set_cancel(&cancel);
-    uint32_t samples = C.film.samples, passes = C.film.photon_passes;
-    CHECK(pm_progressive_iterate(C.p, &C.film, 0), "a cancelled iteration is no failure");
-    pm_parallel_set_cancel(NULL);
-    resolve_all(&C.film, got);
-    CHECK(C.film.samples == samples && C.film.photon_passes == passes && !C.film.ragged &&
+    pm_session_cancel(C.session);
+    uint32_t samples = C.film->samples, passes = C.film->photon_passes;
+    CHECK(pm_session_iterate(C.session, 0), "a cancelled iteration is no failure");
+    resolve_all(C.film, got);
+    CHECK(C.film->samples == samples && C.film->photon_passes == passes && !C.film->ragged &&
               memcmp(got, before, sizeof(float) * 12 * PIXELS) == 0,
-          "a cancelled iteration leaves the film as it was (%u samples, %u photon passes)", C.film.samples, C.film.photon_passes);
+          "a cancelled iteration leaves the film as it was (%u samples, %u photon passes)", C.film->samples, C.film->photon_passes);
     free(whole);
     free(before);
     free(got);

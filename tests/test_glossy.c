@@ -88,7 +88,7 @@ static void smooth_metal_noise(void) {
         ps.seed = 1 + (uint64_t)k;
         session r;
         ok = ok && start(&r, &s, a, &cam, W, H, &ps) && iterate(&r, 128);
-        if (ok) pm_film_resolve_total(&r.film, img[k]);
+        if (ok) pm_film_resolve_total(r.film, img[k]);
         stop(&r);
     }
     CHECK(ok, "both seeds rendered");
@@ -136,7 +136,7 @@ static void point_light_through_lobe(void) {
         session r;
         ok = ok && start(&r, &s, a, &cam, SMALL, SMALL, &ps) && iterate(&r, 512);
         if (ok) {
-            pm_film_resolve(&r.film, PM_INDIRECT, img);
+            pm_film_resolve(r.film, PM_INDIRECT, img);
             mean[k] = mean_of(img, 3 * SMALL * SMALL);
         }
         stop(&r);
@@ -196,7 +196,7 @@ int main(void) {
     pm_progressive_settings ps = default_settings(W, H);
     session r;
     if (start(&r, &s, a, &cam, W, H, &ps) && iterate(&r, 512)) {
-        pm_film_resolve_total(&r.film, img);
+        pm_film_resolve_total(r.film, img);
         compare("progressive, 512 iterations, vs Mitsuba path", img, (const float *const *)ref, masks, 0.002, 0.02, 0.03);
     }
     stop(&r);
@@ -204,7 +204,7 @@ int main(void) {
     /* indirect light from photons at the visible points: each photon weighted by the lobe */
     ps.indirect = PM_INDIRECT_PHOTONS;
     if (start(&r, &s, a, &cam, W, H, &ps) && iterate(&r, 512)) {
-        pm_film_resolve_total(&r.film, img);
+        pm_film_resolve_total(r.film, img);
         compare("progressive --indirect photons, 512 iterations", img, (const float *const *)ref, masks, 0.02, 0.03, 0.04);
     }
     stop(&r);

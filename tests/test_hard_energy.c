@@ -62,7 +62,7 @@ static void test_furnace_099(void) {
     double t0 = pm_now_seconds();
     if (start(&r, &s, a, &cam, W, H, &ps)) {
         iterate(&r, iterations);
-        pm_film_resolve_total(&r.film, img);
+        pm_film_resolve_total(r.film, img);
         got = mean_of(img, 3 * W * H);
         stop(&r);
     }
@@ -92,7 +92,7 @@ static void render_tiny_light(float radiance, float *img, int w, int h, uint64_t
     session r;
     if (start(&r, &s, a, &cam, w, h, &ps)) {
         iterate(&r, 8);
-        pm_film_resolve_total(&r.film, img);
+        pm_film_resolve_total(r.film, img);
         *dropped = pm_progressive_get_stats(r.p)->eye.dropped_samples + pm_progressive_get_stats(r.p)->photons.dropped;
         stop(&r);
     }
@@ -142,8 +142,8 @@ static void test_film_overflow(void) {
     iterate(&r, 4);
     int nonfinite = 0;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-        if (r.film.sum[c])
-            for (int i = 0; i < 3 * W * H; i++) nonfinite += !isfinite(r.film.sum[c][i]);
+        if (r.film->sum[c])
+            for (int i = 0; i < 3 * W * H; i++) nonfinite += !isfinite(r.film->sum[c][i]);
     uint64_t dropped = pm_progressive_get_stats(r.p)->eye.dropped_samples;
     printf("film near FLT_MAX: %d non-finite sums, %llu samples dropped\n", nonfinite, (unsigned long long)dropped);
     CHECK(nonfinite == 0, "criterion: accumulation never overflows to Inf (%d sums did)", nonfinite);
@@ -190,11 +190,11 @@ static void test_ten_thousand_gather(void) {
     double t0 = pm_now_seconds();
     if (!start(&r, &s, a, &cam, W, H, &ps)) return;
     iterate(&r, 10000);
-    pm_film_resolve_total(&r.film, img);
+    pm_film_resolve_total(r.film, img);
     int nonfinite = 0;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-        if (r.film.sum[c])
-            for (int i = 0; i < 3 * W * H; i++) nonfinite += !isfinite(r.film.sum[c][i]);
+        if (r.film->sum[c])
+            for (int i = 0; i < 3 * W * H; i++) nonfinite += !isfinite(r.film->sum[c][i]);
     for (int i = 0; i < 3 * W * H; i++) nonfinite += !isfinite(img[i]);
     double got = mean_of(img, 3 * W * H), want = le / (1.0 - rho);
     uint64_t dropped = pm_progressive_get_stats(r.p)->eye.dropped_samples;
@@ -202,8 +202,8 @@ static void test_ten_thousand_gather(void) {
            100.0 * (got / want - 1.0), nonfinite, (unsigned long long)dropped, pm_now_seconds() - t0);
     CHECK(nonfinite == 0 && dropped == 0, "criterion: finite after 10^4 iterations (%d non-finite, %llu dropped)", nonfinite,
           (unsigned long long)dropped);
-    CHECK(r.film.samples == 10000 && r.film.photon_passes == 10000, "10^4 samples and photon passes (%u, %u)",
-          r.film.samples, r.film.photon_passes);
+    CHECK(r.film->samples == 10000 && r.film->photon_passes == 10000, "10^4 samples and photon passes (%u, %u)",
+          r.film->samples, r.film->photon_passes);
     CHECK_NEAR(got, want, 0.02, 0.0, "criterion: the furnace answer within 2% after 10^4 gather iterations");
     stop(&r);
     pm_accel_destroy(a);

@@ -20,11 +20,11 @@ static float *render_total(const pm_scene *s, const pm_accel *a, const pm_camera
     if (iterate(&r, iterations)) {
         img = malloc(sizeof(float) * 3 * W * H);
         for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-            pm_film_resolve(&r.film, (pm_component)c, img);
+            pm_film_resolve(r.film, (pm_component)c, img);
             last_component_sum[c] = 0;
             for (size_t i = 0; i < 3 * W * H; i++) last_component_sum[c] += img[i];
         }
-        pm_film_resolve_total(&r.film, img);
+        pm_film_resolve_total(r.film, img);
     }
     stop(&r);
     return img;
@@ -86,7 +86,7 @@ static void dark_components(const pm_scene *s, const pm_accel *a, const pm_camer
         float *layer = malloc(sizeof(float) * 3 * W * H);
         sums[0] = sums[1] = 0;
         for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-            pm_film_resolve(&r.film, (pm_component)c, layer);
+            pm_film_resolve(r.film, (pm_component)c, layer);
             sums[c == PM_INDIRECT] += image_sum(layer);
         }
         free(layer);

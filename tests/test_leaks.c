@@ -86,9 +86,9 @@ static float progressive_dark(const pm_scene *s, const pm_accel *a, const pm_cam
     if (!start(&r, s, a, cam, W, H, &ps)) return INFINITY;
     for (int i = 0; i < ITERATIONS; i++) {
         if (!iterate(&r, 1)) break;
-        worst = fmaxf(worst, brightest(&r.film));
+        worst = fmaxf(worst, brightest(r.film));
     }
-    if (lit_mean) *lit_mean = mean_total(&r.film);
+    if (lit_mean) *lit_mean = mean_total(r.film);
     stop(&r);
     return worst;
 }
@@ -189,7 +189,7 @@ static void check_shelf(pm_indirect_mode indirect, bool unclipped, double *error
     *dark_pixels = SW * SH;
     if (total && start(&r, &s, a, &cam, SW, SH, &ps)) {
         iterate_passes(&r, 48);
-        pm_film_resolve_total(&r.film, total);
+        pm_film_resolve_total(r.film, total);
         double want = le / (1.0 - rho), sum = 0.0;
         int dark = 0;
         for (int i = 0; i < SW * SH; i++) {

@@ -197,7 +197,7 @@ static double furnace_mean(bool bumpy, int iterations) {
     double got = 0.0;
     if (start(&r, &s, a, &cam, W, H, &ps)) {
         iterate(&r, iterations);
-        pm_film_resolve_total(&r.film, total);
+        pm_film_resolve_total(r.film, total);
         got = mean_of(total, 3 * W * H);
         stop(&r);
     }

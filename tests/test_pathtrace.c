@@ -23,9 +23,9 @@ static pm_session_config pathtrace_config(int w, int h, uint64_t seed, int threa
     c.mode = PM_MODE_PATHTRACE;
     c.width = w;
     c.height = h;
-    c.classic_eye.seed = seed;
-    c.classic_eye.threads = threads;
-    c.classic_eye.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
+    c.eye.seed = seed;
+    c.eye.threads = threads;
+    c.eye.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
     return c;
 }
 

@@ -42,7 +42,7 @@ static void test_thin_wall(void) {
             session r;
             if (!start(&r, &s, a, &cam, W, H, &ps)) break;
             iterate(&r, 16);
-            pm_film_resolve(&r.film, PM_INDIRECT, img);
+            pm_film_resolve(r.film, PM_INDIRECT, img);
             *(side == 0 ? &lit : &dark) = mean_of(img, 3 * W * H);
             stop(&r);
         }
@@ -69,8 +69,8 @@ static void test_no_photon_pass_when_useless(void) {
     session r;
     if (start(&r, &s, a, &cam, 8, 8, &ps)) {
         CHECK(!pm_progressive_uses_photons(r.p), "no photon pass for a single lit plane");
-        CHECK(r.film.sum[PM_CAUSTIC] == NULL && r.film.sum[PM_INDIRECT] == NULL, "no caustic or indirect buffers");
-        for (int k = 0; k < PM_SLOT_COUNT; k++) CHECK(r.film.ppm[k] == NULL, "no statistics slot %d", k);
+        CHECK(r.film->sum[PM_CAUSTIC] == NULL && r.film->sum[PM_INDIRECT] == NULL, "no caustic or indirect buffers");
+        for (int k = 0; k < PM_SLOT_COUNT; k++) CHECK(r.film->ppm[k] == NULL, "no statistics slot %d", k);
         iterate(&r, 2);
         CHECK(pm_progressive_get_stats(r.p)->photons.emitted == 0, "no photon emitted");
         stop(&r);
@@ -108,8 +108,8 @@ static void test_scale_invariance(void) {
         session r;
         if (start(&r, &s, a, &cam, W, H, &ps)) {
             iterate(&r, 32);
-            pm_film_resolve_total(&r.film, img[i]);
-            pm_radius_summary rad = pm_progressive_radii(r.p, &r.film);
+            pm_film_resolve_total(r.film, img[i]);
+            pm_radius_summary rad = pm_progressive_radii(r.p, r.film);
             printf("scale %g: mean %.5f, mean radius / scale %.5f\n", scales[i], mean_of(img[i], 3 * W * H),
                    rad.mean / scales[i]);
             stop(&r);
@@ -144,8 +144,8 @@ static void test_threads_identical(void) {
         if (start(&r, &s, a, &cam, W, H, &ps)) {
             /* past the probe's first iterations: the automatic eye passes are chosen, from counts */
             iterate(&r, 40);
-            passes[t] = r.film.photon_passes;
-            pm_film_resolve_total(&r.film, img[t]);
+            passes[t] = r.film->photon_passes;
+            pm_film_resolve_total(r.film, img[t]);
             stop(&r);
         }
     }
@@ -171,17 +171,17 @@ static void test_long_run(void) {
     session r;
     if (!start(&r, &s, a, &cam, W, H, &ps)) return;
     iterate(&r, 100);
-    pm_radius_summary at100 = pm_progressive_radii(r.p, &r.film);
+    pm_radius_summary at100 = pm_progressive_radii(r.p, r.film);
     iterate(&r, 9900);
-    pm_radius_summary at10k = pm_progressive_radii(r.p, &r.film);
+    pm_radius_summary at10k = pm_progressive_radii(r.p, r.film);
     printf("10^4 iterations: mean radius %.5f at 100, %.5f at 10000 (min %.3g), initial %.5f\n", at100.mean, at10k.mean,
            at10k.min, at10k.initial_mean);
     CHECK(at10k.min > 0.0 && at10k.mean < at100.mean && at100.mean <= at10k.initial_mean, "radii positive and shrinking");
     int bad = 0;
     for (int k = 0; k < PM_SLOT_COUNT; k++) {
-        if (!r.film.ppm[k]) continue;
+        if (!r.film->ppm[k]) continue;
         for (int i = 0; i < W * H; i++) {
-            const pm_ppm_stat *st = &r.film.ppm[k][i];
+            const pm_ppm_stat *st = &r.film->ppm[k][i];
             bad += !isfinite(st->n) || st->n < 0 || !(st->r2 >= 0) || !isfinite(st->r2);
             for (int c = 0; c < 3; c++) bad += !isfinite(st->tau[c]) || st->tau[c] < 0;
             /* N grows by alpha M per iteration with photons: never more than the photons stored */
@@ -191,13 +191,13 @@ static void test_long_run(void) {
     CHECK(bad == 0, "%d inconsistent statistics after 10^4 iterations", bad);
     float *img = malloc(sizeof(float) * 3 * W * H);
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        pm_film_resolve(&r.film, c, img);
+        pm_film_resolve(r.film, c, img);
         int nonfinite = 0;
         for (int i = 0; i < 3 * W * H; i++) nonfinite += !isfinite(img[i]) || img[i] < 0.f;
         CHECK(nonfinite == 0, "component %s: %d bad values after 10^4 iterations", pm_component_names[c], nonfinite);
     }
-    CHECK(r.film.samples == 10000 && r.film.photon_passes == 10000, "10^4 samples and photon passes (%u, %u)",
-          r.film.samples, r.film.photon_passes);
+    CHECK(r.film->samples == 10000 && r.film->photon_passes == 10000, "10^4 samples and photon passes (%u, %u)",
+          r.film->samples, r.film->photon_passes);
     free(img);
     stop(&r);
     pm_accel_destroy(a);
@@ -216,12 +216,12 @@ static void test_restart(void) {
     if (!start(&r, &s, a, &cam, W, H, &ps)) return;
     iterate(&r, 3);
     float *first = malloc(sizeof(float) * 3 * W * H), *again = malloc(sizeof(float) * 3 * W * H);
-    pm_film_resolve_total(&r.film, first);
-    pm_ppm_stat *slot = r.film.ppm[PM_SLOT_INDIRECT];
-    pm_progressive_restart(r.p, &r.film, &cam);
-    CHECK(r.film.samples == 0 && r.film.ppm[PM_SLOT_INDIRECT] == slot, "restart keeps the buffers and clears the count");
+    pm_film_resolve_total(r.film, first);
+    pm_ppm_stat *slot = r.film->ppm[PM_SLOT_INDIRECT];
+    pm_session_restart(r.session, &cam);
+    CHECK(r.film->samples == 0 && r.film->ppm[PM_SLOT_INDIRECT] == slot, "restart keeps the buffers and clears the count");
     iterate(&r, 3);
-    pm_film_resolve_total(&r.film, again);
+    pm_film_resolve_total(r.film, again);
     CHECK(memcmp(first, again, sizeof(float) * 3 * W * H) == 0, "after a restart the same iterations give the same image");
     free(first);
     free(again);
@@ -259,14 +259,14 @@ static void test_first_iteration_photons(void) {
     /* a disc holding PM_PPM_GATHER_PHOTONS of a whole iteration's stored photons, shrunk once */
     double stored_whole = (double)st->photons.stored_global * (double)ps.photons / (double)global_first;
     double want = sqrt(PM_PPM_GATHER_PHOTONS * area / (PM_PI * stored_whole) * (1.0 + ps.alpha) / 2.0);
-    double got = pm_progressive_radii(r.p, &r.film).gather;
+    double got = pm_progressive_radii(r.p, r.film).gather;
     /* the radius comes from the density where the camera looks, and is never wider than the mean's */
     CHECK(got <= want + 1e-6 && got > 0.2 * want, "final-gather radius after the first iteration %g: from a whole "
           "iteration's density, at most the mean density's %g", got, want);
     iterate(&r, 2);
     CHECK(st->photons.emitted == first + 2 * whole, "later iterations emit the whole count (%llu)",
           (unsigned long long)st->photons.emitted);
-    pm_progressive_restart(r.p, &r.film, &cam);
+    pm_session_restart(r.session, &cam);
     iterate(&r, 1);
     /* a restart clears the statistics too */
     CHECK(st->photons.emitted == first, "the first iteration after a restart emits the first count again (%llu)",
@@ -294,7 +294,7 @@ static void test_first_iteration_radii(void) {
         session r;
         if (!start(&r, &s, a, &cam, W, H, &ps)) break;
         iterate(&r, 1);
-        radii[k] = pm_progressive_radii(r.p, &r.film);
+        radii[k] = pm_progressive_radii(r.p, r.film);
         stop(&r);
     }
     printf("first-iteration radii: whole first iteration mean %.5f min %.5f; %.2f of the photons: mean %.5f min %.5f\n",
@@ -330,7 +330,7 @@ static void test_gather_traces_punctual_light(void) {
         session r;
         if (!start(&r, &s, a, &cam, W, H, &ps)) break;
         iterate(&r, run == 2 ? 256 : 64);
-        pm_film_resolve(&r.film, PM_INDIRECT, img);
+        pm_film_resolve(r.film, PM_INDIRECT, img);
         indirect[run] = mean_of(img, 3 * W * H);
         const pm_progressive_stats *st = pm_progressive_get_stats(r.p);
         if (run == 1)
@@ -400,9 +400,9 @@ static void test_eye_passes(void) {
                 for (int c = 0; c < PM_COMPONENT_COUNT; c++) img[k][seed][c] = calloc(N, sizeof(float));
                 if (!start(&r, &s, a, &cam, W, H, &ps)) continue;
                 iterate(&r, PASSES * ps.eye_passes);
-                CHECK(r.film.photon_passes == PASSES && r.film.samples == PASSES * (uint32_t)ps.eye_passes,
-                      "%d eye passes: %u photon passes, %u samples", ps.eye_passes, r.film.photon_passes, r.film.samples);
-                for (int c = 0; c < PM_COMPONENT_COUNT; c++) pm_film_resolve(&r.film, c, img[k][seed][c]);
+                CHECK(r.film->photon_passes == PASSES && r.film->samples == PASSES * (uint32_t)ps.eye_passes,
+                      "%d eye passes: %u photon passes, %u samples", ps.eye_passes, r.film->photon_passes, r.film->samples);
+                for (int c = 0; c < PM_COMPONENT_COUNT; c++) pm_film_resolve(r.film, c, img[k][seed][c]);
                 stop(&r);
             }
         CHECK(memcmp(img[0][0][PM_CAUSTIC], img[1][0][PM_CAUSTIC], N * sizeof(float)) == 0,
@@ -437,11 +437,11 @@ static void test_eye_passes(void) {
     pm_progressive_settings ps = default_settings(W, H);
     session r;
     if (start(&r, &s, a, &cam, W, H, &ps)) {
-        CHECK(pm_progressive_iterate(r.p, &r.film, 0) && r.film.samples == 1, "the first iteration has one eye pass (%u)",
-              r.film.samples);
-        CHECK(pm_progressive_iterate(r.p, &r.film, 1) && r.film.samples == 2 && r.film.photon_passes == 2,
-              "at most the samples asked for (%u samples, %u photon passes)", r.film.samples, r.film.photon_passes);
-        while (r.film.photon_passes < 2 * PM_PPM_PROBE_ITERATIONS + 4 && pm_progressive_iterate(r.p, &r.film, 0)) {}
+        CHECK(pm_session_iterate(r.session, 0) && r.film->samples == 1, "the first iteration has one eye pass (%u)",
+              r.film->samples);
+        CHECK(pm_session_iterate(r.session, 1) && r.film->samples == 2 && r.film->photon_passes == 2,
+              "at most the samples asked for (%u samples, %u photon passes)", r.film->samples, r.film->photon_passes);
+        while (r.film->photon_passes < 2 * PM_PPM_PROBE_ITERATIONS + 4 && pm_session_iterate(r.session, 0)) {}
         uint32_t automatic = pm_progressive_eye_passes(r.p);
         printf("eye passes: %u a photon pass in the room at %dx%d\n", automatic, W, H);
         CHECK(automatic > 2 && automatic <= PM_PPM_MAX_EYE_PASSES, "%dx%d at %llu photons: %u eye passes a photon pass", W, H,
@@ -461,7 +461,7 @@ static void test_eye_passes(void) {
           "mirror caustic %u (at most 2)", room_gather, room_photons, mirror);
     ps.photons = ps.caustic_photons = 16;
     if (start(&r, &s, a, &cam, W, H, &ps)) {
-        while (r.film.photon_passes < 2 * PM_PPM_PROBE_ITERATIONS + 4 && pm_progressive_iterate(r.p, &r.film, 0)) {}
+        while (r.film->photon_passes < 2 * PM_PPM_PROBE_ITERATIONS + 4 && pm_session_iterate(r.session, 0)) {}
         CHECK(pm_progressive_eye_passes(r.p) == 1, "16 photons a pass for %d pixels: %u eye passes a photon pass", W * H,
               pm_progressive_eye_passes(r.p));
         stop(&r);

@@ -406,7 +406,7 @@ static many_lights_result many_lights(int n, int iterations) {
         res.seconds = fmin(res.seconds, cpu_seconds() - t0);
     }
     float *img = malloc(sizeof(float) * 3 * W * W);
-    pm_film_resolve(&r.film, PM_DIRECT, img);
+    pm_film_resolve(r.film, PM_DIRECT, img);
     res.mean = mean_of(img, 3 * W * W);
     free(img);
     stop(&r);

@@ -31,8 +31,8 @@ static run_result render(const pm_scene *s, const pm_accel *a, const pm_camera *
     size_t n = (size_t)w * h;
     out.total = malloc(sizeof(float) * 3 * n);
     out.caustic = malloc(sizeof(float) * 3 * n);
-    pm_film_resolve_total(&r.film, out.total);
-    pm_film_resolve(&r.film, PM_CAUSTIC, out.caustic);
+    pm_film_resolve_total(r.film, out.total);
+    pm_film_resolve(r.film, PM_CAUSTIC, out.caustic);
     out.caustic_mean = 3.0 * mean_of(out.caustic, 3 * n);
     out.splats = pm_progressive_get_stats(r.p)->splats;
     stop(&r);

@@ -59,21 +59,12 @@ static pm_fuzz_result pm_fuzz_run(const uint8_t *data, size_t size) {
     if (!accel) goto done;
 
     pm_session_config config;
-    memset(&config, 0, sizeof config);
-    config.mode = PM_MODE_PROGRESSIVE;
-    config.width = config.height = PM_FUZZ_SIDE;
-    pm_progressive_settings *ps = &config.progressive;
-    ps->seed = 1;
-    ps->threads = 1;
-    ps->photons = ps->caustic_photons = PM_FUZZ_PHOTONS;
-    ps->alpha = PM_DEFAULT_ALPHA;
-    ps->indirect = PM_INDIRECT_GATHER;
-    ps->max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
-    ps->max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
+    pm_session_config_defaults(&config, PM_MODE_PROGRESSIVE, PM_FUZZ_SIDE, PM_FUZZ_SIDE, 1, 1);
+    config.progressive.photons = config.progressive.caustic_photons = PM_FUZZ_PHOTONS;
     session = pm_session_create(&scene, accel, &camera, &config, r.error, sizeof r.error);
     if (!session) goto done;
     if (!pm_session_iterate(session, 0)) {
-        snprintf(r.error, sizeof r.error, "out of memory (the iteration)");
+        snprintf(r.error, sizeof r.error, "%s", pm_session_error(session));
         goto done;
     }
     r.stage = PM_FUZZ_RENDERED;

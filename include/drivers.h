@@ -1,0 +1,44 @@
+/* drivers.h: the two ways pmview renders, above the session and the view: a snapshot written to a file (src/snapshot.c) and the window (src/window_app.c). */
+#ifndef PM_DRIVERS_H
+#define PM_DRIVERS_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include "accel.h"
+#include "options.h"
+#include "runlog.h"
+#include "scene.h"
+#include "session.h"
+#include "view.h"
+
+/* ---- snapshots (src/snapshot.c) ---- */
+/* From here a SIGINT or SIGTERM is the snapshot's: the session's passes stop at their next task,
+ * the image so far is written and pmview exits 130 or 143. */
+void pm_snapshot_catch_signals(pm_session *session);
+/* Everything writing the snapshot takes beside the film, admitted before the render so that a run
+ * whose file could not be written is refused at once. */
+uint64_t pm_snapshot_output_bytes(const char *path, const pm_film *film);
+/* Renders to --iterations or --time with the progress bar, --log rows and the --reference curve
+ * as the run's observer, then writes the file (the room `reserved` for it is given back first).
+ * Returns the exit code: 0, 1 (an error line printed), 130 or 143 (interrupted: the image so far). */
+int pm_snapshot_run(const pm_options *o, pm_session *session, const pm_reference_image *reference, uint64_t *reserved);
+
+/* ---- what both show (src/snapshot.c) ---- */
+/* The display settings the options ask for at first: components and exposure. */
+void pm_display_from_options(const pm_options *o, pm_display *display);
+/* A PNG of what the display shows for resolved layers (w*h*3 floats each, NULL = black), drawn
+ * by an offscreen view; its memory is admitted for the time of the write. */
+bool pm_write_png_view(const float *const layers[PM_COMPONENT_COUNT], int width, int height, const pm_display *display,
+                       const char *path, char *err, size_t err_size);
+/* From here a signal ends the process at once, removing a file under way (130 or 143). */
+void pm_exit_on_signals(void);
+
+/* ---- the window (src/window_app.c) ---- */
+/* The GLFW loop: camera navigation and keys, drawn from the session's published images, restarts
+ * and resizes asked of the session. Returns the exit code. process_start: for the time to the
+ * first frame (--stats). */
+int pm_window_run(const pm_options *o, const pm_scene *scene, const pm_accel *accel, pm_session *session,
+                  const pm_camera *start_camera, double process_start);
+
+#endif

@@ -1,0 +1,161 @@
+/* window_app.c: the window's driver: the GLFW loop of the view, camera navigation and keys, restarts and resizes asked of the session, its published images drawn and saved. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "camera_control.h"
+#include "clock.h"
+#include "drivers.h"
+#include "image_io.h"
+#include "memory.h"
+
+static const char window_help[] =
+    "pmview keys: left drag orbit, right/middle drag pan, wheel dolly, double click: orbit about that point\n"
+    "  W A S D / Q E fly (Shift faster), F frame the scene, C next camera, Home starting camera\n"
+    "  1 2 3 4 direct/specular/caustic/indirect, + - exposure, 0 reset, T tonemap, G final gathering on/off\n"
+    "  V views: shaded, photon density, radius; Space pause, R restart, P or F12 save PNG and EXR, H this help, Esc quit\n";
+
+static void save_from_window(const pm_options *opt, const float *const layers[PM_COMPONENT_COUNT], int width, int height,
+                             const pm_display *display) {
+    char err[1024], exr_path[1024];
+    snprintf(exr_path, sizeof exr_path, "%.*s.exr", (int)(strlen(opt->screenshot) - 4), opt->screenshot);
+    /* both files from the same published layers: the PNG as shown, the EXR linear; each failure
+     * is reported and, handled, forgotten, so that no later message names it */
+    pm_memory_clear_failure();
+    bool ok = pm_write_png_view(layers, width, height, display, opt->screenshot, err, sizeof err) &&
+              pm_write_exr_layers(exr_path, width, height, layers, err, sizeof err);
+    if (ok) printf("pmview: saved %s and %s\n", opt->screenshot, exr_path);
+    else fprintf(stderr, "pmview: error: %s\n", err);
+    pm_memory_clear_failure();
+}
+
+int pm_window_run(const pm_options *opt, const pm_scene *scene, const pm_accel *accel, pm_session *session,
+                  const pm_camera *start_camera, double process_start) {
+    char err[1024];
+    /* Ctrl-C in the terminal during a P save: the half-written file goes with the process */
+    pm_exit_on_signals();
+    const pm_film *film = pm_session_film(session);
+    int width = film->width, height = film->height;
+    pm_view *view = pm_view_create_window(width, height, "pmview", err, sizeof err);
+    if (!view) { fprintf(stderr, "pmview: error: %s\n", err); return 1; }
+    pm_display display;
+    pm_display_from_options(opt, &display);
+    /* a first frame before any photon: the background colour of an empty image */
+    pm_view_draw(view, &display);
+    double first_frame = pm_now_seconds() - process_start, first_image = 0, restart_requested = 0, restart_to_image = 0;
+    uint64_t loops = 0, frames = 1, restarts = 0;
+    double loop_start = pm_now_seconds();
+    if (!pm_session_start(session, err, sizeof err)) {
+        fprintf(stderr, "pmview: error: %s\n", err);
+        pm_view_destroy(view);
+        return 1;
+    }
+    pm_camera camera = *start_camera;
+    vec3 pivot = scene->center;
+    float step = 0.05f * (scene->radius > 0.f ? scene->radius : 1.f);
+    uint32_t camera_index = opt->camera >= 0 ? (uint32_t)opt->camera : 0;
+    uint64_t version = 0;
+    bool finished_said = false, paused = false;
+    int view_mode = PM_VIEW_SHADED;
+    int indirect = opt->indirect; /* the G key's setting */
+    for (;;) {
+        pm_view_events ev = pm_view_poll(view, &display, true, 1.0 / 60.0);
+        if (ev.quit) break;
+        bool moved = false;
+        pm_camera before = camera;
+        if (ev.orbit_dx != 0 || ev.orbit_dy != 0)
+            camera = pm_camera_orbit(camera, pivot, (float)(-ev.orbit_dx * 0.01), (float)(-ev.orbit_dy * 0.01));
+        if (ev.pan_dx != 0 || ev.pan_dy != 0) camera = pm_camera_pan(camera, &pivot, (float)ev.pan_dx, (float)ev.pan_dy, height);
+        if (ev.dolly != 0) camera = pm_camera_dolly(camera, pivot, (float)ev.dolly);
+        if (ev.fly[0] != 0 || ev.fly[1] != 0 || ev.fly[2] != 0) camera = pm_camera_fly(camera, &pivot, ev.fly, ev.fast ? 5.f * step : step);
+        if (ev.frame) { camera = pm_camera_frame(scene, camera, (float)width / height); pivot = scene->center; }
+        if (ev.home) { camera = *start_camera; pivot = scene->center; }
+        if (ev.next_camera && scene->camera_count) {
+            camera_index = (camera_index + 1) % scene->camera_count;
+            camera = scene->cameras[camera_index];
+            pivot = scene->center;
+        }
+        if (ev.pick) {
+            vec3 o, d;
+            pm_hit h;
+            pm_camera_ray(&camera, width, height, (float)ev.pick_x, (float)ev.pick_y, &o, &d);
+            if (pm_accel_intersect(accel, o, d, INFINITY, &h)) pivot = v3_madd(o, d, h.t);
+        }
+        moved = memcmp(&before, &camera, sizeof camera) != 0;
+        if (moved || ev.restart) {
+            pm_session_request_restart(session, moved ? &camera : NULL, -1);
+            if (restart_requested == 0) restart_requested = pm_now_seconds();
+        }
+        if (ev.toggle_gather && opt->mode == PM_MODE_PROGRESSIVE) {
+            indirect = indirect == PM_INDIRECT_GATHER ? PM_INDIRECT_PHOTONS : PM_INDIRECT_GATHER;
+            pm_session_request_restart(session, NULL, indirect);
+            printf("pmview: indirect light by %s\n", indirect == PM_INDIRECT_GATHER ? "final gathering" : "photons at the visible point");
+        }
+        if (ev.pause) {
+            paused = !paused;
+            pm_session_pause(session, paused);
+        }
+        if (ev.help) fputs(window_help, stdout);
+        if (ev.cycle_view) {
+            static const char *const names[PM_VIEW_COUNT] = {"shaded", "photon density (false colour, log scale)",
+                                                             "radius (false colour, log scale)"};
+            view_mode = (view_mode + 1) % PM_VIEW_COUNT;
+            if (pm_session_set_view(session, (pm_session_view)view_mode)) printf("pmview: view: %s\n", names[view_mode]);
+            else { view_mode = PM_VIEW_SHADED; printf("pmview: the photon density and radius views need the progressive mode\n"); }
+        }
+        if (ev.resized_width && (ev.resized_width != width || ev.resized_height != height)) {
+            /* a new size is a new film, rendered with the camera as it is */
+            if (!pm_session_resize(session, ev.resized_width, ev.resized_height, &camera)) {
+                fprintf(stderr, "pmview: error: %s (window resized to %dx%d); keeping %dx%d\n", pm_session_error(session),
+                        ev.resized_width, ev.resized_height, width, height);
+            } else {
+                width = ev.resized_width;
+                height = ev.resized_height;
+                printf("pmview: rendering at %dx%d\n", width, height);
+            }
+        }
+        pm_session_progress progress;
+        const float *const *layers = pm_session_lock_latest(session, &version, &progress);
+        bool redraw = ev.display_changed;
+        loops++;
+        if (layers) {
+            double t = pm_now_seconds();
+            if (first_image == 0) first_image = t - process_start;
+            if (restart_requested > 0 && progress.preview) {
+                restart_to_image += t - restart_requested;
+                restarts++;
+                restart_requested = 0;
+            }
+            pm_view_upload_layers(view, width, height, layers);
+            if (ev.save_png) save_from_window(opt, layers, width, height, &display);
+            ev.save_png = false;
+            pm_session_unlock_latest(session);
+            redraw = true;
+            char status[192];
+            snprintf(status, sizeof status, "%s%u it  %.2f Mphotons  %.1f Mphotons/s  %.1f s  r %.3g%s", progress.preview ? "preview  " : "",
+                     progress.iterations, progress.photons * 1e-6, progress.seconds > 0 ? progress.photons / progress.seconds * 1e-6 : 0.0,
+                     progress.seconds, progress.mean_radius, paused ? "  paused" : "");
+            pm_view_set_status(view, status);
+            if (progress.finished && !finished_said) { printf("pmview: iterations done (%u)\n", progress.iterations); finished_said = true; }
+        }
+        if (ev.save_png) {
+            /* nothing newer was published: save the image on screen */
+            uint64_t any = 0;
+            const float *const *shown = pm_session_lock_latest(session, &any, NULL);
+            if (shown) {
+                save_from_window(opt, shown, width, height, &display);
+                pm_session_unlock_latest(session);
+            }
+        }
+        if (redraw) { pm_view_draw(view, &display); frames++; }
+    }
+    double seconds = pm_now_seconds() - loop_start;
+    if (opt->stats)
+        printf("stat window first_frame_seconds=%.4f first_image_seconds=%.4f ui_loops_per_second=%.1f frames_per_second=%.1f restarts=%llu restart_to_image_seconds=%.4f\n",
+               first_frame, first_image, seconds > 0 ? loops / seconds : 0.0, seconds > 0 ? frames / seconds : 0.0,
+               (unsigned long long)restarts, restarts ? restart_to_image / restarts : 0.0);
+    pm_session_stop(session);
+    pm_view_destroy(view);
+    return 0;
+}
+
