@@ -99,8 +99,8 @@ static void unload(loaded *l) {
  * the reference's own noise allow. (tests/ref/README.md divides by the halves' own mean instead,
  * which caustic fireflies saturate: a firefly in one half scores 1 however bright it is.) The direct layer is compared with Mitsuba's direct integrator
  * where the first hits were all diffuse (specular layer 0), as tests/test_reference.c does. */
-static void cornell(const image *path_ref, const image *direct_ref, int half_iterations) {
-    int W = path_ref->w, H = path_ref->h;
+static void cornell(const pm_reference_image *path_ref, const pm_reference_image *direct_ref, int half_iterations) {
+    int W = path_ref->width, H = path_ref->height;
     size_t n = (size_t)W * H;
     loaded l;
     if (!load("scenes/cornell-box.gltf", W, H, &l)) return;
@@ -251,12 +251,12 @@ int main(void) {
     furnace(0.8f, 128);
     threads_and_layers();
     split_matches_progressive();
-    image path_ref, direct_ref;
+    pm_reference_image path_ref, direct_ref;
     if (load_ref("tests/ref/cornell_path_64.exr", &path_ref)) {
         bool have_direct = load_ref("tests/ref/cornell_direct_64.exr", &direct_ref);
         cornell(&path_ref, have_direct ? &direct_ref : NULL, 128);
-        if (have_direct) free_image(&direct_ref);
-        free_image(&path_ref);
+        if (have_direct) pm_reference_free(&direct_ref);
+        pm_reference_free(&path_ref);
     }
     return pm_test_done("test_pathtrace");
 }

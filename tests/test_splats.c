@@ -72,12 +72,12 @@ int main(int argc, char **argv) {
 
     /* 2. Against Mitsuba's particle tracer (64x64): the floor's error at equal iterations falls,
      * and the mean has no bias left from a radius. */
-    image ref;
+    pm_reference_image ref;
     if (load_ref("tests/ref/caustic_floor_64.exr", &ref)) {
         const float *const planes[3] = {ref.rgb[0], ref.rgb[1], ref.rgb[2]};
-        run_result on64 = render(&s, a, &cam, ref.w, ref.h, true, 2, 150);
-        run_result off64 = render(&s, a, &cam, ref.w, ref.h, false, 2, 150);
-        size_t n = (size_t)ref.w * ref.h;
+        run_result on64 = render(&s, a, &cam, ref.width, ref.height, true, 2, 150);
+        run_result off64 = render(&s, a, &cam, ref.width, ref.height, false, 2, 150);
+        size_t n = (size_t)ref.width * ref.height;
         unsigned char *known = malloc(n); /* the reference's NaN pixels: what the glass ball shows, unknown to it */
         for (size_t i = 0; i < n; i++) known[i] = ref.rgb[0][i] == ref.rgb[0][i];
         pm_image_error e_on = pm_image_compare(on64.total, planes, n, known);
@@ -91,7 +91,7 @@ int main(int argc, char **argv) {
         CHECK(fabs(m_on - 1.0) < 0.005, "with splats the mean is off by %.2f%%", 100 * (m_on - 1.0));
         release(&on64);
         release(&off64);
-        free_image(&ref);
+        pm_reference_free(&ref);
     }
 
     /* 3. An orthographic camera looking down at the caustic: its own importance (no distance
