@@ -255,10 +255,11 @@ static double loglog_slope(const double *x, const double *y, int n) {
 /* How relMSE falls with N photon passes (one eye pass each). Theory (Knaus and Zwicker 2011): the
  * photons' variance falls as N^-alpha and their bias squared as r^4 ~ N^(2 (alpha - 1)), both N^-2/3
  * at alpha 2/3; the eye passes' own noise (a pixel's jitter, light and gather samples), unbiased,
- * falls as N^-1. So the log-log slope lies between -1 and -2/3, and over N passes the error falls
- * between N^(2/3) and N times (25x and 128x at N = 128). The slope is fitted over the last three
- * octaves, at four points an octave (13 points); the fall is checked against theory's range from
- * the first pass. */
+ * falls as N^-1. So the log-log slope lies between -1 and -2/3, fitted here over the last three
+ * octaves at four points an octave (13 points), and from the first pass to the N-th the error
+ * falls at least N^(2/3) times (25x at N = 128, 40x at 256). It may fall faster than N times: the
+ * first pass, at the initial radius, lies above the asymptotic curve (the caustic's fell 311x to
+ * 614x over 256 passes at seeds 1-3; the Cornell box's 80x to 126x over 128 at seeds 1-5). */
 enum { MAX_POINTS = 64, POINTS_AN_OCTAVE = 4 };
 static void test_reference_slope(const char *scene_path, const char *ref_path, int max_iterations, bool caustic_region,
                                  double max_final_relmse) {
@@ -322,15 +323,15 @@ static void test_reference_slope(const char *scene_path, const char *ref_path, i
     while (first_fitted < points && xs[first_fitted] * 8.0 < xs[points - 1] - 0.5) first_fitted++;
     double slope = loglog_slope(xs + first_fitted, ys + first_fitted, points - first_fitted);
     double fall = ys[0] / ys[points - 1], span = xs[points - 1] / xs[0];
-    double fall_low = pow(span, 2.0 / 3.0), fall_high = span;
+    double fall_low = pow(span, 2.0 / 3.0);
     printf("%s: log-log slope of relMSE over iterations %g..%g (%d points): %.3f (theory -1 to -2/3); "
-           "fall over %g..%g: %.1fx (theory %.1fx to %.0fx)\n", scene_path, xs[first_fitted], xs[points - 1],
-           points - first_fitted, slope, xs[0], xs[points - 1], fall, fall_low, fall_high);
+           "fall over %g..%g: %.1fx (theory at least %.1fx)\n", scene_path, xs[first_fitted], xs[points - 1],
+           points - first_fitted, slope, xs[0], xs[points - 1], fall, fall_low);
     CHECK(points - first_fitted >= 12, "%s: the slope fitted on %d points", scene_path, points - first_fitted);
     CHECK(slope <= -2.0 / 3.0 + 0.1 && slope >= -1.0 - 0.1, "%s: slope %.3f outside theory's -1 to -2/3 (+-0.1)",
           scene_path, slope);
-    CHECK(fall >= 0.8 * fall_low && fall <= 1.5 * fall_high, "%s: relMSE fell %.1fx over %g..%g iterations, theory %.1fx to %.0fx",
-          scene_path, fall, xs[0], xs[points - 1], fall_low, fall_high);
+    CHECK(fall >= 0.8 * fall_low, "%s: relMSE fell %.1fx over %g..%g iterations, theory at least %.1fx", scene_path, fall,
+          xs[0], xs[points - 1], fall_low);
     if (max_final_relmse > 0.0)
         CHECK(ys[points - 1] <= max_final_relmse, "%s: relMSE %g at %g iterations, above %g", scene_path, ys[points - 1],
               xs[points - 1], max_final_relmse);

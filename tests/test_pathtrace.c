@@ -125,7 +125,7 @@ static void cornell(const pm_reference_image *path_ref, const pm_reference_image
         printf("direct layer vs Mitsuba direct: relMSE %.6f, mean ratio R %.4f G %.4f B %.4f over %zu pixels\n", e.relmse,
                e.ours[0] / e.ref[0], e.ours[1] / e.ref[1], e.ours[2] / e.ref[2], e.pixels);
         CHECK(e.pixels > n / 4, "the mask keeps enough pixels (%zu)", e.pixels);
-        CHECK(e.relmse < 0.005, "direct layer relMSE %g", e.relmse);
+        CHECK(e.relmse < 0.0004, "direct layer relMSE %g above 0.0004 (seeds 101-501: 0.00019-0.00026)", e.relmse);
         for (int c = 0; c < 3; c++) CHECK_NEAR(e.ours[c], e.ref[c], 0.01, 0, "direct layer mean vs Mitsuba direct");
     }
     double noise = 0;
