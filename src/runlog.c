@@ -36,12 +36,18 @@ bool pm_reference_load(const char *path, bool with_layers, pm_reference_image *r
         return false;
     }
     ref->admitted = bytes;
+    ref->width = w;
+    ref->height = h;
     for (int c = 0; c < 3; c++) {
-        int w, h;
-        ref->rgb[c] = pm_read_exr_channel(path, names[c], &w, &h, err, err_size);
+        int channel_w = 0, channel_h = 0;
+        ref->rgb[c] = pm_read_exr_channel(path, names[c], &channel_w, &channel_h, err, err_size);
         if (!ref->rgb[c]) return false;
-        ref->width = w;
-        ref->height = h;
+        /* each channel opens the file again: one replaced in between could give a plane of
+         * another size, read below as width x height pixels */
+        if (channel_w != w || channel_h != h) {
+            snprintf(err, err_size, "%s: channel %s is %dx%d, the image %dx%d", path, names[c], channel_w, channel_h, w, h);
+            return false;
+        }
     }
     size_t n = (size_t)ref->width * ref->height, known = 0;
     for (size_t i = 0; i < n; i++) {

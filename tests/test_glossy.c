@@ -17,6 +17,7 @@
 #include "loader.h"
 #include "photonmap.h"
 #include "progressive_harness.h"
+#include "reference_image.h"
 #include "testing.h"
 
 enum { W = 64, H = 64, REGIONS = 2 };
@@ -171,15 +172,10 @@ static void point_light_through_lobe(void) {
 int main(void) {
     point_light_through_lobe();
     smooth_metal_noise();
-    const char *names[3] = {"R", "G", "B"};
-    float *ref[3] = {NULL, NULL, NULL};
-    char err[1024];
-    int w = 0, h = 0;
-    for (int c = 0; c < 3; c++) {
-        ref[c] = pm_read_exr_channel("tests/ref/glossy_path_64.exr", names[c], &w, &h, err, sizeof err);
-        if (!ref[c]) { CHECK(false, "reference: %s", err); return pm_test_done("test_glossy"); }
-    }
-    CHECK(w == W && h == H, "reference size %dx%d", w, h);
+    pm_reference_image reference;
+    if (!load_ref("tests/ref/glossy_path_64.exr", &reference)) return pm_test_done("test_glossy");
+    const float *const ref[3] = {reference.rgb[0], reference.rgb[1], reference.rgb[2]};
+    CHECK(reference.width == W && reference.height == H, "reference size %dx%d", reference.width, reference.height);
     pm_scene s;
     if (!load_spheres(&s)) return pm_test_done("test_glossy");
     pm_accel *a = sb_finish(&s);
@@ -197,7 +193,7 @@ int main(void) {
     session r;
     if (start(&r, &s, a, &cam, W, H, &ps) && iterate(&r, 512)) {
         pm_film_resolve_total(r.film, img);
-        compare("progressive, 512 iterations, vs Mitsuba path", img, (const float *const *)ref, masks, 0.002, 0.02, 0.03);
+        compare("progressive, 512 iterations, vs Mitsuba path", img, ref, masks, 0.002, 0.02, 0.03);
     }
     stop(&r);
 
@@ -205,7 +201,7 @@ int main(void) {
     ps.indirect = PM_INDIRECT_PHOTONS;
     if (start(&r, &s, a, &cam, W, H, &ps) && iterate(&r, 512)) {
         pm_film_resolve_total(r.film, img);
-        compare("progressive --indirect photons, 512 iterations", img, (const float *const *)ref, masks, 0.02, 0.03, 0.04);
+        compare("progressive --indirect photons, 512 iterations", img, ref, masks, 0.02, 0.03, 0.04);
     }
     stop(&r);
 
@@ -228,13 +224,13 @@ int main(void) {
     es.gather_rays = 1;
     for (int i = 0; i < 256; i++) pm_eye_iterate(&s, a, &cam, &es, i, &film, NULL);
     pm_film_resolve_total(&film, img);
-    compare("classic, 256 iterations", img, (const float *const *)ref, masks, 0.02, 0.03, 0.04);
+    compare("classic, 256 iterations", img, ref, masks, 0.02, 0.03, 0.04);
     pm_film_free(&film);
     pm_photon_maps_free(&maps);
 
     free(img);
     for (int k = 0; k < REGIONS; k++) free(masks[k]);
-    for (int c = 0; c < 3; c++) free(ref[c]);
+    pm_reference_free(&reference);
     pm_accel_destroy(a);
     pm_scene_free(&s);
     return pm_test_done("test_glossy");

@@ -43,23 +43,10 @@ static bool read_reference(double rgb[3]) {
 
 static pm_session_config config_for(pm_mode mode, const pm_scene *s, int max_specular_depth) {
     pm_session_config c;
-    memset(&c, 0, sizeof c);
-    c.mode = mode;
-    c.width = W;
-    c.height = H;
-    c.progressive.seed = c.classic_eye.seed = 1;
-    c.progressive.threads = c.classic_eye.threads = 2;
-    c.progressive.max_specular_depth = c.classic_eye.max_specular_depth = max_specular_depth;
-    c.progressive.max_photon_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
-    c.progressive.photons = c.progressive.caustic_photons = pm_progressive_default_photons(W, H);
-    c.progressive.alpha = PM_DEFAULT_ALPHA;
-    c.progressive.indirect = PM_INDIRECT_GATHER;
-    c.classic_eye.path_trace = mode == PM_MODE_PATHTRACE;
+    pm_session_config_defaults(&c, mode, W, H, 1, 2);
+    c.progressive.max_specular_depth = c.eye.max_specular_depth = max_specular_depth;
     c.classic_photon_pass = mode == PM_MODE_CLASSIC &&
                             (s->analysis.component_possible[PM_CAUSTIC] || s->analysis.component_possible[PM_INDIRECT]);
-    c.classic_photons.seed = 1;
-    c.classic_photons.threads = 2;
-    c.classic_photons.max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES;
     c.classic_photons.global_photons = c.classic_photons.caustic_photons = 10000;
     return c;
 }

@@ -99,8 +99,8 @@ static void unload(loaded *l) {
  * the reference's own noise allow. (tests/ref/README.md divides by the halves' own mean instead,
  * which caustic fireflies saturate: a firefly in one half scores 1 however bright it is.) The direct layer is compared with Mitsuba's direct integrator
  * where the first hits were all diffuse (specular layer 0), as tests/test_reference.c does. */
-static void cornell(const image *path_ref, const image *direct_ref, int half_iterations) {
-    int W = path_ref->w, H = path_ref->h;
+static void cornell(const pm_reference_image *path_ref, const pm_reference_image *direct_ref, int half_iterations) {
+    int W = path_ref->width, H = path_ref->height;
     size_t n = (size_t)W * H;
     loaded l;
     if (!load("scenes/cornell-box.gltf", W, H, &l)) return;
@@ -125,7 +125,7 @@ static void cornell(const image *path_ref, const image *direct_ref, int half_ite
         printf("direct layer vs Mitsuba direct: relMSE %.6f, mean ratio R %.4f G %.4f B %.4f over %zu pixels\n", e.relmse,
                e.ours[0] / e.ref[0], e.ours[1] / e.ref[1], e.ours[2] / e.ref[2], e.pixels);
         CHECK(e.pixels > n / 4, "the mask keeps enough pixels (%zu)", e.pixels);
-        CHECK(e.relmse < 0.005, "direct layer relMSE %g", e.relmse);
+        CHECK(e.relmse < 0.0004, "direct layer relMSE %g above 0.0004 (seeds 101-501: 0.00019-0.00026)", e.relmse);
         for (int c = 0; c < 3; c++) CHECK_NEAR(e.ours[c], e.ref[c], 0.01, 0, "direct layer mean vs Mitsuba direct");
     }
     double noise = 0;
@@ -251,12 +251,12 @@ int main(void) {
     furnace(0.8f, 128);
     threads_and_layers();
     split_matches_progressive();
-    image path_ref, direct_ref;
+    pm_reference_image path_ref, direct_ref;
     if (load_ref("tests/ref/cornell_path_64.exr", &path_ref)) {
         bool have_direct = load_ref("tests/ref/cornell_direct_64.exr", &direct_ref);
         cornell(&path_ref, have_direct ? &direct_ref : NULL, 128);
-        if (have_direct) free_image(&direct_ref);
-        free_image(&path_ref);
+        if (have_direct) pm_reference_free(&direct_ref);
+        pm_reference_free(&path_ref);
     }
     return pm_test_done("test_pathtrace");
 }
