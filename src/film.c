@@ -151,6 +151,15 @@ static void resolve_into(const pm_film *f, pm_component c, float *out, bool add)
      * precision however many samples were added */
     const float *sum = f->sum[c], *carry = f->carry[c];
     float inv_even = f->samples ? 1.f / (float)f->samples : 0.f;
+    if (!slots && !f->ragged && carry) {
+        /* the common case as straight loops the compiler vectorises: a window resolves every frame */
+        size_t n = 3 * pixels;
+        if (add)
+            for (size_t i = 0; i < n; i++) out[i] += (sum[i] - carry[i]) * inv_even;
+        else
+            for (size_t i = 0; i < n; i++) out[i] = (sum[i] - carry[i]) * inv_even;
+        return;
+    }
     for (size_t i = 0; i < pixels; i++) {
         unsigned ahead = ahead_of(f, i);
         float inv = inv_even;

@@ -786,8 +786,9 @@ static void keep_start(pm_progressive *p, const pm_film *film, iteration_start *
     }
 }
 
-/* A cancel: everything as before the iteration (the film's buffers are put back by whoever saved
- * them, see pm_eye_visible_points), and true: a cancel is no failure. */
+/* A cancel, or a failure before the film was written: everything as before the iteration (the
+ * film's buffers are put back by whoever saved them, see pm_eye_visible_points). True: a cancel
+ * is no failure (a failure returns its negation). */
 static bool take_back(pm_progressive *p, pm_film *film, const iteration_start *st) {
     film->samples = st->samples;
     film->photon_passes = st->photon_passes;
@@ -844,7 +845,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         ok = pm_photon_tracer_trace_into(p->tracer, false, asked[KIND_INDIRECT], seed, global, &p->stats.photons);
     /* cancelled (a restart, a stop, a signal): the iteration is dropped before it touched the film */
     if (pm_parallel_cancelled()) return take_back(p, film, &start);
-    if (!ok) return false;
+    if (!ok) return !take_back(p, film, &start); /* out of memory: the film untouched, the state as the iteration found it */
     if (probing) probe_splats(&p->probe, film, &p->splats);
     /* a whole pass's rays (the first pass asks fewer photons), for the next iteration's eye passes */
     double photon_rays = (double)(p->stats.photons.rays - photon_rays_before) *
@@ -863,7 +864,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     double t_grid = pm_now_seconds();
     bool built = build_grid(p, KIND_CAUSTIC) && build_grid(p, KIND_INDIRECT);
     if (pm_parallel_cancelled()) return take_back(p, film, &start); /* a cancelled sort left the grids empty */
-    if (!built) return false;
+    if (!built) return !take_back(p, film, &start);
     /* the first pass with global photons: the radii from their density where the camera looks;
      * while the guide learns to send photons there (at every power of two of the iterations), the
      * shared gather radius may shrink again to the denser light's (a deterministic sequence that
@@ -892,7 +893,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
      * points gather this iteration's photons as soon as the tile is traced (statistics at visible
      * points in the first pass, estimates at gather points in every pass) */
     gather_job *job = pm_calloc(1, sizeof *job, "gather job");
-    if (!job) return false;
+    if (!job) return !take_back(p, film, &start);
     job->p = p;
     job->film = film;
     job->caustic = p->grid[KIND_CAUSTIC].count ? &p->grid[KIND_CAUSTIC] : NULL;
@@ -912,7 +913,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
      * in the film, which divides each pixel by its own counts; a cancelled pass takes the whole
      * iteration back (its first pass saved every pixel it wrote) */
     uint32_t whole_passes = 0;
-    bool cut = false;
+    bool cut = false, failed = false;
     for (uint32_t pass = 0; pass < eye_passes && !cut; pass++) {
         job->statistics = pass == 0;
         job->sample = film->samples;
@@ -921,7 +922,13 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         pm_eye_pass_result r = pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, film->samples, film,
                                                      p->gathering, photons_here ? gather_tile : NULL, job, reached,
                                                      pass == 0, &p->stats.eye);
-        if (r == PM_EYE_PASS_FAILED) { free(job); return false; }
+        if (r == PM_EYE_PASS_FAILED && pass == 0) { free(job); return !take_back(p, film, &start); } /* nothing ran */
+        if (r == PM_EYE_PASS_FAILED) {
+            /* out of memory after whole passes: the iteration ends with them (their splats, their
+             * counts), so the film holds nothing half counted, and the failure is reported */
+            failed = true;
+            break;
+        }
         if (r == PM_EYE_PASS_CANCELLED) {
             /* the first pass put back the tiles it traced; after it, every pixel was saved */
             if (pass > 0) pm_film_restore_rect(film, 0, 0, film->width, film->height);
@@ -978,7 +985,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
                                           (double)(p->stats.eye.rays - eye_rays_before) / eye_passes);
     p->stats.iterations = film->samples;
     p->stats.photon_passes = film->photon_passes;
-    return true;
+    return !failed;
 }
 
 void pm_progressive_set_deadline(pm_progressive *p, double deadline) {

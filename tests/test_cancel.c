@@ -29,7 +29,7 @@ static pm_accel *caustic_box(pm_scene *s, pm_camera *cam) {
     return sb_finish(s);
 }
 
-/* Sets the cancel flag as the `at`-th tile (from 0) of the `pass`-th eye pass (from 0) from now is
+/* Sets the cancel flag as the `at`-th tile (from 0) of the `pass`-th eye pass (from 0) after arming is
  * handed out: eye passes are the parallel-fors over TILES tasks (no photon pass here has that many
  * chunks), and a pass hands out all its tasks before the next starts. Counts what the cancelled
  * pass handed out. */
@@ -161,8 +161,8 @@ static void test_progressive(const pm_scene *s, const pm_accel *a, const pm_came
                   mode);
             pm_radius_summary again = pm_progressive_radii(cut.p, &cut.film);
             CHECK(memcmp(&radii, &again, sizeof radii) == 0 && pm_progressive_eye_passes(cut.p) == eye_passes_then,
-                  "%s: radii and eye passes as before", mode);
-            CHECK(memcmp(&stats, pm_progressive_get_stats(cut.p), sizeof stats) == 0, "%s: stats as before", mode);
+                  "%s: radii and eye passes as before the iteration", mode);
+            CHECK(memcmp(&stats, pm_progressive_get_stats(cut.p), sizeof stats) == 0, "%s: stats as before the iteration", mode);
         }
         CHECK(pm_progressive_iterate(cut.p, &cut.film, 0), "iteration");
     }
