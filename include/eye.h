@@ -7,14 +7,19 @@
  * One iteration adds one sample per pixel to the film, on all threads, tile by tile; every
  * sample's random stream depends on (seed, iteration, pixel) only.
  *
- * A pass is cut short between tiles when the calling thread's cancel flag is set (parallel.h: a
- * restart, a quit, a signal) or settings->deadline passes (--time at any image size). The tiles
- * it traced are then marked in the film (pm_film_mark_ahead), whose resolve divides each pixel by
- * its own sample count: pixels the cut pass reached and pixels it did not are each unbiased, and
- * no sample is thrown away. Two passes are never cut by the deadline: a film's first pass (an
- * image needs every pixel once, so a budget shorter than one pass gets that one whole pass, late,
- * rather than a partly black image) and any pass over a film already ragged (a cut is the end of a
- * run; such a pass is not cancelled either, since a pixel could then hold two samples more).
+ * A pass stops between tiles in two ways. A cancel (the calling thread's flag, parallel.h: a
+ * restart, a stop, a signal) takes the iteration back whole: its first pass saves each tile's
+ * pixels before writing them (pm_film_save_rect), the tiles traced are put back, no sample is
+ * counted, and the next iteration is the one cancelled, with the same seeds, so a run with a
+ * cancel ends bit for bit where the run without it does. The deadline (settings->deadline,
+ * --time) keeps what finished: the tiles traced are marked in the film (pm_film_mark_ahead), whose
+ * resolve divides each pixel by its own sample count, so pixels the cut pass reached and pixels it
+ * did not are each unbiased, no sample is thrown away, and the cut ends the run. Two passes are
+ * never cut by the deadline: a film's first pass (an image needs every pixel once, so a budget
+ * shorter than one pass gets that one whole pass, late, rather than a partly black image) and any
+ * pass over a film already ragged (a cut is the end of a run; such a pass is not cancelled either,
+ * since a pixel could then hold two samples more). A film made by hand (no saved copy) is never
+ * cancelled.
  */
 #ifndef PM_EYE_H
 #define PM_EYE_H
@@ -100,7 +105,9 @@ void pm_eye_enclosure(const pm_scene *s, const pm_accel *a, const pm_camera *cam
  * directions: their light through mirrors or glass (an L S+ D caustic, or a light seen in a mirror)
  * cannot be found by a path from the eye and is missing, as in any path tracer; the photon modes
  * have it. */
-void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
+/* False when out of memory (the film untouched, stats->failed set when stats is given); a
+ * cancelled pass returns true and adds nothing. */
+bool pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                     uint32_t iteration, pm_film *film, pm_eye_stats *stats);
 
 /* The progressive mode's eye pass: one jittered sample per pixel followed through specular
@@ -116,13 +123,23 @@ void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, 
  * caller gathers this iteration's photons there while the points are still in cache, and no
  * per-pixel point array exists. pixels[k] is the film index of visible[k] (and gathered[k], NULL
  * without gather_points); an invalid point found no diffuse surface. The film's sample count is
- * left to the caller: true when the pass reached every pixel; false when it was cut short (or
- * failed), the pixels it reached then marked `reached` (PM_FILM_AHEAD_*: its sample, and the
- * photon pass when visit updated their statistics). */
+ * left to the caller, and so is the rest of a cancelled iteration: first_of_iteration makes the
+ * pass save each tile's pixels (visit's writes included) before it writes them, so that a cancel
+ * in this pass puts its tiles back itself, and a cancel in a later pass of the iteration leaves
+ * the caller to restore the whole film (pm_film_restore_rect). Cut by the deadline, the pixels
+ * the pass reached are marked `reached` (PM_FILM_AHEAD_*: its sample, and the photon pass when
+ * visit updated their statistics). */
+typedef enum {
+    PM_EYE_PASS_WHOLE,     /* every pixel got its sample */
+    PM_EYE_PASS_CUT,       /* the deadline stopped it: the pixels reached are marked */
+    PM_EYE_PASS_CANCELLED, /* the cancel flag stopped it: see above for what is put back */
+    PM_EYE_PASS_FAILED     /* out of memory: nothing ran (stats->failed) */
+} pm_eye_pass_result;
 typedef void (*pm_visible_points_fn)(void *ctx, const size_t *pixels, const pm_visible_point *visible,
                                      const pm_visible_point *gathered, size_t count, int thread);
-bool pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
-                           uint32_t iteration, pm_film *film, bool gather_points, pm_visible_points_fn visit, void *ctx,
-                           unsigned reached, pm_eye_stats *stats);
+pm_eye_pass_result pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam,
+                                         const pm_eye_settings *settings, uint32_t iteration, pm_film *film,
+                                         bool gather_points, pm_visible_points_fn visit, void *ctx, unsigned reached,
+                                         bool first_of_iteration, pm_eye_stats *stats);
 
 #endif

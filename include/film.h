@@ -1,8 +1,10 @@
 /* film.h: per-component radiance accumulation (direct, specular, caustic, indirect), and the progressive photon statistics.
  *
  * A component the scene analysis rules out gets no buffer at all (sum[c] == NULL): it is
- * black by construction and costs no memory. The film stores sums of samples; every pixel
- * holds the same sample count, except after a pass cut short (a deadline, a cancel), which
+ * black by construction and costs no memory. The film stores sums of samples, each with its
+ * Kahan compensation (a window runs to 10^5 samples a pixel, where a plain float sum has lost
+ * the low digits of every sample it adds: 10^6 samples of 0.1 summed in float come out 1% off);
+ * every pixel holds the same sample count, except after a pass cut short (a deadline, a cancel), which
  * reached only some pixels: those hold one sample more, and the resolve divides each pixel by
  * its own count, so neither kind of pixel is biased. The progressive mode adds per-pixel photon
  * statistics (slots, each allocated only when the scene can use it). Everything that reads an
@@ -40,6 +42,9 @@ enum { PM_FILM_AHEAD_SAMPLE = 1, PM_FILM_AHEAD_PHOTON_PASS = 2 };
 typedef struct {
     int width, height;
     float *sum[PM_COMPONENT_COUNT]; /* 3*width*height floats each, row 0 = top; NULL = always black */
+    /* Kahan compensation of each sum (the true sum is sum - carry): NULL in a film made by hand,
+     * whose sums are taken as exact */
+    float *carry[PM_COMPONENT_COUNT];
     uint32_t samples;               /* samples every pixel holds (eye passes that reached every pixel) */
     uint32_t photon_passes;         /* the progressive mode's photon passes every pixel's statistics hold: what they divide by */
     pm_ppm_stat *ppm[PM_SLOT_COUNT];/* width*height each, or NULL: the progressive mode's photon statistics */
@@ -49,6 +54,11 @@ typedef struct {
      * `photon_passes` when the cut pass updated its statistics */
     uint8_t *ahead;
     bool ragged;                    /* a pass was cut: the end of a run, to be read or cleared, never passed over again */
+    /* the running iteration's starting state of the pixels it has written (pm_film_save_rect),
+     * for a cancel to put back: the same layout as sum, carry and ppm (NULL in a film made by
+     * hand, which cannot take a cancel back) */
+    float *saved_sum[PM_COMPONENT_COUNT], *saved_carry[PM_COMPONENT_COUNT];
+    pm_ppm_stat *saved_ppm[PM_SLOT_COUNT];
 } pm_film;
 
 bool pm_film_init(pm_film *f, int width, int height, const bool component_enabled[PM_COMPONENT_COUNT]);
@@ -56,6 +66,14 @@ bool pm_film_init(pm_film *f, int width, int height, const bool component_enable
 bool pm_film_enable_ppm(pm_film *f, const bool slot_enabled[PM_SLOT_COUNT]);
 void pm_film_free(pm_film *f);
 void pm_film_clear(pm_film *f);
+/* Copies the pixels [x0, x1) x [y0, y1) (sums, carries, statistics) aside before an iteration
+ * first writes them, and puts them back after a cancel: the film is then exactly as before the
+ * iteration. Disjoint rectangles may be saved or restored from several threads at once. The
+ * counts (samples, photon_passes) are the caller's to put back. */
+void pm_film_save_rect(pm_film *f, int x0, int y0, int x1, int y1);
+void pm_film_restore_rect(pm_film *f, int x0, int y0, int x1, int y1);
+/* Whether the film keeps that copy (pm_film_init made it; a film made by hand does not). */
+bool pm_film_can_restore(const pm_film *f);
 /* A pass cut short reached the pixels [x0, x1) x [y0, y1): they hold `what` (PM_FILM_AHEAD_*)
  * beyond the film's counts, and the film is ragged. */
 void pm_film_mark_ahead(pm_film *f, int x0, int y0, int x1, int y1, unsigned what);
@@ -68,14 +86,20 @@ size_t pm_film_pixels_ahead(const pm_film *f);
  * own counts; zeros for an absent component and where a pixel holds nothing yet. The one way an
  * image leaves the film. */
 void pm_film_resolve(const pm_film *f, pm_component c, float *out);
-/* The sum of all components (false, and zeros, when out of memory for the scratch buffer). */
+/* The sum of all components into out (3*w*h floats). It allocates nothing, so it cannot fail: the
+ * true it returns is for callers written when it could. */
 bool pm_film_resolve_total(const pm_film *f, float *out);
+/* Bytes the buffers hold: per pixel, 24 a component (sums and compensation), 48 a statistics
+ * slot, the same again for the copy a cancel restores, and the ahead byte. */
 size_t pm_film_bytes(const pm_film *f);
-/* Adds radiance v to a pixel's sum of component c (which must be enabled). False, and nothing
- * added, when v or the new sum is not finite: a NaN from a degenerate case must not poison a pixel
- * forever, nor a finite sample overflow it, so the film never holds an Inf (callers count these as
- * dropped samples). */
+/* Adds radiance v to a pixel's sum of component c (which must be enabled), compensated. False,
+ * and nothing added, when v or the new sum is not finite: a NaN from a degenerate case must not
+ * poison a pixel forever, nor a finite sample overflow it, so the film never holds an Inf
+ * (callers count these as dropped samples). */
 bool pm_film_add(pm_film *f, pm_component c, size_t pixel, vec3 v);
+/* Channel k of the sum of samples at element i (3 * pixel + channel) of component c, in double
+ * (sum - carry). The component must be enabled. */
+double pm_film_sum_at(const pm_film *f, pm_component c, size_t i);
 
 /* An image against a reference: relMSE = mean over pixels (those with mask[i] != 0, or all when
  * mask is NULL) and channels of (x - r)^2 / (r^2 + 0.01), and each channel's sums, whose ratio is

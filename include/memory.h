@@ -1,7 +1,10 @@
 /* memory.h: checked allocation: every large or per-pass allocation goes through here, so a failure is reported (what, how much), never a crash.
  *
- * pm_malloc/pm_calloc/pm_realloc behave as the C library's and, on failure, record the first
- * failure's description (what, bytes) for the one error line main prints. pm_memory_admit()
+ * pm_malloc/pm_calloc/pm_realloc behave as the C library's and, on failure, record the
+ * failure's description (what, bytes). An error names the failure of the operation that failed,
+ * never an older one that was handled: a top-level operation clears the record before it starts
+ * (pm_memory_clear_failure, then pm_memory_failure), and an operation nested inside others takes
+ * a mark first (pm_memory_failure_mark, then pm_memory_failure_since). pm_memory_admit()
  * refuses a structure estimated in bytes before it is allocated when it does not fit the memory
  * limit (--max-memory; by default PM_DEFAULT_MEMORY_SHARE of physical memory) beside everything
  * admitted and not yet released: the limit bounds the sum of the structures alive at once, not
@@ -39,13 +42,22 @@ uint64_t pm_memory_available(void);
 /* Records the refusal line of pm_memory_admit for `bytes` of `what`, without committing: for a
  * structure that bounds itself by pm_memory_available() as it grows. */
 void pm_memory_refuse(uint64_t bytes, const char *what);
-/* Records a failure found elsewhere (an allocation inside a library), if none is recorded yet. */
+/* Records a failure found elsewhere (an allocation inside a library). */
 void pm_memory_fail(uint64_t bytes, const char *what);
 
 /* The first failure since the last pm_memory_clear_failure(), as "what, N bytes" (or with the
- * limit when an estimate was refused); NULL when none. */
+ * limit when an estimate was refused); NULL when none. The text stays until the next clear. */
 const char *pm_memory_failure(void);
 void pm_memory_clear_failure(void);
+/* A mark (the failures recorded so far), and the first failure recorded after it (NULL when
+ * none): what failed inside the operation that took the mark, whatever failed before it and was
+ * handled, cleared or not. The text is the calling thread's, until its next call. */
+uint64_t pm_memory_failure_mark(void);
+const char *pm_memory_failure_since(uint64_t mark);
+/* Forgets the failures recorded after the mark: for a caller that handled them with a fallback
+ * that gives the same answer (a distribution picked uniformly, a normal computed per hit), so no
+ * later error names them. Only where no other thread may fail meanwhile (its failure would go too). */
+void pm_memory_forget_since(uint64_t mark);
 
 /* Allocation-failure injection (tests): the n-th checked allocation from now fails (0 = none);
  * with `and_after`, every one after it too. Also set from PMVIEW_FAIL_ALLOC at the first call. */

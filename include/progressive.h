@@ -28,12 +28,15 @@
  * The first iteration after a start or a restart emits PM_PPM_FIRST_PHOTON_FRACTION of the
  * photons: it is the one a user waits for.
  *
- * An iteration may be cut short: by the calling thread's cancel flag (parallel.h) anywhere, or
- * by the deadline in its photon pass (fewer photons, rescaled) and in an eye pass after the film's
- * first (eye.h). A cancelled photon pass drops the iteration before it touches the film; a cut
- * eye pass is the iteration's last, the pixels it reached marked in the film (its sample, and the
- * photon pass when it was the pass that updates the statistics). The camera splats go to the film
- * after the eye passes, each weighed by the samples its pixel got in the iteration.
+ * An iteration may be stopped by the calling thread's cancel flag (parallel.h) anywhere: it is
+ * then taken back whole, the film's sums and statistics (radii, photon counts, tau), its counts,
+ * the radii and density estimates, the noise probe, the guide and its marks and the stats all as
+ * before it, so the next iteration is the cancelled one again, with the same seeds (eye.h). The
+ * deadline instead cuts the photon pass (fewer photons, rescaled) and an eye pass after the
+ * film's first (eye.h): a cut eye pass is the iteration's last, the pixels it reached marked in
+ * the film (its sample, and the photon pass when it was the pass that updates the statistics).
+ * The camera splats go to the film after the eye passes, each weighed by the samples its pixel
+ * got in the iteration.
  *
  * Memory stops growing after the first iterations (the photon buffers keep the largest
  * iteration's size): the statistics in the film, one iteration's photons and splats, and one
@@ -71,7 +74,8 @@ typedef struct {
     uint32_t iterations;       /* samples per pixel: eye passes */
     uint32_t photon_passes;
     pm_eye_stats eye;
-    pm_photon_stats photons;   /* totals over the run */
+    pm_photon_stats photons;   /* totals over the run (their kdtree_seconds stays 0: this mode has no kd-tree) */
+    double grid_seconds;       /* sorting each iteration's photons into the hash grids */
     double gather_seconds;
     uint64_t photons_found;    /* photons that fell inside a visible or gather point's disc */
     uint64_t splats;           /* caustic photons splatted to the camera */
@@ -104,7 +108,8 @@ bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err
 /* One iteration: a photon pass (caustic and global photons) and the eye passes that gather from
  * it, each adding a sample per pixel to the film: --eye-passes of them, or automatically 1 to
  * PM_PPM_MAX_EYE_PASSES, more where a photon pass costs more rays than an eye pass; at most
- * max_samples (0: no limit). False when out of memory. */
+ * max_samples (0: no limit). False when out of memory; a cancelled iteration (taken back whole,
+ * see above) returns true. */
 bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_samples);
 /* Starts again from nothing (a new camera, or the same one): clears the film and per-pixel
  * state; allocates nothing. */

@@ -39,6 +39,7 @@ typedef struct {
     void *visit_ctx;
     int tiles_x;
     double deadline;                     /* tiles not started by then are left out (0 = none) */
+    bool save;                           /* the iteration's first pass: each tile saves its pixels before writing them */
     struct { uint64_t rays, dropped, vertices, shadow[2]; char pad[24]; } counters[MAX_THREADS];
     uint8_t done[];                      /* per tile: traced (a cut pass marks these in the film) */
 } eye_job;
@@ -651,6 +652,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
     int x0 = tx * TILE, y0 = ty * TILE;
     int x1 = x0 + TILE < film->width ? x0 + TILE : film->width;
     int y1 = y0 + TILE < film->height ? y0 + TILE : film->height;
+    if (job->save) pm_film_save_rect(film, x0, y0, x1, y1); /* what a cancel puts back */
     uint64_t rays = 0, dropped = 0, vertices = 0, shadow_counts[2] = {0, 0};
     pm_visible_point visible[TILE * TILE], gathered[TILE * TILE];
     size_t pixels[TILE * TILE], points = 0;
@@ -716,16 +718,19 @@ static void render_tile(void *ctx, size_t task, int thread) {
     job->counters[thread].shadow[1] += shadow_counts[1];
 }
 
-/* True when every tile was traced; else the traced tiles' pixels are marked `reached` in the film
- * (none when the job could not be allocated: stats->failed). */
-static bool run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
-                         uint32_t iteration, pm_film *film, bool visible_points, bool gather_points,
-                         pm_visible_points_fn visit, void *visit_ctx, unsigned reached, pm_eye_stats *stats) {
+/* How the pass ended. Cut by the deadline: the traced tiles' pixels are marked `reached` in the
+ * film. Cancelled (the calling thread's flag, and some tile left undone): the traced tiles are put
+ * back from the film's saved copy when this pass saved them (job->save), else the caller, whose
+ * first pass saved every pixel, puts the whole film back; no counter is added. */
+static pm_eye_pass_result run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *cam,
+                                       const pm_eye_settings *settings, uint32_t iteration, pm_film *film,
+                                       bool visible_points, bool gather_points, pm_visible_points_fn visit, void *visit_ctx,
+                                       unsigned reached, bool first_of_iteration, pm_eye_stats *stats) {
     double start = pm_now_seconds();
     int tiles_x = (film->width + TILE - 1) / TILE, tiles_y = (film->height + TILE - 1) / TILE;
     size_t tiles = (size_t)tiles_x * tiles_y;
     eye_job *job = pm_calloc(1, sizeof *job + tiles, "eye pass job");
-    if (!job) { if (stats) stats->failed = true; return false; }
+    if (!job) { if (stats) stats->failed = true; return PM_EYE_PASS_FAILED; }
     job->scene = s;
     job->accel = a;
     job->camera = cam;
@@ -741,21 +746,25 @@ static bool run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
     job->tiles_x = tiles_x;
     job->deadline = film->samples > 0 && !film->ragged ? settings->deadline : 0.0;
     int threads = pm_thread_count(settings->threads);
-    bool uncancelled = film->ragged;
+    /* a pass over a ragged film is never cancelled (a pixel could be left two samples ahead), and
+     * a film that keeps no copy cannot take a cancel back: its pass runs to the end */
     const atomic_bool *cancel = pm_parallel_get_cancel();
-    if (uncancelled) pm_parallel_set_cancel(NULL);
+    bool cancellable = !film->ragged && pm_film_can_restore(film);
+    job->save = cancellable && first_of_iteration && cancel;
+    if (!cancellable) pm_parallel_set_cancel(NULL);
     pm_parallel_for(threads, tiles, render_tile, job);
-    if (uncancelled) pm_parallel_set_cancel(cancel);
+    if (!cancellable) pm_parallel_set_cancel(cancel);
     size_t traced = 0;
     for (size_t t = 0; t < tiles; t++) traced += job->done[t];
-    if (traced < tiles)
-        for (size_t t = 0; t < tiles; t++) {
-            if (!job->done[t]) continue;
-            int x0 = (int)(t % (size_t)tiles_x) * TILE, y0 = (int)(t / (size_t)tiles_x) * TILE;
-            pm_film_mark_ahead(film, x0, y0, x0 + TILE < film->width ? x0 + TILE : film->width,
-                               y0 + TILE < film->height ? y0 + TILE : film->height, reached);
-        }
-    if (stats) {
+    bool cancelled = traced < tiles && cancellable && cancel && atomic_load(cancel);
+    for (size_t t = 0; t < tiles && traced < tiles; t++) {
+        if (!job->done[t]) continue;
+        int x0 = (int)(t % (size_t)tiles_x) * TILE, y0 = (int)(t / (size_t)tiles_x) * TILE;
+        int x1 = x0 + TILE < film->width ? x0 + TILE : film->width, y1 = y0 + TILE < film->height ? y0 + TILE : film->height;
+        if (!cancelled) pm_film_mark_ahead(film, x0, y0, x1, y1, reached);
+        else if (job->save) pm_film_restore_rect(film, x0, y0, x1, y1);
+    }
+    if (stats && !cancelled) {
         for (int t = 0; t < threads; t++) {
             stats->rays += job->counters[t].rays;
             stats->dropped_samples += job->counters[t].dropped;
@@ -766,18 +775,23 @@ static bool run_eye_pass(const pm_scene *s, const pm_accel *a, const pm_camera *
         stats->seconds += pm_now_seconds() - start;
     }
     free(job);
-    return traced == tiles;
+    return traced == tiles ? PM_EYE_PASS_WHOLE : (cancelled ? PM_EYE_PASS_CANCELLED : PM_EYE_PASS_CUT);
 }
 
-void pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
+bool pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
                     uint32_t iteration, pm_film *film, pm_eye_stats *stats) {
-    /* out of memory adds no sample; a cut pass marked the pixels it reached */
-    if (run_eye_pass(s, a, cam, settings, iteration, film, false, false, NULL, NULL, PM_FILM_AHEAD_SAMPLE, stats))
-        film->samples++;
+    /* out of memory and a cancel add no sample (a cancel leaves the film as it was); a pass cut
+     * by the deadline marked the pixels it reached */
+    pm_eye_pass_result r = run_eye_pass(s, a, cam, settings, iteration, film, false, false, NULL, NULL,
+                                        PM_FILM_AHEAD_SAMPLE, true, stats);
+    if (r == PM_EYE_PASS_WHOLE) film->samples++;
+    return r != PM_EYE_PASS_FAILED;
 }
 
-bool pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_eye_settings *settings,
-                           uint32_t iteration, pm_film *film, bool gather_points, pm_visible_points_fn visit, void *ctx,
-                           unsigned reached, pm_eye_stats *stats) {
-    return run_eye_pass(s, a, cam, settings, iteration, film, true, gather_points, visit, ctx, reached, stats);
+pm_eye_pass_result pm_eye_visible_points(const pm_scene *s, const pm_accel *a, const pm_camera *cam,
+                                         const pm_eye_settings *settings, uint32_t iteration, pm_film *film,
+                                         bool gather_points, pm_visible_points_fn visit, void *ctx, unsigned reached,
+                                         bool first_of_iteration, pm_eye_stats *stats) {
+    return run_eye_pass(s, a, cam, settings, iteration, film, true, gather_points, visit, ctx, reached,
+                        first_of_iteration, stats);
 }

@@ -9,22 +9,29 @@
 
 const pm_component pm_slot_component[PM_SLOT_COUNT] = {PM_CAUSTIC, PM_INDIRECT, PM_SPECULAR, PM_SPECULAR};
 
+/* Bytes a component (sums, compensation, and their saved copy) or a statistics slot (and its copy) holds. */
+static uint64_t component_bytes(size_t pixels) { return (uint64_t)pixels * 3 * sizeof(float) * 4; }
+static uint64_t slot_bytes(size_t pixels) { return (uint64_t)pixels * sizeof(pm_ppm_stat) * 2; }
+
 bool pm_film_init(pm_film *f, int width, int height, const bool enabled[PM_COMPONENT_COUNT]) {
     memset(f, 0, sizeof *f);
     if (width <= 0 || height <= 0) return false;
     f->width = width;
     f->height = height;
-    size_t n = 3 * (size_t)width * height;
-    uint64_t bytes = n / 3;
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++) bytes += enabled[c] ? n * sizeof(float) : 0;
+    size_t pixels = (size_t)width * height, n = 3 * pixels;
+    uint64_t bytes = pixels;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) bytes += enabled[c] ? component_bytes(pixels) : 0;
     if (!pm_memory_admit(bytes, "film")) return false;
     f->admitted = bytes;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         if (!enabled[c]) continue;
         f->sum[c] = pm_calloc(n, sizeof(float), "film");
-        if (!f->sum[c]) { pm_film_free(f); return false; }
+        f->carry[c] = f->sum[c] ? pm_calloc(n, sizeof(float), "film") : NULL;
+        f->saved_sum[c] = f->carry[c] ? pm_malloc(n * sizeof(float), "film (the copy a cancel restores)") : NULL;
+        f->saved_carry[c] = f->saved_sum[c] ? pm_malloc(n * sizeof(float), "film (the copy a cancel restores)") : NULL;
+        if (!f->saved_carry[c]) { pm_film_free(f); return false; }
     }
-    f->ahead = pm_calloc(n / 3, 1, "film");
+    f->ahead = pm_calloc(pixels, 1, "film");
     if (!f->ahead) { pm_film_free(f); return false; }
     return true;
 }
@@ -34,17 +41,31 @@ bool pm_film_enable_ppm(pm_film *f, const bool slot_enabled[PM_SLOT_COUNT]) {
     for (int k = 0; k < PM_SLOT_COUNT; k++) {
         if (!slot_enabled[k] || f->ppm[k]) continue;
         if (!f->sum[pm_slot_component[k]]) return false; /* a slot feeds a component that must exist */
-        if (!pm_memory_admit((uint64_t)n * sizeof(pm_ppm_stat), "progressive photon statistics")) return false;
-        f->admitted += (uint64_t)n * sizeof(pm_ppm_stat);
+        if (!pm_memory_admit(slot_bytes(n), "progressive photon statistics")) return false;
+        f->admitted += slot_bytes(n);
         f->ppm[k] = pm_calloc(n, sizeof(pm_ppm_stat), "progressive photon statistics");
         if (!f->ppm[k]) return false;
+        f->saved_ppm[k] = pm_malloc(n * sizeof(pm_ppm_stat), "progressive photon statistics (the copy a cancel restores)");
+        if (!f->saved_ppm[k]) {
+            free(f->ppm[k]);
+            f->ppm[k] = NULL;
+            return false;
+        }
     }
     return true;
 }
 
 void pm_film_free(pm_film *f) {
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(f->sum[c]);
-    for (int k = 0; k < PM_SLOT_COUNT; k++) free(f->ppm[k]);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        free(f->sum[c]);
+        free(f->carry[c]);
+        free(f->saved_sum[c]);
+        free(f->saved_carry[c]);
+    }
+    for (int k = 0; k < PM_SLOT_COUNT; k++) {
+        free(f->ppm[k]);
+        free(f->saved_ppm[k]);
+    }
     pm_memory_release(f->admitted);
     free(f->ahead);
     memset(f, 0, sizeof *f);
@@ -52,8 +73,10 @@ void pm_film_free(pm_film *f) {
 
 void pm_film_clear(pm_film *f) {
     size_t n = 3 * (size_t)f->width * f->height;
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         if (f->sum[c]) memset(f->sum[c], 0, n * sizeof(float));
+        if (f->carry[c]) memset(f->carry[c], 0, n * sizeof(float));
+    }
     for (int k = 0; k < PM_SLOT_COUNT; k++)
         if (f->ppm[k]) memset(f->ppm[k], 0, (n / 3) * sizeof(pm_ppm_stat));
     if (f->ahead) memset(f->ahead, 0, n / 3);
@@ -61,6 +84,37 @@ void pm_film_clear(pm_film *f) {
     f->photon_passes = 0;
     f->ragged = false;
 }
+
+bool pm_film_can_restore(const pm_film *f) {
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (f->sum[c] && (!f->carry[c] || !f->saved_sum[c] || !f->saved_carry[c])) return false;
+    for (int k = 0; k < PM_SLOT_COUNT; k++)
+        if (f->ppm[k] && !f->saved_ppm[k]) return false;
+    return true;
+}
+
+/* Copies the rectangle's rows of every buffer from the film to its saved copy (save) or back. */
+static void copy_rect(pm_film *f, int x0, int y0, int x1, int y1, bool save) {
+    if (x1 <= x0 || y1 <= y0) return;
+    size_t w = (size_t)(x1 - x0);
+    for (int y = y0; y < y1; y++) {
+        size_t first = (size_t)y * f->width + x0;
+        for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+            if (!f->sum[c] || !f->saved_sum[c] || !f->carry[c] || !f->saved_carry[c]) continue;
+            float *live[2] = {f->sum[c] + 3 * first, f->carry[c] + 3 * first};
+            float *kept[2] = {f->saved_sum[c] + 3 * first, f->saved_carry[c] + 3 * first};
+            for (int b = 0; b < 2; b++) memcpy(save ? kept[b] : live[b], save ? live[b] : kept[b], 3 * w * sizeof(float));
+        }
+        for (int k = 0; k < PM_SLOT_COUNT; k++) {
+            if (!f->ppm[k] || !f->saved_ppm[k]) continue;
+            memcpy(save ? f->saved_ppm[k] + first : f->ppm[k] + first, save ? f->ppm[k] + first : f->saved_ppm[k] + first,
+                   w * sizeof(pm_ppm_stat));
+        }
+    }
+}
+
+void pm_film_save_rect(pm_film *f, int x0, int y0, int x1, int y1) { copy_rect(f, x0, y0, x1, y1, true); }
+void pm_film_restore_rect(pm_film *f, int x0, int y0, int x1, int y1) { copy_rect(f, x0, y0, x1, y1, false); }
 
 void pm_film_mark_ahead(pm_film *f, int x0, int y0, int x1, int y1, unsigned what) {
     if (!f->ahead) return;
@@ -81,63 +135,89 @@ size_t pm_film_pixels_ahead(const pm_film *f) {
     return n;
 }
 
-void pm_film_resolve(const pm_film *f, pm_component c, float *out) {
-    size_t pixels = (size_t)f->width * f->height, n = 3 * pixels;
-    if (!f->sum[c] || (f->samples == 0 && !f->ragged)) { memset(out, 0, n * sizeof(float)); return; }
-    if (!f->ragged) {
-        float inv = 1.f / (float)f->samples;
-        for (size_t i = 0; i < n; i++) out[i] = f->sum[c][i] * inv;
-    } else {
-        for (size_t i = 0; i < pixels; i++) {
-            uint32_t samples = pm_film_samples_at(f, i);
-            float inv = samples ? 1.f / (float)samples : 0.f;
-            for (int ch = 0; ch < 3; ch++) out[3 * i + ch] = f->sum[c][3 * i + ch] * inv;
-        }
+/* Component c's radiance into out (add: onto what out holds), each pixel by its own counts. The
+ * statistics are doubles: their estimate is clamped into float range, never an Inf. */
+static void resolve_into(const pm_film *f, pm_component c, float *out, bool add) {
+    size_t pixels = (size_t)f->width * f->height;
+    if (!f->sum[c] || (f->samples == 0 && !f->ragged)) {
+        if (!add) memset(out, 0, 3 * pixels * sizeof(float));
+        return;
     }
-    for (int k = 0; k < PM_SLOT_COUNT; k++) {
-        if (pm_slot_component[k] != c || !f->ppm[k]) continue;
-        const pm_ppm_stat *st = f->ppm[k];
-        for (size_t i = 0; i < pixels; i++) {
-            uint32_t passes = f->photon_passes + (ahead_of(f, i) & PM_FILM_AHEAD_PHOTON_PASS ? 1u : 0u);
-            if (!(st[i].r2 > 0.0) || !passes) continue;
-            double scale = 1.0 / (PM_PI * st[i].r2 * (double)passes);
-            /* the statistics are doubles: their estimate is clamped into float range, never an Inf */
-            for (int ch = 0; ch < 3; ch++) out[3 * i + ch] = (float)fmin(out[3 * i + ch] + st[i].tau[ch] * scale, FLT_MAX);
-        }
+    const pm_ppm_stat *slot[PM_SLOT_COUNT];
+    int slots = 0;
+    for (int k = 0; k < PM_SLOT_COUNT; k++)
+        if (pm_slot_component[k] == c && f->ppm[k]) slot[slots++] = f->ppm[k];
+    /* sum - carry rounds once to the float nearest the compensated sum: the mean keeps float's
+     * precision however many samples were added */
+    const float *sum = f->sum[c], *carry = f->carry[c];
+    float inv_even = f->samples ? 1.f / (float)f->samples : 0.f;
+    if (!slots && !f->ragged && carry) {
+        /* the common case as straight loops the compiler vectorises: a window resolves every frame */
+        size_t n = 3 * pixels;
+        if (add)
+            for (size_t i = 0; i < n; i++) out[i] += (sum[i] - carry[i]) * inv_even;
+        else
+            for (size_t i = 0; i < n; i++) out[i] = (sum[i] - carry[i]) * inv_even;
+        return;
     }
+    for (size_t i = 0; i < pixels; i++) {
+        unsigned ahead = ahead_of(f, i);
+        float inv = inv_even;
+        if (ahead & PM_FILM_AHEAD_SAMPLE) inv = 1.f / (float)(f->samples + 1u);
+        float v[3];
+        for (int ch = 0; ch < 3; ch++) v[ch] = (sum[3 * i + ch] - (carry ? carry[3 * i + ch] : 0.f)) * inv;
+        uint32_t passes = f->photon_passes + (ahead & PM_FILM_AHEAD_PHOTON_PASS ? 1u : 0u);
+        for (int k = 0; k < slots && passes; k++) {
+            const pm_ppm_stat *st = &slot[k][i];
+            if (!(st->r2 > 0.0)) continue;
+            double scale = 1.0 / (PM_PI * st->r2 * (double)passes);
+            for (int ch = 0; ch < 3; ch++) v[ch] = (float)fmin(v[ch] + st->tau[ch] * scale, FLT_MAX);
+        }
+        for (int ch = 0; ch < 3; ch++) out[3 * i + ch] = add ? out[3 * i + ch] + v[ch] : v[ch];
+    }
+}
+
+void pm_film_resolve(const pm_film *f, pm_component c, float *out) { resolve_into(f, c, out, false); }
+
+bool pm_film_resolve_total(const pm_film *f, float *out) {
+    memset(out, 0, 3 * (size_t)f->width * f->height * sizeof(float));
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) resolve_into(f, (pm_component)c, out, true);
+    return true;
 }
 
 bool pm_film_add(pm_film *f, pm_component c, size_t pixel, vec3 v) {
-    float *px = f->sum[c] + 3 * pixel;
-    vec3 sum = v3(px[0] + v.x, px[1] + v.y, px[2] + v.z);
-    if (!v3_is_finite(v) || !v3_is_finite(sum)) return false;
-    px[0] = sum.x;
-    px[1] = sum.y;
-    px[2] = sum.z;
+    float *px = f->sum[c] + 3 * pixel, *cp = f->carry[c] ? f->carry[c] + 3 * pixel : NULL;
+    if (!v3_is_finite(v)) return false;
+    float add[3] = {v.x, v.y, v.z}, sum[3], carry[3] = {0.f, 0.f, 0.f};
+    for (int ch = 0; ch < 3; ch++) {
+        /* Kahan: y is the sample less what the last addition lost; what this one loses goes to carry */
+        float y = add[ch] - (cp ? cp[ch] : 0.f);
+        sum[ch] = px[ch] + y;
+        if (cp) carry[ch] = (sum[ch] - px[ch]) - y;
+        if (!isfinite(sum[ch]) || !isfinite(carry[ch])) return false;
+    }
+    for (int ch = 0; ch < 3; ch++) {
+        px[ch] = sum[ch];
+        if (cp) cp[ch] = carry[ch];
+    }
     return true;
 }
 
-bool pm_film_resolve_total(const pm_film *f, float *out) {
-    size_t n = 3 * (size_t)f->width * f->height;
-    memset(out, 0, n * sizeof(float));
-    float *part = pm_malloc(n * sizeof(float), "image");
-    if (!part) return false;
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        if (!f->sum[c]) continue;
-        pm_film_resolve(f, (pm_component)c, part);
-        for (size_t i = 0; i < n; i++) out[i] += part[i];
-    }
-    free(part);
-    return true;
+double pm_film_sum_at(const pm_film *f, pm_component c, size_t i) {
+    return (double)f->sum[c][i] - (f->carry[c] ? (double)f->carry[c][i] : 0.0);
 }
 
 size_t pm_film_bytes(const pm_film *f) {
-    size_t n = 0;
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-        if (f->sum[c]) n += 3 * (size_t)f->width * f->height * sizeof(float);
-    for (int k = 0; k < PM_SLOT_COUNT; k++)
-        if (f->ppm[k]) n += (size_t)f->width * f->height * sizeof(pm_ppm_stat);
-    if (f->ahead) n += (size_t)f->width * f->height;
+    size_t n = 0, pixels = (size_t)f->width * f->height;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        float *const buffers[4] = {f->sum[c], f->carry[c], f->saved_sum[c], f->saved_carry[c]};
+        for (int b = 0; b < 4; b++) n += buffers[b] ? 3 * pixels * sizeof(float) : 0;
+    }
+    for (int k = 0; k < PM_SLOT_COUNT; k++) {
+        if (f->ppm[k]) n += pixels * sizeof(pm_ppm_stat);
+        if (f->saved_ppm[k]) n += pixels * sizeof(pm_ppm_stat);
+    }
+    if (f->ahead) n += pixels;
     return n;
 }
 

@@ -2138,7 +2138,7 @@ void Loader::instance_mesh(const Instance &instance) {
 template <class T>
 T *malloc_copy(const std::vector<T> &v) {
     if (v.empty()) return nullptr;
-    T *p = static_cast<T *>(malloc(v.size() * sizeof(T)));
+    T *p = static_cast<T *>(pm_malloc(v.size() * sizeof(T), "scene arrays"));
     if (!p) throw std::bad_alloc();
     memcpy(p, v.data(), v.size() * sizeof(T));
     return p;

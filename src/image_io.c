@@ -544,7 +544,7 @@ static float *read_exr_channels(const char *path, int count, const char *const n
         }
         if (scratch_need == 0) scratch_need = 1;
         if (scratch_need > scratch_size) {
-            void *bigger = realloc(scratch, scratch_need);
+            void *bigger = pm_realloc(scratch, scratch_need, "EXR decoding scratch");
             if (!bigger) { set_error(err, err_size, path, "out of memory decoding a chunk"); goto done; }
             scratch = bigger;
             scratch_size = scratch_need;
@@ -834,7 +834,7 @@ static float *read_hdr(const char *path, int *width, int *height, char *err, siz
     if (!hdr_open(path, &h, err, err_size)) return NULL;
     size_t n = (size_t)h.width * h.height;
     float *rgb = pm_malloc(3 * n * sizeof(float), "environment map texels");
-    uint8_t *row = malloc(4 * (size_t)h.width);
+    uint8_t *row = pm_malloc(4 * (size_t)h.width, "environment map row");
     bool ok = rgb && row;
     if (!ok) {
         char what[200];

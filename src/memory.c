@@ -19,8 +19,17 @@ static _Atomic uint64_t fail_at;       /* 0: no injection */
 static atomic_bool fail_after;
 static pthread_once_t env_once = PTHREAD_ONCE_INIT;
 static pthread_mutex_t failure_lock = PTHREAD_MUTEX_INITIALIZER;
-static char failure[320];
+/* Every failure gets the next number (failures counts them, never reset); the last RECENT are
+ * kept with their numbers, so an operation that took a mark before it began can ask for the first
+ * failure after it, whatever failed and was handled before. The first since the last clear is
+ * kept apart, at a fixed address, for pm_memory_failure. */
+enum { RECENT = 16, TEXT = 320 };
+static uint64_t failures;
+static struct { uint64_t number; bool forgotten; char text[TEXT]; } recent[RECENT];
+static char failure[TEXT];
 static bool failed;
+static uint64_t failed_number; /* the number of the failure in `failure` */
+static _Thread_local char since_text[TEXT]; /* pm_memory_failure_since's answer, the calling thread's own */
 
 static void read_env(void) {
     const char *v = getenv("PMVIEW_FAIL_ALLOC");
@@ -44,9 +53,47 @@ uint64_t pm_memory_allocations(void) { return atomic_load(&allocations); }
 
 static void record(const char *text) {
     pthread_mutex_lock(&failure_lock);
+    failures++;
+    recent[failures % RECENT].number = failures;
+    recent[failures % RECENT].forgotten = false;
+    snprintf(recent[failures % RECENT].text, TEXT, "%s", text);
     if (!failed) {
         snprintf(failure, sizeof failure, "%s", text);
         failed = true;
+        failed_number = failures;
+    }
+    pthread_mutex_unlock(&failure_lock);
+}
+
+uint64_t pm_memory_failure_mark(void) {
+    pthread_mutex_lock(&failure_lock);
+    uint64_t n = failures;
+    pthread_mutex_unlock(&failure_lock);
+    return n;
+}
+
+const char *pm_memory_failure_since(uint64_t mark) {
+    const char *answer = NULL;
+    pthread_mutex_lock(&failure_lock);
+    /* the first after the mark not forgotten, or, when more than RECENT came after it, the oldest
+     * still kept: either way a failure of the operation that took the mark */
+    uint64_t first = failures - mark > RECENT ? failures - RECENT + 1 : mark + 1;
+    for (uint64_t n = first; n <= failures && !answer; n++)
+        if (!recent[n % RECENT].forgotten) {
+            snprintf(since_text, sizeof since_text, "%s", recent[n % RECENT].text);
+            answer = since_text;
+        }
+    pthread_mutex_unlock(&failure_lock);
+    return answer;
+}
+
+void pm_memory_forget_since(uint64_t mark) {
+    pthread_mutex_lock(&failure_lock);
+    for (uint64_t n = mark + 1; n <= failures; n++) recent[n % RECENT].forgotten = true;
+    /* the first failure since the last clear came after the mark: then none came before it */
+    if (failed && failed_number > mark) {
+        failed = false;
+        failure[0] = 0;
     }
     pthread_mutex_unlock(&failure_lock);
 }

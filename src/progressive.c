@@ -38,7 +38,7 @@ enum { SEEN_GRID = 32, SEEN_POINTS = SEEN_GRID * SEEN_GRID };
  * statistics' estimate from this photon pass alone, Phi / (pi R^2) at the radius it was gathered
  * with). Relative, as relMSE: each variance over (mean^2 + 0.01). Only the first two samples of an
  * iteration are probed, and only in iterations that have two. */
-enum { PROBE_ARRAYS = 7 };
+enum { PROBE_ARRAYS = 10 };
 typedef struct {
     size_t count;                /* pixels probed */
     size_t *pixel;               /* which: a grid over the image */
@@ -48,6 +48,7 @@ typedef struct {
     double *first;               /* its first sample of this iteration */
     double *mean, *m2;           /* Welford's running mean and squared deviations of the pair's mean over iterations */
     double *within;              /* the sum over iterations of (first - second)^2 / 2 */
+    double *saved;               /* mean, m2 and within at the start of the running iteration, for a cancel to put back */
     uint32_t pairs;              /* iterations probed */
 } noise_probe;
 static void probe_free(noise_probe *pr);
@@ -90,10 +91,25 @@ struct pm_progressive {
     /* photons sent where the camera looks (guide.h): the eye passes mark where global photons are
      * read, the next global pass learns from them */
     bool guiding;
-    pm_marks marks;
+    pm_marks marks;                      /* the last whole iteration's: the next global pass learns from them */
+    pm_marks marks_next;                 /* the running iteration's, swapped in when it is whole (a cancel drops them) */
     pm_guide guide;
+    pm_guide guide_saved;                /* the guide before the running iteration learned, for a cancel to put back */
     pm_progressive_stats stats;
 };
+
+/* What an iteration changes outside the film's buffers, as it was before the iteration: a cancel
+ * puts it back, so that the next iteration is the one cancelled and ends as it would have. */
+typedef struct {
+    uint32_t samples, photon_passes;     /* the film's counts */
+    double density_r2[KIND_COUNT], gather_r2;
+    bool seen_measured;
+    double initial_radius_sum;
+    uint64_t initial_radius_count;
+    double query_radius[KIND_COUNT];
+    uint32_t eye_passes, probe_pairs;
+    pm_progressive_stats stats;
+} iteration_start;
 
 uint64_t pm_progressive_default_photons(int width, int height) {
     double n = (double)width * height * PM_PPM_PHOTONS_PER_PIXEL;
@@ -103,6 +119,7 @@ uint64_t pm_progressive_default_photons(int width, int height) {
 pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, const pm_camera *camera,
                                       const pm_progressive_settings *settings, char *err, size_t err_size) {
     assert(settings->alpha > 0.0 && settings->alpha < 1.0);
+    uint64_t mark = pm_memory_failure_mark();
     pm_progressive *p = pm_calloc(1, sizeof *p, "progressive state");
     if (!p) { snprintf(err, err_size, "out of memory (progressive state, %zu bytes)", sizeof *p); return NULL; }
     p->scene = s;
@@ -125,7 +142,8 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
         ps.projection_maps = true;
         p->tracer = pm_photon_tracer_create(s, a, &ps);
         if (!p->tracer) {
-            snprintf(err, err_size, "out of memory (%s)", pm_memory_failure() ? pm_memory_failure() : "photon tracer");
+            const char *why = pm_memory_failure_since(mark);
+            snprintf(err, err_size, "out of memory (%s)", why ? why : "photon tracer");
             free(p);
             return NULL;
         }
@@ -145,9 +163,11 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
     uint32_t guided = p->trace_global && !settings->unguided ? pm_photon_tracer_guided_sources(p->tracer) : 0;
     if (guided) {
         p->guiding = true;
-        if (!pm_marks_init(&p->marks) || !pm_guide_init(&p->guide, guided) ||
+        if (!pm_marks_init(&p->marks) || !pm_marks_init(&p->marks_next) || !pm_guide_init(&p->guide, guided) ||
+            !pm_guide_init(&p->guide_saved, guided) ||
             !pm_photon_tracer_set_guide(p->tracer, &p->guide, &p->marks)) {
-            snprintf(err, err_size, "out of memory (%s)", pm_memory_failure() ? pm_memory_failure() : "photon guide");
+            const char *why = pm_memory_failure_since(mark);
+            snprintf(err, err_size, "out of memory (%s)", why ? why : "photon guide");
             pm_progressive_destroy(p);
             return NULL;
         }
@@ -165,7 +185,9 @@ void pm_progressive_destroy(pm_progressive *p) {
     free(p->splats.data);
     probe_free(&p->probe);
     pm_marks_free(&p->marks);
+    pm_marks_free(&p->marks_next);
     pm_guide_free(&p->guide);
+    pm_guide_free(&p->guide_saved);
     free(p);
 }
 
@@ -195,7 +217,8 @@ void pm_progressive_components(const pm_progressive *p, bool enabled[PM_COMPONEN
 static double probed_total(const pm_film *film, size_t pixel) {
     double t = 0.0;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-        if (film->sum[c]) t += (double)film->sum[c][3 * pixel] + film->sum[c][3 * pixel + 1] + film->sum[c][3 * pixel + 2];
+        if (film->sum[c])
+            for (int ch = 0; ch < 3; ch++) t += pm_film_sum_at(film, (pm_component)c, 3 * pixel + ch);
     return t / 3.0;
 }
 
@@ -229,6 +252,7 @@ static bool probe_alloc(noise_probe *pr, int width, int height) {
     pr->mean = pr->first + pr->count;
     pr->m2 = pr->mean + pr->count;
     pr->within = pr->m2 + pr->count;
+    pr->saved = pr->within + pr->count; /* 3 arrays: mean, m2, within */
     return true;
 }
 
@@ -368,6 +392,7 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     if (p->guiding) {
         pm_guide_reset(&p->guide);
         pm_marks_clear(&p->marks, 1.f);
+        pm_marks_clear(&p->marks_next, 1.f);
     }
     p->query_radius[KIND_CAUSTIC] = p->query_radius[KIND_INDIRECT] = 0.0;
     p->initial_radius_sum = 0.0;
@@ -381,9 +406,11 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
 }
 
 bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err_size) {
+    uint64_t mark = pm_memory_failure_mark();
     p->pixels = (size_t)film->width * film->height;
     if (!pm_film_enable_ppm(film, p->slot_used)) {
-        if (pm_memory_failure()) { snprintf(err, err_size, "out of memory (%s) for %dx%d pixels", pm_memory_failure(), film->width, film->height); return false; }
+        const char *why = pm_memory_failure_since(mark);
+        if (why) { snprintf(err, err_size, "out of memory (%s) for %dx%d pixels", why, film->width, film->height); return false; }
         snprintf(err, err_size, "out of memory (progressive state for %dx%d pixels, %zu bytes)", film->width,
                  film->height, p->pixels * sizeof(pm_ppm_stat) * PM_SLOT_COUNT);
         return false;
@@ -550,7 +577,7 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
         /* where global photons are read: the next global pass's guide learns from these marks */
         const pm_visible_point *readers = job->p->gathering ? gathered : visible;
         for (size_t k = 0; readers && k < count; k++)
-            if (readers[k].valid) pm_marks_set(&job->p->marks, readers[k].p);
+            if (readers[k].valid) pm_marks_set(&job->p->marks_next, readers[k].p);
     }
     for (size_t base = 0; base < count; base += BATCH) {
         size_t end = count - base < BATCH ? count : base + BATCH;
@@ -721,6 +748,65 @@ static double seen_density_radius2(pm_progressive *p, const pm_photon_grid *grid
     return r2;
 }
 
+/* Keeps what the iteration about to run may change outside the film's buffers (see iteration_start). */
+static void keep_start(pm_progressive *p, const pm_film *film, iteration_start *st) {
+    st->samples = film->samples;
+    st->photon_passes = film->photon_passes;
+    st->density_r2[KIND_CAUSTIC] = p->density_r2[KIND_CAUSTIC];
+    st->density_r2[KIND_INDIRECT] = p->density_r2[KIND_INDIRECT];
+    st->gather_r2 = p->gather_r2;
+    st->seen_measured = p->seen_measured;
+    st->initial_radius_sum = p->initial_radius_sum;
+    st->initial_radius_count = p->initial_radius_count;
+    st->query_radius[KIND_CAUSTIC] = p->query_radius[KIND_CAUSTIC];
+    st->query_radius[KIND_INDIRECT] = p->query_radius[KIND_INDIRECT];
+    st->eye_passes = p->eye_passes;
+    st->probe_pairs = p->probe.pairs;
+    st->stats = p->stats;
+    if (p->probe.total) {
+        memcpy(p->probe.saved, p->probe.mean, p->probe.count * sizeof(double));
+        memcpy(p->probe.saved + p->probe.count, p->probe.m2, p->probe.count * sizeof(double));
+        memcpy(p->probe.saved + 2 * p->probe.count, p->probe.within, p->probe.count * sizeof(double));
+    }
+    if (p->guiding) {
+        size_t cells = (size_t)p->guide.sources * PM_GUIDE_CELL_COUNT;
+        memcpy(p->guide_saved.cdf, p->guide.cdf, (cells + p->guide.sources) * sizeof(float));
+        memcpy(p->guide_saved.emitted, p->guide.emitted, cells * sizeof(uint64_t));
+        memcpy(p->guide_saved.useful, p->guide.useful, cells * sizeof(uint64_t));
+    }
+}
+
+/* A cancel, or a failure before the film was written: everything as before the iteration (the
+ * film's buffers are put back by whoever saved them, see pm_eye_visible_points). True: a cancel
+ * is no failure (a failure returns its negation). */
+static bool take_back(pm_progressive *p, pm_film *film, const iteration_start *st) {
+    film->samples = st->samples;
+    film->photon_passes = st->photon_passes;
+    p->density_r2[KIND_CAUSTIC] = st->density_r2[KIND_CAUSTIC];
+    p->density_r2[KIND_INDIRECT] = st->density_r2[KIND_INDIRECT];
+    p->gather_r2 = st->gather_r2;
+    p->seen_measured = st->seen_measured;
+    p->initial_radius_sum = st->initial_radius_sum;
+    p->initial_radius_count = st->initial_radius_count;
+    p->query_radius[KIND_CAUSTIC] = st->query_radius[KIND_CAUSTIC];
+    p->query_radius[KIND_INDIRECT] = st->query_radius[KIND_INDIRECT];
+    p->eye_passes = st->eye_passes;
+    p->probe.pairs = st->probe_pairs;
+    p->stats = st->stats;
+    if (p->probe.total) {
+        memcpy(p->probe.mean, p->probe.saved, p->probe.count * sizeof(double));
+        memcpy(p->probe.m2, p->probe.saved + p->probe.count, p->probe.count * sizeof(double));
+        memcpy(p->probe.within, p->probe.saved + 2 * p->probe.count, p->probe.count * sizeof(double));
+    }
+    if (p->guiding) {
+        size_t cells = (size_t)p->guide.sources * PM_GUIDE_CELL_COUNT;
+        memcpy(p->guide.cdf, p->guide_saved.cdf, (cells + p->guide.sources) * sizeof(float));
+        memcpy(p->guide.emitted, p->guide_saved.emitted, cells * sizeof(uint64_t));
+        memcpy(p->guide.useful, p->guide_saved.useful, cells * sizeof(uint64_t));
+    }
+    return true;
+}
+
 bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
     assert((size_t)film->width * film->height == p->pixels);
     uint32_t iteration = film->photon_passes;
@@ -732,6 +818,8 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     double t0 = pm_now_seconds();
     uint64_t photon_rays_before = p->stats.photons.rays, eye_rays_before = p->stats.eye.rays;
     bool ok = true, probing = p->probe.total != NULL;
+    iteration_start start;
+    keep_start(p, film, &start);
     if (probing) probe_begin(&p->probe, film);
     pm_photon_buffer *caustic = &p->buffer[KIND_CAUSTIC], *global = &p->buffer[KIND_INDIRECT];
     caustic->count = global->count = 0;
@@ -745,9 +833,9 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     }
     if (ok && p->trace_global && !pm_parallel_cancelled())
         ok = pm_photon_tracer_trace_into(p->tracer, false, asked[KIND_INDIRECT], seed, global, &p->stats.photons);
-    /* cancelled (a restart, a quit, a signal): the iteration is dropped before it touched the film */
-    if (pm_parallel_cancelled()) return true;
-    if (!ok) return false;
+    /* cancelled (a restart, a stop, a signal): the iteration is dropped before it touched the film */
+    if (pm_parallel_cancelled()) return take_back(p, film, &start);
+    if (!ok) return !take_back(p, film, &start); /* out of memory: the film untouched, the state as the iteration found it */
     if (probing) probe_splats(&p->probe, film, &p->splats);
     /* a whole pass's rays (the first pass asks fewer photons), for the next iteration's eye passes */
     double photon_rays = (double)(p->stats.photons.rays - photon_rays_before) *
@@ -765,8 +853,8 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
                                                  : p->density_r2[KIND_INDIRECT] * PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS;
     double t_grid = pm_now_seconds();
     bool built = build_grid(p, KIND_CAUSTIC) && build_grid(p, KIND_INDIRECT);
-    if (pm_parallel_cancelled()) return true; /* a cancelled sort left the grids empty: dropped too */
-    if (!built) return false;
+    if (pm_parallel_cancelled()) return take_back(p, film, &start); /* a cancelled sort left the grids empty */
+    if (!built) return !take_back(p, film, &start);
     /* the first pass with global photons: the radii from their density where the camera looks;
      * while the guide learns to send photons there (at every power of two of the iterations), the
      * shared gather radius may shrink again to the denser light's (a deterministic sequence that
@@ -788,14 +876,14 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         p->seen_measured = true;
     }
     double t1 = pm_now_seconds();
-    p->stats.photons.kdtree_seconds += t1 - t_grid;
+    p->stats.grid_seconds += t1 - t_grid;
     p->stats.photons.seconds += t1 - t0;
 
     /* 2. eye passes: visible points (and gather points), emission and direct light; each tile's
      * points gather this iteration's photons as soon as the tile is traced (statistics at visible
      * points in the first pass, estimates at gather points in every pass) */
     gather_job *job = pm_calloc(1, sizeof *job, "gather job");
-    if (!job) return false;
+    if (!job) return !take_back(p, film, &start);
     job->p = p;
     job->film = film;
     job->caustic = p->grid[KIND_CAUSTIC].count ? &p->grid[KIND_CAUSTIC] : NULL;
@@ -809,20 +897,35 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         double read_radius = p->gathering ? sqrt(p->gather_r2)
                                           : (p->query_radius[KIND_INDIRECT] > 0.0 ? p->query_radius[KIND_INDIRECT]
                                                                                   : mean_initial_radius(p, KIND_INDIRECT));
-        pm_marks_clear(&p->marks, (float)(0.25 * read_radius));
+        pm_marks_clear(&p->marks_next, (float)(0.25 * read_radius));
     }
-    /* a pass cut short (the deadline, a cancel) is the iteration's last: the pixels it reached
-     * are marked in the film, which divides each pixel by its own counts */
+    /* a pass cut short by the deadline is the iteration's last: the pixels it reached are marked
+     * in the film, which divides each pixel by its own counts; a cancelled pass takes the whole
+     * iteration back (its first pass saved every pixel it wrote) */
     uint32_t whole_passes = 0;
-    bool cut = false;
+    bool cut = false, failed = false;
     for (uint32_t pass = 0; pass < eye_passes && !cut; pass++) {
         job->statistics = pass == 0;
         job->sample = film->samples;
         /* gather points even with no photon to read there: their punctual light is traced */
         unsigned reached = PM_FILM_AHEAD_SAMPLE | (pass == 0 ? PM_FILM_AHEAD_PHOTON_PASS : 0u);
-        cut = !pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, film->samples, film, p->gathering,
-                                     photons_here ? gather_tile : NULL, job, reached, &p->stats.eye);
-        if (p->stats.eye.failed) { free(job); return false; }
+        pm_eye_pass_result r = pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, film->samples, film,
+                                                     p->gathering, photons_here ? gather_tile : NULL, job, reached,
+                                                     pass == 0, &p->stats.eye);
+        if (r == PM_EYE_PASS_FAILED && pass == 0) { free(job); return !take_back(p, film, &start); } /* nothing ran */
+        if (r == PM_EYE_PASS_FAILED) {
+            /* out of memory after whole passes: the iteration ends with them (their splats, their
+             * counts), so the film holds nothing half counted, and the failure is reported */
+            failed = true;
+            break;
+        }
+        if (r == PM_EYE_PASS_CANCELLED) {
+            /* the first pass put back the tiles it traced; after it, every pixel was saved */
+            if (pass > 0) pm_film_restore_rect(film, 0, 0, film->width, film->height);
+            free(job);
+            return take_back(p, film, &start);
+        }
+        cut = r == PM_EYE_PASS_CUT;
         if (cut) break;
         film->samples++;
         if (pass == 0) film->photon_passes++;
@@ -861,12 +964,18 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         double i = (double)iteration + 1.0;
         p->gather_r2 *= (i + set->alpha) / (i + 1.0);
     }
+    if (p->guiding) {
+        /* the marks this iteration made are the next global pass's to learn from */
+        pm_marks swap = p->marks;
+        p->marks = p->marks_next;
+        p->marks_next = swap;
+    }
     if (probing && !cut)
         p->eye_passes = choose_eye_passes(&p->probe, film->photon_passes, photon_rays,
                                           (double)(p->stats.eye.rays - eye_rays_before) / eye_passes);
     p->stats.iterations = film->samples;
     p->stats.photon_passes = film->photon_passes;
-    return true;
+    return !failed;
 }
 
 void pm_progressive_set_deadline(pm_progressive *p, double deadline) {

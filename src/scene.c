@@ -111,7 +111,10 @@ static vec3 face_normal(vec3 p0, vec3 p1, vec3 p2) {
 static void analyse(pm_scene *s) {
     pm_scene_analysis *a = &s->analysis;
     memset(a, 0, sizeof *a);
-    bool *material_used = calloc(s->material_count ? s->material_count : 1, sizeof(bool));
+    uint64_t mark = pm_memory_failure_mark();
+    bool *material_used = pm_calloc(s->material_count ? s->material_count : 1, sizeof(bool), "scene analysis");
+    /* without it every material counts as used: more components may get buffers, none is wrong */
+    pm_memory_forget_since(mark);
     for (uint32_t t = 0; t < s->triangle_count && material_used; t++) material_used[s->triangle_material[t]] = true;
     for (uint32_t i = 0; i < s->material_count; i++) {
         const pm_material *m = &s->materials[i];
@@ -250,9 +253,11 @@ static void build_light_distribution(pm_scene *s) {
     free(s->light_cdf);
     s->light_cdf = NULL;
     if (s->light_count <= PM_DIRECT_LIGHT_SAMPLES) return;
-    double *running = malloc(((size_t)s->light_count + 1) * sizeof *running);
-    s->light_cdf = malloc(((size_t)s->light_count + 1) * sizeof *s->light_cdf);
+    uint64_t mark = pm_memory_failure_mark();
+    double *running = pm_malloc(((size_t)s->light_count + 1) * sizeof *running, "light distribution");
+    s->light_cdf = running ? pm_malloc(((size_t)s->light_count + 1) * sizeof *s->light_cdf, "light distribution") : NULL;
     if (!running || !s->light_cdf) {
+        pm_memory_forget_since(mark); /* the uniform pick is as unbiased: nothing to report */
         free(running);
         free(s->light_cdf);
         s->light_cdf = NULL;
@@ -339,7 +344,9 @@ void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     s->ray_scale = extent > 0.f ? extent : 1.f;
     for (uint32_t i = 0; i < s->material_count; i++) material_lobes(s, &s->materials[i]);
     free(s->face_normals);
-    s->face_normals = malloc(sizeof(vec3) * (s->triangle_count ? s->triangle_count : 1));
+    uint64_t mark = pm_memory_failure_mark();
+    s->face_normals = pm_malloc(sizeof(vec3) * (s->triangle_count ? s->triangle_count : 1), "face normals");
+    if (!s->face_normals) pm_memory_forget_since(mark); /* each hit computes its own: the same normals */
     for (uint32_t t = 0; s->face_normals && t < s->triangle_count; t++) {
         const uint32_t *ix = s->indices + 3 * (size_t)t;
         s->face_normals[t] = face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);

@@ -8,6 +8,7 @@
  * same at any thread count.
  */
 #include "shadowmap.h"
+#include "memory.h"
 
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -130,7 +131,7 @@ static void photon_ray(const pm_scene *s, const pm_light *l, uint32_t light, uin
 static bool push(record **list, uint32_t *count, uint32_t *capacity, record r) {
     if (*count == *capacity) {
         uint32_t grown_capacity = *capacity ? 2 * *capacity : 2 * CHUNK;
-        record *grown = realloc(*list, sizeof(record) * grown_capacity);
+        record *grown = pm_realloc(*list, sizeof(record) * grown_capacity, "shadow photon records");
         if (!grown) return false;
         *list = grown;
         *capacity = grown_capacity;
@@ -190,7 +191,7 @@ static entry *slot_of(entry *slots, size_t capacity, uint64_t key) {
 
 static bool grow_table(pm_shadow_map *m) {
     size_t capacity = m->capacity ? 2 * m->capacity : 1024;
-    entry *slots = calloc(capacity, sizeof *slots);
+    entry *slots = pm_calloc(capacity, sizeof *slots, "shadow photon cells");
     if (!slots) return false;
     for (size_t i = 0; i < m->capacity; i++)
         if (m->slots[i].key) *slot_of(slots, capacity, m->slots[i].key) = m->slots[i];
@@ -247,8 +248,8 @@ static bool add_record(pm_shadow_map *m, const record *r) {
 static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, pm_shadow_stats *stats) {
     enum { POINTS = 4096 };
     typedef struct { vec3 p, n, origin; bool front; } probe_point;
-    probe_point *points = malloc(POINTS * sizeof *points);
-    float *cdf = malloc(((size_t)s->triangle_count + 1) * sizeof *cdf);
+    probe_point *points = pm_malloc(POINTS * sizeof *points, "shadow photon probe");
+    float *cdf = pm_malloc(((size_t)s->triangle_count + 1) * sizeof *cdf, "shadow photon probe");
     if (!points || !cdf) { free(points); free(cdf); return false; }
     cdf[0] = 0.0;
     for (uint32_t t = 0; t < s->triangle_count; t++) {
@@ -269,7 +270,7 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
     free(cdf);
     /* the light samples direct light would take there: each light in front of the side */
     typedef struct { uint32_t point, light; vec3 wi; float tmax; } probe_sample;
-    probe_sample *samples = malloc(n * s->light_count * sizeof *samples + 1);
+    probe_sample *samples = pm_malloc(n * s->light_count * sizeof *samples + 1, "shadow photon probe");
     if (!samples) { free(points); return false; }
     size_t count = 0;
     for (size_t i = 0; i < n; i++)
@@ -313,8 +314,8 @@ pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const p
     stats->reason = pm_shadow_map_unneeded(s, set);
     if (stats->reason) return NULL;
     stats->lights = s->light_count;
-    trace_job *job = calloc(1, sizeof *job);
-    pm_shadow_map *m = calloc(1, sizeof *m);
+    trace_job *job = pm_calloc(1, sizeof *job, "shadow photon pass");
+    pm_shadow_map *m = job ? pm_calloc(1, sizeof *m, "shadow photons") : NULL;
     if (!job || !m) {
         free(job);
         free(m);
@@ -328,8 +329,8 @@ pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const p
     job->lights = s->light_count;
     job->deadline = set->deadline;
     size_t tasks = job->chunks_per_light * s->light_count;
-    job->chunk_records = calloc(tasks, sizeof *job->chunk_records);
-    job->chunk_counts = calloc(tasks, sizeof *job->chunk_counts);
+    job->chunk_records = pm_calloc(tasks, sizeof *job->chunk_records, "shadow photon pass");
+    job->chunk_counts = job->chunk_records ? pm_calloc(tasks, sizeof *job->chunk_counts, "shadow photon pass") : NULL;
     atomic_init(&job->out_of_memory, false);
     bool ok = job->chunk_records && job->chunk_counts;
     int threads = pm_thread_count(set->threads);

@@ -20,6 +20,7 @@
 #include <GL/osmesa.h> /* also brings GL/gl.h and GL/glext.h: types and enums only */
 
 #include "view.h"
+#include "memory.h"
 
 #include "shaders.inc"
 
@@ -347,7 +348,7 @@ pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_s
         pm_view_destroy(v);
         return NULL;
     }
-    v->osmesa_buffer = malloc(4 * (size_t)width * height);
+    v->osmesa_buffer = pm_malloc(4 * (size_t)width * height, "offscreen buffer");
     if (!v->osmesa_buffer) {
         snprintf(err, err_size, "out of memory for a %dx%d offscreen buffer", width, height);
         pm_view_destroy(v);

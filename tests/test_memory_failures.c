@@ -14,6 +14,7 @@
 #include "photonmap.h"
 #include "progressive.h"
 #include "scene_builder.h"
+#include "session.h"
 #include "testing.h"
 
 /* A glass ball and a mirror ball in a grey box, lit by two point lights: caustic photons,
@@ -76,6 +77,143 @@ static void test_allocation_failures(bool caustics) {
           (unsigned long long)total);
     CHECK(unreported == 0, "criterion: every failure names what could not be allocated (%d did not)", unreported);
     CHECK(unreleased == 0, "criterion: every run gives back all it admitted, failed or not (%d did not)", unreleased);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+/* A session's configuration for each mode on the caustic box, shadow photons on (their map
+ * allocates too), small enough that every allocation can be failed in turn. */
+static pm_session_config session_config(pm_mode mode, int w, int h) {
+    pm_session_config c;
+    pm_session_config_defaults(&c, mode, w, h, 1, 2);
+    c.shadow.mode = PM_SHADOW_ON;
+    c.shadow.photons_per_light = 4000;
+    c.progressive.photons = c.progressive.caustic_photons = 3000;
+    if (mode == PM_MODE_CLASSIC) {
+        c.classic_photons.global_photons = c.classic_photons.caustic_photons = 3000;
+        c.classic_photons.projection_maps = true;
+        c.eye.caustic_estimate = (pm_estimate_settings){.k = 20, .max_radius = 0.2f, .path_mask = 1u << PM_PATH_CAUSTIC};
+        c.eye.global_estimate = (pm_estimate_settings){.k = 20, .max_radius = 0.3f, .path_mask = 1u << PM_PATH_INDIRECT};
+        c.eye.indirect = PM_INDIRECT_PHOTONS;
+    } else {
+        c.classic_photon_pass = false;
+    }
+    return c;
+}
+
+/* A whole run through the session, as pmview makes one: create, three iterations, the image
+ * resolved. False with the error line (what the caller would print) when it failed. */
+static bool session_run(const pm_scene *s, const pm_accel *a, const pm_camera *cam, const pm_session_config *c, char *err,
+                        size_t err_size) {
+    err[0] = 0;
+    pm_memory_clear_failure();
+    pm_session *session = pm_session_create(s, a, cam, c, err, err_size);
+    if (!session) return false;
+    bool ok = true;
+    for (int i = 0; ok && i < 3; i++) {
+        /* each top-level call owns the failures it meets */
+        pm_memory_clear_failure();
+        ok = pm_session_iterate(session, 0);
+        if (!ok) snprintf(err, err_size, "out of memory (%s) in iteration %d", pm_memory_failure() ? pm_memory_failure() : "", i + 1);
+    }
+    if (ok) {
+        const pm_film *f = pm_session_film(session);
+        float *image = pm_malloc(3 * sizeof(float) * (size_t)f->width * f->height, "image");
+        ok = image && pm_film_resolve_total(f, image);
+        if (!ok) snprintf(err, err_size, "out of memory (%s) for the image", pm_memory_failure() ? pm_memory_failure() : "");
+        free(image);
+    }
+    pm_session_destroy(session);
+    return ok;
+}
+
+/* Every checked allocation of a progressive, a classic and a path-traced run through the session
+ * failed in turn (n = 1 .. the allocations of a whole run): each failing run gives one error line
+ * that names what failed ("out of memory (what, N bytes)"), a run that goes on despite the failure
+ * has handled it and recorded nothing, nothing is left committed, nothing crashes, nothing leaks
+ * (ASan's leak check at exit). */
+static void test_session_failures(pm_mode mode) {
+    static const char *const names[3] = {"progressive", "classic", "path tracing"};
+    pm_scene s;
+    pm_camera cam;
+    pm_accel *a = caustic_box(&s, &cam);
+    pm_session_config c = session_config(mode, 16, 12);
+    uint64_t committed = pm_memory_committed();
+    char err[512];
+    pm_memory_fail_at(0, false);
+    bool ok = session_run(&s, a, &cam, &c, err, sizeof err);
+    uint64_t total = pm_memory_allocations();
+    CHECK(ok, "%s: the run without an injected failure succeeds: %s", names[mode], err);
+    int failed = 0, nameless = 0, kept_record = 0, unreleased = 0;
+    for (uint64_t n = 1; n <= total; n++) {
+        pm_memory_fail_at(n, false);
+        ok = session_run(&s, a, &cam, &c, err, sizeof err);
+        pm_memory_fail_at(0, false);
+        if (pm_memory_committed() != committed) unreleased++;
+        if (ok) {
+            if (pm_memory_failure()) kept_record++;
+            continue;
+        }
+        failed++;
+        /* one line naming the allocation: "out of memory (what, N bytes)..." with a non-empty what */
+        const char *open = strstr(err, "out of memory (");
+        bool named = open && open[15] != ')' && open[15] != ',' && strstr(open, " bytes") && !strchr(err, '\n');
+        if (!named) {
+            nameless++;
+            if (nameless <= 3) printf("  %s, allocation %llu: \"%s\"\n", names[mode], (unsigned long long)n, err);
+        }
+    }
+    pm_memory_clear_failure();
+    printf("allocation failures (%s session): %llu checked allocations, %d failing runs, %d went on\n", names[mode],
+           (unsigned long long)total, failed, (int)total - failed);
+    CHECK(total >= 20 && failed >= 1, "%s: allocations were failed (%llu, %d runs failed)", names[mode], (unsigned long long)total, failed);
+    CHECK(nameless == 0, "criterion: %s: every failing run's error names what failed (%d did not)", names[mode], nameless);
+    CHECK(kept_record == 0, "criterion: %s: a run that handled a failure keeps no record a later error could name (%d did)",
+          names[mode], kept_record);
+    CHECK(unreleased == 0, "criterion: %s: every run gives back all it admitted (%d did not)", names[mode], unreleased);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
+/* An error names its own cause: a failure handled earlier (and not cleared) is not what a later
+ * failing call reports. */
+static void test_error_names_new_cause(void) {
+    pm_memory_clear_failure();
+    pm_memory_fail(100, "an earlier structure, handled");
+    uint64_t mark = pm_memory_failure_mark();
+    CHECK(pm_memory_failure_since(mark) == NULL, "nothing failed since the mark");
+    pm_memory_fail(200, "the new structure");
+    pm_memory_fail(300, "a consequence");
+    const char *since = pm_memory_failure_since(mark);
+    CHECK(since && !strcmp(since, "the new structure, 200 bytes"), "the first failure after the mark: \"%s\"", since ? since : "");
+    CHECK(pm_memory_failure() && !strcmp(pm_memory_failure(), "an earlier structure, handled, 100 bytes"),
+          "pm_memory_failure: the first since the last clear");
+    pm_memory_forget_since(mark);
+    CHECK(pm_memory_failure_since(mark) == NULL && pm_memory_failure() && strstr(pm_memory_failure(), "earlier"),
+          "forgotten: the failures after the mark only");
+    pm_memory_clear_failure();
+    pm_memory_fail(400, "after the clear");
+    CHECK(pm_memory_failure() && !strcmp(pm_memory_failure(), "after the clear, 400 bytes"), "a clear starts the record again");
+    /* through a real call: a progressive state whose creation fails after a handled failure */
+    pm_scene s;
+    pm_camera cam;
+    pm_accel *a = caustic_box(&s, &cam);
+    pm_progressive_settings ps = session_config(PM_MODE_PROGRESSIVE, 8, 8).progressive;
+    int checked = 0, wrong = 0;
+    for (uint64_t n = 1; n < 64; n++) {
+        pm_memory_clear_failure();
+        pm_memory_fail(1, "an old failure, handled");
+        pm_memory_fail_at(n, false);
+        char err[256] = "";
+        pm_progressive *p = pm_progressive_create(&s, a, &cam, &ps, err, sizeof err);
+        pm_memory_fail_at(0, false);
+        if (p) { pm_progressive_destroy(p); break; }
+        checked++;
+        if (strstr(err, "an old failure")) wrong++;
+    }
+    printf("progressive state creation failed in turn after a handled failure: %d runs, %d named the old failure\n", checked, wrong);
+    CHECK(checked > 0 && wrong == 0, "criterion: the error names the new cause (%d of %d named the old)", wrong, checked);
+    pm_memory_clear_failure();
     pm_accel_destroy(a);
     pm_scene_free(&s);
 }
@@ -222,7 +360,9 @@ static void test_structures_give_back(void) {
     pm_film film;
     const bool all[PM_COMPONENT_COUNT] = {true, true, true, true};
     CHECK(pm_film_init(&film, 64, 32, all), "film");
-    CHECK(pm_memory_committed() == base + 4 * 3 * 4 * 64 * 32 + 64 * 32, "the film commits its buffers (four layers, one ahead byte a pixel): %llu bytes",
+    CHECK(pm_memory_committed() == base + 4 * 4 * 3 * 4 * 64 * 32 + 64 * 32,
+          "the film commits its buffers (four layers, each with its compensation and the copy a cancel restores of both; one "
+          "ahead byte a pixel): %llu bytes",
           (unsigned long long)(pm_memory_committed() - base));
     pm_film_free(&film);
     CHECK(pm_memory_committed() == base, "pm_film_free gives the film's bytes back");
@@ -270,5 +410,9 @@ int main(void) {
     test_allocation_failures(false);
     test_allocation_failures(true);
     test_photon_record_limit();
+    test_error_names_new_cause();
+    test_session_failures(PM_MODE_PROGRESSIVE);
+    test_session_failures(PM_MODE_CLASSIC);
+    test_session_failures(PM_MODE_PATHTRACE);
     return pm_test_done("test_memory_failures");
 }
