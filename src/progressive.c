@@ -53,6 +53,19 @@ typedef struct {
 } noise_probe;
 static void probe_free(noise_probe *pr);
 
+/* The radii and counts an iteration moves on: one value, so that a cancel puts them back whole. */
+typedef struct {
+    /* initial radius from the photon density of the first iteration with photons, per kind of
+     * photon (0 until known); the final-gather radius shrinks per iteration from its own start */
+    double density_r2[KIND_COUNT];
+    double gather_r2;
+    bool seen_measured;                  /* the radii above were measured where the camera looks */
+    double initial_radius_sum;
+    uint64_t initial_radius_count;
+    double query_radius[KIND_COUNT];     /* mean radius gathered with last iteration: sets the grid's cell */
+    uint32_t eye_passes;                 /* per photon pass in the next iteration (settings, or from the probe) */
+} radius_state;
+
 struct pm_progressive {
     const pm_scene *scene;
     const pm_accel *accel;
@@ -67,11 +80,6 @@ struct pm_progressive {
     pm_splat_buffer splats;              /* this iteration's, reused */
     size_t pixels;
     double diffuse_area;                 /* photons land here: their density sets initial radii */
-    /* initial radius from the photon density of the first iteration with photons, per kind of
-     * photon (0 until known); the final-gather radius shrinks per iteration from its own start */
-    double density_r2[KIND_COUNT];
-    double gather_r2;
-    bool seen_measured;                  /* the radii above were measured where the camera looks */
     double pixel_angle;                  /* radians per pixel, vertically (0 for an orthographic camera) */
     double pixel_width;                  /* scene units per pixel at the camera (orthographic only) */
     double probe_footprint;              /* mean first radius of a sparse grid of camera rays: the first grid's cell */
@@ -81,10 +89,7 @@ struct pm_progressive {
     struct { vec3 p, n; uint32_t tri; } seen[2][SEEN_POINTS];
     int seen_count[2];
     double seen_density[SEEN_POINTS];    /* seen_density_radius2's scratch */
-    double initial_radius_sum;
-    uint64_t initial_radius_count;
-    double query_radius[KIND_COUNT];     /* mean radius gathered with last iteration: sets the grid's cell */
-    uint32_t eye_passes;                 /* per photon pass in the next iteration (settings, or from the probe) */
+    radius_state radii;                  /* what an iteration changes besides the film, the probe and the guide */
     noise_probe probe;                   /* automatic eye passes only */
     pm_photon_buffer buffer[KIND_COUNT]; /* this iteration's photons, reused */
     pm_photon_grid grid[KIND_COUNT];
@@ -102,12 +107,8 @@ struct pm_progressive {
  * puts it back, so that the next iteration is the one cancelled and ends as it would have. */
 typedef struct {
     uint32_t samples, photon_passes;     /* the film's counts */
-    double density_r2[KIND_COUNT], gather_r2;
-    bool seen_measured;
-    double initial_radius_sum;
-    uint64_t initial_radius_count;
-    double query_radius[KIND_COUNT];
-    uint32_t eye_passes, probe_pairs;
+    radius_state radii;
+    uint32_t probe_pairs;
     pm_progressive_stats stats;
 } iteration_start;
 
@@ -197,7 +198,7 @@ uint64_t pm_progressive_photons_per_iteration(const pm_progressive *p) {
     return (p->trace_caustic ? p->settings.caustic_photons : 0) + (p->trace_global ? p->settings.photons : 0);
 }
 
-uint32_t pm_progressive_eye_passes(const pm_progressive *p) { return p->eye_passes; }
+uint32_t pm_progressive_eye_passes(const pm_progressive *p) { return p->radii.eye_passes; }
 
 double pm_progressive_projection_fraction(const pm_progressive *p) {
     return p->tracer ? pm_photon_tracer_projection_fraction(p->tracer) : 0.0;
@@ -386,21 +387,21 @@ static double probe_footprint(pm_progressive *p, const pm_film *film) {
 }
 
 static void reset_state(pm_progressive *p, const pm_film *film) {
-    p->density_r2[KIND_CAUSTIC] = p->density_r2[KIND_INDIRECT] = 0.0;
-    p->gather_r2 = 0.0;
-    p->seen_measured = false;
+    p->radii.density_r2[KIND_CAUSTIC] = p->radii.density_r2[KIND_INDIRECT] = 0.0;
+    p->radii.gather_r2 = 0.0;
+    p->radii.seen_measured = false;
     if (p->guiding) {
         pm_guide_reset(&p->guide);
         pm_marks_clear(&p->marks, 1.f);
         pm_marks_clear(&p->marks_next, 1.f);
     }
-    p->query_radius[KIND_CAUSTIC] = p->query_radius[KIND_INDIRECT] = 0.0;
-    p->initial_radius_sum = 0.0;
-    p->initial_radius_count = 0;
+    p->radii.query_radius[KIND_CAUSTIC] = p->radii.query_radius[KIND_INDIRECT] = 0.0;
+    p->radii.initial_radius_sum = 0.0;
+    p->radii.initial_radius_count = 0;
     p->pixel_angle = p->camera.orthographic ? 0.0 : pm_camera_pixel_size(&p->camera, film->height, 1.f);
     p->pixel_width = p->camera.orthographic ? pm_camera_pixel_size(&p->camera, film->height, 0.f) : 0.0;
     p->probe_footprint = pm_progressive_uses_photons(p) ? probe_footprint(p, film) : 0.0;
-    p->eye_passes = p->settings.eye_passes > 0 ? (uint32_t)p->settings.eye_passes : 1;
+    p->radii.eye_passes = p->settings.eye_passes > 0 ? (uint32_t)p->settings.eye_passes : 1;
     probe_reset(&p->probe);
     memset(&p->stats, 0, sizeof p->stats);
 }
@@ -483,7 +484,7 @@ static int start_radius(gather_job *job, pm_ppm_stat *st, const pm_visible_point
         r = p->settings.initial_radius;
     } else {
         double footprint = PM_PPM_FOOTPRINT_PIXELS * ((double)vp->path_length * p->pixel_angle + p->pixel_width);
-        r = kind == KIND_CAUSTIC ? footprint : fmax(footprint, sqrt(p->density_r2[kind]));
+        r = kind == KIND_CAUSTIC ? footprint : fmax(footprint, sqrt(p->radii.density_r2[kind]));
         r = fmin(r, PM_PPM_CURVED_RADIUS * curvature_radius(p->scene, vp->tri));
     }
     if (!(r > 0.0)) return START_NONE;
@@ -695,15 +696,15 @@ static void keep_tagged(pm_photon_buffer *b, unsigned paths) {
  * photons crowd into a small part of the diffuse area). */
 static double mean_initial_radius(const pm_progressive *p, int kind) {
     if (p->settings.initial_radius > 0.0) return p->settings.initial_radius;
-    return kind == KIND_CAUSTIC ? p->probe_footprint : fmax(p->probe_footprint, sqrt(p->density_r2[kind]));
+    return kind == KIND_CAUSTIC ? p->probe_footprint : fmax(p->probe_footprint, sqrt(p->radii.density_r2[kind]));
 }
 
 /* Sorts a kind's photons into its grid, the cell three times the radius its queries are expected
  * to use (radii vary per pixel around that mean). */
 static bool build_grid(pm_progressive *p, int kind) {
-    double r = p->query_radius[kind] > 0.0 ? p->query_radius[kind] : mean_initial_radius(p, kind);
-    if (!(r > 0.0)) r = sqrt(p->density_r2[kind]);
-    if (kind == KIND_INDIRECT && p->gathering) r = sqrt(p->gather_r2);
+    double r = p->radii.query_radius[kind] > 0.0 ? p->radii.query_radius[kind] : mean_initial_radius(p, kind);
+    if (!(r > 0.0)) r = sqrt(p->radii.density_r2[kind]);
+    if (kind == KIND_INDIRECT && p->gathering) r = sqrt(p->radii.gather_r2);
     if (!(r > 0.0)) r = 1e-3 * (double)p->scene->ray_scale;
     if (!p->buffer[kind].count) { p->grid[kind].count = 0; return true; }
     return pm_photon_grid_build(&p->grid[kind], p->buffer[kind].data, p->buffer[kind].count, (float)(3.0 * r));
@@ -752,15 +753,7 @@ static double seen_density_radius2(pm_progressive *p, const pm_photon_grid *grid
 static void keep_start(pm_progressive *p, const pm_film *film, iteration_start *st) {
     st->samples = film->samples;
     st->photon_passes = film->photon_passes;
-    st->density_r2[KIND_CAUSTIC] = p->density_r2[KIND_CAUSTIC];
-    st->density_r2[KIND_INDIRECT] = p->density_r2[KIND_INDIRECT];
-    st->gather_r2 = p->gather_r2;
-    st->seen_measured = p->seen_measured;
-    st->initial_radius_sum = p->initial_radius_sum;
-    st->initial_radius_count = p->initial_radius_count;
-    st->query_radius[KIND_CAUSTIC] = p->query_radius[KIND_CAUSTIC];
-    st->query_radius[KIND_INDIRECT] = p->query_radius[KIND_INDIRECT];
-    st->eye_passes = p->eye_passes;
+    st->radii = p->radii;
     st->probe_pairs = p->probe.pairs;
     st->stats = p->stats;
     if (p->probe.total) {
@@ -782,15 +775,7 @@ static void keep_start(pm_progressive *p, const pm_film *film, iteration_start *
 static bool take_back(pm_progressive *p, pm_film *film, const iteration_start *st) {
     film->samples = st->samples;
     film->photon_passes = st->photon_passes;
-    p->density_r2[KIND_CAUSTIC] = st->density_r2[KIND_CAUSTIC];
-    p->density_r2[KIND_INDIRECT] = st->density_r2[KIND_INDIRECT];
-    p->gather_r2 = st->gather_r2;
-    p->seen_measured = st->seen_measured;
-    p->initial_radius_sum = st->initial_radius_sum;
-    p->initial_radius_count = st->initial_radius_count;
-    p->query_radius[KIND_CAUSTIC] = st->query_radius[KIND_CAUSTIC];
-    p->query_radius[KIND_INDIRECT] = st->query_radius[KIND_INDIRECT];
-    p->eye_passes = st->eye_passes;
+    p->radii = st->radii;
     p->probe.pairs = st->probe_pairs;
     p->stats = st->stats;
     if (p->probe.total) {
@@ -811,7 +796,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     assert((size_t)film->width * film->height == p->pixels);
     uint32_t iteration = film->photon_passes;
     const pm_progressive_settings *set = &p->settings;
-    uint32_t eye_passes = max_samples && p->eye_passes > max_samples ? max_samples : p->eye_passes;
+    uint32_t eye_passes = max_samples && p->radii.eye_passes > max_samples ? max_samples : p->radii.eye_passes;
 
     /* 1. photon passes: a fresh, independent set every iteration, sorted into hash grids */
     uint64_t seed = pm_hash64(set->seed * 0x9e3779b97f4a7c15ULL + iteration);
@@ -840,17 +825,17 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     /* a whole pass's rays (the first pass asks fewer photons), for the next iteration's eye passes */
     double photon_rays = (double)(p->stats.photons.rays - photon_rays_before) *
                          (p->trace_global ? to_whole[KIND_INDIRECT] : to_whole[KIND_CAUSTIC]);
-    if (p->density_r2[KIND_CAUSTIC] == 0.0)
-        p->density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count, to_whole[KIND_CAUSTIC]);
+    if (p->radii.density_r2[KIND_CAUSTIC] == 0.0)
+        p->radii.density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count, to_whole[KIND_CAUSTIC]);
     p->stats.photons_stored += caustic->count + global->count;
     /* visible points read only indirect photons (direct light and caustics have their own
      * estimates); gather points read all of them */
     if (!p->gathering) keep_tagged(global, 1u << PM_PATH_INDIRECT);
-    if (p->density_r2[KIND_INDIRECT] == 0.0)
-        p->density_r2[KIND_INDIRECT] = density_radius2(p, global->count, to_whole[KIND_INDIRECT]);
-    if (p->gathering && p->gather_r2 == 0.0)
-        p->gather_r2 = set->initial_radius > 0.0 ? set->initial_radius * set->initial_radius
-                                                 : p->density_r2[KIND_INDIRECT] * PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS;
+    if (p->radii.density_r2[KIND_INDIRECT] == 0.0)
+        p->radii.density_r2[KIND_INDIRECT] = density_radius2(p, global->count, to_whole[KIND_INDIRECT]);
+    if (p->gathering && p->radii.gather_r2 == 0.0)
+        p->radii.gather_r2 = set->initial_radius > 0.0 ? set->initial_radius * set->initial_radius
+                                                 : p->radii.density_r2[KIND_INDIRECT] * PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS;
     double t_grid = pm_now_seconds();
     bool built = build_grid(p, KIND_CAUSTIC) && build_grid(p, KIND_INDIRECT);
     if (pm_parallel_cancelled()) return take_back(p, film, &start); /* a cancelled sort left the grids empty */
@@ -859,21 +844,21 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
      * while the guide learns to send photons there (at every power of two of the iterations), the
      * shared gather radius may shrink again to the denser light's (a deterministic sequence that
      * only ever shrinks faster, so the limit is unchanged) */
-    bool remeasure = p->guiding && p->gathering && p->seen_measured && iteration >= 2 &&
+    bool remeasure = p->guiding && p->gathering && p->radii.seen_measured && iteration >= 2 &&
                      (iteration & (iteration - 1)) == 0;
-    if ((!p->seen_measured || remeasure) && global->count && set->initial_radius <= 0.0) {
+    if ((!p->radii.seen_measured || remeasure) && global->count && set->initial_radius <= 0.0) {
         const pm_photon_grid *g = &p->grid[KIND_INDIRECT];
-        double mean_r2 = p->density_r2[KIND_INDIRECT] * (p->gathering ? PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS : 1.0);
-        if (!p->seen_measured) {
+        double mean_r2 = p->radii.density_r2[KIND_INDIRECT] * (p->gathering ? PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS : 1.0);
+        if (!p->radii.seen_measured) {
             double seen = seen_density_radius2(p, g, 0, mean_r2, PM_PPM_INITIAL_PHOTONS, to_whole[KIND_INDIRECT]);
-            if (seen > 0.0 && !p->gathering) p->density_r2[KIND_INDIRECT] = fmin(seen, p->density_r2[KIND_INDIRECT]);
+            if (seen > 0.0 && !p->gathering) p->radii.density_r2[KIND_INDIRECT] = fmin(seen, p->radii.density_r2[KIND_INDIRECT]);
         }
         if (p->gathering) {
-            double gathered = seen_density_radius2(p, g, 1, remeasure ? p->gather_r2 : mean_r2, PM_PPM_GATHER_PHOTONS,
+            double gathered = seen_density_radius2(p, g, 1, remeasure ? p->radii.gather_r2 : mean_r2, PM_PPM_GATHER_PHOTONS,
                                                    to_whole[KIND_INDIRECT]);
-            if (gathered > 0.0) p->gather_r2 = fmin(gathered, p->gather_r2);
+            if (gathered > 0.0) p->radii.gather_r2 = fmin(gathered, p->radii.gather_r2);
         }
-        p->seen_measured = true;
+        p->radii.seen_measured = true;
     }
     double t1 = pm_now_seconds();
     p->stats.grid_seconds += t1 - t_grid;
@@ -888,14 +873,14 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     job->film = film;
     job->caustic = p->grid[KIND_CAUSTIC].count ? &p->grid[KIND_CAUSTIC] : NULL;
     job->global = p->grid[KIND_INDIRECT].count ? &p->grid[KIND_INDIRECT] : NULL;
-    job->gather_r2 = p->gather_r2;
+    job->gather_r2 = p->radii.gather_r2;
     job->to_whole[KIND_CAUSTIC] = to_whole[KIND_CAUSTIC];
     job->to_whole[KIND_INDIRECT] = to_whole[KIND_INDIRECT];
     bool photons_here = job->caustic || job->global;
     if (p->guiding) {
         /* a mark's cell: twice the radius global photons are read with */
-        double read_radius = p->gathering ? sqrt(p->gather_r2)
-                                          : (p->query_radius[KIND_INDIRECT] > 0.0 ? p->query_radius[KIND_INDIRECT]
+        double read_radius = p->gathering ? sqrt(p->radii.gather_r2)
+                                          : (p->radii.query_radius[KIND_INDIRECT] > 0.0 ? p->radii.query_radius[KIND_INDIRECT]
                                                                                   : mean_initial_radius(p, KIND_INDIRECT));
         pm_marks_clear(&p->marks_next, (float)(0.25 * read_radius));
     }
@@ -937,8 +922,8 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     double query_sum[KIND_COUNT] = {0, 0}, gather_seconds = 0.0;
     uint64_t query_count[KIND_COUNT] = {0, 0};
     for (int t = 0; t < threads; t++) {
-        p->initial_radius_sum += job->counters[t].radius_sum;
-        p->initial_radius_count += job->counters[t].radius_count;
+        p->radii.initial_radius_sum += job->counters[t].radius_sum;
+        p->radii.initial_radius_count += job->counters[t].radius_count;
         p->stats.photons_found += job->counters[t].found;
         p->stats.eye.dropped_samples += job->counters[t].dropped;
         p->stats.clip_rays += job->counters[t].clip_rays;
@@ -949,7 +934,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         }
     }
     for (int k = 0; k < KIND_COUNT; k++) {
-        if (query_count[k]) p->query_radius[k] = query_sum[k] / (double)query_count[k];
+        if (query_count[k]) p->radii.query_radius[k] = query_sum[k] / (double)query_count[k];
         p->stats.photons_read += pm_photon_grid_read_count(&p->grid[k]);
     }
     free(job);
@@ -960,9 +945,9 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     p->stats.eye.seconds -= fmin(gather_seconds, p->stats.eye.seconds);
     /* Knaus and Zwicker's shrinking radius for the next iteration's gather points (an iteration
      * whose statistics pass was cut counts no photon pass: the next one reads with this radius) */
-    if (p->gathering && p->gather_r2 > 0.0 && whole_passes > 0) {
+    if (p->gathering && p->radii.gather_r2 > 0.0 && whole_passes > 0) {
         double i = (double)iteration + 1.0;
-        p->gather_r2 *= (i + set->alpha) / (i + 1.0);
+        p->radii.gather_r2 *= (i + set->alpha) / (i + 1.0);
     }
     if (p->guiding) {
         /* the marks this iteration made are the next global pass's to learn from */
@@ -971,7 +956,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         p->marks_next = swap;
     }
     if (probing && !cut)
-        p->eye_passes = choose_eye_passes(&p->probe, film->photon_passes, photon_rays,
+        p->radii.eye_passes = choose_eye_passes(&p->probe, film->photon_passes, photon_rays,
                                           (double)(p->stats.eye.rays - eye_rays_before) / eye_passes);
     p->stats.iterations = film->samples;
     p->stats.photon_passes = film->photon_passes;
@@ -989,8 +974,8 @@ const pm_progressive_stats *pm_progressive_get_stats(const pm_progressive *p) { 
 
 pm_radius_summary pm_progressive_radii(const pm_progressive *p, const pm_film *film) {
     pm_radius_summary r = {0, 0, 0, 0, 0, 0};
-    r.initial_mean = p->initial_radius_count ? p->initial_radius_sum / (double)p->initial_radius_count : 0.0;
-    r.gather = p->gathering ? sqrt(p->gather_r2) : 0.0;
+    r.initial_mean = p->radii.initial_radius_count ? p->radii.initial_radius_sum / (double)p->radii.initial_radius_count : 0.0;
+    r.gather = p->gathering ? sqrt(p->radii.gather_r2) : 0.0;
     double sum = 0.0;
     r.min = INFINITY;
     size_t n = (size_t)film->width * film->height;
