@@ -54,10 +54,6 @@ void pm_memory_clear_failure(void);
  * handled, cleared or not. The text is the calling thread's, until its next call. */
 uint64_t pm_memory_failure_mark(void);
 const char *pm_memory_failure_since(uint64_t mark);
-/* Forgets the failures recorded after the mark: for a caller that handled them with a fallback
- * that gives the same answer (a distribution picked uniformly, a normal computed per hit), so no
- * later error names them. Only where no other thread may fail meanwhile (its failure would go too). */
-void pm_memory_forget_since(uint64_t mark);
 
 /* Allocation-failure injection (tests): the n-th checked allocation from now fails (0 = none);
  * with `and_after`, every one after it too. Also set from PMVIEW_FAIL_ALLOC at the first call. */

@@ -70,6 +70,7 @@ typedef struct {
      * the material (the factors with the data textures' whole range of texel values) */
     bool may_diffuse, may_mirror, may_glass, may_glossy;
     bool may_see_through;    /* derived too: pm_material_can_be_transparent (it reads the whole alpha texture) */
+    bool used;               /* derived too: some triangle has this material (the analysis counts only those) */
     /* derived by pm_scene_finalize for a material without base colour, metallic-roughness or
      * transmission texture: its split is the same at every point, so a hit copies it instead of
      * clamping and splitting the factors again (every photon bounce reads a surface) */
@@ -147,15 +148,15 @@ typedef struct {
     float *emitter_cdf;        /* emitter_count+1 entries, by area x luminance x sides */
     uint32_t emitter_count;
     float emitter_power;       /* sum of area x luminance(radiance) x pi x sides */
-    bool emitter_alloc_failed; /* out of memory for the emitter distribution: the caller reports it */
     float *light_cdf;          /* light_count+1 entries by power, when there are more than PM_DIRECT_LIGHT_SAMPLES punctual lights; else NULL */
     uint32_t clamped_emission; /* materials, lights and sky whose emission finalize clamped to PM_MAX_EMISSION: the caller warns */
     pm_scene_analysis analysis;
 } pm_scene;
 
-/* Derives bounds, emitter distribution and analysis. add_default_sky: give a scene without
- * any light a uniform white sky (returns true in *added_sky so the caller can warn). */
-void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky);
+/* Derives bounds, face normals, emitter and light distributions and analysis. add_default_sky:
+ * give a scene without any light a uniform white sky (returns true in *added_sky so the caller
+ * can warn). False when out of memory (pm_memory_failure names what): the scene is only freed. */
+bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky);
 void pm_scene_free(pm_scene *s);
 /* The share of the surface area whose material reflects at least `albedo` of the light (mean base
  * colour; textures not read): near 1 with albedo ~1, a closed room never absorbs light by itself. */

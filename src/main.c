@@ -92,13 +92,12 @@ int main(int argc, char **argv) {
         pm_sky_release(&sky);
         return 1;
     }
-    pm_scene_finalize(&scene, false, NULL);
-    if (scene.clamped_emission && !opt.quiet)
+    bool finalized = pm_scene_finalize(&scene, false, NULL);
+    if (finalized && scene.clamped_emission && !opt.quiet)
         fprintf(stderr, "pmview: warning: %s: %u emission or light value(s) above %g (or not a number) clamped: a float film could not sum them\n",
                 opt.scene_path, scene.clamped_emission, (double)PM_MAX_EMISSION);
-    if (scene.emitter_alloc_failed) {
-        fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", opt.scene_path,
-                pm_memory_failure() ? pm_memory_failure() : "emitter distribution");
+    if (!finalized) {
+        fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", opt.scene_path, pm_memory_failure());
         pm_scene_free(&scene);
         pm_sky_release(&sky);
         return 1;

@@ -25,7 +25,7 @@ static pthread_mutex_t failure_lock = PTHREAD_MUTEX_INITIALIZER;
  * kept apart, at a fixed address, for pm_memory_failure. */
 enum { RECENT = 16, TEXT = 320 };
 static uint64_t failures;
-static struct { uint64_t number; bool forgotten; char text[TEXT]; } recent[RECENT];
+static struct { uint64_t number; char text[TEXT]; } recent[RECENT];
 static char failure[TEXT];
 static bool failed;
 static uint64_t failed_number; /* the number of the failure in `failure` */
@@ -55,7 +55,6 @@ static void record(const char *text) {
     pthread_mutex_lock(&failure_lock);
     failures++;
     recent[failures % RECENT].number = failures;
-    recent[failures % RECENT].forgotten = false;
     snprintf(recent[failures % RECENT].text, TEXT, "%s", text);
     if (!failed) {
         snprintf(failure, sizeof failure, "%s", text);
@@ -75,27 +74,15 @@ uint64_t pm_memory_failure_mark(void) {
 const char *pm_memory_failure_since(uint64_t mark) {
     const char *answer = NULL;
     pthread_mutex_lock(&failure_lock);
-    /* the first after the mark not forgotten, or, when more than RECENT came after it, the oldest
-     * still kept: either way a failure of the operation that took the mark */
+    /* the first after the mark, or, when more than RECENT came after it, the oldest still kept:
+     * either way a failure of the operation that took the mark */
     uint64_t first = failures - mark > RECENT ? failures - RECENT + 1 : mark + 1;
-    for (uint64_t n = first; n <= failures && !answer; n++)
-        if (!recent[n % RECENT].forgotten) {
-            snprintf(since_text, sizeof since_text, "%s", recent[n % RECENT].text);
-            answer = since_text;
-        }
-    pthread_mutex_unlock(&failure_lock);
-    return answer;
-}
-
-void pm_memory_forget_since(uint64_t mark) {
-    pthread_mutex_lock(&failure_lock);
-    for (uint64_t n = mark + 1; n <= failures; n++) recent[n % RECENT].forgotten = true;
-    /* the first failure since the last clear came after the mark: then none came before it */
-    if (failed && failed_number > mark) {
-        failed = false;
-        failure[0] = 0;
+    if (first <= failures) {
+        snprintf(since_text, sizeof since_text, "%s", recent[first % RECENT].text);
+        answer = since_text;
     }
     pthread_mutex_unlock(&failure_lock);
+    return answer;
 }
 
 void pm_memory_fail(uint64_t bytes, const char *what) {

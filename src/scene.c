@@ -111,14 +111,9 @@ static vec3 face_normal(vec3 p0, vec3 p1, vec3 p2) {
 static void analyse(pm_scene *s) {
     pm_scene_analysis *a = &s->analysis;
     memset(a, 0, sizeof *a);
-    uint64_t mark = pm_memory_failure_mark();
-    bool *material_used = pm_calloc(s->material_count ? s->material_count : 1, sizeof(bool), "scene analysis");
-    /* without it every material counts as used: more components may get buffers, none is wrong */
-    pm_memory_forget_since(mark);
-    for (uint32_t t = 0; t < s->triangle_count && material_used; t++) material_used[s->triangle_material[t]] = true;
     for (uint32_t i = 0; i < s->material_count; i++) {
         const pm_material *m = &s->materials[i];
-        if (material_used && !material_used[i]) continue;
+        if (!m->used) continue;
         a->has_glossy |= m->may_glossy;
         a->has_diffuse |= m->may_diffuse || m->may_glossy;
         a->has_mirror |= m->may_mirror;
@@ -128,7 +123,6 @@ static void analyse(pm_scene *s) {
                            (m->normal_texture >= 0 && s->tangents);
         a->has_non_opaque |= pm_material_can_be_transparent(s, m);
     }
-    free(material_used);
     a->has_emissive_triangles = s->emitter_count > 0;
     a->has_punctual_lights = s->light_count > 0;
     a->has_sky = s->sky;
@@ -175,7 +169,8 @@ static vec3 triangle_mean_emission(const pm_scene *s, uint32_t t) {
     return v3_is_black(mean) ? v3_scale(uncovered, 1.f / (N * N * N * N)) : mean;
 }
 
-static void build_emitters(pm_scene *s) {
+/* False when out of memory (the failure recorded): the scene cannot be rendered without it. */
+static bool build_emitters(pm_scene *s) {
     free(s->emitters);
     free(s->emitter_cdf);
     free(s->emitter_radiance);
@@ -187,13 +182,12 @@ static void build_emitters(pm_scene *s) {
     uint32_t candidates = 0;
     for (uint32_t t = 0; t < s->triangle_count; t++)
         if (!v3_is_black(s->materials[s->triangle_material[t]].emission)) candidates++;
-    if (!candidates) return;
+    if (!candidates) return true;
     s->emitters = pm_malloc(candidates * sizeof *s->emitters, "emitter distribution");
     s->emitter_radiance = pm_malloc(candidates * sizeof *s->emitter_radiance, "emitter distribution");
     s->emitter_cdf = pm_malloc((candidates + 1) * sizeof *s->emitter_cdf, "emitter distribution");
     double *running = pm_malloc((candidates + 1) * sizeof *running, "emitter distribution");
     if (!s->emitters || !s->emitter_radiance || !s->emitter_cdf || !running) {
-        /* no light from emitters rather than a crash; pm_scene_finalize reports it */
         free(s->emitters);
         free(s->emitter_radiance);
         free(s->emitter_cdf);
@@ -201,8 +195,7 @@ static void build_emitters(pm_scene *s) {
         s->emitters = NULL;
         s->emitter_radiance = NULL;
         s->emitter_cdf = NULL;
-        s->emitter_alloc_failed = true;
-        return;
+        return false;
     }
     double total = 0.0;
     uint32_t k = 0;
@@ -228,6 +221,7 @@ static void build_emitters(pm_scene *s) {
     if (k) s->emitter_cdf[k] = 1.f;
     free(running);
     s->emitter_power = (float)(total * PM_PI);
+    return true;
 }
 
 /* The power of a punctual light, W: a point light's 4 pi I; a spot's I times the integral of
@@ -247,21 +241,19 @@ static vec3 light_power(const pm_scene *s, const pm_light *l) {
 }
 
 /* The punctual lights' distribution by power (luminance, floored as the emitters'), for scenes
- * with more lights than direct light shades one by one. Without memory it stays NULL and
- * pm_scene_pick_light picks uniformly: noisier, still unbiased. */
-static void build_light_distribution(pm_scene *s) {
+ * with more lights than direct light shades one by one (NULL with fewer: pm_scene_pick_light
+ * then picks uniformly). False when out of memory. */
+static bool build_light_distribution(pm_scene *s) {
     free(s->light_cdf);
     s->light_cdf = NULL;
-    if (s->light_count <= PM_DIRECT_LIGHT_SAMPLES) return;
-    uint64_t mark = pm_memory_failure_mark();
+    if (s->light_count <= PM_DIRECT_LIGHT_SAMPLES) return true;
     double *running = pm_malloc(((size_t)s->light_count + 1) * sizeof *running, "light distribution");
     s->light_cdf = running ? pm_malloc(((size_t)s->light_count + 1) * sizeof *s->light_cdf, "light distribution") : NULL;
     if (!running || !s->light_cdf) {
-        pm_memory_forget_since(mark); /* the uniform pick is as unbiased: nothing to report */
         free(running);
         free(s->light_cdf);
         s->light_cdf = NULL;
-        return;
+        return false;
     }
     double total = 0.0;
     running[0] = 0.0;
@@ -275,6 +267,7 @@ static void build_light_distribution(pm_scene *s) {
         s->light_cdf[i] = total > 0.0 ? (float)(running[i] / total) : (float)i / (float)s->light_count;
     s->light_cdf[s->light_count] = 1.f;
     free(running);
+    return true;
 }
 
 uint32_t pm_scene_pick_light(const pm_scene *s, float u, float *pick_pdf) {
@@ -323,7 +316,7 @@ double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo) {
     return total > 0.0 ? reflective / total : 0.0;
 }
 
-void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
+bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     s->clamped_emission = 0;
     for (uint32_t i = 0; i < s->material_count; i++) s->clamped_emission += clamp_emission(&s->materials[i].emission);
     for (uint32_t i = 0; i < s->light_count; i++) s->clamped_emission += clamp_emission(&s->lights[i].intensity);
@@ -344,15 +337,15 @@ void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     s->ray_scale = extent > 0.f ? extent : 1.f;
     for (uint32_t i = 0; i < s->material_count; i++) material_lobes(s, &s->materials[i]);
     free(s->face_normals);
-    uint64_t mark = pm_memory_failure_mark();
     s->face_normals = pm_malloc(sizeof(vec3) * (s->triangle_count ? s->triangle_count : 1), "face normals");
-    if (!s->face_normals) pm_memory_forget_since(mark); /* each hit computes its own: the same normals */
-    for (uint32_t t = 0; s->face_normals && t < s->triangle_count; t++) {
+    if (!s->face_normals) return false;
+    for (uint32_t i = 0; i < s->material_count; i++) s->materials[i].used = false;
+    for (uint32_t t = 0; t < s->triangle_count; t++) s->materials[s->triangle_material[t]].used = true;
+    for (uint32_t t = 0; t < s->triangle_count; t++) {
         const uint32_t *ix = s->indices + 3 * (size_t)t;
         s->face_normals[t] = face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);
     }
-    build_emitters(s);
-    build_light_distribution(s);
+    if (!build_emitters(s) || !build_light_distribution(s)) return false;
     if (added_sky) *added_sky = false;
     if (add_default_sky && !s->sky && s->emitter_count == 0 && s->light_count == 0) {
         s->sky = true;
@@ -360,6 +353,7 @@ void pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
         if (added_sky) *added_sky = true;
     }
     analyse(s);
+    return true;
 }
 
 void pm_scene_set_sky(pm_scene *s, bool sky, vec3 radiance, pm_sky_map *map) {

@@ -45,11 +45,11 @@ static pm_fuzz_result pm_fuzz_run(const uint8_t *data, size_t size) {
     if (!pm_load_gltf_memory(data, size, name, true, &scene, NULL, r.error, sizeof r.error)) return r;
     r.stage = PM_FUZZ_LOADED;
     r.triangles = scene.triangle_count;
-    pm_scene_finalize(&scene, false, NULL);
+    bool finalized = pm_scene_finalize(&scene, false, NULL);
     pm_accel *accel = NULL;
     pm_session *session = NULL;
-    if (scene.emitter_alloc_failed) {
-        snprintf(r.error, sizeof r.error, "out of memory (the distribution of emissive triangles)");
+    if (!finalized) {
+        snprintf(r.error, sizeof r.error, "out of memory (%s)", pm_memory_failure());
         goto done;
     }
     /* as main does for a file without lights: the environment lights it (here uniform white) */
