@@ -2,8 +2,6 @@
 #ifndef PM_SESSION_HARNESS_H
 #define PM_SESSION_HARNESS_H
 
-#include <string.h>
-
 #include "session.h"
 #include "testing.h"
 
