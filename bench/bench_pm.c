@@ -100,27 +100,32 @@ static double raw_rate_2(const pm_accel *a, const vec3 *o, const vec3 *d, size_t
     return best;
 }
 
-/* Eye passes (direct light and specular, no photon maps) on a 256x256 film: their statistics. */
+/* Eye passes (direct light and specular: the classic mode without photon maps) on a 256x256 film,
+ * through the session: their statistics; with shadow (NULL: none) the shadow photons' settings,
+ * their statistics in *shadow_stats. */
 static pm_eye_stats eye_passes(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int threads, int iterations,
-                               const pm_shadow_map *shadow) {
-    bool comps[PM_COMPONENT_COUNT] = {true, true, false, false};
-    pm_film film;
-    pm_film_init(&film, 256, 256, comps);
-    pm_eye_settings es;
-    memset(&es, 0, sizeof es);
-    es.seed = 1;
-    es.threads = threads;
-    es.max_specular_depth = 12;
-    es.shadow = shadow;
+                               const pm_shadow_settings *shadow, pm_shadow_stats *shadow_stats) {
     pm_eye_stats st;
     memset(&st, 0, sizeof st);
-    for (int i = 0; i < iterations; i++) pm_eye_iterate(s, a, cam, &es, i, &film, &st);
-    pm_film_free(&film);
+    pm_session_config config;
+    pm_session_config_defaults(&config, PM_MODE_CLASSIC, 256, 256, 1, threads);
+    config.classic_photon_pass = false;
+    config.eye.max_specular_depth = 12;
+    if (shadow) config.shadow = *shadow;
+    else config.shadow.mode = PM_SHADOW_OFF;
+    char err[256];
+    pm_session *session = pm_session_create(s, a, cam, &config, err, sizeof err);
+    if (!session) { fprintf(stderr, "bench: %s\n", err); return st; }
+    pm_session_goal goal = {(uint32_t)iterations, 0.0};
+    if (pm_session_run(session, &goal, NULL, NULL, NULL) == PM_RUN_DONE) st = *pm_session_eye_stats(session);
+    else fprintf(stderr, "bench: %s\n", pm_session_error(session));
+    if (shadow_stats) *shadow_stats = *pm_session_shadow_stats(session);
+    pm_session_destroy(session);
     return st;
 }
 
 static double eye_rate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int threads, int iterations) {
-    pm_eye_stats st = eye_passes(s, a, cam, threads, iterations, NULL);
+    pm_eye_stats st = eye_passes(s, a, cam, threads, iterations, NULL, NULL);
     return st.rays / st.seconds;
 }
 
@@ -280,12 +285,12 @@ static void shadow_photons(const char *path, int lights) {
     set.threads = 2;
     set.photons_per_light = pm_shadow_default_photons(512, 512);
     pm_shadow_stats st;
-    pm_shadow_map *m = pm_shadow_map_build(&s, a, &set, &st);
+    memset(&st, 0, sizeof st);
     double best[2] = {1e30, 1e30};
     pm_eye_stats last[2];
     for (int rep = 0; rep < 3; rep++)
         for (int k = 0; k < 2; k++) {
-            pm_eye_stats e = eye_passes(&s, a, &cam, 1, 4, k ? m : NULL);
+            pm_eye_stats e = eye_passes(&s, a, &cam, 1, 4, k ? &set : NULL, k ? &st : NULL);
             if (e.seconds < best[k]) best[k] = e.seconds;
             last[k] = e;
         }
@@ -294,7 +299,6 @@ static void shadow_photons(const char *path, int lights) {
            path, extra_lights, s.light_count, st.built, st.built ? "none" : st.reason, (unsigned long long)st.photons,
            (unsigned long long)st.records, st.seconds, st.bytes, best[0], best[1], best[0] / best[1],
            cast + saved > 0 ? saved / (cast + saved) : 0.0, st.probe_lookup_ns, st.probe_ray_ns);
-    pm_shadow_map_free(m);
     pm_accel_destroy(a);
     pm_scene_free(&s);
 }

@@ -14,7 +14,7 @@
 #include "testing.h"
 
 /* The session's defaults, seed 1 on two threads. */
-static pm_progressive_settings default_settings(int w, int h) { return pm_session_progressive_defaults(w, h, 1, 2); }
+static inline pm_progressive_settings default_settings(int w, int h) { return pm_session_progressive_defaults(w, h, 1, 2); }
 
 typedef struct {
     pm_session *session;
@@ -23,7 +23,7 @@ typedef struct {
 } session;
 
 /* A progressive session without shadow photons (the tests that want them set their own map). */
-static bool start(session *r, const pm_scene *s, const pm_accel *a, const pm_camera *cam, int w, int h,
+static inline bool start(session *r, const pm_scene *s, const pm_accel *a, const pm_camera *cam, int w, int h,
                   const pm_progressive_settings *ps) {
     char err[256];
     memset(r, 0, sizeof *r);
@@ -38,13 +38,13 @@ static bool start(session *r, const pm_scene *s, const pm_accel *a, const pm_cam
     return true;
 }
 
-static void stop(session *r) {
+static inline void stop(session *r) {
     pm_session_destroy(r->session);
     memset(r, 0, sizeof *r);
 }
 
 /* n more samples per pixel (an iteration may add several: pm_progressive_iterate) */
-static bool iterate(session *r, int n) {
+static inline bool iterate(session *r, int n) {
     pm_session_goal goal = {r->film->samples + (uint32_t)n, 0.0};
     if (pm_session_run(r->session, &goal, NULL, NULL, NULL) == PM_RUN_FAILED) {
         CHECK(false, "iteration %u failed: %s", r->film->samples, pm_session_error(r->session));
@@ -63,7 +63,7 @@ static inline bool iterate_passes(session *r, uint32_t n) {
     return true;
 }
 
-static double mean_of(const float *img, size_t n) {
+static inline double mean_of(const float *img, size_t n) {
     double s = 0;
     for (size_t i = 0; i < n; i++) s += img[i];
     return s / (double)n;

@@ -12,6 +12,7 @@
 #include "photonmap.h"
 #include "progressive_harness.h"
 #include "scene_builder.h"
+#include "session_harness.h"
 #include "testing.h"
 
 #define W 32
@@ -97,14 +98,11 @@ static double expected_pixel(const pm_camera *cam, int x, int y, pm_alpha_mode m
     return sum / (n * n);
 }
 
-static void render(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int iterations, int threads, pm_film *film) {
-    pm_film_init(film, W, H, s->analysis.component_possible);
-    pm_eye_settings set;
-    memset(&set, 0, sizeof set);
-    set.seed = 7;
-    set.threads = threads;
-    set.max_specular_depth = 8;
-    for (int i = 0; i < iterations; i++) pm_eye_iterate(s, a, cam, &set, (uint32_t)i, film, NULL);
+/* The classic mode's eye pass alone (no photon maps), seed 7: direct light and alpha crossings. */
+static pm_session *render(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int iterations, int threads) {
+    pm_session_config config = mode_config(PM_MODE_CLASSIC, W, H, 7, threads);
+    config.eye.max_specular_depth = 8;
+    return render_session(s, a, cam, &config, (uint32_t)iterations);
 }
 
 static double pixel_direct(const pm_film *f, int x, int y) {
@@ -178,33 +176,35 @@ static void mask_cutout(void) {
     /* Eye pass below the pane: the floor is lit as if nothing were there behind the hole and black in
      * the opaque half's shadow. */
     pm_camera below = sb_camera(v3(0, 0.9f, 0), v3(0, 0, 0), v3(0, 0, -1), 110.f);
-    pm_film f;
-    render(&s, a, &below, 256, 2, &f);
+    pm_session *r = render(&s, a, &below, 256, 2);
+    if (!r) return;
+    const pm_film *f = pm_session_film(r);
     int lit_pixels[4][2] = {{3, 16}, {8, 4}, {12, 28}, {6, 20}}, shadow_pixels[4][2] = {{28, 16}, {20, 4}, {24, 27}, {18, 16}};
     for (int k = 0; k < 4; k++) {
         int x = lit_pixels[k][0], y = lit_pixels[k][1];
         double want = expected_pixel(&below, x, y, PM_ALPHA_MASK, 1.f);
         CHECK(want > 0.05, "test set-up: pixel %d,%d sees lit floor (%g)", x, y, want);
-        CHECK_NEAR(pixel_direct(&f, x, y), want, 0.01, 0, "floor behind the hole: unoccluded direct light");
+        CHECK_NEAR(pixel_direct(f, x, y), want, 0.01, 0, "floor behind the hole: unoccluded direct light");
         x = shadow_pixels[k][0], y = shadow_pixels[k][1];
         CHECK(expected_pixel(&below, x, y, PM_ALPHA_MASK, 1.f) == 0.0, "test set-up: pixel %d,%d in the shadow", x, y);
-        CHECK(pixel_direct(&f, x, y) == 0.0, "floor behind the opaque half: no direct light (pixel %d,%d: %g)", x, y,
-              pixel_direct(&f, x, y));
+        CHECK(pixel_direct(f, x, y) == 0.0, "floor behind the opaque half: no direct light (pixel %d,%d: %g)", x, y,
+              pixel_direct(f, x, y));
     }
-    pm_film_free(&f);
+    pm_session_destroy(r);
 
     /* Eye pass above: camera rays see the floor through the hole and the pane's top elsewhere. */
     pm_camera above = sb_camera(v3(0, 3, 0.f), v3(0, 0, 0), v3(0, 0, -1), 40.f);
-    render(&s, a, &above, 256, 2, &f);
+    if (!(r = render(&s, a, &above, 256, 2))) return;
+    f = pm_session_film(r);
     int pixels[4][2] = {{5, 16}, {26, 16}, {9, 6}, {22, 25}};
     for (int k = 0; k < 4; k++) {
         int x = pixels[k][0], y = pixels[k][1];
         double want = expected_pixel(&above, x, y, PM_ALPHA_MASK, 1.f);
-        CHECK_NEAR(pixel_direct(&f, x, y), want, 0.01, 0, x < W / 2 ? "floor seen through the hole" : "pane seen at its opaque half");
+        CHECK_NEAR(pixel_direct(f, x, y), want, 0.01, 0, x < W / 2 ? "floor seen through the hole" : "pane seen at its opaque half");
     }
     double floor_through = expected_pixel(&above, 5, 16, PM_ALPHA_MASK, 1.f), pane_top = expected_pixel(&above, 26, 16, PM_ALPHA_MASK, 1.f);
     CHECK(fabs(floor_through - pane_top) > 0.2 * pane_top, "test set-up: floor and pane differ (%g, %g)", floor_through, pane_top);
-    pm_film_free(&f);
+    pm_session_destroy(r);
 
     /* Photons: first-hit power on the floor behind the hole is I x (solid angle of the hole,
      * [-1, 0] x [-1, 1] one unit below the light: two unit corner squares, 2 atan(1/sqrt 3) = pi/3);
@@ -252,39 +252,38 @@ static void blend_pane(void) {
      * (1 - a) of the unoccluded value; summed over the image (1024 pixels x 256 samples, noise
      * about 0.2%), tolerance 1.5%. */
     pm_camera below = sb_camera(v3(0, 0.9f, 0), v3(0, 0, 0), v3(0, 0, -1), 110.f);
-    pm_film f;
-    render(&s, a, &below, 256, 2, &f);
+    pm_session *r = render(&s, a, &below, 256, 2);
+    if (!r) return;
+    const pm_film *f = pm_session_film(r);
     double got = 0.0, unoccluded = 0.0;
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            got += pixel_direct(&f, x, y);
+            got += pixel_direct(f, x, y);
             unoccluded += expected_pixel(&below, x, y, PM_ALPHA_BLEND, 0.f); /* a pane of alpha 0: none */
         }
     CHECK_NEAR(got / unoccluded, 1.0 - alpha, 0.015, 0, "shadow rays: the pane transmits 1 - alpha of the direct light");
     printf("blend direct light: transmitted fraction %.4f (want %.4f)\n", got / unoccluded, 1.0 - alpha);
-    pm_film_free(&f);
+    pm_session_destroy(r);
 
     /* Eye pass above: alpha x the pane + (1 - a) x the floor, itself lit through the pane with
      * 1 - a: (1 - a)^2 only if the camera ray and the shadow ray decide independently. */
     pm_camera above = sb_camera(v3(0, 3, 0.f), v3(0, 0, 0), v3(0, 0, -1), 40.f);
-    render(&s, a, &above, 256, 2, &f);
+    if (!(r = render(&s, a, &above, 256, 2))) return;
+    f = pm_session_film(r);
     double want = 0.0;
     got = 0.0;
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            got += pixel_direct(&f, x, y);
+            got += pixel_direct(f, x, y);
             want += expected_pixel(&above, x, y, PM_ALPHA_BLEND, alpha);
         }
     CHECK_NEAR(got, want, 0.015, 0, "seen through the pane: a L_pane + (1-a)^2 L_floor (independent crossings)");
-    pm_film g;
-    render(&s, a, &above, 4, 1, &g);
-    pm_film f4;
-    render(&s, a, &above, 4, 2, &f4);
-    CHECK(memcmp(g.sum[PM_DIRECT], f4.sum[PM_DIRECT], 3 * sizeof(float) * W * H) == 0,
+    pm_session *one = render(&s, a, &above, 4, 1), *two = render(&s, a, &above, 4, 2);
+    CHECK(one && two && memcmp(pm_session_film(one)->sum[PM_DIRECT], pm_session_film(two)->sum[PM_DIRECT], 3 * sizeof(float) * W * H) == 0,
           "BLEND decisions do not depend on the thread count");
-    pm_film_free(&f);
-    pm_film_free(&g);
-    pm_film_free(&f4);
+    pm_session_destroy(r);
+    pm_session_destroy(one);
+    pm_session_destroy(two);
     pm_accel_destroy(a);
     pm_scene_free(&s);
 }

@@ -20,6 +20,7 @@
 #pragma GCC diagnostic pop
 #include "runlog.h"
 #include "session.h"
+#include "session_harness.h"
 #include "shadowmap.h"
 #include "testing.h"
 
@@ -68,29 +69,15 @@ static double furnace_error(float rho, pm_indirect_mode indirect, int iterations
                                  .projection_maps = true, .irradiance_stride = PM_DEFAULT_IRRADIANCE_STRIDE};
         pm_estimate_settings global = {PM_KERNEL_DISC, PM_DEFAULT_K_GLOBAL, PM_DEFAULT_GLOBAL_RADIUS * s.ray_scale, 7u};
         ps.irradiance_estimate = global;
-        pm_photon_maps maps;
-        pm_film film;
-        bool built = pm_photon_maps_build(&s, a, &ps, &maps, NULL);
-        CHECK(built, "classic maps");
-        bool film_ready = built && pm_film_init(&film, W, H, s.analysis.component_possible);
-        CHECK(!built || film_ready, "classic film");
-        if (film_ready) {
-            pm_eye_settings es;
-            memset(&es, 0, sizeof es);
-            es.seed = 1;
-            es.threads = 2;
-            es.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
-            es.maps = &maps;
-            es.global_estimate = global;
-            es.caustic_estimate = (pm_estimate_settings){PM_KERNEL_DISC, PM_DEFAULT_K_CAUSTIC, PM_DEFAULT_CAUSTIC_RADIUS * s.ray_scale, 7u};
-            es.gather_rays = PM_DEFAULT_GATHER_RAYS;
-            for (int i = 0; i < iterations; i++) pm_eye_iterate(&s, a, &cam, &es, i, &film, NULL);
-            bool resolved = film.samples == (uint32_t)iterations && pm_film_resolve_total(&film, total);
-            CHECK(resolved, "classic: %u of %d eye passes, or the resolve failed", film.samples, iterations);
-            if (resolved) got = mean_of(total, 3 * W * H);
-            pm_film_free(&film);
-        }
-        if (built) pm_photon_maps_free(&maps);
+        pm_session_config config = mode_config(PM_MODE_CLASSIC, W, H, 1, 2);
+        with_photons(&config, &ps, global,
+                     (pm_estimate_settings){PM_KERNEL_DISC, PM_DEFAULT_K_CAUSTIC, PM_DEFAULT_CAUSTIC_RADIUS * s.ray_scale, 7u});
+        config.eye.gather_rays = PM_DEFAULT_GATHER_RAYS;
+        pm_session *session = render_session(&s, a, &cam, &config, (uint32_t)iterations);
+        bool resolved = session && pm_film_resolve_total(pm_session_film(session), total);
+        CHECK(resolved, "classic: the render or the resolve failed");
+        if (resolved) got = mean_of(total, 3 * W * H);
+        pm_session_destroy(session);
     } else {
         pm_progressive_settings ps = default_settings(W, H);
         ps.indirect = indirect;

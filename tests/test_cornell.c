@@ -11,6 +11,7 @@
 #include "image_io.h"
 #include "loader.h"
 #include "photonmap.h"
+#include "session_harness.h"
 #include "testing.h"
 
 #define W 48
@@ -63,30 +64,25 @@ int main(void) {
     pm_accel *a = pm_accel_create(&s, err, sizeof err);
     pm_photon_settings ps = {.global_photons = 100000, .caustic_photons = 100000, .seed = 1, .threads = 2,
                              .max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES, .projection_maps = true};
-    pm_photon_maps maps;
-    CHECK(pm_photon_maps_build(&s, a, &ps, &maps, NULL), "photon maps");
-    CHECK(maps.caustic.count > 0 && maps.global.count > 0, "both maps built");
-    pm_film film;
-    pm_film_init(&film, W, H, s.analysis.component_possible);
-    pm_eye_settings es;
-    memset(&es, 0, sizeof es);
-    es.seed = 1;
-    es.threads = 2;
-    es.max_specular_depth = 12;
-    es.maps = &maps;
-    es.global_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.1f * s.ray_scale, 7u};
-    es.caustic_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.025f * s.ray_scale, 7u};
-    es.gather_rays = 1;
+    pm_session_config config = mode_config(PM_MODE_CLASSIC, W, H, 1, 2);
+    config.eye.max_specular_depth = 12;
+    with_photons(&config, &ps, (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.1f * s.ray_scale, 7u},
+                 (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.025f * s.ray_scale, 7u});
+    config.eye.gather_rays = 1;
     pm_camera cam = s.cameras[0];
-    pm_eye_stats st = {0};
-    for (int i = 0; i < 16; i++) pm_eye_iterate(&s, a, &cam, &es, i, &film, &st);
+    pm_session *session = render_session(&s, a, &cam, &config, 16);
+    if (!session) return pm_test_done("test_cornell");
+    const pm_photon_maps *maps = pm_session_classic_maps(session);
+    CHECK(maps->caustic.count > 0 && maps->global.count > 0, "both maps built");
+    const pm_film *film = pm_session_film(session);
+    pm_eye_stats st = *pm_session_eye_stats(session);
     CHECK(st.dropped_samples == 0, "%llu samples were NaN or infinite", (unsigned long long)st.dropped_samples);
 
     float *total = malloc(sizeof(float) * 3 * W * H), *layer = malloc(sizeof(float) * 3 * W * H);
-    pm_film_resolve_total(&film, total);
+    pm_film_resolve_total(film, total);
     int bad = 0;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        pm_film_resolve(&film, c, layer);
+        pm_film_resolve(film, c, layer);
         for (int i = 0; i < 3 * W * H; i++) bad += !(layer[i] >= 0.f) || !isfinite(layer[i]);
     }
     CHECK(bad == 0, "%d NaN, infinite or negative values in the layers", bad);
@@ -96,12 +92,12 @@ int main(void) {
     CHECK(right.y > 1.5f * right.x && right.y > 1.5f * right.z, "right wall is green (%g %g %g)", right.x, right.y, right.z);
     CHECK(v3_average(floor_) > 0.05f, "floor is lit (%g)", v3_average(floor_));
     float *comp_sum[PM_COMPONENT_COUNT];
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++) comp_sum[c] = film.sum[c];
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) comp_sum[c] = film->sum[c];
     CHECK(comp_sum[PM_CAUSTIC] && comp_sum[PM_INDIRECT] && comp_sum[PM_SPECULAR], "all four components allocated");
     double caustic_energy = 0, indirect_energy = 0;
-    pm_film_resolve(&film, PM_CAUSTIC, layer);
+    pm_film_resolve(film, PM_CAUSTIC, layer);
     for (int i = 0; i < 3 * W * H; i++) caustic_energy += layer[i];
-    pm_film_resolve(&film, PM_INDIRECT, layer);
+    pm_film_resolve(film, PM_INDIRECT, layer);
     for (int i = 0; i < 3 * W * H; i++) indirect_energy += layer[i];
     CHECK(caustic_energy > 0 && indirect_energy > 0, "caustic %g and indirect %g are non-zero", caustic_energy, indirect_energy);
 
@@ -114,7 +110,7 @@ int main(void) {
     float *layers[PM_COMPONENT_COUNT];
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         layers[c] = malloc(sizeof(float) * 3 * W * H);
-        pm_film_resolve(&film, c, layers[c]);
+        pm_film_resolve(film, c, layers[c]);
     }
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
@@ -160,7 +156,7 @@ int main(void) {
     char path[] = "/tmp/pmview-cornell-XXXXXX.exr";
     int fd = mkstemps(path, 4);
     if (fd >= 0) close(fd);
-    CHECK(pm_write_exr(path, &film, err, sizeof err), "write EXR: %s", err);
+    CHECK(pm_write_exr(path, film, err, sizeof err), "write EXR: %s", err);
     int w, h;
     const char *names[3] = {"R", "G", "B"};
     for (int c = 0; c < 3; c++) {
@@ -188,8 +184,7 @@ int main(void) {
     unlink(path);
     free(total);
     free(layer);
-    pm_film_free(&film);
-    pm_photon_maps_free(&maps);
+    pm_session_destroy(session);
     pm_accel_destroy(a);
     pm_scene_free(&s);
     return pm_test_done("test_cornell");

@@ -1,8 +1,11 @@
 /* test_direct.c: the eye pass against analytic answers: inverse-square point light, emission seen directly, sky irradiance. */
+#include <stdlib.h>
+
 #include "accel.h"
 #include "eye.h"
 #include "film.h"
 #include "scene_builder.h"
+#include "session_harness.h"
 #include "testing.h"
 
 #define W 32
@@ -11,7 +14,8 @@
 typedef struct {
     pm_scene scene;
     pm_accel *accel;
-    pm_film film;
+    pm_session *session;
+    const pm_film *film; /* the session's */
     pm_camera camera;
 } rig;
 
@@ -19,22 +23,20 @@ static void rig_render(rig *r, int iterations, int threads) {
     pm_scene_finalize(&r->scene, false, NULL);
     char err[256];
     r->accel = pm_accel_create(&r->scene, err, sizeof err);
-    pm_film_init(&r->film, W, H, r->scene.analysis.component_possible);
-    pm_eye_settings set;
-    memset(&set, 0, sizeof set);
-    set.seed = 42;
-    set.threads = threads;
-    set.max_specular_depth = 8;
-    for (int i = 0; i < iterations; i++) pm_eye_iterate(&r->scene, r->accel, &r->camera, &set, i, &r->film, NULL);
+    pm_session_config config = mode_config(PM_MODE_CLASSIC, W, H, 42, threads);
+    config.eye.max_specular_depth = 8;
+    r->session = render_session(&r->scene, r->accel, &r->camera, &config, (uint32_t)iterations);
+    if (!r->session) exit(pm_test_done("test_direct"));
+    r->film = pm_session_film(r->session);
 }
 
 static vec3 pixel_mean(const rig *r, pm_component c, int x, int y) {
-    const float *p = r->film.sum[c] + 3 * ((size_t)y * W + x);
-    return v3_scale(v3(p[0], p[1], p[2]), 1.f / r->film.samples);
+    const float *p = r->film->sum[c] + 3 * ((size_t)y * W + x);
+    return v3_scale(v3(p[0], p[1], p[2]), 1.f / r->film->samples);
 }
 
 static void rig_free(rig *r) {
-    pm_film_free(&r->film);
+    pm_session_destroy(r->session);
     pm_accel_destroy(r->accel);
     pm_scene_free(&r->scene);
 }
@@ -50,7 +52,7 @@ static void point_light_over_plane(void) {
     sb_point_light(&r.scene, v3(0.3f, h, -0.2f), v3(intensity, intensity * 0.5f, intensity * 0.25f));
     r.camera = sb_camera(v3(0.5f, 4.f, 3.f), v3(0, 0, 0), v3(0, 1, 0), 50.f);
     rig_render(&r, 400, 2);
-    CHECK(r.film.sum[PM_SPECULAR] == NULL && r.film.sum[PM_CAUSTIC] == NULL, "no buffer for components a Lambert plane cannot have");
+    CHECK(r.film->sum[PM_SPECULAR] == NULL && r.film->sum[PM_CAUSTIC] == NULL, "no buffer for components a Lambert plane cannot have");
     int pixels[5][2] = {{16, 16}, {4, 5}, {28, 9}, {10, 27}, {25, 25}};
     for (int k = 0; k < 5; k++) {
         int x = pixels[k][0], y = pixels[k][1];

@@ -8,6 +8,7 @@
 #include "film.h"
 #include "photonmap.h"
 #include "scene_builder.h"
+#include "session_harness.h"
 #include "testing.h"
 
 /* A 4x1 texture, clamped: white, white, black, black (sRGB 255 and 0 decode to 1 and 0). */
@@ -62,27 +63,22 @@ static pm_accel *build(pm_scene *s, bool textured, bool whole_texture) {
     return a;
 }
 
-static double image_mean(const pm_scene *s, const pm_accel *a, const pm_photon_maps *maps, pm_component c) {
+/* The image's mean in component c: the classic mode's eye pass alone, 64 samples. */
+static double image_mean(const pm_scene *s, const pm_accel *a, pm_component c) {
     enum { W = 24, H = 24 };
-    pm_film film;
-    pm_film_init(&film, W, H, s->analysis.component_possible);
-    pm_eye_settings es;
-    memset(&es, 0, sizeof es);
-    es.seed = 5;
-    es.threads = 2;
-    es.max_specular_depth = 8;
-    es.maps = maps;
-    es.global_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.5f, 7u};
-    es.caustic_estimate = es.global_estimate;
-    es.indirect = PM_INDIRECT_PHOTONS;
+    pm_session_config config = mode_config(PM_MODE_CLASSIC, W, H, 5, 2);
+    config.eye.max_specular_depth = 8;
     pm_camera cam = sb_camera(v3(0, 0.6f, 2.5f), v3(0, 0, 0), v3(0, 1, 0), 60.f);
-    for (int i = 0; i < 64; i++) pm_eye_iterate(s, a, &cam, &es, i, &film, NULL);
+    pm_session *session = render_session(s, a, &cam, &config, 64);
     float *img = malloc(sizeof(float) * 3 * W * H);
-    pm_film_resolve(&film, c, img);
     double sum = 0;
-    for (int i = 0; i < 3 * W * H; i++) sum += img[i];
+    CHECK(img != NULL, "image_mean: out of memory");
+    if (session && img) {
+        pm_film_resolve(pm_session_film(session), c, img);
+        for (int i = 0; i < 3 * W * H; i++) sum += img[i];
+    }
     free(img);
-    pm_film_free(&film);
+    pm_session_destroy(session);
     return sum / (3 * W * H);
 }
 
@@ -103,7 +99,7 @@ int main(void) {
     CHECK(v3_is_black(dark), "radiance on the black part is zero (%g %g %g)", dark.x, dark.y, dark.z);
 
     /* direct light on the floor: the same as the untextured lamp's, within the noise of 64 samples */
-    double direct_t = image_mean(&textured, at, NULL, PM_DIRECT), direct_p = image_mean(&plain, ap, NULL, PM_DIRECT);
+    double direct_t = image_mean(&textured, at, PM_DIRECT), direct_p = image_mean(&plain, ap, PM_DIRECT);
     printf("direct light: textured lamp %.5f, plain lamp %.5f\n", direct_t, direct_p);
     CHECK_NEAR(direct_t, direct_p, 0.02, 0, "direct light of the textured lamp");
 
@@ -121,7 +117,7 @@ int main(void) {
     pm_scene half;
     pm_accel *ah = build(&half, true, true);
     CHECK_NEAR(half.emitter_power, 0.5 * want_power, 0.02, 0, "half-lit lamp: power from the texture's mean");
-    double direct_h = image_mean(&half, ah, NULL, PM_DIRECT);
+    double direct_h = image_mean(&half, ah, PM_DIRECT);
     pm_photon_maps mh;
     CHECK(pm_photon_maps_build(&half, ah, &ps, &mh, NULL), "maps");
     double power_h = 0;

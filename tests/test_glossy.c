@@ -18,6 +18,7 @@
 #include "photonmap.h"
 #include "progressive_harness.h"
 #include "reference_image.h"
+#include "session_harness.h"
 #include "testing.h"
 
 enum { W = 64, H = 64, REGIONS = 2 };
@@ -142,20 +143,14 @@ static void point_light_through_lobe(void) {
         }
         stop(&r);
     }
-    pm_film film;
-    ok = ok && pm_film_init(&film, SMALL, SMALL, s.analysis.component_possible);
+    pm_session_config config = mode_config(PM_MODE_PATHTRACE, SMALL, SMALL, 2, 2);
+    pm_session *traced = ok ? render_session(&s, a, &cam, &config, 2048) : NULL;
+    ok = ok && traced;
     if (ok) {
-        pm_eye_settings es;
-        memset(&es, 0, sizeof es);
-        es.seed = 2;
-        es.threads = 2;
-        es.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
-        es.path_trace = true;
-        for (int i = 0; i < 2048; i++) pm_eye_iterate(&s, a, &cam, &es, (uint32_t)i, &film, NULL);
-        pm_film_resolve(&film, PM_INDIRECT, img);
+        pm_film_resolve(pm_session_film(traced), PM_INDIRECT, img);
         mean[2] = mean_of(img, 3 * SMALL * SMALL);
-        pm_film_free(&film);
     }
+    pm_session_destroy(traced);
     CHECK(ok, "the three renders ran");
     double pt = mean[2] > 0.0 ? mean[2] : 1.0;
     printf("point light off roughness 0.3 metal: indirect layer %.5f, with --indirect photons %.5f, path tracer's %.5f "
@@ -209,24 +204,16 @@ int main(void) {
     pm_photon_settings phs = {.global_photons = 200000, .caustic_photons = 0, .seed = 1, .threads = 2, .max_bounces = 32,
                               .projection_maps = true, .irradiance_stride = 4,
                               .irradiance_estimate = {PM_KERNEL_DISC, 64, 0.1f * s.ray_scale, 7u}};
-    pm_photon_maps maps;
-    CHECK(pm_photon_maps_build(&s, a, &phs, &maps, NULL), "classic maps");
-    pm_film film;
-    pm_film_init(&film, W, H, s.analysis.component_possible);
-    pm_eye_settings es;
-    memset(&es, 0, sizeof es);
-    es.seed = 5;
-    es.threads = 2;
-    es.max_specular_depth = 16;
-    es.maps = &maps;
-    es.global_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.1f * s.ray_scale, 7u};
-    es.caustic_estimate = es.global_estimate;
-    es.gather_rays = 1;
-    for (int i = 0; i < 256; i++) pm_eye_iterate(&s, a, &cam, &es, i, &film, NULL);
-    pm_film_resolve_total(&film, img);
-    compare("classic, 256 iterations", img, ref, masks, 0.02, 0.03, 0.04);
-    pm_film_free(&film);
-    pm_photon_maps_free(&maps);
+    pm_session_config config = mode_config(PM_MODE_CLASSIC, W, H, 5, 2);
+    config.eye.max_specular_depth = 16;
+    with_photons(&config, &phs, phs.irradiance_estimate, phs.irradiance_estimate);
+    config.eye.gather_rays = 1;
+    pm_session *classic = render_session(&s, a, &cam, &config, 256);
+    if (classic) {
+        pm_film_resolve_total(pm_session_film(classic), img);
+        compare("classic, 256 iterations", img, ref, masks, 0.02, 0.03, 0.04);
+    }
+    pm_session_destroy(classic);
 
     free(img);
     for (int k = 0; k < REGIONS; k++) free(masks[k]);

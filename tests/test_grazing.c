@@ -12,6 +12,7 @@
 #include "eye.h"
 #include "film.h"
 #include "scene_builder.h"
+#include "session_harness.h"
 #include "testing.h"
 
 #define W 48
@@ -47,24 +48,20 @@ static void grazing(float theta_degrees) {
     if (!a) { pm_scene_free(&s); return; }
     pm_camera cam = sb_camera(v3(3.f, 2.f, 5.f), v3(3.f, 0.f, -60.f), v3(0, 1, 0), 60.f);
 
-    pm_film film;
-    CHECK(pm_film_init(&film, W, H, s.analysis.component_possible), "film");
-    pm_eye_settings set;
-    memset(&set, 0, sizeof set);
-    set.seed = 7;
-    set.threads = 2;
-    set.max_specular_depth = 8;
-    pm_eye_stats stats;
-    memset(&stats, 0, sizeof stats);
+    pm_session_config config = mode_config(PM_MODE_CLASSIC, W, H, 7, 2);
+    config.eye.max_specular_depth = 8;
     const int iterations = 4;
-    for (int i = 0; i < iterations; i++) pm_eye_iterate(&s, a, &cam, &set, (uint32_t)i, &film, &stats);
+    pm_session *session = render_session(&s, a, &cam, &config, iterations);
+    if (!session) { pm_accel_destroy(a); pm_scene_free(&s); return; }
+    const pm_film *film = pm_session_film(session);
+    const pm_eye_stats stats = *pm_session_eye_stats(session);
 
     double want = rho / PM_PI * irradiance * -sun.direction.y; /* E cos(theta) reflected by Lambert */
     int checked = 0, off = 0, sky = 0, sky_lit = 0;
     double worst = 0;
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
-            const float *p = film.sum[PM_DIRECT] + 3 * ((size_t)y * W + x);
+            const float *p = film->sum[PM_DIRECT] + 3 * ((size_t)y * W + x);
             double got = p[0] / iterations;
             if (pixel_sees_only_plane(&cam, x, y, half)) {
                 checked++;
@@ -88,7 +85,7 @@ static void grazing(float theta_degrees) {
     CHECK(sky > 0 && sky_lit == 0, "theta %g: %d of %d sky pixels not black", theta_degrees, sky_lit, sky);
     CHECK(stats.dropped_samples == 0, "theta %g: %llu NaN/Inf samples dropped", theta_degrees,
           (unsigned long long)stats.dropped_samples);
-    pm_film_free(&film);
+    pm_session_destroy(session);
     pm_accel_destroy(a);
     pm_scene_free(&s);
 }

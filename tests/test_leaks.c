@@ -23,6 +23,7 @@
 #include "progressive.h"
 #include "scene_builder.h"
 #include "progressive_harness.h"
+#include "session_harness.h"
 #include "testing.h"
 
 enum { W = 24, H = 24, ITERATIONS = 6 };
@@ -66,6 +67,12 @@ static float brightest(const pm_film *film) {
     return most;
 }
 
+/* A run's observer: the brightest value any iteration's image held. */
+static void note_brightest(void *context, pm_session *s, const pm_session_run_state *state) {
+    float *worst = context;
+    *worst = fmaxf(*worst, brightest(pm_session_film(s)));
+}
+
 static double mean_total(const pm_film *film) {
     float *total = malloc(sizeof(float) * 3 * W * H);
     pm_film_resolve_total(film, total);
@@ -100,40 +107,26 @@ static float classic_dark(const pm_scene *s, const pm_accel *a, const pm_camera 
     pm_photon_settings ps = {.global_photons = 60000, .caustic_photons = 0, .seed = 1, .threads = 2,
                              .max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES, .irradiance_stride = 4,
                              .irradiance_estimate = {PM_KERNEL_DISC, 64, 0.1f * s->ray_scale, 7u}, .unclipped = unclipped};
-    pm_photon_maps maps;
-    if (!pm_photon_maps_build(s, a, &ps, &maps, NULL)) { CHECK(false, "photon maps"); return INFINITY; }
-    *photons_inside = 0;
-    for (size_t i = 0; i < maps.global.count; i++) *photons_inside += inside(pm_photon_position(&maps.global.photons[i]));
-    pm_film film;
-    pm_film_init(&film, W, H, s->analysis.component_possible);
-    pm_eye_settings es;
-    memset(&es, 0, sizeof es);
-    es.seed = 1;
-    es.threads = 2;
-    es.max_specular_depth = 12;
-    es.maps = &maps;
-    es.global_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.1f * s->ray_scale, 7u};
-    es.caustic_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.025f * s->ray_scale, 7u};
-    es.gather_rays = 1;
-    es.unclipped = unclipped;
-    pm_eye_stats st = {0};
+    pm_session_config config = mode_config(PM_MODE_CLASSIC, W, H, 1, 2);
+    config.eye.max_specular_depth = 12;
+    with_photons(&config, &ps, (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.1f * s->ray_scale, 7u},
+                 (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.025f * s->ray_scale, 7u});
+    config.eye.gather_rays = 1;
+    config.eye.unclipped = unclipped;
     float worst = 0.f;
-    for (int i = 0; i < ITERATIONS; i++) {
-        pm_eye_iterate(s, a, cam, &es, (uint32_t)i, &film, &st);
-        film.samples++;
-        worst = fmaxf(worst, brightest(&film));
-    }
-    /* the estimates straight from the map at the first hit too (--indirect photons) */
-    es.indirect = PM_INDIRECT_PHOTONS;
-    pm_film_clear(&film);
-    for (int i = 0; i < 2; i++) {
-        pm_eye_iterate(s, a, cam, &es, (uint32_t)i, &film, &st);
-        film.samples++;
-        worst = fmaxf(worst, brightest(&film));
-    }
-    if (lit_mean) *lit_mean = mean_total(&film);
-    pm_film_free(&film);
-    pm_photon_maps_free(&maps);
+    pm_session *gathered = observed_session(s, a, cam, &config, ITERATIONS, note_brightest, &worst);
+    if (!gathered) return INFINITY;
+    const pm_photon_maps *maps = pm_session_classic_maps(gathered);
+    *photons_inside = 0;
+    for (size_t i = 0; i < maps->global.count; i++) *photons_inside += inside(pm_photon_position(&maps->global.photons[i]));
+    pm_session_destroy(gathered);
+    /* the estimates straight from the map at the first hit too (--indirect photons): the same
+     * maps, built again from the same settings and seed */
+    config.eye.indirect = PM_INDIRECT_PHOTONS;
+    pm_session *read_directly = observed_session(s, a, cam, &config, 2, note_brightest, &worst);
+    if (!read_directly) return INFINITY;
+    if (lit_mean) *lit_mean = mean_total(pm_session_film(read_directly));
+    pm_session_destroy(read_directly);
     return worst;
 }
 
@@ -142,6 +135,7 @@ static bool under_box(vec3 x) { return fabsf(x.x) < 0.499f && fabsf(x.z) < 0.499
 
 static void check_scene(const char *name, const pm_scene *s, const pm_accel *a, const pm_camera *dark_cam,
                         const pm_camera *lit_cam, bool (*inside)(vec3)) {
+    double gathered_lit = 0.0;
     for (int indirect = 0; indirect < 2; indirect++) {
         const char *how = indirect == PM_INDIRECT_GATHER ? "gather" : "photons";
         double lit = 0.0;
@@ -153,6 +147,7 @@ static void check_scene(const char *name, const pm_scene *s, const pm_accel *a, 
         CHECK(dark == 0.f, "%s, progressive (%s): the dark part stays black in every iteration (%g)", name, how, dark);
         CHECK(lit > 0.01, "%s, progressive (%s): the lit part is lit (%g)", name, how, lit);
         CHECK(leaked > 0.f, "%s, progressive (%s): unclipped estimates leak here, so the check can fail (%g)", name, how, leaked);
+        if (indirect == PM_INDIRECT_GATHER) gathered_lit = lit;
     }
     size_t landed = 0, landed_unclipped = 0;
     double lit = 0.0;
@@ -164,6 +159,8 @@ static void check_scene(const char *name, const pm_scene *s, const pm_accel *a, 
     CHECK(landed == 0, "%s: no photon lands in the dark part (%zu)", name, landed);
     CHECK(dark == 0.f, "%s, classic: the dark part stays black in every iteration (%g)", name, dark);
     CHECK(lit > 0.01, "%s, classic: the lit part is lit (%g)", name, lit);
+    /* the same light in both modes (1.2% and 0.2% apart on the two scenes): a sample counted twice would halve it */
+    CHECK_NEAR(lit, gathered_lit, 0.05, 0, "classic lit part's mean against the progressive mode's");
     CHECK(leaked > 0.f, "%s, classic: unclipped estimates leak here, so the check can fail (%g)", name, leaked);
 }
 

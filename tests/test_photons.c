@@ -6,6 +6,7 @@
 #include "photonmap.h"
 #include "rng.h"
 #include "scene_builder.h"
+#include "session_harness.h"
 #include "testing.h"
 
 static pm_photon_settings photon_settings(uint64_t global, uint64_t caustic) {
@@ -160,27 +161,21 @@ static void white_furnace(float rho, int irradiance_stride, float metallic) {
     pm_photon_settings ps = photon_settings(photons, photons);
     ps.irradiance_stride = irradiance_stride;
     ps.irradiance_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 100, 0.3f, 7u};
-    pm_photon_maps maps;
-    CHECK(pm_photon_maps_build(&s, a, &ps, &maps, NULL), "build");
-    CHECK(maps.irradiance.count == (irradiance_stride ? (maps.global.count + irradiance_stride - 1) / irradiance_stride : 0),
-          "irradiance points: one per %d global photons (%zu of %zu)", irradiance_stride, maps.irradiance.count,
-          maps.global.count);
-    pm_film film;
-    pm_film_init(&film, 16, 16, s.analysis.component_possible);
-    pm_eye_settings es;
-    memset(&es, 0, sizeof es);
-    es.seed = 3;
-    es.threads = 2;
-    es.max_specular_depth = PM_DEFAULT_MAX_SPECULAR_DEPTH;
-    es.maps = &maps;
-    es.global_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 100, 0.3f, 7u};
-    es.caustic_estimate = es.global_estimate;
-    es.indirect = PM_INDIRECT_GATHER;
-    es.gather_rays = 4;
+    pm_session_config config = mode_config(PM_MODE_CLASSIC, 16, 16, 3, 2);
+    pm_estimate_settings estimate = {PM_KERNEL_DISC, 100, 0.3f, 7u};
+    with_photons(&config, &ps, estimate, estimate);
+    config.eye.indirect = PM_INDIRECT_GATHER;
+    config.eye.gather_rays = 4;
     pm_camera cam = sb_camera(v3(0, 0, 0.5f), v3(0.3f, -0.2f, -1), v3(0, 1, 0), 60.f);
-    for (int i = 0; i < 64; i++) pm_eye_iterate(&s, a, &cam, &es, i, &film, NULL);
+    pm_session *session = render_session(&s, a, &cam, &config, 64);
+    if (!session) { pm_accel_destroy(a); pm_scene_free(&s); return; }
+    const pm_photon_maps *maps = pm_session_classic_maps(session);
+    CHECK(maps->irradiance.count == (irradiance_stride ? (maps->global.count + irradiance_stride - 1) / irradiance_stride : 0),
+          "irradiance points: one per %d global photons (%zu of %zu)", irradiance_stride, maps->irradiance.count,
+          maps->global.count);
+    const pm_film *film = pm_session_film(session);
     float *total = malloc(sizeof(float) * 3 * 16 * 16);
-    pm_film_resolve_total(&film, total);
+    pm_film_resolve_total(film, total);
     double sum = 0, lo = INFINITY, hi = 0;
     for (int i = 0; i < 3 * 16 * 16; i++) sum += total[i];
     double want = le / (1.f - rho);
@@ -191,7 +186,7 @@ static void white_furnace(float rho, int irradiance_stride, float metallic) {
      * (area sampling of emitters a hair away across a corner) is left to the mean. */
     float kd = rho * (1.f - metallic), ks = rho * metallic;
     double want_indirect = kd * (want - le - le * ks / (1.f - ks));
-    pm_film_resolve(&film, PM_INDIRECT, total);
+    pm_film_resolve(film, PM_INDIRECT, total);
     for (int i = 0; i < 3 * 16 * 16; i++) {
         lo = fmin(lo, total[i]);
         hi = fmax(hi, total[i]);
@@ -202,8 +197,7 @@ static void white_furnace(float rho, int irradiance_stride, float metallic) {
     CHECK(lo > 0.9 * want_indirect && hi < 1.1 * want_indirect, "white furnace: every pixel's indirect within 10%% (%g..%g, expected %g)",
           lo, hi, want_indirect);
     free(total);
-    pm_film_free(&film);
-    pm_photon_maps_free(&maps);
+    pm_session_destroy(session);
     pm_accel_destroy(a);
     pm_scene_free(&s);
 }

@@ -15,13 +15,14 @@
 #include "loader.h"
 #include "photonmap.h"
 #include "reference_image.h"
+#include "session_harness.h"
 #include "testing.h"
 
 typedef struct {
     pm_scene scene;
     pm_accel *accel;
-    pm_photon_maps maps;
-    pm_film film;
+    pm_session *session;
+    const pm_film *film; /* the session's */
 } render;
 
 static bool render_scene(const char *path, int w, int h, int iterations, uint64_t photons, uint64_t caustic_photons,
@@ -35,25 +36,20 @@ static bool render_scene(const char *path, int w, int h, int iterations, uint64_
     pm_photon_settings ps = {.global_photons = photons, .caustic_photons = caustic_photons, .seed = 1, .threads = 2,
                              .max_bounces = 32, .projection_maps = true, .irradiance_stride = 4,
                              .irradiance_estimate = {PM_KERNEL_DISC, 64, 0.1f * r->scene.ray_scale, 7u}};
-    pm_photon_maps_build(&r->scene, r->accel, &ps, &r->maps, NULL);
-    pm_film_init(&r->film, w, h, r->scene.analysis.component_possible);
-    pm_eye_settings es;
-    memset(&es, 0, sizeof es);
-    es.seed = 11;
-    es.threads = 2;
-    es.max_specular_depth = 16;
-    es.maps = &r->maps;
-    es.global_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.1f * r->scene.ray_scale, 7u};
-    es.caustic_estimate = (pm_estimate_settings){PM_KERNEL_DISC, caustic_k, 0.025f * r->scene.ray_scale, 7u};
-    es.gather_rays = 1;
+    pm_session_config config = mode_config(PM_MODE_CLASSIC, w, h, 11, 2);
+    config.eye.max_specular_depth = 16;
+    with_photons(&config, &ps, (pm_estimate_settings){PM_KERNEL_DISC, 64, 0.1f * r->scene.ray_scale, 7u},
+                 (pm_estimate_settings){PM_KERNEL_DISC, caustic_k, 0.025f * r->scene.ray_scale, 7u});
+    config.eye.gather_rays = 1;
     pm_camera cam = r->scene.camera_count ? r->scene.cameras[0] : pm_scene_auto_camera(&r->scene, (float)w / h);
-    for (int i = 0; i < iterations; i++) pm_eye_iterate(&r->scene, r->accel, &cam, &es, i, &r->film, NULL);
+    r->session = render_session(&r->scene, r->accel, &cam, &config, (uint32_t)iterations);
+    if (!r->session) { pm_accel_destroy(r->accel); pm_scene_free(&r->scene); return false; }
+    r->film = pm_session_film(r->session);
     return true;
 }
 
 static void free_render(render *r) {
-    pm_film_free(&r->film);
-    pm_photon_maps_free(&r->maps);
+    pm_session_destroy(r->session);
     pm_accel_destroy(r->accel);
     pm_scene_free(&r->scene);
 }
@@ -85,13 +81,13 @@ int main(void) {
             float *ours = malloc(sizeof(float) * 3 * n), *spec = malloc(sizeof(float) * 3 * n);
             unsigned char *mask = malloc(n);
             if (have_direct) {
-                pm_film_resolve(&r.film, PM_SPECULAR, spec);
+                pm_film_resolve(r.film, PM_SPECULAR, spec);
                 for (size_t i = 0; i < n; i++) mask[i] = spec[3 * i] == 0.f && spec[3 * i + 1] == 0.f && spec[3 * i + 2] == 0.f;
-                pm_film_resolve(&r.film, PM_DIRECT, ours);
+                pm_film_resolve(r.film, PM_DIRECT, ours);
                 compare("cornell direct vs Mitsuba direct", ours, &direct_ref, mask, 0.0013, 0.01);
             }
             if (have_path) {
-                pm_film_resolve_total(&r.film, ours);
+                pm_film_resolve_total(r.film, ours);
                 compare("cornell total vs Mitsuba path", ours, &path_ref, NULL, 0.0055, 0.015);
             }
             free(ours);
@@ -109,10 +105,10 @@ int main(void) {
             size_t n = (size_t)caustic_ref.width * caustic_ref.height;
             float *ours = malloc(sizeof(float) * 3 * n), *caustic = malloc(sizeof(float) * 3 * n);
             float *direct = malloc(sizeof(float) * 3 * n), *specular = malloc(sizeof(float) * 3 * n);
-            pm_film_resolve(&r.film, PM_CAUSTIC, caustic);
-            pm_film_resolve(&r.film, PM_DIRECT, direct);
-            pm_film_resolve(&r.film, PM_SPECULAR, specular);
-            pm_film_resolve_total(&r.film, ours);
+            pm_film_resolve(r.film, PM_CAUSTIC, caustic);
+            pm_film_resolve(r.film, PM_DIRECT, direct);
+            pm_film_resolve(r.film, PM_SPECULAR, specular);
+            pm_film_resolve_total(r.film, ours);
             caustic_region m = caustic_region_measure(caustic_ref.width, caustic_ref.height, ours, direct, specular, caustic,
                                                       (const float *const *)caustic_ref.rgb);
             printf("caustic scene: focus (%d,%d) 3x3 ours/ref = %.4f\n", m.focus_x, m.focus_y, m.focus_ours / m.focus_ref);

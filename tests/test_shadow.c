@@ -18,6 +18,7 @@
 #include "progressive_harness.h"
 #include "rng.h"
 #include "scene_builder.h"
+#include "session_harness.h"
 #include "shadowmap.h"
 #include "testing.h"
 
@@ -130,22 +131,20 @@ static tally verify(const char *what, const pm_scene *s, const pm_accel *a, cons
     return t;
 }
 
-/* The direct layer of `iterations` eye passes (classic eye pass, no photon maps). */
+/* The direct layer of `iterations` eye passes (the classic mode without photon maps), with the
+ * shadow photons of `shadow` (NULL: none): the session builds that map itself, and its record
+ * count is returned in *records (may be NULL) to tie it to the map the test verified. */
 static float *direct_layer(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int w, int h, int iterations,
-                           uint64_t seed, const pm_shadow_map *m, pm_eye_stats *stats) {
-    pm_film film;
-    bool components[PM_COMPONENT_COUNT] = {true, false, false, false};
-    if (!pm_film_init(&film, w, h, components)) return NULL;
-    pm_eye_settings set;
-    memset(&set, 0, sizeof set);
-    set.seed = seed;
-    set.threads = 2;
-    set.max_specular_depth = 8;
-    set.shadow = m;
-    for (int i = 0; i < iterations; i++) pm_eye_iterate(s, a, cam, &set, (uint32_t)i, &film, stats);
-    float *out = malloc(sizeof(float) * 3 * (size_t)w * h);
-    if (out) pm_film_resolve(&film, PM_DIRECT, out);
-    pm_film_free(&film);
+                           uint64_t seed, const pm_shadow_settings *shadow, pm_eye_stats *stats, uint64_t *records) {
+    pm_session_config config = mode_config(PM_MODE_CLASSIC, w, h, seed, 2);
+    config.eye.max_specular_depth = 8;
+    if (shadow) config.shadow = *shadow;
+    pm_session *session = render_session(s, a, cam, &config, (uint32_t)iterations);
+    float *out = session ? malloc(sizeof(float) * 3 * (size_t)w * h) : NULL;
+    if (out) pm_film_resolve(pm_session_film(session), PM_DIRECT, out);
+    if (session && stats) *stats = *pm_session_eye_stats(session);
+    if (session && records) *records = pm_session_shadow_stats(session)->records;
+    pm_session_destroy(session);
     return out;
 }
 
@@ -157,14 +156,17 @@ static double relmse(const float *a, const float *b, size_t n) {
 
 /* The direct layer with shadow photons against the ray-only one with the same seed (equal when
  * every verdict is right) and with another seed (the noise the comparison is read against). */
-static void compare_direct(const char *what, const pm_scene *s, const pm_accel *a, const pm_shadow_map *m,
-                           const pm_camera *cam, int size, int iterations) {
+static void compare_direct(const char *what, const pm_scene *s, const pm_accel *a, const pm_shadow_settings *set,
+                           const pm_shadow_stats *built, const pm_camera *cam, int size, int iterations) {
     pm_eye_stats with, without;
     memset(&with, 0, sizeof with);
     memset(&without, 0, sizeof without);
-    float *on = direct_layer(s, a, cam, size, size, iterations, 5, m, &with);
-    float *off = direct_layer(s, a, cam, size, size, iterations, 5, NULL, &without);
-    float *other = direct_layer(s, a, cam, size, size, iterations, 6, NULL, NULL);
+    uint64_t records = 0;
+    float *on = direct_layer(s, a, cam, size, size, iterations, 5, set, &with, &records);
+    float *off = direct_layer(s, a, cam, size, size, iterations, 5, NULL, &without, NULL);
+    float *other = direct_layer(s, a, cam, size, size, iterations, 6, NULL, NULL, NULL);
+    CHECK(records == built->records, "%s: the session's map holds %llu records, the verified one %llu", what,
+          (unsigned long long)records, (unsigned long long)built->records);
     size_t n = 3 * (size_t)size * size, differing = 0;
     for (size_t i = 0; on && off && i < n; i++) differing += on[i] != off[i];
     double noise = on && other ? relmse(other, off, n) : 0.0, error = on && off ? relmse(on, off, n) : 1.0;
@@ -209,7 +211,7 @@ static void caustic_scene(void) {
         tally t = verify("caustic scene", &s, a, m, &cam, 64, 20000, glass);
         CHECK(t.uncertain_behind_glass > 100, "points behind the glass ball exist (%llu) and are left to the ray",
               (unsigned long long)t.uncertain_behind_glass);
-        compare_direct("caustic scene", &s, a, m, &cam, 48, 4);
+        compare_direct("caustic scene", &s, a, &set, &st, &cam, 48, 4);
     }
     pm_shadow_map_free(m);
     pm_accel_destroy(a);
@@ -243,7 +245,7 @@ static void cornell_box(void) {
             if (s.materials[i].may_glass) glass = (int)i;
         pm_camera cam = s.cameras[0];
         verify("cornell box + point light", &s, a, m, &cam, 64, 20000, glass);
-        compare_direct("cornell box + point light", &s, a, m, &cam, 48, 4);
+        compare_direct("cornell box + point light", &s, a, &set, &st, &cam, 48, 4);
     }
     pm_shadow_map_free(m);
     pm_accel_destroy(a);
@@ -292,7 +294,7 @@ static void thin_occluders(void) {
         tally t = verify("thin occluders", &s, a, m, &cam, 96, 40000, -1);
         /* every point in the thin shadows (the floor behind the pole and the strip) was left to its ray */
         CHECK(t.truly_hidden > 200, "the pole and the strip shadow the floor (%llu queries)", (unsigned long long)t.truly_hidden);
-        compare_direct("thin occluders", &s, a, m, &cam, 64, 2);
+        compare_direct("thin occluders", &s, a, &set, &st, &cam, 64, 2);
     }
     pm_shadow_map_free(m);
     pm_accel_destroy(a);

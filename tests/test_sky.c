@@ -6,6 +6,7 @@
 #include "rng.h"
 #include "scene_builder.h"
 #include "defaults.h"
+#include "session_harness.h"
 #include "sky.h"
 #include "testing.h"
 
@@ -97,21 +98,18 @@ static void plane_under(pm_sky_map *m, const char *name, int photons, double eye
     char err[256];
     pm_accel *a = pm_accel_create(&s, err, sizeof err);
     pm_camera cam = sb_camera(v3(0, 2, 0.01f), v3(0, 0, 0), v3(0, 0, -1), 20.f);
-    pm_film film;
-    pm_film_init(&film, 16, 16, s.analysis.component_possible);
-    pm_eye_settings set;
-    memset(&set, 0, sizeof set);
-    set.seed = 5;
-    set.threads = 2;
-    set.max_specular_depth = 4;
-    pm_eye_stats eye_stats;
-    memset(&eye_stats, 0, sizeof eye_stats);
-    for (int i = 0; i < 256; i++) pm_eye_iterate(&s, a, &cam, &set, i, &film, &eye_stats);
+    pm_session_config config = mode_config(PM_MODE_CLASSIC, 16, 16, 5, 2);
+    config.eye.max_specular_depth = 4;
+    pm_session *session = render_session(&s, a, &cam, &config, 256);
     double sum[3] = {0, 0, 0};
-    for (int i = 0; i < 256; i++)
-        for (int c = 0; c < 3; c++) sum[c] += film.sum[PM_DIRECT][3 * i + c] / film.samples;
-    CHECK(eye_stats.dropped_samples == 0, "%s: %llu eye samples dropped as not finite", name,
-          (unsigned long long)eye_stats.dropped_samples);
+    if (session) {
+        const pm_film *film = pm_session_film(session);
+        for (int i = 0; i < 256; i++)
+            for (int c = 0; c < 3; c++) sum[c] += film->sum[PM_DIRECT][3 * i + c] / film->samples;
+        CHECK(pm_session_eye_stats(session)->dropped_samples == 0, "%s: %llu eye samples dropped as not finite", name,
+              (unsigned long long)pm_session_eye_stats(session)->dropped_samples);
+    }
+    pm_session_destroy(session);
     CHECK_NEAR(sum[0] / 256, rho / PM_PI * e.x, eye_rel, 0, "plane under the map: radiance = rho/pi x E (R)");
     CHECK_NEAR(sum[2] / 256, rho / PM_PI * e.z, eye_rel, 0, "plane under the map: radiance = rho/pi x E (B)");
 
@@ -149,7 +147,6 @@ static void plane_under(pm_sky_map *m, const char *name, int photons, double eye
     }
     free(buf.data);
     pm_photon_tracer_destroy(t);
-    pm_film_free(&film);
     pm_accel_destroy(a);
     pm_scene_free(&s);
 }

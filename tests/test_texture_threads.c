@@ -14,6 +14,7 @@
 #include "defaults.h"
 #include "film.h"
 #include "progressive.h"
+#include "progressive_harness.h"
 #include "scene_builder.h"
 #include "testing.h"
 
@@ -65,21 +66,13 @@ static float *render(const pm_scene *s, const pm_accel *a, const pm_camera *cam,
     pm_progressive_settings ps = {.seed = 9, .threads = threads, .photons = 3000, .caustic_photons = 3000,
                                   .alpha = PM_DEFAULT_ALPHA, .indirect = PM_INDIRECT_GATHER,
                                   .max_specular_depth = 8, .max_photon_bounces = 16};
-    char err[256];
-    pm_progressive *p = pm_progressive_create(s, a, cam, &ps, err, sizeof err);
-    CHECK(p != NULL, "create: %s", err);
-    if (!p) return NULL;
-    bool components[PM_COMPONENT_COUNT];
-    pm_progressive_components(p, components);
-    pm_film film;
-    pm_film_init(&film, W, H, components);
-    CHECK(pm_progressive_bind(p, &film, err, sizeof err), "bind: %s", err);
-    for (int i = 0; i < 2; i++) CHECK(pm_progressive_iterate(p, &film, 0), "iteration");
+    session r;
+    if (!start(&r, s, a, cam, W, H, &ps)) return NULL;
+    CHECK(iterate_passes(&r, 2), "iterations");
     float *direct = malloc(sizeof(float) * 3 * W * H), *total = malloc(sizeof(float) * 3 * W * H);
-    pm_film_resolve(&film, PM_DIRECT, direct);
-    pm_film_resolve_total(&film, total);
-    pm_progressive_destroy(p);
-    pm_film_free(&film);
+    pm_film_resolve(r.film, PM_DIRECT, direct);
+    pm_film_resolve_total(r.film, total);
+    stop(&r);
     /* the direct layer after the total: callers get both in one buffer */
     float *both = malloc(sizeof(float) * 6 * W * H);
     memcpy(both, total, sizeof(float) * 3 * W * H);

@@ -9,6 +9,8 @@
 #include "photonmap.h"
 #include "progressive.h"
 #include "session.h"
+#include "progressive_harness.h"
+#include "session_harness.h"
 #include "scene_builder.h"
 #include "testing.h"
 
@@ -138,51 +140,48 @@ int main(void) {
     pm_accel *a = pm_accel_create(&s, err, sizeof err);
     CHECK(a != NULL, "%s", err);
     pm_camera cam = sb_camera(v3(0, 1, 0.95f), v3(0, 0.9f, 0), v3(0, 1, 0), 75.f);
-    pm_film films[3];
-    pm_photon_maps maps[3];
+    pm_session *classic[3];
+    const pm_film *films[3];
+    const pm_photon_maps *maps[3];
+    bool rendered = true;
     for (int t = 0; t < 3; t++) {
         pm_photon_settings ps = {.global_photons = 20000, .caustic_photons = 20000, .seed = 77, .threads = t + 1,
                                  .max_bounces = 16, .projection_maps = true, .irradiance_stride = 4,
                                  .irradiance_estimate = {PM_KERNEL_DISC, 32, 0.5f, 7u}};
-        CHECK(pm_photon_maps_build(&s, a, &ps, &maps[t], NULL), "photon maps");
-        pm_film_init(&films[t], 40, 36, s.analysis.component_possible);
-        pm_eye_settings set;
-        memset(&set, 0, sizeof set);
-        set.seed = 99;
-        set.threads = t + 1;
-        set.max_specular_depth = 8;
-        set.maps = &maps[t];
-        set.global_estimate = (pm_estimate_settings){PM_KERNEL_DISC, 32, 0.2f, 7u};
-        set.caustic_estimate = set.global_estimate;
-        set.gather_rays = 1;
-        for (int i = 0; i < 2; i++) pm_eye_iterate(&s, a, &cam, &set, i, &films[t], NULL);
+        pm_session_config config = mode_config(PM_MODE_CLASSIC, 40, 36, 99, t + 1);
+        config.eye.max_specular_depth = 8;
+        pm_estimate_settings estimate = {PM_KERNEL_DISC, 32, 0.2f, 7u};
+        with_photons(&config, &ps, estimate, estimate);
+        config.eye.gather_rays = 1;
+        classic[t] = render_session(&s, a, &cam, &config, 2);
+        rendered = rendered && classic[t];
+        films[t] = classic[t] ? pm_session_film(classic[t]) : NULL;
+        maps[t] = classic[t] ? pm_session_classic_maps(classic[t]) : NULL;
     }
+    if (!rendered) return pm_test_done("test_threads");
     for (int t = 1; t < 3; t++) {
-        CHECK(maps[t].global.count == maps[0].global.count && maps[t].caustic.count == maps[0].caustic.count,
+        CHECK(maps[t]->global.count == maps[0]->global.count && maps[t]->caustic.count == maps[0]->caustic.count,
               "photon counts differ at %d threads", t + 1);
-        if (maps[t].global.count == maps[0].global.count)
-            CHECK(memcmp(maps[t].global.photons, maps[0].global.photons, maps[0].global.count * sizeof(pm_photon)) == 0,
+        if (maps[t]->global.count == maps[0]->global.count)
+            CHECK(memcmp(maps[t]->global.photons, maps[0]->global.photons, maps[0]->global.count * sizeof(pm_photon)) == 0,
                   "global map differs at %d threads", t + 1);
-        if (maps[t].caustic.count == maps[0].caustic.count)
-            CHECK(memcmp(maps[t].caustic.photons, maps[0].caustic.photons, maps[0].caustic.count * sizeof(pm_photon)) == 0,
+        if (maps[t]->caustic.count == maps[0]->caustic.count)
+            CHECK(memcmp(maps[t]->caustic.photons, maps[0]->caustic.photons, maps[0]->caustic.count * sizeof(pm_photon)) == 0,
                   "caustic map differs at %d threads", t + 1);
     }
-    CHECK(maps[0].caustic.count > 0, "mirror and glass under an area light make caustic photons");
+    CHECK(maps[0]->caustic.count > 0, "mirror and glass under an area light make caustic photons");
     size_t n = 3 * 40 * 36;
     double energy = 0;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        if (!films[0].sum[c]) continue;
+        if (!films[0]->sum[c]) continue;
         for (int t = 1; t < 3; t++)
-            CHECK(memcmp(films[0].sum[c], films[t].sum[c], n * sizeof(float)) == 0, "component %s differs between 1 and %d threads",
+            CHECK(memcmp(films[0]->sum[c], films[t]->sum[c], n * sizeof(float)) == 0, "component %s differs between 1 and %d threads",
                   pm_component_names[c], t + 1);
-        for (size_t i = 0; i < n; i++) energy += films[0].sum[c][i];
+        for (size_t i = 0; i < n; i++) energy += films[0]->sum[c][i];
     }
     CHECK(energy > 0, "the room must be lit");
-    CHECK(films[0].sum[PM_SPECULAR] != NULL, "mirror and glass make a specular buffer");
-    for (int t = 0; t < 3; t++) {
-        pm_film_free(&films[t]);
-        pm_photon_maps_free(&maps[t]);
-    }
+    CHECK(films[0]->sum[PM_SPECULAR] != NULL, "mirror and glass make a specular buffer");
+    for (int t = 0; t < 3; t++) pm_session_destroy(classic[t]);
     /* the progressive mode: eye pass, photon passes, grids and gather on every thread count, both
      * ways of reading indirect light */
     for (int mode = 0; mode < 2; mode++) {
@@ -191,16 +190,10 @@ int main(void) {
             pm_progressive_settings ps = {.seed = 5, .threads = t + 1, .photons = 8000, .caustic_photons = 8000,
                                           .alpha = 2.0 / 3.0, .indirect = mode ? PM_INDIRECT_PHOTONS : PM_INDIRECT_GATHER,
                                           .max_specular_depth = 8, .max_photon_bounces = 16};
-            pm_progressive *p = pm_progressive_create(&s, a, &cam, &ps, err, sizeof err);
-            bool components[PM_COMPONENT_COUNT];
-            pm_progressive_components(p, components);
-            pm_film_init(&films[t], 40, 36, components);
-            CHECK(pm_progressive_bind(p, &films[t], err, sizeof err), "bind: %s", err);
-            for (int i = 0; i < 3; i++) CHECK(pm_progressive_iterate(p, &films[t], 0), "progressive iteration");
-            images[t] = malloc(sizeof(float) * n);
-            pm_film_resolve_total(&films[t], images[t]);
-            pm_progressive_destroy(p);
-            pm_film_free(&films[t]);
+            session r;
+            images[t] = calloc(n, sizeof(float));
+            if (start(&r, &s, a, &cam, 40, 36, &ps) && iterate_passes(&r, 3)) pm_film_resolve_total(r.film, images[t]);
+            stop(&r);
         }
         for (int t = 1; t < 3; t++)
             CHECK(memcmp(images[0], images[t], n * sizeof(float)) == 0, "progressive (%s) image differs between 1 and %d threads",
