@@ -18,6 +18,7 @@
 #include "accel.h"
 #include "defaults.h"
 #include "loader.h"
+#include "memory.h"
 #include "scene.h"
 #include "session.h"
 
