@@ -61,7 +61,7 @@ static void check_against_brute_force(const char *what, const pm_photon *ph, siz
         vec3 want, got;
         uint32_t nw = brute_force(ph, count, p, n, r * r, mask, &want);
         uint32_t ng = pm_photon_grid_sum_facing(&g, p, n, r * r, mask, &got);
-        batch[q] = (pm_grid_query){p, n, r * r, mask, NULL, n, n};
+        batch[q] = (pm_grid_query){.p = p, .n = n, .radius2 = r * r, .path_mask = mask, .ns = n, .wo = n};
         single[q].found = ng;
         single[q].power = got;
         nonempty += nw > 0;
