@@ -235,6 +235,23 @@ typedef struct {
     float plane_dist2; /* lower bound of the distance to any photon in the range */
 } pending_range;
 
+/* One step down from the node at mid of [*lo, *hi): the range goes on to q's side of the split
+ * plane, and the far side is returned to be visited later, with its plane's squared distance. */
+static inline pending_range step_down(const float q[3], const pm_photon *photons, const uint8_t *axis, size_t mid,
+                                      size_t *lo, size_t *hi) {
+    int a = axis[mid];
+    float offset = q[a] - photons[mid].pos[a];
+    pending_range far = {*lo, mid, offset * offset};
+    if (offset < 0.f) {
+        far.lo = mid + 1;
+        far.hi = *hi;
+        *hi = mid;
+    } else {
+        *lo = mid + 1;
+    }
+    return far;
+}
+
 typedef struct {
     float q[3];
     uint32_t *index;
@@ -306,16 +323,7 @@ static size_t nearest_search(const pm_kdtree *t, vec3 p, size_t k, float max_dis
         while (hi - lo > SCAN_RANGE) {
             size_t mid = lo + (hi - lo) / 2;
             knn_consider(&s, photons, mid);
-            int a = axis[mid];
-            float offset = s.q[a] - photons[mid].pos[a];
-            pending_range far = {lo, mid, offset * offset};
-            if (offset < 0.f) {
-                far.lo = mid + 1;
-                far.hi = hi;
-                hi = mid;
-            } else {
-                lo = mid + 1;
-            }
+            pending_range far = step_down(s.q, photons, axis, mid, &lo, &hi);
             if (far.hi > far.lo && !knn_beyond(&s, far.plane_dist2)) stack[depth++] = far;
         }
         for (size_t i = lo; i < hi; i++) knn_consider(&s, photons, i);
@@ -355,16 +363,7 @@ static inline void within_walk(const pm_kdtree *t, vec3 p, float radius2,
             size_t mid = lo + (hi - lo) / 2;
             float d2 = dist2_to(q, &photons[mid]);
             if (d2 <= radius2) visit(ctx, &photons[mid], d2);
-            int a = axis[mid];
-            float offset = q[a] - photons[mid].pos[a];
-            pending_range far = {lo, mid, offset * offset};
-            if (offset < 0.f) {
-                far.lo = mid + 1;
-                far.hi = hi;
-                hi = mid;
-            } else {
-                lo = mid + 1;
-            }
+            pending_range far = step_down(q, photons, axis, mid, &lo, &hi);
             if (far.hi > far.lo && far.plane_dist2 <= radius2) stack[depth++] = far;
         }
         for (size_t i = lo; i < hi; i++) {
