@@ -57,7 +57,8 @@ typedef struct {
     uint32_t iterations;       /* in the published image (0: a preview) */
     uint64_t photons;          /* emitted since the last restart */
     double seconds;            /* rendering time since the last restart */
-    double mean_radius;        /* progressive: mean radius of the pixels' statistics (0 otherwise) */
+    double mean_radius;        /* progressive: mean radius of the pixels' statistics, or the final-gather radius where no
+                                  pixel keeps statistics (0 in the other modes) */
     bool preview;              /* the published image is the coarse preview */
     bool paused, finished;
 } pm_session_progress;

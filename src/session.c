@@ -490,7 +490,7 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
     s->published.iterations = preview ? 0 : s->film.samples;
     s->published.photons = preview ? 0 : photons_emitted(s);
     s->published.seconds = s->render_seconds;
-    s->published.mean_radius = r.mean;
+    s->published.mean_radius = r.pixels ? r.mean : r.gather; /* a scene read by gathering alone has no pixel radii */
     s->published.preview = preview;
     pthread_mutex_unlock(&s->lock);
 }

@@ -132,7 +132,7 @@ int pm_window_run(const pm_options *opt, const pm_scene *scene, const pm_accel *
             pm_session_unlock_latest(session);
             redraw = true;
             char status[192];
-            snprintf(status, sizeof status, "%s%u it  %.2f Mphotons  %.1f Mphotons/s  %.1f s  r %.3g%s", progress.preview ? "preview  " : "",
+            snprintf(status, sizeof status, "%s%u it  %.2f Mphotons  %.3g Mphotons/s  %.1f s  r %.3g%s", progress.preview ? "preview  " : "",
                      progress.iterations, progress.photons * 1e-6, progress.seconds > 0 ? progress.photons / progress.seconds * 1e-6 : 0.0,
                      progress.seconds, progress.mean_radius, paused ? "  paused" : "");
             pm_view_set_status(view, status);
