@@ -65,7 +65,10 @@ EOF
 signal_case() { # description, signal, delay (s) into the render, want exit, pmview arguments...
     desc=$1; sig=$2; delay=$3; want=$4; shift 4
     rm -f "$tmp/s.exr" "$tmp/out" # not the last case's output: the redirection below happens in the background
-    timeout -s KILL 60 $bin "$@" --stats --snapshot "$tmp/s.exr" >"$tmp/out" 2>"$tmp/err" &
+    # --foreground: timeout passes the signal to pmview alone; without it, it sends it to pmview and
+    # then to its whole process group, and the second copy can come after the render stopped, while
+    # the image is written, where a second signal means abandon the file (as a second Ctrl-C does)
+    timeout --foreground -s KILL 60 $bin "$@" --stats --snapshot "$tmp/s.exr" >"$tmp/out" 2>"$tmp/err" &
     pid=$!
     # the render starts after "stat film" (a signal while loading just ends the process)
     i=0; while ! grep -qs "^stat film" "$tmp/out" && [ $i -lt 200 ]; do sleep 0.05; i=$((i + 1)); done
