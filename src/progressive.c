@@ -7,7 +7,7 @@
  * write the same statistics and the image is the same at any thread count (a grid over visible
  * points, filled by photons as pbrt-v4 does, would need atomic float adds whose order changes the
  * sums). The grid's cell is three times the mean radius its queries used the iteration before;
- * docs/progressive.md has the measurement against a kd-tree. Where a photon pass costs more than
+ * docs/benchmarks.md (`bench gather`) has the measurement against a kd-tree. Where a photon pass costs more than
  * an eye pass (small images, whose photon passes have a floor) and eye noise dominates, several
  * eye passes read the same photons: the noise probe below chooses how many.
  */
