@@ -370,7 +370,7 @@ int main(int argc, char **argv) {
             stored = st.stored_global + st.stored_caustic;
         }
     for (int threads = 1; threads <= 2; threads++)
-        /* ratio_to_raw_scattered: over threads x the one-thread raw rate (as before);
+        /* ratio_to_raw_scattered: over threads x the one-thread raw rate (a key kept for comparison across builds);
          * ratio_to_raw_same_threads: over the raw rate measured at the same thread count */
         printf("bench photons threads=%d emitted=%llu stored=%llu photons_per_second=%.0f rays_per_second=%.0f ratio_to_raw_scattered=%.3f kdtree_seconds=%.4f ratio_to_raw_same_threads=%.3f\n",
                threads, (unsigned long long)emitted, (unsigned long long)stored, photon_rate[threads], photon_rays[threads],

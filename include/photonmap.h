@@ -91,7 +91,7 @@ void pm_photon_tracer_set_deadline(pm_photon_tracer *t, double deadline);
 
 /* With skip true, global passes store no record of a photon's first hit when it left a punctual
  * light: the reader traces that light itself (the progressive mode's gather points, by shadow
- * rays). Its later hits are stored as before. */
+ * rays). Its later hits are stored as any photon's. */
 void pm_photon_tracer_skip_punctual_first_hits(pm_photon_tracer *t, bool skip);
 
 /* The area photon records can land on (triangles whose material has a diffuse or glossy share
@@ -117,7 +117,7 @@ void pm_photon_tracer_set_splats(pm_photon_tracer *t, const pm_camera *camera, i
 
 /* The emission guide (guide.h): how many of the tracer's sources it may steer; with a guide of
  * that many sources, every later global pass draws guided photons from it, counts their records
- * in marked cells, and teaches it from them (NULL: unguided, as before). False when out of memory. */
+ * in marked cells, and teaches it from them (NULL: unguided, every source sampled by its own density). False when out of memory. */
 uint32_t pm_photon_tracer_guided_sources(const pm_photon_tracer *t);
 bool pm_photon_tracer_set_guide(pm_photon_tracer *t, pm_guide *guide, const pm_marks *marks);
 

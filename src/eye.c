@@ -453,8 +453,8 @@ static void add_punctual_light(const eye_job *job, const pm_surface *sf, vec3 wo
  * at 512x512 for the same error at 320x320). Gather rays go on through a sharp glossy lobe (GGX
  * alpha below PM_PPM_GATHER_LOBE_ALPHA) by sampling it, as photons do: read there, each photon
  * weighted by a lobe that peaks at 1 / (pi alpha^2), such a point turns a few photons into bright
- * speckles that take thousands of iterations to clear (the floor beside a smooth metal ball). The photons there
- * counted all light arriving at the lobe; now the ray finds it: punctual lights by a shadow ray
+ * speckles that take thousands of iterations to clear (the floor beside a smooth metal ball). Photons there would
+ * count all light arriving at the lobe; instead the ray finds it: punctual lights by a shadow ray
  * from the lobe, emission and sky where the ray meets them past the lobe (through mirrors and
  * glass too), the rest in the photons at the next diffuse point; all but that last go to
  * out[lobe_component]. A punctual light's light through mirrors or glass onto the lobe would be
@@ -559,7 +559,7 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
                           vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2], pm_visible_point *vp,
                           pm_visible_point *gp) {
     /* a point's fields are all written where it becomes valid; clearing two 96-byte records per
-     * pixel was 2% of an iteration */
+     * pixel would cost 2% of an iteration */
     vp->valid = false;
     if (gp) gp->valid = false;
     pm_surface sf, y;

@@ -24,7 +24,7 @@
 /* ---- outputs and inputs ---- */
 
 /* No output may be an input (the scene, the reference, the sky map) or another output: --log
- * naming the scene used to overwrite it with CSV. One error line, before any work. */
+ * naming the scene would overwrite it with CSV. One error line, before any work. */
 static bool outputs_spare_inputs(const pm_options *o, bool window) {
     char screenshot_exr[4096] = "";
     if (window) snprintf(screenshot_exr, sizeof screenshot_exr, "%.*s.exr", (int)strlen(o->screenshot) - 4, o->screenshot);

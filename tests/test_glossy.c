@@ -125,7 +125,7 @@ static void point_light_through_lobe(void) {
     }
     sb_point_light(&s, v3(0.f, 2.4f, -0.5f), v3(12.f, 11.4f, 10.8f));
     pm_accel *a = sb_finish(&s);
-    CHECK(s.emitter_count == 0 && s.light_count == 1, "the lamp is a point light now");
+    CHECK(s.emitter_count == 0 && s.light_count == 1, "the lamp is replaced by a point light");
     pm_camera cam = s.cameras[0];
     float *img = malloc(sizeof(float) * 3 * SMALL * SMALL);
     double mean[3] = {0, 0, 0}; /* default, --indirect photons, path tracer */
@@ -183,7 +183,7 @@ int main(void) {
 
     /* the default mode with final gathering, a fixed number of iterations. Gather rays go on
      * through the roughness 0.3 sphere's sharp lobe: reading photons there instead, each weighted
-     * by the lobe, gave relMSE 0.0026 (speckles on the floor beside it); now 0.0015 */
+     * by the lobe, gives relMSE 0.0026 (speckles on the floor beside it), going on 0.0015 */
     pm_progressive_settings ps = default_settings(W, H);
     session r;
     if (start(&r, &s, a, &cam, W, H, &ps) && iterate(&r, 512)) {
