@@ -53,8 +53,8 @@ bool pm_reference_load(const char *path, bool with_layers, pm_reference_image *r
     for (size_t i = 0; i < n; i++) {
         bool finite = isfinite(ref->rgb[0][i]) && isfinite(ref->rgb[1][i]) && isfinite(ref->rgb[2][i]);
         if (!finite && !ref->known) {
-            ref->known = malloc(n);
-            if (!ref->known) { snprintf(err, err_size, "%s: out of memory (reference mask)", path); return false; }
+            ref->known = pm_malloc(n, "reference mask");
+            if (!ref->known) { snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure()); return false; }
             memset(ref->known, 1, i);
         }
         if (ref->known) ref->known[i] = finite;
