@@ -1,11 +1,7 @@
 #!/bin/sh
 # test_cli.sh: the command line as a user meets it: usage errors exit 2, bad files exit 1 with one error line, outputs appear.
 cd "$(dirname "$0")/.." || exit 1
-bin=build/asan/pmview
-[ -x "$bin" ] || bin=./pmview
-export ASAN_OPTIONS=detect_leaks=1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+. tests/cli_setup.sh
 fails=0; checks=0
 expect() { # description, expected exit code, command...
     desc=$1; want=$2; shift 2

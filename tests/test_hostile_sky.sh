@@ -1,11 +1,7 @@
 #!/bin/sh
 # test_hostile_sky.sh: hostile --sky maps and --reference images from the command line: texels past the float range clamped with a warning and rendered exactly; cut, mislabelled, non-regular and oversized files refused in one line before the scene is loaded, and fast.
 cd "$(dirname "$0")/.." || exit 1
-bin=build/asan/pmview
-[ -x "$bin" ] || bin=./pmview
-export ASAN_OPTIONS=detect_leaks=1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+. tests/cli_setup.sh
 checks=0; fails=0
 fail() { fails=$((fails + 1)); echo "FAIL: $*"; sed 's/^/    /' "$tmp/err" | head -5; }
 files() { python3 tests/sky_files.py "$@" || { echo "FAIL: tests/sky_files.py $*"; exit 1; }; }

@@ -1,11 +1,7 @@
 #!/bin/sh
 # test_log.sh: --log run.csv in the three modes (columns, row cadence, error falling against --reference) and --mode pathtrace from the command line (under ASan).
 cd "$(dirname "$0")/.." || exit 1
-bin=build/asan/pmview
-[ -x "$bin" ] || bin=./pmview
-export ASAN_OPTIONS=detect_leaks=1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+. tests/cli_setup.sh
 fails=0; checks=0
 expect() { # description, expected exit code, command...
     desc=$1; want=$2; shift 2

@@ -1,11 +1,7 @@
 #!/bin/sh
 # test_outputs.sh: outputs never damage inputs: an output naming an input (or another output) is refused before any work, a read-only EXR target is refused, and SIGINT/SIGTERM during an EXR write leave no temporary file (exit 130/143).
 cd "$(dirname "$0")/.." || exit 1
-bin=build/asan/pmview
-[ -x "$bin" ] || bin=./pmview
-export ASAN_OPTIONS=detect_leaks=1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+. tests/cli_setup.sh
 checks=0; fails=0
 fail() { fails=$((fails + 1)); echo "FAIL: $*"; }
 # refused DESCRIPTION CAUSE FILE ORIGINAL command...: exit 1, one "pmview: error:" line holding CAUSE, FILE the same bytes as ORIGINAL
