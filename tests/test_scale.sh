@@ -29,6 +29,21 @@ scene["nodes"] = [len(d["nodes"]) - 1]
 json.dump(d, open(dst, "w"))
 PY
 }
+# same_within_noise NAME DESCRIPTION WHAT: renders $tmp/NAME.gltf against the reference, whose
+# relMSE must stay below the seed-to-seed $noise (and 0.01) and whose channel means within 1%
+same_within_noise() {
+    checks=$((checks + 1))
+    if ! render "$1" "$tmp/$1.gltf"; then
+        fails=$((fails + 1)); echo "FAIL: $2 does not render: $(head -n 1 "$tmp/$1.err")"; return
+    fi
+    relmse=$(field "$1" relmse)
+    r=$(field "$1" mean_ratio_r); g=$(field "$1" mean_ratio_g); b=$(field "$1" mean_ratio_b)
+    echo "$2: relMSE $relmse, mean ratios $r $g $b"
+    if ! python3 -c "import sys; n, e, *m = map(float, sys.argv[1:]); sys.exit(0 if e < min(0.01, n) and all(abs(x - 1) < 0.01 for x in m) else 1)" \
+        "$noise" "$relmse" "$r" "$g" "$b"; then
+        fails=$((fails + 1)); echo "FAIL: $2: not $3 within noise (relMSE $relmse, noise $noise, means $r $g $b)"
+    fi
+}
 render ref scenes/cornell-box.gltf || { echo "FAIL: the original does not render"; cat "$tmp/ref.err"; exit 1; }
 REF="$tmp/ref.exr"
 render seed2 scenes/cornell-box.gltf 2
@@ -37,17 +52,7 @@ echo "noise: relMSE between seeds 1 and 2 = $noise"
 for v in "far_small 1e5 1e-3" "far_large 1e5 1e3" "tiny 0 1e-12" "huge 0 1e30"; do
     set -- $v
     wrap "$1" "$2" "$3"
-    checks=$((checks + 1))
-    if ! render "$1" "$tmp/$1.gltf"; then
-        fails=$((fails + 1)); echo "FAIL: offset $2 scale $3 does not render: $(head -n 1 "$tmp/$1.err")"; continue
-    fi
-    relmse=$(field "$1" relmse)
-    r=$(field "$1" mean_ratio_r); g=$(field "$1" mean_ratio_g); b=$(field "$1" mean_ratio_b)
-    echo "offset $2 scale $3: relMSE $relmse, mean ratios $r $g $b"
-    if ! python3 -c "import sys; n, e, *m = map(float, sys.argv[1:]); sys.exit(0 if e < min(0.01, n) and all(abs(x - 1) < 0.01 for x in m) else 1)" \
-        "$noise" "$relmse" "$r" "$g" "$b"; then
-        fails=$((fails + 1)); echo "FAIL: offset $2 scale $3: not the same image within noise (relMSE $relmse, noise $noise, means $r $g $b)"
-    fi
+    same_within_noise "$1" "offset $2 scale $3" "the same image"
 done
 
 # A closed room (a cube of 8 shared corners, 12 triangles) lit by a point light at 5 W/sr, and the
@@ -88,17 +93,7 @@ echo "room noise: relMSE between seeds 1 and 2 = $noise"
 for v in "room_huge 1e30 5e60" "room_tiny 1e-30 5e-60"; do
     set -- $v
     room "$1" "$2" "$3"
-    checks=$((checks + 1))
-    if ! render "$1" "$tmp/$1.gltf"; then
-        fails=$((fails + 1)); echo "FAIL: room at scale $2 does not render: $(head -n 1 "$tmp/$1.err")"; continue
-    fi
-    relmse=$(field "$1" relmse)
-    r=$(field "$1" mean_ratio_r); g=$(field "$1" mean_ratio_g); b=$(field "$1" mean_ratio_b)
-    echo "room at scale $2, intensity $3: relMSE $relmse, mean ratios $r $g $b"
-    if ! python3 -c "import sys; n, e, *m = map(float, sys.argv[1:]); sys.exit(0 if e < min(0.01, n) and all(abs(x - 1) < 0.01 for x in m) else 1)" \
-        "$noise" "$relmse" "$r" "$g" "$b"; then
-        fails=$((fails + 1)); echo "FAIL: room at scale $2: not the unit room's image within noise (relMSE $relmse, noise $noise, means $r $g $b)"
-    fi
+    same_within_noise "$1" "room at scale $2, intensity $3" "the unit room's image"
 done
 echo "test_scale: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]
