@@ -11,10 +11,13 @@
 CC      ?= cc
 CXX     ?= c++
 OPT     ?= -O2
-CFLAGS_COMMON := -g -fno-math-errno -Wall -Wextra -Wno-unused-parameter -pthread -Iinclude -Ibuild -I/usr/include/OpenEXR
+# Open MPI's headers and library (cluster.c is the one file that uses them)
+MPI_CFLAGS = $(shell pkg-config --cflags ompi-c 2>/dev/null || echo -I/usr/lib/x86_64-linux-gnu/openmpi/include)
+MPI_LIBS   = $(shell pkg-config --libs ompi-c 2>/dev/null || echo -lmpi)
+CFLAGS_COMMON = -g -fno-math-errno -Wall -Wextra -Wno-unused-parameter -pthread -Iinclude -Ibuild -I/usr/include/OpenEXR $(MPI_CFLAGS)
 CFLAGS   = -std=c11 $(OPT) $(CFLAGS_COMMON) -D_POSIX_C_SOURCE=200809L
 CXXFLAGS = -std=c++14 $(OPT) -g -Wall -pthread -Iinclude -I/usr/include/stb
-LIBS    := -lembree3 -lglfw -lOSMesa -lOpenEXRCore-3_1 -lstb -lstdc++ -lm -pthread
+LIBS     = -lembree3 -lglfw -lOSMesa -lOpenEXRCore-3_1 -lstb $(MPI_LIBS) -lstdc++ -lm -pthread
 
 C_SRC   := $(filter-out src/main.c,$(wildcard src/*.c))
 CXX_SRC := $(wildcard src/*.cpp)

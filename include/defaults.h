@@ -5,6 +5,8 @@
 #define PM_DEFAULT_SCENE "scenes/cornell-box.gltf"
 #define PM_DEFAULT_WIDTH 512            /* height follows the camera's aspect ratio, else square */
 #define PM_DEFAULT_SNAPSHOT_ITERATIONS 64
+#define PM_CLUSTER_MERGE_SECONDS 0.25     /* the window's merges of every rank's image, at most this often */
+#define PM_CLUSTER_SILENCE_SECONDS 0.5    /* after a signal, a rank that has not finished by then is taken for gone (mpirun's SIGKILL follows its SIGTERM by 1 s) */
 #define PM_DEFAULT_WINDOW_ITERATIONS 100000 /* the window keeps converging until closed */
 #define PM_DEFAULT_SEED 1
 #define PM_DEFAULT_SCREENSHOT "pmview-screenshot.png" /* the window's P key; the layers go beside it as .exr */

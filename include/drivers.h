@@ -6,6 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include "accel.h"
+#include "cluster.h"
 #include "options.h"
 #include "runlog.h"
 #include "scene.h"
@@ -19,10 +20,13 @@ void pm_snapshot_catch_signals(pm_session *session);
 /* Everything writing the snapshot takes beside the film, admitted before the render so that a run
  * whose file could not be written is refused at once. */
 uint64_t pm_snapshot_output_bytes(const char *path, const pm_film *film);
-/* Renders to --iterations or --time with the progress bar, --log rows and the --reference curve
- * as the run's observer, then writes the file (the room `reserved` for it is given back first).
- * Returns the exit code: 0, 1 (an error line printed), 130 or 143 (interrupted: the image so far). */
-int pm_snapshot_run(const pm_options *o, pm_session *session, const pm_reference_image *reference, uint64_t *reserved);
+/* Renders to --iterations or --time with the progress bar, --log rows, the --reference curve and
+ * --checkpoint writes as the run's observer, then writes the file (the room `reserved` for it is
+ * given back first). Under mpirun (cluster not NULL) every rank calls it: each renders its share,
+ * rank 0 reads and writes the merged image. Returns the exit code: 0, 1 (an error line printed),
+ * 130 or 143 (interrupted: the image so far). */
+int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *session, const pm_reference_image *reference,
+                    uint64_t *reserved);
 
 /* ---- what both show (src/snapshot.c) ---- */
 /* The display settings the options ask for at first: components and exposure. */
@@ -38,7 +42,7 @@ void pm_exit_on_signals(void);
 /* The GLFW loop: camera navigation and keys, drawn from the session's published images, restarts
  * and resizes asked of the session. Returns the exit code. process_start: for the time to the
  * first frame (--stats). */
-int pm_window_run(const pm_options *o, const pm_scene *scene, const pm_accel *accel, pm_session *session,
+int pm_window_run(const pm_options *o, pm_cluster *cluster, const pm_scene *scene, const pm_accel *accel, pm_session *session,
                   const pm_camera *start_camera, double process_start);
 
 #endif

@@ -101,6 +101,21 @@ bool pm_film_add(pm_film *f, pm_component c, size_t pixel, vec3 v);
  * (sum - carry). The component must be enabled. */
 double pm_film_sum_at(const pm_film *f, pm_component c, size_t i);
 
+/* ---- the additive form: what the ranks of a cluster sum (cluster.h) ----
+ * A film as doubles that add: two films' forms summed element by element, then unpacked, resolve
+ * to the mean of every sample both hold and of every photon pass both made, each pixel weighed by
+ * its own counts (a pixel's photon estimate is the mean of its passes' estimates, tau / R^2 summed
+ * over passes: Hachisuka and Jensen's rescaled tau makes sum_passes Phi_i / (pi R_i^2) equal
+ * tau / (pi R^2)). Layout: 2 header values (the samples and photon passes every pixel holds), then
+ * per pixel its sample count, each enabled component's 3 sums, and per enabled statistics slot its
+ * photon passes, 3 of tau / R^2, the photon count N, R^2 and 1 where R^2 is set (to average R). */
+size_t pm_film_packed_count(const pm_film *f);
+void pm_film_pack(const pm_film *f, double *out);
+/* Makes f (built with the same components and slots as the packed films) hold what a summed form
+ * describes: not ragged, every pixel's sums rescaled to the uniform counts, R^2 the mean of the
+ * films that had one. */
+void pm_film_unpack(pm_film *f, const double *in);
+
 /* An image against a reference: relMSE = mean over pixels (those with mask[i] != 0, or all when
  * mask is NULL) and channels of (x - r)^2 / (r^2 + 0.01), and each channel's sums, whose ratio is
  * the mean ratio. rgb is interleaved, ref planar. The one definition --reference and the tests use. */

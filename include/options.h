@@ -28,6 +28,7 @@ typedef struct {
     long k, gather_rays, irradiance_stride;
     long eye_passes;         /* progressive: per photon pass (0 = automatic) */
     double time_limit;       /* 0 = none */
+    double checkpoint;       /* --checkpoint: seconds between writes of the image so far (0 = none) */
     double exposure_ev;
     double max_radius;
     double alpha, radius;    /* progressive: radius reduction, initial radius (0 = from the scene) */

@@ -4,6 +4,7 @@
 
 #include <stdbool.h>
 #include "accel.h"
+#include "cluster.h"
 #include "film.h"
 #include "loader.h"
 #include "scene.h"
@@ -16,5 +17,7 @@ void pm_print_film_stats(const pm_film *film);
 /* After the run: photons, progressive or classic maps, shadow photons, path tracing, eye pass and
  * memory. threads and alpha as the run was configured; pathtrace: --mode pathtrace. */
 void pm_print_final_stats(pm_session *session, const pm_accel *accel, int threads, double alpha, bool pathtrace);
+/* Under mpirun (rank 0): the rank count, the merges, the bytes each sent, the job's photons; a single process prints ranks=1. */
+void pm_print_cluster_stats(const pm_cluster *cluster);
 
 #endif

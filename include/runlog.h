@@ -44,9 +44,10 @@ double pm_reference_relmse(const pm_film *film, const pm_reference_image *ref, f
  * progressive iteration may add several samples). */
 bool pm_log_wanted(uint32_t logged, uint32_t samples);
 void pm_log_header(FILE *f);
-/* One row: the film as it is after `seconds` of rendering, `photons` emitted so far. scratch: 3
- * floats a pixel, or NULL without a reference. */
-void pm_log_row(FILE *f, pm_session *session, uint64_t photons, const pm_reference_image *ref, float *scratch,
-                double seconds);
+/* One row: `film` (the session's, or a cluster's merged one) as it is after `seconds` of rendering,
+ * `photons` emitted so far; the session gives the radii's mode state. scratch: 3 floats a pixel, or
+ * NULL without a reference. */
+void pm_log_row(FILE *f, pm_session *session, const pm_film *film, uint64_t photons, const pm_reference_image *ref,
+                float *scratch, double seconds);
 
 #endif

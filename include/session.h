@@ -170,6 +170,15 @@ void pm_session_unlock_latest(pm_session *s);
  * layer. Takes effect with the next published image; false when the mode has no statistics. */
 typedef enum { PM_VIEW_SHADED = 0, PM_VIEW_DENSITY = 1, PM_VIEW_RADIUS = 2, PM_VIEW_COUNT = 3 } pm_session_view;
 bool pm_session_set_view(pm_session *s, pm_session_view view);
+/* Photons emitted since the last restart (the classic mode's maps once built). */
+uint64_t pm_session_photons(const pm_session *s);
+/* For a cluster (cluster.h): with `on`, the worker also publishes the film's additive form
+ * (pm_film_pack) after each iteration it publishes. False when out of memory. */
+bool pm_session_keep_packed(pm_session *s, bool on);
+/* The newest published additive form since the last restart or resize was asked for (NULL, without
+ * locking, when the worker has published none since): pm_film_packed_count(pm_session_film(s))
+ * doubles, then *photons and *seconds as they were; pm_session_unlock_latest() once read. */
+const double *pm_session_lock_packed(pm_session *s, uint64_t *photons, double *seconds);
 /* Stops the worker (the running pass is cancelled) and waits for it. */
 void pm_session_stop(pm_session *s);
 

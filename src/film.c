@@ -238,3 +238,90 @@ pm_image_error pm_image_compare(const float *rgb, const float *const ref[3], siz
     e.mse /= 3.0 * (double)(e.pixels ? e.pixels : 1);
     return e;
 }
+
+/* ---- the additive form ---- */
+
+enum { PACK_HEADER = 2, SLOT_FIELDS = 7 };
+
+static int enabled_components(const pm_film *f) {
+    int n = 0;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) n += f->sum[c] != NULL;
+    return n;
+}
+static int enabled_slots(const pm_film *f) {
+    int n = 0;
+    for (int k = 0; k < PM_SLOT_COUNT; k++) n += f->ppm[k] != NULL;
+    return n;
+}
+
+size_t pm_film_packed_count(const pm_film *f) {
+    size_t pixels = (size_t)f->width * f->height;
+    return PACK_HEADER + pixels * (1 + 3 * (size_t)enabled_components(f) + SLOT_FIELDS * (size_t)enabled_slots(f));
+}
+
+void pm_film_pack(const pm_film *f, double *out) {
+    size_t pixels = (size_t)f->width * f->height;
+    out[0] = f->samples;
+    out[1] = f->photon_passes;
+    double *counts = out + PACK_HEADER, *next = counts + pixels;
+    for (size_t i = 0; i < pixels; i++) counts[i] = pm_film_samples_at(f, i);
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        if (!f->sum[c]) continue;
+        for (size_t i = 0; i < 3 * pixels; i++) next[i] = pm_film_sum_at(f, (pm_component)c, i);
+        next += 3 * pixels;
+    }
+    for (int k = 0; k < PM_SLOT_COUNT; k++) {
+        if (!f->ppm[k]) continue;
+        double *passes = next, *s = next + pixels, *n = s + 3 * pixels, *r2 = n + pixels, *has = r2 + pixels;
+        for (size_t i = 0; i < pixels; i++) {
+            const pm_ppm_stat *st = &f->ppm[k][i];
+            bool set = st->r2 > 0.0;
+            passes[i] = f->photon_passes + (ahead_of(f, i) & PM_FILM_AHEAD_PHOTON_PASS ? 1u : 0u);
+            for (int ch = 0; ch < 3; ch++) s[3 * i + ch] = set ? st->tau[ch] / st->r2 : 0.0;
+            n[i] = st->n;
+            r2[i] = set ? st->r2 : 0.0;
+            has[i] = set ? 1.0 : 0.0;
+        }
+        next += SLOT_FIELDS * pixels;
+    }
+}
+
+void pm_film_unpack(pm_film *f, const double *in) {
+    size_t pixels = (size_t)f->width * f->height;
+    pm_film_clear(f);
+    const double *counts = in + PACK_HEADER, *next = counts + pixels;
+    bool any = false;
+    for (size_t i = 0; i < pixels && !any; i++) any = counts[i] > 0.0;
+    /* the uniform count every pixel is rescaled to: a pixel holding n samples of sum S reads S / n */
+    double samples = in[0] >= 1.0 ? in[0] : (any ? 1.0 : 0.0);
+    f->samples = (uint32_t)samples;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        if (!f->sum[c]) continue;
+        for (size_t i = 0; i < pixels; i++) {
+            double scale = counts[i] > 0.0 ? samples / counts[i] : 0.0;
+            for (int ch = 0; ch < 3; ch++) {
+                double v = next[3 * i + ch] * scale;
+                float rounded = (float)fmin(fmax(v, -FLT_MAX), FLT_MAX);
+                f->sum[c][3 * i + ch] = rounded;
+                /* the true sum is sum - carry: the carry keeps what rounding to float lost */
+                if (f->carry[c]) f->carry[c][3 * i + ch] = (float)((double)rounded - v);
+            }
+        }
+        next += 3 * pixels;
+    }
+    double passes_total = in[1];
+    for (int k = 0; k < PM_SLOT_COUNT; k++) {
+        if (!f->ppm[k]) continue;
+        const double *passes = next, *s = next + pixels, *n = s + 3 * pixels, *r2 = n + pixels, *has = r2 + pixels;
+        for (size_t i = 0; i < pixels; i++) {
+            pm_ppm_stat *st = &f->ppm[k][i];
+            if (!(has[i] > 0.0) || !(passes[i] > 0.0)) continue;
+            if (passes_total < 1.0) passes_total = 1.0;
+            st->r2 = r2[i] / has[i];
+            st->n = n[i];
+            for (int ch = 0; ch < 3; ch++) st->tau[ch] = s[3 * i + ch] * st->r2 * passes_total / passes[i];
+        }
+        next += SLOT_FIELDS * pixels;
+    }
+    f->photon_passes = (uint32_t)passes_total;
+}

@@ -9,6 +9,7 @@
 
 #include "accel.h"
 #include "clock.h"
+#include "cluster.h"
 #include "defaults.h"
 #include "drivers.h"
 #include "image_io.h"
@@ -53,147 +54,167 @@ static bool outputs_spare_inputs(const pm_options *o, bool window) {
     return true;
 }
 
-int main(int argc, char **argv) {
-    double process_start = pm_now_seconds();
+/* What the set-up builds, for the driver and for the clean-up. */
+typedef struct {
     pm_options opt;
-    int code = pm_options_parse(argc, argv, &opt);
-    if (code >= 0) return code;
-    setvbuf(stdout, NULL, _IOLBF, 0);
-    if (opt.max_memory) pm_memory_set_limit(opt.max_memory);
+    pm_sky_request sky;
+    bool sky_prepared, scene_loaded;
+    pm_scene scene;
+    pm_accel *accel;
+    pm_session *session;
+    pm_reference_image reference;
+    pm_camera camera;
+    uint64_t output_reserved; /* the snapshot writers' room, admitted before the render */
+} run_state;
 
-    bool window = !opt.snapshot;
-    if (window && !getenv("DISPLAY")) {
+static void release(run_state *r) {
+    if (r->sky_prepared) pm_sky_release(&r->sky);
+    pm_memory_release(r->output_reserved);
+    pm_reference_free(&r->reference);
+    pm_session_destroy(r->session);
+    pm_accel_destroy(r->accel);
+    if (r->scene_loaded) pm_scene_free(&r->scene);
+}
+
+/* Everything before the render: -1 when it is ready, else the exit code (its line printed). Under
+ * mpirun every rank sets up its own scene and session; only rank 0 checks the outputs and the
+ * reference, which only it reads or writes. */
+static int set_up(pm_cluster *cluster, run_state *r, bool window) {
+    pm_options *o = &r->opt;
+    char err[1024] = "";
+    bool root = pm_cluster_rank(cluster) == 0;
+    if (root && window && !getenv("DISPLAY")) {
         fprintf(stderr, "pmview: no DISPLAY for a window; use --snapshot FILE.png|FILE.exr to render offscreen\n");
         return 2;
     }
-
-    char err[1024] = "";
-    if (!outputs_spare_inputs(&opt, window)) return 1;
+    if (root && !outputs_spare_inputs(o, window)) return 1;
     /* before any work: a snapshot that cannot be written would waste the whole render */
-    if (opt.snapshot && !pm_check_output_path(opt.snapshot, err, sizeof err)) {
+    if (root && o->snapshot && !pm_check_output_path(o->snapshot, err, sizeof err)) {
         fprintf(stderr, "pmview: error: %s\n", err);
         return 1;
     }
     /* before the scene too: a sky map or a reference that cannot be used costs no load and no BVH
      * build (the reference's height is compared once the camera gives the image's) */
-    pm_sky_request sky = {.sky = opt.sky, .no_default_light = opt.no_default_light, .scene_path = opt.scene_path,
-                          .quiet = opt.quiet, .stats = opt.stats};
-    if (!pm_sky_prepare(&sky)) return 1;
-    int width = opt.width ? (int)opt.width : PM_DEFAULT_WIDTH, height = (int)opt.height;
-    if (opt.reference && !pm_reference_check(opt.reference, width, height, err, sizeof err)) {
+    r->sky = (pm_sky_request){.sky = o->sky, .no_default_light = o->no_default_light, .scene_path = o->scene_path,
+                              .quiet = o->quiet, .stats = o->stats};
+    if (!pm_sky_prepare(&r->sky)) return 1;
+    r->sky_prepared = true;
+    int width = o->width ? (int)o->width : PM_DEFAULT_WIDTH, height = (int)o->height;
+    const char *reference = root ? o->reference : NULL;
+    if (reference && !pm_reference_check(reference, width, height, err, sizeof err)) {
         fprintf(stderr, "pmview: error: %s\n", err);
-        pm_sky_release(&sky);
         return 1;
     }
-    pm_scene scene;
     pm_load_report report;
-    if (!pm_load_gltf(opt.scene_path, opt.quiet, &scene, &report, err, sizeof err)) {
+    if (!pm_load_gltf(o->scene_path, o->quiet, &r->scene, &report, err, sizeof err)) {
         fprintf(stderr, "pmview: error: %s\n", err);
-        pm_sky_release(&sky);
         return 1;
     }
-    bool finalized = pm_scene_finalize(&scene, false, NULL);
-    if (finalized && scene.clamped_emission && !opt.quiet)
+    r->scene_loaded = true;
+    bool finalized = pm_scene_finalize(&r->scene, false, NULL);
+    if (finalized && r->scene.clamped_emission && !o->quiet)
         fprintf(stderr, "pmview: warning: %s: %u emission or light value(s) above %g (or not a number) clamped: a float film could not sum them\n",
-                opt.scene_path, scene.clamped_emission, (double)PM_MAX_EMISSION);
+                o->scene_path, r->scene.clamped_emission, (double)PM_MAX_EMISSION);
     if (!finalized) {
-        fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", opt.scene_path, pm_memory_failure());
-        pm_scene_free(&scene);
-        pm_sky_release(&sky);
+        fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", o->scene_path, pm_memory_failure());
         return 1;
     }
-    if (opt.stats) pm_print_load_stats(&report, &scene);
+    if (o->stats) pm_print_load_stats(&report, &r->scene);
     /* the options' lengths are in the file's units; the loader may have rescaled the scene */
-    opt.radius *= report.unit_scale;
-    opt.max_radius *= report.unit_scale;
-    if (opt.radius > PM_MAX_RADIUS || opt.max_radius > PM_MAX_RADIUS || (opt.radius > 0 && opt.radius < PM_MIN_RADIUS) ||
-        (opt.max_radius > 0 && opt.max_radius < PM_MIN_RADIUS)) {
+    o->radius *= report.unit_scale;
+    o->max_radius *= report.unit_scale;
+    if (o->radius > PM_MAX_RADIUS || o->max_radius > PM_MAX_RADIUS || (o->radius > 0 && o->radius < PM_MIN_RADIUS) ||
+        (o->max_radius > 0 && o->max_radius < PM_MIN_RADIUS)) {
         fprintf(stderr, "pmview: %s: the file's units are scaled by %g: --radius or --max-radius is then outside 1e-18 to 1e18 scene units\n",
-                opt.scene_path, report.unit_scale);
-        pm_scene_free(&scene);
-        pm_sky_release(&sky);
+                o->scene_path, report.unit_scale);
         return 2;
     }
-
-    int exit_code = 0;
-    uint64_t output_reserved = 0; /* the snapshot writers' room, admitted before the render */
-    pm_accel *accel = NULL;
-    pm_session *session = NULL;
-    pm_reference_image reference;
-    memset(&reference, 0, sizeof reference);
-
-    pm_camera camera;
-    if (opt.camera >= 0 && (uint32_t)opt.camera >= scene.camera_count) {
-        fprintf(stderr, "pmview: error: %s: --camera %ld but the scene has %u perspective camera(s)\n", opt.scene_path,
-                opt.camera, scene.camera_count);
-        exit_code = 1;
-        goto done;
+    if (o->camera >= 0 && (uint32_t)o->camera >= r->scene.camera_count) {
+        fprintf(stderr, "pmview: error: %s: --camera %ld but the scene has %u perspective camera(s)\n", o->scene_path, o->camera,
+                r->scene.camera_count);
+        return 1;
     }
-    if (scene.camera_count) {
-        camera = scene.cameras[opt.camera >= 0 ? opt.camera : 0];
-        if (!height) height = camera.aspect > 0.f ? (int)lroundf(width / camera.aspect) : width;
+    if (r->scene.camera_count) {
+        r->camera = r->scene.cameras[o->camera >= 0 ? o->camera : 0];
+        if (!height) height = r->camera.aspect > 0.f ? (int)lroundf(width / r->camera.aspect) : width;
     } else {
         if (!height) height = width;
-        camera = pm_scene_auto_camera(&scene, (float)width / height);
+        r->camera = pm_scene_auto_camera(&r->scene, (float)width / height);
     }
     if (height < 1) height = 1;
     if (height > PM_MAX_IMAGE_SIDE) height = PM_MAX_IMAGE_SIDE;
-    if (opt.reference && !opt.height && !pm_reference_check(opt.reference, width, height, err, sizeof err)) {
+    if (reference && !o->height && !pm_reference_check(reference, width, height, err, sizeof err)) {
         fprintf(stderr, "pmview: error: %s\n", err);
-        exit_code = 1;
-        goto done;
+        return 1;
     }
 
-    accel = pm_accel_create(&scene, err, sizeof err);
-    if (!accel) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
-    if (opt.stats) pm_print_bvh_stats(accel);
-    if (!pm_choose_sky(&sky, &scene, accel, &camera, (float)width / height)) { exit_code = 1; goto done; }
-    if (opt.stats) pm_print_analysis_stats(&scene);
+    r->accel = pm_accel_create(&r->scene, err, sizeof err);
+    if (!r->accel) { fprintf(stderr, "pmview: error: %s: %s\n", o->scene_path, err); return 1; }
+    if (o->stats) pm_print_bvh_stats(r->accel);
+    if (!pm_choose_sky(&r->sky, &r->scene, r->accel, &r->camera, (float)width / height)) return 1;
+    if (o->stats) pm_print_analysis_stats(&r->scene);
 
     pm_session_config config;
-    pm_options_session_config(&opt, &scene, width, height, &config);
-    session = pm_session_create(&scene, accel, &camera, &config, err, sizeof err);
-    if (!session) { fprintf(stderr, "pmview: error: %s: %s\n", opt.scene_path, err); exit_code = 1; goto done; }
+    /* each rank renders iterations of its own: rank 0 with the seed given, the others apart */
+    long seed = o->seed;
+    o->seed = (long)pm_cluster_seed(cluster, (uint64_t)seed);
+    pm_options_session_config(o, &r->scene, width, height, &config);
+    o->seed = seed;
+    r->session = pm_session_create(&r->scene, r->accel, &r->camera, &config, err, sizeof err);
+    if (!r->session) { fprintf(stderr, "pmview: error: %s: %s\n", o->scene_path, err); return 1; }
     /* from here a signal is the snapshot's: the image so far (none yet) is written, 130 or 143;
      * before, it ends the process at once */
-    if (opt.snapshot) pm_snapshot_catch_signals(session);
-    if (opt.stats) {
-        pm_print_film_stats(pm_session_film(session));
+    if (o->snapshot) pm_snapshot_catch_signals(r->session);
+    if (o->stats) {
+        pm_print_film_stats(pm_session_film(r->session));
         fflush(stdout); /* a script waiting for the render to start sees it */
     }
-    if (opt.snapshot) {
-        uint64_t bytes = pm_snapshot_output_bytes(opt.snapshot, pm_session_film(session));
-        if (!pm_memory_admit(bytes, pm_has_extension(opt.snapshot, ".png") ? "PNG output buffers" : "EXR output buffers")) {
-            fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", opt.snapshot, pm_memory_failure());
-            exit_code = 1;
-            goto done;
+    if (o->snapshot && root) {
+        uint64_t bytes = pm_snapshot_output_bytes(o->snapshot, pm_session_film(r->session));
+        if (!pm_memory_admit(bytes, pm_has_extension(o->snapshot, ".png") ? "PNG output buffers" : "EXR output buffers")) {
+            fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", o->snapshot, pm_memory_failure());
+            return 1;
         }
-        output_reserved = bytes;
+        r->output_reserved = bytes;
     }
-    if (opt.reference) {
-        if (!pm_reference_load(opt.reference, opt.log != NULL, &reference, err, sizeof err)) {
+    if (reference) {
+        if (!pm_reference_load(reference, o->log != NULL, &r->reference, err, sizeof err)) {
             fprintf(stderr, "pmview: error: %s\n", err);
-            exit_code = 1;
-            goto done;
+            return 1;
         }
-        if (reference.width != width || reference.height != height) {
-            fprintf(stderr, "pmview: error: %s: the reference is %dx%d but the image is %dx%d (use --width/--height)\n",
-                    opt.reference, reference.width, reference.height, width, height);
-            exit_code = 1;
-            goto done;
+        if (r->reference.width != width || r->reference.height != height) {
+            fprintf(stderr, "pmview: error: %s: the reference is %dx%d but the image is %dx%d (use --width/--height)\n", reference,
+                    r->reference.width, r->reference.height, width, height);
+            return 1;
         }
     }
-    exit_code = window ? pm_window_run(&opt, &scene, accel, session, &camera, process_start)
-                       : pm_snapshot_run(&opt, session, &reference, &output_reserved);
-    if (exit_code == 1) goto done;
-    if (opt.stats) pm_print_final_stats(session, accel, (int)opt.threads, opt.alpha, opt.mode == PM_MODE_PATHTRACE);
+    return -1;
+}
 
-done:
-    pm_sky_release(&sky);
-    pm_memory_release(output_reserved);
-    pm_reference_free(&reference);
-    pm_session_destroy(session);
-    pm_accel_destroy(accel);
-    pm_scene_free(&scene);
-    return exit_code;
+int main(int argc, char **argv) {
+    double process_start = pm_now_seconds();
+    /* under mpirun, every rank runs all of this; rank 0 alone speaks and writes */
+    pm_cluster *cluster = pm_cluster_join(&argc, &argv);
+    run_state r;
+    memset(&r, 0, sizeof r);
+    int code = pm_options_parse(argc, argv, &r.opt);
+    if (code < 0) {
+        setvbuf(stdout, NULL, _IOLBF, 0);
+        if (r.opt.max_memory) pm_memory_set_limit(r.opt.max_memory);
+        code = set_up(cluster, &r, !r.opt.snapshot);
+    }
+    code = pm_cluster_agree(cluster, code);
+    if (code < 0) {
+        const pm_options *o = &r.opt;
+        if (o->snapshot) code = pm_snapshot_run(o, cluster, r.session, &r.reference, &r.output_reserved);
+        else if (pm_cluster_rank(cluster) == 0) code = pm_window_run(o, cluster, &r.scene, r.accel, r.session, &r.camera, process_start);
+        else code = pm_cluster_follow(cluster, r.session);
+        if (code != 1 && o->stats) {
+            pm_print_final_stats(r.session, r.accel, (int)o->threads, o->alpha, o->mode == PM_MODE_PATHTRACE);
+            pm_print_cluster_stats(cluster);
+        }
+    }
+    release(&r);
+    pm_cluster_leave(cluster);
+    return code;
 }

@@ -73,6 +73,10 @@ static const option options_table[] = {
      "samples per pixel (default %g for snapshots; the window runs until closed)", {PM_DEFAULT_SNAPSHOT_ITERATIONS}},
     {"--time", "SECONDS", KIND_REAL, FIELD(time_limit), 1e-3, 1e7, NULL, {0}, NULL, NULL, "bad --time '%s' (seconds, > 0)", 0,
      "stop after this much rendering time, photon pass included", {0}},
+    {"--checkpoint", "SECONDS", KIND_REAL, FIELD(checkpoint), 1e-3, 1e7, NULL, {0}, NULL, NULL,
+     "bad --checkpoint '%s' (seconds, > 0)", 0,
+     "snapshots: write the image so far to the --snapshot file every SECONDS\n"
+     "(replaced whole each time: a killed run leaves the last one)", {0}},
     {"--threads", "N", KIND_WHOLE, FIELD(threads), 1, PM_MAX_THREADS, NULL, {0}, "", "", NULL, 0,
      "worker threads (default: all cores)", {0}},
     {"--seed", "S", KIND_WHOLE, FIELD(seed), 0, 0x7fffffffL, NULL, {0}, "", "", NULL, 0,
@@ -344,6 +348,8 @@ int pm_options_parse(int argc, char **argv, pm_options *o) {
             if (opt && (opt->rules & mode_rules[r].rule)) return pm_options_usage_error(mode_rules[r].why, argv[i]);
         }
     }
+    if (o->checkpoint > 0 && !o->snapshot)
+        return pm_options_usage_error("--checkpoint needs --snapshot (the file it writes)%s", "");
     if (o->log && !o->snapshot) return pm_options_usage_error("--log '%s' needs --snapshot (the window restarts its runs)", o->log);
     return -1;
 }

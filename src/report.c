@@ -107,3 +107,10 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
            peak_rss_bytes(), pm_film_bytes(film), pm_accel_bytes(accel), (unsigned long long)pm_memory_limit(),
            (unsigned long long)pm_memory_allocations());
 }
+
+void pm_print_cluster_stats(const pm_cluster *cluster) {
+    pm_cluster_totals t = pm_cluster_get_totals(cluster);
+    printf("stat cluster ranks=%d merges=%llu bytes_per_merge=%llu bytes_sent=%llu photons_total=%llu\n", pm_cluster_size(cluster),
+           (unsigned long long)t.merges, (unsigned long long)t.bytes_per_merge, (unsigned long long)t.bytes_sent,
+           (unsigned long long)t.photons);
+}

@@ -126,9 +126,8 @@ static void log_errors(FILE *f, const float *rgb, float *const planes[3], size_t
     if (ref != 0) fprintf(f, "%.6g", ours / ref - 1.0);
 }
 
-void pm_log_row(FILE *f, pm_session *session, uint64_t photons, const pm_reference_image *ref, float *scratch,
-                double seconds) {
-    const pm_film *film = pm_session_film(session);
+void pm_log_row(FILE *f, pm_session *session, const pm_film *film, uint64_t photons, const pm_reference_image *ref,
+                float *scratch, double seconds) {
     pm_progressive *p = pm_session_progressive(session);
     size_t n = (size_t)film->width * film->height;
     fprintf(f, "%.6f,%u,%llu,", seconds, film->samples, (unsigned long long)photons);

@@ -52,6 +52,13 @@ struct pm_session {
     uint64_t version;
     pm_session_progress published;
     atomic_int view;                      /* pm_session_view: what publish() writes */
+    /* a cluster's additive form (pm_session_keep_packed): published like the images, valid while
+     * packed_epoch equals epoch (the restarts and resizes asked for) */
+    double *packed_front, *packed_back;
+    size_t packed_count;
+    uint64_t epoch, packed_epoch, worker_epoch;
+    uint64_t packed_photons;
+    double packed_seconds;
 };
 
 /* A failure of the call under way: its message, kept until the next top-level call. */
@@ -217,6 +224,8 @@ void pm_session_destroy(pm_session *s) {
     pm_shadow_map_free(s->shadow);
     pm_film_free(&s->film);
     free_display(s->front, s->back);
+    free(s->packed_front);
+    free(s->packed_back);
     pthread_mutex_destroy(&s->lock);
     pthread_cond_destroy(&s->wake);
     free(s);
@@ -493,6 +502,16 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
     s->published.mean_radius = r.pixels ? r.mean : r.gather; /* a scene read by gathering alone has no pixel radii */
     s->published.preview = preview;
     pthread_mutex_unlock(&s->lock);
+    if (preview || !s->packed_back || atomic_load(&s->cancel)) return;
+    pm_film_pack(&s->film, s->packed_back);
+    pthread_mutex_lock(&s->lock);
+    double *t = s->packed_front;
+    s->packed_front = s->packed_back;
+    s->packed_back = t;
+    s->packed_epoch = s->worker_epoch;
+    s->packed_photons = photons_emitted(s);
+    s->packed_seconds = s->render_seconds;
+    pthread_mutex_unlock(&s->lock);
 }
 
 /* A direct-light image at a quarter of the size: a picture within milliseconds of a restart. */
@@ -526,6 +545,7 @@ static void *worker_main(void *arg) {
             int indirect = s->indirect_change;
             s->have_camera_change = false;
             s->indirect_change = -1;
+            s->worker_epoch = s->epoch;
             atomic_store(&s->cancel, false);
             pthread_mutex_unlock(&s->lock);
             if (camera) s->camera = cam;
@@ -579,6 +599,7 @@ bool pm_session_start(pm_session *s, char *err, size_t err_size) {
         return false;
     }
     s->stop = false;
+    s->worker_epoch = s->epoch;
     atomic_store(&s->cancel, false);
     if (pthread_create(&s->worker, NULL, worker_main, s) != 0) {
         fail(s, "cannot start the render thread");
@@ -607,7 +628,30 @@ bool pm_session_resize(pm_session *s, int width, int height, const pm_camera *ca
         pm_progressive_destroy(progressive);
         pm_film_free(&film);
     }
+    double *packed[2] = {NULL, NULL};
+    if (built && s->packed_front) {
+        size_t count = pm_film_packed_count(&film);
+        packed[0] = pm_malloc(count * sizeof(double), "the cluster's packed film");
+        packed[1] = packed[0] ? pm_malloc(count * sizeof(double), "the cluster's packed film") : NULL;
+        if (!packed[1]) {
+            fail(s, "out of memory (%s)", memory_failure_or("the cluster's packed film"));
+            free(packed[0]);
+            packed[0] = NULL;
+            built = false;
+            free_display(front, back);
+            pm_progressive_destroy(progressive);
+            pm_film_free(&film);
+        }
+    }
+    s->epoch++;
     if (built) {
+        if (packed[0]) {
+            free(s->packed_front);
+            free(s->packed_back);
+            s->packed_front = packed[0];
+            s->packed_back = packed[1];
+            s->packed_count = pm_film_packed_count(&film);
+        }
         pm_progressive_destroy(s->progressive);
         pm_film_free(&s->film);
         free_display(s->front, s->back);
@@ -652,6 +696,7 @@ void pm_session_request_restart(pm_session *s, const pm_camera *camera, int indi
     }
     if (indirect >= 0) s->indirect_change = indirect;
     s->restart_pending = true;
+    s->epoch++;
     atomic_store(&s->cancel, true);
     pthread_cond_signal(&s->wake);
     pthread_mutex_unlock(&s->lock);
@@ -669,6 +714,44 @@ const float *const *pm_session_lock_latest(pm_session *s, uint64_t *version, pm_
 }
 
 void pm_session_unlock_latest(pm_session *s) { pthread_mutex_unlock(&s->lock); }
+
+uint64_t pm_session_photons(const pm_session *s) { return photons_emitted(s); }
+
+bool pm_session_keep_packed(pm_session *s, bool on) {
+    begin(s);
+    bool running = s->worker_running;
+    pm_session_stop(s);
+    free(s->packed_front);
+    free(s->packed_back);
+    s->packed_front = s->packed_back = NULL;
+    s->packed_count = 0;
+    s->packed_epoch = UINT64_MAX;
+    bool ok = true;
+    if (on) {
+        size_t count = pm_film_packed_count(&s->film);
+        s->packed_front = pm_malloc(count * sizeof(double), "the cluster's packed film");
+        s->packed_back = s->packed_front ? pm_malloc(count * sizeof(double), "the cluster's packed film") : NULL;
+        if (!s->packed_back) {
+            fail(s, "out of memory (%s)", memory_failure_or("the cluster's packed film"));
+            free(s->packed_front);
+            s->packed_front = NULL;
+            ok = false;
+        } else s->packed_count = count;
+    }
+    if (running && !pm_session_start(s, s->error, sizeof s->error)) return false;
+    return ok;
+}
+
+const double *pm_session_lock_packed(pm_session *s, uint64_t *photons, double *seconds) {
+    pthread_mutex_lock(&s->lock);
+    if (!s->packed_front || s->packed_epoch != s->epoch) {
+        pthread_mutex_unlock(&s->lock);
+        return NULL;
+    }
+    if (photons) *photons = s->packed_photons;
+    if (seconds) *seconds = s->packed_seconds;
+    return s->packed_front;
+}
 
 void pm_session_stop(pm_session *s) {
     if (!s->worker_running) return;

@@ -108,17 +108,28 @@ static bool write_png_snapshot(const pm_options *o, const pm_film *film, char *e
     return ok;
 }
 
+/* A checkpoint or the end: the film (the session's, or the cluster's merged one) to o->snapshot,
+ * replacing it atomically (image_io.c writes beside it and renames). */
+static bool write_snapshot(const pm_options *o, const pm_film *film, char *err, size_t err_size) {
+    if (pm_has_extension(o->snapshot, ".png")) return write_png_snapshot(o, film, err, err_size);
+    return pm_write_exr(o->snapshot, film, err, err_size);
+}
+
 /* The run's observer: after every iteration a --log row, a --reference point of the error curve
- * (with --stats) and the progress bar. */
+ * (with --stats), a --checkpoint and the progress bar; under mpirun, rank 0 reads them from the
+ * merged film and the other ranks answer its merges. */
 typedef struct {
     const pm_options *o;
+    pm_cluster *cluster;
     const pm_reference_image *reference;
     float *scratch;           /* 3 floats a pixel for the reference's measures, or NULL */
     FILE *log;
     uint32_t logged;          /* the samples of the last log row */
     uint64_t next_progress;   /* the next error-curve point */
     bool tty;
-    double start;
+    double start, last_checkpoint;
+    uint64_t *reserved;       /* the writers' room, lent to each checkpoint */
+    pm_session *session;
 } observer;
 
 /* The snapshot's progress: a bar redrawn on a terminal, nothing otherwise (one summary at the end). */
@@ -136,31 +147,76 @@ static void show_progress(bool tty, uint32_t done, long target, double elapsed, 
     fflush(stderr);
 }
 
-static void observe(void *context, pm_session *session, const pm_session_run_state *state) {
-    observer *ob = context;
-    if (ob->log && pm_log_wanted(ob->logged, state->samples)) {
-        pm_log_row(ob->log, session, state->photons, ob->reference, ob->scratch, state->rendered);
-        ob->logged = state->samples;
-    }
-    if (ob->scratch && ob->o->stats && state->samples >= ob->next_progress) {
-        /* at 1, 2, 4, 8, ... samples, or the first count past each when an iteration adds several */
-        double ratio[3], e = pm_reference_relmse(pm_session_film(session), ob->reference, ob->scratch, ratio);
-        printf("stat progress iterations=%u seconds=%.4f relmse=%.6f\n", state->samples, pm_now_seconds() - ob->start, e);
-        while (ob->next_progress <= state->samples) ob->next_progress *= 2;
-    }
-    show_progress(ob->tty, state->samples, ob->o->iterations, pm_now_seconds() - ob->start, ob->o->time_limit, state->photons);
+/* The whole image now: the session's film, or every rank's merged. */
+static const pm_film *whole_image(observer *ob) {
+    if (!ob->cluster) return pm_session_film(ob->session);
+    const pm_film *merged = pm_cluster_merge_now(ob->cluster, ob->session);
+    if (!merged) pm_cluster_abort(ob->cluster, pm_cluster_error(ob->cluster));
+    return merged;
 }
 
-int pm_snapshot_run(const pm_options *o, pm_session *session, const pm_reference_image *reference, uint64_t *reserved) {
+static uint64_t whole_photons(const observer *ob, uint64_t own) {
+    return ob->cluster ? pm_cluster_get_totals(ob->cluster).photons : own;
+}
+
+static void checkpoint(observer *ob, const pm_film *film) {
+    char err[1024];
+    ob->last_checkpoint = pm_now_seconds();
+    /* the writers admit what they take: the room kept for the last write is theirs meanwhile */
+    pm_memory_release(*ob->reserved);
+    bool ok = write_snapshot(ob->o, film, err, sizeof err);
+    if (!pm_memory_admit(*ob->reserved, "output buffers")) *ob->reserved = 0;
+    if (!ok) fprintf(stderr, "%spmview: error: checkpoint: %s\n", ob->tty ? "\n" : "", err);
+    pm_memory_clear_failure();
+}
+
+static bool checkpoint_due(const observer *ob) {
+    return ob->o->checkpoint > 0 && pm_now_seconds() - ob->last_checkpoint >= ob->o->checkpoint;
+}
+
+/* While rank 0 waits for the others to finish: the checkpoints go on. */
+static void tick(void *context) {
+    observer *ob = context;
+    if (checkpoint_due(ob)) checkpoint(ob, whole_image(ob));
+}
+
+static void observe(void *context, pm_session *session, const pm_session_run_state *state) {
+    observer *ob = context;
+    if (pm_cluster_rank(ob->cluster) != 0) {
+        pm_cluster_serve(ob->cluster, session);
+        return;
+    }
+    bool log_row = ob->log && pm_log_wanted(ob->logged, state->samples);
+    bool progress = ob->scratch && ob->o->stats && state->samples >= ob->next_progress;
+    bool save = checkpoint_due(ob);
+    const pm_film *film = log_row || progress || save ? whole_image(ob) : NULL;
+    if (log_row) {
+        pm_log_row(ob->log, session, film, whole_photons(ob, state->photons), ob->reference, ob->scratch, state->rendered);
+        ob->logged = state->samples;
+    }
+    if (progress) {
+        /* at 1, 2, 4, 8, ... samples, or the first count past each when an iteration adds several */
+        double ratio[3], e = pm_reference_relmse(film, ob->reference, ob->scratch, ratio);
+        printf("stat progress iterations=%u seconds=%.4f relmse=%.6f\n", film->samples, pm_now_seconds() - ob->start, e);
+        while (ob->next_progress <= state->samples) ob->next_progress *= 2;
+    }
+    if (save) checkpoint(ob, film);
+    show_progress(ob->tty, state->samples * (uint32_t)pm_cluster_size(ob->cluster), ob->o->iterations,
+                  pm_now_seconds() - ob->start, ob->o->time_limit, state->photons * (uint64_t)pm_cluster_size(ob->cluster));
+}
+
+int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *session, const pm_reference_image *reference,
+                    uint64_t *reserved) {
     char err[1024];
     pm_snapshot_catch_signals(session);
+    bool root = pm_cluster_rank(cluster) == 0;
     const pm_film *film = pm_session_film(session);
-    observer ob = {o, reference, NULL, NULL, 0, 1, isatty(2) && !o->quiet, 0.0};
+    observer ob = {o, cluster, reference, NULL, NULL, 0, 1, root && isatty(2) && !o->quiet, 0.0, 0.0, reserved, session};
     if (reference->rgb[0]) {
         ob.scratch = pm_malloc(sizeof(float) * 3 * (size_t)film->width * film->height, "reference comparison");
         if (!ob.scratch) { fprintf(stderr, "pmview: error: out of memory (%s)\n", pm_memory_failure()); return 1; }
     }
-    if (o->log) {
+    if (o->log && root) {
         ob.log = fopen(o->log, "w");
         if (!ob.log) {
             fprintf(stderr, "pmview: error: %s: cannot write the log (%s)\n", o->log, strerror(errno));
@@ -169,20 +225,30 @@ int pm_snapshot_run(const pm_options *o, pm_session *session, const pm_reference
         }
         pm_log_header(ob.log);
     }
-    pm_session_goal goal = {(uint32_t)(o->iterations ? o->iterations : (o->time_limit > 0 ? 1000000000L : PM_DEFAULT_SNAPSHOT_ITERATIONS)),
-                            o->time_limit};
-    pm_session_run_state state;
-    ob.start = pm_now_seconds();
-    pm_session_run_result result = pm_session_run(session, &goal, observe, &ob, &state);
+    /* --iterations is the whole image's: each rank renders its share */
+    uint32_t total = (uint32_t)(o->iterations ? o->iterations : (o->time_limit > 0 ? 1000000000L : PM_DEFAULT_SNAPSHOT_ITERATIONS));
+    pm_session_goal goal = {pm_cluster_share(cluster, total), o->time_limit};
+    pm_session_run_state state = {0, 0, 0.0, 0.0, 0.0};
+    ob.start = ob.last_checkpoint = pm_now_seconds();
+    pm_session_run_result result = goal.samples ? pm_session_run(session, &goal, observe, &ob, &state) : PM_RUN_DONE;
     if (result == PM_RUN_FAILED) {
+        if (cluster) pm_cluster_abort(cluster, pm_session_error(session));
         fprintf(stderr, "%spmview: error: %s: %s\n", ob.tty ? "\n" : "", o->scene_path, pm_session_error(session));
         free(ob.scratch);
         if (ob.log) fclose(ob.log);
         return 1;
     }
+    if (cluster) {
+        film = pm_cluster_end_run(cluster, session, false, &interrupted_by, root ? tick : NULL, &ob);
+        if (!root) {
+            free(ob.scratch);
+            return interrupted_by ? (interrupted_by == SIGINT ? 130 : 143) : 0;
+        }
+        if (!film) pm_cluster_abort(cluster, pm_cluster_error(cluster));
+    }
     double seconds = pm_now_seconds() - ob.start;
-    if (ob.log && ob.logged != film->samples && film->samples)
-        pm_log_row(ob.log, session, state.photons, reference, ob.scratch, state.rendered);
+    if (ob.log && ob.logged != state.samples && film->samples)
+        pm_log_row(ob.log, session, film, whole_photons(&ob, state.photons), reference, ob.scratch, state.rendered);
     if (ob.log) {
         bool written = !ferror(ob.log);
         if (fclose(ob.log) != 0) written = false;
@@ -200,13 +266,7 @@ int pm_snapshot_run(const pm_options *o, pm_session *session, const pm_reference
     /* the writers admit what they take themselves: the room kept for them since before the render is theirs now */
     pm_memory_release(*reserved);
     *reserved = 0;
-    bool ok;
-    if (pm_has_extension(o->snapshot, ".png")) ok = write_png_snapshot(o, film, err, sizeof err);
-    else {
-        ok = pm_session_save_exr(session, o->snapshot);
-        snprintf(err, sizeof err, "%s", pm_session_error(session));
-    }
-    if (!ok) { fprintf(stderr, "pmview: error: %s\n", err); free(ob.scratch); return 1; }
+    if (!write_snapshot(o, film, err, sizeof err)) { fprintf(stderr, "pmview: error: %s\n", err); free(ob.scratch); return 1; }
     if (!o->quiet) printf("pmview: wrote %s (%dx%d, %u iterations, %.2f s)%s\n", o->snapshot, film->width, film->height,
                           film->samples, seconds, interrupted_by ? ", interrupted: the image so far" : "");
     if (ob.scratch) {

@@ -1,6 +1,7 @@
-/* window_app.c: the window's driver: the GLFW loop of the view, camera navigation and keys, restarts and resizes asked of the session, its published images drawn and saved. */
+/* window_app.c: the window's driver: the GLFW loop of the view, camera navigation and keys, restarts and resizes asked of the session (and, under mpirun, of every rank), its published or merged images drawn and saved. */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "camera_control.h"
@@ -29,15 +30,53 @@ static void save_from_window(const pm_options *opt, const float *const layers[PM
     pm_memory_clear_failure();
 }
 
-int pm_window_run(const pm_options *opt, const pm_scene *scene, const pm_accel *accel, pm_session *session,
+/* Under mpirun: the merged film's components resolved for the view (rank 0). */
+typedef struct {
+    float *layers[PM_COMPONENT_COUNT];
+    int width, height;
+    bool shown;               /* a merge of the current camera and size is on screen */
+} merged_layers;
+
+static void free_merged(merged_layers *m) {
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(m->layers[c]);
+    memset(m, 0, sizeof *m);
+}
+
+static bool resolve_merged(merged_layers *m, const pm_film *film) {
+    if (m->width != film->width || m->height != film->height) {
+        free_merged(m);
+        for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+            if (!film->sum[c]) continue;
+            m->layers[c] = pm_malloc(3 * sizeof(float) * (size_t)film->width * film->height, "the merged image's layers");
+            if (!m->layers[c]) { free_merged(m); return false; }
+        }
+        m->width = film->width;
+        m->height = film->height;
+    }
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (m->layers[c]) pm_film_resolve(film, (pm_component)c, m->layers[c]);
+    return true;
+}
+
+int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *scene, const pm_accel *accel, pm_session *session,
                   const pm_camera *start_camera, double process_start) {
     char err[1024];
+    int ranks = pm_cluster_size(cluster);
+    merged_layers merged;
+    memset(&merged, 0, sizeof merged);
     /* Ctrl-C in the terminal during a P save: the half-written file goes with the process */
     pm_exit_on_signals();
     const pm_film *film = pm_session_film(session);
     int width = film->width, height = film->height;
-    pm_view *view = pm_view_create_window(width, height, "pmview", err, sizeof err);
-    if (!view) { fprintf(stderr, "pmview: error: %s\n", err); return 1; }
+    char title[64];
+    if (cluster) snprintf(title, sizeof title, "pmview (%d ranks)", ranks);
+    else snprintf(title, sizeof title, "pmview");
+    pm_view *view = pm_view_create_window(width, height, title, err, sizeof err);
+    if (!view) {
+        fprintf(stderr, "pmview: error: %s\n", err);
+        if (cluster) pm_cluster_abort(cluster, "the window could not open");
+        return 1;
+    }
     pm_display display;
     pm_display_from_options(opt, &display);
     /* a first frame before any photon: the background colour of an empty image */
@@ -45,7 +84,8 @@ int pm_window_run(const pm_options *opt, const pm_scene *scene, const pm_accel *
     double first_frame = pm_now_seconds() - process_start, first_image = 0, restart_requested = 0, restart_to_image = 0;
     uint64_t loops = 0, frames = 1, restarts = 0;
     double loop_start = pm_now_seconds();
-    if (!pm_session_start(session, err, sizeof err)) {
+    if ((cluster && !pm_session_keep_packed(session, true)) || !pm_session_start(session, err, sizeof err)) {
+        if (cluster) pm_cluster_abort(cluster, pm_session_error(session));
         fprintf(stderr, "pmview: error: %s\n", err);
         pm_view_destroy(view);
         return 1;
@@ -84,16 +124,21 @@ int pm_window_run(const pm_options *opt, const pm_scene *scene, const pm_accel *
         moved = memcmp(&before, &camera, sizeof camera) != 0;
         if (moved || ev.restart) {
             pm_session_request_restart(session, moved ? &camera : NULL, -1);
+            pm_cluster_send_restart(cluster, moved ? &camera : NULL, -1);
+            merged.shown = false;
             if (restart_requested == 0) restart_requested = pm_now_seconds();
         }
         if (ev.toggle_gather && opt->mode == PM_MODE_PROGRESSIVE) {
             indirect = indirect == PM_INDIRECT_GATHER ? PM_INDIRECT_PHOTONS : PM_INDIRECT_GATHER;
             pm_session_request_restart(session, NULL, indirect);
+            pm_cluster_send_restart(cluster, NULL, indirect);
+            merged.shown = false;
             printf("pmview: indirect light by %s\n", indirect == PM_INDIRECT_GATHER ? "final gathering" : "photons at the visible point");
         }
         if (ev.pause) {
             paused = !paused;
             pm_session_pause(session, paused);
+            pm_cluster_send_pause(cluster, paused);
         }
         if (ev.help) fputs(window_help, stdout);
         if (ev.cycle_view) {
@@ -109,6 +154,8 @@ int pm_window_run(const pm_options *opt, const pm_scene *scene, const pm_accel *
                 fprintf(stderr, "pmview: error: %s (window resized to %dx%d); keeping %dx%d\n", pm_session_error(session),
                         ev.resized_width, ev.resized_height, width, height);
             } else {
+                pm_cluster_send_resize(cluster, ev.resized_width, ev.resized_height, &camera);
+                merged.shown = false;
                 width = ev.resized_width;
                 height = ev.resized_height;
                 printf("pmview: rendering at %dx%d\n", width, height);
@@ -118,6 +165,27 @@ int pm_window_run(const pm_options *opt, const pm_scene *scene, const pm_accel *
         const float *const *layers = pm_session_lock_latest(session, &version, &progress);
         bool redraw = ev.display_changed;
         loops++;
+        /* under mpirun the merged image, once one of this camera and size has come, stands for the
+         * session's own (its preview and first iterations show until then) */
+        const pm_film *whole = pm_cluster_poll_merge(cluster, session);
+        if (layers && merged.shown) {
+            pm_session_unlock_latest(session);
+            layers = NULL;
+        }
+        if (whole && whole->width == width && whole->height == height && whole->samples > 0 && !layers) {
+            if (resolve_merged(&merged, whole)) {
+                merged.shown = true;
+                pm_view_upload_layers(view, width, height, (const float *const *)merged.layers);
+                if (ev.save_png) save_from_window(opt, (const float *const *)merged.layers, width, height, &display);
+                ev.save_png = false;
+                redraw = true;
+                pm_cluster_totals totals = pm_cluster_get_totals(cluster);
+                char status[192];
+                snprintf(status, sizeof status, "%d ranks  %u it  %.2f Mphotons  %.1f s  r %.3g%s", ranks, whole->samples,
+                         totals.photons * 1e-6, progress.seconds, progress.mean_radius, paused ? "  paused" : "");
+                pm_view_set_status(view, status);
+            }
+        }
         if (layers) {
             double t = pm_now_seconds();
             if (first_image == 0) first_image = t - process_start;
@@ -138,6 +206,10 @@ int pm_window_run(const pm_options *opt, const pm_scene *scene, const pm_accel *
             pm_view_set_status(view, status);
             if (progress.finished && !finished_said) { printf("pmview: iterations done (%u)\n", progress.iterations); finished_said = true; }
         }
+        if (ev.save_png && merged.shown) {
+            save_from_window(opt, (const float *const *)merged.layers, width, height, &display);
+            ev.save_png = false;
+        }
         if (ev.save_png) {
             /* nothing newer was published: save the image on screen */
             uint64_t any = 0;
@@ -154,8 +226,10 @@ int pm_window_run(const pm_options *opt, const pm_scene *scene, const pm_accel *
         printf("stat window first_frame_seconds=%.4f first_image_seconds=%.4f ui_loops_per_second=%.1f frames_per_second=%.1f restarts=%llu restart_to_image_seconds=%.4f\n",
                first_frame, first_image, seconds > 0 ? loops / seconds : 0.0, seconds > 0 ? frames / seconds : 0.0,
                (unsigned long long)restarts, restarts ? restart_to_image / restarts : 0.0);
+    pm_cluster_send_quit(cluster);
     pm_session_stop(session);
     pm_view_destroy(view);
+    free_merged(&merged);
     return 0;
 }
 

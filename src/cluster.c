@@ -1,0 +1,471 @@
+/* cluster.c: the MPI side of pmview: joining a job, agreeing on the set-up, merging the ranks' films by one reduction, and the window's commands to every rank. */
+#include "cluster.h"
+
+#include <fcntl.h>
+#include <limits.h>
+#include <mpi.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "clock.h"
+#include "defaults.h"
+#include "memory.h"
+
+enum { TAG_COMMAND = 11, TAG_DONE = 12, TAG_TEXT = 13, TAG_READY = 14 };
+enum { CMD_MERGE = 1, CMD_FINAL, CMD_RESTART, CMD_PAUSE, CMD_RESIZE, CMD_QUIT };
+/* ahead of the film's additive form in a merge: the photons and rendering seconds of each rank */
+enum { TOTALS_FIELDS = 2 };
+
+/* What rank 0 asks of the others; sent as bytes: every rank is the same binary. */
+typedef struct {
+    int type;
+    int width, height;     /* CMD_RESIZE */
+    int indirect;          /* CMD_RESTART: -1 keeps the setting */
+    int has_camera;
+    int paused;            /* CMD_PAUSE */
+    uint64_t count;        /* CMD_MERGE, CMD_FINAL: the doubles each rank adds, to check every rank agrees */
+    pm_camera camera;
+} command;
+
+struct pm_cluster {
+    int rank, size;
+    int real_stderr;       /* ranks other than 0: the terminal's stderr, kept for a failure's line */
+    FILE *kept_stderr;     /* ... while their stderr goes here */
+    pm_film merged;        /* rank 0: the sum of every rank's film */
+    bool merged_made;
+    double *send, *receive;
+    size_t capacity;       /* doubles send (and receive) hold */
+    pm_cluster_totals totals;
+    /* the window's merge under way (rank 0): asked, waiting for every rank's word that it is ready */
+    bool in_flight;
+    int ready;
+    uint64_t epoch, flight_epoch;
+    size_t flight_count;
+    double last_merge_start;
+    char error[1024];
+};
+
+static void nap(void) {
+    struct timespec t = {0, 500000}; /* half a millisecond: MPI's own waits spin a core the renderer needs */
+    nanosleep(&t, NULL);
+}
+
+
+pm_cluster *pm_cluster_join(int *argc, char ***argv) {
+    if (!getenv("OMPI_COMM_WORLD_SIZE") && !getenv("PMI_SIZE") && !getenv("PMIX_RANK")) return NULL;
+    int provided = 0;
+    if (MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
+        fprintf(stderr, "pmview: error: MPI could not start (started by mpirun, pmview joins its job)\n");
+        exit(1);
+    }
+    pm_cluster *c = calloc(1, sizeof *c);
+    if (!c) {
+        fprintf(stderr, "pmview: error: out of memory joining the MPI job\n");
+        MPI_Abort(MPI_COMM_WORLD, 1);
+    }
+    MPI_Comm_rank(MPI_COMM_WORLD, &c->rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &c->size);
+    c->real_stderr = -1;
+    if (c->rank > 0) {
+        /* one voice: rank 0's; another rank's lines are read back when it is the one that failed */
+        fflush(stdout);
+        fflush(stderr);
+        int null = open("/dev/null", O_WRONLY);
+        if (null >= 0) { dup2(null, 1); close(null); }
+        c->kept_stderr = tmpfile();
+        if (c->kept_stderr) {
+            c->real_stderr = dup(2);
+            dup2(fileno(c->kept_stderr), 2);
+        }
+    }
+    return c;
+}
+
+void pm_cluster_leave(pm_cluster *c) {
+    if (!c) return;
+    if (c->merged_made) pm_film_free(&c->merged);
+    free(c->send);
+    free(c->receive);
+    if (c->kept_stderr) fclose(c->kept_stderr);
+    if (c->real_stderr >= 0) close(c->real_stderr);
+    free(c);
+    MPI_Finalize();
+}
+
+int pm_cluster_rank(const pm_cluster *c) { return c ? c->rank : 0; }
+int pm_cluster_size(const pm_cluster *c) { return c ? c->size : 1; }
+pm_cluster_totals pm_cluster_get_totals(const pm_cluster *c) {
+    pm_cluster_totals none = {0, 0, 0, 0, 0};
+    return c ? c->totals : none;
+}
+const char *pm_cluster_error(const pm_cluster *c) { return c ? c->error : ""; }
+
+uint64_t pm_cluster_seed(const pm_cluster *c, uint64_t seed) {
+    if (!c || c->rank == 0) return seed;
+    /* splitmix64 of the rank: streams no other rank's seed comes near */
+    uint64_t z = seed + 0x9e3779b97f4a7c15ull * (uint64_t)c->rank;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return (z ^ (z >> 31)) & 0x7fffffffull;
+}
+
+uint32_t pm_cluster_share(const pm_cluster *c, uint32_t total) {
+    if (!c) return total;
+    uint32_t each = total / (uint32_t)c->size, rest = total % (uint32_t)c->size;
+    return each + ((uint32_t)c->rank < rest ? 1u : 0u);
+}
+
+/* The last line this rank wrote to its kept stderr (a failure's message), or "". */
+static void last_kept_line(pm_cluster *c, char *line, size_t size) {
+    line[0] = 0;
+    fflush(stderr);
+    if (!c->kept_stderr) return;
+    struct stat st;
+    if (fstat(fileno(c->kept_stderr), &st) != 0 || st.st_size <= 0) return;
+    char tail[1024];
+    off_t from = st.st_size > (off_t)sizeof tail - 1 ? st.st_size - (off_t)sizeof tail + 1 : 0;
+    ssize_t n = pread(fileno(c->kept_stderr), tail, sizeof tail - 1, from);
+    if (n <= 0) return;
+    tail[n] = 0;
+    while (n > 0 && (tail[n - 1] == '\n' || tail[n - 1] == '\r')) tail[--n] = 0;
+    const char *start = strrchr(tail, '\n');
+    start = start ? start + 1 : tail;
+    size_t length = strlen(start) < size - 1 ? strlen(start) : size - 1;
+    memcpy(line, start, length);
+    line[length] = 0;
+}
+
+/* "pmview: X" as rank K's: "pmview: rank K: X". */
+static void print_as_rank(FILE *f, int rank, const char *line) {
+    const char *rest = strncmp(line, "pmview: ", 8) == 0 ? line + 8 : line;
+    fprintf(f, "pmview: rank %d: %s\n", rank, rest);
+}
+
+int pm_cluster_agree(pm_cluster *c, int code) {
+    if (!c) return code;
+    int mine = code < 0 ? c->size : c->rank, first = c->size;
+    MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (first == c->size) return -1;
+    int agreed = code;
+    MPI_Bcast(&agreed, 1, MPI_INT, first, MPI_COMM_WORLD);
+    if (first != 0) {
+        char line[1024];
+        if (c->rank == first) {
+            last_kept_line(c, line, sizeof line);
+            MPI_Send(line, (int)strlen(line) + 1, MPI_CHAR, 0, TAG_TEXT, MPI_COMM_WORLD);
+        } else if (c->rank == 0) {
+            MPI_Recv(line, sizeof line, MPI_CHAR, first, TAG_TEXT, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            line[sizeof line - 1] = 0;
+            print_as_rank(stderr, first, line[0] ? line : "failed during set-up");
+        }
+    }
+    return agreed;
+}
+
+void pm_cluster_abort(pm_cluster *c, const char *message) {
+    if (c->rank == 0) fprintf(stderr, "pmview: error: %s\n", message);
+    else {
+        char line[1200];
+        snprintf(line, sizeof line, "pmview: rank %d: error: %s\n", c->rank, message);
+        if (c->real_stderr >= 0 && write(c->real_stderr, line, strlen(line)) < 0) { /* nothing left to tell */ }
+    }
+    MPI_Abort(MPI_COMM_WORLD, 1);
+}
+
+/* ---- merging ---- */
+
+/* Room for a merge of film's form; the merged film (rank 0) made like the session's film. */
+static bool prepare(pm_cluster *c, const pm_film *film, size_t count) {
+    if (count > c->capacity) {
+        free(c->send);
+        free(c->receive);
+        c->receive = NULL;
+        c->capacity = 0;
+        c->send = pm_malloc(count * sizeof(double), "the cluster's merge buffers");
+        if (!c->send) goto out_of_memory;
+        if (c->rank == 0) {
+            c->receive = pm_malloc(count * sizeof(double), "the cluster's merge buffers");
+            if (!c->receive) goto out_of_memory;
+        }
+        c->capacity = count;
+    }
+    if (c->rank != 0) return true;
+    if (c->merged_made && (c->merged.width != film->width || c->merged.height != film->height)) {
+        pm_film_free(&c->merged);
+        c->merged_made = false;
+    }
+    if (!c->merged_made) {
+        bool components[PM_COMPONENT_COUNT], slots[PM_SLOT_COUNT];
+        for (int k = 0; k < PM_COMPONENT_COUNT; k++) components[k] = film->sum[k] != NULL;
+        for (int k = 0; k < PM_SLOT_COUNT; k++) slots[k] = film->ppm[k] != NULL;
+        if (!pm_film_init(&c->merged, film->width, film->height, components)) goto out_of_memory;
+        c->merged_made = true;
+        if (!pm_film_enable_ppm(&c->merged, slots)) goto out_of_memory;
+    }
+    return true;
+out_of_memory:
+    snprintf(c->error, sizeof c->error, "out of memory (%s) merging the ranks' images",
+             pm_memory_failure() ? pm_memory_failure() : "merge buffers");
+    return false;
+}
+
+/* This rank's share of a merge into c->send: the session's published form (the window's worker
+ * renders) or its film between two iterations; zeros where it has nothing since the last restart. */
+static void pack_own(pm_cluster *c, pm_session *s, bool published, size_t count) {
+    const pm_film *film = pm_session_film(s);
+    size_t film_count = count - TOTALS_FIELDS;
+    if (published) {
+        uint64_t photons = 0;
+        double seconds = 0;
+        const double *p = pm_session_lock_packed(s, &photons, &seconds);
+        if (p) {
+            memcpy(c->send + TOTALS_FIELDS, p, film_count * sizeof(double));
+            pm_session_unlock_latest(s);
+            c->send[0] = (double)photons;
+            c->send[1] = seconds;
+        } else memset(c->send, 0, count * sizeof(double));
+        return;
+    }
+    pm_film_pack(film, c->send + TOTALS_FIELDS);
+    c->send[0] = (double)pm_session_photons(s);
+    c->send[1] = 0.0;
+}
+
+static void count_sent(pm_cluster *c, size_t count) {
+    c->totals.merges++;
+    c->totals.bytes_per_merge = count * sizeof(double);
+    if (c->rank != 0) c->totals.bytes_sent += count * sizeof(double);
+}
+
+static const pm_film *unpack_merged(pm_cluster *c) {
+    c->totals.photons = (uint64_t)c->receive[0];
+    c->totals.seconds = c->receive[1];
+    pm_film_unpack(&c->merged, c->receive + TOTALS_FIELDS);
+    return &c->merged;
+}
+
+static void send_all(pm_cluster *c, const command *cmd) {
+    for (int k = 1; k < c->size; k++) {
+        MPI_Send(cmd, sizeof *cmd, MPI_BYTE, k, TAG_COMMAND, MPI_COMM_WORLD);
+        c->totals.bytes_sent += sizeof *cmd;
+    }
+}
+
+/* A rank's part of the merge rank 0 asked for with cmd: its form packed, a word that it is ready,
+ * then the reduction. Rank 0 waits for every word before it joins, so no rank spins in MPI while
+ * another finishes an iteration, and the reduction itself runs at the speed of the network. */
+static void answer_merge(pm_cluster *c, pm_session *s, const command *cmd, bool published) {
+    const pm_film *film = pm_session_film(s);
+    size_t count = TOTALS_FIELDS + pm_film_packed_count(film);
+    if (count != cmd->count) {
+        char message[256];
+        snprintf(message, sizeof message, "its image holds %zu values where rank 0's holds %llu (not the same scene or options?)",
+                 count, (unsigned long long)cmd->count);
+        pm_cluster_abort(c, message);
+    }
+    if (!prepare(c, film, count)) pm_cluster_abort(c, c->error);
+    pack_own(c, s, published, count);
+    int ready = 1;
+    MPI_Send(&ready, 1, MPI_INT, 0, TAG_READY, MPI_COMM_WORLD);
+    MPI_Reduce(c->send, NULL, (int)count, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
+    count_sent(c, count);
+}
+
+/* Rank 0: takes the ready words that have come (all of them when block), true once every rank's is in. */
+static bool take_ready(pm_cluster *c, bool block) {
+    while (c->ready < c->size - 1) {
+        int waiting = 0;
+        MPI_Iprobe(MPI_ANY_SOURCE, TAG_READY, MPI_COMM_WORLD, &waiting, MPI_STATUS_IGNORE);
+        if (waiting) {
+            int word;
+            MPI_Recv(&word, 1, MPI_INT, MPI_ANY_SOURCE, TAG_READY, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            c->ready++;
+            continue;
+        }
+        if (!block) return false;
+        nap();
+    }
+    return true;
+}
+
+/* Rank 0's side of a merge once every rank is ready: the reduction, then the sum unpacked. */
+static const pm_film *reduce_at_root(pm_cluster *c, size_t count, bool unpack) {
+    MPI_Reduce(c->send, c->receive, (int)count, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
+    c->in_flight = false;
+    count_sent(c, count);
+    return unpack ? unpack_merged(c) : NULL;
+}
+
+static const pm_film *merge_from_root(pm_cluster *c, pm_session *s, int type) {
+    const pm_film *film = pm_session_film(s);
+    size_t count = TOTALS_FIELDS + pm_film_packed_count(film);
+    if (count > INT_MAX) {
+        snprintf(c->error, sizeof c->error, "the image is too large for one MPI reduction (%zu values)", count);
+        return NULL;
+    }
+    bool ready = prepare(c, film, count);
+    command cmd = {.type = type, .count = count, .indirect = -1};
+    send_all(c, &cmd);
+    if (!ready) pm_cluster_abort(c, c->error); /* the others are on their way into the reduction: end the job */
+    pack_own(c, s, false, count);
+    c->ready = 0;
+    take_ready(c, true);
+    return reduce_at_root(c, count, true);
+}
+
+const pm_film *pm_cluster_merge_now(pm_cluster *c, pm_session *s) { return merge_from_root(c, s, CMD_MERGE); }
+
+/* A command from rank 0 if one is waiting (block: wait for it, napping). */
+static bool next_command(command *cmd, bool block) {
+    for (;;) {
+        int waiting = 0;
+        MPI_Iprobe(0, TAG_COMMAND, MPI_COMM_WORLD, &waiting, MPI_STATUS_IGNORE);
+        if (waiting) {
+            MPI_Recv(cmd, sizeof *cmd, MPI_BYTE, 0, TAG_COMMAND, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            return true;
+        }
+        if (!block) return false;
+        nap();
+    }
+}
+
+void pm_cluster_serve(pm_cluster *c, pm_session *s) {
+    if (!c || c->rank == 0) return;
+    command cmd;
+    while (next_command(&cmd, false))
+        if (cmd.type == CMD_MERGE) answer_merge(c, s, &cmd, false);
+}
+
+const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, bool failed, volatile sig_atomic_t *interrupted,
+                                  void (*tick)(void *context), void *context) {
+    if (failed) pm_cluster_abort(c, pm_session_error(s));
+    if (c->rank != 0) {
+        int done = 1;
+        MPI_Send(&done, 1, MPI_INT, 0, TAG_DONE, MPI_COMM_WORLD);
+        command cmd;
+        for (;;) {
+            next_command(&cmd, true);
+            if (cmd.type == CMD_MERGE || cmd.type == CMD_FINAL) answer_merge(c, s, &cmd, false);
+            if (cmd.type == CMD_FINAL) return NULL;
+        }
+    }
+    /* rank 0: every other rank's word that its run is over, then the last merge */
+    bool *heard = calloc((size_t)c->size, sizeof *heard);
+    if (!heard) pm_cluster_abort(c, "out of memory waiting for the ranks");
+    int left = c->size - 1;
+    double silence_since = 0.0;
+    while (left > 0) {
+        int waiting = 0;
+        MPI_Status status;
+        MPI_Iprobe(MPI_ANY_SOURCE, TAG_DONE, MPI_COMM_WORLD, &waiting, &status);
+        if (waiting) {
+            int done;
+            MPI_Recv(&done, 1, MPI_INT, status.MPI_SOURCE, TAG_DONE, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            if (!heard[status.MPI_SOURCE]) left--;
+            heard[status.MPI_SOURCE] = true;
+            continue;
+        }
+        if (tick) tick(context);
+        if (interrupted && *interrupted) {
+            /* a signal reached every rank (mpirun passes it on): one that does not answer soon is gone */
+            if (silence_since == 0.0) silence_since = pm_now_seconds();
+            else if (pm_now_seconds() - silence_since > PM_CLUSTER_SILENCE_SECONDS) {
+                int n = snprintf(c->error, sizeof c->error, "rank");
+                int listed = 0;
+                for (int k = 1; k < c->size && n < (int)sizeof c->error - 16; k++)
+                    if (!heard[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
+                snprintf(c->error + n, sizeof c->error - (size_t)n, " did not answer: the job ends without its image");
+                free(heard);
+                return NULL;
+            }
+        }
+        nap();
+    }
+    free(heard);
+    return merge_from_root(c, s, CMD_FINAL);
+}
+
+/* ---- the window ---- */
+
+void pm_cluster_send_restart(pm_cluster *c, const pm_camera *camera, int indirect) {
+    if (!c) return;
+    command cmd = {.type = CMD_RESTART, .indirect = indirect, .has_camera = camera != NULL};
+    if (camera) cmd.camera = *camera;
+    c->epoch++;
+    send_all(c, &cmd);
+}
+
+void pm_cluster_send_pause(pm_cluster *c, bool paused) {
+    if (!c) return;
+    command cmd = {.type = CMD_PAUSE, .paused = paused, .indirect = -1};
+    send_all(c, &cmd);
+}
+
+void pm_cluster_send_resize(pm_cluster *c, int width, int height, const pm_camera *camera) {
+    if (!c) return;
+    /* the merge under way is of the old size: the others are in it, so it ends first */
+    if (c->in_flight) {
+        take_ready(c, true);
+        reduce_at_root(c, c->flight_count, false);
+    }
+    command cmd = {.type = CMD_RESIZE, .width = width, .height = height, .indirect = -1, .has_camera = camera != NULL};
+    if (camera) cmd.camera = *camera;
+    c->epoch++;
+    send_all(c, &cmd);
+}
+
+void pm_cluster_send_quit(pm_cluster *c) {
+    if (!c) return;
+    if (c->in_flight) {
+        take_ready(c, true);
+        reduce_at_root(c, c->flight_count, false);
+    }
+    command cmd = {.type = CMD_QUIT, .indirect = -1};
+    send_all(c, &cmd);
+}
+
+const pm_film *pm_cluster_poll_merge(pm_cluster *c, pm_session *s) {
+    if (!c) return NULL;
+    if (c->in_flight) {
+        if (!take_ready(c, false)) return NULL;
+        return reduce_at_root(c, c->flight_count, c->flight_epoch == c->epoch);
+    }
+    double now = pm_now_seconds();
+    if (now - c->last_merge_start < PM_CLUSTER_MERGE_SECONDS) return NULL;
+    const pm_film *film = pm_session_film(s);
+    size_t count = TOTALS_FIELDS + pm_film_packed_count(film);
+    if (count > INT_MAX || !prepare(c, film, count)) return NULL;
+    command cmd = {.type = CMD_MERGE, .count = count, .indirect = -1};
+    send_all(c, &cmd);
+    pack_own(c, s, true, count);
+    c->in_flight = true;
+    c->ready = 0;
+    c->flight_epoch = c->epoch;
+    c->flight_count = count;
+    c->last_merge_start = now;
+    return NULL;
+}
+
+int pm_cluster_follow(pm_cluster *c, pm_session *s) {
+    char err[1024];
+    if (!pm_session_keep_packed(s, true) || !pm_session_start(s, err, sizeof err)) pm_cluster_abort(c, pm_session_error(s));
+    command cmd;
+    for (;;) {
+        next_command(&cmd, true);
+        switch (cmd.type) {
+        case CMD_RESTART: pm_session_request_restart(s, cmd.has_camera ? &cmd.camera : NULL, cmd.indirect); break;
+        case CMD_PAUSE: pm_session_pause(s, cmd.paused != 0); break;
+        case CMD_RESIZE:
+            if (!pm_session_resize(s, cmd.width, cmd.height, cmd.has_camera ? &cmd.camera : NULL))
+                pm_cluster_abort(c, pm_session_error(s));
+            break;
+        case CMD_MERGE: answer_merge(c, s, &cmd, true); break;
+        case CMD_QUIT: pm_session_stop(s); return 0;
+        default: break;
+        }
+    }
+}
