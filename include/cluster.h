@@ -57,6 +57,9 @@ typedef struct {
 pm_cluster_totals pm_cluster_get_totals(const pm_cluster *c);
 
 /* ---- snapshots: every rank runs its share (pm_session_run) on its own ---- */
+/* The flag a signal handler sets: once it is set, rank 0 waits for a silent rank at most
+ * PM_CLUSTER_SILENCE_SECONDS, then ends the job with a line naming it (a rank that died). */
+void pm_cluster_watch(pm_cluster *c, volatile sig_atomic_t *interrupted);
 /* Rank 0, between its iterations: every rank's film summed into rank 0's merged film, returned
  * (NULL when out of memory, with pm_cluster_error set). Waits for each rank's running iteration. */
 const pm_film *pm_cluster_merge_now(pm_cluster *c, pm_session *s);
@@ -65,10 +68,9 @@ void pm_cluster_serve(pm_cluster *c, pm_session *s);
 /* After a rank's run (failed: the session's error ends the job). Ranks other than 0 tell rank 0,
  * answer its merges until the last one, and return NULL. Rank 0 waits for every rank, calling
  * tick(context) every few milliseconds meanwhile (checkpoints), then merges a last time and
- * returns the film (NULL with pm_cluster_error set when a rank failed or, once `interrupted` is
- * set, stayed silent: the job then ends without its image). */
-const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, bool failed, volatile sig_atomic_t *interrupted,
-                                  void (*tick)(void *context), void *context);
+ * returns the film. A failed rank, or one silent after a signal (pm_cluster_watch), ends the job
+ * (pm_cluster_abort). */
+const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, bool failed, void (*tick)(void *context), void *context);
 /* Why the last call above failed, naming the rank. */
 const char *pm_cluster_error(const pm_cluster *c);
 

@@ -43,6 +43,8 @@ struct pm_cluster {
     /* the window's merge under way (rank 0): asked, waiting for every rank's word that it is ready */
     bool in_flight;
     int ready;
+    bool *answered;        /* rank 0: which ranks have given the word awaited (ready, or their run done) */
+    volatile sig_atomic_t *interrupted; /* a signal reached this rank (mpirun passes one on to every rank) */
     uint64_t epoch, flight_epoch;
     size_t flight_count;
     double last_merge_start;
@@ -70,6 +72,11 @@ pm_cluster *pm_cluster_join(int *argc, char ***argv) {
     MPI_Comm_rank(MPI_COMM_WORLD, &c->rank);
     MPI_Comm_size(MPI_COMM_WORLD, &c->size);
     c->real_stderr = -1;
+    c->answered = calloc((size_t)c->size, sizeof *c->answered);
+    if (!c->answered) {
+        fprintf(stderr, "pmview: error: out of memory joining the MPI job\n");
+        MPI_Abort(MPI_COMM_WORLD, 1);
+    }
     if (c->rank > 0) {
         /* one voice: rank 0's; another rank's lines are read back when it is the one that failed */
         fflush(stdout);
@@ -90,6 +97,7 @@ void pm_cluster_leave(pm_cluster *c) {
     if (c->merged_made) pm_film_free(&c->merged);
     free(c->send);
     free(c->receive);
+    free(c->answered);
     if (c->kept_stderr) fclose(c->kept_stderr);
     if (c->real_stderr >= 0) close(c->real_stderr);
     free(c);
@@ -275,18 +283,42 @@ static void answer_merge(pm_cluster *c, pm_session *s, const command *cmd, bool 
     count_sent(c, count);
 }
 
+void pm_cluster_watch(pm_cluster *c, volatile sig_atomic_t *interrupted) {
+    if (c) c->interrupted = interrupted;
+}
+
+/* Rank 0 waiting for a word from every rank: once a signal has come (mpirun sends one to every rank
+ * when one dies, and a live rank answers within its running task), a rank silent for
+ * PM_CLUSTER_SILENCE_SECONDS after it is taken for gone, and the job ends naming it. */
+static void check_silence(pm_cluster *c, double *since, const char *awaited) {
+    if (!c->interrupted || !*c->interrupted) return;
+    if (*since == 0.0) { *since = pm_now_seconds(); return; }
+    if (pm_now_seconds() - *since <= PM_CLUSTER_SILENCE_SECONDS) return;
+    int n = snprintf(c->error, sizeof c->error, "rank");
+    int listed = 0;
+    for (int k = 1; k < c->size && n < (int)sizeof c->error - 96; k++)
+        if (!c->answered[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
+    snprintf(c->error + n, sizeof c->error - (size_t)n, " gave no %s after the signal: taken for gone, the job ends", awaited);
+    pm_cluster_abort(c, c->error);
+}
+
 /* Rank 0: takes the ready words that have come (all of them when block), true once every rank's is in. */
 static bool take_ready(pm_cluster *c, bool block) {
+    double since = 0.0;
+    if (c->ready == 0) memset(c->answered, 0, (size_t)c->size * sizeof *c->answered);
     while (c->ready < c->size - 1) {
         int waiting = 0;
-        MPI_Iprobe(MPI_ANY_SOURCE, TAG_READY, MPI_COMM_WORLD, &waiting, MPI_STATUS_IGNORE);
+        MPI_Status status;
+        MPI_Iprobe(MPI_ANY_SOURCE, TAG_READY, MPI_COMM_WORLD, &waiting, &status);
         if (waiting) {
             int word;
-            MPI_Recv(&word, 1, MPI_INT, MPI_ANY_SOURCE, TAG_READY, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            MPI_Recv(&word, 1, MPI_INT, status.MPI_SOURCE, TAG_READY, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            c->answered[status.MPI_SOURCE] = true;
             c->ready++;
             continue;
         }
         if (!block) return false;
+        check_silence(c, &since, "image for the merge");
         nap();
     }
     return true;
@@ -340,8 +372,7 @@ void pm_cluster_serve(pm_cluster *c, pm_session *s) {
         if (cmd.type == CMD_MERGE) answer_merge(c, s, &cmd, false);
 }
 
-const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, bool failed, volatile sig_atomic_t *interrupted,
-                                  void (*tick)(void *context), void *context) {
+const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, bool failed, void (*tick)(void *context), void *context) {
     if (failed) pm_cluster_abort(c, pm_session_error(s));
     if (c->rank != 0) {
         int done = 1;
@@ -354,10 +385,9 @@ const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, bool failed, vol
         }
     }
     /* rank 0: every other rank's word that its run is over, then the last merge */
-    bool *heard = calloc((size_t)c->size, sizeof *heard);
-    if (!heard) pm_cluster_abort(c, "out of memory waiting for the ranks");
+    memset(c->answered, 0, (size_t)c->size * sizeof *c->answered);
     int left = c->size - 1;
-    double silence_since = 0.0;
+    double since = 0.0;
     while (left > 0) {
         int waiting = 0;
         MPI_Status status;
@@ -365,27 +395,14 @@ const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, bool failed, vol
         if (waiting) {
             int done;
             MPI_Recv(&done, 1, MPI_INT, status.MPI_SOURCE, TAG_DONE, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-            if (!heard[status.MPI_SOURCE]) left--;
-            heard[status.MPI_SOURCE] = true;
+            if (!c->answered[status.MPI_SOURCE]) left--;
+            c->answered[status.MPI_SOURCE] = true;
             continue;
         }
         if (tick) tick(context);
-        if (interrupted && *interrupted) {
-            /* a signal reached every rank (mpirun passes it on): one that does not answer soon is gone */
-            if (silence_since == 0.0) silence_since = pm_now_seconds();
-            else if (pm_now_seconds() - silence_since > PM_CLUSTER_SILENCE_SECONDS) {
-                int n = snprintf(c->error, sizeof c->error, "rank");
-                int listed = 0;
-                for (int k = 1; k < c->size && n < (int)sizeof c->error - 16; k++)
-                    if (!heard[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
-                snprintf(c->error + n, sizeof c->error - (size_t)n, " did not answer: the job ends without its image");
-                free(heard);
-                return NULL;
-            }
-        }
+        check_silence(c, &since, "word that its run is over");
         nap();
     }
-    free(heard);
     return merge_from_root(c, s, CMD_FINAL);
 }
 

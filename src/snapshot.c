@@ -127,7 +127,7 @@ typedef struct {
     uint32_t logged;          /* the samples of the last log row */
     uint64_t next_progress;   /* the next error-curve point */
     bool tty;
-    double start, last_checkpoint;
+    double start, last_checkpoint, last_merge;
     uint64_t *reserved;       /* the writers' room, lent to each checkpoint */
     pm_session *session;
 } observer;
@@ -151,6 +151,7 @@ static void show_progress(bool tty, uint32_t done, long target, double elapsed, 
 static const pm_film *whole_image(observer *ob) {
     if (!ob->cluster) return pm_session_film(ob->session);
     const pm_film *merged = pm_cluster_merge_now(ob->cluster, ob->session);
+    ob->last_merge = pm_now_seconds();
     if (!merged) pm_cluster_abort(ob->cluster, pm_cluster_error(ob->cluster));
     return merged;
 }
@@ -186,8 +187,11 @@ static void observe(void *context, pm_session *session, const pm_session_run_sta
         pm_cluster_serve(ob->cluster, session);
         return;
     }
-    bool log_row = ob->log && pm_log_wanted(ob->logged, state->samples);
-    bool progress = ob->scratch && ob->o->stats && state->samples >= ob->next_progress;
+    /* under mpirun a row is a merge, which waits for every rank's running iteration: at most one
+     * every PM_CLUSTER_MERGE_SECONDS, or rank 0 would spend its time waiting */
+    bool merge_allowed = !ob->cluster || pm_now_seconds() - ob->last_merge >= PM_CLUSTER_MERGE_SECONDS;
+    bool log_row = ob->log && pm_log_wanted(ob->logged, state->samples) && merge_allowed;
+    bool progress = ob->scratch && ob->o->stats && state->samples >= ob->next_progress && merge_allowed;
     bool save = checkpoint_due(ob);
     const pm_film *film = log_row || progress || save ? whole_image(ob) : NULL;
     if (log_row) {
@@ -209,9 +213,10 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
                     uint64_t *reserved) {
     char err[1024];
     pm_snapshot_catch_signals(session);
+    pm_cluster_watch(cluster, &interrupted_by);
     bool root = pm_cluster_rank(cluster) == 0;
     const pm_film *film = pm_session_film(session);
-    observer ob = {o, cluster, reference, NULL, NULL, 0, 1, root && isatty(2) && !o->quiet, 0.0, 0.0, reserved, session};
+    observer ob = {o, cluster, reference, NULL, NULL, 0, 1, root && isatty(2) && !o->quiet, 0.0, 0.0, 0.0, reserved, session};
     if (reference->rgb[0]) {
         ob.scratch = pm_malloc(sizeof(float) * 3 * (size_t)film->width * film->height, "reference comparison");
         if (!ob.scratch) { fprintf(stderr, "pmview: error: out of memory (%s)\n", pm_memory_failure()); return 1; }
@@ -239,7 +244,7 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
         return 1;
     }
     if (cluster) {
-        film = pm_cluster_end_run(cluster, session, false, &interrupted_by, root ? tick : NULL, &ob);
+        film = pm_cluster_end_run(cluster, session, false, root ? tick : NULL, &ob);
         if (!root) {
             free(ob.scratch);
             return interrupted_by ? (interrupted_by == SIGINT ? 130 : 143) : 0;

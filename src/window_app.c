@@ -161,13 +161,14 @@ int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *sc
                 printf("pmview: rendering at %dx%d\n", width, height);
             }
         }
+        /* before the session's lock is taken: a merge reads the session's packed image under it */
+        const pm_film *whole = pm_cluster_poll_merge(cluster, session);
         pm_session_progress progress;
         const float *const *layers = pm_session_lock_latest(session, &version, &progress);
         bool redraw = ev.display_changed;
         loops++;
         /* under mpirun the merged image, once one of this camera and size has come, stands for the
          * session's own (its preview and first iterations show until then) */
-        const pm_film *whole = pm_cluster_poll_merge(cluster, session);
         if (layers && merged.shown) {
             pm_session_unlock_latest(session);
             layers = NULL;
