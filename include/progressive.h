@@ -66,6 +66,8 @@ typedef struct {
     bool caustic_by_statistics; /* the caustic seen directly from visible-point statistics, no camera splats (to compare) */
     double first_photon_fraction; /* share of the photons the first iteration after a start or a restart emits; 0 = PM_PPM_FIRST_PHOTON_FRACTION */
     int eye_passes;            /* eye passes reading each photon pass; 0 = automatic (from the rays of both, see pm_progressive_iterate) */
+    uint32_t radius_steps;     /* radius reductions an iteration makes (0 or 1: one); under mpirun the rank count, so that the
+                                  radii of each rank shrink with the job's iterations, as one process's would, not with its own */
     bool unclipped;            /* estimates read their whole disc, through walls (no clip.h): only to measure what clipping costs and mends */
     bool unguided;             /* photons emitted without the learned guide (guide.h): only to measure what guiding gains */
 } pm_progressive_settings;

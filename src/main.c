@@ -160,6 +160,7 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     o->seed = (long)pm_cluster_seed(cluster, (uint64_t)seed);
     pm_options_session_config(o, &r->scene, width, height, &config);
     o->seed = seed;
+    config.progressive.radius_steps = (uint32_t)pm_cluster_size(cluster);
     r->session = pm_session_create(&r->scene, r->accel, &r->camera, &config, err, sizeof err);
     if (!r->session) { fprintf(stderr, "pmview: error: %s: %s\n", o->scene_path, err); return 1; }
     /* from here a signal is the snapshot's: the image so far (none yet) is written, 130 or 143;

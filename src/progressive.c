@@ -518,8 +518,13 @@ static void update_statistics(gather_job *job, pm_ppm_stat *st, const pm_visible
     job->counters[thread].found += m;
     vec3 phi = v3_mul(vp->weight, power); /* Lambert: kd/pi x power; glossy: the lobe is in power already */
     if (!v3_is_finite(phi)) { job->counters[thread].dropped++; return; }
-    double alpha = p->settings.alpha, n = st->n;
-    double r2_new = st->r2 * (n + alpha * m) / (n + m);
+    double alpha = p->settings.alpha, n = st->n, r2_new = st->r2;
+    /* under mpirun each of the job's ranks finds about m photons in its own iteration: the job as a
+     * whole made radius_steps such updates */
+    for (uint32_t step = 0; step < (p->settings.radius_steps > 1 ? p->settings.radius_steps : 1u); step++) {
+        r2_new *= (n + alpha * m) / (n + m);
+        n += alpha * m;
+    }
     /* A radius far below float resolution of the scene gathers nothing new: stop shrinking there. */
     double floor = (double)p->scene->ray_scale * 1e-7;
     if (r2_new < floor * floor) r2_new = fmin(st->r2, floor * floor);
@@ -527,7 +532,7 @@ static void update_statistics(gather_job *job, pm_ppm_stat *st, const pm_visible
     st->tau[0] = (st->tau[0] + phi.x) * ratio;
     st->tau[1] = (st->tau[1] + phi.y) * ratio;
     st->tau[2] = (st->tau[2] + phi.z) * ratio;
-    st->n = n + alpha * m;
+    st->n = n;
     st->r2 = r2_new;
     assert(st->r2 > 0.0 && st->n >= 0.0);
 }
@@ -946,8 +951,11 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     /* Knaus and Zwicker's shrinking radius for the next iteration's gather points (an iteration
      * whose statistics pass was cut counts no photon pass: the next one reads with this radius) */
     if (p->gathering && p->radii.gather_r2 > 0.0 && whole_passes > 0) {
-        double i = (double)iteration + 1.0;
-        p->radii.gather_r2 *= (i + set->alpha) / (i + 1.0);
+        uint32_t steps = set->radius_steps > 1 ? set->radius_steps : 1u;
+        for (uint32_t step = 0; step < steps; step++) {
+            double i = (double)iteration * steps + step + 1.0;
+            p->radii.gather_r2 *= (i + set->alpha) / (i + 1.0);
+        }
     }
     if (p->guiding) {
         /* the marks this iteration made are the next global pass's to learn from */
