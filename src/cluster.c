@@ -302,18 +302,24 @@ static void check_silence(pm_cluster *c, double *since, const char *awaited) {
     pm_cluster_abort(c, c->error);
 }
 
+/* Rank 0: one word of `tag` from any rank if one has come, its sender marked as answered. Each rank
+ * sends one word of a kind per merge or run, so words can be counted. */
+static bool take_word(pm_cluster *c, int tag) {
+    int waiting = 0, word;
+    MPI_Status status;
+    MPI_Iprobe(MPI_ANY_SOURCE, tag, MPI_COMM_WORLD, &waiting, &status);
+    if (!waiting) return false;
+    MPI_Recv(&word, 1, MPI_INT, status.MPI_SOURCE, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    c->answered[status.MPI_SOURCE] = true;
+    return true;
+}
+
 /* Rank 0: takes the ready words that have come (all of them when block), true once every rank's is in. */
 static bool take_ready(pm_cluster *c, bool block) {
     double since = 0.0;
     if (c->ready == 0) memset(c->answered, 0, (size_t)c->size * sizeof *c->answered);
     while (c->ready < c->size - 1) {
-        int waiting = 0;
-        MPI_Status status;
-        MPI_Iprobe(MPI_ANY_SOURCE, TAG_READY, MPI_COMM_WORLD, &waiting, &status);
-        if (waiting) {
-            int word;
-            MPI_Recv(&word, 1, MPI_INT, status.MPI_SOURCE, TAG_READY, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-            c->answered[status.MPI_SOURCE] = true;
+        if (take_word(c, TAG_READY)) {
             c->ready++;
             continue;
         }
@@ -386,17 +392,11 @@ const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, bool failed, voi
     }
     /* rank 0: every other rank's word that its run is over, then the last merge */
     memset(c->answered, 0, (size_t)c->size * sizeof *c->answered);
-    int left = c->size - 1;
+    int heard = 0;
     double since = 0.0;
-    while (left > 0) {
-        int waiting = 0;
-        MPI_Status status;
-        MPI_Iprobe(MPI_ANY_SOURCE, TAG_DONE, MPI_COMM_WORLD, &waiting, &status);
-        if (waiting) {
-            int done;
-            MPI_Recv(&done, 1, MPI_INT, status.MPI_SOURCE, TAG_DONE, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-            if (!c->answered[status.MPI_SOURCE]) left--;
-            c->answered[status.MPI_SOURCE] = true;
+    while (heard < c->size - 1) {
+        if (take_word(c, TAG_DONE)) {
+            heard++;
             continue;
         }
         if (tick) tick(context);
