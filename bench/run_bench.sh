@@ -6,4 +6,5 @@ for scene in scenes/cornell-box.gltf scenes/caustic.gltf; do
     build/rel/photon_ceiling "$scene" || exit 1
 done
 sh bench/window_room_bench.sh || exit 1
+sh bench/cluster_bench.sh || exit 1
 sh bench/window_bench.sh
