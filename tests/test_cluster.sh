@@ -169,6 +169,7 @@ check "one process: no 'stat cluster ranks=1 merges=0' line" grep -q "'^stat clu
 start=$(now)
 mpi $cornell --width 64 --time 2 --snapshot "$tmp/time.exr" --log "$tmp/time.csv" >"$tmp/time.out" 2>&1
 rc=$?; wall=$(elapsed "$start" "$(now)")
+echo "--time 2 on 2 ranks: the job took $wall s wall, exit $rc"
 check "--time 2: exit $rc" [ "$rc" -eq 0 ]
 check "--time 2: the job took $wall s wall, want 2 to 4.5 (2 s + start-up and write)" "at_most 1.95 $wall && at_most $wall 4.5"
 check "--time 2: no image written" is_exr "$tmp/time.exr"
