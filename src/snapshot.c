@@ -130,6 +130,8 @@ typedef struct {
     double start, last_checkpoint, last_merge;
     uint64_t *reserved;       /* the writers' room, lent to each checkpoint */
     pm_session *session;
+    uint32_t logged_whole;    /* the image's samples in the last log row: under mpirun the merged
+                               * film's, which other ranks' iterations raise after rank 0's last */
 } observer;
 
 /* The snapshot's progress: a bar redrawn on a terminal, nothing otherwise (one summary at the end). */
@@ -197,6 +199,7 @@ static void observe(void *context, pm_session *session, const pm_session_run_sta
     if (log_row) {
         pm_log_row(ob->log, session, film, whole_photons(ob, state->photons), ob->reference, ob->scratch, state->rendered);
         ob->logged = state->samples;
+        ob->logged_whole = film->samples;
     }
     if (progress) {
         /* at 1, 2, 4, 8, ... samples, or the first count past each when an iteration adds several */
@@ -252,7 +255,7 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
         if (!film) pm_cluster_abort(cluster, pm_cluster_error(cluster));
     }
     double seconds = pm_now_seconds() - ob.start;
-    if (ob.log && ob.logged != state.samples && film->samples)
+    if (ob.log && (ob.logged != state.samples || (cluster && ob.logged_whole != film->samples)) && film->samples)
         pm_log_row(ob.log, session, film, whole_photons(&ob, state.photons), reference, ob.scratch, state.rendered);
     if (ob.log) {
         bool written = !ferror(ob.log);

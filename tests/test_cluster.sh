@@ -1,0 +1,268 @@
+#!/bin/sh
+# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, the cluster stat line.
+#
+# Every job is small (64 px or less, --threads 1) so the whole runs in well under a minute on two
+# busy cores. The ASan build's leak check is off inside mpirun jobs only: Open MPI keeps its own
+# allocations (some in components it has unloaded, which no suppression can name) to the end.
+cd "$(dirname "$0")/.." || exit 1
+
+have_tools() { for t in mpirun python3; do command -v $t >/dev/null 2>&1 || return 1; done; }
+if ! have_tools; then
+    # only when installing cannot stop at a password prompt
+    if [ "$(id -u)" = 0 ] || sudo -n true 2>/dev/null; then sh tools/install-deps.sh </dev/null >/dev/null 2>&1; fi
+    if ! have_tools; then
+        echo "SKIP: mpirun or python3 missing and tools/install-deps.sh could not install them"
+        exit 0
+    fi
+fi
+. tests/cli_setup.sh
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+# marks this script's ranks, so that finding rank 1 (and the check that none is left) never
+# touches another pmview running on the machine
+export PMVIEW_TEST_JOB="test_cluster.$$"
+job=""
+cleanup() {
+    [ -n "$job" ] && kill -KILL "$job" 2>/dev/null
+    for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+    rm -rf "$tmp"
+}
+trap cleanup EXIT
+trap 'exit 1' INT TERM HUP
+
+fails=0; checks=0
+fail() { fails=$((fails + 1)); echo "FAIL: $*"; }
+check() { # description, then a shell condition (eval'd)
+    checks=$((checks + 1))
+    desc=$1; shift
+    eval "$@" || fail "$desc"
+}
+now() { date +%s.%N; }
+elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", b - a }'; }
+# at_most X Y: X <= Y as numbers
+at_most() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a <= b) }'; }
+# mpi ARGS...: a 2-rank job of the binary under test, stdin closed (mpirun forwards it to rank 0)
+mpi() { ASAN_OPTIONS=detect_leaks=0 mpirun --oversubscribe -np 2 $bin "$@" </dev/null; }
+# ranks_of_job RANK|any: the pids of this script's pmview ranks (RANK: only that one)
+ranks_of_job() {
+    for d in /proc/[0-9]*; do
+        [ "$(cat "$d/comm" 2>/dev/null)" = pmview ] || continue
+        vars=$( (tr '\0' '\n' <"$d/environ") 2>/dev/null)
+        echo "$vars" | grep -qx "PMVIEW_TEST_JOB=$PMVIEW_TEST_JOB" || continue
+        [ "$1" = any ] || echo "$vars" | grep -qx "OMPI_COMM_WORLD_RANK=$1" || continue
+        echo "${d#/proc/}"
+    done
+}
+# exec_with_sigint ARGS...: becomes ARGS (same pid) with SIGINT's default action: a job a script
+# starts in the background inherits SIGINT ignored, and mpirun keeps it so, as Ctrl-C never does
+exec_with_sigint() {
+    if env --default-signal=INT true 2>/dev/null; then
+        exec env --default-signal=INT "$@"
+    fi
+    exec python3 -c 'import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); os.execvp(sys.argv[1], sys.argv[1:])' "$@"
+}
+# mpi_job ARGS...: the same in the background, started as `mpi_job ... &`: its $! is mpirun's pid
+mpi_job() { export ASAN_OPTIONS=detect_leaks=0; exec_with_sigint mpirun --oversubscribe -np 2 $bin "$@" </dev/null; }
+# stat_value FILE STAGE KEY: KEY's value on FILE's last 'stat STAGE' line
+stat_value() { grep "^stat $2 " "$1" | tail -n 1 | tr ' ' '\n' | sed -n "s/^$3=//p"; }
+# is_exr FILE: OpenEXR's magic number (76 2f 31 01)
+is_exr() { [ "$(od -An -tx1 -N4 "$1" 2>/dev/null | tr -d ' \n')" = 762f3101 ]; }
+# readable_render FILE: pmview reads FILE as a --reference of a 2-iteration render of the Cornell
+# box at 64 px, and the means agree within 20 % (FILE is an image of that scene, not only a header)
+readable_render() {
+    $bin scenes/cornell-box.gltf --width 64 --threads 1 --iterations 2 --reference "$1" --stats --quiet \
+        --snapshot "$tmp/reader.exr" >"$tmp/reader.out" 2>&1 || { sed 's/^/    /' "$tmp/reader.out" | head -3; return 1; }
+    r=$(stat_value "$tmp/reader.out" error mean_ratio_g)
+    [ -n "$r" ] && awk -v r="$r" 'BEGIN { exit !(r > 0.8 && r < 1.25) }' || { echo "    mean ratio against $1: '$r'"; return 1; }
+}
+cornell="scenes/cornell-box.gltf --threads 1"
+
+# --- 1. one seed, one image: two 2-rank runs byte for byte, in each mode; another seed differs
+for mode in progressive classic pathtrace; do
+    for run in a b; do
+        # shellcheck disable=SC2046 # the classic mode's photon count, fewer than its default
+        mpi $cornell --width 48 --iterations 6 --seed 5 --mode $mode $([ $mode = classic ] && echo --photons 5000) --snapshot "$tmp/$mode-$run.exr" >"$tmp/$mode-$run.out" 2>&1 ||
+            { sed 's/^/    /' "$tmp/$mode-$run.out" | head -5; }
+    done
+    check "$mode: two 2-rank runs of seed 5 are not byte-identical" cmp -s "$tmp/$mode-a.exr" "$tmp/$mode-b.exr"
+    check "$mode: the 2-rank job did not render the 6 iterations asked for" grep -q "'(48x48, 6 iterations'" "$tmp/$mode-a.out"
+done
+mpi $cornell --width 48 --iterations 6 --seed 6 --mode progressive --snapshot "$tmp/seed6.exr" >"$tmp/seed6.out" 2>&1
+check "the 2-rank image of seed 6 is missing" is_exr "$tmp/seed6.exr"
+check "the 2-rank images of seeds 5 and 6 are identical (the determinism check could not fail)" ! cmp -s "$tmp/progressive-a.exr" "$tmp/seed6.exr"
+
+# --- 2. the expected image is one process's: a white furnace, walls of albedo 0.5 emitting 1,
+# radiance 1 / (1 - 0.5) = 2 everywhere. 16 iterations at 64x64, seeds 1 to 3, one process and
+# 2 ranks, progressive and path-traced, each against a constant reference of 2.
+# Measured (release build): progressive 1-process mean ratios 1.0008 1.0003 0.9997, 2 ranks
+# 1.0007 0.9996 0.9991, relMSE 0.00127 (8 iterations: 0.0025); path tracing 1.0001 1.0004 0.9999
+# and 1.0000 1.0002 0.9995, relMSE 0.0007. The noise of an image's mean is taken as the larger of
+# the seed-to-seed spread measured here (sample standard deviation of the 1-process means) and
+# sqrt(relMSE / pixels) (the pixels' own noise, averaged: 0.00056 progressive, 0.00041 path
+# traced, what the spread above shows too); every mean must lie within 4 of those of the answer,
+# the two means of three within 4 of each other. A merge that dropped or doubled a rank's film
+# misses by 10 % or more; one that lost a rank's iterations doubles the relMSE, checked too.
+python3 tests/furnace_scene.py "$tmp/furnace.gltf" 0.5 1 || fail "furnace_scene.py failed"
+answer=$(python3 tests/furnace_scene.py answer 0.5 1)
+python3 tests/sky_files.py exr "$tmp/furnace-ref.exr" 64 64 "$answer" || fail "sky_files.py failed"
+furnace="$tmp/furnace.gltf --width 64 --threads 1 --iterations 16 --reference $tmp/furnace-ref.exr --stats"
+for mode in progressive pathtrace; do
+    : >"$tmp/furnace-$mode.txt"
+    for seed in 1 2 3; do
+        $bin $furnace --mode $mode --seed $seed --snapshot "$tmp/f1.exr" >"$tmp/f1-$mode-$seed.out" 2>&1 ||
+            fail "furnace $mode seed $seed, one process: exit $?"
+        mpi $furnace --mode $mode --seed $seed --snapshot "$tmp/f2.exr" >"$tmp/f2-$mode-$seed.out" 2>&1 ||
+            fail "furnace $mode seed $seed, 2 ranks: exit $?"
+        for n in 1 2; do
+            o="$tmp/f$n-$mode-$seed.out"
+            echo "$n $(stat_value "$o" error iterations) $(stat_value "$o" error mean_ratio_r) $(stat_value "$o" error relmse)" >>"$tmp/furnace-$mode.txt"
+        done
+    done
+    checks=$((checks + 1))
+    python3 - "$tmp/furnace-$mode.txt" "$mode" <<'EOF' || fail "furnace, $mode: the means are not the analytic answer's within the noise"
+import math, statistics, sys
+rows = [line.split() for line in open(sys.argv[1])]
+ok = len(rows) == 6 and all(len(r) == 4 for r in rows)
+if not ok:
+    print("furnace %s: missing stat error lines: %s" % (sys.argv[2], rows))
+    sys.exit(1)
+ratio = {1: [float(r[2]) for r in rows if r[0] == "1"], 2: [float(r[2]) for r in rows if r[0] == "2"]}
+relmse = {1: [float(r[3]) for r in rows if r[0] == "1"], 2: [float(r[3]) for r in rows if r[0] == "2"]}
+iterations = [int(r[1]) for r in rows]
+spread = statistics.stdev(ratio[1])
+noise = max(spread, math.sqrt(statistics.mean(relmse[1]) / (64 * 64)))
+tolerance = 4 * noise + 0.0001  # the ratios are printed to 4 decimals
+mean = {n: statistics.mean(ratio[n]) for n in (1, 2)}
+print("furnace %s: mean ratios, one process %s, 2 ranks %s; seed-to-seed spread %.5f, noise %.5f, tolerance %.5f; "
+      "relMSE one process %.5f, 2 ranks %.5f" % (sys.argv[2], ratio[1], ratio[2], spread, noise, tolerance,
+                                                 statistics.mean(relmse[1]), statistics.mean(relmse[2])))
+bad = []
+if iterations != [16] * 6:
+    bad.append("iterations %s, want 16 each (--iterations is the whole job's)" % iterations)
+for n in (1, 2):
+    for r in ratio[n]:
+        if abs(r - 1) > tolerance:
+            bad.append("%s mean ratio %.4f beyond %.5f of 1" % ("one process's" if n == 1 else "2 ranks'", r, tolerance))
+if abs(mean[2] - mean[1]) > tolerance:
+    bad.append("2 ranks' mean of means %.5f vs one process's %.5f" % (mean[2], mean[1]))
+if statistics.mean(relmse[2]) > 1.4 * statistics.mean(relmse[1]):
+    bad.append("2 ranks' relMSE %.5f above 1.4 x one process's %.5f: a rank's iterations are missing"
+               % (statistics.mean(relmse[2]), statistics.mean(relmse[1])))
+for b in bad:
+    print("furnace %s: %s" % (sys.argv[2], b))
+sys.exit(1 if bad else 0)
+EOF
+done
+
+# --- 7, 8. the cluster stat line: 2 ranks merged at least once, an image's worth of bytes a merge;
+# one process says ranks=1 and merges nothing
+o="$tmp/f2-progressive-1.out"
+check "2 ranks: no 'stat cluster ranks=2' line" grep -q "'^stat cluster ranks=2 '" "$o"
+merges=$(stat_value "$o" cluster merges); per_merge=$(stat_value "$o" cluster bytes_per_merge)
+# a merge carries at least the RGB floats of every pixel (64 x 64 x 12 bytes)
+check "2 ranks: merges=$merges, want >= 1" [ "${merges:-0}" -ge 1 ]
+check "2 ranks: bytes_per_merge=$per_merge, want >= 64 x 64 x 12" [ "${per_merge:-0}" -ge 49152 ]
+o="$tmp/f1-progressive-1.out"
+check "one process: no 'stat cluster ranks=1 merges=0' line" grep -q "'^stat cluster ranks=1 merges=0 '" "$o"
+
+# --- 3. --time 2 and --log on a 2-rank job: ends in about 2 s, the log's iterations grow and
+# its last row is the image's count
+start=$(now)
+mpi $cornell --width 64 --time 2 --snapshot "$tmp/time.exr" --log "$tmp/time.csv" >"$tmp/time.out" 2>&1
+rc=$?; wall=$(elapsed "$start" "$(now)")
+echo "--time 2 on 2 ranks: the job took $wall s wall, exit $rc"
+check "--time 2: exit $rc" [ "$rc" -eq 0 ]
+check "--time 2: the job took $wall s wall, want 2 to 4.5 (2 s + start-up and write)" "at_most 1.95 $wall && at_most $wall 4.5"
+check "--time 2: no image written" is_exr "$tmp/time.exr"
+wrote=$(sed -n 's/^pmview: wrote .* (64x[0-9]*, \([0-9]*\) iterations, \([0-9.]*\) s).*/\1 \2/p' "$tmp/time.out")
+check "--time 2: no 'pmview: wrote' line" [ -n "'$wrote'" ]
+checks=$((checks + 1))
+python3 - "$tmp/time.csv" $wrote <<'EOF' || fail "--log on 2 ranks: the log is not what the run did"
+import csv, sys
+rows = list(csv.reader(open(sys.argv[1])))
+header, rows = rows[0], rows[1:]
+written, seconds = int(sys.argv[2]), float(sys.argv[3])
+its = [int(r[header.index("iterations")]) for r in rows]
+print("--time 2 on 2 ranks: %d iterations in %.2f s; log rows' iterations %s" % (written, seconds, its))
+bad = []
+if header[:4] != ["seconds", "iterations", "photons", "mean_radius"]:
+    bad.append("header %s" % header[:4])
+if not 1.95 <= seconds <= 2.5:
+    bad.append("the render took %.2f s, want 2" % seconds)
+if len(its) < 2:
+    bad.append("%d rows, want >= 2" % len(its))
+if any(b <= a for a, b in zip(its, its[1:])):
+    bad.append("the iterations do not grow")
+if its and its[-1] != written:
+    bad.append("the last row has %d iterations, the image %d" % (its[-1], written))
+for b in bad:
+    print("--log: " + b)
+sys.exit(1 if bad else 0)
+EOF
+
+# --- 4. SIGINT to mpirun: the image so far, written and readable, within 5 s of the signal
+mpi_job $cornell --width 64 --time 60 --snapshot "$tmp/int.exr" >"$tmp/int.out" 2>&1 &
+job=$!
+sleep 3
+sent=$(now)
+kill -INT "$job"
+i=0
+while kill -0 "$job" 2>/dev/null && [ "$i" -lt 150 ]; do sleep 0.1; i=$((i + 1)); done
+wall=$(elapsed "$sent" "$(now)")
+if kill -0 "$job" 2>/dev/null; then fail "SIGINT: mpirun still running 15 s after the signal"; kill -KILL "$job"; fi
+wait "$job"; rc=$?; job=""
+echo "SIGINT: mpirun ended $wall s after the signal, exit $rc"
+check "SIGINT: the job ended $wall s after the signal, want <= 5" at_most "$wall" 5
+check "SIGINT: no 'interrupted: the image so far' on stdout" grep -q "'^pmview: wrote .*interrupted: the image so far'" "$tmp/int.out"
+check "SIGINT: the image is not an EXR" is_exr "$tmp/int.exr"
+check "SIGINT: pmview cannot read the image as a reference" readable_render "$tmp/int.exr"
+check "SIGINT: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
+
+# --- 5. a killed rank: the job ends naming it, non-zero, with the last checkpoint valid
+wall=""
+mpi_job $cornell --width 64 --time 60 --checkpoint 0.5 --snapshot "$tmp/ck.exr" >"$tmp/ck.out" 2>&1 &
+job=$!
+i=0
+while ! is_exr "$tmp/ck.exr" && [ "$i" -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
+sleep 1.5
+rank1=$(ranks_of_job 1)
+if [ -z "$rank1" ] || ! is_exr "$tmp/ck.exr"; then
+    fail "killed rank: no rank 1 ('$rank1') or no checkpoint after 10 s"
+    sed 's/^/    /' "$tmp/ck.out" | head -5
+    kill -KILL "$job"
+else
+    sent=$(now)
+    kill -KILL $rank1
+    i=0
+    while kill -0 "$job" 2>/dev/null && [ "$i" -lt 150 ]; do sleep 0.1; i=$((i + 1)); done
+    wall=$(elapsed "$sent" "$(now)")
+    if kill -0 "$job" 2>/dev/null; then fail "killed rank: mpirun still running 15 s after rank 1 was killed"; kill -KILL "$job"; fi
+fi
+wait "$job"; rc=$?; job=""
+echo "killed rank: mpirun ended ${wall:-?} s after rank 1 was killed, exit $rc"
+check "killed rank: the job ended ${wall:-?} s after the kill, want <= 5" at_most "${wall:-99}" 5
+check "killed rank: exit 0" [ "$rc" -ne 0 ]
+check "killed rank: the output does not name rank 1" grep -q "'rank 1'" "$tmp/ck.out"
+check "killed rank: pmview's own line does not name rank 1" grep -q "'^pmview: .*rank 1'" "$tmp/ck.out"
+check "killed rank: the checkpoint is not an EXR" is_exr "$tmp/ck.exr"
+check "killed rank: pmview cannot read the checkpoint as a reference" readable_render "$tmp/ck.exr"
+check "killed rank: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
+[ "$fails" -gt 0 ] && sed 's/^/    | /' "$tmp/ck.out"
+
+# --- 6. a bad scene is refused once: one 'pmview:' line (mpirun's own banner never starts so),
+# non-zero, nothing on stdout
+head -c 300 scenes/cornell-box.gltf >"$tmp/corrupt.gltf"
+for scene in "$tmp/no-such-scene.gltf" "$tmp/corrupt.gltf"; do
+    name=$(basename "$scene")
+    mpi "$scene" --width 16 --threads 1 --iterations 1 --snapshot "$tmp/bad.exr" >"$tmp/bad.out" 2>"$tmp/bad.err"
+    rc=$?
+    lines=$(grep -c "^pmview:" "$tmp/bad.err")
+    check "$name: exit 0" [ "$rc" -ne 0 ]
+    check "$name: $lines 'pmview:' lines on stderr, want 1" [ "$lines" -eq 1 ]
+    check "$name: the line does not name the scene" grep -q "'^pmview: error: $scene'" "$tmp/bad.err"
+    check "$name: pmview wrote to stdout" [ ! -s "'$tmp/bad.out'" ]
+    check "$name: an image was written" [ ! -e "'$tmp/bad.exr'" ]
+    grep "^pmview:" "$tmp/bad.err"
+done
+
+echo "test_cluster: $checks checks, $fails failed"
+[ "$fails" -eq 0 ]

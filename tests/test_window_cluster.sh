@@ -1,0 +1,128 @@
+#!/bin/sh
+# test_window_cluster.sh: the window under mpirun with 2 ranks, under Xvfb and xdotool: one window titled "pmview (2 ranks)", its merged iteration count rising, a left drag restarting both ranks (the count drops), Esc ending every process.
+#
+# pmview runs inside xvfb-run through an inner script (xvfb-run makes its own display, so the
+# mouse and keys must be sent from inside it), which reads the title ("pmview (2 ranks) 2 ranks
+# N it ...") with xdotool. A drag that restarted rank 0 alone would leave rank 1's iterations in
+# the merged count: the count must fall below a quarter of what it was. Every process of the job
+# carries PMVIEW_TEST_JOB, so the check that none is left (and the clean-up) touches no other
+# pmview. xvfb-run and everything under it run in their own session, killed as a group on any exit.
+cd "$(dirname "$0")/.." || exit 1
+
+have_tools() { for t in xvfb-run xdotool mpirun; do command -v $t >/dev/null 2>&1 || return 1; done; }
+if ! have_tools; then
+    # only when installing cannot stop at a password prompt
+    if [ "$(id -u)" = 0 ] || sudo -n true 2>/dev/null; then sh tools/install-deps.sh </dev/null >/dev/null 2>&1; fi
+    if ! have_tools; then
+        echo "SKIP: xvfb-run, xdotool or mpirun missing and tools/install-deps.sh could not install them"
+        exit 0
+    fi
+fi
+[ -x ./pmview ] || { echo "test_window_cluster: FAILED: ./pmview is not built"; exit 1; }
+
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+export PMVIEW_TEST_JOB="test_window_cluster.$$"
+tmp=$(mktemp -d) || exit 1
+group=""
+# job_processes: the pids of this test's pmview ranks still running
+job_processes() {
+    for d in /proc/[0-9]*; do
+        [ "$(cat "$d/comm" 2>/dev/null)" = pmview ] || continue
+        (tr '\0' '\n' <"$d/environ") 2>/dev/null | grep -qx "PMVIEW_TEST_JOB=$PMVIEW_TEST_JOB" && echo "${d#/proc/}"
+    done
+}
+cleanup() {
+    # the group's leader is xvfb-run; Xvfb, the inner script, mpirun and the ranks are its members
+    [ -n "$group" ] && kill -TERM -- "-$group" 2>/dev/null
+    for p in $(job_processes); do kill -KILL "$p" 2>/dev/null; done
+    rm -rf "$tmp"
+}
+trap cleanup EXIT
+trap 'exit 1' INT TERM HUP
+
+cat >"$tmp/inner.sh" <<'EOF'
+# runs under xvfb-run: start the 2-rank job, read the title, drag, Esc; "$1" is the temp folder
+tmp=$1
+log="$tmp/pmview.log"
+fail() { echo "inner: $*"; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- mpirun's log:"; cat "$log"; exit 1; }
+mpirun --oversubscribe -np 2 ./pmview scenes/cornell-box.gltf --width 96 --threads 1 --stats </dev/null >"$log" 2>&1 &
+pid=$!
+wid=$(timeout 30 xdotool search --sync --name '^pmview \(2 ranks\)' | head -n 1)
+[ -n "$wid" ] || fail "no window named 'pmview (2 ranks)' after 30 s"
+# merged: the merged iteration count the title shows ("2 ranks  N it"), empty while it shows rank
+# 0's own session (its first iterations after a start or a restart)
+merged() { xdotool getwindowname "$wid" 2>/dev/null | sed -n 's/.* 2 ranks  \([0-9]*\) it .*/\1/p'; }
+# the count rises: two merged counts, the second larger and at least 150 (enough that a drag
+# restarting rank 0 alone, rank 1's half left in the count, could not pass the check below)
+first=""; count=""; i=0
+while :; do
+    kill -0 "$pid" 2>/dev/null || fail "mpirun exited before the count rose"
+    i=$((i + 1)); [ "$i" -gt 200 ] && fail "the merged count did not rise to 150 in 20 s (first '$first', last '$count')"
+    count=$(merged)
+    if [ -n "$count" ]; then
+        [ -z "$first" ] && first=$count
+        [ "$count" -gt "$first" ] && [ "$count" -ge 150 ] && break
+    fi
+    sleep 0.1
+done
+echo "inner: the merged count rose from $first to $count"
+# both ranks run by now: one window, whichever process would have opened a second
+windows=$(xdotool search --name '^pmview' | wc -l)
+[ "$windows" -eq 1 ] || fail "$windows windows named pmview, want 1"
+before=$count
+xdotool mousemove --window "$wid" 40 48 mousedown 1 mousemove --window "$wid" 52 50 sleep 0.1 \
+    mousemove --window "$wid" 64 52 mouseup 1 || fail "xdotool could not drag"
+# the lowest merged count within 3 s of the drag
+lowest=$before; i=0
+while [ "$i" -lt 30 ]; do
+    count=$(merged)
+    [ -n "$count" ] && [ "$count" -lt "$lowest" ] && lowest=$count
+    i=$((i + 1)); sleep 0.1
+done
+echo "inner: after the drag the merged count fell from $before to $lowest"
+[ $((lowest * 4)) -lt "$before" ] || fail "the merged count went from $before to $lowest after the drag, want below a quarter"
+xdotool windowfocus --sync "$wid" || fail "cannot focus the window"
+xdotool key --clearmodifiers Escape || fail "xdotool key Escape failed"
+i=0
+while kill -0 "$pid" 2>/dev/null; do
+    i=$((i + 1)); [ "$i" -gt 100 ] && { xdotool keyup Escape; fail "mpirun still running 10 s after Escape"; }
+    sleep 0.1
+done
+xdotool keyup Escape
+wait "$pid"; rc=$?
+echo "inner: mpirun ended $((i / 10)).$((i % 10)) s after Escape, exit $rc"
+[ "$rc" -eq 0 ] || fail "mpirun exited with $rc after Escape"
+grep -q "^stat cluster ranks=2 " "$log" || fail "no 'stat cluster ranks=2' line"
+restarts=$(sed -n 's/^stat window .*restarts=\([0-9]*\) .*/\1/p' "$log")
+[ "${restarts:-0}" -ge 1 ] || fail "stat window restarts='$restarts', want >= 1 after the drag"
+echo "inner: ok"
+EOF
+
+start=$(date +%s)
+setsid xvfb-run -a -s "-screen 0 1024x768x24" sh "$tmp/inner.sh" "$tmp" >"$tmp/xvfb.log" 2>&1 &
+xpid=$!
+# setsid made xvfb-run a session (and group) leader; never take our own group by mistake
+g=$(ps -o pgid= -p "$xpid" 2>/dev/null | tr -d ' ')
+[ -n "$g" ] && [ "$g" != "$(ps -o pgid= -p $$ | tr -d ' ')" ] && group=$g
+# the inner script bounds each of its waits; this bounds the whole in case Xvfb itself hangs
+i=0
+while kill -0 "$xpid" 2>/dev/null; do
+    i=$((i + 1))
+    if [ "$i" -gt 1200 ]; then
+        echo "test_window_cluster: FAILED: xvfb-run still running after 120 s"; cat "$tmp/xvfb.log"; exit 1
+    fi
+    sleep 0.1
+done
+wait "$xpid"; rc=$?
+cat "$tmp/xvfb.log"
+if [ "$rc" -ne 0 ] || ! grep -q "^inner: ok" "$tmp/xvfb.log"; then
+    echo "test_window_cluster: FAILED: the window session failed (exit $rc)"
+    exit 1
+fi
+group=""
+left=$(job_processes)
+if [ -n "$left" ]; then
+    echo "test_window_cluster: FAILED: pmview processes left after Escape: $left"
+    exit 1
+fi
+echo "test_window_cluster: one window, count rising, drag restarting both ranks, Esc ending both ($(($(date +%s) - start)) s)"
