@@ -53,6 +53,7 @@ typedef struct {
     uint64_t merges;
     uint64_t bytes_sent;       /* what this rank sent to merges and commands */
     uint64_t bytes_per_merge;  /* what each rank sends to one merge */
+    double seconds_joined;     /* wall seconds since the job's set-up was agreed */
 } pm_cluster_totals;
 pm_cluster_totals pm_cluster_get_totals(const pm_cluster *c);
 

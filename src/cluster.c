@@ -48,6 +48,7 @@ struct pm_cluster {
     uint64_t epoch, flight_epoch;
     size_t flight_count;
     double last_merge_start;
+    double agreed_at;      /* when the set-up was agreed (pm_now_seconds) */
     char error[1024];
 };
 
@@ -107,8 +108,11 @@ void pm_cluster_leave(pm_cluster *c) {
 int pm_cluster_rank(const pm_cluster *c) { return c ? c->rank : 0; }
 int pm_cluster_size(const pm_cluster *c) { return c ? c->size : 1; }
 pm_cluster_totals pm_cluster_get_totals(const pm_cluster *c) {
-    pm_cluster_totals none = {0, 0, 0, 0, 0};
-    return c ? c->totals : none;
+    pm_cluster_totals none = {0, 0, 0, 0, 0, 0};
+    if (!c) return none;
+    pm_cluster_totals t = c->totals;
+    t.seconds_joined = c->agreed_at > 0 ? pm_now_seconds() - c->agreed_at : 0.0;
+    return t;
 }
 const char *pm_cluster_error(const pm_cluster *c) { return c ? c->error : ""; }
 
@@ -157,6 +161,7 @@ int pm_cluster_agree(pm_cluster *c, int code) {
     if (!c) return code;
     int mine = code < 0 ? c->size : c->rank, first = c->size;
     MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    c->agreed_at = pm_now_seconds();
     if (first == c->size) return -1;
     int agreed = code;
     MPI_Bcast(&agreed, 1, MPI_INT, first, MPI_COMM_WORLD);

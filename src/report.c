@@ -110,7 +110,11 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
 
 void pm_print_cluster_stats(const pm_cluster *cluster) {
     pm_cluster_totals t = pm_cluster_get_totals(cluster);
-    printf("stat cluster ranks=%d merges=%llu bytes_per_merge=%llu bytes_sent=%llu photons_total=%llu\n", pm_cluster_size(cluster),
-           (unsigned long long)t.merges, (unsigned long long)t.bytes_per_merge, (unsigned long long)t.bytes_sent,
-           (unsigned long long)t.photons);
+    int ranks = pm_cluster_size(cluster);
+    /* every rank but 0 sends its form to each merge: what the job's merges moved in all */
+    unsigned long long merged = (unsigned long long)t.merges * t.bytes_per_merge * (unsigned long long)(ranks - 1);
+    printf("stat cluster ranks=%d merges=%llu bytes_per_merge=%llu bytes_sent=%llu bytes_merged=%llu bytes_per_second=%.0f "
+           "photons_total=%llu\n",
+           ranks, (unsigned long long)t.merges, (unsigned long long)t.bytes_per_merge, (unsigned long long)t.bytes_sent, merged,
+           t.seconds_joined > 0 ? (double)(merged + t.bytes_sent) / t.seconds_joined : 0.0, (unsigned long long)t.photons);
 }

@@ -219,7 +219,8 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
     pm_cluster_watch(cluster, &interrupted_by);
     bool root = pm_cluster_rank(cluster) == 0;
     const pm_film *film = pm_session_film(session);
-    observer ob = {o, cluster, reference, NULL, NULL, 0, 1, root && isatty(2) && !o->quiet, 0.0, 0.0, 0.0, reserved, session};
+    observer ob = {.o = o, .cluster = cluster, .reference = reference, .next_progress = 1,
+                   .tty = root && isatty(2) && !o->quiet, .reserved = reserved, .session = session};
     if (reference->rgb[0]) {
         ob.scratch = pm_malloc(sizeof(float) * 3 * (size_t)film->width * film->height, "reference comparison");
         if (!ob.scratch) { fprintf(stderr, "pmview: error: out of memory (%s)\n", pm_memory_failure()); return 1; }

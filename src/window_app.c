@@ -201,7 +201,10 @@ int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *sc
             pm_session_unlock_latest(session);
             redraw = true;
             char status[192];
-            snprintf(status, sizeof status, "%s%u it  %.2f Mphotons  %.3g Mphotons/s  %.1f s  r %.3g%s", progress.preview ? "preview  " : "",
+            /* under mpirun, until the first merge of this camera: rank 0's own image */
+            char own[32] = "";
+            if (cluster) snprintf(own, sizeof own, "%d ranks (rank 0)  ", ranks);
+            snprintf(status, sizeof status, "%s%s%u it  %.2f Mphotons  %.3g Mphotons/s  %.1f s  r %.3g%s", own, progress.preview ? "preview  " : "",
                      progress.iterations, progress.photons * 1e-6, progress.seconds > 0 ? progress.photons / progress.seconds * 1e-6 : 0.0,
                      progress.seconds, progress.mean_radius, paused ? "  paused" : "");
             pm_view_set_status(view, status);
