@@ -161,6 +161,11 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     pm_options_session_config(o, &r->scene, width, height, &config);
     o->seed = seed;
     config.progressive.radius_steps = (uint32_t)pm_cluster_size(cluster);
+    /* the window's --iterations is the whole image's too */
+    if (config.max_iterations) {
+        uint32_t share = pm_cluster_share(cluster, config.max_iterations);
+        config.max_iterations = share ? share : 1;
+    }
     r->session = pm_session_create(&r->scene, r->accel, &r->camera, &config, err, sizeof err);
     if (!r->session) { fprintf(stderr, "pmview: error: %s: %s\n", o->scene_path, err); return 1; }
     /* from here a signal is the snapshot's: the image so far (none yet) is written, 130 or 143;

@@ -55,7 +55,6 @@ struct pm_session {
     /* a cluster's additive form (pm_session_keep_packed): published like the images, valid while
      * packed_epoch equals epoch (the restarts and resizes asked for) */
     double *packed_front, *packed_back;
-    size_t packed_count;
     uint64_t epoch, packed_epoch, worker_epoch;
     uint64_t packed_photons;
     double packed_seconds;
@@ -650,7 +649,6 @@ bool pm_session_resize(pm_session *s, int width, int height, const pm_camera *ca
             free(s->packed_back);
             s->packed_front = packed[0];
             s->packed_back = packed[1];
-            s->packed_count = pm_film_packed_count(&film);
         }
         pm_progressive_destroy(s->progressive);
         pm_film_free(&s->film);
@@ -724,7 +722,6 @@ bool pm_session_keep_packed(pm_session *s, bool on) {
     free(s->packed_front);
     free(s->packed_back);
     s->packed_front = s->packed_back = NULL;
-    s->packed_count = 0;
     s->packed_epoch = UINT64_MAX;
     bool ok = true;
     if (on) {
@@ -736,7 +733,7 @@ bool pm_session_keep_packed(pm_session *s, bool on) {
             free(s->packed_front);
             s->packed_front = NULL;
             ok = false;
-        } else s->packed_count = count;
+        }
     }
     if (running && !pm_session_start(s, s->error, sizeof s->error)) return false;
     return ok;

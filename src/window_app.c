@@ -73,8 +73,8 @@ int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *sc
     else snprintf(title, sizeof title, "pmview");
     pm_view *view = pm_view_create_window(width, height, title, err, sizeof err);
     if (!view) {
+        if (cluster) pm_cluster_abort(cluster, err); /* the other ranks are waiting for its commands */
         fprintf(stderr, "pmview: error: %s\n", err);
-        if (cluster) pm_cluster_abort(cluster, "the window could not open");
         return 1;
     }
     pm_display display;
