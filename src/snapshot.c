@@ -241,7 +241,10 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
     ob.start = ob.last_checkpoint = pm_now_seconds();
     pm_session_run_result result = goal.samples ? pm_session_run(session, &goal, observe, &ob, &state) : PM_RUN_DONE;
     if (result == PM_RUN_FAILED) {
-        if (cluster) pm_cluster_abort(cluster, pm_session_error(session));
+        if (cluster) {
+            snprintf(err, sizeof err, "%s: %s", o->scene_path, pm_session_error(session));
+            pm_cluster_abort(cluster, err);
+        }
         fprintf(stderr, "%spmview: error: %s: %s\n", ob.tty ? "\n" : "", o->scene_path, pm_session_error(session));
         free(ob.scratch);
         if (ob.log) fclose(ob.log);
