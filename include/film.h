@@ -72,6 +72,9 @@ void pm_film_clear(pm_film *f);
  * counts (samples, photon_passes) are the caller's to put back. */
 void pm_film_save_rect(pm_film *f, int x0, int y0, int x1, int y1);
 void pm_film_restore_rect(pm_film *f, int x0, int y0, int x1, int y1);
+/* Frees that copy (and gives its bytes back): for a film no iteration writes, which never takes one
+ * back (a cluster's merged film). */
+void pm_film_drop_restore(pm_film *f);
 /* Whether the film keeps that copy (pm_film_init made it; a film made by hand does not). */
 bool pm_film_can_restore(const pm_film *f);
 /* A pass cut short reached the pixels [x0, x1) x [y0, y1): they hold `what` (PM_FILM_AHEAD_*)

@@ -218,6 +218,7 @@ static bool prepare(pm_cluster *c, const pm_film *film, size_t count) {
         if (!pm_film_init(&c->merged, film->width, film->height, components)) goto out_of_memory;
         c->merged_made = true;
         if (!pm_film_enable_ppm(&c->merged, slots)) goto out_of_memory;
+        pm_film_drop_restore(&c->merged); /* no iteration writes it: nothing to take back */
     }
     return true;
 out_of_memory:

@@ -85,6 +85,26 @@ void pm_film_clear(pm_film *f) {
     f->ragged = false;
 }
 
+void pm_film_drop_restore(pm_film *f) {
+    size_t pixels = (size_t)f->width * f->height;
+    uint64_t freed = 0;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        freed += (f->saved_sum[c] ? 1u : 0u) * (uint64_t)pixels * 3 * sizeof(float);
+        freed += (f->saved_carry[c] ? 1u : 0u) * (uint64_t)pixels * 3 * sizeof(float);
+        free(f->saved_sum[c]);
+        free(f->saved_carry[c]);
+        f->saved_sum[c] = f->saved_carry[c] = NULL;
+    }
+    for (int k = 0; k < PM_SLOT_COUNT; k++) {
+        freed += (f->saved_ppm[k] ? 1u : 0u) * (uint64_t)pixels * sizeof(pm_ppm_stat);
+        free(f->saved_ppm[k]);
+        f->saved_ppm[k] = NULL;
+    }
+    if (freed > f->admitted) freed = f->admitted;
+    pm_memory_release(freed);
+    f->admitted -= freed;
+}
+
 bool pm_film_can_restore(const pm_film *f) {
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
         if (f->sum[c] && (!f->carry[c] || !f->saved_sum[c] || !f->saved_carry[c])) return false;
