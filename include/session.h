@@ -175,10 +175,20 @@ uint64_t pm_session_photons(const pm_session *s);
 /* For a cluster (cluster.h): with `on`, the worker also publishes the film's additive form
  * (pm_film_pack) after each iteration it publishes. False when out of memory. */
 bool pm_session_keep_packed(pm_session *s, bool on);
-/* The newest published additive form since the last restart or resize was asked for (NULL, without
- * locking, when the worker has published none since): pm_film_packed_count(pm_session_film(s))
- * doubles, then *photons and *seconds as they were; pm_session_unlock_latest() once read. */
-const double *pm_session_lock_packed(pm_session *s, uint64_t *photons, double *seconds);
+/* A published additive form and what it was packed from: the film's size and layout, which a
+ * restart that rebuilds the mode (the G key) may change. */
+typedef struct {
+    const double *values;      /* `count` doubles */
+    size_t count;
+    int width, height;
+    bool components[PM_COMPONENT_COUNT], slots[PM_SLOT_COUNT];
+    uint64_t photons;          /* emitted when it was packed */
+    double seconds;            /* rendering time when it was packed */
+} pm_session_packed;
+/* The newest form published since the last restart or resize was asked for: true with *out set
+ * and the lock held (pm_session_unlock_latest() once read), or false, without locking, when the
+ * worker has published none since. Reads nothing the worker writes outside the lock. */
+bool pm_session_lock_packed(pm_session *s, pm_session_packed *out);
 /* Stops the worker (the running pass is cancelled) and waits for it. */
 void pm_session_stop(pm_session *s);
 

@@ -191,60 +191,69 @@ void pm_cluster_abort(pm_cluster *c, const char *message) {
 
 /* ---- merging ---- */
 
-/* Room for a merge of film's form; the merged film (rank 0) made like the session's film. */
-static bool prepare(pm_cluster *c, const pm_film *film, size_t count) {
-    if (count > c->capacity) {
-        free(c->send);
-        free(c->receive);
-        c->receive = NULL;
-        c->capacity = 0;
-        c->send = pm_malloc(count * sizeof(double), "the cluster's merge buffers");
-        if (!c->send) goto out_of_memory;
-        if (c->rank == 0) {
-            c->receive = pm_malloc(count * sizeof(double), "the cluster's merge buffers");
-            if (!c->receive) goto out_of_memory;
-        }
-        c->capacity = count;
-    }
-    if (c->rank != 0) return true;
-    if (c->merged_made && (c->merged.width != film->width || c->merged.height != film->height)) {
-        pm_film_free(&c->merged);
-        c->merged_made = false;
-    }
-    if (!c->merged_made) {
-        bool components[PM_COMPONENT_COUNT], slots[PM_SLOT_COUNT];
-        for (int k = 0; k < PM_COMPONENT_COUNT; k++) components[k] = film->sum[k] != NULL;
-        for (int k = 0; k < PM_SLOT_COUNT; k++) slots[k] = film->ppm[k] != NULL;
-        if (!pm_film_init(&c->merged, film->width, film->height, components)) goto out_of_memory;
-        c->merged_made = true;
-        if (!pm_film_enable_ppm(&c->merged, slots)) goto out_of_memory;
-        pm_film_drop_restore(&c->merged); /* no iteration writes it: nothing to take back */
-    }
-    return true;
-out_of_memory:
+static bool out_of_memory(pm_cluster *c) {
     snprintf(c->error, sizeof c->error, "out of memory (%s) merging the ranks' images",
              pm_memory_failure() ? pm_memory_failure() : "merge buffers");
     return false;
 }
 
-/* This rank's share of a merge into c->send: the session's published form (the window's worker
- * renders) or its film between two iterations; zeros where it has nothing since the last restart. */
-static void pack_own(pm_cluster *c, pm_session *s, bool published, size_t count) {
-    const pm_film *film = pm_session_film(s);
-    size_t film_count = count - TOTALS_FIELDS;
-    if (published) {
-        uint64_t photons = 0;
-        double seconds = 0;
-        const double *p = pm_session_lock_packed(s, &photons, &seconds);
-        if (p) {
-            memcpy(c->send + TOTALS_FIELDS, p, film_count * sizeof(double));
-            pm_session_unlock_latest(s);
-            c->send[0] = (double)photons;
-            c->send[1] = seconds;
-        } else memset(c->send, 0, count * sizeof(double));
-        return;
+/* Room for a merge of `count` doubles (rank 0 also receives). */
+static bool prepare_buffers(pm_cluster *c, size_t count) {
+    if (count <= c->capacity) return true;
+    free(c->send);
+    free(c->receive);
+    c->receive = NULL;
+    c->capacity = 0;
+    c->send = pm_malloc(count * sizeof(double), "the cluster's merge buffers");
+    if (!c->send) return out_of_memory(c);
+    if (c->rank == 0) {
+        c->receive = pm_malloc(count * sizeof(double), "the cluster's merge buffers");
+        if (!c->receive) return out_of_memory(c);
     }
-    pm_film_pack(film, c->send + TOTALS_FIELDS);
+    c->capacity = count;
+    return true;
+}
+
+/* Rank 0's merged film, made with the size and layout of the forms it will unpack. */
+static bool prepare_merged(pm_cluster *c, int width, int height, const bool components[PM_COMPONENT_COUNT],
+                           const bool slots[PM_SLOT_COUNT]) {
+    bool same = c->merged_made && c->merged.width == width && c->merged.height == height;
+    for (int k = 0; k < PM_COMPONENT_COUNT && same; k++) same = (c->merged.sum[k] != NULL) == components[k];
+    for (int k = 0; k < PM_SLOT_COUNT && same; k++) same = (c->merged.ppm[k] != NULL) == slots[k];
+    if (same) return true;
+    if (c->merged_made) pm_film_free(&c->merged);
+    c->merged_made = false;
+    if (!pm_film_init(&c->merged, width, height, components)) return out_of_memory(c);
+    c->merged_made = true;
+    if (!pm_film_enable_ppm(&c->merged, slots)) return out_of_memory(c);
+    pm_film_drop_restore(&c->merged); /* no iteration writes it: nothing to take back */
+    return true;
+}
+
+static bool prepare_merged_like(pm_cluster *c, const pm_film *film) {
+    bool components[PM_COMPONENT_COUNT], slots[PM_SLOT_COUNT];
+    for (int k = 0; k < PM_COMPONENT_COUNT; k++) components[k] = film->sum[k] != NULL;
+    for (int k = 0; k < PM_SLOT_COUNT; k++) slots[k] = film->ppm[k] != NULL;
+    return prepare_merged(c, film->width, film->height, components, slots);
+}
+
+/* This rank's share of a merge of `count` doubles into c->send, from the form the session's worker
+ * published (the window): zeros where it has none of the merge's layout since the last restart. */
+static void pack_published(pm_cluster *c, pm_session *s, size_t count) {
+    pm_session_packed packed;
+    memset(c->send, 0, count * sizeof(double));
+    if (!pm_session_lock_packed(s, &packed)) return;
+    if (packed.count + TOTALS_FIELDS == count) {
+        memcpy(c->send + TOTALS_FIELDS, packed.values, packed.count * sizeof(double));
+        c->send[0] = (double)packed.photons;
+        c->send[1] = packed.seconds;
+    }
+    pm_session_unlock_latest(s);
+}
+
+/* ... or from its film between two iterations (snapshots: this thread runs them). */
+static void pack_film(pm_cluster *c, pm_session *s) {
+    pm_film_pack(pm_session_film(s), c->send + TOTALS_FIELDS);
     c->send[0] = (double)pm_session_photons(s);
     c->send[1] = 0.0;
 }
@@ -273,16 +282,16 @@ static void send_all(pm_cluster *c, const command *cmd) {
  * then the reduction. Rank 0 waits for every word before it joins, so no rank spins in MPI while
  * another finishes an iteration, and the reduction itself runs at the speed of the network. */
 static void answer_merge(pm_cluster *c, pm_session *s, const command *cmd, bool published) {
-    const pm_film *film = pm_session_film(s);
-    size_t count = TOTALS_FIELDS + pm_film_packed_count(film);
-    if (count != cmd->count) {
+    size_t count = (size_t)cmd->count;
+    if (!published && TOTALS_FIELDS + pm_film_packed_count(pm_session_film(s)) != count) {
         char message[256];
-        snprintf(message, sizeof message, "its image holds %zu values where rank 0's holds %llu (not the same scene or options?)",
-                 count, (unsigned long long)cmd->count);
+        snprintf(message, sizeof message, "its image holds %zu values where rank 0's holds %zu (not the same scene or options?)",
+                 TOTALS_FIELDS + pm_film_packed_count(pm_session_film(s)), count);
         pm_cluster_abort(c, message);
     }
-    if (!prepare(c, film, count)) pm_cluster_abort(c, c->error);
-    pack_own(c, s, published, count);
+    if (!prepare_buffers(c, count)) pm_cluster_abort(c, c->error);
+    if (published) pack_published(c, s, count);
+    else pack_film(c, s);
     int ready = 1;
     MPI_Send(&ready, 1, MPI_INT, 0, TAG_READY, MPI_COMM_WORLD);
     MPI_Reduce(c->send, NULL, (int)count, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
@@ -351,11 +360,11 @@ static const pm_film *merge_from_root(pm_cluster *c, pm_session *s, int type) {
         snprintf(c->error, sizeof c->error, "the image is too large for one MPI reduction (%zu values)", count);
         return NULL;
     }
-    bool ready = prepare(c, film, count);
+    bool ready = prepare_buffers(c, count) && prepare_merged_like(c, film);
     command cmd = {.type = type, .count = count, .indirect = -1};
     send_all(c, &cmd);
     if (!ready) pm_cluster_abort(c, c->error); /* the others are on their way into the reduction: end the job */
-    pack_own(c, s, false, count);
+    pack_film(c, s);
     c->ready = 0;
     take_ready(c, true);
     return reduce_at_root(c, count, true);
@@ -459,12 +468,21 @@ const pm_film *pm_cluster_poll_merge(pm_cluster *c, pm_session *s) {
     }
     double now = pm_now_seconds();
     if (now - c->last_merge_start < PM_CLUSTER_MERGE_SECONDS) return NULL;
-    const pm_film *film = pm_session_film(s);
-    size_t count = TOTALS_FIELDS + pm_film_packed_count(film);
-    if (count > INT_MAX || !prepare(c, film, count)) return NULL;
+    /* the layout is that of rank 0's own newest form: none since the last restart, no merge yet */
+    pm_session_packed packed;
+    if (!pm_session_lock_packed(s, &packed)) return NULL;
+    size_t count = TOTALS_FIELDS + packed.count;
+    bool ready = count <= INT_MAX && prepare_buffers(c, count) &&
+                 prepare_merged(c, packed.width, packed.height, packed.components, packed.slots);
+    if (ready) {
+        memcpy(c->send + TOTALS_FIELDS, packed.values, packed.count * sizeof(double));
+        c->send[0] = (double)packed.photons;
+        c->send[1] = packed.seconds;
+    }
+    pm_session_unlock_latest(s);
+    if (!ready) return NULL;
     command cmd = {.type = CMD_MERGE, .count = count, .indirect = -1};
     send_all(c, &cmd);
-    pack_own(c, s, true, count);
     c->in_flight = true;
     c->ready = 0;
     c->flight_epoch = c->epoch;

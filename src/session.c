@@ -54,10 +54,11 @@ struct pm_session {
     atomic_int view;                      /* pm_session_view: what publish() writes */
     /* a cluster's additive form (pm_session_keep_packed): published like the images, valid while
      * packed_epoch equals epoch (the restarts and resizes asked for) */
-    double *packed_front, *packed_back;
+    double *packed_back;                  /* the worker's, packed outside the lock */
+    size_t packed_back_capacity, packed_front_capacity;
+    pm_session_packed packed;             /* the front: its values swapped in under the lock */
+    bool keep_packed;
     uint64_t epoch, packed_epoch, worker_epoch;
-    uint64_t packed_photons;
-    double packed_seconds;
 };
 
 /* A failure of the call under way: its message, kept until the next top-level call. */
@@ -223,7 +224,7 @@ void pm_session_destroy(pm_session *s) {
     pm_shadow_map_free(s->shadow);
     pm_film_free(&s->film);
     free_display(s->front, s->back);
-    free(s->packed_front);
+    free((double *)s->packed.values);
     free(s->packed_back);
     pthread_mutex_destroy(&s->lock);
     pthread_cond_destroy(&s->wake);
@@ -445,6 +446,41 @@ static void diagnostic_view(const pm_session *s, int view, float *out) {
     free(value);
 }
 
+/* The film's additive form into the back buffer (grown when a rebuilt mode added statistics
+ * slots), swapped in under the lock with what it was packed from. */
+static void publish_packed(pm_session *s) {
+    const pm_film *f = &s->film;
+    size_t count = pm_film_packed_count(f);
+    if (count > s->packed_back_capacity) {
+        double *grown = pm_malloc(count * sizeof(double), "the cluster's packed film");
+        if (!grown) {
+            fprintf(stderr, "pmview: error: out of memory (%s) packing the image for the other ranks\n",
+                    memory_failure_or("the cluster's packed film"));
+            return;
+        }
+        free(s->packed_back);
+        s->packed_back = grown;
+        s->packed_back_capacity = count;
+    }
+    pm_film_pack(f, s->packed_back);
+    pthread_mutex_lock(&s->lock);
+    double *front = (double *)s->packed.values;
+    size_t front_capacity = s->packed_front_capacity;
+    s->packed.values = s->packed_back;
+    s->packed_front_capacity = s->packed_back_capacity;
+    s->packed_back = front;
+    s->packed_back_capacity = front_capacity;
+    s->packed.count = count;
+    s->packed.width = f->width;
+    s->packed.height = f->height;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) s->packed.components[c] = f->sum[c] != NULL;
+    for (int k = 0; k < PM_SLOT_COUNT; k++) s->packed.slots[k] = f->ppm[k] != NULL;
+    s->packed.photons = photons_emitted(s);
+    s->packed.seconds = s->render_seconds;
+    s->packed_epoch = s->worker_epoch;
+    pthread_mutex_unlock(&s->lock);
+}
+
 /* Resolves into the back buffers, then swaps them in under the lock. At 8192 x 8192 that is
  * seconds of work (3 GB written): a cancel abandons it between components and row blocks, and
  * nothing is published. */
@@ -501,16 +537,8 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
     s->published.mean_radius = r.pixels ? r.mean : r.gather; /* a scene read by gathering alone has no pixel radii */
     s->published.preview = preview;
     pthread_mutex_unlock(&s->lock);
-    if (preview || !s->packed_back || atomic_load(&s->cancel)) return;
-    pm_film_pack(&s->film, s->packed_back);
-    pthread_mutex_lock(&s->lock);
-    double *t = s->packed_front;
-    s->packed_front = s->packed_back;
-    s->packed_back = t;
-    s->packed_epoch = s->worker_epoch;
-    s->packed_photons = photons_emitted(s);
-    s->packed_seconds = s->render_seconds;
-    pthread_mutex_unlock(&s->lock);
+    if (preview || !s->keep_packed || atomic_load(&s->cancel)) return;
+    publish_packed(s);
 }
 
 /* A direct-light image at a quarter of the size: a picture within milliseconds of a restart. */
@@ -627,29 +655,8 @@ bool pm_session_resize(pm_session *s, int width, int height, const pm_camera *ca
         pm_progressive_destroy(progressive);
         pm_film_free(&film);
     }
-    double *packed[2] = {NULL, NULL};
-    if (built && s->packed_front) {
-        size_t count = pm_film_packed_count(&film);
-        packed[0] = pm_malloc(count * sizeof(double), "the cluster's packed film");
-        packed[1] = packed[0] ? pm_malloc(count * sizeof(double), "the cluster's packed film") : NULL;
-        if (!packed[1]) {
-            fail(s, "out of memory (%s)", memory_failure_or("the cluster's packed film"));
-            free(packed[0]);
-            packed[0] = NULL;
-            built = false;
-            free_display(front, back);
-            pm_progressive_destroy(progressive);
-            pm_film_free(&film);
-        }
-    }
     s->epoch++;
     if (built) {
-        if (packed[0]) {
-            free(s->packed_front);
-            free(s->packed_back);
-            s->packed_front = packed[0];
-            s->packed_back = packed[1];
-        }
         pm_progressive_destroy(s->progressive);
         pm_film_free(&s->film);
         free_display(s->front, s->back);
@@ -719,35 +726,42 @@ bool pm_session_keep_packed(pm_session *s, bool on) {
     begin(s);
     bool running = s->worker_running;
     pm_session_stop(s);
-    free(s->packed_front);
+    free((double *)s->packed.values);
     free(s->packed_back);
-    s->packed_front = s->packed_back = NULL;
+    memset(&s->packed, 0, sizeof s->packed);
+    s->packed_back = NULL;
+    s->packed_back_capacity = s->packed_front_capacity = 0;
     s->packed_epoch = UINT64_MAX;
+    s->keep_packed = on;
     bool ok = true;
     if (on) {
+        /* the usual size up front, so that running out of memory is this call's error */
         size_t count = pm_film_packed_count(&s->film);
-        s->packed_front = pm_malloc(count * sizeof(double), "the cluster's packed film");
-        s->packed_back = s->packed_front ? pm_malloc(count * sizeof(double), "the cluster's packed film") : NULL;
-        if (!s->packed_back) {
+        s->packed_back = pm_malloc(count * sizeof(double), "the cluster's packed film");
+        double *front = s->packed_back ? pm_malloc(count * sizeof(double), "the cluster's packed film") : NULL;
+        if (!front) {
             fail(s, "out of memory (%s)", memory_failure_or("the cluster's packed film"));
-            free(s->packed_front);
-            s->packed_front = NULL;
+            free(s->packed_back);
+            s->packed_back = NULL;
+            s->keep_packed = false;
             ok = false;
+        } else {
+            s->packed.values = front;
+            s->packed_back_capacity = s->packed_front_capacity = count;
         }
     }
     if (running && !pm_session_start(s, s->error, sizeof s->error)) return false;
     return ok;
 }
 
-const double *pm_session_lock_packed(pm_session *s, uint64_t *photons, double *seconds) {
+bool pm_session_lock_packed(pm_session *s, pm_session_packed *out) {
     pthread_mutex_lock(&s->lock);
-    if (!s->packed_front || s->packed_epoch != s->epoch) {
+    if (!s->keep_packed || s->packed_epoch != s->epoch) {
         pthread_mutex_unlock(&s->lock);
-        return NULL;
+        return false;
     }
-    if (photons) *photons = s->packed_photons;
-    if (seconds) *seconds = s->packed_seconds;
-    return s->packed_front;
+    *out = s->packed;
+    return true;
 }
 
 void pm_session_stop(pm_session *s) {

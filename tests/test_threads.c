@@ -1,4 +1,4 @@
-/* test_threads.c: the same seed gives the same photon maps and image bit for bit at 1, 2 and 3 threads, classic and progressive; a session cancelled from another thread and cut by its deadline (also run under TSan). */
+/* test_threads.c: the same seed gives the same photon maps and image bit for bit at 1, 2 and 3 threads, classic and progressive; a session cancelled from another thread and cut by its deadline; a worker's published images and packed forms read while it renders (also run under TSan). */
 #include <pthread.h>
 #include <time.h>
 
@@ -44,12 +44,14 @@ static void background_session(const pm_scene *s, const pm_accel *a, pm_camera c
                                                    .max_specular_depth = 8, .max_photon_bounces = 16};
     char err[256];
     pm_session *session = pm_session_create(s, a, &cam, &config, err, sizeof err);
+    /* the packed form MPI ranks merge is published beside the images */
+    CHECK(session && pm_session_keep_packed(session, true), "packed forms kept");
     CHECK(session && pm_session_start(session, err, sizeof err), "background session: %s", err);
     if (!session) return;
     uint64_t version = 0;
-    int images = 0, restarts = 0;
+    int images = 0, restarts = 0, packs = 0, empty_packs = 0, stale_packs = 0;
     double sum = 0;
-    for (int round = 0; round < 400 && images < 12; round++) {
+    for (int round = 0; round < 1200 && images < 12; round++) {
         pm_session_progress progress;
         const float *const *layers = pm_session_lock_latest(session, &version, &progress);
         if (layers) {
@@ -57,10 +59,26 @@ static void background_session(const pm_scene *s, const pm_accel *a, pm_camera c
             for (int c = 0; c < PM_COMPONENT_COUNT; c++)
                 if (layers[c]) sum += layers[c][3 * (12 * 32 + 16)];
             pm_session_unlock_latest(session);
+            pm_session_packed packed;
+            if (pm_session_lock_packed(session, &packed)) {
+                packs++;
+                /* its header: the samples every pixel holds; its size: what the film's layout gives */
+                size_t per_pixel = 1;
+                for (int c = 0; c < PM_COMPONENT_COUNT; c++) per_pixel += packed.components[c] ? 3 : 0;
+                for (int k = 0; k < PM_SLOT_COUNT; k++) per_pixel += packed.slots[k] ? 7 : 0;
+                empty_packs += !(packed.values[0] >= 1.0) || packed.width != 32 || packed.height != 24 ||
+                               packed.count != 2 + (size_t)32 * 24 * per_pixel;
+                pm_session_unlock_latest(session);
+            }
             if (images % 4 == 0) {
                 cam.position.x += 0.01f;
                 pm_session_request_restart(session, &cam, images == 8 ? PM_INDIRECT_PHOTONS : -1);
                 restarts++;
+                /* a form of the old camera is never handed out after the restart was asked for */
+                if (pm_session_lock_packed(session, &packed)) {
+                    stale_packs++;
+                    pm_session_unlock_latest(session);
+                }
             }
         }
         struct timespec ts = {0, 5000000};
@@ -70,6 +88,8 @@ static void background_session(const pm_scene *s, const pm_accel *a, pm_camera c
     pm_session_pause(session, false);
     pm_session_stop(session);
     CHECK(images >= 8, "the worker published %d images", images);
+    CHECK(packs >= 4 && empty_packs == 0, "%d packed forms read, %d of them empty", packs, empty_packs);
+    CHECK(stale_packs == 0, "%d packed forms of a camera already left", stale_packs);
     CHECK(sum > 0, "the published images are lit");
     pm_session_destroy(session);
 }
