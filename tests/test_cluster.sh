@@ -199,16 +199,21 @@ for b in bad:
 sys.exit(1 if bad else 0)
 EOF
 
+# job_ends WHAT: waits up to 15 s for the background job $job to end; wall: seconds since $sent
+job_ends() {
+    i=0
+    while kill -0 "$job" 2>/dev/null && [ "$i" -lt 150 ]; do sleep 0.1; i=$((i + 1)); done
+    wall=$(elapsed "$sent" "$(now)")
+    if kill -0 "$job" 2>/dev/null; then fail "$1: mpirun still running 15 s after it"; kill -KILL "$job"; fi
+}
+
 # --- 4. SIGINT to mpirun: the image so far, written and readable, within 5 s of the signal
 mpi_job $cornell --width 64 --time 60 --snapshot "$tmp/int.exr" >"$tmp/int.out" 2>&1 &
 job=$!
 sleep 3
 sent=$(now)
 kill -INT "$job"
-i=0
-while kill -0 "$job" 2>/dev/null && [ "$i" -lt 150 ]; do sleep 0.1; i=$((i + 1)); done
-wall=$(elapsed "$sent" "$(now)")
-if kill -0 "$job" 2>/dev/null; then fail "SIGINT: mpirun still running 15 s after the signal"; kill -KILL "$job"; fi
+job_ends "SIGINT"
 wait "$job"; rc=$?; job=""
 echo "SIGINT: mpirun ended $wall s after the signal, exit $rc"
 check "SIGINT: the job ended $wall s after the signal, want <= 5" at_most "$wall" 5
@@ -232,10 +237,7 @@ if [ -z "$rank1" ] || ! is_exr "$tmp/ck.exr"; then
 else
     sent=$(now)
     kill -KILL $rank1
-    i=0
-    while kill -0 "$job" 2>/dev/null && [ "$i" -lt 150 ]; do sleep 0.1; i=$((i + 1)); done
-    wall=$(elapsed "$sent" "$(now)")
-    if kill -0 "$job" 2>/dev/null; then fail "killed rank: mpirun still running 15 s after rank 1 was killed"; kill -KILL "$job"; fi
+    job_ends "killed rank"
 fi
 wait "$job"; rc=$?; job=""
 echo "killed rank: mpirun ended ${wall:-?} s after rank 1 was killed, exit $rc"

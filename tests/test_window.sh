@@ -28,6 +28,7 @@ cleanup() {
 }
 trap cleanup EXIT
 trap 'exit 1' INT TERM HUP
+. tests/xvfb_inner.sh
 
 args="scenes/cornell-box.gltf --width 96 --height 96 --iterations 4 --seed 7 --threads 2"
 
@@ -79,27 +80,7 @@ echo "inner: ok"
 EOF
 
 # shellcheck disable=SC2086 # args is a fixed word list
-setsid xvfb-run -a -s "-screen 0 1024x768x24" sh "$tmp/inner.sh" "$tmp" $args >"$tmp/xvfb.log" 2>&1 &
-xpid=$!
-# setsid made xvfb-run a session (and group) leader; never take our own group by mistake
-g=$(ps -o pgid= -p "$xpid" 2>/dev/null | tr -d ' ')
-[ -n "$g" ] && [ "$g" != "$(ps -o pgid= -p $$ | tr -d ' ')" ] && group=$g
-# the inner script bounds each of its waits; this bounds the whole in case Xvfb itself hangs
-i=0
-while kill -0 "$xpid" 2>/dev/null; do
-    i=$((i + 1))
-    if [ "$i" -gt 1800 ]; then
-        echo "test_window: FAILED: xvfb-run still running after 180 s"; cat "$tmp/xvfb.log"; exit 1
-    fi
-    sleep 0.1
-done
-wait "$xpid"; rc=$?
-cat "$tmp/xvfb.log"
-if [ "$rc" -ne 0 ] || ! grep -q "^inner: ok" "$tmp/xvfb.log"; then
-    echo "test_window: FAILED: the window session failed (exit $rc)"
-    exit 1
-fi
-group=""
+run_inner test_window 180 "$tmp/inner.sh" "$tmp" $args
 
 # shellcheck disable=SC2086
 if ! ./pmview $args --snapshot "$tmp/snapshot.png" >"$tmp/snapshot.log" 2>&1; then

@@ -39,6 +39,7 @@ cleanup() {
 }
 trap cleanup EXIT
 trap 'exit 1' INT TERM HUP
+. tests/xvfb_inner.sh
 
 cat >"$tmp/inner.sh" <<'EOF'
 # runs under xvfb-run: start the 2-rank job, read the title, drag, Esc; "$1" is the temp folder
@@ -99,27 +100,7 @@ echo "inner: ok"
 EOF
 
 start=$(date +%s)
-setsid xvfb-run -a -s "-screen 0 1024x768x24" sh "$tmp/inner.sh" "$tmp" >"$tmp/xvfb.log" 2>&1 &
-xpid=$!
-# setsid made xvfb-run a session (and group) leader; never take our own group by mistake
-g=$(ps -o pgid= -p "$xpid" 2>/dev/null | tr -d ' ')
-[ -n "$g" ] && [ "$g" != "$(ps -o pgid= -p $$ | tr -d ' ')" ] && group=$g
-# the inner script bounds each of its waits; this bounds the whole in case Xvfb itself hangs
-i=0
-while kill -0 "$xpid" 2>/dev/null; do
-    i=$((i + 1))
-    if [ "$i" -gt 1200 ]; then
-        echo "test_window_cluster: FAILED: xvfb-run still running after 120 s"; cat "$tmp/xvfb.log"; exit 1
-    fi
-    sleep 0.1
-done
-wait "$xpid"; rc=$?
-cat "$tmp/xvfb.log"
-if [ "$rc" -ne 0 ] || ! grep -q "^inner: ok" "$tmp/xvfb.log"; then
-    echo "test_window_cluster: FAILED: the window session failed (exit $rc)"
-    exit 1
-fi
-group=""
+run_inner test_window_cluster 120 "$tmp/inner.sh" "$tmp"
 left=$(job_processes)
 if [ -n "$left" ]; then
     echo "test_window_cluster: FAILED: pmview processes left after Escape: $left"
