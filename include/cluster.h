@@ -81,9 +81,11 @@ void pm_cluster_send_restart(pm_cluster *c, const pm_camera *camera, int indirec
 void pm_cluster_send_pause(pm_cluster *c, bool paused);
 void pm_cluster_send_resize(pm_cluster *c, int width, int height, const pm_camera *camera);
 void pm_cluster_send_quit(pm_cluster *c);
-/* Rank 0, every frame: starts a merge of the sessions' published forms when none is under way and
- * the last started PM_CLUSTER_MERGE_SECONDS ago; returns the merged film when one has completed
- * since the last call and no restart came after it began, else NULL. Never waits for a rank. */
+/* Rank 0, every frame: starts a merge of the sessions' published forms when none is under way, the
+ * last started PM_CLUSTER_MERGE_SECONDS ago and rank 0's own session has published one since the
+ * last restart (its size and layout are the merge's; a rank without one of them adds zeros);
+ * returns the merged film when one has completed since the last call and no restart came after it
+ * began, else NULL. Never waits for a rank. */
 const pm_film *pm_cluster_poll_merge(pm_cluster *c, pm_session *s);
 /* Ranks other than 0: applies rank 0's commands to the session (whose worker renders) and answers
  * its merges until it quits; returns the exit code. */
