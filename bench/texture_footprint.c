@@ -1,0 +1,112 @@
+/* texture_footprint.c: the eye pass's cost with an 8K texture against a 1K one on the same scene, with texture filtering by footprint and without (level 0 alone), as ratios within one run.
+ *
+ * Usage: build/rel/texture_footprint — prints "bench texture_footprint ..." lines. The scene is a
+ * plane tilted away from the camera filling a 640 x 480 view under a sky (classic mode, no
+ * photon pass, one thread): every pixel reads the base colour texture once at its camera hit. The
+ * textures are made in memory (random texels: nothing about their content helps a cache). Without
+ * the footprint, every lookup of the 8K texture lands on texels its neighbours' lookups do not
+ * share, and misses the caches; with it, the pixel reads the level whose texels are about its own
+ * size, as the 1K texture's. Each figure is the best of three interleaved runs.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "accel.h"
+#include "clock.h"
+#include "eye.h"
+#include "memory.h"
+#include "rng.h"
+#include "scene.h"
+#include "scene_builder.h"
+#include "session.h"
+
+enum { WIDTH = 640, HEIGHT = 480, ITERATIONS = 4 };
+
+/* A plane 24 x 24 at y = 0 with one texture of side n across it (uv 0..1), under a white sky. */
+static pm_accel *textured_plane(pm_scene *s, int n, double *levels_seconds) {
+    memset(s, 0, sizeof *s);
+    uint32_t m = sb_lambert(s, v3s(0.8f));
+    s->textures = calloc(1, sizeof *s->textures);
+    pm_texture *t = &s->textures[0];
+    t->width = t->height = n;
+    t->wrap_s = t->wrap_t = PM_WRAP_REPEAT;
+    t->rgba = malloc(4 * (size_t)n * n);
+    if (!t->rgba) return NULL;
+    pm_rng rng = pm_rng_for(17, (uint64_t)n, 0);
+    uint32_t *texels = (uint32_t *)(void *)t->rgba;
+    for (size_t i = 0; i < (size_t)n * n; i++) texels[i] = pm_rng_u32(&rng) | 0xff000000u;
+    s->texture_count = 1;
+    s->materials[m].base_color_texture = 0;
+    sb_quad(s, v3(-12, 0, 12), v3(12, 0, 12), v3(12, 0, -12), v3(-12, 0, -12), m);
+    s->uvs = malloc(2 * sizeof(float) * s->vertex_count);
+    for (uint32_t i = 0; i < s->vertex_count; i++) {
+        s->uvs[2 * i] = (s->positions[i].x + 12.f) / 24.f;
+        s->uvs[2 * i + 1] = (s->positions[i].z + 12.f) / 24.f;
+    }
+    s->sky = true;
+    s->sky_radiance = v3s(1.f);
+    double start = pm_now_seconds();
+    pm_accel *a = sb_finish(s);
+    *levels_seconds = pm_now_seconds() - start;
+    return a;
+}
+
+/* Seconds of the eye passes of ITERATIONS classic iterations without photons, one thread. */
+static double eye_seconds(const pm_scene *s, const pm_accel *a, const pm_camera *cam) {
+    pm_session_config config;
+    pm_session_config_defaults(&config, PM_MODE_CLASSIC, WIDTH, HEIGHT, 1, 1);
+    config.classic_photon_pass = false;
+    config.shadow.mode = PM_SHADOW_OFF;
+    char err[256];
+    pm_session *session = pm_session_create(s, a, cam, &config, err, sizeof err);
+    if (!session) {
+        fprintf(stderr, "texture_footprint: %s\n", err);
+        exit(1);
+    }
+    pm_session_goal goal = {ITERATIONS, 0.0};
+    if (pm_session_run(session, &goal, NULL, NULL, NULL) != PM_RUN_DONE) {
+        fprintf(stderr, "texture_footprint: %s\n", pm_session_error(session));
+        exit(1);
+    }
+    double seconds = pm_session_eye_stats(session)->seconds;
+    pm_session_destroy(session);
+    return seconds;
+}
+
+int main(void) {
+    pm_scene small, large;
+    double small_levels, large_levels;
+    pm_accel *a_small = textured_plane(&small, 1024, &small_levels);
+    pm_accel *a_large = textured_plane(&large, 8192, &large_levels);
+    if (!a_small || !a_large) {
+        fprintf(stderr, "texture_footprint: could not build the scenes\n");
+        return 1;
+    }
+    /* looking down 45 degrees: the plane fills the view, 5.5 to 12 units away (the 8K texture's
+     * texels a third to a seventh of a pixel, the 1K texture's two to one) */
+    pm_camera cam = sb_camera(v3(0.f, 5.f, 5.f), v3(0.f, 0.f, 0.f), v3(0.f, 1.f, 0.f), 40.f);
+    cam.aspect = (float)WIDTH / HEIGHT;
+    double best[2][2] = {{INFINITY, INFINITY}, {INFINITY, INFINITY}}; /* [filtered][8K] */
+    for (int run = 0; run < 3; run++)
+        for (int filtered = 1; filtered >= 0; filtered--)
+            for (int big = 0; big < 2; big++) {
+                pm_scene *s = big ? &large : &small;
+                int levels = s->textures[0].level_count;
+                if (!filtered) s->textures[0].level_count = 1; /* level 0 alone, whatever the footprint */
+                double t = eye_seconds(s, big ? a_large : a_small, &cam);
+                s->textures[0].level_count = levels;
+                if (t < best[filtered][big]) best[filtered][big] = t;
+            }
+    printf("bench texture_footprint width=%d height=%d threads=1 iterations=%d eye_seconds_1k=%.4f eye_seconds_8k=%.4f "
+           "ratio_8k_1k=%.3f eye_seconds_1k_level0=%.4f eye_seconds_8k_level0=%.4f ratio_8k_1k_level0=%.3f "
+           "levels_seconds_1k=%.4f levels_seconds_8k=%.4f\n",
+           WIDTH, HEIGHT, ITERATIONS, best[1][0], best[1][1], best[1][1] / best[1][0], best[0][0], best[0][1],
+           best[0][1] / best[0][0], small_levels, large_levels);
+    pm_accel_destroy(a_small);
+    pm_accel_destroy(a_large);
+    pm_scene_free(&small);
+    pm_scene_free(&large);
+    return 0;
+}
