@@ -30,7 +30,8 @@ typedef struct {
     const pm_accel *accel;
     const pm_camera *camera;
     pm_camera_view view;                 /* the camera at the film's size: one tangent per pass, not per pixel */
-    float cone_width, cone_spread;       /* a camera ray's cone is cone_width + cone_spread x distance wide (a pixel) */
+    float cone_width, cone_spread;       /* a camera ray's cone is cone_width + cone_spread x distance wide (the
+                                            texture footprint: PM_FOOTPRINT_PIXELS of a pixel) */
     const pm_eye_settings *settings;
     uint32_t iteration;
     pm_film *film;
@@ -746,8 +747,8 @@ static pm_eye_pass_result run_eye_pass(const pm_scene *s, const pm_accel *a, con
     job->accel = a;
     job->camera = cam;
     job->view = pm_camera_view_make(cam, film->width, film->height);
-    job->cone_width = pm_camera_pixel_size(cam, film->height, 0.f);
-    job->cone_spread = pm_camera_pixel_size(cam, film->height, 1.f) - job->cone_width;
+    job->cone_width = PM_FOOTPRINT_PIXELS * pm_camera_pixel_size(cam, film->height, 0.f);
+    job->cone_spread = PM_FOOTPRINT_PIXELS * pm_camera_pixel_size(cam, film->height, 1.f) - job->cone_width;
     job->settings = settings;
     job->iteration = iteration;
     job->film = film;
