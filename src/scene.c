@@ -49,7 +49,8 @@ static bool diffuse_coplanar(const pm_scene *s) {
 }
 
 /* The smallest and largest value of one channel over a texture's texels, as a fraction of 255
- * (bilinear filtering cannot leave this range); [1, 1] without a texture, whose factor stands alone. */
+ * (neither bilinear filtering nor the mip levels' averages can leave this range); [1, 1] without a
+ * texture, whose factor stands alone. */
 static void channel_range(const pm_scene *s, int texture, int channel, float *lo, float *hi) {
     *lo = *hi = 1.f;
     if (texture < 0 || (uint32_t)texture >= s->texture_count || !s->textures[texture].rgba) return;
@@ -786,7 +787,7 @@ float pm_texture_alpha(const pm_texture *t, float u, float v) {
 
 bool pm_material_can_be_transparent(const pm_scene *s, const pm_material *m) {
     if (m->alpha_mode == PM_ALPHA_OPAQUE) return false;
-    /* bilinear filtering never goes below the smallest texel */
+    /* bilinear filtering never goes below the smallest texel (and coverage is never read from a mip level) */
     uint8_t least = 255;
     if (m->base_color_texture >= 0 && (uint32_t)m->base_color_texture < s->texture_count) {
         const pm_texture *t = &s->textures[m->base_color_texture];
