@@ -7,6 +7,7 @@
  * the footprint, every lookup of the 8K texture lands on texels its neighbours' lookups do not
  * share, and misses the caches; with it, the pixel reads the level whose texels are about its own
  * size, as the 1K texture's. Each figure is the best of five interleaved runs, in processor time.
+ * A second line gives the shimmer of the 8K plane's first iteration with and without (shimmer()).
  */
 #include <math.h>
 #include <stdio.h>
@@ -17,6 +18,7 @@
 #include "accel.h"
 #include "clock.h"
 #include "eye.h"
+#include "film.h"
 #include "memory.h"
 #include "rng.h"
 #include "scene.h"
@@ -85,6 +87,42 @@ static double eye_seconds(const pm_scene *s, const pm_accel *a, const pm_camera 
     return seconds;
 }
 
+/* One iteration's image (the sum of the components, 3 floats a pixel) with this seed. */
+static void one_iteration(const pm_scene *s, const pm_accel *a, const pm_camera *cam, uint64_t seed, float *out) {
+    pm_session_config config;
+    pm_session_config_defaults(&config, PM_MODE_CLASSIC, WIDTH, HEIGHT, seed, 2);
+    config.classic_photon_pass = false;
+    config.shadow.mode = PM_SHADOW_OFF;
+    char err[256];
+    pm_session *session = pm_session_create(s, a, cam, &config, err, sizeof err);
+    pm_session_goal goal = {1, 0.0};
+    if (!session || pm_session_run(session, &goal, NULL, NULL, NULL) != PM_RUN_DONE) {
+        fprintf(stderr, "texture_footprint: %s\n", session ? pm_session_error(session) : err);
+        exit(1);
+    }
+    pm_film_resolve_total(pm_session_film(session), out);
+    pm_session_destroy(session);
+}
+
+/* Shimmer: how much two first iterations with different jitter differ, mean |a - b| over the mean
+ * value. On this plane under a uniform sky the light is the same at every point, so what differs is
+ * the texels each sample lands on. */
+static double shimmer(const pm_scene *s, const pm_accel *a, const pm_camera *cam) {
+    size_t n = 3 * (size_t)WIDTH * HEIGHT;
+    float *x = malloc(n * sizeof *x), *y = malloc(n * sizeof *y);
+    if (!x || !y) exit(1);
+    one_iteration(s, a, cam, 1, x);
+    one_iteration(s, a, cam, 2, y);
+    double diff = 0.0, sum = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        diff += fabs((double)x[i] - y[i]);
+        sum += x[i];
+    }
+    free(x);
+    free(y);
+    return sum > 0.0 ? diff / sum : 0.0;
+}
+
 int main(void) {
     pm_scene small, large;
     double small_levels, large_levels;
@@ -109,6 +147,13 @@ int main(void) {
                 s->textures[0].level_count = levels;
                 if (t < best[filtered][big]) best[filtered][big] = t;
             }
+    double flicker = shimmer(&large, a_large, &cam);
+    int levels = large.textures[0].level_count;
+    large.textures[0].level_count = 1;
+    double flicker_level0 = shimmer(&large, a_large, &cam);
+    large.textures[0].level_count = levels;
+    printf("bench texture_shimmer width=%d height=%d texture=8k first_iteration_difference=%.4f level0=%.4f\n", WIDTH,
+           HEIGHT, flicker, flicker_level0);
     printf("bench texture_footprint width=%d height=%d threads=1 iterations=%d cpu_seconds_1k=%.4f cpu_seconds_8k=%.4f "
            "ratio_8k_1k=%.3f cpu_seconds_1k_level0=%.4f cpu_seconds_8k_level0=%.4f ratio_8k_1k_level0=%.3f "
            "levels_seconds_1k=%.4f levels_seconds_8k=%.4f\n",
