@@ -116,4 +116,13 @@
 /* path tracing (--mode pathtrace) */
 #define PM_PATHTRACE_MAX_VERTICES 1024     /* a safety stop only, as PM_DEFAULT_MAX_PHOTON_BOUNCES: roulette ends paths first */
 
+/* textures */
+#define PM_TEXTURE_MAX_LEVELS 32           /* mip levels a texture can have: 1 + log2 of the largest int side */
+#define PM_FOOTPRINT_PIXELS 0.5f           /* a camera ray's texture footprint, in pixels: samples are jittered over the
+                                              pixel and averaged, which filters what is finer than a pixel over the
+                                              iterations; half a pixel takes out what would shimmer in the first ones
+                                              without blurring the converged image by another pixel's width */
+#define PM_FOOTPRINT_MIN_COS 1e-3f         /* a footprint on a surface grows as 1 / sqrt(cos) of the ray's incidence
+                                              (the geometric mean of the ellipse's axes); the cosine is floored here */
+
 #endif

@@ -19,11 +19,18 @@
 
 enum { PM_WRAP_REPEAT = 0, PM_WRAP_CLAMP = 1, PM_WRAP_MIRROR = 2 };
 
-/* An 8-bit RGBA image as stored in the file (sRGB-encoded); decoded to linear on lookup. */
+/* An 8-bit RGBA image as stored in the file (sRGB-encoded); decoded to linear on lookup.
+ * pm_scene_finalize adds its mip levels (pm_texture_build_levels): level k is level k-1 box-filtered
+ * to half its size (rounded down, at least 1), down to 1 x 1, in the same 8-bit encoding. A
+ * texture without them (level_count 0 or 1) is read at level 0 whatever the footprint. */
 typedef struct {
     int width, height;
     uint8_t *rgba;          /* width*height*4 bytes, row 0 = top of the image (glTF v=0) */
     int wrap_s, wrap_t;     /* PM_WRAP_* */
+    int level_count;        /* levels in all, level 0 (rgba) included */
+    uint8_t *levels;        /* levels 1 .. level_count-1 one after another, owned; NULL without */
+    int level_width[PM_TEXTURE_MAX_LEVELS], level_height[PM_TEXTURE_MAX_LEVELS];
+    size_t level_offset[PM_TEXTURE_MAX_LEVELS]; /* bytes into `levels` of level k >= 1 */
 } pm_texture;
 
 /* glTF alphaMode: MASK cuts the surface out where alpha < alpha_cutoff; BLEND lets each ray
@@ -128,6 +135,9 @@ typedef struct {
     uint32_t *triangle_material; /* triangle_count */
     vec3 *face_normals;       /* triangle_count unit geometric normals (glTF front side), computed in double by
                                  pm_scene_finalize; NULL when that allocation failed (each hit then computes its own) */
+    float *uv_density;        /* 2*triangle_count: sqrt(UV area / world area) of each triangle for TEXCOORD_0 and _1
+                                 (0 without the set), made by pm_scene_finalize for a textured scene, else NULL: turns
+                                 a footprint in world units into one in UV units (texture filtering) */
 
     pm_material *materials; uint32_t material_count;
     pm_texture *textures;   uint32_t texture_count;
@@ -226,8 +236,15 @@ static inline vec3 pm_offset_surface_origin(vec3 p, vec3 centroid, vec3 side_nor
  * tilts to or past the surface's plane, so shading cannot light its back (see pm_scene_surface). */
 #define PM_NORMAL_MAP_MIN_COS 0.05f
 
-/* Fills a surface from a triangle id and Embree-style barycentrics (b1, b2). */
+/* Fills a surface from a triangle id and Embree-style barycentrics (b1, b2); textures are read at
+ * level 0 (bilinear), as pm_scene_surface_footprint with width 0. */
 void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);
+/* The same for a ray along unit dir whose cone is `width` wide (world units, across the ray) at
+ * the hit: each texture is read at the mip level of that footprint on the surface (see
+ * pm_texture_filtered). Width 0 is pm_scene_surface, bit for bit. Alpha is not filtered:
+ * coverage (pm_scene_alpha_at) is always read at level 0. */
+void pm_scene_surface_footprint(const pm_scene *s, uint32_t tri, float b1, float b2, float width, vec3 dir,
+                                pm_surface *out);
 /* The same without the emissive texture (emission is the material's factor alone): what
  * scattering reads, for the photon pass, which never reads emission at a hit. */
 void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);
@@ -342,6 +359,16 @@ static inline void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, 
 }
 /* Linear RGB of a texture at (u, v) with its wrap modes, bilinear. */
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v);
+/* RGB at (u, v) over a footprint `texels` wide (in level-0 texels): bilinear at level 0 up to a
+ * footprint of one texel (there exactly pm_texture_lookup, or _data when !srgb), beyond it
+ * trilinear between the two levels around log2(texels). */
+vec3 pm_texture_filtered(const pm_texture *t, float u, float v, float texels, bool srgb);
+/* Builds t's mip levels (replacing any): colour (srgb) textures are averaged in linear light,
+ * weighted by alpha so that cut-out texels do not bleed their colour into what stays, and
+ * re-encoded to the nearest sRGB byte; data textures average their bytes. Alpha is averaged plainly.
+ * The bytes are admitted (pm_memory_admit) and added to *admitted; false when refused or out
+ * of memory (the failure recorded, t left with level 0 alone). */
+bool pm_texture_build_levels(pm_texture *t, bool srgb, uint64_t *admitted);
 /* The alpha channel at (u, v), bilinear like pm_texture_lookup; alpha is stored linear (no sRGB). */
 float pm_texture_alpha(const pm_texture *t, float u, float v);
 

@@ -30,6 +30,8 @@ typedef struct {
     const pm_accel *accel;
     const pm_camera *camera;
     pm_camera_view view;                 /* the camera at the film's size: one tangent per pass, not per pixel */
+    float cone_width, cone_spread;       /* a camera ray's cone is cone_width + cone_spread x distance wide (the
+                                            texture footprint: PM_FOOTPRINT_PIXELS of a pixel) */
     const pm_eye_settings *settings;
     uint32_t iteration;
     pm_film *film;
@@ -358,6 +360,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
                         vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2]) {
     const pm_scene *s = job->scene;
     vec3 throughput = v3s(1.f);
+    float path_length = 0.f; /* the pixel's cone widens along the chain as it would unfolded (flat mirrors) */
     for (int depth = 0;; depth++) {
         int comp = depth == 0 ? PM_DIRECT : PM_SPECULAR;
         pm_hit h;
@@ -373,8 +376,9 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
             if (s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
             return;
         }
+        path_length += h.t;
         pm_surface sf;
-        pm_scene_surface(s, h.tri, h.b1, h.b2, &sf);
+        pm_scene_surface_footprint(s, h.tri, h.b1, h.b2, job->cone_width + job->cone_spread * path_length, d, &sf);
         throughput = v3_mul(throughput, pm_volume_transmittance(s, &sf, d, h.t));
         vec3 wo = v3_neg(d);
         bool front = v3_dot(sf.ng, wo) > 0.f;
@@ -485,7 +489,10 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
             return false;
         }
         path_length += h.t;
-        pm_scene_surface(s, h.tri, h.b1, h.b2, sf);
+        /* a camera ray's pixel cone picks the texture levels; a gather ray has no cone of its own
+         * worth the name (a cosine lobe), and reads level 0 */
+        pm_scene_surface_footprint(s, h.tri, h.b1, h.b2,
+                                   camera_ray ? job->cone_width + job->cone_spread * path_length : 0.f, d, sf);
         throughput = v3_mul(throughput, pm_volume_transmittance(s, sf, d, h.t));
         vec3 wo = v3_neg(d);
         bool front = v3_dot(sf->ng, wo) > 0.f;
@@ -585,6 +592,8 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
     vec3 throughput = v3s(1.f);
     int seen = PM_DIRECT;
     bool lit_by_segment = true, behind_specular = false;
+    bool cone = true;        /* the pixel's cone, until the first diffuse or glossy bounce (level 0 after it) */
+    float path_length = 0.f;
     surface_bounce next = *camera; /* the camera ray, traced with its tile */
     for (int depth = 0; depth < PM_PATHTRACE_MAX_VERTICES; depth++) {
         pm_hit h;
@@ -602,8 +611,10 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
             return;
         }
         (*vertices)++;
+        path_length += h.t;
         pm_surface sf;
-        pm_scene_surface(s, h.tri, h.b1, h.b2, &sf);
+        pm_scene_surface_footprint(s, h.tri, h.b1, h.b2, cone ? job->cone_width + job->cone_spread * path_length : 0.f, d,
+                                   &sf);
         throughput = v3_mul(throughput, pm_volume_transmittance(s, &sf, d, h.t));
         vec3 wo = v3_neg(d);
         bool front = v3_dot(sf.ng, wo) > 0.f;
@@ -621,6 +632,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
             /* from a first-hit diffuse vertex, what specular bounces lead to is the caustic */
             seen = depth == 0 ? PM_CAUSTIC : here;
             lit_by_segment = false;
+            cone = false;
             vec3 weight = v3_scale(next.weight, choice);
             if (!next.sampled || !pm_vertex_survives(depth, &choosing_policy, rng, &weight)) return;
             throughput = v3_mul(throughput, weight);
@@ -735,6 +747,8 @@ static pm_eye_pass_result run_eye_pass(const pm_scene *s, const pm_accel *a, con
     job->accel = a;
     job->camera = cam;
     job->view = pm_camera_view_make(cam, film->width, film->height);
+    job->cone_width = PM_FOOTPRINT_PIXELS * pm_camera_pixel_size(cam, film->height, 0.f);
+    job->cone_spread = PM_FOOTPRINT_PIXELS * pm_camera_pixel_size(cam, film->height, 1.f) - job->cone_width;
     job->settings = settings;
     job->iteration = iteration;
     job->film = film;

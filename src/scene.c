@@ -49,7 +49,8 @@ static bool diffuse_coplanar(const pm_scene *s) {
 }
 
 /* The smallest and largest value of one channel over a texture's texels, as a fraction of 255
- * (bilinear filtering cannot leave this range); [1, 1] without a texture, whose factor stands alone. */
+ * (neither bilinear filtering nor the mip levels' averages can leave this range); [1, 1] without a
+ * texture, whose factor stands alone. */
 static void channel_range(const pm_scene *s, int texture, int channel, float *lo, float *hi) {
     *lo = *hi = 1.f;
     if (texture < 0 || (uint32_t)texture >= s->texture_count || !s->textures[texture].rgba) return;
@@ -316,6 +317,43 @@ double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo) {
     return total > 0.0 ? reflective / total : 0.0;
 }
 
+/* What footprint filtering needs: each texture's mip levels (colour ones, read as sRGB by some
+ * material's base colour or emission, averaged in linear light; the rest as data) and each
+ * triangle's UV density. False when out of memory (the failure recorded). */
+static bool build_texture_filtering(pm_scene *s) {
+    if (!s->texture_count) return true;
+    for (uint32_t i = 0; i < s->texture_count; i++) {
+        bool srgb = false;
+        for (uint32_t k = 0; k < s->material_count; k++)
+            srgb |= s->materials[k].base_color_texture == (int)i || s->materials[k].emission_texture == (int)i;
+        if (!pm_texture_build_levels(&s->textures[i], srgb, &s->memory_admitted)) return false;
+    }
+    free(s->uv_density);
+    s->uv_density = NULL;
+    if (!s->uvs && !s->uvs1) return true;
+    s->uv_density = pm_malloc(2 * sizeof *s->uv_density * (s->triangle_count ? s->triangle_count : 1), "texture footprints");
+    if (!s->uv_density) return false;
+    for (uint32_t t = 0; t < s->triangle_count; t++) {
+        const uint32_t *ix = s->indices + 3 * (size_t)t;
+        vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
+        double e1[3] = {(double)p1.x - p0.x, (double)p1.y - p0.y, (double)p1.z - p0.z};
+        double e2[3] = {(double)p2.x - p0.x, (double)p2.y - p0.y, (double)p2.z - p0.z};
+        double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
+        double world = sqrt(cx * cx + cy * cy + cz * cz);
+        for (int set = 0; set < 2; set++) {
+            const float *uv = set ? s->uvs1 : s->uvs;
+            double density = 0.0;
+            if (uv && world > 0.0) {
+                double a[2] = {(double)uv[2 * ix[1]] - uv[2 * ix[0]], (double)uv[2 * ix[1] + 1] - uv[2 * ix[0] + 1]};
+                double b[2] = {(double)uv[2 * ix[2]] - uv[2 * ix[0]], (double)uv[2 * ix[2] + 1] - uv[2 * ix[0] + 1]};
+                density = sqrt(fabs(a[0] * b[1] - a[1] * b[0]) / world);
+            }
+            s->uv_density[2 * (size_t)t + set] = isfinite(density) ? (float)density : 0.f;
+        }
+    }
+    return true;
+}
+
 bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     s->clamped_emission = 0;
     for (uint32_t i = 0; i < s->material_count; i++) s->clamped_emission += clamp_emission(&s->materials[i].emission);
@@ -345,7 +383,7 @@ bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
         const uint32_t *ix = s->indices + 3 * (size_t)t;
         s->face_normals[t] = face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);
     }
-    if (!build_emitters(s) || !build_light_distribution(s)) return false;
+    if (!build_emitters(s) || !build_light_distribution(s) || !build_texture_filtering(s)) return false;
     if (added_sky) *added_sky = false;
     if (add_default_sky && !s->sky && s->emitter_count == 0 && s->light_count == 0) {
         s->sky = true;
@@ -376,7 +414,11 @@ void pm_scene_free(pm_scene *s) {
     free(s->triangle_material);
     free(s->face_normals);
     free(s->materials);
-    for (uint32_t i = 0; i < s->texture_count; i++) free(s->textures[i].rgba);
+    for (uint32_t i = 0; i < s->texture_count; i++) {
+        free(s->textures[i].rgba);
+        free(s->textures[i].levels);
+    }
+    free(s->uv_density);
     free(s->textures);
     free(s->lights);
     free(s->cameras);
@@ -471,27 +513,29 @@ static inline void wrap_axis(float c, int n, int mode, int *i0, int *i1, float *
     }
 }
 
-/* The four texels around (u, v) and their bilinear weights, with the texture's wrap modes: the
- * footprint of every lookup (colour, data and alpha). u and v are finite. */
+/* The four texels around (u, v) and their bilinear weights, with the texture's wrap modes, in an
+ * image of w x h texels (level 0 or a mip level): the footprint of every lookup (colour, data and
+ * alpha). u and v are finite. */
 typedef struct { size_t texel[4]; float weight[4]; } bilinear_taps;
-static bilinear_taps bilinear(const pm_texture *t, float u, float v) {
+static inline bilinear_taps bilinear_in(int w, int h, int wrap_s, int wrap_t, float u, float v) {
     int xa, xb, ya, yb;
     float ax, ay;
-    wrap_axis(u, t->width, t->wrap_s, &xa, &xb, &ax);
-    wrap_axis(v, t->height, t->wrap_t, &ya, &yb, &ay);
-    bilinear_taps b = {{(size_t)ya * t->width + xa, (size_t)ya * t->width + xb, (size_t)yb * t->width + xa,
-                        (size_t)yb * t->width + xb},
+    wrap_axis(u, w, wrap_s, &xa, &xb, &ax);
+    wrap_axis(v, h, wrap_t, &ya, &yb, &ay);
+    bilinear_taps b = {{(size_t)ya * w + xa, (size_t)ya * w + xb, (size_t)yb * w + xa, (size_t)yb * w + xb},
                        {(1.f - ax) * (1.f - ay), ax * (1.f - ay), (1.f - ax) * ay, ax * ay}};
     return b;
 }
+static bilinear_taps bilinear(const pm_texture *t, float u, float v) {
+    return bilinear_in(t->width, t->height, t->wrap_s, t->wrap_t, u, v);
+}
 
-static vec3 texture_bilinear(const pm_texture *t, float u, float v, bool srgb) {
-    pthread_once(&srgb_table_once, init_srgb_table);
-    if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
-    bilinear_taps b = bilinear(t, u, v);
+/* Bilinear RGB in one image of w x h texels with t's wrap modes. */
+static inline vec3 image_bilinear(const pm_texture *t, const uint8_t *rgba, int w, int h, float u, float v, bool srgb) {
+    bilinear_taps b = bilinear_in(w, h, t->wrap_s, t->wrap_t, u, v);
     vec3 sum = v3s(0.f);
     for (int k = 0; k < 4; k++) {
-        const uint8_t *p = t->rgba + 4 * b.texel[k];
+        const uint8_t *p = rgba + 4 * b.texel[k];
         vec3 c = srgb ? v3(srgb_table[p[0]], srgb_table[p[1]], srgb_table[p[2]])
                       : v3(p[0] * (1.f / 255.f), p[1] * (1.f / 255.f), p[2] * (1.f / 255.f));
         sum = v3_madd(sum, c, b.weight[k]);
@@ -499,8 +543,197 @@ static vec3 texture_bilinear(const pm_texture *t, float u, float v, bool srgb) {
     return sum;
 }
 
+static vec3 texture_bilinear(const pm_texture *t, float u, float v, bool srgb) {
+    pthread_once(&srgb_table_once, init_srgb_table);
+    if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
+    return image_bilinear(t, t->rgba, t->width, t->height, u, v, srgb);
+}
+
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v) { return texture_bilinear(t, u, v, true); }
 vec3 pm_texture_lookup_data(const pm_texture *t, float u, float v) { return texture_bilinear(t, u, v, false); }
+
+/* Level k of t as an image (level 0 is rgba). */
+static inline const uint8_t *level_texels(const pm_texture *t, int k, int *w, int *h) {
+    if (k == 0) {
+        *w = t->width;
+        *h = t->height;
+        return t->rgba;
+    }
+    *w = t->level_width[k];
+    *h = t->level_height[k];
+    return t->levels + t->level_offset[k];
+}
+
+vec3 pm_texture_filtered(const pm_texture *t, float u, float v, float texels, bool srgb) {
+    /* a footprint of at most a texel (or 0, or NaN) is level 0 exactly */
+    if (!(texels > 1.f) || t->level_count <= 1 || !t->levels) return texture_bilinear(t, u, v, srgb);
+    pthread_once(&srgb_table_once, init_srgb_table);
+    if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
+    int top = t->level_count - 1, w, h;
+    float level = log2f(texels); /* > 0; +inf for an infinite footprint */
+    if (!(level < (float)top)) {
+        const uint8_t *p = level_texels(t, top, &w, &h);
+        return image_bilinear(t, p, w, h, u, v, srgb);
+    }
+    int k = (int)level;
+    float f = level - (float)k;
+    const uint8_t *p0 = level_texels(t, k, &w, &h);
+    vec3 a = image_bilinear(t, p0, w, h, u, v, srgb);
+    const uint8_t *p1 = level_texels(t, k + 1, &w, &h);
+    vec3 b = image_bilinear(t, p1, w, h, u, v, srgb);
+    return v3_add(v3_scale(a, 1.f - f), v3_scale(b, f));
+}
+
+/* The tables a level's build decodes and re-encodes with: its own, so that building levels while
+ * loading touches nothing the lookups share (the lookups' table is set up by the first lookup). */
+enum { LINEAR_STEPS = 65536 };
+typedef struct {
+    float decode[256];                   /* sRGB byte -> linear */
+    uint8_t nearest[LINEAR_STEPS + 1];   /* the sRGB byte nearest to linear i / LINEAR_STEPS */
+} srgb_codec;
+static uint8_t nearest_srgb_byte_from(const float decode[256], float x, int c) {
+    while (c < 255 && fabsf(decode[c + 1] - x) < fabsf(decode[c] - x)) c++;
+    while (c > 0 && fabsf(decode[c - 1] - x) < fabsf(decode[c] - x)) c--;
+    return (uint8_t)c;
+}
+static void srgb_codec_make(srgb_codec *k) {
+    for (int i = 0; i < 256; i++) k->decode[i] = pm_srgb_to_linear(i / 255.f);
+    int c = 0;
+    for (int i = 0; i <= LINEAR_STEPS; i++) k->nearest[i] = (uint8_t)(c = nearest_srgb_byte_from(k->decode, (float)i / LINEAR_STEPS, c));
+}
+/* The nearest byte to within 1 / (2 LINEAR_STEPS) in linear value: a value that close to the
+ * midpoint of two bytes may take the farther one. */
+static inline uint8_t nearest_srgb_byte(const srgb_codec *k, float x) {
+    return k->nearest[(int)(pm_clamp01(x) * LINEAR_STEPS + 0.5f)];
+}
+
+/* One axis of a halving from n texels to m: texel i of the smaller level covers the source
+ * interval [i n / m, (i + 1) n / m), and each source texel it overlaps weighs its share of that
+ * interval. Every source texel's shares add up to one texel's worth whatever n is (odd sizes
+ * included), so each level keeps the mean of the one before. */
+typedef struct { int first, count; float weight[4]; } box_taps;
+static void box_axis(int n, int m, box_taps *taps) {
+    for (int i = 0; i < m; i++) {
+        double lo = (double)i * n / m, hi = (double)(i + 1) * n / m;
+        box_taps *b = &taps[i];
+        b->first = (int)floor(lo);
+        b->count = 0;
+        for (int j = b->first; j < n && (double)j < hi && b->count < 4; j++) {
+            double overlap = fmin(hi, j + 1.0) - fmax(lo, (double)j);
+            b->weight[b->count++] = (float)(overlap * m / n);
+        }
+    }
+}
+
+/* One texel of a level from the source texels p[0..n) with weights w (summing to 1): colour by
+ * srgb (NULL: data bytes), see pm_texture_build_levels. */
+static inline void box_texel(const uint8_t *const *p, const float *w, int n, const srgb_codec *srgb, uint8_t *q) {
+    float colour[3] = {0.f, 0.f, 0.f}, plain[3] = {0.f, 0.f, 0.f}, coverage = 0.f;
+    for (int k = 0; k < n; k++) {
+        float a = p[k][3] * (1.f / 255.f);
+        for (int c = 0; c < 3; c++) {
+            float value = srgb ? srgb->decode[p[k][c]] : p[k][c] * (1.f / 255.f);
+            plain[c] += w[k] * value;
+            colour[c] += w[k] * a * value;
+        }
+        coverage += w[k] * a;
+    }
+    for (int c = 0; c < 3; c++) {
+        /* colour textures: what the cut-outs leave, where anything is left */
+        float value = srgb && coverage > 0.f ? colour[c] / coverage : plain[c];
+        q[c] = srgb ? nearest_srgb_byte(srgb, value) : (uint8_t)(pm_clamp01(value) * 255.f + 0.5f);
+    }
+    q[3] = (uint8_t)(pm_clamp01(coverage) * 255.f + 0.5f);
+}
+
+/* Level dst (dw x dh) from level src (sw x sh), box-filtered; an even halving (the common case,
+ * and the whole cost of an 8K texture's levels) reads its 2 x 2 blocks directly. */
+static void halve_level(const uint8_t *src, int sw, int sh, uint8_t *dst, int dw, int dh, const box_taps *xs,
+                        const box_taps *ys, const srgb_codec *srgb) {
+    if (sw == 2 * dw && sh == 2 * dh) {
+        for (int y = 0; y < dh; y++) {
+            const uint8_t *row0 = src + 4 * (size_t)(2 * y) * sw, *row1 = row0 + 4 * (size_t)sw;
+            uint8_t *q = dst + 4 * (size_t)y * dw;
+            for (int x = 0; x < dw; x++, q += 4) {
+                const uint8_t *p[4] = {row0 + 8 * x, row0 + 8 * x + 4, row1 + 8 * x, row1 + 8 * x + 4};
+                if (!srgb) {
+                    /* the mean of four bytes, rounded to nearest (halves up) */
+                    for (int c = 0; c < 4; c++) q[c] = (uint8_t)((p[0][c] + p[1][c] + p[2][c] + p[3][c] + 2) >> 2);
+                    continue;
+                }
+                int alpha = p[0][3] + p[1][3] + p[2][3] + p[3][3];
+                q[3] = (uint8_t)((alpha + 2) >> 2);
+                for (int c = 0; c < 3; c++) {
+                    const float *d = srgb->decode;
+                    float value = alpha == 4 * 255 || alpha == 0
+                                      ? 0.25f * (d[p[0][c]] + d[p[1][c]] + d[p[2][c]] + d[p[3][c]])
+                                      : (d[p[0][c]] * p[0][3] + d[p[1][c]] * p[1][3] + d[p[2][c]] * p[2][3] +
+                                         d[p[3][c]] * p[3][3]) / (float)alpha;
+                    q[c] = nearest_srgb_byte(srgb, value);
+                }
+            }
+        }
+        return;
+    }
+    for (int y = 0; y < dh; y++)
+        for (int x = 0; x < dw; x++) {
+            const box_taps *bx = &xs[x], *by = &ys[y];
+            const uint8_t *p[16];
+            float w[16];
+            int n = 0;
+            for (int j = 0; j < by->count; j++)
+                for (int i = 0; i < bx->count; i++) {
+                    p[n] = src + 4 * ((size_t)(by->first + j) * sw + (size_t)(bx->first + i));
+                    w[n++] = by->weight[j] * bx->weight[i];
+                }
+            box_texel(p, w, n, srgb, dst + 4 * ((size_t)y * dw + x));
+        }
+}
+
+bool pm_texture_build_levels(pm_texture *t, bool srgb, uint64_t *admitted) {
+    if (t->levels || !t->rgba || t->width <= 0 || t->height <= 0) return true; /* built, or nothing to build */
+    int count = 1, w = t->width, h = t->height;
+    size_t bytes = 0;
+    t->level_width[0] = w;
+    t->level_height[0] = h;
+    t->level_offset[0] = 0;
+    while ((w > 1 || h > 1) && count < PM_TEXTURE_MAX_LEVELS) {
+        w = w > 1 ? w / 2 : 1;
+        h = h > 1 ? h / 2 : 1;
+        t->level_width[count] = w;
+        t->level_height[count] = h;
+        t->level_offset[count] = bytes;
+        bytes += 4 * (size_t)w * (size_t)h;
+        count++;
+    }
+    t->level_count = 1;
+    if (count == 1) return true;
+    if (!pm_memory_admit(bytes, "texture mip levels")) return false;
+    uint8_t *levels = pm_malloc(bytes, "texture mip levels");
+    int largest = t->width > t->height ? t->width : t->height;
+    box_taps *taps = levels ? pm_malloc(2 * sizeof *taps * (size_t)largest, "texture mip levels") : NULL;
+    srgb_codec *codec = taps && srgb ? pm_malloc(sizeof *codec, "texture mip levels") : NULL;
+    if (!taps || (srgb && !codec)) {
+        free(taps);
+        free(levels);
+        pm_memory_release(bytes);
+        return false;
+    }
+    if (codec) srgb_codec_make(codec);
+    for (int k = 1; k < count; k++) {
+        int sw = t->level_width[k - 1], sh = t->level_height[k - 1], dw = t->level_width[k], dh = t->level_height[k];
+        const uint8_t *src = k == 1 ? t->rgba : levels + t->level_offset[k - 1];
+        box_axis(sw, dw, taps);
+        box_axis(sh, dh, taps + largest);
+        halve_level(src, sw, sh, levels + t->level_offset[k], dw, dh, taps, taps + largest, codec);
+    }
+    free(taps);
+    free(codec);
+    t->levels = levels;
+    t->level_count = count;
+    *admitted += bytes;
+    return true;
+}
 
 /* Interpolated TEXCOORD set (0 or 1) at barycentrics; (0, 0) when the scene lacks the set. */
 static void interpolated_uv(const pm_scene *s, const uint32_t *ix, float b0, float b1, float b2, int set, float *u,
@@ -527,13 +760,21 @@ void pm_scene_texcoord(const pm_scene *s, uint32_t tri, float b1, float b2, int 
     apply_uv_transform(t, u, v);
 }
 
-/* A texture reference's value at a point, from the point's interpolated TEXCOORD sets. */
-static vec3 texture_at(const pm_scene *s, const float uv[2][2], int texture, int texcoord, const pm_uv_transform *t,
-                       bool srgb) {
+/* A texture reference's value at a point, from the point's interpolated TEXCOORD sets and the
+ * footprint there in each set's UV units (0: level 0, bilinear). */
+static vec3 texture_at(const pm_scene *s, const float uv[2][2], const float footprint[2], int texture, int texcoord,
+                       const pm_uv_transform *t, bool srgb) {
     if ((uint32_t)texture >= s->texture_count) return v3s(1.f); /* a material filled by hand with 0, not -1 */
     float u = uv[texcoord == 1][0], v = uv[texcoord == 1][1];
     apply_uv_transform(t, &u, &v);
-    return texture_bilinear(&s->textures[texture], u, v, srgb);
+    const pm_texture *tex = &s->textures[texture];
+    float f = footprint[texcoord == 1];
+    if (f > 0.f) {
+        /* the transform scales areas by its determinant, lengths by its root */
+        if (t->transformed) f *= sqrtf(fabsf(t->m[0] * t->m[4] - t->m[1] * t->m[3]));
+        return pm_texture_filtered(tex, u, v, f * sqrtf((float)tex->width * (float)tex->height), srgb);
+    }
+    return texture_bilinear(tex, u, v, srgb);
 }
 
 float pm_texture_alpha(const pm_texture *t, float u, float v) {
@@ -546,7 +787,7 @@ float pm_texture_alpha(const pm_texture *t, float u, float v) {
 
 bool pm_material_can_be_transparent(const pm_scene *s, const pm_material *m) {
     if (m->alpha_mode == PM_ALPHA_OPAQUE) return false;
-    /* bilinear filtering never goes below the smallest texel */
+    /* bilinear filtering never goes below the smallest texel (and coverage is never read from a mip level) */
     uint8_t least = 255;
     if (m->base_color_texture >= 0 && (uint32_t)m->base_color_texture < s->texture_count) {
         const pm_texture *t = &s->textures[m->base_color_texture];
@@ -573,7 +814,7 @@ bool pm_material_can_be_transparent(const pm_scene *s, const pm_material *m) {
  * below ns: dropping directions only loses energy, so a normal map can darken but never
  * brighten a furnace (tests/test_normalmap.c). */
 static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_t *ix, const float b[3],
-                          const float uv[2][2], vec3 n, vec3 ng) {
+                          const float uv[2][2], const float footprint[2], vec3 n, vec3 ng) {
     vec3 t = v3s(0.f);
     float w = 0.f;
     for (int k = 0; k < 3; k++) {
@@ -590,7 +831,7 @@ static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_
     } else {
         v3_basis(n, &t, &bt); /* no usable tangent here: any frame around n */
     }
-    vec3 c = texture_at(s, uv, m->normal_texture, m->normal_texcoord, &m->normal_transform, false);
+    vec3 c = texture_at(s, uv, footprint, m->normal_texture, m->normal_texcoord, &m->normal_transform, false);
     float x = (2.f * c.x - 1.f) * m->normal_scale, y = (2.f * c.y - 1.f) * m->normal_scale, z = 2.f * c.z - 1.f;
     vec3 p = v3_add(v3_add(v3_scale(t, x), v3_scale(bt, y)), v3_scale(n, z));
     float plen = v3_length(p);
@@ -605,7 +846,10 @@ static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_
     return v3_add(v3_scale(ng, c_min), v3_scale(side, s_min / side_len));
 }
 
-void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
+/* pm_scene_surface_scattering for a ray along dir with a cone `width` wide at the hit; the
+ * footprint in each TEXCOORD set's UV units goes to footprint[] (both 0 for width 0). */
+static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, float width, vec3 dir,
+                               pm_surface *out, float footprint[2]) {
     const uint32_t *ix = s->indices + 3 * (size_t)tri;
     float b0 = 1.f - b1 - b2;
     vec3 ng = s->face_normals ? s->face_normals[tri]
@@ -615,16 +859,24 @@ void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, floa
     const pm_material *m = &s->materials[out->material];
     /* texture coordinates only for a textured material: every photon bounce comes through here */
     float uv[2][2] = {{0.f, 0.f}, {0.f, 0.f}};
+    footprint[0] = footprint[1] = 0.f;
     if (m->base_color_texture >= 0 || m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0 ||
         m->normal_texture >= 0 || m->emission_texture >= 0) {
         interpolated_uv(s, ix, b0, b1, b2, 0, &uv[0][0], &uv[0][1]);
         if (s->uvs1) interpolated_uv(s, ix, b0, b1, b2, 1, &uv[1][0], &uv[1][1]);
+        if (width > 0.f && s->uv_density) {
+            /* the cone's cross-section on the surface: an ellipse 1/cos longer one way, taken as
+             * the circle of the same area */
+            float on_surface = width / sqrtf(pm_maxf(fabsf(v3_dot(ng, dir)), PM_FOOTPRINT_MIN_COS));
+            footprint[0] = on_surface * s->uv_density[2 * (size_t)tri];
+            footprint[1] = on_surface * s->uv_density[2 * (size_t)tri + 1];
+        }
     }
     out->u = uv[0][0];
     out->v = uv[0][1];
     if (m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents) {
         const float b[3] = {b0, b1, b2};
-        out->ns = normal_mapped(s, m, ix, b, uv, out->ns, out->ng);
+        out->ns = normal_mapped(s, m, ix, b, uv, footprint, out->ns, out->ng);
     }
     if (m->uniform_split) {
         out->kd = m->split_kd;
@@ -635,16 +887,16 @@ void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, floa
     } else {
         vec3 base = m->base_color;
         if (m->base_color_texture >= 0)
-            base = v3_mul(base, texture_at(s, uv, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform, true));
+            base = v3_mul(base, texture_at(s, uv, footprint, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform, true));
         float metallic = m->metallic, roughness = m->roughness, transmission = m->transmission;
         if (m->metallic_roughness_texture >= 0) {
-            vec3 mr = texture_at(s, uv, m->metallic_roughness_texture, m->metallic_roughness_texcoord,
+            vec3 mr = texture_at(s, uv, footprint, m->metallic_roughness_texture, m->metallic_roughness_texcoord,
                                  &m->metallic_roughness_transform, false);
             roughness *= mr.y;
             metallic *= mr.z;
         }
         if (m->transmission_texture >= 0 && transmission > 0.f)
-            transmission *= texture_at(s, uv, m->transmission_texture, m->transmission_texcoord, &m->transmission_transform,
+            transmission *= texture_at(s, uv, footprint, m->transmission_texture, m->transmission_texcoord, &m->transmission_transform,
                                        false).x;
         pm_material_split_at(base, metallic, roughness, transmission, &out->kd, &out->ks, &out->kt);
         out->glossy = pm_glossy_at(metallic, roughness);
@@ -655,15 +907,26 @@ void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, floa
     out->double_sided = m->double_sided;
 }
 
-void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
-    pm_scene_surface_scattering(s, tri, b1, b2, out);
+void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
+    float footprint[2];
+    surface_scattering(s, tri, b1, b2, 0.f, v3s(0.f), out, footprint);
+}
+
+void pm_scene_surface_footprint(const pm_scene *s, uint32_t tri, float b1, float b2, float width, vec3 dir,
+                                pm_surface *out) {
+    float footprint[2];
+    surface_scattering(s, tri, b1, b2, width, dir, out, footprint);
     const pm_material *m = &s->materials[out->material];
     if (m->emission_texture >= 0 && !v3_is_black(m->emission)) {
         float uv[2][2] = {{out->u, out->v}, {0.f, 0.f}};
         if (s->uvs1) interpolated_uv(s, s->indices + 3 * (size_t)tri, 1.f - b1 - b2, b1, b2, 1, &uv[1][0], &uv[1][1]);
-        out->emission = v3_mul(m->emission, texture_at(s, uv, m->emission_texture, m->emission_texcoord,
+        out->emission = v3_mul(m->emission, texture_at(s, uv, footprint, m->emission_texture, m->emission_texcoord,
                                                        &m->emission_transform, true));
     }
+}
+
+void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
+    pm_scene_surface_footprint(s, tri, b1, b2, 0.f, v3s(0.f), out);
 }
 
 vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale) {
