@@ -7,4 +7,5 @@ for scene in scenes/cornell-box.gltf scenes/caustic.gltf; do
 done
 sh bench/window_room_bench.sh || exit 1
 sh bench/cluster_bench.sh || exit 1
-sh bench/window_bench.sh
+sh bench/window_bench.sh || exit 1
+sh bench/window_motion_bench.sh

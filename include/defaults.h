@@ -13,8 +13,8 @@
 #define PM_PREVIEW_MAX_DIVISOR 16         /* a camera moving over a big scene: previews down to 1/16 of the width and height */
 #define PM_PREVIEW_BUDGET_SECONDS 0.03    /* a preview slower than this makes the next one coarser (24 new images a second
                                              and more while the camera moves, the window's drawing included) */
-#define PM_PREVIEW_SETTLE_SECONDS 0.1     /* a moving camera: its next position is waited for this long after the last one
-                                             before a full iteration starts */
+#define PM_PREVIEW_SETTLE_SECONDS 0.1     /* a moving camera: its next position is waited for at most this long after the
+                                             last one (twice the time between its last two) before a full iteration starts */
 #define PM_DEFAULT_SEED 1
 #define PM_DEFAULT_SCREENSHOT "pmview-screenshot.png" /* the window's P key; the layers go beside it as .exr */
 #define PM_MAX_THREADS 256              /* worker threads at most (--threads; per-thread counters are sized by it) */

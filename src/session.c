@@ -526,15 +526,15 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
  * divisor follows the measured cost: past PM_PREVIEW_BUDGET_SECONDS the next preview is coarser
  * (cost goes as 1 / divisor^2), and it comes back finer once the finer one would fit again: a
  * camera in motion on a big scene gets coarser pixels, never a frozen image. */
-static void preview(pm_session *s) {
+static bool preview(pm_session *s) {
     int divisor = s->preview_divisor;
     while (divisor > PM_PREVIEW_DIVISOR && (s->config.width / divisor < 8 || s->config.height / divisor < 8)) divisor /= 2;
     int w = s->config.width / divisor, h = s->config.height / divisor;
-    if (w < 8 || h < 8) return;
+    if (w < 8 || h < 8) return false;
     double start = pm_now_seconds();
     bool components[PM_COMPONENT_COUNT] = {s->film.sum[PM_DIRECT] != NULL, s->film.sum[PM_SPECULAR] != NULL, false, false};
     pm_film small;
-    if (!pm_film_init(&small, w, h, components)) return;
+    if (!pm_film_init(&small, w, h, components)) return false;
     pm_eye_settings eye;
     memset(&eye, 0, sizeof eye);
     eye.seed = s->config.progressive.seed ^ 0x9e37u;
@@ -548,12 +548,14 @@ static void preview(pm_session *s) {
     double seconds = pm_now_seconds() - start;
     if (seconds > PM_PREVIEW_BUDGET_SECONDS && divisor < PM_PREVIEW_MAX_DIVISOR) s->preview_divisor = 2 * divisor;
     else if (divisor > PM_PREVIEW_DIVISOR && 4.0 * seconds < 0.5 * PM_PREVIEW_BUDGET_SECONDS) s->preview_divisor = divisor / 2;
+    return true;
 }
 
 static void *worker_main(void *arg) {
     pm_session *s = arg;
     pm_parallel_set_cancel(&s->cancel);
     bool need_preview = true, need_clear = false, moving = false;
+    double restart_interval = 0;          /* between the last two restarts, while moving */
     pthread_mutex_lock(&s->lock);
     for (;;) {
         if (s->stop) break;
@@ -561,6 +563,7 @@ static void *worker_main(void *arg) {
             /* restarts closer than PM_WINDOW_MOTION_GAP are a camera in motion */
             double now = pm_now_seconds();
             moving = s->last_restart > 0 && now - s->last_restart < PM_WINDOW_MOTION_GAP;
+            restart_interval = now - s->last_restart;
             s->last_restart = now;
             s->restart_pending = false;
             bool camera = s->have_camera_change;
@@ -597,15 +600,17 @@ static void *worker_main(void *arg) {
         }
         pthread_mutex_unlock(&s->lock);
         if (need_preview) {
-            preview(s);
+            bool shown = preview(s);
             need_preview = false;
             /* a restart asked for meanwhile goes first: another preview, not a full iteration. A
              * moving camera's next position is likely on its way: it is waited for a little
              * before a full iteration, which it would cancel at a cost (a photon chunk, an eye
-             * tile, the film's tiles put back) */
+             * tile, the film's tiles put back): twice the time between its last two, at most
+             * PM_PREVIEW_SETTLE_SECONDS */
             pthread_mutex_lock(&s->lock);
-            double wait = s->last_restart + PM_PREVIEW_SETTLE_SECONDS - pm_now_seconds();
-            if (moving && wait > 0 && !s->restart_pending && !s->stop) {
+            double settle = fmin(PM_PREVIEW_SETTLE_SECONDS, 2.0 * restart_interval);
+            double wait = s->last_restart + settle - pm_now_seconds();
+            if (shown && moving && wait > 0 && !s->restart_pending && !s->stop) {
                 struct timespec until;
                 clock_gettime(CLOCK_REALTIME, &until);
                 long ns = until.tv_nsec + (long)(wait * 1e9);
