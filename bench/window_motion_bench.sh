@@ -6,6 +6,9 @@
 # `stat window motion_images_per_second` counts the new images of a moved camera that reached the
 # screen meanwhile (frames_per_second counts redraws of old ones too).
 cd "$(dirname "$0")/.." || exit 1
+# PMVIEW: the binary measured (another build's, for a before-and-after)
+PMVIEW=${PMVIEW:-./pmview}
+export PMVIEW
 for t in xvfb-run xdotool python3; do command -v $t >/dev/null 2>&1 || { echo "bench window_motion: skipped ($t missing)"; exit 0; }; done
 python3 -c "import numpy" 2>/dev/null || { echo "bench window_motion: skipped (python3 numpy missing)"; exit 0; }
 tmp=$(mktemp -d)
@@ -49,11 +52,11 @@ done
 # relocating libOSMesa's LLVM, libmpi, Embree; static constructors) and the exit after it are
 # what `pmview --help` costs, best of 7
 startup=$(python3 -c '
-import subprocess, time
+import os, subprocess, time
 best = 1e9
 for _ in range(7):
     t = time.perf_counter()
-    subprocess.run(["./pmview", "--help"], stdout=subprocess.DEVNULL)
+    subprocess.run([os.environ["PMVIEW"], "--help"], stdout=subprocess.DEVNULL)
     best = min(best, time.perf_counter() - t)
 print("%.4f" % best)')
 echo "bench window_motion scene=scenes/cornell-box.gltf first_frame_seconds=$best goal_seconds=0.100 exec_to_exit_of_help_seconds=$startup first_frame_from_exec_seconds=$(awk "BEGIN { printf \"%.4f\", $best + $startup }") load_seconds=$(field load seconds) bvh_seconds=$(field bvh seconds) first_image_seconds=$(field window first_image_seconds)"
