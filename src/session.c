@@ -16,7 +16,6 @@
 #include "image_io.h"
 #include "parallel.h"
 
-
 struct pm_session {
     const pm_scene *scene;
     const pm_accel *accel;
@@ -591,7 +590,8 @@ static void *worker_main(void *arg) {
             pthread_mutex_lock(&s->lock);
             continue;
         }
-        bool done = s->config.max_iterations && s->film.samples >= s->config.max_iterations;
+        /* a film still to be cleared holds the old camera's samples: not done */
+        bool done = !need_clear && s->config.max_iterations && s->film.samples >= s->config.max_iterations;
         s->published.finished = done;
         s->published.paused = s->paused;
         if (s->paused || done) {
