@@ -8,4 +8,5 @@ done
 build/rel/texture_footprint || exit 1
 sh bench/window_room_bench.sh || exit 1
 sh bench/cluster_bench.sh || exit 1
-sh bench/window_bench.sh
+sh bench/window_bench.sh || exit 1
+sh bench/window_motion_bench.sh

@@ -8,6 +8,13 @@
 #define PM_CLUSTER_MERGE_SECONDS 0.25     /* the window's merges of every rank's image, at most this often */
 #define PM_CLUSTER_SILENCE_SECONDS 0.5    /* after a signal, a rank that has not finished by then is taken for gone (mpirun's SIGKILL follows its SIGTERM by 1 s) */
 #define PM_DEFAULT_WINDOW_ITERATIONS 100000 /* the window keeps converging until closed */
+#define PM_WINDOW_MOTION_GAP 0.2          /* the window: camera changes less than this many seconds apart are one motion (a drag, a held key) */
+#define PM_PREVIEW_DIVISOR 4              /* the coarse preview after a restart: a quarter of the width and height */
+#define PM_PREVIEW_MAX_DIVISOR 16         /* a camera moving over a big scene: previews down to 1/16 of the width and height */
+#define PM_PREVIEW_BUDGET_SECONDS 0.03    /* a preview slower than this makes the next one coarser (24 new images a second
+                                             and more while the camera moves, the window's drawing included) */
+#define PM_PREVIEW_SETTLE_SECONDS 0.1     /* a moving camera: its next position is waited for at most this long after the
+                                             last one (twice the time between its last two) before a full iteration starts */
 #define PM_DEFAULT_SEED 1
 #define PM_DEFAULT_SCREENSHOT "pmview-screenshot.png" /* the window's P key; the layers go beside it as .exr */
 #define PM_MAX_THREADS 256              /* worker threads at most (--threads; per-thread counters are sized by it) */

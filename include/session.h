@@ -60,6 +60,7 @@ typedef struct {
     double mean_radius;        /* progressive: mean radius of the pixels' statistics, or the final-gather radius where no
                                   pixel keeps statistics (0 in the other modes) */
     bool preview;              /* the published image is the coarse preview */
+    int preview_divisor;       /* its pixels are this many image pixels across (0: not a preview) */
     bool paused, finished;
 } pm_session_progress;
 

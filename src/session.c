@@ -16,8 +16,6 @@
 #include "image_io.h"
 #include "parallel.h"
 
-#define PREVIEW_DIVISOR 4 /* the coarse preview after a restart: a quarter of the width and height */
-
 struct pm_session {
     const pm_scene *scene;
     const pm_accel *accel;
@@ -45,6 +43,9 @@ struct pm_session {
     pthread_mutex_t lock;
     pthread_cond_t wake;
     atomic_bool cancel;                   /* the running pass stops at its next task */
+    atomic_bool halt;                     /* the worker is being stopped: even a preview stops at its next task */
+    int preview_divisor;                  /* the next preview's pixels are this many film pixels across */
+    double last_restart;                  /* when the worker took the last restart (0: none yet) */
     bool stop, paused, restart_pending, have_camera_change;
     int indirect_change;                  /* -1 none */
     pm_camera pending_camera;
@@ -210,6 +211,8 @@ pm_session *pm_session_create(const pm_scene *scene, const pm_accel *a, const pm
     pthread_mutex_init(&s->lock, NULL);
     pthread_cond_init(&s->wake, NULL);
     atomic_init(&s->cancel, false);
+    atomic_init(&s->halt, false);
+    s->preview_divisor = PM_PREVIEW_DIVISOR;
     pm_memory_clear_failure();
     if (s->config.mode == PM_MODE_CLASSIC && s->config.classic_photon_pass) choose_classic_photons(s, &s->config.classic_photons);
     if (!build_mode(s, err, err_size)) { pm_session_destroy(s); return NULL; }
@@ -486,7 +489,10 @@ static void publish_packed(pm_session *s) {
  * nothing is published. */
 static void publish(pm_session *s, const pm_film *film, bool preview) {
     size_t n = 3 * (size_t)s->config.width * s->config.height;
-    if (atomic_load(&s->cancel)) return;
+    /* a preview is of a camera asked for: a newer one does not abandon it (under a moving camera
+     * every preview would be), only a stop does */
+    atomic_bool *abandon = preview ? &s->halt : &s->cancel;
+    if (atomic_load(abandon)) return;
     int view = atomic_load(&s->view);
     if (view != PM_VIEW_SHADED && !preview && s->progressive && s->back[PM_DIRECT]) {
         for (int c = 0; c < PM_COMPONENT_COUNT; c++)
@@ -495,7 +501,7 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
         film = NULL;
     }
     for (int c = 0; c < PM_COMPONENT_COUNT && film; c++) {
-        if (atomic_load(&s->cancel)) return;
+        if (atomic_load(abandon)) return;
         if (!s->back[c]) continue;
         if (!film->sum[c]) { memset(s->back[c], 0, n * sizeof(float)); continue; }
         if (film->width == s->config.width && film->height == s->config.height) {
@@ -511,7 +517,7 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
         }
         pm_film_resolve(film, (pm_component)c, tmp);
         for (int y = 0; y < s->config.height; y++) {
-            if ((y & 63) == 0 && atomic_load(&s->cancel)) { free(tmp); return; }
+            if ((y & 63) == 0 && atomic_load(abandon)) { free(tmp); return; }
             int sy = y * film->height / s->config.height;
             for (int x = 0; x < s->config.width; x++) {
                 int sx = x * film->width / s->config.width;
@@ -523,7 +529,7 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
     }
     pm_radius_summary r = {0, 0, 0, 0, 0, 0};
     if (s->progressive && !preview && !atomic_load(&s->cancel)) r = pm_progressive_radii(s->progressive, &s->film);
-    if (atomic_load(&s->cancel)) return;
+    if (atomic_load(abandon)) return;
     pthread_mutex_lock(&s->lock);
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         float *t = s->front[c];
@@ -536,36 +542,56 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
     s->published.seconds = s->render_seconds;
     s->published.mean_radius = r.pixels ? r.mean : r.gather; /* a scene read by gathering alone has no pixel radii */
     s->published.preview = preview;
+    s->published.preview_divisor = preview ? s->config.width / film->width : 0;
     pthread_mutex_unlock(&s->lock);
     if (preview || !s->keep_packed || atomic_load(&s->cancel)) return;
     publish_packed(s);
 }
 
-/* A direct-light image at a quarter of the size: a picture within milliseconds of a restart. */
-static void preview(pm_session *s) {
-    int w = s->config.width / PREVIEW_DIVISOR, h = s->config.height / PREVIEW_DIVISOR;
-    if (w < 8 || h < 8) return;
+/* A coarse direct-light image (each of its pixels preview_divisor film pixels across): a picture
+ * within milliseconds of a restart. A newer camera does not cut it short, a stop does. The
+ * divisor follows the measured cost: past PM_PREVIEW_BUDGET_SECONDS the next preview is coarser
+ * (cost goes as 1 / divisor^2), and it comes back finer once the finer one would fit again: a
+ * camera in motion on a big scene gets coarser pixels, never a frozen image. */
+static bool preview(pm_session *s) {
+    int divisor = s->preview_divisor;
+    while (divisor > PM_PREVIEW_DIVISOR && (s->config.width / divisor < 8 || s->config.height / divisor < 8)) divisor /= 2;
+    int w = s->config.width / divisor, h = s->config.height / divisor;
+    if (w < 8 || h < 8) return false;
+    double start = pm_now_seconds();
     bool components[PM_COMPONENT_COUNT] = {s->film.sum[PM_DIRECT] != NULL, s->film.sum[PM_SPECULAR] != NULL, false, false};
     pm_film small;
-    if (!pm_film_init(&small, w, h, components)) return;
+    if (!pm_film_init(&small, w, h, components)) return false;
     pm_eye_settings eye;
     memset(&eye, 0, sizeof eye);
     eye.seed = s->config.progressive.seed ^ 0x9e37u;
     eye.threads = s->config.mode == PM_MODE_PROGRESSIVE ? s->config.progressive.threads : s->config.eye.threads;
     eye.max_specular_depth = 8;
+    pm_parallel_set_cancel(&s->halt);
     pm_eye_iterate(s->scene, s->accel, &s->camera, &eye, 0, &small, NULL);
-    if (!atomic_load(&s->cancel)) publish(s, &small, true);
+    pm_parallel_set_cancel(&s->cancel);
+    if (!atomic_load(&s->halt)) publish(s, &small, true);
     pm_film_free(&small);
+    double seconds = pm_now_seconds() - start;
+    if (seconds > PM_PREVIEW_BUDGET_SECONDS && divisor < PM_PREVIEW_MAX_DIVISOR) s->preview_divisor = 2 * divisor;
+    else if (divisor > PM_PREVIEW_DIVISOR && 4.0 * seconds < 0.5 * PM_PREVIEW_BUDGET_SECONDS) s->preview_divisor = divisor / 2;
+    return true;
 }
 
 static void *worker_main(void *arg) {
     pm_session *s = arg;
     pm_parallel_set_cancel(&s->cancel);
-    bool need_preview = true;
+    bool need_preview = true, need_clear = false, moving = false;
+    double restart_interval = 0;          /* between the last two restarts, while moving */
     pthread_mutex_lock(&s->lock);
     for (;;) {
         if (s->stop) break;
         if (s->restart_pending) {
+            /* restarts closer than PM_WINDOW_MOTION_GAP are a camera in motion */
+            double now = pm_now_seconds();
+            moving = s->last_restart > 0 && now - s->last_restart < PM_WINDOW_MOTION_GAP;
+            restart_interval = now - s->last_restart;
+            s->last_restart = now;
             s->restart_pending = false;
             bool camera = s->have_camera_change;
             pm_camera cam = s->pending_camera;
@@ -586,12 +612,14 @@ static void *worker_main(void *arg) {
                     break;
                 }
             }
-            pm_session_restart(s, NULL);
+            /* the film is cleared once the camera rests: a moving camera's restarts show previews only */
+            need_clear = true;
             need_preview = true;
             pthread_mutex_lock(&s->lock);
             continue;
         }
-        bool done = s->config.max_iterations && s->film.samples >= s->config.max_iterations;
+        /* a film still to be cleared holds the old camera's samples: not done */
+        bool done = !need_clear && s->config.max_iterations && s->film.samples >= s->config.max_iterations;
         s->published.finished = done;
         s->published.paused = s->paused;
         if (s->paused || done) {
@@ -600,8 +628,29 @@ static void *worker_main(void *arg) {
         }
         pthread_mutex_unlock(&s->lock);
         if (need_preview) {
-            preview(s);
+            bool shown = preview(s);
             need_preview = false;
+            /* a restart asked for meanwhile goes first: another preview, not a full iteration. A
+             * moving camera's next position is likely on its way: it is waited for a little
+             * before a full iteration, which it would cancel at a cost (a photon chunk, an eye
+             * tile, the film's tiles put back): twice the time between its last two, at most
+             * PM_PREVIEW_SETTLE_SECONDS */
+            pthread_mutex_lock(&s->lock);
+            double settle = fmin(PM_PREVIEW_SETTLE_SECONDS, 2.0 * restart_interval);
+            double wait = s->last_restart + settle - pm_now_seconds();
+            if (shown && moving && wait > 0 && !s->restart_pending && !s->stop) {
+                struct timespec until;
+                clock_gettime(CLOCK_REALTIME, &until);
+                long ns = until.tv_nsec + (long)(wait * 1e9);
+                until.tv_sec += ns / 1000000000L;
+                until.tv_nsec = ns % 1000000000L;
+                pthread_cond_timedwait(&s->wake, &s->lock, &until);
+            }
+            continue;
+        }
+        if (need_clear) {
+            pm_session_restart(s, NULL);
+            need_clear = false;
         }
         uint32_t left = s->config.max_iterations ? s->config.max_iterations - s->film.samples : 0;
         bool ok = atomic_load(&s->cancel) ? true : iterate_once(s, left);
@@ -615,6 +664,8 @@ static void *worker_main(void *arg) {
         /* an iteration cut short is discarded by the restart that cut it */
     }
     pthread_mutex_unlock(&s->lock);
+    /* a film left uncleared holds no image of the camera the session has */
+    if (need_clear) pm_session_restart(s, NULL);
     return NULL;
 }
 
@@ -769,9 +820,11 @@ void pm_session_stop(pm_session *s) {
     pthread_mutex_lock(&s->lock);
     s->stop = true;
     atomic_store(&s->cancel, true);
+    atomic_store(&s->halt, true);
     pthread_cond_signal(&s->wake);
     pthread_mutex_unlock(&s->lock);
     pthread_join(s->worker, NULL);
     s->worker_running = false;
     atomic_store(&s->cancel, false);
+    atomic_store(&s->halt, false);
 }

@@ -6,6 +6,7 @@
 
 #include "camera_control.h"
 #include "clock.h"
+#include "defaults.h"
 #include "drivers.h"
 #include "image_io.h"
 #include "memory.h"
@@ -83,6 +84,12 @@ int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *sc
     pm_view_draw(view, &display);
     double first_frame = pm_now_seconds() - process_start, first_image = 0, restart_requested = 0, restart_to_image = 0;
     uint64_t loops = 0, frames = 1, restarts = 0;
+    /* While the camera moves (changes less than PM_WINDOW_MOTION_GAP apart): how long, and how many
+     * new images, of a camera asked for since the motion began, reached the screen. Frames drawn
+     * count redraws of an old image too; this is what makes motion look fluid. */
+    double last_move = -1, motion_seconds = 0;
+    uint64_t motion_images = 0;
+    int coarsest_preview = 0;
     double loop_start = pm_now_seconds();
     if ((cluster && !pm_session_keep_packed(session, true)) || !pm_session_start(session, err, sizeof err)) {
         if (cluster) pm_cluster_abort(cluster, pm_session_error(session));
@@ -122,6 +129,11 @@ int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *sc
             if (pm_accel_intersect(accel, o, d, INFINITY, &h)) pivot = v3_madd(o, d, h.t);
         }
         moved = memcmp(&before, &camera, sizeof camera) != 0;
+        if (moved) {
+            double t = pm_now_seconds();
+            if (last_move >= 0 && t - last_move < PM_WINDOW_MOTION_GAP) motion_seconds += t - last_move;
+            last_move = t;
+        }
         if (moved || ev.restart) {
             pm_session_request_restart(session, moved ? &camera : NULL, -1);
             pm_cluster_send_restart(cluster, moved ? &camera : NULL, -1);
@@ -195,6 +207,8 @@ int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *sc
                 restarts++;
                 restart_requested = 0;
             }
+            if (last_move >= 0 && t - last_move < PM_WINDOW_MOTION_GAP) motion_images++;
+            if (progress.preview_divisor > coarsest_preview) coarsest_preview = progress.preview_divisor;
             pm_view_upload_layers(view, width, height, layers);
             if (ev.save_png) save_from_window(opt, layers, width, height, &display);
             ev.save_png = false;
@@ -204,7 +218,9 @@ int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *sc
             /* under mpirun, until the first merge of this camera: rank 0's own image */
             char own[32] = "";
             if (cluster) snprintf(own, sizeof own, "%d ranks (rank 0)  ", ranks);
-            snprintf(status, sizeof status, "%s%s%u it  %.2f Mphotons  %.3g Mphotons/s  %.1f s  r %.3g%s", own, progress.preview ? "preview  " : "",
+            char preview_note[32] = "";
+            if (progress.preview) snprintf(preview_note, sizeof preview_note, "preview 1/%d  ", progress.preview_divisor);
+            snprintf(status, sizeof status, "%s%s%u it  %.2f Mphotons  %.3g Mphotons/s  %.1f s  r %.3g%s", own, preview_note,
                      progress.iterations, progress.photons * 1e-6, progress.seconds > 0 ? progress.photons / progress.seconds * 1e-6 : 0.0,
                      progress.seconds, progress.mean_radius, paused ? "  paused" : "");
             pm_view_set_status(view, status);
@@ -227,9 +243,11 @@ int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *sc
     }
     double seconds = pm_now_seconds() - loop_start;
     if (opt->stats)
-        printf("stat window first_frame_seconds=%.4f first_image_seconds=%.4f ui_loops_per_second=%.1f frames_per_second=%.1f restarts=%llu restart_to_image_seconds=%.4f\n",
+        printf("stat window first_frame_seconds=%.4f first_image_seconds=%.4f ui_loops_per_second=%.1f frames_per_second=%.1f restarts=%llu restart_to_image_seconds=%.4f"
+               " motion_seconds=%.3f motion_images=%llu motion_images_per_second=%.1f coarsest_preview_divisor=%d\n",
                first_frame, first_image, seconds > 0 ? loops / seconds : 0.0, seconds > 0 ? frames / seconds : 0.0,
-               (unsigned long long)restarts, restarts ? restart_to_image / restarts : 0.0);
+               (unsigned long long)restarts, restarts ? restart_to_image / restarts : 0.0, motion_seconds,
+               (unsigned long long)motion_images, motion_seconds > 0 ? motion_images / motion_seconds : 0.0, coarsest_preview);
     pm_cluster_send_quit(cluster);
     pm_session_stop(session);
     pm_view_destroy(view);
