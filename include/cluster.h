@@ -49,7 +49,6 @@ uint32_t pm_cluster_share(const pm_cluster *c, uint32_t total);
 /* The job's totals at the last merge (rank 0). */
 typedef struct {
     uint64_t photons;          /* emitted by every rank since the last restart */
-    double seconds;            /* rendering time summed over ranks */
     uint64_t merges;
     uint64_t bytes_sent;       /* what this rank sent to merges and commands */
     uint64_t bytes_per_merge;  /* what each rank sends to one merge */
@@ -66,12 +65,11 @@ void pm_cluster_watch(pm_cluster *c, volatile sig_atomic_t *interrupted);
 const pm_film *pm_cluster_merge_now(pm_cluster *c, pm_session *s);
 /* Ranks other than 0, between their iterations: answers rank 0's merges, never waiting. */
 void pm_cluster_serve(pm_cluster *c, pm_session *s);
-/* After a rank's run (failed: the session's error ends the job). Ranks other than 0 tell rank 0,
- * answer its merges until the last one, and return NULL. Rank 0 waits for every rank, calling
- * tick(context) every few milliseconds meanwhile (checkpoints), then merges a last time and
- * returns the film. A failed rank, or one silent after a signal (pm_cluster_watch), ends the job
- * (pm_cluster_abort). */
-const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, bool failed, void (*tick)(void *context), void *context);
+/* After a rank's run that did not fail (a failure ends the job: pm_cluster_abort). Ranks other
+ * than 0 tell rank 0, answer its merges until the last one, and return NULL. Rank 0 waits for
+ * every rank, calling tick(context) every few milliseconds meanwhile (checkpoints), then merges a
+ * last time and returns the film. A rank silent after a signal (pm_cluster_watch) ends the job. */
+const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(void *context), void *context);
 /* Why the last call above failed, naming the rank. */
 const char *pm_cluster_error(const pm_cluster *c);
 

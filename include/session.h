@@ -184,7 +184,6 @@ typedef struct {
     int width, height;
     bool components[PM_COMPONENT_COUNT], slots[PM_SLOT_COUNT];
     uint64_t photons;          /* emitted when it was packed */
-    double seconds;            /* rendering time when it was packed */
 } pm_session_packed;
 /* The newest form published since the last restart or resize was asked for: true with *out set
  * and the lock held (pm_session_unlock_latest() once read), or false, without locking, when the

@@ -17,8 +17,8 @@
 
 enum { TAG_COMMAND = 11, TAG_DONE = 12, TAG_TEXT = 13, TAG_READY = 14 };
 enum { CMD_MERGE = 1, CMD_FINAL, CMD_RESTART, CMD_PAUSE, CMD_RESIZE, CMD_QUIT };
-/* ahead of the film's additive form in a merge: the photons and rendering seconds of each rank */
-enum { TOTALS_FIELDS = 2 };
+/* ahead of the film's additive form in a merge: the photons each rank emitted */
+enum { TOTALS_FIELDS = 1 };
 
 /* What rank 0 asks of the others; sent as bytes: every rank is the same binary. */
 typedef struct {
@@ -108,7 +108,7 @@ void pm_cluster_leave(pm_cluster *c) {
 int pm_cluster_rank(const pm_cluster *c) { return c ? c->rank : 0; }
 int pm_cluster_size(const pm_cluster *c) { return c ? c->size : 1; }
 pm_cluster_totals pm_cluster_get_totals(const pm_cluster *c) {
-    pm_cluster_totals none = {0, 0, 0, 0, 0, 0};
+    pm_cluster_totals none = {0};
     if (!c) return none;
     pm_cluster_totals t = c->totals;
     t.seconds_joined = c->agreed_at > 0 ? pm_now_seconds() - c->agreed_at : 0.0;
@@ -239,15 +239,16 @@ static bool prepare_merged_like(pm_cluster *c, const pm_film *film) {
 
 /* This rank's share of a merge of `count` doubles into c->send, from the form the session's worker
  * published (the window): zeros where it has none of the merge's layout since the last restart. */
+static void send_published(pm_cluster *c, const pm_session_packed *packed) {
+    memcpy(c->send + TOTALS_FIELDS, packed->values, packed->count * sizeof(double));
+    c->send[0] = (double)packed->photons;
+}
+
 static void pack_published(pm_cluster *c, pm_session *s, size_t count) {
     pm_session_packed packed;
     memset(c->send, 0, count * sizeof(double));
     if (!pm_session_lock_packed(s, &packed)) return;
-    if (packed.count + TOTALS_FIELDS == count) {
-        memcpy(c->send + TOTALS_FIELDS, packed.values, packed.count * sizeof(double));
-        c->send[0] = (double)packed.photons;
-        c->send[1] = packed.seconds;
-    }
+    if (packed.count + TOTALS_FIELDS == count) send_published(c, &packed);
     pm_session_unlock_latest(s);
 }
 
@@ -255,7 +256,6 @@ static void pack_published(pm_cluster *c, pm_session *s, size_t count) {
 static void pack_film(pm_cluster *c, pm_session *s) {
     pm_film_pack(pm_session_film(s), c->send + TOTALS_FIELDS);
     c->send[0] = (double)pm_session_photons(s);
-    c->send[1] = 0.0;
 }
 
 static void count_sent(pm_cluster *c, size_t count) {
@@ -266,7 +266,6 @@ static void count_sent(pm_cluster *c, size_t count) {
 
 static const pm_film *unpack_merged(pm_cluster *c) {
     c->totals.photons = (uint64_t)c->receive[0];
-    c->totals.seconds = c->receive[1];
     pm_film_unpack(&c->merged, c->receive + TOTALS_FIELDS);
     return &c->merged;
 }
@@ -393,8 +392,7 @@ void pm_cluster_serve(pm_cluster *c, pm_session *s) {
         if (cmd.type == CMD_MERGE) answer_merge(c, s, &cmd, false);
 }
 
-const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, bool failed, void (*tick)(void *context), void *context) {
-    if (failed) pm_cluster_abort(c, pm_session_error(s));
+const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(void *context), void *context) {
     if (c->rank != 0) {
         int done = 1;
         MPI_Send(&done, 1, MPI_INT, 0, TAG_DONE, MPI_COMM_WORLD);
@@ -474,11 +472,7 @@ const pm_film *pm_cluster_poll_merge(pm_cluster *c, pm_session *s) {
     size_t count = TOTALS_FIELDS + packed.count;
     bool ready = count <= INT_MAX && prepare_buffers(c, count) &&
                  prepare_merged(c, packed.width, packed.height, packed.components, packed.slots);
-    if (ready) {
-        memcpy(c->send + TOTALS_FIELDS, packed.values, packed.count * sizeof(double));
-        c->send[0] = (double)packed.photons;
-        c->send[1] = packed.seconds;
-    }
+    if (ready) send_published(c, &packed);
     pm_session_unlock_latest(s);
     if (!ready) return NULL;
     command cmd = {.type = CMD_MERGE, .count = count, .indirect = -1};

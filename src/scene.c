@@ -661,16 +661,8 @@ static void halve_level(const uint8_t *src, int sw, int sh, uint8_t *dst, int dw
                     for (int c = 0; c < 4; c++) q[c] = (uint8_t)((p[0][c] + p[1][c] + p[2][c] + p[3][c] + 2) >> 2);
                     continue;
                 }
-                int alpha = p[0][3] + p[1][3] + p[2][3] + p[3][3];
-                q[3] = (uint8_t)((alpha + 2) >> 2);
-                for (int c = 0; c < 3; c++) {
-                    const float *d = srgb->decode;
-                    float value = alpha == 4 * 255 || alpha == 0
-                                      ? 0.25f * (d[p[0][c]] + d[p[1][c]] + d[p[2][c]] + d[p[3][c]])
-                                      : (d[p[0][c]] * p[0][3] + d[p[1][c]] * p[1][3] + d[p[2][c]] * p[2][3] +
-                                         d[p[3][c]] * p[3][3]) / (float)alpha;
-                    q[c] = nearest_srgb_byte(srgb, value);
-                }
+                static const float quarter[4] = {0.25f, 0.25f, 0.25f, 0.25f};
+                box_texel(p, quarter, 4, srgb, q);
             }
         }
         return;

@@ -479,7 +479,6 @@ static void publish_packed(pm_session *s) {
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) s->packed.components[c] = f->sum[c] != NULL;
     for (int k = 0; k < PM_SLOT_COUNT; k++) s->packed.slots[k] = f->ppm[k] != NULL;
     s->packed.photons = photons_emitted(s);
-    s->packed.seconds = s->render_seconds;
     s->packed_epoch = s->worker_epoch;
     pthread_mutex_unlock(&s->lock);
 }

@@ -251,7 +251,7 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
         return 1;
     }
     if (cluster) {
-        film = pm_cluster_end_run(cluster, session, false, root ? tick : NULL, &ob);
+        film = pm_cluster_end_run(cluster, session, root ? tick : NULL, &ob);
         if (!root) {
             free(ob.scratch);
             return interrupted_by ? (interrupted_by == SIGINT ? 130 : 143) : 0;
