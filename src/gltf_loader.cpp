@@ -802,12 +802,15 @@ public:
     uint32_t skipped_primitives() const { return static_cast<uint32_t>(std::min<uint64_t>(skipped_prims_, UINT32_MAX)); }
     uint32_t ignored_inputs() const { return ignored_inputs_; }
     double unit_scale() const { return frame_scale_; }
+    uint32_t json_parses() const { return json_parses_; }
+    double json_seconds() const { return json_seconds_; }
     bool recentered() const { return recentered_; }
 
 private:
     // stage 1
     std::vector<unsigned char> read_model_file();
     void split_container(const std::vector<unsigned char> &file);
+    void model_from_json();
     json parse_json();
     void preflight(const json &root);
     void preflight_buffers(const json &root);
@@ -815,7 +818,7 @@ private:
     void preflight_other_indices(const json &root);
     void preflight_uri_target(const json &object, const std::string &where, bool is_buffer, uint64_t byte_length);
     // stage 2
-    void run_tinygltf(const std::vector<unsigned char> &file);
+    void build_model(const json &root);
     // stage 3
     void traverse_default_scene();
     const DecodedMesh &decoded_mesh(int mesh);
@@ -883,6 +886,9 @@ private:
     const char *json_text_ = nullptr;
     size_t json_size_ = 0, bin_size_ = 0;
     bool has_bin_ = false;
+    const unsigned char *bin_data_ = nullptr;  // the BIN chunk's bytes, inside the file's
+    uint32_t json_parses_ = 0;  // texts parsed into a JSON document (one per load: see model_from_json)
+    double json_seconds_ = 0;
 
     // preflight results
     size_t count_scenes_ = 0, count_nodes_ = 0, count_meshes_ = 0, count_accessors_ = 0, count_views_ = 0,
@@ -999,6 +1005,7 @@ void Loader::split_container(const std::vector<unsigned char> &file) {
             if (chunk_length < 4 || chunk_length % 4 != 0)
                 fail("GLB BIN chunk length " + str(chunk_length) + " is not a positive multiple of 4");
             has_bin_ = true;
+            bin_data_ = payload;
             bin_size_ = chunk_length;
         }
         offset += 8 + chunk_length;
@@ -1006,11 +1013,23 @@ void Loader::split_container(const std::vector<unsigned char> &file) {
     if (!json_text_) fail("truncated GLB: no JSON chunk");
 }
 
+// The JSON text becomes a document once: the preflight checks that document and tinygltf's Model is
+// built from it, so no check can pass on one reading of the text and the Model come from another.
+void Loader::model_from_json() {
+    json root = parse_json();
+    preflight(root);
+    build_model(root);
+}  // the document goes here, before the conversion allocates the scene
+
 json Loader::parse_json() {
     if (json_depth(json_text_, json_size_) > kMaxJsonDepth)
         fail("JSON nested deeper than " + str(kMaxJsonDepth) + " levels");
+    auto start = std::chrono::steady_clock::now();
+    json_parses_++;
     try {
-        return json::parse(json_text_, json_text_ + json_size_);
+        json root = json::parse(json_text_, json_text_ + json_size_);
+        json_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        return root;
     } catch (const json::exception &e) {
         fail("JSON syntax error: " + one_line(e.what()));
     }
@@ -1429,18 +1448,160 @@ void Loader::preflight_uri_target(const json &object, const std::string &where, 
              " bytes but byteLength is " + str(byte_length) + " (" + where + ")");
 }
 
-// ---- stage 2: tinygltf
+// ---- stage 2: tinygltf's Model from the parsed document
 
-void Loader::run_tinygltf(const std::vector<unsigned char> &file) {
-    tinygltf::TinyGLTF gltf;
+// Calls parse(element) for each element of the array parent[key], in order, until one returns
+// false. The preflight made every such array one of objects; a document it did not check is refused.
+template <class F>
+bool each_object(const json &parent, const char *key, F parse) {
+    const json *items = find_member(parent, key);
+    if (!items) return true;
+    if (!items->is_array()) fail(std::string(key) + " must be an array (top level)");
+    for (const json &o : *items) {
+        if (!o.is_object()) fail(std::string(key) + " holds " + describe(o) + ", not a JSON object");
+        if (!parse(o)) return false;
+    }
+    return true;
+}
+
+// Each element of parent[key] through tinygltf's parser for its kind, appended to *out.
+template <class T, class F>
+bool parse_objects(const json &parent, const char *key, std::vector<T> *out, F parse) {
+    return each_object(parent, key, [&](const json &o) {
+        T item;
+        if (!parse(&item, o)) return false;
+        out->push_back(std::move(item));
+        return true;
+    });
+}
+
+// The Model as TinyGLTF::LoadFromString builds it after its own parse, section by section in the
+// same order with the same per-object parsers (this unit holds tinygltf's implementation), but from
+// the document the preflight checked. LoadFromString's refusals before its sections (text under 4
+// bytes, a root that is not an object, no asset.version) and LoadBinaryFromMemory's container
+// checks are the preflight's and split_container's already, each stricter. Buffers are read through
+// the guarded file-system hooks and images decoded through load_wanted_image.
+void Loader::build_model(const json &root) {
     tinygltf::FsCallbacks fs = {guarded_file_exists, unexpanded_path, guarded_read_file, refuse_write, &hooks_};
-    gltf.SetFsCallbacks(fs);
-    gltf.SetImageLoader(load_wanted_image, &hooks_);
+    tinygltf::LoadImageDataFunction image_loader = load_wanted_image;
+    const bool keep_json = false;  // tinygltf's copies of extensions and extras as text: nothing reads them
     std::string error, warning;
-    bool ok = binary_ ? gltf.LoadBinaryFromMemory(&model_, &error, &warning, file.data(),
-                                                  static_cast<unsigned int>(file.size()), folder_)
-                      : gltf.LoadASCIIFromString(&model_, &error, &warning, json_text_,
-                                                 static_cast<unsigned int>(json_size_), folder_);
+    std::string *err = &error;
+    Model &model = model_;
+    bool ok = [&]() {
+        if (const json *asset = find_member(root, "asset"))
+            if (asset->is_object()) tinygltf::ParseAsset(&model.asset, err, *asset, keep_json);
+        for (const char *key : {"extensionsUsed", "extensionsRequired"}) {
+            std::vector<std::string> &names = !strcmp(key, "extensionsUsed") ? model.extensionsUsed : model.extensionsRequired;
+            const json *list = find_member(root, key);
+            if (list && list->is_array())
+                for (const json &e : *list) names.push_back(e.is_string() ? e.get<std::string>() : std::string());
+        }
+        const unsigned char *bin = binary_ ? bin_data_ : nullptr;
+        size_t bin_size = binary_ && bin_data_ ? bin_size_ : 0;
+        if (!parse_objects(root, "buffers", &model.buffers, [&](tinygltf::Buffer *b, const json &o) {
+                return tinygltf::ParseBuffer(b, err, o, keep_json, &fs, folder_, binary_, bin, bin_size);
+            }))
+            return false;
+        if (!parse_objects(root, "bufferViews", &model.bufferViews, [&](tinygltf::BufferView *v, const json &o) {
+                return tinygltf::ParseBufferView(v, err, o, keep_json);
+            }))
+            return false;
+        if (!parse_objects(root, "accessors", &model.accessors, [&](tinygltf::Accessor *a, const json &o) {
+                return tinygltf::ParseAccessor(a, err, o, keep_json);
+            }))
+            return false;
+        if (!parse_objects(root, "meshes", &model.meshes, [&](tinygltf::Mesh *mesh, const json &o) {
+                return tinygltf::ParseMesh(mesh, &model, err, o, keep_json);
+            }))
+            return false;
+        // bufferView targets from their use, as LoadFromString sets them; it refuses an index
+        // accessor without a bufferView
+        auto mark_target = [&](int accessor, int target) {
+            if (accessor < 0 || static_cast<size_t>(accessor) >= model.accessors.size()) return;
+            int view = model.accessors[accessor].bufferView;
+            if (view >= 0 && static_cast<size_t>(view) < model.bufferViews.size()) model.bufferViews[view].target = target;
+        };
+        for (tinygltf::Mesh &mesh : model.meshes)
+            for (tinygltf::Primitive &p : mesh.primitives) {
+                if (p.indices > -1) {
+                    if (static_cast<size_t>(p.indices) >= model.accessors.size()) {
+                        error += "primitive indices accessor out of bounds";
+                        return false;
+                    }
+                    int view = model.accessors[p.indices].bufferView;
+                    if (view < 0 || static_cast<size_t>(view) >= model.bufferViews.size()) {
+                        error += "accessor[" + std::to_string(p.indices) + "] invalid bufferView";
+                        return false;
+                    }
+                    model.bufferViews[view].target = TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER;
+                }
+                for (const auto &a : p.attributes) mark_target(a.second, TINYGLTF_TARGET_ARRAY_BUFFER);
+                for (const auto &t : p.targets)
+                    for (const auto &a : t) mark_target(a.second, TINYGLTF_TARGET_ARRAY_BUFFER);
+            }
+        if (!parse_objects(root, "nodes", &model.nodes, [&](tinygltf::Node *n, const json &o) {
+                return tinygltf::ParseNode(n, err, o, keep_json);
+            }))
+            return false;
+        parse_objects(root, "scenes", &model.scenes, [&](tinygltf::Scene *s, const json &o) {
+            tinygltf::ParseIntegerArrayProperty(&s->nodes, err, o, "nodes", false);
+            tinygltf::ParseStringProperty(&s->name, err, o, "name", false);
+            tinygltf::ParseExtensionsProperty(&s->extensions, err, o);
+            tinygltf::ParseExtrasProperty(&s->extras, o);
+            return true;
+        });
+        if (const json *scene = find_member(root, "scene")) tinygltf::GetInt(*scene, model.defaultScene);
+        if (!parse_objects(root, "materials", &model.materials, [&](tinygltf::Material *material, const json &o) {
+                tinygltf::ParseStringProperty(&material->name, err, o, "name", false);
+                return tinygltf::ParseMaterial(material, err, o, keep_json);
+            }))
+            return false;
+        if (!parse_objects(root, "images", &model.images, [&](tinygltf::Image *image, const json &o) {
+                int index = static_cast<int>(model.images.size());
+                if (!tinygltf::ParseImage(image, index, err, &warning, o, keep_json, folder_, &fs, &image_loader, &hooks_))
+                    return false;
+                if (image->bufferView < 0) return true;
+                // the preflight checked the view's range inside its buffer, whose bytes ParseBuffer read in full
+                const tinygltf::BufferView &view = model.bufferViews.at(image->bufferView);
+                const tinygltf::Buffer &buffer = model.buffers.at(view.buffer);
+                if (view.byteOffset > buffer.data.size() || view.byteLength > buffer.data.size() - view.byteOffset)
+                    fail("image " + str(index) + ": its bufferView exceeds the bytes read");
+                return image_loader(image, index, err, &warning, image->width, image->height,
+                                    buffer.data.data() + view.byteOffset, static_cast<int>(view.byteLength), &hooks_);
+            }))
+            return false;
+        if (!parse_objects(root, "textures", &model.textures, [&](tinygltf::Texture *t, const json &o) {
+                return tinygltf::ParseTexture(t, err, o, keep_json, folder_);
+            }))
+            return false;
+        if (!parse_objects(root, "animations", &model.animations, [&](tinygltf::Animation *a, const json &o) {
+                return tinygltf::ParseAnimation(a, err, o, keep_json);
+            }))
+            return false;
+        if (!parse_objects(root, "skins", &model.skins, [&](tinygltf::Skin *s, const json &o) {
+                return tinygltf::ParseSkin(s, err, o, keep_json);
+            }))
+            return false;
+        if (!parse_objects(root, "samplers", &model.samplers, [&](tinygltf::Sampler *s, const json &o) {
+                return tinygltf::ParseSampler(s, err, o, keep_json);
+            }))
+            return false;
+        if (!parse_objects(root, "cameras", &model.cameras, [&](tinygltf::Camera *c, const json &o) {
+                return tinygltf::ParseCamera(c, err, o, keep_json);
+            }))
+            return false;
+        tinygltf::ParseExtensionsProperty(&model.extensions, err, root);
+        const json *extensions = find_member(root, "extensions");
+        const json *punctual = extensions ? find_member(*extensions, "KHR_lights_punctual") : nullptr;
+        if (punctual && punctual->is_object() && !parse_objects(*punctual, "lights", &model.lights,
+                                                                [&](tinygltf::Light *l, const json &o) {
+                                                                    return tinygltf::ParseLight(l, err, o, keep_json);
+                                                                }))
+            return false;
+        tinygltf::ParseExtrasProperty(&model.extras, root);
+        return true;
+    }();
     if (!hooks_.error.empty()) fail(hooks_.error);
     if (!ok) fail("tinygltf: " + (error.empty() ? std::string("load failed") : one_line(error)));
     for (const std::string &w : hooks_.warnings) warn(w);
@@ -2240,8 +2401,7 @@ void Loader::choose_frame() {
 void Loader::load(pm_scene *out) {
     std::vector<unsigned char> file = read_model_file();
     split_container(file);
-    preflight(parse_json());
-    run_tinygltf(file);
+    model_from_json();
 
     traverse_default_scene();
     convert_materials();  // first: whether any texture reads TEXCOORD_1 decides what the meshes keep
@@ -2330,6 +2490,8 @@ bool run_loader(const char *path, const unsigned char *data, size_t size, bool q
         } catch (const LoadError &e) {
             message = e.message;
         }
+        report->json_parses = loader.json_parses();
+        report->json_seconds = loader.json_seconds();
         if (message.empty()) {  // warnings are printed only for a scene that loaded
             report->warnings = static_cast<uint32_t>(loader.warnings().size());
             report->skipped_degenerate = loader.skipped_degenerate();
