@@ -110,7 +110,7 @@ fuzz: fuzz-deps
 	@$(MAKE) --no-print-directory build/fuzz/fuzz_gltf build/fuzz/fuzz_inputs
 	@sh tools/run-fuzz.sh $(FUZZ_SECONDS)
 
-bench: deps pmview build/rel/bench_pm build/rel/photon_ceiling build/rel/caustic_error build/rel/texture_footprint
+bench: deps pmview build/rel/bench_pm build/rel/photon_ceiling build/rel/caustic_error build/rel/texture_footprint build/rel/json_load
 	@sh bench/run_bench.sh
 
 build/rel/bench_pm: bench/bench_pm.c bench/bench_settings.h build/rel/libpm.a
@@ -122,6 +122,9 @@ build/rel/photon_ceiling: bench/photon_ceiling.c bench/bench_settings.h build/re
 
 build/rel/texture_footprint: bench/texture_footprint.c tests/scene_builder.h build/rel/libpm.a
 	$(CC) $(CFLAGS) -Itests $< build/rel/libpm.a -o $@ $(LIBS)
+
+build/rel/json_load: bench/json_load.c build/rel/libpm.a
+	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
 
 build/rel/caustic_error: bench/caustic_error.c tests/caustic_region.h build/rel/libpm.a
 	$(CC) $(CFLAGS) -Itests $< build/rel/libpm.a -o $@ $(LIBS)

@@ -6,6 +6,7 @@ for scene in scenes/cornell-box.gltf scenes/caustic.gltf; do
     build/rel/photon_ceiling "$scene" || exit 1
 done
 build/rel/texture_footprint || exit 1
+build/rel/json_load || exit 1
 sh bench/window_room_bench.sh || exit 1
 sh bench/cluster_bench.sh || exit 1
 sh bench/window_bench.sh || exit 1

@@ -2,14 +2,15 @@
  *
  * The only translation unit that sees tinygltf. A load runs in three stages, each refusing bad
  * input before the next one can trip over it:
- *   1. preflight, on the raw bytes and the raw JSON (nlohmann): GLB container, JSON syntax and
- *      nesting depth, asset.version, required extensions, every index and size field as written
- *      (tinygltf turns -1 into "absent" and truncates 2^32 to 0), buffer and image URIs (refused
- *      before anything is opened) and bufferView byte ranges (tinygltf decodes images straight
- *      out of bufferViews without checking them);
- *   2. tinygltf parses the same JSON and reads buffers and images, through file-system callbacks
- *      that refuse any path outside the model's folder and an image hook that decodes only the
- *      images used by the textures pmview renders, after checking their size;
+ *   1. preflight, on the raw bytes and the JSON parsed once (nlohmann): GLB container, JSON syntax
+ *      and nesting depth, asset.version, required extensions, every index and size field as
+ *      written (tinygltf turns -1 into "absent" and truncates 2^32 to 0), buffer and image URIs
+ *      (refused before anything is opened) and bufferView byte ranges (tinygltf decodes images
+ *      straight out of bufferViews without checking them);
+ *   2. tinygltf's own per-object parsers build its Model from that same document (the text is
+ *      never parsed again) and read buffers and images, through file-system callbacks that refuse
+ *      any path outside the model's folder and an image hook that decodes only the images used by
+ *      the textures pmview renders, after checking their size;
  *   3. conversion: accessor layouts are validated with overflow-checked 64-bit arithmetic before
  *      anything sized by a count is allocated, the default scene is walked iteratively with a
  *      visited set, each mesh is decoded once (index values, finite positions) and instanced into
