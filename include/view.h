@@ -49,6 +49,9 @@ bool pm_view_prepare(pm_view *v, char *err, size_t err_size);
 /* A film of another size: the display textures and the FBO, and the window's size to show it
  * (the window's own resize event for it is not reported as the user's). */
 bool pm_view_set_size(pm_view *v, int width, int height, char *err, size_t err_size);
+/* A window's GL calls may come from one thread at a time: the view's functions take its context
+ * to the calling thread, and this lets it go (for another thread to prepare or draw). */
+void pm_view_release_context(pm_view *v);
 /* Takes the window off the screen at once, the view kept (for a process about to end). */
 void pm_view_hide(pm_view *v);
 /* From any thread: ends the window's wait in pm_view_poll at once. */

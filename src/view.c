@@ -672,6 +672,10 @@ bool pm_view_set_size(pm_view *v, int width, int height, char *err, size_t err_s
     return true;
 }
 
+void pm_view_release_context(pm_view *v) {
+    if (v && v->backend == PM_BACKEND_WINDOW && glfwGetCurrentContext() == v->window) glfwMakeContextCurrent(NULL);
+}
+
 void pm_view_hide(pm_view *v) {
     if (!v || v->backend != PM_BACKEND_WINDOW || !v->window) return;
     glfwHideWindow(v->window);

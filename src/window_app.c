@@ -14,8 +14,18 @@
 #include "image_io.h"
 #include "memory.h"
 
+/* The view's shaders compiled and turned into code on a thread of its own (the GL context current
+ * there meanwhile), so that the window's thread answers keys through it. */
+typedef struct {
+    pm_view *view;
+    pthread_t thread;
+    bool running, ok;
+    char err[1024];
+} view_preparation;
+
 struct pm_window {
     pm_view *view;
+    view_preparation preparation;
     pm_display display;
     double process_start;
     double first_frame, setup_done; /* from process_start: the cleared window on screen, the session ready */
@@ -110,6 +120,24 @@ int pm_window_open(const pm_options *opt, pm_cluster *cluster, double process_st
     return -1;
 }
 
+static void *run_preparation(void *arg) {
+    view_preparation *p = arg;
+    p->ok = pm_view_prepare(p->view, p->err, sizeof p->err);
+    pm_view_release_context(p->view);
+    return NULL;
+}
+
+/* Waits for the view's preparation; false with err set when it failed. */
+static bool prepared(pm_window *w, char *err, size_t err_size) {
+    view_preparation *p = &w->preparation;
+    if (p->running) {
+        pthread_join(p->thread, NULL);
+        p->running = false;
+    }
+    if (!p->ok) snprintf(err, err_size, "%s", p->err);
+    return p->ok;
+}
+
 typedef struct {
     pm_window_job *job;
     pm_view *view;
@@ -126,18 +154,16 @@ static void *run_job(void *arg) {
 }
 
 int pm_window_wait(pm_window *w, pm_cluster *cluster, pm_window_job *job) {
+    /* the shader is compiled and turned into code while the scene loads */
+    view_preparation *p = &w->preparation;
+    p->view = w->view;
+    pm_view_release_context(w->view);
+    p->running = pthread_create(&p->thread, NULL, run_preparation, p) == 0;
+    if (!p->running) run_preparation(p);
     job_thread t = {.job = job, .view = w->view, .result = 1};
     atomic_init(&t.done, false);
     pthread_t thread;
     if (pthread_create(&thread, NULL, run_job, &t) != 0) return job->work(job->arg); /* no thread: set up here, unseen */
-    /* the shader is compiled and turned into code while the scene loads on the other core */
-    char err[1024];
-    int code = -1;
-    if (!pm_view_prepare(w->view, err, sizeof err)) {
-        fprintf(stderr, "pmview: error: %s\n", err);
-        code = 1;
-        w->quit = true;
-    }
     const char *shown = NULL;
     while (!atomic_load(&t.done)) {
         const char *stage = atomic_load(&job->stage);
@@ -149,8 +175,11 @@ int pm_window_wait(pm_window *w, pm_cluster *cluster, pm_window_job *job) {
         }
         pm_view_events ev = pm_view_poll(w->view, &w->display, true, 1.0 / 60.0);
         if (ev.help) fputs(window_help, stdout);
-        if (ev.display_changed) pm_view_draw(w->view, &w->display);
-        if (ev.quit) w->quit = true;
+        /* the display keys edit w->display (the title shows it); the first image will use it */
+        if (ev.quit && !w->quit) {
+            w->quit = true;
+            pm_view_hide(w->view); /* at once: freeing the context would wait for its threads */
+        }
         if (w->quit && !cluster) {
             /* One process: it ends now, its set-up abandoned on the other thread. The loader and
              * the BVH build have no point to stop at, and exit() would run the libraries' static
@@ -159,17 +188,17 @@ int pm_window_wait(pm_window *w, pm_cluster *cluster, pm_window_job *job) {
              * wait in the agreement after the set-up, so rank 0 goes there too and quits next. */
             fflush(stdout);
             fflush(stderr);
-            pm_view_hide(w->view); /* at once: freeing the context would wait for its threads */
-            _exit(code < 0 ? 0 : code);
+            _exit(0);
         }
     }
     pthread_join(thread, NULL);
     w->setup_done = pm_now_seconds() - w->process_start;
-    return code < 0 ? t.result : (t.result < 0 ? code : t.result);
+    return t.result;
 }
 
 void pm_window_close(pm_window *w) {
     if (!w) return;
+    if (w->preparation.running) pthread_join(w->preparation.thread, NULL);
     pm_view_destroy(w->view);
     free(w);
 }
@@ -185,9 +214,16 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
     const pm_film *film = pm_session_film(session);
     int width = film->width, height = film->height;
     pm_view *view = w->view;
-    if (!pm_view_prepare(view, err, sizeof err) || !pm_view_set_size(view, width, height, err, sizeof err)) {
+    /* the session first: its preview renders while the view's preparation may still be running */
+    if ((cluster && !pm_session_keep_packed(session, true)) || !pm_session_start(session, err, sizeof err)) {
+        if (cluster) pm_cluster_abort(cluster, pm_session_error(session));
+        fprintf(stderr, "pmview: error: %s\n", err);
+        return 1;
+    }
+    if (!prepared(w, err, sizeof err) || !pm_view_set_size(view, width, height, err, sizeof err)) {
         if (cluster) pm_cluster_abort(cluster, err); /* the other ranks are waiting for its commands */
         fprintf(stderr, "pmview: error: %s\n", err);
+        pm_session_stop(session);
         return 1;
     }
     pm_display display = w->display;
@@ -206,11 +242,6 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
     uint64_t motion_images = 0;
     int coarsest_preview = 0;
     double loop_start = pm_now_seconds();
-    if ((cluster && !pm_session_keep_packed(session, true)) || !pm_session_start(session, err, sizeof err)) {
-        if (cluster) pm_cluster_abort(cluster, pm_session_error(session));
-        fprintf(stderr, "pmview: error: %s\n", err);
-        return 1;
-    }
     pm_camera camera = *start_camera;
     vec3 pivot = scene->center;
     float step = 0.05f * (scene->radius > 0.f ? scene->radius : 1.f);
