@@ -679,7 +679,7 @@ void pm_view_release_context(pm_view *v) {
 void pm_view_hide(pm_view *v) {
     if (!v || v->backend != PM_BACKEND_WINDOW || !v->window) return;
     glfwHideWindow(v->window);
-    glfwPollEvents(); /* sends the request to the display server now */
+    glfwPollEvents(); /* sends the request to the display server at once */
 }
 
 void pm_view_wake(pm_view *v) {

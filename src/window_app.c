@@ -114,7 +114,7 @@ int pm_window_open(const pm_options *opt, pm_cluster *cluster, double process_st
     char status[160];
     snprintf(status, sizeof status, "loading %s", file_name(opt->scene_path));
     pm_view_set_status(w->view, status);
-    /* the title now: the shader's compilation comes before the next poll */
+    /* the title at once, not at the first poll of the wait */
     if (pm_view_poll(w->view, &w->display, false, 0).quit) w->quit = true;
     *out = w;
     return -1;
@@ -181,7 +181,7 @@ int pm_window_wait(pm_window *w, pm_cluster *cluster, pm_window_job *job) {
             pm_view_hide(w->view); /* at once: freeing the context would wait for its threads */
         }
         if (w->quit && !cluster) {
-            /* One process: it ends now, its set-up abandoned on the other thread. The loader and
+            /* One process: it ends here, its set-up abandoned on the other thread. The loader and
              * the BVH build have no point to stop at, and exit() would run the libraries' static
              * destructors under that thread, so the process leaves by _exit (the system takes the
              * memory back); only the output streams are flushed. Under mpirun the other ranks
