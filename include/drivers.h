@@ -39,10 +39,34 @@ bool pm_write_png_view(const float *const layers[PM_COMPONENT_COUNT], int width,
 void pm_exit_on_signals(void);
 
 /* ---- the window (src/window_app.c) ---- */
+/* The window opens before the scene is loaded: pm_window_open shows it at once (a cleared frame,
+ * its title naming the scene), pm_window_wait runs the set-up on a thread of its own while the
+ * window answers keys and shows the set-up's stage, and pm_window_run renders. */
+typedef struct pm_window pm_window;
+
+/* A set-up to run while the window waits: work(arg) returns -1 once the session is ready, else
+ * an exit code (its error line printed); meanwhile it names its stage ("loading", "building the
+ * BVH of", ...) in `stage`, which the title shows before the scene's file name. */
+typedef struct {
+    int (*work)(void *arg);
+    void *arg;
+    const char *scene_path;
+    _Atomic(const char *) stage;
+} pm_window_job;
+
+/* Opens the window (rank 0 only) at the film size the options give, square when the height
+ * waits for the scene's camera. Returns -1 with *window set, else the exit code, its line
+ * printed (2: no DISPLAY). process_start: for the time to the first frame (--stats). */
+int pm_window_open(const pm_options *o, pm_cluster *cluster, double process_start, pm_window **window);
+/* Runs the job on a thread while the window polls; returns the job's result. Esc or closing the
+ * window meanwhile: a single process exits at once with status 0, the set-up abandoned (the
+ * loader and the BVH build have no point to stop at); under mpirun the window waits for the
+ * set-up, which every rank agrees on, and pm_window_run then quits at once. */
+int pm_window_wait(pm_window *window, pm_cluster *cluster, pm_window_job *job);
 /* The GLFW loop: camera navigation and keys, drawn from the session's published images, restarts
- * and resizes asked of the session. Returns the exit code. process_start: for the time to the
- * first frame (--stats). */
-int pm_window_run(const pm_options *o, pm_cluster *cluster, const pm_scene *scene, const pm_accel *accel, pm_session *session,
-                  const pm_camera *start_camera, double process_start);
+ * and resizes asked of the session. The window takes the film's size. Returns the exit code. */
+int pm_window_run(pm_window *window, const pm_options *o, pm_cluster *cluster, const pm_scene *scene, const pm_accel *accel,
+                  pm_session *session, const pm_camera *start_camera);
+void pm_window_close(pm_window *window);
 
 #endif

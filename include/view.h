@@ -39,9 +39,23 @@ typedef struct {
                                           most the primary monitor's (the shape kept; the picture is scaled up) */
 } pm_view_events;
 
-/* The shaders in shaders/ are compiled into the binary (build/shaders.inc, made by the Makefile). */
+/* The shaders in shaders/ are compiled into the binary (build/shaders.inc, made by the Makefile).
+ * A window is on screen, cleared to grey, when create returns; its shaders and textures come with
+ * pm_view_prepare (until then uploads and draws do nothing), so the window can show while the
+ * scene loads and the shader is compiled meanwhile. An offscreen view is prepared at once. */
 pm_view *pm_view_create_window(int width, int height, const char *title,
                                char *err, size_t err_size);
+bool pm_view_prepare(pm_view *v, char *err, size_t err_size);
+/* A film of another size: the display textures and the FBO, and the window's size to show it
+ * (the window's own resize event for it is not reported as the user's). */
+bool pm_view_set_size(pm_view *v, int width, int height, char *err, size_t err_size);
+/* A window's GL calls may come from one thread at a time: the view's functions take its context
+ * to the calling thread, and this lets it go (for another thread to prepare or draw). */
+void pm_view_release_context(pm_view *v);
+/* Takes the window off the screen at once, the view kept (for a process about to end). */
+void pm_view_hide(pm_view *v);
+/* From any thread: ends the window's wait in pm_view_poll at once. */
+void pm_view_wake(pm_view *v);
 pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_size);
 void pm_view_destroy(pm_view *v);
 

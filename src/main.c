@@ -3,6 +3,7 @@
  * Exit codes: 0 success, 1 a file could not be loaded, rendered or written, 2 a usage error.
  */
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -65,7 +66,12 @@ typedef struct {
     pm_reference_image reference;
     pm_camera camera;
     uint64_t output_reserved; /* the snapshot writers' room, admitted before the render */
+    _Atomic(const char *) *stage; /* where the window reads the set-up's stage; NULL without a window */
 } run_state;
+
+static void say_stage(run_state *r, const char *stage) {
+    if (r->stage) atomic_store(r->stage, stage);
+}
 
 static void release(run_state *r) {
     if (r->sky_prepared) pm_sky_release(&r->sky);
@@ -83,10 +89,6 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     pm_options *o = &r->opt;
     char err[1024] = "";
     bool root = pm_cluster_rank(cluster) == 0;
-    if (root && window && !getenv("DISPLAY")) {
-        fprintf(stderr, "pmview: no DISPLAY for a window; use --snapshot FILE.png|FILE.exr to render offscreen\n");
-        return 2;
-    }
     if (root && !outputs_spare_inputs(o, window)) return 1;
     /* before any work: a snapshot that cannot be written would waste the whole render */
     if (root && o->snapshot && !pm_check_output_path(o->snapshot, err, sizeof err)) {
@@ -106,6 +108,7 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
         return 1;
     }
     pm_load_report report;
+    say_stage(r, "loading");
     if (!pm_load_gltf(o->scene_path, o->quiet, &r->scene, &report, err, sizeof err)) {
         fprintf(stderr, "pmview: error: %s\n", err);
         return 1;
@@ -148,12 +151,14 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
         return 1;
     }
 
+    say_stage(r, "building the BVH of");
     r->accel = pm_accel_create(&r->scene, err, sizeof err);
     if (!r->accel) { fprintf(stderr, "pmview: error: %s: %s\n", o->scene_path, err); return 1; }
     if (o->stats) pm_print_bvh_stats(r->accel);
     if (!pm_choose_sky(&r->sky, &r->scene, r->accel, &r->camera, (float)width / height)) return 1;
     if (o->stats) pm_print_analysis_stats(&r->scene);
 
+    say_stage(r, "setting up");
     pm_session_config config;
     /* each rank renders iterations of its own: rank 0 with the seed given, the others apart */
     long seed = o->seed;
@@ -197,6 +202,16 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     return -1;
 }
 
+typedef struct {
+    pm_cluster *cluster;
+    run_state *r;
+} window_set_up;
+
+static int set_up_for_window(void *arg) {
+    window_set_up *w = arg;
+    return set_up(w->cluster, w->r, true);
+}
+
 int main(int argc, char **argv) {
     double process_start = pm_now_seconds();
     /* under mpirun, every rank runs all of this; rank 0 alone speaks and writes */
@@ -204,22 +219,37 @@ int main(int argc, char **argv) {
     run_state r;
     memset(&r, 0, sizeof r);
     int code = pm_options_parse(argc, argv, &r.opt);
+    pm_window *window = NULL;
     if (code < 0) {
         setvbuf(stdout, NULL, _IOLBF, 0);
         if (r.opt.max_memory) pm_memory_set_limit(r.opt.max_memory);
-        code = set_up(cluster, &r, !r.opt.snapshot);
+        bool wants_window = !r.opt.snapshot;
+        /* rank 0's window opens first and shows the set-up's progress: a big scene takes seconds
+         * to load and build, and Esc must answer meanwhile */
+        if (wants_window && pm_cluster_rank(cluster) == 0) code = pm_window_open(&r.opt, cluster, process_start, &window);
+        if (code < 0 && window) {
+            window_set_up job = {cluster, &r};
+            pm_window_job wait = {.work = set_up_for_window, .arg = &job, .scene_path = r.opt.scene_path};
+            atomic_init(&wait.stage, NULL);
+            r.stage = &wait.stage;
+            code = pm_window_wait(window, cluster, &wait);
+            r.stage = NULL;
+        } else if (code < 0) {
+            code = set_up(cluster, &r, wants_window);
+        }
     }
     code = pm_cluster_agree(cluster, code);
     if (code < 0) {
         const pm_options *o = &r.opt;
         if (o->snapshot) code = pm_snapshot_run(o, cluster, r.session, &r.reference, &r.output_reserved);
-        else if (pm_cluster_rank(cluster) == 0) code = pm_window_run(o, cluster, &r.scene, r.accel, r.session, &r.camera, process_start);
+        else if (pm_cluster_rank(cluster) == 0) code = pm_window_run(window, o, cluster, &r.scene, r.accel, r.session, &r.camera);
         else code = pm_cluster_follow(cluster, r.session);
         if (code != 1 && o->stats) {
             pm_print_final_stats(r.session, r.accel, (int)o->threads, o->alpha, o->mode == PM_MODE_PATHTRACE);
             pm_print_cluster_stats(cluster);
         }
     }
+    pm_window_close(window);
     release(&r);
     pm_cluster_leave(cluster);
     return code;

@@ -72,7 +72,8 @@
     X(void, UseProgram, (GLuint program)) \
     X(GLint, GetUniformLocation, (GLuint program, const GLchar *name)) \
     X(void, Uniform1i, (GLint location, GLint v0)) \
-    X(void, Uniform1f, (GLint location, GLfloat v0))
+    X(void, Uniform1f, (GLint location, GLfloat v0)) \
+    X(void, Finish, (void))
 
 typedef struct {
 #define PM_GL_MEMBER(ret, name, params) ret (GLAPIENTRY *name) params;
@@ -89,6 +90,7 @@ struct pm_view {
     int backend;
     pm_gl gl;
     bool gl_loaded;             /* every entry point in gl is set */
+    bool prepared;              /* the shaders, the FBO and the textures exist (a window's come after its first frame) */
     int width, height;          /* the film, the FBO and the component textures */
 
     GLFWwindow *window;
@@ -110,7 +112,11 @@ struct pm_view {
     double last_x, last_y;      /* cursor, window pixels */
     int buttons;                /* bit 0 left, 1 right, 2 middle held */
     double last_click;          /* time of the last left press, for double clicks */
+    int asked_width, asked_height; /* the window size pm_view_set_size asked for: its size event is no user's resize */
 };
+
+static void draw_composite(pm_view *v, const pm_display *d);
+static void copy_to_window(pm_view *v);
 
 /* GLFW reports errors through a callback; the last message becomes part of create's error. */
 static char glfw_error[256];
@@ -263,10 +269,8 @@ static bool allocate_film_targets(pm_view *v, int width, int height, char *err, 
     return true;
 }
 
-/* Everything after the context exists: entry points, shaders, textures, the FBO. */
-static bool setup_gl(pm_view *v, pm_gl_loader load, int width, int height, char *err, size_t err_size) {
-    if (!load_gl(&v->gl, load, err, err_size)) return false;
-    v->gl_loaded = true;
+/* Everything after the context and its entry points: shaders, textures, the FBO. */
+static bool prepare_gl(pm_view *v, int width, int height, char *err, size_t err_size) {
     while (v->gl.GetError() != GL_NO_ERROR) {}
     if (!build_program(v, err, err_size)) return false;
     v->gl.GenVertexArrays(1, &v->vao);
@@ -284,7 +288,15 @@ static bool setup_gl(pm_view *v, pm_gl_loader load, int width, int height, char 
     nearest_clamped(v);
     v->gl.Disable(GL_DEPTH_TEST);
     v->gl.Disable(GL_BLEND);
-    return allocate_film_targets(v, width, height, err, err_size);
+    if (!allocate_film_targets(v, width, height, err, err_size)) return false;
+    v->prepared = true;
+    return true;
+}
+
+static bool setup_gl(pm_view *v, pm_gl_loader load, int width, int height, char *err, size_t err_size) {
+    if (!load_gl(&v->gl, load, err, err_size)) return false;
+    v->gl_loaded = true;
+    return prepare_gl(v, width, height, err, err_size);
 }
 
 static void release_gl(pm_view *v) {
@@ -489,6 +501,11 @@ static void on_framebuffer_size(GLFWwindow *window, int width, int height) {
     const GLFWvidmode *mode = monitor ? glfwGetVideoMode(monitor) : NULL;
     int ww = 0, wh = 0;
     glfwGetWindowSize(window, &ww, &wh);
+    if (v->asked_width && ww == v->asked_width && wh == v->asked_height) {
+        /* the size pm_view_set_size gave the film's window, not a resize by the user */
+        v->asked_width = v->asked_height = 0;
+        return;
+    }
     if (mode && ww > 0 && wh > 0) {
         /* the monitor's size in framebuffer pixels (screen coordinates times the window's pixel ratio) */
         double mw = (double)mode->width * width / ww, mh = (double)mode->height * height / wh;
@@ -552,6 +569,20 @@ static void on_close(GLFWwindow *window) {
     if (v) v->pending.quit = true;
 }
 
+/* A film larger than the screen gets a smaller window of the same shape; the picture is scaled
+ * into it and the saved PNG keeps the film's full size. */
+static void window_size_for(int width, int height, int *win_w, int *win_h) {
+    *win_w = width;
+    *win_h = height;
+    GLFWmonitor *monitor = glfwGetPrimaryMonitor();
+    const GLFWvidmode *mode = monitor ? glfwGetVideoMode(monitor) : NULL;
+    if (mode && (width > mode->width || height > mode->height)) {
+        double s = fmin((double)mode->width / width, (double)mode->height / height) * 0.9;
+        *win_w = (int)(width * s) > 0 ? (int)(width * s) : 1;
+        *win_h = (int)(height * s) > 0 ? (int)(height * s) : 1;
+    }
+}
+
 pm_view *pm_view_create_window(int width, int height, const char *title, char *err, size_t err_size) {
     pm_view *v = view_alloc(PM_BACKEND_WINDOW, width, height, err, err_size);
     if (!v) return NULL;
@@ -571,16 +602,8 @@ pm_view *pm_view_create_window(int width, int height, const char *title, char *e
     glfwWindowHint(GLFW_RESIZABLE, GLFW_TRUE);
     glfwWindowHint(GLFW_DEPTH_BITS, 0);
     glfwWindowHint(GLFW_STENCIL_BITS, 0);
-    /* A film larger than the screen gets a smaller window of the same shape; the picture is
-     * scaled into it and the saved PNG keeps the film's full size. */
-    int win_w = width, win_h = height;
-    GLFWmonitor *monitor = glfwGetPrimaryMonitor();
-    const GLFWvidmode *mode = monitor ? glfwGetVideoMode(monitor) : NULL;
-    if (mode && (win_w > mode->width || win_h > mode->height)) {
-        double s = fmin((double)mode->width / win_w, (double)mode->height / win_h) * 0.9;
-        win_w = (int)(win_w * s) > 0 ? (int)(win_w * s) : 1;
-        win_h = (int)(win_h * s) > 0 ? (int)(win_h * s) : 1;
-    }
+    int win_w, win_h;
+    window_size_for(width, height, &win_w, &win_h);
     v->window = glfwCreateWindow(win_w, win_h, v->title, NULL, NULL);
     if (!v->window) {
         snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: %s",
@@ -598,17 +621,75 @@ pm_view *pm_view_create_window(int width, int height, const char *title, char *e
     glfwSetScrollCallback(v->window, on_scroll);
     glfwSetFramebufferSizeCallback(v->window, on_framebuffer_size);
     glfwSetWindowCloseCallback(v->window, on_close);
-    if (!setup_gl(v, glfw_loader, width, height, err, err_size)) {
+    if (!load_gl(&v->gl, glfw_loader, err, err_size)) {
         pm_view_destroy(v);
         return NULL;
     }
+    v->gl_loaded = true;
+    /* The first frame: the bars' grey, cleared and shown before any shader exists. Compiling the
+     * compose shader and Mesa's software rasteriser turning it into code at its first draw take
+     * longer than opening the window; pm_view_prepare does both while the scene loads. */
+    int fw = 0, fh = 0;
+    glfwGetFramebufferSize(v->window, &fw, &fh);
+    v->gl.Viewport(0, 0, fw > 0 ? fw : 1, fh > 0 ? fh : 1);
+    v->gl.ClearColor(0.1f, 0.1f, 0.1f, 1.f);
+    v->gl.Clear(GL_COLOR_BUFFER_BIT);
+    glfwSwapBuffers(v->window);
     return v;
+}
+
+bool pm_view_prepare(pm_view *v, char *err, size_t err_size) {
+    if (!v) return false;
+    if (v->prepared) return true;
+    make_current(v);
+    if (!prepare_gl(v, v->width, v->height, err, err_size)) return false;
+    /* one draw into the FBO, finished: the software rasteriser compiles the shader for the state
+     * every later draw uses (the same texture formats, filters and target), so the first image
+     * is drawn without that pause */
+    pm_display black = {.enabled = {true, true, true, true}, .exposure_ev = 0.f, .tonemap = 0};
+    draw_composite(v, &black);
+    /* the copy into the window is a shader of the rasteriser's own (scaled: linear filtering) */
+    if (v->backend == PM_BACKEND_WINDOW) copy_to_window(v);
+    v->gl.Finish();
+    return true;
+}
+
+bool pm_view_set_size(pm_view *v, int width, int height, char *err, size_t err_size) {
+    if (!v) return false;
+    if (width == v->width && height == v->height) return true;
+    if (width < 1 || height < 1) {
+        snprintf(err, err_size, "bad display size %dx%d", width, height);
+        return false;
+    }
+    make_current(v);
+    if (v->prepared && !allocate_film_targets(v, width, height, err, err_size)) return false;
+    v->width = width;
+    v->height = height;
+    if (v->backend == PM_BACKEND_WINDOW) {
+        window_size_for(width, height, &v->asked_width, &v->asked_height);
+        glfwSetWindowSize(v->window, v->asked_width, v->asked_height);
+    }
+    return true;
+}
+
+void pm_view_release_context(pm_view *v) {
+    if (v && v->backend == PM_BACKEND_WINDOW && glfwGetCurrentContext() == v->window) glfwMakeContextCurrent(NULL);
+}
+
+void pm_view_hide(pm_view *v) {
+    if (!v || v->backend != PM_BACKEND_WINDOW || !v->window) return;
+    glfwHideWindow(v->window);
+    glfwPollEvents(); /* sends the request to the display server at once */
+}
+
+void pm_view_wake(pm_view *v) {
+    if (v && v->backend == PM_BACKEND_WINDOW) glfwPostEmptyEvent();
 }
 
 /* ---- drawing ---- */
 
 void pm_view_upload_layers(pm_view *v, int width, int height, const float *const layers[PM_COMPONENT_COUNT]) {
-    if (!v) return;
+    if (!v || !v->prepared) return;
     make_current(v);
     if (width != v->width || height != v->height) {
         char ignored[256];
@@ -640,9 +721,8 @@ void pm_view_upload(pm_view *v, const pm_film *film) {
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(buffers[c]);
 }
 
-void pm_view_draw(pm_view *v, const pm_display *d) {
-    if (!v || !d) return;
-    make_current(v);
+/* The composite into the FBO, the film's size. */
+static void draw_composite(pm_view *v, const pm_display *d) {
     v->gl.BindFramebuffer(GL_FRAMEBUFFER, v->fbo);
     v->gl.Viewport(0, 0, v->width, v->height);
     v->gl.UseProgram(v->program);
@@ -659,8 +739,10 @@ void pm_view_draw(pm_view *v, const pm_display *d) {
     v->gl.BindVertexArray(v->vao);
     v->gl.DrawArrays(GL_TRIANGLES, 0, 3);
     v->gl.BindVertexArray(0);
+}
 
-    if (v->backend != PM_BACKEND_WINDOW) return;
+/* The FBO copied into the window's back buffer. */
+static void copy_to_window(pm_view *v) {
     /* Copy to the window, as large as fits with the film's aspect ratio, bars in dark grey. */
     int fw = 0, fh = 0;
     glfwGetFramebufferSize(v->window, &fw, &fh);
@@ -681,11 +763,19 @@ void pm_view_draw(pm_view *v, const pm_display *d) {
                           dw == v->width && dh == v->height ? GL_NEAREST : GL_LINEAR);
     v->gl.Disable(GL_SCISSOR_TEST);
     v->gl.BindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+void pm_view_draw(pm_view *v, const pm_display *d) {
+    if (!v || !d || !v->prepared) return;
+    make_current(v);
+    draw_composite(v, d);
+    if (v->backend != PM_BACKEND_WINDOW) return;
+    copy_to_window(v);
     glfwSwapBuffers(v->window);
 }
 
 void pm_view_read_rgba8(pm_view *v, uint8_t *rgba) {
-    if (!v || !rgba) return;
+    if (!v || !rgba || !v->prepared) return;
     make_current(v);
     v->gl.BindFramebuffer(GL_FRAMEBUFFER, v->fbo);
     v->gl.PixelStorei(GL_PACK_ALIGNMENT, 1);

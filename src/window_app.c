@@ -1,8 +1,11 @@
 /* window_app.c: the window's driver: the GLFW loop of the view, camera navigation and keys, restarts and resizes asked of the session (and, under mpirun, of every rank), its published or merged images drawn and saved. */
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "camera_control.h"
 #include "clock.h"
@@ -10,6 +13,24 @@
 #include "drivers.h"
 #include "image_io.h"
 #include "memory.h"
+
+/* The view's shaders compiled and turned into code on a thread of its own (the GL context current
+ * there meanwhile), so that the window's thread answers keys through it. */
+typedef struct {
+    pm_view *view;
+    pthread_t thread;
+    bool running, ok;
+    char err[1024];
+} view_preparation;
+
+struct pm_window {
+    pm_view *view;
+    view_preparation preparation;
+    pm_display display;
+    double process_start;
+    double first_frame, setup_done; /* from process_start: the cleared window on screen, the session ready */
+    bool quit;                      /* Esc or the window closed while the scene was set up */
+};
 
 static const char window_help[] =
     "pmview keys: left drag orbit, right/middle drag pan, wheel dolly, double click: orbit about that point\n"
@@ -59,8 +80,131 @@ static bool resolve_merged(merged_layers *m, const pm_film *film) {
     return true;
 }
 
-int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *scene, const pm_accel *accel, pm_session *session,
-                  const pm_camera *start_camera, double process_start) {
+/* The scene's file name, without its folders, for the title. */
+static const char *file_name(const char *path) {
+    const char *slash = path ? strrchr(path, '/') : NULL;
+    return slash ? slash + 1 : (path ? path : "");
+}
+
+int pm_window_open(const pm_options *opt, pm_cluster *cluster, double process_start, pm_window **out) {
+    *out = NULL;
+    if (!getenv("DISPLAY")) {
+        fprintf(stderr, "pmview: no DISPLAY for a window; use --snapshot FILE.png|FILE.exr to render offscreen\n");
+        return 2;
+    }
+    pm_window *w = calloc(1, sizeof *w);
+    if (!w) { fprintf(stderr, "pmview: error: out of memory for the window\n"); return 1; }
+    w->process_start = process_start;
+    pm_display_from_options(opt, &w->display);
+    /* the film's size is known once the scene's camera is: until then the width asked for and the
+     * height asked for, else a square (the default scene's shape) */
+    int width = opt->width ? (int)opt->width : PM_DEFAULT_WIDTH;
+    int height = opt->height ? (int)opt->height : width;
+    if (height > PM_MAX_IMAGE_SIDE) height = PM_MAX_IMAGE_SIDE;
+    char title[64], err[1024];
+    if (cluster) snprintf(title, sizeof title, "pmview (%d ranks)", pm_cluster_size(cluster));
+    else snprintf(title, sizeof title, "pmview");
+    w->view = pm_view_create_window(width, height, title, err, sizeof err);
+    if (!w->view) {
+        fprintf(stderr, "pmview: error: %s\n", err);
+        free(w);
+        return 1;
+    }
+    w->first_frame = pm_now_seconds() - process_start;
+    char status[160];
+    snprintf(status, sizeof status, "loading %s", file_name(opt->scene_path));
+    pm_view_set_status(w->view, status);
+    /* the title at once, not at the first poll of the wait */
+    if (pm_view_poll(w->view, &w->display, false, 0).quit) w->quit = true;
+    *out = w;
+    return -1;
+}
+
+static void *run_preparation(void *arg) {
+    view_preparation *p = arg;
+    p->ok = pm_view_prepare(p->view, p->err, sizeof p->err);
+    pm_view_release_context(p->view);
+    return NULL;
+}
+
+/* Waits for the view's preparation; false with err set when it failed. */
+static bool prepared(pm_window *w, char *err, size_t err_size) {
+    view_preparation *p = &w->preparation;
+    if (p->running) {
+        pthread_join(p->thread, NULL);
+        p->running = false;
+    }
+    if (!p->ok) snprintf(err, err_size, "%s", p->err);
+    return p->ok;
+}
+
+typedef struct {
+    pm_window_job *job;
+    pm_view *view;
+    atomic_bool done;
+    int result;
+} job_thread;
+
+static void *run_job(void *arg) {
+    job_thread *t = arg;
+    t->result = t->job->work(t->job->arg);
+    atomic_store(&t->done, true);
+    pm_view_wake(t->view);
+    return NULL;
+}
+
+int pm_window_wait(pm_window *w, pm_cluster *cluster, pm_window_job *job) {
+    /* the shader is compiled and turned into code while the scene loads */
+    view_preparation *p = &w->preparation;
+    p->view = w->view;
+    pm_view_release_context(w->view);
+    p->running = pthread_create(&p->thread, NULL, run_preparation, p) == 0;
+    if (!p->running) run_preparation(p);
+    job_thread t = {.job = job, .view = w->view, .result = 1};
+    atomic_init(&t.done, false);
+    pthread_t thread;
+    if (pthread_create(&thread, NULL, run_job, &t) != 0) return job->work(job->arg); /* no thread: set up here, unseen */
+    const char *shown = NULL;
+    while (!atomic_load(&t.done)) {
+        const char *stage = atomic_load(&job->stage);
+        if (stage && stage != shown) {
+            char status[192];
+            snprintf(status, sizeof status, "%s %s", stage, file_name(job->scene_path));
+            pm_view_set_status(w->view, status);
+            shown = stage;
+        }
+        pm_view_events ev = pm_view_poll(w->view, &w->display, true, 1.0 / 60.0);
+        if (ev.help) fputs(window_help, stdout);
+        /* the display keys edit w->display (the title shows it); the first image will use it */
+        if (ev.quit && !w->quit) {
+            w->quit = true;
+            pm_view_hide(w->view); /* at once: freeing the context would wait for its threads */
+        }
+        if (w->quit && !cluster) {
+            /* One process: it ends here, its set-up abandoned on the other thread. The loader and
+             * the BVH build have no point to stop at, and exit() would run the libraries' static
+             * destructors under that thread, so the process leaves by _exit (the system takes the
+             * memory back); only the output streams are flushed. Under mpirun the other ranks
+             * wait in the agreement after the set-up, so rank 0 goes there too and quits next. */
+            fflush(stdout);
+            fflush(stderr);
+            _exit(0);
+        }
+    }
+    pthread_join(thread, NULL);
+    w->setup_done = pm_now_seconds() - w->process_start;
+    return t.result;
+}
+
+void pm_window_close(pm_window *w) {
+    if (!w) return;
+    if (w->preparation.running) pthread_join(w->preparation.thread, NULL);
+    pm_view_destroy(w->view);
+    free(w);
+}
+
+int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, const pm_scene *scene, const pm_accel *accel,
+                  pm_session *session, const pm_camera *start_camera) {
     char err[1024];
     int ranks = pm_cluster_size(cluster);
     merged_layers merged;
@@ -69,20 +213,27 @@ int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *sc
     pm_exit_on_signals();
     const pm_film *film = pm_session_film(session);
     int width = film->width, height = film->height;
-    char title[64];
-    if (cluster) snprintf(title, sizeof title, "pmview (%d ranks)", ranks);
-    else snprintf(title, sizeof title, "pmview");
-    pm_view *view = pm_view_create_window(width, height, title, err, sizeof err);
-    if (!view) {
-        if (cluster) pm_cluster_abort(cluster, err); /* the other ranks are waiting for its commands */
+    pm_view *view = w->view;
+    /* the session first: its preview renders while the view's preparation may still be running */
+    if ((cluster && !pm_session_keep_packed(session, true)) || !pm_session_start(session, err, sizeof err)) {
+        if (cluster) pm_cluster_abort(cluster, pm_session_error(session));
         fprintf(stderr, "pmview: error: %s\n", err);
         return 1;
     }
-    pm_display display;
-    pm_display_from_options(opt, &display);
-    /* a first frame before any photon: the background colour of an empty image */
-    pm_view_draw(view, &display);
-    double first_frame = pm_now_seconds() - process_start, first_image = 0, restart_requested = 0, restart_to_image = 0;
+    if (!prepared(w, err, sizeof err) || !pm_view_set_size(view, width, height, err, sizeof err)) {
+        if (cluster) pm_cluster_abort(cluster, err); /* the other ranks are waiting for its commands */
+        fprintf(stderr, "pmview: error: %s\n", err);
+        pm_session_stop(session);
+        return 1;
+    }
+    pm_display display = w->display;
+    char tracing[160];
+    snprintf(tracing, sizeof tracing, "tracing %s", file_name(opt->scene_path));
+    pm_view_set_status(view, tracing);
+    /* no frame is drawn here: the window's grey one is on screen, and the first image (the
+     * session's preview) follows within milliseconds */
+    double process_start = w->process_start, first_frame = w->first_frame, first_image = 0, restart_requested = 0,
+           restart_to_image = 0;
     uint64_t loops = 0, frames = 1, restarts = 0;
     /* While the camera moves (changes less than PM_WINDOW_MOTION_GAP apart): how long, and how many
      * new images, of a camera asked for since the motion began, reached the screen. Frames drawn
@@ -91,12 +242,6 @@ int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *sc
     uint64_t motion_images = 0;
     int coarsest_preview = 0;
     double loop_start = pm_now_seconds();
-    if ((cluster && !pm_session_keep_packed(session, true)) || !pm_session_start(session, err, sizeof err)) {
-        if (cluster) pm_cluster_abort(cluster, pm_session_error(session));
-        fprintf(stderr, "pmview: error: %s\n", err);
-        pm_view_destroy(view);
-        return 1;
-    }
     pm_camera camera = *start_camera;
     vec3 pivot = scene->center;
     float step = 0.05f * (scene->radius > 0.f ? scene->radius : 1.f);
@@ -107,7 +252,7 @@ int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *sc
     int indirect = opt->indirect; /* the G key's setting */
     for (;;) {
         pm_view_events ev = pm_view_poll(view, &display, true, 1.0 / 60.0);
-        if (ev.quit) break;
+        if (ev.quit || w->quit) break;
         bool moved = false;
         pm_camera before = camera;
         if (ev.orbit_dx != 0 || ev.orbit_dy != 0)
@@ -244,13 +389,15 @@ int pm_window_run(const pm_options *opt, pm_cluster *cluster, const pm_scene *sc
     double seconds = pm_now_seconds() - loop_start;
     if (opt->stats)
         printf("stat window first_frame_seconds=%.4f first_image_seconds=%.4f ui_loops_per_second=%.1f frames_per_second=%.1f restarts=%llu restart_to_image_seconds=%.4f"
-               " motion_seconds=%.3f motion_images=%llu motion_images_per_second=%.1f coarsest_preview_divisor=%d\n",
+               " motion_seconds=%.3f motion_images=%llu motion_images_per_second=%.1f coarsest_preview_divisor=%d setup_seconds=%.4f\n",
                first_frame, first_image, seconds > 0 ? loops / seconds : 0.0, seconds > 0 ? frames / seconds : 0.0,
                (unsigned long long)restarts, restarts ? restart_to_image / restarts : 0.0, motion_seconds,
-               (unsigned long long)motion_images, motion_seconds > 0 ? motion_images / motion_seconds : 0.0, coarsest_preview);
+               (unsigned long long)motion_images, motion_seconds > 0 ? motion_images / motion_seconds : 0.0, coarsest_preview,
+               w->setup_done);
     pm_cluster_send_quit(cluster);
     pm_session_stop(session);
     pm_view_destroy(view);
+    w->view = NULL;
     free_merged(&merged);
     return 0;
 }
