@@ -20,6 +20,7 @@
 #include "light.h"
 #include "rng.h"
 #include "scatter.h"
+#include "thin.h"
 #include "vertex.h"
 
 #define TILE 16
@@ -157,14 +158,16 @@ static vec3 punctual_light(const pm_scene *s, const pm_accel *a, const pm_surfac
         if (cos_s <= 0.f || v3_dot(ng, wi) <= 0.f) continue;
         pm_visibility verdict = records ? pm_shadow_map_verdict(shadow, records, i) : PM_VISIBILITY_UNKNOWN;
         if (verdict == PM_VISIBILITY_HIDDEN) { (*saved)++; continue; }
+        /* shadow photons call what lies behind glass uncertain: a verdict of seen crosses no thin wall */
+        vec3 through = v3s(1.f);
         if (verdict == PM_VISIBILITY_SEEN) {
             (*saved)++;
         } else {
             (*rays)++;
             (*cast)++;
-            if (pm_accel_occluded(a, origin, wi, tmax)) continue;
+            if (!pm_thin_visible(s, a, origin, wi, tmax, &through, rays)) continue;
         }
-        e = v3_add(e, v3_mul(v3_scale(radiance_scale, pick_weight), reflected(sf, ns, wo, wi, cos_s)));
+        e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance_scale, pick_weight), through), reflected(sf, ns, wo, wi, cos_s)));
     }
     return e;
 }
@@ -210,11 +213,13 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                 float seg_len = v3_length(seg);
                 (*rays)++;
                 cast++;
-                if (seg_len > 0.f && !pm_accel_occluded(a, origin, v3_scale(seg, 1.f / seg_len), seg_len)) {
+                vec3 through;
+                if (seg_len > 0.f && pm_thin_visible(s, a, origin, v3_scale(seg, 1.f / seg_len), seg_len, &through, rays)) {
                     float g = cos_l / (dist * dist);
                     float pdf_light = pick_pdf * dist * dist / (area * cos_l);
                     float pdf_surface = sf->glossy ? pm_brdf_pdf(&sf->brdf, ns, wo, wi) : cos_s * PM_INV_PI;
-                    e = v3_add(e, v3_mul(v3_scale(radiance, g * area / pick_pdf * power_heuristic(pdf_light, pdf_surface)),
+                    e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance, g * area / pick_pdf * power_heuristic(pdf_light, pdf_surface)),
+                                                through),
                                          reflected(sf, ns, wo, wi, cos_s)));
                 }
             }
@@ -232,8 +237,9 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
             (*rays)++;
             cast++;
             float pdf_surface = sf->glossy ? pm_brdf_pdf(&sf->brdf, ns, wo, wi) : cos_s * PM_INV_PI;
-            if (!pm_accel_occluded(a, origin, wi, INFINITY))
-                e = v3_add(e, v3_mul(v3_scale(radiance, power_heuristic(pdf_sky, pdf_surface) / pdf_sky),
+            vec3 through;
+            if (pm_thin_visible(s, a, origin, wi, INFINITY, &through, rays))
+                e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance, power_heuristic(pdf_sky, pdf_surface) / pdf_sky), through),
                                      reflected(sf, ns, wo, wi, cos_s)));
         }
     }
@@ -248,6 +254,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         pm_vertex_ray ray; /* the continuation's sampling: the same for every path (vertex.h) */
         bool leaves = pm_vertex_sample_diffuse(sf, wo, rng, s->ray_scale, &ray);
         vec3 wi = ray.direction, weight = sf->glossy ? ray.weight : v3s(PM_PI); /* Lambert: cos / (cos / pi), kd/pi at the end */
+        vec3 through_sample = v3s(1.f);
         float pdf_surface = ray.pdf, cos_s = leaves ? v3_dot(ns, wi) : 0.f;
         bool lit = leaves && cos_s > 0.f && (s->sky || s->emitter_count);
         float sky_weight = lit && s->sky_map ? power_heuristic(pdf_surface, pm_sky_map_pdf(s->sky_map, wi)) : 1.f;
@@ -264,6 +271,12 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
             if (next) {
                 next->hit = hit;
                 next->h = h;
+            }
+            /* the light this sample finds lies past any thin walls, which the continuation
+             * (next) crosses as no scattering: it is counted here, once */
+            if (lit && s->analysis.has_thin_glass) {
+                hit = pm_thin_cross(s, a, origin, wi, INFINITY, hit, &h, &through_sample, rays);
+                weight = v3_mul(weight, through_sample);
             }
             if (lit && !hit) {
                 if (s->sky) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
@@ -284,7 +297,8 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         } else if (lit) {
             /* a sky without emitters: only whether the ray gets out matters */
             (*rays)++;
-            if (!pm_accel_occluded(a, origin, wi, INFINITY)) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
+            if (pm_thin_visible(s, a, origin, wi, INFINITY, &through_sample, rays))
+                e = v3_add(e, v3_mul(v3_mul(pm_scene_sky(s, wi), through_sample), v3_scale(weight, sky_weight)));
         }
     }
     if (shadow_counts) {
@@ -643,9 +657,11 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
                 behind_specular = true;
                 seen = PM_SPECULAR;
             }
-            lit_by_segment = true;
             pm_vertex_ray sp;
             if (!pm_vertex_sample(&sf, PM_LOBE_SPECULAR, d, rng, s->ray_scale, &sp)) return;
+            /* straight across a thin wall scatters nothing: light met past it is counted where
+             * it was before (after a diffuse vertex, by its direct light, which crosses thin walls) */
+            if (!sp.straight) lit_by_segment = true;
             sp.weight = v3_scale(sp.weight, choice);
             if (!pm_vertex_survives(depth, &choosing_policy, rng, &sp.weight)) return;
             throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
