@@ -289,7 +289,7 @@ static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, flo
 }
 
 /* The fields of pm_scene_surface that light transport reads (p, ng, ns, centroid, material, kd,
- * ks, kt, glossy, brdf, ior; not u, v, emission, double_sided), with the same values, for a
+ * ks, kt, glossy, brdf, ior, thin; not u, v, emission, double_sided), with the same values, for a
  * tracer that often ends its path at the hit. For a material with a uniform split and no normal
  * map in effect they are the geometry and the material's constants: inline, no texture
  * coordinate, and ns and centroid are left to pm_scene_surface_shading (returns true: the

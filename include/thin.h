@@ -17,6 +17,13 @@
 #include "pm_math.h"
 #include "scene.h"
 
+/* One crossing for a ray from o along unit d whose closest hit is *h: false, and nothing done,
+ * unless that surface is a thin wall with some transmission; else its straight-through weight
+ * multiplies *transmittance, the ray goes on from the wall's far side within tmax, and *hit and
+ * *h (t still from o) are its next answer. *rays counts the query (may be NULL). */
+bool pm_thin_step(const pm_scene *s, const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *h, bool *hit,
+                  vec3 *transmittance, uint64_t *rays);
+
 /* Follows the ray (o, unit d) within (0, tmax) from the answer to its first closest-hit query
  * (hit, *h) across thin walls: while the surface hit is thin-walled with some transmission, its
  * straight-through weight multiplies *transmittance and the ray goes on from its far side.

@@ -254,7 +254,6 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         pm_vertex_ray ray; /* the continuation's sampling: the same for every path (vertex.h) */
         bool leaves = pm_vertex_sample_diffuse(sf, wo, rng, s->ray_scale, &ray);
         vec3 wi = ray.direction, weight = sf->glossy ? ray.weight : v3s(PM_PI); /* Lambert: cos / (cos / pi), kd/pi at the end */
-        vec3 through_sample = v3s(1.f);
         float pdf_surface = ray.pdf, cos_s = leaves ? v3_dot(ns, wi) : 0.f;
         bool lit = leaves && cos_s > 0.f && (s->sky || s->emitter_count);
         float sky_weight = lit && s->sky_map ? power_heuristic(pdf_surface, pm_sky_map_pdf(s->sky_map, wi)) : 1.f;
@@ -272,33 +271,35 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                 next->hit = hit;
                 next->h = h;
             }
-            /* the light this sample finds lies past any thin walls, which the continuation
-             * (next) crosses as no scattering: it is counted here, once */
-            if (lit && s->analysis.has_thin_glass) {
-                hit = pm_thin_cross(s, a, origin, wi, INFINITY, hit, &h, &through_sample, rays);
-                weight = v3_mul(weight, through_sample);
-            }
-            if (lit && !hit) {
-                if (s->sky) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
-            } else if (lit && s->emitter_count) {
-                const pm_material *m = &s->materials[s->triangle_material[h.tri]];
-                float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
-                if (pick_pdf > 0.f) {
-                    pm_triangle_geometry g = pm_triangle_geometry_of(s, h.tri);
-                    float cos_l = g.area > 0.f ? -v3_dot(g.normal, wi) : 0.f;
-                    if (m->double_sided) cos_l = fabsf(cos_l);
-                    if (cos_l > 0.f) {
-                        float pdf_light = pick_pdf * h.t * h.t / (g.area * cos_l);
-                        e = v3_add(e, v3_mul(v3_scale(pm_scene_emission_at(s, h.tri, h.b1, h.b2),
-                                                      power_heuristic(pdf_surface, pdf_light)), weight));
+            /* the light this sample finds at its hit and past every thin wall it meets (emitting
+             * or not), which the continuation (next) crosses as no scattering: counted here, once */
+            for (int crossings = 0; lit; crossings++) {
+                if (!hit) {
+                    if (s->sky) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
+                } else if (s->emitter_count) {
+                    const pm_material *m = &s->materials[s->triangle_material[h.tri]];
+                    float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
+                    if (pick_pdf > 0.f) {
+                        pm_triangle_geometry g = pm_triangle_geometry_of(s, h.tri);
+                        float cos_l = g.area > 0.f ? -v3_dot(g.normal, wi) : 0.f;
+                        if (m->double_sided) cos_l = fabsf(cos_l);
+                        if (cos_l > 0.f) {
+                            float pdf_light = pick_pdf * h.t * h.t / (g.area * cos_l);
+                            e = v3_add(e, v3_mul(v3_scale(pm_scene_emission_at(s, h.tri, h.b1, h.b2),
+                                                          power_heuristic(pdf_surface, pdf_light)), weight));
+                        }
                     }
                 }
+                if (!hit || !s->analysis.has_thin_glass || crossings == PM_THIN_MAX_CROSSINGS ||
+                    !pm_thin_step(s, a, origin, wi, INFINITY, &h, &hit, &weight, rays))
+                    break;
             }
         } else if (lit) {
             /* a sky without emitters: only whether the ray gets out matters */
             (*rays)++;
-            if (pm_thin_visible(s, a, origin, wi, INFINITY, &through_sample, rays))
-                e = v3_add(e, v3_mul(v3_mul(pm_scene_sky(s, wi), through_sample), v3_scale(weight, sky_weight)));
+            vec3 through;
+            if (pm_thin_visible(s, a, origin, wi, INFINITY, &through, rays))
+                e = v3_add(e, v3_mul(v3_mul(pm_scene_sky(s, wi), through), v3_scale(weight, sky_weight)));
         }
     }
     if (shadow_counts) {

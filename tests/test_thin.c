@@ -180,14 +180,20 @@ static void window(void) {
     }
 }
 
-/* A point light of intensity 10 at height 3 over a floor of albedo 0.5, a horizontal thin pane
- * (the loaded material) at height 1.5 between them when `pane`. */
-static pm_accel *floor_scene(pm_scene *s, bool pane, bool lamp) {
+/* A point light of intensity 10 (or a lamp of radiance 1 over [-20, 20]^2) at height 3 over a
+ * floor of albedo 0.5, a horizontal thin pane (the loaded material) at height 1.5 between them
+ * when `pane`, emitting PANE_GLOW from both faces when `glowing`. */
+#define PANE_GLOW 0.3f
+static pm_accel *floor_scene(pm_scene *s, bool pane, bool lamp, bool glowing) {
     memset(s, 0, sizeof *s);
     uint32_t floor_m = sb_lambert(s, v3s(0.5f));
     sb_quad(s, v3(-20, 0, -20), v3(-20, 0, 20), v3(20, 0, 20), v3(20, 0, -20), floor_m);
     if (pane) {
         uint32_t m = add_loaded(s, &loaded[0]);
+        if (glowing) {
+            s->materials[m].emission = v3s(PANE_GLOW);
+            s->materials[m].double_sided = true;
+        }
         sb_quad(s, v3(-20, 1.5f, -20), v3(-20, 1.5f, 20), v3(20, 1.5f, 20), v3(20, 1.5f, -20), m);
     }
     if (lamp) {
@@ -205,7 +211,7 @@ static void photons(void) {
     const double tint[3] = {1.0, 0.75, 0.5};
     for (int pane = 0; pane < 2; pane++) {
         pm_scene s;
-        pm_accel *a = floor_scene(&s, pane, false);
+        pm_accel *a = floor_scene(&s, pane, false, false);
         pm_photon_settings ps;
         memset(&ps, 0, sizeof ps);
         ps.seed = 5;
@@ -277,6 +283,18 @@ static double irradiance_across(double px, double pz, bool lamp) {
     return e;
 }
 
+/* The irradiance at (px, 0, pz) from the glowing pane itself (radiance PANE_GLOW, height 1.5). */
+static double irradiance_from_pane(double px, double pz) {
+    const int n = 240;
+    double e = 0, cell = 40.0 / n;
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++) {
+            double x = -20 + (i + 0.5) * cell - px, z = -20 + (j + 0.5) * cell - pz, r2 = x * x + z * z + 2.25;
+            e += PANE_GLOW * 2.25 / (r2 * r2) * cell * cell;
+        }
+    return e;
+}
+
 /* Direct light on the floor under the pane, seen by a camera between them looking down: rho/pi
  * times the light across the pane, by next-event estimation and (for the lamp) its MIS partner,
  * the material's own sample, which crosses the pane too. Path tracer and progressive mode alike;
@@ -286,22 +304,24 @@ static void direct_across(void) {
     const double tint[3] = {1.0, 0.75, 0.5};
     enum { SIDE = 16 };
     pm_camera cam = sb_camera(v3(0, 1, 0), v3(0, 0, 0), v3(0, 0, -1), 60.f);
-    for (int lamp = 0; lamp < 2; lamp++) {
-        /* the analytic image's mean, each pixel at its centre's floor point */
-        double want = 0;
+    for (int light = 0; light < 3; light++) {
+        bool lamp = light > 0, glowing = light == 2;
+        /* the analytic image's mean, each pixel at its centre's floor point: tint[c] x want + glow */
+        double want = 0, glow = 0;
         for (int y = 0; y < SIDE; y++)
             for (int x = 0; x < SIDE; x++) {
                 vec3 o, d;
                 pm_camera_ray(&cam, SIDE, SIDE, x + 0.5f, y + 0.5f, &o, &d);
-                double t = -o.y / d.y;
-                want += 0.5 / PM_PI * irradiance_across(o.x + t * d.x, o.z + t * d.z, lamp) / (SIDE * SIDE);
+                double t = -o.y / d.y, px = o.x + t * d.x, pz = o.z + t * d.z;
+                want += 0.5 / PM_PI * irradiance_across(px, pz, lamp) / (SIDE * SIDE);
+                if (glowing) glow += 0.5 / PM_PI * irradiance_from_pane(px, pz) / (SIDE * SIDE);
             }
         for (int mode = 0; mode < 2; mode++) {
             pm_scene s;
-            pm_accel *a = floor_scene(&s, true, lamp);
+            pm_accel *a = floor_scene(&s, true, lamp, glowing);
             pm_session_config config = mode_config(mode ? PM_MODE_PROGRESSIVE : PM_MODE_PATHTRACE, SIDE, SIDE, 11, 2);
             pm_session *session = render_session(&s, a, &cam, &config, lamp ? 64 : 8);
-            const char *light = lamp ? "lamp" : "point light", *how = mode ? "progressive" : "path tracer";
+            const char *light = glowing ? "lamp and glowing pane" : lamp ? "lamp" : "point light", *how = mode ? "progressive" : "path tracer";
             if (session) {
                 const pm_film *f = pm_session_film(session);
                 static float direct[3 * SIDE * SIDE], caustic[3 * SIDE * SIDE];
@@ -317,11 +337,11 @@ static void direct_across(void) {
                     char what[128];
                     snprintf(what, sizeof what, "%s, %s: floor's direct light = rho/pi kt (1 - F) across the pane (channel %d)",
                              light, how, c);
-                    CHECK_NEAR(mean[c], tint[c] * want, lamp ? 0.02 : 0.003, 0, what);
+                    CHECK_NEAR(mean[c], tint[c] * want + glow, lamp ? 0.02 : 0.003, 0, what);
                 }
                 CHECK(caustic_sum == 0.0, "%s, %s: the caustic layer is %g (light across the pane counted twice)", light, how,
                       caustic_sum);
-                printf("%s, %s: direct light across the pane %.5f (analytic %.5f)\n", light, how, mean[1], tint[1] * want);
+                printf("%s, %s: direct light across the pane %.5f (analytic %.5f)\n", light, how, mean[1], tint[1] * want + glow);
             }
             pm_session_destroy(session);
             pm_accel_destroy(a);
