@@ -43,6 +43,8 @@
 #define PM_DIRECT_LIGHT_SAMPLES 4         /* punctual lights shaded per shading point: every one in a scene with at most this many,
                                              else this many drawn by power (stratified), so the cost does not grow with the count */
 
+#define PM_THIN_MAX_CROSSINGS 16          /* thin walls a direct-light ray crosses before it is taken as blocked (thin.h) */
+
 /* shadow photons (Jensen and Christensen 1995): which punctual lights a point surely sees or surely does not */
 #define PM_SHADOW_PHOTONS_PER_PIXEL 1.0   /* photons per light = image pixels x this, clamped below */
 #define PM_SHADOW_MIN_PHOTONS 65536

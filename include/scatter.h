@@ -5,7 +5,9 @@
  * path-vertex kernel (vertex.h) owns the choice between the diffuse and specular parts and the
  * survival after it; this function picks mirror or glass in proportion
  * to their mean weights, lets Fresnel pick reflection or refraction, and returns the lobe's
- * colour divided by the probability of the pick, relative to the specular total.
+ * colour divided by the probability of the pick, relative to the specular total. Thin-walled
+ * glass (pm_surface.thin) lets the transmitted share through along the incoming direction:
+ * nothing bends, and no medium is entered.
  */
 #ifndef PM_SCATTER_H
 #define PM_SCATTER_H
@@ -24,6 +26,7 @@ typedef struct {
     vec3 weight;      /* lobe colour / P(lobe | specular) */
     float radiance_scale; /* (eta_i / eta_t)^2 on refraction, else 1: radiance, not flux, carries it */
     bool transmitted;
+    bool straight;    /* crossed a thin wall along the incoming direction (transmitted too) */
 } pm_specular_sample;
 
 /* Unpolarised Fresnel reflectance of a smooth dielectric; cos_i > 0 on the incident side. */
@@ -35,6 +38,24 @@ static inline float pm_fresnel_dielectric(float cos_i, float eta_i, float eta_t,
     float rp = (eta_t * cos_i - eta_i * ct) / (eta_t * cos_i + eta_i * ct);
     *cos_t = ct;
     return 0.5f * (rs * rs + rp * rp);
+}
+
+/* Fresnel reflectance of a thin wall met from wo (unit, leaving the surface toward the viewer): one
+ * interface's at the material's ior, at the angle to the shading normal on wo's side. The thin
+ * sheet of KHR_materials_transmission reflects this and lets kt x (1 - this) straight through. */
+static inline float pm_thin_fresnel(const pm_surface *sf, vec3 wo) {
+    vec3 ng = pm_facing(sf->ng, wo), ns = pm_facing(sf->ns, ng);
+    float cos_t, cos_i = pm_maxf(0.f, pm_minf(1.f, v3_dot(wo, ns)));
+    return pm_fresnel_dielectric(cos_i, 1.f, sf->ior, &cos_t);
+}
+
+/* Where a ray along unit d that crosses the thin wall sf goes on from: on its own line, just past
+ * the wall (as far behind it as pm_surface_origin's offset), so the scene behind is not shifted by
+ * the offset; at grazing angles, where that point would lie far along the line, the offset point. */
+static inline vec3 pm_thin_exit(const pm_surface *sf, vec3 d, float scale) {
+    vec3 back = pm_facing(sf->ng, d), off = pm_surface_origin(sf, back, scale);
+    float depth = v3_dot(v3_sub(off, sf->p), back), cos_d = v3_dot(d, back);
+    return cos_d > 0.1f ? v3_madd(sf->p, d, depth / cos_d) : off;
 }
 
 /* Mean weight of the specular part (mirror + glass) of a surface: S in Russian roulette. */
@@ -49,10 +70,19 @@ static inline bool pm_scatter_specular(const pm_surface *sf, vec3 d, pm_rng *rng
     vec3 ns = pm_facing(sf->ns, ng);
     float wm = v3_average(sf->ks), wt = v3_average(sf->kt), total = wm + wt;
     out->radiance_scale = 1.f;
-    out->transmitted = false;
+    out->transmitted = out->straight = false;
     bool reflect = true;
     if (pm_rng_float(rng) * total < wm) {
         out->weight = v3_scale(sf->ks, total / wm);
+    } else if (sf->thin) {
+        /* a sheet with no far side: both faces alike, the crossing ray goes on along d */
+        out->weight = v3_scale(sf->kt, total / wt);
+        if (pm_rng_float(rng) >= pm_thin_fresnel(sf, wo)) {
+            out->direction = d;
+            out->origin = pm_thin_exit(sf, d, scale);
+            out->transmitted = out->straight = true;
+            reflect = false;
+        }
     } else {
         out->weight = v3_scale(sf->kt, total / wt);
         float eta_i = front ? 1.f : sf->ior, eta_t = front ? sf->ior : 1.f, cos_t;

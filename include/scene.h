@@ -60,6 +60,10 @@ typedef struct {
     /* KHR_materials_volume: the attenuation coefficient per unit length (per channel) inside the
      * closed mesh this material bounds, 0 = none (no extension, or a thin-walled surface) */
     vec3 attenuation;
+    /* KHR_materials_transmission without a volume (no KHR_materials_volume, or thicknessFactor 0):
+     * an infinitely thin sheet, which light crosses straight, without bending (see docs/design.md,
+     * Materials); false is the boundary of solid glass, refracting at ior */
+    bool thin_walled;
     pm_alpha_mode alpha_mode;
     float alpha;            /* baseColorFactor[3]; coverage = this x the base colour texture's (linear) alpha */
     float alpha_cutoff;     /* MASK only, glTF default 0.5 */
@@ -116,6 +120,7 @@ typedef struct {
     bool has_diffuse, has_mirror, has_glass, has_textures;
     bool has_glossy;         /* some material has the GGX lobe (has_diffuse is then true too: it is a D surface) */
     bool has_emissive_triangles, has_punctual_lights, has_sky;
+    bool has_thin_glass;     /* some material can let light straight through a thin wall: shadow rays cross it (thin.h) */
     bool has_non_opaque;     /* some triangle's material can let rays through (MASK or BLEND with alpha that can cut) */
     bool caustics_possible;  /* some light can reach a specular surface and then a diffuse one */
     bool interreflection_possible; /* light reflected by a diffuse surface can reach a diffuse one again */
@@ -202,6 +207,7 @@ typedef struct {
     vec3 ks;         /* perfect-mirror reflectance */
     vec3 kt;         /* dielectric weight (tint); Fresnel decides reflect vs refract */
     float ior;
+    bool thin;       /* the material is thin-walled: kt crosses straight, no medium inside */
     bool glossy;     /* the glossy lobe brdf replaces kd and ks (pm_material_glossy) */
     pm_brdf brdf;    /* valid when glossy */
     vec3 emission;   /* radiance leaving the front face (both faces if double sided) */
@@ -283,7 +289,7 @@ static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, flo
 }
 
 /* The fields of pm_scene_surface that light transport reads (p, ng, ns, centroid, material, kd,
- * ks, kt, glossy, brdf, ior; not u, v, emission, double_sided), with the same values, for a
+ * ks, kt, glossy, brdf, ior, thin; not u, v, emission, double_sided), with the same values, for a
  * tracer that often ends its path at the hit. For a material with a uniform split and no normal
  * map in effect they are the geometry and the material's constants: inline, no texture
  * coordinate, and ns and centroid are left to pm_scene_surface_shading (returns true: the
@@ -302,6 +308,7 @@ static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float 
     out->glossy = m->split_glossy;
     if (out->glossy) out->brdf = m->split_brdf;
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
+    out->thin = m->thin_walled;
     return true;
 }
 

@@ -46,6 +46,8 @@ typedef struct {
     float pdf;            /* the diffuse part's sampling density per solid angle (MIS); 0 for the specular part */
     float radiance_scale; /* (eta_i / eta_t)^2 across a refraction, else 1: radiance carries it, flux not */
     bool transmitted;
+    bool straight;        /* crossed a thin wall along the incoming direction: no scattering as far as
+                             paths' kinds go (direct light and shadow rays cross it too, thin.h) */
     pm_lobe lobe;         /* the part chosen (pm_vertex_step) */
 } pm_vertex_ray;
 

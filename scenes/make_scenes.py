@@ -247,8 +247,12 @@ def gltf_material(m):
         pbr.update(metallicFactor=1.0, roughnessFactor=m["roughness"])
     elif m["kind"] == "glass":
         pbr.update(metallicFactor=0.0, roughnessFactor=0.0)
+        # solid glass: without KHR_materials_volume, transmission is a thin wall that bends nothing.
+        # thicknessFactor > 0 is what says so; its value is for rasterizers (a ray tracer measures
+        # the path inside), and no attenuationDistance leaves the glass clear
         out["extensions"] = {"KHR_materials_transmission": {"transmissionFactor": 1.0},
-                             "KHR_materials_ior": {"ior": m.get("ior", 1.5)}}
+                             "KHR_materials_ior": {"ior": m.get("ior", 1.5)},
+                             "KHR_materials_volume": {"thicknessFactor": 1.0}}
     elif m["kind"] == "emitter":
         pbr.update(baseColorFactor=[0.0, 0.0, 0.0, 1.0], metallicFactor=0.0, roughnessFactor=1.0)
         out["emissiveFactor"] = list(m["color"])

@@ -20,6 +20,7 @@
 #include "light.h"
 #include "rng.h"
 #include "scatter.h"
+#include "thin.h"
 #include "vertex.h"
 
 #define TILE 16
@@ -157,14 +158,16 @@ static vec3 punctual_light(const pm_scene *s, const pm_accel *a, const pm_surfac
         if (cos_s <= 0.f || v3_dot(ng, wi) <= 0.f) continue;
         pm_visibility verdict = records ? pm_shadow_map_verdict(shadow, records, i) : PM_VISIBILITY_UNKNOWN;
         if (verdict == PM_VISIBILITY_HIDDEN) { (*saved)++; continue; }
+        /* shadow photons call what lies behind glass uncertain: a verdict of seen crosses no thin wall */
+        vec3 through = v3s(1.f);
         if (verdict == PM_VISIBILITY_SEEN) {
             (*saved)++;
         } else {
             (*rays)++;
             (*cast)++;
-            if (pm_accel_occluded(a, origin, wi, tmax)) continue;
+            if (!pm_thin_visible(s, a, origin, wi, tmax, &through, rays)) continue;
         }
-        e = v3_add(e, v3_mul(v3_scale(radiance_scale, pick_weight), reflected(sf, ns, wo, wi, cos_s)));
+        e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance_scale, pick_weight), through), reflected(sf, ns, wo, wi, cos_s)));
     }
     return e;
 }
@@ -210,11 +213,13 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                 float seg_len = v3_length(seg);
                 (*rays)++;
                 cast++;
-                if (seg_len > 0.f && !pm_accel_occluded(a, origin, v3_scale(seg, 1.f / seg_len), seg_len)) {
+                vec3 through;
+                if (seg_len > 0.f && pm_thin_visible(s, a, origin, v3_scale(seg, 1.f / seg_len), seg_len, &through, rays)) {
                     float g = cos_l / (dist * dist);
                     float pdf_light = pick_pdf * dist * dist / (area * cos_l);
                     float pdf_surface = sf->glossy ? pm_brdf_pdf(&sf->brdf, ns, wo, wi) : cos_s * PM_INV_PI;
-                    e = v3_add(e, v3_mul(v3_scale(radiance, g * area / pick_pdf * power_heuristic(pdf_light, pdf_surface)),
+                    e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance, g * area / pick_pdf * power_heuristic(pdf_light, pdf_surface)),
+                                                through),
                                          reflected(sf, ns, wo, wi, cos_s)));
                 }
             }
@@ -232,8 +237,9 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
             (*rays)++;
             cast++;
             float pdf_surface = sf->glossy ? pm_brdf_pdf(&sf->brdf, ns, wo, wi) : cos_s * PM_INV_PI;
-            if (!pm_accel_occluded(a, origin, wi, INFINITY))
-                e = v3_add(e, v3_mul(v3_scale(radiance, power_heuristic(pdf_sky, pdf_surface) / pdf_sky),
+            vec3 through;
+            if (pm_thin_visible(s, a, origin, wi, INFINITY, &through, rays))
+                e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance, power_heuristic(pdf_sky, pdf_surface) / pdf_sky), through),
                                      reflected(sf, ns, wo, wi, cos_s)));
         }
     }
@@ -265,26 +271,35 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                 next->hit = hit;
                 next->h = h;
             }
-            if (lit && !hit) {
-                if (s->sky) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
-            } else if (lit && s->emitter_count) {
-                const pm_material *m = &s->materials[s->triangle_material[h.tri]];
-                float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
-                if (pick_pdf > 0.f) {
-                    pm_triangle_geometry g = pm_triangle_geometry_of(s, h.tri);
-                    float cos_l = g.area > 0.f ? -v3_dot(g.normal, wi) : 0.f;
-                    if (m->double_sided) cos_l = fabsf(cos_l);
-                    if (cos_l > 0.f) {
-                        float pdf_light = pick_pdf * h.t * h.t / (g.area * cos_l);
-                        e = v3_add(e, v3_mul(v3_scale(pm_scene_emission_at(s, h.tri, h.b1, h.b2),
-                                                      power_heuristic(pdf_surface, pdf_light)), weight));
+            /* the light this sample finds at its hit and past every thin wall it meets (emitting
+             * or not), which the continuation (next) crosses as no scattering: counted here, once */
+            for (int crossings = 0; lit; crossings++) {
+                if (!hit) {
+                    if (s->sky) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
+                } else if (s->emitter_count) {
+                    const pm_material *m = &s->materials[s->triangle_material[h.tri]];
+                    float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
+                    if (pick_pdf > 0.f) {
+                        pm_triangle_geometry g = pm_triangle_geometry_of(s, h.tri);
+                        float cos_l = g.area > 0.f ? -v3_dot(g.normal, wi) : 0.f;
+                        if (m->double_sided) cos_l = fabsf(cos_l);
+                        if (cos_l > 0.f) {
+                            float pdf_light = pick_pdf * h.t * h.t / (g.area * cos_l);
+                            e = v3_add(e, v3_mul(v3_scale(pm_scene_emission_at(s, h.tri, h.b1, h.b2),
+                                                          power_heuristic(pdf_surface, pdf_light)), weight));
+                        }
                     }
                 }
+                if (!hit || !s->analysis.has_thin_glass || crossings == PM_THIN_MAX_CROSSINGS ||
+                    !pm_thin_step(s, a, origin, wi, INFINITY, &h, &hit, &weight, rays))
+                    break;
             }
         } else if (lit) {
             /* a sky without emitters: only whether the ray gets out matters */
             (*rays)++;
-            if (!pm_accel_occluded(a, origin, wi, INFINITY)) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
+            vec3 through;
+            if (pm_thin_visible(s, a, origin, wi, INFINITY, &through, rays))
+                e = v3_add(e, v3_mul(v3_mul(pm_scene_sky(s, wi), through), v3_scale(weight, sky_weight)));
         }
     }
     if (shadow_counts) {
@@ -643,9 +658,11 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
                 behind_specular = true;
                 seen = PM_SPECULAR;
             }
-            lit_by_segment = true;
             pm_vertex_ray sp;
             if (!pm_vertex_sample(&sf, PM_LOBE_SPECULAR, d, rng, s->ray_scale, &sp)) return;
+            /* straight across a thin wall scatters nothing: light met past it is counted where
+             * it was before (after a diffuse vertex, by its direct light, which crosses thin walls) */
+            if (!sp.straight) lit_by_segment = true;
             sp.weight = v3_scale(sp.weight, choice);
             if (!pm_vertex_survives(depth, &choosing_policy, rng, &sp.weight)) return;
             throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);

@@ -835,7 +835,7 @@ private:
     double checked(double value, double lo, double hi, const char *field, const std::string &object);
     vec3 emission_within_film(const double hue[3], double magnitude, const char *field, const std::string &made_of,
                               const std::string &object);
-    void volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &object, double sigma[3]);
+    bool volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &object, double sigma[3]);
     std::string material_label(size_t material) const;
     std::string mesh_label(int mesh, int primitive) const;
     // Stores vertex i's generated tangent: dp/du made unit and perpendicular to the normal, or
@@ -1725,11 +1725,12 @@ double extension_number(const tinygltf::ExtensionMap &extensions, const char *ex
 // channel, for a material with a volume (thicknessFactor > 0; 0 is thin-walled) and a finite
 // distance; 0 otherwise. thicknessFactor itself is for rasterizers: a ray tracer measures the
 // distance inside the mesh. In double, per unit length of the file: choose_frame rescales it
-// before it becomes a float.
-void Loader::volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &object, double sigma[3]) {
+// before it becomes a float. Returns whether the material has a volume (thicknessFactor > 0):
+// without one, KHR_materials_transmission is a thin wall.
+bool Loader::volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &object, double sigma[3]) {
     std::fill(sigma, sigma + 3, 0.0);
     auto it = extensions.find("KHR_materials_volume");
-    if (it == extensions.end() || !it->second.IsObject()) return;
+    if (it == extensions.end() || !it->second.IsObject()) return false;
     double thickness = checked(extension_number(extensions, "KHR_materials_volume", "thicknessFactor", 0), 0, INFINITY,
                                "KHR_materials_volume thicknessFactor", object);
     double distance = extension_number(extensions, "KHR_materials_volume", "attenuationDistance", INFINITY);
@@ -1743,8 +1744,10 @@ void Loader::volume_attenuation(const tinygltf::ExtensionMap &extensions, const 
             color[k] = checked(c.Get(k).GetNumberAsDouble(), 0, 1, "KHR_materials_volume attenuationColor", object);
         }
     }
-    if (!(thickness > 0) || !std::isfinite(distance)) return;
-    for (int k = 0; k < 3; k++) sigma[k] = -std::log(std::max(color[k], 1e-30)) / distance;
+    if (!(thickness > 0)) return false;
+    if (std::isfinite(distance))
+        for (int k = 0; k < 3; k++) sigma[k] = -std::log(std::max(color[k], 1e-30)) / distance;
+    return true;
 }
 
 void Loader::add_light(int index, const WorldTransform &world, int node) {
@@ -1967,7 +1970,7 @@ void Loader::convert_materials() {
         m.emission = emission_within_film(factor, strength, "emission", "emissiveFactor x emissiveStrength " + num(strength), label);
         m.double_sided = mat.doubleSided;
         attenuation_.emplace_back();
-        volume_attenuation(mat.extensions, label, attenuation_.back().data());
+        m.thin_walled = !volume_attenuation(mat.extensions, label, attenuation_.back().data());
         m.alpha = static_cast<float>(checked(pbr.baseColorFactor[3], 0, 1, "baseColorFactor", label));
         m.alpha_cutoff = static_cast<float>(checked(mat.alphaCutoff, 0, FLT_MAX, "alphaCutoff", label));
         if (mat.alphaMode == "MASK") m.alpha_mode = PM_ALPHA_MASK;

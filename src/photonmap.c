@@ -593,6 +593,7 @@ typedef struct {
     vec3 power;
     int bounce, specular_bounces;
     bool diffuse_seen;
+    bool scattered;         /* met a surface that turned it (a thin wall crossed straight does not): else its records are direct light */
     bool first_hit_skipped; /* its light is punctual and the reader traces its first hits: no record there */
     uint32_t guide_cell[2]; /* the emission guide's slots and cells it left from (guided, guided_direction), UINT32_MAX where unguided */
 } photon_path;
@@ -629,7 +630,7 @@ static bool start_photon(const pass *ps, pm_rng_family streams, uint64_t i, phot
     p->first_hit_skipped = ps->punctual_first_hits_skipped && l->kind == SOURCE_PUNCTUAL;
     p->power = v3_scale(flux, weight / ((float)ps->photons * source_pdf));
     p->bounce = p->specular_bounces = 0;
-    p->diffuse_seen = false;
+    p->diffuse_seen = p->scattered = false;
     return true;
 }
 
@@ -653,8 +654,9 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
                 if (ps->splat) splat_to_camera(ps, splats, h, &shading_left, &sf, ng, *d, p->power, rays);
             }
         } else {
-            int path = p->bounce == 0 ? PM_PATH_DIRECT : (p->diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
-            if (p->bounce > 0 || !p->first_hit_skipped) push(list, sf.p, ng, *d, p->power, path);
+            /* past thin walls alone a photon is still direct light, as direct light's rays cross them (thin.h) */
+            int path = !p->scattered ? PM_PATH_DIRECT : (p->diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
+            if (p->scattered || !p->first_hit_skipped) push(list, sf.p, ng, *d, p->power, path);
             /* a guided photon's hit where a camera point read photons last iteration: stored or
              * not (a punctual light's first hit, which the reader traces, shows the way in too) */
             if (p->guide_cell[0] != UINT32_MAX && pm_marks_test(ps->marks, sf.p)) {
@@ -675,6 +677,8 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
     p->power = v3_mul(p->power, ray.weight); /* flux: no radiance_scale across a refraction */
     *d = ray.direction;
     *o = ray.origin;
+    if (ray.straight) return true; /* no caustic: direct light crosses thin walls too */
+    p->scattered = true;
     if (ray.lobe == PM_LOBE_DIFFUSE) p->diffuse_seen = true;
     else p->specular_bounces++;
     return true;

@@ -119,6 +119,7 @@ static void analyse(pm_scene *s) {
         a->has_diffuse |= m->may_diffuse || m->may_glossy;
         a->has_mirror |= m->may_mirror;
         a->has_glass |= m->may_glass;
+        a->has_thin_glass |= m->may_glass && m->thin_walled;
         a->has_textures |= m->base_color_texture >= 0 || m->emission_texture >= 0 ||
                            m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0 ||
                            (m->normal_texture >= 0 && s->tangents);
@@ -895,6 +896,7 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
         if (out->glossy) out->brdf = pm_brdf_at(base, metallic, roughness, transmission);
     }
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
+    out->thin = m->thin_walled;
     out->emission = m->emission; /* the factor alone: pm_scene_surface applies the texture */
     out->double_sided = m->double_sided;
 }

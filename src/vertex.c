@@ -22,7 +22,7 @@ pm_lobe pm_vertex_choose(const pm_surface *sf, bool diffuse_in_place, pm_rng *rn
 bool pm_vertex_sample_diffuse(const pm_surface *sf, vec3 wo, pm_rng *rng, float scale, pm_vertex_ray *out) {
     vec3 ng = pm_facing(sf->ng, wo), ns = pm_facing(sf->ns, ng);
     out->radiance_scale = 1.f;
-    out->transmitted = false;
+    out->transmitted = out->straight = false;
     if (sf->glossy) {
         vec3 f;
         if (!pm_brdf_sample(&sf->brdf, ns, wo, pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), &out->direction, &f,
@@ -49,6 +49,7 @@ bool pm_vertex_sample(const pm_surface *sf, pm_lobe lobe, vec3 d, pm_rng *rng, f
     out->pdf = 0.f;
     out->radiance_scale = sp.radiance_scale;
     out->transmitted = sp.transmitted;
+    out->straight = sp.straight;
     return true;
 }
 

@@ -55,7 +55,7 @@ int main(void) {
                         !memcmp(&full.ns, &lean.ns, sizeof full.ns) && !memcmp(&full.centroid, &lean.centroid, sizeof full.centroid) &&
                         full.material == lean.material && !memcmp(&full.kd, &lean.kd, sizeof full.kd) &&
                         !memcmp(&full.ks, &lean.ks, sizeof full.ks) && !memcmp(&full.kt, &lean.kt, sizeof full.kt) &&
-                        full.glossy == lean.glossy && full.ior == lean.ior &&
+                        full.glossy == lean.glossy && full.ior == lean.ior && full.thin == lean.thin &&
                         (!full.glossy || !memcmp(&full.brdf, &lean.brdf, sizeof full.brdf));
             lean_bad += !same;
         }
