@@ -42,6 +42,8 @@ void pm_accel_intersect_packets(const pm_accel *a, size_t n, const vec3 *o, cons
 /* True when anything blocks (0, tmax). */
 bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax);
 size_t pm_accel_bytes(const pm_accel *a);
+/* The memory forecast's share for the BVH of s: what it keeps, or (building) the build's peak. */
+uint64_t pm_accel_forecast_bytes(const pm_scene *s, bool building);
 double pm_accel_build_seconds(const pm_accel *a);
 /* Triangles behind the alpha filter; 0 means no filter is installed (an opaque scene). */
 uint32_t pm_accel_alpha_tested_triangles(const pm_accel *a);

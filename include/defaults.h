@@ -28,6 +28,16 @@
                                            a film, a texture) may take at most this share of physical memory */
 #define PM_MAX_EMISSION 1e20f          /* emission radiance and light intensity are clamped to this (with a warning): a float film sums
                                            up to 1e9 iterations of samples, and 1e20 x 1e9 leaves 1e9 of FLT_MAX's headroom for path weights */
+/* The memory forecast (memory.h): bytes per unit of what each stage holds, measured on scenes of 10^4 to 10^7 triangles */
+#define PM_JSON_DOCUMENT_BYTES_PER_BYTE 10   /* nlohmann's document per byte of JSON text */
+#define PM_ACCEL_BUILD_BYTES_PER_TRIANGLE 150 /* Embree's peak during the build, what it keeps included */
+#define PM_ACCEL_BUILT_BYTES_PER_TRIANGLE 112 /* what the built BVH keeps */
+#define PM_PHOTON_PASS_RECORDS 3             /* photon records alive per photon of an iteration: the threads' lists, the merged list, the grid */
+#define PM_PHOTON_MAP_RECORDS 3              /* the global map's records per emitted photon: stored bounces, irradiance points, the tree
+                                                (a caustic photon is stored once, if at all) */
+#define PM_SHADOW_RECORDS_PER_PHOTON 4       /* shadow photon records and cells per photon traced */
+#define PM_RENDER_RESIDENT_BYTES (8u << 20)  /* the render's threads, stacks and small tables */
+#define PM_GL_RESIDENT_BYTES (16u << 20)     /* an offscreen (OSMesa) context and its buffers, for PNG output */
 #define PM_ACCEL_BYTES_PER_TRIANGLE 160 /* Embree's BVH, estimated before the build (measured: 90 bytes a triangle built, twice that at the build's peak) */
 
 /* the default environment (radiance), for files without KHR_lights_punctual whose emitters do

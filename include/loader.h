@@ -21,6 +21,7 @@ typedef struct {
     double json_seconds;             /* of which parsing the JSON text */
     uint32_t json_parses;            /* times the JSON text was parsed: 1 once the container and the nesting depth pass, whether the file then loads or not */
     double unit_scale;               /* scene units per file unit: a power of two, 1 unless the file's extent was outside [2^-20, 2^20] */
+    uint64_t peak_bytes;             /* the most memory the load held at once, forecast from the sizes it met (pm_memory_forecast) */
     bool recentered;                 /* the scene was moved to the origin (it lay over 2^10 extents away; see README) */
 } pm_load_report;
 

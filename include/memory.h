@@ -61,6 +61,21 @@ void pm_memory_fail_at(uint64_t n, bool and_after);
 /* Checked allocations made so far (to size an injection loop). */
 uint64_t pm_memory_allocations(void);
 
+/* The forecast of the process's peak resident memory, made from the structures' sizes as the
+ * set-up learns them, so --stats can set it beside the measured peak. The process's resident
+ * memory when the forecast starts is its baseline (code, libraries, the window's context). Each
+ * stage then declares what it keeps (hold: the scene's arrays, the BVH, the film, photon maps;
+ * negative when it frees) and what it needs only while it runs (phase: the loader's document
+ * and copies, Embree's build-time memory, the output's buffers): the forecast is the baseline
+ * plus the largest held + transient sum met. Thread-safe. */
+void pm_memory_forecast_start(void);
+void pm_memory_forecast_hold(int64_t bytes);
+void pm_memory_forecast_phase(uint64_t transient_bytes);
+uint64_t pm_memory_forecast(void);          /* baseline + the largest phase */
+uint64_t pm_memory_forecast_baseline(void);
+/* Resident bytes now (/proc/self/statm; 0 where it cannot be read). */
+uint64_t pm_memory_resident_bytes(void);
+
 /* Parses a size: a number with an optional K, M, G or T suffix (powers of 1024) and optional B. */
 bool pm_memory_parse_size(const char *text, uint64_t *bytes);
 

@@ -173,6 +173,9 @@ typedef struct {
  * can warn). False when out of memory (pm_memory_failure names what): the scene is only freed. */
 bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky);
 void pm_scene_free(pm_scene *s);
+/* The bytes of the scene's arrays, texels (mip levels included) and derived tables: what the
+ * scene holds in memory (the memory forecast). */
+uint64_t pm_scene_bytes(const pm_scene *s);
 /* The share of the surface area whose material reflects at least `albedo` of the light (mean base
  * colour; textures not read): near 1 with albedo ~1, a closed room never absorbs light by itself. */
 double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo);

@@ -70,6 +70,9 @@ typedef struct pm_session pm_session;
  * classic mode with PM_PHOTONS_AUTO counts and a time budget, a pilot photon pass runs here. */
 pm_session *pm_session_create(const pm_scene *s, const pm_accel *a, const pm_camera *camera,
                               const pm_session_config *config, char *err, size_t err_size);
+/* The memory forecast's share of the render (memory.h): the film, the photon records an
+ * iteration keeps alive (progressive) or the classic maps, the shadow photons, the threads. */
+uint64_t pm_session_forecast_bytes(const pm_session *s);
 /* Stops the worker, if any, and frees everything the session owns. */
 void pm_session_destroy(pm_session *s);
 

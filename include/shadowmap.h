@@ -65,6 +65,8 @@ uint64_t pm_shadow_default_photons(int width, int height);
  * the rays it saves cheaper than PM_SHADOW_MIN_GAIN x its lookups ("would_not_pay"). */
 const char *pm_shadow_map_unneeded(const pm_scene *s, const pm_shadow_settings *set);
 
+/* The most memory a build would hold at once (records and cells), for the memory forecast; 0 when the scene gets no map. */
+uint64_t pm_shadow_map_forecast_bytes(const pm_scene *s, const pm_shadow_settings *set);
 /* Traces and summarises the shadow photons. NULL when the scene gets none (stats->reason says
  * why) or when out of memory (stats->out_of_memory). stats may not be NULL. */
 pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const pm_shadow_settings *set,

@@ -10,6 +10,7 @@
  */
 #include "accel.h"
 #include "clock.h"
+#include "defaults.h"
 #include "memory.h"
 
 #include <embree3/rtcore.h>
@@ -340,6 +341,10 @@ bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax) {
     fill_ray(&r, o, d, a->tnear, tmax);
     rtcOccluded1(a->scene, &ctx, &r);
     return r.tfar < 0.f; /* Embree sets tfar to -inf on a hit */
+}
+
+uint64_t pm_accel_forecast_bytes(const pm_scene *s, bool building) {
+    return (uint64_t)s->triangle_count * (building ? PM_ACCEL_BUILD_BYTES_PER_TRIANGLE : PM_ACCEL_BUILT_BYTES_PER_TRIANGLE);
 }
 
 size_t pm_accel_bytes(const pm_accel *a) {

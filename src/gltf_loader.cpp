@@ -806,6 +806,8 @@ public:
     uint32_t json_parses() const { return json_parses_; }
     double json_seconds() const { return json_seconds_; }
     bool recentered() const { return recentered_; }
+    // The largest memory the load held at once, forecast from the sizes it met (see forecast_phase).
+    uint64_t forecast_peak() const { return forecast_peak_; }
 
 private:
     // stage 1
@@ -858,6 +860,13 @@ private:
         out[3] = hand;
     }
     void emit(pm_scene *out);
+    // The load's peak is met in one of two places: while the JSON document is alive beside the
+    // file and tinygltf's model, or in emit(), where the scene's arrays exist twice (the vectors
+    // and their copies) beside the file, the model, the decoded meshes and the texels.
+    void forecast_phase(uint64_t bytes) { forecast_peak_ = std::max(forecast_peak_, bytes); }
+    uint64_t model_bytes() const;
+    uint64_t decoded_bytes() const;
+    uint64_t output_bytes() const;
 
     void warn(const std::string &message) { warnings_.push_back(message); }
     // A clamped or replaced value: one warning per object and field, the first value's; later
@@ -888,6 +897,7 @@ private:
     size_t json_size_ = 0, bin_size_ = 0;
     bool has_bin_ = false;
     const unsigned char *bin_data_ = nullptr;  // the BIN chunk's bytes, inside the file's
+    uint64_t file_bytes_ = 0, forecast_peak_ = 0;
     uint32_t json_parses_ = 0;  // texts parsed into a JSON document (one per load: see model_from_json)
     double json_seconds_ = 0;
 
@@ -1020,6 +1030,7 @@ void Loader::model_from_json() {
     json root = parse_json();
     preflight(root);
     build_model(root);
+    forecast_phase(file_bytes_ + PM_JSON_DOCUMENT_BYTES_PER_BYTE * json_size_ + model_bytes());
 }  // the document goes here, before the conversion allocates the scene
 
 json Loader::parse_json() {
@@ -2309,7 +2320,34 @@ T *malloc_copy(const std::vector<T> &v) {
     return p;
 }
 
+template <class T>
+uint64_t vector_bytes(const std::vector<T> &v) { return v.capacity() * sizeof(T); }
+
+uint64_t Loader::model_bytes() const {
+    uint64_t bytes = 0;
+    for (const tinygltf::Buffer &b : model_.buffers) bytes += vector_bytes(b.data);
+    for (const tinygltf::Image &i : model_.images) bytes += vector_bytes(i.image);
+    return bytes;
+}
+
+uint64_t Loader::decoded_bytes() const {
+    uint64_t bytes = 0;
+    for (const std::unique_ptr<DecodedMesh> &m : meshes_)
+        if (m)
+            for (const DecodedPrimitive &p : m->primitives)
+                bytes += vector_bytes(p.positions) + vector_bytes(p.normals) + vector_bytes(p.uvs) + vector_bytes(p.uvs1) +
+                         vector_bytes(p.tangents) + vector_bytes(p.corners);
+    for (const pm_texture &t : textures_.items) bytes += 4ull * static_cast<uint64_t>(t.width) * static_cast<uint64_t>(t.height);
+    return bytes;
+}
+
+uint64_t Loader::output_bytes() const {
+    return vector_bytes(positions_) + vector_bytes(normals_) + vector_bytes(uvs_) + vector_bytes(uvs1_) +
+           vector_bytes(tangents_) + vector_bytes(indices_) + vector_bytes(triangle_material_) + vector_bytes(materials_);
+}
+
 void Loader::emit(pm_scene *out) {
+    forecast_phase(file_bytes_ + model_bytes() + decoded_bytes() + 2 * output_bytes());
     pm_scene s;
     memset(&s, 0, sizeof s);
     try {
@@ -2404,6 +2442,7 @@ void Loader::choose_frame() {
 
 void Loader::load(pm_scene *out) {
     std::vector<unsigned char> file = read_model_file();
+    file_bytes_ = file.capacity();
     split_container(file);
     model_from_json();
 
@@ -2503,6 +2542,7 @@ bool run_loader(const char *path, const unsigned char *data, size_t size, bool q
             report->ignored_inputs = loader.ignored_inputs();
             report->unit_scale = loader.unit_scale();
             report->recentered = loader.recentered();
+            report->peak_bytes = loader.forecast_peak();
             for (const std::string &w : loader.warnings())
                 if (!quiet) fprintf(stderr, "pmview: warning: %s: %s\n", path, w.c_str());
         }

@@ -107,6 +107,8 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
         fprintf(stderr, "pmview: error: %s\n", err);
         return 1;
     }
+    /* the forecast's baseline: code, libraries and (with a window) its context, before any scene */
+    pm_memory_forecast_start();
     pm_load_report report;
     say_stage(r, "loading");
     if (!pm_load_gltf(o->scene_path, o->quiet, &r->scene, &report, err, sizeof err)) {
@@ -114,7 +116,9 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
         return 1;
     }
     r->scene_loaded = true;
+    pm_memory_forecast_phase(report.peak_bytes);
     bool finalized = pm_scene_finalize(&r->scene, false, NULL);
+    pm_memory_forecast_hold((int64_t)pm_scene_bytes(&r->scene));
     if (finalized && r->scene.clamped_emission && !o->quiet)
         fprintf(stderr, "pmview: warning: %s: %u emission or light value(s) above %g (or not a number) clamped: a float film could not sum them\n",
                 o->scene_path, r->scene.clamped_emission, (double)PM_MAX_EMISSION);
@@ -152,6 +156,8 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     }
 
     say_stage(r, "building the BVH of");
+    pm_memory_forecast_phase(pm_accel_forecast_bytes(&r->scene, true));
+    pm_memory_forecast_hold((int64_t)pm_accel_forecast_bytes(&r->scene, false));
     r->accel = pm_accel_create(&r->scene, err, sizeof err);
     if (!r->accel) { fprintf(stderr, "pmview: error: %s: %s\n", o->scene_path, err); return 1; }
     if (o->stats) pm_print_bvh_stats(r->accel);
@@ -176,6 +182,7 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     /* from here a signal is the snapshot's: the image so far (none yet) is written, 130 or 143;
      * before, it ends the process at once */
     if (o->snapshot) pm_snapshot_catch_signals(r->session);
+    pm_memory_forecast_hold((int64_t)pm_session_forecast_bytes(r->session));
     if (o->stats) {
         pm_print_film_stats(pm_session_film(r->session));
         fflush(stdout); /* a script waiting for the render to start sees it */
@@ -187,6 +194,8 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
             return 1;
         }
         r->output_reserved = bytes;
+        /* a PNG is composed by the display shader in an offscreen context made for it */
+        pm_memory_forecast_phase(bytes + (pm_has_extension(o->snapshot, ".png") ? PM_GL_RESIDENT_BYTES : 0));
     }
     if (reference) {
         if (!pm_reference_load(reference, o->log != NULL, &r->reference, err, sizeof err)) {

@@ -187,6 +187,43 @@ void pm_memory_clear_failure(void) {
     pthread_mutex_unlock(&failure_lock);
 }
 
+/* ---- the forecast of the peak ---- */
+
+static _Atomic uint64_t forecast_baseline, forecast_peak;
+static _Atomic int64_t forecast_held;
+
+uint64_t pm_memory_resident_bytes(void) {
+    FILE *f = fopen("/proc/self/statm", "r");
+    if (!f) return 0;
+    unsigned long long pages_total = 0, pages_resident = 0;
+    int read = fscanf(f, "%llu %llu", &pages_total, &pages_resident);
+    fclose(f);
+    long page = sysconf(_SC_PAGESIZE);
+    return read == 2 && page > 0 ? (uint64_t)pages_resident * (uint64_t)page : 0;
+}
+
+void pm_memory_forecast_start(void) {
+    atomic_store(&forecast_baseline, pm_memory_resident_bytes());
+    atomic_store(&forecast_held, 0);
+    atomic_store(&forecast_peak, 0);
+}
+
+void pm_memory_forecast_phase(uint64_t transient_bytes) {
+    int64_t held = atomic_load(&forecast_held);
+    uint64_t total = (held > 0 ? (uint64_t)held : 0) + transient_bytes;
+    uint64_t peak = atomic_load(&forecast_peak);
+    while (total > peak && !atomic_compare_exchange_weak(&forecast_peak, &peak, total)) {
+    }
+}
+
+void pm_memory_forecast_hold(int64_t bytes) {
+    atomic_fetch_add(&forecast_held, bytes);
+    pm_memory_forecast_phase(0);
+}
+
+uint64_t pm_memory_forecast(void) { return atomic_load(&forecast_baseline) + atomic_load(&forecast_peak); }
+uint64_t pm_memory_forecast_baseline(void) { return atomic_load(&forecast_baseline); }
+
 bool pm_memory_parse_size(const char *text, uint64_t *bytes) {
     char *end;
     double v = strtod(text, &end);

@@ -103,9 +103,13 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
            eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, threads,
            (unsigned long long)eye_stats.dropped_samples, (unsigned long long)eye_stats.shadow_rays,
            (unsigned long long)eye_stats.shadow_rays_saved, pm_film_pixels_ahead(film));
-    printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu limit_bytes=%llu checked_allocations=%llu\n",
-           peak_rss_bytes(), pm_film_bytes(film), pm_accel_bytes(accel), (unsigned long long)pm_memory_limit(),
-           (unsigned long long)pm_memory_allocations());
+    long peak = peak_rss_bytes();
+    uint64_t estimate = pm_memory_forecast();
+    printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu limit_bytes=%llu checked_allocations=%llu "
+           "estimate_bytes=%llu baseline_bytes=%llu peak_over_estimate=%.3f\n",
+           peak, pm_film_bytes(film), pm_accel_bytes(accel), (unsigned long long)pm_memory_limit(),
+           (unsigned long long)pm_memory_allocations(), (unsigned long long)estimate,
+           (unsigned long long)pm_memory_forecast_baseline(), estimate ? (double)peak / (double)estimate : 0.0);
 }
 
 void pm_print_cluster_stats(const pm_cluster *cluster) {

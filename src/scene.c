@@ -431,6 +431,27 @@ void pm_scene_free(pm_scene *s) {
     memset(s, 0, sizeof *s);
 }
 
+uint64_t pm_scene_bytes(const pm_scene *s) {
+    uint64_t v = s->vertex_count, t = s->triangle_count;
+    uint64_t bytes = v * 2 * sizeof(vec3) + t * 2 * sizeof(uint32_t) + t * 3 * sizeof(uint32_t);
+    if (s->uvs) bytes += v * 2 * sizeof(float);
+    if (s->uvs1) bytes += v * 2 * sizeof(float);
+    if (s->tangents) bytes += v * 4 * sizeof(float);
+    if (s->face_normals) bytes += t * sizeof(vec3);
+    if (s->uv_density) bytes += t * 2 * sizeof(float);
+    bytes += (uint64_t)s->material_count * sizeof(pm_material) + (uint64_t)s->light_count * sizeof(pm_light) +
+             (uint64_t)s->camera_count * sizeof(pm_camera) + (uint64_t)s->texture_count * sizeof(pm_texture);
+    for (uint32_t i = 0; i < s->texture_count; i++) {
+        const pm_texture *x = &s->textures[i];
+        bytes += 4ull * (uint64_t)x->width * (uint64_t)x->height;
+        for (int k = 1; k < x->level_count; k++) bytes += 4ull * (uint64_t)x->level_width[k] * (uint64_t)x->level_height[k];
+    }
+    bytes += (uint64_t)s->emitter_count * (sizeof(uint32_t) + sizeof(vec3) + sizeof(float));
+    if (s->light_cdf) bytes += ((uint64_t)s->light_count + 1) * sizeof(float);
+    if (s->sky_map) bytes += pm_sky_map_bytes(s->sky_map->width, s->sky_map->height);
+    return bytes;
+}
+
 pm_camera pm_scene_auto_camera(const pm_scene *s, float aspect) {
     pm_camera c;
     memset(&c, 0, sizeof c);

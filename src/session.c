@@ -164,6 +164,16 @@ static void choose_classic_photons(const pm_session *s, pm_photon_settings *ps) 
     if (ps->caustic_photons == PM_PHOTONS_AUTO) ps->caustic_photons = (uint64_t)n;
 }
 
+uint64_t pm_session_forecast_bytes(const pm_session *s) {
+    uint64_t bytes = pm_film_bytes(&s->film) + PM_RENDER_RESIDENT_BYTES;
+    if (s->progressive && pm_progressive_uses_photons(s->progressive))
+        bytes += pm_progressive_photons_per_iteration(s->progressive) * sizeof(pm_photon) * PM_PHOTON_PASS_RECORDS;
+    const pm_photon_settings *ps = &s->config.classic_photons;
+    if (s->config.mode == PM_MODE_CLASSIC && s->config.classic_photon_pass)
+        bytes += (ps->global_photons * PM_PHOTON_MAP_RECORDS + ps->caustic_photons) * sizeof(pm_photon);
+    return bytes + pm_shadow_map_forecast_bytes(s->scene, &s->config.shadow);
+}
+
 pm_progressive_settings pm_session_progressive_defaults(int width, int height, uint64_t seed, int threads) {
     pm_progressive_settings ps;
     memset(&ps, 0, sizeof ps);

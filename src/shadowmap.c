@@ -307,6 +307,12 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
     return true;
 }
 
+uint64_t pm_shadow_map_forecast_bytes(const pm_scene *s, const pm_shadow_settings *set) {
+    if (pm_shadow_map_unneeded(s, set)) return 0;
+    /* the records (a photon can leave several: one per surface it crosses) and the table of cells over them */
+    return photons_per_light(set) * s->light_count * PM_SHADOW_RECORDS_PER_PHOTON * sizeof(record);
+}
+
 pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const pm_shadow_settings *set,
                                    pm_shadow_stats *stats) {
     double start = pm_now_seconds();
