@@ -86,5 +86,19 @@ for case in "exr 128 refused" "exr 192 written" "png 192 refused" "png 256 writt
     fi
     within "a 1024-square $1, $3" "$2"
 done
+# The forecast (--stats estimate_bytes) holds the measured peak within 25%, whatever dominates:
+# the scene, the film, photon records of either mode, the PNG's offscreen context
+forecast() { # description, pmview arguments...
+    what=$1; shift
+    ratio=$(./pmview "$@" --stats --quiet | sed -n 's/^stat memory .*peak_over_estimate=\([0-9.]*\).*/\1/p')
+    checks=$((checks + 1))
+    echo "forecast: $what: peak / estimate = $ratio"
+    awk -v r="$ratio" 'BEGIN { exit !(r != "" && r >= 0.75 && r <= 1.25) }' || fail "$what: peak / estimate $ratio outside 0.75-1.25"
+}
+forecast "Cornell box, EXR" scenes/cornell-box.gltf --iterations 2 --snapshot "$tmp/f.exr"
+forecast "Cornell box, classic, PNG" scenes/cornell-box.gltf --mode classic --iterations 1 --snapshot "$tmp/f.png"
+forecast "point room, path traced, PNG" scenes/point-room.gltf --mode pathtrace --iterations 2 --snapshot "$tmp/f.png"
+forecast "point room, 1024-square PNG" scenes/point-room.gltf --width 1024 --iterations 1 --snapshot "$tmp/f.png"
+
 echo "test_memory: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]
