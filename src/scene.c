@@ -169,7 +169,7 @@ static void analyse(pm_scene *s) {
         a->has_thin_glass |= m->may_glass && m->thin_walled;
         a->has_textures |= m->base_color_texture >= 0 || m->emission_texture >= 0 ||
                            m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0 ||
-                           (m->normal_texture >= 0 && s->tangents);
+                           (m->normal_texture >= 0 && s->tangents) || layers_textured(m);
         a->has_non_opaque |= pm_material_can_be_transparent(s, m);
     }
     a->has_emissive_triangles = s->emitter_count > 0;
