@@ -52,6 +52,15 @@ typedef struct {
  * below albedo 1 (tests/test_layers.c), so photons treat it as the plain lobe: D = weight. */
 #define PM_SHEEN_MIN_ROUGHNESS 0.07f
 
+/* The smallest GGX alpha among the lobe's layers: how sharp its sharpest part is (eye.c's gather
+ * rays go on through a lobe sharper than PM_PPM_GATHER_LOBE_ALPHA rather than read photons there). */
+static inline float pm_brdf_sharpest_alpha(const pm_brdf *b) {
+    if (!b->layered) return b->alpha;
+    /* a layered metallic 0 point has no specular base lobe (specular 0): its base is Lambert */
+    float base = b->metallic > 0.f || b->specular > 0.f ? b->alpha : 1.f;
+    return b->clearcoat > 0.f && b->clearcoat_alpha < base ? b->clearcoat_alpha : base;
+}
+
 /* E(cos, sheenRoughness): the directional albedo of the sheen lobe of colour 1 (bilinear in a
  * table integrated once, on first use, thread-safe). */
 float pm_sheen_albedo(float cos_theta, float sheen_roughness);

@@ -270,6 +270,12 @@ static void defaults(void) {
     pm_brdf metal = pm_brdf_at(v3s(1.f), 1.f, 0.6f, 0.f);
     vec3 fn = pm_brdf_eval(&no_spec, v3(0, 0, 1), wo, wi), fm = pm_brdf_eval(&metal, v3(0, 0, 1), wo, wi);
     CHECK_NEAR(fn.x, 0.5 * fm.x + 0.5 / PI_D, 1e-5, 0, "specular 0: half metal, half Lambert");
+    /* the sharpness eye.c's gather rays look at: the coat's where it is sharper, none from a Lambert base */
+    pm_brdf coated = layered(v3s(0.5f), 0.f, 0.1f, 1.f, v3s(1.f), v3s(0.f), 0.5f, 1.f, 0.f);
+    CHECK(pm_brdf_sharpest_alpha(&coated) == PM_GLOSSY_MIN_ALPHA, "a smooth coat is sharp");
+    coated.clearcoat = 0.f;
+    CHECK(pm_brdf_sharpest_alpha(&coated) == 1.f, "a Lambert base is not, whatever its roughness");
+    CHECK_NEAR(pm_brdf_sharpest_alpha(&metal), 0.36, 1e-6, 0, "a plain lobe: its alpha");
 }
 
 int main(void) {
