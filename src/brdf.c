@@ -25,9 +25,6 @@ static inline float ggx_dv(float a2, float cos_o, float cos_i, float cos_h) {
     return ggx_d(a2, cos_h) * vis;
 }
 
-/* The dielectric's specular weight and F0: KHR_materials_specular's, or the defaults 1 and 0.04. */
-static inline float dielectric_weight(const pm_brdf *b) { return b->layered ? b->specular : 1.f; }
-static inline vec3 dielectric_f0(const pm_brdf *b) { return b->layered ? b->specular_f0 : v3s(0.04f); }
 
 /* 1 - specular x F(max3 F0, cos): the share the dielectric's specular leaves its diffuse base. */
 static inline float dielectric_transmittance(float specular, float f0_max, float cos_theta) {
@@ -115,10 +112,11 @@ static inline bool has_coat(const pm_brdf *b) { return b->layered && b->clearcoa
  * of its share. */
 typedef struct { float coat, specular, diffuse, sheen; } lobe_choice;
 
-static lobe_choice choose_lobes(const pm_brdf *b, float cos_o) {
-    lobe_choice p = {0.f, 0.f, 0.f, 0.f};
-    float w = schlick_weight(cos_o), s = dielectric_weight(b);
-    vec3 f0v = dielectric_f0(b);
+/* The base's specular probability and its estimated albedo at wo, with the dielectric's weight s
+ * and F0 (KHR_materials_specular's, or the constants 1 and 0.04, which inlining folds in for the
+ * plain lobe). */
+static inline float base_specular_probability(const pm_brdf *b, float s, vec3 f0v, float cos_o, float *albedo) {
+    float w = schlick_weight(cos_o);
     float f0_d = v3_average(f0v), f0_max = v3_max_component(f0v);
     float f0 = (1.f - b->metallic) * s * f0_d + b->metallic * v3_average(b->base);
     float f90 = 1.f - (1.f - b->metallic) * (1.f - s);
@@ -127,15 +125,23 @@ static lobe_choice choose_lobes(const pm_brdf *b, float cos_o) {
     float p_spec = 1.f;
     if (!(spec > 0.f)) p_spec = 0.f; /* the dielectric alone with specular 0: Lambert */
     else if (diff > 0.f) p_spec = pm_minf(0.8f, pm_maxf(0.2f, spec / (spec + diff)));
+    *albedo = spec + diff;
+    return p_spec;
+}
+
+static inline lobe_choice choose_lobes(const pm_brdf *b, float cos_o) {
+    lobe_choice p = {0.f, 0.f, 0.f, 0.f};
+    float estimate;
     if (!b->layered) {
-        p.specular = p_spec;
-        p.diffuse = 1.f - p_spec;
+        p.specular = base_specular_probability(b, 1.f, v3s(0.04f), cos_o, &estimate);
+        p.diffuse = 1.f - p.specular;
         return p;
     }
+    float p_spec = base_specular_probability(b, b->specular, b->specular_f0, cos_o, &estimate);
     float coat = has_coat(b) ? b->clearcoat * coat_fresnel(cos_o) : 0.f;
     float sheen_share = has_sheen(b) ? v3_max_component(b->sheen_color) * pm_sheen_albedo(cos_o, b->sheen_roughness) : 0.f;
     float sheen = (1.f - coat) * sheen_share;
-    float base = (1.f - coat) * pm_maxf(0.f, 1.f - sheen_share) * (spec + diff);
+    float base = (1.f - coat) * pm_maxf(0.f, 1.f - sheen_share) * estimate;
     float total = coat + sheen + base;
     int present = 1 + (coat > 0.f) + (sheen > 0.f);
     float floor_share = 0.1f / present;
@@ -151,20 +157,13 @@ static lobe_choice choose_lobes(const pm_brdf *b, float cos_o) {
 
 /* ---- evaluation ---- */
 
-vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
-    float cos_o = v3_dot(n, wo), cos_i = v3_dot(n, wi);
-    if (!(cos_o > 0.f) || !(cos_i > 0.f)) return v3s(0.f);
-    vec3 h = v3_add(wo, wi);
-    float hl = v3_length(h);
-    if (!(hl > 0.f)) return v3s(0.f);
-    h = v3_scale(h, 1.f / hl);
-    float cos_h = pm_maxf(0.f, v3_dot(n, h)), v_h = pm_maxf(0.f, v3_dot(wo, h));
+/* The base lobe (metal and dielectric, the dielectric's weight s and F0 as in
+ * base_specular_probability). */
+static inline vec3 base_eval(const pm_brdf *b, float s, vec3 f0d, float cos_o, float cos_i, float cos_h, float v_h) {
     float dv = ggx_dv(b->alpha * b->alpha, cos_o, cos_i, cos_h), w = schlick_weight(v_h);
     /* Schlick is linear in F0 and F90: the metal (F0 = base, F90 = 1) and the dielectric (F0 =
      * specular_f0, F90 = specular) merge into one lobe; with the defaults this is
      * F0 = mix(0.04, base, metallic), F90 = 1 */
-    float s = dielectric_weight(b);
-    vec3 f0d = dielectric_f0(b);
     vec3 f0 = v3_add(v3_scale(f0d, (1.f - b->metallic) * s), v3_scale(b->base, b->metallic));
     float f90 = 1.f - (1.f - b->metallic) * (1.f - s);
     vec3 fresnel = v3_add(f0, v3_scale(v3_sub(v3s(f90), f0), w));
@@ -174,20 +173,30 @@ vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
     float f0_max = v3_max_component(f0d);
     float diffuse = (1.f - b->metallic) * dielectric_transmittance(s, f0_max, cos_o) *
                     dielectric_transmittance(s, f0_max, cos_i) * PM_INV_PI;
-    vec3 f = v3_add(v3_scale(fresnel, dv), v3_scale(b->base, diffuse));
-    if (b->layered) {
-        if (has_sheen(b)) {
-            float r = b->sheen_roughness, m = v3_max_component(b->sheen_color);
-            float scale = pm_minf(1.f - m * pm_sheen_albedo(cos_o, r), 1.f - m * pm_sheen_albedo(cos_i, r));
-            float sheen = (float)charlie_dv(r, cos_o, cos_i, cos_h);
-            f = v3_add(v3_scale(f, pm_maxf(0.f, scale)), v3_scale(b->sheen_color, sheen));
-        }
-        if (has_coat(b)) {
-            float c = b->clearcoat;
-            float coat = c * coat_fresnel(v_h) * ggx_dv(b->clearcoat_alpha * b->clearcoat_alpha, cos_o, cos_i, cos_h);
-            float under = (1.f - c * coat_fresnel(cos_o)) * (1.f - c * coat_fresnel(cos_i));
-            f = v3_add(v3_scale(f, under), v3s(coat));
-        }
+    return v3_add(v3_scale(fresnel, dv), v3_scale(b->base, diffuse));
+}
+
+vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
+    float cos_o = v3_dot(n, wo), cos_i = v3_dot(n, wi);
+    if (!(cos_o > 0.f) || !(cos_i > 0.f)) return v3s(0.f);
+    vec3 h = v3_add(wo, wi);
+    float hl = v3_length(h);
+    if (!(hl > 0.f)) return v3s(0.f);
+    h = v3_scale(h, 1.f / hl);
+    float cos_h = pm_maxf(0.f, v3_dot(n, h)), v_h = pm_maxf(0.f, v3_dot(wo, h));
+    if (!b->layered) return v3_scale(base_eval(b, 1.f, v3s(0.04f), cos_o, cos_i, cos_h, v_h), b->weight);
+    vec3 f = base_eval(b, b->specular, b->specular_f0, cos_o, cos_i, cos_h, v_h);
+    if (has_sheen(b)) {
+        float r = b->sheen_roughness, m = v3_max_component(b->sheen_color);
+        float scale = pm_minf(1.f - m * pm_sheen_albedo(cos_o, r), 1.f - m * pm_sheen_albedo(cos_i, r));
+        float sheen = (float)charlie_dv(r, cos_o, cos_i, cos_h);
+        f = v3_add(v3_scale(f, pm_maxf(0.f, scale)), v3_scale(b->sheen_color, sheen));
+    }
+    if (has_coat(b)) {
+        float c = b->clearcoat;
+        float coat = c * coat_fresnel(v_h) * ggx_dv(b->clearcoat_alpha * b->clearcoat_alpha, cos_o, cos_i, cos_h);
+        float under = (1.f - c * coat_fresnel(cos_o)) * (1.f - c * coat_fresnel(cos_i));
+        f = v3_add(v3_scale(f, under), v3s(coat));
     }
     return v3_scale(f, b->weight);
 }
@@ -205,7 +214,8 @@ float pm_brdf_pdf(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
     float cos_o = v3_dot(n, wo), cos_i = v3_dot(n, wi);
     if (!(cos_o > 0.f) || !(cos_i > 0.f)) return 0.f;
     lobe_choice p = choose_lobes(b, cos_o);
-    float pdf = p.diffuse * cos_i * PM_INV_PI + p.sheen * (0.5f * PM_INV_PI);
+    float pdf = p.diffuse * cos_i * PM_INV_PI;
+    if (b->layered) pdf += p.sheen * (0.5f * PM_INV_PI);
     vec3 h = v3_add(wo, wi);
     float hl = v3_length(h);
     if (hl > 0.f) {
@@ -234,7 +244,7 @@ static vec3 sample_visible_normal(float alpha, vec3 v, float u1, float u2) {
     return v3_normalize(v3(alpha * nh.x, alpha * nh.y, pm_maxf(1e-7f, nh.z))); /* back to the ellipsoid */
 }
 
-static vec3 sample_ggx_reflection(float alpha, vec3 n, vec3 wo, float cos_o, float u1, float u2) {
+static inline vec3 sample_ggx_reflection(float alpha, vec3 n, vec3 wo, float cos_o, float u1, float u2) {
     vec3 t, bt;
     v3_basis(n, &t, &bt);
     vec3 local = v3(v3_dot(wo, t), v3_dot(wo, bt), cos_o);
