@@ -1275,6 +1275,25 @@ static void test_layer_extensions(void) {
     pm_scene_free(&s);
 }
 
+/* Bad layer members: one line naming the member and material; an out-of-range factor is clamped with a warning. */
+static void test_layer_extensions_bad(void) {
+    prim_spec tri = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, 0};
+    doc_spec bad_color = {NULL, NULL, "[{\"extensions\":{\"KHR_materials_sheen\":{\"sheenColorFactor\":[1,\"x\",0]}}}]", NULL};
+    write_model("bad_sheen.gltf", &tri, 1, &bad_color);
+    check_rejected("bad_sheen.gltf", "sheenColorFactor must be 3 numbers");
+    doc_spec bad_factor = {NULL, NULL, "[{\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":true}}}]", NULL};
+    write_model("bad_coat.gltf", &tri, 1, &bad_factor);
+    check_rejected("bad_coat.gltf", "clearcoatFactor");
+    doc_spec big = {NULL, NULL, "[{\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1.5}}}]", NULL};
+    write_model("big_coat.gltf", &tri, 1, &big);
+    pm_scene s;
+    pm_load_report r;
+    if (!load_ok("big_coat.gltf", &s, &r)) return;
+    CHECK(r.warnings == 1 && s.material_count >= 1 && s.materials[0].layers.clearcoat == 1.f,
+          "clearcoatFactor 1.5: clamped to 1 with one warning (warnings %u)", r.warnings);
+    pm_scene_free(&s);
+}
+
 /* SHORT normalized positions under a node scale and translation, BYTE normalized normals and unnormalized
  * UNSIGNED_BYTE texture coordinates load to the float version's values. */
 static void test_mesh_quantization(void) {
@@ -1884,6 +1903,7 @@ int main(void) {
     test_texture_transform();
     test_data_textures();
     test_layer_extensions();
+    test_layer_extensions_bad();
     test_mesh_quantization();
     test_normal_maps();
     test_tangent_w();
