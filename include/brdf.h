@@ -25,7 +25,45 @@ typedef struct {
     float metallic;  /* [0, 1] */
     float alpha;     /* GGX alpha = roughness^2, at least PM_GLOSSY_MIN_ALPHA */
     float weight;    /* the share of the surface the lobe covers: 1 minus the glass share */
+    /* Layers of KHR_materials_specular, _sheen and _clearcoat; read only when `layered` (a
+     * struct without it, as built before them, is the plain lobe above). See below. */
+    bool layered;
+    float specular;        /* specularFactor: the dielectric lobe's weight and its F90; 1 by default */
+    vec3 specular_f0;      /* min(0.04 x specularColorFactor, 1): the dielectric's F0; 0.04 by default */
+    vec3 sheen_color;      /* sheenColorFactor (x texture); 0: no sheen */
+    float sheen_roughness; /* sheenRoughnessFactor (x texture), at least PM_SHEEN_MIN_ROUGHNESS */
+    float clearcoat;       /* clearcoatFactor (x texture); 0: no coat */
+    float clearcoat_alpha; /* GGX alpha of the coat = clearcoatRoughness^2, at least PM_GLOSSY_MIN_ALPHA */
 } pm_brdf;
+
+/* The layers, each as its extension text defines it (a reciprocal form where the text's is not):
+ *
+ *   specular:  the dielectric part above with F0 = specular_f0 and F90 = specular, its diffuse
+ *              base under 1 - specular x F(max(specular_f0), cos) at the two macro angles;
+ *   sheen:     f_sheen = sheen_color D_Charlie(h) V_Charlie (Conty Estevez and Kulla 2017, the
+ *              visibility of their lambda fit, alphaG = sheenRoughness), the layers below times
+ *              min(1 - max3(sheen_color) E(cos_o), 1 - max3(sheen_color) E(cos_i)) with E the
+ *              sheen lobe's directional albedo (a table, pm_sheen_albedo);
+ *   clearcoat: c F(0.04, v.h) D(h; clearcoat_alpha) V on top, everything below times
+ *              (1 - c F(0.04, cos_o)) (1 - c F(0.04, cos_i)); the coat uses the base's normal.
+ *
+ * Sampling picks the coat, the base's specular lobe, its cosine lobe or the sheen (uniform over
+ * the hemisphere) in proportion to their estimated albedos at wo. The whole stays reciprocal and
+ * below albedo 1 (tests/test_layers.c), so photons treat it as the plain lobe: D = weight. */
+#define PM_SHEEN_MIN_ROUGHNESS 0.07f
+
+/* The smallest GGX alpha among the lobe's layers: how sharp its sharpest part is (eye.c's gather
+ * rays go on through a lobe sharper than PM_PPM_GATHER_LOBE_ALPHA rather than read photons there). */
+static inline float pm_brdf_sharpest_alpha(const pm_brdf *b) {
+    if (!b->layered) return b->alpha;
+    /* a layered metallic 0 point has no specular base lobe (specular 0): its base is Lambert */
+    float base = b->metallic > 0.f || b->specular > 0.f ? b->alpha : 1.f;
+    return b->clearcoat > 0.f && b->clearcoat_alpha < base ? b->clearcoat_alpha : base;
+}
+
+/* E(cos, sheenRoughness): the directional albedo of the sheen lobe of colour 1 (bilinear in a
+ * table integrated once, on first use, thread-safe). */
+float pm_sheen_albedo(float cos_theta, float sheen_roughness);
 
 /* f(wo, wi), the cosine not included. */
 vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi);

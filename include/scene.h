@@ -44,6 +44,25 @@ typedef struct {
     float m[6];
 } pm_uv_transform;
 
+/* A texture reference of the layer extensions: the texture (-1 none), its TEXCOORD set (0 or 1) and transform. */
+typedef struct {
+    int texture, texcoord;
+    pm_uv_transform transform;
+} pm_texture_ref;
+
+/* KHR_materials_specular, _sheen and _clearcoat on a material (the model: brdf.h): the factors,
+ * each times its texture's channel (colour textures sRGB, the others linear). */
+typedef struct {
+    float specular;                             /* specularFactor x specularTexture's A */
+    vec3 specular_color;                        /* specularColorFactor x specularColorTexture's RGB */
+    vec3 sheen_color;                           /* sheenColorFactor x sheenColorTexture's RGB */
+    float sheen_roughness;                      /* sheenRoughnessFactor x sheenRoughnessTexture's A */
+    float clearcoat;                            /* clearcoatFactor x clearcoatTexture's R */
+    float clearcoat_roughness;                  /* clearcoatRoughnessFactor x clearcoatRoughnessTexture's G */
+    pm_texture_ref specular_texture, specular_color_texture, sheen_color_texture, sheen_roughness_texture,
+        clearcoat_texture, clearcoat_roughness_texture;
+} pm_material_layers;
+
 /* glTF metallic-roughness material plus the extensions we honour; see docs/design.md (Materials) for the mapping
  * to the diffuse (D) and specular (S) coefficients used by Russian roulette. Each texture has
  * its TEXCOORD set (0 or 1; 1 reads the scene's uvs1) and its transform. */
@@ -77,6 +96,10 @@ typedef struct {
     int normal_texture, normal_texcoord;
     float normal_scale;
     pm_uv_transform normal_transform;
+    /* some layer extension (pm_material_layers) is on the material: its points are all glossy
+     * (the layered lobe, brdf.h); false: `layers` is not read */
+    bool layered;
+    pm_material_layers layers;
     /* derived by pm_scene_finalize: whether each lobe's weight can be non-zero at some point of
      * the material (the factors with the data textures' whole range of texel values) */
     bool may_diffuse, may_mirror, may_glass, may_glossy;
@@ -357,7 +380,23 @@ static inline pm_brdf pm_brdf_at(vec3 base, float metallic, float roughness, flo
     b.metallic = metal;
     b.alpha = pm_maxf(PM_GLOSSY_MIN_ALPHA, rough * rough);
     b.weight = 1.f - pm_clamp01(transmission) * (1.f - metal);
+    b.layered = false;
     return b;
+}
+/* The layers at a point (their textures applied) added to its lobe b. The dielectric's specular
+ * lobe, which a metallic 0 point does not render (it is Lambert), stays off there (specular 0:
+ * the diffuse base unattenuated), so a coat or sheen lies on the same base as without them. */
+static inline void pm_brdf_add_layers(pm_brdf *b, float specular, vec3 specular_color, vec3 sheen_color,
+                                      float sheen_roughness, float clearcoat, float clearcoat_roughness) {
+    b->layered = true;
+    b->specular = b->metallic > 0.f ? pm_clamp01(specular) : 0.f;
+    vec3 c = v3_scale(specular_color, 0.04f);
+    b->specular_f0 = v3(pm_clamp01(c.x), pm_clamp01(c.y), pm_clamp01(c.z));
+    b->sheen_color = v3(pm_clamp01(sheen_color.x), pm_clamp01(sheen_color.y), pm_clamp01(sheen_color.z));
+    b->sheen_roughness = pm_maxf(PM_SHEEN_MIN_ROUGHNESS, pm_clamp01(sheen_roughness));
+    b->clearcoat = pm_clamp01(clearcoat);
+    float r = pm_clamp01(clearcoat_roughness);
+    b->clearcoat_alpha = pm_maxf(PM_GLOSSY_MIN_ALPHA, r * r);
 }
 /* The same with the material's factors alone. */
 static inline pm_brdf pm_material_brdf(const pm_material *m, vec3 base) {

@@ -1,14 +1,15 @@
 #!/usr/bin/env python3
-# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, mirror-caustic.gltf, point-room.gltf, window-room.gltf) and exposes them as Python data.
+# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, layered-spheres.gltf, mirror-caustic.gltf, point-room.gltf, window-room.gltf) and exposes them as Python data.
 """Scene generator for pmview (standard library only, deterministic).
 
-    python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, mirror-caustic.gltf,
+    python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, layered-spheres.gltf, mirror-caustic.gltf,
                                              # point-room.gltf, window-room.gltf
     python3 scenes/make_scenes.py --segments 96 --light-strength 40 --out /tmp
 
 Each scene is a dict: {"meshes": [mesh], "camera": camera, "lights": [light]} where a mesh is
 {"name", "positions" (local), "normals", "indices", "material", "translation", "scale"}, a
-material is {"kind": "diffuse"|"mirror"|"glass"|"emitter"|"metal", "color", "strength", "roughness"}
+material is {"kind": "diffuse"|"mirror"|"glass"|"emitter"|"metal"|"layered", "color", "strength", "roughness"}
+(a layered one also "metallic" and its "extensions" object, written as they are)
 and a light is {"type": "point", "position", "color", "intensity" (W/sr)} or {"type": "directional",
 "direction" (unit, the way the light travels), "color", "intensity" (W/m^2 across the beam)}. The glTF
 writer and tools/mitsuba_reference.py both read these dicts, so the reference renders see the
@@ -161,6 +162,33 @@ def glossy_spheres(segments=48, light_strength=12.0):
     return {"meshes": meshes, "camera": camera, "lights": []}
 
 
+def layered_spheres(segments=48, light_strength=12.0):
+    """The layer extensions on three spheres on a grey floor under a square lamp: red paint under a
+    smooth clearcoat (KHR_materials_clearcoat), blue velvet with a warm sheen (KHR_materials_sheen),
+    and a half-metal whose dielectric share reflects a tinted, stronger F0 (KHR_materials_specular)."""
+    h = 0.5
+    meshes = [
+        mesh("floor", quad([(-3, 0, 3), (3, 0, 3), (3, 0, -3), (-3, 0, -3)], (0, 1, 0)),
+             {"kind": "diffuse", "color": (0.5, 0.5, 0.5)}),
+        mesh("clearcoat_paint", uv_sphere(segments, segments // 2),
+             {"kind": "layered", "color": (0.6, 0.05, 0.05), "metallic": 0.0, "roughness": 0.6,
+              "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 0.05}}},
+             translation=(-1.1, 0.5, 0.0), scale=0.5),
+        mesh("sheen_velvet", uv_sphere(segments, segments // 2),
+             {"kind": "layered", "color": (0.05, 0.08, 0.4), "metallic": 0.0, "roughness": 1.0,
+              "extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1.0, 0.8, 0.6], "sheenRoughnessFactor": 0.4}}},
+             translation=(0.0, 0.5, 0.0), scale=0.5),
+        mesh("specular_tint", uv_sphere(segments, segments // 2),
+             {"kind": "layered", "color": (0.8, 0.8, 0.8), "metallic": 0.5, "roughness": 0.35,
+              "extensions": {"KHR_materials_specular": {"specularFactor": 1.0, "specularColorFactor": [4.0, 2.0, 1.0]}}},
+             translation=(1.1, 0.5, 0.0), scale=0.5),
+        mesh("lamp", quad([(-h, 2.5, -h - 0.5), (h, 2.5, -h - 0.5), (h, 2.5, h - 0.5), (-h, 2.5, h - 0.5)], (0, -1, 0)),
+             {"kind": "emitter", "color": (1.0, 0.95, 0.9), "strength": light_strength}),
+    ]
+    camera = {"eye": (0.0, 1.3, 3.6), "target": (0.0, 0.45, 0.0), "yfov": math.radians(40.0), "aspect": 1.0}
+    return {"meshes": meshes, "camera": camera, "lights": []}
+
+
 def mirror_caustic(segments=64, light_strength=50.0, light_radius=0.2):
     """A glass ball's caustic seen directly and in a mirror wall, lit by a small emissive sphere:
     the path eye -> mirror -> floor -> glass -> glass -> lamp is hard for a path tracer (only a
@@ -253,6 +281,9 @@ def gltf_material(m):
         out["extensions"] = {"KHR_materials_transmission": {"transmissionFactor": 1.0},
                              "KHR_materials_ior": {"ior": m.get("ior", 1.5)},
                              "KHR_materials_volume": {"thicknessFactor": 1.0}}
+    elif m["kind"] == "layered":
+        pbr.update(metallicFactor=m["metallic"], roughnessFactor=m["roughness"])
+        out["extensions"] = m["extensions"]
     elif m["kind"] == "emitter":
         pbr.update(baseColorFactor=[0.0, 0.0, 0.0, 1.0], metallicFactor=0.0, roughnessFactor=1.0)
         out["emissiveFactor"] = list(m["color"])
@@ -347,6 +378,7 @@ def main():
     for name, scene in (("cornell-box.gltf", cornell_box(args.segments, args.light_strength)),
                         ("caustic.gltf", caustic(max(args.segments, 64), args.point_intensity)),
                         ("glossy-spheres.gltf", glossy_spheres(args.segments)),
+                        ("layered-spheres.gltf", layered_spheres(args.segments)),
                         ("mirror-caustic.gltf", mirror_caustic(max(args.segments, 64))),
                         ("point-room.gltf", point_room(args.segments)),
                         ("window-room.gltf", window_room())):

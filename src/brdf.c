@@ -1,5 +1,10 @@
-/* brdf.c: the glTF metallic-roughness BRDF of brdf.h: GGX D, height-correlated Smith V, Schlick F, visible-normal sampling. */
+/* brdf.c: the glTF metallic-roughness BRDF of brdf.h with its specular, sheen and clearcoat layers: GGX D, height-correlated Smith V, Schlick F, Charlie sheen, their sampling. */
 #include "brdf.h"
+
+#include <math.h>
+#include <pthread.h>
+
+static const double pi_d = 3.14159265358979323846;
 
 static inline float schlick_weight(float cos_theta) {
     float m = pm_maxf(0.f, 1.f - cos_theta), m2 = m * m;
@@ -14,17 +19,161 @@ static inline float ggx_d(float alpha2, float cos_h) {
 /* sqrt(cos^2 (1 - alpha^2) + alpha^2) = cos x (1 + 2 Lambda): Smith's term for one direction. */
 static inline float smith_root(float alpha2, float c) { return sqrtf(c * c * (1.f - alpha2) + alpha2); }
 
-/* Probability of sampling the specular lobe: the lobes' Fresnel-weighted reflectance at wo
- * (depends on wo only, as the pdf requires). A diffuse share keeps at least a fifth of the
- * samples, and the specular lobe too, so neither part is left to rare samples. */
-static float specular_probability(const pm_brdf *b, float cos_o) {
+/* D V of GGX at alpha^2 for the pair (cosines cos_o, cos_i, half-vector cosine cos_h). */
+static inline float ggx_dv(float a2, float cos_o, float cos_i, float cos_h) {
+    float vis = 0.5f / (cos_i * smith_root(a2, cos_o) + cos_o * smith_root(a2, cos_i));
+    return ggx_d(a2, cos_h) * vis;
+}
+
+
+/* 1 - specular x F(max3 F0, cos): the share the dielectric's specular leaves its diffuse base. */
+static inline float dielectric_transmittance(float specular, float f0_max, float cos_theta) {
+    return 1.f - specular * (f0_max + (1.f - f0_max) * schlick_weight(cos_theta));
+}
+
+static inline float coat_fresnel(float c) { return 0.04f + 0.96f * schlick_weight(c); }
+
+/* ---- sheen (KHR_materials_sheen: Charlie distribution and visibility, Conty Estevez and Kulla 2017) ---- */
+
+static double charlie_l(double x, double r) {
+    double t = (1.0 - r) * (1.0 - r);
+    double a = 21.5473 + (25.3245 - 21.5473) * t, b = 3.82987 + (3.32435 - 3.82987) * t;
+    double c = 0.19823 + (0.16801 - 0.19823) * t, d = -1.97760 + (-1.27393 + 1.97760) * t;
+    double e = -4.32054 + (-4.85967 + 4.32054) * t;
+    return a / (1.0 + b * pow(x, c)) + d * x + e;
+}
+
+static double charlie_lambda(double c, double r) {
+    return c < 0.5 ? exp(charlie_l(c, r)) : exp(2.0 * charlie_l(0.5, r) - charlie_l(1.0 - c, r));
+}
+
+/* D_Charlie(h) V_Charlie(wo, wi) (double: the table integrates it; eval rounds it to float). */
+static double charlie_dv(double r, double cos_o, double cos_i, double cos_h) {
+    double inv_r = 1.0 / r, sin2h = fmax(0.0, 1.0 - cos_h * cos_h);
+    double d = (2.0 + inv_r) * pow(sin2h, 0.5 * inv_r) / (2.0 * pi_d);
+    double v = 1.0 / ((1.0 + charlie_lambda(cos_o, r) + charlie_lambda(cos_i, r)) * 4.0 * cos_o * cos_i);
+    return d * v;
+}
+
+enum { SHEEN_COS_STEPS = 32, SHEEN_ROUGH_STEPS = 16, SHEEN_THETA_QUAD = 48, SHEEN_PHI_QUAD = 24 };
+static float sheen_table[SHEEN_ROUGH_STEPS][SHEEN_COS_STEPS];
+static pthread_once_t sheen_once = PTHREAD_ONCE_INIT;
+
+static float sheen_node_roughness(int j) {
+    return PM_SHEEN_MIN_ROUGHNESS + (1.f - PM_SHEEN_MIN_ROUGHNESS) * (float)j / (SHEEN_ROUGH_STEPS - 1);
+}
+
+/* Directional albedo at cosine c by midpoint quadrature in (cos_i, phi), phi over half the circle
+ * (the lobe is symmetric about the plane of wo and n). */
+static void fill_sheen_table(void) {
+    for (int j = 0; j < SHEEN_ROUGH_STEPS; j++) {
+        double r = sheen_node_roughness(j);
+        for (int k = 0; k < SHEEN_COS_STEPS; k++) {
+            double cos_o = fmax(1e-3, (double)k / (SHEEN_COS_STEPS - 1)), sin_o = sqrt(1.0 - cos_o * cos_o), sum = 0.0;
+            for (int a = 0; a < SHEEN_THETA_QUAD; a++) {
+                double cos_i = (a + 0.5) / SHEEN_THETA_QUAD, sin_i = sqrt(1.0 - cos_i * cos_i);
+                for (int p = 0; p < SHEEN_PHI_QUAD; p++) {
+                    double phi = pi_d * (p + 0.5) / SHEEN_PHI_QUAD;
+                    /* wo = (sin_o, 0, cos_o), wi = (sin_i cos phi, sin_i sin phi, cos_i) */
+                    double hx = sin_o + sin_i * cos(phi), hy = sin_i * sin(phi), hz = cos_o + cos_i;
+                    double cos_h = hz / sqrt(hx * hx + hy * hy + hz * hz);
+                    sum += charlie_dv(r, cos_o, cos_i, cos_h) * cos_i;
+                }
+            }
+            /* d omega = d cos_i d phi; phi over [0, pi] counted twice */
+            sheen_table[j][k] = (float)(sum * 2.0 * (1.0 / SHEEN_THETA_QUAD) * (pi_d / SHEEN_PHI_QUAD));
+        }
+    }
+}
+
+float pm_sheen_albedo(float cos_theta, float sheen_roughness) {
+    pthread_once(&sheen_once, fill_sheen_table);
+    float x = pm_minf(1.f, pm_maxf(0.f, cos_theta)) * (SHEEN_COS_STEPS - 1);
+    float y = (pm_maxf(PM_SHEEN_MIN_ROUGHNESS, pm_minf(1.f, sheen_roughness)) - PM_SHEEN_MIN_ROUGHNESS) /
+              (1.f - PM_SHEEN_MIN_ROUGHNESS) * (SHEEN_ROUGH_STEPS - 1);
+    int x0 = (int)x, y0 = (int)y;
+    if (x0 > SHEEN_COS_STEPS - 2) x0 = SHEEN_COS_STEPS - 2;
+    if (y0 > SHEEN_ROUGH_STEPS - 2) y0 = SHEEN_ROUGH_STEPS - 2;
+    float fx = x - x0, fy = y - y0;
+    float lo = sheen_table[y0][x0] + (sheen_table[y0][x0 + 1] - sheen_table[y0][x0]) * fx;
+    float hi = sheen_table[y0 + 1][x0] + (sheen_table[y0 + 1][x0 + 1] - sheen_table[y0 + 1][x0]) * fx;
+    return lo + (hi - lo) * fy;
+}
+
+static inline bool has_sheen(const pm_brdf *b) { return b->layered && v3_max_component(b->sheen_color) > 0.f; }
+static inline bool has_coat(const pm_brdf *b) { return b->layered && b->clearcoat > 0.f; }
+
+/* ---- lobe choice ---- */
+
+/* The probabilities of the four sampling techniques at wo (they depend on wo only, as the pdf
+ * requires): in proportion to each layer's estimated albedo there. Within the base, the
+ * specular lobe's share is its Fresnel-weighted reflectance's, kept within [0.2, 0.8] while there
+ * is a diffuse part so neither is left to rare samples; a coat or sheen keeps at least a tenth
+ * of its share. */
+typedef struct { float coat, specular, diffuse, sheen; } lobe_choice;
+
+/* The base's specular probability and its estimated albedo at wo, with the dielectric's weight s
+ * and F0 (KHR_materials_specular's, or the constants 1 and 0.04, which inlining folds in for the
+ * plain lobe). */
+static inline float base_specular_probability(const pm_brdf *b, float s, vec3 f0v, float cos_o, float *albedo) {
     float w = schlick_weight(cos_o);
-    float f0 = 0.04f * (1.f - b->metallic) + b->metallic * v3_average(b->base);
-    float spec = f0 + (1.f - f0) * w;
-    float diff = (1.f - b->metallic) * v3_average(b->base) * (1.f - (0.04f + 0.96f * w));
-    if (!(diff > 0.f)) return 1.f;
-    float p = spec / (spec + diff);
-    return pm_minf(0.8f, pm_maxf(0.2f, p));
+    float f0_d = v3_average(f0v), f0_max = v3_max_component(f0v);
+    float f0 = (1.f - b->metallic) * s * f0_d + b->metallic * v3_average(b->base);
+    float f90 = 1.f - (1.f - b->metallic) * (1.f - s);
+    float spec = f0 + (f90 - f0) * w;
+    float diff = (1.f - b->metallic) * v3_average(b->base) * dielectric_transmittance(s, f0_max, cos_o);
+    float p_spec = 1.f;
+    if (!(spec > 0.f)) p_spec = 0.f; /* the dielectric alone with specular 0: Lambert */
+    else if (diff > 0.f) p_spec = pm_minf(0.8f, pm_maxf(0.2f, spec / (spec + diff)));
+    *albedo = spec + diff;
+    return p_spec;
+}
+
+static inline lobe_choice choose_lobes(const pm_brdf *b, float cos_o) {
+    lobe_choice p = {0.f, 0.f, 0.f, 0.f};
+    float estimate;
+    if (!b->layered) {
+        p.specular = base_specular_probability(b, 1.f, v3s(0.04f), cos_o, &estimate);
+        p.diffuse = 1.f - p.specular;
+        return p;
+    }
+    float p_spec = base_specular_probability(b, b->specular, b->specular_f0, cos_o, &estimate);
+    float coat = has_coat(b) ? b->clearcoat * coat_fresnel(cos_o) : 0.f;
+    float sheen_share = has_sheen(b) ? v3_max_component(b->sheen_color) * pm_sheen_albedo(cos_o, b->sheen_roughness) : 0.f;
+    float sheen = (1.f - coat) * sheen_share;
+    float base = (1.f - coat) * pm_maxf(0.f, 1.f - sheen_share) * estimate;
+    float total = coat + sheen + base;
+    int present = 1 + (coat > 0.f) + (sheen > 0.f);
+    float floor_share = 0.1f / present;
+    float pc = coat > 0.f ? 0.9f * coat / total + floor_share : 0.f;
+    float ps = sheen > 0.f ? 0.9f * sheen / total + floor_share : 0.f;
+    float pb = 1.f - pc - ps;
+    p.coat = pc;
+    p.sheen = ps;
+    p.specular = pb * p_spec;
+    p.diffuse = pb - p.specular;
+    return p;
+}
+
+/* ---- evaluation ---- */
+
+/* The base lobe (metal and dielectric, the dielectric's weight s and F0 as in
+ * base_specular_probability). */
+static inline vec3 base_eval(const pm_brdf *b, float s, vec3 f0d, float cos_o, float cos_i, float cos_h, float v_h) {
+    float dv = ggx_dv(b->alpha * b->alpha, cos_o, cos_i, cos_h), w = schlick_weight(v_h);
+    /* Schlick is linear in F0 and F90: the metal (F0 = base, F90 = 1) and the dielectric (F0 =
+     * specular_f0, F90 = specular) merge into one lobe; with the defaults this is
+     * F0 = mix(0.04, base, metallic), F90 = 1 */
+    vec3 f0 = v3_add(v3_scale(f0d, (1.f - b->metallic) * s), v3_scale(b->base, b->metallic));
+    float f90 = 1.f - (1.f - b->metallic) * (1.f - s);
+    vec3 fresnel = v3_add(f0, v3_scale(v3_sub(v3s(f90), f0), w));
+    /* The dielectric's diffuse base under its specular coat: Schlick at the two macro angles, not at
+     * v.h as the sample viewer does, whose sum with the coat reflects up to 1.39 at grazing
+     * angles (measured, tests/test_brdf.c) where Russian roulette needs at most 1; still reciprocal. */
+    float f0_max = v3_max_component(f0d);
+    float diffuse = (1.f - b->metallic) * dielectric_transmittance(s, f0_max, cos_o) *
+                    dielectric_transmittance(s, f0_max, cos_i) * PM_INV_PI;
+    return v3_add(v3_scale(fresnel, dv), v3_scale(b->base, diffuse));
 }
 
 vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
@@ -35,34 +184,46 @@ vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
     if (!(hl > 0.f)) return v3s(0.f);
     h = v3_scale(h, 1.f / hl);
     float cos_h = pm_maxf(0.f, v3_dot(n, h)), v_h = pm_maxf(0.f, v3_dot(wo, h));
-    float a2 = b->alpha * b->alpha;
-    float vis = 0.5f / (cos_i * smith_root(a2, cos_o) + cos_o * smith_root(a2, cos_i));
-    float dv = ggx_d(a2, cos_h) * vis, w = schlick_weight(v_h);
-    vec3 f0 = v3_add(v3s(0.04f * (1.f - b->metallic)), v3_scale(b->base, b->metallic));
-    vec3 fresnel = v3_add(f0, v3_scale(v3_sub(v3s(1.f), f0), w));
-    /* The dielectric's diffuse base under its 4% coat: Schlick at the two macro angles, not at
-     * v.h as the sample viewer does, whose sum with the coat reflects up to 1.39 at grazing
-     * angles (measured, tests/test_brdf.c) where Russian roulette needs at most 1; still reciprocal. */
-    float diffuse = (1.f - b->metallic) * (1.f - (0.04f + 0.96f * schlick_weight(cos_o))) *
-                    (1.f - (0.04f + 0.96f * schlick_weight(cos_i))) * PM_INV_PI;
-    return v3_scale(v3_add(v3_scale(fresnel, dv), v3_scale(b->base, diffuse)), b->weight);
+    if (!b->layered) return v3_scale(base_eval(b, 1.f, v3s(0.04f), cos_o, cos_i, cos_h, v_h), b->weight);
+    vec3 f = base_eval(b, b->specular, b->specular_f0, cos_o, cos_i, cos_h, v_h);
+    if (has_sheen(b)) {
+        float r = b->sheen_roughness, m = v3_max_component(b->sheen_color);
+        float scale = pm_minf(1.f - m * pm_sheen_albedo(cos_o, r), 1.f - m * pm_sheen_albedo(cos_i, r));
+        float sheen = (float)charlie_dv(r, cos_o, cos_i, cos_h);
+        f = v3_add(v3_scale(f, pm_maxf(0.f, scale)), v3_scale(b->sheen_color, sheen));
+    }
+    if (has_coat(b)) {
+        float c = b->clearcoat;
+        float coat = c * coat_fresnel(v_h) * ggx_dv(b->clearcoat_alpha * b->clearcoat_alpha, cos_o, cos_i, cos_h);
+        float under = (1.f - c * coat_fresnel(cos_o)) * (1.f - c * coat_fresnel(cos_i));
+        f = v3_add(v3_scale(f, under), v3s(coat));
+    }
+    return v3_scale(f, b->weight);
+}
+
+/* ---- sampling ---- */
+
+/* The visible-normal density of GGX at alpha^2 for wi, per solid angle of wi: D(h) G1(wo) max(0,
+ * wo.h) / cos_o times the reflection's Jacobian 1 / (4 wo.h). */
+static float ggx_reflection_pdf(float a2, float cos_o, float cos_h) {
+    float g1 = 2.f * cos_o / (cos_o + smith_root(a2, cos_o));
+    return ggx_d(a2, cos_h) * g1 / (4.f * cos_o);
 }
 
 float pm_brdf_pdf(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
     float cos_o = v3_dot(n, wo), cos_i = v3_dot(n, wi);
     if (!(cos_o > 0.f) || !(cos_i > 0.f)) return 0.f;
-    float p_spec = specular_probability(b, cos_o);
-    float pdf = (1.f - p_spec) * cos_i * PM_INV_PI;
+    lobe_choice p = choose_lobes(b, cos_o);
+    float pdf = p.diffuse * cos_i * PM_INV_PI;
+    if (b->layered) pdf += p.sheen * (0.5f * PM_INV_PI);
     vec3 h = v3_add(wo, wi);
     float hl = v3_length(h);
     if (hl > 0.f) {
         h = v3_scale(h, 1.f / hl);
         float cos_h = v3_dot(n, h);
         if (cos_h > 0.f && v3_dot(wo, h) > 0.f) {
-            /* visible normals: D(h) G1(wo) max(0, wo.h) / cos_o, times the reflection's Jacobian 1 / (4 wo.h) */
-            float a2 = b->alpha * b->alpha;
-            float g1 = 2.f * cos_o / (cos_o + smith_root(a2, cos_o));
-            pdf += p_spec * ggx_d(a2, cos_h) * g1 / (4.f * cos_o);
+            pdf += p.specular * ggx_reflection_pdf(b->alpha * b->alpha, cos_o, cos_h);
+            if (p.coat > 0.f) pdf += p.coat * ggx_reflection_pdf(b->clearcoat_alpha * b->clearcoat_alpha, cos_o, cos_h);
         }
     }
     return pdf;
@@ -83,19 +244,33 @@ static vec3 sample_visible_normal(float alpha, vec3 v, float u1, float u2) {
     return v3_normalize(v3(alpha * nh.x, alpha * nh.y, pm_maxf(1e-7f, nh.z))); /* back to the ellipsoid */
 }
 
+static inline vec3 sample_ggx_reflection(float alpha, vec3 n, vec3 wo, float cos_o, float u1, float u2) {
+    vec3 t, bt;
+    v3_basis(n, &t, &bt);
+    vec3 local = v3(v3_dot(wo, t), v3_dot(wo, bt), cos_o);
+    vec3 m = sample_visible_normal(alpha, local, u1, u2);
+    vec3 h = v3_add(v3_add(v3_scale(t, m.x), v3_scale(bt, m.y)), v3_scale(n, m.z));
+    return v3_sub(v3_scale(h, 2.f * v3_dot(wo, h)), wo);
+}
+
+/* Uniform over the hemisphere about n (the sheen's technique: its lobe is widest at grazing
+ * angles, where a cosine sample is rare). */
+static vec3 sample_uniform_hemisphere(vec3 n, float u1, float u2) {
+    vec3 t, bt;
+    v3_basis(n, &t, &bt);
+    float z = u1, r = sqrtf(pm_maxf(0.f, 1.f - z * z)), s, c;
+    pm_sincos_turn(u2, &s, &c);
+    return v3_add(v3_add(v3_scale(t, r * c), v3_scale(bt, r * s)), v3_scale(n, z));
+}
+
 bool pm_brdf_sample(const pm_brdf *b, vec3 n, vec3 wo, float u0, float u1, float u2, vec3 *wi, vec3 *f, float *pdf) {
     float cos_o = v3_dot(n, wo);
     if (!(cos_o > 0.f)) return false;
-    if (u0 < specular_probability(b, cos_o)) {
-        vec3 t, bt;
-        v3_basis(n, &t, &bt);
-        vec3 local = v3(v3_dot(wo, t), v3_dot(wo, bt), cos_o);
-        vec3 m = sample_visible_normal(b->alpha, local, u1, u2);
-        vec3 h = v3_add(v3_add(v3_scale(t, m.x), v3_scale(bt, m.y)), v3_scale(n, m.z));
-        *wi = v3_sub(v3_scale(h, 2.f * v3_dot(wo, h)), wo);
-    } else {
-        *wi = pm_sample_cosine(n, u1, u2);
-    }
+    lobe_choice p = choose_lobes(b, cos_o);
+    if (u0 < p.specular) *wi = sample_ggx_reflection(b->alpha, n, wo, cos_o, u1, u2);
+    else if (u0 < p.specular + p.coat) *wi = sample_ggx_reflection(b->clearcoat_alpha, n, wo, cos_o, u1, u2);
+    else if (u0 < p.specular + p.coat + p.sheen) *wi = sample_uniform_hemisphere(n, u1, u2);
+    else *wi = pm_sample_cosine(n, u1, u2);
     if (!(v3_dot(n, *wi) > 0.f)) return false;
     *pdf = pm_brdf_pdf(b, n, wo, *wi);
     if (!(*pdf > 0.f)) return false;

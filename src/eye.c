@@ -519,7 +519,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
         if (lobe == PM_LOBE_NONE) return false;
         if (lobe == PM_LOBE_DIFFUSE) {
             vec3 ng = pm_facing(sf->ng, wo);
-            if (!camera_ray && job->through_lobes && sf->glossy && sf->brdf.alpha < PM_PPM_GATHER_LOBE_ALPHA &&
+            if (!camera_ray && job->through_lobes && sf->glossy && pm_brdf_sharpest_alpha(&sf->brdf) < PM_PPM_GATHER_LOBE_ALPHA &&
                 depth < job->settings->max_specular_depth) {
                 if (s->light_count)
                     add_punctual_light(job, sf, wo, ng, pm_facing(sf->ns, ng), pm_surface_origin(sf, ng, s->ray_scale),

@@ -62,7 +62,8 @@ const int kMaxJsonDepth = 128;
 
 const char *const kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
                                             "KHR_materials_transmission", "KHR_materials_ior",
-                                            "KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_volume"};
+                                            "KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_volume",
+                                            "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular"};
 
 // ---------------------------------------------------------------- errors and messages
 
@@ -770,10 +771,15 @@ struct TextureReference {
 };
 
 // The texture references pmview renders, per material.
-enum { kBaseColor, kEmissive, kMetallicRoughness, kTransmission, kNormal, kReferenceKinds };
+enum {
+    kBaseColor, kEmissive, kMetallicRoughness, kTransmission, kNormal,
+    kSpecular, kSpecularColor, kSheenColor, kSheenRoughness, kClearcoat, kClearcoatRoughness, kReferenceKinds
+};
 const char *const kReferenceNames[kReferenceKinds] = {"baseColorTexture", "emissiveTexture",
                                                       "metallicRoughnessTexture", "transmissionTexture",
-                                                      "normalTexture"};
+                                                      "normalTexture", "specularTexture", "specularColorTexture",
+                                                      "sheenColorTexture", "sheenRoughnessTexture", "clearcoatTexture",
+                                                      "clearcoatRoughnessTexture"};
 
 // Owns the malloc'ed texels until the scene takes them.
 struct TextureList {
@@ -838,6 +844,8 @@ private:
     vec3 emission_within_film(const double hue[3], double magnitude, const char *field, const std::string &made_of,
                               const std::string &object);
     bool volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &object, double sigma[3]);
+    bool convert_layers(const tinygltf::Material &mat, const std::array<TextureReference, kReferenceKinds> &refs,
+                        const std::string &label, const std::string &name, pm_material *m);
     std::string material_label(size_t material) const;
     std::string mesh_label(int mesh, int primitive) const;
     // Stores vertex i's generated tangent: dp/du made unit and perpendicular to the normal, or
@@ -1188,10 +1196,17 @@ void Loader::preflight(const json &root) {
         const json *pbr = find_member(m, "pbrMetallicRoughness");
         const json *extensions = find_member(m, "extensions");
         const json *transmission = extensions ? find_member(*extensions, "KHR_materials_transmission") : nullptr;
+        const json *specular = extensions ? find_member(*extensions, "KHR_materials_specular") : nullptr;
+        const json *sheen = extensions ? find_member(*extensions, "KHR_materials_sheen") : nullptr;
+        const json *clearcoat = extensions ? find_member(*extensions, "KHR_materials_clearcoat") : nullptr;
         struct { const json *parent; const char *key; int kind; } infos[] = {
             {pbr, "baseColorTexture", kBaseColor}, {pbr, "metallicRoughnessTexture", kMetallicRoughness},
             {&m, "normalTexture", kNormal}, {&m, "occlusionTexture", -1}, {&m, "emissiveTexture", kEmissive},
-            {transmission, "transmissionTexture", kTransmission}};
+            {transmission, "transmissionTexture", kTransmission},
+            {specular, "specularTexture", kSpecular}, {specular, "specularColorTexture", kSpecularColor},
+            {sheen, "sheenColorTexture", kSheenColor}, {sheen, "sheenRoughnessTexture", kSheenRoughness},
+            {clearcoat, "clearcoatTexture", kClearcoat}, {clearcoat, "clearcoatRoughnessTexture", kClearcoatRoughness},
+            {clearcoat, "clearcoatNormalTexture", -1}};
         references_.emplace_back();
         for (const auto &info : infos) {
             const json *ti = info.parent ? find_member(*info.parent, info.key) : nullptr;
@@ -1346,7 +1361,10 @@ void Loader::preflight_typed_members(const json &root) {
             {"KHR_materials_transmission", {"transmissionFactor"}},
             {"KHR_materials_ior", {"ior"}},
             {"KHR_materials_emissive_strength", {"emissiveStrength"}},
-            {"KHR_materials_volume", {"thicknessFactor", "attenuationDistance"}}};
+            {"KHR_materials_volume", {"thicknessFactor", "attenuationDistance"}},
+            {"KHR_materials_clearcoat", {"clearcoatFactor", "clearcoatRoughnessFactor"}},
+            {"KHR_materials_sheen", {"sheenRoughnessFactor"}},
+            {"KHR_materials_specular", {"specularFactor"}}};
         for (const auto &n : numbers) {
             const json *e = typed_object(*ext, n.extension, where);
             if (!e) continue;
@@ -1354,6 +1372,9 @@ void Loader::preflight_typed_members(const json &root) {
                 if (member) typed_number(*e, member, false, where + " " + n.extension);
             if (!strcmp(n.extension, "KHR_materials_volume"))
                 typed_numbers(*e, "attenuationColor", 3, where + " " + n.extension);
+            if (!strcmp(n.extension, "KHR_materials_sheen")) typed_numbers(*e, "sheenColorFactor", 3, where + " " + n.extension);
+            if (!strcmp(n.extension, "KHR_materials_specular"))
+                typed_numbers(*e, "specularColorFactor", 3, where + " " + n.extension);
         }
     });
 
@@ -1949,6 +1970,52 @@ bool Loader::convert_reference(const TextureReference &r, const std::string &whe
     return r.texcoord <= 1;
 }
 
+// KHR_materials_specular, _sheen and _clearcoat (pm_material_layers): factors and textures. A
+// material is layered when one of them is present; clearcoatNormalTexture is not read (the coat
+// takes the base's normal). Returns convert_reference's verdict on the TEXCOORD sets.
+bool Loader::convert_layers(const tinygltf::Material &mat, const std::array<TextureReference, kReferenceKinds> &refs,
+                            const std::string &label, const std::string &name, pm_material *m) {
+    const tinygltf::ExtensionMap &x = mat.extensions;
+    bool specular = x.count("KHR_materials_specular"), sheen = x.count("KHR_materials_sheen"),
+         clearcoat = x.count("KHR_materials_clearcoat");
+    if (!specular && !sheen && !clearcoat) return true;
+    pm_material_layers &l = m->layers;
+    m->layered = true;
+    // a colour member: 3 numbers (their type checked in the preflight), each within [0, top]
+    auto color = [&](const char *extension, const char *key, float fallback, double top, const char *field) {
+        double v[3] = {fallback, fallback, fallback};
+        auto it = x.find(extension);
+        if (it != x.end() && it->second.IsObject() && it->second.Has(key)) {
+            const tinygltf::Value &c = it->second.Get(key);
+            for (int k = 0; k < 3 && c.IsArray() && c.ArrayLen() == 3; k++)
+                v[k] = checked(c.Get(k).GetNumberAsDouble(), 0, top, field, label);
+        }
+        return v3(static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2]));
+    };
+    l.specular = static_cast<float>(checked(extension_number(x, "KHR_materials_specular", "specularFactor", 1), 0, 1,
+                                            "KHR_materials_specular specularFactor", label));
+    l.specular_color = color("KHR_materials_specular", "specularColorFactor", 1.f, FLT_MAX,
+                             "KHR_materials_specular specularColorFactor");
+    l.sheen_color = color("KHR_materials_sheen", "sheenColorFactor", 0.f, 1, "KHR_materials_sheen sheenColorFactor");
+    l.sheen_roughness = static_cast<float>(checked(extension_number(x, "KHR_materials_sheen", "sheenRoughnessFactor", 0), 0,
+                                                   1, "KHR_materials_sheen sheenRoughnessFactor", label));
+    l.clearcoat = static_cast<float>(checked(extension_number(x, "KHR_materials_clearcoat", "clearcoatFactor", 0), 0, 1,
+                                             "KHR_materials_clearcoat clearcoatFactor", label));
+    l.clearcoat_roughness = static_cast<float>(checked(extension_number(x, "KHR_materials_clearcoat", "clearcoatRoughnessFactor", 0),
+                                                       0, 1, "KHR_materials_clearcoat clearcoatRoughnessFactor", label));
+    if (clearcoat && x.at("KHR_materials_clearcoat").IsObject() && x.at("KHR_materials_clearcoat").Has("clearcoatNormalTexture"))
+        note_ignored("clearcoatNormalTexture (the coat takes the base's normal)", name);
+    std::string where = label;
+    struct { int kind; pm_texture_ref *into; } textures[] = {
+        {kSpecular, &l.specular_texture}, {kSpecularColor, &l.specular_color_texture}, {kSheenColor, &l.sheen_color_texture},
+        {kSheenRoughness, &l.sheen_roughness_texture}, {kClearcoat, &l.clearcoat_texture},
+        {kClearcoatRoughness, &l.clearcoat_roughness_texture}};
+    bool sets_ok = true;
+    for (const auto &t : textures)
+        sets_ok &= convert_reference(refs[t.kind], where, &t.into->texture, &t.into->texcoord, &t.into->transform);
+    return sets_ok;
+}
+
 void Loader::convert_materials() {
     for (size_t i = 0; i < model_.materials.size(); i++) {
         const tinygltf::Material &mat = model_.materials[i];
@@ -1959,7 +2026,8 @@ void Loader::convert_materials() {
         if (mat.occlusionTexture.index >= 0) note_ignored("occlusion textures", name);
         for (const auto &e : mat.extensions)
             if (e.first != "KHR_materials_transmission" && e.first != "KHR_materials_emissive_strength" &&
-                e.first != "KHR_materials_ior" && e.first != "KHR_materials_volume")
+                e.first != "KHR_materials_ior" && e.first != "KHR_materials_volume" && e.first != "KHR_materials_clearcoat" &&
+                e.first != "KHR_materials_sheen" && e.first != "KHR_materials_specular")
                 note_ignored(e.first, name);
         pm_material m;
         memset(&m, 0, sizeof m);
@@ -2003,6 +2071,7 @@ void Loader::convert_materials() {
         sets_ok &= convert_reference(refs[kNormal], where, &m.normal_texture, &m.normal_texcoord, &m.normal_transform);
         m.normal_scale = static_cast<float>(checked(mat.normalTexture.scale, -FLT_MAX, FLT_MAX, "normalTexture scale", label));
         if (m.normal_texture >= 0) tangents_needed_ = true;
+        sets_ok &= convert_layers(mat, refs, label, name, &m);
         if (!sets_ok) note_ignored("texture coordinate sets above TEXCOORD_1 (TEXCOORD_0 is read instead)", name);
         materials_.push_back(m);
     }

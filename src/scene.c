@@ -66,6 +66,46 @@ static void channel_range(const pm_scene *s, int texture, int channel, float *lo
     *hi = b / 255.f;
 }
 
+/* Whether a layered material reads a texture for its layers. */
+static bool layers_textured(const pm_material *m) {
+    const pm_material_layers *l = &m->layers;
+    return m->layered && (l->specular_texture.texture >= 0 || l->specular_color_texture.texture >= 0 ||
+                          l->sheen_color_texture.texture >= 0 || l->sheen_roughness_texture.texture >= 0 ||
+                          l->clearcoat_texture.texture >= 0 || l->clearcoat_roughness_texture.texture >= 0);
+}
+
+static vec3 texture_at(const pm_scene *s, const float uv[2][2], const float footprint[2], int texture, int texcoord,
+                       const pm_uv_transform *t, bool srgb);
+static inline void apply_uv_transform(const pm_uv_transform *t, float *u, float *v);
+
+/* A layer texture's texel (rgb, or alpha in x for `alpha`), 1 without a texture or without the point's UVs (s NULL). */
+static vec3 layer_texel(const pm_scene *s, const float uv[2][2], const float footprint[2], const pm_texture_ref *r, bool srgb,
+                        bool alpha) {
+    if (!s || r->texture < 0 || (uint32_t)r->texture >= s->texture_count) return v3s(1.f);
+    if (!alpha) return texture_at(s, uv, footprint, r->texture, r->texcoord, &r->transform, srgb);
+    float u = uv[r->texcoord == 1][0], v = uv[r->texcoord == 1][1];
+    apply_uv_transform(&r->transform, &u, &v);
+    return v3s(pm_texture_alpha(&s->textures[r->texture], u, v));
+}
+
+/* A layered material's point (its base colour, metallic, roughness and transmission there): all
+ * its opaque part is the layered lobe, so kd = ks = 0 and the lobe gets the layers' values there. */
+static void layer_point(const pm_material *m, vec3 *kd, vec3 *ks, bool *glossy, pm_brdf *brdf, vec3 base, float metallic,
+                        float roughness, float transmission, const pm_scene *s, const float uv[2][2], const float footprint[2]) {
+    const pm_material_layers *l = &m->layers;
+    *kd = *ks = v3s(0.f);
+    *glossy = true;
+    *brdf = pm_brdf_at(base, metallic, roughness, transmission);
+    float specular = l->specular * layer_texel(s, uv, footprint, &l->specular_texture, false, true).x;
+    vec3 specular_color = v3_mul(l->specular_color, layer_texel(s, uv, footprint, &l->specular_color_texture, true, false));
+    vec3 sheen_color = v3_mul(l->sheen_color, layer_texel(s, uv, footprint, &l->sheen_color_texture, true, false));
+    float sheen_roughness = l->sheen_roughness * layer_texel(s, uv, footprint, &l->sheen_roughness_texture, false, true).x;
+    float clearcoat = l->clearcoat * layer_texel(s, uv, footprint, &l->clearcoat_texture, false, false).x;
+    float clearcoat_roughness =
+        l->clearcoat_roughness * layer_texel(s, uv, footprint, &l->clearcoat_roughness_texture, false, false).y;
+    pm_brdf_add_layers(brdf, specular, specular_color, sheen_color, sheen_roughness, clearcoat, clearcoat_roughness);
+}
+
 /* Which lobes a material can have somewhere. Each lobe weight is linear in metallic, roughness
  * and transmission separately, so its largest value over the box of their possible values is
  * at one of the box's eight corners. */
@@ -86,13 +126,20 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
         m->may_glass |= !v3_is_black(kt);
         m->may_glossy |= pm_glossy_at(x[0], x[1]);
     }
+    if (m->layered) { /* every point is the layered lobe (kt apart) */
+        m->may_glossy = true;
+        m->may_diffuse = m->may_mirror = false;
+    }
     m->may_see_through = pm_material_can_be_transparent(s, m);
-    m->uniform_split = m->base_color_texture < 0 && m->metallic_roughness_texture < 0 && m->transmission_texture < 0;
+    m->uniform_split = m->base_color_texture < 0 && m->metallic_roughness_texture < 0 && m->transmission_texture < 0 &&
+                       !layers_textured(m);
     if (m->uniform_split) {
         pm_material_split_at(m->base_color, m->metallic, m->roughness, m->transmission, &m->split_kd, &m->split_ks,
                              &m->split_kt);
         m->split_glossy = pm_glossy_at(m->metallic, m->roughness);
         if (m->split_glossy) m->split_brdf = pm_brdf_at(m->base_color, m->metallic, m->roughness, m->transmission);
+        if (m->layered) layer_point(m, &m->split_kd, &m->split_ks, &m->split_glossy, &m->split_brdf, m->base_color, m->metallic,
+                                    m->roughness, m->transmission, NULL, NULL, NULL);
     }
 }
 
@@ -122,7 +169,7 @@ static void analyse(pm_scene *s) {
         a->has_thin_glass |= m->may_glass && m->thin_walled;
         a->has_textures |= m->base_color_texture >= 0 || m->emission_texture >= 0 ||
                            m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0 ||
-                           (m->normal_texture >= 0 && s->tangents);
+                           (m->normal_texture >= 0 && s->tangents) || layers_textured(m);
         a->has_non_opaque |= pm_material_can_be_transparent(s, m);
     }
     a->has_emissive_triangles = s->emitter_count > 0;
@@ -875,7 +922,7 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
     float uv[2][2] = {{0.f, 0.f}, {0.f, 0.f}};
     footprint[0] = footprint[1] = 0.f;
     if (m->base_color_texture >= 0 || m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0 ||
-        m->normal_texture >= 0 || m->emission_texture >= 0) {
+        m->normal_texture >= 0 || m->emission_texture >= 0 || layers_textured(m)) {
         interpolated_uv(s, ix, b0, b1, b2, 0, &uv[0][0], &uv[0][1]);
         if (s->uvs1) interpolated_uv(s, ix, b0, b1, b2, 1, &uv[1][0], &uv[1][1]);
         if (width > 0.f && s->uv_density) {
@@ -915,6 +962,9 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
         pm_material_split_at(base, metallic, roughness, transmission, &out->kd, &out->ks, &out->kt);
         out->glossy = pm_glossy_at(metallic, roughness);
         if (out->glossy) out->brdf = pm_brdf_at(base, metallic, roughness, transmission);
+        if (m->layered)
+            layer_point(m, &out->kd, &out->ks, &out->glossy, &out->brdf, base, metallic, roughness, transmission, s, uv,
+                        footprint);
     }
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
     out->thin = m->thin_walled;

@@ -1197,6 +1197,103 @@ static void test_data_textures(void) {
     pm_scene_free(&s);
 }
 
+/* KHR_materials_clearcoat, _sheen and _specular: factors times their texture channels (coat R,
+ * coat roughness G, sheen and specular colours sRGB RGB, sheen roughness and specular A), no
+ * `ignored:` warning but for clearcoatNormalTexture; a material with only a neutral sheen is Lambert. */
+static void test_layer_extensions(void) {
+    static const unsigned char strips[1][16] = {{128, 255, 0, 64, 255, 0, 255, 255}};
+    static const int widths[1] = {2};
+    static const float uv[8] = {0, 0, 1, 0, 1, 1, 0, 1};
+    blob *b = calloc(1, sizeof *b);
+    text body = {0}, prims = {0};
+    quad_primitive(b, &prims, uv, NULL, 0);
+    append_strip_images(&body, strips, widths, 1);
+    text_append(&body, "\"extensionsUsed\":[\"KHR_materials_clearcoat\",\"KHR_materials_sheen\",\"KHR_materials_specular\"],"
+                       "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.6,0.7,1],\"roughnessFactor\":0.5},"
+                       "\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1,\"clearcoatTexture\":{\"index\":0},"
+                       "\"clearcoatRoughnessFactor\":0.5,\"clearcoatRoughnessTexture\":{\"index\":0},"
+                       "\"clearcoatNormalTexture\":{\"index\":0}},"
+                       "\"KHR_materials_sheen\":{\"sheenColorFactor\":[1,0.5,0.25],\"sheenColorTexture\":{\"index\":0},"
+                       "\"sheenRoughnessFactor\":0.8,\"sheenRoughnessTexture\":{\"index\":0}},"
+                       "\"KHR_materials_specular\":{\"specularFactor\":0.5,\"specularTexture\":{\"index\":0},"
+                       "\"specularColorFactor\":[2,1,0.5],\"specularColorTexture\":{\"index\":0}}}},"
+                       "{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"baseColorFactor\":[0.4,0.4,0.4,1]},"
+                       "\"extensions\":{\"KHR_materials_sheen\":{}}}],"
+                       "\"scenes\":[{\"nodes\":[0,1]}],\"nodes\":[{\"mesh\":0},{\"mesh\":1,\"translation\":[2,0,0]}],"
+                       "\"meshes\":[{\"primitives\":[%s]},", prims.data);
+    text_append(&body, "{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1},\"indices\":2,\"material\":1}]}]");
+    write_blob_model("layers.gltf", b, body.data);
+    free(body.data);
+    free(prims.data);
+    free(b);
+    pm_scene s;
+    pm_load_report r;
+    if (!load_ok("layers.gltf", &s, &r)) return;
+    CHECK(r.ignored_inputs == 1, "ignored_inputs %u: clearcoatNormalTexture alone", r.ignored_inputs);
+    CHECK(r.warnings == 1, "warnings %u: the ignored clearcoatNormalTexture alone, no unsupported extension", r.warnings);
+    if (s.triangle_count == 4 && s.material_count == 2) {
+        const pm_material *m = s.materials;
+        CHECK(m[0].layered && m[1].layered, "both materials layered");
+        CHECK(m[0].layers.clearcoat == 1.f && m[0].layers.clearcoat_roughness == 0.5f && m[0].layers.sheen_roughness == 0.8f &&
+                  m[0].layers.specular == 0.5f,
+              "factors %g %g %g %g", m[0].layers.clearcoat, m[0].layers.clearcoat_roughness, m[0].layers.sheen_roughness,
+              m[0].layers.specular);
+        CHECK_VEC(m[0].layers.sheen_color, 1, 0.5, 0.25, 0, "sheenColorFactor");
+        CHECK_VEC(m[0].layers.specular_color, 2, 1, 0.5, 0, "specularColorFactor");
+        CHECK(m[0].layers.clearcoat_texture.texture == 0 && m[0].layers.sheen_color_texture.texture == 0 &&
+                  m[0].layers.specular_color_texture.texture == 0 && m[0].layers.sheen_roughness_texture.texture == 0 &&
+                  m[0].layers.specular_texture.texture == 0 && m[0].layers.clearcoat_roughness_texture.texture == 0,
+              "the six textures");
+        CHECK(m[1].layers.clearcoat_texture.texture == -1 && m[1].layers.sheen_color.x == 0.f && m[1].layers.specular == 1.f,
+              "defaults: no texture, sheen colour 0, specular 1");
+        pm_surface sf;
+        quad_surface(&s, 0.2f, 0.1f, &sf); /* texel 0: R 128, G 255, B 0, A 64 */
+        double r128 = 128.0 / 255.0, a64 = 64.0 / 255.0, s128 = pm_srgb_to_linear(128.f / 255.f);
+        CHECK(sf.glossy && sf.brdf.layered, "layered point: the glossy lobe");
+        CHECK_VEC(sf.kd, 0, 0, 0, 0, "layered point: the lobe holds the diffuse share");
+        CHECK_NEAR(sf.brdf.clearcoat, r128, 1e-5, 0, "clearcoat x R");
+        CHECK_NEAR(sf.brdf.clearcoat_alpha, 0.25, 1e-5, 0, "clearcoat roughness x G, squared");
+        CHECK_VEC(sf.brdf.sheen_color, s128, 0.5, 0, 1e-5, "sheen colour x sRGB texel");
+        CHECK_NEAR(sf.brdf.sheen_roughness, 0.8 * a64, 1e-5, 0, "sheen roughness x A");
+        CHECK_NEAR(sf.brdf.specular, 0.5 * a64, 1e-5, 0, "specular x A");
+        CHECK_VEC(sf.brdf.specular_f0, 0.04 * 2 * s128, 0.04, 0, 1e-6, "F0 = 0.04 x specular colour x sRGB texel");
+        quad_surface(&s, 0.9f, 0.1f, &sf); /* texel 1: R 255, G 0, B 255, A 255 */
+        CHECK_NEAR(sf.brdf.clearcoat, 1, 1e-6, 0, "clearcoat at R 255");
+        CHECK_NEAR(sf.brdf.clearcoat_alpha, PM_GLOSSY_MIN_ALPHA, 1e-6, 0, "coat roughness 0: the smallest alpha");
+        CHECK_VEC(sf.brdf.sheen_color, 1, 0, 0.25, 1e-6, "sheen colour at texel 1");
+        CHECK_VEC(sf.brdf.specular_f0, 0.08, 0, 0.02, 1e-6, "F0 at texel 1");
+        pm_scene_surface(&s, 2, 0.1f, 0.1f, &sf); /* material 1: a neutral sheen on Lambert */
+        vec3 n = sf.ns, t, bt;
+        v3_basis(n, &t, &bt);
+        vec3 wo = v3_normalize(v3_add(n, v3_scale(t, 0.3f))), wi = v3_normalize(v3_add(n, v3_add(v3_scale(t, -0.5f), v3_scale(bt, 0.2f))));
+        vec3 f = sf.glossy ? pm_brdf_eval(&sf.brdf, n, wo, wi) : v3s(-1.f);
+        CHECK_VEC(f, 0.4 / PM_PI, 0.4 / PM_PI, 0.4 / PM_PI, 1e-6, "sheen colour 0 on metallic 0: Lambert base / pi");
+        pm_scene_finalize(&s, false, NULL);
+        CHECK(m[0].may_glossy && !m[0].may_diffuse && !m[0].may_mirror && !m[0].uniform_split, "material 0 lobes: glossy, textured");
+        CHECK(m[1].may_glossy && !m[1].may_diffuse && m[1].uniform_split, "material 1 lobes: glossy, uniform");
+    } else CHECK(0, "triangles %u materials %u", s.triangle_count, s.material_count);
+    pm_scene_free(&s);
+}
+
+/* Bad layer members: one line naming the member and material; an out-of-range factor is clamped with a warning. */
+static void test_layer_extensions_bad(void) {
+    prim_spec tri = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, 0};
+    doc_spec bad_color = {NULL, NULL, "[{\"extensions\":{\"KHR_materials_sheen\":{\"sheenColorFactor\":[1,\"x\",0]}}}]", NULL};
+    write_model("bad_sheen.gltf", &tri, 1, &bad_color);
+    check_rejected("bad_sheen.gltf", "sheenColorFactor must be 3 numbers");
+    doc_spec bad_factor = {NULL, NULL, "[{\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":true}}}]", NULL};
+    write_model("bad_coat.gltf", &tri, 1, &bad_factor);
+    check_rejected("bad_coat.gltf", "clearcoatFactor");
+    doc_spec big = {NULL, NULL, "[{\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1.5}}}]", NULL};
+    write_model("big_coat.gltf", &tri, 1, &big);
+    pm_scene s;
+    pm_load_report r;
+    if (!load_ok("big_coat.gltf", &s, &r)) return;
+    CHECK(r.warnings == 1 && s.material_count >= 1 && s.materials[0].layers.clearcoat == 1.f,
+          "clearcoatFactor 1.5: clamped to 1 with one warning (warnings %u)", r.warnings);
+    pm_scene_free(&s);
+}
+
 /* SHORT normalized positions under a node scale and translation, BYTE normalized normals and unnormalized
  * UNSIGNED_BYTE texture coordinates load to the float version's values. */
 static void test_mesh_quantization(void) {
@@ -1424,15 +1521,15 @@ static void test_ignored_inputs(void) {
                     "[{\"name\":\"leaves\",\"alphaMode\":\"MASK\",\"alphaCutoff\":0.3,"
                     "\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,0.25]}},{\"alphaMode\":\"MASK\"},"
                     "{\"alphaMode\":\"BLEND\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,0.7]},"
-                    "\"extensions\":{\"KHR_materials_clearcoat\":{\"clearcoatFactor\":1}}},{}]",
-                    "\"extensionsUsed\":[\"KHR_materials_clearcoat\"],"};
+                    "\"extensions\":{\"KHR_materials_iridescence\":{\"iridescenceFactor\":1}}},{}]",
+                    "\"extensionsUsed\":[\"KHR_materials_iridescence\"],"};
     write_model("ignored.gltf", prims, 4, &doc);
     pm_scene s;
     pm_load_report r;
     if (!load_ok("ignored.gltf", &s, &r)) return;
-    /* one clearcoat use; warnings: clearcoat once and the unsupported extension list */
-    CHECK(r.ignored_inputs == 1, "ignored inputs %u (1 clearcoat; alpha modes are rendered)", r.ignored_inputs);
-    CHECK(r.warnings == 2, "warnings %u: clearcoat and the unsupported extension list", r.warnings);
+    /* one iridescence use; warnings: iridescence once and the unsupported extension list */
+    CHECK(r.ignored_inputs == 1, "ignored inputs %u (1 iridescence; alpha modes are rendered)", r.ignored_inputs);
+    CHECK(r.warnings == 2, "warnings %u: iridescence and the unsupported extension list", r.warnings);
     if (s.material_count == 4) {
         const pm_material *m = s.materials;
         CHECK(m[0].alpha_mode == PM_ALPHA_MASK && m[0].alpha_cutoff == 0.3f && m[0].alpha == 0.25f,
@@ -1805,6 +1902,8 @@ int main(void) {
     test_texcoord_sets();
     test_texture_transform();
     test_data_textures();
+    test_layer_extensions();
+    test_layer_extensions_bad();
     test_mesh_quantization();
     test_normal_maps();
     test_tangent_w();
