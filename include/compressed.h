@@ -33,6 +33,12 @@ int pm_meshopt_filter(const char *name); /* PM_MESHOPT_FILTER_UNKNOWN for any ot
 bool pm_meshopt_decode(void *dst, size_t count, size_t stride, int mode, int filter, const void *src,
                        size_t src_size, char *err, size_t err_size);
 
+/* A Draco decode gets PM_DRACO_SECONDS + stream bytes x PM_DRACO_SECONDS_PER_BYTE (a 10 MB stream:
+ * 102 s; a valid stream decodes at about 5 MB a second, the Duck's in 2 ms); past that the stream
+ * is refused (libdraco trusts some counts of a corrupt stream: see compressed.cpp). */
+#define PM_DRACO_SECONDS 2.0
+#define PM_DRACO_SECONDS_PER_BYTE 1e-5
+
 /* A decoded Draco mesh, until pm_draco_free. */
 typedef struct pm_draco_mesh pm_draco_mesh;
 

@@ -6,13 +6,19 @@
 #include <meshoptimizer.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <new>
 #include <string>
+#include <system_error>
+#include <thread>
+#include <vector>
 
 namespace {
 
@@ -121,25 +127,82 @@ extern "C" bool pm_meshopt_decode(void *dst, size_t count, size_t stride, int mo
     return true;
 }
 
-extern "C" pm_draco_mesh *pm_draco_decode(const void *src, size_t size, char *err, size_t err_size) {
+namespace {
+
+// One Draco decode, shared by the thread that runs it and the caller that waits for it: a caller
+// that stops waiting leaves the job to the thread, which frees it when it ends.
+struct DracoJob {
+    std::mutex lock;
+    std::condition_variable finished_signal;
+    bool finished = false;
+    std::vector<char> bytes;
+    std::unique_ptr<draco::Mesh> mesh;
+    std::string error;
+};
+
+void decode_draco(const std::shared_ptr<DracoJob> &job) {
+    std::unique_ptr<draco::Mesh> mesh;
+    std::string error;
     try {
         draco::DecoderBuffer buffer;
-        buffer.Init(static_cast<const char *>(src), size);
+        buffer.Init(job->bytes.data(), job->bytes.size());
         auto type = draco::Decoder::GetEncodedGeometryType(&buffer);
-        if (!type.ok()) return set_error(err, err_size, "not a Draco stream: " + type.status().error_msg_string()), nullptr;
-        if (type.value() != draco::TRIANGULAR_MESH)
-            return set_error(err, err_size, "the Draco stream holds a point cloud, not a triangle mesh"), nullptr;
-        draco::Decoder decoder;
-        auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
-        if (!decoded.ok()) return set_error(err, err_size, "corrupt Draco stream: " + decoded.status().error_msg_string()), nullptr;
+        if (!type.ok()) {
+            error = "not a Draco stream: " + type.status().error_msg_string();
+        } else if (type.value() != draco::TRIANGULAR_MESH) {
+            error = "the Draco stream holds a point cloud, not a triangle mesh";
+        } else {
+            draco::Decoder decoder;
+            auto decoded = decoder.DecodeMeshFromBuffer(&buffer);
+            if (!decoded.ok()) error = "corrupt Draco stream: " + decoded.status().error_msg_string();
+            else mesh = std::move(decoded).value();
+            if (error.empty() && !mesh) error = "corrupt Draco stream: no mesh";
+        }
+    } catch (const std::bad_alloc &) {
+        error = "out of memory decoding the Draco stream";
+    } catch (const std::exception &e) {
+        error = std::string("corrupt Draco stream: ") + e.what();
+    }
+    std::lock_guard<std::mutex> hold(job->lock);
+    job->mesh = std::move(mesh);
+    job->error = error;
+    job->finished = true;
+    job->finished_signal.notify_all();
+}
+
+}  // namespace
+
+// libdraco 1.5.5 trusts some counts in a stream (texture coordinates' orientation bits): a corrupt
+// one costs up to 2^31 steps (about 30 s and 300 MB) before the stream is refused. The decode runs
+// on a thread of its own with a time budget far above a valid stream's decoding time; past it the
+// stream is refused and the thread left to end on its own.
+extern "C" pm_draco_mesh *pm_draco_decode(const void *src, size_t size, char *err, size_t err_size) {
+    const double budget = PM_DRACO_SECONDS + static_cast<double>(size) * PM_DRACO_SECONDS_PER_BYTE;
+    try {
+        auto job = std::make_shared<DracoJob>();
+        job->bytes.assign(static_cast<const char *>(src), static_cast<const char *>(src) + size);
+        std::thread worker(decode_draco, job);
+        std::unique_lock<std::mutex> hold(job->lock);
+        bool finished = job->finished_signal.wait_for(hold, std::chrono::duration<double>(budget),
+                                                      [&] { return job->finished; });
+        hold.unlock();
+        if (!finished) {
+            worker.detach();
+            char seconds[32];
+            snprintf(seconds, sizeof seconds, "%.3g", budget);
+            return set_error(err, err_size, std::string("the Draco stream is still decoding after ") + seconds +
+                                                " s (a corrupt count): refused"),
+                   nullptr;
+        }
+        worker.join();
+        if (!job->mesh) return set_error(err, err_size, job->error), nullptr;
         std::unique_ptr<pm_draco_mesh> out(new pm_draco_mesh);
-        out->mesh = std::move(decoded).value();
-        if (!out->mesh) return set_error(err, err_size, "corrupt Draco stream: no mesh"), nullptr;
+        out->mesh = std::move(job->mesh);
         return out.release();
     } catch (const std::bad_alloc &) {
         set_error(err, err_size, "out of memory decoding the Draco stream");
-    } catch (const std::exception &e) {
-        set_error(err, err_size, std::string("corrupt Draco stream: ") + e.what());
+    } catch (const std::system_error &e) {
+        set_error(err, err_size, std::string("cannot start the Draco decoder's thread: ") + e.what());
     }
     return nullptr;
 }

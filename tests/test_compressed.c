@@ -256,6 +256,20 @@ int main(void) {
             free(j);
         }
     }
+    {
+        /* this byte makes libdraco count 2^31-ish texture-coordinate orientation bits (8 s, 160 MB):
+         * refused once the time budget of a 10 KB stream is spent */
+        unsigned char *bin = malloc(d.bin_size);
+        memcpy(bin, d.bin, d.bin_size);
+        bin[6052] = 0xbb;
+        bytes b = pack(d.json, bin, d.bin_size);
+        pm_scene scene;
+        CHECK(!load(b, &scene, err, sizeof err) && strstr(err, "the Draco stream is still decoding after 2.1 s") &&
+                  strstr(err, "(mesh 0 primitive 0 KHR_draco_mesh_compression"),
+              "a stream libdraco spends seconds on is refused: %s", err);
+        free(b.data);
+        free(bin);
+    }
     char *lie = replaced(d.json, "\"componentType\":5126,\"count\":2399", "\"componentType\":5126,\"count\":2398");
     check_refused("Draco attribute accessor count 2398", lie, &d, "but the Draco stream decodes 2399 points");
     free(lie);
