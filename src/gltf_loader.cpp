@@ -1735,6 +1735,8 @@ void Loader::decode_compressed() {
     for (const MeshoptView &m : meshopt_views_) {
         std::string where = "bufferView " + str(m.view) + " EXT_meshopt_compression";
         tinygltf::BufferView &bv = model_.bufferViews[m.view];
+        if (bv.byteStride && bv.byteStride != m.stride)
+            fail("byteStride " + str(m.stride) + " but the bufferView's is " + str(bv.byteStride) + " (" + where + ")");
         uint64_t decoded = m.count * m.stride;  // both checked to 32 bits
         if (decoded > bv.byteLength)
             fail("count " + str(m.count) + " x byteStride " + str(m.stride) + " exceeds the bufferView's byteLength " +

@@ -318,6 +318,9 @@ int main(void) {
     char *big3 = big2 ? replaced(big2, "\"mode\":\"TRIANGLES\",\"count\":12636", "\"mode\":\"TRIANGLES\",\"count\":1500000000") : NULL;
     check_refused("meshopt claims 3 GB", big3, &m, "is over 64 times the 4722-byte stream");
     free(big), free(big2), free(big3);
+    lie = replaced(m.json, "\"byteLength\":19192,\"byteStride\":8,", "\"byteLength\":19192,\"byteStride\":12,");
+    check_refused("bufferView stride other than the stream's", lie, &m, "byteStride 8 but the bufferView's is 12 (bufferView 2 EXT_meshopt_compression)");
+    free(lie);
     lie = replaced(m.json, "\"filter\":\"OCTAHEDRAL\"", "\"filter\":\"OCTAGONAL\"");
     check_refused("unknown meshopt filter", lie, &m, "unknown filter OCTAGONAL (bufferView 1 EXT_meshopt_compression)");
     free(lie);
