@@ -17,7 +17,7 @@ MPI_LIBS   = $(shell pkg-config --libs ompi-c 2>/dev/null || echo -lmpi)
 CFLAGS_COMMON = -g -fno-math-errno -Wall -Wextra -Wno-unused-parameter -pthread -Iinclude -Ibuild -I/usr/include/OpenEXR $(MPI_CFLAGS)
 CFLAGS   = -std=c11 $(OPT) $(CFLAGS_COMMON) -D_POSIX_C_SOURCE=200809L
 CXXFLAGS = -std=c++14 $(OPT) -g -Wall -pthread -Iinclude -I/usr/include/stb
-LIBS     = -lembree3 -lglfw -lOSMesa -lOpenEXRCore-3_1 -lstb $(MPI_LIBS) -lstdc++ -lm -pthread
+LIBS     = -lembree3 -lglfw -lOSMesa -lOpenEXRCore-3_1 -lstb -ldraco -lmeshoptimizer $(MPI_LIBS) -lstdc++ -lm -pthread
 
 C_SRC   := $(filter-out src/main.c,$(wildcard src/*.c))
 CXX_SRC := $(wildcard src/*.cpp)
@@ -44,7 +44,7 @@ define variant
 build/$(1)/%.o: src/%.c $(HEADERS)
 	@mkdir -p build/$(1)
 	$$(CC) $$(CFLAGS) $(2) -c $$< -o $$@
-build/$(1)/%.o: src/%.cpp include/loader.h include/scene.h include/pm_math.h
+build/$(1)/%.o: src/%.cpp include/loader.h include/scene.h include/pm_math.h include/compressed.h
 	@mkdir -p build/$(1)
 	$$(CXX) $$(CXXFLAGS) $(2) -c $$< -o $$@
 build/$(1)/tests/%: tests/%.c build/$(1)/libpm.a $(wildcard tests/*.h tests/fuzz/*.h)
@@ -89,7 +89,7 @@ FUZZ_SAN     := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-saniti
 build/fuzz/%.o: src/%.c $(HEADERS)
 	@mkdir -p build/fuzz
 	$(FUZZ_CC) $(CFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer-no-link -c $< -o $@
-build/fuzz/%.o: src/%.cpp include/loader.h include/scene.h include/pm_math.h
+build/fuzz/%.o: src/%.cpp include/loader.h include/scene.h include/pm_math.h include/compressed.h
 	@mkdir -p build/fuzz
 	$(FUZZ_CXX) $(CXXFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer-no-link -c $< -o $@
 build/fuzz/libpm.a: $(patsubst src/%.c,build/fuzz/%.o,$(C_SRC)) $(patsubst src/%.cpp,build/fuzz/%.o,$(CXX_SRC))

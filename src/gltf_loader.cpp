@@ -32,6 +32,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <initializer_list>
 #include <map>
 #include <memory>
@@ -39,6 +40,7 @@
 #include <vector>
 
 extern "C" {
+#include "compressed.h"
 #include "defaults.h"
 #include "loader.h"
 #include "memory.h"
@@ -63,7 +65,8 @@ const int kMaxJsonDepth = 128;
 const char *const kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
                                             "KHR_materials_transmission", "KHR_materials_ior",
                                             "KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_volume",
-                                            "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular"};
+                                            "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular",
+                                            "KHR_draco_mesh_compression", "EXT_meshopt_compression"};
 
 // ---------------------------------------------------------------- errors and messages
 
@@ -826,8 +829,10 @@ private:
     void preflight_typed_members(const json &root);
     void preflight_other_indices(const json &root);
     void preflight_uri_target(const json &object, const std::string &where, bool is_buffer, uint64_t byte_length);
+    void preflight_compressed(const json &root);
     // stage 2
     void build_model(const json &root);
+    void decode_compressed();
     // stage 3
     void traverse_default_scene();
     const DecodedMesh &decoded_mesh(int mesh);
@@ -917,6 +922,13 @@ private:
     std::vector<uint64_t> buffer_lengths_;
     TinygltfHooks hooks_;
     Model model_;
+    // Compressed geometry the preflight found, decoded by decode_compressed into buffers of its own.
+    struct MeshoptView { int view, buffer, mode, filter; uint64_t offset, length, count, stride; };
+    std::vector<MeshoptView> meshopt_views_;
+    std::vector<bool> fallback_buffers_;  // per buffer: an EXT_meshopt_compression fallback without data
+    struct DracoPrimitive { int mesh, primitive, view; std::vector<std::pair<int, uint32_t>> accessor_ids; };
+    std::vector<DracoPrimitive> draco_primitives_;
+    Admitted decoded_;  // the decoded buffers' bytes, given back with the Model
 
     // conversion
     std::vector<Mat4> world_;  // per node, valid once the traversal reached it
@@ -1260,6 +1272,67 @@ void Loader::preflight(const json &root) {
     optional_index(root, "scene", count_scenes_, "scene", "default scene");
     preflight_other_indices(root);
     preflight_typed_members(root);
+    preflight_compressed(root);
+}
+
+// EXT_meshopt_compression on bufferViews and KHR_draco_mesh_compression on primitives: their
+// members and ranges, so decode_compressed can trust them.
+void Loader::preflight_compressed(const json &root) {
+    for_each_object(root, "bufferViews", "bufferView", [&](const json &bv, const std::string &view_where, size_t i) {
+        const json *extensions = find_member(bv, "extensions");
+        const json *ext = extensions ? find_member(*extensions, "EXT_meshopt_compression") : nullptr;
+        if (!ext) return;
+        std::string where = view_where + " EXT_meshopt_compression";
+        if (!ext->is_object()) fail("EXT_meshopt_compression is not an object (" + view_where + ")");
+        MeshoptView m;
+        m.view = static_cast<int>(i);
+        m.buffer = required_index(*ext, "buffer", count_buffers_, "buffer", where);
+        m.offset = unsigned_member(*ext, "byteOffset", false, 0, UINT64_MAX, where);
+        m.length = unsigned_member(*ext, "byteLength", true, 0, UINT64_MAX, where);
+        m.stride = unsigned_member(*ext, "byteStride", true, 0, 256, where);
+        m.count = unsigned_member(*ext, "count", true, 0, UINT32_MAX, where);
+        uint64_t available = buffer_lengths_[m.buffer];
+        if (m.offset > available || m.length > available - m.offset)
+            fail("compressed range (offset " + str(m.offset) + " + length " + str(m.length) + ") exceeds buffer " +
+                 str(m.buffer) + " (" + str(available) + " bytes) (" + where + ")");
+        if (fallback_buffers_[m.buffer])
+            fail("buffer " + str(m.buffer) + " holds the compressed bytes but is a fallback buffer without data (" + where + ")");
+        const json *mode = find_member(*ext, "mode");
+        if (!mode || !mode->is_string()) fail("missing mode string (" + where + ")");
+        m.mode = pm_meshopt_mode(mode->get_ref<const std::string &>().c_str());
+        if (m.mode == PM_MESHOPT_MODE_UNKNOWN) fail("unknown mode " + printable(mode->get<std::string>()) + " (" + where + ")");
+        const json *filter = find_member(*ext, "filter");
+        if (filter && !filter->is_string()) fail("filter is " + describe(*filter) + ", not a string (" + where + ")");
+        m.filter = filter ? pm_meshopt_filter(filter->get_ref<const std::string &>().c_str()) : PM_MESHOPT_FILTER_NONE;
+        if (m.filter == PM_MESHOPT_FILTER_UNKNOWN) fail("unknown filter " + printable(filter->get<std::string>()) + " (" + where + ")");
+        meshopt_views_.push_back(m);
+    });
+    for_each_object(root, "meshes", "mesh", [&](const json &mesh, const std::string &mesh_where, size_t mi) {
+        const json &prims = *find_member(mesh, "primitives");
+        for (size_t p = 0; p < prims.size(); p++) {
+            const json &prim = prims[p];
+            const json *extensions = find_member(prim, "extensions");
+            const json *ext = extensions ? find_member(*extensions, "KHR_draco_mesh_compression") : nullptr;
+            if (!ext) continue;
+            std::string where = mesh_where + " primitive " + str(p) + " KHR_draco_mesh_compression";
+            if (!ext->is_object()) fail("KHR_draco_mesh_compression is not an object (" + where + ")");
+            DracoPrimitive d;
+            d.mesh = static_cast<int>(mi);
+            d.primitive = static_cast<int>(p);
+            d.view = required_index(*ext, "bufferView", count_views_, "bufferView", where);
+            const json *ids = find_member(*ext, "attributes");
+            if (!ids || !ids->is_object()) fail("missing attributes object (" + where + ")");
+            const json &attributes = *find_member(prim, "attributes");
+            for (auto it = ids->begin(); it != ids->end(); ++it) {
+                std::string name = printable(it.key(), 32);
+                const json *accessor = find_member(attributes, it.key().c_str());
+                if (!accessor) fail("attribute " + name + " is not among the primitive's attributes (" + where + ")");
+                uint64_t id = unsigned_member(*ids, it.key().c_str(), true, 0, UINT32_MAX, where);
+                d.accessor_ids.emplace_back(accessor->get<int>(), static_cast<uint32_t>(id));
+            }
+            draco_primitives_.push_back(d);
+        }
+    });
 }
 
 // Every texture reference (an object named ...Texture with an "index") anywhere inside an
@@ -1434,7 +1507,13 @@ void Loader::preflight_typed_members(const json &root) {
 void Loader::preflight_buffers(const json &root) {
     for_each_object(root, "buffers", "buffer", [&](const json &b, const std::string &where, size_t i) {
         uint64_t length = unsigned_member(b, "byteLength", true, 0, UINT64_MAX, where);
-        if (find_member(b, "uri")) {
+        const json *extensions = find_member(b, "extensions");
+        const json *meshopt = extensions ? find_member(*extensions, "EXT_meshopt_compression") : nullptr;
+        const json *fallback = meshopt && meshopt->is_object() ? find_member(*meshopt, "fallback") : nullptr;
+        // EXT_meshopt_compression: a buffer only compressed bufferViews point into needs no bytes
+        fallback_buffers_.push_back(fallback && fallback->is_boolean() && fallback->get<bool>() && !find_member(b, "uri"));
+        if (fallback_buffers_.back()) {
+        } else if (find_member(b, "uri")) {
             preflight_uri_target(b, where, true, length);
         } else if (!binary_) {
             fail("buffer " + str(i) + " has no uri (only a .glb embeds its buffer)");
@@ -1533,6 +1612,7 @@ void Loader::build_model(const json &root) {
         const unsigned char *bin = binary_ ? bin_data_ : nullptr;
         size_t bin_size = binary_ && bin_data_ ? bin_size_ : 0;
         if (!parse_objects(root, "buffers", &model.buffers, [&](tinygltf::Buffer *b, const json &o) {
+                if (fallback_buffers_[model.buffers.size()]) return true;  // its bufferViews are decoded
                 return tinygltf::ParseBuffer(b, err, o, keep_json, &fs, folder_, binary_, bin, bin_size);
             }))
             return false;
@@ -1563,11 +1643,13 @@ void Loader::build_model(const json &root) {
                         return false;
                     }
                     int view = model.accessors[p.indices].bufferView;
-                    if (view < 0 || static_cast<size_t>(view) >= model.bufferViews.size()) {
+                    // a Draco primitive's indices have no bufferView until decode_compressed fills them
+                    bool draco = view < 0 && p.extensions.count("KHR_draco_mesh_compression");
+                    if (!draco && (view < 0 || static_cast<size_t>(view) >= model.bufferViews.size())) {
                         error += "accessor[" + std::to_string(p.indices) + "] invalid bufferView";
                         return false;
                     }
-                    model.bufferViews[view].target = TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER;
+                    if (!draco) model.bufferViews[view].target = TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER;
                 }
                 for (const auto &a : p.attributes) mark_target(a.second, TINYGLTF_TARGET_ARRAY_BUFFER);
                 for (const auto &t : p.targets)
@@ -1656,11 +1738,112 @@ void Loader::build_model(const json &root) {
         if (model_.meshes[m].primitives.size() != primitives_per_mesh_[m])
             fail("tinygltf dropped a primitive (mesh " + str(m) + ")");
     for (size_t b = 0; b < count_buffers_; b++)
-        if (model_.buffers[b].data.size() != buffer_lengths_[b])
+        if (!fallback_buffers_[b] && model_.buffers[b].data.size() != buffer_lengths_[b])
             fail("loaded " + str(model_.buffers[b].data.size()) + " bytes, byteLength is " + str(buffer_lengths_[b]) +
                  ": buffer size mismatch (buffer " + str(b) + ")");
+    decode_compressed();
     // every accessor's byte ranges, used by the default scene or not, as for every other index
     for (size_t a = 0; a < model_.accessors.size(); a++) accessor_layout(model_, static_cast<int>(a));
+}
+
+// Compressed geometry into plain buffers: each decoded bufferView or Draco attribute gets a buffer
+// of its own and its bufferView (or accessor) is pointed at it, so the accessor checks that follow
+// apply to the decoded bytes as to any others. Sizes are checked before anything is allocated:
+// a meshopt view decodes to count x byteStride bytes, at most its bufferView's byteLength and
+// PM_MESHOPT_MAX_RATIO times its stream; a Draco attribute to exactly its accessor's count, which
+// must equal the points the stream decoded.
+void Loader::decode_compressed() {
+    char message[512];
+    auto admit = [&](uint64_t bytes, const std::string &where) {
+        if (!pm_memory_admit(bytes, "decoded geometry"))
+            fail("out of memory (" + std::string(pm_memory_failure()) + ") (" + where + ")");
+        decoded_.bytes += bytes;
+    };
+    auto own_buffer = [&](std::vector<unsigned char> &&bytes) {
+        model_.buffers.emplace_back();
+        model_.buffers.back().data = std::move(bytes);
+        return static_cast<int>(model_.buffers.size() - 1);
+    };
+    for (const MeshoptView &m : meshopt_views_) {
+        std::string where = "bufferView " + str(m.view) + " EXT_meshopt_compression";
+        tinygltf::BufferView &bv = model_.bufferViews[m.view];
+        if (bv.byteStride && bv.byteStride != m.stride)
+            fail("byteStride " + str(m.stride) + " but the bufferView's is " + str(bv.byteStride) + " (" + where + ")");
+        uint64_t decoded = m.count * m.stride;  // both checked to 32 bits
+        if (decoded > bv.byteLength)
+            fail("count " + str(m.count) + " x byteStride " + str(m.stride) + " exceeds the bufferView's byteLength " +
+                 str(bv.byteLength) + " (" + where + ")");
+        if (decoded / PM_MESHOPT_MAX_RATIO > m.length)
+            fail("count " + str(m.count) + " x byteStride " + str(m.stride) + " is over " + str(PM_MESHOPT_MAX_RATIO) +
+                 " times the " + str(m.length) + "-byte stream (" + where + ")");
+        admit(decoded, where);
+        std::vector<unsigned char> bytes(decoded);
+        const unsigned char *src = model_.buffers[m.buffer].data.data() + m.offset;
+        if (!pm_meshopt_decode(bytes.data(), m.count, m.stride, m.mode, m.filter, src, m.length, message, sizeof message))
+            fail(std::string(message) + " (" + where + ")");
+        bv.buffer = own_buffer(std::move(bytes));
+        bv.byteOffset = 0;
+        bv.byteLength = decoded;  // what the accessors may read: the decoded bytes
+    }
+    for (size_t v = 0; v < model_.bufferViews.size(); v++) {
+        int b = model_.bufferViews[v].buffer;
+        if (static_cast<size_t>(b) < fallback_buffers_.size() && fallback_buffers_[b])
+            fail("bufferView " + str(v) + " lies in buffer " + str(b) +
+                 ", a fallback buffer without data, and is not EXT_meshopt_compression-compressed");
+    }
+    std::map<int, int> filled_from;  // accessor -> the bufferView of the Draco stream that filled it
+    for (const DracoPrimitive &d : draco_primitives_) {
+        std::string where = "mesh " + str(d.mesh) + " primitive " + str(d.primitive) + " KHR_draco_mesh_compression";
+        tinygltf::Primitive &prim = model_.meshes[d.mesh].primitives[d.primitive];
+        if (prim.mode != TINYGLTF_MODE_TRIANGLES) {
+            if (prim.mode < TINYGLTF_MODE_TRIANGLES) continue;  // points and lines are skipped anyway
+            fail("a Draco stream holds a triangle list, not mode " + str(prim.mode) + " (" + where + ")");
+        }
+        if (prim.indices < 0) fail("a Draco primitive needs an indices accessor (" + where + ")");
+        const tinygltf::BufferView &bv = model_.bufferViews[d.view];
+        std::unique_ptr<pm_draco_mesh, void (*)(pm_draco_mesh *)> mesh(
+            pm_draco_decode(model_.buffers[bv.buffer].data.data() + bv.byteOffset, bv.byteLength, message, sizeof message),
+            pm_draco_free);
+        if (!mesh) fail(std::string(message) + " (" + where + ", bufferView " + str(d.view) + ")");
+        uint64_t points = pm_draco_points(mesh.get()), triangles = pm_draco_triangles(mesh.get());
+        if (triangles == 0) fail("the Draco stream holds no triangles (" + where + ")");
+        auto fill = [&](int a, uint64_t count, const char *what, const std::function<bool(void *)> &decode) {
+            tinygltf::Accessor &accessor = model_.accessors[a];
+            auto first = filled_from.emplace(a, d.view);
+            if (!first.second) {
+                if (first.first->second == d.view) return;  // the same stream decoded for another primitive
+                fail("accessor " + str(a) + " is filled by two Draco streams (bufferViews " + str(first.first->second) +
+                     " and " + str(d.view) + ") (" + where + ")");
+            }
+            if (accessor.count != count)
+                fail("accessor " + str(a) + " has count " + str(accessor.count) + " but the Draco stream decodes " +
+                     str(count) + " " + what + " (" + where + ")");
+            int components = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(accessor.type));
+            size_t size = component_size(accessor.componentType);
+            if (components <= 0 || size == 0)
+                fail("unsupported accessor type (accessor " + str(a) + ", " + where + ")");
+            admit(count * size * static_cast<size_t>(components), where);
+            std::vector<unsigned char> bytes(count * size * static_cast<size_t>(components));
+            if (!decode(bytes.data())) fail(std::string(message) + " (accessor " + str(a) + ", " + where + ")");
+            model_.bufferViews.emplace_back();
+            tinygltf::BufferView &view = model_.bufferViews.back();
+            view.byteLength = bytes.size();
+            view.buffer = own_buffer(std::move(bytes));
+            accessor.bufferView = static_cast<int>(model_.bufferViews.size() - 1);
+            accessor.byteOffset = 0;
+        };
+        for (const auto &ai : d.accessor_ids) {
+            const tinygltf::Accessor &accessor = model_.accessors[ai.first];
+            int components = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(accessor.type));
+            fill(ai.first, points, "points", [&](void *out) {
+                return pm_draco_attribute(mesh.get(), ai.second, accessor.componentType, components, accessor.normalized,
+                                          out, message, sizeof message);
+            });
+        }
+        fill(prim.indices, 3 * triangles, "indices", [&](void *out) {
+            return pm_draco_indices(mesh.get(), model_.accessors[prim.indices].componentType, out, message, sizeof message);
+        });
+    }
 }
 
 // ---- stage 3: scene graph, meshes, materials

@@ -894,10 +894,10 @@ static void test_rejections(void) {
     write_model("two_parents.gltf", &tri, 1, &two_parents);
     check_rejected("two_parents.gltf", "node 0 is reached twice");
 
-    doc_spec draco = {NULL, NULL, NULL,
-                      "\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],\"extensionsRequired\":[\"KHR_draco_mesh_compression\"],"};
-    write_model("draco.gltf", &tri, 1, &draco);
-    check_rejected("draco.gltf", "required extension KHR_draco_mesh_compression is not supported");
+    doc_spec unsupported = {NULL, NULL, NULL,
+                            "\"extensionsUsed\":[\"EXT_pmview_unsupported\"],\"extensionsRequired\":[\"EXT_pmview_unsupported\"],"};
+    write_model("unsupported.gltf", &tri, 1, &unsupported);
+    check_rejected("unsupported.gltf", "required extension EXT_pmview_unsupported is not supported");
 
     doc_spec negative = {"[{\"mesh\":-1}]", NULL, NULL, NULL};
     write_model("negative.gltf", &tri, 1, &negative);

@@ -33,7 +33,7 @@ fuzz() {
     cp "$fuzzer" "$running" || return 1
     rm -rf "$seeds"
     if [ "$name" = gltf ]; then
-        python3 tools/fuzz_seeds.py "$seeds" ../shared/gltf-corpus ../shared/real-models scenes || return 1
+        python3 tools/fuzz_seeds.py "$seeds" ../shared/gltf-corpus ../shared/real-models scenes tests/models || return 1
     else
         python3 tools/fuzz_seeds.py --inputs "$seeds" tests/ref || return 1
     fi
