@@ -1,11 +1,13 @@
 #!/usr/bin/env python3
 # big_scene.py: writes a large test scene (.glb): a bumpy height field of about N million triangles under a sun, for the bench's load, BVH and window figures.
-"""Usage: python3 bench/big_scene.py OUT.glb MILLIONS
+"""Usage: python3 bench/big_scene.py OUT.glb MILLIONS [--smooth]
 
 A square height field of k x k quads (2 k^2 triangles, k chosen so that 2 k^2 is about MILLIONS
 x 10^6), its height a sum of sines so that the sun casts shadows and the BVH has depth to sort,
 one diffuse grey material, a directional light (KHR_lights_punctual) and no camera: pmview frames
-it. The file is written by numpy in a few seconds; it is generated at bench time, never committed."""
+it. Without --smooth the file has no NORMAL, so each triangle is shaded flat and gets vertices of
+its own (3 per triangle); --smooth writes the field's normals, so neighbours share vertices (about
+one per two triangles), as exported meshes do. The file is written by numpy in a few seconds; it is generated at bench time, never committed."""
 import json
 import math
 import struct
@@ -30,8 +32,17 @@ def height_field(k):
     return positions, tri.reshape(-1, 3)
 
 
-def write_glb(path, positions, indices):
-    pos_bytes = positions.tobytes()
+def height_field_normals(positions):
+    """Unit normals (float32) of the field at the given positions: (-dy/dx, 1, -dy/dz), normalised."""
+    x, z = positions[:, 0].astype(np.float64), positions[:, 2].astype(np.float64)
+    dx = 0.54 * np.cos(9.0 * x) * np.cos(7.0 * z) + 0.93 * np.cos(31.0 * x + 23.0 * z) - 0.732 * np.cos(97.0 * z - 61.0 * x)
+    dz = -0.42 * np.sin(9.0 * x) * np.sin(7.0 * z) + 0.69 * np.cos(31.0 * x + 23.0 * z) + 1.164 * np.cos(97.0 * z - 61.0 * x)
+    n = np.stack([-dx, np.ones_like(dx), -dz], axis=-1)
+    return (n / np.linalg.norm(n, axis=1, keepdims=True)).astype(np.float32)
+
+
+def write_glb(path, positions, indices, normals=None):
+    pos_bytes = positions.tobytes() + (normals.tobytes() if normals is not None else b"")
     idx_bytes = indices.tobytes()
     lo, hi = positions.min(axis=0), positions.max(axis=0)
     gltf = {
@@ -58,6 +69,10 @@ def write_glb(path, positions, indices):
             {"bufferView": 1, "componentType": 5125, "count": indices.size, "type": "SCALAR"},
         ],
     }
+    if normals is not None:
+        gltf["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = 2
+        gltf["accessors"].append({"bufferView": 0, "byteOffset": positions.nbytes, "componentType": 5126,
+                                  "count": len(normals), "type": "VEC3"})
     js = json.dumps(gltf, separators=(",", ":")).encode()
     js += b" " * (-len(js) % 4)
     body = pos_bytes + idx_bytes
@@ -70,9 +85,9 @@ def write_glb(path, positions, indices):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3:
+    if len(sys.argv) not in (3, 4) or (len(sys.argv) == 4 and sys.argv[3] != "--smooth"):
         sys.exit(__doc__)
     k = max(1, int(round(math.sqrt(float(sys.argv[2]) * 1e6 / 2.0))))
     positions, indices = height_field(k)
-    write_glb(sys.argv[1], positions, indices)
+    write_glb(sys.argv[1], positions, indices, height_field_normals(positions) if len(sys.argv) == 4 else None)
     print(f"big_scene: {sys.argv[1]}: {len(indices)} triangles")
