@@ -792,6 +792,20 @@ bool pm_material_can_be_transparent(const pm_scene *s, const pm_material *m) {
     return m->alpha_mode == PM_ALPHA_MASK ? smallest < m->alpha_cutoff : smallest < 1.f;
 }
 
+/* A normal texel's (x, y), a slope along the texture's own axes (image right = +u', up = -v'), as the
+ * same slope along the tangent frame's (+u, -v) when KHR_texture_transform maps (u, v) to (u', v') by
+ * A = [m0 m1; m3 m4]. Slopes are gradients, which the chain rule carries by the transpose of the
+ * map: in the (u, -v) axes that is F A^T F with F = diag(1, -1). Dividing by sqrt|det A| keeps a
+ * uniform scale (tiling) from changing how steep the bumps are, so what is left is the inverse
+ * of the UV rotation, with a mirror for a negative scale. */
+static inline void texture_slope_to_surface(const pm_uv_transform *t, float *x, float *y) {
+    float det = fabsf(t->m[0] * t->m[4] - t->m[1] * t->m[3]);
+    if (!(det > 0.f) || !isfinite(det)) return;
+    float k = 1.f / sqrtf(det), tx = *x, ty = *y;
+    *x = k * (t->m[0] * tx - t->m[3] * ty);
+    *y = k * (-t->m[1] * tx + t->m[4] * ty);
+}
+
 /* The shading normal a normal map gives at barycentrics (b0, b1, b2) of the triangle with
  * corners ix: the texel (linear, [0,1] -> [-1,1], x and y times the scale) in the frame of the
  * interpolated tangent T (orthogonalised against n), B = w cross(n, T) and n, the interpolated
@@ -826,6 +840,7 @@ static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_
     }
     vec3 c = texture_at(s, uv, footprint, m->normal_texture, m->normal_texcoord, &m->normal_transform, false);
     float x = (2.f * c.x - 1.f) * m->normal_scale, y = (2.f * c.y - 1.f) * m->normal_scale, z = 2.f * c.z - 1.f;
+    if (m->normal_transform.transformed) texture_slope_to_surface(&m->normal_transform, &x, &y);
     vec3 p = v3_add(v3_add(v3_scale(t, x), v3_scale(bt, y)), v3_scale(n, z));
     float plen = v3_length(p);
     if (!(plen > 0.f) || !isfinite(plen)) return n;
