@@ -802,6 +802,7 @@ public:
     uint32_t skipped_degenerate() const { return static_cast<uint32_t>(std::min<uint64_t>(degenerate_, UINT32_MAX)); }
     uint32_t skipped_primitives() const { return static_cast<uint32_t>(std::min<uint64_t>(skipped_prims_, UINT32_MAX)); }
     uint32_t ignored_inputs() const { return ignored_inputs_; }
+    uint32_t occlusion_textures_ignored() const { return occlusion_textures_ignored_; }
     double unit_scale() const { return frame_scale_; }
     uint32_t json_parses() const { return json_parses_; }
     double json_seconds() const { return json_seconds_; }
@@ -932,6 +933,9 @@ private:
     uint64_t collapsed_normals_ = 0;  // usable NORMAL values the node's transform reduced to nothing
     std::string first_collapsed_;
     uint32_t ignored_inputs_ = 0;  // materials using an input pmview does not render (each kind warned once)
+    // Occlusion textures stand in for what a rasteriser cannot compute; tracing computes it, so
+    // they are left out by design: counted for --stats, never warned about.
+    uint32_t occlusion_textures_ignored_ = 0;
     struct Ignored { uint32_t count; std::string first; };
     std::map<std::string, Ignored> ignored_;  // kind -> materials using it, the first one's name
     void note_ignored(const std::string &kind, const std::string &material) {
@@ -1945,7 +1949,7 @@ void Loader::convert_materials() {
         std::string where = "material " + str(i);
         /* what this material asks for that pmview does not render: warned once per kind below */
         std::string name = mat.name.empty() ? where : "material " + str(i) + " " + printable(mat.name);
-        if (mat.occlusionTexture.index >= 0) note_ignored("occlusion textures", name);
+        if (mat.occlusionTexture.index >= 0) occlusion_textures_ignored_++;
         for (const auto &e : mat.extensions)
             if (e.first != "KHR_materials_transmission" && e.first != "KHR_materials_emissive_strength" &&
                 e.first != "KHR_materials_ior" && e.first != "KHR_materials_volume")
@@ -2501,6 +2505,7 @@ bool run_loader(const char *path, const unsigned char *data, size_t size, bool q
             report->skipped_degenerate = loader.skipped_degenerate();
             report->skipped_primitives = loader.skipped_primitives();
             report->ignored_inputs = loader.ignored_inputs();
+            report->occlusion_textures_ignored = loader.occlusion_textures_ignored();
             report->unit_scale = loader.unit_scale();
             report->recentered = loader.recentered();
             for (const std::string &w : loader.warnings())

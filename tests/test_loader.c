@@ -1410,6 +1410,49 @@ static void test_tangent_w(void) {
     pm_scene_free(&s);
 }
 
+/* ---------------------------------------------------------------- occlusion, unlit, samplers, KTX2: issue 31 */
+
+/* The unit quad (TEXCOORD_0 = its xy) with material 0, one 2 x 2 RGBA PNG as image 0 and texture 0
+ * on sampler 0 (`sampler`, a JSON object), and `members` (more top-level members, ending in a
+ * comma, or ""): the materials and whatever the case adds. */
+static void write_textured_quad(const char *name, const unsigned char rgba[16], const char *sampler, const char *members) {
+    static const float uv[8] = {0, 0, 1, 0, 1, 1, 0, 1};
+    blob *b = calloc(1, sizeof *b);
+    text body = {0}, prim = {0};
+    if (!b) abort();
+    quad_primitive(b, &prim, uv, NULL, 0);
+    int size = 0;
+    unsigned char *png = stbi_write_png_to_mem(rgba, 8, 2, 2, 4, &size);
+    if (!png) abort();
+    text_append(&body, "\"images\":[");
+    append_png_image(&body, png, (size_t)size, true);
+    free(png);
+    text_append(&body, "],\"samplers\":[%s],\"textures\":[{\"source\":0,\"sampler\":0}],%s", sampler, members);
+    text_append(&body, "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[%s]}]", prim.data);
+    write_blob_model(name, b, body.data);
+    free(body.data);
+    free(prim.data);
+    free(b);
+}
+
+static const unsigned char checker_2x2[16] = {255, 255, 255, 255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255, 255};
+
+/* An occlusion texture is left out by design (the tracer computes occlusion): counted for
+ * `stat load occlusion_textures_ignored`, no warning, not an ignored input. */
+static void test_occlusion_texture_silent(void) {
+    write_textured_quad("occlusion.gltf", checker_2x2, "{}",
+                        "\"materials\":[{\"occlusionTexture\":{\"index\":0,\"strength\":0.5},"
+                        "\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],");
+    pm_scene s;
+    pm_load_report r;
+    char warnings[2048];
+    if (!load_warned("occlusion.gltf", &s, &r, warnings, sizeof warnings)) return;
+    CHECK(r.occlusion_textures_ignored == 1, "occlusion_textures_ignored %u, want 1", r.occlusion_textures_ignored);
+    CHECK(r.ignored_inputs == 0 && r.warnings == 0 && warnings[0] == '\0', "an occlusion texture warns nothing: %u inputs, %u warnings:\n%s",
+          r.ignored_inputs, r.warnings, warnings);
+    pm_scene_free(&s);
+}
+
 /* ---------------------------------------------------------------- main */
 
 /* Inputs pmview does not render are counted (stat load ignored_inputs) and warned once per kind;
@@ -1802,6 +1845,7 @@ int main(void) {
     test_clamp_warnings();
     test_materials();
     test_ignored_inputs();
+    test_occlusion_texture_silent();
     test_texcoord_sets();
     test_texture_transform();
     test_data_textures();
