@@ -18,6 +18,12 @@
 #include "sky.h"
 
 enum { PM_WRAP_REPEAT = 0, PM_WRAP_CLAMP = 1, PM_WRAP_MIRROR = 2 };
+/* A glTF sampler's minFilter (0, the default, is LINEAR_MIPMAP_LINEAR: trilinear by footprint).
+ * The _MIPMAP_ kinds read the levels, the texel filter first, the level choice second. */
+enum {
+    PM_MIN_DEFAULT = 0, PM_MIN_NEAREST, PM_MIN_LINEAR, PM_MIN_NEAREST_MIPMAP_NEAREST, PM_MIN_LINEAR_MIPMAP_NEAREST,
+    PM_MIN_NEAREST_MIPMAP_LINEAR, PM_MIN_LINEAR_MIPMAP_LINEAR
+};
 
 /* An 8-bit RGBA image as stored in the file (sRGB-encoded); decoded to linear on lookup.
  * pm_scene_finalize adds its mip levels (pm_texture_build_levels): level k is level k-1 box-filtered
@@ -27,6 +33,11 @@ typedef struct {
     int width, height;
     uint8_t *rgba;          /* width*height*4 bytes, row 0 = top of the image (glTF v=0) */
     int wrap_s, wrap_t;     /* PM_WRAP_* */
+    /* the sampler's filters: magFilter NEAREST (the texel under the point, where the footprint is at
+     * most a texel, and for every lookup without a footprint, alpha included) and minFilter
+     * (PM_MIN_*, where the footprint is wider); zero is glTF's usual LINEAR / LINEAR_MIPMAP_LINEAR */
+    bool mag_nearest;
+    int min_filter;
     int level_count;        /* levels in all, level 0 (rgba) included */
     uint8_t *levels;        /* levels 1 .. level_count-1 one after another, owned; NULL without */
     int level_width[PM_TEXTURE_MAX_LEVELS], level_height[PM_TEXTURE_MAX_LEVELS];
@@ -364,11 +375,12 @@ static inline pm_brdf pm_material_brdf(const pm_material *m, vec3 base) {
 static inline void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, vec3 *ks, vec3 *kt) {
     pm_material_split_at(base, m->metallic, m->roughness, m->transmission, kd, ks, kt);
 }
-/* Linear RGB of a texture at (u, v) with its wrap modes, bilinear. */
+/* Linear RGB of a texture at (u, v) with its wrap modes, bilinear (the texel under it with magFilter NEAREST). */
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v);
-/* RGB at (u, v) over a footprint `texels` wide (in level-0 texels): bilinear at level 0 up to a
- * footprint of one texel (there exactly pm_texture_lookup, or _data when !srgb), beyond it
- * trilinear between the two levels around log2(texels). */
+/* RGB at (u, v) over a footprint `texels` wide (in level-0 texels): level 0 under the magFilter up to a
+ * footprint of one texel (there exactly pm_texture_lookup, or _data when !srgb), beyond it as the
+ * minFilter says: by default trilinear between the two levels around log2(texels); NEAREST and
+ * LINEAR level 0 alone; _MIPMAP_NEAREST the level nearest log2(texels); NEAREST_ the texel under (u, v). */
 vec3 pm_texture_filtered(const pm_texture *t, float u, float v, float texels, bool srgb);
 /* Builds t's mip levels (replacing any): colour (srgb) textures are averaged in linear light,
  * weighted by alpha so that cut-out texels do not bleed their colour into what stays, and

@@ -831,6 +831,7 @@ private:
     void add_camera(int camera, const WorldTransform &world, int node);
     void convert_materials();
     int texture_for(int gltf_texture, const std::string &where);
+    void sampler_filters(const tinygltf::Sampler &s, int sampler, pm_texture *tex);
     bool convert_reference(const TextureReference &r, const std::string &where, int *texture, int *texcoord,
                            pm_uv_transform *transform);
     double checked(double value, double lo, double hi, const char *field, const std::string &object);
@@ -1168,6 +1169,8 @@ void Loader::preflight(const json &root) {
     for_each_object(root, "samplers", "sampler", [&](const json &s, const std::string &where, size_t) {
         unsigned_member(s, "wrapS", false, 0, INT_MAX, where);
         unsigned_member(s, "wrapT", false, 0, INT_MAX, where);
+        unsigned_member(s, "magFilter", false, 0, INT_MAX, where);
+        unsigned_member(s, "minFilter", false, 0, INT_MAX, where);
     });
 
     hooks_.image_wanted.assign(count_images_, 0);
@@ -1854,6 +1857,29 @@ void Loader::add_camera(int index, const WorldTransform &world, int node) {
     cameras_.push_back(cam);
 }
 
+// A sampler's magFilter and minFilter into the texture (absent: LINEAR and trilinear by footprint).
+void Loader::sampler_filters(const tinygltf::Sampler &s, int sampler, pm_texture *tex) {
+    if (s.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST) tex->mag_nearest = true;
+    else if (s.magFilter != -1 && s.magFilter != TINYGLTF_TEXTURE_FILTER_LINEAR)
+        note("sampler " + str(sampler), "magFilter", std::to_string(s.magFilter) + " is not a glTF magnification filter; using LINEAR",
+             false);
+    static const struct { int gltf, pm; } mins[] = {
+        {TINYGLTF_TEXTURE_FILTER_NEAREST, PM_MIN_NEAREST},
+        {TINYGLTF_TEXTURE_FILTER_LINEAR, PM_MIN_LINEAR},
+        {TINYGLTF_TEXTURE_FILTER_NEAREST_MIPMAP_NEAREST, PM_MIN_NEAREST_MIPMAP_NEAREST},
+        {TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_NEAREST, PM_MIN_LINEAR_MIPMAP_NEAREST},
+        {TINYGLTF_TEXTURE_FILTER_NEAREST_MIPMAP_LINEAR, PM_MIN_NEAREST_MIPMAP_LINEAR},
+        {TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR, PM_MIN_LINEAR_MIPMAP_LINEAR}};
+    if (s.minFilter == -1) return;
+    for (const auto &m : mins)
+        if (m.gltf == s.minFilter) {
+            tex->min_filter = m.pm;
+            return;
+        }
+    note("sampler " + str(sampler), "minFilter", std::to_string(s.minFilter) + " is not a glTF minification filter; using LINEAR_MIPMAP_LINEAR",
+         false);
+}
+
 int Loader::texture_for(int gltf_texture, const std::string &where) {
     auto known = texture_of_gltf_.find(gltf_texture);
     if (known != texture_of_gltf_.end()) return known->second;
@@ -1893,6 +1919,7 @@ int Loader::texture_for(int gltf_texture, const std::string &where) {
                 note("sampler " + str(t.sampler), fields[k], std::to_string(modes[k]) + " is not a glTF wrap mode; using REPEAT",
                      false);  // a second texture on the same sampler
         }
+        sampler_filters(s, t.sampler, &tex);
     }
     textures_.items.reserve(textures_.items.size() + 1);  // so push_back below cannot throw and leak the texels
     if (!pm_memory_admit(static_cast<uint64_t>(pixels) * 4, "texture"))

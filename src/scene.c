@@ -544,10 +544,30 @@ static inline vec3 image_bilinear(const pm_texture *t, const uint8_t *rgba, int 
     return sum;
 }
 
+/* The texel of one image under (u, v) (a sampler's NEAREST): of the two bilinear taps on each axis,
+ * the one whose centre is nearer. */
+static inline size_t nearest_texel(const pm_texture *t, int w, int h, float u, float v) {
+    int xa, xb, ya, yb;
+    float ax, ay;
+    wrap_axis(u, w, t->wrap_s, &xa, &xb, &ax);
+    wrap_axis(v, h, t->wrap_t, &ya, &yb, &ay);
+    return (size_t)(ay < 0.5f ? ya : yb) * w + (ax < 0.5f ? xa : xb);
+}
+static inline vec3 image_nearest(const pm_texture *t, const uint8_t *rgba, int w, int h, float u, float v, bool srgb) {
+    const uint8_t *p = rgba + 4 * nearest_texel(t, w, h, u, v);
+    return srgb ? v3(srgb_table[p[0]], srgb_table[p[1]], srgb_table[p[2]])
+                : v3(p[0] * (1.f / 255.f), p[1] * (1.f / 255.f), p[2] * (1.f / 255.f));
+}
+/* One image read with the texel filter `nearest` or bilinear. */
+static inline vec3 image_read(const pm_texture *t, const uint8_t *rgba, int w, int h, float u, float v, bool srgb, bool nearest) {
+    return nearest ? image_nearest(t, rgba, w, h, u, v, srgb) : image_bilinear(t, rgba, w, h, u, v, srgb);
+}
+
+/* Level 0 under the magnification filter. */
 static vec3 texture_bilinear(const pm_texture *t, float u, float v, bool srgb) {
     pthread_once(&srgb_table_once, init_srgb_table);
     if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
-    return image_bilinear(t, t->rgba, t->width, t->height, u, v, srgb);
+    return image_read(t, t->rgba, t->width, t->height, u, v, srgb, t->mag_nearest);
 }
 
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v) { return texture_bilinear(t, u, v, true); }
@@ -570,18 +590,24 @@ vec3 pm_texture_filtered(const pm_texture *t, float u, float v, float texels, bo
     if (!(texels > 1.f) || t->level_count <= 1 || !t->levels) return texture_bilinear(t, u, v, srgb);
     pthread_once(&srgb_table_once, init_srgb_table);
     if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
-    int top = t->level_count - 1, w, h;
+    int top = t->level_count - 1, w, h, min = t->min_filter;
+    bool nearest = min == PM_MIN_NEAREST || min == PM_MIN_NEAREST_MIPMAP_NEAREST || min == PM_MIN_NEAREST_MIPMAP_LINEAR;
+    if (min == PM_MIN_NEAREST || min == PM_MIN_LINEAR) /* no mipmapping asked for: level 0 */
+        return image_read(t, t->rgba, t->width, t->height, u, v, srgb, nearest);
     float level = log2f(texels); /* > 0; +inf for an infinite footprint */
+    if (min == PM_MIN_NEAREST_MIPMAP_NEAREST || min == PM_MIN_LINEAR_MIPMAP_NEAREST)
+        level = floor_finite(level + 0.5f); /* the nearest level */
     if (!(level < (float)top)) {
         const uint8_t *p = level_texels(t, top, &w, &h);
-        return image_bilinear(t, p, w, h, u, v, srgb);
+        return image_read(t, p, w, h, u, v, srgb, nearest);
     }
     int k = (int)level;
     float f = level - (float)k;
     const uint8_t *p0 = level_texels(t, k, &w, &h);
-    vec3 a = image_bilinear(t, p0, w, h, u, v, srgb);
+    vec3 a = image_read(t, p0, w, h, u, v, srgb, nearest);
+    if (f == 0.f) return a;
     const uint8_t *p1 = level_texels(t, k + 1, &w, &h);
-    vec3 b = image_bilinear(t, p1, w, h, u, v, srgb);
+    vec3 b = image_read(t, p1, w, h, u, v, srgb, nearest);
     return v3_add(v3_scale(a, 1.f - f), v3_scale(b, f));
 }
 
@@ -772,6 +798,7 @@ static vec3 texture_at(const pm_scene *s, const float uv[2][2], const float foot
 
 float pm_texture_alpha(const pm_texture *t, float u, float v) {
     if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return 1.f;
+    if (t->mag_nearest) return t->rgba[4 * nearest_texel(t, t->width, t->height, u, v) + 3] * (1.f / 255.f);
     bilinear_taps b = bilinear(t, u, v);
     float sum = 0.f;
     for (int k = 0; k < 4; k++) sum += t->rgba[4 * b.texel[k] + 3] * b.weight[k];

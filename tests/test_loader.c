@@ -1453,6 +1453,45 @@ static void test_occlusion_texture_silent(void) {
     pm_scene_free(&s);
 }
 
+/* Sampler filters reach the texture: magFilter NEAREST, each minFilter, absent ones as LINEAR /
+ * trilinear, and a value glTF does not define warned once and read as the default. */
+static void test_sampler_filters(void) {
+    static const struct { const char *sampler; bool mag_nearest; int min_filter; unsigned warnings; } cases[] = {
+        {"{}", false, PM_MIN_DEFAULT, 0},
+        {"{\"magFilter\":9728}", true, PM_MIN_DEFAULT, 0},
+        {"{\"magFilter\":9729,\"minFilter\":9728}", false, PM_MIN_NEAREST, 0},
+        {"{\"minFilter\":9729}", false, PM_MIN_LINEAR, 0},
+        {"{\"magFilter\":9728,\"minFilter\":9984}", true, PM_MIN_NEAREST_MIPMAP_NEAREST, 0},
+        {"{\"minFilter\":9985}", false, PM_MIN_LINEAR_MIPMAP_NEAREST, 0},
+        {"{\"minFilter\":9986}", false, PM_MIN_NEAREST_MIPMAP_LINEAR, 0},
+        {"{\"minFilter\":9987}", false, PM_MIN_LINEAR_MIPMAP_LINEAR, 0},
+        {"{\"magFilter\":9984,\"minFilter\":1}", false, PM_MIN_DEFAULT, 2},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        write_textured_quad("filters.gltf", checker_2x2, cases[c].sampler,
+                            "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],");
+        pm_scene s;
+        pm_load_report r;
+        char warnings[2048];
+        if (!load_warned("filters.gltf", &s, &r, warnings, sizeof warnings)) continue;
+        if (s.texture_count == 1)
+            CHECK(s.textures[0].mag_nearest == cases[c].mag_nearest && s.textures[0].min_filter == cases[c].min_filter,
+                  "sampler %s: mag_nearest %d min_filter %d, want %d %d", cases[c].sampler, s.textures[0].mag_nearest,
+                  s.textures[0].min_filter, cases[c].mag_nearest, cases[c].min_filter);
+        else CHECK(0, "sampler %s: %u textures", cases[c].sampler, s.texture_count);
+        CHECK(r.warnings == cases[c].warnings, "sampler %s: %u warnings, want %u:\n%s", cases[c].sampler, r.warnings,
+              cases[c].warnings, warnings);
+        if (cases[c].warnings) {
+            CHECK_WARNED(warnings, "sampler 0 magFilter 9984 is not a glTF magnification filter; using LINEAR");
+            CHECK_WARNED(warnings, "sampler 0 minFilter 1 is not a glTF minification filter; using LINEAR_MIPMAP_LINEAR");
+        }
+        pm_scene_free(&s);
+    }
+    write_textured_quad("filter_type.gltf", checker_2x2, "{\"magFilter\":\"NEAREST\"}",
+                        "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],");
+    check_rejected("filter_type.gltf", "magFilter");
+}
+
 /* ---------------------------------------------------------------- main */
 
 /* Inputs pmview does not render are counted (stat load ignored_inputs) and warned once per kind;
@@ -1846,6 +1885,7 @@ int main(void) {
     test_materials();
     test_ignored_inputs();
     test_occlusion_texture_silent();
+    test_sampler_filters();
     test_texcoord_sets();
     test_texture_transform();
     test_data_textures();
