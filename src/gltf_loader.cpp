@@ -1888,6 +1888,14 @@ int Loader::texture_for(int gltf_texture, const std::string &where) {
     const tinygltf::Texture &t = model_.textures[gltf_texture];
     std::string what = "texture " + str(gltf_texture) + " of " + where;
     if (t.source < 0) {
+        // an image only an extension names (KTX2 by KHR_texture_basisu, WebP, DDS): one ignored:
+        // line per extension; with a PNG/JPEG fallback in `source` that fallback is read instead
+        for (const auto &e : t.extensions)
+            if (e.second.IsObject() && e.second.Has("source")) {
+                note_ignored("textures whose only image is " + std::string(e.first == "KHR_texture_basisu" ? "KTX2 " : "") +
+                                 "in " + printable(e.first), where);
+                return result;
+            }
         warn(what + " has no image source (extension images are not supported); ignored");
         return result;
     }

@@ -1415,7 +1415,14 @@ static void test_tangent_w(void) {
 /* The unit quad (TEXCOORD_0 = its xy) with material 0, one 2 x 2 RGBA PNG as image 0 and texture 0
  * on sampler 0 (`sampler`, a JSON object), and `members` (more top-level members, ending in a
  * comma, or ""): the materials and whatever the case adds. */
+static void write_textured_quad_with(const char *name, const unsigned char rgba[16], const char *sampler, const char *textures,
+                                     const char *members);
 static void write_textured_quad(const char *name, const unsigned char rgba[16], const char *sampler, const char *members) {
+    write_textured_quad_with(name, rgba, sampler, "[{\"source\":0,\"sampler\":0}]", members);
+}
+/* The same with the textures array given (JSON). */
+static void write_textured_quad_with(const char *name, const unsigned char rgba[16], const char *sampler, const char *textures,
+                                     const char *members) {
     static const float uv[8] = {0, 0, 1, 0, 1, 1, 0, 1};
     blob *b = calloc(1, sizeof *b);
     text body = {0}, prim = {0};
@@ -1427,7 +1434,7 @@ static void write_textured_quad(const char *name, const unsigned char rgba[16], 
     text_append(&body, "\"images\":[");
     append_png_image(&body, png, (size_t)size, true);
     free(png);
-    text_append(&body, "],\"samplers\":[%s],\"textures\":[{\"source\":0,\"sampler\":0}],%s", sampler, members);
+    text_append(&body, "],\"samplers\":[%s],\"textures\":%s,%s", sampler, textures, members);
     text_append(&body, "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[%s]}]", prim.data);
     write_blob_model(name, b, body.data);
     free(body.data);
@@ -1490,6 +1497,60 @@ static void test_sampler_filters(void) {
     write_textured_quad("filter_type.gltf", checker_2x2, "{\"magFilter\":\"NEAREST\"}",
                         "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],");
     check_rejected("filter_type.gltf", "magFilter");
+}
+
+/* What pmview leaves out is named, one `ignored:` line per kind: material extensions it does not
+ * render (iridescence, anisotropy, dispersion, volume scattering, diffuse transmission), and a
+ * texture whose only image is KTX2 (KHR_texture_basisu, used but not required). A KTX2 texture
+ * with a PNG fallback reads the fallback; KHR_texture_basisu required is refused. */
+static void test_ignored_kinds_named(void) {
+    write_textured_quad("unrendered.gltf", checker_2x2, "{}",
+                        "\"extensionsUsed\":[\"KHR_materials_iridescence\",\"KHR_materials_anisotropy\","
+                        "\"KHR_materials_dispersion\",\"KHR_materials_volume_scatter\",\"KHR_materials_diffuse_transmission\"],"
+                        "\"materials\":[{\"name\":\"film\",\"extensions\":{\"KHR_materials_iridescence\":{\"iridescenceFactor\":1},"
+                        "\"KHR_materials_anisotropy\":{\"anisotropyStrength\":0.5},\"KHR_materials_dispersion\":{\"dispersion\":0.1},"
+                        "\"KHR_materials_volume_scatter\":{},\"KHR_materials_diffuse_transmission\":{}}}],");
+    pm_scene s;
+    pm_load_report r;
+    char warnings[4096];
+    if (load_warned("unrendered.gltf", &s, &r, warnings, sizeof warnings)) {
+        static const char *const kinds[] = {"KHR_materials_iridescence", "KHR_materials_anisotropy", "KHR_materials_dispersion",
+                                            "KHR_materials_volume_scatter", "KHR_materials_diffuse_transmission"};
+        char line[256];
+        for (size_t k = 0; k < sizeof kinds / sizeof kinds[0]; k++) {
+            snprintf(line, sizeof line, "ignored: %s in 1 material(s), first material 0 film\n", kinds[k]);
+            CHECK_WARNED(warnings, line);
+        }
+        CHECK(r.ignored_inputs == 5 && r.warnings == 6, "5 ignored inputs (%u), a line each and the used-extension list (%u warnings):\n%s",
+              r.ignored_inputs, r.warnings, warnings);
+        pm_scene_free(&s);
+    }
+
+    const char *material = "\"extensionsUsed\":[\"KHR_texture_basisu\"],"
+                           "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],";
+    write_textured_quad_with("ktx2_only.gltf", checker_2x2, "{}", "[{\"extensions\":{\"KHR_texture_basisu\":{\"source\":0}}}]", material);
+    if (load_warned("ktx2_only.gltf", &s, &r, warnings, sizeof warnings)) {
+        CHECK_WARNED(warnings, "ignored: textures whose only image is KTX2 in KHR_texture_basisu in 1 material(s), first material 0\n");
+        CHECK_WARNED(warnings, "ignoring unsupported extension(s) KHR_texture_basisu (used, not required)");
+        CHECK(s.texture_count == 0 && s.material_count == 1 && s.materials[0].base_color_texture == -1 && r.ignored_inputs == 1 &&
+                  r.warnings == 2,
+              "a KTX2-only texture is left out: %u textures, %u ignored inputs, %u warnings:\n%s", s.texture_count, r.ignored_inputs,
+              r.warnings, warnings);
+        pm_scene_free(&s);
+    }
+    write_textured_quad_with("ktx2_fallback.gltf", checker_2x2, "{}",
+                             "[{\"source\":0,\"sampler\":0,\"extensions\":{\"KHR_texture_basisu\":{\"source\":0}}}]", material);
+    if (load_warned("ktx2_fallback.gltf", &s, &r, warnings, sizeof warnings)) {
+        CHECK(s.texture_count == 1 && s.materials[0].base_color_texture == 0 && r.ignored_inputs == 0 && r.warnings == 1,
+              "a KTX2 texture with a PNG fallback reads it: %u textures, %u ignored, %u warnings:\n%s", s.texture_count,
+              r.ignored_inputs, r.warnings, warnings);
+        if (s.texture_count == 1) CHECK(s.textures[0].rgba[0] == 255 && s.textures[0].rgba[4] == 0, "the fallback's texels");
+        pm_scene_free(&s);
+    }
+    write_textured_quad_with("ktx2_required.gltf", checker_2x2, "{}", "[{\"extensions\":{\"KHR_texture_basisu\":{\"source\":0}}}]",
+                             "\"extensionsUsed\":[\"KHR_texture_basisu\"],\"extensionsRequired\":[\"KHR_texture_basisu\"],"
+                             "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],");
+    check_rejected("ktx2_required.gltf", "required extension KHR_texture_basisu is not supported");
 }
 
 /* ---------------------------------------------------------------- main */
@@ -1886,6 +1947,7 @@ int main(void) {
     test_ignored_inputs();
     test_occlusion_texture_silent();
     test_sampler_filters();
+    test_ignored_kinds_named();
     test_texcoord_sets();
     test_texture_transform();
     test_data_textures();
