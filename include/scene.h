@@ -92,6 +92,10 @@ typedef struct {
      * the material (the factors with the data textures' whole range of texel values) */
     bool may_diffuse, may_mirror, may_glass, may_glossy;
     bool may_see_through;    /* derived too: pm_material_can_be_transparent (it reads the whole alpha texture) */
+    /* KHR_materials_unlit: the camera sees base colour x its texture as it is, directly or through
+     * mirrors and glass (pm_surface.emission, unlit set); everything else meets a black absorber
+     * that lights nothing (see docs/design.md, Materials). Its emission factor is 0. */
+    bool unlit;
     bool used;               /* derived too: some triangle has this material (the analysis counts only those) */
     /* derived by pm_scene_finalize for a material without base colour, metallic-roughness or
      * transmission texture: its split is the same at every point, so a hit copies it instead of
@@ -133,6 +137,7 @@ typedef struct {
     bool has_emissive_triangles, has_punctual_lights, has_sky;
     bool has_thin_glass;     /* some material can let light straight through a thin wall: shadow rays cross it (thin.h) */
     bool has_non_opaque;     /* some triangle's material can let rays through (MASK or BLEND with alpha that can cut) */
+    bool has_unlit;          /* some triangle's material is unlit: the camera sees it without any light */
     bool caustics_possible;  /* some light can reach a specular surface and then a diffuse one */
     bool interreflection_possible; /* light reflected by a diffuse surface can reach a diffuse one again */
     bool component_possible[PM_COMPONENT_COUNT];
@@ -223,6 +228,8 @@ typedef struct {
     pm_brdf brdf;    /* valid when glossy */
     vec3 emission;   /* radiance leaving the front face (both faces if double sided) */
     bool double_sided;
+    bool unlit;      /* emission is an unlit material's colour: counted only on the camera's own ray and specular
+                        chain, never after a diffuse or glossy bounce (it lights nothing) */
     vec3 centroid;   /* of the triangle: origins are pulled toward it, off shared edges */
 } pm_surface;
 
@@ -320,6 +327,7 @@ static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float 
     if (out->glossy) out->brdf = m->split_brdf;
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
     out->thin = m->thin_walled;
+    out->unlit = false;
     return true;
 }
 

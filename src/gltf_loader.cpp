@@ -62,7 +62,8 @@ const int kMaxJsonDepth = 128;
 
 const char *const kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_materials_emissive_strength",
                                             "KHR_materials_transmission", "KHR_materials_ior",
-                                            "KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_volume"};
+                                            "KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_volume",
+                                            "KHR_materials_unlit"};
 
 // ---------------------------------------------------------------- errors and messages
 
@@ -1987,7 +1988,8 @@ void Loader::convert_materials() {
         if (mat.occlusionTexture.index >= 0) occlusion_textures_ignored_++;
         for (const auto &e : mat.extensions)
             if (e.first != "KHR_materials_transmission" && e.first != "KHR_materials_emissive_strength" &&
-                e.first != "KHR_materials_ior" && e.first != "KHR_materials_volume")
+                e.first != "KHR_materials_ior" && e.first != "KHR_materials_volume" &&
+                e.first != "KHR_materials_unlit")
                 note_ignored(e.first, name);
         pm_material m;
         memset(&m, 0, sizeof m);
@@ -2008,6 +2010,10 @@ void Loader::convert_materials() {
         for (int k = 0; k < 3; k++) factor[k] = checked(mat.emissiveFactor[k], 0, 1, "emissiveFactor", label);
         m.emission = emission_within_film(factor, strength, "emission", "emissiveFactor x emissiveStrength " + num(strength), label);
         m.double_sided = mat.doubleSided;
+        // KHR_materials_unlit: base colour as it is, for the camera alone; the extension says every
+        // other input is ignored, emission included (docs/design.md, Materials)
+        m.unlit = mat.extensions.count("KHR_materials_unlit") > 0;
+        if (m.unlit) m.emission = v3s(0.f);
         attenuation_.emplace_back();
         m.thin_walled = !volume_attenuation(mat.extensions, label, attenuation_.back().data());
         m.alpha = static_cast<float>(checked(pbr.baseColorFactor[3], 0, 1, "baseColorFactor", label));

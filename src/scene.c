@@ -88,7 +88,12 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
     }
     m->may_see_through = pm_material_can_be_transparent(s, m);
     m->uniform_split = m->base_color_texture < 0 && m->metallic_roughness_texture < 0 && m->transmission_texture < 0;
-    if (m->uniform_split) {
+    if (m->unlit) {
+        /* no lobe at all, wherever its base colour texture goes */
+        m->may_diffuse = m->may_mirror = m->may_glass = m->may_glossy = m->split_glossy = false;
+        m->uniform_split = true;
+        m->split_kd = m->split_ks = m->split_kt = v3s(0.f);
+    } else if (m->uniform_split) {
         pm_material_split_at(m->base_color, m->metallic, m->roughness, m->transmission, &m->split_kd, &m->split_ks,
                              &m->split_kt);
         m->split_glossy = pm_glossy_at(m->metallic, m->roughness);
@@ -124,6 +129,7 @@ static void analyse(pm_scene *s) {
                            m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0 ||
                            (m->normal_texture >= 0 && s->tangents);
         a->has_non_opaque |= pm_material_can_be_transparent(s, m);
+        a->has_unlit |= m->unlit;
     }
     a->has_emissive_triangles = s->emitter_count > 0;
     a->has_punctual_lights = s->light_count > 0;
@@ -132,8 +138,8 @@ static void analyse(pm_scene *s) {
     bool specular = a->has_mirror || a->has_glass;
     a->caustics_possible = lit && specular && a->has_diffuse;
     a->interreflection_possible = a->has_diffuse && lit && (specular || !diffuse_coplanar(s));
-    a->component_possible[PM_DIRECT] = a->has_emissive_triangles || a->has_sky || (a->has_diffuse && lit);
-    a->component_possible[PM_SPECULAR] = specular && lit;
+    a->component_possible[PM_DIRECT] = a->has_emissive_triangles || a->has_sky || (a->has_diffuse && lit) || a->has_unlit;
+    a->component_possible[PM_SPECULAR] = specular && (lit || a->has_unlit);
     a->component_possible[PM_CAUSTIC] = a->caustics_possible;
     a->component_possible[PM_INDIRECT] = a->interreflection_possible;
 }
@@ -941,6 +947,7 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
     out->thin = m->thin_walled;
     out->emission = m->emission; /* the factor alone: pm_scene_surface applies the texture */
     out->double_sided = m->double_sided;
+    out->unlit = false;
 }
 
 void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
@@ -958,6 +965,16 @@ void pm_scene_surface_footprint(const pm_scene *s, uint32_t tri, float b1, float
         if (s->uvs1) interpolated_uv(s, s->indices + 3 * (size_t)tri, 1.f - b1 - b2, b1, b2, 1, &uv[1][0], &uv[1][1]);
         out->emission = v3_mul(m->emission, texture_at(s, uv, footprint, m->emission_texture, m->emission_texcoord,
                                                        &m->emission_transform, true));
+    }
+    if (m->unlit) {
+        vec3 base = m->base_color;
+        if (m->base_color_texture >= 0) {
+            float uv[2][2] = {{out->u, out->v}, {0.f, 0.f}};
+            if (s->uvs1) interpolated_uv(s, s->indices + 3 * (size_t)tri, 1.f - b1 - b2, b1, b2, 1, &uv[1][0], &uv[1][1]);
+            base = v3_mul(base, texture_at(s, uv, footprint, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform, true));
+        }
+        out->emission = base;
+        out->unlit = true;
     }
 }
 

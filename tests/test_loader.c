@@ -1553,6 +1553,29 @@ static void test_ignored_kinds_named(void) {
     check_rejected("ktx2_required.gltf", "required extension KHR_texture_basisu is not supported");
 }
 
+/* KHR_materials_unlit is read, not ignored: the material is unlit, its emission dropped (the
+ * extension ignores every other input), and the file may require it. */
+static void test_unlit_material(void) {
+    write_textured_quad("unlit.gltf", checker_2x2, "{}",
+                        "\"extensionsUsed\":[\"KHR_materials_unlit\"],\"extensionsRequired\":[\"KHR_materials_unlit\"],"
+                        "\"materials\":[{\"extensions\":{\"KHR_materials_unlit\":{}},\"emissiveFactor\":[1,1,1],"
+                        "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.25,1,1],\"baseColorTexture\":{\"index\":0}}}],");
+    pm_scene s;
+    pm_load_report r;
+    char warnings[2048];
+    if (!load_warned("unlit.gltf", &s, &r, warnings, sizeof warnings)) return;
+    CHECK(r.warnings == 0 && r.ignored_inputs == 0, "unlit is rendered: %u warnings, %u ignored:\n%s", r.warnings, r.ignored_inputs, warnings);
+    if (s.material_count == 1) {
+        const pm_material *m = &s.materials[0];
+        CHECK(m->unlit && v3_is_black(m->emission) && m->base_color.x == 0.5f && m->base_color.y == 0.25f && m->base_color_texture == 0,
+              "unlit material: unlit %d emission (%g %g %g) base (%g %g %g) texture %d", m->unlit, m->emission.x, m->emission.y,
+              m->emission.z, m->base_color.x, m->base_color.y, m->base_color.z, m->base_color_texture);
+        pm_scene_finalize(&s, false, NULL);
+        CHECK(s.analysis.has_unlit && s.emitter_count == 0, "analysis unlit %d, %u emitters", s.analysis.has_unlit, s.emitter_count);
+    } else CHECK(0, "material_count %u", s.material_count);
+    pm_scene_free(&s);
+}
+
 /* ---------------------------------------------------------------- main */
 
 /* Inputs pmview does not render are counted (stat load ignored_inputs) and warned once per kind;
@@ -1948,6 +1971,7 @@ int main(void) {
     test_occlusion_texture_silent();
     test_sampler_filters();
     test_ignored_kinds_named();
+    test_unlit_material();
     test_texcoord_sets();
     test_texture_transform();
     test_data_textures();
