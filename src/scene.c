@@ -319,7 +319,8 @@ double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo) {
         double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
         double area = 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
         total += area;
-        if (v3_average(s->materials[s->triangle_material[t]].base_color) >= albedo) reflective += area;
+        const pm_material *m = &s->materials[s->triangle_material[t]];
+        if (!m->unlit && v3_average(m->base_color) >= albedo) reflective += area; /* unlit reflects nothing */
     }
     return total > 0.0 ? reflective / total : 0.0;
 }

@@ -150,5 +150,15 @@ int main(void) {
         pm_accel_destroy(accels[k]);
         pm_scene_free(&scenes[k]);
     }
+    /* a closed white room reflects everything unless it is unlit (the slow-room warning reads this) */
+    pm_scene room;
+    memset(&room, 0, sizeof room);
+    uint32_t white = sb_lambert(&room, v3s(1.f));
+    sb_box(&room, v3s(-1.f), v3s(1.f), white, true);
+    double lit_room = pm_scene_reflective_area_fraction(&room, 0.98f);
+    room.materials[white].unlit = true;
+    double unlit_room = pm_scene_reflective_area_fraction(&room, 0.98f);
+    CHECK(lit_room == 1.0 && unlit_room == 0.0, "reflective area: white room %g, unlit white room %g", lit_room, unlit_room);
+    pm_scene_free(&room);
     return pm_test_done("test_unlit");
 }
