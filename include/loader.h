@@ -17,6 +17,7 @@ typedef struct {
     uint32_t skipped_primitives;     /* points / lines primitives dropped */
     uint32_t warnings;               /* warning lines printed */
     uint32_t ignored_inputs;         /* material inputs not rendered (alpha modes, normal maps, unsupported extensions...), one warning per kind */
+    uint32_t occlusion_textures_ignored; /* materials with an occlusionTexture: a tracer computes occlusion, so it is not read (no warning) */
     double seconds;                  /* wall time of the load */
     double json_seconds;             /* of which parsing the JSON text */
     uint32_t json_parses;            /* times the JSON text was parsed: 1 once the container and the nesting depth pass, whether the file then loads or not */

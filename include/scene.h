@@ -18,6 +18,12 @@
 #include "sky.h"
 
 enum { PM_WRAP_REPEAT = 0, PM_WRAP_CLAMP = 1, PM_WRAP_MIRROR = 2 };
+/* A glTF sampler's minFilter (0, the default, is LINEAR_MIPMAP_LINEAR: trilinear by footprint).
+ * The _MIPMAP_ kinds read the levels, the texel filter first, the level choice second. */
+enum {
+    PM_MIN_DEFAULT = 0, PM_MIN_NEAREST, PM_MIN_LINEAR, PM_MIN_NEAREST_MIPMAP_NEAREST, PM_MIN_LINEAR_MIPMAP_NEAREST,
+    PM_MIN_NEAREST_MIPMAP_LINEAR, PM_MIN_LINEAR_MIPMAP_LINEAR
+};
 
 /* An 8-bit RGBA image as stored in the file (sRGB-encoded); decoded to linear on lookup.
  * pm_scene_finalize adds its mip levels (pm_texture_build_levels): level k is level k-1 box-filtered
@@ -27,6 +33,11 @@ typedef struct {
     int width, height;
     uint8_t *rgba;          /* width*height*4 bytes, row 0 = top of the image (glTF v=0) */
     int wrap_s, wrap_t;     /* PM_WRAP_* */
+    /* the sampler's filters: magFilter NEAREST (the texel under the point, where the footprint is at
+     * most a texel, and for every lookup without a footprint, alpha included) and minFilter
+     * (PM_MIN_*, where the footprint is wider); zero is glTF's usual LINEAR / LINEAR_MIPMAP_LINEAR */
+    bool mag_nearest;
+    int min_filter;
     int level_count;        /* levels in all, level 0 (rgba) included */
     uint8_t *levels;        /* levels 1 .. level_count-1 one after another, owned; NULL without */
     int level_width[PM_TEXTURE_MAX_LEVELS], level_height[PM_TEXTURE_MAX_LEVELS];
@@ -104,6 +115,10 @@ typedef struct {
      * the material (the factors with the data textures' whole range of texel values) */
     bool may_diffuse, may_mirror, may_glass, may_glossy;
     bool may_see_through;    /* derived too: pm_material_can_be_transparent (it reads the whole alpha texture) */
+    /* KHR_materials_unlit: the camera sees base colour x its texture as it is, directly or through
+     * mirrors and glass (pm_surface.emission, unlit set); everything else meets a black absorber
+     * that lights nothing (see docs/design.md, Materials). Its emission factor is 0. */
+    bool unlit;
     bool used;               /* derived too: some triangle has this material (the analysis counts only those) */
     /* derived by pm_scene_finalize for a material without base colour, metallic-roughness or
      * transmission texture: its split is the same at every point, so a hit copies it instead of
@@ -145,6 +160,7 @@ typedef struct {
     bool has_emissive_triangles, has_punctual_lights, has_sky;
     bool has_thin_glass;     /* some material can let light straight through a thin wall: shadow rays cross it (thin.h) */
     bool has_non_opaque;     /* some triangle's material can let rays through (MASK or BLEND with alpha that can cut) */
+    bool has_unlit;          /* some triangle's material is unlit: the camera sees it without any light */
     bool caustics_possible;  /* some light can reach a specular surface and then a diffuse one */
     bool interreflection_possible; /* light reflected by a diffuse surface can reach a diffuse one again */
     bool component_possible[PM_COMPONENT_COUNT];
@@ -238,6 +254,8 @@ typedef struct {
     pm_brdf brdf;    /* valid when glossy */
     vec3 emission;   /* radiance leaving the front face (both faces if double sided) */
     bool double_sided;
+    bool unlit;      /* emission is an unlit material's colour: counted only on the camera's own ray and specular
+                        chain, never after a diffuse or glossy bounce (it lights nothing) */
     vec3 centroid;   /* of the triangle: origins are pulled toward it, off shared edges */
 } pm_surface;
 
@@ -335,6 +353,7 @@ static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float 
     if (out->glossy) out->brdf = m->split_brdf;
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
     out->thin = m->thin_walled;
+    out->unlit = false;
     return true;
 }
 
@@ -406,11 +425,12 @@ static inline pm_brdf pm_material_brdf(const pm_material *m, vec3 base) {
 static inline void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, vec3 *ks, vec3 *kt) {
     pm_material_split_at(base, m->metallic, m->roughness, m->transmission, kd, ks, kt);
 }
-/* Linear RGB of a texture at (u, v) with its wrap modes, bilinear. */
+/* Linear RGB of a texture at (u, v) with its wrap modes, bilinear (the texel under it with magFilter NEAREST). */
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v);
-/* RGB at (u, v) over a footprint `texels` wide (in level-0 texels): bilinear at level 0 up to a
- * footprint of one texel (there exactly pm_texture_lookup, or _data when !srgb), beyond it
- * trilinear between the two levels around log2(texels). */
+/* RGB at (u, v) over a footprint `texels` wide (in level-0 texels): level 0 under the magFilter up to a
+ * footprint of one texel (there exactly pm_texture_lookup, or _data when !srgb), beyond it as the
+ * minFilter says: by default trilinear between the two levels around log2(texels); NEAREST and
+ * LINEAR level 0 alone; _MIPMAP_NEAREST the level nearest log2(texels); NEAREST_ the texel under (u, v). */
 vec3 pm_texture_filtered(const pm_texture *t, float u, float v, float texels, bool srgb);
 /* Builds t's mip levels (replacing any): colour (srgb) textures are averaged in linear light,
  * weighted by alpha so that cut-out texels do not bleed their colour into what stays, and

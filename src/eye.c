@@ -511,7 +511,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
         throughput = v3_mul(throughput, pm_volume_transmittance(s, sf, d, h.t));
         vec3 wo = v3_neg(d);
         bool front = v3_dot(sf->ng, wo) > 0.f;
-        if (adds_light && (front || sf->double_sided) && !v3_is_black(sf->emission))
+        if (adds_light && (front || sf->double_sided) && !v3_is_black(sf->emission) && (!sf->unlit || (camera_ray && !past_lobe)))
             out[comp] = v3_add(out[comp], v3_mul(throughput, sf->emission));
         /* a glossy lobe is a visible point like Lambert's, chosen by its share of the surface */
         float choice;
@@ -633,7 +633,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
         throughput = v3_mul(throughput, pm_volume_transmittance(s, &sf, d, h.t));
         vec3 wo = v3_neg(d);
         bool front = v3_dot(sf.ng, wo) > 0.f;
-        if (lit_by_segment && (front || sf.double_sided) && !v3_is_black(sf.emission))
+        if (lit_by_segment && (front || sf.double_sided) && !v3_is_black(sf.emission) && (!sf.unlit || cone))
             out[seen] = v3_add(out[seen], v3_mul(throughput, sf.emission));
         float choice;
         pm_lobe lobe = pm_vertex_choose(&sf, false, rng, &choice);

@@ -66,7 +66,7 @@ const char *const kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_material
                                             "KHR_materials_transmission", "KHR_materials_ior",
                                             "KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_volume",
                                             "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular",
-                                            "KHR_draco_mesh_compression", "EXT_meshopt_compression"};
+                                            "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_materials_unlit"};
 
 // ---------------------------------------------------------------- errors and messages
 
@@ -811,6 +811,7 @@ public:
     uint32_t skipped_degenerate() const { return static_cast<uint32_t>(std::min<uint64_t>(degenerate_, UINT32_MAX)); }
     uint32_t skipped_primitives() const { return static_cast<uint32_t>(std::min<uint64_t>(skipped_prims_, UINT32_MAX)); }
     uint32_t ignored_inputs() const { return ignored_inputs_; }
+    uint32_t occlusion_textures_ignored() const { return occlusion_textures_ignored_; }
     double unit_scale() const { return frame_scale_; }
     uint32_t json_parses() const { return json_parses_; }
     double json_seconds() const { return json_seconds_; }
@@ -843,6 +844,7 @@ private:
     void add_camera(int camera, const WorldTransform &world, int node);
     void convert_materials();
     int texture_for(int gltf_texture, const std::string &where);
+    void sampler_filters(const tinygltf::Sampler &s, int sampler, pm_texture *tex);
     bool convert_reference(const TextureReference &r, const std::string &where, int *texture, int *texcoord,
                            pm_uv_transform *transform);
     double checked(double value, double lo, double hi, const char *field, const std::string &object);
@@ -962,6 +964,9 @@ private:
     uint64_t collapsed_normals_ = 0;  // usable NORMAL values the node's transform reduced to nothing
     std::string first_collapsed_;
     uint32_t ignored_inputs_ = 0;  // materials using an input pmview does not render (each kind warned once)
+    // Occlusion textures stand in for what a rasteriser cannot compute; tracing computes it, so
+    // they are left out by design: counted for --stats, never warned about.
+    uint32_t occlusion_textures_ignored_ = 0;
     struct Ignored { uint32_t count; std::string first; };
     std::map<std::string, Ignored> ignored_;  // kind -> materials using it, the first one's name
     void note_ignored(const std::string &kind, const std::string &material) {
@@ -1195,6 +1200,8 @@ void Loader::preflight(const json &root) {
     for_each_object(root, "samplers", "sampler", [&](const json &s, const std::string &where, size_t) {
         unsigned_member(s, "wrapS", false, 0, INT_MAX, where);
         unsigned_member(s, "wrapT", false, 0, INT_MAX, where);
+        unsigned_member(s, "magFilter", false, 0, INT_MAX, where);
+        unsigned_member(s, "minFilter", false, 0, INT_MAX, where);
     });
 
     hooks_.image_wanted.assign(count_images_, 0);
@@ -2065,6 +2072,29 @@ void Loader::add_camera(int index, const WorldTransform &world, int node) {
     cameras_.push_back(cam);
 }
 
+// A sampler's magFilter and minFilter into the texture (absent: LINEAR and trilinear by footprint).
+void Loader::sampler_filters(const tinygltf::Sampler &s, int sampler, pm_texture *tex) {
+    if (s.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST) tex->mag_nearest = true;
+    else if (s.magFilter != -1 && s.magFilter != TINYGLTF_TEXTURE_FILTER_LINEAR)
+        note("sampler " + str(sampler), "magFilter", std::to_string(s.magFilter) + " is not a glTF magnification filter; using LINEAR",
+             false);
+    static const struct { int gltf, pm; } mins[] = {
+        {TINYGLTF_TEXTURE_FILTER_NEAREST, PM_MIN_NEAREST},
+        {TINYGLTF_TEXTURE_FILTER_LINEAR, PM_MIN_LINEAR},
+        {TINYGLTF_TEXTURE_FILTER_NEAREST_MIPMAP_NEAREST, PM_MIN_NEAREST_MIPMAP_NEAREST},
+        {TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_NEAREST, PM_MIN_LINEAR_MIPMAP_NEAREST},
+        {TINYGLTF_TEXTURE_FILTER_NEAREST_MIPMAP_LINEAR, PM_MIN_NEAREST_MIPMAP_LINEAR},
+        {TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR, PM_MIN_LINEAR_MIPMAP_LINEAR}};
+    if (s.minFilter == -1) return;
+    for (const auto &m : mins)
+        if (m.gltf == s.minFilter) {
+            tex->min_filter = m.pm;
+            return;
+        }
+    note("sampler " + str(sampler), "minFilter", std::to_string(s.minFilter) + " is not a glTF minification filter; using LINEAR_MIPMAP_LINEAR",
+         false);
+}
+
 int Loader::texture_for(int gltf_texture, const std::string &where) {
     auto known = texture_of_gltf_.find(gltf_texture);
     if (known != texture_of_gltf_.end()) return known->second;
@@ -2073,6 +2103,14 @@ int Loader::texture_for(int gltf_texture, const std::string &where) {
     const tinygltf::Texture &t = model_.textures[gltf_texture];
     std::string what = "texture " + str(gltf_texture) + " of " + where;
     if (t.source < 0) {
+        // an image only an extension names (KTX2 by KHR_texture_basisu, WebP, DDS): one ignored:
+        // line per extension; with a PNG/JPEG fallback in `source` that fallback is read instead
+        for (const auto &e : t.extensions)
+            if (e.second.IsObject() && e.second.Has("source")) {
+                note_ignored("textures whose only image is " + std::string(e.first == "KHR_texture_basisu" ? "KTX2 " : "") +
+                                 "in " + printable(e.first), where);
+                return result;
+            }
         warn(what + " has no image source (extension images are not supported); ignored");
         return result;
     }
@@ -2104,6 +2142,7 @@ int Loader::texture_for(int gltf_texture, const std::string &where) {
                 note("sampler " + str(t.sampler), fields[k], std::to_string(modes[k]) + " is not a glTF wrap mode; using REPEAT",
                      false);  // a second texture on the same sampler
         }
+        sampler_filters(s, t.sampler, &tex);
     }
     textures_.items.reserve(textures_.items.size() + 1);  // so push_back below cannot throw and leak the texels
     if (!pm_memory_admit(static_cast<uint64_t>(pixels) * 4, "texture"))
@@ -2206,11 +2245,11 @@ void Loader::convert_materials() {
         std::string where = "material " + str(i);
         /* what this material asks for that pmview does not render: warned once per kind below */
         std::string name = mat.name.empty() ? where : "material " + str(i) + " " + printable(mat.name);
-        if (mat.occlusionTexture.index >= 0) note_ignored("occlusion textures", name);
+        if (mat.occlusionTexture.index >= 0) occlusion_textures_ignored_++;
         for (const auto &e : mat.extensions)
             if (e.first != "KHR_materials_transmission" && e.first != "KHR_materials_emissive_strength" &&
                 e.first != "KHR_materials_ior" && e.first != "KHR_materials_volume" && e.first != "KHR_materials_clearcoat" &&
-                e.first != "KHR_materials_sheen" && e.first != "KHR_materials_specular")
+                e.first != "KHR_materials_sheen" && e.first != "KHR_materials_specular" && e.first != "KHR_materials_unlit")
                 note_ignored(e.first, name);
         pm_material m;
         memset(&m, 0, sizeof m);
@@ -2231,6 +2270,10 @@ void Loader::convert_materials() {
         for (int k = 0; k < 3; k++) factor[k] = checked(mat.emissiveFactor[k], 0, 1, "emissiveFactor", label);
         m.emission = emission_within_film(factor, strength, "emission", "emissiveFactor x emissiveStrength " + num(strength), label);
         m.double_sided = mat.doubleSided;
+        // KHR_materials_unlit: base colour as it is, for the camera alone; the extension says every
+        // other input is ignored, emission included (docs/design.md, Materials)
+        m.unlit = mat.extensions.count("KHR_materials_unlit") > 0;
+        if (m.unlit) m.emission = v3s(0.f);
         attenuation_.emplace_back();
         m.thin_walled = !volume_attenuation(mat.extensions, label, attenuation_.back().data());
         m.alpha = static_cast<float>(checked(pbr.baseColorFactor[3], 0, 1, "baseColorFactor", label));
@@ -2792,6 +2835,7 @@ bool run_loader(const char *path, const unsigned char *data, size_t size, bool q
             report->skipped_degenerate = loader.skipped_degenerate();
             report->skipped_primitives = loader.skipped_primitives();
             report->ignored_inputs = loader.ignored_inputs();
+            report->occlusion_textures_ignored = loader.occlusion_textures_ignored();
             report->unit_scale = loader.unit_scale();
             report->recentered = loader.recentered();
             report->peak_bytes = loader.forecast_peak();

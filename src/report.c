@@ -16,10 +16,11 @@ static long peak_rss_bytes(void) {
 }
 
 void pm_print_load_stats(const pm_load_report *report, const pm_scene *scene) {
-    printf("stat load seconds=%.4f triangles=%u vertices=%u materials=%u lights=%u emissive_triangles=%u textures=%u cameras=%u skipped_degenerate=%u skipped_primitives=%u ignored_inputs=%u unit_scale=%.9g recentered=%d\n",
+    printf("stat load seconds=%.4f triangles=%u vertices=%u materials=%u lights=%u emissive_triangles=%u textures=%u cameras=%u skipped_degenerate=%u skipped_primitives=%u ignored_inputs=%u unit_scale=%.9g recentered=%d occlusion_textures_ignored=%u\n",
            report->seconds, scene->triangle_count, scene->vertex_count, scene->material_count, scene->light_count,
            scene->emitter_count, scene->texture_count, scene->camera_count, report->skipped_degenerate,
-           report->skipped_primitives, report->ignored_inputs, report->unit_scale, report->recentered);
+           report->skipped_primitives, report->ignored_inputs, report->unit_scale, report->recentered,
+           report->occlusion_textures_ignored);
 }
 
 void pm_print_bvh_stats(const pm_accel *accel) {
@@ -36,7 +37,7 @@ void pm_print_analysis_stats(const pm_scene *s) {
     bool first = true;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
         if (a->component_possible[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }
-    printf("%s non_opaque=%d thin_glass=%d\n", first ? "none" : "", a->has_non_opaque, a->has_thin_glass);
+    printf("%s non_opaque=%d thin_glass=%d unlit=%d\n", first ? "none" : "", a->has_non_opaque, a->has_thin_glass, a->has_unlit);
 }
 
 void pm_print_film_stats(const pm_film *film) {

@@ -133,7 +133,12 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
     m->may_see_through = pm_material_can_be_transparent(s, m);
     m->uniform_split = m->base_color_texture < 0 && m->metallic_roughness_texture < 0 && m->transmission_texture < 0 &&
                        !layers_textured(m);
-    if (m->uniform_split) {
+    if (m->unlit) {
+        /* no lobe at all, wherever its base colour texture goes */
+        m->may_diffuse = m->may_mirror = m->may_glass = m->may_glossy = m->split_glossy = false;
+        m->uniform_split = true;
+        m->split_kd = m->split_ks = m->split_kt = v3s(0.f);
+    } else if (m->uniform_split) {
         pm_material_split_at(m->base_color, m->metallic, m->roughness, m->transmission, &m->split_kd, &m->split_ks,
                              &m->split_kt);
         m->split_glossy = pm_glossy_at(m->metallic, m->roughness);
@@ -171,6 +176,7 @@ static void analyse(pm_scene *s) {
                            m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0 ||
                            (m->normal_texture >= 0 && s->tangents) || layers_textured(m);
         a->has_non_opaque |= pm_material_can_be_transparent(s, m);
+        a->has_unlit |= m->unlit;
     }
     a->has_emissive_triangles = s->emitter_count > 0;
     a->has_punctual_lights = s->light_count > 0;
@@ -179,8 +185,8 @@ static void analyse(pm_scene *s) {
     bool specular = a->has_mirror || a->has_glass;
     a->caustics_possible = lit && specular && a->has_diffuse;
     a->interreflection_possible = a->has_diffuse && lit && (specular || !diffuse_coplanar(s));
-    a->component_possible[PM_DIRECT] = a->has_emissive_triangles || a->has_sky || (a->has_diffuse && lit);
-    a->component_possible[PM_SPECULAR] = specular && lit;
+    a->component_possible[PM_DIRECT] = a->has_emissive_triangles || a->has_sky || (a->has_diffuse && lit) || a->has_unlit;
+    a->component_possible[PM_SPECULAR] = specular && (lit || a->has_unlit);
     a->component_possible[PM_CAUSTIC] = a->caustics_possible;
     a->component_possible[PM_INDIRECT] = a->interreflection_possible;
 }
@@ -360,7 +366,8 @@ double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo) {
         double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
         double area = 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
         total += area;
-        if (v3_average(s->materials[s->triangle_material[t]].base_color) >= albedo) reflective += area;
+        const pm_material *m = &s->materials[s->triangle_material[t]];
+        if (!m->unlit && v3_average(m->base_color) >= albedo) reflective += area; /* unlit reflects nothing */
     }
     return total > 0.0 ? reflective / total : 0.0;
 }
@@ -612,10 +619,30 @@ static inline vec3 image_bilinear(const pm_texture *t, const uint8_t *rgba, int 
     return sum;
 }
 
+/* The texel of one image under (u, v) (a sampler's NEAREST): of the two bilinear taps on each axis,
+ * the one whose centre is nearer. */
+static inline size_t nearest_texel(const pm_texture *t, int w, int h, float u, float v) {
+    int xa, xb, ya, yb;
+    float ax, ay;
+    wrap_axis(u, w, t->wrap_s, &xa, &xb, &ax);
+    wrap_axis(v, h, t->wrap_t, &ya, &yb, &ay);
+    return (size_t)(ay < 0.5f ? ya : yb) * w + (ax < 0.5f ? xa : xb);
+}
+static inline vec3 image_nearest(const pm_texture *t, const uint8_t *rgba, int w, int h, float u, float v, bool srgb) {
+    const uint8_t *p = rgba + 4 * nearest_texel(t, w, h, u, v);
+    return srgb ? v3(srgb_table[p[0]], srgb_table[p[1]], srgb_table[p[2]])
+                : v3(p[0] * (1.f / 255.f), p[1] * (1.f / 255.f), p[2] * (1.f / 255.f));
+}
+/* One image read with the texel filter `nearest` or bilinear. */
+static inline vec3 image_read(const pm_texture *t, const uint8_t *rgba, int w, int h, float u, float v, bool srgb, bool nearest) {
+    return nearest ? image_nearest(t, rgba, w, h, u, v, srgb) : image_bilinear(t, rgba, w, h, u, v, srgb);
+}
+
+/* Level 0 under the magnification filter. */
 static vec3 texture_bilinear(const pm_texture *t, float u, float v, bool srgb) {
     pthread_once(&srgb_table_once, init_srgb_table);
     if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
-    return image_bilinear(t, t->rgba, t->width, t->height, u, v, srgb);
+    return image_read(t, t->rgba, t->width, t->height, u, v, srgb, t->mag_nearest);
 }
 
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v) { return texture_bilinear(t, u, v, true); }
@@ -638,18 +665,24 @@ vec3 pm_texture_filtered(const pm_texture *t, float u, float v, float texels, bo
     if (!(texels > 1.f) || t->level_count <= 1 || !t->levels) return texture_bilinear(t, u, v, srgb);
     pthread_once(&srgb_table_once, init_srgb_table);
     if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
-    int top = t->level_count - 1, w, h;
+    int top = t->level_count - 1, w, h, min = t->min_filter;
+    bool nearest = min == PM_MIN_NEAREST || min == PM_MIN_NEAREST_MIPMAP_NEAREST || min == PM_MIN_NEAREST_MIPMAP_LINEAR;
+    if (min == PM_MIN_NEAREST || min == PM_MIN_LINEAR) /* no mipmapping asked for: level 0 */
+        return image_read(t, t->rgba, t->width, t->height, u, v, srgb, nearest);
     float level = log2f(texels); /* > 0; +inf for an infinite footprint */
+    if (min == PM_MIN_NEAREST_MIPMAP_NEAREST || min == PM_MIN_LINEAR_MIPMAP_NEAREST)
+        level = floor_finite(level + 0.5f); /* the nearest level */
     if (!(level < (float)top)) {
         const uint8_t *p = level_texels(t, top, &w, &h);
-        return image_bilinear(t, p, w, h, u, v, srgb);
+        return image_read(t, p, w, h, u, v, srgb, nearest);
     }
     int k = (int)level;
     float f = level - (float)k;
     const uint8_t *p0 = level_texels(t, k, &w, &h);
-    vec3 a = image_bilinear(t, p0, w, h, u, v, srgb);
+    vec3 a = image_read(t, p0, w, h, u, v, srgb, nearest);
+    if (f == 0.f) return a;
     const uint8_t *p1 = level_texels(t, k + 1, &w, &h);
-    vec3 b = image_bilinear(t, p1, w, h, u, v, srgb);
+    vec3 b = image_read(t, p1, w, h, u, v, srgb, nearest);
     return v3_add(v3_scale(a, 1.f - f), v3_scale(b, f));
 }
 
@@ -840,6 +873,7 @@ static vec3 texture_at(const pm_scene *s, const float uv[2][2], const float foot
 
 float pm_texture_alpha(const pm_texture *t, float u, float v) {
     if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return 1.f;
+    if (t->mag_nearest) return t->rgba[4 * nearest_texel(t, t->width, t->height, u, v) + 3] * (1.f / 255.f);
     bilinear_taps b = bilinear(t, u, v);
     float sum = 0.f;
     for (int k = 0; k < 4; k++) sum += t->rgba[4 * b.texel[k] + 3] * b.weight[k];
@@ -858,6 +892,20 @@ bool pm_material_can_be_transparent(const pm_scene *s, const pm_material *m) {
     }
     float smallest = m->alpha * (least / 255.f);
     return m->alpha_mode == PM_ALPHA_MASK ? smallest < m->alpha_cutoff : smallest < 1.f;
+}
+
+/* A normal texel's (x, y), a slope along the texture's own axes (image right = +u', up = -v'), as the
+ * same slope along the tangent frame's (+u, -v) when KHR_texture_transform maps (u, v) to (u', v') by
+ * A = [m0 m1; m3 m4]. Slopes are gradients, which the chain rule carries by the transpose of the
+ * map: in the (u, -v) axes that is F A^T F with F = diag(1, -1). Dividing by sqrt|det A| keeps a
+ * uniform scale (tiling) from changing how steep the bumps are, so what is left is the inverse
+ * of the UV rotation, with a mirror for a negative scale. */
+static inline void texture_slope_to_surface(const pm_uv_transform *t, float *x, float *y) {
+    float det = fabsf(t->m[0] * t->m[4] - t->m[1] * t->m[3]);
+    if (!(det > 0.f) || !isfinite(det)) return;
+    float k = 1.f / sqrtf(det), tx = *x, ty = *y;
+    *x = k * (t->m[0] * tx - t->m[3] * ty);
+    *y = k * (-t->m[1] * tx + t->m[4] * ty);
 }
 
 /* The shading normal a normal map gives at barycentrics (b0, b1, b2) of the triangle with
@@ -894,6 +942,7 @@ static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_
     }
     vec3 c = texture_at(s, uv, footprint, m->normal_texture, m->normal_texcoord, &m->normal_transform, false);
     float x = (2.f * c.x - 1.f) * m->normal_scale, y = (2.f * c.y - 1.f) * m->normal_scale, z = 2.f * c.z - 1.f;
+    if (m->normal_transform.transformed) texture_slope_to_surface(&m->normal_transform, &x, &y);
     vec3 p = v3_add(v3_add(v3_scale(t, x), v3_scale(bt, y)), v3_scale(n, z));
     float plen = v3_length(p);
     if (!(plen > 0.f) || !isfinite(plen)) return n;
@@ -970,6 +1019,7 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
     out->thin = m->thin_walled;
     out->emission = m->emission; /* the factor alone: pm_scene_surface applies the texture */
     out->double_sided = m->double_sided;
+    out->unlit = false;
 }
 
 void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
@@ -987,6 +1037,16 @@ void pm_scene_surface_footprint(const pm_scene *s, uint32_t tri, float b1, float
         if (s->uvs1) interpolated_uv(s, s->indices + 3 * (size_t)tri, 1.f - b1 - b2, b1, b2, 1, &uv[1][0], &uv[1][1]);
         out->emission = v3_mul(m->emission, texture_at(s, uv, footprint, m->emission_texture, m->emission_texcoord,
                                                        &m->emission_transform, true));
+    }
+    if (m->unlit) {
+        vec3 base = m->base_color;
+        if (m->base_color_texture >= 0) {
+            float uv[2][2] = {{out->u, out->v}, {0.f, 0.f}};
+            if (s->uvs1) interpolated_uv(s, s->indices + 3 * (size_t)tri, 1.f - b1 - b2, b1, b2, 1, &uv[1][0], &uv[1][1]);
+            base = v3_mul(base, texture_at(s, uv, footprint, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform, true));
+        }
+        out->emission = base;
+        out->unlit = true;
     }
 }
 

@@ -1507,6 +1507,172 @@ static void test_tangent_w(void) {
     pm_scene_free(&s);
 }
 
+/* ---------------------------------------------------------------- occlusion, unlit, samplers, KTX2: issue 31 */
+
+/* The unit quad (TEXCOORD_0 = its xy) with material 0, one 2 x 2 RGBA PNG as image 0 and texture 0
+ * on sampler 0 (`sampler`, a JSON object), and `members` (more top-level members, ending in a
+ * comma, or ""): the materials and whatever the case adds. */
+static void write_textured_quad_with(const char *name, const unsigned char rgba[16], const char *sampler, const char *textures,
+                                     const char *members);
+static void write_textured_quad(const char *name, const unsigned char rgba[16], const char *sampler, const char *members) {
+    write_textured_quad_with(name, rgba, sampler, "[{\"source\":0,\"sampler\":0}]", members);
+}
+/* The same with the textures array given (JSON). */
+static void write_textured_quad_with(const char *name, const unsigned char rgba[16], const char *sampler, const char *textures,
+                                     const char *members) {
+    static const float uv[8] = {0, 0, 1, 0, 1, 1, 0, 1};
+    blob *b = calloc(1, sizeof *b);
+    text body = {0}, prim = {0};
+    if (!b) abort();
+    quad_primitive(b, &prim, uv, NULL, 0);
+    int size = 0;
+    unsigned char *png = stbi_write_png_to_mem(rgba, 8, 2, 2, 4, &size);
+    if (!png) abort();
+    text_append(&body, "\"images\":[");
+    append_png_image(&body, png, (size_t)size, true);
+    free(png);
+    text_append(&body, "],\"samplers\":[%s],\"textures\":%s,%s", sampler, textures, members);
+    text_append(&body, "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[%s]}]", prim.data);
+    write_blob_model(name, b, body.data);
+    free(body.data);
+    free(prim.data);
+    free(b);
+}
+
+static const unsigned char checker_2x2[16] = {255, 255, 255, 255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255, 255};
+
+/* An occlusion texture is left out by design (the tracer computes occlusion): counted for
+ * `stat load occlusion_textures_ignored`, no warning, not an ignored input. */
+static void test_occlusion_texture_silent(void) {
+    write_textured_quad("occlusion.gltf", checker_2x2, "{}",
+                        "\"materials\":[{\"occlusionTexture\":{\"index\":0,\"strength\":0.5},"
+                        "\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],");
+    pm_scene s;
+    pm_load_report r;
+    char warnings[2048];
+    if (!load_warned("occlusion.gltf", &s, &r, warnings, sizeof warnings)) return;
+    CHECK(r.occlusion_textures_ignored == 1, "occlusion_textures_ignored %u, want 1", r.occlusion_textures_ignored);
+    CHECK(r.ignored_inputs == 0 && r.warnings == 0 && warnings[0] == '\0', "an occlusion texture warns nothing: %u inputs, %u warnings:\n%s",
+          r.ignored_inputs, r.warnings, warnings);
+    pm_scene_free(&s);
+}
+
+/* Sampler filters reach the texture: magFilter NEAREST, each minFilter, absent ones as LINEAR /
+ * trilinear, and a value glTF does not define warned once and read as the default. */
+static void test_sampler_filters(void) {
+    static const struct { const char *sampler; bool mag_nearest; int min_filter; unsigned warnings; } cases[] = {
+        {"{}", false, PM_MIN_DEFAULT, 0},
+        {"{\"magFilter\":9728}", true, PM_MIN_DEFAULT, 0},
+        {"{\"magFilter\":9729,\"minFilter\":9728}", false, PM_MIN_NEAREST, 0},
+        {"{\"minFilter\":9729}", false, PM_MIN_LINEAR, 0},
+        {"{\"magFilter\":9728,\"minFilter\":9984}", true, PM_MIN_NEAREST_MIPMAP_NEAREST, 0},
+        {"{\"minFilter\":9985}", false, PM_MIN_LINEAR_MIPMAP_NEAREST, 0},
+        {"{\"minFilter\":9986}", false, PM_MIN_NEAREST_MIPMAP_LINEAR, 0},
+        {"{\"minFilter\":9987}", false, PM_MIN_LINEAR_MIPMAP_LINEAR, 0},
+        {"{\"magFilter\":9984,\"minFilter\":1}", false, PM_MIN_DEFAULT, 2},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        write_textured_quad("filters.gltf", checker_2x2, cases[c].sampler,
+                            "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],");
+        pm_scene s;
+        pm_load_report r;
+        char warnings[2048];
+        if (!load_warned("filters.gltf", &s, &r, warnings, sizeof warnings)) continue;
+        if (s.texture_count == 1)
+            CHECK(s.textures[0].mag_nearest == cases[c].mag_nearest && s.textures[0].min_filter == cases[c].min_filter,
+                  "sampler %s: mag_nearest %d min_filter %d, want %d %d", cases[c].sampler, s.textures[0].mag_nearest,
+                  s.textures[0].min_filter, cases[c].mag_nearest, cases[c].min_filter);
+        else CHECK(0, "sampler %s: %u textures", cases[c].sampler, s.texture_count);
+        CHECK(r.warnings == cases[c].warnings, "sampler %s: %u warnings, want %u:\n%s", cases[c].sampler, r.warnings,
+              cases[c].warnings, warnings);
+        if (cases[c].warnings) {
+            CHECK_WARNED(warnings, "sampler 0 magFilter 9984 is not a glTF magnification filter; using LINEAR");
+            CHECK_WARNED(warnings, "sampler 0 minFilter 1 is not a glTF minification filter; using LINEAR_MIPMAP_LINEAR");
+        }
+        pm_scene_free(&s);
+    }
+    write_textured_quad("filter_type.gltf", checker_2x2, "{\"magFilter\":\"NEAREST\"}",
+                        "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],");
+    check_rejected("filter_type.gltf", "magFilter");
+}
+
+/* What pmview leaves out is named, one `ignored:` line per kind: material extensions it does not
+ * render (iridescence, anisotropy, dispersion, volume scattering, diffuse transmission), and a
+ * texture whose only image is KTX2 (KHR_texture_basisu, used but not required). A KTX2 texture
+ * with a PNG fallback reads the fallback; KHR_texture_basisu required is refused. */
+static void test_ignored_kinds_named(void) {
+    write_textured_quad("unrendered.gltf", checker_2x2, "{}",
+                        "\"extensionsUsed\":[\"KHR_materials_iridescence\",\"KHR_materials_anisotropy\","
+                        "\"KHR_materials_dispersion\",\"KHR_materials_volume_scatter\",\"KHR_materials_diffuse_transmission\"],"
+                        "\"materials\":[{\"name\":\"film\",\"extensions\":{\"KHR_materials_iridescence\":{\"iridescenceFactor\":1},"
+                        "\"KHR_materials_anisotropy\":{\"anisotropyStrength\":0.5},\"KHR_materials_dispersion\":{\"dispersion\":0.1},"
+                        "\"KHR_materials_volume_scatter\":{},\"KHR_materials_diffuse_transmission\":{}}}],");
+    pm_scene s;
+    pm_load_report r;
+    char warnings[4096];
+    if (load_warned("unrendered.gltf", &s, &r, warnings, sizeof warnings)) {
+        static const char *const kinds[] = {"KHR_materials_iridescence", "KHR_materials_anisotropy", "KHR_materials_dispersion",
+                                            "KHR_materials_volume_scatter", "KHR_materials_diffuse_transmission"};
+        char line[256];
+        for (size_t k = 0; k < sizeof kinds / sizeof kinds[0]; k++) {
+            snprintf(line, sizeof line, "ignored: %s in 1 material(s), first material 0 film\n", kinds[k]);
+            CHECK_WARNED(warnings, line);
+        }
+        CHECK(r.ignored_inputs == 5 && r.warnings == 6, "5 ignored inputs (%u), a line each and the used-extension list (%u warnings):\n%s",
+              r.ignored_inputs, r.warnings, warnings);
+        pm_scene_free(&s);
+    }
+
+    const char *material = "\"extensionsUsed\":[\"KHR_texture_basisu\"],"
+                           "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],";
+    write_textured_quad_with("ktx2_only.gltf", checker_2x2, "{}", "[{\"extensions\":{\"KHR_texture_basisu\":{\"source\":0}}}]", material);
+    if (load_warned("ktx2_only.gltf", &s, &r, warnings, sizeof warnings)) {
+        CHECK_WARNED(warnings, "ignored: textures whose only image is KTX2 in KHR_texture_basisu in 1 material(s), first material 0\n");
+        CHECK_WARNED(warnings, "ignoring unsupported extension(s) KHR_texture_basisu (used, not required)");
+        CHECK(s.texture_count == 0 && s.material_count == 1 && s.materials[0].base_color_texture == -1 && r.ignored_inputs == 1 &&
+                  r.warnings == 2,
+              "a KTX2-only texture is left out: %u textures, %u ignored inputs, %u warnings:\n%s", s.texture_count, r.ignored_inputs,
+              r.warnings, warnings);
+        pm_scene_free(&s);
+    }
+    write_textured_quad_with("ktx2_fallback.gltf", checker_2x2, "{}",
+                             "[{\"source\":0,\"sampler\":0,\"extensions\":{\"KHR_texture_basisu\":{\"source\":0}}}]", material);
+    if (load_warned("ktx2_fallback.gltf", &s, &r, warnings, sizeof warnings)) {
+        CHECK(s.texture_count == 1 && s.materials[0].base_color_texture == 0 && r.ignored_inputs == 0 && r.warnings == 1,
+              "a KTX2 texture with a PNG fallback reads it: %u textures, %u ignored, %u warnings:\n%s", s.texture_count,
+              r.ignored_inputs, r.warnings, warnings);
+        if (s.texture_count == 1) CHECK(s.textures[0].rgba[0] == 255 && s.textures[0].rgba[4] == 0, "the fallback's texels");
+        pm_scene_free(&s);
+    }
+    write_textured_quad_with("ktx2_required.gltf", checker_2x2, "{}", "[{\"extensions\":{\"KHR_texture_basisu\":{\"source\":0}}}]",
+                             "\"extensionsUsed\":[\"KHR_texture_basisu\"],\"extensionsRequired\":[\"KHR_texture_basisu\"],"
+                             "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],");
+    check_rejected("ktx2_required.gltf", "required extension KHR_texture_basisu is not supported");
+}
+
+/* KHR_materials_unlit is read, not ignored: the material is unlit, its emission dropped (the
+ * extension ignores every other input), and the file may require it. */
+static void test_unlit_material(void) {
+    write_textured_quad("unlit.gltf", checker_2x2, "{}",
+                        "\"extensionsUsed\":[\"KHR_materials_unlit\"],\"extensionsRequired\":[\"KHR_materials_unlit\"],"
+                        "\"materials\":[{\"extensions\":{\"KHR_materials_unlit\":{}},\"emissiveFactor\":[1,1,1],"
+                        "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.25,1,1],\"baseColorTexture\":{\"index\":0}}}],");
+    pm_scene s;
+    pm_load_report r;
+    char warnings[2048];
+    if (!load_warned("unlit.gltf", &s, &r, warnings, sizeof warnings)) return;
+    CHECK(r.warnings == 0 && r.ignored_inputs == 0, "unlit is rendered: %u warnings, %u ignored:\n%s", r.warnings, r.ignored_inputs, warnings);
+    if (s.material_count == 1) {
+        const pm_material *m = &s.materials[0];
+        CHECK(m->unlit && v3_is_black(m->emission) && m->base_color.x == 0.5f && m->base_color.y == 0.25f && m->base_color_texture == 0,
+              "unlit material: unlit %d emission (%g %g %g) base (%g %g %g) texture %d", m->unlit, m->emission.x, m->emission.y,
+              m->emission.z, m->base_color.x, m->base_color.y, m->base_color.z, m->base_color_texture);
+        pm_scene_finalize(&s, false, NULL);
+        CHECK(s.analysis.has_unlit && s.emitter_count == 0, "analysis unlit %d, %u emitters", s.analysis.has_unlit, s.emitter_count);
+    } else CHECK(0, "material_count %u", s.material_count);
+    pm_scene_free(&s);
+}
+
 /* ---------------------------------------------------------------- main */
 
 /* Inputs pmview does not render are counted (stat load ignored_inputs) and warned once per kind;
@@ -1899,6 +2065,10 @@ int main(void) {
     test_clamp_warnings();
     test_materials();
     test_ignored_inputs();
+    test_occlusion_texture_silent();
+    test_sampler_filters();
+    test_ignored_kinds_named();
+    test_unlit_material();
     test_texcoord_sets();
     test_texture_transform();
     test_data_textures();

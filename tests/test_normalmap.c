@@ -149,6 +149,115 @@ static void test_guard(void) {
     printf("guard: smallest dot(ns, ng) over 4000 random normal-mapped points %.5f (floor %.2f)\n", worst, PM_NORMAL_MAP_MIN_COS);
 }
 
+/* ns at (x, y) of texel_quad's unit quad (triangles (0,0)(1,0)(1,1) and (0,0)(1,1)(0,1)). */
+static vec3 quad_normal_at(const pm_scene *s, float x, float y) {
+    pm_surface sf;
+    if (y <= x) pm_scene_surface(s, 0, x - y, y, &sf);
+    else pm_scene_surface(s, 1, x, y - x, &sf);
+    return sf.ns;
+}
+
+/* The angle between unit vectors from their chord: acos loses everything under ~0.03 degrees in float. */
+static double chord_degrees(vec3 a, vec3 b) { return 2.0 * asin(fmin(1.0, 0.5 * v3_length(v3_sub(a, b)))) * 180.0 / PM_PI; }
+
+static uint8_t slope_byte(float x) { return (uint8_t)lroundf((x + 1.f) * 127.5f); }
+
+/* KHR_texture_transform on a normal texture: a 2 x 2 picture of tilted texels turned (or mirrored)
+ * as a picture, with the UV transform that puts every point of it back where it was, must give
+ * the same world normals as the picture read plainly. The turned picture's texels are turned
+ * too (they are vectors along the image's right and up), so a renderer that does not turn the
+ * tangent frame reads them in the wrong directions. a[] is the UV map u' = A u (entries -1, 0, 1). */
+static void test_rotated_transform(void) {
+    static const uint8_t picture[2][2][4] = {{{218, 128, 218, 255}, {128, 200, 230, 255}},
+                                             {{60, 90, 220, 255}, {170, 40, 210, 255}}};
+    static const struct { float a[4]; const char *what; } cases[] = {
+        {{0, 1, -1, 0}, "rotation +90 degrees"},
+        {{-1, 0, 0, -1}, "rotation 180 degrees"},
+        {{0, -1, 1, 0}, "rotation -90 degrees"},
+        {{-1, 0, 0, 1}, "scale (-1, 1): mirrored"},
+        {{0, -1, -1, 0}, "rotation +90 degrees, scale (-1, 1)"},
+    };
+    pm_scene plain;
+    texel_quad(&plain, picture[0][0], 1.f, 1.f);
+    free(plain.textures[0].rgba);
+    plain.textures[0].rgba = malloc(16);
+    if (!plain.textures[0].rgba) abort();
+    memcpy(plain.textures[0].rgba, picture, 16);
+    plain.textures[0].width = plain.textures[0].height = 2;
+    pm_scene_finalize(&plain, false, NULL);
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        const float *a = cases[c].a;
+        /* the turned picture: texel (row, col) at u' holds the plain texel at u = A^-1 u' = A^T u',
+         * its slope (x, y) along (right, up) = (+u, -v) turned by F A F, F = diag(1, -1) */
+        uint8_t turned[2][2][4];
+        for (int row = 0; row < 2; row++)
+            for (int col = 0; col < 2; col++) {
+                float u1 = (col + 0.5f) / 2.f, v1 = (row + 0.5f) / 2.f;
+                float u = a[0] * u1 + a[2] * v1, v = a[1] * u1 + a[3] * v1;
+                u -= floorf(u);
+                v -= floorf(v);
+                const uint8_t *src = picture[(int)(v * 2.f)][(int)(u * 2.f)];
+                float x = src[0] / 127.5f - 1.f, y = src[1] / 127.5f - 1.f;
+                turned[row][col][0] = slope_byte(a[0] * x - a[1] * y);
+                turned[row][col][1] = slope_byte(-a[2] * x + a[3] * y);
+                turned[row][col][2] = src[2];
+                turned[row][col][3] = 255;
+            }
+        pm_scene s;
+        texel_quad(&s, picture[0][0], 1.f, 1.f);
+        memcpy(s.textures[0].rgba = realloc(s.textures[0].rgba, 16), turned, 16);
+        s.textures[0].width = s.textures[0].height = 2;
+        pm_uv_transform *t = &s.materials[0].normal_transform;
+        t->transformed = true;
+        t->m[0] = a[0];
+        t->m[1] = a[1];
+        t->m[3] = a[2];
+        t->m[4] = a[3];
+        pm_scene_finalize(&s, false, NULL);
+        double worst = 0.0, naive = 0.0;
+        pm_rng rng = pm_rng_for(11, (uint32_t)c, 0);
+        for (int i = 0; i < 64; i++) {
+            float x = 0.02f + 0.96f * pm_rng_float(&rng), y = 0.02f + 0.96f * pm_rng_float(&rng);
+            vec3 want = quad_normal_at(&plain, x, y), got = quad_normal_at(&s, x, y);
+            worst = fmax(worst, chord_degrees(want, got));
+            /* what reading the turned texel in the untransformed frame would give */
+            pm_uv_transform saved = *t;
+            t->transformed = false;
+            float u = x, v = 1.f - y, u1 = a[0] * u + a[1] * v, v1 = a[2] * u + a[3] * v;
+            vec3 untransformed_frame = quad_normal_at(&s, u1 - floorf(u1), 1.f - (v1 - floorf(v1)));
+            *t = saved;
+            naive = fmax(naive, angle_degrees(want, untransformed_frame));
+        }
+        printf("normal texture %-36s: worst angle to the plain picture's normal %.4f degrees (frame not turned: %.1f)\n",
+               cases[c].what, worst, naive);
+        CHECK(worst < 0.001, "%s: world normals differ from the plain picture's by up to %.3f degrees", cases[c].what, worst);
+        CHECK(naive > 10.0, "%s: the case must tell a turned frame from an unturned one (%.1f degrees)", cases[c].what, naive);
+        pm_scene_free(&s);
+    }
+    pm_scene_free(&plain);
+
+    /* any angle, with a uniform tiling scale: a flat-topped slope turned by 30 degrees, within
+     * the texel bytes' rounding (1/255 of a slope is about 0.3 degrees here) */
+    const float angle = 30.f * PM_PI / 180.f, tiling = 3.f, slope_x = 0.6f, slope_y = -0.3f;
+    const uint8_t plain_texel[4] = {slope_byte(slope_x), slope_byte(slope_y), 200, 255};
+    float cs = cosf(angle), sn = sinf(angle);
+    /* F A F with A = R(angle) S: the slope as the transformed texture stores it, over the tiling */
+    float tx = cs * slope_x - sn * slope_y, ty = sn * slope_x + cs * slope_y;
+    const uint8_t turned_texel[4] = {slope_byte(tx), slope_byte(ty), 200, 255};
+    pm_scene a, b;
+    texel_quad(&a, plain_texel, 1.f, 1.f);
+    texel_quad(&b, turned_texel, 1.f, 1.f);
+    pm_uv_transform *t = &b.materials[0].normal_transform;
+    *t = (pm_uv_transform){true, {cs * tiling, sn * tiling, 0.25f, -sn * tiling, cs * tiling, 0.5f}};
+    pm_scene_finalize(&a, false, NULL);
+    pm_scene_finalize(&b, false, NULL);
+    double err = chord_degrees(quad_normal_at(&a, 0.3f, 0.6f), quad_normal_at(&b, 0.3f, 0.6f));
+    printf("normal texture rotated 30 degrees, tiled x3: %.3f degrees from the plain texel's normal\n", err);
+    CHECK(err < 0.5, "30-degree rotation: %.3f degrees from the plain normal", err);
+    pm_scene_free(&a);
+    pm_scene_free(&b);
+}
+
 /* White furnace: a closed box whose walls emit Le and reflect rho, L = Le / (1 - rho) everywhere.
  * With a bumpy map on every wall the shading normals tilt; the integrators drop directions under
  * the geometric plane, so the answer can only drop, never rise. Returns the image mean. */
@@ -222,6 +331,7 @@ static void test_furnace(void) {
 int main(void) {
     test_tilts();
     test_guard();
+    test_rotated_transform();
     test_furnace();
     return pm_test_done("test_normalmap");
 }
