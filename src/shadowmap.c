@@ -163,7 +163,7 @@ static void trace_chunk(void *ctx, size_t task, int thread) {
             if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) break;
             pm_triangle_geometry g = pm_triangle_geometry_of(s, h.tri);
             vec3 p = pm_triangle_point(&g, h.b1, h.b2), face = g.normal, toward_light = pm_facing(face, v3_neg(d));
-            const pm_material *m = &s->materials[s->triangle_material[h.tri]];
+            const pm_material *m = &s->materials[pm_scene_triangle_material(s, h.tri)];
             if (m->may_diffuse || m->may_glossy) {
                 record r = {p, (uint16_t)light, (uint8_t)side_code(toward_light, v3_dot(face, d) < 0.f), (uint8_t)state};
                 if (!push(&list, &count, &capacity, r)) { failed = true; break; }
@@ -252,17 +252,33 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
     float *cdf = pm_malloc(((size_t)s->triangle_count + 1) * sizeof *cdf, "shadow photon probe");
     if (!points || !cdf) { free(points); free(cdf); return false; }
     cdf[0] = 0.0;
+    /* over stored triangles; an instanced one stands for all its placements (mesh-space area times
+     * their number: a probe's estimate, not a measure), one of which is picked at random below */
     for (uint32_t t = 0; t < s->triangle_count; t++) {
         const pm_material *mat = &s->materials[s->triangle_material[t]];
-        cdf[t + 1] = cdf[t] + (mat->may_diffuse || mat->may_glossy ? pm_triangle_area(s, t) : 0.0);
+        float copies = 1.f;
+        for (uint32_t i = 0; i < s->instanced_mesh_count; i++)
+            if (t >= s->instanced_meshes[i].first_triangle && t - s->instanced_meshes[i].first_triangle < s->instanced_meshes[i].triangle_count)
+                copies = (float)s->instanced_meshes[i].placement_count;
+        const uint32_t *ix = s->indices + 3 * (size_t)t;
+        float area = 0.5f * v3_length(v3_cross(v3_sub(s->positions[ix[1]], s->positions[ix[0]]), v3_sub(s->positions[ix[2]], s->positions[ix[0]])));
+        cdf[t + 1] = cdf[t] + (mat->may_diffuse || mat->may_glossy ? copies * area : 0.0);
     }
     pm_rng rng = pm_rng_for(0x5ad0, 1, 2);
     size_t n = 0;
     for (int k = 0; k < POINTS && cdf[s->triangle_count] > 0.0; k++) {
         uint32_t lo = pm_cdf_interval(cdf, s->triangle_count, pm_rng_float(&rng) * cdf[s->triangle_count]);
         float r1 = sqrtf(pm_rng_float(&rng)), r2 = pm_rng_float(&rng);
+        uint32_t id = lo;
+        for (uint32_t i = 0; i < s->instanced_mesh_count; i++) {
+            const pm_instanced_mesh *im = &s->instanced_meshes[i];
+            if (lo >= im->first_triangle && lo - im->first_triangle < im->triangle_count && im->placement_count) {
+                uint32_t p = im->first_placement + (uint32_t)(pm_rng_float(&rng) * im->placement_count) % im->placement_count;
+                id = pm_scene_placed_id(s, p, lo);
+            }
+        }
         pm_surface sf;
-        pm_scene_surface(s, lo, r1 * (1.f - r2), r1 * r2, &sf);
+        pm_scene_surface(s, id, r1 * (1.f - r2), r1 * r2, &sf);
         bool front = pm_rng_float(&rng) < 0.5f;
         vec3 side = front ? sf.ng : v3_neg(sf.ng);
         points[n++] = (probe_point){sf.p, side, pm_surface_origin(&sf, side, s->ray_scale), front};
