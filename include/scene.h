@@ -402,9 +402,14 @@ static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, flo
     int32_t pl;
     const uint32_t *ix = s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, &pl);
     float b0 = 1.f - b1 - b2;
-    vec3 n = v3_add(v3_add(v3_scale(s->normals[ix[0]], b0), v3_scale(s->normals[ix[1]], b1)),
-                    v3_scale(s->normals[ix[2]], b2));
-    n = pl < 0 ? v3_normalize(n) : pm_placement_normal(&s->placements[pl], n);
+    vec3 n0 = s->normals[ix[0]], n1 = s->normals[ix[1]], n2 = s->normals[ix[2]];
+    if (pl >= 0) { /* each corner's normal through the placement, as the flattened copy stores it, then interpolated */
+        const pm_placement *placement = &s->placements[pl];
+        n0 = pm_placement_normal(placement, n0);
+        n1 = pm_placement_normal(placement, n1);
+        n2 = pm_placement_normal(placement, n2);
+    }
+    vec3 n = v3_normalize(v3_add(v3_add(v3_scale(n0, b0), v3_scale(n1, b1)), v3_scale(n2, b2)));
     /* Shading normals that disagree with the winding would light back faces: trust the winding. */
     out->ns = v3_dot(n, out->ng) < 0.f ? v3_neg(n) : n;
     vec3 corners[3];

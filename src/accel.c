@@ -102,7 +102,7 @@ static float crossing_uniform(const float org[3], const float dir[3], uint32_t t
 /* glTF: MASK is opaque where alpha >= alphaCutoff; BLEND is here stochastic transparency, a
  * hit with probability alpha, so every kind of ray passes a pane with probability 1 - alpha. */
 static bool alpha_accepts(const pm_scene *s, uint32_t tri, float b1, float b2, const float org[3], const float dir[3]) {
-    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
     float alpha = pm_scene_alpha_at(s, tri, b1, b2);
     if (m->alpha_mode == PM_ALPHA_MASK) return alpha >= m->alpha_cutoff;
     if (alpha >= 1.f) return true;
