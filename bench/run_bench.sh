@@ -10,4 +10,5 @@ build/rel/json_load || exit 1
 sh bench/window_room_bench.sh || exit 1
 sh bench/cluster_bench.sh || exit 1
 sh bench/window_bench.sh || exit 1
+sh bench/instancing_bench.sh || exit 1
 sh bench/window_motion_bench.sh
