@@ -1,7 +1,8 @@
 /* scene.h: the validated C scene every later stage reads, and the analysis of what it needs.
  *
  * The loader fills the geometry, materials, textures, lights and cameras in world space
- * (instances flattened, transforms applied, winding fixed so the geometric normal
+ * (meshes placed once flattened, those placed several times stored once with their placements,
+ * see Instancing below; transforms applied, winding fixed so the geometric normal
  * cross(p1-p0, p2-p0) always points out of the glTF front face). pm_scene_finalize() then
  * derives everything else: bounds, the emitter distribution, the default sky and the
  * analysis of which components can be non-zero. Nothing here knows about Embree or GL.
