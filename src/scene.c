@@ -833,13 +833,13 @@ static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_
     float w = 0.f;
     for (int k = 0; k < 3; k++) {
         const float *tk = s->tangents + 4 * (size_t)ix[k];
-        t = v3_madd(t, v3(tk[0], tk[1], tk[2]), b[k]);
+        vec3 corner = v3(tk[0], tk[1], tk[2]);
+        /* a tangent is a direction, each corner's placed and made unit as the flattened copy stores it */
+        if (placement) corner = v3_normalize(pm_placement_direction(placement, corner));
+        t = v3_madd(t, corner, b[k]);
         w += tk[3] * b[k];
     }
-    if (placement) { /* a tangent is a direction; a mirror flips the bitangent's sign, as in the loader */
-        t = pm_placement_direction(placement, t);
-        w *= placement->handedness;
-    }
+    if (placement) w *= placement->handedness; /* a mirror flips the bitangent, as in the loader */
     t = v3_sub(t, v3_scale(n, v3_dot(t, n)));
     float len = v3_length(t);
     vec3 bt;

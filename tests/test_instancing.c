@@ -3,7 +3,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
+#include "image_io.h"
 #include "loader.h"
 #include "progressive_harness.h"
 
@@ -59,12 +61,12 @@ static void make_geometry(geometry *g) {
 
 /* The file: the floor (node 0), a sun (node 1) and `nodes_json` placing mesh 1 (the torus), whose
  * material is `material_json`. The caller frees the text. */
-static char *make_gltf(const char *nodes_json, const char *roots, const char *material_json, const char *sun) {
+static char *make_gltf_with(const char *nodes_json, const char *roots, const char *material_json, const char *sun, const char *extra) {
     geometry g;
     make_geometry(&g);
     char *b64 = malloc(4 * sizeof g / 3 + 8);
     base64((const unsigned char *)&g, sizeof g, b64);
-    size_t size = strlen(b64) + 8192 + strlen(nodes_json);
+    size_t size = strlen(b64) + 8192 + strlen(nodes_json) + strlen(extra) + strlen(material_json);
     char *text = malloc(size);
     size_t o_pos = offsetof(geometry, pos), o_nrm = offsetof(geometry, nrm), o_uv = offsetof(geometry, uv),
            o_idx = offsetof(geometry, idx), o_fp = offsetof(geometry, floor_pos), o_fi = offsetof(geometry, floor_idx);
@@ -86,11 +88,44 @@ static char *make_gltf(const char *nodes_json, const char *roots, const char *ma
              "{\"bufferView\":2,\"componentType\":5126,\"count\":%d,\"type\":\"VEC2\"},"
              "{\"bufferView\":3,\"componentType\":5125,\"count\":%d,\"type\":\"SCALAR\"},"
              "{\"bufferView\":4,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\",\"min\":[-6,-1,-6],\"max\":[6,-1,6]},"
-             "{\"bufferView\":5,\"componentType\":5125,\"count\":6,\"type\":\"SCALAR\"}]}",
+             "{\"bufferView\":5,\"componentType\":5125,\"count\":6,\"type\":\"SCALAR\"}]%s}",
              sun, roots, nodes_json, material_json, sizeof g, b64, o_pos, sizeof g.pos, o_nrm, sizeof g.nrm, o_uv, sizeof g.uv,
-             o_idx, sizeof g.idx, o_fp, sizeof g.floor_pos, o_fi, sizeof g.floor_idx, VERTS, VERTS, VERTS, 3 * TRIS);
+             o_idx, sizeof g.idx, o_fp, sizeof g.floor_pos, o_fi, sizeof g.floor_idx, VERTS, VERTS, VERTS, 3 * TRIS, extra);
     free(b64);
     return text;
+}
+static char *make_gltf(const char *nodes_json, const char *roots, const char *material_json, const char *sun) {
+    return make_gltf_with(nodes_json, roots, material_json, sun, "");
+}
+
+/* `,"textures":[...],"images":[...]` with an 8 x 8 normal map of tilted texels (a PNG in a data:
+ * URI), so the loader makes tangents; NULL when the PNG cannot be written. */
+static char *normal_map_json(void) {
+    uint8_t rgba[8 * 8 * 4];
+    for (int i = 0; i < 64; i++) {
+        double a = 0.7 * sin(1.3 * i), b = 0.6 * cos(0.9 * i);
+        uint8_t texel[4] = {(uint8_t)(127.5 + 127 * 0.5 * a), (uint8_t)(127.5 + 127 * 0.5 * b), 230, 255};
+        memcpy(rgba + 4 * i, texel, 4);
+    }
+    char path[] = "/tmp/pm_test_instancing_XXXXXX";
+    int fd = mkstemp(path);
+    if (fd < 0) return NULL;
+    close(fd);
+    char err[256];
+    FILE *f = NULL;
+    char *out = NULL;
+    if (pm_write_png(path, 8, 8, rgba, err, sizeof err) && (f = fopen(path, "rb"))) {
+        unsigned char bytes[8192];
+        size_t n = fread(bytes, 1, sizeof bytes, f);
+        char *b64 = malloc(4 * n / 3 + 8);
+        base64(bytes, n, b64);
+        out = malloc(strlen(b64) + 256);
+        sprintf(out, ",\"textures\":[{\"source\":0}],\"images\":[{\"uri\":\"data:image/png;base64,%s\"}]", b64);
+        free(b64);
+        fclose(f);
+    }
+    remove(path);
+    return out;
 }
 
 static bool load_text(const char *text, bool flatten, pm_scene *s) {
@@ -130,9 +165,13 @@ static bool near(vec3 a, vec3 b, float tol) { return v3_length(v3_sub(a, b)) <= 
 
 /* Every ray of a grid over the view meets the same surface in both scenes: distance, point,
  * normals, texture coordinates, material and albedo. */
-static void compare_hits(const pm_scene *inst, const pm_accel *ai, const pm_scene *flat, const pm_accel *af, const char *what) {
+/* ns_tol: a normal map's tangents are generated per vertex and made orthogonal to its normal, in
+ * mesh space for a stored mesh and in world space for a flattened copy; under a non-uniform scale
+ * the two frames differ slightly (about 1e-2), so mapped shading normals are compared at 3e-2. */
+static void compare_hits(const pm_scene *inst, const pm_accel *ai, const pm_scene *flat, const pm_accel *af, const char *what,
+                         float ns_tol) {
     pm_camera cam = pm_scene_auto_camera(flat, 1.f);
-    int n = 64, hits = 0, placed_hits = 0, bad = 0;
+    int n = 64, hits = 0, placed_hits = 0, bad = 0, mapped = 0;
     float tan_half = tanf(0.5f * cam.yfov);
     for (int y = 0; y < n; y++)
         for (int x = 0; x < n; x++) {
@@ -150,8 +189,12 @@ static void compare_hits(const pm_scene *inst, const pm_accel *ai, const pm_scen
             pm_scene_surface(flat, hf.tri, hf.b1, hf.b2, &sf);
             float tol = 2e-4f * (1.f + hf.t);
             bool same = fabsf(hi.t - hf.t) <= tol && near(si.p, sf.p, tol) && near(si.ng, sf.ng, 1e-3f) &&
-                        near(si.ns, sf.ns, 1e-3f) && fabsf(si.u - sf.u) < 1e-3f && fabsf(si.v - sf.v) < 1e-3f &&
+                        near(si.ns, sf.ns, ns_tol) && fabsf(si.u - sf.u) < 1e-3f && fabsf(si.v - sf.v) < 1e-3f &&
                         si.material == sf.material && near(si.kd, sf.kd, 1e-3f);
+            pm_surface unmapped;
+            pm_scene_surface_point(inst, hi.tri, hi.b1, hi.b2, si.ng, &unmapped);
+            pm_scene_surface_shading(inst, hi.tri, hi.b1, hi.b2, &unmapped);
+            mapped += pm_scene_placement_of(inst, hi.tri) >= 0 && !near(unmapped.ns, si.ns, 0.1f);
             if (!same && bad++ < 3)
                 fprintf(stderr, "  %s ray (%d,%d): t %g/%g ng (%g %g %g)/(%g %g %g) ns (%g %g %g)/(%g %g %g) uv %g,%g/%g,%g\n", what, x, y,
                         hi.t, hf.t, si.ng.x, si.ng.y, si.ng.z, sf.ng.x, sf.ng.y, sf.ng.z, si.ns.x, si.ns.y, si.ns.z, sf.ns.x,
@@ -159,6 +202,7 @@ static void compare_hits(const pm_scene *inst, const pm_accel *ai, const pm_scen
         }
     CHECK(bad == 0, "%s: %d of %d rays differ between the instanced and the flat scene", what, bad, n * n);
     CHECK(placed_hits > 50, "%s: only %d rays met a placement (of %d hits)", what, placed_hits, hits);
+    if (ns_tol > 1e-3f) CHECK(mapped > placed_hits / 2, "%s: the normal map tilted only %d of %d placed hits", what, mapped, placed_hits);
 }
 
 static double rel_mse(const float *a, const float *b, size_t n) {
@@ -181,9 +225,16 @@ static bool render(const pm_scene *s, const pm_accel *a, uint32_t seed, int w, f
     return ok;
 }
 
-static void test_same_as_flat(bool textured, bool mask) {
-    const char *what = mask ? "alpha cut-out" : textured ? "textured" : "plain";
-    char *text = make_gltf(placement_nodes, ",2", "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.5,0.3,1],\"metallicFactor\":0}}", "3");
+static void test_same_as_flat(bool textured, bool mask, bool normal_mapped) {
+    const char *what = normal_mapped ? "normal-mapped" : mask ? "alpha cut-out" : textured ? "textured" : "plain";
+    char *map = normal_mapped ? normal_map_json() : NULL;
+    CHECK(!normal_mapped || map, "normal map PNG");
+    if (normal_mapped && !map) return;
+    char *text = make_gltf_with(placement_nodes, ",2",
+                                normal_mapped ? "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.5,0.3,1],\"metallicFactor\":0},\"normalTexture\":{\"index\":0}}"
+                                              : "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.5,0.3,1],\"metallicFactor\":0}}",
+                                "3", map ? map : "");
+    free(map);
     pm_scene inst, flat;
     bool ok_i = load_text(text, false, &inst), ok_f = load_text(text, true, &flat);
     free(text);
@@ -193,6 +244,8 @@ static void test_same_as_flat(bool textured, bool mask) {
           inst.triangle_count);
     CHECK(flat.placement_count == 0 && flat.triangle_count == 3 * TRIS + 2 && pm_scene_triangle_ids(&inst) == flat.triangle_count,
           "%s: flat %u triangles, instanced ids %u", what, flat.triangle_count, pm_scene_triangle_ids(&inst));
+    if (normal_mapped)
+        CHECK(inst.tangents && flat.tangents && inst.materials[1].normal_texture == 0, "%s: tangents made", what);
     if (textured) {
         add_checker(&inst, mask);
         add_checker(&flat, mask);
@@ -208,8 +261,8 @@ static void test_same_as_flat(bool textured, bool mask) {
         if (mask)
             CHECK(pm_accel_alpha_tested_triangles(ai) == TRIS && pm_accel_alpha_tested_triangles(af) == 3 * TRIS,
                   "%s: alpha-tested %u / %u", what, pm_accel_alpha_tested_triangles(ai), pm_accel_alpha_tested_triangles(af));
-        compare_hits(&inst, ai, &flat, af, what);
-        if (!textured) {
+        compare_hits(&inst, ai, &flat, af, what, normal_mapped ? 3e-2f : 1e-3f);
+        if (!textured && !normal_mapped) {
             /* the same image, same seed: its difference far below that of two seeds */
             enum { W = 48 };
             float *a = malloc(sizeof(float) * 3 * W * W), *b = malloc(sizeof(float) * 3 * W * W), *c = malloc(sizeof(float) * 3 * W * W);
@@ -265,9 +318,10 @@ static void test_scaled_emitter(void) {
 }
 
 int main(void) {
-    test_same_as_flat(false, false);
-    test_same_as_flat(true, false);
-    test_same_as_flat(true, true);
+    test_same_as_flat(false, false, false);
+    test_same_as_flat(true, false, false);
+    test_same_as_flat(true, true, false);
+    test_same_as_flat(false, false, true);
     test_scaled_emitter();
     return pm_test_done("test_instancing");
 }
