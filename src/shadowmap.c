@@ -245,6 +245,18 @@ static bool add_record(pm_shadow_map *m, const record *r) {
  * of the surfaces that can have direct light (both sides, every light in front): the time of a
  * lookup and of a shadow ray, and the share of light samples the map decides. The image does not
  * depend on it (a decided sample gives what its ray would), only the speed. */
+/* The instanced mesh stored triangle t belongs to, -1 for a flat one (meshes are stored in order). */
+static int32_t instanced_mesh_of(const pm_scene *s, uint32_t t) {
+    if (t < pm_scene_flat_triangles(s)) return -1;
+    uint32_t lo = 0, hi = s->instanced_mesh_count - 1;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo + 1) / 2;
+        if (s->instanced_meshes[mid].first_triangle <= t) lo = mid;
+        else hi = mid - 1;
+    }
+    return (int32_t)lo;
+}
+
 static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, pm_shadow_stats *stats) {
     enum { POINTS = 4096 };
     typedef struct { vec3 p, n, origin; bool front; } probe_point;
@@ -256,10 +268,8 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
      * their number: a probe's estimate, not a measure), one of which is picked at random below */
     for (uint32_t t = 0; t < s->triangle_count; t++) {
         const pm_material *mat = &s->materials[s->triangle_material[t]];
-        float copies = 1.f;
-        for (uint32_t i = 0; i < s->instanced_mesh_count; i++)
-            if (t >= s->instanced_meshes[i].first_triangle && t - s->instanced_meshes[i].first_triangle < s->instanced_meshes[i].triangle_count)
-                copies = (float)s->instanced_meshes[i].placement_count;
+        int32_t mesh = instanced_mesh_of(s, t);
+        float copies = mesh < 0 ? 1.f : (float)s->instanced_meshes[mesh].placement_count;
         const uint32_t *ix = s->indices + 3 * (size_t)t;
         float area = 0.5f * v3_length(v3_cross(v3_sub(s->positions[ix[1]], s->positions[ix[0]]), v3_sub(s->positions[ix[2]], s->positions[ix[0]])));
         cdf[t + 1] = cdf[t] + (mat->may_diffuse || mat->may_glossy ? copies * area : 0.0);
@@ -270,12 +280,11 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
         uint32_t lo = pm_cdf_interval(cdf, s->triangle_count, pm_rng_float(&rng) * cdf[s->triangle_count]);
         float r1 = sqrtf(pm_rng_float(&rng)), r2 = pm_rng_float(&rng);
         uint32_t id = lo;
-        for (uint32_t i = 0; i < s->instanced_mesh_count; i++) {
-            const pm_instanced_mesh *im = &s->instanced_meshes[i];
-            if (lo >= im->first_triangle && lo - im->first_triangle < im->triangle_count && im->placement_count) {
-                uint32_t p = im->first_placement + (uint32_t)(pm_rng_float(&rng) * im->placement_count) % im->placement_count;
-                id = pm_scene_placed_id(s, p, lo);
-            }
+        int32_t mesh = instanced_mesh_of(s, lo);
+        if (mesh >= 0 && s->instanced_meshes[mesh].placement_count) {
+            const pm_instanced_mesh *im = &s->instanced_meshes[mesh];
+            uint32_t p = im->first_placement + (uint32_t)(pm_rng_float(&rng) * im->placement_count) % im->placement_count;
+            id = pm_scene_placed_id(s, p, lo);
         }
         pm_surface sf;
         pm_scene_surface(s, id, r1 * (1.f - r2), r1 * r2, &sf);
