@@ -13,8 +13,9 @@
  *      the textures pmview renders, after checking their size;
  *   3. conversion: accessor layouts are validated with overflow-checked 64-bit arithmetic before
  *      anything sized by a count is allocated, the default scene is walked iteratively with a
- *      visited set, each mesh is decoded once (index values, finite positions) and instanced into
- *      world space.
+ *      visited set, each mesh is decoded once (index values, finite positions) and copied into
+ *      world space, or, placed by several nodes, stored once in mesh space with a placement per
+ *      node (scene.h, Instancing; place_instanced_meshes).
  * Any problem throws LoadError; pm_load_gltf turns it into the one line "FILE: what (where)".
  */
 #define TINYGLTF_IMPLEMENTATION
