@@ -2537,6 +2537,17 @@ void Loader::load(pm_scene *out) {
     if (tangents_needed_) tangents_.reserve(4 * vertices);
     indices_.reserve(3 * triangles);
     triangle_material_.reserve(triangles);
+    // A placement whose matrix or normal matrix does not fit in float (after the framing) is
+    // flattened with the rest of its mesh's: the flat path checks every transformed vertex.
+    for (const Instance &instance : instances_) {
+        if (!uses[instance.mesh]) continue;
+        WorldTransform world(world_[instance.node]);
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 4; c++)
+                if (!std::isfinite(static_cast<float>(world.matrix.at(r, c))) ||
+                    (c < 3 && !std::isfinite(static_cast<float>(world.normal_matrix[r][c]))))
+                    uses[instance.mesh] = 0;
+    }
     for (const Instance &instance : instances_)
         if (!uses[instance.mesh]) instance_mesh(instance, world_[instance.node]);
     place_instanced_meshes(uses);
