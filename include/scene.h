@@ -201,6 +201,10 @@ void pm_scene_free(pm_scene *s);
 /* The share of the surface area whose material reflects at least `albedo` of the light (mean base
  * colour; textures not read): near 1 with albedo ~1, a closed room never absorbs light by itself. */
 double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo);
+/* The world-space area of every triangle whose material `keep` accepts, in double: a placement that
+ * is a similarity (rotation, mirror, uniform scale) counts its mesh's area times its scale squared,
+ * so the sum costs stored triangles plus placements, not placed triangles. */
+double pm_scene_area_where(const pm_scene *s, bool (*keep)(const pm_material *, const void *), const void *context);
 /* Replaces the sky (the scene takes the map; NULL map = uniform, sky false = none) and analyses
  * the scene again: which components are possible depends on it. */
 void pm_scene_set_sky(pm_scene *s, bool sky, vec3 radiance, pm_sky_map *map);

@@ -143,14 +143,12 @@ static float spot_solid_angle(const pm_light *l) {
     return (float)(2.0 * PM_PI * sum);
 }
 
-double pm_photon_receiving_area(const pm_scene *s) {
-    double area = 0.0;
-    for (pm_triangle_walk w = {.placement = -2}; pm_scene_walk_next(s, &w);) {
-        const pm_material *m = &s->materials[s->triangle_material[w.stored]];
-        if (m->may_diffuse || m->may_glossy) area += pm_triangle_area(s, w.id);
-    }
-    return area;
+static bool receives(const pm_material *m, const void *context) {
+    (void)context;
+    return m->may_diffuse || m->may_glossy;
 }
+
+double pm_photon_receiving_area(const pm_scene *s) { return pm_scene_area_where(s, receives, NULL); }
 
 static uint32_t build_sources(const pm_scene *s, light_source *out) {
     uint32_t n = 0;

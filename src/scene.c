@@ -304,19 +304,69 @@ static bool clamp_emission(vec3 *v) {
     return changed;
 }
 
-double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo) {
-    double total = 0.0, reflective = 0.0;
-    for (pm_triangle_walk w = {.placement = -2}; pm_scene_walk_next(s, &w);) {
-        vec3 p[3];
-        pm_scene_walk_corners(s, &w, p);
-        vec3 a = p[0], b = p[1], c = p[2];
-        double e1[3] = {(double)b.x - a.x, (double)b.y - a.y, (double)b.z - a.z};
-        double e2[3] = {(double)c.x - a.x, (double)c.y - a.y, (double)c.z - a.z};
-        double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
-        double area = 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
-        total += area;
-        if (v3_average(s->materials[s->triangle_material[w.stored]].base_color) >= albedo) reflective += area;
+/* Twice the area of stored triangle t, in double, in its own space. */
+static double stored_twice_area(const pm_scene *s, uint32_t t) {
+    const uint32_t *i = &s->indices[3 * (size_t)t];
+    vec3 a = s->positions[i[0]], b = s->positions[i[1]], c = s->positions[i[2]];
+    double e1[3] = {(double)b.x - a.x, (double)b.y - a.y, (double)b.z - a.z};
+    double e2[3] = {(double)c.x - a.x, (double)c.y - a.y, (double)c.z - a.z};
+    double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
+    return sqrt(cx * cx + cy * cy + cz * cz);
+}
+
+/* How much a placement scales every area when it is a similarity (a rotation, a mirror, a uniform
+ * scale: columns orthogonal and of one length), else 0: its triangles must be measured one by one. */
+static double similarity_area_scale(const pm_placement *pl) {
+    const float *m = pl->object_to_world;
+    double c[3][3] = {{m[0], m[4], m[8]}, {m[1], m[5], m[9]}, {m[2], m[6], m[10]}};
+    double dot[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) dot[i][j] = c[i][0] * c[j][0] + c[i][1] * c[j][1] + c[i][2] * c[j][2];
+    double tol = 1e-6 * dot[0][0];
+    if (fabs(dot[1][1] - dot[0][0]) > tol || fabs(dot[2][2] - dot[0][0]) > tol || fabs(dot[0][1]) > tol ||
+        fabs(dot[0][2]) > tol || fabs(dot[1][2]) > tol)
+        return 0.0;
+    return dot[0][0];
+}
+
+double pm_scene_area_where(const pm_scene *s, bool (*keep)(const pm_material *, const void *), const void *context) {
+    double area = 0.0;
+    for (uint32_t t = 0; t < pm_scene_flat_triangles(s); t++)
+        if (keep(&s->materials[s->triangle_material[t]], context)) area += 0.5 * stored_twice_area(s, t);
+    for (uint32_t i = 0; i < s->instanced_mesh_count; i++) {
+        const pm_instanced_mesh *m = &s->instanced_meshes[i];
+        double mesh_area = -1.0; /* measured in mesh space on first use */
+        for (uint32_t p = m->first_placement; p < m->first_placement + m->placement_count; p++) {
+            const pm_placement *pl = &s->placements[p];
+            double scale = similarity_area_scale(pl);
+            if (scale > 0.0) {
+                if (mesh_area < 0.0) {
+                    mesh_area = 0.0;
+                    for (uint32_t t = m->first_triangle; t < m->first_triangle + m->triangle_count; t++)
+                        if (keep(&s->materials[s->triangle_material[t]], context)) mesh_area += 0.5 * stored_twice_area(s, t);
+                }
+                area += scale * mesh_area;
+                continue;
+            }
+            for (uint32_t t = m->first_triangle; t < m->first_triangle + m->triangle_count; t++) {
+                if (!keep(&s->materials[s->triangle_material[t]], context)) continue;
+                const uint32_t *ix = s->indices + 3 * (size_t)t;
+                vec3 a = pm_placement_point(pl, s->positions[ix[0]]), b = pm_placement_point(pl, s->positions[ix[1]]),
+                     c = pm_placement_point(pl, s->positions[ix[2]]);
+                area += 0.5 * v3_length(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+            }
+        }
     }
+    return area;
+}
+
+static bool any_material(const pm_material *m, const void *context) { (void)m; (void)context; return true; }
+static bool reflects_at_least(const pm_material *m, const void *albedo) {
+    return v3_average(m->base_color) >= *(const float *)albedo;
+}
+
+double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo) {
+    double total = pm_scene_area_where(s, any_material, NULL), reflective = pm_scene_area_where(s, reflects_at_least, &albedo);
     return total > 0.0 ? reflective / total : 0.0;
 }
 
