@@ -4,7 +4,7 @@
 
 One torus (positions, normals, TEXCOORD_0; about N triangles) placed by P nodes on a square grid,
 each rotated about its own axis and scaled between 0.6 and 1.2. Rows of the grid are parent nodes
-with their own translation and a slight turn, so every placement is a placement of a placement
+with their own translation and a turn growing by 0.02 rad a row, so every placement is a placement of a placement
 (transforms compose). A floor quad under the grid and a directional sun (KHR_lights_punctual)
 light it. --flat: every node gets a mesh of its own (the same accessors), so pmview flattens
 them: the same geometry as the instanced file, for image comparisons. --emissive: the torus
