@@ -10,5 +10,6 @@ build/rel/json_load || exit 1
 sh bench/window_room_bench.sh || exit 1
 sh bench/cluster_bench.sh || exit 1
 sh bench/window_bench.sh || exit 1
+sh bench/instancing_bench.sh || exit 1
 sh bench/window_motion_bench.sh
 sh bench/memory_table.sh || exit 1

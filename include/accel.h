@@ -8,7 +8,8 @@
  * in two places, where rays go in packets of 8 with the same answers: where they start together
  * and point alike (a tile's camera rays: twice as fast), and the photon tracer's waves of
  * unrelated photons, whose rays Embree answers faster 8 to a call than one by one. A scene with
- * alpha-tested triangles must outlive its accel.
+ * alpha-tested triangles must outlive its accel. Instanced meshes (scene.h) are Embree child
+ * scenes placed by instance geometries; a hit's tri is the scene's triangle id either way.
  */
 #ifndef PM_ACCEL_H
 #define PM_ACCEL_H
@@ -22,7 +23,7 @@ typedef struct pm_accel pm_accel;
 
 typedef struct {
     float t;        /* distance along the (unit) direction */
-    uint32_t tri;   /* triangle index in the scene */
+    uint32_t tri;   /* triangle id in the scene (a stored index, or a placed triangle's: pm_scene_stored_triangle) */
     float b1, b2;   /* barycentrics of vertex 1 and vertex 2 */
 } pm_hit;
 

@@ -39,6 +39,7 @@
 #define PM_RENDER_RESIDENT_BYTES (8u << 20)  /* the render's threads, stacks and small tables */
 #define PM_GL_RESIDENT_BYTES (16u << 20)     /* an offscreen (OSMesa) context and its buffers, for PNG output */
 #define PM_ACCEL_BYTES_PER_TRIANGLE 160 /* Embree's BVH, estimated before the build (measured: 90 bytes a triangle built, twice that at the build's peak) */
+#define PM_ACCEL_BYTES_PER_PLACEMENT 128 /* one Embree instance of a shared mesh, its geometry and its share of the top BVH (measured: 83 bytes built, docs/benchmarks.md, Instancing) */
 
 /* the default environment (radiance), for files without KHR_lights_punctual whose emitters do
  * not enclose the view: a lit white top (about 1.1) stands out against the horizon (0.35) */

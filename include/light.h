@@ -19,10 +19,13 @@ static inline float pm_spot_falloff(const pm_light *l, vec3 light_to_point) {
 typedef struct { vec3 p0, p1, p2, normal; float area; } pm_triangle_geometry;
 
 static inline pm_triangle_geometry pm_triangle_geometry_of(const pm_scene *s, uint32_t tri) {
-    const uint32_t *ix = s->indices + 3 * (size_t)tri;
-    pm_triangle_geometry g = {s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]], v3(0.f, 0.f, 1.f), 0.f};
+    vec3 p[3];
+    pm_scene_triangle_corners(s, tri, p);
+    pm_triangle_geometry g = {p[0], p[1], p[2], v3(0.f, 0.f, 1.f), 0.f};
     vec3 cross = v3_cross(v3_sub(g.p1, g.p0), v3_sub(g.p2, g.p0));
     float len = v3_length(cross);
+    int32_t placement = pm_scene_placement_of(s, tri); /* a mirroring placement reverses the stored winding */
+    if (placement >= 0) cross = v3_scale(cross, s->placements[placement].handedness);
     if (len > 0.f) g.normal = v3_scale(cross, 1.f / len);
     g.area = 0.5f * len;
     return g;

@@ -26,6 +26,12 @@ typedef struct {
     bool recentered;                 /* the scene was moved to the origin (it lay over 2^10 extents away; see README) */
 } pm_load_report;
 
+/* What a load may do differently. A zeroed struct is the default. */
+typedef struct {
+    bool flatten_instances;  /* copy every placement of a mesh into world space (as if each node had its own mesh) instead of
+                                storing the mesh once and placing it (scene.h, Instancing): the flat equivalent of the file */
+} pm_load_options;
+
 /* Loads and validates. Does not call pm_scene_finalize (the caller decides on the default sky).
  * quiet: do not print warnings (they are still counted). */
 bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_load_report *report,
@@ -37,5 +43,11 @@ bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_load_report *r
  * does is not found (a warning, its textures ignored, as for a missing image file). */
 bool pm_load_gltf_memory(const void *data, size_t size, const char *name, bool quiet, pm_scene *out,
                          pm_load_report *report, char *err, size_t err_size);
+
+/* pm_load_gltf and pm_load_gltf_memory with options (NULL: the defaults). */
+bool pm_load_gltf_with(const char *path, const pm_load_options *options, bool quiet, pm_scene *out,
+                       pm_load_report *report, char *err, size_t err_size);
+bool pm_load_gltf_memory_with(const void *data, size_t size, const char *name, const pm_load_options *options, bool quiet,
+                              pm_scene *out, pm_load_report *report, char *err, size_t err_size);
 
 #endif

@@ -42,6 +42,7 @@ typedef struct {
     int unguided;            /* --guide off */
     int view_photons;        /* --view photons */
     bool stats, no_default_light, quiet, no_photons;
+    bool flatten_instances;  /* --flatten-instances: pm_load_options.flatten_instances */
     bool components_given, components[PM_COMPONENT_COUNT]; /* --components: what a PNG (and the window) shows */
 } pm_options;
 

@@ -1,7 +1,8 @@
 /* scene.h: the validated C scene every later stage reads, and the analysis of what it needs.
  *
  * The loader fills the geometry, materials, textures, lights and cameras in world space
- * (instances flattened, transforms applied, winding fixed so the geometric normal
+ * (meshes placed once flattened, those placed several times stored once with their placements,
+ * see Instancing below; transforms applied, winding fixed so the geometric normal
  * cross(p1-p0, p2-p0) always points out of the glTF front face). pm_scene_finalize() then
  * derives everything else: bounds, the emitter distribution, the default sky and the
  * analysis of which components can be non-zero. Nothing here knows about Embree or GL.
@@ -166,6 +167,23 @@ typedef struct {
     bool component_possible[PM_COMPONENT_COUNT];
 } pm_scene_analysis;
 
+/* Instancing (docs/design.md, Instancing): a mesh the file places with two or more nodes is stored
+ * once, in mesh space, as a range of the scene's triangles and vertices, and each placement
+ * transforms it; everything else stays flat, in world space. */
+typedef struct {
+    uint32_t first_triangle, triangle_count; /* stored triangles (indices, triangle_material, face_normals) */
+    uint32_t first_vertex, vertex_count;     /* stored vertices */
+    uint32_t first_placement, placement_count; /* its placements, consecutive in placements[] */
+} pm_instanced_mesh;
+
+typedef struct {
+    uint32_t mesh;               /* index into instanced_meshes */
+    uint32_t first_id;           /* the triangle id of the mesh's first triangle here (ids past the flat triangles) */
+    float object_to_world[12];   /* row-major 3x4: world = M (x, y, z, 1) */
+    float normal_matrix[9];      /* row-major inverse transpose of M's 3x3 part (normals) */
+    float handedness;            /* 1, or -1 when M mirrors (the stored winding is then reversed in world space) */
+} pm_placement;
+
 typedef struct {
     /* geometry, world space */
     uint32_t vertex_count, triangle_count;
@@ -182,6 +200,13 @@ typedef struct {
     float *uv_density;        /* 2*triangle_count: sqrt(UV area / world area) of each triangle for TEXCOORD_0 and _1
                                  (0 without the set), made by pm_scene_finalize for a textured scene, else NULL: turns
                                  a footprint in world units into one in UV units (texture filtering) */
+    /* Instancing: stored triangles [0, instanced_meshes[0].first_triangle) are flat (world space), the rest
+     * belong to instanced meshes (mesh space). A triangle id (pm_hit.tri, emitters, every tri argument)
+     * names a flat triangle by its stored index, or a placed one as placements[p].first_id + its index in
+     * its mesh; pm_scene_stored_triangle maps one to the other. No placement: ids are stored indices. */
+    pm_instanced_mesh *instanced_meshes; uint32_t instanced_mesh_count;
+    pm_placement *placements; uint32_t placement_count;
+    uint32_t triangle_id_count;  /* flat triangles plus every placement's (set by the loader with placements) */
 
     pm_material *materials; uint32_t material_count;
     pm_texture *textures;   uint32_t texture_count;
@@ -218,6 +243,10 @@ uint64_t pm_scene_bytes(const pm_scene *s);
 /* The share of the surface area whose material reflects at least `albedo` of the light (mean base
  * colour; textures not read): near 1 with albedo ~1, a closed room never absorbs light by itself. */
 double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo);
+/* The world-space area of every triangle whose material `keep` accepts, in double: a placement that
+ * is a similarity (rotation, mirror, uniform scale) counts its mesh's area times its scale squared,
+ * so the sum costs stored triangles plus placements, not placed triangles. */
+double pm_scene_area_where(const pm_scene *s, bool (*keep)(const pm_material *, const void *), const void *context);
 /* Replaces the sky (the scene takes the map; NULL map = uniform, sky false = none) and analyses
  * the scene again: which components are possible depends on it. */
 void pm_scene_set_sky(pm_scene *s, bool sky, vec3 radiance, pm_sky_map *map);
@@ -237,6 +266,113 @@ pm_camera pm_scene_auto_camera(const pm_scene *s, float aspect);
  * orthographic camera, sets its ymag) until every vertex is in view with a 5% margin: the model
  * fills the frame, however far its bounding sphere reaches past its silhouette. */
 pm_camera pm_scene_fit_camera(const pm_scene *s, pm_camera c, float aspect);
+
+/* ---- triangle ids (see Instancing above): every reader of a hit's triangle goes through these */
+
+/* How many triangle ids there are: what a loop over every triangle of the world runs over. */
+static inline uint32_t pm_scene_triangle_ids(const pm_scene *s) {
+    return s->placement_count ? s->triangle_id_count : s->triangle_count;
+}
+/* Stored triangles that are flat (world space). */
+static inline uint32_t pm_scene_flat_triangles(const pm_scene *s) {
+    return s->instanced_mesh_count ? s->instanced_meshes[0].first_triangle : s->triangle_count;
+}
+/* The placement triangle id `id` lies in, -1 for a flat triangle. */
+static inline int32_t pm_scene_placement_of(const pm_scene *s, uint32_t id) {
+    if (!s->placement_count || id < s->placements[0].first_id) return -1;
+    uint32_t lo = 0, hi = s->placement_count - 1;
+    while (lo < hi) { /* the last placement whose first_id <= id */
+        uint32_t mid = lo + (hi - lo + 1) / 2;
+        if (s->placements[mid].first_id <= id) lo = mid;
+        else hi = mid - 1;
+    }
+    return (int32_t)lo;
+}
+/* The stored triangle behind id, and its placement (-1 flat) in *placement when not NULL. */
+static inline uint32_t pm_scene_stored_triangle(const pm_scene *s, uint32_t id, int32_t *placement) {
+    int32_t p = pm_scene_placement_of(s, id);
+    if (placement) *placement = p;
+    if (p < 0) return id;
+    const pm_placement *pl = &s->placements[p];
+    return s->instanced_meshes[pl->mesh].first_triangle + (id - pl->first_id);
+}
+/* The id of stored triangle `stored` of an instanced mesh as placement p places it. */
+static inline uint32_t pm_scene_placed_id(const pm_scene *s, uint32_t p, uint32_t stored) {
+    const pm_placement *pl = &s->placements[p];
+    return pl->first_id + (stored - s->instanced_meshes[pl->mesh].first_triangle);
+}
+static inline uint32_t pm_scene_triangle_material(const pm_scene *s, uint32_t id) {
+    return s->triangle_material[pm_scene_stored_triangle(s, id, NULL)];
+}
+static inline vec3 pm_placement_point(const pm_placement *pl, vec3 p) {
+    const float *m = pl->object_to_world;
+    return v3(m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+              m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]);
+}
+static inline vec3 pm_placement_direction(const pm_placement *pl, vec3 d) {
+    const float *m = pl->object_to_world;
+    return v3(m[0] * d.x + m[1] * d.y + m[2] * d.z, m[4] * d.x + m[5] * d.y + m[6] * d.z, m[8] * d.x + m[9] * d.y + m[10] * d.z);
+}
+/* A normal through the placement, unit (not normalised first: the caller's input need not be). */
+static inline vec3 pm_placement_normal(const pm_placement *pl, vec3 n) {
+    const float *m = pl->normal_matrix;
+    return v3_normalize(v3(m[0] * n.x + m[1] * n.y + m[2] * n.z, m[3] * n.x + m[4] * n.y + m[5] * n.z,
+                           m[6] * n.x + m[7] * n.y + m[8] * n.z));
+}
+/* The triangle's corners in world space, in stored order (barycentrics b1, b2 weigh corners 1, 2). */
+static inline void pm_scene_triangle_corners(const pm_scene *s, uint32_t id, vec3 p[3]) {
+    int32_t pl;
+    const uint32_t *ix = s->indices + 3 * (size_t)pm_scene_stored_triangle(s, id, &pl);
+    for (int k = 0; k < 3; k++) p[k] = pl < 0 ? s->positions[ix[k]] : pm_placement_point(&s->placements[pl], s->positions[ix[k]]);
+}
+/* Unit geometric normal in world space, glTF front side (face_normals through the placement; computed
+ * from the corners when face_normals is missing). */
+static inline vec3 pm_scene_triangle_face_normal(const pm_scene *s, uint32_t id) {
+    int32_t pl;
+    uint32_t stored = pm_scene_stored_triangle(s, id, &pl);
+    if (s->face_normals) return pl < 0 ? s->face_normals[stored] : pm_placement_normal(&s->placements[pl], s->face_normals[stored]);
+    vec3 p[3];
+    pm_scene_triangle_corners(s, id, p);
+    /* a mirroring placement reverses the stored winding in world space */
+    return v3_scale(v3_normalize(v3_cross(v3_sub(p[1], p[0]), v3_sub(p[2], p[0]))), pl < 0 ? 1.f : s->placements[pl].handedness);
+}
+/* Corner k's shading normal in world space, unit. */
+static inline vec3 pm_scene_triangle_vertex_normal(const pm_scene *s, uint32_t id, int k) {
+    int32_t pl;
+    uint32_t v = s->indices[3 * (size_t)pm_scene_stored_triangle(s, id, &pl) + k];
+    return pl < 0 ? s->normals[v] : pm_placement_normal(&s->placements[pl], s->normals[v]);
+}
+
+/* A walk over every triangle id in order (flat ones, then each placement's), with its stored
+ * triangle and placement, without a search per id. Start with placement = -2. */
+typedef struct {
+    uint32_t id, stored, left; /* left: ids in the current run, this one included */
+    int32_t placement;
+} pm_triangle_walk;
+static inline bool pm_scene_walk_next(const pm_scene *s, pm_triangle_walk *w) {
+    if (w->placement == -2) {
+        w->placement = -1;
+        w->id = w->stored = 0;
+        w->left = pm_scene_flat_triangles(s);
+    } else {
+        w->id++;
+        w->stored++;
+        w->left--;
+    }
+    while (w->left == 0) {
+        if (w->placement + 1 >= (int32_t)s->placement_count) return false;
+        const pm_placement *pl = &s->placements[++w->placement];
+        w->id = pl->first_id;
+        w->stored = s->instanced_meshes[pl->mesh].first_triangle;
+        w->left = s->instanced_meshes[pl->mesh].triangle_count;
+    }
+    return true;
+}
+static inline void pm_scene_walk_corners(const pm_scene *s, const pm_triangle_walk *w, vec3 p[3]) {
+    const uint32_t *ix = s->indices + 3 * (size_t)w->stored;
+    for (int k = 0; k < 3; k++)
+        p[k] = w->placement < 0 ? s->positions[ix[k]] : pm_placement_point(&s->placements[w->placement], s->positions[ix[k]]);
+}
 
 /* Surface description at a hit, what the integrators work with. */
 typedef struct {
@@ -304,22 +440,30 @@ void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, floa
  * and the centroid. pm_scene_surface makes both; the photon pass makes the second only for a
  * path that goes on from the hit. */
 static inline void pm_scene_surface_point(const pm_scene *s, uint32_t tri, float b1, float b2, vec3 ng, pm_surface *out) {
-    const uint32_t *ix = s->indices + 3 * (size_t)tri;
     float b0 = 1.f - b1 - b2;
-    vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
-    out->p = v3_add(v3_add(v3_scale(p0, b0), v3_scale(p1, b1)), v3_scale(p2, b2));
+    vec3 p[3];
+    pm_scene_triangle_corners(s, tri, p);
+    out->p = v3_add(v3_add(v3_scale(p[0], b0), v3_scale(p[1], b1)), v3_scale(p[2], b2));
     out->ng = ng;
-    out->material = s->triangle_material[tri];
+    out->material = pm_scene_triangle_material(s, tri);
 }
 static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
-    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    int32_t pl;
+    const uint32_t *ix = s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, &pl);
     float b0 = 1.f - b1 - b2;
-    vec3 n = v3_add(v3_add(v3_scale(s->normals[ix[0]], b0), v3_scale(s->normals[ix[1]], b1)),
-                    v3_scale(s->normals[ix[2]], b2));
-    n = v3_normalize(n);
+    vec3 n0 = s->normals[ix[0]], n1 = s->normals[ix[1]], n2 = s->normals[ix[2]];
+    if (pl >= 0) { /* each corner's normal through the placement, as the flattened copy stores it, then interpolated */
+        const pm_placement *placement = &s->placements[pl];
+        n0 = pm_placement_normal(placement, n0);
+        n1 = pm_placement_normal(placement, n1);
+        n2 = pm_placement_normal(placement, n2);
+    }
+    vec3 n = v3_normalize(v3_add(v3_add(v3_scale(n0, b0), v3_scale(n1, b1)), v3_scale(n2, b2)));
     /* Shading normals that disagree with the winding would light back faces: trust the winding. */
     out->ns = v3_dot(n, out->ng) < 0.f ? v3_neg(n) : n;
-    vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
+    vec3 corners[3];
+    pm_scene_triangle_corners(s, tri, corners);
+    vec3 p0 = corners[0], p1 = corners[1], p2 = corners[2];
     /* Rays leave from the point pulled toward the centroid (pm_offset_surface_origin) only near
      * the triangle's edges, where a wall sharing the edge needs it: deep inside a large triangle
      * (a floor running on under a wall) the pull could carry the origin into a wall standing on
@@ -339,13 +483,13 @@ static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, flo
  * coordinate, and ns and centroid are left to pm_scene_surface_shading (returns true: the
  * caller makes them before it reads them); any other material takes pm_scene_surface_scattering (false). */
 static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
-    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
     bool normal_mapped = m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents;
     if (!m->uniform_split || normal_mapped || !s->face_normals) {
         pm_scene_surface_scattering(s, tri, b1, b2, out);
         return false;
     }
-    pm_scene_surface_point(s, tri, b1, b2, s->face_normals[tri], out);
+    pm_scene_surface_point(s, tri, b1, b2, pm_scene_triangle_face_normal(s, tri), out);
     out->kd = m->split_kd;
     out->ks = m->split_ks;
     out->kt = m->split_kt;

@@ -1,5 +1,11 @@
 /* accel.c: the Embree 3 scene over all triangles, with closest-hit and occlusion queries and the glTF alpha test.
  *
+ * Instancing: each instanced mesh (scene.h) is a child Embree scene built once, with the same
+ * opaque / alpha-tested split, and each placement an RTC_GEOMETRY_TYPE_INSTANCE of it with the
+ * placement's transform, attached as geometry PLACEMENT_GEOMETRY + its index, so a hit's instID
+ * names the placement and the child's geomID and primID the stored triangle; both map to the
+ * scene's triangle id (pm_scene_placed_id) before anything outside reads them.
+ *
  * Embree appears nowhere else. The geometry is copied into Embree's own buffers. Triangles whose
  * material can let rays through (MASK, BLEND) go into a second Embree geometry whose intersection
  * and occlusion filters reject a candidate hit the alpha test lets through, so every query (eye,
@@ -34,9 +40,32 @@ struct pm_accel {
     const pm_scene *source;         /* read by the alpha filter */
     uint32_t *tri_of_prim[2];       /* per geometry: Embree primID -> scene triangle (NULL: the same) */
     uint32_t alpha_tested;          /* triangles in the filtered geometry */
+    /* instanced meshes: their child scenes, and per mesh and geometry primID -> stored triangle
+     * (NULL: the mesh's first_triangle + primID) */
+    RTCScene *mesh_scenes;
+    uint32_t *(*mesh_tri_of_prim)[2];
+    struct filter_user *filter_users; /* instanced_mesh_count + 1: the flat geometry's, then each mesh's */
 };
 
-enum { OPAQUE_GEOMETRY = 0, ALPHA_GEOMETRY = 1 };
+enum { OPAQUE_GEOMETRY = 0, ALPHA_GEOMETRY = 1, PLACEMENT_GEOMETRY = 2 };
+
+/* What the alpha filter of one geometry needs: the accel and which mesh (-1: the flat triangles). */
+struct filter_user {
+    const pm_accel *accel;
+    int32_t mesh;
+};
+
+/* The scene's triangle id of Embree's (instID, geomID, primID). */
+static inline uint32_t triangle_id(const pm_accel *a, unsigned inst, unsigned geom, unsigned prim) {
+    if (inst == RTC_INVALID_GEOMETRY_ID) {
+        const uint32_t *tri_of_prim = a->tri_of_prim[geom];
+        return tri_of_prim ? tri_of_prim[prim] : prim;
+    }
+    const pm_scene *s = a->source;
+    uint32_t placement = inst - PLACEMENT_GEOMETRY, mesh = s->placements[placement].mesh;
+    const uint32_t *tri_of_prim = a->mesh_tri_of_prim[mesh][geom];
+    return pm_scene_placed_id(s, placement, tri_of_prim ? tri_of_prim[prim] : s->instanced_meshes[mesh].first_triangle + prim);
+}
 
 /* Debian's Embree keeps its assertions: a ray whose origin or direction has a coordinate beyond
  * +-1.844e18 (Embree's FLT_LARGE) or NaN, or whose tfar is NaN, aborts the whole process (found
@@ -74,7 +103,7 @@ static float crossing_uniform(const float org[3], const float dir[3], uint32_t t
 /* glTF: MASK is opaque where alpha >= alphaCutoff; BLEND is here stochastic transparency, a
  * hit with probability alpha, so every kind of ray passes a pane with probability 1 - alpha. */
 static bool alpha_accepts(const pm_scene *s, uint32_t tri, float b1, float b2, const float org[3], const float dir[3]) {
-    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
     float alpha = pm_scene_alpha_at(s, tri, b1, b2);
     if (m->alpha_mode == PM_ALPHA_MASK) return alpha >= m->alpha_cutoff;
     if (alpha >= 1.f) return true;
@@ -84,17 +113,21 @@ static bool alpha_accepts(const pm_scene *s, uint32_t tri, float b1, float b2, c
 /* Embree's intersection and occlusion filter for the alpha geometry: clearing valid[i] makes
  * Embree go on looking past this candidate. */
 static void alpha_filter(const struct RTCFilterFunctionNArguments *args) {
-    const pm_accel *a = args->geometryUserPtr;
+    const struct filter_user *user = args->geometryUserPtr;
+    const pm_accel *a = user->accel;
     unsigned n = args->N;
     /* Embree's packets are structures of arrays; its accessors for them are C++ only. Ray:
-     * org_x, org_y, org_z, tnear, dir_x, dir_y, dir_z, ...; hit: Ng_x, Ng_y, Ng_z, u, v, primID. */
+     * org_x, org_y, org_z, tnear, dir_x, dir_y, dir_z, ...; hit: Ng_x, Ng_y, Ng_z, u, v, primID, geomID,
+     * instID[0]. Inside an instance the ray is in the mesh's space: the hash only needs to be a
+     * function of the ray, which it still is. */
     const float *ray = (const float *)args->ray, *hit_f = (const float *)args->hit;
     const unsigned *hit_u = (const unsigned *)args->hit;
     for (unsigned i = 0; i < n; i++) {
         if (args->valid[i] != -1) continue;
         float org[3] = {ray[0 * n + i], ray[1 * n + i], ray[2 * n + i]};
         float dir[3] = {ray[4 * n + i], ray[5 * n + i], ray[6 * n + i]};
-        uint32_t tri = a->tri_of_prim[ALPHA_GEOMETRY][hit_u[5 * n + i]];
+        uint32_t tri = user->mesh < 0 ? a->tri_of_prim[ALPHA_GEOMETRY][hit_u[5 * n + i]]
+                                      : triangle_id(a, hit_u[7 * n + i], ALPHA_GEOMETRY, hit_u[5 * n + i]);
         if (!alpha_accepts(a->source, tri, hit_f[3 * n + i], hit_f[4 * n + i], org, dir))
             args->valid[i] = 0;
     }
@@ -120,36 +153,48 @@ static bool track_memory(void *user, ssize_t bytes, bool post) {
     return true;
 }
 
-/* Adds the triangles `tris` (count of them; NULL: all, in order) as geometry `id` over the shared
- * vertex buffer; with `filtered`, the alpha filter decides each candidate hit. */
-static bool add_geometry(pm_accel *a, RTCBuffer vertices, const pm_scene *s, uint32_t *tris, uint32_t count,
-                         unsigned id, bool filtered) {
+/* Adds the triangles `tris` (count of them; NULL: all from `first`, in order) as geometry `id` of
+ * `target` over the vertex buffer holding the stored vertices from first_vertex on; with
+ * `filtered`, the alpha filter decides each candidate hit (user: its filter_user). The map is
+ * stored in *map. */
+static bool add_geometry_to(pm_accel *a, RTCScene target, RTCBuffer vertices, uint32_t first_vertex, uint32_t vertex_count,
+                            const pm_scene *s, uint32_t *tris, uint32_t first, uint32_t count, unsigned id,
+                            struct filter_user *user, uint32_t **map) {
     RTCGeometry g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    rtcSetGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices, 0, 3 * sizeof(float),
-                         s->vertex_count);
+    rtcSetGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices, 0, 3 * sizeof(float), vertex_count);
     uint32_t *triangles = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                                   3 * sizeof(uint32_t), count);
     if (!triangles) {
         rtcReleaseGeometry(g);
         return false;
     }
-    if (!tris) memcpy(triangles, s->indices, 3 * sizeof(uint32_t) * (size_t)count);
+    if (!tris && !first_vertex) memcpy(triangles, s->indices + 3 * (size_t)first, 3 * sizeof(uint32_t) * (size_t)count);
     else
-        for (uint32_t i = 0; i < count; i++) memcpy(triangles + 3 * (size_t)i, s->indices + 3 * (size_t)tris[i], 3 * sizeof(uint32_t));
-    if (filtered) {
-        rtcSetGeometryUserData(g, a);
+        for (uint32_t i = 0; i < count; i++)
+            for (int k = 0; k < 3; k++)
+                triangles[3 * (size_t)i + k] = s->indices[3 * (size_t)(tris ? tris[i] : first + i) + k] - first_vertex;
+    if (user) {
+        rtcSetGeometryUserData(g, user);
         rtcSetGeometryIntersectFilterFunction(g, alpha_filter);
         rtcSetGeometryOccludedFilterFunction(g, alpha_filter);
     }
     rtcCommitGeometry(g);
-    rtcAttachGeometryByID(a->scene, g, id);
+    rtcAttachGeometryByID(target, g, id);
     rtcReleaseGeometry(g);
-    a->tri_of_prim[id] = tris;
+    *map = tris;
     return true;
 }
 
-/* Splits the triangles by whether their material can let a ray through; false when out of memory. */
-static bool split_triangles(const pm_scene *s, uint32_t **opaque, uint32_t *opaque_count,
+static bool add_geometry(pm_accel *a, RTCBuffer vertices, const pm_scene *s, uint32_t *tris, uint32_t count,
+                         unsigned id, bool filtered) {
+    uint32_t flat_vertices = s->instanced_mesh_count ? s->instanced_meshes[0].first_vertex : s->vertex_count;
+    return add_geometry_to(a, a->scene, vertices, 0, flat_vertices, s, tris, 0, count, id,
+                           filtered ? &a->filter_users[0] : NULL, &a->tri_of_prim[id]);
+}
+
+/* Splits the stored triangles [first, first + total) by whether their material can let a ray
+ * through; false when out of memory. */
+static bool split_triangles(const pm_scene *s, uint32_t first, uint32_t total, uint32_t **opaque, uint32_t *opaque_count,
                             uint32_t **alpha, uint32_t *alpha_count) {
     *opaque = *alpha = NULL;
     *opaque_count = *alpha_count = 0;
@@ -157,8 +202,8 @@ static bool split_triangles(const pm_scene *s, uint32_t **opaque, uint32_t *opaq
     bool *see_through = pm_calloc(s->material_count ? s->material_count : 1, sizeof(bool), "acceleration structure");
     if (!see_through) return false;
     for (uint32_t i = 0; i < s->material_count; i++) see_through[i] = pm_material_can_be_transparent(s, &s->materials[i]);
-    for (uint32_t t = 0; t < s->triangle_count; t++) *alpha_count += see_through[s->triangle_material[t]];
-    *opaque_count = s->triangle_count - *alpha_count;
+    for (uint32_t t = first; t < first + total; t++) *alpha_count += see_through[s->triangle_material[t]];
+    *opaque_count = total - *alpha_count;
     *opaque = pm_malloc(((size_t)*opaque_count + 1) * sizeof(uint32_t), "acceleration structure");
     *alpha = pm_malloc(((size_t)*alpha_count + 1) * sizeof(uint32_t), "acceleration structure");
     if (!*opaque || !*alpha) {
@@ -169,7 +214,7 @@ static bool split_triangles(const pm_scene *s, uint32_t **opaque, uint32_t *opaq
         return false;
     }
     uint32_t no = 0, na = 0;
-    for (uint32_t t = 0; t < s->triangle_count; t++) {
+    for (uint32_t t = first; t < first + total; t++) {
         if (see_through[s->triangle_material[t]]) (*alpha)[na++] = t;
         else (*opaque)[no++] = t;
     }
@@ -202,20 +247,33 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
     a->scene = rtcNewScene(a->device);
     rtcSetSceneBuildQuality(a->scene, RTC_BUILD_QUALITY_HIGH);
     rtcSetSceneFlags(a->scene, RTC_SCENE_FLAG_ROBUST);
+    uint32_t flat_count = pm_scene_flat_triangles(s);
+    uint32_t flat_vertices = s->instanced_mesh_count ? s->instanced_meshes[0].first_vertex : s->vertex_count;
+    a->filter_users = pm_calloc((size_t)s->instanced_mesh_count + 1, sizeof *a->filter_users, "acceleration structure");
+    if (s->instanced_mesh_count) {
+        a->mesh_scenes = pm_calloc(s->instanced_mesh_count, sizeof *a->mesh_scenes, "acceleration structure");
+        a->mesh_tri_of_prim = pm_calloc(s->instanced_mesh_count, sizeof *a->mesh_tri_of_prim, "acceleration structure");
+    }
+    if (!a->filter_users || (s->instanced_mesh_count && (!a->mesh_scenes || !a->mesh_tri_of_prim))) {
+        snprintf(err, err_size, "out of memory (acceleration structure) for %u instanced meshes", s->instanced_mesh_count);
+        pm_accel_destroy(a);
+        return NULL;
+    }
+    a->filter_users[0] = (struct filter_user){a, -1};
     uint32_t *opaque, *alpha, opaque_count, alpha_count;
-    if (!split_triangles(s, &opaque, &opaque_count, &alpha, &alpha_count)) {
+    if (!split_triangles(s, 0, flat_count, &opaque, &opaque_count, &alpha, &alpha_count)) {
         snprintf(err, err_size, "out of memory (%s) for %u triangles", pm_memory_failure() ? pm_memory_failure() : "triangle lists", s->triangle_count);
         pm_accel_destroy(a);
         return NULL;
     }
     /* Copied into Embree's own buffer, 16 bytes longer: Embree may read 16 bytes at the last
      * element (SSE loads), which a tightly packed vec3 array does not guarantee. */
-    size_t vertex_bytes = 3 * sizeof(float) * (size_t)s->vertex_count;
-    RTCBuffer vertices = rtcNewBuffer(a->device, vertex_bytes + 16);
+    size_t vertex_bytes = 3 * sizeof(float) * (size_t)flat_vertices;
+    RTCBuffer vertices = flat_count ? rtcNewBuffer(a->device, vertex_bytes + 16) : NULL;
     float *vertex_data = vertices ? rtcGetBufferData(vertices) : NULL;
-    bool ok = vertex_data != NULL;
-    if (ok) memcpy(vertex_data, s->positions, vertex_bytes);
-    if (ok && !s->analysis.has_non_opaque) ok = add_geometry(a, vertices, s, NULL, s->triangle_count, OPAQUE_GEOMETRY, false);
+    bool ok = vertex_data != NULL || !flat_count;
+    if (vertex_data) memcpy(vertex_data, s->positions, vertex_bytes);
+    if (ok && flat_count && !s->analysis.has_non_opaque) ok = add_geometry(a, vertices, s, NULL, flat_count, OPAQUE_GEOMETRY, false);
     if (ok && opaque_count) {
         ok = add_geometry(a, vertices, s, opaque, opaque_count, OPAQUE_GEOMETRY, false);
         if (ok) opaque = NULL; /* owned by the accel now */
@@ -228,6 +286,47 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
     free(opaque);
     free(alpha);
     if (vertices) rtcReleaseBuffer(vertices);
+    /* each instanced mesh once, as a child scene over its own vertices */
+    for (uint32_t i = 0; ok && i < s->instanced_mesh_count; i++) {
+        const pm_instanced_mesh *m = &s->instanced_meshes[i];
+        a->filter_users[i + 1] = (struct filter_user){a, (int32_t)i};
+        RTCScene child = a->mesh_scenes[i] = rtcNewScene(a->device);
+        rtcSetSceneBuildQuality(child, RTC_BUILD_QUALITY_HIGH);
+        rtcSetSceneFlags(child, RTC_SCENE_FLAG_ROBUST);
+        ok = split_triangles(s, m->first_triangle, m->triangle_count, &opaque, &opaque_count, &alpha, &alpha_count);
+        if (!ok) break;
+        RTCBuffer mesh_vertices = rtcNewBuffer(a->device, 3 * sizeof(float) * (size_t)m->vertex_count + 16);
+        float *data = mesh_vertices ? rtcGetBufferData(mesh_vertices) : NULL;
+        ok = data != NULL;
+        if (ok) memcpy(data, s->positions + m->first_vertex, 3 * sizeof(float) * (size_t)m->vertex_count);
+        if (ok && !s->analysis.has_non_opaque)
+            ok = add_geometry_to(a, child, mesh_vertices, m->first_vertex, m->vertex_count, s, NULL, m->first_triangle,
+                                 m->triangle_count, OPAQUE_GEOMETRY, NULL, &a->mesh_tri_of_prim[i][OPAQUE_GEOMETRY]);
+        if (ok && opaque_count) {
+            ok = add_geometry_to(a, child, mesh_vertices, m->first_vertex, m->vertex_count, s, opaque, 0, opaque_count,
+                                 OPAQUE_GEOMETRY, NULL, &a->mesh_tri_of_prim[i][OPAQUE_GEOMETRY]);
+            if (ok) opaque = NULL;
+        }
+        if (ok && alpha_count) {
+            ok = add_geometry_to(a, child, mesh_vertices, m->first_vertex, m->vertex_count, s, alpha, 0, alpha_count,
+                                 ALPHA_GEOMETRY, &a->filter_users[i + 1], &a->mesh_tri_of_prim[i][ALPHA_GEOMETRY]);
+            if (ok) alpha = NULL;
+            if (ok) a->alpha_tested += alpha_count;
+        }
+        free(opaque);
+        free(alpha);
+        if (mesh_vertices) rtcReleaseBuffer(mesh_vertices);
+        if (ok) rtcCommitScene(child);
+    }
+    /* each placement an instance of its mesh's child scene */
+    for (uint32_t p = 0; ok && p < s->placement_count; p++) {
+        RTCGeometry g = rtcNewGeometry(a->device, RTC_GEOMETRY_TYPE_INSTANCE);
+        rtcSetGeometryInstancedScene(g, a->mesh_scenes[s->placements[p].mesh]);
+        rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, s->placements[p].object_to_world);
+        rtcCommitGeometry(g);
+        rtcAttachGeometryByID(a->scene, g, PLACEMENT_GEOMETRY + p);
+        rtcReleaseGeometry(g);
+    }
     if (!ok) {
         snprintf(err, err_size, "out of memory (%s) for %u vertices", pm_memory_failure() ? pm_memory_failure() : "Embree geometry", s->vertex_count);
         pm_accel_destroy(a);
@@ -254,6 +353,16 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
 void pm_accel_destroy(pm_accel *a) {
     if (!a) return;
     if (a->scene) rtcReleaseScene(a->scene);
+    uint32_t meshes = a->source ? a->source->instanced_mesh_count : 0;
+    for (uint32_t i = 0; a->mesh_scenes && i < meshes; i++)
+        if (a->mesh_scenes[i]) rtcReleaseScene(a->mesh_scenes[i]);
+    for (uint32_t i = 0; a->mesh_tri_of_prim && i < meshes; i++) {
+        free(a->mesh_tri_of_prim[i][OPAQUE_GEOMETRY]);
+        free(a->mesh_tri_of_prim[i][ALPHA_GEOMETRY]);
+    }
+    free(a->mesh_scenes);
+    free(a->mesh_tri_of_prim);
+    free(a->filter_users);
     if (a->device) rtcReleaseDevice(a->device);
     pm_memory_release(atomic_load(&a->admitted)); /* whatever Embree did not report freeing */
     free(a->tri_of_prim[OPAQUE_GEOMETRY]);
@@ -283,8 +392,7 @@ bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *h
     rtcIntersect1(a->scene, &ctx, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     hit->t = rh.ray.tfar;
-    const uint32_t *tri_of_prim = a->tri_of_prim[rh.hit.geomID];
-    hit->tri = tri_of_prim ? tri_of_prim[rh.hit.primID] : rh.hit.primID;
+    hit->tri = triangle_id(a, rh.hit.instID[0], rh.hit.geomID, rh.hit.primID);
     hit->b1 = rh.hit.u;
     hit->b2 = rh.hit.v;
     return true;
@@ -325,8 +433,7 @@ void pm_accel_intersect_packets(const pm_accel *a, size_t n, const vec3 *o, cons
             hit[i] = valid[j] && rh.hit.geomID[j] != RTC_INVALID_GEOMETRY_ID;
             if (!hit[i]) continue;
             hits[i].t = rh.ray.tfar[j];
-            const uint32_t *tri_of_prim = a->tri_of_prim[rh.hit.geomID[j]];
-            hits[i].tri = tri_of_prim ? tri_of_prim[rh.hit.primID[j]] : rh.hit.primID[j];
+            hits[i].tri = triangle_id(a, rh.hit.instID[0][j], rh.hit.geomID[j], rh.hit.primID[j]);
             hits[i].b1 = rh.hit.u[j];
             hits[i].b2 = rh.hit.v[j];
         }
@@ -374,6 +481,7 @@ double pm_accel_bench_raw(const pm_accel *a, const vec3 *origins, const vec3 *di
             struct RTCRayHit rh;
             fill_ray(&rh.ray, origins[i], dirs[i], a->tnear, INFINITY);
             rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
             rtcIntersect1(a->scene, &ctx, &rh);
             count += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
         }

@@ -11,16 +11,12 @@
 /* Surfaces a probe may pass (continuations of p's surface, or the wrong way round) before it gives up. */
 #define PROBE_HITS 4
 
-static vec3 triangle_normal(const pm_scene *s, uint32_t tri) {
-    if (s->face_normals) return s->face_normals[tri];
-    const uint32_t *ix = s->indices + 3 * (size_t)tri;
-    vec3 a = s->positions[ix[0]], b = s->positions[ix[1]], c = s->positions[ix[2]];
-    return v3_normalize(v3_cross(v3_sub(b, a), v3_sub(c, a)));
-}
+static vec3 triangle_normal(const pm_scene *s, uint32_t tri) { return pm_scene_triangle_face_normal(s, tri); }
 
 static vec3 triangle_centroid(const pm_scene *s, uint32_t tri) {
-    const uint32_t *ix = s->indices + 3 * (size_t)tri;
-    return v3_scale(v3_add(v3_add(s->positions[ix[0]], s->positions[ix[1]]), s->positions[ix[2]]), 1.f / 3.f);
+    vec3 p[3];
+    pm_scene_triangle_corners(s, tri, p);
+    return v3_scale(v3_add(v3_add(p[0], p[1]), p[2]), 1.f / 3.f);
 }
 
 /* A step past a surface a probe goes through: far enough to leave its plane at any position. */
@@ -78,8 +74,8 @@ static float tangent_probe(pm_clip *c, const pm_scene *s, const pm_accel *a, vec
 /* How far a line from q along d (both in triangle tri's plane, q inside it) runs before it
  * leaves the triangle, and through which edge (its first vertex's index 0..2 in *edge). */
 static float triangle_exit(const pm_scene *s, uint32_t tri, vec3 q, vec3 d, int *edge) {
-    const uint32_t *ix = s->indices + 3 * (size_t)tri;
-    vec3 v[3] = {s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]};
+    vec3 v[3];
+    pm_scene_triangle_corners(s, tri, v);
     vec3 m = v3_cross(v3_sub(v[1], v[0]), v3_sub(v[2], v[0]));
     float best = INFINITY;
     *edge = -1;
@@ -138,8 +134,9 @@ static void ledge_probe(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 o
         /* a triangle going on past the miss: the ray down slipped through a crack between triangles */
         if (edge >= 0 && out > (hi - lo) * 1.01f + step_past(foot, s->ray_scale)) return;
         if (edge >= 0) {
-            const uint32_t *ix = s->indices + 3 * (size_t)last;
-            vec3 ea = s->positions[ix[edge]], eb = s->positions[ix[(edge + 1) % 3]];
+            vec3 corners[3];
+            pm_scene_triangle_corners(s, last, corners);
+            vec3 ea = corners[edge], eb = corners[(edge + 1) % 3];
             vec3 across = v3_cross(c->n, v3_sub(eb, ea)); /* in p's tangent plane, across the edge */
             float len = v3_length(across);
             if (len > 0.f) {
@@ -165,7 +162,7 @@ static float normal_probe(const pm_clip *c, const pm_scene *s, const pm_accel *a
         if (rays) (*rays)++;
         if (!pm_accel_intersect(a, o, d, reach - travelled, &h)) return INFINITY;
         travelled += h.t;
-        const pm_material *mat = &s->materials[s->triangle_material[h.tri]];
+        const pm_material *mat = &s->materials[pm_scene_triangle_material(s, h.tri)];
         if (mat->double_sided || v3_dot(triangle_normal(s, h.tri), c->n) >= CONTINUES_COS) return travelled;
         vec3 at = v3_madd(o, d, h.t);
         float step = step_past(at, s->ray_scale);

@@ -199,7 +199,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         pm_triangle_geometry g = pm_triangle_geometry_of(s, tri);
         vec3 q = pm_triangle_point(&g, r1 * (1.f - r2), r1 * r2), nl = g.normal;
         float area = g.area;
-        const pm_material *m = &s->materials[s->triangle_material[tri]];
+        const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
         vec3 to_light = v3_sub(q, origin);
         float dist = v3_length(to_light);
         if (dist > 0.f && area > 0.f && pick_pdf > 0.f && !v3_is_black(radiance)) { /* not a cut-out or black texel */
@@ -277,7 +277,7 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                 if (!hit) {
                     if (s->sky) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
                 } else if (s->emitter_count) {
-                    const pm_material *m = &s->materials[s->triangle_material[h.tri]];
+                    const pm_material *m = &s->materials[pm_scene_triangle_material(s, h.tri)];
                     float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
                     if (pick_pdf > 0.f) {
                         pm_triangle_geometry g = pm_triangle_geometry_of(s, h.tri);

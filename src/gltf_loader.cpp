@@ -13,8 +13,9 @@
  *      the textures pmview renders, after checking their size;
  *   3. conversion: accessor layouts are validated with overflow-checked 64-bit arithmetic before
  *      anything sized by a count is allocated, the default scene is walked iteratively with a
- *      visited set, each mesh is decoded once (index values, finite positions) and instanced into
- *      world space.
+ *      visited set, each mesh is decoded once (index values, finite positions) and copied into
+ *      world space, or, placed by several nodes, stored once in mesh space with a placement per
+ *      node (scene.h, Instancing; place_instanced_meshes).
  * Any problem throws LoadError; pm_load_gltf turns it into the one line "FILE: what (where)".
  */
 #define TINYGLTF_IMPLEMENTATION
@@ -805,6 +806,7 @@ public:
         memory_size_ = size;
         hooks_.no_files = true;
     }
+    void set_options(const pm_load_options &options) { options_ = options; }
 
     void load(pm_scene *out);
     const std::vector<std::string> &warnings() const { return warnings_; }
@@ -838,7 +840,7 @@ private:
     void traverse_default_scene();
     const DecodedMesh &decoded_mesh(int mesh);
     DecodedPrimitive decode_primitive(int mesh, int primitive);
-    void instance_mesh(const Instance &instance);
+    void instance_mesh(const Instance &instance, const Mat4 &transform);
     void add_light(int light, const WorldTransform &world, int node);
     void choose_frame();
     void add_camera(int camera, const WorldTransform &world, int node);
@@ -935,6 +937,12 @@ private:
     // conversion
     std::vector<Mat4> world_;  // per node, valid once the traversal reached it
     std::vector<Instance> instances_;
+    // instancing (scene.h): meshes placed by two or more nodes are stored once and placed
+    pm_load_options options_ = {};
+    std::vector<pm_instanced_mesh> instanced_meshes_;
+    std::vector<pm_placement> placements_;
+    uint64_t triangle_ids_ = 0;
+    void place_instanced_meshes(const std::vector<uint32_t> &uses);
     struct Placed { int node, index; bool light; };
     std::vector<Placed> placed_;  // cameras and lights in traversal order
     // The frame the scene is stored in: world = (file world - frame_center_) x frame_scale_ (see choose_frame)
@@ -2478,9 +2486,11 @@ const DecodedMesh &Loader::decoded_mesh(int mesh) {
     return *meshes_[mesh];
 }
 
-void Loader::instance_mesh(const Instance &instance) {
+// Appends the mesh's triangles through `transform`: the node's world transform for a flat copy,
+// the identity for an instanced mesh's one stored copy.
+void Loader::instance_mesh(const Instance &instance, const Mat4 &transform) {
     const DecodedMesh &mesh = *meshes_[instance.mesh];
-    WorldTransform world(world_[instance.node]);
+    WorldTransform world(transform);
     for (size_t p = 0; p < mesh.primitives.size(); p++) {
         const DecodedPrimitive &prim = mesh.primitives[p];
         if (!prim.triangles) {
@@ -2657,6 +2667,8 @@ void Loader::emit(pm_scene *out) {
         s.lights = malloc_copy(lights_);
         s.cameras = malloc_copy(cameras_);
         s.textures = malloc_copy(textures_.items);
+        s.instanced_meshes = malloc_copy(instanced_meshes_);
+        s.placements = malloc_copy(placements_);
     } catch (...) {
         pm_scene_free(&s);
         throw;
@@ -2668,6 +2680,9 @@ void Loader::emit(pm_scene *out) {
     s.material_count = static_cast<uint32_t>(materials_.size());
     s.light_count = static_cast<uint32_t>(lights_.size());
     s.camera_count = static_cast<uint32_t>(cameras_.size());
+    s.instanced_mesh_count = static_cast<uint32_t>(instanced_meshes_.size());
+    s.placement_count = static_cast<uint32_t>(placements_.size());
+    s.triangle_id_count = static_cast<uint32_t>(triangle_ids_);
     s.memory_admitted = admitted_.bytes;
     admitted_.bytes = 0;
     *out = s;
@@ -2735,6 +2750,48 @@ void Loader::choose_frame() {
     }
 }
 
+// After the flat triangles: each instanced mesh (uses > 0) once, in mesh space, then its
+// placements, grouped by mesh (pm_instanced_mesh.first_placement), each with the node's world
+// transform. Triangle ids follow: the flat triangles', then each placement's in order.
+void Loader::place_instanced_meshes(const std::vector<uint32_t> &uses) {
+    triangle_ids_ = triangle_material_.size();
+    for (size_t m = 0; m < uses.size(); m++) {
+        if (!uses[m]) continue;
+        const Instance *first = nullptr;
+        for (const Instance &instance : instances_)
+            if (instance.mesh == static_cast<int>(m) && !first) first = &instance;
+        pm_instanced_mesh mesh;
+        memset(&mesh, 0, sizeof mesh);
+        mesh.first_triangle = static_cast<uint32_t>(triangle_material_.size());
+        mesh.first_vertex = static_cast<uint32_t>(positions_.size());
+        uint64_t degenerate = degenerate_, skipped = skipped_prims_;
+        instance_mesh(*first, identity());
+        // counted as often as the mesh is placed, as a flattened scene counts them
+        degenerate_ += (degenerate_ - degenerate) * (uses[m] - 1);
+        skipped_prims_ += (skipped_prims_ - skipped) * (uses[m] - 1);
+        mesh.triangle_count = static_cast<uint32_t>(triangle_material_.size()) - mesh.first_triangle;
+        mesh.vertex_count = static_cast<uint32_t>(positions_.size()) - mesh.first_vertex;
+        mesh.first_placement = static_cast<uint32_t>(placements_.size());
+        for (const Instance &instance : instances_) {
+            if (instance.mesh != static_cast<int>(m)) continue;
+            WorldTransform world(world_[instance.node]);
+            pm_placement p;
+            memset(&p, 0, sizeof p);
+            p.mesh = static_cast<uint32_t>(instanced_meshes_.size());
+            p.first_id = static_cast<uint32_t>(triangle_ids_);
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 4; c++) p.object_to_world[4 * r + c] = static_cast<float>(world.matrix.at(r, c));
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 3; c++) p.normal_matrix[3 * r + c] = static_cast<float>(world.normal_matrix[r][c]);
+            p.handedness = world.mirrored ? -1.f : 1.f;
+            placements_.push_back(p);
+            triangle_ids_ += mesh.triangle_count;
+        }
+        mesh.placement_count = static_cast<uint32_t>(placements_.size()) - mesh.first_placement;
+        instanced_meshes_.push_back(mesh);
+    }
+}
+
 void Loader::load(pm_scene *out) {
     std::vector<unsigned char> file = read_model_file();
     file_bytes_ = file.capacity();
@@ -2744,25 +2801,51 @@ void Loader::load(pm_scene *out) {
     traverse_default_scene();
     convert_materials();  // first: whether any texture reads TEXCOORD_1 decides what the meshes keep
     meshes_.resize(model_.meshes.size());
-    uint64_t vertices = 0, triangles = 0;
+    // A mesh placed by two or more nodes, each with an invertible transform, is stored once and
+    // placed (instanced); the rest is flattened into world space.
+    std::vector<uint32_t> uses(model_.meshes.size(), 0);
+    std::vector<char> instanced(model_.meshes.size(), 0), counted(model_.meshes.size(), 0);
+    for (const Instance &instance : instances_) uses[instance.mesh]++;
+    for (size_t m = 0; m < uses.size(); m++) instanced[m] = uses[m] >= 2 && !options_.flatten_instances;
+    for (const Instance &instance : instances_) {
+        const Mat4 &w = world_[instance.node];
+        double det = w.at(0, 0) * (w.at(1, 1) * w.at(2, 2) - w.at(1, 2) * w.at(2, 1)) -
+                     w.at(0, 1) * (w.at(1, 0) * w.at(2, 2) - w.at(1, 2) * w.at(2, 0)) +
+                     w.at(0, 2) * (w.at(1, 0) * w.at(2, 1) - w.at(1, 1) * w.at(2, 0));
+        if (!(det != 0) || !std::isfinite(det) || !std::isfinite(1 / det)) instanced[instance.mesh] = 0;
+    }
+    uint64_t vertices = 0, triangles = 0, placements = 0;
     for (const Instance &instance : instances_) {
         const DecodedMesh &mesh = decoded_mesh(instance.mesh);
+        if (instanced[instance.mesh]) {
+            placements++;
+            triangle_ids_ += mesh.triangles;
+            if (counted[instance.mesh]++) continue;  // stored once
+        } else {
+            triangle_ids_ += mesh.triangles;
+        }
         vertices += mesh.vertices;
         triangles += mesh.triangles;
         if (vertices > kMaxSceneVertices || triangles > kMaxSceneTriangles)
             fail("scene too large: more than " + str(kMaxSceneVertices) + " vertices or " + str(kMaxSceneTriangles) +
                  " triangles after instancing");
     }
+    if (triangle_ids_ >= UINT32_MAX)
+        fail("scene too large: " + str(triangle_ids_) + " placed triangles (a triangle id is 32 bits)");
+    for (size_t m = 0; m < uses.size(); m++)
+        if (!instanced[m]) uses[m] = 0;
     {
         // the scene's arrays and the acceleration structure, estimated before either is allocated
         uint64_t per_vertex = 2 * sizeof(vec3) + 2 * sizeof(float) * (uv1_needed_ ? 2 : 1) + (tangents_needed_ ? 4 * sizeof(float) : 0);
-        uint64_t bytes = vertices * per_vertex + triangles * (4 * sizeof(uint32_t) + PM_ACCEL_BYTES_PER_TRIANGLE);
+        uint64_t bytes = vertices * per_vertex + triangles * (4 * sizeof(uint32_t) + PM_ACCEL_BYTES_PER_TRIANGLE) +
+                         placements * (sizeof(pm_placement) + PM_ACCEL_BYTES_PER_PLACEMENT);
         if (!pm_memory_admit(bytes, "scene geometry and its acceleration structure"))
             fail("out of memory (" + std::string(pm_memory_failure()) + "): " + str(triangles) +
                  " triangles after instancing");
         // the acceleration structure's share was a forecast: Embree's allocations are admitted as they happen
-        pm_memory_release(triangles * PM_ACCEL_BYTES_PER_TRIANGLE);
-        admitted_.bytes += bytes - triangles * PM_ACCEL_BYTES_PER_TRIANGLE;
+        uint64_t accel = triangles * PM_ACCEL_BYTES_PER_TRIANGLE + placements * PM_ACCEL_BYTES_PER_PLACEMENT;
+        pm_memory_release(accel);
+        admitted_.bytes += bytes - accel;
     }
     choose_frame();
     if (default_material_used_) {
@@ -2788,7 +2871,20 @@ void Loader::load(pm_scene *out) {
     if (tangents_needed_) tangents_.reserve(4 * vertices);
     indices_.reserve(3 * triangles);
     triangle_material_.reserve(triangles);
-    for (const Instance &instance : instances_) instance_mesh(instance);
+    // A placement whose matrix or normal matrix does not fit in float (after the framing) is
+    // flattened with the rest of its mesh's: the flat path checks every transformed vertex.
+    for (const Instance &instance : instances_) {
+        if (!uses[instance.mesh]) continue;
+        WorldTransform world(world_[instance.node]);
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 4; c++)
+                if (!std::isfinite(static_cast<float>(world.matrix.at(r, c))) ||
+                    (c < 3 && !std::isfinite(static_cast<float>(world.normal_matrix[r][c]))))
+                    uses[instance.mesh] = 0;
+    }
+    for (const Instance &instance : instances_)
+        if (!uses[instance.mesh]) instance_mesh(instance, world_[instance.node]);
+    place_instanced_meshes(uses);
     if (triangle_material_.empty() && degenerate_)
         fail("nothing to render: all " + str(degenerate_) +
              " triangle(s) of the default scene are degenerate (zero area, or not representable after the transforms)");
@@ -2811,8 +2907,8 @@ void Loader::load(pm_scene *out) {
 namespace {
 
 // What both entries share: runs the loader, prints warnings unless quiet, turns failures into err.
-bool run_loader(const char *path, const unsigned char *data, size_t size, bool quiet, pm_scene *out,
-                pm_load_report *report, char *err, size_t err_size) {
+bool run_loader(const char *path, const unsigned char *data, size_t size, const pm_load_options *options, bool quiet,
+                pm_scene *out, pm_load_report *report, char *err, size_t err_size) {
     auto start = std::chrono::steady_clock::now();
     memset(out, 0, sizeof *out);
     pm_load_report local_report;
@@ -2823,6 +2919,7 @@ bool run_loader(const char *path, const unsigned char *data, size_t size, bool q
     try {
         std::unique_ptr<Loader> made(data ? new Loader(path ? path : "", data, size) : new Loader(path ? path : ""));
         Loader &loader = *made;
+        if (options) loader.set_options(*options);
         try {
             loader.load(out);
         } catch (const LoadError &e) {
@@ -2864,12 +2961,24 @@ bool run_loader(const char *path, const unsigned char *data, size_t size, bool q
 
 extern "C" bool pm_load_gltf(const char *path, bool quiet, pm_scene *out, pm_load_report *report, char *err,
                              size_t err_size) {
-    return run_loader(path, nullptr, 0, quiet, out, report, err, err_size);
+    return run_loader(path, nullptr, 0, nullptr, quiet, out, report, err, err_size);
+}
+
+extern "C" bool pm_load_gltf_with(const char *path, const pm_load_options *options, bool quiet, pm_scene *out,
+                                  pm_load_report *report, char *err, size_t err_size) {
+    return run_loader(path, nullptr, 0, options, quiet, out, report, err, err_size);
 }
 
 extern "C" bool pm_load_gltf_memory(const void *data, size_t size, const char *name, bool quiet, pm_scene *out,
                                     pm_load_report *report, char *err, size_t err_size) {
     static const unsigned char nothing = 0;  // a non-null pointer for empty input, so it is not read as a path
     const unsigned char *bytes = data && size ? static_cast<const unsigned char *>(data) : &nothing;
-    return run_loader(name ? name : "(memory)", bytes, data ? size : 0, quiet, out, report, err, err_size);
+    return run_loader(name ? name : "(memory)", bytes, data ? size : 0, nullptr, quiet, out, report, err, err_size);
+}
+
+extern "C" bool pm_load_gltf_memory_with(const void *data, size_t size, const char *name, const pm_load_options *options,
+                                         bool quiet, pm_scene *out, pm_load_report *report, char *err, size_t err_size) {
+    static const unsigned char nothing = 0;
+    const unsigned char *bytes = data && size ? static_cast<const unsigned char *>(data) : &nothing;
+    return run_loader(name ? name : "(memory)", bytes, data ? size : 0, options, quiet, out, report, err, err_size);
 }

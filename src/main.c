@@ -111,7 +111,8 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     pm_memory_forecast_start();
     pm_load_report report;
     say_stage(r, "loading");
-    if (!pm_load_gltf(o->scene_path, o->quiet, &r->scene, &report, err, sizeof err)) {
+    pm_load_options load_options = {.flatten_instances = o->flatten_instances};
+    if (!pm_load_gltf_with(o->scene_path, &load_options, o->quiet, &r->scene, &report, err, sizeof err)) {
         fprintf(stderr, "pmview: error: %s\n", err);
         return 1;
     }

@@ -143,14 +143,12 @@ static float spot_solid_angle(const pm_light *l) {
     return (float)(2.0 * PM_PI * sum);
 }
 
-double pm_photon_receiving_area(const pm_scene *s) {
-    double area = 0.0;
-    for (uint32_t t = 0; t < s->triangle_count; t++) {
-        const pm_material *m = &s->materials[s->triangle_material[t]];
-        if (m->may_diffuse || m->may_glossy) area += pm_triangle_area(s, t);
-    }
-    return area;
+static bool receives(const pm_material *m, const void *context) {
+    (void)context;
+    return m->may_diffuse || m->may_glossy;
 }
+
+double pm_photon_receiving_area(const pm_scene *s) { return pm_scene_area_where(s, receives, NULL); }
 
 static uint32_t build_sources(const pm_scene *s, light_source *out) {
     uint32_t n = 0;
@@ -162,10 +160,12 @@ static uint32_t build_sources(const pm_scene *s, light_source *out) {
         vec3 lo = v3s(FLT_MAX), hi = v3s(-FLT_MAX), power = v3s(0.f);
         for (uint32_t i = 0; i < s->emitter_count; i++) {
             uint32_t t = s->emitters[i];
-            const pm_material *m = &s->materials[s->triangle_material[t]];
+            const pm_material *m = &s->materials[pm_scene_triangle_material(s, t)];
             power = v3_madd(power, s->emitter_radiance[i], PM_PI * pm_triangle_area(s, t) * (m->double_sided ? 2.f : 1.f));
+            vec3 corners[3];
+            pm_scene_triangle_corners(s, t, corners);
             for (int k = 0; k < 3; k++) {
-                vec3 p = s->positions[s->indices[3 * (size_t)t + k]];
+                vec3 p = corners[k];
                 lo = v3_min(lo, p);
                 hi = v3_max(hi, p);
             }
@@ -201,11 +201,12 @@ static sphere *specular_spheres(const pm_scene *s, uint32_t *count) {
     vec3 lo = s->bounds_min, ext = v3_sub(s->bounds_max, s->bounds_min);
     vec3 blo[G * G * G], bhi[G * G * G];
     bool used[G * G * G] = {false};
-    for (uint32_t t = 0; t < s->triangle_count; t++) {
-        const pm_material *m = &s->materials[s->triangle_material[t]];
+    for (pm_triangle_walk w = {.placement = -2}; pm_scene_walk_next(s, &w);) {
+        const pm_material *m = &s->materials[s->triangle_material[w.stored]];
         if (!m->may_mirror && !m->may_glass) continue;
-        const uint32_t *ix = s->indices + 3 * (size_t)t;
-        vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
+        vec3 corners[3];
+        pm_scene_walk_corners(s, &w, corners);
+        vec3 p0 = corners[0], p1 = corners[1], p2 = corners[2];
         vec3 c = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
         int cell[3];
         for (int a = 0; a < 3; a++) {
@@ -346,7 +347,7 @@ static emitter_shape *emitter_shapes(const pm_scene *s) {
     for (uint32_t i = 0; out && i < s->emitter_count; i++) {
         uint32_t tri = s->emitters[i];
         pm_triangle_geometry g = pm_triangle_geometry_of(s, tri);
-        const pm_material *m = &s->materials[s->triangle_material[tri]];
+        const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
         out[i].ng = g.normal;
         out[i].area = g.area;
         /* as pm_scene_emitted_at: the factor alone, unless a texture or a cut-out varies it */
@@ -362,9 +363,10 @@ static float emitter_point(const pass *ps, uint32_t e, float b1, float b2, pm_su
     const pm_scene *s = ps->scene;
     const emitter_shape *shape = &ps->emitter_shapes[e];
     uint32_t tri = s->emitters[e];
-    const uint32_t *ix = s->indices + 3 * (size_t)tri;
-    vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
-    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    vec3 corners[3];
+    pm_scene_triangle_corners(s, tri, corners);
+    vec3 p0 = corners[0], p1 = corners[1], p2 = corners[2];
+    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
     /* only the fields emission reads are set: clearing the whole record, once per photon, showed in profiles */
     sf->p = v3_add(v3_add(v3_scale(p0, 1.f - b1 - b2), v3_scale(p1, b1)), v3_scale(p2, b2));
     sf->ng = sf->ns = shape->ng;

@@ -457,12 +457,14 @@ typedef struct {
 /* The radius of curvature of triangle tri by its shading normals: the edge along which they turn
  * the most, its length over that angle (INFINITY where they do not turn: a flat-shaded face). */
 static double curvature_radius(const pm_scene *s, uint32_t tri) {
-    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    vec3 p[3], n[3];
+    pm_scene_triangle_corners(s, tri, p);
+    for (int k = 0; k < 3; k++) n[k] = pm_scene_triangle_vertex_normal(s, tri, k);
     double turn = 0.0; /* radians per unit length */
     for (int e = 0; e < 3; e++) {
-        uint32_t i = ix[e], j = ix[(e + 1) % 3];
-        double len = v3_length(v3_sub(s->positions[i], s->positions[j]));
-        double c = fmax(-1.0, fmin(1.0, (double)v3_dot(s->normals[i], s->normals[j])));
+        int i = e, j = (e + 1) % 3;
+        double len = v3_length(v3_sub(p[i], p[j]));
+        double c = fmax(-1.0, fmin(1.0, (double)v3_dot(n[i], n[j])));
         if (len > 0.0) turn = fmax(turn, acos(c) / len);
     }
     return turn > 0.0 ? 1.0 / turn : INFINITY;

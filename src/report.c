@@ -21,6 +21,9 @@ void pm_print_load_stats(const pm_load_report *report, const pm_scene *scene) {
            scene->emitter_count, scene->texture_count, scene->camera_count, report->skipped_degenerate,
            report->skipped_primitives, report->ignored_inputs, report->unit_scale, report->recentered,
            report->occlusion_textures_ignored);
+    /* instancing: stored (unique) triangles against those the placements put in the world */
+    printf("stat scene placements=%u instanced_meshes=%u unique_triangles=%u placed_triangles=%u\n", scene->placement_count,
+           scene->instanced_mesh_count, scene->triangle_count, pm_scene_triangle_ids(scene));
 }
 
 void pm_print_bvh_stats(const pm_accel *accel) {

@@ -14,9 +14,9 @@
 const char *const pm_component_names[PM_COMPONENT_COUNT] = {"direct", "specular", "caustic", "indirect"};
 
 float pm_triangle_area(const pm_scene *s, uint32_t tri) {
-    const uint32_t *ix = s->indices + 3 * (size_t)tri;
-    vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]];
-    return 0.5f * v3_length(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
+    vec3 p[3];
+    pm_scene_triangle_corners(s, tri, p);
+    return 0.5f * v3_length(v3_cross(v3_sub(p[1], p[0]), v3_sub(p[2], p[0])));
 }
 
 /* Whether every diffuse triangle lies in one plane: then light reflected diffusely once can never
@@ -25,11 +25,11 @@ float pm_triangle_area(const pm_scene *s, uint32_t tri) {
 static bool diffuse_coplanar(const pm_scene *s) {
     bool have_plane = false;
     double n[3] = {0, 0, 0}, d = 0.0, tolerance = 1e-6 * (double)s->ray_scale;
-    for (uint32_t t = 0; t < s->triangle_count; t++) {
-        const pm_material *m = &s->materials[s->triangle_material[t]];
+    for (pm_triangle_walk w = {.placement = -2}; pm_scene_walk_next(s, &w);) {
+        const pm_material *m = &s->materials[s->triangle_material[w.stored]];
         if (!m->may_diffuse && !m->may_glossy) continue;
-        const uint32_t *ix = s->indices + 3 * (size_t)t;
-        vec3 p[3] = {s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]};
+        vec3 p[3];
+        pm_scene_walk_corners(s, &w, p);
         if (!have_plane) {
             double e1[3] = {p[1].x - p[0].x, p[1].y - p[0].y, p[1].z - p[0].z};
             double e2[3] = {p[2].x - p[0].x, p[2].y - p[0].y, p[2].z - p[0].z};
@@ -194,7 +194,7 @@ static void analyse(pm_scene *s) {
 /* The share of triangle tri at (b1, b2) that a crossing ray meets: 1 when opaque, 0 or 1 by a
  * MASK's cutoff, alpha on BLEND (pm_scene_emitted_at's factor). */
 static float coverage_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
-    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
     if (m->alpha_mode == PM_ALPHA_OPAQUE) return 1.f;
     float alpha = pm_scene_alpha_at(s, tri, b1, b2);
     return m->alpha_mode == PM_ALPHA_MASK ? (alpha >= m->alpha_cutoff ? 1.f : 0.f) : pm_clamp01(alpha);
@@ -207,7 +207,7 @@ static float coverage_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
  * missed: the triangle stays a light, picked rarely, and the estimates stay exact (they divide by
  * the pick probability). */
 static vec3 triangle_mean_emission(const pm_scene *s, uint32_t t) {
-    const pm_material *m = &s->materials[s->triangle_material[t]];
+    const pm_material *m = &s->materials[pm_scene_triangle_material(s, t)];
     if (v3_is_black(m->emission) || (m->emission_texture < 0 && !m->may_see_through)) return m->emission;
     enum { N = 8 };
     vec3 sum = v3s(0.f), uncovered = v3s(0.f);
@@ -234,9 +234,9 @@ static bool build_emitters(pm_scene *s) {
     s->emitter_radiance = NULL;
     s->emitter_count = 0;
     s->emitter_power = 0.f;
-    uint32_t candidates = 0;
-    for (uint32_t t = 0; t < s->triangle_count; t++)
-        if (!v3_is_black(s->materials[s->triangle_material[t]].emission)) candidates++;
+    uint32_t candidates = 0; /* emissive placed triangles emit from every placement */
+    for (pm_triangle_walk w = {.placement = -2}; pm_scene_walk_next(s, &w);)
+        if (!v3_is_black(s->materials[s->triangle_material[w.stored]].emission)) candidates++;
     if (!candidates) return true;
     s->emitters = pm_malloc(candidates * sizeof *s->emitters, "emitter distribution");
     s->emitter_radiance = pm_malloc(candidates * sizeof *s->emitter_radiance, "emitter distribution");
@@ -255,8 +255,9 @@ static bool build_emitters(pm_scene *s) {
     double total = 0.0;
     uint32_t k = 0;
     running[0] = 0.0;
-    for (uint32_t t = 0; t < s->triangle_count; t++) {
-        const pm_material *m = &s->materials[s->triangle_material[t]];
+    for (pm_triangle_walk w = {.placement = -2}; pm_scene_walk_next(s, &w);) {
+        uint32_t t = w.id;
+        const pm_material *m = &s->materials[s->triangle_material[w.stored]];
         if (v3_is_black(m->emission)) continue;
         vec3 mean = triangle_mean_emission(s, t);
         if (v3_is_black(mean)) continue;
@@ -356,19 +357,69 @@ static bool clamp_emission(vec3 *v) {
     return changed;
 }
 
-double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo) {
-    double total = 0.0, reflective = 0.0;
-    for (uint32_t t = 0; t < s->triangle_count; t++) {
-        const uint32_t *i = &s->indices[3 * (size_t)t];
-        vec3 a = s->positions[i[0]], b = s->positions[i[1]], c = s->positions[i[2]];
-        double e1[3] = {(double)b.x - a.x, (double)b.y - a.y, (double)b.z - a.z};
-        double e2[3] = {(double)c.x - a.x, (double)c.y - a.y, (double)c.z - a.z};
-        double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
-        double area = 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
-        total += area;
-        const pm_material *m = &s->materials[s->triangle_material[t]];
-        if (!m->unlit && v3_average(m->base_color) >= albedo) reflective += area; /* unlit reflects nothing */
+/* Twice the area of stored triangle t, in double, in its own space. */
+static double stored_twice_area(const pm_scene *s, uint32_t t) {
+    const uint32_t *i = &s->indices[3 * (size_t)t];
+    vec3 a = s->positions[i[0]], b = s->positions[i[1]], c = s->positions[i[2]];
+    double e1[3] = {(double)b.x - a.x, (double)b.y - a.y, (double)b.z - a.z};
+    double e2[3] = {(double)c.x - a.x, (double)c.y - a.y, (double)c.z - a.z};
+    double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
+    return sqrt(cx * cx + cy * cy + cz * cz);
+}
+
+/* How much a placement scales every area when it is a similarity (a rotation, a mirror, a uniform
+ * scale: columns orthogonal and of one length), else 0: its triangles must be measured one by one. */
+static double similarity_area_scale(const pm_placement *pl) {
+    const float *m = pl->object_to_world;
+    double c[3][3] = {{m[0], m[4], m[8]}, {m[1], m[5], m[9]}, {m[2], m[6], m[10]}};
+    double dot[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) dot[i][j] = c[i][0] * c[j][0] + c[i][1] * c[j][1] + c[i][2] * c[j][2];
+    double tol = 1e-6 * dot[0][0];
+    if (fabs(dot[1][1] - dot[0][0]) > tol || fabs(dot[2][2] - dot[0][0]) > tol || fabs(dot[0][1]) > tol ||
+        fabs(dot[0][2]) > tol || fabs(dot[1][2]) > tol)
+        return 0.0;
+    return dot[0][0];
+}
+
+double pm_scene_area_where(const pm_scene *s, bool (*keep)(const pm_material *, const void *), const void *context) {
+    double area = 0.0;
+    for (uint32_t t = 0; t < pm_scene_flat_triangles(s); t++)
+        if (keep(&s->materials[s->triangle_material[t]], context)) area += 0.5 * stored_twice_area(s, t);
+    for (uint32_t i = 0; i < s->instanced_mesh_count; i++) {
+        const pm_instanced_mesh *m = &s->instanced_meshes[i];
+        double mesh_area = -1.0; /* measured in mesh space on first use */
+        for (uint32_t p = m->first_placement; p < m->first_placement + m->placement_count; p++) {
+            const pm_placement *pl = &s->placements[p];
+            double scale = similarity_area_scale(pl);
+            if (scale > 0.0) {
+                if (mesh_area < 0.0) {
+                    mesh_area = 0.0;
+                    for (uint32_t t = m->first_triangle; t < m->first_triangle + m->triangle_count; t++)
+                        if (keep(&s->materials[s->triangle_material[t]], context)) mesh_area += 0.5 * stored_twice_area(s, t);
+                }
+                area += scale * mesh_area;
+                continue;
+            }
+            for (uint32_t t = m->first_triangle; t < m->first_triangle + m->triangle_count; t++) {
+                if (!keep(&s->materials[s->triangle_material[t]], context)) continue;
+                const uint32_t *ix = s->indices + 3 * (size_t)t;
+                vec3 a = pm_placement_point(pl, s->positions[ix[0]]), b = pm_placement_point(pl, s->positions[ix[1]]),
+                     c = pm_placement_point(pl, s->positions[ix[2]]);
+                area += 0.5 * v3_length(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+            }
+        }
     }
+    return area;
+}
+
+static bool any_material(const pm_material *m, const void *context) { (void)m; (void)context; return true; }
+static bool reflects_at_least(const pm_material *m, const void *albedo) {
+    return !m->unlit && v3_average(m->base_color) >= *(const float *)albedo; /* unlit reflects nothing */
+}
+
+double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo) {
+    double total = pm_scene_area_where(s, any_material, NULL), reflective = pm_scene_area_where(s, reflects_at_least, &albedo);
     return total > 0.0 ? reflective / total : 0.0;
 }
 
@@ -415,12 +466,20 @@ bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     for (uint32_t i = 0; i < s->light_count; i++) s->clamped_emission += clamp_emission(&s->lights[i].intensity);
     if (s->sky) s->clamped_emission += clamp_emission(&s->sky_radiance);
     vec3 lo = v3s(FLT_MAX), hi = v3s(-FLT_MAX);
-    for (uint32_t t = 0; t < s->triangle_count; t++)
+    for (uint32_t t = 0; t < pm_scene_flat_triangles(s); t++)
         for (int k = 0; k < 3; k++) {
             vec3 p = s->positions[s->indices[3 * (size_t)t + k]];
             lo = v3_min(lo, p);
             hi = v3_max(hi, p);
         }
+    for (uint32_t i = 0; i < s->placement_count; i++) { /* every vertex of each placed mesh */
+        const pm_instanced_mesh *m = &s->instanced_meshes[s->placements[i].mesh];
+        for (uint32_t v = m->first_vertex; v < m->first_vertex + m->vertex_count; v++) {
+            vec3 p = pm_placement_point(&s->placements[i], s->positions[v]);
+            lo = v3_min(lo, p);
+            hi = v3_max(hi, p);
+        }
+    }
     if (s->triangle_count == 0) lo = hi = v3s(0.f);
     s->bounds_min = lo;
     s->bounds_max = hi;
@@ -474,6 +533,8 @@ void pm_scene_free(pm_scene *s) {
         free(s->textures[i].levels);
     }
     free(s->uv_density);
+    free(s->instanced_meshes);
+    free(s->placements);
     free(s->textures);
     free(s->lights);
     free(s->cameras);
@@ -526,8 +587,17 @@ pm_camera pm_scene_fit_camera(const pm_scene *s, pm_camera c, float aspect) {
     double tan_y = tan(0.5 * (double)c.yfov) / margin, tan_x = tan_y * aspect;
     /* in the camera's frame, from the centre: x right, y up, z toward the camera */
     double need = 0.0, half_w = 0.0, half_h = 0.0, z_max = 0.0;
-    for (uint32_t i = 0; i < s->vertex_count; i++) {
-        vec3 d = v3_sub(s->positions[i], center);
+    uint32_t flat_vertices = s->instanced_mesh_count ? s->instanced_meshes[0].first_vertex : s->vertex_count;
+    for (uint64_t i = 0, pl = 0, v = 0; ; i++) { /* flat vertices, then each placement's */
+        vec3 world;
+        if (i < flat_vertices) world = s->positions[i];
+        else {
+            while (pl < s->placement_count && v >= s->instanced_meshes[s->placements[pl].mesh].vertex_count) { pl++; v = 0; }
+            if (pl >= s->placement_count) break;
+            const pm_placement *placement = &s->placements[pl];
+            world = pm_placement_point(placement, s->positions[s->instanced_meshes[placement->mesh].first_vertex + v++]);
+        }
+        vec3 d = v3_sub(world, center);
         double x = fabs((double)v3_dot(d, c.right)), y = fabs((double)v3_dot(d, c.up)), z = -(double)v3_dot(d, c.forward);
         if (c.orthographic) {
             half_w = fmax(half_w, x);
@@ -850,7 +920,7 @@ static inline void apply_uv_transform(const pm_uv_transform *t, float *u, float 
 
 void pm_scene_texcoord(const pm_scene *s, uint32_t tri, float b1, float b2, int texcoord, const pm_uv_transform *t,
                        float *u, float *v) {
-    interpolated_uv(s, s->indices + 3 * (size_t)tri, 1.f - b1 - b2, b1, b2, texcoord, u, v);
+    interpolated_uv(s, s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, NULL), 1.f - b1 - b2, b1, b2, texcoord, u, v);
     apply_uv_transform(t, u, v);
 }
 
@@ -922,15 +992,19 @@ static inline void texture_slope_to_surface(const pm_uv_transform *t, float *x, 
  * is evaluated and sampled about ns with an albedo of at most 1 and is zero when wo or wi is
  * below ns: dropping directions only loses energy, so a normal map can darken but never
  * brighten a furnace (tests/test_normalmap.c). */
-static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_t *ix, const float b[3],
-                          const float uv[2][2], const float footprint[2], vec3 n, vec3 ng) {
+static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_t *ix, const pm_placement *placement,
+                          const float b[3], const float uv[2][2], const float footprint[2], vec3 n, vec3 ng) {
     vec3 t = v3s(0.f);
     float w = 0.f;
     for (int k = 0; k < 3; k++) {
         const float *tk = s->tangents + 4 * (size_t)ix[k];
-        t = v3_madd(t, v3(tk[0], tk[1], tk[2]), b[k]);
+        vec3 corner = v3(tk[0], tk[1], tk[2]);
+        /* a tangent is a direction, each corner's placed and made unit as the flattened copy stores it */
+        if (placement) corner = v3_normalize(pm_placement_direction(placement, corner));
+        t = v3_madd(t, corner, b[k]);
         w += tk[3] * b[k];
     }
+    if (placement) w *= placement->handedness; /* a mirror flips the bitangent, as in the loader */
     t = v3_sub(t, v3_scale(n, v3_dot(t, n)));
     float len = v3_length(t);
     vec3 bt;
@@ -960,10 +1034,12 @@ static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_
  * footprint in each TEXCOORD set's UV units goes to footprint[] (both 0 for width 0). */
 static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, float width, vec3 dir,
                                pm_surface *out, float footprint[2]) {
-    const uint32_t *ix = s->indices + 3 * (size_t)tri;
+    int32_t placement;
+    uint32_t stored = pm_scene_stored_triangle(s, tri, &placement);
+    const uint32_t *ix = s->indices + 3 * (size_t)stored;
     float b0 = 1.f - b1 - b2;
-    vec3 ng = s->face_normals ? s->face_normals[tri]
-                              : face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);
+    vec3 ng = s->face_normals || placement >= 0 ? pm_scene_triangle_face_normal(s, tri)
+                                                : face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);
     pm_scene_surface_point(s, tri, b1, b2, ng, out);
     pm_scene_surface_shading(s, tri, b1, b2, out);
     const pm_material *m = &s->materials[out->material];
@@ -978,15 +1054,22 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
             /* the cone's cross-section on the surface: an ellipse 1/cos longer one way, taken as
              * the circle of the same area */
             float on_surface = width / sqrtf(pm_maxf(fabsf(v3_dot(ng, dir)), PM_FOOTPRINT_MIN_COS));
-            footprint[0] = on_surface * s->uv_density[2 * (size_t)tri];
-            footprint[1] = on_surface * s->uv_density[2 * (size_t)tri + 1];
+            if (placement >= 0) { /* the density is per mesh-space area: scale the footprint back to mesh space */
+                vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]], w[3];
+                pm_scene_triangle_corners(s, tri, w);
+                float mesh_area = v3_length(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
+                float world_area = v3_length(v3_cross(v3_sub(w[1], w[0]), v3_sub(w[2], w[0])));
+                if (world_area > 0.f) on_surface *= sqrtf(mesh_area / world_area);
+            }
+            footprint[0] = on_surface * s->uv_density[2 * (size_t)stored];
+            footprint[1] = on_surface * s->uv_density[2 * (size_t)stored + 1];
         }
     }
     out->u = uv[0][0];
     out->v = uv[0][1];
     if (m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents) {
         const float b[3] = {b0, b1, b2};
-        out->ns = normal_mapped(s, m, ix, b, uv, footprint, out->ns, out->ng);
+        out->ns = normal_mapped(s, m, ix, placement >= 0 ? &s->placements[placement] : NULL, b, uv, footprint, out->ns, out->ng);
     }
     if (m->uniform_split) {
         out->kd = m->split_kd;
@@ -1034,7 +1117,9 @@ void pm_scene_surface_footprint(const pm_scene *s, uint32_t tri, float b1, float
     const pm_material *m = &s->materials[out->material];
     if (m->emission_texture >= 0 && !v3_is_black(m->emission)) {
         float uv[2][2] = {{out->u, out->v}, {0.f, 0.f}};
-        if (s->uvs1) interpolated_uv(s, s->indices + 3 * (size_t)tri, 1.f - b1 - b2, b1, b2, 1, &uv[1][0], &uv[1][1]);
+        if (s->uvs1)
+            interpolated_uv(s, s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, NULL), 1.f - b1 - b2, b1, b2, 1,
+                            &uv[1][0], &uv[1][1]);
         out->emission = v3_mul(m->emission, texture_at(s, uv, footprint, m->emission_texture, m->emission_texcoord,
                                                        &m->emission_transform, true));
     }
@@ -1059,7 +1144,7 @@ vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale) {
 }
 
 vec3 pm_scene_emission_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
-    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
     if (m->emission_texture < 0 || v3_is_black(m->emission)) return m->emission;
     float u, v;
     pm_scene_texcoord(s, tri, b1, b2, m->emission_texcoord, &m->emission_transform, &u, &v);
@@ -1072,7 +1157,7 @@ vec3 pm_scene_emitted_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
 }
 
 float pm_scene_alpha_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
-    const pm_material *m = &s->materials[s->triangle_material[tri]];
+    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
     if (m->alpha_mode == PM_ALPHA_OPAQUE) return 1.f;
     if (m->base_color_texture < 0 || (uint32_t)m->base_color_texture >= s->texture_count) return m->alpha;
     float u, v; /* the base colour texture's own set and transform, as pm_scene_surface reads it */

@@ -163,7 +163,7 @@ static void trace_chunk(void *ctx, size_t task, int thread) {
             if (!pm_accel_intersect(job->accel, o, d, INFINITY, &h)) break;
             pm_triangle_geometry g = pm_triangle_geometry_of(s, h.tri);
             vec3 p = pm_triangle_point(&g, h.b1, h.b2), face = g.normal, toward_light = pm_facing(face, v3_neg(d));
-            const pm_material *m = &s->materials[s->triangle_material[h.tri]];
+            const pm_material *m = &s->materials[pm_scene_triangle_material(s, h.tri)];
             if (m->may_diffuse || m->may_glossy) {
                 record r = {p, (uint16_t)light, (uint8_t)side_code(toward_light, v3_dot(face, d) < 0.f), (uint8_t)state};
                 if (!push(&list, &count, &capacity, r)) { failed = true; break; }
@@ -245,6 +245,18 @@ static bool add_record(pm_shadow_map *m, const record *r) {
  * of the surfaces that can have direct light (both sides, every light in front): the time of a
  * lookup and of a shadow ray, and the share of light samples the map decides. The image does not
  * depend on it (a decided sample gives what its ray would), only the speed. */
+/* The instanced mesh stored triangle t belongs to, -1 for a flat one (meshes are stored in order). */
+static int32_t instanced_mesh_of(const pm_scene *s, uint32_t t) {
+    if (t < pm_scene_flat_triangles(s)) return -1;
+    uint32_t lo = 0, hi = s->instanced_mesh_count - 1;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo + 1) / 2;
+        if (s->instanced_meshes[mid].first_triangle <= t) lo = mid;
+        else hi = mid - 1;
+    }
+    return (int32_t)lo;
+}
+
 static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, pm_shadow_stats *stats) {
     enum { POINTS = 4096 };
     typedef struct { vec3 p, n, origin; bool front; } probe_point;
@@ -252,17 +264,30 @@ static bool probe(const pm_scene *s, const pm_accel *a, const pm_shadow_map *m, 
     float *cdf = pm_malloc(((size_t)s->triangle_count + 1) * sizeof *cdf, "shadow photon probe");
     if (!points || !cdf) { free(points); free(cdf); return false; }
     cdf[0] = 0.0;
+    /* over stored triangles; an instanced one stands for all its placements (mesh-space area times
+     * their number: a probe's estimate, not a measure), one of which is picked at random below */
     for (uint32_t t = 0; t < s->triangle_count; t++) {
         const pm_material *mat = &s->materials[s->triangle_material[t]];
-        cdf[t + 1] = cdf[t] + (mat->may_diffuse || mat->may_glossy ? pm_triangle_area(s, t) : 0.0);
+        int32_t mesh = instanced_mesh_of(s, t);
+        float copies = mesh < 0 ? 1.f : (float)s->instanced_meshes[mesh].placement_count;
+        const uint32_t *ix = s->indices + 3 * (size_t)t;
+        float area = 0.5f * v3_length(v3_cross(v3_sub(s->positions[ix[1]], s->positions[ix[0]]), v3_sub(s->positions[ix[2]], s->positions[ix[0]])));
+        cdf[t + 1] = cdf[t] + (mat->may_diffuse || mat->may_glossy ? copies * area : 0.0);
     }
     pm_rng rng = pm_rng_for(0x5ad0, 1, 2);
     size_t n = 0;
     for (int k = 0; k < POINTS && cdf[s->triangle_count] > 0.0; k++) {
         uint32_t lo = pm_cdf_interval(cdf, s->triangle_count, pm_rng_float(&rng) * cdf[s->triangle_count]);
         float r1 = sqrtf(pm_rng_float(&rng)), r2 = pm_rng_float(&rng);
+        uint32_t id = lo;
+        int32_t mesh = instanced_mesh_of(s, lo);
+        if (mesh >= 0 && s->instanced_meshes[mesh].placement_count) {
+            const pm_instanced_mesh *im = &s->instanced_meshes[mesh];
+            uint32_t p = im->first_placement + (uint32_t)(pm_rng_float(&rng) * im->placement_count) % im->placement_count;
+            id = pm_scene_placed_id(s, p, lo);
+        }
         pm_surface sf;
-        pm_scene_surface(s, lo, r1 * (1.f - r2), r1 * r2, &sf);
+        pm_scene_surface(s, id, r1 * (1.f - r2), r1 * r2, &sf);
         bool front = pm_rng_float(&rng) < 0.5f;
         vec3 side = front ? sf.ng : v3_neg(sf.ng);
         points[n++] = (probe_point){sf.p, side, pm_surface_origin(&sf, side, s->ray_scale), front};

@@ -299,13 +299,31 @@ static void test_transforms(void) {
         pm_scene_free(&s);
     }
 
-    /* one mesh instanced twice: two copies of its vertices */
+    /* one mesh placed twice: stored once (mesh space), two placements, two triangle ids */
     doc_spec twice = {"[{\"mesh\":0},{\"mesh\":0,\"translation\":[0,0,-4]}]", "[0,1]", NULL, NULL};
     write_model("instanced.gltf", &tri, 1, &twice);
     if (load_ok("instanced.gltf", &s, &r)) {
-        CHECK(s.triangle_count == 2 && s.vertex_count == 6, "instanced: tris %u verts %u", s.triangle_count, s.vertex_count);
-        CHECK_VEC(tri_vertex(&s, 1, 1), 1, 0, -4, 0, "second instance p1");
+        CHECK(s.triangle_count == 1 && s.vertex_count == 3, "instanced: tris %u verts %u", s.triangle_count, s.vertex_count);
+        CHECK(s.placement_count == 2 && s.instanced_mesh_count == 1 && pm_scene_triangle_ids(&s) == 2,
+              "instanced: placements %u meshes %u ids %u", s.placement_count, s.instanced_mesh_count, pm_scene_triangle_ids(&s));
+        vec3 corners[3];
+        pm_scene_triangle_corners(&s, 1, corners);
+        CHECK_VEC(corners[1], 1, 0, -4, 0, "second placement p1");
         pm_scene_free(&s);
+    }
+    /* flattened on request: two copies of its vertices */
+    {
+        char path[256], err[512];
+        model_path("instanced.gltf", path, sizeof path);
+        pm_load_options flat = {.flatten_instances = true};
+        bool ok = pm_load_gltf_with(path, &flat, true, &s, &r, err, sizeof err);
+        CHECK(ok, "flattened instanced.gltf: %s", err);
+        if (ok) {
+            CHECK(s.triangle_count == 2 && s.vertex_count == 6 && s.placement_count == 0, "flattened: tris %u verts %u placements %u",
+                  s.triangle_count, s.vertex_count, s.placement_count);
+            CHECK_VEC(tri_vertex(&s, 1, 1), 1, 0, -4, 0, "second copy p1");
+            pm_scene_free(&s);
+        }
     }
 }
 
