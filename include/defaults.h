@@ -30,8 +30,9 @@
                                            up to 1e9 iterations of samples, and 1e20 x 1e9 leaves 1e9 of FLT_MAX's headroom for path weights */
 /* The memory forecast (memory.h): bytes per unit of what each stage holds, measured on scenes of 10^4 to 10^7 triangles */
 #define PM_JSON_DOCUMENT_BYTES_PER_BYTE 10   /* nlohmann's document per byte of JSON text */
-#define PM_ACCEL_BUILD_BYTES_PER_TRIANGLE 150 /* Embree's peak during the build, what it keeps included */
-#define PM_ACCEL_BUILT_BYTES_PER_TRIANGLE 112 /* what the built BVH keeps */
+#define PM_ACCEL_BUILD_BYTES_PER_TRIANGLE 102 /* Embree's peak during the build, what it keeps included (plus the vertices) */
+#define PM_ACCEL_BUILT_BYTES_PER_TRIANGLE 72  /* what the built BVH keeps (plus the vertices) */
+#define PM_ACCEL_BYTES_PER_VERTEX 16          /* the vertex buffers Embree reads (padded to 16 bytes) */
 #define PM_PHOTON_PASS_RECORDS 3             /* photon records alive per photon of an iteration: the threads' lists, the merged list, the grid */
 #define PM_PHOTON_MAP_RECORDS 3              /* the global map's records per emitted photon: stored bounces, irradiance points, the tree
                                                 (a caustic photon is stored once, if at all) */

@@ -451,7 +451,10 @@ bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax) {
 }
 
 uint64_t pm_accel_forecast_bytes(const pm_scene *s, bool building) {
-    return (uint64_t)s->triangle_count * (building ? PM_ACCEL_BUILD_BYTES_PER_TRIANGLE : PM_ACCEL_BUILT_BYTES_PER_TRIANGLE);
+    /* stored triangles only: a placement adds an instance, not its mesh's triangles again; the
+     * vertex buffers are Embree's too */
+    return (uint64_t)s->triangle_count * (building ? PM_ACCEL_BUILD_BYTES_PER_TRIANGLE : PM_ACCEL_BUILT_BYTES_PER_TRIANGLE) +
+           (uint64_t)s->vertex_count * PM_ACCEL_BYTES_PER_VERTEX + (uint64_t)s->placement_count * PM_ACCEL_BYTES_PER_PLACEMENT;
 }
 
 size_t pm_accel_bytes(const pm_accel *a) {

@@ -564,6 +564,7 @@ uint64_t pm_scene_bytes(const pm_scene *s) {
     bytes += (uint64_t)s->emitter_count * (sizeof(uint32_t) + sizeof(vec3) + sizeof(float));
     if (s->light_cdf) bytes += ((uint64_t)s->light_count + 1) * sizeof(float);
     if (s->sky_map) bytes += pm_sky_map_bytes(s->sky_map->width, s->sky_map->height);
+    bytes += (uint64_t)s->instanced_mesh_count * sizeof(pm_instanced_mesh) + (uint64_t)s->placement_count * sizeof(pm_placement);
     return bytes;
 }
 
