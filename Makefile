@@ -26,7 +26,7 @@ TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 SCENE   ?= scenes/cornell-box.gltf
 TSAN_TESTS := test_threads test_texture_threads
 
-.PHONY: all deps run test check bench bench-deps convergence clean tests-build fuzz fuzz-deps
+.PHONY: all deps run test check bench convergence clean tests-build fuzz fuzz-deps
 all: pmview
 
 deps:
@@ -110,10 +110,7 @@ fuzz: fuzz-deps
 	@$(MAKE) --no-print-directory build/fuzz/fuzz_gltf build/fuzz/fuzz_inputs
 	@sh tools/run-fuzz.sh $(FUZZ_SECONDS)
 
-bench-deps:
-	@sh tools/install-deps.sh bench
-
-bench: deps bench-deps pmview build/rel/bench_pm build/rel/photon_ceiling build/rel/caustic_error build/rel/texture_footprint build/rel/json_load
+bench: deps pmview build/rel/bench_pm build/rel/photon_ceiling build/rel/caustic_error build/rel/texture_footprint build/rel/json_load
 	@sh bench/run_bench.sh
 
 build/rel/bench_pm: bench/bench_pm.c bench/bench_settings.h build/rel/libpm.a

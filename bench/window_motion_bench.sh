@@ -10,7 +10,10 @@ cd "$(dirname "$0")/.." || exit 1
 PMVIEW=${PMVIEW:-./pmview}
 export PMVIEW
 for t in xvfb-run xdotool python3; do command -v $t >/dev/null 2>&1 || { echo "bench window_motion: skipped ($t missing)"; exit 0; }; done
-python3 -c "import numpy" 2>/dev/null || { echo "bench window_motion: skipped (python3 numpy missing)"; exit 0; }
+# the first python3 with numpy: a user's pyenv may shadow Debian's
+py=python3
+python3 -c "import numpy" 2>/dev/null || py=/usr/bin/python3
+$py -c "import numpy" 2>/dev/null || { echo "bench window_motion: skipped (python3 numpy missing)"; exit 0; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 # one drag: 150 steps of 3 pixels, 20 ms apart
@@ -66,7 +69,7 @@ for _ in range(7):
 print("%.4f" % best)')
 echo "bench window_motion scene=scenes/cornell-box.gltf first_frame_seconds=$best goal_seconds=0.100 exec_to_exit_of_help_seconds=$startup first_frame_from_exec_seconds=$(awk "BEGIN { printf \"%.4f\", $best + $startup }") load_seconds=$(field load seconds) bvh_seconds=$(field bvh seconds) first_image_seconds=$best_image setup_seconds=$best_setup"
 
-python3 bench/big_scene.py "$tmp/big1.glb" 1 >/dev/null || exit 1
+$py bench/big_scene.py "$tmp/big1.glb" 1 >/dev/null || exit 1
 run "$tmp/big1.glb" 2
 echo "bench window_motion scene=heightfield-1M triangles=$(field load triangles) size=640x480 motion_images_per_second=$(field window motion_images_per_second) goal=24 motion_seconds=$(field window motion_seconds) frames_per_second=$(field window frames_per_second) restart_to_image_seconds=$(field window restart_to_image_seconds)"
 rm -f "$tmp/big1.glb"
@@ -75,6 +78,6 @@ rm -f "$tmp/big1.glb"
 millions=8
 avail=$(awk '/MemAvailable/ {print int($2 / 1048576)}' /proc/meminfo 2>/dev/null)
 [ -n "$avail" ] && [ "$avail" -lt 4 ] && millions=4
-python3 bench/big_scene.py "$tmp/big.glb" $millions >/dev/null || exit 1
+$py bench/big_scene.py "$tmp/big.glb" $millions >/dev/null || exit 1
 run "$tmp/big.glb" 0
 echo "bench window_motion scene=heightfield-${millions}M triangles=$(field load triangles) load_seconds=$(field load seconds) bvh_seconds=$(field bvh seconds) first_frame_seconds=$(field window first_frame_seconds) setup_seconds=$(field window setup_seconds) first_image_seconds=$(field window first_image_seconds) first_image_seconds_per_million_triangles=$(awk -v s="$(field window first_image_seconds)" -v t="$(field load triangles)" 'BEGIN { if (t > 0) printf "%.3f", s / (t / 1e6) }') peak_rss_bytes=$(field memory peak_rss_bytes)"

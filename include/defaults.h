@@ -33,14 +33,13 @@
 #define PM_ACCEL_BUILD_BYTES_PER_TRIANGLE 102 /* Embree's peak during the build, what it keeps included (plus the vertices) */
 #define PM_ACCEL_BUILT_BYTES_PER_TRIANGLE 72  /* what the built BVH keeps (plus the vertices) */
 #define PM_ACCEL_BYTES_PER_VERTEX 16          /* the vertex buffers Embree reads (padded to 16 bytes) */
+#define PM_ACCEL_BYTES_PER_PLACEMENT 128 /* one Embree instance of a shared mesh, its geometry and its share of the top BVH (measured: 83 bytes built, docs/benchmarks.md, Instancing) */
 #define PM_PHOTON_PASS_RECORDS 3             /* photon records alive per photon of an iteration: the threads' lists, the merged list, the grid */
 #define PM_PHOTON_MAP_RECORDS 3              /* the global map's records per emitted photon: stored bounces, irradiance points, the tree
                                                 (a caustic photon is stored once, if at all) */
 #define PM_SHADOW_RECORDS_PER_PHOTON 2       /* shadow photon records per photon traced: about one crossing each, lists grown by doubling */
 #define PM_RENDER_RESIDENT_BYTES (8u << 20)  /* the render's threads, stacks and small tables */
 #define PM_GL_RESIDENT_BYTES (16u << 20)     /* an offscreen (OSMesa) context and its buffers, for PNG output */
-#define PM_ACCEL_BYTES_PER_TRIANGLE 160 /* Embree's BVH, estimated before the build (measured: 90 bytes a triangle built, twice that at the build's peak) */
-#define PM_ACCEL_BYTES_PER_PLACEMENT 128 /* one Embree instance of a shared mesh, its geometry and its share of the top BVH (measured: 83 bytes built, docs/benchmarks.md, Instancing) */
 
 /* the default environment (radiance), for files without KHR_lights_punctual whose emitters do
  * not enclose the view: a lit white top (about 1.1) stands out against the horizon (0.35) */

@@ -255,7 +255,8 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
         a->mesh_tri_of_prim = pm_calloc(s->instanced_mesh_count, sizeof *a->mesh_tri_of_prim, "acceleration structure");
     }
     if (!a->filter_users || (s->instanced_mesh_count && (!a->mesh_scenes || !a->mesh_tri_of_prim))) {
-        snprintf(err, err_size, "out of memory (acceleration structure) for %u instanced meshes", s->instanced_mesh_count);
+        /* the failed allocation's own record names it and its bytes */
+        snprintf(err, err_size, "out of memory (%s)", pm_memory_failure() ? pm_memory_failure() : "acceleration structure");
         pm_accel_destroy(a);
         return NULL;
     }

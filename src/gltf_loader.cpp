@@ -2837,13 +2837,14 @@ void Loader::load(pm_scene *out) {
     {
         // the scene's arrays and the acceleration structure, estimated before either is allocated
         uint64_t per_vertex = 2 * sizeof(vec3) + 2 * sizeof(float) * (uv1_needed_ ? 2 : 1) + (tangents_needed_ ? 4 * sizeof(float) : 0);
-        uint64_t bytes = vertices * per_vertex + triangles * (4 * sizeof(uint32_t) + PM_ACCEL_BYTES_PER_TRIANGLE) +
-                         placements * (sizeof(pm_placement) + PM_ACCEL_BYTES_PER_PLACEMENT);
+        // (Embree's share as the memory forecast counts it: accel.c, pm_accel_forecast_bytes)
+        uint64_t accel = triangles * PM_ACCEL_BUILD_BYTES_PER_TRIANGLE + vertices * PM_ACCEL_BYTES_PER_VERTEX +
+                         placements * PM_ACCEL_BYTES_PER_PLACEMENT;
+        uint64_t bytes = vertices * per_vertex + triangles * 4 * sizeof(uint32_t) + placements * sizeof(pm_placement) + accel;
         if (!pm_memory_admit(bytes, "scene geometry and its acceleration structure"))
             fail("out of memory (" + std::string(pm_memory_failure()) + "): " + str(triangles) +
                  " triangles after instancing");
         // the acceleration structure's share was a forecast: Embree's allocations are admitted as they happen
-        uint64_t accel = triangles * PM_ACCEL_BYTES_PER_TRIANGLE + placements * PM_ACCEL_BYTES_PER_PLACEMENT;
         pm_memory_release(accel);
         admitted_.bytes += bytes - accel;
     }
