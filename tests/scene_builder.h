@@ -13,6 +13,19 @@
 
 static inline void *sb_grow(void *p, size_t count, size_t size) { return realloc(p, (count + 1) * size); }
 
+/* A w x h texture of zero texels (level 0 only) with one wrap mode on both axes; the caller fills
+ * and frees rgba. */
+static inline pm_texture sb_texture(int w, int h, int wrap) {
+    pm_texture t;
+    memset(&t, 0, sizeof t);
+    t.width = w;
+    t.height = h;
+    t.wrap_s = t.wrap_t = wrap;
+    t.rgba = calloc(4 * (size_t)w * h, 1);
+    if (!t.rgba) abort();
+    return t;
+}
+
 static inline uint32_t sb_material(pm_scene *s, vec3 base, float metallic, float roughness, float transmission,
                                    vec3 emission, bool double_sided) {
     s->materials = sb_grow(s->materials, s->material_count, sizeof *s->materials);

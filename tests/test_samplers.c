@@ -14,17 +14,6 @@
 #include "scene_builder.h"
 #include "testing.h"
 
-static pm_texture make_texture(int w, int h, int wrap) {
-    pm_texture t;
-    memset(&t, 0, sizeof t);
-    t.width = w;
-    t.height = h;
-    t.wrap_s = t.wrap_t = wrap;
-    t.rgba = calloc(4 * (size_t)w * h, 1);
-    if (!t.rgba) abort();
-    return t;
-}
-
 /* A checker of one-texel squares, red channel 255 where x + y is even, a ramp in green, alpha
  * 255 or 0 with red. */
 static void checker(pm_texture *t) {
@@ -71,7 +60,7 @@ static void expected(const uint8_t *rgba, int w, int h, double u, double v, bool
 static void test_magnification(void) {
     double worst[2] = {0, 0}, blend_seen = 0.0;
     for (int nearest = 0; nearest < 2; nearest++) {
-        pm_texture t = make_texture(2, 2, PM_WRAP_REPEAT);
+        pm_texture t = sb_texture(2, 2, PM_WRAP_REPEAT);
         checker(&t);
         t.mag_nearest = nearest;
         for (int i = 0; i < 17; i++)
@@ -116,7 +105,7 @@ static void test_minification(void) {
     };
     const float footprints[3] = {1.7f, 2.9f, 5.3f}; /* log2: 0.77, 1.54, 2.41 */
     for (size_t f = 0; f < sizeof filters / sizeof filters[0]; f++) {
-        pm_texture t = make_texture(8, 8, PM_WRAP_REPEAT);
+        pm_texture t = sb_texture(8, 8, PM_WRAP_REPEAT);
         checker(&t);
         uint64_t admitted = 0;
         CHECK(pm_texture_build_levels(&t, false, &admitted) && t.level_count == 4, "levels for the 8 x 8 checker");
@@ -180,7 +169,7 @@ static void test_surface(void) {
         s.uvs[2 * i] = s.positions[i].x;
         s.uvs[2 * i + 1] = s.positions[i].y;
     }
-    s.textures[0] = make_texture(2, 2, PM_WRAP_REPEAT);
+    s.textures[0] = sb_texture(2, 2, PM_WRAP_REPEAT);
     checker(&s.textures[0]);
     s.textures[0].mag_nearest = true;
     s.texture_count = 1;

@@ -21,17 +21,6 @@
 #include "scene_builder.h"
 #include "testing.h"
 
-static pm_texture make_texture(int w, int h, int wrap) {
-    pm_texture t;
-    memset(&t, 0, sizeof t);
-    t.width = w;
-    t.height = h;
-    t.wrap_s = t.wrap_t = wrap;
-    t.rgba = malloc(4 * (size_t)w * h);
-    if (!t.rgba) abort();
-    return t;
-}
-
 static void checker(pm_texture *t) {
     for (int y = 0; y < t->height; y++)
         for (int x = 0; x < t->width; x++) {
@@ -59,7 +48,7 @@ static double srgb_step(void) {
 
 static void checker_resolves_to_mean(void) {
     for (int srgb = 0; srgb < 2; srgb++) {
-        pm_texture t = make_texture(256, 256, PM_WRAP_REPEAT);
+        pm_texture t = sb_texture(256, 256, PM_WRAP_REPEAT);
         checker(&t);
         uint64_t admitted = 0;
         CHECK(pm_texture_build_levels(&t, srgb, &admitted), "levels built");
@@ -93,7 +82,7 @@ static void checker_resolves_to_mean(void) {
 
 /* Footprints of at most a texel read level 0: the same bits as pm_texture_lookup(_data). */
 static void small_footprint_is_level_zero(void) {
-    pm_texture t = make_texture(37, 23, PM_WRAP_MIRROR);
+    pm_texture t = sb_texture(37, 23, PM_WRAP_MIRROR);
     pm_rng rng = pm_rng_for(4, 0, 0);
     for (int i = 0; i < 4 * 37 * 23; i++) t.rgba[i] = (uint8_t)(pm_rng_u32(&rng) & 255);
     uint64_t admitted = 0;
@@ -126,7 +115,7 @@ static void levels_keep_the_mean(void) {
     pm_rng rng = pm_rng_for(5, 0, 0);
     for (size_t si = 0; si < sizeof sizes / sizeof *sizes; si++)
         for (int srgb = 0; srgb < 2; srgb++) {
-            pm_texture t = make_texture(sizes[si][0], sizes[si][1], PM_WRAP_REPEAT);
+            pm_texture t = sb_texture(sizes[si][0], sizes[si][1], PM_WRAP_REPEAT);
             size_t n = (size_t)t.width * t.height;
             for (size_t i = 0; i < n; i++) {
                 t.rgba[4 * i] = t.rgba[4 * i + 1] = t.rgba[4 * i + 2] = (uint8_t)(pm_rng_u32(&rng) & 255);
@@ -163,7 +152,7 @@ static void cutouts_keep_coverage(void) {
     s.materials[m].alpha = 1.f;
     s.materials[m].alpha_cutoff = 0.5f;
     s.textures = calloc(1, sizeof *s.textures);
-    s.textures[0] = make_texture(64, 64, PM_WRAP_CLAMP);
+    s.textures[0] = sb_texture(64, 64, PM_WRAP_CLAMP);
     s.texture_count = 1;
     s.materials[m].base_color_texture = 0;
     int opaque = 0;
@@ -225,7 +214,7 @@ static void scene_footprint(void) {
     memset(&s, 0, sizeof s);
     uint32_t m = sb_lambert(&s, v3s(1.f));
     s.textures = calloc(1, sizeof *s.textures);
-    s.textures[0] = make_texture(256, 256, PM_WRAP_REPEAT);
+    s.textures[0] = sb_texture(256, 256, PM_WRAP_REPEAT);
     checker(&s.textures[0]);
     s.texture_count = 1;
     s.materials[m].base_color_texture = 0;
