@@ -26,7 +26,7 @@ typedef struct {
     float alpha;     /* GGX alpha = roughness^2, at least PM_GLOSSY_MIN_ALPHA */
     float weight;    /* the share of the surface the lobe covers: 1 minus the glass share */
     /* Layers of KHR_materials_specular, _sheen and _clearcoat; read only when `layered` (a
-     * struct without it, as built before them, is the plain lobe above). See below. */
+     * struct with it false is the plain lobe above). See below. */
     bool layered;
     float specular;        /* specularFactor: the dielectric lobe's weight and its F90; 1 by default */
     vec3 specular_f0;      /* min(0.04 x specularColorFactor, 1): the dielectric's F0; 0.04 by default */

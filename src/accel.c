@@ -223,6 +223,8 @@ static bool split_triangles(const pm_scene *s, uint32_t first, uint32_t total, u
 }
 
 pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
+    /* a failure reported below is one of this build's, never one handled before it */
+    uint64_t failures = pm_memory_failure_mark();
     float reach = fmaxf(fmaxf(fmaxf(fabsf(s->bounds_min.x), fabsf(s->bounds_max.x)), fmaxf(fabsf(s->bounds_min.y), fabsf(s->bounds_max.y))),
                         fmaxf(fabsf(s->bounds_min.z), fabsf(s->bounds_max.z)));
     if (s->triangle_count && !(reach <= EMBREE_MAX_COORDINATE)) {
@@ -256,14 +258,14 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
     }
     if (!a->filter_users || (s->instanced_mesh_count && (!a->mesh_scenes || !a->mesh_tri_of_prim))) {
         /* the failed allocation's own record names it and its bytes */
-        snprintf(err, err_size, "out of memory (%s)", pm_memory_failure() ? pm_memory_failure() : "acceleration structure");
+        snprintf(err, err_size, "out of memory (%s)", pm_memory_failure_since(failures) ? pm_memory_failure_since(failures) : "acceleration structure");
         pm_accel_destroy(a);
         return NULL;
     }
     a->filter_users[0] = (struct filter_user){a, -1};
     uint32_t *opaque, *alpha, opaque_count, alpha_count;
     if (!split_triangles(s, 0, flat_count, &opaque, &opaque_count, &alpha, &alpha_count)) {
-        snprintf(err, err_size, "out of memory (%s) for %u triangles", pm_memory_failure() ? pm_memory_failure() : "triangle lists", s->triangle_count);
+        snprintf(err, err_size, "out of memory (%s) for %u triangles", pm_memory_failure_since(failures) ? pm_memory_failure_since(failures) : "triangle lists", s->triangle_count);
         pm_accel_destroy(a);
         return NULL;
     }
@@ -329,15 +331,16 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
         rtcReleaseGeometry(g);
     }
     if (!ok) {
-        snprintf(err, err_size, "out of memory (%s) for %u vertices", pm_memory_failure() ? pm_memory_failure() : "Embree geometry", s->vertex_count);
+        snprintf(err, err_size, "out of memory (%s)",
+                 pm_memory_failure_since(failures) ? pm_memory_failure_since(failures) : "Embree geometry");
         pm_accel_destroy(a);
         return NULL;
     }
     rtcCommitScene(a->scene);
     enum RTCError e = rtcGetDeviceError(a->device);
     if (e == RTC_ERROR_OUT_OF_MEMORY) {
-        if (!pm_memory_failure()) pm_memory_fail((uint64_t)atomic_load(&a->bytes), "acceleration structure");
-        snprintf(err, err_size, "out of memory (%s)", pm_memory_failure());
+        if (!pm_memory_failure_since(failures)) pm_memory_fail((uint64_t)atomic_load(&a->bytes), "acceleration structure");
+        snprintf(err, err_size, "out of memory (%s)", pm_memory_failure_since(failures));
         pm_accel_destroy(a);
         return NULL;
     }

@@ -943,6 +943,7 @@ private:
     std::vector<pm_placement> placements_;
     uint64_t triangle_ids_ = 0;
     void place_instanced_meshes(const std::vector<uint32_t> &uses);
+    bool framed_alone(size_t mesh) const;
     struct Placed { int node, index; bool light; };
     std::vector<Placed> placed_;  // cameras and lights in traversal order
     // The frame the scene is stored in: world = (file world - frame_center_) x frame_scale_ (see choose_frame)
@@ -2648,7 +2649,8 @@ uint64_t Loader::decoded_bytes() const {
 
 uint64_t Loader::output_bytes() const {
     return vector_bytes(positions_) + vector_bytes(normals_) + vector_bytes(uvs_) + vector_bytes(uvs1_) +
-           vector_bytes(tangents_) + vector_bytes(indices_) + vector_bytes(triangle_material_) + vector_bytes(materials_);
+           vector_bytes(tangents_) + vector_bytes(indices_) + vector_bytes(triangle_material_) + vector_bytes(materials_) +
+           vector_bytes(placements_) + vector_bytes(instanced_meshes_);
 }
 
 void Loader::emit(pm_scene *out) {
@@ -2750,16 +2752,39 @@ void Loader::choose_frame() {
     }
 }
 
+// Whether a mesh's own coordinates are what the scene's framing (choose_frame) would leave alone:
+// extent within [2^-20, 2^20] and no farther from its origin than 2^10 extents. A stored mesh
+// keeps its own coordinates, which Embree traces in mesh space, so one that the framing would
+// rescale or recentre is flattened instead, through the framed world transforms.
+bool Loader::framed_alone(size_t mesh) const {
+    if (!meshes_[mesh]) return false;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (const DecodedPrimitive &prim : meshes_[mesh]->primitives)
+        for (size_t i = 0; prim.triangles && i + 2 < prim.positions.size(); i += 3)
+            for (int r = 0; r < 3; r++) {
+                lo[r] = std::min(lo[r], static_cast<double>(prim.positions[i + r]));
+                hi[r] = std::max(hi[r], static_cast<double>(prim.positions[i + r]));
+            }
+    double extent = 0, farthest = 0;
+    for (int r = 0; r < 3; r++) {
+        extent = std::max(extent, hi[r] - lo[r]);
+        farthest = std::max(farthest, std::fabs(0.5 * lo[r] + 0.5 * hi[r]));
+    }
+    return extent >= std::ldexp(1.0, -20) && extent <= std::ldexp(1.0, 20) && std::isfinite(farthest) &&
+           farthest <= std::ldexp(1.0, 10) * extent;
+}
+
 // After the flat triangles: each instanced mesh (uses > 0) once, in mesh space, then its
 // placements, grouped by mesh (pm_instanced_mesh.first_placement), each with the node's world
 // transform. Triangle ids follow: the flat triangles', then each placement's in order.
 void Loader::place_instanced_meshes(const std::vector<uint32_t> &uses) {
     triangle_ids_ = triangle_material_.size();
+    std::vector<std::vector<const Instance *>> placed_by(uses.size());  // one pass over the instances, not one a mesh
+    for (const Instance &instance : instances_)
+        if (uses[instance.mesh]) placed_by[instance.mesh].push_back(&instance);
     for (size_t m = 0; m < uses.size(); m++) {
         if (!uses[m]) continue;
-        const Instance *first = nullptr;
-        for (const Instance &instance : instances_)
-            if (instance.mesh == static_cast<int>(m) && !first) first = &instance;
+        const Instance *first = placed_by[m].front();
         pm_instanced_mesh mesh;
         memset(&mesh, 0, sizeof mesh);
         mesh.first_triangle = static_cast<uint32_t>(triangle_material_.size());
@@ -2772,9 +2797,8 @@ void Loader::place_instanced_meshes(const std::vector<uint32_t> &uses) {
         mesh.triangle_count = static_cast<uint32_t>(triangle_material_.size()) - mesh.first_triangle;
         mesh.vertex_count = static_cast<uint32_t>(positions_.size()) - mesh.first_vertex;
         mesh.first_placement = static_cast<uint32_t>(placements_.size());
-        for (const Instance &instance : instances_) {
-            if (instance.mesh != static_cast<int>(m)) continue;
-            WorldTransform world(world_[instance.node]);
+        for (const Instance *instance : placed_by[m]) {
+            WorldTransform world(world_[instance->node]);
             pm_placement p;
             memset(&p, 0, sizeof p);
             p.mesh = static_cast<uint32_t>(instanced_meshes_.size());
@@ -2805,18 +2829,31 @@ void Loader::load(pm_scene *out) {
     // placed (instanced); the rest is flattened into world space.
     std::vector<uint32_t> uses(model_.meshes.size(), 0);
     std::vector<char> instanced(model_.meshes.size(), 0), counted(model_.meshes.size(), 0);
-    for (const Instance &instance : instances_) uses[instance.mesh]++;
-    for (size_t m = 0; m < uses.size(); m++) instanced[m] = uses[m] >= 2 && !options_.flatten_instances;
+    for (const Instance &instance : instances_) {
+        uses[instance.mesh]++;
+        decoded_mesh(instance.mesh);  // each mesh once, however often it is placed
+    }
+    choose_frame();  // the placements' matrices below are the framed ones
+    for (size_t m = 0; m < uses.size(); m++) instanced[m] = uses[m] >= 2 && !options_.flatten_instances && framed_alone(m);
+    // A placement whose transform is singular, or whose matrix or normal matrix does not fit in
+    // float, flattens its mesh: the flat path checks every transformed vertex.
     for (const Instance &instance : instances_) {
         const Mat4 &w = world_[instance.node];
         double det = w.at(0, 0) * (w.at(1, 1) * w.at(2, 2) - w.at(1, 2) * w.at(2, 1)) -
                      w.at(0, 1) * (w.at(1, 0) * w.at(2, 2) - w.at(1, 2) * w.at(2, 0)) +
                      w.at(0, 2) * (w.at(1, 0) * w.at(2, 1) - w.at(1, 1) * w.at(2, 0));
         if (!(det != 0) || !std::isfinite(det) || !std::isfinite(1 / det)) instanced[instance.mesh] = 0;
+        if (!instanced[instance.mesh]) continue;
+        WorldTransform world(w);
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 4; c++)
+                if (!std::isfinite(static_cast<float>(world.matrix.at(r, c))) ||
+                    (c < 3 && !std::isfinite(static_cast<float>(world.normal_matrix[r][c]))))
+                    instanced[instance.mesh] = 0;
     }
     uint64_t vertices = 0, triangles = 0, placements = 0;
     for (const Instance &instance : instances_) {
-        const DecodedMesh &mesh = decoded_mesh(instance.mesh);
+        const DecodedMesh &mesh = *meshes_[instance.mesh];
         if (instanced[instance.mesh]) {
             placements++;
             triangle_ids_ += mesh.triangles;
@@ -2848,7 +2885,6 @@ void Loader::load(pm_scene *out) {
         pm_memory_release(accel);
         admitted_.bytes += bytes - accel;
     }
-    choose_frame();
     if (default_material_used_) {
         pm_material m;
         memset(&m, 0, sizeof m);
@@ -2872,17 +2908,6 @@ void Loader::load(pm_scene *out) {
     if (tangents_needed_) tangents_.reserve(4 * vertices);
     indices_.reserve(3 * triangles);
     triangle_material_.reserve(triangles);
-    // A placement whose matrix or normal matrix does not fit in float (after the framing) is
-    // flattened with the rest of its mesh's: the flat path checks every transformed vertex.
-    for (const Instance &instance : instances_) {
-        if (!uses[instance.mesh]) continue;
-        WorldTransform world(world_[instance.node]);
-        for (int r = 0; r < 3; r++)
-            for (int c = 0; c < 4; c++)
-                if (!std::isfinite(static_cast<float>(world.matrix.at(r, c))) ||
-                    (c < 3 && !std::isfinite(static_cast<float>(world.normal_matrix[r][c]))))
-                    uses[instance.mesh] = 0;
-    }
     for (const Instance &instance : instances_)
         if (!uses[instance.mesh]) instance_mesh(instance, world_[instance.node]);
     place_instanced_meshes(uses);

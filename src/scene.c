@@ -424,14 +424,16 @@ double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo) {
 }
 
 /* What footprint filtering needs: each texture's mip levels (colour ones, read as sRGB by some
- * material's base colour or emission, averaged in linear light; the rest as data) and each
+ * material's base colour, emission, sheen or specular colour, averaged in linear light; the rest as data) and each
  * triangle's UV density. False when out of memory (the failure recorded). */
 static bool build_texture_filtering(pm_scene *s) {
     if (!s->texture_count) return true;
     for (uint32_t i = 0; i < s->texture_count; i++) {
         bool srgb = false;
         for (uint32_t k = 0; k < s->material_count; k++)
-            srgb |= s->materials[k].base_color_texture == (int)i || s->materials[k].emission_texture == (int)i;
+            srgb |= s->materials[k].base_color_texture == (int)i || s->materials[k].emission_texture == (int)i ||
+                    (s->materials[k].layered && (s->materials[k].layers.sheen_color_texture.texture == (int)i ||
+                                                 s->materials[k].layers.specular_color_texture.texture == (int)i));
         if (!pm_texture_build_levels(&s->textures[i], srgb, &s->memory_admitted)) return false;
     }
     free(s->uv_density);
@@ -1128,7 +1130,9 @@ void pm_scene_surface_footprint(const pm_scene *s, uint32_t tri, float b1, float
         vec3 base = m->base_color;
         if (m->base_color_texture >= 0) {
             float uv[2][2] = {{out->u, out->v}, {0.f, 0.f}};
-            if (s->uvs1) interpolated_uv(s, s->indices + 3 * (size_t)tri, 1.f - b1 - b2, b1, b2, 1, &uv[1][0], &uv[1][1]);
+            if (s->uvs1)
+                interpolated_uv(s, s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, NULL), 1.f - b1 - b2, b1, b2, 1,
+                                &uv[1][0], &uv[1][1]);
             base = v3_mul(base, texture_at(s, uv, footprint, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform, true));
         }
         out->emission = base;

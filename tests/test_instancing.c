@@ -34,13 +34,16 @@ typedef struct {
     uint32_t floor_idx[6];
 } geometry;
 
+/* The torus's coordinates are multiplied by this (nodes can scale them back). */
+static double mesh_scale = 1.0;
+
 static void make_geometry(geometry *g) {
     for (int i = 0, v = 0; i <= RING; i++)
         for (int j = 0; j <= TUBE; j++, v++) {
             double u = 2 * PM_PI * i / RING, w = 2 * PM_PI * j / TUBE;
             double n[3] = {cos(u) * cos(w), sin(w), sin(u) * cos(w)}, c[3] = {cos(u), 0, sin(u)};
             for (int k = 0; k < 3; k++) {
-                g->pos[3 * v + k] = (float)(c[k] + 0.35 * n[k]);
+                g->pos[3 * v + k] = (float)((c[k] + 0.35 * n[k]) * mesh_scale);
                 g->nrm[3 * v + k] = (float)n[k];
             }
             g->uv[2 * v] = (float)i / RING;
@@ -64,6 +67,12 @@ static void make_geometry(geometry *g) {
 static char *make_gltf_with(const char *nodes_json, const char *roots, const char *material_json, const char *sun, const char *extra) {
     geometry g;
     make_geometry(&g);
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int v = 0; v < VERTS; v++)
+        for (int k = 0; k < 3; k++) {
+            lo[k] = fmin(lo[k], g.pos[3 * v + k]);
+            hi[k] = fmax(hi[k], g.pos[3 * v + k]);
+        }
     char *b64 = malloc(4 * sizeof g / 3 + 8);
     base64((const unsigned char *)&g, sizeof g, b64);
     size_t size = strlen(b64) + 8192 + strlen(nodes_json) + strlen(extra) + strlen(material_json);
@@ -83,14 +92,15 @@ static char *make_gltf_with(const char *nodes_json, const char *roots, const cha
              "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu},{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu},"
              "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu},{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu},"
              "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu},{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}],"
-             "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\",\"min\":[-1.35,-0.35,-1.35],\"max\":[1.35,0.35,1.35]},"
+             "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\",\"min\":[%.9g,%.9g,%.9g],\"max\":[%.9g,%.9g,%.9g]},"
              "{\"bufferView\":1,\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\"},"
              "{\"bufferView\":2,\"componentType\":5126,\"count\":%d,\"type\":\"VEC2\"},"
              "{\"bufferView\":3,\"componentType\":5125,\"count\":%d,\"type\":\"SCALAR\"},"
              "{\"bufferView\":4,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\",\"min\":[-6,-1,-6],\"max\":[6,-1,6]},"
              "{\"bufferView\":5,\"componentType\":5125,\"count\":6,\"type\":\"SCALAR\"}]%s}",
              sun, roots, nodes_json, material_json, sizeof g, b64, o_pos, sizeof g.pos, o_nrm, sizeof g.nrm, o_uv, sizeof g.uv,
-             o_idx, sizeof g.idx, o_fp, sizeof g.floor_pos, o_fi, sizeof g.floor_idx, VERTS, VERTS, VERTS, 3 * TRIS, extra);
+             o_idx, sizeof g.idx, o_fp, sizeof g.floor_pos, o_fi, sizeof g.floor_idx, VERTS, lo[0], lo[1], lo[2], hi[0], hi[1],
+             hi[2], VERTS, VERTS, 3 * TRIS, extra);
     free(b64);
     return text;
 }
@@ -325,11 +335,94 @@ static void test_scaled_emitter(void) {
     pm_scene_free(&sf);
 }
 
+/* An unlit torus whose base colour texture reads TEXCOORD_1: the camera sees the same colour
+ * through every placement as in the flat scene (the second UV set read at the stored triangle). */
+static void test_unlit_second_uv_set(void) {
+    char *text = make_gltf(placement_nodes, ",2", "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.5,0.3,1],\"metallicFactor\":0}}", "3");
+    pm_scene inst, flat;
+    bool ok = load_text(text, false, &inst) & load_text(text, true, &flat);
+    free(text);
+    if (!ok) return;
+    pm_scene *both[2] = {&inst, &flat};
+    for (int k = 0; k < 2; k++) {
+        pm_scene *s = both[k];
+        add_checker(s, false);
+        s->materials[1].unlit = true;
+        s->materials[1].base_color_texcoord = 1;
+        s->uvs1 = malloc(2 * sizeof(float) * s->vertex_count); /* set 1 = set 0 turned: u and v swapped */
+        for (uint32_t v = 0; v < s->vertex_count; v++) {
+            s->uvs1[2 * v] = s->uvs[2 * v + 1];
+            s->uvs1[2 * v + 1] = s->uvs[2 * v];
+        }
+    }
+    CHECK(pm_scene_finalize(&inst, false, NULL) && pm_scene_finalize(&flat, false, NULL), "unlit: finalize");
+    char err[256];
+    pm_accel *ai = pm_accel_create(&inst, err, sizeof err), *af = pm_accel_create(&flat, err, sizeof err);
+    CHECK(ai && af, "unlit: accel: %s", err);
+    if (ai && af) {
+        pm_camera cam = pm_scene_auto_camera(&flat, 1.f);
+        float tan_half = tanf(0.5f * cam.yfov);
+        int n = 48, placed = 0, bad = 0;
+        for (int y = 0; y < n; y++)
+            for (int x = 0; x < n; x++) {
+                float sx = (2.f * (x + 0.5f) / n - 1.f) * tan_half, sy = (1.f - 2.f * (y + 0.5f) / n) * tan_half;
+                vec3 d = v3_normalize(v3_add(cam.forward, v3_add(v3_scale(cam.right, sx), v3_scale(cam.up, sy))));
+                pm_hit hi, hf;
+                if (!pm_accel_intersect(ai, cam.position, d, INFINITY, &hi) || !pm_accel_intersect(af, cam.position, d, INFINITY, &hf))
+                    continue;
+                if (pm_scene_placement_of(&inst, hi.tri) < 0) continue;
+                placed++;
+                pm_surface si, sf;
+                pm_scene_surface_footprint(&inst, hi.tri, hi.b1, hi.b2, 0.f, d, &si);
+                pm_scene_surface_footprint(&flat, hf.tri, hf.b1, hf.b2, 0.f, d, &sf);
+                bad += !(si.unlit && sf.unlit && near(si.emission, sf.emission, 2e-2f));
+            }
+        CHECK(placed > 50 && bad == 0, "unlit: %d of %d placed hits see another colour than the flat scene's", bad, placed);
+    }
+    pm_accel_destroy(ai);
+    pm_accel_destroy(af);
+    pm_scene_free(&inst);
+    pm_scene_free(&flat);
+}
+
+/* A shared mesh whose own coordinates the scene's framing would rescale (1e25, placed by nodes
+ * scaling it back) is flattened, so Embree never traces those magnitudes. */
+static void test_huge_mesh_flattened(void) {
+    mesh_scale = 1e25;
+    char *text = make_gltf(",{\"mesh\":1,\"scale\":[1e-25,1e-25,1e-25]},{\"mesh\":1,\"translation\":[3,0,0],\"scale\":[1e-25,1e-25,1e-25]}",
+                           ",2,3", "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.5,0.3,1],\"metallicFactor\":0}}", "3");
+    mesh_scale = 1.0;
+    pm_scene inst, flat;
+    bool ok = load_text(text, false, &inst) & load_text(text, true, &flat);
+    free(text);
+    if (!ok) return;
+    CHECK(inst.placement_count == 0 && inst.triangle_count == flat.triangle_count,
+          "huge mesh: %u placements (want 0: flattened), %u triangles against %u", inst.placement_count, inst.triangle_count,
+          flat.triangle_count);
+    CHECK(pm_scene_finalize(&inst, false, NULL) && pm_scene_finalize(&flat, false, NULL), "huge mesh: finalize");
+    char err[256];
+    pm_accel *ai = pm_accel_create(&inst, err, sizeof err), *af = pm_accel_create(&flat, err, sizeof err);
+    CHECK(ai && af, "huge mesh: accel: %s", err);
+    if (ai && af) {
+        pm_camera cam = pm_scene_auto_camera(&flat, 1.f);
+        pm_hit hi, hf;
+        bool got_i = pm_accel_intersect(ai, cam.position, cam.forward, INFINITY, &hi),
+             got_f = pm_accel_intersect(af, cam.position, cam.forward, INFINITY, &hf);
+        CHECK(got_i && got_f && hi.tri == hf.tri && fabsf(hi.t - hf.t) <= 1e-5f * hf.t, "huge mesh: the view's centre ray hits alike");
+    }
+    pm_accel_destroy(ai);
+    pm_accel_destroy(af);
+    pm_scene_free(&inst);
+    pm_scene_free(&flat);
+}
+
 int main(void) {
     test_same_as_flat(false, false, false);
     test_same_as_flat(true, false, false);
     test_same_as_flat(true, true, false);
     test_same_as_flat(false, false, true);
     test_scaled_emitter();
+    test_unlit_second_uv_set();
+    test_huge_mesh_flattened();
     return pm_test_done("test_instancing");
 }
