@@ -10,7 +10,12 @@
 #define PM_PI_D 3.14159265358979323846
 
 static pm_brdf make_brdf(vec3 base, float metallic, float roughness) {
-    pm_brdf b = {base, metallic, pm_maxf(PM_GLOSSY_MIN_ALPHA, roughness * roughness), 1.f};
+    pm_brdf b;
+    memset(&b, 0, sizeof b); /* no layers */
+    b.base = base;
+    b.metallic = metallic;
+    b.alpha = pm_maxf(PM_GLOSSY_MIN_ALPHA, roughness * roughness);
+    b.weight = 1.f;
     return b;
 }
 
