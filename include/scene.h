@@ -226,6 +226,7 @@ typedef struct {
     vec3 *emitter_radiance;    /* emitter_count: each one's radiance averaged over its triangle (texture included) */
     float *emitter_cdf;        /* emitter_count+1 entries, by area x luminance x sides */
     uint32_t emitter_count;
+    uint64_t emitter_admitted; /* bytes of the three tables above admitted against --max-memory, given back when they go */
     float emitter_power;       /* sum of area x luminance(radiance) x pi x sides */
     float *light_cdf;          /* light_count+1 entries by power, when there are more than PM_DIRECT_LIGHT_SAMPLES punctual lights; else NULL */
     uint32_t clamped_emission; /* materials, lights and sky whose emission finalize clamped to PM_MAX_EMISSION: the caller warns */

@@ -234,10 +234,19 @@ static bool build_emitters(pm_scene *s) {
     s->emitter_radiance = NULL;
     s->emitter_count = 0;
     s->emitter_power = 0.f;
+    pm_memory_release(s->emitter_admitted);
+    s->emitter_admitted = 0;
     uint32_t candidates = 0; /* emissive placed triangles emit from every placement */
     for (pm_triangle_walk w = {.placement = -2}; pm_scene_walk_next(s, &w);)
         if (!v3_is_black(s->materials[s->triangle_material[w.stored]].emission)) candidates++;
     if (!candidates) return true;
+    /* a table a placed emissive triangle: placements can make it larger than the stored geometry
+     * the loader admitted, so it is admitted too (the running sums only while it is built) */
+    uint64_t kept = (uint64_t)candidates * (sizeof *s->emitters + sizeof *s->emitter_radiance + sizeof *s->emitter_cdf) +
+                    sizeof *s->emitter_cdf,
+             building = ((uint64_t)candidates + 1) * sizeof(double);
+    if (!pm_memory_admit(kept + building, "emitter distribution")) return false;
+    s->emitter_admitted = kept;
     s->emitters = pm_malloc(candidates * sizeof *s->emitters, "emitter distribution");
     s->emitter_radiance = pm_malloc(candidates * sizeof *s->emitter_radiance, "emitter distribution");
     s->emitter_cdf = pm_malloc((candidates + 1) * sizeof *s->emitter_cdf, "emitter distribution");
@@ -250,6 +259,8 @@ static bool build_emitters(pm_scene *s) {
         s->emitters = NULL;
         s->emitter_radiance = NULL;
         s->emitter_cdf = NULL;
+        pm_memory_release(kept + building);
+        s->emitter_admitted = 0;
         return false;
     }
     double total = 0.0;
@@ -276,6 +287,7 @@ static bool build_emitters(pm_scene *s) {
     for (uint32_t i = 1; i <= k; i++) s->emitter_cdf[i] = total > 0 ? (float)(running[i] / total) : (float)i / k;
     if (k) s->emitter_cdf[k] = 1.f;
     free(running);
+    pm_memory_release(building);
     s->emitter_power = (float)(total * PM_PI);
     return true;
 }
@@ -545,6 +557,7 @@ void pm_scene_free(pm_scene *s) {
     free(s->emitter_radiance);
     free(s->light_cdf);
     pm_memory_release(s->memory_admitted);
+    pm_memory_release(s->emitter_admitted);
     memset(s, 0, sizeof *s);
 }
 

@@ -86,6 +86,12 @@ for case in "exr 128 refused" "exr 192 written" "png 192 refused" "png 256 writt
     fi
     within "a 1024-square $1, $3" "$2"
 done
+# an emissive mesh placed 400 times: 2 million emitting triangles, whose 56 MB table is admitted
+# against the limit like the geometry, though the file stores 5,000 triangles
+python3 bench/instanced_scene.py "$tmp/glow.glb" --placements 400 --triangles 5000 --emissive >/dev/null
+run 48 "$tmp/glow.glb" --iterations 1 --snapshot "$tmp/glow.exr"
+refused "2 million placed emitters under 48 MiB" "emitter distribution, [0-9]* bytes, with "
+
 # The forecast (--stats estimate_bytes) holds the measured peak within 25%, whatever dominates:
 # the scene, the film, photon records of either mode, the PNG's offscreen context
 forecast() { # description, pmview arguments...
