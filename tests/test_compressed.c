@@ -102,6 +102,13 @@ static void check_refused(const char *what, const char *json, const glb *g, cons
     free(b.data);
 }
 
+/* The file with one piece of its JSON replaced (a lie about the compressed data) is refused with `want`. */
+static void check_lie(const char *what, const glb *g, const char *from, const char *to, const char *want) {
+    char *lie = replaced(g->json, from, to);
+    check_refused(what, lie, g, want);
+    free(lie);
+}
+
 static vec3 centroid(const pm_scene *s, uint32_t t) {
     const uint32_t *i = s->indices + 3 * t;
     return v3_scale(v3_add(v3_add(s->positions[i[0]], s->positions[i[1]]), s->positions[i[2]]), 1.f / 3);
@@ -270,18 +277,13 @@ int main(void) {
         free(b.data);
         free(bin);
     }
-    char *lie = replaced(d.json, "\"componentType\":5126,\"count\":2399", "\"componentType\":5126,\"count\":2398");
-    check_refused("Draco attribute accessor count 2398", lie, &d, "but the Draco stream decodes 2399 points");
-    free(lie);
-    lie = replaced(d.json, "\"count\":12636", "\"count\":12639");
-    check_refused("Draco index accessor count 12639", lie, &d, "decodes 12636 indices");
-    free(lie);
-    lie = replaced(d.json, "\"componentType\":5123,\"count\":12636", "\"componentType\":5121,\"count\":12636");
-    check_refused("Draco indices as bytes", lie, &d, "does not fit componentType 5121");
-    free(lie);
-    lie = replaced(d.json, "\"POSITION\":1,", "\"POSITION\":7,");
-    check_refused("Draco attribute id not in the stream", lie, &d, "Draco attribute 7 is not in the stream");
-    free(lie);
+    check_lie("Draco attribute accessor count 2398", &d,
+              "\"componentType\":5126,\"count\":2399", "\"componentType\":5126,\"count\":2398", "but the Draco stream decodes 2399 points");
+    check_lie("Draco index accessor count 12639", &d, "\"count\":12636", "\"count\":12639", "decodes 12636 indices");
+    check_lie("Draco indices as bytes", &d,
+              "\"componentType\":5123,\"count\":12636", "\"componentType\":5121,\"count\":12636", "does not fit componentType 5121");
+    check_lie("Draco attribute id not in the stream", &d,
+              "\"POSITION\":1,", "\"POSITION\":7,", "Draco attribute 7 is not in the stream");
     free(d.json);
 
     /* meshopt: every compressed range named in the JSON */
@@ -306,24 +308,20 @@ int main(void) {
         free(j);
     }
     CHECK(streams == 4, "the meshopt duck has 4 compressed bufferViews, found %d", streams);
-    lie = replaced(m.json, "\"mode\":\"TRIANGLES\",\"count\":12636", "\"mode\":\"TRIANGLES\",\"count\":12639");
-    check_refused("meshopt index count 12639", lie, &m, "exceeds the bufferView's byteLength");
-    free(lie);
-    lie = replaced(m.json, "\"mode\":\"TRIANGLES\",\"count\":12636", "\"mode\":\"TRIANGLES\",\"count\":12633");
-    check_refused("meshopt index count 12633", lie, &m, "bufferView 4 EXT_meshopt_compression");
-    free(lie);
+    check_lie("meshopt index count 12639", &m,
+              "\"mode\":\"TRIANGLES\",\"count\":12636", "\"mode\":\"TRIANGLES\",\"count\":12639", "exceeds the bufferView's byteLength");
+    check_lie("meshopt index count 12633", &m,
+              "\"mode\":\"TRIANGLES\",\"count\":12636", "\"mode\":\"TRIANGLES\",\"count\":12633", "bufferView 4 EXT_meshopt_compression");
     /* a claim of gigabytes from a 4722-byte stream is refused before anything is allocated */
     char *big = replaced(m.json, "{\"byteLength\":63656,", "{\"byteLength\":4000000000,");
     char *big2 = big ? replaced(big, "\"byteLength\":25272,", "\"byteLength\":3000000000,") : NULL;
     char *big3 = big2 ? replaced(big2, "\"mode\":\"TRIANGLES\",\"count\":12636", "\"mode\":\"TRIANGLES\",\"count\":1500000000") : NULL;
     check_refused("meshopt claims 3 GB", big3, &m, "is over 64 times the 4722-byte stream");
     free(big), free(big2), free(big3);
-    lie = replaced(m.json, "\"byteLength\":19192,\"byteStride\":8,", "\"byteLength\":19192,\"byteStride\":12,");
-    check_refused("bufferView stride other than the stream's", lie, &m, "byteStride 8 but the bufferView's is 12 (bufferView 2 EXT_meshopt_compression)");
-    free(lie);
-    lie = replaced(m.json, "\"filter\":\"OCTAHEDRAL\"", "\"filter\":\"OCTAGONAL\"");
-    check_refused("unknown meshopt filter", lie, &m, "unknown filter OCTAGONAL (bufferView 1 EXT_meshopt_compression)");
-    free(lie);
+    check_lie("bufferView stride other than the stream's", &m,
+              "\"byteLength\":19192,\"byteStride\":8,", "\"byteLength\":19192,\"byteStride\":12,", "byteStride 8 but the bufferView's is 12 (bufferView 2 EXT_meshopt_compression)");
+    check_lie("unknown meshopt filter", &m,
+              "\"filter\":\"OCTAHEDRAL\"", "\"filter\":\"OCTAGONAL\"", "unknown filter OCTAGONAL (bufferView 1 EXT_meshopt_compression)");
     /* decoded indices meet the loader's own index check: with 2000 vertices, index 2398 is out of range */
     char *fewer = strdup(m.json);
     for (int i = 0; i < 3; i++) {
@@ -336,7 +334,7 @@ int main(void) {
     check_refused("decoded index past the vertices", fewer, &m, ">= vertex count 2000 (mesh 0 primitive 0)");
     free(fewer);
     /* a plain bufferView cannot point into the fallback buffer, which has no bytes */
-    lie = replaced(m.json, "{\"buffer\":1,\"byteOffset\":0,\"byteLength\":9596,\"byteStride\":4,\"target\":34962,\"extensions\":{\"EXT_meshopt_compression\":{",
+    char *lie = replaced(m.json, "{\"buffer\":1,\"byteOffset\":0,\"byteLength\":9596,\"byteStride\":4,\"target\":34962,\"extensions\":{\"EXT_meshopt_compression\":{",
                    "{\"buffer\":1,\"byteOffset\":0,\"byteLength\":9596,\"byteStride\":4,\"target\":34962,\"extensions\":{\"EXT_other\":{");
     check_refused("plain bufferView in the fallback buffer", lie, &m, "a fallback buffer without data");
     free(lie);
