@@ -320,11 +320,16 @@ static inline vec3 pm_placement_normal(const pm_placement *pl, vec3 n) {
     return v3_normalize(v3(m[0] * n.x + m[1] * n.y + m[2] * n.z, m[3] * n.x + m[4] * n.y + m[5] * n.z,
                            m[6] * n.x + m[7] * n.y + m[8] * n.z));
 }
+/* Stored triangle `stored`'s corners in world space through placement pl (-1: flat), in stored order. */
+static inline void pm_scene_stored_corners(const pm_scene *s, uint32_t stored, int32_t pl, vec3 p[3]) {
+    const uint32_t *ix = s->indices + 3 * (size_t)stored;
+    for (int k = 0; k < 3; k++) p[k] = pl < 0 ? s->positions[ix[k]] : pm_placement_point(&s->placements[pl], s->positions[ix[k]]);
+}
 /* The triangle's corners in world space, in stored order (barycentrics b1, b2 weigh corners 1, 2). */
 static inline void pm_scene_triangle_corners(const pm_scene *s, uint32_t id, vec3 p[3]) {
     int32_t pl;
-    const uint32_t *ix = s->indices + 3 * (size_t)pm_scene_stored_triangle(s, id, &pl);
-    for (int k = 0; k < 3; k++) p[k] = pl < 0 ? s->positions[ix[k]] : pm_placement_point(&s->placements[pl], s->positions[ix[k]]);
+    uint32_t stored = pm_scene_stored_triangle(s, id, &pl);
+    pm_scene_stored_corners(s, stored, pl, p);
 }
 /* Unit geometric normal in world space, glTF front side (face_normals through the placement; computed
  * from the corners when face_normals is missing). */
@@ -442,15 +447,18 @@ void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, floa
  * path that goes on from the hit. */
 static inline void pm_scene_surface_point(const pm_scene *s, uint32_t tri, float b1, float b2, vec3 ng, pm_surface *out) {
     float b0 = 1.f - b1 - b2;
+    int32_t pl;
+    uint32_t stored = pm_scene_stored_triangle(s, tri, &pl); /* one placement search for the corners and the material */
     vec3 p[3];
-    pm_scene_triangle_corners(s, tri, p);
+    pm_scene_stored_corners(s, stored, pl, p);
     out->p = v3_add(v3_add(v3_scale(p[0], b0), v3_scale(p[1], b1)), v3_scale(p[2], b2));
     out->ng = ng;
-    out->material = pm_scene_triangle_material(s, tri);
+    out->material = s->triangle_material[stored];
 }
 static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
     int32_t pl;
-    const uint32_t *ix = s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, &pl);
+    uint32_t stored = pm_scene_stored_triangle(s, tri, &pl);
+    const uint32_t *ix = s->indices + 3 * (size_t)stored;
     float b0 = 1.f - b1 - b2;
     vec3 n0 = s->normals[ix[0]], n1 = s->normals[ix[1]], n2 = s->normals[ix[2]];
     if (pl >= 0) { /* each corner's normal through the placement, as the flattened copy stores it, then interpolated */
@@ -463,7 +471,7 @@ static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, flo
     /* Shading normals that disagree with the winding would light back faces: trust the winding. */
     out->ns = v3_dot(n, out->ng) < 0.f ? v3_neg(n) : n;
     vec3 corners[3];
-    pm_scene_triangle_corners(s, tri, corners);
+    pm_scene_stored_corners(s, stored, pl, corners);
     vec3 p0 = corners[0], p1 = corners[1], p2 = corners[2];
     /* Rays leave from the point pulled toward the centroid (pm_offset_surface_origin) only near
      * the triangle's edges, where a wall sharing the edge needs it: deep inside a large triangle

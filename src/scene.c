@@ -1072,7 +1072,7 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
             float on_surface = width / sqrtf(pm_maxf(fabsf(v3_dot(ng, dir)), PM_FOOTPRINT_MIN_COS));
             if (placement >= 0) { /* the density is per mesh-space area: scale the footprint back to mesh space */
                 vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]], w[3];
-                pm_scene_triangle_corners(s, tri, w);
+                pm_scene_stored_corners(s, stored, placement, w);
                 float mesh_area = v3_length(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
                 float world_area = v3_length(v3_cross(v3_sub(w[1], w[0]), v3_sub(w[2], w[0])));
                 if (world_area > 0.f) on_surface *= sqrtf(mesh_area / world_area);
@@ -1131,11 +1131,11 @@ void pm_scene_surface_footprint(const pm_scene *s, uint32_t tri, float b1, float
     float footprint[2];
     surface_scattering(s, tri, b1, b2, width, dir, out, footprint);
     const pm_material *m = &s->materials[out->material];
+    /* the second UV set, for a texture of emission or of an unlit colour that reads it */
+    const uint32_t *ix = s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, NULL);
     if (m->emission_texture >= 0 && !v3_is_black(m->emission)) {
         float uv[2][2] = {{out->u, out->v}, {0.f, 0.f}};
-        if (s->uvs1)
-            interpolated_uv(s, s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, NULL), 1.f - b1 - b2, b1, b2, 1,
-                            &uv[1][0], &uv[1][1]);
+        if (s->uvs1) interpolated_uv(s, ix, 1.f - b1 - b2, b1, b2, 1, &uv[1][0], &uv[1][1]);
         out->emission = v3_mul(m->emission, texture_at(s, uv, footprint, m->emission_texture, m->emission_texcoord,
                                                        &m->emission_transform, true));
     }
@@ -1143,9 +1143,7 @@ void pm_scene_surface_footprint(const pm_scene *s, uint32_t tri, float b1, float
         vec3 base = m->base_color;
         if (m->base_color_texture >= 0) {
             float uv[2][2] = {{out->u, out->v}, {0.f, 0.f}};
-            if (s->uvs1)
-                interpolated_uv(s, s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, NULL), 1.f - b1 - b2, b1, b2, 1,
-                                &uv[1][0], &uv[1][1]);
+            if (s->uvs1) interpolated_uv(s, ix, 1.f - b1 - b2, b1, b2, 1, &uv[1][0], &uv[1][1]);
             base = v3_mul(base, texture_at(s, uv, footprint, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform, true));
         }
         out->emission = base;
