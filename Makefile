@@ -21,10 +21,12 @@ LIBS     = -lembree3 -lglfw -lOSMesa -lOpenEXRCore-3_1 -lstb -ldraco -lmeshoptim
 
 C_SRC   := $(filter-out src/main.c,$(wildcard src/*.c))
 CXX_SRC := $(wildcard src/*.cpp)
-HEADERS := $(wildcard include/*.h) build/shaders.inc
 TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 SCENE   ?= scenes/cornell-box.gltf
 TSAN_TESTS := test_threads test_texture_threads
+# Every compile writes the headers it read to a .d file beside its output (-MMD), with an empty rule for
+# each header (-MP) so a deleted header does not stop the build; the .d files are included at the end.
+DEPFLAGS := -MMD -MP
 
 .PHONY: all deps run test check bench convergence clean tests-build fuzz fuzz-deps
 all: pmview
@@ -41,15 +43,15 @@ build/shaders.inc: $(wildcard shaders/*)
 
 # variant objects: build/<variant>/name.o
 define variant
-build/$(1)/%.o: src/%.c $(HEADERS)
+build/$(1)/%.o: src/%.c | build/shaders.inc
 	@mkdir -p build/$(1)
-	$$(CC) $$(CFLAGS) $(2) -c $$< -o $$@
-build/$(1)/%.o: src/%.cpp include/loader.h include/scene.h include/pm_math.h include/compressed.h
+	$$(CC) $$(CFLAGS) $(DEPFLAGS) $(2) -c $$< -o $$@
+build/$(1)/%.o: src/%.cpp
 	@mkdir -p build/$(1)
-	$$(CXX) $$(CXXFLAGS) $(2) -c $$< -o $$@
-build/$(1)/tests/%: tests/%.c build/$(1)/libpm.a $(wildcard tests/*.h tests/fuzz/*.h)
+	$$(CXX) $$(CXXFLAGS) $(DEPFLAGS) $(2) -c $$< -o $$@
+build/$(1)/tests/%: tests/%.c build/$(1)/libpm.a
 	@mkdir -p build/$(1)/tests
-	$$(CC) $$(CFLAGS) $(2) -Itests $$< build/$(1)/libpm.a -o $$@ $(2) $$(LIBS)
+	$$(CC) $$(CFLAGS) $(DEPFLAGS) $(2) -Itests $$< build/$(1)/libpm.a -o $$@ $(2) $$(LIBS)
 build/$(1)/libpm.a: $(patsubst src/%.c,build/$(1)/%.o,$(C_SRC)) $(patsubst src/%.cpp,build/$(1)/%.o,$(CXX_SRC))
 	@rm -f $$@
 	ar rcs $$@ $$^
@@ -86,24 +88,24 @@ FUZZ_CC      ?= clang
 FUZZ_CXX     ?= clang++
 FUZZ_SECONDS ?= 600
 FUZZ_SAN     := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
-build/fuzz/%.o: src/%.c $(HEADERS)
+build/fuzz/%.o: src/%.c | build/shaders.inc
 	@mkdir -p build/fuzz
-	$(FUZZ_CC) $(CFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer-no-link -c $< -o $@
-build/fuzz/%.o: src/%.cpp include/loader.h include/scene.h include/pm_math.h include/compressed.h
+	$(FUZZ_CC) $(CFLAGS) $(DEPFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer-no-link -c $< -o $@
+build/fuzz/%.o: src/%.cpp
 	@mkdir -p build/fuzz
-	$(FUZZ_CXX) $(CXXFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer-no-link -c $< -o $@
+	$(FUZZ_CXX) $(CXXFLAGS) $(DEPFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer-no-link -c $< -o $@
 build/fuzz/libpm.a: $(patsubst src/%.c,build/fuzz/%.o,$(C_SRC)) $(patsubst src/%.cpp,build/fuzz/%.o,$(CXX_SRC))
 	@rm -f $@
 	ar rcs $@ $^
-build/fuzz/fuzz_gltf: tests/fuzz/fuzz_target.c tests/fuzz/fuzz_entry.h build/fuzz/libpm.a
-	$(FUZZ_CC) $(CFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer -Itests/fuzz -c $< -o build/fuzz/fuzz_target.o
+build/fuzz/fuzz_gltf: tests/fuzz/fuzz_target.c build/fuzz/libpm.a
+	$(FUZZ_CC) $(CFLAGS) $(DEPFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer -Itests/fuzz -MT $@ -c $< -o build/fuzz/fuzz_target.o
 	$(FUZZ_CXX) $(FUZZ_SAN) -fsanitize=fuzzer build/fuzz/fuzz_target.o build/fuzz/libpm.a -o $@ $(LIBS)
 
 fuzz-deps:
 	@sh tools/install-deps.sh fuzz
 
-build/fuzz/fuzz_inputs: tests/fuzz/fuzz_inputs.c tests/fuzz/fuzz_inputs_entry.h build/fuzz/libpm.a
-	$(FUZZ_CC) $(CFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer -Itests/fuzz -c $< -o build/fuzz/fuzz_inputs.o
+build/fuzz/fuzz_inputs: tests/fuzz/fuzz_inputs.c build/fuzz/libpm.a
+	$(FUZZ_CC) $(CFLAGS) $(DEPFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer -Itests/fuzz -MT $@ -c $< -o build/fuzz/fuzz_inputs.o
 	$(FUZZ_CXX) $(FUZZ_SAN) -fsanitize=fuzzer build/fuzz/fuzz_inputs.o build/fuzz/libpm.a -o $@ $(LIBS)
 
 fuzz: fuzz-deps
@@ -113,21 +115,21 @@ fuzz: fuzz-deps
 bench: deps pmview build/rel/bench_pm build/rel/photon_ceiling build/rel/caustic_error build/rel/texture_footprint build/rel/json_load
 	@sh bench/run_bench.sh
 
-build/rel/bench_pm: bench/bench_pm.c bench/bench_settings.h build/rel/libpm.a
-	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
+build/rel/bench_pm: bench/bench_pm.c build/rel/libpm.a
+	$(CC) $(CFLAGS) $(DEPFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
 
 # The photon pass's own rays are recorded by wrapping pm_accel_intersect and pm_accel_intersect_packets at link time, for this program only.
-build/rel/photon_ceiling: bench/photon_ceiling.c bench/bench_settings.h build/rel/libpm.a
-	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ -Wl,--wrap=pm_accel_intersect -Wl,--wrap=pm_accel_intersect_packets $(LIBS)
+build/rel/photon_ceiling: bench/photon_ceiling.c build/rel/libpm.a
+	$(CC) $(CFLAGS) $(DEPFLAGS) $< build/rel/libpm.a -o $@ -Wl,--wrap=pm_accel_intersect -Wl,--wrap=pm_accel_intersect_packets $(LIBS)
 
-build/rel/texture_footprint: bench/texture_footprint.c tests/scene_builder.h build/rel/libpm.a
-	$(CC) $(CFLAGS) -Itests $< build/rel/libpm.a -o $@ $(LIBS)
+build/rel/texture_footprint: bench/texture_footprint.c build/rel/libpm.a
+	$(CC) $(CFLAGS) $(DEPFLAGS) -Itests $< build/rel/libpm.a -o $@ $(LIBS)
 
 build/rel/json_load: bench/json_load.c build/rel/libpm.a
-	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
+	$(CC) $(CFLAGS) $(DEPFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
 
-build/rel/caustic_error: bench/caustic_error.c tests/caustic_region.h build/rel/libpm.a
-	$(CC) $(CFLAGS) -Itests $< build/rel/libpm.a -o $@ $(LIBS)
+build/rel/caustic_error: bench/caustic_error.c build/rel/libpm.a
+	$(CC) $(CFLAGS) $(DEPFLAGS) -Itests $< build/rel/libpm.a -o $@ $(LIBS)
 
 # Takes about 75 minutes (68 runs of 64 s, one at a time); QUICK=1 about 3 minutes. gnuplot draws the plots.
 convergence: deps pmview build/rel/error_map
@@ -135,7 +137,10 @@ convergence: deps pmview build/rel/error_map
 	@QUICK=$(QUICK) sh tools/convergence.sh
 
 build/rel/error_map: tools/error_map.c build/rel/libpm.a
-	$(CC) $(CFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
+	$(CC) $(CFLAGS) $(DEPFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
 
 clean:
 	rm -rf build pmview
+
+# the headers each object, test and tool was built from, as the compiler found them
+-include $(wildcard build/*/*.d build/*/tests/*.d)
