@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, layered-spheres.gltf, mirror-caustic.gltf, point-room.gltf, window-room.gltf) and exposes them as Python data.
+# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, layered-spheres.gltf, mirror-caustic.gltf, point-room.gltf, window-room.gltf, window-hollow.gltf) and exposes them as Python data.
 """Scene generator for pmview (standard library only, deterministic).
 
     python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, layered-spheres.gltf, mirror-caustic.gltf,
-                                             # point-room.gltf, window-room.gltf
+                                             # point-room.gltf, window-room.gltf, window-hollow.gltf
     python3 scenes/make_scenes.py --segments 96 --light-strength 40 --out /tmp
 
 Each scene is a dict: {"meshes": [mesh], "camera": camera, "lights": [light]} where a mesh is
@@ -264,6 +264,75 @@ def window_room(sun_elevation=40.0, sun_azimuth=20.0, sun_irradiance=5.0):
     return {"meshes": meshes, "camera": camera, "lights": lights}
 
 
+def rect(k, at, u_range, v_range, sign):
+    """One single-sided axis-aligned rectangle in the plane where axis k is `at`, facing +k (sign 1)
+    or -k (sign -1); u_range and v_range span axes (k+1)%3 and (k+2)%3, as box() orders them."""
+    u, v = (k + 1) % 3, (k + 2) % 3
+
+    def corner(a, b):
+        p = [0.0, 0.0, 0.0]
+        p[k], p[u], p[v] = float(at), float(u_range[a]), float(v_range[b])
+        return tuple(p)
+    order = [(0, 0), (1, 0), (1, 1), (0, 1)] if sign > 0 else [(0, 0), (0, 1), (1, 1), (1, 0)]
+    normal = [0.0, 0.0, 0.0]
+    normal[k] = float(sign)
+    return quad([corner(a, b) for a, b in order], tuple(normal))
+
+
+def panels(*rects):
+    """Several rectangles as one mesh."""
+    geometry = {"positions": [], "normals": [], "indices": []}
+    for r in rects:
+        base = len(geometry["positions"])
+        geometry["positions"] += r["positions"]
+        geometry["normals"] += r["normals"]
+        geometry["indices"] += [base + i for i in r["indices"]]
+    return geometry
+
+
+def window_room_hollow(sun_elevation=40.0, sun_azimuth=20.0, sun_irradiance=8.0):
+    """The window room as many architectural exports write it: every wall, the floor and the ceiling
+    are single-sided rectangles (doubleSided false), inner faces facing into the room, outer faces
+    facing out, a hollow 15 cm between them that the window's reveals close; the outer walls stand
+    on a ground plane 60 m wide 2 cm below the floor, which runs on under the room (a crawl space
+    2 cm high). The room is 4 m x 2.6 m x 4 m inside with one unglazed window 1.4 m x 1.2 m (sill at
+    0.8 m) in the +z wall; the sun (directional, sun_irradiance W/m^2) shines through it onto the
+    floor the camera sees; the sky is not in the file (pmview --sky white, radiance 1)."""
+    diffuse = lambda c: {"kind": "diffuse", "color": c}
+    wall, floor = diffuse((0.7, 0.7, 0.7)), diffuse((0.6, 0.45, 0.3))
+    t, w, h, g = 0.15, 2.0, 2.6, -0.02  # hollow, interior half width (x and z), interior height, ground
+    wx, sill, top = 0.7, 0.8, 2.0  # window half width, sill and head heights
+    o = w + t  # the outer faces' half width
+    X, Y, Z = 0, 1, 2  # rect(k, ...) spans (u, v) = (y, z) for X, (z, x) for Y, (x, y) for Z
+    inner = panels(
+        rect(X, -w, (0.0, h), (-w, w), 1), rect(X, w, (0.0, h), (-w, w), -1),  # left, right
+        rect(Z, -w, (-w, w), (0.0, h), 1),  # back
+        rect(Z, w, (-w, -wx), (0.0, h), -1), rect(Z, w, (wx, w), (0.0, h), -1),  # window wall beside the opening
+        rect(Z, w, (-wx, wx), (0.0, sill), -1), rect(Z, w, (-wx, wx), (top, h), -1))  # below and above it
+    outer = panels(
+        rect(X, -o, (g, h + t), (-o, o), -1), rect(X, o, (g, h + t), (-o, o), 1),
+        rect(Z, -o, (-o, o), (g, h + t), -1),
+        rect(Z, o, (-o, -wx), (g, h + t), 1), rect(Z, o, (wx, o), (g, h + t), 1),
+        rect(Z, o, (-wx, wx), (g, sill), 1), rect(Z, o, (-wx, wx), (top, h + t), 1))
+    reveals = panels(
+        rect(Y, sill, (w, o), (-wx, wx), 1), rect(Y, top, (w, o), (-wx, wx), -1),  # sill, head
+        rect(X, -wx, (sill, top), (w, o), 1), rect(X, wx, (sill, top), (w, o), -1))  # jambs
+    meshes = [
+        mesh("ground", rect(Y, g, (-30.0, 30.0), (-30.0, 30.0), 1), diffuse((0.30, 0.35, 0.55))),
+        mesh("floor", rect(Y, 0.0, (-w, w), (-w, w), 1), floor),
+        mesh("ceiling", rect(Y, h, (-w, w), (-w, w), -1), wall),
+        mesh("roof", rect(Y, h + t, (-o, o), (-o, o), 1), wall),
+        mesh("inner_walls", inner, wall),
+        mesh("outer_walls", outer, wall),
+        mesh("window_reveals", reveals, wall),
+    ]
+    el, az = math.radians(sun_elevation), math.radians(sun_azimuth)
+    sun = (math.cos(el) * math.sin(az), -math.sin(el), -math.cos(el) * math.cos(az))
+    camera = {"eye": (1.4, 1.5, -1.6), "target": (0.2, 0.1, 1.2), "yfov": math.radians(70.0), "aspect": 1.0}
+    lights = [{"type": "directional", "direction": sun, "color": (1.0, 1.0, 1.0), "intensity": sun_irradiance}]
+    return {"meshes": meshes, "camera": camera, "lights": lights}
+
+
 def gltf_material(m):
     out = {"name": m["kind"], "pbrMetallicRoughness": {"baseColorFactor": list(m.get("color", (1, 1, 1))) + [1.0]}}
     pbr = out["pbrMetallicRoughness"]
@@ -381,7 +450,8 @@ def main():
                         ("layered-spheres.gltf", layered_spheres(args.segments)),
                         ("mirror-caustic.gltf", mirror_caustic(max(args.segments, 64))),
                         ("point-room.gltf", point_room(args.segments)),
-                        ("window-room.gltf", window_room())):
+                        ("window-room.gltf", window_room()),
+                        ("window-hollow.gltf", window_room_hollow())):
         path = os.path.join(args.out, name)
         with open(path, "w") as f:
             json.dump(to_gltf(scene), f, separators=(",", ":"))

@@ -29,7 +29,7 @@ mi.set_variant("scalar_rgb")
 
 SCENES = {"cornell": make_scenes.cornell_box, "caustic": make_scenes.caustic, "glossy": make_scenes.glossy_spheres,
           "mirror": make_scenes.mirror_caustic, "point_room": make_scenes.point_room,
-          "window_room": make_scenes.window_room}
+          "window_room": make_scenes.window_room, "window_hollow": make_scenes.window_room_hollow}
 
 
 def rgb(c):
