@@ -16,6 +16,8 @@
 #define PM_PREVIEW_SETTLE_SECONDS 0.1     /* a moving camera: its next position is waited for at most this long after the
                                              last one (twice the time between its last two) before a full iteration starts */
 #define PM_DEFAULT_SEED 1
+#define PM_DEFAULT_SKY_ROTATE_DEGREES 0.0 /* --sky-rotate: the environment map as the file has it */
+#define PM_MAX_SKY_ROTATE_DEGREES 1e9    /* --sky-rotate takes any angle this size or smaller (modulo 360) */
 #define PM_DEFAULT_SCREENSHOT "pmview-screenshot.png" /* the window's P key; the layers go beside it as .exr */
 #define PM_MAX_THREADS 256              /* worker threads at most (--threads; per-thread counters are sized by it) */
 #define PM_DEFAULT_EXPOSURE_EV 0.0f

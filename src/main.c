@@ -98,7 +98,7 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     /* before the scene too: a sky map or a reference that cannot be used costs no load and no BVH
      * build (the reference's height is compared once the camera gives the image's) */
     r->sky = (pm_sky_request){.sky = o->sky, .no_default_light = o->no_default_light, .scene_path = o->scene_path,
-                              .quiet = o->quiet, .stats = o->stats};
+                              .quiet = o->quiet, .stats = o->stats, .rotate_degrees = o->sky_rotate};
     if (!pm_sky_prepare(&r->sky)) return 1;
     r->sky_prepared = true;
     int width = o->width ? (int)o->width : PM_DEFAULT_WIDTH, height = (int)o->height;

@@ -93,6 +93,10 @@ static const option options_table[] = {
      "the environment around the scene (default: the gradient\n"
      "for files without punctual lights whose emitters do not enclose the view, else none);\n"
      "a FILE is an equirectangular map, its middle along -Z, +Y up", {0}},
+    {"--sky-rotate", "DEGREES", KIND_REAL, FIELD(sky_rotate), -PM_MAX_SKY_ROTATE_DEGREES, PM_MAX_SKY_ROTATE_DEGREES, NULL, {0}, "",
+     " degrees", NULL, 0,
+     "turn the environment map about +Y (photons, direct light, background; modulo 360,\n"
+     "90 puts what lay along -Z along -X; default %g)", {PM_DEFAULT_SKY_ROTATE_DEGREES}},
     {"--no-default-light", NULL, KIND_FLAG, FIELD(no_default_light), 0, 0, NULL, {0}, NULL, NULL, NULL, 0,
      "no default environment (the same as --sky none unless --sky is given)", {0}},
     {"--mode", "progressive|classic|pathtrace", KIND_WORD, FIELD(mode), 0, 0, "progressive|classic|pathtrace",
@@ -320,6 +324,7 @@ int pm_options_parse(int argc, char **argv, pm_options *o) {
     o->seed = PM_DEFAULT_SEED;
     o->camera = -1;
     o->exposure_ev = PM_DEFAULT_EXPOSURE_EV;
+    o->sky_rotate = PM_DEFAULT_SKY_ROTATE_DEGREES;
     o->photons = o->caustic_photons = -1;
     o->gather_rays = PM_DEFAULT_GATHER_RAYS;
     o->irradiance_stride = PM_DEFAULT_IRRADIANCE_STRIDE;
