@@ -1688,8 +1688,17 @@ void Loader::build_model(const json &root) {
                 return tinygltf::ParseMaterial(material, err, o, keep_json);
             }))
             return false;
+        uint32_t sourceless_images = 0;
+        int first_sourceless = -1;
         if (!parse_objects(root, "images", &model.images, [&](tinygltf::Image *image, const json &o) {
                 int index = static_cast<int>(model.images.size());
+                // gltfpack writes an image with neither for every image it could not read: left
+                // out (its textures with it) as an unreadable file is, not the whole model refused
+                if (!find_member(o, "uri") && !find_member(o, "bufferView")) {
+                    if (sourceless_images++ == 0) first_sourceless = index;
+                    tinygltf::ParseStringProperty(&image->name, err, o, "name", false);
+                    return true;
+                }
                 if (!tinygltf::ParseImage(image, index, err, &warning, o, keep_json, folder_, &fs, &image_loader, &hooks_))
                     return false;
                 if (image->bufferView < 0) return true;
@@ -1702,6 +1711,9 @@ void Loader::build_model(const json &root) {
                                     buffer.data.data() + view.byteOffset, static_cast<int>(view.byteLength), &hooks_);
             }))
             return false;
+        if (sourceless_images)
+            warn("ignored: " + str(sourceless_images) + " image(s) with neither uri nor bufferView (no data; their textures are " +
+                 "left out), first image " + str(first_sourceless));
         if (!parse_objects(root, "textures", &model.textures, [&](tinygltf::Texture *t, const json &o) {
                 return tinygltf::ParseTexture(t, err, o, keep_json, folder_);
             }))
