@@ -35,7 +35,9 @@
 #define PM_ACCEL_BUILD_BYTES_PER_TRIANGLE 102 /* Embree's peak during the build, what it keeps included (plus the vertices) */
 #define PM_ACCEL_BUILT_BYTES_PER_TRIANGLE 72  /* what the built BVH keeps (plus the vertices) */
 #define PM_ACCEL_BYTES_PER_VERTEX 16          /* the vertex buffers Embree reads (padded to 16 bytes) */
-#define PM_ACCEL_BYTES_PER_PLACEMENT 128 /* one Embree instance of a shared mesh, its geometry and its share of the top BVH (measured: 83 bytes built, docs/benchmarks.md, Instancing) */
+#define PM_ACCEL_BYTES_PER_PLACEMENT 384 /* one Embree instance of a shared mesh, its geometry object and its share of the top BVH
+                                            (measured: 83 bytes in Embree's count, 356-386 of resident memory for 250,000 to 10^6
+                                            placements, docs/benchmarks.md, Instancing) */
 #define PM_PHOTON_PASS_RECORDS 3             /* photon records alive per photon of an iteration: the threads' lists, the merged list, the grid */
 #define PM_PHOTON_MAP_RECORDS 3              /* the global map's records per emitted photon: stored bounces, irradiance points, the tree
                                                 (a caustic photon is stored once, if at all) */
