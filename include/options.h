@@ -44,6 +44,7 @@ typedef struct {
     int view_photons;        /* --view photons */
     bool stats, no_default_light, quiet, no_photons;
     bool flatten_instances;  /* --flatten-instances: pm_load_options.flatten_instances */
+    bool watch;              /* --watch: the window reloads the scene when its files change */
     bool components_given, components[PM_COMPONENT_COUNT]; /* --components: what a PNG (and the window) shows */
 } pm_options;
 

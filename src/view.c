@@ -14,6 +14,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
@@ -102,13 +103,16 @@ struct pm_view {
     bool present[PM_COMPONENT_COUNT];
     float scale;
     GLint u_component[PM_COMPONENT_COUNT], u_enabled[PM_COMPONENT_COUNT], u_scale, u_exposure, u_tonemap, u_height;
+    GLuint reference_tex;       /* --reference's total, for the relative-error view; 0 = none */
+    int reference_width, reference_height;
+    GLint u_reference, u_error_view;
 
     /* window input between callbacks; display is the caller's state, only set while polling */
     pm_view_events pending;
     pm_display *display;
     bool title_set;
     char title[128];
-    char status[192];
+    char status[512];
     double last_x, last_y;      /* cursor, window pixels */
     int buttons;                /* bit 0 left, 1 right, 2 middle held */
     double last_click;          /* time of the last left press, for double clicks */
@@ -214,7 +218,10 @@ static bool build_program(pm_view *v, char *err, size_t err_size) {
     v->u_exposure = v->gl.GetUniformLocation(v->program, "u_exposure");
     v->u_tonemap = v->gl.GetUniformLocation(v->program, "u_tonemap");
     v->u_height = v->gl.GetUniformLocation(v->program, "u_height");
+    v->u_reference = v->gl.GetUniformLocation(v->program, "u_reference");
+    v->u_error_view = v->gl.GetUniformLocation(v->program, "u_error_view");
     v->gl.UseProgram(v->program);
+    v->gl.Uniform1i(v->u_reference, PM_COMPONENT_COUNT); /* the unit after the components' */
     /* texture unit c always holds component c */
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) v->gl.Uniform1i(v->u_component[c], c);
     return true;
@@ -310,6 +317,7 @@ static void release_gl(pm_view *v) {
     if (v->target) v->gl.DeleteTextures(1, &v->target);
     if (v->black) v->gl.DeleteTextures(1, &v->black);
     v->gl.DeleteTextures(PM_COMPONENT_COUNT, v->component_tex);
+    if (v->reference_tex) v->gl.DeleteTextures(1, &v->reference_tex);
 }
 
 void pm_view_destroy(pm_view *v) {
@@ -564,6 +572,34 @@ void pm_view_set_status(pm_view *v, const char *status) {
     v->title_set = false; /* the next poll rewrites the title */
 }
 
+void pm_view_drop(pm_view *v, const char *path) {
+    if (v && path) snprintf(v->pending.dropped, sizeof v->pending.dropped, "%s", path);
+}
+
+/* GLFW's drop: the first file of what was dropped (one scene or one sky at a time). */
+static void on_drop(GLFWwindow *window, int count, const char **paths) {
+    pm_view *v = glfwGetWindowUserPointer(window);
+    if (v && count > 0) pm_view_drop(v, paths[0]);
+}
+
+/* Tests drive the drop handler through a file, since a virtual X server has no drag source:
+ * PMVIEW_TEST_DROP names a file whose first line, once it appears, is dropped (the file removed). */
+static void test_drop(pm_view *v) {
+    static const char *hook;
+    static bool looked;
+    if (!looked) { hook = getenv("PMVIEW_TEST_DROP"); looked = true; }
+    if (!hook) return;
+    FILE *f = fopen(hook, "r");
+    if (!f) return;
+    char line[sizeof v->pending.dropped] = "";
+    bool read = fgets(line, sizeof line, f) != NULL;
+    fclose(f);
+    if (!read || !strchr(line, '\n')) return; /* still being written */
+    *strchr(line, '\n') = '\0';
+    unlink(hook);
+    pm_view_drop(v, line);
+}
+
 static void on_close(GLFWwindow *window) {
     pm_view *v = glfwGetWindowUserPointer(window);
     if (v) v->pending.quit = true;
@@ -621,6 +657,7 @@ pm_view *pm_view_create_window(int width, int height, const char *title, char *e
     glfwSetScrollCallback(v->window, on_scroll);
     glfwSetFramebufferSizeCallback(v->window, on_framebuffer_size);
     glfwSetWindowCloseCallback(v->window, on_close);
+    glfwSetDropCallback(v->window, on_drop);
     if (!load_gl(&v->gl, glfw_loader, err, err_size)) {
         pm_view_destroy(v);
         return NULL;
@@ -706,6 +743,23 @@ void pm_view_upload_layers(pm_view *v, int width, int height, const float *const
     v->scale = 1.f;
 }
 
+void pm_view_set_reference(pm_view *v, int width, int height, const float *rgb) {
+    if (!v || !v->prepared) return;
+    make_current(v);
+    if (!rgb) {
+        if (v->reference_tex) v->gl.DeleteTextures(1, &v->reference_tex);
+        v->reference_tex = 0;
+        return;
+    }
+    if (!v->reference_tex) v->gl.GenTextures(1, &v->reference_tex);
+    v->gl.ActiveTexture(GL_TEXTURE0);
+    v->gl.BindTexture(GL_TEXTURE_2D, v->reference_tex);
+    v->gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, width, height, 0, GL_RGB, GL_FLOAT, rgb);
+    nearest_clamped(v);
+    v->reference_width = width;
+    v->reference_height = height;
+}
+
 void pm_view_upload(pm_view *v, const pm_film *film) {
     if (!v || !film) return;
     size_t floats = 3 * (size_t)film->width * film->height;
@@ -736,6 +790,11 @@ static void draw_composite(pm_view *v, const pm_display *d) {
     v->gl.Uniform1f(v->u_exposure, exp2f(ev));
     v->gl.Uniform1i(v->u_tonemap, d->tonemap == 1 ? 1 : 0);
     v->gl.Uniform1i(v->u_height, v->height);
+    bool error_view = d->error_view && v->reference_tex && v->reference_width == v->width && v->reference_height == v->height;
+    v->gl.ActiveTexture(GL_TEXTURE0 + PM_COMPONENT_COUNT);
+    v->gl.BindTexture(GL_TEXTURE_2D, error_view ? v->reference_tex : v->black);
+    v->gl.Uniform1i(v->u_error_view, error_view ? 1 : 0);
+    v->gl.ActiveTexture(GL_TEXTURE0);
     v->gl.BindVertexArray(v->vao);
     v->gl.DrawArrays(GL_TRIANGLES, 0, 3);
     v->gl.BindVertexArray(0);
@@ -805,6 +864,7 @@ pm_view_events pm_view_poll(pm_view *v, pm_display *d, bool wait, double timeout
     else glfwPollEvents();
     v->display = NULL;
     if (glfwWindowShouldClose(v->window)) v->pending.quit = true;
+    test_drop(v);
     pm_view_events ev = v->pending;
     v->pending = none;
     if (ev.display_changed && d) update_title(v, d);
