@@ -157,5 +157,71 @@ grep -q "notes.txt is not a .gltf" "$tmp/title_notes.txt" || fail "the title mus
 checks=$((checks + 1))
 grep -q "drop failed: .*broken.gltf" "$tmp/title_bad_drop.txt" || fail "the title must name the bad drop's error: $(cat "$tmp/title_bad_drop.txt")"
 echo "titles: $(cut -c1-90 "$tmp/title_broken.txt") | $(cut -c1-90 "$tmp/title_bad_drop.txt")"
+# --reference: the title's relMSE against the converged Cornell box falls as the window converges,
+# and V reaches the false-colour error view
+cat >"$tmp/inner_ref.sh" <<'EOF'
+tmp=$1; shift
+log="$tmp/ref.log"
+fail() { echo "inner: $*"; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- pmview log:"; cat "$log"; exit 1; }
+count() { c=$(grep -c "$1" "$log" 2>/dev/null); echo "${c:-0}"; }
+wait_for() {
+    i=0
+    while [ "$(count "$1")" -lt "$2" ]; do
+        kill -0 "$pid" 2>/dev/null || fail "pmview exited before '$1'"
+        i=$((i + 1)); [ "$i" -gt $(($3 * 10)) ] && fail "no '$1' after $3 s"
+        sleep 0.1
+    done
+}
+press() { xdotool key --clearmodifiers "$1" || fail "xdotool key $1 failed"; }
+# relmse_after N: the title's iterations and relMSE once it shows N iterations or more
+relmse_after() {
+    i=0
+    while :; do
+        t=$(xdotool getwindowname "$wid")
+        it=$(echo "$t" | sed -n 's/^pmview \([0-9]*\) it .*/\1/p')
+        r=$(echo "$t" | sed -n 's/.*relMSE \([0-9.e+-]*\) .*/\1/p')
+        [ -n "$it" ] && [ -n "$r" ] && [ "$it" -ge "$1" ] && { echo "$it $r"; return; }
+        i=$((i + 1)); [ "$i" -gt 600 ] && fail "the title never showed $1 iterations with a relMSE: $t"
+        sleep 0.1
+    done
+}
+./pmview scenes/cornell-box.gltf "$@" --screenshot "$tmp/shot.png" >"$log" 2>&1 &
+pid=$!
+wid=$(timeout 30 xdotool search --sync --name pmview | head -n 1)
+[ -n "$wid" ] || fail "no window named pmview"
+xdotool windowfocus --sync "$wid" || fail "cannot focus the window"
+relmse_after 2 > "$tmp/relmse_early"
+relmse_after 64 > "$tmp/relmse_late"
+xdotool getwindowname "$wid" > "$tmp/title_ref.txt"
+for k in 1 2 3 4; do
+    [ "$(count "view: relative error")" -ge 1 ] && break
+    press v; sleep 0.3
+done
+[ "$(count "view: relative error")" -ge 1 ] || fail "V never reached the relative-error view"
+sleep 0.5
+# what X shows (P saves the shaded layers, drawn offscreen)
+xwd -id "$wid" -silent >"$tmp/error_view.xwd" || fail "xwd could not dump the window"
+press Escape
+xdotool keyup Escape
+wait "$pid"
+echo "inner: ok"
+EOF
+run_inner test_window_reload 300 "$tmp/inner_ref.sh" "$tmp" --reference tests/ref/cornell_path_64.exr --width 64 --height 64 --threads 2
+read -r it1 r1 < "$tmp/relmse_early"
+read -r it2 r2 < "$tmp/relmse_late"
+echo "--reference in the title: relMSE $r1 at $it1 iterations, $r2 at $it2 ($(cut -c1-100 "$tmp/title_ref.txt"))"
+checks=$((checks + 1))
+awk -v a="$r1" -v b="$r2" 'BEGIN { exit !(a > 0 && b > 0 && b < 0.7 * a) }' || fail "the title's relMSE must fall (from $r1 to $r2)"
+# the error view is false colour: most pixels far from grey
+checks=$((checks + 1))
+python3 - "$tmp/error_view.xwd" <<'PY' || fail "the error view is not false colour"
+import sys
+sys.path.insert(0, "tests")
+from png_compare import read_xwd
+w, h, px = read_xwd(sys.argv[1])
+coloured = sum(1 for p in px if max(p) - min(p) > 60) / len(px)
+print("error view: %.0f%% of the pixels coloured" % (100 * coloured))
+sys.exit(0 if coloured > 0.8 else 1)
+PY
 echo "test_window_reload: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]
