@@ -9,6 +9,10 @@
 #define PM_CLUSTER_SILENCE_SECONDS 0.5    /* after a signal, a rank that has not finished by then is taken for gone (mpirun's SIGKILL follows its SIGTERM by 1 s) */
 #define PM_DEFAULT_WINDOW_ITERATIONS 100000 /* the window keeps converging until closed */
 #define PM_WATCH_SETTLE_SECONDS 0.15      /* --watch: a reload starts once the scene's folder has been quiet this long (a burst of saves is one reload) */
+#define PM_PREPARE_AFTER_SECONDS 0.03   /* the window: a set-up longer than this compiles the display shader meanwhile; a
+                                           shorter one shows its first image composed on the CPU before the shader is built */
+#define PM_QUICK_IMAGE_WAIT_SECONDS 0.1 /* the window: how long the first image (the session's preview) is waited for before
+                                           the shader is built anyway */
 #define PM_WINDOW_MOTION_GAP 0.2          /* the window: camera changes less than this many seconds apart are one motion (a drag, a held key) */
 #define PM_PREVIEW_DIVISOR 4              /* the coarse preview after a restart: a quarter of the width and height */
 #define PM_PREVIEW_MAX_DIVISOR 16         /* a camera moving over a big scene: previews down to 1/16 of the width and height */

@@ -2,6 +2,8 @@
 #ifndef PM_DRIVERS_H
 #define PM_DRIVERS_H
 
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -52,7 +54,19 @@ typedef struct {
     void *arg;
     const char *scene_path;
     _Atomic(const char *) stage;
+    /* the job's thread (pm_window_job_start) */
+    pthread_t thread;
+    bool started;
+    atomic_bool done;
+    _Atomic(pm_view *) view; /* woken when the job ends, once the window waits */
+    int result;
 } pm_window_job;
+
+/* Starts the set-up on a thread of its own before the window opens, so that the scene loads
+ * while the window and its context are made; pm_window_wait (or, without a window,
+ * pm_window_job_finish) waits for it and returns its result. */
+void pm_window_job_start(pm_window_job *job);
+int pm_window_job_finish(pm_window_job *job);
 
 /* Opens the window (rank 0 only) at the film size the options give, square when the height
  * waits for the scene's camera. Returns -1 with *window set, else the exit code, its line

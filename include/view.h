@@ -73,6 +73,10 @@ void pm_view_set_reference(pm_view *v, int width, int height, const float *rgb);
 /* Window only: what a file dropped on the window does (GLFW's drop callback calls it with the
  * first file dropped): the next poll reports it in `dropped`. */
 void pm_view_drop(pm_view *v, const char *path);
+/* Window only, before pm_view_prepare: shows resolved layers at once, composed on the CPU as the
+ * shader composes them (no shader needed), so a first image need not wait for the shader's
+ * compilation. Nothing is kept: the prepared view's first draw replaces it. */
+void pm_view_show_quick(pm_view *v, int width, int height, const float *const layers[PM_COMPONENT_COUNT], const pm_display *d);
 /* Window only: the title's status part (iterations, photons, time...), before the component flags. */
 void pm_view_set_status(pm_view *v, const char *status);
 void pm_view_draw(pm_view *v, const pm_display *d);

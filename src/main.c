@@ -307,13 +307,22 @@ int main(int argc, char **argv) {
         bool wants_window = !r.opt.snapshot;
         /* rank 0's window opens first and shows the set-up's progress: a big scene takes seconds
          * to load and build, and Esc must answer meanwhile */
-        if (wants_window && pm_cluster_rank(cluster) == 0) code = pm_window_open(&r.opt, cluster, process_start, &window);
-        if (code < 0 && window) {
+        if (wants_window && pm_cluster_rank(cluster) == 0) {
+            /* the set-up starts first, on a thread: the scene loads while the window is made */
             window_set_up job = {cluster, &r};
             pm_window_job wait = {.work = set_up_for_window, .arg = &job, .scene_path = r.opt.scene_path};
             atomic_init(&wait.stage, NULL);
             r.stage = &wait.stage;
-            code = pm_window_wait(window, cluster, &wait);
+            if (getenv("DISPLAY")) pm_window_job_start(&wait); /* (without one the window is refused at once) */
+            code = pm_window_open(&r.opt, cluster, process_start, &window);
+            if (code < 0) {
+                code = pm_window_wait(window, cluster, &wait);
+            } else {
+                if (wait.started) {
+                    int set_up_code = pm_window_job_finish(&wait); /* its error line, if any, came first */
+                    if (set_up_code >= 0) code = set_up_code;
+                }
+            }
             r.stage = NULL;
         } else if (code < 0) {
             code = set_up(cluster, &r, wants_window);

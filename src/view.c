@@ -5,12 +5,15 @@
  * to its own framebuffer afterwards. So a PNG saved from the window equals the offscreen one
  * pixel for pixel, whatever the window's size.
  *
- * The process links both libGL (through GLFW) and libOSMesa, and both export gl* symbols whose
+ * The process uses both libGL (through GLFW) and libOSMesa, and both export gl* symbols whose
  * dispatch belongs to different libraries. Calling them directly would pick one at link time,
  * so every entry point is fetched through the current context's get-proc-address into a table
- * (pm_gl) and all GL code goes through v->gl.
+ * (pm_gl) and all GL code goes through v->gl. libOSMesa is opened (dlopen) at the first
+ * offscreen view, not linked: it brings LLVM, whose loading took 65 ms of every start.
  */
+#include <dlfcn.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,6 +21,12 @@
 
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
+#include <X11/Xlib.h>
+#include <X11/Xutil.h>
+/* GLFW's X11 access (glfw3native.h, whose X11 part needs the Xrandr headers): the first image is
+ * put into the window by X11 itself (pm_view_show_quick) */
+Display *glfwGetX11Display(void);
+Window glfwGetX11Window(GLFWwindow *window);
 #include <GL/osmesa.h> /* also brings GL/gl.h and GL/glext.h: types and enums only */
 
 #include "view.h"
@@ -130,8 +139,46 @@ static void on_glfw_error(int code, const char *description) {
     snprintf(glfw_error, sizeof glfw_error, "%s (GLFW error 0x%x)", description ? description : "?", code);
 }
 
+/* libOSMesa's entry points, from the library opened at the first offscreen view. */
+static struct {
+    OSMesaContext (*CreateContextAttribs)(const int *attribs, OSMesaContext share);
+    GLboolean (*MakeCurrent)(OSMesaContext context, void *buffer, GLenum type, GLsizei width, GLsizei height);
+    void (*DestroyContext)(OSMesaContext context);
+    OSMesaContext (*GetCurrentContext)(void);
+    OSMESAproc (*GetProcAddress)(const char *name);
+    bool loaded;
+    char error[256];
+} osmesa;
+static pthread_once_t osmesa_once = PTHREAD_ONCE_INIT;
+
+static void open_osmesa(void) {
+    void *lib = dlopen("libOSMesa.so.8", RTLD_NOW | RTLD_LOCAL);
+    if (!lib) lib = dlopen("libOSMesa.so", RTLD_NOW | RTLD_LOCAL);
+    if (!lib) {
+        const char *why = dlerror();
+        snprintf(osmesa.error, sizeof osmesa.error, "cannot open libOSMesa (%s)", why ? why : "dlopen failed");
+        return;
+    }
+    /* (a data pointer to a function pointer through memcpy: dlsym's documented use) */
+    struct { const char *name; void *slot; size_t size; } entries[] = {
+        {"OSMesaCreateContextAttribs", &osmesa.CreateContextAttribs, sizeof osmesa.CreateContextAttribs},
+        {"OSMesaMakeCurrent", &osmesa.MakeCurrent, sizeof osmesa.MakeCurrent},
+        {"OSMesaDestroyContext", &osmesa.DestroyContext, sizeof osmesa.DestroyContext},
+        {"OSMesaGetCurrentContext", &osmesa.GetCurrentContext, sizeof osmesa.GetCurrentContext},
+        {"OSMesaGetProcAddress", &osmesa.GetProcAddress, sizeof osmesa.GetProcAddress}};
+    for (size_t i = 0; i < sizeof entries / sizeof *entries; i++) {
+        void *f = dlsym(lib, entries[i].name);
+        if (!f) {
+            snprintf(osmesa.error, sizeof osmesa.error, "libOSMesa has no %s", entries[i].name);
+            return;
+        }
+        memcpy(entries[i].slot, &f, entries[i].size);
+    }
+    osmesa.loaded = true;
+}
+
 static pm_gl_proc osmesa_loader(const char *name) {
-    return (pm_gl_proc)OSMesaGetProcAddress(name);
+    return (pm_gl_proc)osmesa.GetProcAddress(name);
 }
 
 static pm_gl_proc glfw_loader(const char *name) {
@@ -153,8 +200,8 @@ static bool load_gl(pm_gl *gl, pm_gl_loader load, char *err, size_t err_size) {
 
 static void make_current(pm_view *v) {
     if (v->backend == PM_BACKEND_OFFSCREEN) {
-        if (OSMesaGetCurrentContext() != v->osmesa)
-            OSMesaMakeCurrent(v->osmesa, v->osmesa_buffer, GL_UNSIGNED_BYTE, v->width, v->height);
+        if (osmesa.GetCurrentContext() != v->osmesa)
+            osmesa.MakeCurrent(v->osmesa, v->osmesa_buffer, GL_UNSIGNED_BYTE, v->width, v->height);
     } else if (glfwGetCurrentContext() != v->window) {
         glfwMakeContextCurrent(v->window);
     }
@@ -326,8 +373,8 @@ void pm_view_destroy(pm_view *v) {
         if (v->osmesa) {
             make_current(v);
             release_gl(v);
-            OSMesaMakeCurrent(NULL, NULL, GL_UNSIGNED_BYTE, 0, 0);
-            OSMesaDestroyContext(v->osmesa);
+            osmesa.MakeCurrent(NULL, NULL, GL_UNSIGNED_BYTE, 0, 0);
+            osmesa.DestroyContext(v->osmesa);
         }
         free(v->osmesa_buffer);
     } else {
@@ -362,7 +409,13 @@ pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_s
     static const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0,
                                   OSMESA_PROFILE, OSMESA_CORE_PROFILE,
                                   OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
-    v->osmesa = OSMesaCreateContextAttribs(attribs, NULL);
+    pthread_once(&osmesa_once, open_osmesa);
+    if (!osmesa.loaded) {
+        snprintf(err, err_size, "cannot create an offscreen OpenGL context: %s", osmesa.error);
+        pm_view_destroy(v);
+        return NULL;
+    }
+    v->osmesa = osmesa.CreateContextAttribs(attribs, NULL);
     if (!v->osmesa) {
         snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: OSMesaCreateContextAttribs failed");
         pm_view_destroy(v);
@@ -374,7 +427,7 @@ pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_s
         pm_view_destroy(v);
         return NULL;
     }
-    if (!OSMesaMakeCurrent(v->osmesa, v->osmesa_buffer, GL_UNSIGNED_BYTE, width, height)) {
+    if (!osmesa.MakeCurrent(v->osmesa, v->osmesa_buffer, GL_UNSIGNED_BYTE, width, height)) {
         snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: OSMesaMakeCurrent failed for %dx%d",
                  width, height);
         pm_view_destroy(v);
@@ -758,6 +811,102 @@ void pm_view_set_reference(pm_view *v, int width, int height, const float *rgb) 
     nearest_clamped(v);
     v->reference_width = width;
     v->reference_height = height;
+}
+
+/* compose.frag's arithmetic on the CPU, for the one image shown before the shader exists. */
+static float quick_sanitize(float x) { return x > 0.f ? (x < 1e15f ? x : 1e15f) : 0.f; } /* NaN fails x > 0 */
+static uint8_t quick_srgb(float x) {
+    x = x < 0.f ? 0.f : (x > 1.f ? 1.f : x);
+    float e = x < 0.0031308f ? 12.92f * x : 1.055f * powf(x, 1.f / 2.4f) - 0.055f;
+    return (uint8_t)lroundf(e * 255.f);
+}
+
+/* Shows the image through X11 itself (XPutImage into the GLFW window): any GL drawing, a blit
+ * included, makes Mesa's software rasteriser compile code first, longer than everything else
+ * before the first image. */
+void pm_view_show_quick(pm_view *v, int width, int height, const float *const layers[PM_COMPONENT_COUNT], const pm_display *d) {
+    if (!v || v->backend != PM_BACKEND_WINDOW || v->prepared || width < 1 || height < 1) return;
+    Display *display = glfwGetX11Display();
+    Window window = glfwGetX11Window(v->window);
+    XWindowAttributes attributes;
+    if (!display || !window || !XGetWindowAttributes(display, window, &attributes) || attributes.visual->class != TrueColor)
+        return;
+    int fw = attributes.width, fh = attributes.height;
+    if (fw < 1 || fh < 1) return;
+    XImage *image = XCreateImage(display, attributes.visual, (unsigned)attributes.depth, ZPixmap, 0, NULL, (unsigned)fw,
+                                 (unsigned)fh, 32, 0);
+    if (!image) return;
+    const uint16_t one = 1;
+    bool little_endian = *(const uint8_t *)&one == 1;
+    if (image->bits_per_pixel != 32 || image->byte_order != (little_endian ? LSBFirst : MSBFirst) ||
+        !(image->data = malloc((size_t)image->bytes_per_line * fh))) {
+        XDestroyImage(image);
+        return;
+    }
+    /* a channel's place in a pixel from the visual's masks (8 bits each on any TrueColor X server) */
+    unsigned long masks[3] = {attributes.visual->red_mask, attributes.visual->green_mask, attributes.visual->blue_mask};
+    int shifts[3];
+    for (int c = 0; c < 3; c++) {
+        shifts[c] = 0;
+        while (masks[c] && !((masks[c] >> shifts[c]) & 1)) shifts[c]++;
+    }
+    /* the film's pixels composed once (a preview's blocks repeat a value: composed once a run),
+     * then scaled into the window row by row */
+    uint32_t *composed = malloc(sizeof(uint32_t) * (size_t)width * height);
+    if (!composed) {
+        XDestroyImage(image);
+        return;
+    }
+    float exposure = exp2f(isfinite(d->exposure_ev) ? fmaxf(-64.f, fminf(64.f, d->exposure_ev)) : 0.f);
+    float last[PM_COMPONENT_COUNT][3];
+    bool have_last = false;
+    uint32_t last_pixel = 0;
+    for (size_t i = 0; i < (size_t)width * height; i++) {
+        bool same = have_last;
+        for (int k = 0; k < PM_COMPONENT_COUNT && same; k++)
+            if (layers[k] && d->enabled[k]) same = !memcmp(last[k], layers[k] + 3 * i, sizeof last[k]);
+        if (!same) {
+            float c[3] = {0.f, 0.f, 0.f};
+            for (int k = 0; k < PM_COMPONENT_COUNT; k++)
+                if (layers[k] && d->enabled[k]) {
+                    memcpy(last[k], layers[k] + 3 * i, sizeof last[k]);
+                    for (int ch = 0; ch < 3; ch++) c[ch] += quick_sanitize(layers[k][3 * i + ch]);
+                }
+            for (int ch = 0; ch < 3; ch++) c[ch] = quick_sanitize(c[ch] * exposure);
+            if (d->tonemap == 1) {
+                float l = 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2];
+                if (l > 0.f)
+                    for (int ch = 0; ch < 3; ch++) c[ch] *= 1.f / (1.f + l);
+            }
+            last_pixel = 0;
+            for (int ch = 0; ch < 3; ch++) last_pixel |= (uint32_t)(((unsigned long)quick_srgb(c[ch]) << shifts[ch]) & masks[ch]);
+            have_last = true;
+        }
+        composed[i] = last_pixel;
+    }
+    double scale = fmin((double)fw / width, (double)fh / height);
+    int dw = (int)lround(width * scale), dh = (int)lround(height * scale), dx = (fw - dw) / 2, dy = (fh - dh) / 2;
+    const unsigned long bar = 26; /* the bars' grey: the GL clear's 0.1 in an 8-bit framebuffer */
+    uint32_t grey = 0;
+    for (int ch = 0; ch < 3; ch++) grey |= (uint32_t)((bar << shifts[ch]) & masks[ch]);
+    for (int y = 0; y < fh; y++) {
+        uint32_t *row = (uint32_t *)(image->data + (size_t)y * image->bytes_per_line);
+        if (y > 0 && y >= dy && y < dy + dh && y - 1 >= dy && (int)((y - dy) / scale) == (int)((y - 1 - dy) / scale)) {
+            memcpy(row, row - image->bytes_per_line / 4, sizeof(uint32_t) * (size_t)fw);
+            continue;
+        }
+        for (int x = 0; x < fw; x++) {
+            if (y < dy || y >= dy + dh || x < dx || x >= dx + dw) { row[x] = grey; continue; }
+            int sx = (int)((x - dx) / scale), sy = (int)((y - dy) / scale);
+            row[x] = composed[(size_t)(sy < height ? sy : height - 1) * width + (size_t)(sx < width ? sx : width - 1)];
+        }
+    }
+    free(composed);
+    GC gc = XCreateGC(display, window, 0, NULL);
+    XPutImage(display, window, gc, image, 0, 0, 0, 0, (unsigned)fw, (unsigned)fh);
+    XFreeGC(display, gc);
+    XFlush(display);
+    XDestroyImage(image);
 }
 
 void pm_view_upload(pm_view *v, const pm_film *film) {

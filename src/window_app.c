@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/inotify.h>
+#include <time.h>
 #include <unistd.h>
 #include <errno.h>
 
@@ -21,7 +22,7 @@
 typedef struct {
     pm_view *view;
     pthread_t thread;
-    bool running, ok;
+    bool started, running, ok;
     char err[1024];
 } view_preparation;
 
@@ -257,6 +258,11 @@ static void *run_preparation(void *arg) {
 /* Waits for the view's preparation; false with err set when it failed. */
 static bool prepared(pm_window *w, char *err, size_t err_size) {
     view_preparation *p = &w->preparation;
+    if (!p->started) {
+        p->started = true;
+        p->view = w->view;
+        run_preparation(p);
+    }
     if (p->running) {
         pthread_join(p->thread, NULL);
         p->running = false;
@@ -265,34 +271,48 @@ static bool prepared(pm_window *w, char *err, size_t err_size) {
     return p->ok;
 }
 
-typedef struct {
-    pm_window_job *job;
-    pm_view *view;
-    atomic_bool done;
-    int result;
-} job_thread;
-
 static void *run_job(void *arg) {
-    job_thread *t = arg;
-    t->result = t->job->work(t->job->arg);
-    atomic_store(&t->done, true);
-    pm_view_wake(t->view);
+    pm_window_job *job = arg;
+    job->result = job->work(job->arg);
+    atomic_store(&job->done, true);
+    pm_view *view = atomic_load(&job->view);
+    if (view) pm_view_wake(view);
     return NULL;
 }
 
-int pm_window_wait(pm_window *w, pm_cluster *cluster, pm_window_job *job) {
-    /* the shader is compiled and turned into code while the scene loads */
+void pm_window_job_start(pm_window_job *job) {
+    job->result = 1;
+    atomic_init(&job->done, false);
+    atomic_init(&job->view, NULL);
+    job->started = pthread_create(&job->thread, NULL, run_job, job) == 0;
+}
+
+int pm_window_job_finish(pm_window_job *job) {
+    if (!job->started) return job->work(job->arg);
+    pthread_join(job->thread, NULL);
+    job->started = false;
+    return job->result;
+}
+
+/* The shader is compiled and turned into code on a thread while a scene loads; a set-up quicker
+ * than this leaves it for after the first image, which needs no shader (pm_view_show_quick). */
+static void start_preparation(pm_window *w) {
     view_preparation *p = &w->preparation;
+    if (p->started) return;
+    p->started = true;
     p->view = w->view;
     pm_view_release_context(w->view);
     p->running = pthread_create(&p->thread, NULL, run_preparation, p) == 0;
     if (!p->running) run_preparation(p);
-    job_thread t = {.job = job, .view = w->view, .result = 1};
-    atomic_init(&t.done, false);
-    pthread_t thread;
-    if (pthread_create(&thread, NULL, run_job, &t) != 0) return job->work(job->arg); /* no thread: set up here, unseen */
+}
+
+int pm_window_wait(pm_window *w, pm_cluster *cluster, pm_window_job *job) {
+    if (!job->started) return job->work(job->arg); /* no thread: set up here, unseen */
+    atomic_store(&job->view, w->view);
+    double wait_start = pm_now_seconds();
     const char *shown = NULL;
-    while (!atomic_load(&t.done)) {
+    while (!atomic_load(&job->done)) {
+        if (pm_now_seconds() - wait_start > PM_PREPARE_AFTER_SECONDS) start_preparation(w);
         const char *stage = atomic_load(&job->stage);
         if (stage && stage != shown) {
             char status[192];
@@ -318,9 +338,9 @@ int pm_window_wait(pm_window *w, pm_cluster *cluster, pm_window_job *job) {
             _exit(0);
         }
     }
-    pthread_join(thread, NULL);
+    int result = pm_window_job_finish(job);
     w->setup_done = pm_now_seconds() - w->process_start;
-    return t.result;
+    return result;
 }
 
 void pm_window_close(pm_window *w) {
@@ -339,6 +359,7 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
     /* Ctrl-C in the terminal during a P save: the half-written file goes with the process */
     pm_exit_on_signals();
     pm_window_scene cur = *start;
+    double first_image_realtime = 0; /* the wall clock at the first image, for a time from the process's exec */
     const pm_film *film = pm_session_film(cur.session);
     int width = film->width, height = film->height;
     pm_view *view = w->view;
@@ -347,6 +368,24 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
         if (cluster) pm_cluster_abort(cluster, pm_session_error(cur.session));
         fprintf(stderr, "pmview: error: %s\n", err);
         return 1;
+    }
+    /* A set-up that finished before the shader was wanted: the session's first image (its coarse
+     * preview, out within milliseconds) is shown composed on the CPU, then the shader is built. */
+    double first_image = 0;
+    if (!w->preparation.started) {
+        double give_up = pm_now_seconds() + PM_QUICK_IMAGE_WAIT_SECONDS;
+        uint64_t seen = 0;
+        while (pm_now_seconds() < give_up) {
+            const float *const *quick = pm_session_lock_latest(cur.session, &seen, NULL);
+            if (quick) {
+                pm_view_show_quick(view, width, height, quick, &w->display);
+                pm_session_unlock_latest(cur.session);
+                first_image = pm_now_seconds() - w->process_start;
+                first_image_realtime = pm_realtime_seconds();
+                break;
+            }
+            nanosleep(&(struct timespec){.tv_nsec = 1000000}, NULL);
+        }
     }
     if (!prepared(w, err, sizeof err) || !pm_view_set_size(view, width, height, err, sizeof err)) {
         if (cluster) pm_cluster_abort(cluster, err); /* the other ranks are waiting for its commands */
@@ -383,8 +422,7 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
     double relmse = -1, ratio[3] = {0, 0, 0};
     /* no frame is drawn here: the window's grey one is on screen, and the first image (the
      * session's preview) follows within milliseconds */
-    double process_start = w->process_start, first_frame = w->first_frame, first_image = 0, restart_requested = 0,
-           restart_to_image = 0;
+    double process_start = w->process_start, first_frame = w->first_frame, restart_requested = 0, restart_to_image = 0;
     uint64_t loops = 0, frames = 1, restarts = 0;
     /* While the camera moves (changes less than PM_WINDOW_MOTION_GAP apart): how long, and how many
      * new images, of a camera asked for since the motion began, reached the screen. Frames drawn
@@ -609,7 +647,10 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
         }
         if (layers) {
             double t = pm_now_seconds();
-            if (first_image == 0) first_image = t - process_start;
+            if (first_image == 0) {
+                first_image = t - process_start;
+                first_image_realtime = pm_realtime_seconds();
+            }
             if (restart_requested > 0 && progress.preview) {
                 restart_to_image += t - restart_requested;
                 restarts++;
@@ -667,11 +708,11 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
     if (opt->stats)
         printf("stat window first_frame_seconds=%.4f first_image_seconds=%.4f ui_loops_per_second=%.1f frames_per_second=%.1f restarts=%llu restart_to_image_seconds=%.4f"
                " motion_seconds=%.3f motion_images=%llu motion_images_per_second=%.1f coarsest_preview_divisor=%d setup_seconds=%.4f"
-               " reloads=%llu failed_reloads=%llu relmse=%.6g\n",
+               " reloads=%llu failed_reloads=%llu relmse=%.6g first_image_realtime=%.6f\n",
                first_frame, first_image, seconds > 0 ? loops / seconds : 0.0, seconds > 0 ? frames / seconds : 0.0,
                (unsigned long long)restarts, restarts ? restart_to_image / restarts : 0.0, motion_seconds,
                (unsigned long long)motion_images, motion_seconds > 0 ? motion_images / motion_seconds : 0.0, coarsest_preview,
-               w->setup_done, (unsigned long long)reloads, (unsigned long long)failed_reloads, relmse);
+               w->setup_done, (unsigned long long)reloads, (unsigned long long)failed_reloads, relmse, first_image_realtime);
     pm_cluster_send_quit(cluster);
     pm_session_stop(cur.session);
     pm_view_destroy(view);
