@@ -50,6 +50,8 @@
 #define PM_SHADOW_RECORDS_PER_PHOTON 2       /* shadow photon records per photon traced: about one crossing each, lists grown by doubling */
 #define PM_RENDER_RESIDENT_BYTES (8u << 20)  /* the render's threads, stacks and small tables */
 #define PM_GL_RESIDENT_BYTES (16u << 20)     /* an offscreen (OSMesa) context and its buffers, for PNG output */
+#define PM_OSMESA_LIBRARY_BYTES (50u << 20)  /* libOSMesa and the LLVM it links, resident once opened for the first PNG (measured:
+                                               49 MB, the resident size at start with the library linked and without) */
 
 /* the default environment (radiance), for files without KHR_lights_punctual whose emitters do
  * not enclose the view: a lit white top (about 1.1) stands out against the horizon (0.35) */

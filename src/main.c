@@ -211,8 +211,9 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
         if (!pm_memory_admit(bytes, pm_has_extension(o->snapshot, ".png") ? "PNG output buffers" : "EXR output buffers"))
             return failed(r, 1, "%s: out of memory (%s)", o->snapshot, pm_memory_failure());
         r->output_reserved = bytes;
-        /* a PNG is composed by the display shader in an offscreen context made for it */
-        pm_memory_forecast_phase(bytes + (pm_has_extension(o->snapshot, ".png") ? PM_GL_RESIDENT_BYTES : 0));
+        /* a PNG is composed by the display shader in an offscreen context made for it (its
+         * library opened then) */
+        pm_memory_forecast_phase(bytes + (pm_has_extension(o->snapshot, ".png") ? PM_GL_RESIDENT_BYTES + PM_OSMESA_LIBRARY_BYTES : 0));
     }
     if (reference) {
         if (!pm_reference_load(reference, o->log != NULL, &r->reference, err, sizeof err)) return failed(r, 1, "%s", err);
