@@ -105,6 +105,7 @@ static void release(run_state *r) {
     pm_memory_release(r->output_reserved);
     r->output_reserved = 0;
     pm_reference_free(&r->reference);
+    memset(&r->reference, 0, sizeof r->reference); /* (a state the window adopted is released again at the end) */
     pm_session_destroy(r->session);
     r->session = NULL;
     pm_accel_destroy(r->accel);

@@ -496,22 +496,24 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
                                                              "radius (false colour, log scale)"};
             /* shaded, the progressive mode's photon density and radius, then with --reference each
              * pixel's relative error, and round again */
-            int next = display.error_view ? PM_VIEW_COUNT : view_mode + 1;
-            display.error_view = false;
-            if (next < PM_VIEW_COUNT && pm_session_set_view(session, (pm_session_view)next)) {
-                view_mode = next;
+            if (display.error_view) {
+                display.error_view = false;
+                view_mode = PM_VIEW_SHADED;
                 printf("pmview: view: %s\n", names[view_mode]);
-            } else if (next < PM_VIEW_COUNT + 1 && view_mode != PM_VIEW_COUNT && cur.reference && total) {
+            } else if (view_mode + 1 < PM_VIEW_COUNT && pm_session_set_view(session, (pm_session_view)(view_mode + 1))) {
+                view_mode++;
+                printf("pmview: view: %s\n", names[view_mode]);
+            } else if (cur.reference && total) {
                 if (view_mode != PM_VIEW_SHADED) pm_session_set_view(session, PM_VIEW_SHADED);
                 view_mode = PM_VIEW_SHADED;
                 display.error_view = true;
                 printf("pmview: view: relative error against %s (false colour, log scale: blue 0.001, green 0.03, red 1)\n",
                        file_name(opt->reference));
             } else {
-                bool was_shaded = view_mode == PM_VIEW_SHADED && next == 1;
+                bool had_none = view_mode == PM_VIEW_SHADED;
                 view_mode = PM_VIEW_SHADED;
                 pm_session_set_view(session, PM_VIEW_SHADED);
-                if (was_shaded && !cur.reference) printf("pmview: the photon density and radius views need the progressive mode\n");
+                if (had_none) printf("pmview: the photon density and radius views need the progressive mode\n");
                 else printf("pmview: view: %s\n", names[view_mode]);
             }
             redraw = true;

@@ -201,6 +201,10 @@ done
 sleep 0.5
 # what X shows (P saves the shaded layers, drawn offscreen)
 xwd -id "$wid" -silent >"$tmp/error_view.xwd" || fail "xwd could not dump the window"
+# and V once more goes back to the shaded image
+n=$(count "view: shaded")
+press v
+wait_for "view: shaded" $((n + 1)) 10
 press Escape
 xdotool keyup Escape
 wait "$pid"
