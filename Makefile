@@ -17,7 +17,7 @@ MPI_LIBS   = $(shell pkg-config --libs ompi-c 2>/dev/null || echo -lmpi)
 CFLAGS_COMMON = -g -fno-math-errno -Wall -Wextra -Wno-unused-parameter -pthread -Iinclude -Ibuild -I/usr/include/OpenEXR $(MPI_CFLAGS)
 CFLAGS   = -std=c11 $(OPT) $(CFLAGS_COMMON) -D_POSIX_C_SOURCE=200809L
 CXXFLAGS = -std=c++14 $(OPT) -g -Wall -pthread -Iinclude -I/usr/include/stb
-LIBS     = -lembree3 -lglfw -lOSMesa -lOpenEXRCore-3_1 -lstb -ldraco -lmeshoptimizer $(MPI_LIBS) -lstdc++ -lm -pthread
+LIBS     = -lembree3 -lglfw -lX11 -lOpenEXRCore-3_1 -lstb -ldraco -lmeshoptimizer $(MPI_LIBS) -lstdc++ -lm -pthread
 
 C_SRC   := $(filter-out src/main.c,$(wildcard src/*.c))
 CXX_SRC := $(wildcard src/*.cpp)

@@ -1,4 +1,4 @@
-/* clock.h: the monotonic clock every stage times itself with (seconds, CLOCK_MONOTONIC). */
+/* clock.h: the monotonic clock every stage times itself with (seconds, CLOCK_MONOTONIC), and the wall clock. */
 #ifndef PM_CLOCK_H
 #define PM_CLOCK_H
 
@@ -7,6 +7,14 @@
 static inline double pm_now_seconds(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+/* The wall clock (CLOCK_REALTIME), for a time measured against another process's clock: the
+ * window's first image against the moment a script started pmview. */
+static inline double pm_realtime_seconds(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 

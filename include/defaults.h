@@ -8,6 +8,11 @@
 #define PM_CLUSTER_MERGE_SECONDS 0.25     /* the window's merges of every rank's image, at most this often */
 #define PM_CLUSTER_SILENCE_SECONDS 0.5    /* after a signal, a rank that has not finished by then is taken for gone (mpirun's SIGKILL follows its SIGTERM by 1 s) */
 #define PM_DEFAULT_WINDOW_ITERATIONS 100000 /* the window keeps converging until closed */
+#define PM_WATCH_SETTLE_SECONDS 0.15      /* --watch: a reload starts once the scene's folder has been quiet this long (a burst of saves is one reload) */
+#define PM_PREPARE_AFTER_SECONDS 0.03   /* the window: a set-up longer than this compiles the display shader meanwhile; a
+                                           shorter one shows its first image composed on the CPU before the shader is built */
+#define PM_QUICK_IMAGE_WAIT_SECONDS 0.1 /* the window: how long the first image (the session's preview) is waited for before
+                                           the shader is built anyway */
 #define PM_WINDOW_MOTION_GAP 0.2          /* the window: camera changes less than this many seconds apart are one motion (a drag, a held key) */
 #define PM_PREVIEW_DIVISOR 4              /* the coarse preview after a restart: a quarter of the width and height */
 #define PM_PREVIEW_MAX_DIVISOR 16         /* a camera moving over a big scene: previews down to 1/16 of the width and height */
@@ -16,6 +21,8 @@
 #define PM_PREVIEW_SETTLE_SECONDS 0.1     /* a moving camera: its next position is waited for at most this long after the
                                              last one (twice the time between its last two) before a full iteration starts */
 #define PM_DEFAULT_SEED 1
+#define PM_DEFAULT_SKY_ROTATE_DEGREES 0.0 /* --sky-rotate: the environment map as the file has it */
+#define PM_MAX_SKY_ROTATE_DEGREES 1e9    /* --sky-rotate takes any angle this size or smaller (modulo 360) */
 #define PM_DEFAULT_SCREENSHOT "pmview-screenshot.png" /* the window's P key; the layers go beside it as .exr */
 #define PM_MAX_THREADS 256              /* worker threads at most (--threads; per-thread counters are sized by it) */
 #define PM_DEFAULT_EXPOSURE_EV 0.0f
@@ -33,7 +40,9 @@
 #define PM_ACCEL_BUILD_BYTES_PER_TRIANGLE 102 /* Embree's peak during the build, what it keeps included (plus the vertices) */
 #define PM_ACCEL_BUILT_BYTES_PER_TRIANGLE 72  /* what the built BVH keeps (plus the vertices) */
 #define PM_ACCEL_BYTES_PER_VERTEX 16          /* the vertex buffers Embree reads (padded to 16 bytes) */
-#define PM_ACCEL_BYTES_PER_PLACEMENT 128 /* one Embree instance of a shared mesh, its geometry and its share of the top BVH (measured: 83 bytes built, docs/benchmarks.md, Instancing) */
+#define PM_ACCEL_BYTES_PER_PLACEMENT 384 /* one Embree instance of a shared mesh, its geometry object and its share of the top BVH
+                                            (measured: 83 bytes in Embree's count, 356-386 of resident memory for 250,000 to 10^6
+                                            placements, docs/benchmarks.md, Instancing) */
 #define PM_PHOTON_PASS_RECORDS 3             /* photon records alive per photon of an iteration: the threads' lists, the merged list, the grid */
 #define PM_PHOTON_MAP_RECORDS 3              /* the global map's records per emitted photon: stored bounces, irradiance points, the tree
                                                 (a caustic photon is stored once, if at all) */
@@ -41,6 +50,8 @@
 #define PM_SHADOW_RECORDS_PER_PHOTON 2       /* shadow photon records per photon traced: about one crossing each, lists grown by doubling */
 #define PM_RENDER_RESIDENT_BYTES (8u << 20)  /* the render's threads, stacks and small tables */
 #define PM_GL_RESIDENT_BYTES (16u << 20)     /* an offscreen (OSMesa) context and its buffers, for PNG output */
+#define PM_OSMESA_LIBRARY_BYTES (50u << 20)  /* libOSMesa and the LLVM it links, resident once opened for the first PNG (measured:
+                                               49 MB, the resident size at start with the library linked and without) */
 
 /* the default environment (radiance), for files without KHR_lights_punctual whose emitters do
  * not enclose the view: a lit white top (about 1.1) stands out against the horizon (0.35) */

@@ -2,6 +2,8 @@
 #ifndef PM_DRIVERS_H
 #define PM_DRIVERS_H
 
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -52,7 +54,19 @@ typedef struct {
     void *arg;
     const char *scene_path;
     _Atomic(const char *) stage;
+    /* the job's thread (pm_window_job_start) */
+    pthread_t thread;
+    bool started;
+    atomic_bool done;
+    _Atomic(pm_view *) view; /* woken when the job ends, once the window waits */
+    int result;
 } pm_window_job;
+
+/* Starts the set-up on a thread of its own before the window opens, so that the scene loads
+ * while the window and its context are made; pm_window_wait (or, without a window,
+ * pm_window_job_finish) waits for it and returns its result. */
+void pm_window_job_start(pm_window_job *job);
+int pm_window_job_finish(pm_window_job *job);
 
 /* Opens the window (rank 0 only) at the film size the options give, square when the height
  * waits for the scene's camera. Returns -1 with *window set, else the exit code, its line
@@ -63,10 +77,40 @@ int pm_window_open(const pm_options *o, pm_cluster *cluster, double process_star
  * loader and the BVH build have no point to stop at); under mpirun the window waits for the
  * set-up, which every rank agrees on, and pm_window_run then quits at once. */
 int pm_window_wait(pm_window *window, pm_cluster *cluster, pm_window_job *job);
+/* What the window renders: a set-up's scene, accel and session, its start camera and --reference. */
+typedef struct {
+    const pm_scene *scene;
+    const pm_accel *accel;
+    pm_session *session;
+    pm_camera camera;                    /* the start camera (Home) */
+    const pm_reference_image *reference; /* --reference, or NULL */
+    void *handle;                        /* the set-up's own state, for the reloader */
+} pm_window_scene;
+
+/* A reload the window asks for: the scene file, the sky (NULL: as the options say), the film's
+ * size, and the camera to keep (NULL: the file's first, or the framing). */
+typedef struct {
+    const char *scene_path, *sky;
+    int width, height;
+    const pm_camera *camera;
+} pm_window_reload;
+
+/* How the window reloads (--watch, a dropped file): load runs the start-up's set-up again on the
+ * calling thread (a thread of the window's), true with *out ready (not started), false with err
+ * set (its line printed on stderr); adopt makes a loaded scene the current one, the previous one
+ * freed (its session stopped first); discard frees a loaded scene not adopted. */
+typedef struct {
+    bool (*load)(void *context, const pm_window_reload *ask, pm_window_scene *out, char *err, size_t err_size);
+    void (*adopt)(void *context, const pm_window_scene *next);
+    void (*discard)(void *context, const pm_window_scene *loaded);
+    void *context;
+} pm_window_reloader;
+
 /* The GLFW loop: camera navigation and keys, drawn from the session's published images, restarts
- * and resizes asked of the session. The window takes the film's size. Returns the exit code. */
-int pm_window_run(pm_window *window, const pm_options *o, pm_cluster *cluster, const pm_scene *scene, const pm_accel *accel,
-                  pm_session *session, const pm_camera *start_camera);
+ * and resizes asked of the session. The window takes the film's size. With a reloader, --watch
+ * and dropped files replace the scene (or the sky) through it. Returns the exit code. */
+int pm_window_run(pm_window *window, const pm_options *o, pm_cluster *cluster, const pm_window_scene *start,
+                  const pm_window_reloader *reloader);
 void pm_window_close(pm_window *window);
 
 #endif

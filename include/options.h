@@ -30,6 +30,7 @@ typedef struct {
     double time_limit;       /* 0 = none */
     double checkpoint;       /* --checkpoint: seconds between writes of the image so far (0 = none) */
     double exposure_ev;
+    double sky_rotate;       /* --sky-rotate: degrees about +Y */
     double max_radius;
     double alpha, radius;    /* progressive: radius reduction, initial radius (0 = from the scene) */
     uint64_t max_memory;     /* --max-memory: bytes the admitted structures may take together (0 = the default) */
@@ -43,6 +44,7 @@ typedef struct {
     int view_photons;        /* --view photons */
     bool stats, no_default_light, quiet, no_photons;
     bool flatten_instances;  /* --flatten-instances: pm_load_options.flatten_instances */
+    bool watch;              /* --watch: the window reloads the scene when its files change */
     bool components_given, components[PM_COMPONENT_COUNT]; /* --components: what a PNG (and the window) shows */
 } pm_options;
 

@@ -38,6 +38,8 @@ void pm_reference_free(pm_reference_image *ref);
  * pixels from dominating), and each channel's mean over the reference's mean. scratch: 3 floats
  * a pixel. */
 double pm_reference_relmse(const pm_film *film, const pm_reference_image *ref, float *scratch, double mean_ratio[3]);
+/* The same for a total already resolved (RGB, 3 floats a pixel, the reference's size): the window's. */
+double pm_reference_relmse_total(const float *total, const pm_reference_image *ref, double mean_ratio[3]);
 
 /* Whether the film's sample count gets a row, the last row having been at `logged`: every count up
  * to PM_LOG_EVERY_ITERATION_UNTIL, then the first count at or past each power of two (a

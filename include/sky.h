@@ -23,6 +23,8 @@ typedef struct {
     vec3 mean;           /* radiance averaged over the sphere (per solid angle) */
     size_t clamped;      /* texels above PM_MAX_EMISSION or not finite, clamped: the caller warns */
     uint64_t admitted;   /* bytes admitted against --max-memory for it (memory.h), given back when it is freed */
+    bool rotated;        /* turned about +Y (--sky-rotate): lookups and samples go through the turn */
+    double turn_cos, turn_sin; /* the turn's cosine and sine, when rotated */
 } pm_sky_map;
 
 #define PM_SKY_MAX_TEXELS ((uint64_t)1 << 28) /* 16384 x 16384: past that a map is refused */
@@ -41,6 +43,10 @@ uint64_t pm_sky_map_bytes(int width, int height);
  * so that a lit white object stands out from the background. */
 pm_sky_map *pm_sky_map_gradient(char *err, size_t err_size);
 void pm_sky_map_free(pm_sky_map *m);
+/* Turns the map by `degrees` about +Y (counter-clockwise seen from above: what lay along -Z then
+ * lies along -X for 90) for every lookup, sample and pdf. The angle is taken modulo 360, and a
+ * whole turn is no turn at all, so 360 gives the unrotated map bit for bit. */
+void pm_sky_map_rotate(pm_sky_map *m, double degrees);
 
 vec3 pm_sky_map_radiance(const pm_sky_map *m, vec3 dir);
 /* A direction toward the sky drawn by luminance x solid angle; returns its radiance, *pdf per steradian. */

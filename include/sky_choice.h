@@ -18,6 +18,7 @@ typedef struct {
     bool no_default_light;  /* --no-default-light */
     const char *scene_path; /* for messages */
     bool quiet, stats;      /* no warnings; print the `stat sky` line */
+    double rotate_degrees;  /* --sky-rotate: the map turned about +Y */
     pm_sky_map *map;        /* the --sky file's map once read, until pm_choose_sky hands it to the scene */
 } pm_sky_request;
 

@@ -17,6 +17,7 @@ typedef struct {
     bool enabled[PM_COMPONENT_COUNT];
     float exposure_ev;   /* display scale 2^ev */
     int tonemap;         /* 0 = clamp, 1 = Reinhard on luminance; see shaders/compose.frag */
+    bool error_view;     /* each pixel's error against the reference (pm_view_set_reference), false colour */
 } pm_display;
 
 typedef struct pm_view pm_view;
@@ -37,6 +38,7 @@ typedef struct {
     bool frame, next_camera, home, toggle_gather, cycle_view, pause, restart, help;
     int resized_width, resized_height; /* the film size for the window's new size, 0 when unchanged: its pixels, at
                                           most the primary monitor's (the shape kept; the picture is scaled up) */
+    char dropped[4096];         /* a file dropped on the window (the first of several), "" when none */
 } pm_view_events;
 
 /* The shaders in shaders/ are compiled into the binary (build/shaders.inc, made by the Makefile).
@@ -64,6 +66,17 @@ void pm_view_upload(pm_view *v, const pm_film *film);
 /* Uploads already resolved components: width*height*3 floats each, NULL = black. A size other than
  * the last upload's reallocates the textures. */
 void pm_view_upload_layers(pm_view *v, int width, int height, const float *const layers[PM_COMPONENT_COUNT]);
+/* The reference's total (width*height*3 floats, row 0 = top; NULL removes it) for the display's
+ * error_view: each pixel's relative error sqrt(mean over channels of (x - r)^2 / (r^2 + 0.01)),
+ * from 10^-3 (blue) to 1 and above (red) on a log scale. Drawn only while the film has its size. */
+void pm_view_set_reference(pm_view *v, int width, int height, const float *rgb);
+/* Window only: what a file dropped on the window does (GLFW's drop callback calls it with the
+ * first file dropped): the next poll reports it in `dropped`. */
+void pm_view_drop(pm_view *v, const char *path);
+/* Window only, before pm_view_prepare: shows resolved layers at once, composed on the CPU as the
+ * shader composes them (no shader needed), so a first image need not wait for the shader's
+ * compilation. Nothing is kept: the prepared view's first draw replaces it. */
+void pm_view_show_quick(pm_view *v, int width, int height, const float *const layers[PM_COMPONENT_COUNT], const pm_display *d);
 /* Window only: the title's status part (iterations, photons, time...), before the component flags. */
 void pm_view_set_status(pm_view *v, const char *status);
 void pm_view_draw(pm_view *v, const pm_display *d);

@@ -67,7 +67,8 @@ const char *const kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_material
                                             "KHR_materials_transmission", "KHR_materials_ior",
                                             "KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_volume",
                                             "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular",
-                                            "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_materials_unlit"};
+                                            "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_materials_unlit",
+                                            "EXT_mesh_gpu_instancing"};
 
 // ---------------------------------------------------------------- errors and messages
 
@@ -662,6 +663,19 @@ bool all_finite(const std::vector<double> &v) {
 }
 
 // The node's local matrix: `matrix`, else T * R * S. Lengths and finiteness are checked here.
+// T * R * S, glTF's order, for a unit quaternion q (x, y, z, w).
+Mat4 trs_matrix(const double t[3], const double q[4], const double s[3]) {
+    Mat4 out = identity();
+    double x = q[0], y = q[1], z = q[2], w = q[3];
+    double r[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                      {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                      {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+    for (int row = 0; row < 3; row++)
+        for (int c = 0; c < 3; c++) out.m[c * 4 + row] = r[row][c] * s[c];
+    for (int row = 0; row < 3; row++) out.m[12 + row] = t[row];
+    return out;
+}
+
 Mat4 local_matrix(const tinygltf::Node &node, int index) {
     std::string where = " (node " + str(index) + ")";
     struct { const std::vector<double> &values; size_t size; const char *name; } parts[] = {
@@ -685,15 +699,9 @@ Mat4 local_matrix(const tinygltf::Node &node, int index) {
         for (int i = 0; i < 4; i++) q[i] = node.rotation[i] / len;
     }
     if (!node.scale.empty()) std::copy(node.scale.begin(), node.scale.end(), s);
-    double x = q[0], y = q[1], z = q[2], w = q[3];
-    double r[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
-                      {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
-                      {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
-    for (int row = 0; row < 3; row++)
-        for (int c = 0; c < 3; c++) out.m[c * 4 + row] = r[row][c] * s[c];
-    if (!node.translation.empty())
-        for (int row = 0; row < 3; row++) out.m[12 + row] = node.translation[row];
-    return out;
+    double t[3] = {0, 0, 0};
+    if (!node.translation.empty()) std::copy(node.translation.begin(), node.translation.end(), t);
+    return trs_matrix(t, q, s);
 }
 
 // The world-space quantities one node instance needs: point and direction transforms, the
@@ -762,8 +770,19 @@ struct DecodedMesh {
     uint64_t vertices = 0, triangles = 0;  // per instance, before degenerate triangles are dropped
 };
 
+// A mesh placed by a node: by the node itself, or (EXT_mesh_gpu_instancing) by element `element`
+// of the node's instance set `set` on top of the node's transform.
 struct Instance {
     int node, mesh;
+    int set = -1;
+    uint32_t element = 0;
+};
+
+// A node's EXT_mesh_gpu_instancing attributes, read and checked: per instance a translation, a
+// unit rotation quaternion and a scale (absent attributes read as the identity's).
+struct InstanceSet {
+    int node;
+    std::vector<float> translation, rotation, scale;  // 3, 4 and 3 per instance, or empty
 };
 
 // A textureInfo as written (checked in the preflight): its texture, TEXCOORD set and KHR_texture_transform.
@@ -937,6 +956,11 @@ private:
     // conversion
     std::vector<Mat4> world_;  // per node, valid once the traversal reached it
     std::vector<Instance> instances_;
+    std::vector<InstanceSet> instance_sets_;  // EXT_mesh_gpu_instancing, per node that has it
+    uint64_t zero_scale_instances_ = 0;       // GPU instances left out: a zero scale places nothing
+    std::string first_zero_scale_;
+    void read_instance_set(int node_index, const tinygltf::Node &node, const tinygltf::Value &extension);
+    Mat4 instance_world(const Instance &instance) const;
     // instancing (scene.h): meshes placed by two or more nodes are stored once and placed
     pm_load_options options_ = {};
     std::vector<pm_instanced_mesh> instanced_meshes_;
@@ -1280,6 +1304,14 @@ void Loader::preflight(const json &root) {
         const json *ext = find_member(node, "extensions");
         const json *light = ext ? find_member(*ext, "KHR_lights_punctual") : nullptr;
         if (light) required_index(*light, "light", count_lights_, "light", where + " KHR_lights_punctual");
+        const json *gpu = ext ? find_member(*ext, "EXT_mesh_gpu_instancing") : nullptr;
+        if (gpu) {
+            std::string sub = where + " EXT_mesh_gpu_instancing";
+            const json *attributes = gpu->is_object() ? find_member(*gpu, "attributes") : nullptr;
+            if (!attributes || !attributes->is_object()) fail("missing attributes object (" + sub + ")");
+            for (const char *name : {"TRANSLATION", "ROTATION", "SCALE"})
+                optional_index(*attributes, name, count_accessors_, "accessor", sub + " " + name);
+        }
     });
 
     for_each_object(root, "scenes", "scene", [&](const json &scene, const std::string &where, size_t) {
@@ -1688,8 +1720,17 @@ void Loader::build_model(const json &root) {
                 return tinygltf::ParseMaterial(material, err, o, keep_json);
             }))
             return false;
+        uint32_t sourceless_images = 0;
+        int first_sourceless = -1;
         if (!parse_objects(root, "images", &model.images, [&](tinygltf::Image *image, const json &o) {
                 int index = static_cast<int>(model.images.size());
+                // gltfpack writes an image with neither for every image it could not read: left
+                // out (its textures with it) as an unreadable file is, not the whole model refused
+                if (!find_member(o, "uri") && !find_member(o, "bufferView")) {
+                    if (sourceless_images++ == 0) first_sourceless = index;
+                    tinygltf::ParseStringProperty(&image->name, err, o, "name", false);
+                    return true;
+                }
                 if (!tinygltf::ParseImage(image, index, err, &warning, o, keep_json, folder_, &fs, &image_loader, &hooks_))
                     return false;
                 if (image->bufferView < 0) return true;
@@ -1702,6 +1743,9 @@ void Loader::build_model(const json &root) {
                                     buffer.data.data() + view.byteOffset, static_cast<int>(view.byteLength), &hooks_);
             }))
             return false;
+        if (sourceless_images)
+            warn("ignored: " + str(sourceless_images) + " image(s) with neither uri nor bufferView (no data; their textures are " +
+                 "left out), first image " + str(first_sourceless));
         if (!parse_objects(root, "textures", &model.textures, [&](tinygltf::Texture *t, const json &o) {
                 return tinygltf::ParseTexture(t, err, o, keep_json, folder_);
             }))
@@ -1899,11 +1943,103 @@ void Loader::traverse_default_scene() {
         auto light = node.extensions.find("KHR_lights_punctual");
         if (light != node.extensions.end() && light->second.Has("light"))
             placed_.push_back({step.node, light->second.Get("light").GetNumberAsInt(), true});
-        if (node.mesh >= 0) instances_.push_back({step.node, node.mesh});
+        auto gpu = node.extensions.find("EXT_mesh_gpu_instancing");
+        if (node.mesh >= 0 && gpu != node.extensions.end()) read_instance_set(step.node, node, gpu->second);
+        else if (node.mesh >= 0) instances_.push_back({step.node, node.mesh});
         stack.push_back({step.node, step.parent, true});
         for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
             stack.push_back({*it, step.node, false});
     }
+}
+
+// EXT_mesh_gpu_instancing on a node with a mesh: the mesh is placed once per instance, at the
+// node's transform times the instance's translation x rotation x scale, instead of at the node.
+// Refused as a node's transform is: an attribute of the wrong type, counts that differ, a value
+// not finite, a rotation of zero length. An instance with a zero scale places nothing (it would
+// only make degenerate triangles): left out, counted in one warning.
+void Loader::read_instance_set(int node_index, const tinygltf::Node &node, const tinygltf::Value &extension) {
+    std::string where = "node " + str(node_index) + " EXT_mesh_gpu_instancing";
+    InstanceSet set;
+    set.node = node_index;
+    auto admit = [&](uint64_t bytes) {
+        if (!pm_memory_admit(bytes, "GPU instances"))
+            fail("out of memory (" + std::string(pm_memory_failure()) + ") (" + where + ")");
+        decoded_.bytes += bytes;
+    };
+    struct { const char *name; int components; std::vector<float> *into; } parts[] = {
+        {"TRANSLATION", 3, &set.translation}, {"ROTATION", 4, &set.rotation}, {"SCALE", 3, &set.scale}};
+    const tinygltf::Value &attributes = extension.Get("attributes");
+    uint64_t count = 0;
+    bool any = false;
+    for (const auto &part : parts) {
+        if (!attributes.IsObject() || !attributes.Has(part.name)) continue;
+        int a = attributes.Get(part.name).GetNumberAsInt();  // range-checked in the preflight
+        AccessorLayout l = accessor_layout(model_, a);
+        bool is_float = l.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT;
+        // glTF allows normalized signed bytes and shorts for rotations, and with KHR_mesh_quantization any
+        // byte or short for translations and scales
+        bool signed_small = l.component_type == TINYGLTF_COMPONENT_TYPE_BYTE || l.component_type == TINYGLTF_COMPONENT_TYPE_SHORT;
+        bool small = signed_small || l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                     l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+        bool allowed = is_float || (part.components == 4 ? signed_small && l.normalized : quantization_ && small);
+        if (l.components != part.components || !allowed)
+            fail(std::string(part.name) + " must be a float " + (part.components == 4 ? "VEC4" : "VEC3") +
+                 (part.components == 4 ? " or a normalized byte/short one" : quantization_ ? " or (KHR_mesh_quantization) a byte/short one" : "") +
+                 " (accessor " + str(a) + ", " + where + ")");
+        if (any && l.count != count)
+            fail(std::string(part.name) + " count " + str(l.count) + " differs from the other attributes' " + str(count) + " (" +
+                 where + ")");
+        count = l.count;
+        any = true;
+        admit(l.count * part.components * sizeof(float));
+        *part.into = read_accessor<float>(l, a);
+        for (size_t i = 0; i < part.into->size(); i++)
+            if (!std::isfinite((*part.into)[i]))
+                fail(std::string("non-finite ") + part.name + " at instance " + str(i / part.components) + " (accessor " + str(a) +
+                     ", " + where + ")");
+    }
+    if (!any) fail("no TRANSLATION, ROTATION or SCALE attribute (" + where + ")");
+    if (count > kMaxSceneTriangles) fail(str(count) + " instances, more than " + str(kMaxSceneTriangles) + " (" + where + ")");
+    for (size_t i = 0; i < set.rotation.size(); i += 4) {
+        const float *q = &set.rotation[i];
+        double len = std::sqrt(static_cast<double>(q[0]) * q[0] + static_cast<double>(q[1]) * q[1] +
+                               static_cast<double>(q[2]) * q[2] + static_cast<double>(q[3]) * q[3]);
+        if (!(len > 0)) fail("ROTATION quaternion has zero length at instance " + str(i / 4) + " (" + where + ")");
+    }
+    int set_index = static_cast<int>(instance_sets_.size());
+    admit(count * sizeof(Instance));
+    for (uint64_t i = 0; i < count; i++) {
+        if (!set.scale.empty() && (set.scale[3 * i] == 0 || set.scale[3 * i + 1] == 0 || set.scale[3 * i + 2] == 0)) {
+            if (zero_scale_instances_++ == 0) first_zero_scale_ = "instance " + str(i) + ", " + where;
+            continue;
+        }
+        Instance instance;
+        instance.node = node_index;
+        instance.mesh = node.mesh;
+        instance.set = set_index;
+        instance.element = static_cast<uint32_t>(i);
+        instances_.push_back(instance);
+    }
+    instance_sets_.push_back(std::move(set));
+}
+
+// The world transform that places an instance (framed once choose_frame has run: the node's is).
+Mat4 Loader::instance_world(const Instance &instance) const {
+    if (instance.set < 0) return world_[instance.node];
+    const InstanceSet &set = instance_sets_[instance.set];
+    size_t i = instance.element;
+    double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+    if (!set.translation.empty())
+        for (int k = 0; k < 3; k++) t[k] = set.translation[3 * i + k];
+    if (!set.rotation.empty()) {
+        double len = 0;
+        for (int k = 0; k < 4; k++) len += static_cast<double>(set.rotation[4 * i + k]) * set.rotation[4 * i + k];
+        len = std::sqrt(len);
+        for (int k = 0; k < 4; k++) q[k] = set.rotation[4 * i + k] / len;
+    }
+    if (!set.scale.empty())
+        for (int k = 0; k < 3; k++) s[k] = set.scale[3 * i + k];
+    return multiply(world_[instance.node], trs_matrix(t, q, s));
 }
 
 // A number the preflight found finite, brought into [lo, hi] with a warning naming it.
@@ -2643,6 +2779,8 @@ uint64_t Loader::decoded_bytes() const {
             for (const DecodedPrimitive &p : m->primitives)
                 bytes += vector_bytes(p.positions) + vector_bytes(p.normals) + vector_bytes(p.uvs) + vector_bytes(p.uvs1) +
                          vector_bytes(p.tangents) + vector_bytes(p.corners);
+    for (const InstanceSet &set : instance_sets_)
+        bytes += vector_bytes(set.translation) + vector_bytes(set.rotation) + vector_bytes(set.scale);
     for (const pm_texture &t : textures_.items) bytes += 4ull * static_cast<uint64_t>(t.width) * static_cast<uint64_t>(t.height);
     return bytes;
 }
@@ -2650,7 +2788,7 @@ uint64_t Loader::decoded_bytes() const {
 uint64_t Loader::output_bytes() const {
     return vector_bytes(positions_) + vector_bytes(normals_) + vector_bytes(uvs_) + vector_bytes(uvs1_) +
            vector_bytes(tangents_) + vector_bytes(indices_) + vector_bytes(triangle_material_) + vector_bytes(materials_) +
-           vector_bytes(placements_) + vector_bytes(instanced_meshes_);
+           vector_bytes(placements_) + vector_bytes(instanced_meshes_) + vector_bytes(instances_);
 }
 
 void Loader::emit(pm_scene *out) {
@@ -2700,7 +2838,7 @@ void Loader::emit(pm_scene *out) {
 void Loader::choose_frame() {
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (const Instance &instance : instances_) {
-        const Mat4 &m = world_[instance.node];
+        const Mat4 m = instance_world(instance);
         for (const DecodedPrimitive &prim : meshes_[instance.mesh]->primitives) {
             if (!prim.triangles) continue;
             for (size_t i = 0; i + 2 < prim.positions.size(); i += 3)
@@ -2798,7 +2936,7 @@ void Loader::place_instanced_meshes(const std::vector<uint32_t> &uses) {
         mesh.vertex_count = static_cast<uint32_t>(positions_.size()) - mesh.first_vertex;
         mesh.first_placement = static_cast<uint32_t>(placements_.size());
         for (const Instance *instance : placed_by[m]) {
-            WorldTransform world(world_[instance->node]);
+            WorldTransform world(instance_world(*instance));
             pm_placement p;
             memset(&p, 0, sizeof p);
             p.mesh = static_cast<uint32_t>(instanced_meshes_.size());
@@ -2838,7 +2976,7 @@ void Loader::load(pm_scene *out) {
     // A placement whose transform is singular, or whose matrix or normal matrix does not fit in
     // float, flattens its mesh: the flat path checks every transformed vertex.
     for (const Instance &instance : instances_) {
-        const Mat4 &w = world_[instance.node];
+        const Mat4 w = instance_world(instance);
         double det = w.at(0, 0) * (w.at(1, 1) * w.at(2, 2) - w.at(1, 2) * w.at(2, 1)) -
                      w.at(0, 1) * (w.at(1, 0) * w.at(2, 2) - w.at(1, 2) * w.at(2, 0)) +
                      w.at(0, 2) * (w.at(1, 0) * w.at(2, 1) - w.at(1, 1) * w.at(2, 0));
@@ -2909,7 +3047,7 @@ void Loader::load(pm_scene *out) {
     indices_.reserve(3 * triangles);
     triangle_material_.reserve(triangles);
     for (const Instance &instance : instances_)
-        if (!uses[instance.mesh]) instance_mesh(instance, world_[instance.node]);
+        if (!uses[instance.mesh]) instance_mesh(instance, instance_world(instance));
     place_instanced_meshes(uses);
     if (triangle_material_.empty() && degenerate_)
         fail("nothing to render: all " + str(degenerate_) +
@@ -2921,6 +3059,9 @@ void Loader::load(pm_scene *out) {
 
     if (degenerate_) warn("skipped " + str(degenerate_) + " degenerate triangle(s) (zero area or non-finite normal)");
     if (skipped_prims_) warn("skipped " + str(skipped_prims_) + " points/lines primitive(s) (only triangles render)");
+    if (zero_scale_instances_)
+        warn("left out " + str(zero_scale_instances_) + " EXT_mesh_gpu_instancing instance(s) with a zero SCALE component (first: " +
+             first_zero_scale_ + "): they place nothing");
     if (collapsed_normals_)
         warn(str(collapsed_normals_) + " NORMAL value(s) lost their direction to their node's transform (first: " +
              first_collapsed_ + "): their triangles get flat normals, as without NORMAL");

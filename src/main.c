@@ -3,6 +3,7 @@
  * Exit codes: 0 success, 1 a file could not be loaded, rendered or written, 2 a usage error.
  */
 #include <math.h>
+#include <stdarg.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -67,7 +68,32 @@ typedef struct {
     pm_camera camera;
     uint64_t output_reserved; /* the snapshot writers' room, admitted before the render */
     _Atomic(const char *) *stage; /* where the window reads the set-up's stage; NULL without a window */
+    /* a reload asked by the window (--watch, a dropped file): */
+    bool heap;                    /* allocated for it, freed with it */
+    bool keep_camera;             /* `kept` replaces the file's camera */
+    pm_camera kept;
+    char scene_path[4096], sky_path[4096]; /* what opt's paths point at when they were given at run time */
+    char error[1024];             /* the failure's line, without "pmview: error: " (for the window's title) */
 } run_state;
+
+/* A set-up's error: its line printed and kept for the window's title; returns code. */
+static int failed(run_state *r, int code, const char *format, ...) {
+    va_list args;
+    va_start(args, format);
+    vsnprintf(r->error, sizeof r->error, format, args);
+    va_end(args);
+    fprintf(stderr, "pmview: error: %s\n", r->error);
+    return code;
+}
+
+/* The same for a failure whose callee printed its own line: only kept. */
+static int noted(run_state *r, int code, const char *format, ...) {
+    va_list args;
+    va_start(args, format);
+    vsnprintf(r->error, sizeof r->error, format, args);
+    va_end(args);
+    return code;
+}
 
 static void say_stage(run_state *r, const char *stage) {
     if (r->stage) atomic_store(r->stage, stage);
@@ -75,11 +101,17 @@ static void say_stage(run_state *r, const char *stage) {
 
 static void release(run_state *r) {
     if (r->sky_prepared) pm_sky_release(&r->sky);
+    r->sky_prepared = false;
     pm_memory_release(r->output_reserved);
+    r->output_reserved = 0;
     pm_reference_free(&r->reference);
+    memset(&r->reference, 0, sizeof r->reference); /* (a state the window adopted is released again at the end) */
     pm_session_destroy(r->session);
+    r->session = NULL;
     pm_accel_destroy(r->accel);
+    r->accel = NULL;
     if (r->scene_loaded) pm_scene_free(&r->scene);
+    r->scene_loaded = false;
 }
 
 /* Everything before the render: -1 when it is ready, else the exit code (its line printed). Under
@@ -89,33 +121,26 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     pm_options *o = &r->opt;
     char err[1024] = "";
     bool root = pm_cluster_rank(cluster) == 0;
-    if (root && !outputs_spare_inputs(o, window)) return 1;
+    if (root && !outputs_spare_inputs(o, window)) return noted(r, 1, "an output would overwrite an input");
     /* before any work: a snapshot that cannot be written would waste the whole render */
-    if (root && o->snapshot && !pm_check_output_path(o->snapshot, err, sizeof err)) {
-        fprintf(stderr, "pmview: error: %s\n", err);
-        return 1;
-    }
+    if (root && o->snapshot && !pm_check_output_path(o->snapshot, err, sizeof err)) return failed(r, 1, "%s", err);
     /* before the scene too: a sky map or a reference that cannot be used costs no load and no BVH
      * build (the reference's height is compared once the camera gives the image's) */
     r->sky = (pm_sky_request){.sky = o->sky, .no_default_light = o->no_default_light, .scene_path = o->scene_path,
-                              .quiet = o->quiet, .stats = o->stats};
-    if (!pm_sky_prepare(&r->sky)) return 1;
+                              .quiet = o->quiet, .stats = o->stats, .rotate_degrees = o->sky_rotate};
+    /* (pm_sky_prepare and pm_choose_sky print their own line; the title gets a short one) */
+    if (!pm_sky_prepare(&r->sky)) return noted(r, 1, "%s: the environment map cannot be used", o->sky);
     r->sky_prepared = true;
     int width = o->width ? (int)o->width : PM_DEFAULT_WIDTH, height = (int)o->height;
     const char *reference = root ? o->reference : NULL;
-    if (reference && !pm_reference_check(reference, width, height, err, sizeof err)) {
-        fprintf(stderr, "pmview: error: %s\n", err);
-        return 1;
-    }
+    if (reference && !pm_reference_check(reference, width, height, err, sizeof err)) return failed(r, 1, "%s", err);
     /* the forecast's baseline: code, libraries and (with a window) its context, before any scene */
     pm_memory_forecast_start();
     pm_load_report report;
     say_stage(r, "loading");
     pm_load_options load_options = {.flatten_instances = o->flatten_instances};
-    if (!pm_load_gltf_with(o->scene_path, &load_options, o->quiet, &r->scene, &report, err, sizeof err)) {
-        fprintf(stderr, "pmview: error: %s\n", err);
-        return 1;
-    }
+    if (!pm_load_gltf_with(o->scene_path, &load_options, o->quiet, &r->scene, &report, err, sizeof err))
+        return failed(r, 1, "%s", err);
     r->scene_loaded = true;
     pm_memory_forecast_phase(report.peak_bytes);
     bool finalized = pm_scene_finalize(&r->scene, false, NULL);
@@ -123,10 +148,7 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     if (finalized && r->scene.clamped_emission && !o->quiet)
         fprintf(stderr, "pmview: warning: %s: %u emission or light value(s) above %g (or not a number) clamped: a float film could not sum them\n",
                 o->scene_path, r->scene.clamped_emission, (double)PM_MAX_EMISSION);
-    if (!finalized) {
-        fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", o->scene_path, pm_memory_failure());
-        return 1;
-    }
+    if (!finalized) return failed(r, 1, "%s: out of memory (%s)", o->scene_path, pm_memory_failure());
     if (o->stats) pm_print_load_stats(&report, &r->scene);
     /* the options' lengths are in the file's units; the loader may have rescaled the scene */
     o->radius *= report.unit_scale;
@@ -137,11 +159,9 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
                 o->scene_path, report.unit_scale);
         return 2;
     }
-    if (o->camera >= 0 && (uint32_t)o->camera >= r->scene.camera_count) {
-        fprintf(stderr, "pmview: error: %s: --camera %ld but the scene has %u perspective camera(s)\n", o->scene_path, o->camera,
-                r->scene.camera_count);
-        return 1;
-    }
+    if (o->camera >= 0 && (uint32_t)o->camera >= r->scene.camera_count)
+        return failed(r, 1, "%s: --camera %ld but the scene has %u perspective camera(s)", o->scene_path, o->camera,
+                      r->scene.camera_count);
     if (r->scene.camera_count) {
         r->camera = r->scene.cameras[o->camera >= 0 ? o->camera : 0];
         if (!height) height = r->camera.aspect > 0.f ? (int)lroundf(width / r->camera.aspect) : width;
@@ -149,20 +169,19 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
         if (!height) height = width;
         r->camera = pm_scene_auto_camera(&r->scene, (float)width / height);
     }
+    if (r->keep_camera) r->camera = r->kept;
     if (height < 1) height = 1;
     if (height > PM_MAX_IMAGE_SIDE) height = PM_MAX_IMAGE_SIDE;
-    if (reference && !o->height && !pm_reference_check(reference, width, height, err, sizeof err)) {
-        fprintf(stderr, "pmview: error: %s\n", err);
-        return 1;
-    }
+    if (reference && !o->height && !pm_reference_check(reference, width, height, err, sizeof err)) return failed(r, 1, "%s", err);
 
     say_stage(r, "building the BVH of");
     pm_memory_forecast_phase(pm_accel_forecast_bytes(&r->scene, true));
     pm_memory_forecast_hold((int64_t)pm_accel_forecast_bytes(&r->scene, false));
     r->accel = pm_accel_create(&r->scene, err, sizeof err);
-    if (!r->accel) { fprintf(stderr, "pmview: error: %s: %s\n", o->scene_path, err); return 1; }
+    if (!r->accel) return failed(r, 1, "%s: %s", o->scene_path, err);
     if (o->stats) pm_print_bvh_stats(r->accel);
-    if (!pm_choose_sky(&r->sky, &r->scene, r->accel, &r->camera, (float)width / height)) return 1;
+    if (!pm_choose_sky(&r->sky, &r->scene, r->accel, &r->camera, (float)width / height))
+        return noted(r, 1, "%s: the environment map cannot be used", o->sky ? o->sky : "the sky");
     if (o->stats) pm_print_analysis_stats(&r->scene);
 
     say_stage(r, "setting up");
@@ -179,7 +198,7 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
         config.max_iterations = share ? share : 1;
     }
     r->session = pm_session_create(&r->scene, r->accel, &r->camera, &config, err, sizeof err);
-    if (!r->session) { fprintf(stderr, "pmview: error: %s: %s\n", o->scene_path, err); return 1; }
+    if (!r->session) return failed(r, 1, "%s: %s", o->scene_path, err);
     /* from here a signal is the snapshot's: the image so far (none yet) is written, 130 or 143;
      * before, it ends the process at once */
     if (o->snapshot) pm_snapshot_catch_signals(r->session);
@@ -190,24 +209,18 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     }
     if (o->snapshot && root) {
         uint64_t bytes = pm_snapshot_output_bytes(o->snapshot, pm_session_film(r->session));
-        if (!pm_memory_admit(bytes, pm_has_extension(o->snapshot, ".png") ? "PNG output buffers" : "EXR output buffers")) {
-            fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", o->snapshot, pm_memory_failure());
-            return 1;
-        }
+        if (!pm_memory_admit(bytes, pm_has_extension(o->snapshot, ".png") ? "PNG output buffers" : "EXR output buffers"))
+            return failed(r, 1, "%s: out of memory (%s)", o->snapshot, pm_memory_failure());
         r->output_reserved = bytes;
-        /* a PNG is composed by the display shader in an offscreen context made for it */
-        pm_memory_forecast_phase(bytes + (pm_has_extension(o->snapshot, ".png") ? PM_GL_RESIDENT_BYTES : 0));
+        /* a PNG is composed by the display shader in an offscreen context made for it (its
+         * library opened then) */
+        pm_memory_forecast_phase(bytes + (pm_has_extension(o->snapshot, ".png") ? PM_GL_RESIDENT_BYTES + PM_OSMESA_LIBRARY_BYTES : 0));
     }
     if (reference) {
-        if (!pm_reference_load(reference, o->log != NULL, &r->reference, err, sizeof err)) {
-            fprintf(stderr, "pmview: error: %s\n", err);
-            return 1;
-        }
-        if (r->reference.width != width || r->reference.height != height) {
-            fprintf(stderr, "pmview: error: %s: the reference is %dx%d but the image is %dx%d (use --width/--height)\n", reference,
-                    r->reference.width, r->reference.height, width, height);
-            return 1;
-        }
+        if (!pm_reference_load(reference, o->log != NULL, &r->reference, err, sizeof err)) return failed(r, 1, "%s", err);
+        if (r->reference.width != width || r->reference.height != height)
+            return failed(r, 1, "%s: the reference is %dx%d but the image is %dx%d (use --width/--height)", reference,
+                          r->reference.width, r->reference.height, width, height);
     }
     return -1;
 }
@@ -222,6 +235,65 @@ static int set_up_for_window(void *arg) {
     return set_up(w->cluster, w->r, true);
 }
 
+/* ---- reloads asked by the window (--watch, a dropped file): the start-up's set-up again ---- */
+
+typedef struct {
+    pm_options parsed; /* the options as given (set_up rescales some by the file's units) */
+    run_state *current;
+} reloads;
+
+static void window_scene_of(run_state *r, pm_window_scene *out) {
+    *out = (pm_window_scene){.scene = &r->scene, .accel = r->accel, .session = r->session, .camera = r->camera,
+                             .reference = r->reference.rgb[0] ? &r->reference : NULL, .handle = r};
+}
+
+static bool reload(void *context, const pm_window_reload *ask, pm_window_scene *out, char *err, size_t err_size) {
+    reloads *c = context;
+    run_state *fresh = calloc(1, sizeof *fresh);
+    if (!fresh) { snprintf(err, err_size, "out of memory"); return false; }
+    fresh->heap = true;
+    fresh->opt = c->parsed;
+    snprintf(fresh->scene_path, sizeof fresh->scene_path, "%s", ask->scene_path);
+    fresh->opt.scene_path = fresh->scene_path;
+    if (ask->sky) {
+        snprintf(fresh->sky_path, sizeof fresh->sky_path, "%s", ask->sky);
+        fresh->opt.sky = fresh->sky_path;
+    }
+    fresh->opt.width = ask->width;
+    fresh->opt.height = ask->height;
+    fresh->opt.stats = false; /* the stat lines describe the start-up's scene */
+    if (ask->camera) {
+        fresh->keep_camera = true;
+        fresh->kept = *ask->camera;
+    } else {
+        fresh->opt.camera = -1; /* another file: its first camera, or the framing */
+    }
+    if (set_up(NULL, fresh, true) >= 0) {
+        snprintf(err, err_size, "%s", fresh->error[0] ? fresh->error : "the set-up failed");
+        release(fresh);
+        free(fresh);
+        return false;
+    }
+    window_scene_of(fresh, out);
+    return true;
+}
+
+static void drop_state(run_state *r) {
+    release(r);
+    if (r->heap) free(r);
+}
+
+static void adopt(void *context, const pm_window_scene *next) {
+    reloads *c = context;
+    drop_state(c->current);
+    c->current = next->handle;
+}
+
+static void discard(void *context, const pm_window_scene *loaded) {
+    (void)context;
+    drop_state(loaded->handle);
+}
+
 int main(int argc, char **argv) {
     double process_start = pm_now_seconds();
     /* under mpirun, every rank runs all of this; rank 0 alone speaks and writes */
@@ -229,6 +301,7 @@ int main(int argc, char **argv) {
     run_state r;
     memset(&r, 0, sizeof r);
     int code = pm_options_parse(argc, argv, &r.opt);
+    reloads reloaded = {.parsed = r.opt, .current = &r};
     pm_window *window = NULL;
     if (code < 0) {
         setvbuf(stdout, NULL, _IOLBF, 0);
@@ -236,13 +309,22 @@ int main(int argc, char **argv) {
         bool wants_window = !r.opt.snapshot;
         /* rank 0's window opens first and shows the set-up's progress: a big scene takes seconds
          * to load and build, and Esc must answer meanwhile */
-        if (wants_window && pm_cluster_rank(cluster) == 0) code = pm_window_open(&r.opt, cluster, process_start, &window);
-        if (code < 0 && window) {
+        if (wants_window && pm_cluster_rank(cluster) == 0) {
+            /* the set-up starts first, on a thread: the scene loads while the window is made */
             window_set_up job = {cluster, &r};
             pm_window_job wait = {.work = set_up_for_window, .arg = &job, .scene_path = r.opt.scene_path};
             atomic_init(&wait.stage, NULL);
             r.stage = &wait.stage;
-            code = pm_window_wait(window, cluster, &wait);
+            if (getenv("DISPLAY")) pm_window_job_start(&wait); /* (without one the window is refused at once) */
+            code = pm_window_open(&r.opt, cluster, process_start, &window);
+            if (code < 0) {
+                code = pm_window_wait(window, cluster, &wait);
+            } else {
+                if (wait.started) {
+                    int set_up_code = pm_window_job_finish(&wait); /* its error line, if any, came first */
+                    if (set_up_code >= 0) code = set_up_code;
+                }
+            }
             r.stage = NULL;
         } else if (code < 0) {
             code = set_up(cluster, &r, wants_window);
@@ -251,15 +333,25 @@ int main(int argc, char **argv) {
     code = pm_cluster_agree(cluster, code);
     if (code < 0) {
         const pm_options *o = &r.opt;
-        if (o->snapshot) code = pm_snapshot_run(o, cluster, r.session, &r.reference, &r.output_reserved);
-        else if (pm_cluster_rank(cluster) == 0) code = pm_window_run(window, o, cluster, &r.scene, r.accel, r.session, &r.camera);
-        else code = pm_cluster_follow(cluster, r.session);
+        if (o->snapshot) {
+            code = pm_snapshot_run(o, cluster, r.session, &r.reference, &r.output_reserved);
+        } else if (pm_cluster_rank(cluster) == 0) {
+            pm_window_scene start;
+            window_scene_of(&r, &start);
+            /* reloads are a single process's: under mpirun every rank would have to load alike */
+            pm_window_reloader reloader = {.load = reload, .adopt = adopt, .discard = discard, .context = &reloaded};
+            code = pm_window_run(window, o, cluster, &start, cluster ? NULL : &reloader);
+        } else {
+            code = pm_cluster_follow(cluster, r.session);
+        }
+        run_state *last = reloaded.current; /* the window's last scene */
         if (code != 1 && o->stats) {
-            pm_print_final_stats(r.session, r.accel, (int)o->threads, o->alpha, o->mode == PM_MODE_PATHTRACE);
+            pm_print_final_stats(last->session, last->accel, (int)o->threads, o->alpha, o->mode == PM_MODE_PATHTRACE);
             pm_print_cluster_stats(cluster);
         }
     }
     pm_window_close(window);
+    if (reloaded.current != &r) drop_state(reloaded.current);
     release(&r);
     pm_cluster_leave(cluster);
     return code;

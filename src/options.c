@@ -85,6 +85,9 @@ static const option options_table[] = {
      "use the scene's I-th camera (default: the first; automatic framing when there is none)", {0}},
     {"--exposure", "EV", KIND_REAL, FIELD(exposure_ev), -64, 64, NULL, {0}, "stops, ", "", NULL, 0,
      "display exposure in stops (PNG and window; default %g)", {PM_DEFAULT_EXPOSURE_EV}},
+    {"--watch", NULL, KIND_FLAG, FIELD(watch), 0, 0, NULL, {0}, NULL, NULL, NULL, 0,
+     "the window reloads the scene when its file, or a .bin or image file beside it, changes\n"
+     "(camera, size, layers, exposure and view kept; a failed reload keeps the scene shown)", {0}},
     {"--screenshot", "FILE", KIND_TEXT, FIELD(screenshot), 0, 0, ".png", {0}, NULL, NULL,
      "--screenshot needs a .png file name, not '%s'", 0,
      "where the window's P key saves a PNG and the layers as .exr (default " PM_DEFAULT_SCREENSHOT ")", {0}},
@@ -93,6 +96,10 @@ static const option options_table[] = {
      "the environment around the scene (default: the gradient\n"
      "for files without punctual lights whose emitters do not enclose the view, else none);\n"
      "a FILE is an equirectangular map, its middle along -Z, +Y up", {0}},
+    {"--sky-rotate", "DEGREES", KIND_REAL, FIELD(sky_rotate), -PM_MAX_SKY_ROTATE_DEGREES, PM_MAX_SKY_ROTATE_DEGREES, NULL, {0}, "",
+     " degrees", NULL, 0,
+     "turn the environment map about +Y (photons, direct light, background; modulo 360,\n"
+     "90 puts what lay along -Z along -X; default %g)", {PM_DEFAULT_SKY_ROTATE_DEGREES}},
     {"--no-default-light", NULL, KIND_FLAG, FIELD(no_default_light), 0, 0, NULL, {0}, NULL, NULL, NULL, 0,
      "no default environment (the same as --sky none unless --sky is given)", {0}},
     {"--mode", "progressive|classic|pathtrace", KIND_WORD, FIELD(mode), 0, 0, "progressive|classic|pathtrace",
@@ -173,7 +180,8 @@ enum { OPTION_COUNT = sizeof options_table / sizeof *options_table, HELP_COLUMN 
 static const char window_keys[] =
     "window: left drag orbit, right/middle drag pan, wheel dolly, double click pivot, W A S D Q E fly (Shift faster),\n"
     "  F frame, C next camera, Home start camera, 1-4 components, +/- exposure, 0 reset, T tonemap, G gathering,\n"
-    "  V views, Space pause, R restart, P/F12 save PNG+EXR, H help, Esc quit\n";
+    "  V views (with --reference: the relative error), Space pause, R restart, P/F12 save PNG+EXR, H help, Esc quit;\n"
+    "  a .gltf/.glb dropped on the window opens it, an .hdr/.exr becomes the sky\n";
 
 void pm_options_usage(FILE *f) {
     fputs("usage: pmview [SCENE.gltf|.glb] [options]\n", f);
@@ -320,6 +328,7 @@ int pm_options_parse(int argc, char **argv, pm_options *o) {
     o->seed = PM_DEFAULT_SEED;
     o->camera = -1;
     o->exposure_ev = PM_DEFAULT_EXPOSURE_EV;
+    o->sky_rotate = PM_DEFAULT_SKY_ROTATE_DEGREES;
     o->photons = o->caustic_photons = -1;
     o->gather_rays = PM_DEFAULT_GATHER_RAYS;
     o->irradiance_stride = PM_DEFAULT_IRRADIANCE_STRIDE;

@@ -90,8 +90,12 @@ void pm_reference_free(pm_reference_image *ref) {
 
 double pm_reference_relmse(const pm_film *film, const pm_reference_image *ref, float *scratch, double mean_ratio[3]) {
     pm_film_resolve_total(film, scratch);
+    return pm_reference_relmse_total(scratch, ref, mean_ratio);
+}
+
+double pm_reference_relmse_total(const float *total, const pm_reference_image *ref, double mean_ratio[3]) {
     const float *const planes[3] = {ref->rgb[0], ref->rgb[1], ref->rgb[2]};
-    pm_image_error e = pm_image_compare(scratch, planes, (size_t)film->width * film->height, ref->known);
+    pm_image_error e = pm_image_compare(total, planes, (size_t)ref->width * ref->height, ref->known);
     for (int c = 0; c < 3; c++) mean_ratio[c] = e.ref[c] != 0 ? e.ours[c] / e.ref[c] : 0.0;
     return e.relmse;
 }

@@ -3,6 +3,7 @@
 #include "memory.h"
 
 #include <float.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -138,7 +139,38 @@ pm_sky_map *pm_sky_map_adopt(int width, int height, float *rgb, char *err, size_
     return m;
 }
 
+void pm_sky_map_rotate(pm_sky_map *m, double degrees) {
+    double turn = fmod(degrees, 360.0);
+    if (turn < 0.0) turn += 360.0;
+    m->rotated = isfinite(turn) && turn != 0.0;
+    if (!m->rotated) return;
+    /* the quarter turns exactly, so that 90 maps axes onto axes */
+    static const double quarter_cos[4] = {1, 0, -1, 0}, quarter_sin[4] = {0, 1, 0, -1};
+    if (turn == floor(turn) && (int)turn % 90 == 0) {
+        m->turn_cos = quarter_cos[(int)turn / 90];
+        m->turn_sin = quarter_sin[(int)turn / 90];
+    } else {
+        m->turn_cos = cos(turn * (PM_PI / 180.0));
+        m->turn_sin = sin(turn * (PM_PI / 180.0));
+    }
+}
+
+/* A world direction in the map's own frame (the turn undone), and back. Counter-clockwise seen
+ * from +Y: -Z goes to -X. */
+static vec3 into_map(const pm_sky_map *m, vec3 d) {
+    if (!m->rotated) return d;
+    double c = m->turn_cos, s = m->turn_sin;
+    return v3((float)(c * d.x - s * d.z), d.y, (float)(s * d.x + c * d.z));
+}
+
+static vec3 out_of_map(const pm_sky_map *m, vec3 d) {
+    if (!m->rotated) return d;
+    double c = m->turn_cos, s = m->turn_sin;
+    return v3((float)(c * d.x + s * d.z), d.y, (float)(-s * d.x + c * d.z));
+}
+
 static void texel_of(const pm_sky_map *m, vec3 dir, int *x, int *y) {
+    dir = into_map(m, dir);
     float len = v3_length(dir);
     float cy = len > 0.f ? dir.y / len : 1.f;
     cy = cy < -1.f ? -1.f : (cy > 1.f ? 1.f : cy);
@@ -178,7 +210,7 @@ vec3 pm_sky_map_sample(const pm_sky_map *m, float u1, float u2, vec3 *dir, float
     double c0 = cos(PM_PI * y / m->height), c1 = cos(PM_PI * (y + 1) / m->height);
     double cos_t = c0 + (c1 - c0) * v, sin_t = sqrt(fmax(0.0, 1.0 - cos_t * cos_t));
     double phi = ((x + w) / m->width - 0.5) * 2.0 * PM_PI;
-    *dir = v3((float)(sin_t * sin(phi)), (float)cos_t, (float)(-sin_t * cos(phi)));
+    *dir = out_of_map(m, v3((float)(sin_t * sin(phi)), (float)cos_t, (float)(-sin_t * cos(phi))));
     double omega = texel_solid_angle(m, y);
     *pdf = omega > 0.0 ? (float)((double)row_p * col_p / omega) : 0.f;
     const float *t = m->rgb + 3 * ((size_t)y * m->width + x);

@@ -97,6 +97,7 @@ bool pm_choose_sky(pm_sky_request *request, pm_scene *scene, const pm_accel *acc
             request->map = NULL;
         }
         if (!map) { fprintf(stderr, "pmview: error: %s\n", err); return false; }
+        pm_sky_map_rotate(map, request->rotate_degrees);
         pm_scene_set_sky(scene, true, v3s(1.f), map);
     }
     if (!request->quiet && scene->emitter_count == 0 && scene->light_count == 0 && around_fraction >= PM_CAMERA_ENCLOSED_FRACTION)

@@ -5,18 +5,28 @@
  * to its own framebuffer afterwards. So a PNG saved from the window equals the offscreen one
  * pixel for pixel, whatever the window's size.
  *
- * The process links both libGL (through GLFW) and libOSMesa, and both export gl* symbols whose
+ * The process uses both libGL (through GLFW) and libOSMesa, and both export gl* symbols whose
  * dispatch belongs to different libraries. Calling them directly would pick one at link time,
  * so every entry point is fetched through the current context's get-proc-address into a table
- * (pm_gl) and all GL code goes through v->gl.
+ * (pm_gl) and all GL code goes through v->gl. libOSMesa is opened (dlopen) at the first
+ * offscreen view, not linked: it brings LLVM, whose loading took 65 ms of every start.
  */
+#include <dlfcn.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
+#include <X11/Xlib.h>
+#include <X11/Xutil.h>
+/* GLFW's X11 access (glfw3native.h, whose X11 part needs the Xrandr headers): the first image is
+ * put into the window by X11 itself (pm_view_show_quick) */
+Display *glfwGetX11Display(void);
+Window glfwGetX11Window(GLFWwindow *window);
 #include <GL/osmesa.h> /* also brings GL/gl.h and GL/glext.h: types and enums only */
 
 #include "view.h"
@@ -102,13 +112,16 @@ struct pm_view {
     bool present[PM_COMPONENT_COUNT];
     float scale;
     GLint u_component[PM_COMPONENT_COUNT], u_enabled[PM_COMPONENT_COUNT], u_scale, u_exposure, u_tonemap, u_height;
+    GLuint reference_tex;       /* --reference's total, for the relative-error view; 0 = none */
+    int reference_width, reference_height;
+    GLint u_reference, u_error_view;
 
     /* window input between callbacks; display is the caller's state, only set while polling */
     pm_view_events pending;
     pm_display *display;
     bool title_set;
     char title[128];
-    char status[192];
+    char status[512];
     double last_x, last_y;      /* cursor, window pixels */
     int buttons;                /* bit 0 left, 1 right, 2 middle held */
     double last_click;          /* time of the last left press, for double clicks */
@@ -126,8 +139,46 @@ static void on_glfw_error(int code, const char *description) {
     snprintf(glfw_error, sizeof glfw_error, "%s (GLFW error 0x%x)", description ? description : "?", code);
 }
 
+/* libOSMesa's entry points, from the library opened at the first offscreen view. */
+static struct {
+    OSMesaContext (*CreateContextAttribs)(const int *attribs, OSMesaContext share);
+    GLboolean (*MakeCurrent)(OSMesaContext context, void *buffer, GLenum type, GLsizei width, GLsizei height);
+    void (*DestroyContext)(OSMesaContext context);
+    OSMesaContext (*GetCurrentContext)(void);
+    OSMESAproc (*GetProcAddress)(const char *name);
+    bool loaded;
+    char error[256];
+} osmesa;
+static pthread_once_t osmesa_once = PTHREAD_ONCE_INIT;
+
+static void open_osmesa(void) {
+    void *lib = dlopen("libOSMesa.so.8", RTLD_NOW | RTLD_LOCAL);
+    if (!lib) lib = dlopen("libOSMesa.so", RTLD_NOW | RTLD_LOCAL);
+    if (!lib) {
+        const char *why = dlerror();
+        snprintf(osmesa.error, sizeof osmesa.error, "cannot open libOSMesa (%s)", why ? why : "dlopen failed");
+        return;
+    }
+    /* (a data pointer to a function pointer through memcpy: dlsym's documented use) */
+    struct { const char *name; void *slot; size_t size; } entries[] = {
+        {"OSMesaCreateContextAttribs", &osmesa.CreateContextAttribs, sizeof osmesa.CreateContextAttribs},
+        {"OSMesaMakeCurrent", &osmesa.MakeCurrent, sizeof osmesa.MakeCurrent},
+        {"OSMesaDestroyContext", &osmesa.DestroyContext, sizeof osmesa.DestroyContext},
+        {"OSMesaGetCurrentContext", &osmesa.GetCurrentContext, sizeof osmesa.GetCurrentContext},
+        {"OSMesaGetProcAddress", &osmesa.GetProcAddress, sizeof osmesa.GetProcAddress}};
+    for (size_t i = 0; i < sizeof entries / sizeof *entries; i++) {
+        void *f = dlsym(lib, entries[i].name);
+        if (!f) {
+            snprintf(osmesa.error, sizeof osmesa.error, "libOSMesa has no %s", entries[i].name);
+            return;
+        }
+        memcpy(entries[i].slot, &f, entries[i].size);
+    }
+    osmesa.loaded = true;
+}
+
 static pm_gl_proc osmesa_loader(const char *name) {
-    return (pm_gl_proc)OSMesaGetProcAddress(name);
+    return (pm_gl_proc)osmesa.GetProcAddress(name);
 }
 
 static pm_gl_proc glfw_loader(const char *name) {
@@ -149,8 +200,8 @@ static bool load_gl(pm_gl *gl, pm_gl_loader load, char *err, size_t err_size) {
 
 static void make_current(pm_view *v) {
     if (v->backend == PM_BACKEND_OFFSCREEN) {
-        if (OSMesaGetCurrentContext() != v->osmesa)
-            OSMesaMakeCurrent(v->osmesa, v->osmesa_buffer, GL_UNSIGNED_BYTE, v->width, v->height);
+        if (osmesa.GetCurrentContext() != v->osmesa)
+            osmesa.MakeCurrent(v->osmesa, v->osmesa_buffer, GL_UNSIGNED_BYTE, v->width, v->height);
     } else if (glfwGetCurrentContext() != v->window) {
         glfwMakeContextCurrent(v->window);
     }
@@ -214,7 +265,10 @@ static bool build_program(pm_view *v, char *err, size_t err_size) {
     v->u_exposure = v->gl.GetUniformLocation(v->program, "u_exposure");
     v->u_tonemap = v->gl.GetUniformLocation(v->program, "u_tonemap");
     v->u_height = v->gl.GetUniformLocation(v->program, "u_height");
+    v->u_reference = v->gl.GetUniformLocation(v->program, "u_reference");
+    v->u_error_view = v->gl.GetUniformLocation(v->program, "u_error_view");
     v->gl.UseProgram(v->program);
+    v->gl.Uniform1i(v->u_reference, PM_COMPONENT_COUNT); /* the unit after the components' */
     /* texture unit c always holds component c */
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) v->gl.Uniform1i(v->u_component[c], c);
     return true;
@@ -310,6 +364,7 @@ static void release_gl(pm_view *v) {
     if (v->target) v->gl.DeleteTextures(1, &v->target);
     if (v->black) v->gl.DeleteTextures(1, &v->black);
     v->gl.DeleteTextures(PM_COMPONENT_COUNT, v->component_tex);
+    if (v->reference_tex) v->gl.DeleteTextures(1, &v->reference_tex);
 }
 
 void pm_view_destroy(pm_view *v) {
@@ -318,8 +373,8 @@ void pm_view_destroy(pm_view *v) {
         if (v->osmesa) {
             make_current(v);
             release_gl(v);
-            OSMesaMakeCurrent(NULL, NULL, GL_UNSIGNED_BYTE, 0, 0);
-            OSMesaDestroyContext(v->osmesa);
+            osmesa.MakeCurrent(NULL, NULL, GL_UNSIGNED_BYTE, 0, 0);
+            osmesa.DestroyContext(v->osmesa);
         }
         free(v->osmesa_buffer);
     } else {
@@ -354,7 +409,13 @@ pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_s
     static const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0,
                                   OSMESA_PROFILE, OSMESA_CORE_PROFILE,
                                   OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
-    v->osmesa = OSMesaCreateContextAttribs(attribs, NULL);
+    pthread_once(&osmesa_once, open_osmesa);
+    if (!osmesa.loaded) {
+        snprintf(err, err_size, "cannot create an offscreen OpenGL context: %s", osmesa.error);
+        pm_view_destroy(v);
+        return NULL;
+    }
+    v->osmesa = osmesa.CreateContextAttribs(attribs, NULL);
     if (!v->osmesa) {
         snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: OSMesaCreateContextAttribs failed");
         pm_view_destroy(v);
@@ -366,7 +427,7 @@ pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_s
         pm_view_destroy(v);
         return NULL;
     }
-    if (!OSMesaMakeCurrent(v->osmesa, v->osmesa_buffer, GL_UNSIGNED_BYTE, width, height)) {
+    if (!osmesa.MakeCurrent(v->osmesa, v->osmesa_buffer, GL_UNSIGNED_BYTE, width, height)) {
         snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: OSMesaMakeCurrent failed for %dx%d",
                  width, height);
         pm_view_destroy(v);
@@ -564,6 +625,34 @@ void pm_view_set_status(pm_view *v, const char *status) {
     v->title_set = false; /* the next poll rewrites the title */
 }
 
+void pm_view_drop(pm_view *v, const char *path) {
+    if (v && path) snprintf(v->pending.dropped, sizeof v->pending.dropped, "%s", path);
+}
+
+/* GLFW's drop: the first file of what was dropped (one scene or one sky at a time). */
+static void on_drop(GLFWwindow *window, int count, const char **paths) {
+    pm_view *v = glfwGetWindowUserPointer(window);
+    if (v && count > 0) pm_view_drop(v, paths[0]);
+}
+
+/* Tests drive the drop handler through a file, since a virtual X server has no drag source:
+ * PMVIEW_TEST_DROP names a file whose first line, once it appears, is dropped (the file removed). */
+static void test_drop(pm_view *v) {
+    static const char *hook;
+    static bool looked;
+    if (!looked) { hook = getenv("PMVIEW_TEST_DROP"); looked = true; }
+    if (!hook) return;
+    FILE *f = fopen(hook, "r");
+    if (!f) return;
+    char line[sizeof v->pending.dropped] = "";
+    bool read = fgets(line, sizeof line, f) != NULL;
+    fclose(f);
+    if (!read || !strchr(line, '\n')) return; /* still being written */
+    *strchr(line, '\n') = '\0';
+    unlink(hook);
+    pm_view_drop(v, line);
+}
+
 static void on_close(GLFWwindow *window) {
     pm_view *v = glfwGetWindowUserPointer(window);
     if (v) v->pending.quit = true;
@@ -621,6 +710,7 @@ pm_view *pm_view_create_window(int width, int height, const char *title, char *e
     glfwSetScrollCallback(v->window, on_scroll);
     glfwSetFramebufferSizeCallback(v->window, on_framebuffer_size);
     glfwSetWindowCloseCallback(v->window, on_close);
+    glfwSetDropCallback(v->window, on_drop);
     if (!load_gl(&v->gl, glfw_loader, err, err_size)) {
         pm_view_destroy(v);
         return NULL;
@@ -706,6 +796,119 @@ void pm_view_upload_layers(pm_view *v, int width, int height, const float *const
     v->scale = 1.f;
 }
 
+void pm_view_set_reference(pm_view *v, int width, int height, const float *rgb) {
+    if (!v || !v->prepared) return;
+    make_current(v);
+    if (!rgb) {
+        if (v->reference_tex) v->gl.DeleteTextures(1, &v->reference_tex);
+        v->reference_tex = 0;
+        return;
+    }
+    if (!v->reference_tex) v->gl.GenTextures(1, &v->reference_tex);
+    v->gl.ActiveTexture(GL_TEXTURE0);
+    v->gl.BindTexture(GL_TEXTURE_2D, v->reference_tex);
+    v->gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, width, height, 0, GL_RGB, GL_FLOAT, rgb);
+    nearest_clamped(v);
+    v->reference_width = width;
+    v->reference_height = height;
+}
+
+/* compose.frag's arithmetic on the CPU, for the one image shown before the shader exists. */
+static float quick_sanitize(float x) { return x > 0.f ? (x < 1e15f ? x : 1e15f) : 0.f; } /* NaN fails x > 0 */
+static uint8_t quick_srgb(float x) {
+    x = x < 0.f ? 0.f : (x > 1.f ? 1.f : x);
+    float e = x < 0.0031308f ? 12.92f * x : 1.055f * powf(x, 1.f / 2.4f) - 0.055f;
+    return (uint8_t)lroundf(e * 255.f);
+}
+
+/* Shows the image through X11 itself (XPutImage into the GLFW window): any GL drawing, a blit
+ * included, makes Mesa's software rasteriser compile code first, longer than everything else
+ * before the first image. */
+void pm_view_show_quick(pm_view *v, int width, int height, const float *const layers[PM_COMPONENT_COUNT], const pm_display *d) {
+    if (!v || v->backend != PM_BACKEND_WINDOW || v->prepared || width < 1 || height < 1) return;
+    Display *display = glfwGetX11Display();
+    Window window = glfwGetX11Window(v->window);
+    XWindowAttributes attributes;
+    if (!display || !window || !XGetWindowAttributes(display, window, &attributes) || attributes.visual->class != TrueColor)
+        return;
+    int fw = attributes.width, fh = attributes.height;
+    if (fw < 1 || fh < 1) return;
+    XImage *image = XCreateImage(display, attributes.visual, (unsigned)attributes.depth, ZPixmap, 0, NULL, (unsigned)fw,
+                                 (unsigned)fh, 32, 0);
+    if (!image) return;
+    const uint16_t one = 1;
+    bool little_endian = *(const uint8_t *)&one == 1;
+    if (image->bits_per_pixel != 32 || image->byte_order != (little_endian ? LSBFirst : MSBFirst) ||
+        !(image->data = malloc((size_t)image->bytes_per_line * fh))) {
+        XDestroyImage(image);
+        return;
+    }
+    /* a channel's place in a pixel from the visual's masks (8 bits each on any TrueColor X server) */
+    unsigned long masks[3] = {attributes.visual->red_mask, attributes.visual->green_mask, attributes.visual->blue_mask};
+    int shifts[3];
+    for (int c = 0; c < 3; c++) {
+        shifts[c] = 0;
+        while (masks[c] && !((masks[c] >> shifts[c]) & 1)) shifts[c]++;
+    }
+    /* the film's pixels composed once (a preview's blocks repeat a value: composed once a run),
+     * then scaled into the window row by row */
+    uint32_t *composed = malloc(sizeof(uint32_t) * (size_t)width * height);
+    if (!composed) {
+        XDestroyImage(image);
+        return;
+    }
+    float exposure = exp2f(isfinite(d->exposure_ev) ? fmaxf(-64.f, fminf(64.f, d->exposure_ev)) : 0.f);
+    float last[PM_COMPONENT_COUNT][3];
+    bool have_last = false;
+    uint32_t last_pixel = 0;
+    for (size_t i = 0; i < (size_t)width * height; i++) {
+        bool same = have_last;
+        for (int k = 0; k < PM_COMPONENT_COUNT && same; k++)
+            if (layers[k] && d->enabled[k]) same = !memcmp(last[k], layers[k] + 3 * i, sizeof last[k]);
+        if (!same) {
+            float c[3] = {0.f, 0.f, 0.f};
+            for (int k = 0; k < PM_COMPONENT_COUNT; k++)
+                if (layers[k] && d->enabled[k]) {
+                    memcpy(last[k], layers[k] + 3 * i, sizeof last[k]);
+                    for (int ch = 0; ch < 3; ch++) c[ch] += quick_sanitize(layers[k][3 * i + ch]);
+                }
+            for (int ch = 0; ch < 3; ch++) c[ch] = quick_sanitize(c[ch] * exposure);
+            if (d->tonemap == 1) {
+                float l = 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2];
+                if (l > 0.f)
+                    for (int ch = 0; ch < 3; ch++) c[ch] *= 1.f / (1.f + l);
+            }
+            last_pixel = 0;
+            for (int ch = 0; ch < 3; ch++) last_pixel |= (uint32_t)(((unsigned long)quick_srgb(c[ch]) << shifts[ch]) & masks[ch]);
+            have_last = true;
+        }
+        composed[i] = last_pixel;
+    }
+    double scale = fmin((double)fw / width, (double)fh / height);
+    int dw = (int)lround(width * scale), dh = (int)lround(height * scale), dx = (fw - dw) / 2, dy = (fh - dh) / 2;
+    const unsigned long bar = 26; /* the bars' grey: the GL clear's 0.1 in an 8-bit framebuffer */
+    uint32_t grey = 0;
+    for (int ch = 0; ch < 3; ch++) grey |= (uint32_t)((bar << shifts[ch]) & masks[ch]);
+    for (int y = 0; y < fh; y++) {
+        uint32_t *row = (uint32_t *)(image->data + (size_t)y * image->bytes_per_line);
+        if (y > 0 && y >= dy && y < dy + dh && y - 1 >= dy && (int)((y - dy) / scale) == (int)((y - 1 - dy) / scale)) {
+            memcpy(row, row - image->bytes_per_line / 4, sizeof(uint32_t) * (size_t)fw);
+            continue;
+        }
+        for (int x = 0; x < fw; x++) {
+            if (y < dy || y >= dy + dh || x < dx || x >= dx + dw) { row[x] = grey; continue; }
+            int sx = (int)((x - dx) / scale), sy = (int)((y - dy) / scale);
+            row[x] = composed[(size_t)(sy < height ? sy : height - 1) * width + (size_t)(sx < width ? sx : width - 1)];
+        }
+    }
+    free(composed);
+    GC gc = XCreateGC(display, window, 0, NULL);
+    XPutImage(display, window, gc, image, 0, 0, 0, 0, (unsigned)fw, (unsigned)fh);
+    XFreeGC(display, gc);
+    XFlush(display);
+    XDestroyImage(image);
+}
+
 void pm_view_upload(pm_view *v, const pm_film *film) {
     if (!v || !film) return;
     size_t floats = 3 * (size_t)film->width * film->height;
@@ -736,6 +939,11 @@ static void draw_composite(pm_view *v, const pm_display *d) {
     v->gl.Uniform1f(v->u_exposure, exp2f(ev));
     v->gl.Uniform1i(v->u_tonemap, d->tonemap == 1 ? 1 : 0);
     v->gl.Uniform1i(v->u_height, v->height);
+    bool error_view = d->error_view && v->reference_tex && v->reference_width == v->width && v->reference_height == v->height;
+    v->gl.ActiveTexture(GL_TEXTURE0 + PM_COMPONENT_COUNT);
+    v->gl.BindTexture(GL_TEXTURE_2D, error_view ? v->reference_tex : v->black);
+    v->gl.Uniform1i(v->u_error_view, error_view ? 1 : 0);
+    v->gl.ActiveTexture(GL_TEXTURE0);
     v->gl.BindVertexArray(v->vao);
     v->gl.DrawArrays(GL_TRIANGLES, 0, 3);
     v->gl.BindVertexArray(0);
@@ -805,6 +1013,7 @@ pm_view_events pm_view_poll(pm_view *v, pm_display *d, bool wait, double timeout
     else glfwPollEvents();
     v->display = NULL;
     if (glfwWindowShouldClose(v->window)) v->pending.quit = true;
+    test_drop(v);
     pm_view_events ev = v->pending;
     v->pending = none;
     if (ev.display_changed && d) update_title(v, d);

@@ -6,6 +6,7 @@
     sky_files.py hdr OUT.hdr W H VALUE [X Y HOT]     Radiance RGBE, run-length encoded rows (flat when W < 8)
     sky_files.py hdr-header OUT.hdr W H              the header and resolution line alone
     sky_files.py plane OUT.gltf ALBEDO               a 2 km square of grey ground, the camera 1 m above it looking down at 45 degrees
+    sky_files.py horizon OUT.gltf ALBEDO             the same ground, the camera 1 m above it looking level along -Z (yfov 1, aspect 2)
 
 EXR is written by hand (no compression, one line a chunk), so the tests need no Python package."""
 import json
@@ -100,18 +101,20 @@ def write_hdr(path, img):
         f.write(hdr_header(w, h) + body)
 
 
-def plane(albedo):
+def plane(albedo, level=False):
     grey = {"kind": "diffuse", "color": (albedo, albedo, albedo)}
     ground = ms.quad([(-1000, 0, 1000), (1000, 0, 1000), (1000, 0, -1000), (-1000, 0, -1000)], (0, 1, 0))
-    return {"meshes": [ms.mesh("ground", ground, grey)], "lights": [],
-            "camera": {"eye": (0.0, 1.0, 0.0), "target": (0.0, 0.0, -1.0), "yfov": 0.5, "aspect": 1.0}}
+    camera = {"eye": (0.0, 1.0, 0.0), "target": (0.0, 0.0, -1.0), "yfov": 0.5, "aspect": 1.0}
+    if level:
+        camera = {"eye": (0.0, 1.0, 0.0), "target": (0.0, 1.0, -1.0), "yfov": 1.0, "aspect": 2.0}
+    return {"meshes": [ms.mesh("ground", ground, grey)], "lights": [], "camera": camera}
 
 
 def main(argv):
     kind, out = argv[1], argv[2]
-    if kind == "plane":
+    if kind in ("plane", "horizon"):
         with open(out, "w") as f:
-            json.dump(ms.to_gltf(plane(float(argv[3]))), f, separators=(",", ":"))
+            json.dump(ms.to_gltf(plane(float(argv[3]), kind == "horizon")), f, separators=(",", ":"))
         return
     w, h = int(argv[3]), int(argv[4])
     if kind.endswith("-header"):

@@ -1614,6 +1614,36 @@ static void test_sampler_filters(void) {
     check_rejected("filter_type.gltf", "magFilter");
 }
 
+/* gltfpack writes an image with neither uri nor bufferView for every image it could not read: the
+ * file loads, one `ignored:` line counts them and names the first, their textures are left out
+ * (the materials keep their factors), and nothing else is warned. */
+static void test_sourceless_images_ignored(void) {
+    write_text("sourceless.gltf",
+               "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+               "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":1},\"material\":0}]}],"
+               "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.25,1,1],\"baseColorTexture\":{\"index\":0}},"
+               "\"emissiveTexture\":{\"index\":1}}],"
+               "\"textures\":[{\"source\":1},{\"source\":2}],"
+               "\"images\":[{\"name\":\"unused\"},{\"mimeType\":\"image/png\",\"name\":\"albedo\"},{\"mimeType\":\"image/jpeg\"}],"
+               "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]},"
+               "{\"bufferView\":1,\"componentType\":5126,\"count\":3,\"type\":\"VEC2\"}],"
+               "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36},{\"buffer\":0,\"byteOffset\":36,\"byteLength\":24}],"
+               "\"buffers\":[{\"byteLength\":60,\"uri\":\"data:application/octet-stream;base64,"
+               "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAAAAAAAAAAAAIA/AAAAAAAAAAAAAIA/\"}]}");
+    pm_scene s;
+    pm_load_report r;
+    char warnings[2048];
+    if (!load_warned("sourceless.gltf", &s, &r, warnings, sizeof warnings)) return;
+    CHECK_WARNED(warnings, "ignored: 3 image(s) with neither uri nor bufferView (no data; their textures are left out), first image 0\n");
+    CHECK(line_count(warnings) == 1 && r.warnings == 1, "one warning line, got %u:\n%s", r.warnings, warnings);
+    CHECK(s.texture_count == 0 && s.material_count == 1 && s.materials[0].base_color_texture == -1,
+          "the textures are left out: %u textures, base colour texture %d", s.texture_count,
+          s.material_count ? s.materials[0].base_color_texture : -2);
+    if (s.material_count) CHECK_VEC(s.materials[0].base_color, 0.5, 0.25, 1.0, 1e-7, "the base colour factor stays");
+    CHECK(s.triangle_count == 1, "the triangle loads (%u)", s.triangle_count);
+    pm_scene_free(&s);
+}
+
 /* What pmview leaves out is named, one `ignored:` line per kind: material extensions it does not
  * render (iridescence, anisotropy, dispersion, volume scattering, diffuse transmission), and a
  * texture whose only image is KTX2 (KHR_texture_basisu, used but not required). A KTX2 texture
@@ -2086,6 +2116,7 @@ int main(void) {
     test_occlusion_texture_silent();
     test_sampler_filters();
     test_ignored_kinds_named();
+    test_sourceless_images_ignored();
     test_unlit_material();
     test_texcoord_sets();
     test_texture_transform();

@@ -315,8 +315,44 @@ static void orthographic_and_framing(void) {
     pm_scene_free(&s);
 }
 
+/* A turned map (--sky-rotate): its samples' pdf and radiance are the lookups at their
+ * directions, what the unturned map shows along -Z the turned one shows along -X (90), a
+ * direction turned 37 degrees reads what the unturned map reads before the turn, and a whole
+ * turn is no turn. */
+static void turned_map(void) {
+    pm_sky_map *plain = sun_map(), *turned = sun_map(), *whole = sun_map();
+    if (!plain || !turned || !whole) return;
+    pm_sky_map_rotate(whole, -720.0);
+    CHECK(!whole->rotated, "-720 degrees is no turn");
+    pm_sky_map_rotate(turned, 90.0);
+    vec3 a = pm_sky_map_radiance(plain, v3(0.f, 0.3f, -1.f)), b = pm_sky_map_radiance(turned, v3(-1.f, 0.3f, 0.f));
+    CHECK(a.x == b.x && a.z == b.z, "turned 90: -X reads what -Z read (%g, %g)", (double)a.x, (double)b.x);
+    pm_sky_map_rotate(turned, 37.0 + 360.0);
+    double c = cos(37.0 * PM_PI / 180.0), sn = sin(37.0 * PM_PI / 180.0);
+    pm_rng rng = pm_rng_for(5, 0, 0);
+    double worst = 0, moved = 0;
+    int differ = 0;
+    for (int i = 0; i < 20000; i++) {
+        vec3 dir;
+        float pdf;
+        vec3 l = pm_sky_map_sample(turned, pm_rng_float(&rng), pm_rng_float(&rng), &dir, &pdf);
+        worst = fmax(worst, fabs(pm_sky_map_pdf(turned, dir) - pdf) / pdf + fabs(pm_sky_map_radiance(turned, dir).x - l.x) / l.x);
+        /* the same direction before the turn, counter-clockwise seen from +Y */
+        vec3 before = v3((float)(c * dir.x - sn * dir.z), dir.y, (float)(sn * dir.x + c * dir.z));
+        moved = fmax(moved, fabs(pm_sky_map_pdf(plain, before) - pdf) / pdf);
+        differ += pm_sky_map_pdf(plain, dir) != pdf;
+    }
+    CHECK(worst < 1e-3, "turned map: a sample's pdf and radiance are the lookups at its direction (worst %.2g)", worst);
+    CHECK(moved < 1e-3, "turned map: the density at a direction is the unturned one's before the turn (worst %.2g)", moved);
+    CHECK(differ > 1000, "turned map: the density has moved (%d of 20000 samples read another pdf unturned)", differ);
+    pm_sky_map_free(plain);
+    pm_sky_map_free(turned);
+    pm_sky_map_free(whole);
+}
+
 int main(void) {
     sampler_matches_density();
+    turned_map();
     plane_under_map();
     clamped_maps();
     gradient_default();
