@@ -51,6 +51,28 @@ typedef struct {
 void pm_clip_make(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
                   uint64_t seed, uint64_t *rays);
 
+/* Whether no probe of a clip at p (unit normal n) for a disc of radius up to reach could meet
+ * anything: nothing but p's own flat surface lies within 2.01 reach of p (the probes' farthest),
+ * and that surface has no edge there. One query of the BVH, no rays; pm_clip_make asks it first
+ * and leaves such a clip open. False where unsure (a curved or cut-out surface, many small
+ * triangles). */
+bool pm_clip_needless(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, float reach);
+
+/* Per-triangle clearance grids, built for a triangle once discs have asked about it a few times:
+ * where a cell of p's triangle shows the disc as pm_clip_needless would, no search is made.
+ * Create returns NULL where the scene is too large or instanced (then every disc searches). */
+typedef struct pm_clip_cache pm_clip_cache;
+pm_clip_cache *pm_clip_cache_create(const pm_scene *s, const pm_accel *a);
+void pm_clip_cache_destroy(pm_clip_cache *c);
+/* True when p, on triangle tri, is known to need no clip for a disc of radius reach; false when
+ * unknown (the caller then makes the clip). Thread safe; c may be NULL. */
+bool pm_clip_cache_open(pm_clip_cache *c, uint32_t tri, vec3 p, float reach);
+
+/* A clip that keeps everything: an estimate may read its disc unclipped. */
+static inline bool pm_clip_is_open(const pm_clip *c) {
+    return !c->planes && c->below == INFINITY && c->above == INFINITY;
+}
+
 /* What a clip is made from, for an estimate that makes it only when its query found photons;
  * or, in made, one already made for a reach at least as long as the estimate's radius. */
 typedef struct {

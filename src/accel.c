@@ -454,6 +454,36 @@ bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax) {
     return r.tfar < 0.f; /* Embree sets tfar to -inf on a hit */
 }
 
+/* What a point query carries through Embree to its visitor. */
+struct near_query {
+    const pm_accel *accel;
+    bool (*visit)(void *user, uint32_t tri);
+    void *user;
+    bool ended;
+};
+
+/* Embree's point query callback: one candidate primitive whose bounds reach the query's ball.
+ * Shrinking the radius to 0 stops the traversal once the visitor has seen enough. */
+static bool near_candidate(struct RTCPointQueryFunctionArguments *args) {
+    struct near_query *q = args->userPtr;
+    if (q->ended) return false;
+    unsigned inst = args->context->instStackSize ? args->context->instID[0] : RTC_INVALID_GEOMETRY_ID;
+    if (q->visit(q->user, triangle_id(q->accel, inst, args->geomID, args->primID))) return false;
+    q->ended = true;
+    args->query->radius = 0.f;
+    return true;
+}
+
+bool pm_accel_triangles_near(const pm_accel *a, vec3 p, float radius, bool (*visit)(void *user, uint32_t tri), void *user) {
+    if (!ray_in_range(p, v3s(0.f), radius) || !(radius >= 0.f) || !isfinite(radius)) return false;
+    struct RTCPointQuery query = {p.x, p.y, p.z, 0.f, radius};
+    struct RTCPointQueryContext ctx;
+    rtcInitPointQueryContext(&ctx);
+    struct near_query q = {a, visit, user, false};
+    rtcPointQuery(a->scene, &query, &ctx, near_candidate, &q);
+    return !q.ended;
+}
+
 uint64_t pm_accel_forecast_bytes(const pm_scene *s, bool building) {
     /* stored triangles only: a placement adds an instance, not its mesh's triangles again; the
      * vertex buffers are Embree's too */

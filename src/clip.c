@@ -2,6 +2,9 @@
 #include "clip.h"
 
 #include <math.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "defaults.h"
 #include "rng.h"
@@ -172,10 +175,301 @@ static float normal_probe(const pm_clip *c, const pm_scene *s, const pm_accel *a
     return INFINITY;
 }
 
+/* ---- discs no probe can clip ----
+ *
+ * The probes can add a plane or a slab only where they meet something: a surface within the fan's
+ * reach of p (the probes along the tangent plane, the rays down from their ends), one along p's
+ * normal within twice the radius, or an edge of p's own surface within the fan's reach. All of
+ * these lie within OPEN_REACH radii of p. p's clearance is the distance from p to the nearest of
+ * them that is not p's own flat surface: the nearest other triangle, or the nearest edge where
+ * that surface ends. Where it is at least OPEN_REACH radii, every probe would pass without effect
+ * and the clip is open without casting one. The answer is the probes' own, found geometrically
+ * (one query of the BVH, or a cell of the triangle's precomputed clearance grid); the crowded,
+ * curved and cut-out places are left to the probes. */
+
+/* Beyond every probe's reach: the probes along the normal go twice the radius, plus the lift. */
+#define OPEN_REACH 2.01f
+/* Triangles of p's flat surface near p, matched edge to edge: more and the probes decide. */
+#define OPEN_FLAT_MAX 24
+/* A triangle lies in p's plane when its normal is within this cosine of p's and p within rounding of its plane. */
+#define OPEN_FLAT_COS 0.99999
+#define OPEN_SEEN_MAX 32
+
+typedef struct {
+    const pm_scene *s;
+    double p[3], n[3];
+    vec3 pf;
+    double best;      /* the nearest other surface found so far (the search's radius at first) */
+    double need;      /* the search may end once best falls below this */
+    double tolerance; /* p's own rounding, well under the probes' offset off the surface (32 ulps along the normal) */
+    bool on_flat;     /* p lies on one of the flat triangles */
+    bool crowded;     /* more flat triangles than fit, or a cut-out: unknown */
+    int flat, seen;
+    uint32_t seen_tri[OPEN_SEEN_MAX]; /* triangles already judged: Embree offers a large one many times */
+    float corners[OPEN_FLAT_MAX][3][3];
+} clear_search;
+
+static double d3_dot(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static void d3_sub(const double a[3], const double b[3], double out[3]) {
+    for (int k = 0; k < 3; k++) out[k] = a[k] - b[k];
+}
+static void d3_cross(const double a[3], const double b[3], double out[3]) {
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* Distance from q to the segment ab. */
+static double segment_distance(const double q[3], const double a[3], const double b[3]) {
+    double ab[3], aq[3];
+    d3_sub(b, a, ab);
+    d3_sub(q, a, aq);
+    double len2 = d3_dot(ab, ab), t = len2 > 0.0 ? d3_dot(aq, ab) / len2 : 0.0;
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    double d[3] = {aq[0] - t * ab[0], aq[1] - t * ab[1], aq[2] - t * ab[2]};
+    return sqrt(d3_dot(d, d));
+}
+
+/* Distance from q to triangle v of unit normal m: to its plane where q's projection falls inside
+ * it, else to the nearest edge. */
+static double triangle_distance(const double q[3], const double v[3][3], const double m[3]) {
+    double rel[3];
+    d3_sub(q, v[0], rel);
+    bool inside = true;
+    for (int k = 0; k < 3 && inside; k++) {
+        double e[3], w[3], c[3];
+        d3_sub(v[(k + 1) % 3], v[k], e);
+        d3_sub(q, v[k], w);
+        d3_cross(e, w, c);
+        inside = d3_dot(c, m) >= 0.0;
+    }
+    if (inside) return fabs(d3_dot(rel, m));
+    double best = INFINITY;
+    for (int k = 0; k < 3; k++) best = fmin(best, segment_distance(q, v[k], v[(k + 1) % 3]));
+    return best;
+}
+
+/* One triangle the BVH offers near p; false ends the search (the answer is known to be too small). */
+static bool clear_visit(void *user, uint32_t tri) {
+    clear_search *o = user;
+    const pm_scene *s = o->s;
+    for (int i = 0; i < o->seen; i++)
+        if (o->seen_tri[i] == tri) return true;
+    if (o->seen < OPEN_SEEN_MAX) o->seen_tri[o->seen++] = tri;
+    vec3 c[3];
+    pm_scene_triangle_corners(s, tri, c);
+    /* the cheap answer first: Embree offers a whole leaf's triangles, most far from p. A
+     * triangle whose bounding box or plane lies beyond the nearest surface found so far changes
+     * nothing (float rounding is far below the margin OPEN_REACH leaves over the probes). */
+    vec3 pq = o->pf;
+    float far = (float)o->best;
+    if (pm_minf(c[0].x, pm_minf(c[1].x, c[2].x)) > pq.x + far || pm_maxf(c[0].x, pm_maxf(c[1].x, c[2].x)) < pq.x - far ||
+        pm_minf(c[0].y, pm_minf(c[1].y, c[2].y)) > pq.y + far || pm_maxf(c[0].y, pm_maxf(c[1].y, c[2].y)) < pq.y - far ||
+        pm_minf(c[0].z, pm_minf(c[1].z, c[2].z)) > pq.z + far || pm_maxf(c[0].z, pm_maxf(c[1].z, c[2].z)) < pq.z - far)
+        return true;
+    vec3 mf = v3_cross(v3_sub(c[1], c[0]), v3_sub(c[2], c[0]));
+    float hf = v3_dot(mf, v3_sub(pq, c[0]));
+    if (hf * hf > 1.0001f * far * far * v3_dot(mf, mf)) return true;
+    double v[3][3] = {{c[0].x, c[0].y, c[0].z}, {c[1].x, c[1].y, c[1].z}, {c[2].x, c[2].y, c[2].z}};
+    double e1[3], e2[3], m[3], rel[3];
+    d3_sub(v[1], v[0], e1);
+    d3_sub(v[2], v[0], e2);
+    d3_cross(e1, e2, m);
+    double len = sqrt(d3_dot(m, m));
+    if (!(len > 0.0)) return true; /* no area: no ray meets it */
+    for (int k = 0; k < 3; k++) m[k] /= len;
+    /* a cut-out lets probes through here and not there: the probes decide */
+    bool opaque = s->materials[pm_scene_triangle_material(s, tri)].alpha_mode == PM_ALPHA_OPAQUE;
+    d3_sub(o->p, v[0], rel);
+    double h = d3_dot(rel, m), facing = d3_dot(m, o->n);
+    if (opaque && fabs(facing) >= OPEN_FLAT_COS && fabs(h) <= o->tolerance) {
+        for (int i = 0; i < o->flat; i++)
+            if (!memcmp(o->corners[i], c, sizeof o->corners[i])) return true; /* offered again */
+        if (o->flat == OPEN_FLAT_MAX) { o->crowded = true; return false; }
+        memcpy(o->corners[o->flat++], c, sizeof o->corners[0]);
+        if (!o->on_flat && triangle_distance(o->p, v, m) <= 4.0 * o->tolerance) o->on_flat = true;
+        return true;
+    }
+    double d = opaque ? triangle_distance(o->p, v, m) : 0.0;
+    if (d < o->best) o->best = d;
+    return o->best >= o->need;
+}
+
+/* The flat triangles' edges within best of p that no other flat triangle closes (the same two
+ * corners, its third on the other side of the edge) are where p's surface ends: best falls to the
+ * nearest. */
+static void flat_edges(clear_search *o) {
+    for (int i = 0; i < o->flat; i++)
+        for (int k = 0; k < 3; k++) {
+            const float *a = o->corners[i][k], *b = o->corners[i][(k + 1) % 3], *third = o->corners[i][(k + 2) % 3];
+            double da[3] = {a[0], a[1], a[2]}, db[3] = {b[0], b[1], b[2]};
+            double d = segment_distance(o->p, da, db);
+            if (d >= o->best) continue;
+            /* the third corner's side of the edge, about p's normal */
+            double ab[3] = {db[0] - da[0], db[1] - da[1], db[2] - da[2]}, at[3] = {third[0] - da[0], third[1] - da[1], third[2] - da[2]}, x[3];
+            d3_cross(ab, at, x);
+            double mine = d3_dot(x, o->n);
+            bool closed = false;
+            for (int j = 0; j < o->flat && !closed; j++) {
+                if (j == i) continue;
+                for (int l = 0; l < 3 && !closed; l++) {
+                    const float *c0 = o->corners[j][l], *c1 = o->corners[j][(l + 1) % 3], *other = o->corners[j][(l + 2) % 3];
+                    bool same = (!memcmp(c0, a, 12) && !memcmp(c1, b, 12)) || (!memcmp(c0, b, 12) && !memcmp(c1, a, 12));
+                    if (!same) continue;
+                    double ot[3] = {other[0] - da[0], other[1] - da[1], other[2] - da[2]};
+                    d3_cross(ab, ot, x);
+                    closed = d3_dot(x, o->n) * mine < 0.0;
+                }
+            }
+            if (!closed) o->best = d;
+        }
+}
+
+/* p's clearance (see above), searched up to `reach`: reach when nothing is nearer; 0 where it is
+ * unknown (p on no flat triangle, too many of them, a cut-out). The search ends early once the
+ * answer is known to be below `need`. */
+static double clearance(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, double reach, double need) {
+    clear_search o;
+    o.s = s;
+    o.p[0] = p.x, o.p[1] = p.y, o.p[2] = p.z;
+    o.n[0] = n.x, o.n[1] = n.y, o.n[2] = n.z;
+    o.pf = p;
+    o.best = reach;
+    o.need = need;
+    float m = pm_maxf(fabsf(p.x), pm_maxf(fabsf(p.y), fabsf(p.z)));
+    o.tolerance = ldexp(pm_maxf(m, 1e-30f), -21);
+    o.on_flat = o.crowded = false;
+    o.flat = o.seen = 0;
+    if (!pm_accel_triangles_near(a, p, (float)reach, clear_visit, &o) || o.crowded || !o.on_flat) return 0.0;
+    flat_edges(&o);
+    return o.best;
+}
+
+bool pm_clip_needless(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, float reach) {
+    double need = OPEN_REACH * (double)reach;
+    return clearance(s, a, p, n, need, need) >= need;
+}
+
+/* ---- per-triangle clearance grids ----
+ *
+ * A triangle many discs ask about gets a grid over its plane: per cell, a clearance every point
+ * of the triangle in the cell has at least (the clearance at the cell's centre less its half
+ * diagonal: a distance changes no faster than the point moves). A disc whose point's cell
+ * certifies OPEN_REACH radii needs no search at all. Grids are built whole by the first thread to
+ * ask and published at once; a cell that certifies nothing sends the disc on to the search and the
+ * probes. Either way the clip is the probes' own, so the image does not depend on which thread
+ * built what, or when. */
+
+#define GRID_AFTER 16       /* asks before a triangle's grid is built */
+#define GRID_MAX 64         /* cells a side */
+#define GRID_BYTES (16u << 20) /* all grids together, at most */
+#define GRID_TRIANGLES (1u << 20) /* scenes larger than this search each time */
+
+typedef struct {
+    vec3 origin, u, w;  /* the plane's frame: origin + x u + y w */
+    float cell;         /* side of a cell */
+    int nu, nw;
+    float bound[];      /* nu x nw clearances, row by row */
+} clear_grid;
+
+struct pm_clip_cache {
+    const pm_scene *scene;
+    const pm_accel *accel;
+    uint32_t count;
+    _Atomic(clear_grid *) *grid;
+    _Atomic uint32_t *asks;
+    _Atomic uint64_t bytes;
+};
+
+static clear_grid building_marker;
+#define GRID_BUILDING (&building_marker)
+
+pm_clip_cache *pm_clip_cache_create(const pm_scene *s, const pm_accel *a) {
+    if (s->placement_count || !s->triangle_count || s->triangle_count > GRID_TRIANGLES) return NULL;
+    pm_clip_cache *c = calloc(1, sizeof *c);
+    if (!c) return NULL;
+    c->scene = s;
+    c->accel = a;
+    c->count = s->triangle_count;
+    c->grid = calloc(c->count, sizeof *c->grid);
+    c->asks = calloc(c->count, sizeof *c->asks);
+    if (!c->grid || !c->asks) { pm_clip_cache_destroy(c); return NULL; }
+    return c;
+}
+
+void pm_clip_cache_destroy(pm_clip_cache *c) {
+    if (!c) return;
+    for (uint32_t i = 0; c->grid && i < c->count; i++) {
+        clear_grid *g = atomic_load(&c->grid[i]);
+        if (g != GRID_BUILDING) free(g);
+    }
+    free((void *)c->grid);
+    free((void *)c->asks);
+    free(c);
+}
+
+/* Builds triangle tri's grid for discs of about radius r; NULL when it cannot. */
+static clear_grid *build_grid(pm_clip_cache *c, uint32_t tri, float r) {
+    const pm_scene *s = c->scene;
+    vec3 v[3];
+    pm_scene_triangle_corners(s, tri, v);
+    vec3 m = v3_cross(v3_sub(v[1], v[0]), v3_sub(v[2], v[0]));
+    float e = v3_length(v3_sub(v[1], v[0]));
+    if (!(v3_length(m) > 0.f) || !(e > 0.f)) return NULL;
+    m = v3_normalize(m);
+    vec3 u = v3_scale(v3_sub(v[1], v[0]), 1.f / e), w = v3_cross(m, u);
+    float lo_u = INFINITY, hi_u = -INFINITY, lo_w = INFINITY, hi_w = -INFINITY;
+    for (int k = 0; k < 3; k++) {
+        vec3 d = v3_sub(v[k], v[0]);
+        lo_u = pm_minf(lo_u, v3_dot(d, u)), hi_u = pm_maxf(hi_u, v3_dot(d, u));
+        lo_w = pm_minf(lo_w, v3_dot(d, w)), hi_w = pm_maxf(hi_w, v3_dot(d, w));
+    }
+    float extent = pm_maxf(hi_u - lo_u, hi_w - lo_w);
+    /* cells half the radius wide where the triangle allows */
+    int cells = (int)pm_minf(GRID_MAX, pm_maxf(1.f, ceilf(extent / (0.5f * r))));
+    float cell = extent / (float)cells * 1.0001f;
+    int nu = (int)pm_maxf(1.f, ceilf((hi_u - lo_u) / cell)), nw = (int)pm_maxf(1.f, ceilf((hi_w - lo_w) / cell));
+    size_t bytes = sizeof(clear_grid) + sizeof(float) * (size_t)nu * (size_t)nw;
+    if (atomic_fetch_add(&c->bytes, bytes) + bytes > GRID_BYTES) return NULL;
+    clear_grid *g = malloc(bytes);
+    if (!g) return NULL;
+    g->origin = v3_add(v[0], v3_add(v3_scale(u, lo_u), v3_scale(w, lo_w)));
+    g->u = u, g->w = w, g->cell = cell, g->nu = nu, g->nw = nw;
+    float half_diagonal = 0.70711f * cell;
+    /* clearances are searched up to what a disc a few times this one's size could ask */
+    double reach = OPEN_REACH * 4.0 * r + half_diagonal;
+    for (int j = 0; j < nw; j++)
+        for (int i = 0; i < nu; i++) {
+            vec3 centre = v3_add(g->origin, v3_add(v3_scale(u, (i + 0.5f) * cell), v3_scale(w, (j + 0.5f) * cell)));
+            double clear = clearance(s, c->accel, centre, m, reach, 0.0);
+            g->bound[j * nu + i] = (float)(clear - half_diagonal) * 0.9999f;
+        }
+    return g;
+}
+
+bool pm_clip_cache_open(pm_clip_cache *c, uint32_t tri, vec3 p, float reach) {
+    if (!c || tri >= c->count || !(reach > 0.f)) return false;
+    clear_grid *g = atomic_load_explicit(&c->grid[tri], memory_order_acquire);
+    if (!g) {
+        if (atomic_fetch_add_explicit(&c->asks[tri], 1, memory_order_relaxed) + 1 != GRID_AFTER) return false;
+        clear_grid *none = NULL;
+        if (!atomic_compare_exchange_strong(&c->grid[tri], &none, GRID_BUILDING)) return false;
+        g = build_grid(c, tri, reach);
+        atomic_store_explicit(&c->grid[tri], g ? g : GRID_BUILDING, memory_order_release);
+        if (!g) return false;
+    }
+    if (g == GRID_BUILDING) return false;
+    vec3 d = v3_sub(p, g->origin);
+    int i = (int)floorf(v3_dot(d, g->u) / g->cell), j = (int)floorf(v3_dot(d, g->w) / g->cell);
+    if (i < 0 || j < 0 || i >= g->nu || j >= g->nw) return false;
+    return g->bound[j * g->nu + i] >= OPEN_REACH * reach;
+}
+
 void pm_clip_make(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
                   uint64_t seed, uint64_t *rays) {
     pm_clip_open(c, p, n);
     if (!(reach > 0.f) || !isfinite(reach)) return;
+    if (pm_clip_needless(s, a, p, n, reach)) return;
     uint64_t h = pm_hash64(seed);
     float fan = (float)(h >> 40) * (2.f * PM_PI / 16777216.f);
     c->rotation = (float)(h & 0xffffffu) * (2.f * PM_PI / 16777216.f);

@@ -69,6 +69,7 @@ typedef struct {
 struct pm_progressive {
     const pm_scene *scene;
     const pm_accel *accel;
+    pm_clip_cache *clip_cache;   /* per-triangle clearance grids (clip.h) */
     pm_camera camera;
     pm_progressive_settings settings;
     pm_eye_settings eye;
@@ -125,6 +126,7 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
     if (!p) { snprintf(err, err_size, "out of memory (progressive state, %zu bytes)", sizeof *p); return NULL; }
     p->scene = s;
     p->accel = a;
+    p->clip_cache = pm_clip_cache_create(s, a); /* none: each disc searches the BVH */
     p->camera = *camera;
     p->settings = *settings;
     p->eye.seed = settings->seed;
@@ -145,6 +147,7 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
         if (!p->tracer) {
             const char *why = pm_memory_failure_since(mark);
             snprintf(err, err_size, "out of memory (%s)", why ? why : "photon tracer");
+            pm_clip_cache_destroy(p->clip_cache);
             free(p);
             return NULL;
         }
@@ -179,6 +182,7 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
 void pm_progressive_destroy(pm_progressive *p) {
     if (!p) return;
     pm_photon_tracer_destroy(p->tracer);
+    pm_clip_cache_destroy(p->clip_cache);
     for (int k = 0; k < KIND_COUNT; k++) {
         free(p->buffer[k].data);
         pm_photon_grid_free(&p->grid[k]);
@@ -551,10 +555,11 @@ static pm_grid_query disc_query(gather_job *job, const pm_photon_grid *grid, con
                                 unsigned path_mask, uint64_t seed, pm_clip *clip, int thread) {
     pm_grid_query q = {vp->p, vp->n, (float)r2, path_mask, vp->glossy ? &vp->brdf : NULL, vp->ns, vp->wo, NULL};
     const pm_progressive *p = job->p;
-    if (!p->settings.unclipped && pm_photon_grid_may_find(grid, vp->p, (float)r2)) {
+    if (!p->settings.unclipped && pm_photon_grid_may_find(grid, vp->p, (float)r2) &&
+        !pm_clip_cache_open(p->clip_cache, vp->tri, vp->p, (float)sqrt(r2))) {
         pm_clip_make(clip, p->scene, p->accel, vp->p, vp->n, vp->tri, (float)sqrt(r2), seed,
                      &job->counters[thread].clip_rays);
-        q.clip = clip;
+        q.clip = pm_clip_is_open(clip) ? NULL : clip; /* nothing to test photons against */
     } else {
         pm_clip_open(clip, vp->p, vp->n);
     }
