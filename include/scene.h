@@ -323,7 +323,15 @@ static inline vec3 pm_placement_normal(const pm_placement *pl, vec3 n) {
 /* Stored triangle `stored`'s corners in world space through placement pl (-1: flat), in stored order. */
 static inline void pm_scene_stored_corners(const pm_scene *s, uint32_t stored, int32_t pl, vec3 p[3]) {
     const uint32_t *ix = s->indices + 3 * (size_t)stored;
-    for (int k = 0; k < 3; k++) p[k] = pl < 0 ? s->positions[ix[k]] : pm_placement_point(&s->placements[pl], s->positions[ix[k]]);
+    /* the test once, not per corner: the compiler otherwise computes the placement's transform
+     * beside the plain copy and selects (60 instructions a call on a flat scene, a photon hit
+     * making two calls) */
+    if (pl < 0) {
+        for (int k = 0; k < 3; k++) p[k] = s->positions[ix[k]];
+        return;
+    }
+    const pm_placement *placement = &s->placements[pl];
+    for (int k = 0; k < 3; k++) p[k] = pm_placement_point(placement, s->positions[ix[k]]);
 }
 /* The triangle's corners in world space, in stored order (barycentrics b1, b2 weigh corners 1, 2). */
 static inline void pm_scene_triangle_corners(const pm_scene *s, uint32_t id, vec3 p[3]) {
@@ -478,11 +486,16 @@ static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, flo
      * (a floor running on under a wall) the pull could carry the origin into a wall standing on
      * it, and the ray would start inside that wall. Near: closer to an edge than four of the
      * pull's steps. */
-    float twice_area = v3_length(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
-    float edge = pm_minf(b0 / v3_length(v3_sub(p2, p1)), pm_minf(b1 / v3_length(v3_sub(p2, p0)), b2 / v3_length(v3_sub(p1, p0))));
+    /* the distance to edge i is b_i x twice the area / the edge's length: compared squared, with
+     * no root or division (the photon pass asks at every bounce) */
+    vec3 c = v3_cross(v3_sub(p1, p0), v3_sub(p2, p0));
+    float area2 = v3_dot(c, c);
     float m = pm_maxf(fabsf(out->p.x), pm_maxf(fabsf(out->p.y), fabsf(out->p.z)));
-    float pull = pm_maxf(s->ray_scale * (1.f / 65536.f), m * 4e-6f);
-    out->centroid = edge * twice_area > 4.f * pull ? out->p : v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
+    float pull = pm_maxf(s->ray_scale * (1.f / 65536.f), m * 4e-6f), near2 = 16.f * pull * pull;
+    vec3 e0 = v3_sub(p2, p1), e1 = v3_sub(p2, p0), e2 = v3_sub(p1, p0);
+    bool inside = b0 > 0.f && b1 > 0.f && b2 > 0.f && b0 * b0 * area2 > near2 * v3_dot(e0, e0) &&
+                  b1 * b1 * area2 > near2 * v3_dot(e1, e1) && b2 * b2 * area2 > near2 * v3_dot(e2, e2);
+    out->centroid = inside ? out->p : v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
 }
 
 /* The fields of pm_scene_surface that light transport reads (p, ng, ns, centroid, material, kd,
