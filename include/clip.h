@@ -18,6 +18,10 @@
  * times pi r^2), not by the whole disc: where the photons' density is uniform the clipped estimate
  * is as unbiased as the disc's, and corners lose the darkening a disc reaching into a wall gives.
  * As r shrinks, the planes leave every point off the geometry unclipped: the limit is unchanged.
+ * Where nothing but p's own flat surface, closed all round, lies within the probes' reach, no probe
+ * could clip the disc: the clip is left open without casting one (pm_clip_needless: one query of
+ * the BVH; pm_clip_cache_open: a cell of the triangle's clearance grid), the same clip the probes
+ * would have made.
  * The design and its cost: docs/design.md, "Estimates stay on their side of the geometry".
  */
 #ifndef PM_CLIP_H
@@ -50,6 +54,10 @@ typedef struct {
 #define PM_CLIP_NO_TRIANGLE UINT32_MAX
 void pm_clip_make(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
                   uint64_t seed, uint64_t *rays);
+/* The same with the probes always cast (pm_clip_make skips them where pm_clip_needless): what the
+ * shortcut must agree with (tests/test_clip_shortcut.c). */
+void pm_clip_make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                         uint64_t seed, uint64_t *rays);
 
 /* Whether no probe of a clip at p (unit normal n) for a disc of radius up to reach could meet
  * anything: nothing but p's own flat surface lies within 2.01 reach of p (the probes' farthest),

@@ -467,9 +467,17 @@ bool pm_clip_cache_open(pm_clip_cache *c, uint32_t tri, vec3 p, float reach) {
 
 void pm_clip_make(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
                   uint64_t seed, uint64_t *rays) {
+    if (reach > 0.f && isfinite(reach) && pm_clip_needless(s, a, p, n, reach)) {
+        pm_clip_open(c, p, n);
+        return;
+    }
+    pm_clip_make_probed(c, s, a, p, n, tri, reach, seed, rays);
+}
+
+void pm_clip_make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                         uint64_t seed, uint64_t *rays) {
     pm_clip_open(c, p, n);
     if (!(reach > 0.f) || !isfinite(reach)) return;
-    if (pm_clip_needless(s, a, p, n, reach)) return;
     uint64_t h = pm_hash64(seed);
     float fan = (float)(h >> 40) * (2.f * PM_PI / 16777216.f);
     c->rotation = (float)(h & 0xffffffu) * (2.f * PM_PI / 16777216.f);
