@@ -19,13 +19,14 @@ field() { sed -n "s/.*$1=\([^ ]*\).*/\1/p" "$2" | tail -n 1; }
 render_seconds() { sed -n 's/.*iterations, \([0-9.]*\) s).*/\1/p' "$1" | tail -n 1; }
 
 # scene, extra options, reference (or -)
-# (the references have no sky but the window room's, Mitsuba's constant sky of radiance 1)
+# (the references have no sky but the window rooms', Mitsuba's constant sky of radiance 1)
 scenes="scenes/cornell-box.gltf:--sky none:tests/ref/cornell_path_64.exr
 scenes/caustic.gltf:--sky none:tests/ref/caustic_floor_64.exr
 scenes/glossy-spheres.gltf:--sky none:tests/ref/glossy_path_64.exr
 scenes/mirror-caustic.gltf:--sky none:tests/ref/mirror_path_64.exr
 scenes/point-room.gltf:--sky none:tests/ref/point_room_path_64.exr
 scenes/window-room.gltf:--sky white:tests/ref/window_room_64.exr
+scenes/window-hollow.gltf:--sky white:tests/ref/window_hollow_64.exr
 scenes/layered-spheres.gltf::-"
 
 timing() { # name scene size iterations extra

@@ -20,7 +20,7 @@
  * As r shrinks, the planes leave every point off the geometry unclipped: the limit is unchanged.
  * Where nothing but p's own flat surface, closed all round, lies within the probes' reach, no probe
  * could clip the disc: the clip is left open without casting one (pm_clip_needless: one query of
- * the BVH; pm_clip_cache_open: a cell of the triangle's clearance grid), the same clip the probes
+ * the BVH; pm_clip_cache_lookup: a cell of the triangle's clearance grid), the same clip the probes
  * would have made.
  * The design and its cost: docs/design.md, "Estimates stay on their side of the geometry".
  */
@@ -67,14 +67,17 @@ void pm_clip_make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 
 bool pm_clip_needless(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, float reach);
 
 /* Per-triangle clearance grids, built for a triangle once discs have asked about it a few times:
- * where a cell of p's triangle shows the disc as pm_clip_needless would, no search is made.
+ * where a cell of p's triangle shows what pm_clip_needless would say, no search is made.
  * Create returns NULL where the scene is too large or instanced (then every disc searches). */
 typedef struct pm_clip_cache pm_clip_cache;
 pm_clip_cache *pm_clip_cache_create(const pm_scene *s, const pm_accel *a);
 void pm_clip_cache_destroy(pm_clip_cache *c);
-/* True when p, on triangle tri, is known to need no clip for a disc of radius reach; false when
- * unknown (the caller then makes the clip). Thread safe; c may be NULL. */
-bool pm_clip_cache_open(pm_clip_cache *c, uint32_t tri, vec3 p, float reach);
+/* What p's cell on triangle tri shows for a disc of radius reach: no clip needed
+ * (PM_CLEAR_OPEN: leave it open), a surface within the probes' reach (PM_CLEAR_NEAR:
+ * pm_clip_make_probed, pm_clip_needless would say no), or unknown (pm_clip_make). Thread safe; c
+ * may be NULL. */
+typedef enum { PM_CLEAR_UNKNOWN, PM_CLEAR_OPEN, PM_CLEAR_NEAR } pm_clip_known;
+pm_clip_known pm_clip_cache_lookup(pm_clip_cache *c, uint32_t tri, vec3 p, float reach);
 
 /* A clip that keeps everything: an estimate may read its disc unclipped. */
 static inline bool pm_clip_is_open(const pm_clip *c) {

@@ -325,9 +325,9 @@ static void flat_edges(clear_search *o) {
         }
 }
 
-/* p's clearance (see above), searched up to `reach`: reach when nothing is nearer; 0 where it is
- * unknown (p on no flat triangle, too many of them, a cut-out). The search ends early once the
- * answer is known to be below `need`. */
+/* p's clearance (see above), searched up to `reach`: reach when nothing is nearer; -1 where it
+ * is unknown (p on no flat triangle, too many of them). The search ends early once the answer is
+ * known to be below `need` (returning a distance below need, an upper bound of the clearance). */
 static double clearance(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, double reach, double need) {
     clear_search o;
     o.s = s;
@@ -340,7 +340,10 @@ static double clearance(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, do
     o.tolerance = ldexp(pm_maxf(m, 1e-30f), -21);
     o.on_flat = o.crowded = false;
     o.flat = o.seen = 0;
-    if (!pm_accel_triangles_near(a, p, (float)reach, clear_visit, &o) || o.crowded || !o.on_flat) return 0.0;
+    bool all = pm_accel_triangles_near(a, p, (float)reach, clear_visit, &o);
+    if (o.crowded) return -1.0;
+    if (!all) return o.best < o.need ? o.best : -1.0; /* ended at a surface nearer than need, or p out of range */
+    if (!o.on_flat) return -1.0;
     flat_edges(&o);
     return o.best;
 }
@@ -369,7 +372,8 @@ typedef struct {
     vec3 origin, u, w;  /* the plane's frame: origin + x u + y w */
     float cell;         /* side of a cell */
     int nu, nw;
-    float bound[];      /* nu x nw clearances, row by row */
+    float bound[];      /* nu x nw cells, row by row, two floats each: every point of the triangle in the
+                           cell has a clearance of at least the first and at most the second */
 } clear_grid;
 
 struct pm_clip_cache {
@@ -429,7 +433,7 @@ static clear_grid *build_grid(pm_clip_cache *c, uint32_t tri, float r) {
     int cells = (int)pm_minf(GRID_MAX, pm_maxf(1.f, ceilf(extent / (0.5f * r))));
     float cell = extent / (float)cells * 1.0001f;
     int nu = (int)pm_maxf(1.f, ceilf((hi_u - lo_u) / cell)), nw = (int)pm_maxf(1.f, ceilf((hi_w - lo_w) / cell));
-    size_t bytes = sizeof(clear_grid) + sizeof(float) * (size_t)nu * (size_t)nw;
+    size_t bytes = sizeof(clear_grid) + 2 * sizeof(float) * (size_t)nu * (size_t)nw;
     if (atomic_fetch_add(&c->bytes, bytes) + bytes > GRID_BYTES) return NULL;
     clear_grid *g = malloc(bytes);
     if (!g) return NULL;
@@ -442,27 +446,31 @@ static clear_grid *build_grid(pm_clip_cache *c, uint32_t tri, float r) {
         for (int i = 0; i < nu; i++) {
             vec3 centre = v3_add(g->origin, v3_add(v3_scale(u, (i + 0.5f) * cell), v3_scale(w, (j + 0.5f) * cell)));
             double clear = clearance(s, c->accel, centre, m, reach, 0.0);
-            g->bound[j * nu + i] = (float)(clear - half_diagonal) * 0.9999f;
+            float *b = &g->bound[2 * (j * nu + i)];
+            b[0] = clear < 0.0 ? -1.f : (float)(clear - half_diagonal) * 0.9999f;
+            b[1] = clear < 0.0 || clear >= reach ? INFINITY : (float)(clear + half_diagonal) * 1.0001f;
         }
     return g;
 }
 
-bool pm_clip_cache_open(pm_clip_cache *c, uint32_t tri, vec3 p, float reach) {
-    if (!c || tri >= c->count || !(reach > 0.f)) return false;
+pm_clip_known pm_clip_cache_lookup(pm_clip_cache *c, uint32_t tri, vec3 p, float reach) {
+    if (!c || tri >= c->count || !(reach > 0.f)) return PM_CLEAR_UNKNOWN;
     clear_grid *g = atomic_load_explicit(&c->grid[tri], memory_order_acquire);
     if (!g) {
-        if (atomic_fetch_add_explicit(&c->asks[tri], 1, memory_order_relaxed) + 1 != GRID_AFTER) return false;
+        if (atomic_fetch_add_explicit(&c->asks[tri], 1, memory_order_relaxed) + 1 != GRID_AFTER) return PM_CLEAR_UNKNOWN;
         clear_grid *none = NULL;
-        if (!atomic_compare_exchange_strong(&c->grid[tri], &none, GRID_BUILDING)) return false;
+        if (!atomic_compare_exchange_strong(&c->grid[tri], &none, GRID_BUILDING)) return PM_CLEAR_UNKNOWN;
         g = build_grid(c, tri, reach);
         atomic_store_explicit(&c->grid[tri], g ? g : GRID_BUILDING, memory_order_release);
-        if (!g) return false;
+        if (!g) return PM_CLEAR_UNKNOWN;
     }
-    if (g == GRID_BUILDING) return false;
+    if (g == GRID_BUILDING) return PM_CLEAR_UNKNOWN;
     vec3 d = v3_sub(p, g->origin);
     int i = (int)floorf(v3_dot(d, g->u) / g->cell), j = (int)floorf(v3_dot(d, g->w) / g->cell);
-    if (i < 0 || j < 0 || i >= g->nu || j >= g->nw) return false;
-    return g->bound[j * g->nu + i] >= OPEN_REACH * reach;
+    if (i < 0 || j < 0 || i >= g->nu || j >= g->nw) return PM_CLEAR_UNKNOWN;
+    const float *b = &g->bound[2 * (j * g->nu + i)];
+    float need = OPEN_REACH * reach;
+    return b[0] >= need ? PM_CLEAR_OPEN : b[1] < need ? PM_CLEAR_NEAR : PM_CLEAR_UNKNOWN;
 }
 
 void pm_clip_make(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,

@@ -555,10 +555,11 @@ static pm_grid_query disc_query(gather_job *job, const pm_photon_grid *grid, con
                                 unsigned path_mask, uint64_t seed, pm_clip *clip, int thread) {
     pm_grid_query q = {vp->p, vp->n, (float)r2, path_mask, vp->glossy ? &vp->brdf : NULL, vp->ns, vp->wo, NULL};
     const pm_progressive *p = job->p;
+    pm_clip_known known = PM_CLEAR_OPEN;
     if (!p->settings.unclipped && pm_photon_grid_may_find(grid, vp->p, (float)r2) &&
-        !pm_clip_cache_open(p->clip_cache, vp->tri, vp->p, (float)sqrt(r2))) {
-        pm_clip_make(clip, p->scene, p->accel, vp->p, vp->n, vp->tri, (float)sqrt(r2), seed,
-                     &job->counters[thread].clip_rays);
+        (known = pm_clip_cache_lookup(p->clip_cache, vp->tri, vp->p, (float)sqrt(r2))) != PM_CLEAR_OPEN) {
+        (known == PM_CLEAR_NEAR ? pm_clip_make_probed : pm_clip_make)(clip, p->scene, p->accel, vp->p, vp->n, vp->tri,
+                                                                     (float)sqrt(r2), seed, &job->counters[thread].clip_rays);
         q.clip = pm_clip_is_open(clip) ? NULL : clip; /* nothing to test photons against */
     } else {
         pm_clip_open(clip, vp->p, vp->n);

@@ -78,7 +78,7 @@ int main(void) {
         point_tri[k] = lo;
         point[k] = v3_add(c[0], v3_add(v3_scale(v3_sub(c[1], c[0]), u), v3_scale(v3_sub(c[2], c[0]), v)));
     }
-    uint64_t discs = 0, probed_open = 0, spotted = 0, wrong = 0, cached_open = 0, cached_wrong = 0;
+    uint64_t discs = 0, probed_open = 0, spotted = 0, wrong = 0, cached_open = 0, cached_wrong = 0, probes_known = 0, probes_wrong = 0;
     pm_clip_cache *cache = pm_clip_cache_create(&s, a);
     CHECK(cache != NULL, "a clearance cache for a small flat scene");
     for (int pass = 0; pass < 3; pass++) /* the grids are built once a triangle has been asked about often */
@@ -87,7 +87,8 @@ int main(void) {
                 uint32_t t = point_tri[k];
                 vec3 p = point[k], n = pm_scene_triangle_face_normal(&s, t);
                 float r = radii[ri];
-                bool cached = pm_clip_cache_open(cache, t, p, r);
+                pm_clip_known known = pm_clip_cache_lookup(cache, t, p, r);
+                bool cached = known == PM_CLEAR_OPEN;
                 if (pass < 2) continue;
                 bool needless = pm_clip_needless(&s, a, p, n, r);
                 bool all_open = true;
@@ -102,6 +103,8 @@ int main(void) {
                 wrong += needless && !all_open;
                 cached_open += cached;
                 cached_wrong += cached && !all_open;
+                probes_known += known == PM_CLEAR_NEAR;
+                probes_wrong += known == PM_CLEAR_NEAR && needless;
                 if (needless && !all_open) printf("shortcut wrong: triangle %u, p (%g %g %g), r %g\n", t, p.x, p.y, p.z, r);
             }
     free(cdf);
@@ -112,6 +115,10 @@ int main(void) {
            (unsigned long long)cached_open, (unsigned long long)cached_wrong);
     CHECK(wrong == 0, "the search never leaves open a disc the probes would clip (%llu)", (unsigned long long)wrong);
     CHECK(cached_wrong == 0, "the grids never leave open a disc the probes would clip (%llu)", (unsigned long long)cached_wrong);
+    printf("the grids send %llu discs straight to the probes, %llu of them wrongly\n", (unsigned long long)probes_known,
+           (unsigned long long)probes_wrong);
+    CHECK(probes_wrong == 0, "the grids send to the probes only discs the search would send there (%llu)", (unsigned long long)probes_wrong);
+    CHECK(probes_known > 0, "the grids send some discs near walls straight to the probes (%llu)", (unsigned long long)probes_known);
     CHECK(probed_open > discs / 4, "the room has open discs to find (%llu of %llu)", (unsigned long long)probed_open,
           (unsigned long long)discs);
     CHECK(spotted * 2 >= probed_open, "the search spots at least half of the open discs (%llu of %llu)",
