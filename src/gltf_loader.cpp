@@ -2835,14 +2835,26 @@ void Loader::load(pm_scene *out) {
     }
     choose_frame();  // the placements' matrices below are the framed ones
     for (size_t m = 0; m < uses.size(); m++) instanced[m] = uses[m] >= 2 && !options_.flatten_instances && framed_alone(m);
-    // A placement whose transform is singular, or whose matrix or normal matrix does not fit in
-    // float, flattens its mesh: the flat path checks every transformed vertex.
+    // A placement whose transform is singular, far from a unit scale or close to flattening an
+    // axis, or whose matrix or normal matrix does not fit in float, flattens its mesh: the flat
+    // path checks every transformed vertex. Embree traces a placement in mesh space through the
+    // float inverse, and an extreme one (a scale of 1e20, entries of 1e30, one axis scaled by
+    // 1e-20) hands its intersector a ray it aborts the process on. Bounds, with the Frobenius
+    // norm f >= the largest singular value: the smallest one is at least |det| / f^2, so
+    // f^3 / |det| bounds the condition number.
     for (const Instance &instance : instances_) {
         const Mat4 &w = world_[instance.node];
         double det = w.at(0, 0) * (w.at(1, 1) * w.at(2, 2) - w.at(1, 2) * w.at(2, 1)) -
                      w.at(0, 1) * (w.at(1, 0) * w.at(2, 2) - w.at(1, 2) * w.at(2, 0)) +
                      w.at(0, 2) * (w.at(1, 0) * w.at(2, 1) - w.at(1, 1) * w.at(2, 0));
         if (!(det != 0) || !std::isfinite(det) || !std::isfinite(1 / det)) instanced[instance.mesh] = 0;
+        double frobenius = 0;
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++) frobenius += w.at(r, c) * w.at(r, c);
+        frobenius = std::sqrt(frobenius);
+        if (!(frobenius >= std::ldexp(1.0, -20) && frobenius <= std::ldexp(1.0, 20)) ||
+            !(frobenius * frobenius * frobenius <= std::ldexp(1.0, 20) * std::fabs(det)))
+            instanced[instance.mesh] = 0;
         if (!instanced[instance.mesh]) continue;
         WorldTransform world(w);
         for (int r = 0; r < 3; r++)
