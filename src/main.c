@@ -4,6 +4,7 @@
  */
 #include <math.h>
 #include <stdatomic.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -224,6 +225,10 @@ static int set_up_for_window(void *arg) {
 
 int main(int argc, char **argv) {
     double process_start = pm_now_seconds();
+    /* A file-size limit (ulimit -f, as a full quota gives) must make a write fail with EFBIG,
+     * reported by the writer in one line and its temporary file removed, rather than kill the
+     * process with SIGXFSZ mid-write. */
+    signal(SIGXFSZ, SIG_IGN);
     /* under mpirun, every rank runs all of this; rank 0 alone speaks and writes */
     pm_cluster *cluster = pm_cluster_join(&argc, &argv);
     run_state r;

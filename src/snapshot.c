@@ -262,10 +262,14 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
     if (ob.log && (ob.logged != state.samples || (cluster && ob.logged_whole != film->samples)) && film->samples)
         pm_log_row(ob.log, session, film, whole_photons(&ob, state.photons), reference, ob.scratch, state.rendered);
     if (ob.log) {
-        bool written = !ferror(ob.log);
-        if (fclose(ob.log) != 0) written = false;
+        /* the flush reports why the buffered rows cannot be written (a full disk, EFBIG) */
+        errno = 0;
+        bool written = fflush(ob.log) == 0 && !ferror(ob.log);
+        int why = errno;
+        if (fclose(ob.log) != 0 && written) { written = false; why = errno; }
         if (!written) {
-            fprintf(stderr, "%spmview: error: %s: cannot write the log\n", ob.tty ? "\n" : "", o->log);
+            fprintf(stderr, "%spmview: error: %s: cannot write the log (%s)\n", ob.tty ? "\n" : "", o->log,
+                    why ? strerror(why) : "write error");
             free(ob.scratch);
             return 1;
         }
