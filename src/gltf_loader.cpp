@@ -2693,16 +2693,63 @@ void Loader::emit(pm_scene *out) {
 // The renderer works in float and squares lengths (areas, distances, densities), which leave a
 // float's range for extents beyond about 1e+-19, and a model far from the origin loses its
 // detail to the float spacing there. The image does not change when the whole scene (camera and
-// lights included) is moved or scaled, so a scene whose extent is outside [2^-20, 2^20] is
-// scaled by the power of two that brings it near 1 (exact in float), and one lying more than
-// 2^10 extents from the origin is moved to it; point and spot intensities scale by the square
-// (the same irradiance), volume attenuation by the inverse. Computed in double from the file.
+// lights included) is moved or scaled, so a scene whose core's extent (pm_core_bounds: small
+// strays far away left out) is outside [2^-20, 2^20] is scaled by the power of two that brings it
+// near 1 (exact in float), and one whose core lies more than 2^10 extents from the origin is
+// moved to it; point and spot intensities scale by the square (the same irradiance), volume
+// attenuation by the inverse. Computed in double from the file.
+// The file's triangles in world space (before the frame), one after another, for pm_core_bounds.
+struct FrameWalk {
+    const std::vector<Instance> *instances;
+    const std::vector<std::unique_ptr<DecodedMesh>> *meshes;
+    const std::vector<Mat4> *world;
+    size_t instance = 0, primitive = 0, corner = 0;
+
+    static bool next(void *context, bool restart, double corners[9]) {
+        FrameWalk &w = *static_cast<FrameWalk *>(context);
+        if (restart) w.instance = w.primitive = w.corner = 0;
+        for (; w.instance < w.instances->size(); w.instance++, w.primitive = 0, w.corner = 0) {
+            const Instance &instance = (*w.instances)[w.instance];
+            const Mat4 &m = (*w.world)[instance.node];
+            const std::vector<DecodedPrimitive> &prims = (*w.meshes)[instance.mesh]->primitives;
+            for (; w.primitive < prims.size(); w.primitive++, w.corner = 0) {
+                const DecodedPrimitive &prim = prims[w.primitive];
+                if (!prim.triangles || w.corner + 3 > prim.corners.size()) continue;
+                for (int k = 0; k < 3; k++) {
+                    const float *p = &prim.positions[3 * static_cast<size_t>(prim.corners[w.corner + k])];
+                    for (int r = 0; r < 3; r++)
+                        corners[3 * k + r] = m.at(r, 0) * p[0] + m.at(r, 1) * p[1] + m.at(r, 2) * p[2] + m.at(r, 3);
+                }
+                w.corner += 3;
+                return true;
+            }
+        }
+        return false;
+    }
+};
+
 void Loader::choose_frame() {
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    uint64_t triangles = 0;
+    double smallest = INFINITY;  // the narrowest triangle's extent (largest axis of its bounds), degenerate ones aside
     for (const Instance &instance : instances_) {
         const Mat4 &m = world_[instance.node];
         for (const DecodedPrimitive &prim : meshes_[instance.mesh]->primitives) {
             if (!prim.triangles) continue;
+            triangles += prim.corners.size() / 3;
+            for (size_t c = 0; c + 3 <= prim.corners.size(); c += 3) {
+                double tlo[3] = {INFINITY, INFINITY, INFINITY}, thi[3] = {-INFINITY, -INFINITY, -INFINITY};
+                for (int k = 0; k < 3; k++) {
+                    const float *p = &prim.positions[3 * static_cast<size_t>(prim.corners[c + k])];
+                    for (int r = 0; r < 3; r++) {
+                        double x = m.at(r, 0) * p[0] + m.at(r, 1) * p[1] + m.at(r, 2) * p[2] + m.at(r, 3);
+                        tlo[r] = std::min(tlo[r], x);
+                        thi[r] = std::max(thi[r], x);
+                    }
+                }
+                double e = std::max(thi[0] - tlo[0], std::max(thi[1] - tlo[1], thi[2] - tlo[2]));
+                if (e > 0) smallest = std::min(smallest, e);
+            }
             for (size_t i = 0; i + 2 < prim.positions.size(); i += 3)
                 for (int r = 0; r < 3; r++) {
                     double x = m.at(r, 0) * prim.positions[i] + m.at(r, 1) * prim.positions[i + 1] +
@@ -2711,6 +2758,16 @@ void Loader::choose_frame() {
                     hi[r] = std::max(hi[r], x);
                 }
         }
+    }
+    // framed by its core (scene_core.c): a small stray far from the bulk neither shrinks the
+    // scene to a speck nor moves it; it stays where it is, refused by the accel past the reach
+    // Embree can trace
+    bool whole = std::isfinite(lo[0]) && std::isfinite(hi[0]) && std::isfinite(lo[1]) && std::isfinite(hi[1]) &&
+                 std::isfinite(lo[2]) && std::isfinite(hi[2]);
+    if (whole) {
+        FrameWalk walk{&instances_, &meshes_, &world_};
+        pm_core_source source = {triangles, &walk, FrameWalk::next};
+        if (!pm_core_bounds(&source, lo, hi)) throw std::bad_alloc();
     }
     double extent = 0, center[3], farthest = 0;
     for (int r = 0; r < 3; r++) {
@@ -2725,6 +2782,12 @@ void Loader::choose_frame() {
             std::copy(center, center + 3, frame_center_);
         }
     }
+    // Shrinking a scene whose bulk is huge must not shrink its small parts below what float can
+    // render (a triangle narrower than 2^-62 has an area under float's smallest normal number): a
+    // unit box beside a sphere placed with a scale of 1e38 would become dust and render black.
+    if (frame_scale_ < 1 && smallest * frame_scale_ < std::ldexp(1.0, -62))
+        fail("the scene's sizes span more than float can render: a triangle " + num(smallest) + " wide beside a bulk " +
+             num(extent) + " wide (at most 2^62 apart)");
     if (frame_scale_ != 1 || recentered_) {
         Mat4 frame = identity();
         for (int r = 0; r < 3; r++) {

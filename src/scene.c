@@ -497,6 +497,9 @@ bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     if (s->triangle_count == 0) lo = hi = v3s(0.f);
     s->bounds_min = lo;
     s->bounds_max = hi;
+    if (!pm_scene_core(s, &lo, &hi)) return false;
+    s->core_min = lo;
+    s->core_max = hi;
     s->center = v3_scale(v3_add(lo, hi), 0.5f);
     s->radius = 0.5f * v3_length(v3_sub(hi, lo));
     float extent = v3_max_component(v3_sub(hi, lo));
@@ -598,7 +601,8 @@ pm_camera pm_scene_auto_camera(const pm_scene *s, float aspect) {
 pm_camera pm_scene_fit_camera(const pm_scene *s, pm_camera c, float aspect) {
     const float margin = 1.05f;
     if (!(aspect > 0.f)) aspect = c.aspect > 0.f ? c.aspect : 1.f;
-    vec3 center = v3_scale(v3_add(s->bounds_min, s->bounds_max), 0.5f);
+    /* the core's vertices: a stray far from the bulk would shrink the model to a dot */
+    vec3 center = v3_scale(v3_add(s->core_min, s->core_max), 0.5f);
     float r = s->radius > 0.f ? s->radius : 1.f;
     double tan_y = tan(0.5 * (double)c.yfov) / margin, tan_x = tan_y * aspect;
     /* in the camera's frame, from the centre: x right, y up, z toward the camera */
@@ -613,6 +617,9 @@ pm_camera pm_scene_fit_camera(const pm_scene *s, pm_camera c, float aspect) {
             const pm_placement *placement = &s->placements[pl];
             world = pm_placement_point(placement, s->positions[s->instanced_meshes[placement->mesh].first_vertex + v++]);
         }
+        if (!(world.x >= s->core_min.x && world.y >= s->core_min.y && world.z >= s->core_min.z && world.x <= s->core_max.x &&
+              world.y <= s->core_max.y && world.z <= s->core_max.z))
+            continue;
         vec3 d = v3_sub(world, center);
         double x = fabs((double)v3_dot(d, c.right)), y = fabs((double)v3_dot(d, c.up)), z = -(double)v3_dot(d, c.forward);
         if (c.orthographic) {

@@ -417,22 +417,38 @@ static void test_huge_mesh_flattened(void) {
 }
 
 /* A placement Embree cannot trace through its float inverse (a scale of 1e20 or 1e-20, entries
- * of 1e30, one axis squashed by 1e-20) flattens its mesh, and rays over the view and through every
- * placement answer as the flat file's do; moderate scales stay instanced. Before, Embree aborted
- * the process (an assertion on the ray it made in mesh space). */
+ * of 1e30, one axis squashed by 1e-20, a shear of 1e7) flattens its mesh, and rays over the view
+ * and through every placement answer as the flat file's do; moderate scales stay instanced. One
+ * whose size is more than 2^62 times the unit torus's is refused alike, instanced or flat: no
+ * frame keeps both within float's range. Before, Embree aborted the process (an assertion on the
+ * ray it made in mesh space). */
 static void test_extreme_placements(void) {
-    static const struct { const char *node; bool instanced; } cases[] = {
-        {"{\"mesh\":1,\"translation\":[3,0,0],\"scale\":[1e20,1e20,1e20]}", false},
-        {"{\"mesh\":1,\"translation\":[3,0,0],\"scale\":[1e-20,1e-20,1e-20]}", false},
-        {"{\"mesh\":1,\"matrix\":[1e30,0,0,0,0,1e30,0,0,0,0,1e30,0,3,0,0,1]}", false},
-        {"{\"mesh\":1,\"translation\":[3,0.5,0],\"scale\":[1,1e-20,1]}", false},
-        {"{\"mesh\":1,\"matrix\":[1,0,0,0,1e7,1,0,0,0,0,1,0,3,0,0,1]}", false},
-        {"{\"mesh\":1,\"translation\":[3,0,0],\"scale\":[2,0.5,1]}", true},
+    static const struct { const char *node; bool instanced, refused; } cases[] = {
+        {"{\"mesh\":1,\"translation\":[3,0,0],\"scale\":[1e20,1e20,1e20]}", false, true},
+        {"{\"mesh\":1,\"translation\":[3,0,0],\"scale\":[1e-20,1e-20,1e-20]}", false, false},
+        {"{\"mesh\":1,\"matrix\":[1e30,0,0,0,0,1e30,0,0,0,0,1e30,0,3,0,0,1]}", false, true},
+        {"{\"mesh\":1,\"translation\":[3,0,0],\"scale\":[1e15,1e15,1e15]}", false, false},
+        {"{\"mesh\":1,\"translation\":[3,0.5,0],\"scale\":[1,1e-20,1]}", false, false},
+        {"{\"mesh\":1,\"matrix\":[1,0,0,0,1e7,1,0,0,0,0,1,0,3,0,0,1]}", false, false},
+        {"{\"mesh\":1,\"translation\":[3,0,0],\"scale\":[2,0.5,1]}", true, false},
     };
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         char nodes[512];
         snprintf(nodes, sizeof nodes, ",{\"mesh\":1},%s", cases[c].node);
         char *text = make_gltf(nodes, ",2,3", "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.5,0.3,1],\"metallicFactor\":0}}", "3");
+        if (cases[c].refused) {
+            for (int flatten = 0; flatten < 2; flatten++) {
+                pm_scene s;
+                char err[512] = "";
+                pm_load_options options = {.flatten_instances = flatten};
+                bool loaded = pm_load_gltf_memory_with(text, strlen(text), "instancing.gltf", &options, true, &s, NULL, err, sizeof err);
+                CHECK(!loaded && strstr(err, "sizes span more than float can render"), "placement %s (%s): want the span refused, got %s",
+                      cases[c].node, flatten ? "flat" : "instanced", loaded ? "a scene" : err);
+                if (loaded) pm_scene_free(&s);
+            }
+            free(text);
+            continue;
+        }
         pm_scene inst, flat;
         bool ok = load_text(text, false, &inst) & load_text(text, true, &flat);
         free(text);
