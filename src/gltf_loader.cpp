@@ -1807,8 +1807,36 @@ void Loader::decode_compressed() {
             fail("bufferView " + str(v) + " lies in buffer " + str(b) +
                  ", a fallback buffer without data, and is not EXT_meshopt_compression-compressed");
     }
+    // Draco streams are decoded for the primitives of meshes the default scene's nodes place, each
+    // stream once however many primitives name it: a file of thousands of primitives naming one
+    // stream, or of unused meshes, took minutes decoding the same bytes again. The nodes reached
+    // from the default scene (cycles are refused later by the traversal; here a node is visited once).
+    std::vector<char> placed_mesh(model_.meshes.size(), 0);
+    if (!model_.scenes.empty()) {
+        size_t scene = model_.defaultScene >= 0 ? static_cast<size_t>(model_.defaultScene) : 0;
+        std::vector<char> seen(model_.nodes.size(), 0);
+        std::vector<int> stack;
+        if (scene < model_.scenes.size()) stack = model_.scenes[scene].nodes;
+        while (!stack.empty()) {
+            int n = stack.back();
+            stack.pop_back();
+            if (n < 0 || static_cast<size_t>(n) >= model_.nodes.size() || seen[n]) continue;
+            seen[n] = 1;
+            const tinygltf::Node &node = model_.nodes[n];
+            if (node.mesh >= 0 && static_cast<size_t>(node.mesh) < placed_mesh.size()) placed_mesh[node.mesh] = 1;
+            stack.insert(stack.end(), node.children.begin(), node.children.end());
+        }
+    }
+    std::vector<size_t> order;  // the placed Draco primitives, grouped by stream
+    for (size_t i = 0; i < draco_primitives_.size(); i++)
+        if (placed_mesh[draco_primitives_[i].mesh]) order.push_back(i);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return draco_primitives_[a].view < draco_primitives_[b].view; });
+    std::unique_ptr<pm_draco_mesh, void (*)(pm_draco_mesh *)> mesh(nullptr, pm_draco_free);
+    int decoded_view = -1;  // the stream `mesh` holds
     std::map<int, int> filled_from;  // accessor -> the bufferView of the Draco stream that filled it
-    for (const DracoPrimitive &d : draco_primitives_) {
+    for (size_t index : order) {
+        const DracoPrimitive &d = draco_primitives_[index];
         std::string where = "mesh " + str(d.mesh) + " primitive " + str(d.primitive) + " KHR_draco_mesh_compression";
         tinygltf::Primitive &prim = model_.meshes[d.mesh].primitives[d.primitive];
         if (prim.mode != TINYGLTF_MODE_TRIANGLES) {
@@ -1816,11 +1844,14 @@ void Loader::decode_compressed() {
             fail("a Draco stream holds a triangle list, not mode " + str(prim.mode) + " (" + where + ")");
         }
         if (prim.indices < 0) fail("a Draco primitive needs an indices accessor (" + where + ")");
-        const tinygltf::BufferView &bv = model_.bufferViews[d.view];
-        std::unique_ptr<pm_draco_mesh, void (*)(pm_draco_mesh *)> mesh(
-            pm_draco_decode(model_.buffers[bv.buffer].data.data() + bv.byteOffset, bv.byteLength, message, sizeof message),
-            pm_draco_free);
-        if (!mesh) fail(std::string(message) + " (" + where + ", bufferView " + str(d.view) + ")");
+        if (d.view != decoded_view) {
+            mesh.reset();  // the previous stream's decoded mesh goes before the next one is made
+            const tinygltf::BufferView &bv = model_.bufferViews[d.view];
+            mesh.reset(pm_draco_decode(model_.buffers[bv.buffer].data.data() + bv.byteOffset, bv.byteLength, message,
+                                       sizeof message));
+            if (!mesh) fail(std::string(message) + " (" + where + ", bufferView " + str(d.view) + ")");
+            decoded_view = d.view;
+        }
         uint64_t points = pm_draco_points(mesh.get()), triangles = pm_draco_triangles(mesh.get());
         if (triangles == 0) fail("the Draco stream holds no triangles (" + where + ")");
         auto fill = [&](int a, uint64_t count, const char *what, const std::function<bool(void *)> &decode) {
