@@ -96,6 +96,12 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
         fprintf(stderr, "pmview: error: %s\n", err);
         return 1;
     }
+    /* the log too, here where a refusal reaches every rank through the set-up's agreement: opened
+     * after it, a failure ended rank 0 alone and mpirun waited for ever on the others */
+    if (root && o->log && !pm_check_output_path(o->log, err, sizeof err)) {
+        fprintf(stderr, "pmview: error: %s (--log)\n", err);
+        return 1;
+    }
     /* before the scene too: a sky map or a reference that cannot be used costs no load and no BVH
      * build (the reference's height is compared once the camera gives the image's) */
     r->sky = (pm_sky_request){.sky = o->sky, .no_default_light = o->no_default_light, .scene_path = o->scene_path,

@@ -228,7 +228,9 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
     if (o->log && root) {
         ob.log = fopen(o->log, "w");
         if (!ob.log) {
-            fprintf(stderr, "pmview: error: %s: cannot write the log (%s)\n", o->log, strerror(errno));
+            snprintf(err, sizeof err, "%s: cannot write the log (%s)", o->log, strerror(errno));
+            if (cluster) pm_cluster_abort(cluster, err); /* every rank ends, not rank 0 alone */
+            fprintf(stderr, "pmview: error: %s\n", err);
             free(ob.scratch);
             return 1;
         }

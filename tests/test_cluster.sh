@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, the cluster stat line.
+# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, the cluster stat line.
 #
 # Every job is small (64 px or less, --threads 1) so the whole runs in well under a minute on two
 # busy cores. The ASan build's leak check is off inside mpirun jobs only: Open MPI keeps its own
@@ -264,6 +264,23 @@ for scene in "$tmp/no-such-scene.gltf" "$tmp/corrupt.gltf"; do
     check "$name: pmview wrote to stdout" [ ! -s "'$tmp/bad.out'" ]
     check "$name: an image was written" [ ! -e "'$tmp/bad.exr'" ]
     grep "^pmview:" "$tmp/bad.err"
+done
+
+# --- 7. --log into a missing folder or onto a directory: refused in the set-up, so every rank
+# ends: one 'pmview:' line naming the path, non-zero, no rank left. Before, rank 0 printed its
+# error and ended while rank 1 waited for a merge for ever.
+for log in "$tmp/no-such-folder/run.csv" "$tmp"; do
+    ASAN_OPTIONS=detect_leaks=0 timeout 60 mpirun --oversubscribe -np 2 $bin $cornell --width 16 --threads 1 --iterations 1 \
+        --snapshot "$tmp/log.exr" --log "$log" </dev/null >"$tmp/log.out" 2>"$tmp/log.err"
+    rc=$?
+    lines=$(grep -c "^pmview:" "$tmp/log.err")
+    echo "--log $log: exit $rc, $(grep "^pmview:" "$tmp/log.err" | head -n 1)"
+    check "--log $log: the job did not end within 60 s" [ "$rc" -ne 124 ]
+    check "--log $log: exit 0" [ "$rc" -ne 0 ]
+    check "--log $log: $lines 'pmview:' lines on stderr, want 1" [ "$lines" -eq 1 ]
+    check "--log $log: the line does not name the log" grep -q "'^pmview: error: $log: .*(--log)'" "$tmp/log.err"
+    check "--log $log: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
+    for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
 done
 
 echo "test_cluster: $checks checks, $fails failed"
