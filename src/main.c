@@ -99,7 +99,9 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     /* the log too, here where a refusal reaches every rank through the set-up's agreement: opened
      * after it, a failure ended rank 0 alone and mpirun waited for ever on the others */
     if (root && o->log && !pm_check_output_path(o->log, err, sizeof err)) {
-        fprintf(stderr, "pmview: error: %s (--log)\n", err);
+        size_t named = strlen(o->log);
+        const char *why = strncmp(err, o->log, named) == 0 && strncmp(err + named, ": ", 2) == 0 ? err + named + 2 : err;
+        fprintf(stderr, "pmview: error: %s: cannot write the log (%s)\n", o->log, why);
         return 1;
     }
     /* before the scene too: a sky map or a reference that cannot be used costs no load and no BVH

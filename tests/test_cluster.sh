@@ -278,7 +278,7 @@ for log in "$tmp/no-such-folder/run.csv" "$tmp"; do
     check "--log $log: the job did not end within 60 s" [ "$rc" -ne 124 ]
     check "--log $log: exit 0" [ "$rc" -ne 0 ]
     check "--log $log: $lines 'pmview:' lines on stderr, want 1" [ "$lines" -eq 1 ]
-    check "--log $log: the line does not name the log" grep -q "'^pmview: error: $log: .*(--log)'" "$tmp/log.err"
+    check "--log $log: the line does not name the log" grep -q "'^pmview: error: $log: cannot write the log'" "$tmp/log.err"
     check "--log $log: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
     for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
 done
