@@ -35,9 +35,10 @@ int pm_cluster_size(const pm_cluster *c); /* 1 without a cluster */
 
 /* Every rank at the same point with its own outcome (-1: going on, else its exit code): -1 when
  * every rank goes on, else the first failing rank's code on every rank, and rank 0 prints that
- * rank's error lines once ("rank K: " in them when K is not 0). Also a barrier: time budgets count
- * from here. */
-int pm_cluster_agree(pm_cluster *c, int code);
+ * rank's error line once ("rank K: " in it when K is not 0). When every rank goes on, their
+ * digests (the scene's and the options', pm_scene_digest) must be rank 0's, else 1 on every rank
+ * and one line naming the first rank that differs. Also a barrier: time budgets count from here. */
+int pm_cluster_agree(pm_cluster *c, int code, uint64_t digest);
 /* A failure after the set-up (out of memory, a command rank 0's image does not fit): one line,
  * rank 0's or "pmview: rank K: error: ...", then every rank ends (MPI_Abort). */
 void pm_cluster_abort(pm_cluster *c, const char *message);

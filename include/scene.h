@@ -239,6 +239,11 @@ typedef struct {
  * can warn). False when out of memory (pm_memory_failure names what): the scene is only freed. */
 bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky);
 
+/* A 64-bit digest (FNV-1a) of what the loader made: geometry, placements, materials, textures'
+ * texels, lights, cameras and the sky's radiance. Under mpirun every rank must hold the same
+ * scene; the set-up's agreement compares the ranks' digests (pm_cluster_agree). */
+uint64_t pm_scene_digest(const pm_scene *s);
+
 /* The scene's core (scene_core.c): the bounds of its bulk, leaving out small geometry (under a
  * tenth of the surface area) lying farther than 8 core extents from the rest, so a stray helper
  * far away changes no size the renderer derives from the scene. bounds_min/max must be set;

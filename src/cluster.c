@@ -131,14 +131,16 @@ uint32_t pm_cluster_share(const pm_cluster *c, uint32_t total) {
     return each + ((uint32_t)c->rank < rest ? 1u : 0u);
 }
 
-/* The last line this rank wrote to its kept stderr (a failure's message), or "". */
+/* The last line this rank wrote to its kept stderr that starts "pmview:" (a failure's message:
+ * a bad option's line comes before the usage text, which must not stand for it), else its last
+ * line, or "". */
 static void last_kept_line(pm_cluster *c, char *line, size_t size) {
     line[0] = 0;
     fflush(stderr);
     if (!c->kept_stderr) return;
     struct stat st;
     if (fstat(fileno(c->kept_stderr), &st) != 0 || st.st_size <= 0) return;
-    char tail[1024];
+    static char tail[16384];
     off_t from = st.st_size > (off_t)sizeof tail - 1 ? st.st_size - (off_t)sizeof tail + 1 : 0;
     ssize_t n = pread(fileno(c->kept_stderr), tail, sizeof tail - 1, from);
     if (n <= 0) return;
@@ -146,7 +148,13 @@ static void last_kept_line(pm_cluster *c, char *line, size_t size) {
     while (n > 0 && (tail[n - 1] == '\n' || tail[n - 1] == '\r')) tail[--n] = 0;
     const char *start = strrchr(tail, '\n');
     start = start ? start + 1 : tail;
-    size_t length = strlen(start) < size - 1 ? strlen(start) : size - 1;
+    for (const char *at = tail; at; at = strchr(at, '\n')) {
+        if (*at == '\n') at++;
+        if (strncmp(at, "pmview:", 7) == 0) start = at;
+    }
+    const char *end = strchr(start, '\n');
+    size_t length = end ? (size_t)(end - start) : strlen(start);
+    if (length > size - 1) length = size - 1;
     memcpy(line, start, length);
     line[length] = 0;
 }
@@ -157,12 +165,25 @@ static void print_as_rank(FILE *f, int rank, const char *line) {
     fprintf(f, "pmview: rank %d: %s\n", rank, rest);
 }
 
-int pm_cluster_agree(pm_cluster *c, int code) {
+int pm_cluster_agree(pm_cluster *c, int code, uint64_t digest) {
     if (!c) return code;
     int mine = code < 0 ? c->size : c->rank, first = c->size;
     MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
     c->agreed_at = pm_now_seconds();
-    if (first == c->size) return -1;
+    if (first == c->size) {
+        /* every rank is ready: each must hold rank 0's scene and options, or their images would be
+         * summed into one (a different file per rank, a stale copy at the same path elsewhere) */
+        uint64_t root = digest;
+        MPI_Bcast(&root, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+        int other = digest != root ? c->rank : c->size, differs = c->size;
+        MPI_Allreduce(&other, &differs, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+        if (differs == c->size) differs = 0;
+        if (!differs) return -1;
+        if (c->rank == 0)
+            fprintf(stderr, "pmview: error: rank %d holds another scene or other options than rank 0 (their digests "
+                            "differ): every rank must load the same file with the same options\n", differs);
+        return 1;
+    }
     int agreed = code;
     MPI_Bcast(&agreed, 1, MPI_INT, first, MPI_COMM_WORLD);
     if (first != 0) {

@@ -261,7 +261,14 @@ int main(int argc, char **argv) {
             code = set_up(cluster, &r, wants_window);
         }
     }
-    code = pm_cluster_agree(cluster, code);
+    /* what every rank must share: the scene it loaded and the command line it was given */
+    uint64_t digest = cluster && code < 0 && r.scene_loaded ? pm_scene_digest(&r.scene) : 0;
+    for (int i = 1; cluster && i < argc; i++)
+        for (const char *c = argv[i]; ; c++) {
+            digest = (digest ^ (unsigned char)*c) * 1099511628211ull;
+            if (!*c) break;
+        }
+    code = pm_cluster_agree(cluster, code, digest);
     if (code < 0) {
         const pm_options *o = &r.opt;
         if (o->snapshot) code = pm_snapshot_run(o, cluster, r.session, &r.reference, &r.output_reserved);

@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, the cluster stat line.
+# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, ranks holding different scenes or options, the cluster stat line.
 #
 # Every job is small (64 px or less, --threads 1) so the whole runs in well under a minute on two
 # busy cores. The ASan build's leak check is off inside mpirun jobs only: Open MPI keeps its own
@@ -282,6 +282,36 @@ for log in "$tmp/no-such-folder/run.csv" "$tmp"; do
     check "--log $log: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
     for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
 done
+
+# --- 8. ranks that disagree: a different file per rank, a stale copy at the same path in each
+# rank's working directory, a bad option on rank 1 alone. Each job ends with one 'pmview:' line
+# naming the cause, non-zero, nothing written. Before, the first two summed both scenes into one
+# image without a word, and the third printed the usage text's last line as the error.
+mkdir -p "$tmp/wd0" "$tmp/wd1"
+cp scenes/cornell-box.gltf "$tmp/wd0/s.gltf"
+cp scenes/point-room.gltf "$tmp/wd1/s.gltf"
+disagree() { # description, want (text in the line), then mpirun's app contexts
+    desc=$1; want=$2; shift 2
+    rm -f "$tmp/mpmd.exr"
+    ASAN_OPTIONS=detect_leaks=0 timeout 60 mpirun --oversubscribe "$@" </dev/null >"$tmp/mpmd.out" 2>"$tmp/mpmd.err"
+    rc=$?
+    lines=$(grep -c "^pmview:" "$tmp/mpmd.err")
+    echo "$desc: exit $rc, $(grep "^pmview:" "$tmp/mpmd.err" | head -n 1)"
+    check "$desc: exit $rc, want non-zero and not a timeout" [ "$rc" -ne 0 ] \&\& [ "$rc" -ne 124 ]
+    check "$desc: $lines 'pmview:' lines on stderr, want 1" [ "$lines" -eq 1 ]
+    check "$desc: the line does not say '$want'" grep -q "'^pmview: .*$want'" "$tmp/mpmd.err"
+    check "$desc: an image was written" [ ! -e "'$tmp/mpmd.exr'" ]
+    for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+}
+opts="--width 16 --threads 1 --iterations 2 --snapshot $tmp/mpmd.exr"
+disagree "a different scene per rank" "rank 1 holds another scene or other options than rank 0" \
+    -np 1 $bin scenes/cornell-box.gltf $opts : -np 1 $bin scenes/point-room.gltf $opts
+disagree "a stale copy in rank 1's folder" "rank 1 holds another scene or other options than rank 0" \
+    -np 1 --wdir "$tmp/wd0" "$PWD/$bin" s.gltf $opts : -np 1 --wdir "$tmp/wd1" "$PWD/$bin" s.gltf $opts
+disagree "other options on rank 1" "rank 1 holds another scene or other options than rank 0" \
+    -np 1 $bin scenes/cornell-box.gltf $opts : -np 1 $bin scenes/cornell-box.gltf $opts --photons 5000
+disagree "a bad option on rank 1" "rank 1: unknown option .--bogus." \
+    -np 1 $bin scenes/cornell-box.gltf $opts : -np 1 $bin scenes/cornell-box.gltf $opts --bogus
 
 echo "test_cluster: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]
