@@ -674,6 +674,12 @@ Mat4 local_matrix(const tinygltf::Node &node, int index) {
     }
     Mat4 out = identity();
     if (!node.matrix.empty()) {
+        // glTF: a node matrix is affine (decomposable into TRS), its last row [0 0 0 1]; the
+        // renderer reads the upper 3x4 alone, so another row would be silently dropped
+        const std::vector<double> &m = node.matrix;
+        if (std::fabs(m[3]) > 1e-6 || std::fabs(m[7]) > 1e-6 || std::fabs(m[11]) > 1e-6 || std::fabs(m[15] - 1) > 1e-6)
+            fail("matrix's last row is [" + num(m[3]) + " " + num(m[7]) + " " + num(m[11]) + " " + num(m[15]) +
+                 "], not [0 0 0 1] (glTF node matrices are affine)" + where);
         std::copy(node.matrix.begin(), node.matrix.end(), out.m);
         return out;
     }
@@ -972,6 +978,8 @@ private:
     std::vector<std::array<double, 3>> attenuation_;  // per material, per unit length of the file, framed in choose_frame
     uint64_t collapsed_normals_ = 0;  // usable NORMAL values the node's transform reduced to nothing
     std::string first_collapsed_;
+    uint64_t nonfinite_uvs_ = 0;      // NaN or infinite texture coordinates, read as 0
+    std::string first_nonfinite_uv_;
     uint32_t ignored_inputs_ = 0;  // materials using an input pmview does not render (each kind warned once)
     // Occlusion textures stand in for what a rasteriser cannot compute; tracing computes it, so
     // they are left out by design: counted for --stats, never warned about.
@@ -1935,6 +1943,33 @@ void Loader::traverse_default_scene() {
         for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
             stack.push_back({*it, step.node, false});
     }
+    {
+        // glTF: all nodes form disjoint strict trees, listed by the default scene or not: a node has
+        // at most one parent, and every node descends from a parentless one (any other lies on a
+        // cycle). After the default scene's walk, which names its own faults as it meets them.
+        const size_t n = model_.nodes.size();
+        std::vector<int> parent(n, -1);
+        for (size_t i = 0; i < n; i++)
+            for (int c : model_.nodes[i].children) {
+                if (c < 0 || static_cast<size_t>(c) >= n) continue;  // dangling: named by the traversal below
+                if (parent[c] >= 0)
+                    fail("node " + str(c) + " is reached twice (two parents: nodes " + str(parent[c]) + " and " + str(i) + ")");
+                parent[c] = static_cast<int>(i);
+            }
+        std::vector<char> descends(n, 0);
+        std::vector<size_t> stack;
+        for (size_t i = 0; i < n; i++)
+            if (parent[i] < 0) stack.push_back(i);
+        while (!stack.empty()) {
+            size_t i = stack.back();
+            stack.pop_back();
+            descends[i] = 1;
+            for (int c : model_.nodes[i].children)
+                if (c >= 0 && static_cast<size_t>(c) < n && !descends[c]) stack.push_back(static_cast<size_t>(c));
+        }
+        for (size_t i = 0; i < n; i++)
+            if (!descends[i]) fail("node hierarchy contains a cycle (node " + str(i) + ")");
+    }
 }
 
 // A number the preflight found finite, brought into [lo, hi] with a warning naming it.
@@ -2422,6 +2457,14 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
         if (l.count != vertices)
             fail(std::string(o.name) + " count " + str(l.count) + " != POSITION count " + str(vertices) + " (" + where + ")");
         *o.into = read_accessor<float>(l, a);
+        // a NaN or infinite texture coordinate reads as an arbitrary texel (white, or an emissive
+        // texture glowing at full strength): read as 0, counted in one warning
+        if (texcoord)
+            for (size_t i = 0; i < o.into->size(); i++)
+                if (!std::isfinite((*o.into)[i])) {
+                    if (nonfinite_uvs_++ == 0) first_nonfinite_uv_ = std::string(o.name) + " vertex " + str(i / 2) + ", " + where;
+                    (*o.into)[i] = 0.f;
+                }
     }
     // glTF: TANGENT's w is +1 or -1. Any other is read by its sign (0 and NaN as +1), counted in
     // one warning; only where a normal map reads it.
@@ -3026,6 +3069,8 @@ void Loader::load(pm_scene *out) {
     if (triangle_material_.empty()) fail("nothing to render (no triangles in the default scene)");
 
     if (degenerate_) warn("skipped " + str(degenerate_) + " degenerate triangle(s) (zero area or non-finite normal)");
+    if (nonfinite_uvs_)
+        warn(str(nonfinite_uvs_) + " non-finite texture coordinate(s) read as 0 (first: " + first_nonfinite_uv_ + ")");
     if (skipped_prims_) warn("skipped " + str(skipped_prims_) + " points/lines primitive(s) (only triangles render)");
     if (collapsed_normals_)
         warn(str(collapsed_normals_) + " NORMAL value(s) lost their direction to their node's transform (first: " +

@@ -892,6 +892,26 @@ static void test_sparse(void) {
     free(json.data);
 }
 
+/* NaN and infinite texture coordinates read as 0, counted in one warning line naming the first;
+ * before, they were accepted silently and read an arbitrary texel. */
+static void test_nonfinite_uvs(void) {
+    const float uvs[6] = {0.25f, NAN, INFINITY, 0.5f, 0.75f, 0.75f};
+    prim_spec p = {unit_triangle, 3, NULL, uvs, 0, NULL, 0, 0, -1, -1};
+    write_model("nan_uvs.gltf", &p, 1, NULL);
+    pm_scene s;
+    pm_load_report r;
+    char warnings[2048];
+    if (!load_warned("nan_uvs.gltf", &s, &r, warnings, sizeof warnings)) return;
+    bool finite = s.uvs != NULL;
+    for (uint32_t i = 0; finite && i < 2 * s.vertex_count; i++) finite = isfinite(s.uvs[i]);
+    CHECK(finite, "non-finite UVs: every stored UV finite");
+    CHECK(s.uvs && s.uvs[0] == 0.25f && s.uvs[1] == 0.f && s.uvs[2] == 0.f && s.uvs[3] == 0.5f,
+          "non-finite UVs: read as 0, the others kept");
+    CHECK(line_count(warnings) == 1 && strstr(warnings, "2 non-finite texture coordinate(s) read as 0 (first: TEXCOORD_0 vertex 0, mesh 0"),
+          "non-finite UVs: one warning naming the count and the first: %s", warnings);
+    pm_scene_free(&s);
+}
+
 static void test_rejections(void) {
     static const uint32_t bad_indices[3] = {0, 1, 7};
     prim_spec out_of_range = {unit_triangle, 3, NULL, NULL, 0, bad_indices, 3, 5123, -1, -1};
@@ -911,6 +931,23 @@ static void test_rejections(void) {
     doc_spec two_parents = {"[{\"mesh\":0},{\"children\":[0]},{\"children\":[0]}]", "[1,2]", NULL, NULL};
     write_model("two_parents.gltf", &tri, 1, &two_parents);
     check_rejected("two_parents.gltf", "node 0 is reached twice");
+
+    /* glTF's node rules hold for every node, listed by the default scene or not: a cycle or a
+     * second parent among nodes the scene never reaches is refused too (before, accepted) */
+    doc_spec cycle_aside = {"[{\"mesh\":0},{\"children\":[2]},{\"children\":[1]}]", "[0]", NULL, NULL};
+    write_model("cycle_aside.gltf", &tri, 1, &cycle_aside);
+    check_rejected("cycle_aside.gltf", "node hierarchy contains a cycle (node 1)");
+    doc_spec parents_aside = {"[{\"mesh\":0},{\"children\":[3]},{\"children\":[3]},{}]", "[0]", NULL, NULL};
+    write_model("parents_aside.gltf", &tri, 1, &parents_aside);
+    check_rejected("parents_aside.gltf", "node 3 is reached twice (two parents: nodes 1 and 2)");
+
+    /* a node matrix whose last row is not [0 0 0 1] (glTF's are affine): refused, not cut to 3x4 */
+    doc_spec projective = {"[{\"mesh\":0,\"matrix\":[1,0,0,0.5,0,1,0,0,0,0,1,0,0,0,0,1]}]", NULL, NULL, NULL};
+    write_model("projective.gltf", &tri, 1, &projective);
+    check_rejected("projective.gltf", "matrix's last row is [0.5 0 0 1], not [0 0 0 1] (glTF node matrices are affine) (node 0)");
+    doc_spec weighted = {"[{\"mesh\":0,\"matrix\":[2,0,0,0,0,2,0,0,0,0,2,0,0,0,0,2]}]", NULL, NULL, NULL};
+    write_model("weighted.gltf", &tri, 1, &weighted);
+    check_rejected("weighted.gltf", "matrix's last row is [0 0 0 2]");
 
     doc_spec unsupported = {NULL, NULL, NULL,
                             "\"extensionsUsed\":[\"EXT_pmview_unsupported\"],\"extensionsRequired\":[\"EXT_pmview_unsupported\"],"};
@@ -2097,6 +2134,7 @@ int main(void) {
     test_tangent_w();
     test_skips();
     test_sparse();
+    test_nonfinite_uvs();
     test_rejections();
     test_wrong_types_and_indices();
     test_top_down_bmp();
