@@ -242,6 +242,21 @@ bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, s
         return true;
     int width = 0, height = 0, channels = 0;
     if (!stbi_info_from_memory(bytes, size, &width, &height, &channels)) {
+        // stb_image turns down a PNG header past its own limit (2^24 a side) as undecodable: the
+        // header's size, read here, says why
+        static const unsigned char png[12] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13};
+        if (size >= 24 && memcmp(bytes, png, sizeof png) == 0 && memcmp(bytes + 12, "IHDR", 4) == 0) {
+            auto be32 = [&](int at) {
+                return static_cast<uint64_t>(bytes[at]) << 24 | static_cast<uint64_t>(bytes[at + 1]) << 16 |
+                       static_cast<uint64_t>(bytes[at + 2]) << 8 | bytes[at + 3];
+            };
+            uint64_t w = be32(16), h = be32(20);
+            if (w * h > kMaxImagePixels) {
+                hooks->error = "image is " + str(w) + "x" + str(h) + " pixels, more than " + str(kMaxImagePixels) +
+                               " (image " + str(index) + ")";
+                return false;
+            }
+        }
         hooks->warnings.push_back("image " + str(index) + " is not a decodable PNG/JPEG/BMP/GIF; its textures are ignored");
         return true;
     }

@@ -941,6 +941,15 @@ static void test_rejections(void) {
     write_model("parents_aside.gltf", &tri, 1, &parents_aside);
     check_rejected("parents_aside.gltf", "node 3 is reached twice (two parents: nodes 1 and 2)");
 
+    /* a PNG whose header claims 30000000 x 30000000 pixels (past stb_image's 2^24 a side): named by
+     * its size, as a large decodable one is (before, "not a decodable PNG" and its texture dropped) */
+    prim_spec textured = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, 0};
+    doc_spec huge_png = {NULL, NULL, "[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}]",
+                         "\"textures\":[{\"source\":0}],\"images\":[{\"uri\":\"data:image/png;base64,"
+                         "iVBORw0KGgoAAAANSUhEUgHJw4ABycOACAYAAABkid33AAAAC0lEQVR4nGNggAAAAAgAAbdYc5UAAAAASUVORK5CYII=\"}],"};
+    write_model("huge_png.gltf", &textured, 1, &huge_png);
+    check_rejected("huge_png.gltf", "image is 30000000x30000000 pixels, more than 268435456 (image 0)");
+
     /* a node matrix whose last row is not [0 0 0 1] (glTF's are affine): refused, not cut to 3x4 */
     doc_spec projective = {"[{\"mesh\":0,\"matrix\":[1,0,0,0.5,0,1,0,0,0,0,1,0,0,0,0,1]}]", NULL, NULL, NULL};
     write_model("projective.gltf", &tri, 1, &projective);
