@@ -993,6 +993,7 @@ private:
     std::vector<std::array<double, 3>> attenuation_;  // per material, per unit length of the file, framed in choose_frame
     uint64_t collapsed_normals_ = 0;  // usable NORMAL values the node's transform reduced to nothing
     std::string first_collapsed_;
+    bool node_weights_warned_ = false;
     uint64_t nonfinite_uvs_ = 0;      // NaN or infinite texture coordinates, read as 0
     std::string first_nonfinite_uv_;
     uint32_t ignored_inputs_ = 0;  // materials using an input pmview does not render (each kind warned once)
@@ -2481,6 +2482,29 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
                     (*o.into)[i] = 0.f;
                 }
     }
+    // Morph targets at the mesh's default weights: glTF's static pose is the base plus each
+    // target's POSITION and NORMAL displacements times mesh.weights (a morphed mesh rendered its
+    // base shape before). One pose a mesh: a node's own weights, when they differ, are warned of (load).
+    const std::vector<double> &weights = model_.meshes[mesh].weights;
+    for (size_t t = 0; t < prim.targets.size() && t < weights.size(); t++) {
+        if (!(weights[t] != 0)) continue;
+        if (!std::isfinite(weights[t])) fail("non-finite weight " + str(t) + " (mesh " + str(mesh) + ")");
+        for (const char *name : {"POSITION", "NORMAL"}) {
+            auto it = prim.targets[t].find(name);
+            std::vector<float> &into = name[0] == 'P' ? out.positions : out.normals;
+            if (it == prim.targets[t].end() || into.empty()) continue;
+            std::string target = std::string(name) + " of morph target " + str(t) + " (accessor " + str(it->second) + ", " + where + ")";
+            AccessorLayout l = accessor_layout(model_, it->second);
+            if (l.components != 3 || (l.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT && !quantization_))
+                fail("the " + target + " must be a float VEC3" + (quantization_ ? " or a byte/short one" : ""));
+            if (l.count != vertices) fail("the " + target + " has count " + str(l.count) + ", POSITION " + str(vertices));
+            std::vector<float> delta = read_accessor<float>(l, it->second);
+            for (size_t i = 0; i < into.size() && i < delta.size(); i++) {
+                into[i] = static_cast<float>(into[i] + weights[t] * delta[i]);
+                if (!std::isfinite(into[i])) fail("the " + target + " at weight " + num(weights[t]) + " makes vertex " + str(i / 3) + " non-finite");
+            }
+        }
+    }
     // glTF: TANGENT's w is +1 or -1. Any other is read by its sign (0 and NaN as +1), counted in
     // one warning; only where a normal map reads it.
     bool mapped = !out.tangents.empty() && prim.material >= 0 && materials_[prim.material].normal_texture >= 0;
@@ -2984,6 +3008,12 @@ void Loader::load(pm_scene *out) {
     for (const Instance &instance : instances_) {
         uses[instance.mesh]++;
         decoded_mesh(instance.mesh);  // each mesh once, however often it is placed
+        const std::vector<double> &own = model_.nodes[instance.node].weights;
+        if (!own.empty() && own != model_.meshes[instance.mesh].weights && !node_weights_warned_) {
+            node_weights_warned_ = true;
+            warn("node " + str(instance.node) + " gives mesh " + str(instance.mesh) +
+                 " morph weights of its own: the mesh's default weights are rendered (one pose a mesh)");
+        }
     }
     choose_frame();  // the placements' matrices below are the framed ones
     for (size_t m = 0; m < uses.size(); m++) instanced[m] = uses[m] >= 2 && !options_.flatten_instances && framed_alone(m);

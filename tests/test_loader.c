@@ -892,6 +892,45 @@ static void test_sparse(void) {
     free(json.data);
 }
 
+/* A mesh with two morph targets and default weights [0.5, 0.25]: the static pose glTF defines is
+ * the base plus 0.5 x target 0 (every vertex +2 in z) plus 0.25 x target 1 (vertex 1 +4 in x), so
+ * the triangle sits at z = 1 with vertex 1 at x = 2. Before, the base shape rendered (z = 0). A
+ * node giving weights of its own gets one warning. */
+static void test_morph_weights(void) {
+    float data[27] = {0, 0, 0, 1, 0, 0, 0, 1, 0, /* base */
+                      0, 0, 2, 0, 0, 2, 0, 0, 2, /* target 0: +2 z */
+                      0, 0, 0, 4, 0, 0, 0, 0, 0}; /* target 1: vertex 1 +4 x */
+    for (int node_weights = 0; node_weights < 2; node_weights++) {
+        text json = {0};
+        text_append(&json, "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0%s}],"
+                           "\"meshes\":[{\"weights\":[0.5,0.25],\"primitives\":[{\"attributes\":{\"POSITION\":0},"
+                           "\"targets\":[{\"POSITION\":1},{\"POSITION\":2}]}]}],"
+                           "\"buffers\":[{\"byteLength\":108,\"uri\":\"data:application/gltf-buffer;base64,",
+                    node_weights ? ",\"weights\":[1,0]" : "");
+        base64_append(&json, (const unsigned char *)data, sizeof data);
+        text_append(&json, "\"}],\"bufferViews\":[{\"buffer\":0,\"byteLength\":36},{\"buffer\":0,\"byteOffset\":36,\"byteLength\":36},"
+                           "{\"buffer\":0,\"byteOffset\":72,\"byteLength\":36}],\"accessors\":["
+                           "{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]},"
+                           "{\"bufferView\":1,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
+                           "{\"bufferView\":2,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}]}");
+        write_text("morph.gltf", json.data);
+        free(json.data);
+        pm_scene s;
+        pm_load_report r;
+        char warnings[2048];
+        if (!load_warned("morph.gltf", &s, &r, warnings, sizeof warnings)) continue;
+        CHECK_VEC(tri_vertex(&s, 0, 0), 0, 0, 1, 1e-6, "morphed vertex 0");
+        CHECK_VEC(tri_vertex(&s, 0, 1), 2, 0, 1, 1e-6, "morphed vertex 1");
+        CHECK_VEC(tri_vertex(&s, 0, 2), 0, 1, 1, 1e-6, "morphed vertex 2");
+        if (node_weights)
+            CHECK(line_count(warnings) == 1 && strstr(warnings, "node 0 gives mesh 0 morph weights of its own"),
+                  "a node's own weights: one warning: %s", warnings);
+        else
+            CHECK(line_count(warnings) == 0, "mesh weights alone: no warning: %s", warnings);
+        pm_scene_free(&s);
+    }
+}
+
 /* NaN and infinite texture coordinates read as 0, counted in one warning line naming the first;
  * before, they were accepted silently and read an arbitrary texel. */
 static void test_nonfinite_uvs(void) {
@@ -2143,6 +2182,7 @@ int main(void) {
     test_tangent_w();
     test_skips();
     test_sparse();
+    test_morph_weights();
     test_nonfinite_uvs();
     test_rejections();
     test_wrong_types_and_indices();
