@@ -39,6 +39,10 @@ int pm_cluster_size(const pm_cluster *c); /* 1 without a cluster */
  * digests (the scene's and the options', pm_scene_digest) must be rank 0's, else 1 on every rank
  * and one line naming the first rank that differs. Also a barrier: time budgets count from here. */
 int pm_cluster_agree(pm_cluster *c, int code, uint64_t digest);
+/* In the set-up, once the session's film exists: the merge's buffers (every rank's send buffer,
+ * rank 0's receive buffer and merged film) admitted against --max-memory and made, so a job that
+ * could not merge fails before it renders. False with pm_cluster_error set; true without a cluster. */
+bool pm_cluster_prepare(pm_cluster *c, const pm_film *film);
 /* A failure after the set-up (out of memory, a command rank 0's image does not fit): one line,
  * rank 0's or "pmview: rank K: error: ...", then every rank ends (MPI_Abort). */
 void pm_cluster_abort(pm_cluster *c, const char *message);

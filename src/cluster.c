@@ -39,6 +39,7 @@ struct pm_cluster {
     bool merged_made;
     double *send, *receive;
     size_t capacity;       /* doubles send (and receive) hold */
+    uint64_t buffers_admitted; /* their bytes, admitted against --max-memory */
     pm_cluster_totals totals;
     /* the window's merge under way (rank 0): asked, waiting for every rank's word that it is ready */
     bool in_flight;
@@ -98,6 +99,7 @@ void pm_cluster_leave(pm_cluster *c) {
     if (c->merged_made) pm_film_free(&c->merged);
     free(c->send);
     free(c->receive);
+    pm_memory_release(c->buffers_admitted);
     free(c->answered);
     if (c->kept_stderr) fclose(c->kept_stderr);
     if (c->real_stderr >= 0) close(c->real_stderr);
@@ -223,8 +225,13 @@ static bool prepare_buffers(pm_cluster *c, size_t count) {
     if (count <= c->capacity) return true;
     free(c->send);
     free(c->receive);
-    c->receive = NULL;
+    c->send = c->receive = NULL;
     c->capacity = 0;
+    pm_memory_release(c->buffers_admitted);
+    c->buffers_admitted = 0;
+    uint64_t bytes = (uint64_t)count * sizeof(double) * (c->rank == 0 ? 2u : 1u);
+    if (!pm_memory_admit(bytes, "the cluster's merge buffers")) return out_of_memory(c);
+    c->buffers_admitted = bytes;
     c->send = pm_malloc(count * sizeof(double), "the cluster's merge buffers");
     if (!c->send) return out_of_memory(c);
     if (c->rank == 0) {
@@ -391,6 +398,16 @@ static const pm_film *merge_from_root(pm_cluster *c, pm_session *s, int type) {
 }
 
 const pm_film *pm_cluster_merge_now(pm_cluster *c, pm_session *s) { return merge_from_root(c, s, CMD_MERGE); }
+
+bool pm_cluster_prepare(pm_cluster *c, const pm_film *film) {
+    if (!c) return true;
+    size_t count = TOTALS_FIELDS + pm_film_packed_count(film);
+    if (count > INT_MAX) {
+        snprintf(c->error, sizeof c->error, "the image is too large for one MPI reduction (%zu values)", count);
+        return false;
+    }
+    return prepare_buffers(c, count) && (c->rank != 0 || prepare_merged_like(c, film));
+}
 
 /* A command from rank 0 if one is waiting (block: wait for it, napping). */
 static bool next_command(command *cmd, bool block) {

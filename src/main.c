@@ -189,6 +189,10 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     }
     r->session = pm_session_create(&r->scene, r->accel, &r->camera, &config, err, sizeof err);
     if (!r->session) { fprintf(stderr, "pmview: error: %s: %s\n", o->scene_path, err); return 1; }
+    if (!pm_cluster_prepare(cluster, pm_session_film(r->session))) {
+        fprintf(stderr, "pmview: error: %s: %s\n", o->scene_path, pm_cluster_error(cluster));
+        return 1;
+    }
     /* from here a signal is the snapshot's: the image so far (none yet) is written, 130 or 143;
      * before, it ends the process at once */
     if (o->snapshot) pm_snapshot_catch_signals(r->session);

@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, ranks holding different scenes or options, the cluster stat line.
+# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, ranks holding different scenes or options, --max-memory counting the merge's buffers, the cluster stat line.
 #
 # Every job is small (64 px or less, --threads 1) so the whole runs in well under a minute on two
 # busy cores. The ASan build's leak check is off inside mpirun jobs only: Open MPI keeps its own
@@ -312,6 +312,23 @@ disagree "other options on rank 1" "rank 1 holds another scene or other options 
     -np 1 $bin scenes/cornell-box.gltf $opts : -np 1 $bin scenes/cornell-box.gltf $opts --photons 5000
 disagree "a bad option on rank 1" "rank 1: unknown option .--bogus." \
     -np 1 $bin scenes/cornell-box.gltf $opts : -np 1 $bin scenes/cornell-box.gltf $opts --bogus
+
+# --- 9. --max-memory counts the merge's buffers: at 512x512 a limit of 90 MB fits one process
+# (film, photon statistics, EXR buffers: about 91 MB committed at its peak) but not rank 0 of two,
+# which also holds a send and a receive buffer of the packed film (84 MB) and the merged film. The
+# 2-rank job is refused in the set-up, one line naming the buffers, no image. Before, it rendered
+# to the end and failed at the merge, and rank 0 peaked past the limit.
+$bin scenes/cornell-box.gltf --width 512 --iterations 1 --threads 1 --max-memory 90M --quiet --snapshot "$tmp/one.exr" 2>"$tmp/one.err"
+rc=$?
+check "--max-memory 90M: one process does not fit (exit $rc): $(head -n 1 "$tmp/one.err")" [ "$rc" -eq 0 ]
+rm -f "$tmp/two.exr"
+mpi scenes/cornell-box.gltf --width 512 --iterations 2 --threads 1 --max-memory 90M --snapshot "$tmp/two.exr" >"$tmp/two.out" 2>"$tmp/two.err"
+rc=$?
+echo "--max-memory 90M on 2 ranks: exit $rc, $(grep "^pmview:" "$tmp/two.err" | head -n 1)"
+check "--max-memory 90M on 2 ranks: exit 0" [ "$rc" -ne 0 ]
+check "--max-memory 90M on 2 ranks: not one line naming the merge buffers" [ "$(grep -c "^pmview: error: .*the cluster's merge buffers" "$tmp/two.err")" -eq 1 ]
+check "--max-memory 90M on 2 ranks: an image was written" [ ! -e "'$tmp/two.exr'" ]
+check "--max-memory 90M on 2 ranks: rendering reported" ! grep -q "'^stat eye\|wrote'" "$tmp/two.out"
 
 echo "test_cluster: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]
