@@ -1085,6 +1085,17 @@ void Loader::split_container(const std::vector<unsigned char> &file) {
 // The JSON text becomes a document once: the preflight checks that document and tinygltf's Model is
 // built from it, so no check can pass on one reading of the text and the Model come from another.
 void Loader::model_from_json() {
+    // the parsed document and tinygltf's copy of its objects, admitted while they live: a file of
+    // 10^6 lights parsed to gigabytes under --max-memory 64M (28 bytes a byte of JSON measured for
+    // 2x10^5 lights). A text under 1 MiB is left to the process's baseline, as the code is: its
+    // document is a few megabytes at most, and a small --max-memory still names what it is for.
+    uint64_t document = json_size_ >= (1u << 20) ? 3 * PM_JSON_DOCUMENT_BYTES_PER_BYTE * static_cast<uint64_t>(json_size_) : 0;
+    if (!pm_memory_admit(document, "JSON document"))
+        fail("out of memory (" + std::string(pm_memory_failure()) + ") parsing " + str(json_size_) + " bytes of JSON");
+    struct Release {
+        uint64_t bytes;
+        ~Release() { pm_memory_release(bytes); }
+    } release{document};
     json root = parse_json();
     preflight(root);
     build_model(root);
@@ -3071,7 +3082,8 @@ void Loader::load(pm_scene *out) {
         // (Embree's share as the memory forecast counts it: accel.c, pm_accel_forecast_bytes)
         uint64_t accel = triangles * PM_ACCEL_BUILD_BYTES_PER_TRIANGLE + vertices * PM_ACCEL_BYTES_PER_VERTEX +
                          placements * PM_ACCEL_BYTES_PER_PLACEMENT;
-        uint64_t bytes = vertices * per_vertex + triangles * 4 * sizeof(uint32_t) + placements * sizeof(pm_placement) + accel;
+        uint64_t bytes = vertices * per_vertex + triangles * 4 * sizeof(uint32_t) + placements * sizeof(pm_placement) + accel +
+                         placed_.size() * (sizeof(pm_light) + sizeof(float) + sizeof(pm_camera));  // lights, their power table, cameras
         if (!pm_memory_admit(bytes, "scene geometry and its acceleration structure"))
             fail("out of memory (" + std::string(pm_memory_failure()) + "): " + str(triangles) +
                  " triangles after instancing");
