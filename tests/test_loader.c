@@ -538,6 +538,50 @@ static void append_png_image(text *t, const unsigned char *png, size_t size, boo
     text_append(t, "\"}");
 }
 
+/* One image named by 60 textures (60 materials, each the base colour of one), 59 of them sampled
+ * alike: the texels are copied once for those and once for the one clamped, 2 textures in the
+ * scene, every material on one of them. Before, each texture copied the image (one PNG named by
+ * 1,000 textures took 5.4 GB). */
+static void test_shared_image(void) {
+    static const unsigned char pixels[16] = {255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 255, 255, 255, 255, 255};
+    int size = 0;
+    unsigned char *png = stbi_write_png_to_mem(pixels, 8, 2, 2, 4, &size);
+    CHECK(png != NULL, "stbi_write_png_to_mem failed");
+    if (!png) return;
+    enum { N = 60 };
+    text extra = {0}, materials = {0};
+    text_append(&extra, "\"images\":[");
+    append_png_image(&extra, png, (size_t)size, true);
+    free(png);
+    text_append(&extra, "],\"samplers\":[{\"wrapS\":33071}],\"textures\":[");
+    text_append(&materials, "[");
+    for (int i = 0; i < N; i++) {
+        text_append(&extra, "%s{\"source\":0%s}", i ? "," : "", i == N - 1 ? ",\"sampler\":0" : "");
+        text_append(&materials, "%s{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":%d}}}", i ? "," : "", i);
+    }
+    text_append(&extra, "],");
+    text_append(&materials, "]");
+    /* N primitives, each with its own material: every texture is used */
+    prim_spec prims[N];
+    static const float uvs[6] = {0, 0, 1, 0, 0.25f, 1};
+    for (int i = 0; i < N; i++) prims[i] = (prim_spec){unit_triangle, 3, NULL, uvs, 0, NULL, 0, 0, -1, i};
+    doc_spec doc = {NULL, NULL, materials.data, extra.data};
+    write_model("shared_image.gltf", prims, N, &doc);
+    free(extra.data);
+    free(materials.data);
+    pm_scene s;
+    pm_load_report r;
+    if (load_ok("shared_image.gltf", &s, &r)) {
+        CHECK(s.texture_count == 2, "one image named by %d textures, two samplings: %u textures (want 2)", N, s.texture_count);
+        bool on_them = s.material_count >= N;
+        for (int i = 0; on_them && i < N; i++) on_them = s.materials[i].base_color_texture == (i == N - 1 ? 1 : 0);
+        CHECK(on_them, "every material's base colour on the shared texture of its sampling");
+        CHECK(s.texture_count == 2 && s.textures[1].wrap_s == PM_WRAP_CLAMP && s.textures[0].wrap_s == PM_WRAP_REPEAT,
+              "the clamped sampling kept apart");
+        pm_scene_free(&s);
+    }
+}
+
 static void test_texcoords_and_texture(void) {
     /* 2x2 RGBA: top row red, half-transparent green; bottom row blue, white */
     static const unsigned char pixels[16] = {255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 255, 255, 255, 255, 255};
@@ -2183,6 +2227,7 @@ int main(void) {
     test_skips();
     test_sparse();
     test_morph_weights();
+    test_shared_image();
     test_nonfinite_uvs();
     test_rejections();
     test_wrong_types_and_indices();
