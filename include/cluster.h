@@ -75,6 +75,10 @@ void pm_cluster_serve(pm_cluster *c, pm_session *s);
  * every rank, calling tick(context) every few milliseconds meanwhile (checkpoints), then merges a
  * last time and returns the film. A rank silent after a signal (pm_cluster_watch) ends the job. */
 const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(void *context), void *context);
+/* With --time every rank ends at the same deadline: rank 0 waits at most `seconds` past its own
+ * run's end for the others' word, then ends the job naming the silent ones (a stopped rank, which
+ * no signal reveals). 0, the default: as long as they take (--iterations, whose shares differ in speed). */
+void pm_cluster_expect_end(pm_cluster *c, double seconds);
 /* Why the last call above failed, naming the rank. */
 const char *pm_cluster_error(const pm_cluster *c);
 

@@ -50,6 +50,7 @@ struct pm_cluster {
     size_t flight_count;
     double last_merge_start;
     double agreed_at;      /* when the set-up was agreed (pm_now_seconds) */
+    double end_patience;   /* rank 0: seconds it waits past its run's end for the others' word, 0: no bound */
     char error[1024];
 };
 
@@ -399,6 +400,10 @@ static const pm_film *merge_from_root(pm_cluster *c, pm_session *s, int type) {
 
 const pm_film *pm_cluster_merge_now(pm_cluster *c, pm_session *s) { return merge_from_root(c, s, CMD_MERGE); }
 
+void pm_cluster_expect_end(pm_cluster *c, double seconds) {
+    if (c) c->end_patience = seconds > 0.0 ? seconds : 0.0;
+}
+
 bool pm_cluster_prepare(pm_cluster *c, const pm_film *film) {
     if (!c) return true;
     size_t count = TOTALS_FIELDS + pm_film_packed_count(film);
@@ -444,7 +449,7 @@ const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(voi
     /* rank 0: every other rank's word that its run is over, then the last merge */
     memset(c->answered, 0, (size_t)c->size * sizeof *c->answered);
     int heard = 0;
-    double since = 0.0;
+    double since = 0.0, ended = pm_now_seconds();
     while (heard < c->size - 1) {
         if (take_word(c, TAG_DONE)) {
             heard++;
@@ -452,6 +457,15 @@ const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(voi
         }
         if (tick) tick(context);
         check_silence(c, &since, "word that its run is over");
+        if (c->end_patience > 0.0 && pm_now_seconds() - ended > c->end_patience) {
+            int n = snprintf(c->error, sizeof c->error, "rank");
+            int listed = 0;
+            for (int k = 1; k < c->size && n < (int)sizeof c->error - 128; k++)
+                if (!c->answered[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
+            snprintf(c->error + n, sizeof c->error - (size_t)n,
+                     " gave no word that its run is over %.3g s past --time: taken for stopped, the job ends", c->end_patience);
+            pm_cluster_abort(c, c->error);
+        }
         nap();
     }
     return merge_from_root(c, s, CMD_FINAL);

@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, ranks holding different scenes or options, --max-memory counting the merge's buffers, the cluster stat line.
+# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, ranks holding different scenes or options, --max-memory counting the merge's buffers, a stopped rank under --time, the cluster stat line.
 #
 # Every job is small (64 px or less, --threads 1) so the whole runs in well under a minute on two
 # busy cores. The ASan build's leak check is off inside mpirun jobs only: Open MPI keeps its own
@@ -329,6 +329,26 @@ check "--max-memory 90M on 2 ranks: exit 0" [ "$rc" -ne 0 ]
 check "--max-memory 90M on 2 ranks: not one line naming the merge buffers" [ "$(grep -c "^pmview: error: .*the cluster's merge buffers" "$tmp/two.err")" -eq 1 ]
 check "--max-memory 90M on 2 ranks: an image was written" [ ! -e "'$tmp/two.exr'" ]
 check "--max-memory 90M on 2 ranks: rendering reported" ! grep -q "'^stat eye\|wrote'" "$tmp/two.out"
+
+# --- 10. a rank stopped (SIGSTOP) 2 s into a --time 6 run: it never says its run is over, and no
+# signal reveals it; rank 0 waits 5 s + 10% of --time past its own end, then ends the job naming
+# it. Before, the job ran on past --time for ever.
+mpi_job $cornell --width 32 --time 6 --snapshot "$tmp/stop.exr" >"$tmp/stop.out" 2>&1 &
+job=$!
+i=0; rank1=""
+while [ -z "$rank1" ] && [ "$i" -lt 100 ]; do sleep 0.1; i=$((i + 1)); rank1=$(ranks_of_job 1); done
+sleep 2  # past the set-up's agreement: the render is under way
+sent=$(now)
+[ -n "$rank1" ] && kill -STOP $rank1
+job_ends "stopped rank"
+wait "$job"; rc=$?; job=""
+[ -n "$rank1" ] && kill -CONT $rank1 2>/dev/null
+echo "stopped rank: mpirun ended $wall s after the stop, exit $rc, $(grep "^pmview:" "$tmp/stop.out" | head -n 1)"
+check "stopped rank: no rank 1 to stop" [ -n "'$rank1'" ]
+check "stopped rank: the job ended $wall s after the stop, want <= 12 (--time 6 less 2 s, then 5.6 s)" at_most "$wall" 12
+check "stopped rank: exit 0" [ "$rc" -ne 0 ]
+check "stopped rank: pmview's line does not name rank 1 as stopped" grep -q "'^pmview: error: rank 1 gave no word that its run is over .* past --time'" "$tmp/stop.out"
+for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
 
 echo "test_cluster: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]
