@@ -68,8 +68,12 @@ void pm_cluster_watch(pm_cluster *c, volatile sig_atomic_t *interrupted);
 /* Rank 0, between its iterations: every rank's film summed into rank 0's merged film, returned
  * (NULL when out of memory, with pm_cluster_error set). Waits for each rank's running iteration. */
 const pm_film *pm_cluster_merge_now(pm_cluster *c, pm_session *s);
-/* Ranks other than 0, between their iterations: answers rank 0's merges, never waiting. */
+/* Ranks other than 0, between their iterations: answers rank 0's merges, never waiting, and ends
+ * the run (pm_session_cancel) when rank 0 asks it to (pm_cluster_send_stop). */
 void pm_cluster_serve(pm_cluster *c, pm_session *s);
+/* Rank 0, its run ended by a signal: asks every rank to end its run too, so that a signal to rank 0
+ * alone (kill on its pid, not mpirun's to every rank) still merges and writes the image so far. */
+void pm_cluster_send_stop(pm_cluster *c);
 /* After a rank's run that did not fail (a failure ends the job: pm_cluster_abort). Ranks other
  * than 0 tell rank 0, answer its merges until the last one, and return NULL. Rank 0 waits for
  * every rank, calling tick(context) every few milliseconds meanwhile (checkpoints), then merges a

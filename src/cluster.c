@@ -16,7 +16,7 @@
 #include "memory.h"
 
 enum { TAG_COMMAND = 11, TAG_DONE = 12, TAG_TEXT = 13, TAG_READY = 14 };
-enum { CMD_MERGE = 1, CMD_FINAL, CMD_RESTART, CMD_PAUSE, CMD_RESIZE, CMD_QUIT };
+enum { CMD_MERGE = 1, CMD_FINAL, CMD_RESTART, CMD_PAUSE, CMD_RESIZE, CMD_QUIT, CMD_STOP };
 /* ahead of the film's additive form in a merge: the photons each rank emitted */
 enum { TOTALS_FIELDS = 1 };
 
@@ -431,8 +431,16 @@ static bool next_command(command *cmd, bool block) {
 void pm_cluster_serve(pm_cluster *c, pm_session *s) {
     if (!c || c->rank == 0) return;
     command cmd;
-    while (next_command(&cmd, false))
+    while (next_command(&cmd, false)) {
         if (cmd.type == CMD_MERGE) answer_merge(c, s, &cmd, false);
+        if (cmd.type == CMD_STOP) pm_session_cancel(s); /* rank 0 was signalled alone: end the run as a signal would */
+    }
+}
+
+void pm_cluster_send_stop(pm_cluster *c) {
+    if (!c || c->rank != 0) return;
+    command cmd = {.type = CMD_STOP, .indirect = -1};
+    send_all(c, &cmd);
 }
 
 const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(void *context), void *context) {

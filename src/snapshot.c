@@ -253,6 +253,7 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
         return 1;
     }
     if (cluster) {
+        if (root && interrupted_by) pm_cluster_send_stop(cluster);
         /* every rank's run ends at --time: one silent well past it is stopped (SIGSTOP), not slow */
         if (o->time_limit > 0) pm_cluster_expect_end(cluster, 5.0 + 0.1 * o->time_limit);
         film = pm_cluster_end_run(cluster, session, root ? tick : NULL, &ob);

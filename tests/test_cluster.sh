@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, ranks holding different scenes or options, --max-memory counting the merge's buffers, a stopped rank under --time, the cluster stat line.
+# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, ranks holding different scenes or options, --max-memory counting the merge's buffers, a stopped rank under --time, SIGTERM to rank 0 alone, the cluster stat line.
 #
 # Every job is small (64 px or less, --threads 1) so the whole runs in well under a minute on two
 # busy cores. The ASan build's leak check is off inside mpirun jobs only: Open MPI keeps its own
@@ -348,6 +348,27 @@ check "stopped rank: no rank 1 to stop" [ -n "'$rank1'" ]
 check "stopped rank: the job ended $wall s after the stop, want <= 12 (--time 6 less 2 s, then 5.6 s)" at_most "$wall" 12
 check "stopped rank: exit 0" [ "$rc" -ne 0 ]
 check "stopped rank: pmview's line does not name rank 1 as stopped" grep -q "'^pmview: error: rank 1 gave no word that its run is over .* past --time'" "$tmp/stop.out"
+for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+
+# --- 11. SIGTERM to rank 0 alone (kill on its pid, not mpirun's to every rank): rank 0 asks the
+# others to end their runs, merges and writes the image so far, exit 143, within 5 s. Before,
+# the healthy rank 1 was taken for gone after 0.5 s and no image was written.
+rm -f "$tmp/term0.exr"
+mpi_job $cornell --width 32 --time 60 --snapshot "$tmp/term0.exr" >"$tmp/term0.out" 2>&1 &
+job=$!
+i=0; rank0=""
+while [ -z "$rank0" ] && [ "$i" -lt 100 ]; do sleep 0.1; i=$((i + 1)); rank0=$(ranks_of_job 0); done
+sleep 2  # past the set-up: the render is under way
+sent=$(now)
+[ -n "$rank0" ] && kill -TERM $rank0
+job_ends "SIGTERM to rank 0"
+wait "$job"; rc=$?; job=""
+echo "SIGTERM to rank 0 alone: mpirun ended $wall s after it, exit $rc, $(grep "^pmview:" "$tmp/term0.out" | head -n 1)"
+check "SIGTERM to rank 0 alone: no rank 0 found" [ -n "'$rank0'" ]
+check "SIGTERM to rank 0 alone: the job ended $wall s after the signal, want <= 5" at_most "$wall" 5
+check "SIGTERM to rank 0 alone: no 'interrupted: the image so far'" grep -q "'^pmview: wrote .*interrupted: the image so far'" "$tmp/term0.out"
+check "SIGTERM to rank 0 alone: the image is not an EXR" is_exr "$tmp/term0.exr"
+check "SIGTERM to rank 0 alone: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
 for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
 
 echo "test_cluster: $checks checks, $fails failed"
