@@ -4,7 +4,7 @@
 #   make test     install, build, run all tests  make bench  speed figures (ratios measured in one run)
 #   make check    the whole suite under ASan+UBSan, the threaded tests under TSan, a render under valgrind
 #   make fuzz     libFuzzer (clang): glTF through load, set-up, accel and a tiny render, then the sky, reference
-#                 and writers' inputs, FUZZ_SECONDS (600) each
+#                 and writers' inputs, then the compressed-mesh decoders, FUZZ_SECONDS (600) each
 #   make convergence  error against time for every method and shipped scene: docs/convergence.md (QUICK=1: a short one)
 #   make clean
 
@@ -108,8 +108,12 @@ build/fuzz/fuzz_inputs: tests/fuzz/fuzz_inputs.c build/fuzz/libpm.a
 	$(FUZZ_CC) $(CFLAGS) $(DEPFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer -Itests/fuzz -MT $@ -c $< -o build/fuzz/fuzz_inputs.o
 	$(FUZZ_CXX) $(FUZZ_SAN) -fsanitize=fuzzer build/fuzz/fuzz_inputs.o build/fuzz/libpm.a -o $@ $(LIBS)
 
+build/fuzz/fuzz_compressed: tests/fuzz/fuzz_compressed.c tests/fuzz/fuzz_compressed_entry.h build/fuzz/libpm.a
+	$(FUZZ_CC) $(CFLAGS) $(FUZZ_SAN) -fsanitize=fuzzer -Itests/fuzz -c $< -o build/fuzz/fuzz_compressed.o
+	$(FUZZ_CXX) $(FUZZ_SAN) -fsanitize=fuzzer build/fuzz/fuzz_compressed.o build/fuzz/libpm.a -o $@ $(LIBS)
+
 fuzz: fuzz-deps
-	@$(MAKE) --no-print-directory build/fuzz/fuzz_gltf build/fuzz/fuzz_inputs
+	@$(MAKE) --no-print-directory build/fuzz/fuzz_gltf build/fuzz/fuzz_inputs build/fuzz/fuzz_compressed
 	@sh tools/run-fuzz.sh $(FUZZ_SECONDS)
 
 bench: deps pmview build/rel/bench_pm build/rel/photon_ceiling build/rel/caustic_error build/rel/texture_footprint build/rel/json_load

@@ -35,9 +35,14 @@ int pm_cluster_size(const pm_cluster *c); /* 1 without a cluster */
 
 /* Every rank at the same point with its own outcome (-1: going on, else its exit code): -1 when
  * every rank goes on, else the first failing rank's code on every rank, and rank 0 prints that
- * rank's error lines once ("rank K: " in them when K is not 0). Also a barrier: time budgets count
- * from here. */
-int pm_cluster_agree(pm_cluster *c, int code);
+ * rank's error line once ("rank K: " in it when K is not 0). When every rank goes on, their
+ * digests (the scene's and the options', pm_scene_digest) must be rank 0's, else 1 on every rank
+ * and one line naming the first rank that differs. Also a barrier: time budgets count from here. */
+int pm_cluster_agree(pm_cluster *c, int code, uint64_t digest);
+/* In the set-up, once the session's film exists: the merge's buffers (every rank's send buffer,
+ * rank 0's receive buffer and merged film) admitted against --max-memory and made, so a job that
+ * could not merge fails before it renders. False with pm_cluster_error set; true without a cluster. */
+bool pm_cluster_prepare(pm_cluster *c, const pm_film *film);
 /* A failure after the set-up (out of memory, a command rank 0's image does not fit): one line,
  * rank 0's or "pmview: rank K: error: ...", then every rank ends (MPI_Abort). */
 void pm_cluster_abort(pm_cluster *c, const char *message);
@@ -63,13 +68,21 @@ void pm_cluster_watch(pm_cluster *c, volatile sig_atomic_t *interrupted);
 /* Rank 0, between its iterations: every rank's film summed into rank 0's merged film, returned
  * (NULL when out of memory, with pm_cluster_error set). Waits for each rank's running iteration. */
 const pm_film *pm_cluster_merge_now(pm_cluster *c, pm_session *s);
-/* Ranks other than 0, between their iterations: answers rank 0's merges, never waiting. */
+/* Ranks other than 0, between their iterations: answers rank 0's merges, never waiting, and ends
+ * the run (pm_session_cancel) when rank 0 asks it to (pm_cluster_send_stop). */
 void pm_cluster_serve(pm_cluster *c, pm_session *s);
+/* Rank 0, its run ended by a signal: asks every rank to end its run too, so that a signal to rank 0
+ * alone (kill on its pid, not mpirun's to every rank) still merges and writes the image so far. */
+void pm_cluster_send_stop(pm_cluster *c);
 /* After a rank's run that did not fail (a failure ends the job: pm_cluster_abort). Ranks other
  * than 0 tell rank 0, answer its merges until the last one, and return NULL. Rank 0 waits for
  * every rank, calling tick(context) every few milliseconds meanwhile (checkpoints), then merges a
  * last time and returns the film. A rank silent after a signal (pm_cluster_watch) ends the job. */
 const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(void *context), void *context);
+/* With --time every rank ends at the same deadline: rank 0 waits at most `seconds` past its own
+ * run's end for the others' word, then ends the job naming the silent ones (a stopped rank, which
+ * no signal reveals). 0, the default: as long as they take (--iterations, whose shares differ in speed). */
+void pm_cluster_expect_end(pm_cluster *c, double seconds);
 /* Why the last call above failed, naming the rank. */
 const char *pm_cluster_error(const pm_cluster *c);
 

@@ -45,6 +45,8 @@ typedef struct pm_draco_mesh pm_draco_mesh;
 /* Decodes a KHR_draco_mesh_compression stream holding a triangle mesh; NULL and err on failure. */
 pm_draco_mesh *pm_draco_decode(const void *src, size_t size, char *err, size_t err_size);
 void pm_draco_free(pm_draco_mesh *mesh);
+/* How many streams pm_draco_decode was given since the process began (tests count the loader's decodes). */
+uint64_t pm_draco_decodes(void);
 uint64_t pm_draco_points(const pm_draco_mesh *mesh);    /* vertices: every attribute's count */
 uint64_t pm_draco_triangles(const pm_draco_mesh *mesh); /* the index count is three times this */
 

@@ -219,9 +219,10 @@ typedef struct {
     pm_sky_map *sky_map;      /* owned; NULL = uniform */
 
     /* derived by pm_scene_finalize */
-    vec3 bounds_min, bounds_max;
-    vec3 center; float radius; /* bounding sphere */
-    float ray_scale;           /* length scale for ray offsets (largest extent of the bounds) */
+    vec3 bounds_min, bounds_max; /* every triangle */
+    vec3 core_min, core_max;   /* the core (pm_scene_core): small strays far from the bulk left out */
+    vec3 center; float radius; /* the core's bounding sphere: the sky's and the sun's photon disc, framing */
+    float ray_scale;           /* length scale for ray offsets and default radii (largest extent of the core) */
     uint32_t *emitters;        /* triangle indices whose emission, averaged over the triangle, is not black */
     vec3 *emitter_radiance;    /* emitter_count: each one's radiance averaged over its triangle (texture included) */
     float *emitter_cdf;        /* emitter_count+1 entries, by area x luminance x sides */
@@ -237,6 +238,26 @@ typedef struct {
  * give a scene without any light a uniform white sky (returns true in *added_sky so the caller
  * can warn). False when out of memory (pm_memory_failure names what): the scene is only freed. */
 bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky);
+
+/* A 64-bit digest (FNV-1a) of what the loader made: geometry, placements, materials, textures'
+ * texels, lights, cameras and the sky's radiance. Under mpirun every rank must hold the same
+ * scene; the set-up's agreement compares the ranks' digests (pm_cluster_agree). */
+uint64_t pm_scene_digest(const pm_scene *s);
+
+/* The scene's core (scene_core.c): the bounds of its bulk, leaving out small geometry (under a
+ * tenth of the surface area) lying farther than 8 core extents from the rest, so a stray helper
+ * far away changes no size the renderer derives from the scene. bounds_min/max must be set;
+ * false when out of memory (the core is then the whole bounds). */
+bool pm_scene_core(const pm_scene *s, vec3 *core_min, vec3 *core_max);
+/* The same over any triangles (the loader's, in double, before the scene exists): `next` gives
+ * the corners of the next one (the first again when restart is true), false past the last;
+ * `count` is how many there are. lo/hi hold the whole bounds on entry, the core on return. */
+typedef struct {
+    uint64_t count;
+    void *context;
+    bool (*next)(void *context, bool restart, double corners[9]);
+} pm_core_source;
+bool pm_core_bounds(const pm_core_source *src, double lo[3], double hi[3]);
 void pm_scene_free(pm_scene *s);
 /* The bytes of the scene's arrays, texels (mip levels included) and derived tables: what the
  * scene holds in memory (the memory forecast). */

@@ -16,7 +16,7 @@
 #include "memory.h"
 
 enum { TAG_COMMAND = 11, TAG_DONE = 12, TAG_TEXT = 13, TAG_READY = 14 };
-enum { CMD_MERGE = 1, CMD_FINAL, CMD_RESTART, CMD_PAUSE, CMD_RESIZE, CMD_QUIT };
+enum { CMD_MERGE = 1, CMD_FINAL, CMD_RESTART, CMD_PAUSE, CMD_RESIZE, CMD_QUIT, CMD_STOP };
 /* ahead of the film's additive form in a merge: the photons each rank emitted */
 enum { TOTALS_FIELDS = 1 };
 
@@ -39,6 +39,7 @@ struct pm_cluster {
     bool merged_made;
     double *send, *receive;
     size_t capacity;       /* doubles send (and receive) hold */
+    uint64_t buffers_admitted; /* their bytes, admitted against --max-memory */
     pm_cluster_totals totals;
     /* the window's merge under way (rank 0): asked, waiting for every rank's word that it is ready */
     bool in_flight;
@@ -49,6 +50,7 @@ struct pm_cluster {
     size_t flight_count;
     double last_merge_start;
     double agreed_at;      /* when the set-up was agreed (pm_now_seconds) */
+    double end_patience;   /* rank 0: seconds it waits past its run's end for the others' word, 0: no bound */
     char error[1024];
 };
 
@@ -98,6 +100,7 @@ void pm_cluster_leave(pm_cluster *c) {
     if (c->merged_made) pm_film_free(&c->merged);
     free(c->send);
     free(c->receive);
+    pm_memory_release(c->buffers_admitted);
     free(c->answered);
     if (c->kept_stderr) fclose(c->kept_stderr);
     if (c->real_stderr >= 0) close(c->real_stderr);
@@ -131,14 +134,16 @@ uint32_t pm_cluster_share(const pm_cluster *c, uint32_t total) {
     return each + ((uint32_t)c->rank < rest ? 1u : 0u);
 }
 
-/* The last line this rank wrote to its kept stderr (a failure's message), or "". */
+/* The last line this rank wrote to its kept stderr that starts "pmview:" (a failure's message:
+ * a bad option's line comes before the usage text, which must not stand for it), else its last
+ * line, or "". */
 static void last_kept_line(pm_cluster *c, char *line, size_t size) {
     line[0] = 0;
     fflush(stderr);
     if (!c->kept_stderr) return;
     struct stat st;
     if (fstat(fileno(c->kept_stderr), &st) != 0 || st.st_size <= 0) return;
-    char tail[1024];
+    static char tail[16384];
     off_t from = st.st_size > (off_t)sizeof tail - 1 ? st.st_size - (off_t)sizeof tail + 1 : 0;
     ssize_t n = pread(fileno(c->kept_stderr), tail, sizeof tail - 1, from);
     if (n <= 0) return;
@@ -146,7 +151,13 @@ static void last_kept_line(pm_cluster *c, char *line, size_t size) {
     while (n > 0 && (tail[n - 1] == '\n' || tail[n - 1] == '\r')) tail[--n] = 0;
     const char *start = strrchr(tail, '\n');
     start = start ? start + 1 : tail;
-    size_t length = strlen(start) < size - 1 ? strlen(start) : size - 1;
+    for (const char *at = tail; at; at = strchr(at, '\n')) {
+        if (*at == '\n') at++;
+        if (strncmp(at, "pmview:", 7) == 0) start = at;
+    }
+    const char *end = strchr(start, '\n');
+    size_t length = end ? (size_t)(end - start) : strlen(start);
+    if (length > size - 1) length = size - 1;
     memcpy(line, start, length);
     line[length] = 0;
 }
@@ -157,12 +168,25 @@ static void print_as_rank(FILE *f, int rank, const char *line) {
     fprintf(f, "pmview: rank %d: %s\n", rank, rest);
 }
 
-int pm_cluster_agree(pm_cluster *c, int code) {
+int pm_cluster_agree(pm_cluster *c, int code, uint64_t digest) {
     if (!c) return code;
     int mine = code < 0 ? c->size : c->rank, first = c->size;
     MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
     c->agreed_at = pm_now_seconds();
-    if (first == c->size) return -1;
+    if (first == c->size) {
+        /* every rank is ready: each must hold rank 0's scene and options, or their images would be
+         * summed into one (a different file per rank, a stale copy at the same path elsewhere) */
+        uint64_t root = digest;
+        MPI_Bcast(&root, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+        int other = digest != root ? c->rank : c->size, differs = c->size;
+        MPI_Allreduce(&other, &differs, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+        if (differs == c->size) differs = 0;
+        if (!differs) return -1;
+        if (c->rank == 0)
+            fprintf(stderr, "pmview: error: rank %d holds another scene or other options than rank 0 (their digests "
+                            "differ): every rank must load the same file with the same options\n", differs);
+        return 1;
+    }
     int agreed = code;
     MPI_Bcast(&agreed, 1, MPI_INT, first, MPI_COMM_WORLD);
     if (first != 0) {
@@ -202,8 +226,13 @@ static bool prepare_buffers(pm_cluster *c, size_t count) {
     if (count <= c->capacity) return true;
     free(c->send);
     free(c->receive);
-    c->receive = NULL;
+    c->send = c->receive = NULL;
     c->capacity = 0;
+    pm_memory_release(c->buffers_admitted);
+    c->buffers_admitted = 0;
+    uint64_t bytes = (uint64_t)count * sizeof(double) * (c->rank == 0 ? 2u : 1u);
+    if (!pm_memory_admit(bytes, "the cluster's merge buffers")) return out_of_memory(c);
+    c->buffers_admitted = bytes;
     c->send = pm_malloc(count * sizeof(double), "the cluster's merge buffers");
     if (!c->send) return out_of_memory(c);
     if (c->rank == 0) {
@@ -371,6 +400,20 @@ static const pm_film *merge_from_root(pm_cluster *c, pm_session *s, int type) {
 
 const pm_film *pm_cluster_merge_now(pm_cluster *c, pm_session *s) { return merge_from_root(c, s, CMD_MERGE); }
 
+void pm_cluster_expect_end(pm_cluster *c, double seconds) {
+    if (c) c->end_patience = seconds > 0.0 ? seconds : 0.0;
+}
+
+bool pm_cluster_prepare(pm_cluster *c, const pm_film *film) {
+    if (!c) return true;
+    size_t count = TOTALS_FIELDS + pm_film_packed_count(film);
+    if (count > INT_MAX) {
+        snprintf(c->error, sizeof c->error, "the image is too large for one MPI reduction (%zu values)", count);
+        return false;
+    }
+    return prepare_buffers(c, count) && (c->rank != 0 || prepare_merged_like(c, film));
+}
+
 /* A command from rank 0 if one is waiting (block: wait for it, napping). */
 static bool next_command(command *cmd, bool block) {
     for (;;) {
@@ -388,8 +431,16 @@ static bool next_command(command *cmd, bool block) {
 void pm_cluster_serve(pm_cluster *c, pm_session *s) {
     if (!c || c->rank == 0) return;
     command cmd;
-    while (next_command(&cmd, false))
+    while (next_command(&cmd, false)) {
         if (cmd.type == CMD_MERGE) answer_merge(c, s, &cmd, false);
+        if (cmd.type == CMD_STOP) pm_session_cancel(s); /* rank 0 was signalled alone: end the run as a signal would */
+    }
+}
+
+void pm_cluster_send_stop(pm_cluster *c) {
+    if (!c || c->rank != 0) return;
+    command cmd = {.type = CMD_STOP, .indirect = -1};
+    send_all(c, &cmd);
 }
 
 const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(void *context), void *context) {
@@ -406,7 +457,7 @@ const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(voi
     /* rank 0: every other rank's word that its run is over, then the last merge */
     memset(c->answered, 0, (size_t)c->size * sizeof *c->answered);
     int heard = 0;
-    double since = 0.0;
+    double since = 0.0, ended = pm_now_seconds();
     while (heard < c->size - 1) {
         if (take_word(c, TAG_DONE)) {
             heard++;
@@ -414,6 +465,15 @@ const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(voi
         }
         if (tick) tick(context);
         check_silence(c, &since, "word that its run is over");
+        if (c->end_patience > 0.0 && pm_now_seconds() - ended > c->end_patience) {
+            int n = snprintf(c->error, sizeof c->error, "rank");
+            int listed = 0;
+            for (int k = 1; k < c->size && n < (int)sizeof c->error - 128; k++)
+                if (!c->answered[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
+            snprintf(c->error + n, sizeof c->error - (size_t)n,
+                     " gave no word that its run is over %.3g s past --time: taken for stopped, the job ends", c->end_patience);
+            pm_cluster_abort(c, c->error);
+        }
         nap();
     }
     return merge_from_root(c, s, CMD_FINAL);

@@ -6,6 +6,7 @@
 #include <meshoptimizer.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -176,7 +177,11 @@ void decode_draco(const std::shared_ptr<DracoJob> &job) {
 // one costs up to 2^31 steps (about 30 s and 300 MB) before the stream is refused. The decode runs
 // on a thread of its own with a time budget far above a valid stream's decoding time; past it the
 // stream is refused and the thread left to end on its own.
+static std::atomic<uint64_t> draco_decodes{0};
+extern "C" uint64_t pm_draco_decodes(void) { return draco_decodes.load(); }
+
 extern "C" pm_draco_mesh *pm_draco_decode(const void *src, size_t size, char *err, size_t err_size) {
+    draco_decodes++;
     const double budget = PM_DRACO_SECONDS + static_cast<double>(size) * PM_DRACO_SECONDS_PER_BYTE;
     try {
         auto job = std::make_shared<DracoJob>();

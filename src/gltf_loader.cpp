@@ -243,6 +243,21 @@ bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, s
         return true;
     int width = 0, height = 0, channels = 0;
     if (!stbi_info_from_memory(bytes, size, &width, &height, &channels)) {
+        // stb_image turns down a PNG header past its own limit (2^24 a side) as undecodable: the
+        // header's size, read here, says why
+        static const unsigned char png[12] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13};
+        if (size >= 24 && memcmp(bytes, png, sizeof png) == 0 && memcmp(bytes + 12, "IHDR", 4) == 0) {
+            auto be32 = [&](int at) {
+                return static_cast<uint64_t>(bytes[at]) << 24 | static_cast<uint64_t>(bytes[at + 1]) << 16 |
+                       static_cast<uint64_t>(bytes[at + 2]) << 8 | bytes[at + 3];
+            };
+            uint64_t w = be32(16), h = be32(20);
+            if (w * h > kMaxImagePixels) {
+                hooks->error = "image is " + str(w) + "x" + str(h) + " pixels, more than " + str(kMaxImagePixels) +
+                               " (image " + str(index) + ")";
+                return false;
+            }
+        }
         hooks->warnings.push_back("image " + str(index) + " is not a decodable PNG/JPEG/BMP/GIF; its textures are ignored");
         return true;
     }
@@ -688,6 +703,12 @@ Mat4 local_matrix(const tinygltf::Node &node, int index) {
     }
     Mat4 out = identity();
     if (!node.matrix.empty()) {
+        // glTF: a node matrix is affine (decomposable into TRS), its last row [0 0 0 1]; the
+        // renderer reads the upper 3x4 alone, so another row would be silently dropped
+        const std::vector<double> &m = node.matrix;
+        if (std::fabs(m[3]) > 1e-6 || std::fabs(m[7]) > 1e-6 || std::fabs(m[11]) > 1e-6 || std::fabs(m[15] - 1) > 1e-6)
+            fail("matrix's last row is [" + num(m[3]) + " " + num(m[7]) + " " + num(m[11]) + " " + num(m[15]) +
+                 "], not [0 0 0 1] (glTF node matrices are affine)" + where);
         std::copy(node.matrix.begin(), node.matrix.end(), out.m);
         return out;
     }
@@ -979,6 +1000,7 @@ private:
     TextureList textures_;
     Admitted admitted_;  // the textures' texels and the geometry, until emit() hands them to the scene
     std::map<int, int> texture_of_gltf_;
+    std::map<std::string, int> texture_of_image_;  // (the pm_texture's sampling fields, image) -> its index
     std::vector<pm_light> lights_;
     std::vector<pm_camera> cameras_;
     std::vector<vec3> positions_, normals_;
@@ -996,6 +1018,9 @@ private:
     std::vector<std::array<double, 3>> attenuation_;  // per material, per unit length of the file, framed in choose_frame
     uint64_t collapsed_normals_ = 0;  // usable NORMAL values the node's transform reduced to nothing
     std::string first_collapsed_;
+    bool node_weights_warned_ = false;
+    uint64_t nonfinite_uvs_ = 0;      // NaN or infinite texture coordinates, read as 0
+    std::string first_nonfinite_uv_;
     uint32_t ignored_inputs_ = 0;  // materials using an input pmview does not render (each kind warned once)
     // Occlusion textures stand in for what a rasteriser cannot compute; tracing computes it, so
     // they are left out by design: counted for --stats, never warned about.
@@ -1085,6 +1110,17 @@ void Loader::split_container(const std::vector<unsigned char> &file) {
 // The JSON text becomes a document once: the preflight checks that document and tinygltf's Model is
 // built from it, so no check can pass on one reading of the text and the Model come from another.
 void Loader::model_from_json() {
+    // the parsed document and tinygltf's copy of its objects, admitted while they live: a file of
+    // 10^6 lights parsed to gigabytes under --max-memory 64M (28 bytes a byte of JSON measured for
+    // 2x10^5 lights). A text under 1 MiB is left to the process's baseline, as the code is: its
+    // document is a few megabytes at most, and a small --max-memory still names what it is for.
+    uint64_t document = json_size_ >= (1u << 20) ? 3 * PM_JSON_DOCUMENT_BYTES_PER_BYTE * static_cast<uint64_t>(json_size_) : 0;
+    if (!pm_memory_admit(document, "JSON document"))
+        fail("out of memory (" + std::string(pm_memory_failure()) + ") parsing " + str(json_size_) + " bytes of JSON");
+    struct Release {
+        uint64_t bytes;
+        ~Release() { pm_memory_release(bytes); }
+    } release{document};
     json root = parse_json();
     preflight(root);
     build_model(root);
@@ -1851,8 +1887,36 @@ void Loader::decode_compressed() {
             fail("bufferView " + str(v) + " lies in buffer " + str(b) +
                  ", a fallback buffer without data, and is not EXT_meshopt_compression-compressed");
     }
+    // Draco streams are decoded for the primitives of meshes the default scene's nodes place, each
+    // stream once however many primitives name it: a file of thousands of primitives naming one
+    // stream, or of unused meshes, took minutes decoding the same bytes again. The nodes reached
+    // from the default scene (cycles are refused later by the traversal; here a node is visited once).
+    std::vector<char> placed_mesh(model_.meshes.size(), 0);
+    if (!model_.scenes.empty()) {
+        size_t scene = model_.defaultScene >= 0 ? static_cast<size_t>(model_.defaultScene) : 0;
+        std::vector<char> seen(model_.nodes.size(), 0);
+        std::vector<int> stack;
+        if (scene < model_.scenes.size()) stack = model_.scenes[scene].nodes;
+        while (!stack.empty()) {
+            int n = stack.back();
+            stack.pop_back();
+            if (n < 0 || static_cast<size_t>(n) >= model_.nodes.size() || seen[n]) continue;
+            seen[n] = 1;
+            const tinygltf::Node &node = model_.nodes[n];
+            if (node.mesh >= 0 && static_cast<size_t>(node.mesh) < placed_mesh.size()) placed_mesh[node.mesh] = 1;
+            stack.insert(stack.end(), node.children.begin(), node.children.end());
+        }
+    }
+    std::vector<size_t> order;  // the placed Draco primitives, grouped by stream
+    for (size_t i = 0; i < draco_primitives_.size(); i++)
+        if (placed_mesh[draco_primitives_[i].mesh]) order.push_back(i);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return draco_primitives_[a].view < draco_primitives_[b].view; });
+    std::unique_ptr<pm_draco_mesh, void (*)(pm_draco_mesh *)> mesh(nullptr, pm_draco_free);
+    int decoded_view = -1;  // the stream `mesh` holds
     std::map<int, int> filled_from;  // accessor -> the bufferView of the Draco stream that filled it
-    for (const DracoPrimitive &d : draco_primitives_) {
+    for (size_t index : order) {
+        const DracoPrimitive &d = draco_primitives_[index];
         std::string where = "mesh " + str(d.mesh) + " primitive " + str(d.primitive) + " KHR_draco_mesh_compression";
         tinygltf::Primitive &prim = model_.meshes[d.mesh].primitives[d.primitive];
         if (prim.mode != TINYGLTF_MODE_TRIANGLES) {
@@ -1860,11 +1924,14 @@ void Loader::decode_compressed() {
             fail("a Draco stream holds a triangle list, not mode " + str(prim.mode) + " (" + where + ")");
         }
         if (prim.indices < 0) fail("a Draco primitive needs an indices accessor (" + where + ")");
-        const tinygltf::BufferView &bv = model_.bufferViews[d.view];
-        std::unique_ptr<pm_draco_mesh, void (*)(pm_draco_mesh *)> mesh(
-            pm_draco_decode(model_.buffers[bv.buffer].data.data() + bv.byteOffset, bv.byteLength, message, sizeof message),
-            pm_draco_free);
-        if (!mesh) fail(std::string(message) + " (" + where + ", bufferView " + str(d.view) + ")");
+        if (d.view != decoded_view) {
+            mesh.reset();  // the previous stream's decoded mesh goes before the next one is made
+            const tinygltf::BufferView &bv = model_.bufferViews[d.view];
+            mesh.reset(pm_draco_decode(model_.buffers[bv.buffer].data.data() + bv.byteOffset, bv.byteLength, message,
+                                       sizeof message));
+            if (!mesh) fail(std::string(message) + " (" + where + ", bufferView " + str(d.view) + ")");
+            decoded_view = d.view;
+        }
         uint64_t points = pm_draco_points(mesh.get()), triangles = pm_draco_triangles(mesh.get());
         if (triangles == 0) fail("the Draco stream holds no triangles (" + where + ")");
         auto fill = [&](int a, uint64_t count, const char *what, const std::function<bool(void *)> &decode) {
@@ -1949,6 +2016,33 @@ void Loader::traverse_default_scene() {
         stack.push_back({step.node, step.parent, true});
         for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
             stack.push_back({*it, step.node, false});
+    }
+    {
+        // glTF: all nodes form disjoint strict trees, listed by the default scene or not: a node has
+        // at most one parent, and every node descends from a parentless one (any other lies on a
+        // cycle). After the default scene's walk, which names its own faults as it meets them.
+        const size_t n = model_.nodes.size();
+        std::vector<int> parent(n, -1);
+        for (size_t i = 0; i < n; i++)
+            for (int c : model_.nodes[i].children) {
+                if (c < 0 || static_cast<size_t>(c) >= n) continue;  // dangling: named by the traversal below
+                if (parent[c] >= 0)
+                    fail("node " + str(c) + " is reached twice (two parents: nodes " + str(parent[c]) + " and " + str(i) + ")");
+                parent[c] = static_cast<int>(i);
+            }
+        std::vector<char> descends(n, 0);
+        std::vector<size_t> stack;
+        for (size_t i = 0; i < n; i++)
+            if (parent[i] < 0) stack.push_back(i);
+        while (!stack.empty()) {
+            size_t i = stack.back();
+            stack.pop_back();
+            descends[i] = 1;
+            for (int c : model_.nodes[i].children)
+                if (c >= 0 && static_cast<size_t>(c) < n && !descends[c]) stack.push_back(static_cast<size_t>(c));
+        }
+        for (size_t i = 0; i < n; i++)
+            if (!descends[i]) fail("node hierarchy contains a cycle (node " + str(i) + ")");
     }
 }
 
@@ -2289,6 +2383,12 @@ int Loader::texture_for(int gltf_texture, const std::string &where) {
         }
         sampler_filters(s, t.sampler, &tex);
     }
+    // one pm_texture per image and sampling (the fields above, texels not yet set): a PNG named by
+    // 1,000 textures was copied, and its mip levels made, 1,000 times (5.4 GB from a 222 KB file)
+    std::string key(reinterpret_cast<const char *>(&tex), sizeof tex);
+    key += std::to_string(t.source);
+    auto same = texture_of_image_.find(key);
+    if (same != texture_of_image_.end()) return result = same->second;
     textures_.items.reserve(textures_.items.size() + 1);  // so push_back below cannot throw and leak the texels
     if (!pm_memory_admit(static_cast<uint64_t>(pixels) * 4, "texture"))
         fail("out of memory (" + std::string(pm_memory_failure()) + "): image " + str(t.source));
@@ -2307,6 +2407,7 @@ int Loader::texture_for(int gltf_texture, const std::string &where) {
     }
     textures_.items.push_back(tex);
     result = static_cast<int>(textures_.items.size() - 1);
+    texture_of_image_[key] = result;
     return result;
 }
 
@@ -2527,6 +2628,37 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
         if (l.count != vertices)
             fail(std::string(o.name) + " count " + str(l.count) + " != POSITION count " + str(vertices) + " (" + where + ")");
         *o.into = read_accessor<float>(l, a);
+        // a NaN or infinite texture coordinate reads as an arbitrary texel (white, or an emissive
+        // texture glowing at full strength): read as 0, counted in one warning
+        if (texcoord)
+            for (size_t i = 0; i < o.into->size(); i++)
+                if (!std::isfinite((*o.into)[i])) {
+                    if (nonfinite_uvs_++ == 0) first_nonfinite_uv_ = std::string(o.name) + " vertex " + str(i / 2) + ", " + where;
+                    (*o.into)[i] = 0.f;
+                }
+    }
+    // Morph targets at the mesh's default weights: glTF's static pose is the base plus each
+    // target's POSITION and NORMAL displacements times mesh.weights (a morphed mesh rendered its
+    // base shape before). One pose a mesh: a node's own weights, when they differ, are warned of (load).
+    const std::vector<double> &weights = model_.meshes[mesh].weights;
+    for (size_t t = 0; t < prim.targets.size() && t < weights.size(); t++) {
+        if (!(weights[t] != 0)) continue;
+        if (!std::isfinite(weights[t])) fail("non-finite weight " + str(t) + " (mesh " + str(mesh) + ")");
+        for (const char *name : {"POSITION", "NORMAL"}) {
+            auto it = prim.targets[t].find(name);
+            std::vector<float> &into = name[0] == 'P' ? out.positions : out.normals;
+            if (it == prim.targets[t].end() || into.empty()) continue;
+            std::string target = std::string(name) + " of morph target " + str(t) + " (accessor " + str(it->second) + ", " + where + ")";
+            AccessorLayout l = accessor_layout(model_, it->second);
+            if (l.components != 3 || (l.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT && !quantization_))
+                fail("the " + target + " must be a float VEC3" + (quantization_ ? " or a byte/short one" : ""));
+            if (l.count != vertices) fail("the " + target + " has count " + str(l.count) + ", POSITION " + str(vertices));
+            std::vector<float> delta = read_accessor<float>(l, it->second);
+            for (size_t i = 0; i < into.size() && i < delta.size(); i++) {
+                into[i] = static_cast<float>(into[i] + weights[t] * delta[i]);
+                if (!std::isfinite(into[i])) fail("the " + target + " at weight " + num(weights[t]) + " makes vertex " + str(i / 3) + " non-finite");
+            }
+        }
     }
     // glTF: TANGENT's w is +1 or -1. Any other is read by its sign (0 and NaN as +1), counted in
     // one warning; only where a normal map reads it.
@@ -2831,16 +2963,63 @@ void Loader::emit(pm_scene *out) {
 // The renderer works in float and squares lengths (areas, distances, densities), which leave a
 // float's range for extents beyond about 1e+-19, and a model far from the origin loses its
 // detail to the float spacing there. The image does not change when the whole scene (camera and
-// lights included) is moved or scaled, so a scene whose extent is outside [2^-20, 2^20] is
-// scaled by the power of two that brings it near 1 (exact in float), and one lying more than
-// 2^10 extents from the origin is moved to it; point and spot intensities scale by the square
-// (the same irradiance), volume attenuation by the inverse. Computed in double from the file.
+// lights included) is moved or scaled, so a scene whose core's extent (pm_core_bounds: small
+// strays far away left out) is outside [2^-20, 2^20] is scaled by the power of two that brings it
+// near 1 (exact in float), and one whose core lies more than 2^10 extents from the origin is
+// moved to it; point and spot intensities scale by the square (the same irradiance), volume
+// attenuation by the inverse. Computed in double from the file.
+// The file's triangles in world space (before the frame), one after another, for pm_core_bounds.
+struct FrameWalk {
+    const std::vector<Instance> *instances;
+    const std::vector<std::unique_ptr<DecodedMesh>> *meshes;
+    const std::vector<Mat4> *world;
+    size_t instance = 0, primitive = 0, corner = 0;
+
+    static bool next(void *context, bool restart, double corners[9]) {
+        FrameWalk &w = *static_cast<FrameWalk *>(context);
+        if (restart) w.instance = w.primitive = w.corner = 0;
+        for (; w.instance < w.instances->size(); w.instance++, w.primitive = 0, w.corner = 0) {
+            const Instance &instance = (*w.instances)[w.instance];
+            const Mat4 &m = (*w.world)[instance.node];
+            const std::vector<DecodedPrimitive> &prims = (*w.meshes)[instance.mesh]->primitives;
+            for (; w.primitive < prims.size(); w.primitive++, w.corner = 0) {
+                const DecodedPrimitive &prim = prims[w.primitive];
+                if (!prim.triangles || w.corner + 3 > prim.corners.size()) continue;
+                for (int k = 0; k < 3; k++) {
+                    const float *p = &prim.positions[3 * static_cast<size_t>(prim.corners[w.corner + k])];
+                    for (int r = 0; r < 3; r++)
+                        corners[3 * k + r] = m.at(r, 0) * p[0] + m.at(r, 1) * p[1] + m.at(r, 2) * p[2] + m.at(r, 3);
+                }
+                w.corner += 3;
+                return true;
+            }
+        }
+        return false;
+    }
+};
+
 void Loader::choose_frame() {
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    uint64_t triangles = 0;
+    double smallest = INFINITY;  // the narrowest triangle's extent (largest axis of its bounds), degenerate ones aside
     for (const Instance &instance : instances_) {
         const Mat4 m = instance_world(instance);
         for (const DecodedPrimitive &prim : meshes_[instance.mesh]->primitives) {
             if (!prim.triangles) continue;
+            triangles += prim.corners.size() / 3;
+            for (size_t c = 0; c + 3 <= prim.corners.size(); c += 3) {
+                double tlo[3] = {INFINITY, INFINITY, INFINITY}, thi[3] = {-INFINITY, -INFINITY, -INFINITY};
+                for (int k = 0; k < 3; k++) {
+                    const float *p = &prim.positions[3 * static_cast<size_t>(prim.corners[c + k])];
+                    for (int r = 0; r < 3; r++) {
+                        double x = m.at(r, 0) * p[0] + m.at(r, 1) * p[1] + m.at(r, 2) * p[2] + m.at(r, 3);
+                        tlo[r] = std::min(tlo[r], x);
+                        thi[r] = std::max(thi[r], x);
+                    }
+                }
+                double e = std::max(thi[0] - tlo[0], std::max(thi[1] - tlo[1], thi[2] - tlo[2]));
+                if (e > 0) smallest = std::min(smallest, e);
+            }
             for (size_t i = 0; i + 2 < prim.positions.size(); i += 3)
                 for (int r = 0; r < 3; r++) {
                     double x = m.at(r, 0) * prim.positions[i] + m.at(r, 1) * prim.positions[i + 1] +
@@ -2849,6 +3028,16 @@ void Loader::choose_frame() {
                     hi[r] = std::max(hi[r], x);
                 }
         }
+    }
+    // framed by its core (scene_core.c): a small stray far from the bulk neither shrinks the
+    // scene to a speck nor moves it; it stays where it is, refused by the accel past the reach
+    // Embree can trace
+    bool whole = std::isfinite(lo[0]) && std::isfinite(hi[0]) && std::isfinite(lo[1]) && std::isfinite(hi[1]) &&
+                 std::isfinite(lo[2]) && std::isfinite(hi[2]);
+    if (whole) {
+        FrameWalk walk{&instances_, &meshes_, &world_};
+        pm_core_source source = {triangles, &walk, FrameWalk::next};
+        if (!pm_core_bounds(&source, lo, hi)) throw std::bad_alloc();
     }
     double extent = 0, center[3], farthest = 0;
     for (int r = 0; r < 3; r++) {
@@ -2863,6 +3052,12 @@ void Loader::choose_frame() {
             std::copy(center, center + 3, frame_center_);
         }
     }
+    // Shrinking a scene whose bulk is huge must not shrink its small parts below what float can
+    // render (a triangle narrower than 2^-62 has an area under float's smallest normal number): a
+    // unit box beside a sphere placed with a scale of 1e38 would become dust and render black.
+    if (frame_scale_ < 1 && smallest * frame_scale_ < std::ldexp(1.0, -62))
+        fail("the scene's sizes span more than float can render: a triangle " + num(smallest) + " wide beside a bulk " +
+             num(extent) + " wide (at most 2^62 apart)");
     if (frame_scale_ != 1 || recentered_) {
         Mat4 frame = identity();
         for (int r = 0; r < 3; r++) {
@@ -2970,17 +3165,35 @@ void Loader::load(pm_scene *out) {
     for (const Instance &instance : instances_) {
         uses[instance.mesh]++;
         decoded_mesh(instance.mesh);  // each mesh once, however often it is placed
+        const std::vector<double> &own = model_.nodes[instance.node].weights;
+        if (!own.empty() && own != model_.meshes[instance.mesh].weights && !node_weights_warned_) {
+            node_weights_warned_ = true;
+            warn("node " + str(instance.node) + " gives mesh " + str(instance.mesh) +
+                 " morph weights of its own: the mesh's default weights are rendered (one pose a mesh)");
+        }
     }
     choose_frame();  // the placements' matrices below are the framed ones
     for (size_t m = 0; m < uses.size(); m++) instanced[m] = uses[m] >= 2 && !options_.flatten_instances && framed_alone(m);
-    // A placement whose transform is singular, or whose matrix or normal matrix does not fit in
-    // float, flattens its mesh: the flat path checks every transformed vertex.
+    // A placement whose transform is singular, far from a unit scale or close to flattening an
+    // axis, or whose matrix or normal matrix does not fit in float, flattens its mesh: the flat
+    // path checks every transformed vertex. Embree traces a placement in mesh space through the
+    // float inverse, and an extreme one (a scale of 1e20, entries of 1e30, one axis scaled by
+    // 1e-20) hands its intersector a ray it aborts the process on. Bounds, with the Frobenius
+    // norm f >= the largest singular value: the smallest one is at least |det| / f^2, so
+    // f^3 / |det| bounds the condition number.
     for (const Instance &instance : instances_) {
         const Mat4 w = instance_world(instance);
         double det = w.at(0, 0) * (w.at(1, 1) * w.at(2, 2) - w.at(1, 2) * w.at(2, 1)) -
                      w.at(0, 1) * (w.at(1, 0) * w.at(2, 2) - w.at(1, 2) * w.at(2, 0)) +
                      w.at(0, 2) * (w.at(1, 0) * w.at(2, 1) - w.at(1, 1) * w.at(2, 0));
         if (!(det != 0) || !std::isfinite(det) || !std::isfinite(1 / det)) instanced[instance.mesh] = 0;
+        double frobenius = 0;
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++) frobenius += w.at(r, c) * w.at(r, c);
+        frobenius = std::sqrt(frobenius);
+        if (!(frobenius >= std::ldexp(1.0, -20) && frobenius <= std::ldexp(1.0, 20)) ||
+            !(frobenius * frobenius * frobenius <= std::ldexp(1.0, 20) * std::fabs(det)))
+            instanced[instance.mesh] = 0;
         if (!instanced[instance.mesh]) continue;
         WorldTransform world(w);
         for (int r = 0; r < 3; r++)
@@ -3015,7 +3228,8 @@ void Loader::load(pm_scene *out) {
         // (Embree's share as the memory forecast counts it: accel.c, pm_accel_forecast_bytes)
         uint64_t accel = triangles * PM_ACCEL_BUILD_BYTES_PER_TRIANGLE + vertices * PM_ACCEL_BYTES_PER_VERTEX +
                          placements * PM_ACCEL_BYTES_PER_PLACEMENT;
-        uint64_t bytes = vertices * per_vertex + triangles * 4 * sizeof(uint32_t) + placements * sizeof(pm_placement) + accel;
+        uint64_t bytes = vertices * per_vertex + triangles * 4 * sizeof(uint32_t) + placements * sizeof(pm_placement) + accel +
+                         placed_.size() * (sizeof(pm_light) + sizeof(float) + sizeof(pm_camera));  // lights, their power table, cameras
         if (!pm_memory_admit(bytes, "scene geometry and its acceleration structure"))
             fail("out of memory (" + std::string(pm_memory_failure()) + "): " + str(triangles) +
                  " triangles after instancing");
@@ -3058,6 +3272,8 @@ void Loader::load(pm_scene *out) {
     if (triangle_material_.empty()) fail("nothing to render (no triangles in the default scene)");
 
     if (degenerate_) warn("skipped " + str(degenerate_) + " degenerate triangle(s) (zero area or non-finite normal)");
+    if (nonfinite_uvs_)
+        warn(str(nonfinite_uvs_) + " non-finite texture coordinate(s) read as 0 (first: " + first_nonfinite_uv_ + ")");
     if (skipped_prims_) warn("skipped " + str(skipped_prims_) + " points/lines primitive(s) (only triangles render)");
     if (zero_scale_instances_)
         warn("left out " + str(zero_scale_instances_) + " EXT_mesh_gpu_instancing instance(s) with a zero SCALE component (first: " +

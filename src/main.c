@@ -5,6 +5,7 @@
 #include <math.h>
 #include <stdarg.h>
 #include <stdatomic.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -124,6 +125,13 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     if (root && !outputs_spare_inputs(o, window)) return noted(r, 1, "an output would overwrite an input");
     /* before any work: a snapshot that cannot be written would waste the whole render */
     if (root && o->snapshot && !pm_check_output_path(o->snapshot, err, sizeof err)) return failed(r, 1, "%s", err);
+    /* the log too, here where a refusal reaches every rank through the set-up's agreement: opened
+     * after it, a failure ended rank 0 alone and mpirun waited for ever on the others */
+    if (root && o->log && !pm_check_output_path(o->log, err, sizeof err)) {
+        size_t named = strlen(o->log);
+        const char *why = strncmp(err, o->log, named) == 0 && strncmp(err + named, ": ", 2) == 0 ? err + named + 2 : err;
+        return failed(r, 1, "%s: cannot write the log (%s)", o->log, why);
+    }
     /* before the scene too: a sky map or a reference that cannot be used costs no load and no BVH
      * build (the reference's height is compared once the camera gives the image's) */
     r->sky = (pm_sky_request){.sky = o->sky, .no_default_light = o->no_default_light, .scene_path = o->scene_path,
@@ -199,6 +207,8 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     }
     r->session = pm_session_create(&r->scene, r->accel, &r->camera, &config, err, sizeof err);
     if (!r->session) return failed(r, 1, "%s: %s", o->scene_path, err);
+    if (!pm_cluster_prepare(cluster, pm_session_film(r->session)))
+        return failed(r, 1, "%s: %s", o->scene_path, pm_cluster_error(cluster));
     /* from here a signal is the snapshot's: the image so far (none yet) is written, 130 or 143;
      * before, it ends the process at once */
     if (o->snapshot) pm_snapshot_catch_signals(r->session);
@@ -296,6 +306,10 @@ static void discard(void *context, const pm_window_scene *loaded) {
 
 int main(int argc, char **argv) {
     double process_start = pm_now_seconds();
+    /* A file-size limit (ulimit -f, as a full quota gives) must make a write fail with EFBIG,
+     * reported by the writer in one line and its temporary file removed, rather than kill the
+     * process with SIGXFSZ mid-write. */
+    signal(SIGXFSZ, SIG_IGN);
     /* under mpirun, every rank runs all of this; rank 0 alone speaks and writes */
     pm_cluster *cluster = pm_cluster_join(&argc, &argv);
     run_state r;
@@ -330,7 +344,14 @@ int main(int argc, char **argv) {
             code = set_up(cluster, &r, wants_window);
         }
     }
-    code = pm_cluster_agree(cluster, code);
+    /* what every rank must share: the scene it loaded and the command line it was given */
+    uint64_t digest = cluster && code < 0 && r.scene_loaded ? pm_scene_digest(&r.scene) : 0;
+    for (int i = 1; cluster && i < argc; i++)
+        for (const char *c = argv[i]; ; c++) {
+            digest = (digest ^ (unsigned char)*c) * 1099511628211ull;
+            if (!*c) break;
+        }
+    code = pm_cluster_agree(cluster, code, digest);
     if (code < 0) {
         const pm_options *o = &r.opt;
         if (o->snapshot) {

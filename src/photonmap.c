@@ -198,7 +198,7 @@ static uint32_t build_sources(const pm_scene *s, light_source *out) {
  * specular objects a projection map must cover. */
 static sphere *specular_spheres(const pm_scene *s, uint32_t *count) {
     enum { G = 8 };
-    vec3 lo = s->bounds_min, ext = v3_sub(s->bounds_max, s->bounds_min);
+    vec3 lo = s->core_min, hi = s->core_max, ext = v3_sub(hi, lo);
     vec3 blo[G * G * G], bhi[G * G * G];
     bool used[G * G * G] = {false};
     for (pm_triangle_walk w = {.placement = -2}; pm_scene_walk_next(s, &w);) {
@@ -208,6 +208,8 @@ static sphere *specular_spheres(const pm_scene *s, uint32_t *count) {
         pm_scene_walk_corners(s, &w, corners);
         vec3 p0 = corners[0], p1 = corners[1], p2 = corners[2];
         vec3 c = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
+        /* a specular stray outside the scene's core is no target: clamped into an edge bucket it would swell its sphere */
+        if (!(c.x >= lo.x && c.y >= lo.y && c.z >= lo.z && c.x <= hi.x && c.y <= hi.y && c.z <= hi.z)) continue;
         int cell[3];
         for (int a = 0; a < 3; a++) {
             float e = v3_get(ext, a);

@@ -497,6 +497,9 @@ bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     if (s->triangle_count == 0) lo = hi = v3s(0.f);
     s->bounds_min = lo;
     s->bounds_max = hi;
+    if (!pm_scene_core(s, &lo, &hi)) return false;
+    s->core_min = lo;
+    s->core_max = hi;
     s->center = v3_scale(v3_add(lo, hi), 0.5f);
     s->radius = 0.5f * v3_length(v3_sub(hi, lo));
     float extent = v3_max_component(v3_sub(hi, lo));
@@ -583,6 +586,46 @@ uint64_t pm_scene_bytes(const pm_scene *s) {
     return bytes;
 }
 
+static uint64_t digest_bytes(uint64_t h, const void *data, size_t size) {
+    const unsigned char *p = data;
+    for (size_t i = 0; i < size; i++) h = (h ^ p[i]) * 1099511628211ull;
+    return h;
+}
+
+uint64_t pm_scene_digest(const pm_scene *s) {
+    uint64_t h = 14695981039346656037ull;
+    uint32_t counts[] = {s->vertex_count, s->triangle_count, s->material_count, s->texture_count, s->light_count,
+                         s->camera_count, s->placement_count, s->instanced_mesh_count};
+    h = digest_bytes(h, counts, sizeof counts);
+    if (s->positions) h = digest_bytes(h, s->positions, sizeof(vec3) * s->vertex_count);
+    if (s->indices) h = digest_bytes(h, s->indices, 3 * sizeof(uint32_t) * s->triangle_count);
+    if (s->triangle_material) h = digest_bytes(h, s->triangle_material, sizeof(uint32_t) * s->triangle_count);
+    if (s->uvs) h = digest_bytes(h, s->uvs, 2 * sizeof(float) * s->vertex_count);
+    if (s->materials) h = digest_bytes(h, s->materials, sizeof(pm_material) * s->material_count); /* zeroed before filling */
+    for (uint32_t i = 0; i < s->placement_count; i++)
+        h = digest_bytes(h, s->placements[i].object_to_world, sizeof s->placements[i].object_to_world);
+    for (uint32_t i = 0; i < s->texture_count; i++) {
+        const pm_texture *t = &s->textures[i];
+        int size[2] = {t->width, t->height};
+        h = digest_bytes(h, size, sizeof size);
+        if (t->rgba) h = digest_bytes(h, t->rgba, 4 * (size_t)t->width * (size_t)t->height);
+    }
+    for (uint32_t i = 0; i < s->light_count; i++) {
+        const pm_light *l = &s->lights[i];
+        float f[] = {(float)l->type, l->position.x, l->position.y, l->position.z, l->direction.x, l->direction.y, l->direction.z,
+                     l->intensity.x, l->intensity.y, l->intensity.z, l->range, l->cos_inner, l->cos_outer};
+        h = digest_bytes(h, f, sizeof f);
+    }
+    for (uint32_t i = 0; i < s->camera_count; i++) {
+        const pm_camera *c = &s->cameras[i];
+        float f[] = {c->position.x, c->position.y, c->position.z, c->forward.x, c->forward.y, c->forward.z, c->up.x, c->up.y,
+                     c->up.z, c->yfov, c->aspect, c->znear, c->orthographic ? 1.f : 0.f, c->ymag};
+        h = digest_bytes(h, f, sizeof f);
+    }
+    float sky[] = {s->sky ? 1.f : 0.f, s->sky_radiance.x, s->sky_radiance.y, s->sky_radiance.z};
+    return digest_bytes(h, sky, sizeof sky);
+}
+
 pm_camera pm_scene_auto_camera(const pm_scene *s, float aspect) {
     pm_camera c;
     memset(&c, 0, sizeof c);
@@ -598,7 +641,8 @@ pm_camera pm_scene_auto_camera(const pm_scene *s, float aspect) {
 pm_camera pm_scene_fit_camera(const pm_scene *s, pm_camera c, float aspect) {
     const float margin = 1.05f;
     if (!(aspect > 0.f)) aspect = c.aspect > 0.f ? c.aspect : 1.f;
-    vec3 center = v3_scale(v3_add(s->bounds_min, s->bounds_max), 0.5f);
+    /* the core's vertices: a stray far from the bulk would shrink the model to a dot */
+    vec3 center = v3_scale(v3_add(s->core_min, s->core_max), 0.5f);
     float r = s->radius > 0.f ? s->radius : 1.f;
     double tan_y = tan(0.5 * (double)c.yfov) / margin, tan_x = tan_y * aspect;
     /* in the camera's frame, from the centre: x right, y up, z toward the camera */
@@ -613,6 +657,9 @@ pm_camera pm_scene_fit_camera(const pm_scene *s, pm_camera c, float aspect) {
             const pm_placement *placement = &s->placements[pl];
             world = pm_placement_point(placement, s->positions[s->instanced_meshes[placement->mesh].first_vertex + v++]);
         }
+        if (!(world.x >= s->core_min.x && world.y >= s->core_min.y && world.z >= s->core_min.z && world.x <= s->core_max.x &&
+              world.y <= s->core_max.y && world.z <= s->core_max.z))
+            continue;
         vec3 d = v3_sub(world, center);
         double x = fabs((double)v3_dot(d, c.right)), y = fabs((double)v3_dot(d, c.up)), z = -(double)v3_dot(d, c.forward);
         if (c.orthographic) {

@@ -219,6 +219,8 @@ static inline void grid_position(const pm_shadow_map *m, vec3 p, int side, float
 static bool add_record(pm_shadow_map *m, const record *r) {
     float g[3];
     grid_position(m, r->p, r->side, g);
+    for (int a = 0; a < 3; a++) /* past the grid (outside the scene's core): clamped onto its edge it would count there */
+        if (!(g[a] >= -1.f && g[a] <= (float)m->cells_per_axis + 1.f)) return true;
     uint32_t lo[3], hi[3];
     for (int a = 0; a < 3; a++) {
         float l = floorf(g[a] - 0.5f), h = floorf(g[a] + 0.5f), top = (float)(m->cells_per_axis - 1);
@@ -377,7 +379,7 @@ pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const p
     cell = fmin(fmax(cell, LAYERS * extent / ((1u << AXIS_BITS) - 4 * LAYERS)), extent);
     m->cell = (float)cell;
     m->inv_cell = (float)(1.0 / cell);
-    m->origin = v3_sub(s->bounds_min, v3s(m->cell));
+    m->origin = v3_sub(s->core_min, v3s(m->cell)); /* the core's grid: records past it are left out, lookups there trace */
     m->cells_per_axis = (uint32_t)fmin(LAYERS * (ceil(extent / cell) + 3.0), (double)((1u << AXIS_BITS) - 1));
     m->min_count = set->min_count > 0 ? (set->min_count < 15 ? set->min_count : 15) : PM_SHADOW_MIN_COUNT;
     for (size_t t = 0; ok && t < tasks; t++)

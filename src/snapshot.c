@@ -228,7 +228,9 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
     if (o->log && root) {
         ob.log = fopen(o->log, "w");
         if (!ob.log) {
-            fprintf(stderr, "pmview: error: %s: cannot write the log (%s)\n", o->log, strerror(errno));
+            snprintf(err, sizeof err, "%s: cannot write the log (%s)", o->log, strerror(errno));
+            if (cluster) pm_cluster_abort(cluster, err); /* every rank ends, not rank 0 alone */
+            fprintf(stderr, "pmview: error: %s\n", err);
             free(ob.scratch);
             return 1;
         }
@@ -251,6 +253,9 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
         return 1;
     }
     if (cluster) {
+        if (root && interrupted_by) pm_cluster_send_stop(cluster);
+        /* every rank's run ends at --time: one silent well past it is stopped (SIGSTOP), not slow */
+        if (o->time_limit > 0) pm_cluster_expect_end(cluster, 5.0 + 0.1 * o->time_limit);
         film = pm_cluster_end_run(cluster, session, root ? tick : NULL, &ob);
         if (!root) {
             free(ob.scratch);
@@ -262,10 +267,14 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
     if (ob.log && (ob.logged != state.samples || (cluster && ob.logged_whole != film->samples)) && film->samples)
         pm_log_row(ob.log, session, film, whole_photons(&ob, state.photons), reference, ob.scratch, state.rendered);
     if (ob.log) {
-        bool written = !ferror(ob.log);
-        if (fclose(ob.log) != 0) written = false;
+        /* the flush reports why the buffered rows cannot be written (a full disk, EFBIG) */
+        errno = 0;
+        bool written = fflush(ob.log) == 0 && !ferror(ob.log);
+        int why = errno;
+        if (fclose(ob.log) != 0 && written) { written = false; why = errno; }
         if (!written) {
-            fprintf(stderr, "%spmview: error: %s: cannot write the log\n", ob.tty ? "\n" : "", o->log);
+            fprintf(stderr, "%spmview: error: %s: cannot write the log (%s)\n", ob.tty ? "\n" : "", o->log,
+                    why ? strerror(why) : "write error");
             free(ob.scratch);
             return 1;
         }

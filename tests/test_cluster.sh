@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, the cluster stat line.
+# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, ranks holding different scenes or options, --max-memory counting the merge's buffers, a stopped rank under --time, SIGTERM to rank 0 alone, the cluster stat line.
 #
 # Every job is small (64 px or less, --threads 1) so the whole runs in well under a minute on two
 # busy cores. The ASan build's leak check is off inside mpirun jobs only: Open MPI keeps its own
@@ -265,6 +265,111 @@ for scene in "$tmp/no-such-scene.gltf" "$tmp/corrupt.gltf"; do
     check "$name: an image was written" [ ! -e "'$tmp/bad.exr'" ]
     grep "^pmview:" "$tmp/bad.err"
 done
+
+# --- 7. --log into a missing folder or onto a directory: refused in the set-up, so every rank
+# ends: one 'pmview:' line naming the path, non-zero, no rank left. Before, rank 0 printed its
+# error and ended while rank 1 waited for a merge for ever.
+for log in "$tmp/no-such-folder/run.csv" "$tmp"; do
+    ASAN_OPTIONS=detect_leaks=0 timeout 60 mpirun --oversubscribe -np 2 $bin $cornell --width 16 --threads 1 --iterations 1 \
+        --snapshot "$tmp/log.exr" --log "$log" </dev/null >"$tmp/log.out" 2>"$tmp/log.err"
+    rc=$?
+    lines=$(grep -c "^pmview:" "$tmp/log.err")
+    echo "--log $log: exit $rc, $(grep "^pmview:" "$tmp/log.err" | head -n 1)"
+    check "--log $log: the job did not end within 60 s" [ "$rc" -ne 124 ]
+    check "--log $log: exit 0" [ "$rc" -ne 0 ]
+    check "--log $log: $lines 'pmview:' lines on stderr, want 1" [ "$lines" -eq 1 ]
+    check "--log $log: the line does not name the log" grep -q "'^pmview: error: $log: cannot write the log'" "$tmp/log.err"
+    check "--log $log: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
+    for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+done
+
+# --- 8. ranks that disagree: a different file per rank, a stale copy at the same path in each
+# rank's working directory, a bad option on rank 1 alone. Each job ends with one 'pmview:' line
+# naming the cause, non-zero, nothing written. Before, the first two summed both scenes into one
+# image without a word, and the third printed the usage text's last line as the error.
+mkdir -p "$tmp/wd0" "$tmp/wd1"
+cp scenes/cornell-box.gltf "$tmp/wd0/s.gltf"
+cp scenes/point-room.gltf "$tmp/wd1/s.gltf"
+disagree() { # description, want (text in the line), then mpirun's app contexts
+    desc=$1; want=$2; shift 2
+    rm -f "$tmp/mpmd.exr"
+    ASAN_OPTIONS=detect_leaks=0 timeout 60 mpirun --oversubscribe "$@" </dev/null >"$tmp/mpmd.out" 2>"$tmp/mpmd.err"
+    rc=$?
+    lines=$(grep -c "^pmview:" "$tmp/mpmd.err")
+    echo "$desc: exit $rc, $(grep "^pmview:" "$tmp/mpmd.err" | head -n 1)"
+    check "$desc: exit $rc, want non-zero and not a timeout" [ "$rc" -ne 0 ] \&\& [ "$rc" -ne 124 ]
+    check "$desc: $lines 'pmview:' lines on stderr, want 1" [ "$lines" -eq 1 ]
+    check "$desc: the line does not say '$want'" grep -q "'^pmview: .*$want'" "$tmp/mpmd.err"
+    check "$desc: an image was written" [ ! -e "'$tmp/mpmd.exr'" ]
+    for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+}
+opts="--width 16 --threads 1 --iterations 2 --snapshot $tmp/mpmd.exr"
+disagree "a different scene per rank" "rank 1 holds another scene or other options than rank 0" \
+    -np 1 $bin scenes/cornell-box.gltf $opts : -np 1 $bin scenes/point-room.gltf $opts
+disagree "a stale copy in rank 1's folder" "rank 1 holds another scene or other options than rank 0" \
+    -np 1 --wdir "$tmp/wd0" "$PWD/$bin" s.gltf $opts : -np 1 --wdir "$tmp/wd1" "$PWD/$bin" s.gltf $opts
+disagree "other options on rank 1" "rank 1 holds another scene or other options than rank 0" \
+    -np 1 $bin scenes/cornell-box.gltf $opts : -np 1 $bin scenes/cornell-box.gltf $opts --photons 5000
+disagree "a bad option on rank 1" "rank 1: unknown option .--bogus." \
+    -np 1 $bin scenes/cornell-box.gltf $opts : -np 1 $bin scenes/cornell-box.gltf $opts --bogus
+
+# --- 9. --max-memory counts the merge's buffers: at 512x512 a limit of 90 MB fits one process
+# (film, photon statistics, EXR buffers: about 91 MB committed at its peak) but not rank 0 of two,
+# which also holds a send and a receive buffer of the packed film (84 MB) and the merged film. The
+# 2-rank job is refused in the set-up, one line naming the buffers, no image. Before, it rendered
+# to the end and failed at the merge, and rank 0 peaked past the limit.
+$bin scenes/cornell-box.gltf --width 512 --iterations 1 --threads 1 --max-memory 90M --quiet --snapshot "$tmp/one.exr" 2>"$tmp/one.err"
+rc=$?
+check "--max-memory 90M: one process does not fit (exit $rc): $(head -n 1 "$tmp/one.err")" [ "$rc" -eq 0 ]
+rm -f "$tmp/two.exr"
+mpi scenes/cornell-box.gltf --width 512 --iterations 2 --threads 1 --max-memory 90M --snapshot "$tmp/two.exr" >"$tmp/two.out" 2>"$tmp/two.err"
+rc=$?
+echo "--max-memory 90M on 2 ranks: exit $rc, $(grep "^pmview:" "$tmp/two.err" | head -n 1)"
+check "--max-memory 90M on 2 ranks: exit 0" [ "$rc" -ne 0 ]
+check "--max-memory 90M on 2 ranks: not one line naming the merge buffers" [ "$(grep -c "^pmview: error: .*the cluster's merge buffers" "$tmp/two.err")" -eq 1 ]
+check "--max-memory 90M on 2 ranks: an image was written" [ ! -e "'$tmp/two.exr'" ]
+check "--max-memory 90M on 2 ranks: rendering reported" ! grep -q "'^stat eye\|wrote'" "$tmp/two.out"
+
+# --- 10. a rank stopped (SIGSTOP) 2 s into a --time 6 run: it never says its run is over, and no
+# signal reveals it; rank 0 waits 5 s + 10% of --time past its own end, then ends the job naming
+# it. Before, the job ran on past --time for ever.
+mpi_job $cornell --width 32 --time 6 --snapshot "$tmp/stop.exr" >"$tmp/stop.out" 2>&1 &
+job=$!
+i=0; rank1=""
+while [ -z "$rank1" ] && [ "$i" -lt 100 ]; do sleep 0.1; i=$((i + 1)); rank1=$(ranks_of_job 1); done
+sleep 2  # past the set-up's agreement: the render is under way
+sent=$(now)
+[ -n "$rank1" ] && kill -STOP $rank1
+job_ends "stopped rank"
+wait "$job"; rc=$?; job=""
+[ -n "$rank1" ] && kill -CONT $rank1 2>/dev/null
+echo "stopped rank: mpirun ended $wall s after the stop, exit $rc, $(grep "^pmview:" "$tmp/stop.out" | head -n 1)"
+check "stopped rank: no rank 1 to stop" [ -n "'$rank1'" ]
+check "stopped rank: the job ended $wall s after the stop, want <= 12 (--time 6 less 2 s, then 5.6 s)" at_most "$wall" 12
+check "stopped rank: exit 0" [ "$rc" -ne 0 ]
+check "stopped rank: pmview's line does not name rank 1 as stopped" grep -q "'^pmview: error: rank 1 gave no word that its run is over .* past --time'" "$tmp/stop.out"
+for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+
+# --- 11. SIGTERM to rank 0 alone (kill on its pid, not mpirun's to every rank): rank 0 asks the
+# others to end their runs, merges and writes the image so far, exit 143, within 5 s. Before,
+# the healthy rank 1 was taken for gone after 0.5 s and no image was written.
+rm -f "$tmp/term0.exr"
+mpi_job $cornell --width 32 --time 60 --snapshot "$tmp/term0.exr" >"$tmp/term0.out" 2>&1 &
+job=$!
+i=0; rank0=""
+while [ -z "$rank0" ] && [ "$i" -lt 100 ]; do sleep 0.1; i=$((i + 1)); rank0=$(ranks_of_job 0); done
+sleep 2  # past the set-up: the render is under way
+sent=$(now)
+[ -n "$rank0" ] && kill -TERM $rank0
+job_ends "SIGTERM to rank 0"
+wait "$job"; rc=$?; job=""
+echo "SIGTERM to rank 0 alone: mpirun ended $wall s after it, exit $rc, $(grep "^pmview:" "$tmp/term0.out" | head -n 1)"
+check "SIGTERM to rank 0 alone: no rank 0 found" [ -n "'$rank0'" ]
+check "SIGTERM to rank 0 alone: the job ended $wall s after the signal, want <= 5" at_most "$wall" 5
+check "SIGTERM to rank 0 alone: no 'interrupted: the image so far'" grep -q "'^pmview: wrote .*interrupted: the image so far'" "$tmp/term0.out"
+check "SIGTERM to rank 0 alone: the image is not an EXR" is_exr "$tmp/term0.exr"
+check "SIGTERM to rank 0 alone: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
+for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
 
 echo "test_cluster: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]

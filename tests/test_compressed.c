@@ -277,6 +277,44 @@ int main(void) {
         free(b.data);
         free(bin);
     }
+    {
+        /* 60 primitives of the placed mesh name the one stream, and an unused mesh's 60 primitives
+         * name the PNG's bytes as theirs: the stream is decoded once, the unused mesh's never.
+         * Before, every primitive decoded its stream again (9,000 primitives naming the Duck
+         * took half a minute) and the unused ones were refused as corrupt. */
+        const char *prim = "{\"attributes\":{\"NORMAL\":1,\"POSITION\":2,\"TEXCOORD_0\":3},\"indices\":0,\"mode\":4,\"material\":0,"
+                           "\"extensions\":{\"KHR_draco_mesh_compression\":{\"bufferView\":0,\"attributes\":{\"NORMAL\":0,\"POSITION\":1,\"TEXCOORD_0\":2}}}}";
+        enum { COPIES = 60 };
+        size_t size = 2 * COPIES * (strlen(prim) + 2) + 64;
+        char *used = calloc(size, 1), *unused = calloc(size, 1);
+        strcpy(used, "\"primitives\":[");
+        strcpy(unused, "\"name\":\"LOD3spShape\"},{\"primitives\":[");
+        for (int i = 0; i < COPIES; i++) {
+            strcat(strcat(used, prim), i + 1 < COPIES ? "," : "]");
+            char *other = replaced(prim, "\"bufferView\":0", "\"bufferView\":1");
+            strcat(strcat(unused, other), i + 1 < COPIES ? "," : "]");
+            free(other);
+        }
+        char from[600];
+        snprintf(from, sizeof from, "\"primitives\":[%s]", prim);
+        char *j1 = replaced(d.json, from, used), *j2 = j1 ? replaced(j1, "\"name\":\"LOD3spShape\"", unused) : NULL;
+        CHECK(j2 != NULL, "the Draco primitive and mesh name in the JSON");
+        if (j2) {
+            bytes b = pack(j2, d.bin, d.bin_size);
+            pm_scene scene;
+            uint64_t before = pm_draco_decodes();
+            bool ok = load(b, &scene, err, sizeof err);
+            uint64_t decodes = pm_draco_decodes() - before;
+            CHECK(ok, "%d primitives naming one stream, an unused mesh naming a PNG: %s", COPIES, ok ? "" : err);
+            CHECK(decodes == 1, "%d primitives naming one stream: %llu decodes (want 1)", COPIES, (unsigned long long)decodes);
+            if (ok) {
+                CHECK(scene.triangle_count == COPIES * 4212u, "%u triangles (want %d copies of the Duck's 4212)", scene.triangle_count, COPIES);
+                pm_scene_free(&scene);
+            }
+            free(b.data);
+        }
+        free(j1), free(j2), free(used), free(unused);
+    }
     check_lie("Draco attribute accessor count 2398", &d,
               "\"componentType\":5126,\"count\":2399", "\"componentType\":5126,\"count\":2398", "but the Draco stream decodes 2399 points");
     check_lie("Draco index accessor count 12639", &d, "\"count\":12636", "\"count\":12639", "decodes 12636 indices");

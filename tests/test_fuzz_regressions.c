@@ -12,11 +12,13 @@
 
 #include "fuzz/fuzz_entry.h"
 #include "fuzz/fuzz_inputs_entry.h"
+#include "fuzz/fuzz_compressed_entry.h"
 #include "testing.h"
 
 #define PM_FUZZ_REPLAY_SECONDS 20.0  /* libFuzzer's -timeout is 30 s (tools/run-fuzz.sh) */
 #define REGRESSIONS "tests/fuzz/regressions"
 #define INPUT_REGRESSIONS "tests/fuzz/regressions-inputs"
+#define COMPRESSED_REGRESSIONS "tests/fuzz/regressions-compressed"
 
 static unsigned char *read_all(const char *path, size_t *size) {
     FILE *f = fopen(path, "rb");
@@ -184,10 +186,60 @@ static void replay_inputs(void) {
     pm_memory_set_limit(0); /* the glTF entry runs under the default limit */
 }
 
+/* The compressed-decoders entry: the Draco duck's stream and its meshopt index stream decode
+ * through it (the seeds run-fuzz.sh gives it), the same cut short are refused with a reason, and
+ * every input of its regressions folder replays within the time limit. */
+static void replay_compressed(void) {
+    size_t size = 0;
+    unsigned char *glb = read_all("tests/models/duck/duck-draco.glb", &size);
+    CHECK(glb && size > 28, "the Draco duck is readable (run from the project root)");
+    if (glb && size > 28) {
+        uint32_t json = (uint32_t)glb[12] | (uint32_t)glb[13] << 8 | (uint32_t)glb[14] << 16 | (uint32_t)glb[15] << 24;
+        const unsigned char *stream = glb + 20 + json + 8; /* bufferView 0: 10366 bytes at the BIN chunk's start */
+        size_t length = 10366;
+        CHECK(20 + json + 8 + length <= size && !memcmp(stream, "DRACO", 5), "the Draco stream opens the BIN chunk");
+        unsigned char *input = malloc(length + 1);
+        input[0] = 0;
+        memcpy(input + 1, stream, length);
+        pm_fuzz_compressed_result r = pm_fuzz_compressed_run(input, length + 1);
+        CHECK(r.draco && r.accepted, "the Draco duck's stream through the compressed entry: %s", r.error);
+        r = pm_fuzz_compressed_run(input, 1 + length / 3);
+        CHECK(r.draco && !r.accepted && r.error[0], "a third of the Draco stream is refused with a reason: %s", r.error);
+        free(input);
+        /* meshopt, mode and filter bytes ahead of a stream that is not one */
+        static const uint8_t meshopt[] = {1, 1, 5, 12, 0, 0xe1, 1, 2, 3};
+        r = pm_fuzz_compressed_run(meshopt, sizeof meshopt);
+        CHECK(!r.draco && !r.accepted && r.error[0], "garbage as a meshopt stream is refused with a reason: %s", r.error);
+    }
+    free(glb);
+    char **names;
+    int n = list_files(COMPRESSED_REGRESSIONS, &names);
+    CHECK(n >= 0, "%s is readable (run from the project root)", COMPRESSED_REGRESSIONS);
+    for (int i = 0; i < n; i++) {
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s", COMPRESSED_REGRESSIONS, names[i]);
+        unsigned char *data = read_all(path, &size);
+        CHECK(data != NULL, "%s is readable", path);
+        if (data) {
+            double start = now();
+            pm_fuzz_compressed_result r = pm_fuzz_compressed_run(data, size);
+            double seconds = now() - start;
+            printf("%-60s %6zu bytes  %s %s %.2f s  %s\n", names[i], size, r.draco ? "Draco" : "meshopt",
+                   r.accepted ? "accepted" : "refused", seconds, r.error);
+            CHECK(seconds < PM_FUZZ_REPLAY_SECONDS, "%s takes %.1f s, limit %.0f s", names[i], seconds, PM_FUZZ_REPLAY_SECONDS);
+            free(data);
+        }
+        free(names[i]);
+    }
+    free(names);
+    printf("replayed %d compressed-stream inputs\n", n > 0 ? n : 0);
+}
+
 int main(void) {
     check_anchors();
     check_input_anchors();
     replay_inputs();
+    replay_compressed();
     char **names;
     int n = list_files(REGRESSIONS, &names);
     CHECK(n >= 0, "%s is readable (run from the project root)", REGRESSIONS);

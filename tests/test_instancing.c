@@ -416,6 +416,80 @@ static void test_huge_mesh_flattened(void) {
     pm_scene_free(&flat);
 }
 
+/* A placement Embree cannot trace through its float inverse (a scale of 1e20 or 1e-20, entries
+ * of 1e30, one axis squashed by 1e-20, a shear of 1e7) flattens its mesh, and rays over the view
+ * and through every placement answer as the flat file's do; moderate scales stay instanced. One
+ * whose size is more than 2^62 times the unit torus's is refused alike, instanced or flat: no
+ * frame keeps both within float's range. Before, Embree aborted the process (an assertion on the
+ * ray it made in mesh space). */
+static void test_extreme_placements(void) {
+    static const struct { const char *node; bool instanced, refused; } cases[] = {
+        {"{\"mesh\":1,\"translation\":[3,0,0],\"scale\":[1e20,1e20,1e20]}", false, true},
+        {"{\"mesh\":1,\"translation\":[3,0,0],\"scale\":[1e-20,1e-20,1e-20]}", false, false},
+        {"{\"mesh\":1,\"matrix\":[1e30,0,0,0,0,1e30,0,0,0,0,1e30,0,3,0,0,1]}", false, true},
+        {"{\"mesh\":1,\"translation\":[3,0,0],\"scale\":[1e15,1e15,1e15]}", false, false},
+        {"{\"mesh\":1,\"translation\":[3,0.5,0],\"scale\":[1,1e-20,1]}", false, false},
+        {"{\"mesh\":1,\"matrix\":[1,0,0,0,1e7,1,0,0,0,0,1,0,3,0,0,1]}", false, false},
+        {"{\"mesh\":1,\"translation\":[3,0,0],\"scale\":[2,0.5,1]}", true, false},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        char nodes[512];
+        snprintf(nodes, sizeof nodes, ",{\"mesh\":1},%s", cases[c].node);
+        char *text = make_gltf(nodes, ",2,3", "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.5,0.3,1],\"metallicFactor\":0}}", "3");
+        if (cases[c].refused) {
+            for (int flatten = 0; flatten < 2; flatten++) {
+                pm_scene s;
+                char err[512] = "";
+                pm_load_options options = {.flatten_instances = flatten};
+                bool loaded = pm_load_gltf_memory_with(text, strlen(text), "instancing.gltf", &options, true, &s, NULL, err, sizeof err);
+                CHECK(!loaded && strstr(err, "sizes span more than float can render"), "placement %s (%s): want the span refused, got %s",
+                      cases[c].node, flatten ? "flat" : "instanced", loaded ? "a scene" : err);
+                if (loaded) pm_scene_free(&s);
+            }
+            free(text);
+            continue;
+        }
+        pm_scene inst, flat;
+        bool ok = load_text(text, false, &inst) & load_text(text, true, &flat);
+        free(text);
+        if (!ok) continue;
+        CHECK((inst.placement_count > 0) == cases[c].instanced, "placement %s: %u placements (want %s)", cases[c].node,
+              inst.placement_count, cases[c].instanced ? "instanced" : "0: flattened");
+        CHECK(pm_scene_finalize(&inst, false, NULL) && pm_scene_finalize(&flat, false, NULL), "placement %s: finalize", cases[c].node);
+        char err[256];
+        pm_accel *ai = pm_accel_create(&inst, err, sizeof err), *af = pm_accel_create(&flat, err, sizeof err);
+        CHECK(ai && af, "placement %s: accel: %s", cases[c].node, err);
+        int bad = 0, hits = 0;
+        if (ai && af) {
+            /* the view's rays, then rays from the origin in every direction, then along the x axis into the placements */
+            pm_camera cam = pm_scene_auto_camera(&flat, 1.f);
+            for (int i = 0; i < 32 * 32 + 256 + 2; i++) {
+                vec3 o = cam.position, d;
+                if (i < 32 * 32) {
+                    float sx = (2.f * (i % 32 + 0.5f) / 32 - 1.f) * 0.5f, sy = (1.f - 2.f * (i / 32 + 0.5f) / 32) * 0.5f;
+                    d = v3_normalize(v3_add(cam.forward, v3_add(v3_scale(cam.right, sx), v3_scale(cam.up, sy))));
+                } else if (i < 32 * 32 + 256) {
+                    int k = i - 32 * 32;
+                    o = v3(0.f, 2.f, 0.f);
+                    d = pm_sample_sphere((k % 16 + 0.5f) / 16, (k / 16 + 0.5f) / 16);
+                } else {
+                    o = v3(i % 2 ? -20.f : 20.f, 0.f, 0.f);
+                    d = v3(i % 2 ? 1.f : -1.f, 0.f, 0.f);
+                }
+                pm_hit hi, hf;
+                bool got_i = pm_accel_intersect(ai, o, d, INFINITY, &hi), got_f = pm_accel_intersect(af, o, d, INFINITY, &hf);
+                hits += got_f;
+                bad += got_i != got_f || (got_i && !(fabsf(hi.t - hf.t) <= 1e-3f * (1.f + hf.t)));
+            }
+        }
+        CHECK(bad == 0 && hits > 0, "placement %s: %d rays answer differently from the flat file's (%d hits)", cases[c].node, bad, hits);
+        pm_accel_destroy(ai);
+        pm_accel_destroy(af);
+        pm_scene_free(&inst);
+        pm_scene_free(&flat);
+    }
+}
+
 int main(void) {
     test_same_as_flat(false, false, false);
     test_same_as_flat(true, false, false);
@@ -424,5 +498,6 @@ int main(void) {
     test_scaled_emitter();
     test_unlit_second_uv_set();
     test_huge_mesh_flattened();
+    test_extreme_placements();
     return pm_test_done("test_instancing");
 }

@@ -538,6 +538,50 @@ static void append_png_image(text *t, const unsigned char *png, size_t size, boo
     text_append(t, "\"}");
 }
 
+/* One image named by 60 textures (60 materials, each the base colour of one), 59 of them sampled
+ * alike: the texels are copied once for those and once for the one clamped, 2 textures in the
+ * scene, every material on one of them. Before, each texture copied the image (one PNG named by
+ * 1,000 textures took 5.4 GB). */
+static void test_shared_image(void) {
+    static const unsigned char pixels[16] = {255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 255, 255, 255, 255, 255};
+    int size = 0;
+    unsigned char *png = stbi_write_png_to_mem(pixels, 8, 2, 2, 4, &size);
+    CHECK(png != NULL, "stbi_write_png_to_mem failed");
+    if (!png) return;
+    enum { N = 60 };
+    text extra = {0}, materials = {0};
+    text_append(&extra, "\"images\":[");
+    append_png_image(&extra, png, (size_t)size, true);
+    free(png);
+    text_append(&extra, "],\"samplers\":[{\"wrapS\":33071}],\"textures\":[");
+    text_append(&materials, "[");
+    for (int i = 0; i < N; i++) {
+        text_append(&extra, "%s{\"source\":0%s}", i ? "," : "", i == N - 1 ? ",\"sampler\":0" : "");
+        text_append(&materials, "%s{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":%d}}}", i ? "," : "", i);
+    }
+    text_append(&extra, "],");
+    text_append(&materials, "]");
+    /* N primitives, each with its own material: every texture is used */
+    prim_spec prims[N];
+    static const float uvs[6] = {0, 0, 1, 0, 0.25f, 1};
+    for (int i = 0; i < N; i++) prims[i] = (prim_spec){unit_triangle, 3, NULL, uvs, 0, NULL, 0, 0, -1, i};
+    doc_spec doc = {NULL, NULL, materials.data, extra.data};
+    write_model("shared_image.gltf", prims, N, &doc);
+    free(extra.data);
+    free(materials.data);
+    pm_scene s;
+    pm_load_report r;
+    if (load_ok("shared_image.gltf", &s, &r)) {
+        CHECK(s.texture_count == 2, "one image named by %d textures, two samplings: %u textures (want 2)", N, s.texture_count);
+        bool on_them = s.material_count >= N;
+        for (int i = 0; on_them && i < N; i++) on_them = s.materials[i].base_color_texture == (i == N - 1 ? 1 : 0);
+        CHECK(on_them, "every material's base colour on the shared texture of its sampling");
+        CHECK(s.texture_count == 2 && s.textures[1].wrap_s == PM_WRAP_CLAMP && s.textures[0].wrap_s == PM_WRAP_REPEAT,
+              "the clamped sampling kept apart");
+        pm_scene_free(&s);
+    }
+}
+
 static void test_texcoords_and_texture(void) {
     /* 2x2 RGBA: top row red, half-transparent green; bottom row blue, white */
     static const unsigned char pixels[16] = {255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 255, 255, 255, 255, 255};
@@ -892,6 +936,65 @@ static void test_sparse(void) {
     free(json.data);
 }
 
+/* A mesh with two morph targets and default weights [0.5, 0.25]: the static pose glTF defines is
+ * the base plus 0.5 x target 0 (every vertex +2 in z) plus 0.25 x target 1 (vertex 1 +4 in x), so
+ * the triangle sits at z = 1 with vertex 1 at x = 2. Before, the base shape rendered (z = 0). A
+ * node giving weights of its own gets one warning. */
+static void test_morph_weights(void) {
+    float data[27] = {0, 0, 0, 1, 0, 0, 0, 1, 0, /* base */
+                      0, 0, 2, 0, 0, 2, 0, 0, 2, /* target 0: +2 z */
+                      0, 0, 0, 4, 0, 0, 0, 0, 0}; /* target 1: vertex 1 +4 x */
+    for (int node_weights = 0; node_weights < 2; node_weights++) {
+        text json = {0};
+        text_append(&json, "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0%s}],"
+                           "\"meshes\":[{\"weights\":[0.5,0.25],\"primitives\":[{\"attributes\":{\"POSITION\":0},"
+                           "\"targets\":[{\"POSITION\":1},{\"POSITION\":2}]}]}],"
+                           "\"buffers\":[{\"byteLength\":108,\"uri\":\"data:application/gltf-buffer;base64,",
+                    node_weights ? ",\"weights\":[1,0]" : "");
+        base64_append(&json, (const unsigned char *)data, sizeof data);
+        text_append(&json, "\"}],\"bufferViews\":[{\"buffer\":0,\"byteLength\":36},{\"buffer\":0,\"byteOffset\":36,\"byteLength\":36},"
+                           "{\"buffer\":0,\"byteOffset\":72,\"byteLength\":36}],\"accessors\":["
+                           "{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]},"
+                           "{\"bufferView\":1,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"},"
+                           "{\"bufferView\":2,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}]}");
+        write_text("morph.gltf", json.data);
+        free(json.data);
+        pm_scene s;
+        pm_load_report r;
+        char warnings[2048];
+        if (!load_warned("morph.gltf", &s, &r, warnings, sizeof warnings)) continue;
+        CHECK_VEC(tri_vertex(&s, 0, 0), 0, 0, 1, 1e-6, "morphed vertex 0");
+        CHECK_VEC(tri_vertex(&s, 0, 1), 2, 0, 1, 1e-6, "morphed vertex 1");
+        CHECK_VEC(tri_vertex(&s, 0, 2), 0, 1, 1, 1e-6, "morphed vertex 2");
+        if (node_weights)
+            CHECK(line_count(warnings) == 1 && strstr(warnings, "node 0 gives mesh 0 morph weights of its own"),
+                  "a node's own weights: one warning: %s", warnings);
+        else
+            CHECK(line_count(warnings) == 0, "mesh weights alone: no warning: %s", warnings);
+        pm_scene_free(&s);
+    }
+}
+
+/* NaN and infinite texture coordinates read as 0, counted in one warning line naming the first;
+ * before, they were accepted silently and read an arbitrary texel. */
+static void test_nonfinite_uvs(void) {
+    const float uvs[6] = {0.25f, NAN, INFINITY, 0.5f, 0.75f, 0.75f};
+    prim_spec p = {unit_triangle, 3, NULL, uvs, 0, NULL, 0, 0, -1, -1};
+    write_model("nan_uvs.gltf", &p, 1, NULL);
+    pm_scene s;
+    pm_load_report r;
+    char warnings[2048];
+    if (!load_warned("nan_uvs.gltf", &s, &r, warnings, sizeof warnings)) return;
+    bool finite = s.uvs != NULL;
+    for (uint32_t i = 0; finite && i < 2 * s.vertex_count; i++) finite = isfinite(s.uvs[i]);
+    CHECK(finite, "non-finite UVs: every stored UV finite");
+    CHECK(s.uvs && s.uvs[0] == 0.25f && s.uvs[1] == 0.f && s.uvs[2] == 0.f && s.uvs[3] == 0.5f,
+          "non-finite UVs: read as 0, the others kept");
+    CHECK(line_count(warnings) == 1 && strstr(warnings, "2 non-finite texture coordinate(s) read as 0 (first: TEXCOORD_0 vertex 0, mesh 0"),
+          "non-finite UVs: one warning naming the count and the first: %s", warnings);
+    pm_scene_free(&s);
+}
+
 static void test_rejections(void) {
     static const uint32_t bad_indices[3] = {0, 1, 7};
     prim_spec out_of_range = {unit_triangle, 3, NULL, NULL, 0, bad_indices, 3, 5123, -1, -1};
@@ -911,6 +1014,32 @@ static void test_rejections(void) {
     doc_spec two_parents = {"[{\"mesh\":0},{\"children\":[0]},{\"children\":[0]}]", "[1,2]", NULL, NULL};
     write_model("two_parents.gltf", &tri, 1, &two_parents);
     check_rejected("two_parents.gltf", "node 0 is reached twice");
+
+    /* glTF's node rules hold for every node, listed by the default scene or not: a cycle or a
+     * second parent among nodes the scene never reaches is refused too (before, accepted) */
+    doc_spec cycle_aside = {"[{\"mesh\":0},{\"children\":[2]},{\"children\":[1]}]", "[0]", NULL, NULL};
+    write_model("cycle_aside.gltf", &tri, 1, &cycle_aside);
+    check_rejected("cycle_aside.gltf", "node hierarchy contains a cycle (node 1)");
+    doc_spec parents_aside = {"[{\"mesh\":0},{\"children\":[3]},{\"children\":[3]},{}]", "[0]", NULL, NULL};
+    write_model("parents_aside.gltf", &tri, 1, &parents_aside);
+    check_rejected("parents_aside.gltf", "node 3 is reached twice (two parents: nodes 1 and 2)");
+
+    /* a PNG whose header claims 30000000 x 30000000 pixels (past stb_image's 2^24 a side): named by
+     * its size, as a large decodable one is (before, "not a decodable PNG" and its texture dropped) */
+    prim_spec textured = {unit_triangle, 3, NULL, NULL, 0, NULL, 0, 0, -1, 0};
+    doc_spec huge_png = {NULL, NULL, "[{\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}]",
+                         "\"textures\":[{\"source\":0}],\"images\":[{\"uri\":\"data:image/png;base64,"
+                         "iVBORw0KGgoAAAANSUhEUgHJw4ABycOACAYAAABkid33AAAAC0lEQVR4nGNggAAAAAgAAbdYc5UAAAAASUVORK5CYII=\"}],"};
+    write_model("huge_png.gltf", &textured, 1, &huge_png);
+    check_rejected("huge_png.gltf", "image is 30000000x30000000 pixels, more than 268435456 (image 0)");
+
+    /* a node matrix whose last row is not [0 0 0 1] (glTF's are affine): refused, not cut to 3x4 */
+    doc_spec projective = {"[{\"mesh\":0,\"matrix\":[1,0,0,0.5,0,1,0,0,0,0,1,0,0,0,0,1]}]", NULL, NULL, NULL};
+    write_model("projective.gltf", &tri, 1, &projective);
+    check_rejected("projective.gltf", "matrix's last row is [0.5 0 0 1], not [0 0 0 1] (glTF node matrices are affine) (node 0)");
+    doc_spec weighted = {"[{\"mesh\":0,\"matrix\":[2,0,0,0,0,2,0,0,0,0,2,0,0,0,0,2]}]", NULL, NULL, NULL};
+    write_model("weighted.gltf", &tri, 1, &weighted);
+    check_rejected("weighted.gltf", "matrix's last row is [0 0 0 2]");
 
     doc_spec unsupported = {NULL, NULL, NULL,
                             "\"extensionsUsed\":[\"EXT_pmview_unsupported\"],\"extensionsRequired\":[\"EXT_pmview_unsupported\"],"};
@@ -2128,6 +2257,9 @@ int main(void) {
     test_tangent_w();
     test_skips();
     test_sparse();
+    test_morph_weights();
+    test_shared_image();
+    test_nonfinite_uvs();
     test_rejections();
     test_wrong_types_and_indices();
     test_top_down_bmp();

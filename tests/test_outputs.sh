@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_outputs.sh: outputs never damage inputs: an output naming an input (or another output) is refused before any work, a read-only EXR target is refused, and SIGINT/SIGTERM during an EXR write leave no temporary file (exit 130/143).
+# test_outputs.sh: outputs never damage inputs: an output naming an input (or another output) is refused before any work, a read-only EXR target is refused, SIGINT/SIGTERM during an EXR write leave no temporary file (exit 130/143), and a file-size limit is one write error line (EFBIG, not SIGXFSZ).
 cd "$(dirname "$0")/.." || exit 1
 . tests/cli_setup.sh
 checks=0; fails=0
@@ -81,5 +81,30 @@ for signal in INT:130 TERM:143; do
     checks=$((checks + 1))
     [ "$(cat "$tmp/sig/s.exr")" = previous ] || fail "SIG${signal%:*} during the write changed the previous file"
 done
+# Under a file-size limit (as a full quota gives), a write past it fails with EFBIG rather than
+# SIGXFSZ killing the process: one error line naming the file and the cause, exit 1, no hidden
+# temporary file, a previous EXR untouched. Limit: 4 blocks (2-4 KB) for the 128-pixel images,
+# 1 block (512 B-1 KB) for the log of 1000 iterations (over 1 KB), which the 8x8 PNG beside it fits. Before, the shell reported "File size limit
+# exceeded" (exit 153) with no pmview line, and the EXR's temporary file stayed behind.
+mkdir "$tmp/quota"
+echo previous > "$tmp/quota/kept.exr"
+for v in "4 kept.exr --width 128" "4 new.png --width 128" "1 small.png --width 8 --iterations 1000 --log $tmp/quota/log.csv"; do
+    set -- $v
+    blocks=$1; name=$2; shift 2
+    checks=$((checks + 1))
+    (ulimit -f "$blocks"; exec $bin "$tmp/scene.gltf" --iterations 1 --quiet --snapshot "$tmp/quota/$name" "$@") >"$tmp/out" 2>"$tmp/err"
+    rc=$?
+    [ "$name" = small.png ] && what="$tmp/quota/log.csv" || what="$tmp/quota/$name"
+    if [ $rc -ne 1 ] || [ "$(wc -l < "$tmp/err")" -ne 1 ] || ! grep -q "^pmview: error: $what: .*File too large" "$tmp/err"; then
+        fail "over the file-size limit ($name): want exit 1 and one line naming $what with \"File too large\", got exit $rc:"; cat "$tmp/err"
+    fi
+    checks=$((checks + 1))
+    leftover=$(find "$tmp/quota" -name '.*' -type f)
+    [ -z "$leftover" ] || fail "over the file-size limit ($name): temporary file left: $leftover"
+done
+checks=$((checks + 1))
+[ "$(cat "$tmp/quota/kept.exr")" = previous ] || fail "over the file-size limit: the previous EXR was changed"
+checks=$((checks + 1))
+[ ! -e "$tmp/quota/new.png" ] || fail "over the file-size limit: a truncated new.png was left"
 echo "test_outputs: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]

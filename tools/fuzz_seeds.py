@@ -9,10 +9,14 @@ ASan (run-fuzz.sh gives libFuzzer the same -max_len). Missing folders are skippe
 
     python3 tools/fuzz_seeds.py OUT DIR...
     python3 tools/fuzz_seeds.py --inputs OUT DIR...
+    python3 tools/fuzz_seeds.py --compressed OUT DIR...
 
 With --inputs (tests/fuzz/fuzz_inputs_entry.h: the first byte picks the entry): every .exr under
 the folders as a sky map (0) and as a reference (2), small Radiance .hdr files written here, flat
 and run-length encoded (1), and a few films for the writers (3).
+
+With --compressed (tests/fuzz/fuzz_compressed_entry.h): every Draco stream (0) and meshopt
+bufferView (1, with its mode, filter, stride and count) of the .glb files under the folders.
 """
 import base64
 import json
@@ -121,9 +125,52 @@ def input_seeds(out, folders):
     print("fuzz_seeds: %d input seeds in %s" % (written, out))
 
 
+def compressed_seeds(out, folders):
+    """Seeds for the compressed target (tests/fuzz/fuzz_compressed_entry.h): every Draco stream and
+    every meshopt bufferView of the .glb files under the folders, with the entry's leading bytes."""
+    os.makedirs(out, exist_ok=True)
+    written = 0
+    for top in folders:
+        for root, _, files in sorted(os.walk(top)):
+            for name in sorted(files):
+                if not name.lower().endswith(".glb"):
+                    continue
+                with open(os.path.join(root, name), "rb") as f:
+                    data = f.read()
+                json_size = struct.unpack_from("<I", data, 12)[0]
+                doc = json.loads(data[20:20 + json_size])
+                bin_chunk = data[20 + json_size + 8:]
+                views = doc.get("bufferViews", [])
+                seeds = []
+                for mesh in doc.get("meshes", []):
+                    for prim in mesh.get("primitives", []):
+                        draco = prim.get("extensions", {}).get("KHR_draco_mesh_compression")
+                        if draco:
+                            v = views[draco["bufferView"]]
+                            start = v.get("byteOffset", 0)
+                            seeds.append(b"\x00" + bin_chunk[start:start + v["byteLength"]])
+                modes = {"ATTRIBUTES": 0, "TRIANGLES": 1, "INDICES": 2}
+                filters = {"NONE": 0, "OCTAHEDRAL": 1, "QUATERNION": 2, "EXPONENTIAL": 3}
+                for v in views:
+                    m = v.get("extensions", {}).get("EXT_meshopt_compression")
+                    if not m or m["count"] > 65535 or m["byteStride"] > 64:
+                        continue
+                    start = m.get("byteOffset", 0)
+                    head = bytes([1, modes[m["mode"]] + 3 * filters[m.get("filter", "NONE")], m["byteStride"] - 1]) + struct.pack("<H", m["count"])
+                    seeds.append(head + bin_chunk[start:start + m["byteLength"]])
+                for i, seed in enumerate(seeds):
+                    with open(os.path.join(out, "%s_%d" % (name, i)), "wb") as f:
+                        f.write(seed)
+                    written += 1
+    print("fuzz_seeds: %d compressed-stream seeds in %s" % (written, out))
+
+
 def main():
     if len(sys.argv) >= 3 and sys.argv[1] == "--inputs":
         input_seeds(sys.argv[2], sys.argv[3:])
+        return
+    if len(sys.argv) >= 3 and sys.argv[1] == "--compressed":
+        compressed_seeds(sys.argv[2], sys.argv[3:])
         return
     if len(sys.argv) < 3:
         sys.exit("usage: fuzz_seeds.py OUT DIR...")

@@ -1,7 +1,7 @@
 #!/bin/sh
-# run-fuzz.sh: runs the fuzz targets for SECONDS each (make fuzz): build/fuzz/fuzz_gltf seeded from ../shared and scenes/, then build/fuzz/fuzz_inputs (sky maps, references, the writers) seeded from small EXR and HDR files; files every crash, hang or out-of-memory input under tests/fuzz/regressions/ or tests/fuzz/regressions-inputs/.
+# run-fuzz.sh: runs the fuzz targets for SECONDS each (make fuzz): build/fuzz/fuzz_gltf seeded from ../shared and scenes/, then build/fuzz/fuzz_inputs (sky maps, references, the writers) seeded from small EXR and HDR files, then build/fuzz/fuzz_compressed (the Draco and meshopt decoders) seeded from the ducks' streams; files every crash, hang or out-of-memory input under tests/fuzz/regressions/, regressions-inputs/ or regressions-compressed/.
 #
-#   sh tools/run-fuzz.sh [SECONDS] [gltf] [inputs]   (default 600, both targets; FUZZ_NICE=19 runs them niced)
+#   sh tools/run-fuzz.sh [SECONDS] [gltf] [inputs] [compressed]   (default 600, every target; FUZZ_NICE=19 runs them niced)
 #
 # libFuzzer stops at its first finding; the loop saves it and starts again on the grown corpus
 # until the time is used (libFuzzer's fork mode does the same but re-reads the corpus every few
@@ -10,7 +10,7 @@
 cd "$(dirname "$0")/.." || exit 1
 seconds=${1:-600}
 [ $# -gt 0 ] && shift
-targets=${*:-gltf inputs}
+targets=${*:-gltf inputs compressed}
 export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1
 export LSAN_OPTIONS=suppressions=$(pwd)/tests/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
@@ -24,7 +24,9 @@ fuzz() {
               regressions=tests/fuzz/regressions; dict="-dict=tests/fuzz/gltf.dict"; artifacts=build/fuzz/artifacts ;;
         inputs) fuzzer=build/fuzz/fuzz_inputs; corpus=build/fuzz/corpus-inputs; seeds=build/fuzz/seeds-inputs
               regressions=tests/fuzz/regressions-inputs; dict=""; artifacts=build/fuzz/artifacts-inputs ;;
-        *) echo "run-fuzz: no target $name (gltf, inputs)"; return 1 ;;
+        compressed) fuzzer=build/fuzz/fuzz_compressed; corpus=build/fuzz/corpus-compressed; seeds=build/fuzz/seeds-compressed
+              regressions=tests/fuzz/regressions-compressed; dict=""; artifacts=build/fuzz/artifacts-compressed ;;
+        *) echo "run-fuzz: no target $name (gltf, inputs, compressed)"; return 1 ;;
     esac
     [ -x "$fuzzer" ] || { echo "run-fuzz: $fuzzer is missing (make fuzz builds it)"; return 1; }
     mkdir -p "$corpus" "$artifacts" "$regressions"
@@ -34,6 +36,8 @@ fuzz() {
     rm -rf "$seeds"
     if [ "$name" = gltf ]; then
         python3 tools/fuzz_seeds.py "$seeds" ../shared/gltf-corpus ../shared/real-models scenes tests/models || return 1
+    elif [ "$name" = compressed ]; then
+        python3 tools/fuzz_seeds.py --compressed "$seeds" tests/models/duck || return 1
     else
         python3 tools/fuzz_seeds.py --inputs "$seeds" tests/ref || return 1
     fi
