@@ -56,7 +56,7 @@ typedef struct {
  * rays go on through a lobe sharper than PM_PPM_GATHER_LOBE_ALPHA rather than read photons there). */
 static inline float pm_brdf_sharpest_alpha(const pm_brdf *b) {
     if (!b->layered) return b->alpha;
-    /* a layered metallic 0 point has no specular base lobe (specular 0): its base is Lambert */
+    /* a metallic 0 point whose file turns the dielectric lobe off (specular 0): its base is Lambert */
     float base = b->metallic > 0.f || b->specular > 0.f ? b->alpha : 1.f;
     return b->clearcoat > 0.f && b->clearcoat_alpha < base ? b->clearcoat_alpha : base;
 }

@@ -58,7 +58,17 @@ static inline vec3 pm_thin_exit(const pm_surface *sf, vec3 d, float scale) {
     return cos_d > 0.1f ? v3_madd(sf->p, d, depth / cos_d) : off;
 }
 
-/* Mean weight of the specular part (mirror + glass) of a surface: S in Russian roulette. */
+/* The perfect mirror's reflectance for light leaving at cosine cos_o to the shading normal: Schlick's
+ * Fresnel, glTF's metal at roughness 0, rising from ks at normal incidence to ks_grazing (a white
+ * mirror reflects ks at every angle, bit for bit). */
+static inline vec3 pm_mirror_reflectance(const pm_surface *sf, float cos_o) {
+    float m = pm_maxf(0.f, 1.f - pm_minf(1.f, cos_o)), m2 = m * m;
+    return v3_add(sf->ks, v3_scale(v3_sub(v3s(sf->ks_grazing), sf->ks), m2 * m2 * m));
+}
+
+/* Mean weight of the specular part (mirror + glass) of a surface: S in Russian roulette (the
+ * mirror's at normal incidence: the choice it makes needs only some positive weight per part, and
+ * the survival rule takes any probability). */
 static inline float pm_specular_weight(const pm_surface *sf) { return v3_average(sf->ks) + v3_average(sf->kt); }
 
 /* Scatters a ray arriving along unit d off the specular part of sf. Returns false when the
@@ -73,7 +83,7 @@ static inline bool pm_scatter_specular(const pm_surface *sf, vec3 d, pm_rng *rng
     out->transmitted = out->straight = false;
     bool reflect = true;
     if (pm_rng_float(rng) * total < wm) {
-        out->weight = v3_scale(sf->ks, total / wm);
+        out->weight = v3_scale(pm_mirror_reflectance(sf, v3_dot(wo, ns)), total / wm);
     } else if (sf->thin) {
         /* a sheet with no far side: both faces alike, the crossing ray goes on along d */
         out->weight = v3_scale(sf->kt, total / wt);

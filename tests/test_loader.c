@@ -1030,7 +1030,7 @@ static void test_texcoord_sets(void) {
         append_strip_images(&body, strip, width, 1);
         text_append(&body, "\"materials\":[{\"pbrMetallicRoughness\":{\"metallicFactor\":0,"
                            "\"baseColorTexture\":{\"index\":0,\"texCoord\":%d}},"
-                           "\"emissiveFactor\":[1,1,1],\"emissiveTexture\":{\"index\":0,\"texCoord\":%d}}],"
+                           "\"emissiveFactor\":[1,1,1],\"emissiveTexture\":{\"index\":0,\"texCoord\":%d},\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}}],"
                            "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[%s]}]",
                     set, set, prim.data);
         write_blob_model("texcoord1.gltf", b, body.data);
@@ -1087,12 +1087,12 @@ static void test_texture_transform(void) {
         if (variant == 0)
             text_append(&body, "\"extensionsUsed\":[\"KHR_texture_transform\"],\"materials\":[{\"pbrMetallicRoughness\":{"
                                "\"metallicFactor\":0,\"baseColorTexture\":{\"index\":0,\"extensions\":{\"KHR_texture_transform\":"
-                               "{\"offset\":[0.3,-0.2],\"rotation\":0.7,\"scale\":[1.5,0.8],\"texCoord\":1}}}}},");
+                               "{\"offset\":[0.3,-0.2],\"rotation\":0.7,\"scale\":[1.5,0.8],\"texCoord\":1}}}},\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}},");
         else
-            text_append(&body, "\"materials\":[{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"baseColorTexture\":{\"index\":0}}},");
+            text_append(&body, "\"materials\":[{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"baseColorTexture\":{\"index\":0}},\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}},");
         /* material 1: a quarter turn and offset (0, 1) of a red|blue strip, clamped */
         text_append(&body, "{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"baseColorTexture\":{\"index\":1,\"extensions\":"
-                           "{\"KHR_texture_transform\":{\"offset\":[0,1],\"rotation\":1.5707963268}}}}}],"
+                           "{\"KHR_texture_transform\":{\"offset\":[0,1],\"rotation\":1.5707963268}}}},\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}}],"
                            "\"samplers\":[{\"wrapS\":33071,\"wrapT\":33071}],");
         text_append(&body, "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[%s]}]", prim.data);
         write_blob_model(variant ? "plain_moved.gltf" : "transformed.gltf", b, body.data);
@@ -1159,12 +1159,13 @@ static void test_data_textures(void) {
     text body = {0}, prims = {0};
     quad_primitive(b, &prims, uv, NULL, 0); /* accessors 0-2, shared by the three meshes */
     append_strip_images(&body, strips, widths, 3);
-    text_append(&body, "\"extensionsUsed\":[\"KHR_materials_transmission\"],\"materials\":["
+    text_append(&body, "\"extensionsUsed\":[\"KHR_materials_transmission\",\"KHR_materials_specular\"],\"materials\":["
                        "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.8,0.8,1],\"roughnessFactor\":0.5,"
-                       "\"metallicRoughnessTexture\":{\"index\":0}}},"
+                       "\"metallicRoughnessTexture\":{\"index\":0}},\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}},"
                        "{\"pbrMetallicRoughness\":{\"metallicFactor\":0},\"extensions\":{\"KHR_materials_transmission\":"
-                       "{\"transmissionFactor\":1,\"transmissionTexture\":{\"index\":1}}}},"
-                       "{\"pbrMetallicRoughness\":{\"metallicRoughnessTexture\":{\"index\":2}}}],"
+                       "{\"transmissionFactor\":1,\"transmissionTexture\":{\"index\":1}},"
+                       "\"KHR_materials_specular\":{\"specularFactor\":0}}},"
+                       "{\"pbrMetallicRoughness\":{\"metallicRoughnessTexture\":{\"index\":2}},\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}}],"
                        "\"scenes\":[{\"nodes\":[0,1,2]}],\"nodes\":[{\"mesh\":0},{\"mesh\":1,\"translation\":[2,0,0]},"
                        "{\"mesh\":2,\"translation\":[4,0,0]}],\"meshes\":[{\"primitives\":[%s]},", prims.data);
     /* meshes 1 and 2: the same quad with materials 1 and 2 */
@@ -1285,7 +1286,9 @@ static void test_layer_extensions(void) {
         v3_basis(n, &t, &bt);
         vec3 wo = v3_normalize(v3_add(n, v3_scale(t, 0.3f))), wi = v3_normalize(v3_add(n, v3_add(v3_scale(t, -0.5f), v3_scale(bt, 0.2f))));
         vec3 f = sf.glossy ? pm_brdf_eval(&sf.brdf, n, wo, wi) : v3s(-1.f);
-        CHECK_VEC(f, 0.4 / PM_PI, 0.4 / PM_PI, 0.4 / PM_PI, 1e-6, "sheen colour 0 on metallic 0: Lambert base / pi");
+        pm_brdf plain = pm_brdf_at(v3s(0.4f), 0.f, 1.f, 0.f); /* glTF's dielectric: roughness 1 by default */
+        vec3 fp = pm_brdf_eval(&plain, n, wo, wi);
+        CHECK_VEC(f, fp.x, fp.y, fp.z, 1e-6, "sheen colour 0 on metallic 0: the plain dielectric lobe");
         pm_scene_finalize(&s, false, NULL);
         CHECK(m[0].may_glossy && !m[0].may_diffuse && !m[0].may_mirror && !m[0].uniform_split, "material 0 lobes: glossy, textured");
         CHECK(m[1].may_glossy && !m[1].may_diffuse && m[1].uniform_split, "material 1 lobes: glossy, uniform");
