@@ -8,7 +8,7 @@
 
 Each scene is a dict: {"meshes": [mesh], "camera": camera, "lights": [light]} where a mesh is
 {"name", "positions" (local), "normals", "indices", "material", "translation", "scale"}, a
-material is {"kind": "diffuse"|"mirror"|"glass"|"emitter"|"metal"|"layered", "color", "strength", "roughness"}
+material is {"kind": "diffuse"|"mirror"|"glass"|"emitter"|"metal"|"dielectric"|"layered", "color", "strength", "roughness"}
 ("diffuse" and "emitter" are Lambert and black: they turn glTF's dielectric specular lobe off with
 KHR_materials_specular specularFactor 0)
 (a layered one also "metallic" and its "extensions" object, written as they are)
@@ -346,6 +346,9 @@ def gltf_material(m):
         pbr.update(metallicFactor=1.0, roughnessFactor=0.0)
     elif m["kind"] == "metal":
         pbr.update(metallicFactor=1.0, roughnessFactor=m["roughness"])
+    elif m["kind"] == "dielectric":
+        # glTF's plain dielectric: the diffuse base under a GGX specular lobe of F0 0.04
+        pbr.update(metallicFactor=0.0, roughnessFactor=m["roughness"])
     elif m["kind"] == "glass":
         pbr.update(metallicFactor=0.0, roughnessFactor=0.0)
         # solid glass: without KHR_materials_volume, transmission is a thin wall that bends nothing.
