@@ -65,6 +65,12 @@ static inline float pm_brdf_sharpest_alpha(const pm_brdf *b) {
  * table integrated once, on first use, thread-safe). */
 float pm_sheen_albedo(float cos_theta, float sheen_roughness);
 
+/* A GGX microfacet normal of alpha about n seen from wo (cos_o = n.wo > 0), distributed as D(m)
+ * G1(wo) max(0, wo.m) / cos_o (Heitz 2018): what rough glass refracts or reflects about. */
+vec3 pm_ggx_visible_normal(float alpha, vec3 n, vec3 wo, float cos_o, float u1, float u2);
+/* Smith's G1 of GGX alpha for a direction at cosine c to the macro normal. */
+float pm_ggx_g1(float alpha, float c);
+
 /* f(wo, wi), the cosine not included. */
 vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi);
 /* The density (per solid angle) with which pm_brdf_sample returns wi. */

@@ -127,6 +127,7 @@ typedef struct {
     bool uniform_split;
     vec3 split_kd, split_ks, split_kt;
     float split_ks_grazing;
+    float split_glass_alpha;
     bool split_glossy;
     pm_brdf split_brdf;
 } pm_material;
@@ -391,6 +392,7 @@ typedef struct {
     vec3 kd;         /* Lambert albedo (after the material split; 0 on a glossy surface, whose brdf holds its diffuse part) */
     vec3 ks;         /* perfect-mirror reflectance at normal incidence */
     float ks_grazing;/* the mirror's reflectance at grazing angles (Schlick: ks + (ks_grazing - ks)(1 - cos)^5) */
+    float glass_alpha;/* GGX alpha of the glass's microfacets (roughness^2; 0: smooth, below PM_GLOSSY_MIN_ALPHA) */
     vec3 kt;         /* dielectric weight (tint); Fresnel decides reflect vs refract */
     float ior;
     bool thin;       /* the material is thin-walled: kt crosses straight, no medium inside */
@@ -504,6 +506,7 @@ static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float 
     out->kd = m->split_kd;
     out->ks = m->split_ks;
     out->ks_grazing = m->split_ks_grazing;
+    out->glass_alpha = m->split_glass_alpha;
     out->kt = m->split_kt;
     out->glossy = m->split_glossy;
     if (out->glossy) out->brdf = m->split_brdf;
@@ -556,6 +559,13 @@ static inline void pm_material_split_at(vec3 base, float metallic, float roughne
     *kd = v3_scale(base, diffuse);
     *ks = v3_scale(base, mirror);
     *ks_grazing = mirror;
+}
+
+/* The GGX alpha of a glass share of this roughness: rough transmission (Walter et al. 2007) from
+ * PM_GLOSSY_MIN_ALPHA on, 0 (smooth) below. */
+static inline float pm_glass_alpha_at(float roughness) {
+    float r = pm_clamp01(roughness);
+    return r * r >= PM_GLOSSY_MIN_ALPHA ? r * r : 0.f;
 }
 
 /* The glossy lobe at a point for which pm_glossy_at() holds. */

@@ -244,12 +244,21 @@ static vec3 sample_visible_normal(float alpha, vec3 v, float u1, float u2) {
     return v3_normalize(v3(alpha * nh.x, alpha * nh.y, pm_maxf(1e-7f, nh.z))); /* back to the ellipsoid */
 }
 
-static inline vec3 sample_ggx_reflection(float alpha, vec3 n, vec3 wo, float cos_o, float u1, float u2) {
+vec3 pm_ggx_visible_normal(float alpha, vec3 n, vec3 wo, float cos_o, float u1, float u2) {
     vec3 t, bt;
     v3_basis(n, &t, &bt);
     vec3 local = v3(v3_dot(wo, t), v3_dot(wo, bt), cos_o);
     vec3 m = sample_visible_normal(alpha, local, u1, u2);
-    vec3 h = v3_add(v3_add(v3_scale(t, m.x), v3_scale(bt, m.y)), v3_scale(n, m.z));
+    return v3_add(v3_add(v3_scale(t, m.x), v3_scale(bt, m.y)), v3_scale(n, m.z));
+}
+
+float pm_ggx_g1(float alpha, float c) {
+    c = pm_maxf(1e-6f, pm_minf(1.f, fabsf(c)));
+    return 2.f * c / (c + smith_root(alpha * alpha, c));
+}
+
+static inline vec3 sample_ggx_reflection(float alpha, vec3 n, vec3 wo, float cos_o, float u1, float u2) {
+    vec3 h = pm_ggx_visible_normal(alpha, n, wo, cos_o, u1, u2);
     return v3_sub(v3_scale(h, 2.f * v3_dot(wo, h)), wo);
 }
 

@@ -157,9 +157,11 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
         m->uniform_split = true;
         m->split_kd = m->split_ks = m->split_kt = v3s(0.f);
         m->split_ks_grazing = 0.f;
+        m->split_glass_alpha = 0.f;
     } else if (m->uniform_split) {
         material_point(m, m->base_color, m->metallic, m->roughness, m->transmission, NULL, NULL, NULL, &m->split_kd,
                        &m->split_ks, &m->split_ks_grazing, &m->split_kt, &m->split_glossy, &m->split_brdf);
+        m->split_glass_alpha = pm_glass_alpha_at(m->roughness);
     }
 }
 
@@ -1106,6 +1108,7 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
         out->kd = m->split_kd;
         out->ks = m->split_ks;
         out->ks_grazing = m->split_ks_grazing;
+        out->glass_alpha = m->split_glass_alpha;
         out->kt = m->split_kt;
         out->glossy = m->split_glossy;
         if (out->glossy) out->brdf = m->split_brdf;
@@ -1125,6 +1128,7 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
                                        false).x;
         material_point(m, base, metallic, roughness, transmission, s, uv, footprint, &out->kd, &out->ks, &out->ks_grazing,
                        &out->kt, &out->glossy, &out->brdf);
+        out->glass_alpha = pm_glass_alpha_at(roughness);
     }
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
     out->thin = m->thin_walled;
