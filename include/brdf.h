@@ -34,6 +34,10 @@ typedef struct {
     float sheen_roughness; /* sheenRoughnessFactor (x texture), at least PM_SHEEN_MIN_ROUGHNESS */
     float clearcoat;       /* clearcoatFactor (x texture); 0: no coat */
     float clearcoat_alpha; /* GGX alpha of the coat = clearcoatRoughness^2, at least PM_GLOSSY_MIN_ALPHA */
+    /* the coat's own shading normal (clearcoatNormalTexture), world space, unit, on the side of
+     * the base's: read only when coat_normal; the functions below turn it to the side of their n */
+    bool coat_normal;
+    vec3 coat_n;
 } pm_brdf;
 
 /* The layers, each as its extension text defines it (a reciprocal form where the text's is not):
@@ -45,7 +49,8 @@ typedef struct {
  *              min(1 - max3(sheen_color) E(cos_o), 1 - max3(sheen_color) E(cos_i)) with E the
  *              sheen lobe's directional albedo (a table, pm_sheen_albedo);
  *   clearcoat: c F(0.04, v.h) D(h; clearcoat_alpha) V on top, everything below times
- *              (1 - c F(0.04, cos_o)) (1 - c F(0.04, cos_i)); the coat uses the base's normal.
+ *              (1 - c F(0.04, cos_o)) (1 - c F(0.04, cos_i)); the cosines and h's of the coat are
+ *              taken to its own normal coat_n when it has one (clearcoatNormalTexture), the base's n else.
  *
  * Sampling picks the coat, the base's specular lobe, its cosine lobe or the sheen (uniform over
  * the hemisphere) in proportion to their estimated albedos at wo. The whole stays reciprocal and

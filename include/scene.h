@@ -73,6 +73,10 @@ typedef struct {
     float clearcoat_roughness;                  /* clearcoatRoughnessFactor x clearcoatRoughnessTexture's G */
     pm_texture_ref specular_texture, specular_color_texture, sheen_color_texture, sheen_roughness_texture,
         clearcoat_texture, clearcoat_roughness_texture;
+    /* clearcoatNormalTexture: the coat's own tangent-space normal map (read like normal_texture, x and
+     * y times clearcoat_normal_scale), -1 none: the coat then takes the base's shading normal */
+    pm_texture_ref clearcoat_normal_texture;
+    float clearcoat_normal_scale;
 } pm_material_layers;
 
 /* glTF metallic-roughness material plus the extensions we honour; see docs/design.md (Materials) for the mapping
@@ -131,6 +135,19 @@ typedef struct {
     bool split_glossy;
     pm_brdf split_brdf;
 } pm_material;
+
+/* Whether the material's coat has its own normal map (KHR_materials_clearcoat clearcoatNormalTexture). */
+static inline bool pm_material_coat_normal_mapped(const pm_material *m) {
+    return m->layered && m->layers.clearcoat > 0.f && m->layers.clearcoat_normal_texture.texture >= 0;
+}
+/* Whether a material reads the vertices' tangents (a normal map, its own or its coat's), and from
+ * which TEXCOORD set generated tangents follow the UVs: the base normal map's, else the coat's. */
+static inline bool pm_material_tangents_read(const pm_material *m) {
+    return m->normal_texture >= 0 || pm_material_coat_normal_mapped(m);
+}
+static inline int pm_material_tangent_texcoord(const pm_material *m) {
+    return m->normal_texture >= 0 ? m->normal_texcoord : m->layers.clearcoat_normal_texture.texcoord;
+}
 
 typedef enum { PM_LIGHT_POINT = 0, PM_LIGHT_SPOT = 1, PM_LIGHT_DIRECTIONAL = 2 } pm_light_type;
 
@@ -591,6 +608,7 @@ static inline void pm_brdf_add_layers(pm_brdf *b, float specular, vec3 specular_
     b->clearcoat = pm_clamp01(clearcoat);
     float r = pm_clamp01(clearcoat_roughness);
     b->clearcoat_alpha = pm_maxf(PM_GLOSSY_MIN_ALPHA, r * r);
+    b->coat_normal = false;
 }
 /* The same with the material's factors alone. */
 static inline pm_brdf pm_material_brdf(const pm_material *m, vec3 base) {

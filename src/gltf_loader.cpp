@@ -796,13 +796,14 @@ struct TextureReference {
 // The texture references pmview renders, per material.
 enum {
     kBaseColor, kEmissive, kMetallicRoughness, kTransmission, kNormal,
-    kSpecular, kSpecularColor, kSheenColor, kSheenRoughness, kClearcoat, kClearcoatRoughness, kReferenceKinds
+    kSpecular, kSpecularColor, kSheenColor, kSheenRoughness, kClearcoat, kClearcoatRoughness, kClearcoatNormal,
+    kReferenceKinds
 };
 const char *const kReferenceNames[kReferenceKinds] = {"baseColorTexture", "emissiveTexture",
                                                       "metallicRoughnessTexture", "transmissionTexture",
                                                       "normalTexture", "specularTexture", "specularColorTexture",
                                                       "sheenColorTexture", "sheenRoughnessTexture", "clearcoatTexture",
-                                                      "clearcoatRoughnessTexture"};
+                                                      "clearcoatRoughnessTexture", "clearcoatNormalTexture"};
 
 // Owns the malloc'ed texels until the scene takes them.
 struct TextureList {
@@ -1258,7 +1259,7 @@ void Loader::preflight(const json &root) {
             {specular, "specularTexture", kSpecular}, {specular, "specularColorTexture", kSpecularColor},
             {sheen, "sheenColorTexture", kSheenColor}, {sheen, "sheenRoughnessTexture", kSheenRoughness},
             {clearcoat, "clearcoatTexture", kClearcoat}, {clearcoat, "clearcoatRoughnessTexture", kClearcoatRoughness},
-            {clearcoat, "clearcoatNormalTexture", -1}};
+            {clearcoat, "clearcoatNormalTexture", kClearcoatNormal}};
         references_.emplace_back();
         for (const auto &info : infos) {
             const json *ti = info.parent ? find_member(*info.parent, info.key) : nullptr;
@@ -2337,9 +2338,9 @@ bool Loader::convert_reference(const TextureReference &r, const std::string &whe
     return r.texcoord <= 1;
 }
 
-// KHR_materials_specular, _sheen and _clearcoat (pm_material_layers): factors and textures. A
-// material is layered when one of them is present; clearcoatNormalTexture is not read (the coat
-// takes the base's normal). Returns convert_reference's verdict on the TEXCOORD sets.
+// KHR_materials_specular, _sheen and _clearcoat (pm_material_layers): factors and textures, the
+// coat's own normal texture with its scale. A material is layered when one of them is present.
+// Returns convert_reference's verdict on the TEXCOORD sets.
 bool Loader::convert_layers(const tinygltf::Material &mat, const std::array<TextureReference, kReferenceKinds> &refs,
                             const std::string &label, const std::string &name, pm_material *m) {
     const tinygltf::ExtensionMap &x = mat.extensions;
@@ -2370,13 +2371,18 @@ bool Loader::convert_layers(const tinygltf::Material &mat, const std::array<Text
                                              "KHR_materials_clearcoat clearcoatFactor", label));
     l.clearcoat_roughness = static_cast<float>(checked(extension_number(x, "KHR_materials_clearcoat", "clearcoatRoughnessFactor", 0),
                                                        0, 1, "KHR_materials_clearcoat clearcoatRoughnessFactor", label));
-    if (clearcoat && x.at("KHR_materials_clearcoat").IsObject() && x.at("KHR_materials_clearcoat").Has("clearcoatNormalTexture"))
-        note_ignored("clearcoatNormalTexture (the coat takes the base's normal)", name);
+    l.clearcoat_normal_scale = 1.f;
+    if (clearcoat && x.at("KHR_materials_clearcoat").IsObject() && x.at("KHR_materials_clearcoat").Has("clearcoatNormalTexture")) {
+        const tinygltf::Value &t = x.at("KHR_materials_clearcoat").Get("clearcoatNormalTexture");
+        if (t.IsObject() && t.Has("scale") && t.Get("scale").IsNumber())
+            l.clearcoat_normal_scale = static_cast<float>(
+                checked(t.Get("scale").GetNumberAsDouble(), -FLT_MAX, FLT_MAX, "clearcoatNormalTexture scale", label));
+    }
     std::string where = label;
     struct { int kind; pm_texture_ref *into; } textures[] = {
         {kSpecular, &l.specular_texture}, {kSpecularColor, &l.specular_color_texture}, {kSheenColor, &l.sheen_color_texture},
         {kSheenRoughness, &l.sheen_roughness_texture}, {kClearcoat, &l.clearcoat_texture},
-        {kClearcoatRoughness, &l.clearcoat_roughness_texture}};
+        {kClearcoatRoughness, &l.clearcoat_roughness_texture}, {kClearcoatNormal, &l.clearcoat_normal_texture}};
     bool sets_ok = true;
     for (const auto &t : textures)
         sets_ok &= convert_reference(refs[t.kind], where, &t.into->texture, &t.into->texcoord, &t.into->transform);
@@ -2443,6 +2449,7 @@ void Loader::convert_materials() {
         m.normal_scale = static_cast<float>(checked(mat.normalTexture.scale, -FLT_MAX, FLT_MAX, "normalTexture scale", label));
         if (m.normal_texture >= 0) tangents_needed_ = true;
         sets_ok &= convert_layers(mat, refs, label, name, &m);
+        if (pm_material_coat_normal_mapped(&m)) tangents_needed_ = true;
         if (!sets_ok) note_ignored("texture coordinate sets above TEXCOORD_1 (TEXCOORD_0 is read instead)", name);
         materials_.push_back(m);
     }
@@ -2530,7 +2537,7 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
     }
     // glTF: TANGENT's w is +1 or -1. Any other is read by its sign (0 and NaN as +1), counted in
     // one warning; only where a normal map reads it.
-    bool mapped = !out.tangents.empty() && prim.material >= 0 && materials_[prim.material].normal_texture >= 0;
+    bool mapped = !out.tangents.empty() && prim.material >= 0 && pm_material_tangents_read(&materials_[prim.material]);
     uint64_t odd_w = 0;
     size_t first_odd = 0;
     float first_w = 0;
@@ -2660,9 +2667,9 @@ void Loader::instance_mesh(const Instance &instance, const Mat4 &transform) {
         // flips with a mirroring transform, as the bitangent w cross(n, t) would), else generated
         // below from the positions and the normal texture's UV set.
         const pm_material &material = materials_[prim.material];
-        bool mapped = tangents_needed_ && material.normal_texture >= 0;
+        bool mapped = tangents_needed_ && pm_material_tangents_read(&material);
         bool given_tangents = mapped && !prim.tangents.empty();
-        const std::vector<float> &tangent_uvs = material.normal_texcoord == 1 ? prim.uvs1 : prim.uvs;
+        const std::vector<float> &tangent_uvs = pm_material_tangent_texcoord(&material) == 1 ? prim.uvs1 : prim.uvs;
         std::vector<float> tangents;  // given: 4 per vertex in world space
         if (given_tangents) {
             tangents.resize(4 * count);

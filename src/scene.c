@@ -71,7 +71,8 @@ static bool layers_textured(const pm_material *m) {
     const pm_material_layers *l = &m->layers;
     return m->layered && (l->specular_texture.texture >= 0 || l->specular_color_texture.texture >= 0 ||
                           l->sheen_color_texture.texture >= 0 || l->sheen_roughness_texture.texture >= 0 ||
-                          l->clearcoat_texture.texture >= 0 || l->clearcoat_roughness_texture.texture >= 0);
+                          l->clearcoat_texture.texture >= 0 || l->clearcoat_roughness_texture.texture >= 0 ||
+                          l->clearcoat_normal_texture.texture >= 0);
 }
 
 static vec3 texture_at(const pm_scene *s, const float uv[2][2], const float footprint[2], int texture, int texcoord,
@@ -1025,8 +1026,9 @@ static inline void texture_slope_to_surface(const pm_uv_transform *t, float *x, 
  * is evaluated and sampled about ns with an albedo of at most 1 and is zero when wo or wi is
  * below ns: dropping directions only loses energy, so a normal map can darken but never
  * brighten a furnace (tests/test_normalmap.c). */
-static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_t *ix, const pm_placement *placement,
-                          const float b[3], const float uv[2][2], const float footprint[2], vec3 n, vec3 ng) {
+static vec3 normal_mapped(const pm_scene *s, int texture, int texcoord, const pm_uv_transform *transform, float scale,
+                          const uint32_t *ix, const pm_placement *placement, const float b[3], const float uv[2][2],
+                          const float footprint[2], vec3 n, vec3 ng) {
     vec3 t = v3s(0.f);
     float w = 0.f;
     for (int k = 0; k < 3; k++) {
@@ -1047,9 +1049,9 @@ static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_
     } else {
         v3_basis(n, &t, &bt); /* no usable tangent here: any frame around n */
     }
-    vec3 c = texture_at(s, uv, footprint, m->normal_texture, m->normal_texcoord, &m->normal_transform, false);
-    float x = (2.f * c.x - 1.f) * m->normal_scale, y = (2.f * c.y - 1.f) * m->normal_scale, z = 2.f * c.z - 1.f;
-    if (m->normal_transform.transformed) texture_slope_to_surface(&m->normal_transform, &x, &y);
+    vec3 c = texture_at(s, uv, footprint, texture, texcoord, transform, false);
+    float x = (2.f * c.x - 1.f) * scale, y = (2.f * c.y - 1.f) * scale, z = 2.f * c.z - 1.f;
+    if (transform->transformed) texture_slope_to_surface(transform, &x, &y);
     vec3 p = v3_add(v3_add(v3_scale(t, x), v3_scale(bt, y)), v3_scale(n, z));
     float plen = v3_length(p);
     if (!(plen > 0.f) || !isfinite(plen)) return n;
@@ -1100,9 +1102,11 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
     }
     out->u = uv[0][0];
     out->v = uv[0][1];
+    vec3 interpolated = out->ns; /* the coat's normal map bends the interpolated normal, not the base's map */
     if (m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents) {
         const float b[3] = {b0, b1, b2};
-        out->ns = normal_mapped(s, m, ix, placement >= 0 ? &s->placements[placement] : NULL, b, uv, footprint, out->ns, out->ng);
+        out->ns = normal_mapped(s, m->normal_texture, m->normal_texcoord, &m->normal_transform, m->normal_scale, ix,
+                                placement >= 0 ? &s->placements[placement] : NULL, b, uv, footprint, out->ns, out->ng);
     }
     if (m->uniform_split) {
         out->kd = m->split_kd;
@@ -1129,6 +1133,15 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
         material_point(m, base, metallic, roughness, transmission, s, uv, footprint, &out->kd, &out->ks, &out->ks_grazing,
                        &out->kt, &out->glossy, &out->brdf);
         out->glass_alpha = pm_glass_alpha_at(roughness);
+    }
+    const pm_texture_ref *coat_map = &m->layers.clearcoat_normal_texture;
+    if (out->glossy && out->brdf.layered && out->brdf.clearcoat > 0.f && pm_material_coat_normal_mapped(m) &&
+        (uint32_t)coat_map->texture < s->texture_count && s->tangents) {
+        const float b[3] = {b0, b1, b2};
+        out->brdf.coat_n = normal_mapped(s, coat_map->texture, coat_map->texcoord, &coat_map->transform, m->layers.clearcoat_normal_scale,
+                                         ix, placement >= 0 ? &s->placements[placement] : NULL, b, uv, footprint, interpolated,
+                                         out->ng);
+        out->brdf.coat_normal = true;
     }
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
     out->thin = m->thin_walled;

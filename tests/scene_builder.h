@@ -54,7 +54,8 @@ static inline uint32_t sb_material(pm_scene *s, vec3 base, float metallic, float
     m.layers.sheen_roughness = 0.f;
     m.layers.specular_texture.texture = m.layers.specular_color_texture.texture = m.layers.sheen_color_texture.texture = -1;
     m.layers.sheen_roughness_texture.texture = m.layers.clearcoat_texture.texture = -1;
-    m.layers.clearcoat_roughness_texture.texture = -1;
+    m.layers.clearcoat_roughness_texture.texture = m.layers.clearcoat_normal_texture.texture = -1;
+    m.layers.clearcoat_normal_scale = 1.f;
     s->materials[s->material_count] = m;
     return s->material_count++;
 }
