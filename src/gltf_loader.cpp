@@ -68,7 +68,7 @@ const char *const kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_material
                                             "KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_volume",
                                             "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular",
                                             "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_materials_unlit",
-                                            "EXT_mesh_gpu_instancing"};
+                                            "EXT_mesh_gpu_instancing", "KHR_materials_variants"};
 
 // ---------------------------------------------------------------- errors and messages
 
@@ -865,6 +865,7 @@ private:
     void choose_frame();
     void add_camera(int camera, const WorldTransform &world, int node);
     void convert_materials();
+    void apply_variant();
     int texture_for(int gltf_texture, const std::string &where);
     void sampler_filters(const tinygltf::Sampler &s, int sampler, pm_texture *tex);
     bool convert_reference(const TextureReference &r, const std::string &where, int *texture, int *texcoord,
@@ -2961,6 +2962,46 @@ void Loader::place_instanced_meshes(const std::vector<uint32_t> &uses) {
     }
 }
 
+// KHR_materials_variants: with a variant asked for, every primitive whose mappings name it takes
+// the mapped material (the preflight checked the material indices); the others keep their default.
+// A name the file's root list does not hold fails the load with the names it does hold.
+void Loader::apply_variant() {
+    if (!options_.variant) return;
+    const std::string wanted = options_.variant;
+    std::vector<std::string> names;
+    auto root = model_.extensions.find("KHR_materials_variants");
+    if (root != model_.extensions.end() && root->second.IsObject() && root->second.Has("variants")) {
+        const tinygltf::Value &list = root->second.Get("variants");
+        for (size_t k = 0; list.IsArray() && k < list.ArrayLen(); k++) {
+            const tinygltf::Value &v = list.Get(static_cast<int>(k));
+            names.push_back(v.IsObject() && v.Has("name") && v.Get("name").IsString() ? v.Get("name").Get<std::string>() : "");
+        }
+    }
+    int index = -1;
+    for (size_t k = 0; k < names.size() && index < 0; k++)
+        if (names[k] == wanted) index = static_cast<int>(k);
+    if (index < 0) {
+        std::string known;
+        for (const std::string &n : names) known += (known.empty() ? "" : ", ") + printable(n);
+        fail("no material variant " + printable(wanted) + " (KHR_materials_variants lists " +
+             (names.empty() ? std::string("none") : known) + ")");
+    }
+    for (tinygltf::Mesh &mesh : model_.meshes)
+        for (tinygltf::Primitive &prim : mesh.primitives) {
+            auto ext = prim.extensions.find("KHR_materials_variants");
+            if (ext == prim.extensions.end() || !ext->second.IsObject() || !ext->second.Has("mappings")) continue;
+            const tinygltf::Value &mappings = ext->second.Get("mappings");
+            for (size_t k = 0; mappings.IsArray() && k < mappings.ArrayLen(); k++) {
+                const tinygltf::Value &m = mappings.Get(static_cast<int>(k));
+                if (!m.IsObject() || !m.Has("material") || !m.Get("material").IsNumber() || !m.Has("variants")) continue;
+                const tinygltf::Value &vs = m.Get("variants");
+                for (size_t j = 0; vs.IsArray() && j < vs.ArrayLen(); j++)
+                    if (vs.Get(static_cast<int>(j)).IsNumber() && vs.Get(static_cast<int>(j)).GetNumberAsInt() == index)
+                        prim.material = m.Get("material").GetNumberAsInt();
+            }
+        }
+}
+
 void Loader::load(pm_scene *out) {
     std::vector<unsigned char> file = read_model_file();
     file_bytes_ = file.capacity();
@@ -2968,6 +3009,7 @@ void Loader::load(pm_scene *out) {
     model_from_json();
 
     traverse_default_scene();
+    apply_variant();
     convert_materials();  // first: whether any texture reads TEXCOORD_1 decides what the meshes keep
     meshes_.resize(model_.meshes.size());
     // A mesh placed by two or more nodes, each with an invertible transform, is stored once and

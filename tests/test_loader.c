@@ -2102,12 +2102,58 @@ static void test_glb_container(void) {
     check_rejected("glb_buffer1.glb", "buffer 1 has no uri: only buffer 0 can be the GLB's BIN chunk");
 }
 
+/* KHR_materials_variants: --variant NAME gives each primitive the material its mappings name for
+ * it; without one the file's default material; a name the file does not list fails in one line
+ * naming the ones it does. */
+static void test_variants(void) {
+    static const char positions_base64[] = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"; /* (0,0,0) (1,0,0) (0,1,0) */
+    char json[4096];
+    snprintf(json, sizeof json,
+             "{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"KHR_materials_variants\"],"
+             "\"extensions\":{\"KHR_materials_variants\":{\"variants\":[{\"name\":\"green\"},{\"name\":\"blue\"},{\"name\":\"plain\"}]}},"
+             "\"buffers\":[{\"byteLength\":36,\"uri\":\"data:application/octet-stream;base64,%s\"}],"
+             "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],"
+             "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]}],"
+             "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,0,0,1]}},"
+             "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0,1,0,1]}},{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0,0,1,1]}}],"
+             "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"material\":0,\"extensions\":"
+             "{\"KHR_materials_variants\":{\"mappings\":[{\"material\":1,\"variants\":[0]},{\"material\":2,\"variants\":[1]}]}}}]}],"
+             "\"nodes\":[{\"mesh\":0}],\"scenes\":[{\"nodes\":[0]}],\"scene\":0}",
+             positions_base64);
+    const char *names[] = {NULL, "green", "blue", "plain"};
+    const float want[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 0}}; /* plain: no mapping, the default */
+    for (int k = 0; k < 4; k++) {
+        pm_load_options options = {.variant = names[k]};
+        pm_scene s;
+        pm_load_report r;
+        char err[512];
+        bool ok = pm_load_gltf_memory_with(json, strlen(json), "variants.gltf", &options, true, &s, &r, err, sizeof err);
+        CHECK(ok, "variant %s loads: %s", names[k] ? names[k] : "(none)", err);
+        if (!ok) continue;
+        CHECK(r.warnings == 0, "variant %s: KHR_materials_variants is no unsupported extension (%u warnings)",
+              names[k] ? names[k] : "(none)", r.warnings);
+        vec3 b = s.materials[s.triangle_material[0]].base_color;
+        CHECK(b.x == want[k][0] && b.y == want[k][1] && b.z == want[k][2], "variant %s: base colour %g %g %g",
+              names[k] ? names[k] : "(none)", b.x, b.y, b.z);
+        pm_scene_free(&s);
+    }
+    pm_load_options options = {.variant = "red"};
+    pm_scene s;
+    pm_load_report r;
+    char err[512] = "";
+    bool ok = pm_load_gltf_memory_with(json, strlen(json), "variants.gltf", &options, true, &s, &r, err, sizeof err);
+    CHECK(!ok && strstr(err, "no material variant red (") && strstr(err, "green") && strstr(err, "plain"),
+          "an unknown variant fails, naming the file's: %s", err);
+    if (ok) pm_scene_free(&s);
+}
+
 int main(void) {
     snprintf(test_dir, sizeof test_dir, "/tmp/pmview-test-loader-XXXXXX");
     if (!mkdtemp(test_dir)) {
         perror("mkdtemp");
         return 1;
     }
+    test_variants();
     test_transforms();
     test_mirrored_winding();
     test_nonuniform_scale_normals();
