@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # dielectric_sphere_reference.py: a smooth black dielectric sphere under a uniform white sky, as a glTF file and as its analytic image (Schlick's Fresnel curve).
 """Usage: python3 tools/dielectric_sphere_reference.py [--gltf OUT.gltf] [--out REF.exr] [--roughness R]
-                                                       [--size N] [--mitsuba]
+                                                       [--size N] [--mitsuba] [--window] [--mask OUT.exr]
 
 The scene: a unit sphere (make_scenes' uv_sphere, 96 segments) of baseColor 0, metallic 0,
 roughness 0 (glTF's dielectric: F0 0.04 from ior 1.5, Schlick's Fresnel), seen by an orthographic
@@ -15,7 +15,12 @@ sphere's there) are NaN, which pmview --reference leaves out of its measures. Th
 through Mitsuba's Bitmap (an image writer here). With --mitsuba the script also renders the scene
 with Mitsuba 3's smooth `plastic` (exact Fresnel at ior 1.5, black diffuse) for comparison, and
 prints both image means over the same pixels: the exact Fresnel curve reflects more than
-Schlick's, which glTF's BRDF specifies."""
+Schlick's, which glTF's BRDF specifies.
+
+--window adds a "window" behind the camera: an emitter of radiance 1 over x, y in [-3, 3] at z = 5
+facing the sphere (render without a sky), which the sphere's middle reflects. --mask writes an
+image of 1 over the pixels wholly within radius 0.15 of the middle and NaN elsewhere: pmview
+--reference with it prints the mean over those pixels as its mean ratio."""
 import argparse
 import json
 import math
@@ -29,14 +34,18 @@ MAG = 1.1
 INSIDE = 0.97
 
 
-def scene(roughness):
+def scene(roughness, window=False):
     sphere = ms.mesh("sphere", ms.uv_sphere(96, 48), {"kind": "dielectric", "color": (0.0, 0.0, 0.0), "roughness": roughness})
     camera = {"eye": (0.0, 0.0, 3.0), "target": (0.0, 0.0, 0.0), "yfov": 0.8, "aspect": 1.0}
-    return {"meshes": [sphere], "camera": camera, "lights": []}
+    meshes = [sphere]
+    if window:
+        meshes.append(ms.mesh("window", ms.quad([(3, -3, 5), (-3, -3, 5), (-3, 3, 5), (3, 3, 5)], (0, 0, -1)),
+                              {"kind": "emitter", "color": (1.0, 1.0, 1.0), "strength": 1.0}))
+    return {"meshes": meshes, "camera": camera, "lights": []}
 
 
-def gltf(roughness):
-    doc = ms.to_gltf(scene(roughness))
+def gltf(roughness, window=False):
+    doc = ms.to_gltf(scene(roughness, window))
     doc["cameras"] = [{"type": "orthographic", "orthographic": {"xmag": MAG, "ymag": MAG, "znear": 0.01, "zfar": 100.0}}]
     return doc
 
@@ -107,11 +116,20 @@ def main():
     ap.add_argument("--size", type=int, default=64)
     ap.add_argument("--mitsuba", action="store_true")
     ap.add_argument("--spp", type=int, default=256)
+    ap.add_argument("--window", action="store_true")
+    ap.add_argument("--mask")
     a = ap.parse_args()
     if a.gltf:
         with open(a.gltf, "w") as f:
-            json.dump(gltf(a.roughness), f, separators=(",", ":"))
+            json.dump(gltf(a.roughness, a.window), f, separators=(",", ":"))
             f.write("\n")
+    if a.mask:
+        values = []
+        for py in range(a.size):
+            for px in range(a.size):
+                corners = [(MAG * (2.0 * (px + u) / a.size - 1.0), MAG * (1.0 - 2.0 * (py + v) / a.size)) for u in (0, 1) for v in (0, 1)]
+                values.append(1.0 if max(x * x + y * y for x, y in corners) <= 0.15 * 0.15 else float("nan"))
+        write_exr(a.mask, values, a.size)
     if a.out or a.mitsuba:
         values = analytic(a.size)
         kept = [v for v in values if not math.isnan(v)]
