@@ -34,6 +34,10 @@ typedef struct {
     float sheen_roughness; /* sheenRoughnessFactor (x texture), at least PM_SHEEN_MIN_ROUGHNESS */
     float clearcoat;       /* clearcoatFactor (x texture); 0: no coat */
     float clearcoat_alpha; /* GGX alpha of the coat = clearcoatRoughness^2, at least PM_GLOSSY_MIN_ALPHA */
+    /* the coat's own shading normal (clearcoatNormalTexture), world space, unit, on the side of
+     * the base's: read only when coat_normal; the functions below turn it to the side of their n */
+    bool coat_normal;
+    vec3 coat_n;
 } pm_brdf;
 
 /* The layers, each as its extension text defines it (a reciprocal form where the text's is not):
@@ -45,7 +49,8 @@ typedef struct {
  *              min(1 - max3(sheen_color) E(cos_o), 1 - max3(sheen_color) E(cos_i)) with E the
  *              sheen lobe's directional albedo (a table, pm_sheen_albedo);
  *   clearcoat: c F(0.04, v.h) D(h; clearcoat_alpha) V on top, everything below times
- *              (1 - c F(0.04, cos_o)) (1 - c F(0.04, cos_i)); the coat uses the base's normal.
+ *              (1 - c F(0.04, cos_o)) (1 - c F(0.04, cos_i)); the cosines and h's of the coat are
+ *              taken to its own normal coat_n when it has one (clearcoatNormalTexture), the base's n else.
  *
  * Sampling picks the coat, the base's specular lobe, its cosine lobe or the sheen (uniform over
  * the hemisphere) in proportion to their estimated albedos at wo. The whole stays reciprocal and
@@ -56,7 +61,7 @@ typedef struct {
  * rays go on through a lobe sharper than PM_PPM_GATHER_LOBE_ALPHA rather than read photons there). */
 static inline float pm_brdf_sharpest_alpha(const pm_brdf *b) {
     if (!b->layered) return b->alpha;
-    /* a layered metallic 0 point has no specular base lobe (specular 0): its base is Lambert */
+    /* a metallic 0 point whose file turns the dielectric lobe off (specular 0): its base is Lambert */
     float base = b->metallic > 0.f || b->specular > 0.f ? b->alpha : 1.f;
     return b->clearcoat > 0.f && b->clearcoat_alpha < base ? b->clearcoat_alpha : base;
 }
@@ -64,6 +69,12 @@ static inline float pm_brdf_sharpest_alpha(const pm_brdf *b) {
 /* E(cos, sheenRoughness): the directional albedo of the sheen lobe of colour 1 (bilinear in a
  * table integrated once, on first use, thread-safe). */
 float pm_sheen_albedo(float cos_theta, float sheen_roughness);
+
+/* A GGX microfacet normal of alpha about n seen from wo (cos_o = n.wo > 0), distributed as D(m)
+ * G1(wo) max(0, wo.m) / cos_o (Heitz 2018): what rough glass refracts or reflects about. */
+vec3 pm_ggx_visible_normal(float alpha, vec3 n, vec3 wo, float cos_o, float u1, float u2);
+/* Smith's G1 of GGX alpha for a direction at cosine c to the macro normal. */
+float pm_ggx_g1(float alpha, float c);
 
 /* f(wo, wi), the cosine not included. */
 vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi);

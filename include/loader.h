@@ -30,6 +30,8 @@ typedef struct {
 typedef struct {
     bool flatten_instances;  /* copy every placement of a mesh into world space (as if each node had its own mesh) instead of
                                 storing the mesh once and placing it (scene.h, Instancing): the flat equivalent of the file */
+    const char *variant;     /* KHR_materials_variants: the variant whose materials the primitives take; NULL: the file's
+                                default materials. A name the file does not list fails the load, naming the ones it does */
 } pm_load_options;
 
 /* Loads and validates. Does not call pm_scene_finalize (the caller decides on the default sky).

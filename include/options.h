@@ -20,6 +20,7 @@ typedef struct {
     const char *reference;   /* EXR to measure the error against */
     const char *log;         /* --log: CSV of the run, one row per logged iteration */
     const char *sky;         /* --sky: none, white, gradient or an .exr/.hdr file; NULL = the default policy */
+    const char *variant;     /* --variant: a KHR_materials_variants name; NULL = the file's default materials */
     long width, height;      /* 0: the default width, the height from the camera */
     long iterations;         /* 0 = the mode's default */
     long threads, seed;

@@ -58,11 +58,32 @@ static inline vec3 pm_thin_exit(const pm_surface *sf, vec3 d, float scale) {
     return cos_d > 0.1f ? v3_madd(sf->p, d, depth / cos_d) : off;
 }
 
-/* Mean weight of the specular part (mirror + glass) of a surface: S in Russian roulette. */
+/* The perfect mirror's reflectance for light leaving at cosine cos_o to the shading normal: Schlick's
+ * Fresnel, glTF's metal at roughness 0, rising from ks at normal incidence to ks_grazing (a white
+ * mirror reflects ks at every angle, bit for bit). */
+static inline vec3 pm_mirror_reflectance(const pm_surface *sf, float cos_o) {
+    float m = pm_maxf(0.f, 1.f - pm_minf(1.f, cos_o)), m2 = m * m;
+    return v3_add(sf->ks, v3_scale(v3_sub(v3s(sf->ks_grazing), sf->ks), m2 * m2 * m));
+}
+
+/* Mean weight of the specular part (mirror + glass) of a surface: S in Russian roulette (the
+ * mirror's at normal incidence: the choice it makes needs only some positive weight per part, and
+ * the survival rule takes any probability). */
 static inline float pm_specular_weight(const pm_surface *sf) { return v3_average(sf->ks) + v3_average(sf->kt); }
 
 /* Scatters a ray arriving along unit d off the specular part of sf. Returns false when the
- * path must end (a shading normal bent the refracted ray back out of the surface). */
+ * path must end (a shading normal bent the refracted ray back out of the surface, or a rough
+ * surface's microfacet sent it under the surface).
+ *
+ * Rough glass (sf->glass_alpha > 0: KHR_materials_transmission with roughness) is GGX microfacet
+ * scattering (Walter et al., "Microfacet models for refraction through rough surfaces", 2007): a
+ * microfacet normal m drawn from the visible normals seen from wo (Heitz 2018), then Fresnel at
+ * wo.m picks reflection about m or refraction through it; the sample's weight is Smith's G1 of
+ * the direction leaving (the visible-normal estimator's G2 / G1(wo) in Smith's separable form),
+ * so it never exceeds the smooth glass's. A thin wall's rough transmission is its reflection
+ * about m mirrored through the sheet (glTF's thin-walled BTDF: no bending, the roughness blurs);
+ * as far as kinds of path go it still crosses straight (shadow rays cross rough thin walls as
+ * smooth ones, thin.h). Smooth glass draws no number for m: its paths are as they were. */
 static inline bool pm_scatter_specular(const pm_surface *sf, vec3 d, pm_rng *rng, float scale, pm_specular_sample *out) {
     vec3 wo = v3_neg(d);
     bool front = v3_dot(sf->ng, wo) > 0.f;
@@ -72,37 +93,62 @@ static inline bool pm_scatter_specular(const pm_surface *sf, vec3 d, pm_rng *rng
     out->radiance_scale = 1.f;
     out->transmitted = out->straight = false;
     bool reflect = true;
+    vec3 m = ns; /* the normal reflection and refraction are about */
+    bool rough = false;
     if (pm_rng_float(rng) * total < wm) {
-        out->weight = v3_scale(sf->ks, total / wm);
-    } else if (sf->thin) {
-        /* a sheet with no far side: both faces alike, the crossing ray goes on along d */
-        out->weight = v3_scale(sf->kt, total / wt);
-        if (pm_rng_float(rng) >= pm_thin_fresnel(sf, wo)) {
-            out->direction = d;
-            out->origin = pm_thin_exit(sf, d, scale);
-            out->transmitted = out->straight = true;
-            reflect = false;
-        }
+        out->weight = v3_scale(pm_mirror_reflectance(sf, v3_dot(wo, ns)), total / wm);
     } else {
         out->weight = v3_scale(sf->kt, total / wt);
-        float eta_i = front ? 1.f : sf->ior, eta_t = front ? sf->ior : 1.f, cos_t;
-        float cos_i = pm_minf(1.f, v3_dot(wo, ns));
-        float f = pm_fresnel_dielectric(cos_i, eta_i, eta_t, &cos_t);
-        if (pm_rng_float(rng) >= f) {
-            float eta = eta_i / eta_t;
-            vec3 t = v3_normalize(v3_add(v3_scale(d, eta), v3_scale(ns, eta * cos_i - cos_t)));
-            if (v3_dot(t, ng) >= 0.f) return false;
-            out->direction = t;
-            out->origin = pm_surface_origin(sf, v3_neg(ng), scale);
-            out->radiance_scale = eta * eta;
-            out->transmitted = true;
-            reflect = false;
+        float cos_wo = pm_minf(1.f, v3_dot(wo, ns));
+        if (sf->glass_alpha > 0.f && cos_wo > 0.f) {
+            float u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
+            m = pm_ggx_visible_normal(sf->glass_alpha, ns, wo, cos_wo, u1, u2);
+            rough = true;
+        }
+        if (sf->thin) {
+            /* a sheet with no far side: both faces alike, the crossing ray goes on along d (smooth)
+             * or along its reflection about m mirrored through the sheet (rough) */
+            float cos_t, f = rough ? pm_fresnel_dielectric(pm_maxf(0.f, pm_minf(1.f, v3_dot(wo, m))), 1.f, sf->ior, &cos_t)
+                                   : pm_thin_fresnel(sf, wo);
+            if (pm_rng_float(rng) >= f) {
+                out->direction = d;
+                if (rough) {
+                    vec3 r = v3_reflect(d, m);
+                    out->direction = v3_sub(r, v3_scale(ns, 2.f * v3_dot(r, ns)));
+                    if (!(v3_dot(out->direction, ng) < 0.f)) return false;
+                    out->weight = v3_scale(out->weight, pm_ggx_g1(sf->glass_alpha, v3_dot(out->direction, ns)));
+                }
+                out->origin = pm_thin_exit(sf, out->direction, scale);
+                out->transmitted = out->straight = true;
+                reflect = false;
+            }
+        } else {
+            float eta_i = front ? 1.f : sf->ior, eta_t = front ? sf->ior : 1.f, cos_t;
+            float cos_i = rough ? pm_maxf(0.f, pm_minf(1.f, v3_dot(wo, m))) : cos_wo;
+            float f = pm_fresnel_dielectric(cos_i, eta_i, eta_t, &cos_t);
+            if (pm_rng_float(rng) >= f) {
+                float eta = eta_i / eta_t;
+                vec3 t = v3_normalize(v3_add(v3_scale(d, eta), v3_scale(m, eta * cos_i - cos_t)));
+                if (v3_dot(t, ng) >= 0.f) return false;
+                if (rough) out->weight = v3_scale(out->weight, pm_ggx_g1(sf->glass_alpha, v3_dot(t, ns)));
+                out->direction = t;
+                out->origin = pm_surface_origin(sf, v3_neg(ng), scale);
+                out->radiance_scale = eta * eta;
+                out->transmitted = true;
+                reflect = false;
+            }
         }
     }
     if (reflect) {
-        vec3 r = v3_reflect(d, ns);
-        /* a shading normal can tilt the mirror direction under the surface: reflect about the face */
-        out->direction = v3_dot(r, ng) > 0.f ? r : v3_reflect(d, ng);
+        vec3 r = v3_reflect(d, m);
+        if (rough) {
+            if (!(v3_dot(r, ng) > 0.f)) return false;
+            out->direction = r;
+            out->weight = v3_scale(out->weight, pm_ggx_g1(sf->glass_alpha, v3_dot(r, ns)));
+        } else {
+            /* a shading normal can tilt the mirror direction under the surface: reflect about the face */
+            out->direction = v3_dot(r, ng) > 0.f ? r : v3_reflect(d, ng);
+        }
         out->origin = pm_surface_origin(sf, ng, scale);
     }
     return true;

@@ -73,6 +73,10 @@ typedef struct {
     float clearcoat_roughness;                  /* clearcoatRoughnessFactor x clearcoatRoughnessTexture's G */
     pm_texture_ref specular_texture, specular_color_texture, sheen_color_texture, sheen_roughness_texture,
         clearcoat_texture, clearcoat_roughness_texture;
+    /* clearcoatNormalTexture: the coat's own tangent-space normal map (read like normal_texture, x and
+     * y times clearcoat_normal_scale), -1 none: the coat then takes the base's shading normal */
+    pm_texture_ref clearcoat_normal_texture;
+    float clearcoat_normal_scale;
 } pm_material_layers;
 
 /* glTF metallic-roughness material plus the extensions we honour; see docs/design.md (Materials) for the mapping
@@ -126,9 +130,24 @@ typedef struct {
      * clamping and splitting the factors again (every photon bounce reads a surface) */
     bool uniform_split;
     vec3 split_kd, split_ks, split_kt;
+    float split_ks_grazing;
+    float split_glass_alpha;
     bool split_glossy;
     pm_brdf split_brdf;
 } pm_material;
+
+/* Whether the material's coat has its own normal map (KHR_materials_clearcoat clearcoatNormalTexture). */
+static inline bool pm_material_coat_normal_mapped(const pm_material *m) {
+    return m->layered && m->layers.clearcoat > 0.f && m->layers.clearcoat_normal_texture.texture >= 0;
+}
+/* Whether a material reads the vertices' tangents (a normal map, its own or its coat's), and from
+ * which TEXCOORD set generated tangents follow the UVs: the base normal map's, else the coat's. */
+static inline bool pm_material_tangents_read(const pm_material *m) {
+    return m->normal_texture >= 0 || pm_material_coat_normal_mapped(m);
+}
+static inline int pm_material_tangent_texcoord(const pm_material *m) {
+    return m->normal_texture >= 0 ? m->normal_texcoord : m->layers.clearcoat_normal_texture.texcoord;
+}
 
 typedef enum { PM_LIGHT_POINT = 0, PM_LIGHT_SPOT = 1, PM_LIGHT_DIRECTIONAL = 2 } pm_light_type;
 
@@ -417,7 +436,9 @@ typedef struct {
     float u, v;      /* TEXCOORD_0 as stored (each texture applies its own set and transform) */
     uint32_t material;
     vec3 kd;         /* Lambert albedo (after the material split; 0 on a glossy surface, whose brdf holds its diffuse part) */
-    vec3 ks;         /* perfect-mirror reflectance */
+    vec3 ks;         /* perfect-mirror reflectance at normal incidence */
+    float ks_grazing;/* the mirror's reflectance at grazing angles (Schlick: ks + (ks_grazing - ks)(1 - cos)^5) */
+    float glass_alpha;/* GGX alpha of the glass's microfacets (roughness^2; 0: smooth, below PM_GLOSSY_MIN_ALPHA) */
     vec3 kt;         /* dielectric weight (tint); Fresnel decides reflect vs refract */
     float ior;
     bool thin;       /* the material is thin-walled: kt crosses straight, no medium inside */
@@ -535,6 +556,8 @@ static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float 
     pm_scene_surface_point(s, tri, b1, b2, pm_scene_triangle_face_normal(s, tri), out);
     out->kd = m->split_kd;
     out->ks = m->split_ks;
+    out->ks_grazing = m->split_ks_grazing;
+    out->glass_alpha = m->split_glass_alpha;
     out->kt = m->split_kt;
     out->glossy = m->split_glossy;
     if (out->glossy) out->brdf = m->split_brdf;
@@ -546,36 +569,54 @@ static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float 
 
 static inline float pm_clamp01(float x) { return x < 0.f ? 0.f : (x > 1.f ? 1.f : x); }
 
-/* Whether a point with these parameters has the glossy (GGX) lobe: some metal, and alpha =
- * roughness^2 at least PM_GLOSSY_MIN_ALPHA. Below that it is the perfect mirror; a metallic 0
- * material stays Lambert (the dielectric's 4% specular coat is not rendered; see docs/design.md, Materials). */
-static inline bool pm_glossy_at(float metallic, float roughness) {
-    float r = pm_clamp01(roughness);
-    return pm_clamp01(metallic) > 0.f && r * r >= PM_GLOSSY_MIN_ALPHA;
+/* Whether a point with these parameters has the GGX lobe (brdf.h): some opaque share (1 - t (1 - m)
+ * > 0) and either a rough metal part (m > 0 and alpha = roughness^2 at least PM_GLOSSY_MIN_ALPHA)
+ * or the dielectric's specular lobe (m < 1 and specular > 0: KHR_materials_specular's
+ * specularFactor x its texture, 1 without the extension). Otherwise the point is Lambert, a
+ * perfect mirror and glass (pm_material_split_at): a smooth metal, or a dielectric whose
+ * specular lobe its file turns off (specularFactor 0). See docs/design.md, Materials. */
+static inline bool pm_glossy_at(float metallic, float roughness, float transmission, float specular) {
+    float m = pm_clamp01(metallic), r = pm_clamp01(roughness);
+    if (!(1.f - pm_clamp01(transmission) * (1.f - m) > 0.f)) return false;
+    return (m > 0.f && r * r >= PM_GLOSSY_MIN_ALPHA) || (m < 1.f && pm_clamp01(specular) > 0.f);
 }
-/* The same for a material's factors alone (no data texture). */
-static inline bool pm_material_glossy(const pm_material *m) { return pm_glossy_at(m->metallic, m->roughness); }
+/* The same for a material's factors alone (no data texture), without a layer extension. */
+static inline bool pm_material_glossy(const pm_material *m) {
+    return pm_glossy_at(m->metallic, m->roughness, m->transmission, m->layered ? m->layers.specular : 1.f);
+}
 
-/* Splits a material at a point (its base colour, metallic, roughness and transmission there,
- * textures applied) into kd, ks, kt; see docs/design.md (Materials). Inline: it runs at every hit of every path. A
- * glossy point has kd = ks = 0: its lobe (pm_brdf_at) holds both its diffuse and its specular
- * parts, and kt its glass share. */
-static inline void pm_material_split_at(vec3 base, float metallic, float roughness, float transmission, vec3 *kd,
-                                        vec3 *ks, vec3 *kt) {
+/* Splits a material at a point (its base colour, metallic, roughness, transmission and dielectric
+ * specular weight there, textures applied) into kd, ks, kt; see docs/design.md (Materials).
+ * Inline: it runs at every hit of every path. A glossy point has kd = ks = 0: its lobe
+ * (pm_brdf_at) holds both its diffuse and its specular parts, and kt its glass share. The mirror
+ * follows Schlick's Fresnel: ks at normal incidence, *ks_grazing (grey) at grazing angles
+ * (pm_mirror_reflectance). */
+static inline void pm_material_split_at(vec3 base, float metallic, float roughness, float transmission, float specular,
+                                        vec3 *kd, vec3 *ks, float *ks_grazing, vec3 *kt) {
     base = v3(pm_clamp01(base.x), pm_clamp01(base.y), pm_clamp01(base.z));
     float metal = pm_clamp01(metallic), rough = pm_clamp01(roughness);
     float glass = pm_clamp01(transmission) * (1.f - metal);
     *kt = v3_scale(base, glass);
-    if (pm_glossy_at(metal, rough)) {
+    if (pm_glossy_at(metal, rough, transmission, specular)) {
         *kd = *ks = v3s(0.f);
+        *ks_grazing = 0.f;
         return;
     }
-    /* The weights sum to one, so D + S = mean(base) <= 1: Russian roulette stays valid. Below
-     * PM_GLOSSY_MIN_ALPHA the rough share is tiny and scatters diffusely. */
+    /* The weights sum to one, so D + S = mean(base) <= 1 at normal incidence and at most 1 at any
+     * angle: Russian roulette stays valid. Below PM_GLOSSY_MIN_ALPHA the rough share is tiny and
+     * scatters diffusely. */
     float diffuse = (1.f - metal) * (1.f - pm_clamp01(transmission)) + metal * rough;
     float mirror = metal * (1.f - rough);
     *kd = v3_scale(base, diffuse);
     *ks = v3_scale(base, mirror);
+    *ks_grazing = mirror;
+}
+
+/* The GGX alpha of a glass share of this roughness: rough transmission (Walter et al. 2007) from
+ * PM_GLOSSY_MIN_ALPHA on, 0 (smooth) below. */
+static inline float pm_glass_alpha_at(float roughness) {
+    float r = pm_clamp01(roughness);
+    return r * r >= PM_GLOSSY_MIN_ALPHA ? r * r : 0.f;
 }
 
 /* The glossy lobe at a point for which pm_glossy_at() holds. */
@@ -589,13 +630,11 @@ static inline pm_brdf pm_brdf_at(vec3 base, float metallic, float roughness, flo
     b.layered = false;
     return b;
 }
-/* The layers at a point (their textures applied) added to its lobe b. The dielectric's specular
- * lobe, which a metallic 0 point does not render (it is Lambert), stays off there (specular 0:
- * the diffuse base unattenuated), so a coat or sheen lies on the same base as without them. */
+/* The layers at a point (their textures applied) added to its lobe b. */
 static inline void pm_brdf_add_layers(pm_brdf *b, float specular, vec3 specular_color, vec3 sheen_color,
                                       float sheen_roughness, float clearcoat, float clearcoat_roughness) {
     b->layered = true;
-    b->specular = b->metallic > 0.f ? pm_clamp01(specular) : 0.f;
+    b->specular = pm_clamp01(specular);
     vec3 c = v3_scale(specular_color, 0.04f);
     b->specular_f0 = v3(pm_clamp01(c.x), pm_clamp01(c.y), pm_clamp01(c.z));
     b->sheen_color = v3(pm_clamp01(sheen_color.x), pm_clamp01(sheen_color.y), pm_clamp01(sheen_color.z));
@@ -603,6 +642,7 @@ static inline void pm_brdf_add_layers(pm_brdf *b, float specular, vec3 specular_
     b->clearcoat = pm_clamp01(clearcoat);
     float r = pm_clamp01(clearcoat_roughness);
     b->clearcoat_alpha = pm_maxf(PM_GLOSSY_MIN_ALPHA, r * r);
+    b->coat_normal = false;
 }
 /* The same with the material's factors alone. */
 static inline pm_brdf pm_material_brdf(const pm_material *m, vec3 base) {
@@ -610,7 +650,9 @@ static inline pm_brdf pm_material_brdf(const pm_material *m, vec3 base) {
 }
 /* The split with the material's factors alone (no data texture). */
 static inline void pm_material_split(const pm_material *m, vec3 base, vec3 *kd, vec3 *ks, vec3 *kt) {
-    pm_material_split_at(base, m->metallic, m->roughness, m->transmission, kd, ks, kt);
+    float grazing;
+    pm_material_split_at(base, m->metallic, m->roughness, m->transmission, m->layered ? m->layers.specular : 1.f, kd, ks,
+                         &grazing, kt);
 }
 /* Linear RGB of a texture at (u, v) with its wrap modes, bilinear (the texel under it with magFilter NEAREST). */
 vec3 pm_texture_lookup(const pm_texture *t, float u, float v);

@@ -8,7 +8,9 @@
 
 Each scene is a dict: {"meshes": [mesh], "camera": camera, "lights": [light]} where a mesh is
 {"name", "positions" (local), "normals", "indices", "material", "translation", "scale"}, a
-material is {"kind": "diffuse"|"mirror"|"glass"|"emitter"|"metal"|"layered", "color", "strength", "roughness"}
+material is {"kind": "diffuse"|"mirror"|"glass"|"emitter"|"metal"|"dielectric"|"layered", "color", "strength", "roughness"}
+("diffuse" and "emitter" are Lambert and black: they turn glTF's dielectric specular lobe off with
+KHR_materials_specular specularFactor 0)
 (a layered one also "metallic" and its "extensions" object, written as they are)
 and a light is {"type": "point", "position", "color", "intensity" (W/sr)} or {"type": "directional",
 "direction" (unit, the way the light travels), "color", "intensity" (W/m^2 across the beam)}. The glTF
@@ -337,11 +339,16 @@ def gltf_material(m):
     out = {"name": m["kind"], "pbrMetallicRoughness": {"baseColorFactor": list(m.get("color", (1, 1, 1))) + [1.0]}}
     pbr = out["pbrMetallicRoughness"]
     if m["kind"] == "diffuse":
+        # Lambert: glTF gives every dielectric a specular lobe; specularFactor 0 turns it off
         pbr.update(metallicFactor=0.0, roughnessFactor=1.0)
+        out["extensions"] = {"KHR_materials_specular": {"specularFactor": 0.0}}
     elif m["kind"] == "mirror":
         pbr.update(metallicFactor=1.0, roughnessFactor=0.0)
     elif m["kind"] == "metal":
         pbr.update(metallicFactor=1.0, roughnessFactor=m["roughness"])
+    elif m["kind"] == "dielectric":
+        # glTF's plain dielectric: the diffuse base under a GGX specular lobe of F0 0.04
+        pbr.update(metallicFactor=0.0, roughnessFactor=m["roughness"])
     elif m["kind"] == "glass":
         pbr.update(metallicFactor=0.0, roughnessFactor=0.0)
         # solid glass: without KHR_materials_volume, transmission is a thin wall that bends nothing.
@@ -356,7 +363,9 @@ def gltf_material(m):
     elif m["kind"] == "emitter":
         pbr.update(baseColorFactor=[0.0, 0.0, 0.0, 1.0], metallicFactor=0.0, roughnessFactor=1.0)
         out["emissiveFactor"] = list(m["color"])
-        out["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": m["strength"]}}
+        # a black lamp that reflects nothing, as the references' emitters on a black diffuse BSDF
+        out["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": m["strength"]},
+                             "KHR_materials_specular": {"specularFactor": 0.0}}
     return out
 
 

@@ -103,6 +103,12 @@ float pm_sheen_albedo(float cos_theta, float sheen_roughness) {
 static inline bool has_sheen(const pm_brdf *b) { return b->layered && v3_max_component(b->sheen_color) > 0.f; }
 static inline bool has_coat(const pm_brdf *b) { return b->layered && b->clearcoat > 0.f; }
 
+/* The coat's normal on the side of the base's n: its own (clearcoatNormalTexture) or n. */
+static inline vec3 coat_normal(const pm_brdf *b, vec3 n) {
+    if (!b->layered || !b->coat_normal) return n;
+    return v3_dot(b->coat_n, n) < 0.f ? v3_neg(b->coat_n) : b->coat_n;
+}
+
 /* ---- lobe choice ---- */
 
 /* The probabilities of the four sampling techniques at wo (they depend on wo only, as the pdf
@@ -129,7 +135,7 @@ static inline float base_specular_probability(const pm_brdf *b, float s, vec3 f0
     return p_spec;
 }
 
-static inline lobe_choice choose_lobes(const pm_brdf *b, float cos_o) {
+static inline lobe_choice choose_lobes(const pm_brdf *b, float cos_o, float coat_cos_o) {
     lobe_choice p = {0.f, 0.f, 0.f, 0.f};
     float estimate;
     if (!b->layered) {
@@ -138,7 +144,7 @@ static inline lobe_choice choose_lobes(const pm_brdf *b, float cos_o) {
         return p;
     }
     float p_spec = base_specular_probability(b, b->specular, b->specular_f0, cos_o, &estimate);
-    float coat = has_coat(b) ? b->clearcoat * coat_fresnel(cos_o) : 0.f;
+    float coat = has_coat(b) && coat_cos_o > 0.f ? b->clearcoat * coat_fresnel(coat_cos_o) : 0.f;
     float sheen_share = has_sheen(b) ? v3_max_component(b->sheen_color) * pm_sheen_albedo(cos_o, b->sheen_roughness) : 0.f;
     float sheen = (1.f - coat) * sheen_share;
     float base = (1.f - coat) * pm_maxf(0.f, 1.f - sheen_share) * estimate;
@@ -193,9 +199,15 @@ vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
         f = v3_add(v3_scale(f, pm_maxf(0.f, scale)), v3_scale(b->sheen_color, sheen));
     }
     if (has_coat(b)) {
-        float c = b->clearcoat;
-        float coat = c * coat_fresnel(v_h) * ggx_dv(b->clearcoat_alpha * b->clearcoat_alpha, cos_o, cos_i, cos_h);
-        float under = (1.f - c * coat_fresnel(cos_o)) * (1.f - c * coat_fresnel(cos_i));
+        float c = b->clearcoat, co = cos_o, ci = cos_i, ch = cos_h;
+        if (b->coat_normal) { /* the coat's own normal: its cosines (h is the same half vector) */
+            vec3 cn = coat_normal(b, n);
+            co = pm_maxf(0.f, v3_dot(cn, wo));
+            ci = pm_maxf(0.f, v3_dot(cn, wi));
+            ch = pm_maxf(0.f, v3_dot(cn, h));
+        }
+        float coat = co > 0.f && ci > 0.f ? c * coat_fresnel(v_h) * ggx_dv(b->clearcoat_alpha * b->clearcoat_alpha, co, ci, ch) : 0.f;
+        float under = (1.f - c * coat_fresnel(co)) * (1.f - c * coat_fresnel(ci));
         f = v3_add(v3_scale(f, under), v3s(coat));
     }
     return v3_scale(f, b->weight);
@@ -213,17 +225,20 @@ static float ggx_reflection_pdf(float a2, float cos_o, float cos_h) {
 float pm_brdf_pdf(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
     float cos_o = v3_dot(n, wo), cos_i = v3_dot(n, wi);
     if (!(cos_o > 0.f) || !(cos_i > 0.f)) return 0.f;
-    lobe_choice p = choose_lobes(b, cos_o);
+    vec3 cn = coat_normal(b, n);
+    float coat_cos_o = b->layered && b->coat_normal ? v3_dot(cn, wo) : cos_o;
+    lobe_choice p = choose_lobes(b, cos_o, coat_cos_o);
     float pdf = p.diffuse * cos_i * PM_INV_PI;
     if (b->layered) pdf += p.sheen * (0.5f * PM_INV_PI);
     vec3 h = v3_add(wo, wi);
     float hl = v3_length(h);
     if (hl > 0.f) {
         h = v3_scale(h, 1.f / hl);
-        float cos_h = v3_dot(n, h);
-        if (cos_h > 0.f && v3_dot(wo, h) > 0.f) {
-            pdf += p.specular * ggx_reflection_pdf(b->alpha * b->alpha, cos_o, cos_h);
-            if (p.coat > 0.f) pdf += p.coat * ggx_reflection_pdf(b->clearcoat_alpha * b->clearcoat_alpha, cos_o, cos_h);
+        float cos_h = v3_dot(n, h), coat_cos_h = b->layered && b->coat_normal ? v3_dot(cn, h) : cos_h;
+        if (v3_dot(wo, h) > 0.f) {
+            if (cos_h > 0.f) pdf += p.specular * ggx_reflection_pdf(b->alpha * b->alpha, cos_o, cos_h);
+            if (p.coat > 0.f && coat_cos_h > 0.f && coat_cos_o > 0.f)
+                pdf += p.coat * ggx_reflection_pdf(b->clearcoat_alpha * b->clearcoat_alpha, coat_cos_o, coat_cos_h);
         }
     }
     return pdf;
@@ -244,12 +259,21 @@ static vec3 sample_visible_normal(float alpha, vec3 v, float u1, float u2) {
     return v3_normalize(v3(alpha * nh.x, alpha * nh.y, pm_maxf(1e-7f, nh.z))); /* back to the ellipsoid */
 }
 
-static inline vec3 sample_ggx_reflection(float alpha, vec3 n, vec3 wo, float cos_o, float u1, float u2) {
+vec3 pm_ggx_visible_normal(float alpha, vec3 n, vec3 wo, float cos_o, float u1, float u2) {
     vec3 t, bt;
     v3_basis(n, &t, &bt);
     vec3 local = v3(v3_dot(wo, t), v3_dot(wo, bt), cos_o);
     vec3 m = sample_visible_normal(alpha, local, u1, u2);
-    vec3 h = v3_add(v3_add(v3_scale(t, m.x), v3_scale(bt, m.y)), v3_scale(n, m.z));
+    return v3_add(v3_add(v3_scale(t, m.x), v3_scale(bt, m.y)), v3_scale(n, m.z));
+}
+
+float pm_ggx_g1(float alpha, float c) {
+    c = pm_maxf(1e-6f, pm_minf(1.f, fabsf(c)));
+    return 2.f * c / (c + smith_root(alpha * alpha, c));
+}
+
+static inline vec3 sample_ggx_reflection(float alpha, vec3 n, vec3 wo, float cos_o, float u1, float u2) {
+    vec3 h = pm_ggx_visible_normal(alpha, n, wo, cos_o, u1, u2);
     return v3_sub(v3_scale(h, 2.f * v3_dot(wo, h)), wo);
 }
 
@@ -266,9 +290,11 @@ static vec3 sample_uniform_hemisphere(vec3 n, float u1, float u2) {
 bool pm_brdf_sample(const pm_brdf *b, vec3 n, vec3 wo, float u0, float u1, float u2, vec3 *wi, vec3 *f, float *pdf) {
     float cos_o = v3_dot(n, wo);
     if (!(cos_o > 0.f)) return false;
-    lobe_choice p = choose_lobes(b, cos_o);
+    vec3 cn = coat_normal(b, n);
+    float coat_cos_o = b->layered && b->coat_normal ? v3_dot(cn, wo) : cos_o;
+    lobe_choice p = choose_lobes(b, cos_o, coat_cos_o);
     if (u0 < p.specular) *wi = sample_ggx_reflection(b->alpha, n, wo, cos_o, u1, u2);
-    else if (u0 < p.specular + p.coat) *wi = sample_ggx_reflection(b->clearcoat_alpha, n, wo, cos_o, u1, u2);
+    else if (u0 < p.specular + p.coat) *wi = sample_ggx_reflection(b->clearcoat_alpha, cn, wo, coat_cos_o, u1, u2);
     else if (u0 < p.specular + p.coat + p.sheen) *wi = sample_uniform_hemisphere(n, u1, u2);
     else *wi = pm_sample_cosine(n, u1, u2);
     if (!(v3_dot(n, *wi) > 0.f)) return false;

@@ -68,7 +68,7 @@ const char *const kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_material
                                             "KHR_texture_transform", "KHR_mesh_quantization", "KHR_materials_volume",
                                             "KHR_materials_clearcoat", "KHR_materials_sheen", "KHR_materials_specular",
                                             "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_materials_unlit",
-                                            "EXT_mesh_gpu_instancing"};
+                                            "EXT_mesh_gpu_instancing", "KHR_materials_variants"};
 
 // ---------------------------------------------------------------- errors and messages
 
@@ -817,13 +817,14 @@ struct TextureReference {
 // The texture references pmview renders, per material.
 enum {
     kBaseColor, kEmissive, kMetallicRoughness, kTransmission, kNormal,
-    kSpecular, kSpecularColor, kSheenColor, kSheenRoughness, kClearcoat, kClearcoatRoughness, kReferenceKinds
+    kSpecular, kSpecularColor, kSheenColor, kSheenRoughness, kClearcoat, kClearcoatRoughness, kClearcoatNormal,
+    kReferenceKinds
 };
 const char *const kReferenceNames[kReferenceKinds] = {"baseColorTexture", "emissiveTexture",
                                                       "metallicRoughnessTexture", "transmissionTexture",
                                                       "normalTexture", "specularTexture", "specularColorTexture",
                                                       "sheenColorTexture", "sheenRoughnessTexture", "clearcoatTexture",
-                                                      "clearcoatRoughnessTexture"};
+                                                      "clearcoatRoughnessTexture", "clearcoatNormalTexture"};
 
 // Owns the malloc'ed texels until the scene takes them.
 struct TextureList {
@@ -885,6 +886,7 @@ private:
     void choose_frame();
     void add_camera(int camera, const WorldTransform &world, int node);
     void convert_materials();
+    void apply_variant();
     int texture_for(int gltf_texture, const std::string &where);
     void sampler_filters(const tinygltf::Sampler &s, int sampler, pm_texture *tex);
     bool convert_reference(const TextureReference &r, const std::string &where, int *texture, int *texcoord,
@@ -1294,7 +1296,7 @@ void Loader::preflight(const json &root) {
             {specular, "specularTexture", kSpecular}, {specular, "specularColorTexture", kSpecularColor},
             {sheen, "sheenColorTexture", kSheenColor}, {sheen, "sheenRoughnessTexture", kSheenRoughness},
             {clearcoat, "clearcoatTexture", kClearcoat}, {clearcoat, "clearcoatRoughnessTexture", kClearcoatRoughness},
-            {clearcoat, "clearcoatNormalTexture", -1}};
+            {clearcoat, "clearcoatNormalTexture", kClearcoatNormal}};
         references_.emplace_back();
         for (const auto &info : infos) {
             const json *ti = info.parent ? find_member(*info.parent, info.key) : nullptr;
@@ -2438,9 +2440,9 @@ bool Loader::convert_reference(const TextureReference &r, const std::string &whe
     return r.texcoord <= 1;
 }
 
-// KHR_materials_specular, _sheen and _clearcoat (pm_material_layers): factors and textures. A
-// material is layered when one of them is present; clearcoatNormalTexture is not read (the coat
-// takes the base's normal). Returns convert_reference's verdict on the TEXCOORD sets.
+// KHR_materials_specular, _sheen and _clearcoat (pm_material_layers): factors and textures, the
+// coat's own normal texture with its scale. A material is layered when one of them is present.
+// Returns convert_reference's verdict on the TEXCOORD sets.
 bool Loader::convert_layers(const tinygltf::Material &mat, const std::array<TextureReference, kReferenceKinds> &refs,
                             const std::string &label, const std::string &name, pm_material *m) {
     const tinygltf::ExtensionMap &x = mat.extensions;
@@ -2471,13 +2473,18 @@ bool Loader::convert_layers(const tinygltf::Material &mat, const std::array<Text
                                              "KHR_materials_clearcoat clearcoatFactor", label));
     l.clearcoat_roughness = static_cast<float>(checked(extension_number(x, "KHR_materials_clearcoat", "clearcoatRoughnessFactor", 0),
                                                        0, 1, "KHR_materials_clearcoat clearcoatRoughnessFactor", label));
-    if (clearcoat && x.at("KHR_materials_clearcoat").IsObject() && x.at("KHR_materials_clearcoat").Has("clearcoatNormalTexture"))
-        note_ignored("clearcoatNormalTexture (the coat takes the base's normal)", name);
+    l.clearcoat_normal_scale = 1.f;
+    if (clearcoat && x.at("KHR_materials_clearcoat").IsObject() && x.at("KHR_materials_clearcoat").Has("clearcoatNormalTexture")) {
+        const tinygltf::Value &t = x.at("KHR_materials_clearcoat").Get("clearcoatNormalTexture");
+        if (t.IsObject() && t.Has("scale") && t.Get("scale").IsNumber())
+            l.clearcoat_normal_scale = static_cast<float>(
+                checked(t.Get("scale").GetNumberAsDouble(), -FLT_MAX, FLT_MAX, "clearcoatNormalTexture scale", label));
+    }
     std::string where = label;
     struct { int kind; pm_texture_ref *into; } textures[] = {
         {kSpecular, &l.specular_texture}, {kSpecularColor, &l.specular_color_texture}, {kSheenColor, &l.sheen_color_texture},
         {kSheenRoughness, &l.sheen_roughness_texture}, {kClearcoat, &l.clearcoat_texture},
-        {kClearcoatRoughness, &l.clearcoat_roughness_texture}};
+        {kClearcoatRoughness, &l.clearcoat_roughness_texture}, {kClearcoatNormal, &l.clearcoat_normal_texture}};
     bool sets_ok = true;
     for (const auto &t : textures)
         sets_ok &= convert_reference(refs[t.kind], where, &t.into->texture, &t.into->texcoord, &t.into->transform);
@@ -2544,6 +2551,7 @@ void Loader::convert_materials() {
         m.normal_scale = static_cast<float>(checked(mat.normalTexture.scale, -FLT_MAX, FLT_MAX, "normalTexture scale", label));
         if (m.normal_texture >= 0) tangents_needed_ = true;
         sets_ok &= convert_layers(mat, refs, label, name, &m);
+        if (pm_material_coat_normal_mapped(&m)) tangents_needed_ = true;
         if (!sets_ok) note_ignored("texture coordinate sets above TEXCOORD_1 (TEXCOORD_0 is read instead)", name);
         materials_.push_back(m);
     }
@@ -2662,7 +2670,7 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
     }
     // glTF: TANGENT's w is +1 or -1. Any other is read by its sign (0 and NaN as +1), counted in
     // one warning; only where a normal map reads it.
-    bool mapped = !out.tangents.empty() && prim.material >= 0 && materials_[prim.material].normal_texture >= 0;
+    bool mapped = !out.tangents.empty() && prim.material >= 0 && pm_material_tangents_read(&materials_[prim.material]);
     uint64_t odd_w = 0;
     size_t first_odd = 0;
     float first_w = 0;
@@ -2792,9 +2800,9 @@ void Loader::instance_mesh(const Instance &instance, const Mat4 &transform) {
         // flips with a mirroring transform, as the bitangent w cross(n, t) would), else generated
         // below from the positions and the normal texture's UV set.
         const pm_material &material = materials_[prim.material];
-        bool mapped = tangents_needed_ && material.normal_texture >= 0;
+        bool mapped = tangents_needed_ && pm_material_tangents_read(&material);
         bool given_tangents = mapped && !prim.tangents.empty();
-        const std::vector<float> &tangent_uvs = material.normal_texcoord == 1 ? prim.uvs1 : prim.uvs;
+        const std::vector<float> &tangent_uvs = pm_material_tangent_texcoord(&material) == 1 ? prim.uvs1 : prim.uvs;
         std::vector<float> tangents;  // given: 4 per vertex in world space
         if (given_tangents) {
             tangents.resize(4 * count);
@@ -3149,6 +3157,46 @@ void Loader::place_instanced_meshes(const std::vector<uint32_t> &uses) {
     }
 }
 
+// KHR_materials_variants: with a variant asked for, every primitive whose mappings name it takes
+// the mapped material (the preflight checked the material indices); the others keep their default.
+// A name the file's root list does not hold fails the load with the names it does hold.
+void Loader::apply_variant() {
+    if (!options_.variant) return;
+    const std::string wanted = options_.variant;
+    std::vector<std::string> names;
+    auto root = model_.extensions.find("KHR_materials_variants");
+    if (root != model_.extensions.end() && root->second.IsObject() && root->second.Has("variants")) {
+        const tinygltf::Value &list = root->second.Get("variants");
+        for (size_t k = 0; list.IsArray() && k < list.ArrayLen(); k++) {
+            const tinygltf::Value &v = list.Get(static_cast<int>(k));
+            names.push_back(v.IsObject() && v.Has("name") && v.Get("name").IsString() ? v.Get("name").Get<std::string>() : "");
+        }
+    }
+    int index = -1;
+    for (size_t k = 0; k < names.size() && index < 0; k++)
+        if (names[k] == wanted) index = static_cast<int>(k);
+    if (index < 0) {
+        std::string known;
+        for (const std::string &n : names) known += (known.empty() ? "" : ", ") + printable(n);
+        fail("no material variant " + printable(wanted) + " (KHR_materials_variants lists " +
+             (names.empty() ? std::string("none") : known) + ")");
+    }
+    for (tinygltf::Mesh &mesh : model_.meshes)
+        for (tinygltf::Primitive &prim : mesh.primitives) {
+            auto ext = prim.extensions.find("KHR_materials_variants");
+            if (ext == prim.extensions.end() || !ext->second.IsObject() || !ext->second.Has("mappings")) continue;
+            const tinygltf::Value &mappings = ext->second.Get("mappings");
+            for (size_t k = 0; mappings.IsArray() && k < mappings.ArrayLen(); k++) {
+                const tinygltf::Value &m = mappings.Get(static_cast<int>(k));
+                if (!m.IsObject() || !m.Has("material") || !m.Get("material").IsNumber() || !m.Has("variants")) continue;
+                const tinygltf::Value &vs = m.Get("variants");
+                for (size_t j = 0; vs.IsArray() && j < vs.ArrayLen(); j++)
+                    if (vs.Get(static_cast<int>(j)).IsNumber() && vs.Get(static_cast<int>(j)).GetNumberAsInt() == index)
+                        prim.material = m.Get("material").GetNumberAsInt();
+            }
+        }
+}
+
 void Loader::load(pm_scene *out) {
     std::vector<unsigned char> file = read_model_file();
     file_bytes_ = file.capacity();
@@ -3156,6 +3204,7 @@ void Loader::load(pm_scene *out) {
     model_from_json();
 
     traverse_default_scene();
+    apply_variant();
     convert_materials();  // first: whether any texture reads TEXCOORD_1 decides what the meshes keep
     meshes_.resize(model_.meshes.size());
     // A mesh placed by two or more nodes, each with an invertible transform, is stored once and

@@ -146,7 +146,7 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     pm_memory_forecast_start();
     pm_load_report report;
     say_stage(r, "loading");
-    pm_load_options load_options = {.flatten_instances = o->flatten_instances};
+    pm_load_options load_options = {.flatten_instances = o->flatten_instances, .variant = o->variant};
     if (!pm_load_gltf_with(o->scene_path, &load_options, o->quiet, &r->scene, &report, err, sizeof err))
         return failed(r, 1, "%s", err);
     r->scene_loaded = true;

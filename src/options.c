@@ -170,6 +170,8 @@ static const option options_table[] = {
      "refuse a structure (scene, texture, sky map, film, photon records, output buffers) whose\n"
      "estimate would take all of them together above SIZE bytes (K, M, G, T suffixes; default\n"
      "%g%% of the physical memory)", {100 * PM_DEFAULT_MEMORY_SHARE}},
+    {"--variant", "NAME", KIND_TEXT, FIELD(variant), 0, 0, NULL, {0}, NULL, NULL, NULL, 0,
+     "the materials of variant NAME (KHR_materials_variants; default: the file's own)", {0}},
     {"--flatten-instances", NULL, KIND_FLAG, FIELD(flatten_instances), 0, 0, NULL, {0}, NULL, NULL, NULL, 0,
      "copy every placement of a shared mesh into world space (the flat equivalent of the file)", {0}},
     {"--quiet", NULL, KIND_FLAG, FIELD(quiet), 0, 0, NULL, {0}, NULL, NULL, NULL, 0, "no warnings", {0}},

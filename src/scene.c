@@ -71,7 +71,8 @@ static bool layers_textured(const pm_material *m) {
     const pm_material_layers *l = &m->layers;
     return m->layered && (l->specular_texture.texture >= 0 || l->specular_color_texture.texture >= 0 ||
                           l->sheen_color_texture.texture >= 0 || l->sheen_roughness_texture.texture >= 0 ||
-                          l->clearcoat_texture.texture >= 0 || l->clearcoat_roughness_texture.texture >= 0);
+                          l->clearcoat_texture.texture >= 0 || l->clearcoat_roughness_texture.texture >= 0 ||
+                          l->clearcoat_normal_texture.texture >= 0);
 }
 
 static vec3 texture_at(const pm_scene *s, const float uv[2][2], const float footprint[2], int texture, int texcoord,
@@ -88,19 +89,32 @@ static vec3 layer_texel(const pm_scene *s, const float uv[2][2], const float foo
     return v3s(pm_texture_alpha(&s->textures[r->texture], u, v));
 }
 
-/* A layered material's point (its base colour, metallic, roughness and transmission there): all
- * its opaque part is the layered lobe, so kd = ks = 0 and the lobe gets the layers' values there. */
-static void layer_point(const pm_material *m, vec3 *kd, vec3 *ks, bool *glossy, pm_brdf *brdf, vec3 base, float metallic,
-                        float roughness, float transmission, const pm_scene *s, const float uv[2][2], const float footprint[2]) {
+/* A material's point (its base colour, metallic, roughness and transmission there, textures
+ * applied): the layers' values there (their textures read when s is not NULL), then the split. A
+ * point with a coat or a sheen is all the layered lobe (kt apart: kd = ks = 0); one without them
+ * is glossy or not as pm_glossy_at says, with the dielectric's specular weight there, so a point
+ * whose file turns that lobe off (specularFactor 0) is the plain Lambert, mirror and glass split. */
+static void material_point(const pm_material *m, vec3 base, float metallic, float roughness, float transmission,
+                           const pm_scene *s, const float uv[2][2], const float footprint[2], vec3 *kd, vec3 *ks,
+                           float *ks_grazing, vec3 *kt, bool *glossy, pm_brdf *brdf) {
+    if (!m->layered) {
+        pm_material_split_at(base, metallic, roughness, transmission, 1.f, kd, ks, ks_grazing, kt);
+        *glossy = pm_glossy_at(metallic, roughness, transmission, 1.f);
+        if (*glossy) *brdf = pm_brdf_at(base, metallic, roughness, transmission);
+        return;
+    }
     const pm_material_layers *l = &m->layers;
-    *kd = *ks = v3s(0.f);
-    *glossy = true;
-    *brdf = pm_brdf_at(base, metallic, roughness, transmission);
     float specular = l->specular * layer_texel(s, uv, footprint, &l->specular_texture, false, true).x;
-    vec3 specular_color = v3_mul(l->specular_color, layer_texel(s, uv, footprint, &l->specular_color_texture, true, false));
+    pm_material_split_at(base, metallic, roughness, transmission, specular, kd, ks, ks_grazing, kt);
     vec3 sheen_color = v3_mul(l->sheen_color, layer_texel(s, uv, footprint, &l->sheen_color_texture, true, false));
-    float sheen_roughness = l->sheen_roughness * layer_texel(s, uv, footprint, &l->sheen_roughness_texture, false, true).x;
     float clearcoat = l->clearcoat * layer_texel(s, uv, footprint, &l->clearcoat_texture, false, false).x;
+    *glossy = pm_glossy_at(metallic, roughness, transmission, specular) || clearcoat > 0.f || v3_max_component(sheen_color) > 0.f;
+    if (!*glossy) return;
+    *kd = *ks = v3s(0.f);
+    *ks_grazing = 0.f;
+    *brdf = pm_brdf_at(base, metallic, roughness, transmission);
+    vec3 specular_color = v3_mul(l->specular_color, layer_texel(s, uv, footprint, &l->specular_color_texture, true, false));
+    float sheen_roughness = l->sheen_roughness * layer_texel(s, uv, footprint, &l->sheen_roughness_texture, false, true).x;
     float clearcoat_roughness =
         l->clearcoat_roughness * layer_texel(s, uv, footprint, &l->clearcoat_roughness_texture, false, false).y;
     pm_brdf_add_layers(brdf, specular, specular_color, sheen_color, sheen_roughness, clearcoat, clearcoat_roughness);
@@ -108,27 +122,32 @@ static void layer_point(const pm_material *m, vec3 *kd, vec3 *ks, bool *glossy, 
 
 /* Which lobes a material can have somewhere. Each lobe weight is linear in metallic, roughness
  * and transmission separately, so its largest value over the box of their possible values is
- * at one of the box's eight corners. */
+ * at one of the box's eight corners; the dielectric's specular weight (a factor times a
+ * texture's alpha) adds a fourth axis, and a coat or a sheen makes every point glossy. */
 static void material_lobes(const pm_scene *s, pm_material *m) {
-    float lo[3], hi[3];
+    float lo[4], hi[4];
     channel_range(s, m->metallic_roughness_texture, 2, &lo[0], &hi[0]);
     channel_range(s, m->metallic_roughness_texture, 1, &lo[1], &hi[1]);
     channel_range(s, m->transmission_texture, 0, &lo[2], &hi[2]);
-    const float factor[3] = {m->metallic, m->roughness, m->transmission};
+    lo[3] = hi[3] = 1.f;
+    if (m->layered) channel_range(s, m->layers.specular_texture.texture, 3, &lo[3], &hi[3]);
+    const pm_material_layers *l = &m->layers;
+    const float factor[4] = {m->metallic, m->roughness, m->transmission, m->layered ? l->specular : 1.f};
+    bool layer_lobe = m->layered && (l->clearcoat > 0.f || v3_max_component(l->sheen_color) > 0.f);
     m->may_diffuse = m->may_mirror = m->may_glass = m->may_glossy = false;
-    for (int corner = 0; corner < 8; corner++) {
-        float x[3];
-        for (int k = 0; k < 3; k++) x[k] = factor[k] * ((corner >> k & 1) ? hi[k] : lo[k]);
+    for (int corner = 0; corner < 16; corner++) {
+        float x[4];
+        for (int k = 0; k < 4; k++) x[k] = factor[k] * ((corner >> k & 1) ? hi[k] : lo[k]);
         vec3 kd, ks, kt;
-        pm_material_split_at(m->base_color, x[0], x[1], x[2], &kd, &ks, &kt);
-        m->may_diffuse |= !v3_is_black(kd);
-        m->may_mirror |= !v3_is_black(ks);
+        float grazing;
+        pm_material_split_at(m->base_color, x[0], x[1], x[2], x[3], &kd, &ks, &grazing, &kt);
+        bool glossy = layer_lobe || pm_glossy_at(x[0], x[1], x[2], x[3]);
+        m->may_glossy |= glossy;
+        if (!glossy) {
+            m->may_diffuse |= !v3_is_black(kd);
+            m->may_mirror |= !v3_is_black(ks);
+        }
         m->may_glass |= !v3_is_black(kt);
-        m->may_glossy |= pm_glossy_at(x[0], x[1]);
-    }
-    if (m->layered) { /* every point is the layered lobe (kt apart) */
-        m->may_glossy = true;
-        m->may_diffuse = m->may_mirror = false;
     }
     m->may_see_through = pm_material_can_be_transparent(s, m);
     m->uniform_split = m->base_color_texture < 0 && m->metallic_roughness_texture < 0 && m->transmission_texture < 0 &&
@@ -138,13 +157,12 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
         m->may_diffuse = m->may_mirror = m->may_glass = m->may_glossy = m->split_glossy = false;
         m->uniform_split = true;
         m->split_kd = m->split_ks = m->split_kt = v3s(0.f);
+        m->split_ks_grazing = 0.f;
+        m->split_glass_alpha = 0.f;
     } else if (m->uniform_split) {
-        pm_material_split_at(m->base_color, m->metallic, m->roughness, m->transmission, &m->split_kd, &m->split_ks,
-                             &m->split_kt);
-        m->split_glossy = pm_glossy_at(m->metallic, m->roughness);
-        if (m->split_glossy) m->split_brdf = pm_brdf_at(m->base_color, m->metallic, m->roughness, m->transmission);
-        if (m->layered) layer_point(m, &m->split_kd, &m->split_ks, &m->split_glossy, &m->split_brdf, m->base_color, m->metallic,
-                                    m->roughness, m->transmission, NULL, NULL, NULL);
+        material_point(m, m->base_color, m->metallic, m->roughness, m->transmission, NULL, NULL, NULL, &m->split_kd,
+                       &m->split_ks, &m->split_ks_grazing, &m->split_kt, &m->split_glossy, &m->split_brdf);
+        m->split_glass_alpha = pm_glass_alpha_at(m->roughness);
     }
 }
 
@@ -1055,8 +1073,9 @@ static inline void texture_slope_to_surface(const pm_uv_transform *t, float *x, 
  * is evaluated and sampled about ns with an albedo of at most 1 and is zero when wo or wi is
  * below ns: dropping directions only loses energy, so a normal map can darken but never
  * brighten a furnace (tests/test_normalmap.c). */
-static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_t *ix, const pm_placement *placement,
-                          const float b[3], const float uv[2][2], const float footprint[2], vec3 n, vec3 ng) {
+static vec3 normal_mapped(const pm_scene *s, int texture, int texcoord, const pm_uv_transform *transform, float scale,
+                          const uint32_t *ix, const pm_placement *placement, const float b[3], const float uv[2][2],
+                          const float footprint[2], vec3 n, vec3 ng) {
     vec3 t = v3s(0.f);
     float w = 0.f;
     for (int k = 0; k < 3; k++) {
@@ -1077,9 +1096,9 @@ static vec3 normal_mapped(const pm_scene *s, const pm_material *m, const uint32_
     } else {
         v3_basis(n, &t, &bt); /* no usable tangent here: any frame around n */
     }
-    vec3 c = texture_at(s, uv, footprint, m->normal_texture, m->normal_texcoord, &m->normal_transform, false);
-    float x = (2.f * c.x - 1.f) * m->normal_scale, y = (2.f * c.y - 1.f) * m->normal_scale, z = 2.f * c.z - 1.f;
-    if (m->normal_transform.transformed) texture_slope_to_surface(&m->normal_transform, &x, &y);
+    vec3 c = texture_at(s, uv, footprint, texture, texcoord, transform, false);
+    float x = (2.f * c.x - 1.f) * scale, y = (2.f * c.y - 1.f) * scale, z = 2.f * c.z - 1.f;
+    if (transform->transformed) texture_slope_to_surface(transform, &x, &y);
     vec3 p = v3_add(v3_add(v3_scale(t, x), v3_scale(bt, y)), v3_scale(n, z));
     float plen = v3_length(p);
     if (!(plen > 0.f) || !isfinite(plen)) return n;
@@ -1130,13 +1149,17 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
     }
     out->u = uv[0][0];
     out->v = uv[0][1];
+    vec3 interpolated = out->ns; /* the coat's normal map bends the interpolated normal, not the base's map */
     if (m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents) {
         const float b[3] = {b0, b1, b2};
-        out->ns = normal_mapped(s, m, ix, placement >= 0 ? &s->placements[placement] : NULL, b, uv, footprint, out->ns, out->ng);
+        out->ns = normal_mapped(s, m->normal_texture, m->normal_texcoord, &m->normal_transform, m->normal_scale, ix,
+                                placement >= 0 ? &s->placements[placement] : NULL, b, uv, footprint, out->ns, out->ng);
     }
     if (m->uniform_split) {
         out->kd = m->split_kd;
         out->ks = m->split_ks;
+        out->ks_grazing = m->split_ks_grazing;
+        out->glass_alpha = m->split_glass_alpha;
         out->kt = m->split_kt;
         out->glossy = m->split_glossy;
         if (out->glossy) out->brdf = m->split_brdf;
@@ -1154,12 +1177,18 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
         if (m->transmission_texture >= 0 && transmission > 0.f)
             transmission *= texture_at(s, uv, footprint, m->transmission_texture, m->transmission_texcoord, &m->transmission_transform,
                                        false).x;
-        pm_material_split_at(base, metallic, roughness, transmission, &out->kd, &out->ks, &out->kt);
-        out->glossy = pm_glossy_at(metallic, roughness);
-        if (out->glossy) out->brdf = pm_brdf_at(base, metallic, roughness, transmission);
-        if (m->layered)
-            layer_point(m, &out->kd, &out->ks, &out->glossy, &out->brdf, base, metallic, roughness, transmission, s, uv,
-                        footprint);
+        material_point(m, base, metallic, roughness, transmission, s, uv, footprint, &out->kd, &out->ks, &out->ks_grazing,
+                       &out->kt, &out->glossy, &out->brdf);
+        out->glass_alpha = pm_glass_alpha_at(roughness);
+    }
+    const pm_texture_ref *coat_map = &m->layers.clearcoat_normal_texture;
+    if (out->glossy && out->brdf.layered && out->brdf.clearcoat > 0.f && pm_material_coat_normal_mapped(m) &&
+        (uint32_t)coat_map->texture < s->texture_count && s->tangents) {
+        const float b[3] = {b0, b1, b2};
+        out->brdf.coat_n = normal_mapped(s, coat_map->texture, coat_map->texcoord, &coat_map->transform, m->layers.clearcoat_normal_scale,
+                                         ix, placement >= 0 ? &s->placements[placement] : NULL, b, uv, footprint, interpolated,
+                                         out->ng);
+        out->brdf.coat_normal = true;
     }
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
     out->thin = m->thin_walled;

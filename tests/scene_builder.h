@@ -46,9 +46,22 @@ static inline uint32_t sb_material(pm_scene *s, vec3 base, float metallic, float
     m.double_sided = double_sided;
     m.alpha = 1.f;
     m.alpha_cutoff = 0.5f;
+    /* KHR_materials_specular specularFactor 0: the builder's metallic 0 materials mean Lambert
+     * (and black lamps), as in the files that say so; sb_specular turns glTF's dielectric lobe on */
+    m.layered = true;
+    m.layers.specular = 0.f;
+    m.layers.specular_color = v3s(1.f);
+    m.layers.sheen_roughness = 0.f;
+    m.layers.specular_texture.texture = m.layers.specular_color_texture.texture = m.layers.sheen_color_texture.texture = -1;
+    m.layers.sheen_roughness_texture.texture = m.layers.clearcoat_texture.texture = -1;
+    m.layers.clearcoat_roughness_texture.texture = m.layers.clearcoat_normal_texture.texture = -1;
+    m.layers.clearcoat_normal_scale = 1.f;
     s->materials[s->material_count] = m;
     return s->material_count++;
 }
+
+/* glTF's dielectric specular lobe on material m: specularFactor `factor` (1 is glTF's default). */
+static inline void sb_specular(pm_scene *s, uint32_t m, float factor) { s->materials[m].layers.specular = factor; }
 
 static inline uint32_t sb_lambert(pm_scene *s, vec3 albedo) { return sb_material(s, albedo, 0, 1, 0, v3s(0), false); }
 

@@ -4,6 +4,7 @@
 
 #include "brdf.h"
 #include "rng.h"
+#include "scatter.h"
 #include "scene.h"
 #include "testing.h"
 
@@ -152,6 +153,35 @@ static void white_furnace(void) {
             }
 }
 
+/* The sharp end, which uniform integration cannot resolve: the sampler's albedo at roughness 0
+ * (alpha PM_GLOSSY_MIN_ALPHA), 0.05 and 0.1 stays at most 1 for white dielectric, mixed and metal
+ * lobes; a smooth black dielectric reflects Schlick's curve 0.04 + 0.96 (1 - cos)^5 (its lobe is
+ * nearly a mirror, F taken at v.h ~ cos_o, and smooth GGX loses little). */
+static void sharp_furnace(void) {
+    const float roughness[] = {0.f, 0.05f, 0.1f}, metals[] = {0.f, 0.5f, 1.f}, cosines[] = {1.f, 0.7f, 0.3f, 0.1f};
+    vec3 n = v3(0, 0, 1);
+    printf("sharp lobes, white base (sampler albedo):");
+    for (size_t r = 0; r < 3; r++)
+        for (size_t m = 0; m < 3; m++)
+            for (size_t k = 0; k < 4; k++) {
+                pm_brdf b = make_brdf(v3s(1.f), metals[m], roughness[r]);
+                double max_w;
+                estimate s = albedo_sampled(&b, n, direction_at(cosines[k], 0.4f), 100000, &max_w);
+                if (k == 0 || k == 3) printf(" r%.2f m%.1f c%.1f %.4f", roughness[r], metals[m], cosines[k], s.mean[0]);
+                CHECK(s.mean[0] <= 1.0 + 4.0 * s.stderr_max + 1e-3, "sharp furnace: albedo %g <= 1 (roughness %g metallic %g cos %g)",
+                      s.mean[0], roughness[r], metals[m], cosines[k]);
+            }
+    printf("\nsmooth black dielectric (sampler albedo / Schlick):");
+    for (size_t k = 0; k < 4; k++) {
+        pm_brdf b = make_brdf(v3s(0.f), 0.f, 0.f);
+        double max_w, c = cosines[k], want = 0.04 + 0.96 * pow(1.0 - c, 5.0);
+        estimate s = albedo_sampled(&b, n, direction_at(cosines[k], 0.4f), 100000, &max_w);
+        printf(" cos %.1f %.4f/%.4f", c, s.mean[0], want);
+        CHECK_NEAR(s.mean[0], want, 0.02, 4.0 * s.stderr_max, "a smooth black dielectric reflects Schlick's curve");
+    }
+    printf("\n");
+}
+
 static void reciprocity(void) {
     pm_rng rng = pm_rng_for(3, 4, 5);
     vec3 n = v3_normalize(v3(0.2f, -0.4f, 1.f));
@@ -243,9 +273,37 @@ static void material_mapping(void) {
     CHECK_NEAR(b.weight, 1.f - 0.4f * 0.5f, 1e-6, 0, "lobe weight = 1 - glass share");
     m.metallic = 0.f;
     m.transmission = 0.f;
-    CHECK(!pm_material_glossy(&m), "metallic 0 stays Lambert");
+    CHECK(pm_material_glossy(&m), "metallic 0: glTF's dielectric lobe over the diffuse base");
+    m.roughness = 0.f;
+    CHECK(pm_material_glossy(&m), "a smooth dielectric too (its lobe at the smallest alpha)");
+    m.transmission = 1.f;
+    CHECK(!pm_material_glossy(&m), "clear glass: no opaque share, Fresnel is the glass's");
+    m.transmission = 0.f;
+    m.layered = true; /* KHR_materials_specular specularFactor 0: the file says Lambert */
+    m.layers.specular = 0.f;
+    m.layers.specular_color = v3s(1.f);
+    CHECK(!pm_material_glossy(&m), "specularFactor 0: Lambert");
     pm_material_split(&m, m.base_color, &kd, &ks, &kt);
     CHECK(kd.x == 0.8f && v3_is_black(ks), "Lambert split unchanged");
+    m.metallic = 1.f;
+    CHECK(!pm_material_glossy(&m), "specularFactor 0 does not touch the metal: roughness 0 is the mirror");
+    /* the smooth metal's mirror follows Schlick from the base colour to 1 at grazing */
+    float grazing;
+    pm_material_split_at(m.base_color, 1.f, 0.f, 0.f, 1.f, &kd, &ks, &grazing, &kt);
+    pm_surface sf;
+    memset(&sf, 0, sizeof sf);
+    sf.ks = ks;
+    sf.ks_grazing = grazing;
+    const float cosines[] = {1.f, 0.5f, 0.2f, 0.f};
+    for (size_t k = 0; k < 4; k++) {
+        double c = cosines[k], w = pow(1.0 - c, 5.0);
+        vec3 r = pm_mirror_reflectance(&sf, cosines[k]);
+        CHECK_NEAR(r.x, 0.8 + 0.2 * w, 1e-6, 1e-6, "mirror Schlick red");
+        CHECK_NEAR(r.z, 0.4 + 0.6 * w, 1e-6, 1e-6, "mirror Schlick blue");
+    }
+    sf.ks = v3s(1.f);
+    sf.ks_grazing = 1.f;
+    CHECK(pm_mirror_reflectance(&sf, 0.3f).y == 1.f, "a white mirror reflects 1 at every angle, exactly");
 }
 
 int main(void) {
@@ -256,5 +314,6 @@ int main(void) {
     sampler_matches_pdf(0.4f, 0.5f, 0.5f);
     sampler_matches_pdf(0.1f, 1.0f, 0.95f);
     white_furnace();
+    sharp_furnace();
     return pm_test_done("test_brdf");
 }

@@ -59,7 +59,8 @@ int main(void) {
     l->clearcoat = 1.f;
     l->clearcoat_roughness = 0.4f;
     pm_texture_ref *refs[] = {&l->specular_texture, &l->specular_color_texture, &l->sheen_color_texture,
-                              &l->sheen_roughness_texture, &l->clearcoat_texture, &l->clearcoat_roughness_texture};
+                              &l->sheen_roughness_texture, &l->clearcoat_texture, &l->clearcoat_roughness_texture,
+                              &l->clearcoat_normal_texture};
     for (size_t k = 0; k < sizeof refs / sizeof *refs; k++) refs[k]->texture = -1;
     sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), m, true);
     pm_accel *a = sb_finish(&s);

@@ -157,6 +157,33 @@ static void spec_formulas(void) {
     }
 }
 
+/* The plain lobe (no extension) against glTF's Appendix B written out in double: the specular
+ * terms exactly the specification's (metal: Schlick from the base colour; dielectric: F0 0.04
+ * from ior 1.5), the dielectric's diffuse base under Fresnel at the two macro angles (brdf.h). */
+static void gltf_formulas(void) {
+    const float metals[] = {0.f, 0.3f, 1.f}, roughs[] = {0.f, 0.3f, 0.8f};
+    const float cos_o[] = {0.9f, 0.5f, 0.15f}, cos_i[] = {0.8f, 0.3f, 0.6f};
+    const double base[3] = {0.02, 0.5, 0.9};
+    for (int a = 0; a < 3; a++)
+        for (int r = 0; r < 3; r++)
+            for (int k = 0; k < 3; k++) {
+                pm_brdf b = pm_brdf_at(v3(0.02f, 0.5f, 0.9f), metals[a], roughs[r], 0.f);
+                vec3 wo = direction_at(cos_o[k], 0.f), wi = direction_at(cos_i[k], 2.5f);
+                vec3 f = pm_brdf_eval(&b, v3(0, 0, 1), wo, wi);
+                double co = cos_o[k], ci = cos_i[k], m = metals[a];
+                double alpha = fmax(1e-3, (double)roughs[r] * roughs[r]);
+                double h[3] = {wo.x + wi.x, wo.y + wi.y, wo.z + wi.z}, hl = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+                double ch = h[2] / hl, vh = (wo.x * h[0] + wo.y * h[1] + wo.z * h[2]) / hl;
+                for (int c = 0; c < 3; c++) {
+                    double metal_brdf = schlick(base[c], 1.0, vh) * ggx_lobe(alpha, co, ci, ch);
+                    double dielectric_brdf = schlick(0.04, 1.0, vh) * ggx_lobe(alpha, co, ci, ch) +
+                                             (1 - schlick(0.04, 1.0, co)) * (1 - schlick(0.04, 1.0, ci)) * base[c] / PI_D;
+                    double want = m * metal_brdf + (1 - m) * dielectric_brdf;
+                    CHECK_NEAR(v3_get(f, c), want, 2e-4, 1e-7, "plain f = glTF's mix(dielectric, metal, metallic)");
+                }
+            }
+}
+
 /* Furnace, pdf, sampler and reciprocity over many materials and angles. */
 static void furnace(void) {
     const float metals[] = {0.f, 0.5f, 1.f}, roughs[] = {0.05f, 0.4f, 1.f};
@@ -224,7 +251,7 @@ static void furnace(void) {
     /* a tight furnace at a few worst-looking corners (grazing, white everything) with many samples */
     const float tight_cos[] = {1.f, 0.3f, 0.05f};
     for (int k = 0; k < 3; k++) {
-        pm_brdf br = layered(v3s(1.f), 0.f, 1.f, 1.f, v3s(1.f), v3s(1.f), 0.3f, 1.f, 0.5f);
+        pm_brdf br = layered(v3s(1.f), 0.f, 1.f, 0.f, v3s(1.f), v3s(1.f), 0.3f, 1.f, 0.5f); /* Lambert: specular 0 */
         estimate s = albedo_sampled(&br, direction_at(tight_cos[k], 0.f), 200000, &mismatches, &kept);
         printf("  white Lambert + sheen 0.3 + coat 0.5, cos %.2f: albedo %.4f +- %.4f\n", tight_cos[k], s.mean[0], s.stderr_max);
         CHECK(s.mean[0] <= 1.0 + 3.0 * s.stderr_max, "white layered furnace %g", s.mean[0]);
@@ -253,13 +280,18 @@ static void defaults(void) {
         differ += ka != kb || (ka && (memcmp(&da, &db, sizeof da) || memcmp(&ga, &gb, sizeof ga) || pa != pb));
     }
     CHECK(differ == 0, "specular 1 colour 1, sheen 0, clearcoat 0: the plain lobe exactly (%d differences)", differ);
-    /* metallic 0 with neutral layers: Lambert base/pi, sampled by the cosine alone */
-    pm_brdf lam = layered(v3(0.8f, 0.5f, 0.2f), 0.f, 0.7f, 1.f, v3s(1.f), v3s(0.f), 0.5f, 0.f, 0.f);
+    /* metallic 0 with neutral layers: the plain dielectric lobe, exactly */
+    pm_brdf diel = layered(v3(0.8f, 0.5f, 0.2f), 0.f, 0.7f, 1.f, v3s(1.f), v3s(0.f), 0.5f, 0.f, 0.f);
+    pm_brdf diel_plain = pm_brdf_at(v3(0.8f, 0.5f, 0.2f), 0.f, 0.7f, 0.f);
     vec3 wo = direction_at(0.3f, 0.f), wi = direction_at(0.8f, 1.f);
+    vec3 fd = pm_brdf_eval(&diel, v3(0, 0, 1), wo, wi), fp = pm_brdf_eval(&diel_plain, v3(0, 0, 1), wo, wi);
+    CHECK(memcmp(&fd, &fp, sizeof fd) == 0, "metallic 0, neutral layers: the plain dielectric lobe");
+    /* metallic 0 with specularFactor 0: Lambert base/pi, sampled by the cosine alone */
+    pm_brdf lam = layered(v3(0.8f, 0.5f, 0.2f), 0.f, 0.7f, 0.f, v3s(1.f), v3s(0.f), 0.5f, 0.f, 0.f);
     vec3 f = pm_brdf_eval(&lam, v3(0, 0, 1), wo, wi);
-    CHECK_NEAR(f.x, 0.8 / PI_D, 1e-6, 0, "metallic 0 layered: Lambert");
-    CHECK_NEAR(f.z, 0.2 / PI_D, 1e-6, 0, "metallic 0 layered: Lambert");
-    CHECK_NEAR(pm_brdf_pdf(&lam, v3(0, 0, 1), wo, wi), 0.8 / PI_D, 1e-6, 0, "metallic 0 layered: cosine pdf");
+    CHECK_NEAR(f.x, 0.8 / PI_D, 1e-6, 0, "metallic 0 specular 0: Lambert");
+    CHECK_NEAR(f.z, 0.2 / PI_D, 1e-6, 0, "metallic 0 specular 0: Lambert");
+    CHECK_NEAR(pm_brdf_pdf(&lam, v3(0, 0, 1), wo, wi), 0.8 / PI_D, 1e-6, 0, "metallic 0 specular 0: cosine pdf");
     /* coat factor 0 and sheen colour 0 with other settings: the lobe without those layers */
     pm_brdf spec_only = layered(v3(0.3f, 0.6f, 0.9f), 0.4f, 0.6f, 0.5f, v3(1.f, 2.f, 3.f), v3s(0.f), 0.5f, 0.f, 0.f);
     pm_brdf spec_coat0 = layered(v3(0.3f, 0.6f, 0.9f), 0.4f, 0.6f, 0.5f, v3(1.f, 2.f, 3.f), v3s(0.f), 0.9f, 0.f, 0.7f);
@@ -274,13 +306,57 @@ static void defaults(void) {
     pm_brdf coated = layered(v3s(0.5f), 0.f, 0.1f, 1.f, v3s(1.f), v3s(0.f), 0.5f, 1.f, 0.f);
     CHECK(pm_brdf_sharpest_alpha(&coated) == PM_GLOSSY_MIN_ALPHA, "a smooth coat is sharp");
     coated.clearcoat = 0.f;
-    CHECK(pm_brdf_sharpest_alpha(&coated) == 1.f, "a Lambert base is not, whatever its roughness");
+    CHECK_NEAR(pm_brdf_sharpest_alpha(&coated), 0.01, 1e-6, 0, "without the coat: the dielectric lobe's alpha");
+    coated.specular = 0.f;
+    CHECK(pm_brdf_sharpest_alpha(&coated) == 1.f, "a Lambert base (specular 0) is not, whatever its roughness");
     CHECK_NEAR(pm_brdf_sharpest_alpha(&metal), 0.36, 1e-6, 0, "a plain lobe: its alpha");
+}
+
+/* The coat's own normal (clearcoatNormalTexture): its highlight turns with it, the base's stays
+ * about n; the whole stays reciprocal, its sampler agrees with pdf() and eval(), under albedo 1. */
+static void coat_normal(void) {
+    vec3 n = v3(0, 0, 1), cn = v3_normalize(v3(0.3f, 0.f, 1.f));
+    pm_brdf b = layered(v3s(0.9f), 1.f, 0.2f, 1.f, v3s(1.f), v3s(0.f), 0.5f, 1.f, 0.1f), tilted = b;
+    tilted.coat_normal = true;
+    tilted.coat_n = cn;
+    vec3 wo = direction_at(0.8f, 0.f);
+    vec3 about_n = v3_reflect(v3_neg(wo), n), about_cn = v3_reflect(v3_neg(wo), cn);
+    float plain_n = pm_brdf_eval(&b, n, wo, about_n).y, plain_cn = pm_brdf_eval(&b, n, wo, about_cn).y;
+    float tilted_n = pm_brdf_eval(&tilted, n, wo, about_n).y, tilted_cn = pm_brdf_eval(&tilted, n, wo, about_cn).y;
+    printf("coat normal tilted 17 deg: f at the mirror direction about n %.3f -> %.3f, about the coat's normal %.3f -> %.3f\n",
+           plain_n, tilted_n, plain_cn, tilted_cn);
+    CHECK(tilted_cn > 10.f * plain_cn, "the coat's highlight moves to its own normal's mirror direction");
+    CHECK(tilted_n < plain_n && tilted_n > 0.4f * plain_n, "the base's highlight stays about n (the coat's left it)");
+    /* the base's highlight alone (no coat): the same with or without the coat's normal */
+    pm_brdf bare = b, bare_tilted = tilted;
+    bare.clearcoat = bare_tilted.clearcoat = 0.f;
+    vec3 fa = pm_brdf_eval(&bare, n, wo, about_n), fb = pm_brdf_eval(&bare_tilted, n, wo, about_n);
+    CHECK(memcmp(&fa, &fb, sizeof fa) == 0, "without a coat its normal changes nothing");
+    /* reciprocity, sampler against pdf and eval, furnace, for a rough tilted coat */
+    pm_brdf rough = layered(v3s(1.f), 0.f, 0.6f, 1.f, v3s(1.f), v3s(0.f), 0.5f, 1.f, 0.5f);
+    rough.coat_normal = true;
+    rough.coat_n = cn;
+    const float cosines[] = {1.f, 0.6f, 0.25f};
+    for (int k = 0; k < 3; k++) {
+        vec3 w = direction_at(cosines[k], 2.f), wi = direction_at(0.45f, 0.7f);
+        vec3 f1 = pm_brdf_eval(&rough, n, w, wi), f2 = pm_brdf_eval(&rough, n, wi, w);
+        CHECK_NEAR(f1.y, f2.y, 1e-4, 1e-7, "a tilted coat stays reciprocal");
+        int mismatches = 0;
+        double kept, pdf_integral;
+        estimate s = albedo_sampled(&rough, w, 40000, &mismatches, &kept);
+        estimate u = albedo_uniform(&rough, w, 200, &pdf_integral);
+        CHECK(mismatches == 0, "tilted coat: sampled pdf and f are pdf() and eval() (%d differ)", mismatches);
+        CHECK_NEAR(pdf_integral, kept, 0, 0.02, "tilted coat: the pdf integrates to the share of samples kept");
+        CHECK_NEAR(s.mean[0], u.mean[0], 0, 4.0 * (s.stderr_max + u.stderr_max) + 3e-3, "tilted coat: sampler = uniform integration");
+        CHECK(s.mean[0] <= 1.0 + 4.0 * s.stderr_max, "tilted coat: albedo %g <= 1", s.mean[0]);
+    }
 }
 
 int main(void) {
     sheen_table();
     spec_formulas();
+    gltf_formulas();
+    coat_normal();
     defaults();
     furnace();
     return pm_test_done("test_layers");

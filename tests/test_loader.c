@@ -1159,7 +1159,7 @@ static void test_texcoord_sets(void) {
         append_strip_images(&body, strip, width, 1);
         text_append(&body, "\"materials\":[{\"pbrMetallicRoughness\":{\"metallicFactor\":0,"
                            "\"baseColorTexture\":{\"index\":0,\"texCoord\":%d}},"
-                           "\"emissiveFactor\":[1,1,1],\"emissiveTexture\":{\"index\":0,\"texCoord\":%d}}],"
+                           "\"emissiveFactor\":[1,1,1],\"emissiveTexture\":{\"index\":0,\"texCoord\":%d},\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}}],"
                            "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[%s]}]",
                     set, set, prim.data);
         write_blob_model("texcoord1.gltf", b, body.data);
@@ -1216,12 +1216,12 @@ static void test_texture_transform(void) {
         if (variant == 0)
             text_append(&body, "\"extensionsUsed\":[\"KHR_texture_transform\"],\"materials\":[{\"pbrMetallicRoughness\":{"
                                "\"metallicFactor\":0,\"baseColorTexture\":{\"index\":0,\"extensions\":{\"KHR_texture_transform\":"
-                               "{\"offset\":[0.3,-0.2],\"rotation\":0.7,\"scale\":[1.5,0.8],\"texCoord\":1}}}}},");
+                               "{\"offset\":[0.3,-0.2],\"rotation\":0.7,\"scale\":[1.5,0.8],\"texCoord\":1}}}},\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}},");
         else
-            text_append(&body, "\"materials\":[{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"baseColorTexture\":{\"index\":0}}},");
+            text_append(&body, "\"materials\":[{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"baseColorTexture\":{\"index\":0}},\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}},");
         /* material 1: a quarter turn and offset (0, 1) of a red|blue strip, clamped */
         text_append(&body, "{\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"baseColorTexture\":{\"index\":1,\"extensions\":"
-                           "{\"KHR_texture_transform\":{\"offset\":[0,1],\"rotation\":1.5707963268}}}}}],"
+                           "{\"KHR_texture_transform\":{\"offset\":[0,1],\"rotation\":1.5707963268}}}},\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}}],"
                            "\"samplers\":[{\"wrapS\":33071,\"wrapT\":33071}],");
         text_append(&body, "\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[%s]}]", prim.data);
         write_blob_model(variant ? "plain_moved.gltf" : "transformed.gltf", b, body.data);
@@ -1288,12 +1288,13 @@ static void test_data_textures(void) {
     text body = {0}, prims = {0};
     quad_primitive(b, &prims, uv, NULL, 0); /* accessors 0-2, shared by the three meshes */
     append_strip_images(&body, strips, widths, 3);
-    text_append(&body, "\"extensionsUsed\":[\"KHR_materials_transmission\"],\"materials\":["
+    text_append(&body, "\"extensionsUsed\":[\"KHR_materials_transmission\",\"KHR_materials_specular\"],\"materials\":["
                        "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.8,0.8,1],\"roughnessFactor\":0.5,"
-                       "\"metallicRoughnessTexture\":{\"index\":0}}},"
+                       "\"metallicRoughnessTexture\":{\"index\":0}},\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}},"
                        "{\"pbrMetallicRoughness\":{\"metallicFactor\":0},\"extensions\":{\"KHR_materials_transmission\":"
-                       "{\"transmissionFactor\":1,\"transmissionTexture\":{\"index\":1}}}},"
-                       "{\"pbrMetallicRoughness\":{\"metallicRoughnessTexture\":{\"index\":2}}}],"
+                       "{\"transmissionFactor\":1,\"transmissionTexture\":{\"index\":1}},"
+                       "\"KHR_materials_specular\":{\"specularFactor\":0}}},"
+                       "{\"pbrMetallicRoughness\":{\"metallicRoughnessTexture\":{\"index\":2}},\"extensions\":{\"KHR_materials_specular\":{\"specularFactor\":0}}}],"
                        "\"scenes\":[{\"nodes\":[0,1,2]}],\"nodes\":[{\"mesh\":0},{\"mesh\":1,\"translation\":[2,0,0]},"
                        "{\"mesh\":2,\"translation\":[4,0,0]}],\"meshes\":[{\"primitives\":[%s]},", prims.data);
     /* meshes 1 and 2: the same quad with materials 1 and 2 */
@@ -1376,8 +1377,8 @@ static void test_layer_extensions(void) {
     pm_scene s;
     pm_load_report r;
     if (!load_ok("layers.gltf", &s, &r)) return;
-    CHECK(r.ignored_inputs == 1, "ignored_inputs %u: clearcoatNormalTexture alone", r.ignored_inputs);
-    CHECK(r.warnings == 1, "warnings %u: the ignored clearcoatNormalTexture alone, no unsupported extension", r.warnings);
+    CHECK(r.ignored_inputs == 0, "ignored_inputs %u: clearcoatNormalTexture is read", r.ignored_inputs);
+    CHECK(r.warnings == 0, "warnings %u: no unsupported extension", r.warnings);
     if (s.triangle_count == 4 && s.material_count == 2) {
         const pm_material *m = s.materials;
         CHECK(m[0].layered && m[1].layered, "both materials layered");
@@ -1403,6 +1404,12 @@ static void test_layer_extensions(void) {
         CHECK_VEC(sf.brdf.sheen_color, s128, 0.5, 0, 1e-5, "sheen colour x sRGB texel");
         CHECK_NEAR(sf.brdf.sheen_roughness, 0.8 * a64, 1e-5, 0, "sheen roughness x A");
         CHECK_NEAR(sf.brdf.specular, 0.5 * a64, 1e-5, 0, "specular x A");
+        /* the coat's normal map (texel 0: x 0.0 -> -1, y 1.0 -> 1, z 0 -> -1, pulled back to the face)
+         * bends the coat's normal, not the base's */
+        CHECK(m[0].layers.clearcoat_normal_texture.texture == 0 && m[0].layers.clearcoat_normal_scale == 1.f, "coat normal texture read");
+        CHECK(sf.brdf.coat_normal && v3_dot(sf.brdf.coat_n, sf.ns) < 0.9f, "the coat's own normal is bent (cos %g)",
+              v3_dot(sf.brdf.coat_n, sf.ns));
+        CHECK(v3_dot(sf.ns, sf.ng) > 0.9999f, "the base's shading normal is not");
         CHECK_VEC(sf.brdf.specular_f0, 0.04 * 2 * s128, 0.04, 0, 1e-6, "F0 = 0.04 x specular colour x sRGB texel");
         quad_surface(&s, 0.9f, 0.1f, &sf); /* texel 1: R 255, G 0, B 255, A 255 */
         CHECK_NEAR(sf.brdf.clearcoat, 1, 1e-6, 0, "clearcoat at R 255");
@@ -1414,7 +1421,9 @@ static void test_layer_extensions(void) {
         v3_basis(n, &t, &bt);
         vec3 wo = v3_normalize(v3_add(n, v3_scale(t, 0.3f))), wi = v3_normalize(v3_add(n, v3_add(v3_scale(t, -0.5f), v3_scale(bt, 0.2f))));
         vec3 f = sf.glossy ? pm_brdf_eval(&sf.brdf, n, wo, wi) : v3s(-1.f);
-        CHECK_VEC(f, 0.4 / PM_PI, 0.4 / PM_PI, 0.4 / PM_PI, 1e-6, "sheen colour 0 on metallic 0: Lambert base / pi");
+        pm_brdf plain = pm_brdf_at(v3s(0.4f), 0.f, 1.f, 0.f); /* glTF's dielectric: roughness 1 by default */
+        vec3 fp = pm_brdf_eval(&plain, n, wo, wi);
+        CHECK_VEC(f, fp.x, fp.y, fp.z, 1e-6, "sheen colour 0 on metallic 0: the plain dielectric lobe");
         pm_scene_finalize(&s, false, NULL);
         CHECK(m[0].may_glossy && !m[0].may_diffuse && !m[0].may_mirror && !m[0].uniform_split, "material 0 lobes: glossy, textured");
         CHECK(m[1].may_glossy && !m[1].may_diffuse && m[1].uniform_split, "material 1 lobes: glossy, uniform");
@@ -2222,12 +2231,58 @@ static void test_glb_container(void) {
     check_rejected("glb_buffer1.glb", "buffer 1 has no uri: only buffer 0 can be the GLB's BIN chunk");
 }
 
+/* KHR_materials_variants: --variant NAME gives each primitive the material its mappings name for
+ * it; without one the file's default material; a name the file does not list fails in one line
+ * naming the ones it does. */
+static void test_variants(void) {
+    static const char positions_base64[] = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"; /* (0,0,0) (1,0,0) (0,1,0) */
+    char json[4096];
+    snprintf(json, sizeof json,
+             "{\"asset\":{\"version\":\"2.0\"},\"extensionsUsed\":[\"KHR_materials_variants\"],"
+             "\"extensions\":{\"KHR_materials_variants\":{\"variants\":[{\"name\":\"green\"},{\"name\":\"blue\"},{\"name\":\"plain\"}]}},"
+             "\"buffers\":[{\"byteLength\":36,\"uri\":\"data:application/octet-stream;base64,%s\"}],"
+             "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],"
+             "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]}],"
+             "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,0,0,1]}},"
+             "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0,1,0,1]}},{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0,0,1,1]}}],"
+             "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"material\":0,\"extensions\":"
+             "{\"KHR_materials_variants\":{\"mappings\":[{\"material\":1,\"variants\":[0]},{\"material\":2,\"variants\":[1]}]}}}]}],"
+             "\"nodes\":[{\"mesh\":0}],\"scenes\":[{\"nodes\":[0]}],\"scene\":0}",
+             positions_base64);
+    const char *names[] = {NULL, "green", "blue", "plain"};
+    const float want[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 0}}; /* plain: no mapping, the default */
+    for (int k = 0; k < 4; k++) {
+        pm_load_options options = {.variant = names[k]};
+        pm_scene s;
+        pm_load_report r;
+        char err[512];
+        bool ok = pm_load_gltf_memory_with(json, strlen(json), "variants.gltf", &options, true, &s, &r, err, sizeof err);
+        CHECK(ok, "variant %s loads: %s", names[k] ? names[k] : "(none)", err);
+        if (!ok) continue;
+        CHECK(r.warnings == 0, "variant %s: KHR_materials_variants is no unsupported extension (%u warnings)",
+              names[k] ? names[k] : "(none)", r.warnings);
+        vec3 b = s.materials[s.triangle_material[0]].base_color;
+        CHECK(b.x == want[k][0] && b.y == want[k][1] && b.z == want[k][2], "variant %s: base colour %g %g %g",
+              names[k] ? names[k] : "(none)", b.x, b.y, b.z);
+        pm_scene_free(&s);
+    }
+    pm_load_options options = {.variant = "red"};
+    pm_scene s;
+    pm_load_report r;
+    char err[512] = "";
+    bool ok = pm_load_gltf_memory_with(json, strlen(json), "variants.gltf", &options, true, &s, &r, err, sizeof err);
+    CHECK(!ok && strstr(err, "no material variant red (") && strstr(err, "green") && strstr(err, "plain"),
+          "an unknown variant fails, naming the file's: %s", err);
+    if (ok) pm_scene_free(&s);
+}
+
 int main(void) {
     snprintf(test_dir, sizeof test_dir, "/tmp/pmview-test-loader-XXXXXX");
     if (!mkdtemp(test_dir)) {
         perror("mkdtemp");
         return 1;
     }
+    test_variants();
     test_transforms();
     test_mirrored_winding();
     test_nonuniform_scale_normals();

@@ -31,7 +31,7 @@ static bool load_pane_material(const char *volume, pm_scene *s) {
              "\"buffers\":[{\"byteLength\":36,\"uri\":\"data:application/octet-stream;base64,%s\"}],"
              "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],"
              "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]}],"
-             "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,0.75,0.5,1],\"metallicFactor\":0},"
+             "\"materials\":[{\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,0.75,0.5,1],\"metallicFactor\":0,\"roughnessFactor\":0},"
              "\"extensions\":{\"KHR_materials_transmission\":{\"transmissionFactor\":1}%s}}],"
              "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"material\":0}]}],"
              "\"nodes\":[{\"mesh\":0}],\"scenes\":[{\"nodes\":[0]}],\"scene\":0}",
@@ -71,11 +71,15 @@ static void loader_choice(void) {
     pm_scene_free(&s);
 }
 
+/* The roughness window_scene gives its panes (the loaded ones say roughnessFactor 0). */
+static float pane_roughness = 0.f;
+
 /* A pane material as the loader made it (textures none), given to a builder scene. */
 static uint32_t add_loaded(pm_scene *s, const pm_material *m) {
     uint32_t i = sb_material(s, v3s(0), 0, 1, 0, v3s(0), false);
     pm_material copy = *m;
     copy.used = false;
+    copy.roughness = pane_roughness;
     s->materials[i] = copy;
     return i;
 }
@@ -178,6 +182,41 @@ static void window(void) {
                    edge_column(thin, 0), edge_column(slab, 0), shift / pixel);
         }
     }
+}
+
+/* How many columns of the rows' mean profile lie between 10% and 90% of the plateau: the width of
+ * the edge's blur, in pixels. */
+static int edge_blur(const float *img) {
+    double profile[WIN_W] = {0}, plateau = 0;
+    for (int y = 0; y < WIN_H; y++)
+        for (int x = 0; x < WIN_W; x++) profile[x] += img[3 * (y * WIN_W + x)] / WIN_H;
+    for (int x = 0; x < 8; x++) plateau += profile[x] / 8;
+    int n = 0;
+    for (int x = 0; x < WIN_W; x++) n += profile[x] > 0.1 * plateau && profile[x] < 0.9 * plateau;
+    return n;
+}
+
+/* A rough thin pane (GGX microfacet transmission, glTF's thin-walled BTDF) blurs the emitter's edge
+ * behind it, more as its roughness grows, and keeps about the light a smooth pane lets through
+ * (the blur moves it; the microfacets' shadowing loses a little). */
+static void rough_window(void) {
+    static float img[3][3 * WIN_W * WIN_H];
+    const float roughness[3] = {0.f, 0.3f, 0.6f};
+    int blur[3];
+    double width[3];
+    for (int k = 0; k < 3; k++) {
+        pane_roughness = roughness[k];
+        window_image(PANE_THIN, 0.f, img[k]);
+        blur[k] = edge_blur(img[k]);
+        width[k] = edge_column(img[k], 0);
+    }
+    pane_roughness = 0.f;
+    printf("rough thin pane: edge blur %d / %d / %d px, lit width %.2f / %.2f / %.2f px at roughness 0 / 0.3 / 0.6\n", blur[0],
+           blur[1], blur[2], width[0], width[1], width[2]);
+    CHECK(blur[0] <= 2, "a smooth pane leaves the edge sharp (%d px)", blur[0]);
+    CHECK(blur[1] >= blur[0] + 2, "roughness 0.3 blurs the edge (%d px against %d)", blur[1], blur[0]);
+    CHECK(blur[2] >= blur[1] + 4, "roughness 0.6 blurs it more (%d px against %d)", blur[2], blur[1]);
+    CHECK_NEAR(width[1], width[0], 0.05, 0, "roughness 0.3 moves the light, keeps about all of it");
 }
 
 /* A point light of intensity 10 (or a lamp of radiance 1 over [-20, 20]^2) at height 3 over a
@@ -433,6 +472,7 @@ static void shadow_photons(void) {
 
 int main(void) {
     loader_choice();
+    rough_window();
     window();
     photons();
     direct_across();

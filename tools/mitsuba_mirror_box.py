@@ -5,11 +5,11 @@
     python3 tools/mitsuba_mirror_box.py --out tests/ref/mirror_box.txt
 
 The box is [-1, 1]^3; its six walls face inward, emit radiance LE (one-sided, toward the inside)
-and are perfect mirrors: glTF metallic 1, roughness 0, baseColor 0.99. pmview makes such a
-material a mirror of constant reflectance baseColor (no Fresnel falloff with angle: the Schlick
-term F0 + (1 - F0)(1 - cos)^5 belongs to its glossy GGX lobe only, see tools/mitsuba_reference.py),
-and Mitsuba's ideal conductor (material 'none') scaled by specular_reflectance is the same
-mirror. A ray from the camera then bounces forever inside, every wall adding LE times the
+and are perfect mirrors of constant reflectance 0.99: Mitsuba's ideal conductor (material
+'none') scaled by specular_reflectance. pmview's glTF mirror (metallic 1, roughness 0, baseColor
+0.99) follows Schlick's curve instead; tests/test_mirror_box.c sums the same chains in double,
+checks that sum at a constant 0.99 against this file, and takes it with Schlick's curve as the
+reference pmview must meet. A ray from the camera then bounces forever inside, every wall adding LE times the
 reflectance so far: L = LE (1 + R + R^2 + ...) = LE / (1 - R) = 100 LE in every direction.
 
 Mitsuba's path integrator is run to max_depth MAX_DEPTH with Russian roulette switched off
