@@ -32,7 +32,8 @@ def furnace(rho, le):
     # a wall that emits and reflects at once: make_scenes' materials are one or the other
     material = doc["materials"][0]
     material["emissiveFactor"] = [1.0, 1.0, 1.0]
-    material["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": le}}
+    # (beside the specularFactor 0 that keeps the diffuse wall Lambert, as the analytic answer assumes)
+    material.setdefault("extensions", {})["KHR_materials_emissive_strength"] = {"emissiveStrength": le}
     used = set(doc.get("extensionsUsed", []))
     used.add("KHR_materials_emissive_strength")
     doc["extensionsUsed"] = sorted(used)
