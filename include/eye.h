@@ -128,7 +128,9 @@ bool pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, 
  * rays, as at the visible point) as the visible point's indirect light; past a sharp lobe the
  * light it meets, and a shadow ray from the lobe to each punctual light, go to the film as the
  * visible point's indirect light
- * (see walk_to_diffuse in eye.c for when it does not go on). Each tile's
+ * (see walk_to_diffuse in eye.c for when it does not go on). With settings->gather_source
+ * PM_GATHER_PATH no gather point is made: the path tracer goes on from the visible point instead
+ * and its light goes to the film as the visible point's indirect light. Each tile's
  * points go to visit (when not NULL) at the end of the tile, on the thread that traced them: the
  * caller gathers this iteration's photons there while the points are still in cache, and no
  * per-pixel point array exists. pixels[k] is the film index of visible[k] (and gathered[k], NULL

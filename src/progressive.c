@@ -373,7 +373,8 @@ static uint32_t choose_eye_passes(const noise_probe *pr, uint32_t photon_passes,
 }
 
 /* The final gather's source for the rest of the run, from the learning iterations, in which the
- * two sources alternated (PM_PPM_CHOICE_ITERATIONS probed pairs each). Each is an estimate of the
+ * two sources alternated (PM_PPM_CHOICE_ITERATIONS probed pairs each, or PM_PPM_CHOICE_EARLY
+ * where one is already PM_PPM_CHOICE_CLEAR times better: false while undecided). Each is an estimate of the
  * same pixels: the photons' (E_p) biased by the shared radius, the path tracer's (E_t) not. Per
  * probed pixel and relative to (mean^2 + 0.01) as relMSE weighs it: V_s, the variance of a pair of
  * eye passes over iterations (photon noise included), and the photons' squared bias, the squared
@@ -383,7 +384,7 @@ static uint32_t choose_eye_passes(const noise_probe *pr, uint32_t photon_passes,
  * iterations' cost: V_s c_s / budget, plus for the photons the squared bias, which falls with the
  * shared radius's square (r^2 ~ N^(alpha - 1)) from the learning iterations' to the horizon's. The
  * lower wins. Counts and the film only: the same choice at any thread count. */
-static void choose_gather(pm_progressive *p) {
+static bool choose_gather(pm_progressive *p) {
     const noise_probe *pr = &p->probe;
     const radius_state *rs = &p->radii;
     enum { BLOCK = 4 };
@@ -414,8 +415,10 @@ static void choose_gather(pm_progressive *p) {
     bias2 = blocks ? fmax(bias2 / (double)blocks, 0.0) : 0.0;
     double cost[2] = {rs->learn_cost[0] / n[0], rs->learn_cost[1] / n[1]};
     double budget = PM_PPM_CHOICE_HORIZON * cost[0];
-    double shrink = pow(2.0 * PM_PPM_CHOICE_ITERATIONS / PM_PPM_CHOICE_HORIZON, 2.0 * (1.0 - p->settings.alpha));
+    double shrink = pow((n[0] + n[1]) / PM_PPM_CHOICE_HORIZON, 2.0 * (1.0 - p->settings.alpha));
     double err[2] = {var[0] * cost[0] / budget + bias2 * shrink, var[1] * cost[1] / budget};
+    bool clear = fmax(err[0], err[1]) >= PM_PPM_CHOICE_CLEAR * fmin(err[0], err[1]);
+    if (fmin(n[0], n[1]) < PM_PPM_CHOICE_ITERATIONS && !clear) return false;
     p->radii.gather_source = err[PM_GATHER_PATH] < err[PM_GATHER_PHOTONS] ? PM_GATHER_PATH : PM_GATHER_PHOTONS;
     p->radii.gather_chosen = true;
     p->stats.gather_source = (int)p->radii.gather_source;
@@ -424,6 +427,7 @@ static void choose_gather(pm_progressive *p) {
         p->stats.choice_cost[k] = cost[k];
     }
     p->stats.choice_bias2 = bias2 * shrink;
+    return true;
 }
 
 /* ---- restarts ---- */
@@ -1092,8 +1096,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
                      PM_PPM_FOUND_COST * (double)(p->stats.photons_found - found_before);
         p->radii.learn_cost[source] += (double)(p->stats.photons.rays - photon_rays_before) + 2.0 * eye / passes;
         p->radii.learned[source]++;
-        if (p->radii.learned[0] >= PM_PPM_CHOICE_ITERATIONS && p->radii.learned[1] >= PM_PPM_CHOICE_ITERATIONS) {
-            choose_gather(p);
+        if (p->radii.learned[0] >= PM_PPM_CHOICE_EARLY && p->radii.learned[1] >= PM_PPM_CHOICE_EARLY && choose_gather(p)) {
             /* the eye passes are learned again on the chosen source alone */
             memset(p->probe.mean, 0, 3 * p->probe.count * sizeof(double));
             p->probe.pairs = 0;
