@@ -12,9 +12,10 @@ seeds=${BENCH_SEEDS:-1}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 field() { sed -n "s/.*[ ]$1=\([^ ]*\).*/\1/p" "$2" | tail -n 1; }
-# scene:reference:sky (the references' environments: none but the window room's constant white sky)
+# scene:reference:sky (the references' environments: none but the window rooms' constant white sky)
 for entry in cornell-box:cornell_path_64:none caustic:caustic_floor_64:none glossy-spheres:glossy_path_64:none \
-             mirror-caustic:mirror_path_64:none point-room:point_room_path_64:none window-room:window_room_64:white; do
+             mirror-caustic:mirror_path_64:none point-room:point_room_path_64:none window-room:window_room_64:white \
+             window-hollow:window_hollow_64:white; do
     scene=${entry%%:*}; rest=${entry#*:}; ref=tests/ref/${rest%%:*}.exr; sky=${rest#*:}
     [ -f "$ref" ] || { echo "bench default_vs_pathtrace scene=$scene skipped ($ref missing)"; continue; }
     for seed in $seeds; do

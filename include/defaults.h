@@ -106,7 +106,7 @@
 #define PM_PPM_CHOICE_EARLY 4              /* ... or after this many where one's predicted relMSE is PM_PPM_CHOICE_CLEAR times the other's or more ... */
 #define PM_PPM_CHOICE_CLEAR 2.0
 #define PM_PPM_CHOICE_HORIZON 256.0        /* ... for the lower predicted relMSE after this many iterations' worth of the photon gather's cost */
-#define PM_PPM_FOUND_COST 0.05             /* a photon a gather's disc reads costs this many rays in that prediction (its grid lookup and sum) */
+#define PM_PPM_EXAMINED_COST 0.2           /* a photon within a disc's radius costs this many rays in that prediction (its tests and sum; measured on the window room, where the ground under the floor fills the discs) */
 #define PM_MAX_RADIUS 1e18                 /* --radius and --max-radius (scene units) at most: a disc query squares the radius in float */
 #define PM_MIN_RADIUS 1e-18                /* ... and at least: (FLT_MAX 3.4e38, FLT_MIN 1.2e-38), with room for the sums of squares */
 

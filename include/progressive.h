@@ -86,6 +86,7 @@ typedef struct {
     double grid_seconds;       /* sorting each iteration's photons into the hash grids */
     double gather_seconds;
     uint64_t photons_found;    /* photons that fell inside a visible or gather point's disc */
+    uint64_t photons_examined; /* photons within a disc's radius that its surface and clip tests ran on */
     uint64_t splats;           /* caustic photons splatted to the camera */
     uint64_t clip_rays;        /* rays the clips' probes cast (clip.h) */
     uint64_t photons_stored;   /* photon records the passes stored */
@@ -95,6 +96,7 @@ typedef struct {
      * horizon, the photon gather's squared relative bias then, and each one's cost per iteration */
     int gather_source;
     double choice_relmse[2], choice_bias2, choice_cost[2];
+    uint32_t choice_iterations;  /* learning iterations probed before the choice, both sources */
 } pm_progressive_stats;
 
 /* Radii over the pixels whose statistics have started (scene units). */

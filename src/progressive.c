@@ -379,8 +379,8 @@ static uint32_t choose_eye_passes(const noise_probe *pr, uint32_t photon_passes,
  * probed pixel and relative to (mean^2 + 0.01) as relMSE weighs it: V_s, the variance of a pair of
  * eye passes over iterations (photon noise included), and the photons' squared bias, the squared
  * difference of the two means less what their own variances put into it. Costs are counts: the
- * rays of the photon pass, of two eye passes and of the clips' probes, and every photon a disc read
- * at PM_PPM_FOUND_COST rays. The prediction is for a run that spends PM_PPM_CHOICE_HORIZON photon
+ * rays of the photon pass, of two eye passes and of the clips' probes, and every photon within a
+ * disc's radius (tested, counted or not) at PM_PPM_EXAMINED_COST rays. The prediction is for a run that spends PM_PPM_CHOICE_HORIZON photon
  * iterations' cost: V_s c_s / budget, plus for the photons the squared bias, which falls with the
  * shared radius's square (r^2 ~ N^(alpha - 1)) from the learning iterations' to the horizon's. The
  * lower wins. Counts and the film only: the same choice at any thread count. */
@@ -427,6 +427,7 @@ static bool choose_gather(pm_progressive *p) {
         p->stats.choice_cost[k] = cost[k];
     }
     p->stats.choice_bias2 = bias2 * shrink;
+    p->stats.choice_iterations = rs->learned[0] + rs->learned[1];
     return true;
 }
 
@@ -508,7 +509,7 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     p->radii.learned[0] = p->radii.learned[1] = 0;
     p->radii.learn_step = 0;
     p->radii.learn_cost[0] = p->radii.learn_cost[1] = 0.0;
-    p->stats.gather_source = p->radii.gather_chosen ? (p->gathering ? PM_GATHER_PHOTONS : -1) : -2;
+    p->stats.gather_source = p->radii.gather_chosen ? (p->gathering ? (int)p->radii.gather_source : -1) : -2;
 }
 
 bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err_size) {
@@ -551,6 +552,7 @@ typedef struct {
     struct {
         double radius_sum;                   /* initial radii set in this iteration */
         uint64_t radius_count, found, dropped;
+        uint64_t inside;                     /* photons within the discs' radii, tested (pm_grid_result.inside) */
         double query_sum[KIND_COUNT];        /* radii gathered with, for the next grid's cell */
         uint64_t query_count[KIND_COUNT];
         double seconds;                      /* spent gathering, on this thread */
@@ -719,6 +721,7 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
             }
             pm_photon_grid_sum_many(grid, query, n, result);
             for (size_t j = 0; j < n; j++) {
+                job->counters[thread].inside += result[j].inside;
                 if (fresh[j]) {
                     narrow_start(job, target[j], grid, &query[j], &result[j], kind);
                     job->counters[thread].radius_sum += sqrt(target[j]->r2);
@@ -744,6 +747,7 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
             size_t i = pixels[point[j]];
             uint32_t m = result[j].found;
             job->counters[thread].found += m;
+            job->counters[thread].inside += result[j].inside;
             vec3 power = whole_disc(&clip[j], job->gather_r2, result[j].power);
             vec3 l = v3_scale(v3_mul(gp->weight, power), (float)(1.0 / (PM_PI * job->gather_r2)));
             pm_component c = gp->seen_directly ? PM_INDIRECT : PM_SPECULAR;
@@ -918,7 +922,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     p->eye.gather_source = source;
     if (learning && eye_passes < 2) eye_passes = 2;
     bool global_pass = p->trace_global && !(p->gathering && source == PM_GATHER_PATH);
-    uint64_t clip_rays_before = p->stats.clip_rays, found_before = p->stats.photons_found;
+    uint64_t clip_rays_before = p->stats.clip_rays, examined_before = p->stats.photons_examined;
 
     /* 1. photon passes: a fresh, independent set every iteration, sorted into hash grids */
     uint64_t seed = pm_hash64(set->seed * 0x9e3779b97f4a7c15ULL + iteration);
@@ -1054,6 +1058,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         p->radii.initial_radius_sum += job->counters[t].radius_sum;
         p->radii.initial_radius_count += job->counters[t].radius_count;
         p->stats.photons_found += job->counters[t].found;
+        p->stats.photons_examined += job->counters[t].inside;
         p->stats.eye.dropped_samples += job->counters[t].dropped;
         p->stats.clip_rays += job->counters[t].clip_rays;
         gather_seconds += job->counters[t].seconds;
@@ -1093,7 +1098,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         /* this iteration's cost for a pair of eye passes, in rays (see choose_gather) */
         double passes = (double)whole_passes;
         double eye = (double)(p->stats.eye.rays - eye_rays_before) + (double)(p->stats.clip_rays - clip_rays_before) +
-                     PM_PPM_FOUND_COST * (double)(p->stats.photons_found - found_before);
+                     PM_PPM_EXAMINED_COST * (double)(p->stats.photons_examined - examined_before);
         p->radii.learn_cost[source] += (double)(p->stats.photons.rays - photon_rays_before) + 2.0 * eye / passes;
         p->radii.learned[source]++;
         if (p->radii.learned[0] >= PM_PPM_CHOICE_EARLY && p->radii.learned[1] >= PM_PPM_CHOICE_EARLY && choose_gather(p)) {
