@@ -8,7 +8,8 @@
 # path tracer's per sample, so the default must choose the path tracer and then match its error:
 # within 5%, the share of the rays its learning iterations cost (the photons' measured ones
 # leave the image as it was). With the photons forced (--gather photons) the same work errs
-# 1.5 times as much or more (about twice), so the checks can fail.
+# 1.5 times as much or more (about twice), so the checks can fail. And the choice, made from
+# the film and ray counts, gives the same image on 1 and 2 threads.
 cd "$(dirname "$0")/.." || exit 1
 bin=./pmview
 ref=tests/ref/window_room_64.exr
@@ -64,5 +65,12 @@ check "every channel's mean within 0.5% of the reference" "all(abs(m - 1) < 0.00
 check "the default's relMSE within 5% of the path tracer's at equal rays" "d['relmse'] <= 1.05 * t['relmse']"
 check "the photons forced err 1.5 times as much at about equal rays (the choice matters)" \
     "f['relmse'] * f['rays'] >= 1.5 * d['relmse'] * d['rays']"
+# the choice reads the film and ray counts only: the same seed makes the same image at any thread count
+run threads1 --iterations 40 --threads 1
+run threads2 --iterations 40 --threads 2
+checks=$((checks + 1))
+if cmp -s "$tmp/threads1.exr" "$tmp/threads2.exr" && [ "$(value progressive gather_source "$tmp/threads1")" = path ]; then
+    echo "ok: 40 iterations, through the choice, bit for bit the same on 1 and 2 threads"
+else fails=$((fails + 1)); echo "FAIL: 40 iterations differ between 1 and 2 threads (or chose no path tracer)"; fi
 echo "test_window_default: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]
