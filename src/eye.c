@@ -574,9 +574,6 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
     }
 }
 
-/* The progressive mode's eye sample: the pixel's visible point and, with final gathering, the
- * point its one gather ray finds (the ray direct light drew from the material at the visible
- * point); emission and direct light go to out[]. */
 /* Where a path-traced sample starts: the camera (path_from_camera), or the segment leaving a
  * progressive visible point (trace_visible with PM_GATHER_PATH). */
 typedef struct {
@@ -594,6 +591,10 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
                        pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
                        uint64_t *vertices);
 
+/* The progressive mode's eye sample: the pixel's visible point and, with final gathering, the
+ * point its one gather ray finds (the ray direct light drew from the material at the visible
+ * point); emission and direct light go to out[]. With
+ * PM_GATHER_PATH the path tracer goes on from the visible point instead (no gather point). */
 static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
                           vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2], uint64_t *vertices,
                           pm_visible_point *vp, pm_visible_point *gp) {
@@ -632,7 +633,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
     const pm_scene *s = job->scene;
     vec3 throughput = start->throughput;
     bool behind_specular = start->behind_specular;
-    int seen = start->from_camera ? PM_DIRECT : (behind_specular ? PM_SPECULAR : PM_CAUSTIC);
+    int seen = PM_DIRECT; /* from a visible point: set at the next diffuse vertex, before any light counts */
     bool lit_by_segment = start->from_camera;
     bool caustic_segment = start->caustics_read; /* no diffuse vertex yet since the visible point */
     bool cone = start->from_camera; /* the pixel's cone, until the first diffuse or glossy bounce (level 0 after it) */

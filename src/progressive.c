@@ -374,16 +374,18 @@ static uint32_t choose_eye_passes(const noise_probe *pr, uint32_t photon_passes,
 
 /* The final gather's source for the rest of the run, from the learning iterations, in which the
  * two sources alternated (PM_PPM_CHOICE_ITERATIONS probed pairs each, or PM_PPM_CHOICE_EARLY
- * where one is already PM_PPM_CHOICE_CLEAR times better: false while undecided). Each is an estimate of the
- * same pixels: the photons' (E_p) biased by the shared radius, the path tracer's (E_t) not. Per
- * probed pixel and relative to (mean^2 + 0.01) as relMSE weighs it: V_s, the variance of a pair of
- * eye passes over iterations (photon noise included), and the photons' squared bias, the squared
- * difference of the two means less what their own variances put into it. Costs are counts: the
- * rays of the photon pass, of two eye passes and of the clips' probes, and every photon within a
- * disc's radius (tested, counted or not) at PM_PPM_EXAMINED_COST rays. The prediction is for a run that spends PM_PPM_CHOICE_HORIZON photon
- * iterations' cost: V_s c_s / budget, plus for the photons the squared bias, which falls with the
- * shared radius's square (r^2 ~ N^(alpha - 1)) from the learning iterations' to the horizon's. The
- * lower wins. Counts and the film only: the same choice at any thread count. */
+ * where one is already PM_PPM_CHOICE_CLEAR times better; false while undecided). Each is an
+ * estimate of the same pixels: the photons' biased by the shared radius, the path tracer's not.
+ * Per probed pixel and relative to (mean^2 + 0.01) as relMSE weighs it: V_s, the variance of a
+ * pair of eye passes over iterations (photon noise included); and the photons' squared bias, the
+ * squared mean difference of the two over blocks of 4 x 4 probed pixels (bias is smooth in the
+ * image, noise is not) less what their own variances put into it. Costs are counts: the rays of
+ * the photon pass, of two eye passes and of the clips' probes, and every photon within a disc's
+ * radius (tested, counted or not) at PM_PPM_EXAMINED_COST rays. The prediction is for a run that
+ * spends PM_PPM_CHOICE_HORIZON photon iterations' cost: V_s c_s / budget, plus for the photons
+ * the squared bias, which falls with the shared radius's square (r^2 ~ N^(alpha - 1)) from the
+ * learning iterations' to the horizon's. The lower wins. Counts and the film only: the same
+ * choice at any thread count. */
 static bool choose_gather(pm_progressive *p) {
     const noise_probe *pr = &p->probe;
     const radius_state *rs = &p->radii;
