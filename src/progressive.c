@@ -373,8 +373,9 @@ static uint32_t choose_eye_passes(const noise_probe *pr, uint32_t photon_passes,
 }
 
 /* The final gather's source for the rest of the run, from the learning iterations, in which the
- * two sources alternated (PM_PPM_CHOICE_ITERATIONS probed pairs each, or PM_PPM_CHOICE_EARLY
- * where one is already PM_PPM_CHOICE_CLEAR times better; false while undecided). Each is an
+ * two sources alternated: after n probed pairs of each, once one's prediction is below the
+ * other's by a factor PM_PPM_CHOICE_ITERATIONS / n (4 after 2, 2 after 4, any after 8; a clear
+ * case is decided early, since the photons' learning iterations are spent; false while undecided). Each is an
  * estimate of the same pixels: the photons' biased by the shared radius, the path tracer's not.
  * Per probed pixel and relative to (mean^2 + 0.01) as relMSE weighs it: V_s, the variance of a
  * pair of eye passes over iterations (photon noise included); and the photons' squared bias, the
@@ -419,8 +420,7 @@ static bool choose_gather(pm_progressive *p) {
     double budget = PM_PPM_CHOICE_HORIZON * cost[0];
     double shrink = pow((n[0] + n[1]) / PM_PPM_CHOICE_HORIZON, 2.0 * (1.0 - p->settings.alpha));
     double err[2] = {var[0] * cost[0] / budget + bias2 * shrink, var[1] * cost[1] / budget};
-    bool clear = fmax(err[0], err[1]) >= PM_PPM_CHOICE_CLEAR * fmin(err[0], err[1]);
-    if (fmin(n[0], n[1]) < PM_PPM_CHOICE_ITERATIONS && !clear) return false;
+    if (fmax(err[0], err[1]) < PM_PPM_CHOICE_ITERATIONS / fmin(n[0], n[1]) * fmin(err[0], err[1])) return false;
     p->radii.gather_source = err[PM_GATHER_PATH] < err[PM_GATHER_PHOTONS] ? PM_GATHER_PATH : PM_GATHER_PHOTONS;
     p->radii.gather_chosen = true;
     p->stats.gather_source = (int)p->radii.gather_source;
@@ -1103,7 +1103,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
                      PM_PPM_EXAMINED_COST * (double)(p->stats.photons_examined - examined_before);
         p->radii.learn_cost[source] += (double)(p->stats.photons.rays - photon_rays_before) + 2.0 * eye / passes;
         p->radii.learned[source]++;
-        if (p->radii.learned[0] >= PM_PPM_CHOICE_EARLY && p->radii.learned[1] >= PM_PPM_CHOICE_EARLY && choose_gather(p)) {
+        if (p->radii.learned[0] >= 2 && p->radii.learned[1] >= 2 && choose_gather(p)) {
             /* the eye passes are learned again on the chosen source alone */
             memset(p->probe.mean, 0, 3 * p->probe.count * sizeof(double));
             p->probe.pairs = 0;
