@@ -34,6 +34,15 @@
 
 typedef enum { PM_INDIRECT_GATHER = 0, PM_INDIRECT_PHOTONS = 1 } pm_indirect_mode;
 
+/* Where the progressive mode's final gather takes the visible point's indirect light from.
+ * PHOTONS: the gather ray's first diffuse or glossy point reads the iteration's global photons (the
+ * punctual lights traced there by shadow rays). PATH: no gather point; the path tracer's own loop
+ * goes on from the visible point along the same ray (direct light at every vertex, roulette), and
+ * light reaching the visible point through specular bounces alone is left to the caustic photons
+ * read there, so nothing is counted twice. Both estimate the same light; the progressive mode
+ * chooses per scene from measured error and cost (progressive.c, choose_gather). */
+typedef enum { PM_GATHER_PHOTONS = 0, PM_GATHER_PATH = 1 } pm_gather_source;
+
 typedef struct {
     uint64_t seed;
     int threads;
@@ -42,6 +51,7 @@ typedef struct {
     const pm_photon_maps *maps; /* NULL: no caustic or indirect component */
     pm_estimate_settings caustic_estimate, global_estimate;
     pm_indirect_mode indirect;
+    pm_gather_source gather_source; /* progressive, final gathering: photons or the path tracer (above) */
     int gather_rays;          /* final-gather rays per eye sample at the first diffuse hit */
     bool view_photons;        /* show the maps' estimates at the first diffuse hit, no shadow rays */
     bool path_trace;          /* the path tracer (--mode pathtrace): maps are ignored, see pm_eye_iterate */
@@ -118,7 +128,9 @@ bool pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, 
  * rays, as at the visible point) as the visible point's indirect light; past a sharp lobe the
  * light it meets, and a shadow ray from the lobe to each punctual light, go to the film as the
  * visible point's indirect light
- * (see walk_to_diffuse in eye.c for when it does not go on). Each tile's
+ * (see walk_to_diffuse in eye.c for when it does not go on). With settings->gather_source
+ * PM_GATHER_PATH no gather point is made: the path tracer goes on from the visible point instead
+ * and its light goes to the film as the visible point's indirect light. Each tile's
  * points go to visit (when not NULL) at the end of the tile, on the thread that traced them: the
  * caller gathers this iteration's photons there while the points are still in cache, and no
  * per-pixel point array exists. pixels[k] is the film index of visible[k] (and gathered[k], NULL

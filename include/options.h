@@ -38,6 +38,7 @@ typedef struct {
     int mode;                /* pm_mode */
     int kernel;              /* pm_kernel */
     int indirect;            /* pm_indirect_mode */
+    int gather;              /* pm_gather_choice */
     int shadow_photons;      /* pm_shadow_mode: default where they pay */
     int caustic_statistics;  /* --caustic-splats off */
     int unclipped;           /* --clip off */

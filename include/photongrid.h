@@ -63,6 +63,7 @@ typedef struct {
 typedef struct {
     vec3 power;
     uint32_t found;
+    uint32_t inside;   /* photons within the radius the surface and clip tests then ran on (found or not): the query's work */
 } pm_grid_result;
 /* The same sums for count queries (out[k] for q[k]), faster than one by one: the memory reads of
  * several queries overlap. Each result is bit for bit the single query's. */

@@ -53,6 +53,11 @@
 #include "photonmap.h"
 #include "scene.h"
 
+/* --gather: where final gathering takes the visible point's indirect light from (pm_gather_source,
+ * eye.h). AUTO (the default): both are measured over the first iterations and the one predicted
+ * to err less at equal cost is kept (pm_progressive_iterate); PHOTONS or PATH force one. */
+typedef enum { PM_GATHER_AUTO = 0, PM_GATHER_FORCE_PHOTONS = 1, PM_GATHER_FORCE_PATH = 2 } pm_gather_choice;
+
 typedef struct {
     uint64_t seed;
     int threads;
@@ -61,6 +66,7 @@ typedef struct {
     double alpha;              /* radius reduction, in (0, 1) */
     double initial_radius;     /* scene units; 0 = from the pixel footprint and the first photon density */
     pm_indirect_mode indirect; /* photons: read at the visible point; gather: one final-gather bounce */
+    pm_gather_choice gather;   /* with final gathering: the source of its light, chosen per scene (auto) or forced (see eye.h) */
     int max_specular_depth;
     int max_photon_bounces;
     bool caustic_by_statistics; /* the caustic seen directly from visible-point statistics, no camera splats (to compare) */
@@ -80,10 +86,17 @@ typedef struct {
     double grid_seconds;       /* sorting each iteration's photons into the hash grids */
     double gather_seconds;
     uint64_t photons_found;    /* photons that fell inside a visible or gather point's disc */
+    uint64_t photons_examined; /* photons within a disc's radius that its surface and clip tests ran on */
     uint64_t splats;           /* caustic photons splatted to the camera */
     uint64_t clip_rays;        /* rays the clips' probes cast (clip.h) */
     uint64_t photons_stored;   /* photon records the passes stored */
     uint64_t photons_read;     /* ... of which some estimate counted (the useful ones) */
+    /* the final gather's source, chosen per scene (pm_progressive_iterate): -1 while learning or
+     * without final gathering, else a pm_gather_source; the predicted relMSE of each at the choice's
+     * horizon, the photon gather's squared relative bias then, and each one's cost per iteration */
+    int gather_source;
+    double choice_relmse[2], choice_bias2, choice_cost[2];
+    uint32_t choice_iterations;  /* learning iterations probed before the choice, both sources */
 } pm_progressive_stats;
 
 /* Radii over the pixels whose statistics have started (scene units). */

@@ -574,12 +574,30 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
     }
 }
 
+/* Where a path-traced sample starts: the camera (path_from_camera), or the segment leaving a
+ * progressive visible point (trace_visible with PM_GATHER_PATH). */
+typedef struct {
+    vec3 throughput;
+    int depth;               /* the index of the surface the first segment meets */
+    bool from_camera;        /* the camera ray: its emission and sky count, its cone picks texture levels */
+    bool behind_specular;    /* the first eye vertex was specular: everything is the specular component */
+    bool caustics_read;      /* light met through specular bounces before the next diffuse vertex is the caustic
+                                photons' (read at the visible point this path leaves): not counted */
+} path_start;
+
+static const path_start path_from_camera = {{1.f, 1.f, 1.f}, 0, true, false, false};
+
+static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce *first, const path_start *start,
+                       pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
+                       uint64_t *vertices);
+
 /* The progressive mode's eye sample: the pixel's visible point and, with final gathering, the
  * point its one gather ray finds (the ray direct light drew from the material at the visible
- * point); emission and direct light go to out[]. */
+ * point); emission and direct light go to out[]. With
+ * PM_GATHER_PATH the path tracer goes on from the visible point instead (no gather point). */
 static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
-                          vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2], pm_visible_point *vp,
-                          pm_visible_point *gp) {
+                          vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2], uint64_t *vertices,
+                          pm_visible_point *vp, pm_visible_point *gp) {
     /* a point's fields are all written where it becomes valid; clearing two 96-byte records per
      * pixel would cost 2% of an iteration */
     vp->valid = false;
@@ -591,6 +609,12 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
                          gp ? &next : NULL) ||
         !gp || !next.sampled)
         return;
+    if (job->settings->gather_source == PM_GATHER_PATH) {
+        /* the path tracer from here on: its light is the visible point's indirect light */
+        path_start from = {v3_mul(throughput, next.weight), 1, false, !vp->seen_directly, true};
+        trace_path(job, next.origin, next.direction, &next, &from, rng, out, rays, shadow_counts, vertices);
+        return;
+    }
     /* light the gather ray meets past a sharp lobe is the visible point's indirect light */
     int lobe_component = vp->seen_directly ? PM_INDIRECT : PM_SPECULAR;
     if (walk_to_diffuse(job, next.origin, next.direction, &next, v3_mul(throughput, next.weight), false, 1, rng, out,
@@ -598,19 +622,24 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
         gp->seen_directly = vp->seen_directly; /* the component is the visible point's */
 }
 
-/* The path tracer's sample (settings->path_trace; the rules are in eye.h at pm_eye_iterate).
- * `seen` is the component that light met along the next segment belongs to, `lit_by_segment`
- * whether such light counts at all (camera ray, or the last bounce was specular). */
-static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
-                       vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2], uint64_t *vertices) {
+
+/* The path tracer's sample (settings->path_trace; the rules are in eye.h at pm_eye_iterate), or
+ * its continuation from a visible point (start). `seen` is the component that light met along the
+ * next segment belongs to, `lit_by_segment` whether such light counts at all (camera ray, or the
+ * last bounce was specular). first: the first segment, already traced. */
+static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce *first, const path_start *start,
+                       pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
+                       uint64_t *vertices) {
     const pm_scene *s = job->scene;
-    vec3 throughput = v3s(1.f);
-    int seen = PM_DIRECT;
-    bool lit_by_segment = true, behind_specular = false;
-    bool cone = true;        /* the pixel's cone, until the first diffuse or glossy bounce (level 0 after it) */
+    vec3 throughput = start->throughput;
+    bool behind_specular = start->behind_specular;
+    int seen = PM_DIRECT; /* from a visible point: set at the next diffuse vertex, before any light counts */
+    bool lit_by_segment = start->from_camera;
+    bool caustic_segment = start->caustics_read; /* no diffuse vertex yet since the visible point */
+    bool cone = start->from_camera; /* the pixel's cone, until the first diffuse or glossy bounce (level 0 after it) */
     float path_length = 0.f;
-    surface_bounce next = *camera; /* the camera ray, traced with its tile */
-    for (int depth = 0; depth < PM_PATHTRACE_MAX_VERTICES; depth++) {
+    surface_bounce next = *first; /* the camera ray, traced with its tile, or the visible point's direct light's */
+    for (int depth = start->depth; depth < PM_PATHTRACE_MAX_VERTICES; depth++) {
         pm_hit h;
         bool hit;
         if (next.sampled) { /* the segment direct light traced from the last diffuse vertex */
@@ -647,6 +676,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
             /* from a first-hit diffuse vertex, what specular bounces lead to is the caustic */
             seen = depth == 0 ? PM_CAUSTIC : here;
             lit_by_segment = false;
+            caustic_segment = false;
             cone = false;
             vec3 weight = v3_scale(next.weight, choice);
             if (!next.sampled || !pm_vertex_survives(depth, &choosing_policy, rng, &weight)) return;
@@ -662,7 +692,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
             if (!pm_vertex_sample(&sf, PM_LOBE_SPECULAR, d, rng, s->ray_scale, &sp)) return;
             /* straight across a thin wall scatters nothing: light met past it is counted where
              * it was before (after a diffuse vertex, by its direct light, which crosses thin walls) */
-            if (!sp.straight) lit_by_segment = true;
+            if (!sp.straight && !caustic_segment) lit_by_segment = true;
             sp.weight = v3_scale(sp.weight, choice);
             if (!pm_vertex_survives(depth, &choosing_policy, rng, &sp.weight)) return;
             throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
@@ -724,9 +754,9 @@ static void render_tile(void *ctx, size_t task, int thread) {
             if (hit[k]) camera.h = hits[k];
             vec3 out[PM_COMPONENT_COUNT] = {{0}};
             if (job->settings->path_trace)
-                trace_path(job, o, d, &camera, &rng, out, &rays, shadow_counts, &vertices);
+                trace_path(job, o, d, &camera, &path_from_camera, &rng, out, &rays, shadow_counts, &vertices);
             else if (job->visible_points) {
-                trace_visible(job, o, d, &camera, &rng, out, &rays, shadow_counts, &visible[points],
+                trace_visible(job, o, d, &camera, &rng, out, &rays, shadow_counts, &vertices, &visible[points],
                               job->gather_points ? &gathered[points] : NULL);
                 pixels[points++] = pixel;
             } else

@@ -134,6 +134,11 @@ static const option options_table[] = {
     {"--indirect", "gather|photons", KIND_WORD, FIELD(indirect), 0, 0, "gather|photons", {PM_INDIRECT_GATHER, PM_INDIRECT_PHOTONS},
      NULL, NULL, NULL, RULE_PHOTON_ONLY,
      "indirect light by one final-gather bounce (default) or photons at the visible point", {0}},
+    {"--gather", "auto|photons|path", KIND_WORD, FIELD(gather), 0, 0, "auto|photons|path",
+     {PM_GATHER_AUTO, PM_GATHER_FORCE_PHOTONS, PM_GATHER_FORCE_PATH}, NULL, NULL, NULL, RULE_PER_PASS_ONLY,
+     "progressive: final gathering's light from auto (default: both measured, the one\n"
+     "with less error per ray kept), photons where the gather ray lands, or path: the path\n"
+     "tracer from the visible point on", {0}},
     {"--gather-rays", "N", KIND_WHOLE, FIELD(gather_rays), 0, 4096, NULL, {0}, "", "", NULL, RULE_CLASSIC_ONLY,
      "final-gather rays per eye sample (default %g)", {PM_DEFAULT_GATHER_RAYS}},
     {"--precompute", "N", KIND_WHOLE, FIELD(irradiance_stride), 0, 1000000, NULL, {0}, "", "", NULL, RULE_CLASSIC_ONLY,
@@ -385,16 +390,18 @@ void pm_options_session_config(const pm_options *o, const pm_scene *scene, int w
         pp->eye_passes = (int)o->eye_passes;
         pp->initial_radius = o->radius;
         pp->indirect = (pm_indirect_mode)o->indirect;
+        pp->gather = (pm_gather_choice)o->gather;
         pp->caustic_by_statistics = o->caustic_statistics;
         pp->unclipped = o->unclipped;
         pp->unguided = o->unguided;
         if (o->stats)
-            printf("stat progressive_setup photon_pass=%d caustic_photons=%llu global_photons=%llu indirect=%s caustic_splats=%d\n",
+            printf("stat progressive_setup photon_pass=%d caustic_photons=%llu global_photons=%llu indirect=%s caustic_splats=%d gather=%s\n",
                    (scene->analysis.component_possible[PM_CAUSTIC] && pp->caustic_photons) ||
                        (scene->analysis.component_possible[PM_INDIRECT] && pp->photons),
                    (unsigned long long)pp->caustic_photons, (unsigned long long)pp->photons,
                    o->indirect == PM_INDIRECT_GATHER ? "gather" : "photons",
-                   scene->analysis.component_possible[PM_CAUSTIC] && pp->caustic_photons && !o->caustic_statistics);
+                   scene->analysis.component_possible[PM_CAUSTIC] && pp->caustic_photons && !o->caustic_statistics,
+                   o->gather == PM_GATHER_FORCE_PHOTONS ? "photons" : (o->gather == PM_GATHER_FORCE_PATH ? "path" : "auto"));
         return;
     }
     pm_eye_settings *eye = &config->eye;

@@ -219,12 +219,13 @@ static inline void locate_buckets(const pm_photon_grid *g, disc_plan *plan) {
 static inline __attribute__((always_inline)) uint32_t sum_planned(const pm_photon_grid *g, const disc_plan *plan, vec3 p,
                                                                   vec3 n, float radius2, unsigned path_mask,
                                                                   const pm_brdf *lobe, vec3 ns, vec3 wo,
-                                                                  const pm_clip *clip, vec3 *power) {
+                                                                  const pm_clip *clip, vec3 *power, uint32_t *inside_count) {
     vec3 sum = v3s(0.f);
-    uint32_t found = 0;
+    uint32_t found = 0, inside_total = 0;
     const pm_f4_ p4 = {p.x, p.y, p.z, 0.f};
     if (plan->kind == PLAN_ALL) {
         for (size_t i = 0; i < g->count; i++) sum_photon(g, &g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, clip, &sum, &found);
+        inside_total = (uint32_t)g->count;
     } else if (plan->kind == PLAN_CELLS) {
         size_t mask = g->bucket_count - 1;
         for (int32_t z = plan->lo[2]; z <= plan->hi[2]; z++)
@@ -234,8 +235,10 @@ static inline __attribute__((always_inline)) uint32_t sum_planned(const pm_photo
                     for (uint32_t i = g->bucket_start[b]; i < g->bucket_start[b + 1]; i++) {
                         const float *q = g->photons[i].pos;
                         if (cell_coord(q[0], g->origin.x, g->inv_cell) == x && cell_coord(q[1], g->origin.y, g->inv_cell) == y &&
-                            cell_coord(q[2], g->origin.z, g->inv_cell) == z)
+                            cell_coord(q[2], g->origin.z, g->inv_cell) == z) {
                             sum_photon(g, &g->photons[i], p4, n, radius2, path_mask, lobe, ns, wo, clip, &sum, &found);
+                            inside_total++;
+                        }
                     }
                 }
     } else if (plan->kind == PLAN_BUCKETS) {
@@ -251,12 +254,15 @@ static inline __attribute__((always_inline)) uint32_t sum_planned(const pm_photo
                 noted += within(&g->photons[i], p4, radius2);
                 if (noted == NOTES) {
                     for (int j = 0; j < noted; j++) sum_inside(g, &g->photons[inside[j]], n, path_mask, lobe, ns, wo, clip, &sum, &found);
+                    inside_total += (uint32_t)noted;
                     noted = 0;
                 }
             }
         for (int j = 0; j < noted; j++) sum_inside(g, &g->photons[inside[j]], n, path_mask, lobe, ns, wo, clip, &sum, &found);
+        inside_total += (uint32_t)noted;
     }
     *power = sum;
+    if (inside_count) *inside_count = inside_total;
     return found;
 }
 
@@ -266,7 +272,7 @@ static inline __attribute__((always_inline)) uint32_t sum_disc(const pm_photon_g
     disc_plan plan;
     plan_disc(g, p, radius2, &plan);
     if (plan.kind == PLAN_BUCKETS) locate_buckets(g, &plan);
-    return sum_planned(g, &plan, p, n, radius2, path_mask, lobe, ns, wo, NULL, power);
+    return sum_planned(g, &plan, p, n, radius2, path_mask, lobe, ns, wo, NULL, power, NULL);
 }
 
 /* Queries in groups: every disc's bucket bounds are requested, then every disc's first photons,
@@ -284,8 +290,10 @@ void pm_photon_grid_sum_many(const pm_photon_grid *g, const pm_grid_query *q, si
         for (size_t k = 0; k < n; k++) {
             const pm_grid_query *x = &q[base + k];
             pm_grid_result *r = &out[base + k];
-            r->found = x->lobe ? sum_planned(g, &plan[k], x->p, x->n, x->radius2, x->path_mask, x->lobe, x->ns, x->wo, x->clip, &r->power)
-                               : sum_planned(g, &plan[k], x->p, x->n, x->radius2, x->path_mask, NULL, x->n, x->n, x->clip, &r->power);
+            r->found = x->lobe ? sum_planned(g, &plan[k], x->p, x->n, x->radius2, x->path_mask, x->lobe, x->ns, x->wo, x->clip,
+                                             &r->power, &r->inside)
+                               : sum_planned(g, &plan[k], x->p, x->n, x->radius2, x->path_mask, NULL, x->n, x->n, x->clip,
+                                             &r->power, &r->inside);
         }
     }
 }

@@ -38,7 +38,7 @@ enum { SEEN_GRID = 32, SEEN_POINTS = SEEN_GRID * SEEN_GRID };
  * statistics' estimate from this photon pass alone, Phi / (pi R^2) at the radius it was gathered
  * with). Relative, as relMSE: each variance over (mean^2 + 0.01). Only the first two samples of an
  * iteration are probed, and only in iterations that have two. */
-enum { PROBE_ARRAYS = 10 };
+enum { PROBE_KEPT = 7, PROBE_ARRAYS = 4 + 2 * PROBE_KEPT };
 typedef struct {
     size_t count;                /* pixels probed */
     size_t *pixel;               /* which: a grid over the image */
@@ -46,10 +46,13 @@ typedef struct {
     double *statistics;          /* its statistics' tau / (pi R^2) summed over slots (passes x their estimate) */
     double *shared;              /* this iteration's photons' share of each of its samples */
     double *first;               /* its first sample of this iteration */
+    /* PROBE_KEPT arrays, one after another, kept over iterations: */
     double *mean, *m2;           /* Welford's running mean and squared deviations of the pair's mean over iterations */
     double *within;              /* the sum over iterations of (first - second)^2 / 2 */
-    double *saved;               /* mean, m2 and within at the start of the running iteration, for a cancel to put back */
+    double *source_mean[2], *source_m2[2]; /* the same as mean and m2 over the learning iterations of each gather source */
+    double *saved;               /* the kept arrays at the start of the running iteration, for a cancel to put back */
     uint32_t pairs;              /* iterations probed */
+    int columns;                 /* the grid's: pixel[y * columns + x] */
 } noise_probe;
 static void probe_free(noise_probe *pr);
 
@@ -64,6 +67,13 @@ typedef struct {
     uint64_t initial_radius_count;
     double query_radius[KIND_COUNT];     /* mean radius gathered with last iteration: sets the grid's cell */
     uint32_t eye_passes;                 /* per photon pass in the next iteration (settings, or from the probe) */
+    /* the final gather's source (choose_gather): the two alternate until each has been probed
+     * PM_PPM_CHOICE_ITERATIONS times, then the one predicted to err less is kept */
+    pm_gather_source gather_source;      /* once chosen */
+    bool gather_chosen;                  /* choose_gather has decided, or there is nothing to choose */
+    uint32_t learn_step;                 /* learning iterations run (the path tracer's at even steps) */
+    uint32_t learned[2];                 /* learning iterations probed, per source */
+    double learn_cost[2];                /* their summed cost per pair of eye passes, in rays */
 } radius_state;
 
 struct pm_progressive {
@@ -199,7 +209,8 @@ void pm_progressive_destroy(pm_progressive *p) {
 bool pm_progressive_uses_photons(const pm_progressive *p) { return p->trace_caustic || p->trace_global; }
 
 uint64_t pm_progressive_photons_per_iteration(const pm_progressive *p) {
-    return (p->trace_caustic ? p->settings.caustic_photons : 0) + (p->trace_global ? p->settings.photons : 0);
+    bool global = p->trace_global && !(p->gathering && p->radii.gather_chosen && p->radii.gather_source == PM_GATHER_PATH);
+    return (p->trace_caustic ? p->settings.caustic_photons : 0) + (global ? p->settings.photons : 0);
 }
 
 uint32_t pm_progressive_eye_passes(const pm_progressive *p) { return p->radii.eye_passes; }
@@ -245,6 +256,7 @@ static bool probe_alloc(noise_probe *pr, int width, int height) {
     ny = ny < height ? ny : height;
     if (nx > PM_PPM_PROBE_PIXELS / ny) nx = PM_PPM_PROBE_PIXELS / ny > 1 ? PM_PPM_PROBE_PIXELS / ny : 1; /* a very wide image */
     pr->count = (size_t)nx * ny;
+    pr->columns = nx;
     pr->pixel = pm_malloc(pr->count * sizeof(size_t), "noise probe");
     pr->total = pm_calloc(PROBE_ARRAYS * pr->count, sizeof(double), "noise probe");
     if (!pr->pixel || !pr->total) return false;
@@ -257,7 +269,11 @@ static bool probe_alloc(noise_probe *pr, int width, int height) {
     pr->mean = pr->first + pr->count;
     pr->m2 = pr->mean + pr->count;
     pr->within = pr->m2 + pr->count;
-    pr->saved = pr->within + pr->count; /* 3 arrays: mean, m2, within */
+    pr->source_mean[0] = pr->within + pr->count;
+    pr->source_mean[1] = pr->source_mean[0] + pr->count;
+    pr->source_m2[0] = pr->source_mean[1] + pr->count;
+    pr->source_m2[1] = pr->source_m2[0] + pr->count;
+    pr->saved = pr->source_m2[1] + pr->count; /* PROBE_KEPT arrays from mean on */
     return true;
 }
 
@@ -303,7 +319,7 @@ static void probe_splats(noise_probe *pr, const pm_film *film, const pm_splat_bu
  * variance over iterations (Vp + Ve / 2: what photons and eye passes leave together), their
  * difference into the variance within an iteration (Ve: what eye passes leave, the photons being
  * the same). Both from the same samples, so that a rare bright sample weighs in both alike. */
-static void probe_eye_pass(noise_probe *pr, const pm_film *film, uint32_t pass) {
+static void probe_eye_pass(noise_probe *pr, const pm_film *film, uint32_t pass, int learning, uint32_t learned) {
     for (size_t i = 0; i < pr->count; i++) {
         if (pass == 0) /* the statistics were updated by this eye pass, once for the iteration */
             pr->shared[i] += probed_statistics(film, pr->pixel[i]) - pr->statistics[i];
@@ -317,6 +333,11 @@ static void probe_eye_pass(noise_probe *pr, const pm_film *film, uint32_t pass) 
         pr->mean[i] += delta / (pr->pairs + 1.0);
         pr->m2[i] += delta * (pair - pr->mean[i]);
         pr->within[i] += 0.5 * d * d;
+        if (learning >= 0) { /* the pair as an estimate by this gather source */
+            double *m = &pr->source_mean[learning][i], dl = pair - *m;
+            *m += dl / (learned + 1.0);
+            pr->source_m2[learning][i] += dl * (pair - *m);
+        }
     }
     if (pass == 1) pr->pairs++;
 }
@@ -349,6 +370,67 @@ static uint32_t choose_eye_passes(const noise_probe *pr, uint32_t photon_passes,
         k = best < 1.0 ? 1 : (best > PM_PPM_MAX_EYE_PASSES ? PM_PPM_MAX_EYE_PASSES : (uint32_t)best);
     }
     return k < 2 && photon_passes % PM_PPM_PROBE_ITERATIONS == 0 ? 2 : k;
+}
+
+/* The final gather's source for the rest of the run, from the learning iterations, in which the
+ * two sources alternated: after n probed pairs of each, once one's prediction is below the
+ * other's by a factor PM_PPM_CHOICE_ITERATIONS / n (4 after 2, 2 after 4, any after 8; a clear
+ * case is decided early, since the photons' learning iterations are spent; false while undecided). Each is an
+ * estimate of the same pixels: the photons' biased by the shared radius, the path tracer's not.
+ * Per probed pixel and relative to (mean^2 + 0.01) as relMSE weighs it: V_s, the variance of a
+ * pair of eye passes over iterations (photon noise included); and the photons' squared bias, the
+ * squared mean difference of the two over blocks of 4 x 4 probed pixels (bias is smooth in the
+ * image, noise is not) less what their own variances put into it. Costs are counts: the rays of
+ * the photon pass, of two eye passes and of the clips' probes, and every photon within a disc's
+ * radius (tested, counted or not) at PM_PPM_EXAMINED_COST rays. The prediction is for a run that
+ * spends PM_PPM_CHOICE_HORIZON photon iterations' cost: V_s c_s / budget, plus for the photons
+ * the squared bias, which falls with the shared radius's square (r^2 ~ N^(alpha - 1)) from the
+ * learning iterations' to the horizon's. The lower wins. Counts and the film only: the same
+ * choice at any thread count. */
+static bool choose_gather(pm_progressive *p) {
+    const noise_probe *pr = &p->probe;
+    const radius_state *rs = &p->radii;
+    enum { BLOCK = 4 };
+    double n[2] = {rs->learned[0], rs->learned[1]}, var[2] = {0.0, 0.0}, bias2 = 0.0;
+    size_t rows = pr->count / (size_t)pr->columns, blocks = 0;
+    for (size_t by = 0; by < rows; by += BLOCK)
+        for (size_t bx = 0; bx < (size_t)pr->columns; bx += BLOCK) {
+            double d_sum = 0.0, noise_sum = 0.0;
+            int k = 0;
+            for (size_t y = by; y < by + BLOCK && y < rows; y++)
+                for (size_t x = bx; x < bx + BLOCK && x < (size_t)pr->columns; x++, k++) {
+                    size_t i = y * (size_t)pr->columns + x;
+                    double m = 0.5 * (pr->source_mean[0][i] + pr->source_mean[1][i]), scale = 1.0 / (m * m + 0.01);
+                    double v0 = pr->source_m2[0][i] / (n[0] - 1.0) * scale, v1 = pr->source_m2[1][i] / (n[1] - 1.0) * scale;
+                    var[0] += v0;
+                    var[1] += v1;
+                    d_sum += (pr->source_mean[0][i] - pr->source_mean[1][i]) * sqrt(scale);
+                    noise_sum += v0 / n[0] + v1 / n[1];
+                }
+            /* the block's mean difference, less the share of it its pixels' noise makes */
+            double d = d_sum / k;
+            bias2 += d * d - noise_sum / ((double)k * k);
+            blocks++;
+        }
+    double count = pr->count ? (double)pr->count : 1.0;
+    var[0] /= count;
+    var[1] /= count;
+    bias2 = blocks ? fmax(bias2 / (double)blocks, 0.0) : 0.0;
+    double cost[2] = {rs->learn_cost[0] / n[0], rs->learn_cost[1] / n[1]};
+    double budget = PM_PPM_CHOICE_HORIZON * cost[0];
+    double shrink = pow((n[0] + n[1]) / PM_PPM_CHOICE_HORIZON, 2.0 * (1.0 - p->settings.alpha));
+    double err[2] = {var[0] * cost[0] / budget + bias2 * shrink, var[1] * cost[1] / budget};
+    if (fmax(err[0], err[1]) < PM_PPM_CHOICE_ITERATIONS / fmin(n[0], n[1]) * fmin(err[0], err[1])) return false;
+    p->radii.gather_source = err[PM_GATHER_PATH] < err[PM_GATHER_PHOTONS] ? PM_GATHER_PATH : PM_GATHER_PHOTONS;
+    p->radii.gather_chosen = true;
+    p->stats.gather_source = (int)p->radii.gather_source;
+    for (int k = 0; k < 2; k++) {
+        p->stats.choice_relmse[k] = err[k];
+        p->stats.choice_cost[k] = cost[k];
+    }
+    p->stats.choice_bias2 = bias2 * shrink;
+    p->stats.choice_iterations = rs->learned[0] + rs->learned[1];
+    return true;
 }
 
 /* ---- restarts ---- */
@@ -390,6 +472,18 @@ static double probe_footprint(pm_progressive *p, const pm_film *film) {
     return hits ? sum / hits : 0.0;
 }
 
+/* Whether some surface makes caustics: a mirror, or glass that is not thin-walled (thin glass
+ * lets light straight through, and direct light's rays cross it). Light such a surface brings to
+ * the second vertex of an eye path is what a path tracer finds only by chance (a lamp through a
+ * glass ball: rare, bright samples, never a point light), a variance too heavy-tailed for a few
+ * probed iterations to measure, and what the global photons carry by construction: there the
+ * final gather keeps to the photons. */
+static bool scene_has_caustic_surfaces(const pm_scene *s) {
+    for (uint32_t i = 0; i < s->material_count; i++)
+        if (s->materials[i].may_mirror || (s->materials[i].may_glass && !s->materials[i].thin_walled)) return true;
+    return false;
+}
+
 static void reset_state(pm_progressive *p, const pm_film *film) {
     p->radii.density_r2[KIND_CAUSTIC] = p->radii.density_r2[KIND_INDIRECT] = 0.0;
     p->radii.gather_r2 = 0.0;
@@ -408,6 +502,16 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     p->radii.eye_passes = p->settings.eye_passes > 0 ? (uint32_t)p->settings.eye_passes : 1;
     probe_reset(&p->probe);
     memset(&p->stats, 0, sizeof p->stats);
+    /* the path tracer cannot find a punctual light through a mirror or glass onto the second
+     * vertex (the global photons can): there the photons stay the source */
+    bool path_possible = !scene_has_caustic_surfaces(p->scene);
+    pm_gather_choice forced = p->settings.gather;
+    p->radii.gather_source = forced == PM_GATHER_FORCE_PATH ? PM_GATHER_PATH : PM_GATHER_PHOTONS;
+    p->radii.gather_chosen = forced != PM_GATHER_AUTO || !(p->gathering && p->probe.total && path_possible);
+    p->radii.learned[0] = p->radii.learned[1] = 0;
+    p->radii.learn_step = 0;
+    p->radii.learn_cost[0] = p->radii.learn_cost[1] = 0.0;
+    p->stats.gather_source = p->radii.gather_chosen ? (p->gathering ? (int)p->radii.gather_source : -1) : -2;
 }
 
 bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err_size) {
@@ -450,6 +554,7 @@ typedef struct {
     struct {
         double radius_sum;                   /* initial radii set in this iteration */
         uint64_t radius_count, found, dropped;
+        uint64_t inside;                     /* photons within the discs' radii, tested (pm_grid_result.inside) */
         double query_sum[KIND_COUNT];        /* radii gathered with, for the next grid's cell */
         uint64_t query_count[KIND_COUNT];
         double seconds;                      /* spent gathering, on this thread */
@@ -618,6 +723,7 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
             }
             pm_photon_grid_sum_many(grid, query, n, result);
             for (size_t j = 0; j < n; j++) {
+                job->counters[thread].inside += result[j].inside;
                 if (fresh[j]) {
                     narrow_start(job, target[j], grid, &query[j], &result[j], kind);
                     job->counters[thread].radius_sum += sqrt(target[j]->r2);
@@ -643,6 +749,7 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
             size_t i = pixels[point[j]];
             uint32_t m = result[j].found;
             job->counters[thread].found += m;
+            job->counters[thread].inside += result[j].inside;
             vec3 power = whole_disc(&clip[j], job->gather_r2, result[j].power);
             vec3 l = v3_scale(v3_mul(gp->weight, power), (float)(1.0 / (PM_PI * job->gather_r2)));
             pm_component c = gp->seen_directly ? PM_INDIRECT : PM_SPECULAR;
@@ -769,11 +876,7 @@ static void keep_start(pm_progressive *p, const pm_film *film, iteration_start *
     st->radii = p->radii;
     st->probe_pairs = p->probe.pairs;
     st->stats = p->stats;
-    if (p->probe.total) {
-        memcpy(p->probe.saved, p->probe.mean, p->probe.count * sizeof(double));
-        memcpy(p->probe.saved + p->probe.count, p->probe.m2, p->probe.count * sizeof(double));
-        memcpy(p->probe.saved + 2 * p->probe.count, p->probe.within, p->probe.count * sizeof(double));
-    }
+    if (p->probe.total) memcpy(p->probe.saved, p->probe.mean, PROBE_KEPT * p->probe.count * sizeof(double));
     if (p->guiding) {
         size_t cells = (size_t)p->guide.sources * PM_GUIDE_CELL_COUNT;
         memcpy(p->guide_saved.cdf, p->guide.cdf, (cells + p->guide.sources) * sizeof(float));
@@ -791,11 +894,7 @@ static bool take_back(pm_progressive *p, pm_film *film, const iteration_start *s
     p->radii = st->radii;
     p->probe.pairs = st->probe_pairs;
     p->stats = st->stats;
-    if (p->probe.total) {
-        memcpy(p->probe.mean, p->probe.saved, p->probe.count * sizeof(double));
-        memcpy(p->probe.m2, p->probe.saved + p->probe.count, p->probe.count * sizeof(double));
-        memcpy(p->probe.within, p->probe.saved + 2 * p->probe.count, p->probe.count * sizeof(double));
-    }
+    if (p->probe.total) memcpy(p->probe.mean, p->probe.saved, PROBE_KEPT * p->probe.count * sizeof(double));
     if (p->guiding) {
         size_t cells = (size_t)p->guide.sources * PM_GUIDE_CELL_COUNT;
         memcpy(p->guide.cdf, p->guide_saved.cdf, (cells + p->guide.sources) * sizeof(float));
@@ -810,6 +909,22 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     uint32_t iteration = film->photon_passes;
     const pm_progressive_settings *set = &p->settings;
     uint32_t eye_passes = max_samples && p->radii.eye_passes > max_samples ? max_samples : p->radii.eye_passes;
+    /* the final gather's source: after the first image (the photons'), while learning, the path
+     * tracer and the photons take turns, each with a probed pair of eye passes. The photons'
+     * learning iterations are measurements only: the film is put back after them (their early
+     * estimates carry the bias of wide radii and an unlearned guide, which the image would keep),
+     * so the image holds the first iteration and the path tracer's unbiased samples until the
+     * choice. Such an iteration is never cut by the deadline (a cut pass marks pixels ahead). */
+    bool chosen = p->radii.gather_chosen, learning = !chosen && iteration > 0 && !(max_samples && max_samples < 2);
+    pm_gather_source source = chosen ? p->radii.gather_source
+                                     : (learning ? (p->radii.learn_step % 2 ? PM_GATHER_PHOTONS : PM_GATHER_PATH)
+                                                 : (iteration > 0 ? PM_GATHER_PATH : PM_GATHER_PHOTONS)); /* the last sample of a capped run: unbiased */
+    bool measure_only = learning && source == PM_GATHER_PHOTONS;
+    double deadline = p->eye.deadline;
+    p->eye.gather_source = source;
+    if (learning && eye_passes < 2) eye_passes = 2;
+    bool global_pass = p->trace_global && !(p->gathering && source == PM_GATHER_PATH);
+    uint64_t clip_rays_before = p->stats.clip_rays, examined_before = p->stats.photons_examined;
 
     /* 1. photon passes: a fresh, independent set every iteration, sorted into hash grids */
     uint64_t seed = pm_hash64(set->seed * 0x9e3779b97f4a7c15ULL + iteration);
@@ -829,7 +944,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         pm_photon_tracer_set_splats(p->tracer, p->splatting ? &p->camera : NULL, film->width, film->height, &p->splats);
         ok = pm_photon_tracer_trace_into(p->tracer, true, asked[KIND_CAUSTIC], seed, caustic, &p->stats.photons);
     }
-    if (ok && p->trace_global && !pm_parallel_cancelled())
+    if (ok && global_pass && !pm_parallel_cancelled())
         ok = pm_photon_tracer_trace_into(p->tracer, false, asked[KIND_INDIRECT], seed, global, &p->stats.photons);
     /* cancelled (a restart, a stop, a signal): the iteration is dropped before it touched the film */
     if (pm_parallel_cancelled()) return take_back(p, film, &start);
@@ -857,7 +972,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
      * while the guide learns to send photons there (at every power of two of the iterations), the
      * shared gather radius may shrink again to the denser light's (a deterministic sequence that
      * only ever shrinks faster, so the limit is unchanged) */
-    bool remeasure = p->guiding && p->gathering && p->radii.seen_measured && iteration >= 2 &&
+    bool remeasure = p->guiding && p->gathering && p->radii.gather_chosen && p->radii.seen_measured && iteration >= 2 &&
                      (iteration & (iteration - 1)) == 0;
     if ((!p->radii.seen_measured || remeasure) && global->count && set->initial_radius <= 0.0) {
         const pm_photon_grid *g = &p->grid[KIND_INDIRECT];
@@ -902,6 +1017,10 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
      * iteration back (its first pass saved every pixel it wrote) */
     uint32_t whole_passes = 0;
     bool cut = false, failed = false;
+    if (measure_only) {
+        pm_film_save_rect(film, 0, 0, film->width, film->height);
+        p->eye.deadline = 0.0;
+    }
     for (uint32_t pass = 0; pass < eye_passes && !cut; pass++) {
         job->statistics = pass == 0;
         job->sample = film->samples;
@@ -910,7 +1029,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         pm_eye_pass_result r = pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, film->samples, film,
                                                      p->gathering, photons_here ? gather_tile : NULL, job, reached,
                                                      pass == 0, &p->stats.eye);
-        if (r == PM_EYE_PASS_FAILED && pass == 0) { free(job); return !take_back(p, film, &start); } /* nothing ran */
+        if (r == PM_EYE_PASS_FAILED && pass == 0) { p->eye.deadline = deadline; free(job); return !take_back(p, film, &start); } /* nothing ran */
         if (r == PM_EYE_PASS_FAILED) {
             /* out of memory after whole passes: the iteration ends with them (their splats, their
              * counts), so the film holds nothing half counted, and the failure is reported */
@@ -919,7 +1038,8 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         }
         if (r == PM_EYE_PASS_CANCELLED) {
             /* the first pass put back the tiles it traced; after it, every pixel was saved */
-            if (pass > 0) pm_film_restore_rect(film, 0, 0, film->width, film->height);
+            if (pass > 0 || measure_only) pm_film_restore_rect(film, 0, 0, film->width, film->height);
+            p->eye.deadline = deadline;
             free(job);
             return take_back(p, film, &start);
         }
@@ -928,9 +1048,11 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         film->samples++;
         if (pass == 0) film->photon_passes++;
         whole_passes++;
-        if (probing && pass < 2) probe_eye_pass(&p->probe, film, pass);
+        if (probing && pass < 2)
+            probe_eye_pass(&p->probe, film, pass, learning ? (int)source : -1, p->radii.learned[source]);
     }
     if (p->splatting) add_splats(p, film, whole_passes, cut);
+    p->eye.deadline = deadline;
     int threads = pm_thread_count(set->threads);
     double query_sum[KIND_COUNT] = {0, 0}, gather_seconds = 0.0;
     uint64_t query_count[KIND_COUNT] = {0, 0};
@@ -938,6 +1060,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
         p->radii.initial_radius_sum += job->counters[t].radius_sum;
         p->radii.initial_radius_count += job->counters[t].radius_count;
         p->stats.photons_found += job->counters[t].found;
+        p->stats.photons_examined += job->counters[t].inside;
         p->stats.eye.dropped_samples += job->counters[t].dropped;
         p->stats.clip_rays += job->counters[t].clip_rays;
         gather_seconds += job->counters[t].seconds;
@@ -965,11 +1088,32 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
             p->radii.gather_r2 *= (i + set->alpha) / (i + 1.0);
         }
     }
-    if (p->guiding) {
-        /* the marks this iteration made are the next global pass's to learn from */
+    if (p->guiding && source == PM_GATHER_PHOTONS) {
+        /* the marks this iteration made are the next global pass's to learn from (the path
+         * tracer's iterations read no photons and make none: the last ones are kept) */
         pm_marks swap = p->marks;
         p->marks = p->marks_next;
         p->marks_next = swap;
+    }
+    if (learning && !cut) p->radii.learn_step++;
+    if (learning && probing && whole_passes >= 2) {
+        /* this iteration's cost for a pair of eye passes, in rays (see choose_gather) */
+        double passes = (double)whole_passes;
+        double eye = (double)(p->stats.eye.rays - eye_rays_before) + (double)(p->stats.clip_rays - clip_rays_before) +
+                     PM_PPM_EXAMINED_COST * (double)(p->stats.photons_examined - examined_before);
+        p->radii.learn_cost[source] += (double)(p->stats.photons.rays - photon_rays_before) + 2.0 * eye / passes;
+        p->radii.learned[source]++;
+        if (p->radii.learned[0] >= 2 && p->radii.learned[1] >= 2 && choose_gather(p)) {
+            /* the eye passes are learned again on the chosen source alone */
+            memset(p->probe.mean, 0, 3 * p->probe.count * sizeof(double));
+            p->probe.pairs = 0;
+        }
+    }
+    if (measure_only) {
+        /* the photons' learning iteration leaves the image as it found it (see above) */
+        pm_film_restore_rect(film, 0, 0, film->width, film->height);
+        film->samples = start.samples;
+        film->photon_passes = start.photon_passes;
     }
     if (probing && !cut)
         p->radii.eye_passes = choose_eye_passes(&p->probe, film->photon_passes, photon_rays,

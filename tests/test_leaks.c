@@ -86,6 +86,7 @@ static float progressive_dark(const pm_scene *s, const pm_accel *a, const pm_cam
                               bool unclipped, double *lit_mean) {
     pm_progressive_settings ps = default_settings(W, H);
     ps.indirect = indirect;
+    ps.gather = PM_GATHER_FORCE_PHOTONS; /* the photon estimates are what is tested */
     ps.unclipped = unclipped;
     ps.photons = ps.caustic_photons = 40000;
     session r;
@@ -178,6 +179,7 @@ static void check_shelf(pm_indirect_mode indirect, bool unclipped, double *error
     pm_accel *a = sb_finish(&s);
     pm_progressive_settings ps = default_settings(SW, SH);
     ps.indirect = indirect;
+    ps.gather = PM_GATHER_FORCE_PHOTONS;
     ps.initial_radius = 0.3;
     ps.unclipped = unclipped;
     session r;

@@ -325,6 +325,7 @@ static void test_gather_traces_punctual_light(void) {
     float *img = malloc(sizeof(float) * 3 * W * H);
     for (int run = 0; run < 3 && img; run++) {
         pm_progressive_settings ps = default_settings(W, H);
+        ps.gather = PM_GATHER_FORCE_PHOTONS; /* the photons' bounces are what is measured */
         if (run > 0) ps.max_photon_bounces = run;
         if (run == 2) ps.indirect = PM_INDIRECT_PHOTONS;
         session r;
