@@ -98,8 +98,8 @@ done
 grep -v -E "^($(echo $FIRST | tr ' ' '|'))[[ ]" "$entries" | while read -r line; do add $line; done
 rm -f "$entries"
 
-xargs -P "$jobs" -L 1 sh tests/run_tests.sh --one <"$list"
-xargs -P 1 -L 1 sh tests/run_tests.sh --one <"$alone"
+xargs -r -P "$jobs" -L 1 sh tests/run_tests.sh --one <"$list"
+xargs -r -P 1 -L 1 sh tests/run_tests.sh --one <"$alone"
 
 passed=0; failed=0; skipped=0; failed_names=""; total=0; total_cpu=0
 for r in "$logs"/*.result; do
