@@ -2,6 +2,7 @@
 #
 #   make          build ./pmview                 make run    install, build, render the default scene
 #   make test     install, build, run all tests  make bench  speed figures (ratios measured in one run)
+#                 (JOBS=N: N tests side by side, 2 by default)
 #   make check    the whole suite under ASan+UBSan, the threaded tests under TSan, a render under valgrind
 #   make fuzz     libFuzzer (clang): glTF through load, set-up, accel and a tiny render, then the sky, reference
 #                 and writers' inputs, then the compressed-mesh decoders, FUZZ_SECONDS (600) each
@@ -24,6 +25,10 @@ CXX_SRC := $(wildcard src/*.cpp)
 TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 SCENE   ?= scenes/cornell-box.gltf
 TSAN_TESTS := test_threads test_texture_threads
+# the tests run_tests.sh runs from the optimised build (its OPTIMISED list); every other test runs from the ASan build
+OPTIMISED_TESTS := $(shell sed -n 's/^OPTIMISED="\(.*\)"$$/\1/p' tests/run_tests.sh)
+# tests run side by side by `make test` (run_tests.sh's JOBS)
+JOBS ?= 2
 # Every compile writes the headers it read to a .d file beside its output (-MMD), with an empty rule for
 # each header (-MP) so a deleted header does not stop the build; the .d files are included at the end.
 DEPFLAGS := -MMD -MP
@@ -68,20 +73,22 @@ pmview: build/rel/main.o build/rel/libpm.a
 run: deps pmview
 	@sh tools/run-default.sh $(SCENE)
 
-tests-build: pmview build/rel/error_map build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) $(addprefix build/tsan/tests/,$(TSAN_TESTS)) $(addprefix build/rel/tests/,$(TESTS))
+# what `make test` runs: the ASan build of every test program, the optimised build of the few that
+# run optimised, and the two pmview builds the script tests drive (the TSan build is make check's)
+tests-build: pmview build/rel/error_map build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) $(addprefix build/rel/tests/,$(OPTIMISED_TESTS))
 
 build/asan/pmview: build/asan/main.o build/asan/libpm.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) $^ -o $@ $(LIBS) $(ASAN_FLAGS)
 
 test: deps
-	@$(MAKE) --no-print-directory -j2 tests-build
-	@sh tests/run_tests.sh
+	@start=$$(date +%s); $(MAKE) --no-print-directory -j2 tests-build && echo "make test: built in $$(( $$(date +%s) - start )) s"
+	@JOBS=$(JOBS) sh tests/run_tests.sh
 
 # everything under ASan+UBSan (the optimised tests too), the threaded tests under TSan, a render under valgrind
 check:
 	@sh tools/install-deps.sh check
-	@$(MAKE) --no-print-directory -j2 tests-build
-	@PMVIEW_CHECK=1 sh tests/run_tests.sh
+	@$(MAKE) --no-print-directory -j2 tests-build $(addprefix build/tsan/tests/,$(TSAN_TESTS))
+	@PMVIEW_CHECK=1 JOBS=$(JOBS) sh tests/run_tests.sh
 
 # The fuzz target: clang's libFuzzer over the whole library, built with its own compiler and flags.
 FUZZ_CC      ?= clang

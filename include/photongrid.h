@@ -34,7 +34,6 @@ bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t co
 void pm_photon_grid_free(pm_photon_grid *g);
 /* The photons some query has counted since the grid was built: the useful ones. */
 size_t pm_photon_grid_read_count(const pm_photon_grid *g);
-size_t pm_photon_grid_bytes(const pm_photon_grid *g);
 
 /* Whether a disc of that radius around p may hold any photon: false when it lies outside the
  * photons' bounds or meets only empty cells (a cheap look at the grid, no photon read). */
@@ -44,13 +43,9 @@ bool pm_photon_grid_may_find(const pm_photon_grid *g, vec3 p, float radius2);
  * a surface facing n with that path mask. */
 uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
                                    vec3 *power);
-/* The same photons, each one's power times b's f(wo, wi) for the direction wi it arrived from
- * (ns: the shading normal on wo's side): Jensen's estimate at a glossy point. */
-uint32_t pm_photon_grid_sum_brdf(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
-                                 const pm_brdf *b, vec3 ns, vec3 wo, vec3 *reflected);
-
 /* One disc query of a batch: lobe NULL for the plain sum (pm_photon_grid_sum_facing), else the
- * lobe-weighted one (pm_photon_grid_sum_brdf) with its ns and wo; clip NULL for the whole disc,
+ * same photons, each one's power times the lobe's f(wo, wi) for the direction wi it arrived from
+ * (ns: the shading normal on wo's side; Jensen's estimate at a glossy point); clip NULL for the whole disc,
  * else only the photons it keeps count (the caller divides by the kept area). */
 typedef struct {
     vec3 p, n;

@@ -61,8 +61,10 @@ void pm_view_wake(pm_view *v);
 pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_size);
 void pm_view_destroy(pm_view *v);
 
-/* Uploads the film's components as pm_film_resolve gives them (absent components stay black). */
-void pm_view_upload(pm_view *v, const pm_film *film);
+/* Uploads the film's components as pm_film_resolve gives them (absent components stay black).
+ * False, the shown image unchanged and the failure recorded (memory.h), when the resolved copy
+ * cannot be allocated. */
+bool pm_view_upload(pm_view *v, const pm_film *film);
 /* Uploads already resolved components: width*height*3 floats each, NULL = black. A size other than
  * the last upload's reallocates the textures. */
 void pm_view_upload_layers(pm_view *v, int width, int height, const float *const layers[PM_COMPONENT_COUNT]);

@@ -67,17 +67,18 @@ pm_cluster *pm_cluster_join(int *argc, char ***argv) {
         fprintf(stderr, "pmview: error: MPI could not start (started by mpirun, pmview joins its job)\n");
         exit(1);
     }
-    pm_cluster *c = calloc(1, sizeof *c);
+    uint64_t mark = pm_memory_failure_mark();
+    pm_cluster *c = pm_calloc(1, sizeof *c, "the cluster's state");
     if (!c) {
-        fprintf(stderr, "pmview: error: out of memory joining the MPI job\n");
+        fprintf(stderr, "pmview: error: out of memory joining the MPI job (%s)\n", pm_memory_failure_since(mark));
         MPI_Abort(MPI_COMM_WORLD, 1);
     }
     MPI_Comm_rank(MPI_COMM_WORLD, &c->rank);
     MPI_Comm_size(MPI_COMM_WORLD, &c->size);
     c->real_stderr = -1;
-    c->answered = calloc((size_t)c->size, sizeof *c->answered);
+    c->answered = pm_calloc((size_t)c->size, sizeof *c->answered, "the cluster's table of ranks");
     if (!c->answered) {
-        fprintf(stderr, "pmview: error: out of memory joining the MPI job\n");
+        fprintf(stderr, "pmview: error: out of memory joining the MPI job (%s)\n", pm_memory_failure_since(mark));
         MPI_Abort(MPI_COMM_WORLD, 1);
     }
     if (c->rank > 0) {

@@ -28,10 +28,6 @@ void pm_photon_grid_free(pm_photon_grid *g) {
     memset(g, 0, sizeof *g);
 }
 
-size_t pm_photon_grid_bytes(const pm_photon_grid *g) {
-    return g->capacity * (sizeof(pm_photon) + 1) + (g->bucket_capacity + 1) * sizeof(uint32_t) + g->bucket_capacity / 8;
-}
-
 bool pm_photon_grid_build(pm_photon_grid *g, const pm_photon *photons, size_t count, float cell) {
     g->count = 0;
     if (!(cell > 0.f) || !isfinite(cell) || count > UINT32_MAX) return false;
@@ -301,11 +297,6 @@ void pm_photon_grid_sum_many(const pm_photon_grid *g, const pm_grid_query *q, si
 uint32_t pm_photon_grid_sum_facing(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
                                    vec3 *power) {
     return sum_disc(g, p, n, radius2, path_mask, NULL, n, n, power);
-}
-
-uint32_t pm_photon_grid_sum_brdf(const pm_photon_grid *g, vec3 p, vec3 n, float radius2, unsigned path_mask,
-                                 const pm_brdf *b, vec3 ns, vec3 wo, vec3 *reflected) {
-    return sum_disc(g, p, n, radius2, path_mask, b, ns, wo, reflected);
 }
 
 size_t pm_photon_grid_read_count(const pm_photon_grid *g) {

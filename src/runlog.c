@@ -26,13 +26,14 @@ bool pm_reference_check(const char *path, int width, int height, char *err, size
 }
 
 bool pm_reference_load(const char *path, bool with_layers, pm_reference_image *ref, char *err, size_t err_size) {
+    uint64_t mark = pm_memory_failure_mark(); /* what fails in this call, never an older failure */
     memset(ref, 0, sizeof *ref);
     int w = 0, h = 0;
     if (!pm_read_exr_size(path, 3, names, &w, &h, err, err_size)) return false;
     /* R, G, B, each layer's three when asked for, and the mask of unknown pixels */
     uint64_t bytes = (uint64_t)w * (uint64_t)h * ((3 + (with_layers ? 3 * PM_COMPONENT_COUNT : 0)) * sizeof(float) + 1);
     if (!pm_memory_admit(bytes, "reference image")) {
-        snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure());
+        snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure_since(mark));
         return false;
     }
     ref->admitted = bytes;
@@ -54,7 +55,7 @@ bool pm_reference_load(const char *path, bool with_layers, pm_reference_image *r
         bool finite = isfinite(ref->rgb[0][i]) && isfinite(ref->rgb[1][i]) && isfinite(ref->rgb[2][i]);
         if (!finite && !ref->known) {
             ref->known = pm_malloc(n, "reference mask");
-            if (!ref->known) { snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure()); return false; }
+            if (!ref->known) { snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure_since(mark)); return false; }
             memset(ref->known, 1, i);
         }
         if (ref->known) ref->known[i] = finite;

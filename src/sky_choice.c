@@ -15,6 +15,7 @@ static bool names_file(const char *sky) {
 }
 
 bool pm_sky_prepare(pm_sky_request *request) {
+    uint64_t mark = pm_memory_failure_mark(); /* what fails in this call, never an older failure */
     const char *path = request->sky;
     if (!names_file(path) || request->map) return true;
     char err[1024];
@@ -28,7 +29,7 @@ bool pm_sky_prepare(pm_sky_request *request) {
     snprintf(what, sizeof what, "sky map of %dx%d texels", w, h);
     uint64_t bytes = pm_sky_map_bytes(w, h);
     if (!pm_memory_admit(bytes, what)) {
-        fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", path, pm_memory_failure());
+        fprintf(stderr, "pmview: error: %s: out of memory (%s)\n", path, pm_memory_failure_since(mark));
         return false;
     }
     if ((uint64_t)w * (uint64_t)h > PM_SKY_MAX_TEXELS) {

@@ -62,9 +62,10 @@ void pm_display_from_options(const pm_options *o, pm_display *display) {
 
 bool pm_write_png_view(const float *const layers[PM_COMPONENT_COUNT], int width, int height, const pm_display *display,
                        const char *path, char *err, size_t err_size) {
+    uint64_t mark = pm_memory_failure_mark(); /* what fails in this call, never an older failure */
     uint64_t view_bytes = png_view_bytes(width, height);
     if (!pm_memory_admit(view_bytes, "PNG offscreen view")) {
-        snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure());
+        snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure_since(mark));
         return false;
     }
     pm_view *view = pm_view_create_offscreen(width, height, err, err_size);
@@ -73,7 +74,7 @@ bool pm_write_png_view(const float *const layers[PM_COMPONENT_COUNT], int width,
         pm_view_upload_layers(view, width, height, layers);
         pm_view_draw(view, display);
         uint8_t *rgba = pm_malloc(4 * (size_t)width * height, "PNG offscreen view");
-        if (!rgba) snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure());
+        if (!rgba) snprintf(err, err_size, "%s: out of memory (%s)", path, pm_memory_failure_since(mark));
         else {
             pm_view_read_rgba8(view, rgba);
             ok = pm_write_png(path, width, height, rgba, err, err_size);
@@ -87,6 +88,7 @@ bool pm_write_png_view(const float *const layers[PM_COMPONENT_COUNT], int width,
 
 /* The PNG snapshot: the film's layers resolved, drawn as the display shows them. */
 static bool write_png_snapshot(const pm_options *o, const pm_film *film, char *err, size_t err_size) {
+    uint64_t mark = pm_memory_failure_mark(); /* what fails in this call, never an older failure */
     pm_display display;
     pm_display_from_options(o, &display);
     size_t n = (size_t)film->width * film->height;
@@ -95,11 +97,11 @@ static bool write_png_snapshot(const pm_options *o, const pm_film *film, char *e
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) layer_bytes += film->sum[c] ? sizeof(float) * 3 * n : 0;
     const bool admitted = pm_memory_admit(layer_bytes, "PNG output layers");
     bool ok = admitted;
-    if (!ok) snprintf(err, err_size, "%s: out of memory (%s)", o->snapshot, pm_memory_failure());
+    if (!ok) snprintf(err, err_size, "%s: out of memory (%s)", o->snapshot, pm_memory_failure_since(mark));
     for (int c = 0; c < PM_COMPONENT_COUNT && ok; c++) {
         if (!film->sum[c]) continue;
         layers[c] = pm_malloc(sizeof(float) * 3 * n, "PNG output layers");
-        if (!layers[c]) { snprintf(err, err_size, "%s: out of memory (%s)", o->snapshot, pm_memory_failure()); ok = false; break; }
+        if (!layers[c]) { snprintf(err, err_size, "%s: out of memory (%s)", o->snapshot, pm_memory_failure_since(mark)); ok = false; break; }
         pm_film_resolve(film, (pm_component)c, layers[c]);
     }
     if (ok) ok = pm_write_png_view((const float *const *)layers, film->width, film->height, &display, o->snapshot, err, err_size);
@@ -214,6 +216,7 @@ static void observe(void *context, pm_session *session, const pm_session_run_sta
 
 int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *session, const pm_reference_image *reference,
                     uint64_t *reserved) {
+    uint64_t mark = pm_memory_failure_mark(); /* what fails in this call, never an older failure */
     char err[1024];
     pm_snapshot_catch_signals(session);
     pm_cluster_watch(cluster, &interrupted_by);
@@ -223,7 +226,7 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
                    .tty = root && isatty(2) && !o->quiet, .reserved = reserved, .session = session};
     if (reference->rgb[0]) {
         ob.scratch = pm_malloc(sizeof(float) * 3 * (size_t)film->width * film->height, "reference comparison");
-        if (!ob.scratch) { fprintf(stderr, "pmview: error: out of memory (%s)\n", pm_memory_failure()); return 1; }
+        if (!ob.scratch) { fprintf(stderr, "pmview: error: out of memory (%s)\n", pm_memory_failure_since(mark)); return 1; }
     }
     if (o->log && root) {
         ob.log = fopen(o->log, "w");

@@ -391,12 +391,13 @@ void pm_view_destroy(pm_view *v) {
 
 /* A view of the given size and backend with nothing created yet; NULL with err set. */
 static pm_view *view_alloc(int backend, int width, int height, char *err, size_t err_size) {
+    uint64_t mark = pm_memory_failure_mark();
     if (width < 1 || height < 1) {
         snprintf(err, err_size, "bad display size %dx%d", width, height);
         return NULL;
     }
-    pm_view *v = calloc(1, sizeof *v);
-    if (!v) { snprintf(err, err_size, "out of memory"); return NULL; }
+    pm_view *v = pm_calloc(1, sizeof *v, "the display");
+    if (!v) { snprintf(err, err_size, "out of memory (%s)", pm_memory_failure_since(mark)); return NULL; }
     v->backend = backend;
     v->width = width;
     v->height = height;
@@ -909,19 +910,20 @@ void pm_view_show_quick(pm_view *v, int width, int height, const float *const la
     XDestroyImage(image);
 }
 
-void pm_view_upload(pm_view *v, const pm_film *film) {
-    if (!v || !film) return;
+bool pm_view_upload(pm_view *v, const pm_film *film) {
+    if (!v || !film) return false;
     size_t floats = 3 * (size_t)film->width * film->height;
     float *buffers[PM_COMPONENT_COUNT] = {NULL, NULL, NULL, NULL};
     bool ok = true;
     for (int c = 0; c < PM_COMPONENT_COUNT && ok; c++) {
         if (!film->sum[c]) continue;
-        buffers[c] = malloc(floats * sizeof(float));
+        buffers[c] = pm_malloc(floats * sizeof(float), "the display's copy of the film");
         if (!buffers[c]) { ok = false; break; }
         pm_film_resolve(film, (pm_component)c, buffers[c]);
     }
-    if (ok) pm_view_upload_layers(v, film->width, film->height, (const float *const *)buffers); /* else keeps the last image */
+    if (ok) pm_view_upload_layers(v, film->width, film->height, (const float *const *)buffers);
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) free(buffers[c]);
+    return ok;
 }
 
 /* The composite into the FBO, the film's size. */
@@ -989,17 +991,19 @@ void pm_view_read_rgba8(pm_view *v, uint8_t *rgba) {
     v->gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
     v->gl.ReadPixels(0, 0, v->width, v->height, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
     v->gl.BindFramebuffer(GL_FRAMEBUFFER, 0);
-    /* GL's row 0 is the bottom one */
+    /* GL's row 0 is the bottom one: the rows swap in place, a stack-sized piece at a time, so the
+     * flip needs no allocation and cannot fail */
     size_t row = 4 * (size_t)v->width;
-    uint8_t *tmp = malloc(row);
-    if (!tmp) return;
+    uint8_t tmp[4096];
     for (int y = 0; y < v->height / 2; y++) {
         uint8_t *a = rgba + row * y, *b = rgba + row * (v->height - 1 - y);
-        memcpy(tmp, a, row);
-        memcpy(a, b, row);
-        memcpy(b, tmp, row);
+        for (size_t at = 0; at < row; at += sizeof tmp) {
+            size_t n = row - at < sizeof tmp ? row - at : sizeof tmp;
+            memcpy(tmp, a + at, n);
+            memcpy(a + at, b + at, n);
+            memcpy(b + at, tmp, n);
+        }
     }
-    free(tmp);
 }
 
 pm_view_events pm_view_poll(pm_view *v, pm_display *d, bool wait, double timeout) {

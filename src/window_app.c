@@ -220,8 +220,9 @@ int pm_window_open(const pm_options *opt, pm_cluster *cluster, double process_st
         fprintf(stderr, "pmview: no DISPLAY for a window; use --snapshot FILE.png|FILE.exr to render offscreen\n");
         return 2;
     }
-    pm_window *w = calloc(1, sizeof *w);
-    if (!w) { fprintf(stderr, "pmview: error: out of memory for the window\n"); return 1; }
+    uint64_t mark = pm_memory_failure_mark();
+    pm_window *w = pm_calloc(1, sizeof *w, "the window");
+    if (!w) { fprintf(stderr, "pmview: error: out of memory (%s)\n", pm_memory_failure_since(mark)); return 1; }
     w->process_start = process_start;
     pm_display_from_options(opt, &w->display);
     /* the film's size is known once the scene's camera is: until then the width asked for and the

@@ -1,57 +1,123 @@
 #!/bin/sh
-# run_tests.sh: runs every test program (ASan/UBSan build), the threaded tests under TSan and the script tests; prints the summary line.
+# run_tests.sh: runs every test program (ASan/UBSan build) and the script tests, JOBS at a time; prints a line per test and the summary line.
 #
-# PMVIEW_CHECK=1 (make check): the OPTIMISED tests run under ASan/UBSan too, and the valgrind test is added.
+# PMVIEW_CHECK=1 (make check): the OPTIMISED tests run under ASan/UBSan too, the threaded tests
+# run again under TSan, and the valgrind test is added.
+# JOBS (default 2): how many tests run side by side. The tests that time what a person would see
+# (windows, signals, cluster ranks) run afterwards, one at a time, with nothing beside them.
+# Each test's output is kept in build/test-logs/NAME.log, its result in build/test-logs/NAME.result.
+# With names (run_tests.sh test_film_sums test_cancel), only those tests run.
 cd "$(dirname "$0")/.." || exit 1
-passed=0; failed=0; skipped=0; failed_names=""
-run() { # name command...
-    name=$1; shift
-    log="build/test-logs/$name.log"
-    mkdir -p build/test-logs
+logs=build/test-logs
+
+# `run_tests.sh --one NAME COMMAND...`: runs one test, records its result and prints its line
+if [ "$1" = --one ]; then
+    name=$2; shift 2
+    log="$logs/$name.log"
     start=$(date +%s)
-    if "$@" >"$log" 2>&1; then
+    # the processor time it took, which a loaded machine does not stretch as it does the wall time
+    timer=""
+    [ -x /usr/bin/time ] && timer="/usr/bin/time -o $logs/$name.cpu -f %U+%S"
+    if $timer "$@" >"$log" 2>&1; then
         # a test that could not run says so on its last line: it is a skip, never a pass
-        if tail -n 1 "$log" | grep -qi "skip"; then
-            skipped=$((skipped + 1)); status=SKIPPED
-        else
-            passed=$((passed + 1)); status=ok
-        fi
+        if tail -n 1 "$log" | grep -qi "skip"; then status=SKIPPED; else status=ok; fi
     else
-        failed=$((failed + 1)); status=FAILED; failed_names="$failed_names $name"
+        status=FAILED
     fi
-    printf '%-28s %-6s %3ss  %s\n' "$name" "$status" "$(( $(date +%s) - start ))" "$(tail -n 1 "$log")"
-    [ "$status" = FAILED ] && sed 's/^/    | /' "$log" | tail -n 30
-}
+    secs=$(( $(date +%s) - start ))
+    cpu=$(cat "$logs/$name.cpu" 2>/dev/null | tail -n 1 | awk -F+ '{ printf "%d", $1 + $2 + 0.5 }')
+    echo "$status $secs ${cpu:-0}" >"$logs/$name.result"
+    # one write per test, so lines of tests running side by side do not interleave
+    out=$(printf '%-28s %-7s %3ss %4ss cpu  %s' "$name" "$status" "$secs" "${cpu:-?}" "$(tail -n 1 "$log")")
+    [ "$status" = FAILED ] && out="$out
+$(sed 's/^/    | /' "$log" | tail -n 30)"
+    printf '%s\n' "$out"
+    exit 0
+fi
+
+rm -rf "$logs"; mkdir -p "$logs"
+began=$(date +%s)
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0
 export LSAN_OPTIONS=suppressions=$(pwd)/tests/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 # make check sets PMVIEW_CHECK=1: the OPTIMISED tests below run under ASan/UBSan too
 check=${PMVIEW_CHECK:-0}
-# the tests that render on several threads, run again under TSan
+jobs=${JOBS:-2}
+# the tests that render on several threads, run again under TSan by make check
 TSAN_TESTS="test_threads test_texture_threads"
 export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 # Convergence tests run hundreds of iterations, test_photons millions of photons, test_pathtrace
 # hundreds of paths per pixel, test_hard_energy an albedo-0.99 furnace of 100-bounce photon paths:
 # they run optimised (test_photons 45 s against 136 s); the code they drive runs under ASan/UBSan
 # in test_progressive, test_glossy, test_volume, the classic runs of test_cli and the path-traced
-# runs of test_log (build/asan/pmview), and under TSan in test_threads.
+# runs of test_log (build/asan/pmview), and (make check) under TSan in test_threads.
 OPTIMISED="test_convergence test_photons test_pathtrace test_hard_energy test_mirror_box"
+# Tests that measure what a person would see in seconds (a window's first frame, an answer to a key
+# or a signal, ranks exchanging iterations) or render for a set time (--time): another test beside
+# them could push them past their bounds.
+ALONE="test_window test_window_cluster test_window_loading test_window_room test_interactive test_cluster test_hangs test_convergence_report"
+# The longest tests start first, so the last one to end is a short one.
+FIRST="test_convergence test_progressive test_glossy test_leaks test_robust test_threads test_photons test_memory_failures test_log test_cli"
+
+list=$(mktemp) || exit 1
+alone=$(mktemp) || exit 1
+trap 'rm -f "$list" "$alone"' EXIT
+add() { # name command...: queue a test, in the list of those run alone when it is one of them
+    base=${1%%\[*}
+    case " $ALONE " in *" $base "*) echo "$*" >>"$alone" ;; *) echo "$*" >>"$list" ;; esac
+}
+entries=$(mktemp) || exit 1
 for t in build/asan/tests/test_*; do
+    [ -f "$t" ] && [ -x "$t" ] || continue
     name=$(basename "$t")
-    [ "$check" = 0 ] && case " $OPTIMISED " in *" $name "*) run "$name[optimised]" "build/rel/tests/$name"; continue ;; esac
-    run "$name" "$t"
-done
+    if [ "$check" = 0 ] && case " $OPTIMISED " in *" $name "*) true ;; *) false ;; esac; then
+        echo "$name[optimised] build/rel/tests/$name"
+    else
+        echo "$name $t"
+    fi
+done >"$entries"
 for t in $TSAN_TESTS; do
-    [ -x "build/tsan/tests/$t" ] && run "$t[tsan]" env TSAN_OPTIONS=halt_on_error=1 "build/tsan/tests/$t"
-done
+    [ "$check" = 1 ] && [ -x "build/tsan/tests/$t" ] && echo "$t[tsan] env TSAN_OPTIONS=halt_on_error=1 build/tsan/tests/$t"
+done >>"$entries"
 for s in tests/test_*.sh; do
-    [ -f "$s" ] && run "$(basename "$s" .sh)" sh "$s"
-done
+    [ -f "$s" ] && echo "$(basename "$s" .sh) sh $s"
+done >>"$entries"
 if [ "$check" = 1 ]; then
     for s in tests/check_*.sh; do
-        [ -f "$s" ] && run "$(basename "$s" .sh)" sh "$s"
-    done
+        [ -f "$s" ] && echo "$(basename "$s" .sh) sh $s"
+    done >>"$entries"
 fi
+# `run_tests.sh NAME...`: only those tests (any of their runs: test_threads is also test_threads[tsan])
+if [ $# -gt 0 ]; then
+    only=$(mktemp) || exit 1
+    for n in "$@"; do grep "^$n[[ ]" "$entries"; done >"$only"
+    mv "$only" "$entries"
+fi
+for f in $FIRST; do
+    grep "^$f[[ ]" "$entries" | while read -r line; do add $line; done
+done
+grep -v -E "^($(echo $FIRST | tr ' ' '|'))[[ ]" "$entries" | while read -r line; do add $line; done
+rm -f "$entries"
+
+xargs -r -P "$jobs" -L 1 sh tests/run_tests.sh --one <"$list"
+xargs -r -P 1 -L 1 sh tests/run_tests.sh --one <"$alone"
+
+passed=0; failed=0; skipped=0; failed_names=""; total=0; total_cpu=0
+for r in "$logs"/*.result; do
+    [ -f "$r" ] || continue
+    name=$(basename "$r" .result)
+    read -r status secs cpu <"$r"
+    total=$((total + secs)); total_cpu=$((total_cpu + ${cpu:-0}))
+    case $status in
+        ok) passed=$((passed + 1)) ;;
+        SKIPPED) skipped=$((skipped + 1)) ;;
+        *) failed=$((failed + 1)); failed_names="$failed_names $name" ;;
+    esac
+done
+queued=$(cat "$list" "$alone" | wc -l)
+missing=$((queued - passed - failed - skipped))
+[ "$missing" -gt 0 ] && { failed=$((failed + missing)); failed_names="$failed_names (${missing} left no result)"; }
+echo "tests ran in $(( $(date +%s) - began )) s, $jobs at a time; their own times add up to $total s, their processor times to $total_cpu s"
 [ -n "$failed_names" ] && echo "failed:$failed_names"
 echo "$passed passed, $failed failed, $skipped skipped"
 [ "$failed" -eq 0 ]
