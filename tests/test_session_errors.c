@@ -86,9 +86,23 @@ static void resize_then_save(const pm_scene *s, const pm_accel *a, const pm_came
 static void background_resize(const pm_scene *s, const pm_accel *a, const pm_camera *cam) {
     char err[256];
     pm_session_config config = small_config(PM_MODE_PROGRESSIVE);
+    /* the worker finishes its iterations and waits before the injected failure, so the failure is
+     * the resize's own first allocation and never one the worker makes meanwhile */
+    config.max_iterations = 2;
     pm_session *session = pm_session_create(s, a, cam, &config, err, sizeof err);
     CHECK(session && pm_session_start(session, err, sizeof err), "background session: %s", err);
     if (!session) return;
+    bool finished = false;
+    for (double until = pm_now_seconds() + 60; !finished && pm_now_seconds() < until;) {
+        uint64_t version = 0;
+        pm_session_progress progress = {0};
+        if (pm_session_lock_latest(session, &version, &progress)) {
+            finished = progress.finished;
+            pm_session_unlock_latest(session);
+        }
+        if (!finished) nanosleep(&(struct timespec){0, 2000000}, NULL);
+    }
+    CHECK(finished, "the background session finishes its two iterations");
     pm_memory_fail_at(1, false);
     bool resized = pm_session_resize(session, 64, 48, cam);
     pm_memory_fail_at(0, false);
