@@ -4,21 +4,14 @@
 # Checked from outside the process only: the window title (iterations, "paused"), X's own copy
 # of the window (xwd) and how long pmview takes to exit.
 cd "$(dirname "$0")/.." || exit 1
-for t in xvfb-run xdotool xwd python3; do
-    command -v $t >/dev/null 2>&1 || { echo "SKIP: $t missing"; echo "test_interactive: 0 checks, skipped"; exit 0; }
-done
-[ -x ./pmview ] || { echo "test_interactive: FAILED: ./pmview is not built"; exit 1; }
-tmp=$(mktemp -d) || exit 1
-group=""
-cleanup() { [ -n "$group" ] && kill -TERM -- "-$group" 2>/dev/null; rm -rf "$tmp"; }
-trap cleanup EXIT
-trap 'exit 1' INT TERM HUP
+. tests/xvfb_inner.sh
+need_tools test_interactive xvfb-run xdotool xwd python3
+start_temp
 
 cat >"$tmp/inner.sh" <<'EOF'
 tmp=$1
 log="$tmp/pmview.log"
-fail() { echo "inner: FAIL: $*"; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- pmview log:"; cat "$log"; exit 1; }
-now_ms() { date +%s%3N; }
+. tests/window_inner.sh
 iterations() { xdotool getwindowname "$wid" 2>/dev/null | sed -n 's/.* \([0-9][0-9]*\) it .*/\1/p'; }
 wait_window() {
     i=0; wid=""
@@ -129,21 +122,6 @@ echo "inner: Esc in a window resized to 8192x8192 (rendering at 768x768): exited
 echo "inner: ok"
 EOF
 
-setsid xvfb-run -a -s "-screen 0 1024x768x24" sh "$tmp/inner.sh" "$tmp" >"$tmp/xvfb.log" 2>&1 &
-xpid=$!
-g=$(ps -o pgid= -p "$xpid" 2>/dev/null | tr -d ' ')
-[ -n "$g" ] && [ "$g" != "$(ps -o pgid= -p $$ | tr -d ' ')" ] && group=$g
-i=0
-while kill -0 "$xpid" 2>/dev/null; do
-    i=$((i + 1)); [ "$i" -gt 1800 ] && { echo "test_interactive: FAILED: still running after 180 s"; cat "$tmp/xvfb.log"; exit 1; }
-    sleep 0.1
-done
-wait "$xpid"; rc=$?
-cat "$tmp/xvfb.log"
-group=""
-checks=$(grep -c "^inner: " "$tmp/xvfb.log")
-if [ "$rc" -ne 0 ] || ! grep -q "^inner: ok" "$tmp/xvfb.log"; then
-    echo "test_interactive: $checks checks, 1 failed"
-    exit 1
-fi
-echo "test_interactive: $checks checks, 0 failed"
+# run_inner ends the test at a failure; a passed session counts its "inner:" lines as checks
+run_inner test_interactive 180 "$tmp/inner.sh" "$tmp"
+echo "test_interactive: $(grep -c "^inner: " "$tmp/xvfb.log") checks, 0 failed"

@@ -9,21 +9,11 @@
 # pmview. xvfb-run and everything under it run in their own session, killed as a group on any exit.
 cd "$(dirname "$0")/.." || exit 1
 
-have_tools() { for t in xvfb-run xdotool mpirun; do command -v $t >/dev/null 2>&1 || return 1; done; }
-if ! have_tools; then
-    # only when installing cannot stop at a password prompt
-    if [ "$(id -u)" = 0 ] || sudo -n true 2>/dev/null; then sh tools/install-deps.sh </dev/null >/dev/null 2>&1; fi
-    if ! have_tools; then
-        echo "SKIP: xvfb-run, xdotool or mpirun missing and tools/install-deps.sh could not install them"
-        exit 0
-    fi
-fi
-[ -x ./pmview ] || { echo "test_window_cluster: FAILED: ./pmview is not built"; exit 1; }
+. tests/xvfb_inner.sh
+need_tools test_window_cluster xvfb-run xdotool mpirun
 
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export PMVIEW_TEST_JOB="test_window_cluster.$$"
-tmp=$(mktemp -d) || exit 1
-group=""
 # job_processes: the pids of this test's pmview ranks still running
 job_processes() {
     for d in /proc/[0-9]*; do
@@ -31,21 +21,15 @@ job_processes() {
         (tr '\0' '\n' <"$d/environ") 2>/dev/null | grep -qx "PMVIEW_TEST_JOB=$PMVIEW_TEST_JOB" && echo "${d#/proc/}"
     done
 }
-cleanup() {
-    # the group's leader is xvfb-run; Xvfb, the inner script, mpirun and the ranks are its members
-    [ -n "$group" ] && kill -TERM -- "-$group" 2>/dev/null
-    for p in $(job_processes); do kill -KILL "$p" 2>/dev/null; done
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
-trap 'exit 1' INT TERM HUP
-. tests/xvfb_inner.sh
+# the ranks, should mpirun have left any
+cleanup_more() { for p in $(job_processes); do kill -KILL "$p" 2>/dev/null; done; }
+start_temp
 
 cat >"$tmp/inner.sh" <<'EOF'
 # runs under xvfb-run: start the 2-rank job, read the title, drag, Esc; "$1" is the temp folder
 tmp=$1
 log="$tmp/pmview.log"
-fail() { echo "inner: $*"; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- mpirun's log:"; cat "$log"; exit 1; }
+. tests/window_inner.sh
 mpirun --oversubscribe -np 2 ./pmview scenes/cornell-box.gltf --width 96 --threads 1 --stats </dev/null >"$log" 2>&1 &
 pid=$!
 wid=$(timeout 30 xdotool search --sync --name '^pmview \(2 ranks\)' | head -n 1)
@@ -85,14 +69,8 @@ done
 echo "inner: after the drag the merged count fell from $before to $lowest"
 [ $((lowest * 4)) -lt "$before" ] || fail "the merged count went from $before to $lowest after the drag, want below a quarter"
 xdotool windowfocus --sync "$wid" || fail "cannot focus the window"
-xdotool key --clearmodifiers Escape || fail "xdotool key Escape failed"
-i=0
-while kill -0 "$pid" 2>/dev/null; do
-    i=$((i + 1)); [ "$i" -gt 100 ] && { xdotool keyup Escape; fail "mpirun still running 10 s after Escape"; }
-    sleep 0.1
-done
-xdotool keyup Escape
-wait "$pid"; rc=$?
+press Escape
+wait_exit 10
 echo "inner: mpirun ended $((i / 10)).$((i % 10)) s after Escape, exit $rc"
 [ "$rc" -eq 0 ] || fail "mpirun exited with $rc after Escape"
 grep -q "^stat cluster ranks=2 " "$log" || fail "no 'stat cluster ranks=2' line"

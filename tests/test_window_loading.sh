@@ -7,29 +7,13 @@
 # met. xvfb-run and everything under it run in their own session, killed as a group on any exit.
 cd "$(dirname "$0")/.." || exit 1
 
-have_tools() { for t in xvfb-run xdotool python3; do command -v $t >/dev/null 2>&1 || return 1; done; }
-if ! have_tools; then
-    if [ "$(id -u)" = 0 ] || sudo -n true 2>/dev/null; then sh tools/install-deps.sh </dev/null >/dev/null 2>&1; fi
-    if ! have_tools; then
-        echo "SKIP: xvfb-run, xdotool or python3 missing and tools/install-deps.sh could not install them"
-        exit 0
-    fi
-fi
+. tests/xvfb_inner.sh
+need_tools test_window_loading xvfb-run xdotool python3
 # the first python3 with numpy (tools/install-deps.sh installs Debian's): a user's pyenv may shadow it
 py=python3
 python3 -c "import numpy" 2>/dev/null || py=/usr/bin/python3
 $py -c "import numpy" 2>/dev/null || { echo "SKIP: python3 numpy missing (bench/big_scene.py needs it)"; exit 0; }
-[ -x ./pmview ] || { echo "test_window_loading: FAILED: ./pmview is not built"; exit 1; }
-
-tmp=$(mktemp -d) || exit 1
-group=""
-cleanup() {
-    [ -n "$group" ] && kill -TERM -- "-$group" 2>/dev/null
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
-trap 'exit 1' INT TERM HUP
-. tests/xvfb_inner.sh
+start_temp
 
 $py bench/big_scene.py "$tmp/big.glb" 8 >/dev/null || { echo "test_window_loading: FAILED: bench/big_scene.py"; exit 1; }
 
@@ -37,9 +21,7 @@ cat >"$tmp/inner.sh" <<'EOF'
 # runs under xvfb-run; "$1" is the temp folder
 tmp=$1
 log="$tmp/pmview.log"
-pid=""
-fail() { echo "inner: $*"; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- pmview log:"; cat "$log" 2>/dev/null; exit 1; }
-now_ms() { echo $(($(date +%s%N) / 1000000)); }
+. tests/window_inner.sh
 alive() { kill -0 "$pid" 2>/dev/null; }
 
 ./pmview "$tmp/big.glb" --width 320 --height 240 --threads 2 --stats >"$log" 2>&1 &

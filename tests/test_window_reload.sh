@@ -1,18 +1,9 @@
 #!/bin/sh
 # test_window_reload.sh: the window under Xvfb keeps up with its files: --watch reloads a scene rewritten in place and by rename within 2 s with the camera kept, a broken save keeps the image and names the error; a dropped scene and sky (through the drop handler) replace what is shown, a bad drop only the title; --reference puts a falling relMSE in the title and V shows the error.
 cd "$(dirname "$0")/.." || exit 1
-have_tools() { for t in xvfb-run xdotool xwd python3; do command -v $t >/dev/null 2>&1 || return 1; done; }
-if ! have_tools; then
-    if [ "$(id -u)" = 0 ] || sudo -n true 2>/dev/null; then sh tools/install-deps.sh </dev/null >/dev/null 2>&1; fi
-    have_tools || { echo "SKIP: xvfb-run, xdotool, xwd or python3 missing"; exit 0; }
-fi
-[ -x ./pmview ] || { echo "test_window_reload: FAILED: ./pmview is not built"; exit 1; }
-tmp=$(mktemp -d) || exit 1
-group=""
-cleanup() { [ -n "$group" ] && kill -TERM -- "-$group" 2>/dev/null; rm -rf "$tmp"; }
-trap cleanup EXIT
-trap 'exit 1' INT TERM HUP
 . tests/xvfb_inner.sh
+need_tools test_window_reload xvfb-run xdotool xwd python3
+start_temp
 
 # the scene in a folder of its own; its edits: the red wall blue (camera moved in the file, which
 # the window must not follow), then the green wall yellow (by rename), then a save cut short
@@ -31,24 +22,13 @@ args="--width 96 --height 96 --iterations 4 --seed 7 --threads 2"
 cat >"$tmp/inner.sh" <<'EOF'
 tmp=$1; shift
 log="$tmp/pmview.log"
-fail() { echo "inner: $*"; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- pmview log:"; cat "$log"; exit 1; }
-count() { c=$(grep -c "$1" "$log" 2>/dev/null); echo "${c:-0}"; }
-wait_for() {
-    i=0
-    while [ "$(count "$1")" -lt "$2" ]; do
-        kill -0 "$pid" 2>/dev/null || fail "pmview exited before '$1'"
-        i=$((i + 1)); [ "$i" -gt $(($3 * 10)) ] && fail "no '$1' after $3 s"
-        sleep 0.1
-    done
-}
-press() { xdotool key --clearmodifiers "$1" || fail "xdotool key $1 failed"; }
+. tests/window_inner.sh
 shot() { # NAME: P, then the screenshot kept as NAME.png
     n=$(count "pmview: saved")
     press p
     wait_for "pmview: saved" $((n + 1)) 20
     cp "$tmp/shot.png" "$tmp/$1.png" || fail "no screenshot for $1"
 }
-now_ms() { date +%s%3N; }
 # within2 PATTERN N: the Nth PATTERN line within 2 s of now, printed as the delay
 within2() {
     t0=$(now_ms)
@@ -62,9 +42,7 @@ title() { xdotool getwindowname "$wid"; }
 PMVIEW_TEST_DROP="$tmp/drop" ./pmview "$tmp/scene/room.gltf" --watch "$@" --screenshot "$tmp/shot.png" >"$log" 2>&1 &
 pid=$!
 wait_for "pmview: iterations done" 1 60
-wid=$(timeout 30 xdotool search --sync --name pmview | head -n 1)
-[ -n "$wid" ] || fail "no window named pmview"
-xdotool windowfocus --sync "$wid" || fail "cannot focus the window"
+focus_window pmview
 shot first
 # in place: the file truncated and written again
 cat "$tmp/blue.gltf" > "$tmp/scene/room.gltf"
@@ -112,13 +90,7 @@ sleep 0.5
 title > "$tmp/title_bad_drop.txt"
 shot after_bad_drop
 press Escape
-xdotool keyup Escape
-i=0
-while kill -0 "$pid" 2>/dev/null; do
-    i=$((i + 1)); [ "$i" -gt 200 ] && fail "pmview still running 20 s after Escape"
-    sleep 0.1
-done
-wait "$pid"; rc=$?
+wait_exit 20
 [ "$rc" -eq 0 ] || fail "pmview exited with $rc after Escape"
 cp "$log" "$tmp/window.log"
 echo "inner: ok"
@@ -162,17 +134,7 @@ echo "titles: $(cut -c1-90 "$tmp/title_broken.txt") | $(cut -c1-90 "$tmp/title_b
 cat >"$tmp/inner_ref.sh" <<'EOF'
 tmp=$1; shift
 log="$tmp/ref.log"
-fail() { echo "inner: $*"; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- pmview log:"; cat "$log"; exit 1; }
-count() { c=$(grep -c "$1" "$log" 2>/dev/null); echo "${c:-0}"; }
-wait_for() {
-    i=0
-    while [ "$(count "$1")" -lt "$2" ]; do
-        kill -0 "$pid" 2>/dev/null || fail "pmview exited before '$1'"
-        i=$((i + 1)); [ "$i" -gt $(($3 * 10)) ] && fail "no '$1' after $3 s"
-        sleep 0.1
-    done
-}
-press() { xdotool key --clearmodifiers "$1" || fail "xdotool key $1 failed"; }
+. tests/window_inner.sh
 # relmse_after N: the title's iterations and relMSE once it shows N iterations or more
 relmse_after() {
     i=0
@@ -187,9 +149,7 @@ relmse_after() {
 }
 ./pmview scenes/cornell-box.gltf "$@" --screenshot "$tmp/shot.png" >"$log" 2>&1 &
 pid=$!
-wid=$(timeout 30 xdotool search --sync --name pmview | head -n 1)
-[ -n "$wid" ] || fail "no window named pmview"
-xdotool windowfocus --sync "$wid" || fail "cannot focus the window"
+focus_window pmview
 relmse_after 2 > "$tmp/relmse_early"
 # eight times the iterations of the first reading (on an idle machine the title's first relMSE may
 # already come after a hundred iterations of so small an image)
@@ -209,8 +169,7 @@ n=$(count "view: shaded")
 press v
 wait_for "view: shaded" $((n + 1)) 10
 press Escape
-xdotool keyup Escape
-wait "$pid"
+wait_exit 20
 echo "inner: ok"
 EOF
 run_inner test_window_reload 300 "$tmp/inner_ref.sh" "$tmp" --reference tests/ref/cornell_path_64.exr --width 64 --height 64 --threads 2

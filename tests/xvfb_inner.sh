@@ -1,4 +1,31 @@
-# xvfb_inner.sh: sourced by the window tests: runs their inner script under xvfb-run, in a process group of its own that their cleanup kills, bounded in time.
+# xvfb_inner.sh: sourced by the window tests: their tools, their temporary folder, and their inner script run under xvfb-run in a process group of its own, bounded in time.
+#
+# need_tools NAME TOOL...: installs what is missing when that cannot stop at a password prompt;
+# when a tool is still missing, says SKIP and ends the test (status 0, counted as skipped).
+need_tools() {
+    name=$1; shift
+    if ! have_all "$@"; then
+        if [ "$(id -u)" = 0 ] || sudo -n true 2>/dev/null; then sh tools/install-deps.sh </dev/null >/dev/null 2>&1; fi
+        have_all "$@" || { echo "SKIP: $name needs $*, and tools/install-deps.sh could not install them"; exit 0; }
+    fi
+    [ -x ./pmview ] || { echo "$name: FAILED: ./pmview is not built"; exit 1; }
+}
+have_all() { for t in "$@"; do command -v "$t" >/dev/null 2>&1 || return 1; done; }
+
+# start_temp: a temporary folder in $tmp; on any exit the xvfb-run group is killed, the caller's
+# cleanup_more run (when it defines one) and the folder removed
+start_temp() {
+    tmp=$(mktemp -d) || exit 1
+    group=""
+    trap end_temp EXIT
+    trap 'exit 1' INT TERM HUP
+}
+end_temp() {
+    # the group's leader is xvfb-run; Xvfb, the inner script and pmview (or mpirun) are its members
+    [ -n "$group" ] && kill -TERM -- "-$group" 2>/dev/null
+    if command -v cleanup_more >/dev/null 2>&1; then cleanup_more; fi
+    rm -rf "$tmp"
+}
 #
 # run_inner NAME LIMIT_SECONDS SCRIPT ARGS...: xvfb-run makes its own display, so the keys must be
 # sent from a script inside it; the script ends by printing "inner: ok". Prints its output; exits
@@ -21,10 +48,10 @@ run_inner() {
         sleep 0.1
     done
     wait "$xpid"; rc=$?
+    group=""
     cat "$tmp/xvfb.log"
     if [ "$rc" -ne 0 ] || ! grep -q "^inner: ok" "$tmp/xvfb.log"; then
         echo "$name: FAILED: the window session failed (exit $rc)"
         exit 1
     fi
-    group=""
 }
