@@ -10,10 +10,13 @@ its own (3 per triangle); --smooth writes the field's normals, so neighbours sha
 one per two triangles), as exported meshes do. The file is written by numpy in a few seconds; it is generated at bench time, never committed."""
 import json
 import math
-import struct
+import os
 import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
+import glb  # noqa: E402
 
 
 def height_field(k):
@@ -73,15 +76,7 @@ def write_glb(path, positions, indices, normals=None):
         gltf["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = 2
         gltf["accessors"].append({"bufferView": 0, "byteOffset": positions.nbytes, "componentType": 5126,
                                   "count": len(normals), "type": "VEC3"})
-    js = json.dumps(gltf, separators=(",", ":")).encode()
-    js += b" " * (-len(js) % 4)
-    body = pos_bytes + idx_bytes
-    body += b"\0" * (-len(body) % 4)
-    with open(path, "wb") as f:
-        f.write(struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(js) + 8 + len(body)))
-        f.write(struct.pack("<II", len(js), 0x4E4F534A) + js)
-        f.write(struct.pack("<II", len(body), 0x004E4942))
-        f.write(body)
+    glb.write_glb(path, json.dumps(gltf, separators=(",", ":")).encode(), pos_bytes + idx_bytes)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,12 @@ glows (emissiveFactor) and the sun is dimmed. Python standard library only."""
 import argparse
 import json
 import math
+import os
 import struct
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
+from glb import pack_blobs, quaternion, write_glb  # noqa: E402
 
 
 def torus(triangles):
@@ -37,12 +42,6 @@ def torus(triangles):
     return pos, nrm, uv, idx
 
 
-def quaternion(axis, angle):
-    n = math.sqrt(sum(x * x for x in axis))
-    s = math.sin(angle / 2) / n
-    return [axis[0] * s, axis[1] * s, axis[2] * s, math.cos(angle / 2)]
-
-
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("out")
@@ -58,11 +57,7 @@ def main():
     half = 1.5 * k
     floor = [-half - 2, -0.6, -half - 2, half + 2, -0.6, -half - 2, half + 2, -0.6, half + 2, -half - 2, -0.6, half + 2]
     blobs += [struct.pack("<12f", *floor), struct.pack("<6I", 0, 3, 2, 0, 2, 1)]
-    views, offset = [], 0
-    for blob in blobs:
-        views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(blob)})
-        offset += (len(blob) + 3) // 4 * 4
-    binary = b"".join(blob + b"\0" * ((4 - len(blob) % 4) % 4) for blob in blobs)
+    views, binary = pack_blobs(blobs)
     lo = [min(pos[c::3]) for c in range(3)]
     hi = [max(pos[c::3]) for c in range(3)]
     accessors = [
@@ -115,12 +110,7 @@ def main():
         "bufferViews": views,
         "accessors": accessors,
     }
-    text = json.dumps(gltf, separators=(",", ":")).encode()
-    text += b" " * ((4 - len(text) % 4) % 4)
-    with open(o.out, "wb") as f:
-        f.write(struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(text) + 8 + len(binary)))
-        f.write(struct.pack("<II", len(text), 0x4E4F534A) + text)
-        f.write(struct.pack("<II", len(binary), 0x004E4942) + binary)
+    write_glb(o.out, json.dumps(gltf, separators=(",", ":")).encode(), binary)
 
 
 if __name__ == "__main__":

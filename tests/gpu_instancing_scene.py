@@ -14,7 +14,12 @@ import argparse
 import array
 import json
 import math
+import os
 import struct
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
+from glb import pack_blobs, quaternion, write_glb  # noqa: E402
 
 
 def box():
@@ -35,12 +40,6 @@ def box():
                 quad = [base, base + 2, base + 1, base, base + 3, base + 2]
             idx += quad
     return pos, nrm, idx
-
-
-def quaternion(axis, angle):
-    n = math.sqrt(sum(x * x for x in axis))
-    s = math.sin(angle / 2) / n
-    return [axis[0] * s, axis[1] * s, axis[2] * s, math.cos(angle / 2)]
 
 
 def main():
@@ -72,11 +71,7 @@ def main():
              struct.pack("<12f", *floor), struct.pack("<6H", 0, 3, 2, 0, 2, 1)]
     if o.form == "gpu":
         blobs += [t.tobytes(), r.tobytes(), s.tobytes() if o.bad != "count" else s[:-3].tobytes()]
-    views, offset = [], 0
-    for blob in blobs:
-        views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(blob)})
-        offset += (len(blob) + 3) // 4 * 4
-    binary = b"".join(blob + b"\0" * ((4 - len(blob) % 4) % 4) for blob in blobs)
+    views, binary = pack_blobs(blobs)
     accessors = [
         {"bufferView": 0, "componentType": 5126, "count": len(pos) // 3, "type": "VEC3", "min": [-0.5] * 3, "max": [0.5] * 3},
         {"bufferView": 1, "componentType": 5126, "count": len(nrm) // 3, "type": "VEC3"},
@@ -122,12 +117,7 @@ def main():
         "bufferViews": views,
         "accessors": accessors,
     }
-    text = json.dumps(gltf, separators=(",", ":")).encode()
-    text += b" " * ((4 - len(text) % 4) % 4)
-    with open(o.out, "wb") as f:
-        f.write(struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(text) + 8 + len(binary)))
-        f.write(struct.pack("<II", len(text), 0x4E4F534A) + text)
-        f.write(struct.pack("<II", len(binary), 0x004E4942) + binary)
+    write_glb(o.out, json.dumps(gltf, separators=(",", ":")).encode(), binary)
 
 
 if __name__ == "__main__":
