@@ -81,9 +81,11 @@ static inline float pm_specular_weight(const pm_surface *sf) { return v3_average
  * wo.m picks reflection about m or refraction through it; the sample's weight is Smith's G1 of
  * the direction leaving (the visible-normal estimator's G2 / G1(wo) in Smith's separable form),
  * so it never exceeds the smooth glass's. A thin wall's rough transmission is its reflection
- * about m mirrored through the sheet (glTF's thin-walled BTDF: no bending, the roughness blurs);
- * as far as kinds of path go it still crosses straight (shadow rays cross rough thin walls as
- * smooth ones, thin.h). Smooth glass draws no number for m: its paths are as they were. */
+ * about m mirrored through the sheet (glTF's thin-walled BTDF: no bending, the roughness blurs).
+ * That crossing scatters: it is a specular bounce like rough solid glass's, not `straight`, and
+ * shadow rays stop at a rough thin wall (thin.h), so light across it reaches a diffuse point as
+ * a caustic (photons) or along the path's own continuation, never as direct light along a line
+ * the wall would have bent. Smooth glass draws no number for m: its paths are as they were. */
 static inline bool pm_scatter_specular(const pm_surface *sf, vec3 d, pm_rng *rng, float scale, pm_specular_sample *out) {
     vec3 wo = v3_neg(d);
     bool front = v3_dot(sf->ng, wo) > 0.f;
@@ -119,7 +121,8 @@ static inline bool pm_scatter_specular(const pm_surface *sf, vec3 d, pm_rng *rng
                     out->weight = v3_scale(out->weight, pm_ggx_g1(sf->glass_alpha, v3_dot(out->direction, ns)));
                 }
                 out->origin = pm_thin_exit(sf, out->direction, scale);
-                out->transmitted = out->straight = true;
+                out->transmitted = true;
+                out->straight = !rough;
                 reflect = false;
             }
         } else {

@@ -472,15 +472,20 @@ static double probe_footprint(pm_progressive *p, const pm_film *film) {
     return hits ? sum / hits : 0.0;
 }
 
-/* Whether some surface makes caustics: a mirror, or glass that is not thin-walled (thin glass
- * lets light straight through, and direct light's rays cross it). Light such a surface brings to
+/* A thin wall whose roughness factor reaches rough transmission somewhere (its texture only
+ * lowers it): light across it scatters (scatter.h), as through solid glass. */
+static bool thin_may_be_rough(const pm_material *m) { return pm_glass_alpha_at(m->roughness) > 0.f; }
+
+/* Whether some surface makes caustics: a mirror, or glass that is not smooth and thin-walled (smooth thin
+ * glass lets light straight through, and direct light's rays cross it). Light such a surface brings to
  * the second vertex of an eye path is what a path tracer finds only by chance (a lamp through a
  * glass ball: rare, bright samples, never a point light), a variance too heavy-tailed for a few
  * probed iterations to measure, and what the global photons carry by construction: there the
  * final gather keeps to the photons. */
 static bool scene_has_caustic_surfaces(const pm_scene *s) {
     for (uint32_t i = 0; i < s->material_count; i++)
-        if (s->materials[i].may_mirror || (s->materials[i].may_glass && !s->materials[i].thin_walled)) return true;
+        if (s->materials[i].may_mirror || (s->materials[i].may_glass && (!s->materials[i].thin_walled || thin_may_be_rough(&s->materials[i]))))
+            return true;
     return false;
 }
 

@@ -8,7 +8,9 @@ bool pm_thin_step(const pm_scene *s, const pm_accel *a, vec3 o, vec3 d, float tm
                   vec3 *transmittance, uint64_t *rays) {
     pm_surface sf;
     pm_scene_surface_scattering(s, h->tri, h->b1, h->b2, &sf);
-    if (!sf.thin || v3_is_black(sf.kt)) return false;
+    /* a rough wall scatters what crosses it (its microfacets turn each ray): a segment through it
+     * is not a path light takes, so it stops there like any surface (scatter.h) */
+    if (!sf.thin || v3_is_black(sf.kt) || sf.glass_alpha > 0.f) return false;
     *transmittance = v3_mul(*transmittance, v3_scale(sf.kt, 1.f - pm_thin_fresnel(&sf, v3_neg(d))));
     /* on from the wall's far side, t still measured from o (a light's pdf reads the whole distance) */
     vec3 from = pm_thin_exit(&sf, d, s->ray_scale);

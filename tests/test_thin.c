@@ -470,9 +470,95 @@ static void shadow_photons(void) {
     pm_scene_free(&s);
 }
 
+/* A point light of intensity 10 at (0, 3, 0) over a floor of albedo 0.5; at height 1.5 a black
+ * board with a slit |x| < 0.5 that a thin pane of roughness pane_roughness covers. Across a
+ * smooth pane the floor is lit on |x| < 1 alone, by direct light; a rough pane scatters: its
+ * light spreads past the slit's shadow edge, reaches the floor as a caustic (a specular bounce, not
+ * direct light), and a shadow ray through the pane is no path light takes. */
+static pm_accel *slit_scene(pm_scene *s) {
+    memset(s, 0, sizeof *s);
+    uint32_t floor_m = sb_lambert(s, v3s(0.5f)), board = sb_lambert(s, v3s(0.f));
+    sb_quad(s, v3(-20, 0, -20), v3(-20, 0, 20), v3(20, 0, 20), v3(20, 0, -20), floor_m);
+    sb_quad(s, v3(-20, 1.5f, -20), v3(-20, 1.5f, 20), v3(-0.5f, 1.5f, 20), v3(-0.5f, 1.5f, -20), board);
+    sb_quad(s, v3(0.5f, 1.5f, -20), v3(0.5f, 1.5f, 20), v3(20, 1.5f, 20), v3(20, 1.5f, -20), board);
+    uint32_t m = add_loaded(s, &loaded[0]);
+    sb_quad(s, v3(-0.5f, 1.5f, -20), v3(-0.5f, 1.5f, 20), v3(0.5f, 1.5f, 20), v3(0.5f, 1.5f, -20), m);
+    sb_point_light(s, v3(0, 3, 0), v3s(10.f));
+    return sb_finish(s);
+}
+
+static void rough_slit(void) {
+    const float roughness[3] = {0.f, 0.3f, 0.6f};
+    double inside[3] = {0, 0, 0}, spill[3] = {0, 0, 0}, direct_layer[3] = {0, 0, 0};
+    size_t direct_tagged[3] = {0, 0, 0}, floor_photons[3] = {0, 0, 0};
+    for (int k = 0; k < 3; k++) {
+        pane_roughness = roughness[k];
+        pm_scene s;
+        pm_accel *a = slit_scene(&s);
+        pm_photon_settings ps;
+        memset(&ps, 0, sizeof ps);
+        ps.seed = 7;
+        ps.threads = 2;
+        ps.max_bounces = 8;
+        ps.projection_maps = true;
+        pm_photon_tracer *t = pm_photon_tracer_create(&s, a, &ps);
+        pm_photon_buffer buf = {NULL, 0, 0};
+        pm_photon_stats st;
+        memset(&st, 0, sizeof st);
+        CHECK(t && pm_photon_tracer_trace_into(t, false, 300000, 1, &buf, &st), "slit: global pass");
+        for (size_t i = 0; t && i < buf.count; i++) {
+            vec3 p = pm_photon_position(&buf.data[i]);
+            /* the floor's first hits (floor -> pane -> floor is indirect light) */
+            if (fabsf(p.y) > 1e-3f || pm_photon_path(&buf.data[i]) == PM_PATH_INDIRECT) continue;
+            double g = pm_photon_power(&buf.data[i]).y;
+            floor_photons[k]++;
+            if (fabsf(p.x) < 1.f) inside[k] += g;
+            else if (fabsf(p.x) > 1.1f) spill[k] += g;
+            if (pm_photon_path(&buf.data[i]) == PM_PATH_DIRECT) direct_tagged[k]++;
+        }
+        free(buf.data);
+        pm_photon_tracer_destroy(t);
+        /* the floor's direct light seen from under the board (|x| < 1.15): next-event estimation only */
+        pm_camera cam = sb_camera(v3(0, 1, 0), v3(0, 0, 0), v3(0, 0, -1), 60.f);
+        pm_session_config config = mode_config(PM_MODE_PATHTRACE, 16, 16, 3, 2);
+        pm_session *session = render_session(&s, a, &cam, &config, 4);
+        if (session) {
+            static float direct[3 * 16 * 16];
+            pm_film_resolve(pm_session_film(session), PM_DIRECT, direct);
+            for (int i = 0; i < 256; i++) direct_layer[k] += direct[3 * i + 1] / 256.0;
+        }
+        pm_session_destroy(session);
+        pm_accel_destroy(a);
+        pm_scene_free(&s);
+    }
+    pane_roughness = 0.f;
+    for (int k = 0; k < 3; k++)
+        printf("slit under a pane of roughness %.1f: floor photon power (green) %.4f within the slit's shadow edge, %.4f past it;"
+               " %zu of %zu floor photons direct; direct layer under the slit %.4f\n",
+               roughness[k], inside[k], spill[k], direct_tagged[k], floor_photons[k], direct_layer[k]);
+    CHECK(spill[0] == 0.0 && direct_tagged[0] == floor_photons[0] && floor_photons[0] > 0,
+          "smooth pane: every floor photon within the slit's shadow edge, all direct light");
+    CHECK(direct_layer[0] > 0.1, "smooth pane: shadow rays cross it (direct layer %g)", direct_layer[0]);
+    for (int k = 1; k < 3; k++) {
+        CHECK(direct_tagged[k] == 0, "roughness %.1f: light across the pane is no direct light (%zu photons tagged direct)",
+              roughness[k], direct_tagged[k]);
+        CHECK(direct_layer[k] == 0.0, "roughness %.1f: shadow rays stop at a rough pane (direct layer %g)", roughness[k],
+              direct_layer[k]);
+        /* nothing is gained; single-scattering GGX loses what light between microfacets would
+         * bring back, more the rougher and the more grazing (the slit runs to grazing angles along
+         * z): measured 5% at roughness 0.3, 22% at 0.6 */
+        double total = inside[k] + spill[k], smooth = inside[0], least = k == 1 ? 0.9 : 0.7;
+        CHECK(total <= smooth * 1.01 && total >= smooth * least, "roughness %.1f: the light across keeps its power (%g of %g)",
+              roughness[k], total, smooth);
+    }
+    CHECK(spill[1] > 0.01 * inside[1], "roughness 0.3 spreads light past the slit's shadow edge (%g of %g)", spill[1], inside[1]);
+    CHECK(spill[2] > 2.0 * spill[1], "roughness 0.6 spreads more (%g against %g)", spill[2], spill[1]);
+}
+
 int main(void) {
     loader_choice();
     rough_window();
+    rough_slit();
     window();
     photons();
     direct_across();
