@@ -88,14 +88,16 @@ typedef struct {
 } pm_window_scene;
 
 /* A reload the window asks for: the scene file, the sky (NULL: as the options say), the film's
- * size, and the camera to keep (NULL: the file's first, or the framing). */
+ * size, the camera to keep (NULL: the file's first, or the framing) and the material variant
+ * (KHR_materials_variants; NULL: the file's default materials). */
 typedef struct {
     const char *scene_path, *sky;
     int width, height;
     const pm_camera *camera;
+    const char *variant;
 } pm_window_reload;
 
-/* How the window reloads (--watch, a dropped file): load runs the start-up's set-up again on the
+/* How the window reloads (--watch, a dropped file, the variant key): load runs the start-up's set-up again on the
  * calling thread (a thread of the window's), true with *out ready (not started), false with err
  * set (its line printed on stderr); adopt makes a loaded scene the current one, the previous one
  * freed (its session stopped first); discard frees a loaded scene not adopted. */

@@ -231,6 +231,9 @@ typedef struct {
     pm_texture *textures;   uint32_t texture_count;
     pm_light *lights;       uint32_t light_count;
     pm_camera *cameras;     uint32_t camera_count;
+    /* KHR_materials_variants: the file's variant names, each ended by '\0', one after another (NULL
+     * when none); the window's variant key loads the file again with the next one */
+    char *variant_names;    uint32_t variant_count;
     uint64_t memory_admitted; /* bytes admitted against --max-memory (geometry, texels), given back by pm_scene_free */
 
     bool sky;                 /* an environment around the scene: radiance sky_radiance x the map's (1 without one) */

@@ -36,6 +36,7 @@ typedef struct {
     float fly[3];               /* W/S, D/A, E/Q key presses: forward, right, up */
     bool fast;                  /* Shift held */
     bool frame, next_camera, home, toggle_gather, cycle_view, pause, restart, help;
+    bool next_variant;          /* M: the file's next material variant (KHR_materials_variants) */
     int resized_width, resized_height; /* the film size for the window's new size, 0 when unchanged: its pixels, at
                                           most the primary monitor's (the shape kept; the picture is scaled up) */
     char dropped[4096];         /* a file dropped on the window (the first of several), "" when none */

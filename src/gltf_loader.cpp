@@ -1005,6 +1005,8 @@ private:
     std::map<std::string, int> texture_of_image_;  // (the pm_texture's sampling fields, image) -> its index
     std::vector<pm_light> lights_;
     std::vector<pm_camera> cameras_;
+    std::vector<char> variant_names_;  // KHR_materials_variants' names, each ended by '\0' (pm_scene.variant_names)
+    uint32_t variant_count_ = 0;
     std::vector<vec3> positions_, normals_;
     std::vector<float> uvs_, uvs1_;
     bool any_uv_ = false, any_uv1_ = false;
@@ -2949,6 +2951,7 @@ void Loader::emit(pm_scene *out) {
         s.textures = malloc_copy(textures_.items);
         s.instanced_meshes = malloc_copy(instanced_meshes_);
         s.placements = malloc_copy(placements_);
+        s.variant_names = malloc_copy(variant_names_);
     } catch (...) {
         pm_scene_free(&s);
         throw;
@@ -2963,6 +2966,7 @@ void Loader::emit(pm_scene *out) {
     s.instanced_mesh_count = static_cast<uint32_t>(instanced_meshes_.size());
     s.placement_count = static_cast<uint32_t>(placements_.size());
     s.triangle_id_count = static_cast<uint32_t>(triangle_ids_);
+    s.variant_count = variant_count_;
     s.memory_admitted = admitted_.bytes;
     admitted_.bytes = 0;
     *out = s;
@@ -3161,8 +3165,6 @@ void Loader::place_instanced_meshes(const std::vector<uint32_t> &uses) {
 // the mapped material (the preflight checked the material indices); the others keep their default.
 // A name the file's root list does not hold fails the load with the names it does hold.
 void Loader::apply_variant() {
-    if (!options_.variant) return;
-    const std::string wanted = options_.variant;
     std::vector<std::string> names;
     auto root = model_.extensions.find("KHR_materials_variants");
     if (root != model_.extensions.end() && root->second.IsObject() && root->second.Has("variants")) {
@@ -3172,6 +3174,15 @@ void Loader::apply_variant() {
             names.push_back(v.IsObject() && v.Has("name") && v.Get("name").IsString() ? v.Get("name").Get<std::string>() : "");
         }
     }
+    // the names for the window's variant key, which reloads the file with one of them (an
+    // embedded '\0' would cut a name short: such a name stays reachable by --variant alone)
+    for (const std::string &n : names) {
+        variant_names_.insert(variant_names_.end(), n.begin(), n.end());
+        variant_names_.push_back('\0');
+    }
+    variant_count_ = static_cast<uint32_t>(names.size());
+    if (!options_.variant) return;
+    const std::string wanted = options_.variant;
     int index = -1;
     for (size_t k = 0; k < names.size() && index < 0; k++)
         if (names[k] == wanted) index = static_cast<int>(k);

@@ -74,6 +74,7 @@ typedef struct {
     bool keep_camera;             /* `kept` replaces the file's camera */
     pm_camera kept;
     char scene_path[4096], sky_path[4096]; /* what opt's paths point at when they were given at run time */
+    char variant[1024];                    /* what opt.variant points at when the window chose it */
     char error[1024];             /* the failure's line, without "pmview: error: " (for the window's title) */
 } run_state;
 
@@ -245,7 +246,7 @@ static int set_up_for_window(void *arg) {
     return set_up(w->cluster, w->r, true);
 }
 
-/* ---- reloads asked by the window (--watch, a dropped file): the start-up's set-up again ---- */
+/* ---- reloads asked by the window (--watch, a dropped file, the variant key): the start-up's set-up again ---- */
 
 typedef struct {
     pm_options parsed; /* the options as given (set_up rescales some by the file's units) */
@@ -268,6 +269,12 @@ static bool reload(void *context, const pm_window_reload *ask, pm_window_scene *
     if (ask->sky) {
         snprintf(fresh->sky_path, sizeof fresh->sky_path, "%s", ask->sky);
         fresh->opt.sky = fresh->sky_path;
+    }
+    if (ask->variant) {
+        snprintf(fresh->variant, sizeof fresh->variant, "%s", ask->variant);
+        fresh->opt.variant = fresh->variant;
+    } else {
+        fresh->opt.variant = NULL;
     }
     fresh->opt.width = ask->width;
     fresh->opt.height = ask->height;

@@ -573,6 +573,7 @@ void pm_scene_free(pm_scene *s) {
     free(s->textures);
     free(s->lights);
     free(s->cameras);
+    free(s->variant_names);
     free(s->emitters);
     free(s->emitter_cdf);
     free(s->emitter_radiance);

@@ -483,6 +483,7 @@ static void on_key(GLFWwindow *window, int key, int scancode, int action, int mo
     case GLFW_KEY_Q: v->pending.fly[2] -= 1.f; return;
     case GLFW_KEY_F: v->pending.frame = true; return;
     case GLFW_KEY_C: v->pending.next_camera = true; return;
+    case GLFW_KEY_M: v->pending.next_variant = true; return;
     case GLFW_KEY_HOME: v->pending.home = true; return;
     case GLFW_KEY_G: v->pending.toggle_gather = true; return;
     case GLFW_KEY_V: v->pending.cycle_view = true; return;

@@ -38,6 +38,7 @@ struct pm_window {
 static const char window_help[] =
     "pmview keys: left drag orbit, right/middle drag pan, wheel dolly, double click: orbit about that point\n"
     "  W A S D / Q E fly (Shift faster), F frame the scene, C next camera, Home starting camera\n"
+    "  M next material variant (KHR_materials_variants; after the last, the file's default materials)\n"
     "  1 2 3 4 direct/specular/caustic/indirect, + - exposure, 0 reset, T tonemap, G final gathering on/off\n"
     "  V views: shaded, photon density, radius; Space pause, R restart, P or F12 save PNG and EXR, H this help, Esc quit\n";
 
@@ -152,7 +153,7 @@ static void watch_read(watcher *wt) {
 
 /* ---- reloads (--watch, a dropped file), one at a time on a thread of their own ---- */
 
-typedef enum { RELOAD_WATCH, RELOAD_SCENE, RELOAD_SKY } reload_kind;
+typedef enum { RELOAD_WATCH, RELOAD_SCENE, RELOAD_SKY, RELOAD_VARIANT } reload_kind;
 
 typedef struct {
     const pm_window_reloader *reloader;
@@ -161,7 +162,8 @@ typedef struct {
     bool running, ok;
     atomic_bool done;
     reload_kind kind;
-    char scene_path[4096], sky[4096];
+    char scene_path[4096], sky[4096], variant[1024];
+    int variant_index; /* in the scene's list, -1: the file's default materials */
     pm_camera camera;
     pm_window_reload ask;
     pm_window_scene out;
@@ -176,14 +178,19 @@ static void *run_reload(void *arg) {
     return NULL;
 }
 
+/* variant: the material variant to load (its index in the scene's list, -1 for the file's
+ * default materials, named by `name`) */
 static bool reload_start(reload_job *job, reload_kind kind, const char *scene_path, const char *sky, int width, int height,
-                         const pm_camera *camera) {
+                         const pm_camera *camera, int variant, const char *name) {
     job->kind = kind;
     snprintf(job->scene_path, sizeof job->scene_path, "%s", scene_path);
     snprintf(job->sky, sizeof job->sky, "%s", sky ? sky : "");
+    snprintf(job->variant, sizeof job->variant, "%s", variant >= 0 && name ? name : "");
+    job->variant_index = variant >= 0 && name ? variant : -1;
     job->camera = *camera;
     job->ask = (pm_window_reload){.scene_path = job->scene_path, .sky = job->sky[0] ? job->sky : NULL, .width = width,
-                                  .height = height, .camera = kind == RELOAD_SCENE ? NULL : &job->camera};
+                                  .height = height, .camera = kind == RELOAD_SCENE ? NULL : &job->camera,
+                                  .variant = job->variant_index >= 0 ? job->variant : NULL};
     job->ok = false;
     job->err[0] = '\0';
     atomic_store(&job->done, false);
@@ -200,6 +207,27 @@ static double window_relmse(const float *const *layers, const pm_reference_image
         if (layers[c])
             for (size_t i = 0; i < n; i++) total[i] += layers[c][i];
     return pm_reference_relmse_total(total, ref, ratio);
+}
+
+/* KHR_materials_variants: the name of variant `index` of the scene's list (NULL when out of it),
+ * and the index of `name` (-1 when the list has no such name, or name is NULL). */
+static const char *variant_name(const pm_scene *s, int index) {
+    if (index < 0 || (uint32_t)index >= s->variant_count || !s->variant_names) return NULL;
+    const char *n = s->variant_names;
+    for (int k = 0; k < index; k++) n += strlen(n) + 1;
+    return n;
+}
+static int variant_index(const pm_scene *s, const char *name) {
+    for (uint32_t k = 0; name && k < s->variant_count; k++)
+        if (!strcmp(variant_name(s, (int)k), name)) return (int)k;
+    return -1;
+}
+/* A variant's name for the title and the terminal: bytes outside printable ASCII as '?', at most
+ * size - 1 of them. */
+static void printable_name(const char *name, char *out, size_t size) {
+    size_t k = 0;
+    for (; name[k] && k + 1 < size; k++) out[k] = name[k] >= 0x20 && name[k] < 0x7f ? name[k] : '?';
+    out[k] = '\0';
 }
 
 /* The reference's planes interleaved for the view's error display. */
@@ -417,6 +445,15 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
     job.view = view;
     atomic_init(&job.done, false);
     char dropped[4096] = "";   /* a dropped file waiting for the reload in flight to end */
+    /* KHR_materials_variants: the variant shown (-1: the file's default materials), the one M asked
+     * for and not yet loaded (-2: none), and its name for the title */
+    int variant = variant_index(cur.scene, opt->variant), wanted_variant = -2;
+    char variant_note[160] = "";
+    if (variant >= 0) {
+        char shown[128];
+        printable_name(variant_name(cur.scene, variant), shown, sizeof shown);
+        snprintf(variant_note, sizeof variant_note, "variant %s  ", shown);
+    }
     char notice[1200] = "";    /* a failed reload or drop, in the title until the next success */
     char status[1600] = "";
     uint64_t reloads = 0, failed_reloads = 0;
@@ -535,6 +572,22 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
         /* --watch and drops: a dropped file while a reload runs waits for it; a bad file changes
          * nothing but the title */
         bool notice_changed = false;
+        /* M: the next material variant, then the file's default materials, and round again; the
+         * file is loaded again with it and rendered from scratch, the camera kept */
+        if (ev.next_variant) {
+            if (!scene->variant_count) {
+                snprintf(notice, sizeof notice, "%.400s has no material variants  ", file_name(scene_path));
+                fprintf(stderr, "pmview: %s has no material variants (KHR_materials_variants): M changes nothing\n", scene_path);
+                notice_changed = true;
+            } else if (!reloader) {
+                snprintf(notice, sizeof notice, "material variants: for a single process, not under mpirun  ");
+                fprintf(stderr, "pmview: material variants are for a single process: under mpirun every rank would have to reload alike\n");
+                notice_changed = true;
+            } else {
+                int from = wanted_variant >= -1 ? wanted_variant : variant;
+                wanted_variant = from + 1 < (int)scene->variant_count ? from + 1 : -1;
+            }
+        }
         if (ev.dropped[0]) {
             if (!reloader) {
                 snprintf(notice, sizeof notice, "drop: a dropped file is for a single process, not under mpirun  ");
@@ -559,18 +612,29 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
                     failed_reloads++;
                     notice_changed = true;
                 } else {
+                    /* a sky keeps the variant; another file starts with its default materials */
                     reload_start(&job, is_sky ? RELOAD_SKY : RELOAD_SCENE, is_sky ? scene_path : dropped, is_sky ? dropped : sky,
-                                 width, height, &camera);
+                                 width, height, &camera, is_sky ? variant : -1, is_sky ? variant_name(scene, variant) : NULL);
                 }
                 dropped[0] = '\0';
             } else if (watch.pending && pm_now_seconds() - watch.last_event >= PM_WATCH_SETTLE_SECONDS) {
                 watch.pending = false;
-                reload_start(&job, RELOAD_WATCH, scene_path, sky, width, height, &camera);
+                reload_start(&job, RELOAD_WATCH, scene_path, sky, width, height, &camera, variant, variant_name(scene, variant));
+            } else if (wanted_variant >= -1) {
+                reload_start(&job, RELOAD_VARIANT, scene_path, sky, width, height, &camera, wanted_variant,
+                             variant_name(scene, wanted_variant));
+                wanted_variant = -2;
             }
             if (job.running) {
                 char loading[160];
-                snprintf(loading, sizeof loading, "%s %.140s  ", job.kind == RELOAD_WATCH ? "reloading" : "loading",
-                         file_name(job.kind == RELOAD_SKY ? job.sky : job.scene_path));
+                if (job.kind == RELOAD_VARIANT) {
+                    char shown[128];
+                    printable_name(job.variant_index >= 0 ? job.variant : "the default materials", shown, sizeof shown);
+                    snprintf(loading, sizeof loading, "loading variant %s  ", shown);
+                } else {
+                    snprintf(loading, sizeof loading, "%s %.140s  ", job.kind == RELOAD_WATCH ? "reloading" : "loading",
+                             file_name(job.kind == RELOAD_SKY ? job.sky : job.scene_path));
+                }
                 snprintf(notice, sizeof notice, "%s", loading);
                 notice_changed = true;
             }
@@ -600,6 +664,13 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
                     pm_session_request_restart(session, &camera, -1); /* moved while it loaded */
                 }
                 if (job.kind == RELOAD_SKY) snprintf(sky, sizeof sky, "%s", job.sky);
+                variant = job.variant_index;
+                variant_note[0] = '\0';
+                char shown[128] = "";
+                if (variant >= 0) {
+                    printable_name(job.variant, shown, sizeof shown);
+                    snprintf(variant_note, sizeof variant_note, "variant %s  ", shown);
+                }
                 if (view_mode != PM_VIEW_SHADED) pm_session_set_view(session, (pm_session_view)view_mode);
                 if (indirect != opt->indirect) pm_session_request_restart(session, NULL, indirect);
                 if (paused) pm_session_pause(session, true);
@@ -609,11 +680,17 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
                 finished_said = false;
                 reloads++;
                 notice[0] = '\0';
-                printf("pmview: %s %s\n", job.kind == RELOAD_WATCH ? "reloaded" : "loaded",
-                       job.kind == RELOAD_SKY ? job.sky : job.scene_path);
+                if (job.kind == RELOAD_VARIANT && variant >= 0)
+                    printf("pmview: material variant %s (%d of %u)\n", shown, variant + 1, scene->variant_count);
+                else if (job.kind == RELOAD_VARIANT)
+                    printf("pmview: the file's default materials\n");
+                else
+                    printf("pmview: %s %s\n", job.kind == RELOAD_WATCH ? "reloaded" : "loaded",
+                           job.kind == RELOAD_SKY ? job.sky : job.scene_path);
             } else {
                 failed_reloads++;
-                snprintf(notice, sizeof notice, "%s failed: %s  ", job.kind == RELOAD_WATCH ? "reload" : "drop", job.err);
+                snprintf(notice, sizeof notice, "%s failed: %s  ",
+                         job.kind == RELOAD_WATCH ? "reload" : job.kind == RELOAD_VARIANT ? "variant" : "drop", job.err);
                 /* the set-up printed its line; a failure before it did is said here */
                 if (!job.err[0]) fprintf(stderr, "pmview: error: %s: the reload failed\n", job.scene_path);
             }
@@ -683,8 +760,8 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
             if (progress.finished && !finished_said) { printf("pmview: iterations done (%u)\n", progress.iterations); finished_said = true; }
         }
         if (notice_changed) {
-            char title[sizeof notice + sizeof status];
-            snprintf(title, sizeof title, "%s%s", notice, status[0] ? status : tracing);
+            char title[sizeof notice + sizeof variant_note + sizeof status];
+            snprintf(title, sizeof title, "%s%s%s", notice, variant_note, status[0] ? status : tracing);
             pm_view_set_status(view, title);
         }
         if (ev.save_png && merged.shown) {
