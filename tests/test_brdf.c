@@ -1,4 +1,4 @@
-/* test_brdf.c: the glossy BRDF alone: white furnace (albedo <= 1, brute force vs sampler), reciprocity, sampler vs pdf(), material mapping. */
+/* test_brdf.c: the glossy BRDF alone: white furnace (albedo <= 1, brute force vs sampler), reciprocity, sampler vs pdf(), material mapping; rough glass's white furnace. */
 #include <stdio.h>
 #include <string.h>
 
@@ -306,6 +306,57 @@ static void material_mapping(void) {
     CHECK(pm_mirror_reflectance(&sf, 0.3f).y == 1.f, "a white mirror reflects 1 at every angle, exactly");
 }
 
+/* Rough glass (pm_scatter_specular's GGX microfacet reflection and refraction, Walter et al.
+ * 2007), white (kt 1, no mirror share), solid (entered from outside and left from inside) and
+ * thin: the mean weight of the scattered rays, reflected and transmitted together, is the energy
+ * kept, at most 1 at every roughness and angle (each weight is G1 <= 1: single scattering only
+ * loses), 1 for smooth glass exactly, and growing toward 1 as the roughness falls. */
+static void glass_furnace(void) {
+    const float roughness[] = {0.f, 0.05f, 0.1f, 0.3f, 0.6f, 1.f}, cosines[] = {1.f, 0.7f, 0.3f, 0.1f};
+    printf("white rough glass furnace (solid from outside / from inside / thin), energy kept:\n");
+    for (int kind = 0; kind < 3; kind++) {
+        double previous[4] = {2, 2, 2, 2};
+        for (size_t r = 0; r < sizeof roughness / sizeof *roughness; r++) {
+            printf("  %-14s roughness %.2f:", kind == 0 ? "from outside" : kind == 1 ? "from inside" : "thin", roughness[r]);
+            for (size_t k = 0; k < 4; k++) {
+                pm_surface sf;
+                memset(&sf, 0, sizeof sf);
+                sf.ng = sf.ns = v3(0, 0, 1);
+                sf.p = sf.centroid = v3s(0.f);
+                sf.kt = v3s(1.f);
+                sf.ior = 1.5f;
+                sf.thin = kind == 2;
+                sf.glass_alpha = pm_glass_alpha_at(roughness[r]);
+                vec3 wo = direction_at(cosines[k], 0.7f);
+                if (kind == 1) wo = v3_neg(wo); /* from inside: arriving from below */
+                pm_rng rng = pm_rng_for(13, r * 4 + k, (uint64_t)kind);
+                enum { N = 200000 };
+                double sum = 0, sum2 = 0, worst = 0;
+                for (int i = 0; i < N; i++) {
+                    pm_specular_sample sp;
+                    double w = pm_scatter_specular(&sf, v3_neg(wo), &rng, 1.f, &sp) ? sp.weight.y : 0.0;
+                    sum += w;
+                    sum2 += w * w;
+                    worst = fmax(worst, w);
+                }
+                double mean = sum / N, err = sqrt(fmax(0.0, sum2 / N - mean * mean) / N);
+                printf(" cos %.1f %.4f", cosines[k], mean);
+                CHECK(worst <= 1.0 + 1e-5, "rough glass: every weight <= 1 (kind %d roughness %g cos %g: %g)", kind, roughness[r], cosines[k], worst);
+                CHECK(mean <= 1.0 + 4.0 * err + 1e-6, "rough glass: energy <= 1 (kind %d roughness %g cos %g: %g)", kind, roughness[r],
+                      cosines[k], mean);
+                if (roughness[r] == 0.f) CHECK_NEAR(mean, 1.0, 1e-6, 0, "smooth white glass keeps all of it");
+                /* rougher loses at least as much (within the noise) */
+                CHECK(mean <= previous[k] + 4.0 * err + 1e-3, "rough glass: energy falls with roughness (kind %d cos %g: %g after %g)",
+                      kind, cosines[k], mean, previous[k]);
+                if (roughness[r] <= 0.3f && cosines[k] >= 0.7f)
+                    CHECK(mean > 0.9, "rough glass near normal incidence loses little (kind %d roughness %g: %g)", kind, roughness[r], mean);
+                previous[k] = mean;
+            }
+            printf("\n");
+        }
+    }
+}
+
 int main(void) {
     material_mapping();
     reciprocity();
@@ -315,5 +366,6 @@ int main(void) {
     sampler_matches_pdf(0.1f, 1.0f, 0.95f);
     white_furnace();
     sharp_furnace();
+    glass_furnace();
     return pm_test_done("test_brdf");
 }
