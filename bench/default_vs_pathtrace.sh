@@ -1,7 +1,8 @@
 #!/bin/sh
-# default_vs_pathtrace.sh: the default (progressive) mode's relMSE over the path tracer's at equal time, on every shipped scene that has a reference ("bench default_vs_pathtrace" lines).
+# default_vs_pathtrace.sh: the default (progressive) mode's relMSE over the path tracer's at equal time, on every shipped scene that has a reference, glossy dielectrics included ("bench default_vs_pathtrace" lines).
 #
-# Usage: sh bench/default_vs_pathtrace.sh   (BENCH_SECONDS per run, default 10; BENCH_SEEDS, default "1")
+# Usage: sh bench/default_vs_pathtrace.sh   (BENCH_SECONDS per run, default 10; BENCH_SEEDS, default "1";
+# BENCH_SCENES, the scenes to run, default all of the list below)
 # Each scene renders 64x64 on all cores for the same wall time, the default and then --mode
 # pathtrace, alternating per seed, so a machine's drift over the runs falls on both alike. ratio =
 # relmse_default / relmse_pathtrace: below 1 the default is ahead. gather_source is what the
@@ -15,8 +16,9 @@ field() { sed -n "s/.*[ ]$1=\([^ ]*\).*/\1/p" "$2" | tail -n 1; }
 # scene:reference:sky (the references' environments: none but the window rooms' constant white sky)
 for entry in cornell-box:cornell_path_64:none caustic:caustic_floor_64:none glossy-spheres:glossy_path_64:none \
              mirror-caustic:mirror_path_64:none point-room:point_room_path_64:none window-room:window_room_64:white \
-             window-hollow:window_hollow_64:white; do
+             window-hollow:window_hollow_64:white dielectric-spheres:dielectric_spheres_path_64:none; do
     scene=${entry%%:*}; rest=${entry#*:}; ref=tests/ref/${rest%%:*}.exr; sky=${rest#*:}
+    case " ${BENCH_SCENES:-$scene} " in *" $scene "*) ;; *) continue ;; esac
     [ -f "$ref" ] || { echo "bench default_vs_pathtrace scene=$scene skipped ($ref missing)"; continue; }
     for seed in $seeds; do
         for mode in progressive pathtrace; do

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, layered-spheres.gltf, mirror-caustic.gltf, point-room.gltf, window-room.gltf, window-hollow.gltf) and exposes them as Python data.
+# make_scenes.py: writes pmview's shipped glTF scenes (cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, layered-spheres.gltf, dielectric-spheres.gltf, mirror-caustic.gltf, point-room.gltf, window-room.gltf, window-hollow.gltf) and exposes them as Python data.
 """Scene generator for pmview (standard library only, deterministic).
 
-    python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, layered-spheres.gltf, mirror-caustic.gltf,
+    python3 scenes/make_scenes.py            # rewrites scenes/cornell-box.gltf, caustic.gltf, glossy-spheres.gltf, layered-spheres.gltf, dielectric-spheres.gltf, mirror-caustic.gltf,
                                              # point-room.gltf, window-room.gltf, window-hollow.gltf
     python3 scenes/make_scenes.py --segments 96 --light-strength 40 --out /tmp
 
@@ -183,6 +183,30 @@ def layered_spheres(segments=48, light_strength=12.0):
         mesh("specular_tint", uv_sphere(segments, segments // 2),
              {"kind": "layered", "color": (0.8, 0.8, 0.8), "metallic": 0.5, "roughness": 0.35,
               "extensions": {"KHR_materials_specular": {"specularFactor": 1.0, "specularColorFactor": [4.0, 2.0, 1.0]}}},
+             translation=(1.1, 0.5, 0.0), scale=0.5),
+        mesh("lamp", quad([(-h, 2.5, -h - 0.5), (h, 2.5, -h - 0.5), (h, 2.5, h - 0.5), (-h, 2.5, h - 0.5)], (0, -1, 0)),
+             {"kind": "emitter", "color": (1.0, 0.95, 0.9), "strength": light_strength}),
+    ]
+    camera = {"eye": (0.0, 1.3, 3.6), "target": (0.0, 0.45, 0.0), "yfov": math.radians(40.0), "aspect": 1.0}
+    return {"meshes": meshes, "camera": camera, "lights": []}
+
+
+def dielectric_spheres(segments=48, light_strength=12.0):
+    """glTF's plain dielectric (metallic 0, no extension: a diffuse base under a GGX lobe of F0
+    0.04) on three spheres of roughness 0.05, 0.3 and 0.6 (black, red, white) before a grey back
+    wall, on a grey floor under a square lamp: glossy reflections of the lamp, the floor and each
+    other, which photons and paths must both carry."""
+    h = 0.5
+    meshes = [
+        mesh("floor", quad([(-3, 0, 3), (3, 0, 3), (3, 0, -3), (-3, 0, -3)], (0, 1, 0)),
+             {"kind": "diffuse", "color": (0.5, 0.5, 0.5)}),
+        mesh("back", quad([(-3, 0, -1.5), (3, 0, -1.5), (3, 3, -1.5), (-3, 3, -1.5)], (0, 0, 1)),
+             {"kind": "diffuse", "color": (0.6, 0.6, 0.6)}),
+        mesh("black_plastic", uv_sphere(segments, segments // 2), {"kind": "dielectric", "color": (0.02, 0.02, 0.02), "roughness": 0.05},
+             translation=(-1.1, 0.5, 0.0), scale=0.5),
+        mesh("red_plastic", uv_sphere(segments, segments // 2), {"kind": "dielectric", "color": (0.6, 0.08, 0.05), "roughness": 0.3},
+             translation=(0.0, 0.5, 0.0), scale=0.5),
+        mesh("white_ceramic", uv_sphere(segments, segments // 2), {"kind": "dielectric", "color": (0.8, 0.8, 0.8), "roughness": 0.6},
              translation=(1.1, 0.5, 0.0), scale=0.5),
         mesh("lamp", quad([(-h, 2.5, -h - 0.5), (h, 2.5, -h - 0.5), (h, 2.5, h - 0.5), (-h, 2.5, h - 0.5)], (0, -1, 0)),
              {"kind": "emitter", "color": (1.0, 0.95, 0.9), "strength": light_strength}),
@@ -457,6 +481,7 @@ def main():
                         ("caustic.gltf", caustic(max(args.segments, 64), args.point_intensity)),
                         ("glossy-spheres.gltf", glossy_spheres(args.segments)),
                         ("layered-spheres.gltf", layered_spheres(args.segments)),
+                        ("dielectric-spheres.gltf", dielectric_spheres(args.segments)),
                         ("mirror-caustic.gltf", mirror_caustic(max(args.segments, 64))),
                         ("point-room.gltf", point_room(args.segments)),
                         ("window-room.gltf", window_room()),
