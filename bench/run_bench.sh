@@ -14,6 +14,7 @@ build/rel/texture_footprint || exit 1
 build/rel/json_load || exit 1
 sh bench/window_room_bench.sh || exit 1
 sh bench/default_vs_pathtrace.sh || exit 1
+sh bench/lambert_bench.sh || exit 1
 sh bench/cluster_bench.sh || exit 1
 sh bench/window_bench.sh || exit 1
 sh bench/instancing_bench.sh || exit 1
