@@ -2264,6 +2264,10 @@ static void test_variants(void) {
         vec3 b = s.materials[s.triangle_material[0]].base_color;
         CHECK(b.x == want[k][0] && b.y == want[k][1] && b.z == want[k][2], "variant %s: base colour %g %g %g",
               names[k] ? names[k] : "(none)", b.x, b.y, b.z);
+        /* the file's names in order, whichever variant loaded (the window's M key cycles them) */
+        const char *n = s.variant_names;
+        CHECK(s.variant_count == 3 && n && !strcmp(n, "green") && !strcmp(n + 6, "blue") && !strcmp(n + 11, "plain"),
+              "variant %s: the scene lists the file's three variant names (%u)", names[k] ? names[k] : "(none)", s.variant_count);
         pm_scene_free(&s);
     }
     pm_load_options options = {.variant = "red"};
