@@ -1,18 +1,9 @@
 #!/bin/sh
 # test_window_variants.sh: the window's M key under Xvfb cycles a file's KHR_materials_variants (each, then the file's default materials), each rendered from scratch with the camera kept; a file without variants changes nothing and says so.
 cd "$(dirname "$0")/.." || exit 1
-have_tools() { for t in xvfb-run xdotool python3; do command -v $t >/dev/null 2>&1 || return 1; done; }
-if ! have_tools; then
-    if [ "$(id -u)" = 0 ] || sudo -n true 2>/dev/null; then sh tools/install-deps.sh </dev/null >/dev/null 2>&1; fi
-    have_tools || { echo "SKIP: xvfb-run, xdotool or python3 missing"; exit 0; }
-fi
-[ -x ./pmview ] || { echo "test_window_variants: FAILED: ./pmview is not built"; exit 1; }
-tmp=$(mktemp -d) || exit 1
-group=""
-cleanup() { [ -n "$group" ] && kill -TERM -- "-$group" 2>/dev/null; rm -rf "$tmp"; }
-trap cleanup EXIT
-trap 'exit 1' INT TERM HUP
 . tests/xvfb_inner.sh
+need_tools test_window_variants xvfb-run xdotool python3
+start_temp
 
 # the Cornell box whose red (left) wall has two variants: "blue wall" and "yellow"
 python3 - "$tmp/variants.gltf" <<'EOF' || { echo "FAIL: the variant scene"; exit 1; }
@@ -39,17 +30,7 @@ args="--width 96 --height 96 --iterations 4 --seed 7 --threads 2"
 cat >"$tmp/inner.sh" <<'EOF'
 tmp=$1; scene=$2; name=$3; shift 3
 log="$tmp/$name.log"
-fail() { echo "inner: $*"; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- pmview log:"; cat "$log"; exit 1; }
-count() { c=$(grep -c "$1" "$log" 2>/dev/null); echo "${c:-0}"; }
-wait_for() {
-    i=0
-    while [ "$(count "$1")" -lt "$2" ]; do
-        kill -0 "$pid" 2>/dev/null || fail "pmview exited before '$1'"
-        i=$((i + 1)); [ "$i" -gt $(($3 * 10)) ] && fail "no '$1' after $3 s"
-        sleep 0.1
-    done
-}
-press() { xdotool key --clearmodifiers "$1" || fail "xdotool key $1 failed"; }
+. tests/window_inner.sh
 shot() { # NAME: P, then the screenshot kept as NAME.png
     n=$(count "pmview: saved")
     press p
@@ -60,9 +41,7 @@ title() { xdotool getwindowname "$wid"; }
 ./pmview "$scene" "$@" --screenshot "$tmp/shot.png" >"$log" 2>&1 &
 pid=$!
 wait_for "pmview: iterations done" 1 60
-wid=$(timeout 30 xdotool search --sync --name pmview | head -n 1)
-[ -n "$wid" ] || fail "no window named pmview"
-xdotool windowfocus --sync "$wid" || fail "cannot focus the window"
+focus_window pmview
 shot "${name}_first"
 if [ "$name" = variants ]; then
     # the camera moved first (one step right), so that a reload that took the file's camera would show
@@ -97,13 +76,7 @@ else
     shot plain_after
 fi
 press Escape
-xdotool keyup Escape
-i=0
-while kill -0 "$pid" 2>/dev/null; do
-    i=$((i + 1)); [ "$i" -gt 200 ] && fail "pmview still running 20 s after Escape"
-    sleep 0.1
-done
-wait "$pid"; rc=$?
+wait_exit 20
 [ "$rc" -eq 0 ] || fail "pmview exited with $rc after Escape"
 echo "inner: ok"
 EOF
