@@ -4,7 +4,9 @@
  * failure's description (what, bytes). An error names the failure of the operation that failed,
  * never an older one that was handled: a top-level operation clears the record before it starts
  * (pm_memory_clear_failure, then pm_memory_failure), and an operation nested inside others takes
- * a mark first (pm_memory_failure_mark, then pm_memory_failure_since). pm_memory_admit()
+ * a mark first (pm_memory_failure_mark, then pm_memory_failure_since, which answers with the
+ * caller's own failures only); a failure handled without an error is forgiven
+ * (pm_memory_forgive_last). pm_memory_admit()
  * refuses a structure estimated in bytes before it is allocated when it does not fit the memory
  * limit (--max-memory; by default PM_DEFAULT_MEMORY_SHARE of physical memory) beside everything
  * admitted and not yet released: the limit bounds the sum of the structures alive at once, not
@@ -54,6 +56,16 @@ void pm_memory_clear_failure(void);
  * handled, cleared or not. The text is the calling thread's, until its next call. */
 uint64_t pm_memory_failure_mark(void);
 const char *pm_memory_failure_since(uint64_t mark);
+/* That failure, or `otherwise` (what the caller was allocating) when none was recorded. */
+const char *pm_memory_failure_since_or(uint64_t mark, const char *otherwise);
+/* Failures belong to an owner: the thread that met them, or the thread whose parallel-for ran the
+ * task that met them (its workers adopt its owner), so pm_memory_failure_since never answers with
+ * another thread's failure. */
+uint64_t pm_memory_owner(void);
+void pm_memory_adopt_owner(uint64_t owner);
+/* Forgives the calling thread's last failure, which it handled (a cache it does without): no
+ * error names it afterwards, neither pm_memory_failure nor pm_memory_failure_since. */
+void pm_memory_forgive_last(void);
 
 /* Allocation-failure injection (tests): the n-th checked allocation from now fails (0 = none);
  * with `and_after`, every one after it too. Also set from PMVIEW_FAIL_ALLOC at the first call. */

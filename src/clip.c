@@ -1,5 +1,6 @@
 /* clip.c: probes the geometry around a gather point for the planes and slab that bound its disc, and the share of the disc they keep. */
 #include "clip.h"
+#include "memory.h"
 
 #include <math.h>
 #include <stdatomic.h>
@@ -390,14 +391,16 @@ static clear_grid building_marker;
 
 pm_clip_cache *pm_clip_cache_create(const pm_scene *s, const pm_accel *a) {
     if (s->placement_count || !s->triangle_count || s->triangle_count > GRID_TRIANGLES) return NULL;
-    pm_clip_cache *c = calloc(1, sizeof *c);
-    if (!c) return NULL;
+    /* the cache only saves time (without it each disc searches the BVH, to the same answer): a
+     * failure here is handled, and forgiven so that no error names it */
+    pm_clip_cache *c = pm_calloc(1, sizeof *c, "clip cache");
+    if (!c) { pm_memory_forgive_last(); return NULL; }
     c->scene = s;
     c->accel = a;
     c->count = s->triangle_count;
-    c->grid = calloc(c->count, sizeof *c->grid);
-    c->asks = calloc(c->count, sizeof *c->asks);
-    if (!c->grid || !c->asks) { pm_clip_cache_destroy(c); return NULL; }
+    c->grid = pm_calloc(c->count, sizeof *c->grid, "clip cache");
+    c->asks = c->grid ? pm_calloc(c->count, sizeof *c->asks, "clip cache") : NULL;
+    if (!c->grid || !c->asks) { pm_memory_forgive_last(); pm_clip_cache_destroy(c); return NULL; }
     return c;
 }
 
@@ -435,8 +438,8 @@ static clear_grid *build_grid(pm_clip_cache *c, uint32_t tri, float r) {
     int nu = (int)pm_maxf(1.f, ceilf((hi_u - lo_u) / cell)), nw = (int)pm_maxf(1.f, ceilf((hi_w - lo_w) / cell));
     size_t bytes = sizeof(clear_grid) + 2 * sizeof(float) * (size_t)nu * (size_t)nw;
     if (atomic_fetch_add(&c->bytes, bytes) + bytes > GRID_BYTES) return NULL;
-    clear_grid *g = malloc(bytes);
-    if (!g) return NULL;
+    clear_grid *g = pm_malloc(bytes, "clip cache grid");
+    if (!g) { pm_memory_forgive_last(); return NULL; } /* the disc searches the BVH: the same answer */
     g->origin = v3_add(v[0], v3_add(v3_scale(u, lo_u), v3_scale(w, lo_w)));
     g->u = u, g->w = w, g->cell = cell, g->nu = nu, g->nw = nw;
     float half_diagonal = 0.70711f * cell;

@@ -216,15 +216,17 @@ void pm_cluster_abort(pm_cluster *c, const char *message) {
 
 /* ---- merging ---- */
 
-static bool out_of_memory(pm_cluster *c) {
+/* The failure the merging call met since its mark, never an older one. */
+static bool out_of_memory(pm_cluster *c, uint64_t mark) {
     snprintf(c->error, sizeof c->error, "out of memory (%s) merging the ranks' images",
-             pm_memory_failure() ? pm_memory_failure() : "merge buffers");
+             pm_memory_failure_since_or(mark, "merge buffers"));
     return false;
 }
 
 /* Room for a merge of `count` doubles (rank 0 also receives). */
 static bool prepare_buffers(pm_cluster *c, size_t count) {
     if (count <= c->capacity) return true;
+    uint64_t mark = pm_memory_failure_mark();
     free(c->send);
     free(c->receive);
     c->send = c->receive = NULL;
@@ -232,13 +234,13 @@ static bool prepare_buffers(pm_cluster *c, size_t count) {
     pm_memory_release(c->buffers_admitted);
     c->buffers_admitted = 0;
     uint64_t bytes = (uint64_t)count * sizeof(double) * (c->rank == 0 ? 2u : 1u);
-    if (!pm_memory_admit(bytes, "the cluster's merge buffers")) return out_of_memory(c);
+    if (!pm_memory_admit(bytes, "the cluster's merge buffers")) return out_of_memory(c, mark);
     c->buffers_admitted = bytes;
     c->send = pm_malloc(count * sizeof(double), "the cluster's merge buffers");
-    if (!c->send) return out_of_memory(c);
+    if (!c->send) return out_of_memory(c, mark);
     if (c->rank == 0) {
         c->receive = pm_malloc(count * sizeof(double), "the cluster's merge buffers");
-        if (!c->receive) return out_of_memory(c);
+        if (!c->receive) return out_of_memory(c, mark);
     }
     c->capacity = count;
     return true;
@@ -251,11 +253,12 @@ static bool prepare_merged(pm_cluster *c, int width, int height, const bool comp
     for (int k = 0; k < PM_COMPONENT_COUNT && same; k++) same = (c->merged.sum[k] != NULL) == components[k];
     for (int k = 0; k < PM_SLOT_COUNT && same; k++) same = (c->merged.ppm[k] != NULL) == slots[k];
     if (same) return true;
+    uint64_t mark = pm_memory_failure_mark();
     if (c->merged_made) pm_film_free(&c->merged);
     c->merged_made = false;
-    if (!pm_film_init(&c->merged, width, height, components)) return out_of_memory(c);
+    if (!pm_film_init(&c->merged, width, height, components)) return out_of_memory(c, mark);
     c->merged_made = true;
-    if (!pm_film_enable_ppm(&c->merged, slots)) return out_of_memory(c);
+    if (!pm_film_enable_ppm(&c->merged, slots)) return out_of_memory(c, mark);
     pm_film_drop_restore(&c->merged); /* no iteration writes it: nothing to take back */
     return true;
 }

@@ -276,8 +276,9 @@ bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, s
     // the decode needs twice what the model then holds
     uint64_t held = static_cast<uint64_t>(width) * static_cast<uint64_t>(height) * 4 *
                     (stbi_is_16_bit_from_memory(bytes, size) ? 2 : 1);
+    const uint64_t mark = pm_memory_failure_mark();  // this refusal's line, never an older failure's
     if (!pm_memory_admit(2 * held, "decoded image")) {
-        hooks->error = "out of memory (" + std::string(pm_memory_failure()) + "): image " + str(index);
+        hooks->error = "out of memory (" + std::string(pm_memory_failure_since_or(mark, "decoded image")) + "): image " + str(index);
         return false;
     }
     hooks->decoded.bytes += 2 * held;  // given back with the hooks should the decode throw
@@ -1119,8 +1120,10 @@ void Loader::model_from_json() {
     // 2x10^5 lights). A text under 1 MiB is left to the process's baseline, as the code is: its
     // document is a few megabytes at most, and a small --max-memory still names what it is for.
     uint64_t document = json_size_ >= (1u << 20) ? 3 * PM_JSON_DOCUMENT_BYTES_PER_BYTE * static_cast<uint64_t>(json_size_) : 0;
+    const uint64_t mark = pm_memory_failure_mark();
     if (!pm_memory_admit(document, "JSON document"))
-        fail("out of memory (" + std::string(pm_memory_failure()) + ") parsing " + str(json_size_) + " bytes of JSON");
+        fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "JSON document")) + ") parsing " + str(json_size_) +
+             " bytes of JSON");
     struct Release {
         uint64_t bytes;
         ~Release() { pm_memory_release(bytes); }
@@ -1855,8 +1858,9 @@ void Loader::build_model(const json &root) {
 void Loader::decode_compressed() {
     char message[512];
     auto admit = [&](uint64_t bytes, const std::string &where) {
+        const uint64_t mark = pm_memory_failure_mark();
         if (!pm_memory_admit(bytes, "decoded geometry"))
-            fail("out of memory (" + std::string(pm_memory_failure()) + ") (" + where + ")");
+            fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "decoded geometry")) + ") (" + where + ")");
         decoded_.bytes += bytes;
     };
     auto own_buffer = [&](std::vector<unsigned char> &&bytes) {
@@ -2060,8 +2064,9 @@ void Loader::read_instance_set(int node_index, const tinygltf::Node &node, const
     InstanceSet set;
     set.node = node_index;
     auto admit = [&](uint64_t bytes) {
+        const uint64_t mark = pm_memory_failure_mark();
         if (!pm_memory_admit(bytes, "GPU instances"))
-            fail("out of memory (" + std::string(pm_memory_failure()) + ") (" + where + ")");
+            fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "GPU instances")) + ") (" + where + ")");
         decoded_.bytes += bytes;
     };
     struct { const char *name; int components; std::vector<float> *into; } parts[] = {
@@ -2394,8 +2399,9 @@ int Loader::texture_for(int gltf_texture, const std::string &where) {
     auto same = texture_of_image_.find(key);
     if (same != texture_of_image_.end()) return result = same->second;
     textures_.items.reserve(textures_.items.size() + 1);  // so push_back below cannot throw and leak the texels
+    const uint64_t mark = pm_memory_failure_mark();
     if (!pm_memory_admit(static_cast<uint64_t>(pixels) * 4, "texture"))
-        fail("out of memory (" + std::string(pm_memory_failure()) + "): image " + str(t.source));
+        fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "texture")) + "): image " + str(t.source));
     admitted_.bytes += static_cast<uint64_t>(pixels) * 4;
     tex.rgba = static_cast<uint8_t *>(pm_malloc(pixels * 4, "texture"));
     if (!tex.rgba) throw std::bad_alloc();
@@ -3290,8 +3296,10 @@ void Loader::load(pm_scene *out) {
                          placements * PM_ACCEL_BYTES_PER_PLACEMENT;
         uint64_t bytes = vertices * per_vertex + triangles * 4 * sizeof(uint32_t) + placements * sizeof(pm_placement) + accel +
                          placed_.size() * (sizeof(pm_light) + sizeof(float) + sizeof(pm_camera));  // lights, their power table, cameras
+        const uint64_t mark = pm_memory_failure_mark();
         if (!pm_memory_admit(bytes, "scene geometry and its acceleration structure"))
-            fail("out of memory (" + std::string(pm_memory_failure()) + "): " + str(triangles) +
+            fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "scene geometry and its acceleration structure")) +
+                 "): " + str(triangles) +
                  " triangles after instancing");
         // the acceleration structure's share was a forecast: Embree's allocations are admitted as they happen
         pm_memory_release(accel);
@@ -3359,6 +3367,7 @@ bool run_loader(const char *path, const unsigned char *data, size_t size, const 
     memset(report, 0, sizeof *report);
     if (err && err_size) err[0] = '\0';
     std::string message;
+    const uint64_t mark = pm_memory_failure_mark();  // what this load meets, never an older failure
     try {
         std::unique_ptr<Loader> made(data ? new Loader(path ? path : "", data, size) : new Loader(path ? path : ""));
         Loader &loader = *made;
@@ -3384,7 +3393,7 @@ bool run_loader(const char *path, const unsigned char *data, size_t size, const 
         }
     } catch (const std::bad_alloc &) {
         message = "out of memory";
-        if (pm_memory_failure()) message += " (" + std::string(pm_memory_failure()) + ")";
+        if (pm_memory_failure_since(mark)) message += " (" + std::string(pm_memory_failure_since(mark)) + ")";
     } catch (const std::exception &e) {
         message = "unexpected error: " + one_line(e.what());
     } catch (...) {

@@ -208,9 +208,10 @@ static bool write_exr(const char *path, int width, int height, const pm_film *fi
     struct stat st;
     if (stat(path, &st) == 0 && S_ISREG(st.st_mode) && !file_takes_writing(path, err, err_size)) return false;
     const uint64_t buffer_bytes = pm_exr_write_bytes(width, height);
+    const uint64_t mark = pm_memory_failure_mark(); /* what this write meets, never an older failure */
     if (!pm_memory_admit(buffer_bytes, "EXR output buffers")) {
         char what[400];
-        snprintf(what, sizeof what, "out of memory (%s)", pm_memory_failure());
+        snprintf(what, sizeof what, "out of memory (%s)", pm_memory_failure_since_or(mark, "EXR output buffers"));
         set_error(err, err_size, path, what);
         return false;
     }
@@ -228,7 +229,7 @@ static bool write_exr(const char *path, int width, int height, const pm_film *fi
     float *rgb = planes ? pm_malloc(3 * npix * sizeof(float), "EXR output buffers") : NULL;
     if (!planes || !rgb) {
         char what[400];
-        snprintf(what, sizeof what, "out of memory (%s)", pm_memory_failure() ? pm_memory_failure() : "EXR output buffers");
+        snprintf(what, sizeof what, "out of memory (%s)", pm_memory_failure_since_or(mark, "EXR output buffers"));
         set_error(err, err_size, path, what);
         goto done;
     }
@@ -638,8 +639,9 @@ bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, 
     char what[400];
     /* stb's encoder allocates inside the library: its share is admitted for it, before the target is touched */
     const uint64_t encoder_bytes = pm_png_write_bytes(width, height);
+    const uint64_t mark = pm_memory_failure_mark(); /* what this write meets, never an older failure */
     if (!pm_memory_admit(encoder_bytes, "PNG encoder")) {
-        snprintf(what, sizeof what, "out of memory (%s)", pm_memory_failure());
+        snprintf(what, sizeof what, "out of memory (%s)", pm_memory_failure_since_or(mark, "PNG encoder"));
         set_error(err, err_size, path, what);
         return false;
     }

@@ -152,12 +152,13 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
         return failed(r, 1, "%s", err);
     r->scene_loaded = true;
     pm_memory_forecast_phase(report.peak_bytes);
+    uint64_t mark = pm_memory_failure_mark(); /* what the finalisation meets, never an older failure */
     bool finalized = pm_scene_finalize(&r->scene, false, NULL);
     pm_memory_forecast_hold((int64_t)pm_scene_bytes(&r->scene));
     if (finalized && r->scene.clamped_emission && !o->quiet)
         fprintf(stderr, "pmview: warning: %s: %u emission or light value(s) above %g (or not a number) clamped: a float film could not sum them\n",
                 o->scene_path, r->scene.clamped_emission, (double)PM_MAX_EMISSION);
-    if (!finalized) return failed(r, 1, "%s: out of memory (%s)", o->scene_path, pm_memory_failure());
+    if (!finalized) return failed(r, 1, "%s: out of memory (%s)", o->scene_path, pm_memory_failure_since_or(mark, "the scene's arrays"));
     if (o->stats) pm_print_load_stats(&report, &r->scene);
     /* the options' lengths are in the file's units; the loader may have rescaled the scene */
     o->radius *= report.unit_scale;
@@ -220,8 +221,9 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
     }
     if (o->snapshot && root) {
         uint64_t bytes = pm_snapshot_output_bytes(o->snapshot, pm_session_film(r->session));
+        mark = pm_memory_failure_mark();
         if (!pm_memory_admit(bytes, pm_has_extension(o->snapshot, ".png") ? "PNG output buffers" : "EXR output buffers"))
-            return failed(r, 1, "%s: out of memory (%s)", o->snapshot, pm_memory_failure());
+            return failed(r, 1, "%s: out of memory (%s)", o->snapshot, pm_memory_failure_since_or(mark, "output buffers"));
         r->output_reserved = bytes;
         /* a PNG is composed by the display shader in an offscreen context made for it (its
          * library opened then) */
@@ -260,8 +262,9 @@ static void window_scene_of(run_state *r, pm_window_scene *out) {
 
 static bool reload(void *context, const pm_window_reload *ask, pm_window_scene *out, char *err, size_t err_size) {
     reloads *c = context;
-    run_state *fresh = calloc(1, sizeof *fresh);
-    if (!fresh) { snprintf(err, err_size, "out of memory"); return false; }
+    uint64_t mark = pm_memory_failure_mark();
+    run_state *fresh = pm_calloc(1, sizeof *fresh, "the reloaded scene's state");
+    if (!fresh) { snprintf(err, err_size, "out of memory (%s)", pm_memory_failure_since_or(mark, "the reloaded scene's state")); return false; }
     fresh->heap = true;
     fresh->opt = c->parsed;
     snprintf(fresh->scene_path, sizeof fresh->scene_path, "%s", ask->scene_path);

@@ -19,17 +19,31 @@ static _Atomic uint64_t fail_at;       /* 0: no injection */
 static atomic_bool fail_after;
 static pthread_once_t env_once = PTHREAD_ONCE_INIT;
 static pthread_mutex_t failure_lock = PTHREAD_MUTEX_INITIALIZER;
-/* Every failure gets the next number (failures counts them, never reset); the last RECENT are
- * kept with their numbers, so an operation that took a mark before it began can ask for the first
- * failure after it, whatever failed and was handled before. The first since the last clear is
- * kept apart, at a fixed address, for pm_memory_failure. */
+/* Every failure gets the next number (failures counts them, never reset) and its owner: the
+ * thread that met it, or the thread whose parallel-for ran it (pm_memory_adopt_owner). The last
+ * RECENT are kept with their numbers, so an operation that took a mark before it began can ask for
+ * the first failure of its own after it, whatever failed before it, on another thread, or was
+ * handled and forgiven (pm_memory_forgive_last). The first unforgiven failure since the last clear
+ * is kept apart, at a fixed address, for pm_memory_failure. */
 enum { RECENT = 16, TEXT = 320 };
+typedef struct { uint64_t number, owner; bool forgiven; char text[TEXT]; } failure_record;
 static uint64_t failures;
-static struct { uint64_t number; char text[TEXT]; } recent[RECENT];
+static failure_record recent[RECENT];
 static char failure[TEXT];
 static bool failed;
-static uint64_t failed_number; /* the number of the failure in `failure` */
+static uint64_t failed_number;  /* the number of the failure in `failure` */
+static uint64_t cleared_after;  /* the failures counted at the last clear */
+static _Atomic uint64_t owners; /* owners handed out so far */
+static _Thread_local uint64_t thread_owner;       /* 0 until the thread's first failure or mark */
+static _Thread_local uint64_t thread_last_failure; /* the number of the calling thread's last failure */
 static _Thread_local char since_text[TEXT]; /* pm_memory_failure_since's answer, the calling thread's own */
+
+uint64_t pm_memory_owner(void) {
+    if (!thread_owner) thread_owner = atomic_fetch_add(&owners, 1) + 1;
+    return thread_owner;
+}
+
+void pm_memory_adopt_owner(uint64_t owner) { thread_owner = owner; }
 
 static void read_env(void) {
     const char *v = getenv("PMVIEW_FAIL_ALLOC");
@@ -52,19 +66,23 @@ void pm_memory_fail_at(uint64_t n, bool and_after) {
 uint64_t pm_memory_allocations(void) { return atomic_load(&allocations); }
 
 static void record(const char *text) {
+    uint64_t owner = pm_memory_owner();
     pthread_mutex_lock(&failure_lock);
     failures++;
-    recent[failures % RECENT].number = failures;
-    snprintf(recent[failures % RECENT].text, TEXT, "%s", text);
+    failure_record *r = &recent[failures % RECENT];
+    *r = (failure_record){.number = failures, .owner = owner, .forgiven = false};
+    snprintf(r->text, TEXT, "%s", text);
     if (!failed) {
         snprintf(failure, sizeof failure, "%s", text);
         failed = true;
         failed_number = failures;
     }
+    thread_last_failure = failures;
     pthread_mutex_unlock(&failure_lock);
 }
 
 uint64_t pm_memory_failure_mark(void) {
+    pm_memory_owner();
     pthread_mutex_lock(&failure_lock);
     uint64_t n = failures;
     pthread_mutex_unlock(&failure_lock);
@@ -73,16 +91,44 @@ uint64_t pm_memory_failure_mark(void) {
 
 const char *pm_memory_failure_since(uint64_t mark) {
     const char *answer = NULL;
+    uint64_t owner = pm_memory_owner();
     pthread_mutex_lock(&failure_lock);
-    /* the first after the mark, or, when more than RECENT came after it, the oldest still kept:
-     * either way a failure of the operation that took the mark */
+    /* the caller's first unforgiven failure after the mark, among those still kept (when more than
+     * RECENT came after it, the oldest kept of its own: a failure of the operation all the same) */
     uint64_t first = failures - mark > RECENT ? failures - RECENT + 1 : mark + 1;
-    if (first <= failures) {
-        snprintf(since_text, sizeof since_text, "%s", recent[first % RECENT].text);
+    for (uint64_t n = first; n <= failures && !answer; n++) {
+        const failure_record *r = &recent[n % RECENT];
+        if (r->owner != owner || r->forgiven) continue;
+        snprintf(since_text, sizeof since_text, "%s", r->text);
         answer = since_text;
     }
     pthread_mutex_unlock(&failure_lock);
     return answer;
+}
+
+const char *pm_memory_failure_since_or(uint64_t mark, const char *otherwise) {
+    const char *since = pm_memory_failure_since(mark);
+    return since ? since : otherwise;
+}
+
+void pm_memory_forgive_last(void) {
+    pthread_mutex_lock(&failure_lock);
+    uint64_t n = thread_last_failure;
+    if (n && failures - n < RECENT && recent[n % RECENT].number == n) recent[n % RECENT].forgiven = true;
+    if (n && failed && failed_number == n) {
+        /* the record since the last clear passes to the next unforgiven failure still kept */
+        failed = false;
+        failure[0] = 0;
+        for (uint64_t k = n + 1; k <= failures && !failed; k++) {
+            const failure_record *r = &recent[k % RECENT];
+            if (r->number != k || r->forgiven || k <= cleared_after) continue;
+            snprintf(failure, sizeof failure, "%s", r->text);
+            failed = true;
+            failed_number = k;
+        }
+    }
+    thread_last_failure = 0;
+    pthread_mutex_unlock(&failure_lock);
 }
 
 void pm_memory_fail(uint64_t bytes, const char *what) {
@@ -184,6 +230,7 @@ void pm_memory_clear_failure(void) {
     pthread_mutex_lock(&failure_lock);
     failed = false;
     failure[0] = 0;
+    cleared_after = failures;
     pthread_mutex_unlock(&failure_lock);
 }
 

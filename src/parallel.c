@@ -2,6 +2,7 @@
 #include "parallel.h"
 
 #include "defaults.h"
+#include "memory.h"
 
 #include <pthread.h>
 #include <stdatomic.h>
@@ -16,6 +17,7 @@ typedef struct {
     const atomic_bool *cancel;
     void (*observer)(void *, size_t, size_t);
     void *observer_ctx;
+    uint64_t owner; /* the calling thread's owner of memory failures (memory.h): its workers' failures are its own */
 } job;
 
 /* Set by a render session's worker thread, read by every parallel-for it starts. */
@@ -46,12 +48,13 @@ static void run_worker(job *j, int thread) {
 
 static void *worker_main(void *p) {
     worker_arg *a = p;
+    pm_memory_adopt_owner(a->j->owner);
     run_worker(a->j, a->thread);
     return NULL;
 }
 
 void pm_parallel_for(int threads, size_t count, void (*fn)(void *, size_t, int), void *ctx) {
-    job j = {fn, ctx, count, 0, current_cancel, current_observer, current_observer_ctx};
+    job j = {fn, ctx, count, 0, current_cancel, current_observer, current_observer_ctx, pm_memory_owner()};
     if (threads < 1) threads = 1;
     if ((size_t)threads > count) threads = count ? (int)count : 1;
     /* plain malloc: without these few bytes the calling thread runs every task, which is no failure

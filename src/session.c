@@ -76,7 +76,8 @@ static void begin(pm_session *s) {
     pm_memory_clear_failure();
 }
 
-static const char *memory_failure_or(const char *what) { return pm_memory_failure() ? pm_memory_failure() : what; }
+/* The failure the call met since its mark (never another thread's, nor an older one), or `what`. */
+static const char *memory_failure_or(uint64_t mark, const char *what) { return pm_memory_failure_since_or(mark, what); }
 
 /* The mode state and film for config, from camera: nothing of the session's is touched, so a
  * caller whose build fails keeps what it had. */
@@ -84,6 +85,7 @@ static bool build_state(const pm_session *s, const pm_session_config *config, co
                         pm_progressive **progressive, pm_film *film, char *err, size_t err_size) {
     *progressive = NULL;
     memset(film, 0, sizeof *film);
+    uint64_t mark = pm_memory_failure_mark();
     bool components[PM_COMPONENT_COUNT];
     if (config->mode == PM_MODE_PROGRESSIVE) {
         *progressive = pm_progressive_create(s->scene, s->accel, camera, &config->progressive, err, err_size);
@@ -99,7 +101,7 @@ static bool build_state(const pm_session *s, const pm_session_config *config, co
     }
     bool ok = pm_film_init(film, config->width, config->height, components);
     if (!ok)
-        snprintf(err, err_size, "out of memory (%s) for a %dx%d film", memory_failure_or("film"), config->width, config->height);
+        snprintf(err, err_size, "out of memory (%s) for a %dx%d film", memory_failure_or(mark, "film"), config->width, config->height);
     else if (*progressive)
         ok = pm_progressive_bind(*progressive, film, err, err_size);
     if (!ok) {
@@ -358,8 +360,9 @@ static uint64_t run_photons(const pm_session *s) {
 
 bool pm_session_iterate(pm_session *s, uint32_t max_samples) {
     begin(s);
+    uint64_t mark = pm_memory_failure_mark();
     if (iterate_once(s, max_samples)) return true;
-    fail(s, "out of memory (%s) in iteration %u", memory_failure_or("unknown"), s->film.samples + 1);
+    fail(s, "out of memory (%s) in iteration %u", memory_failure_or(mark, "unknown"), s->film.samples + 1);
     return false;
 }
 
@@ -376,6 +379,7 @@ pm_session_run_result pm_session_run(pm_session *s, const pm_session_goal *goal,
         uint32_t limit = pm_session_plan_samples(s, target - s->film.samples);
         if (!limit) break;
         double iteration_start = pm_now_seconds();
+        uint64_t mark = pm_memory_failure_mark();
         bool iterated = iterate_once(s, limit);
         state.rendered += pm_now_seconds() - iteration_start;
         if (state.first_iteration == 0.0) state.first_iteration = pm_now_seconds() - start;
@@ -383,7 +387,7 @@ pm_session_run_result pm_session_run(pm_session *s, const pm_session_goal *goal,
         state.photons = run_photons(s);
         state.elapsed = pm_now_seconds() - start;
         if (!iterated) {
-            fail(s, "out of memory (%s) in iteration %u", memory_failure_or("unknown"), s->film.samples + 1);
+            fail(s, "out of memory (%s) in iteration %u", memory_failure_or(mark, "unknown"), s->film.samples + 1);
             result = PM_RUN_FAILED;
             break;
         }
@@ -430,10 +434,11 @@ static void heat_colour(double t, float *rgb) {
 static void diagnostic_view(const pm_session *s, int view, float *out) {
     size_t pixels = (size_t)s->config.width * s->config.height;
     double lo = INFINITY, hi = -INFINITY;
+    uint64_t mark = pm_memory_failure_mark();
     double *value = pm_malloc(pixels * sizeof *value, "density view");
     if (!value) {
         /* the view is a diagnostic: black, with the reason, rather than a stale picture */
-        fprintf(stderr, "pmview: error: out of memory (%s) for the density view\n", memory_failure_or("density view"));
+        fprintf(stderr, "pmview: error: out of memory (%s) for the density view\n", memory_failure_or(mark, "density view"));
         memset(out, 0, 3 * pixels * sizeof(float));
         return;
     }
@@ -468,10 +473,11 @@ static void publish_packed(pm_session *s) {
     const pm_film *f = &s->film;
     size_t count = pm_film_packed_count(f);
     if (count > s->packed_back_capacity) {
+        uint64_t mark = pm_memory_failure_mark();
         double *grown = pm_malloc(count * sizeof(double), "the cluster's packed film");
         if (!grown) {
             fprintf(stderr, "pmview: error: out of memory (%s) packing the image for the other ranks\n",
-                    memory_failure_or("the cluster's packed film"));
+                    memory_failure_or(mark, "the cluster's packed film"));
             return;
         }
         free(s->packed_back);
@@ -522,9 +528,10 @@ static void publish(pm_session *s, const pm_film *film, bool preview) {
         }
         /* the coarse preview, each of its pixels spread over the block it covers */
         size_t small = 3 * (size_t)film->width * film->height;
+        uint64_t mark = pm_memory_failure_mark();
         float *tmp = pm_malloc(small * sizeof(float), "preview");
         if (!tmp) {
-            fprintf(stderr, "pmview: error: out of memory (%s) for the preview\n", memory_failure_or("preview"));
+            fprintf(stderr, "pmview: error: out of memory (%s) for the preview\n", memory_failure_or(mark, "preview"));
             return;
         }
         pm_film_resolve(film, (pm_component)c, tmp);
@@ -665,10 +672,11 @@ static void *worker_main(void *arg) {
             need_clear = false;
         }
         uint32_t left = s->config.max_iterations ? s->config.max_iterations - s->film.samples : 0;
+        uint64_t mark = pm_memory_failure_mark();
         bool ok = atomic_load(&s->cancel) ? true : iterate_once(s, left);
         if (!ok)
             fprintf(stderr, "pmview: error: out of memory (%s) in an iteration; rendering stops\n",
-                    pm_memory_failure() ? pm_memory_failure() : "unknown");
+                    memory_failure_or(mark, "unknown"));
         bool cut_short = atomic_load(&s->cancel);
         if (ok && !cut_short) publish(s, &s->film, false);
         pthread_mutex_lock(&s->lock);
@@ -800,10 +808,11 @@ bool pm_session_keep_packed(pm_session *s, bool on) {
     if (on) {
         /* the usual size up front, so that running out of memory is this call's error */
         size_t count = pm_film_packed_count(&s->film);
+        uint64_t mark = pm_memory_failure_mark();
         s->packed_back = pm_malloc(count * sizeof(double), "the cluster's packed film");
         double *front = s->packed_back ? pm_malloc(count * sizeof(double), "the cluster's packed film") : NULL;
         if (!front) {
-            fail(s, "out of memory (%s)", memory_failure_or("the cluster's packed film"));
+            fail(s, "out of memory (%s)", memory_failure_or(mark, "the cluster's packed film"));
             free(s->packed_back);
             s->packed_back = NULL;
             s->keep_packed = false;

@@ -840,8 +840,15 @@ void pm_view_show_quick(pm_view *v, int width, int height, const float *const la
     if (!image) return;
     const uint16_t one = 1;
     bool little_endian = *(const uint8_t *)&one == 1;
-    if (image->bits_per_pixel != 32 || image->byte_order != (little_endian ? LSBFirst : MSBFirst) ||
-        !(image->data = malloc((size_t)image->bytes_per_line * fh))) {
+    if (image->bits_per_pixel != 32 || image->byte_order != (little_endian ? LSBFirst : MSBFirst)) {
+        XDestroyImage(image);
+        return;
+    }
+    /* out of memory, the first image waits for GL to draw it: said, not silent */
+    uint64_t mark = pm_memory_failure_mark();
+    if (!(image->data = pm_malloc((size_t)image->bytes_per_line * fh, "the first image's X11 copy"))) {
+        fprintf(stderr, "pmview: warning: out of memory (%s): the first image waits for GL\n",
+                pm_memory_failure_since_or(mark, "the first image's X11 copy"));
         XDestroyImage(image);
         return;
     }
@@ -854,8 +861,10 @@ void pm_view_show_quick(pm_view *v, int width, int height, const float *const la
     }
     /* the film's pixels composed once (a preview's blocks repeat a value: composed once a run),
      * then scaled into the window row by row */
-    uint32_t *composed = malloc(sizeof(uint32_t) * (size_t)width * height);
+    uint32_t *composed = pm_malloc(sizeof(uint32_t) * (size_t)width * height, "the first image's composed pixels");
     if (!composed) {
+        fprintf(stderr, "pmview: warning: out of memory (%s): the first image waits for GL\n",
+                pm_memory_failure_since_or(mark, "the first image's composed pixels"));
         XDestroyImage(image);
         return;
     }

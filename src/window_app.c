@@ -234,8 +234,15 @@ static void printable_name(const char *name, char *out, size_t size) {
 static void show_reference(pm_view *view, const pm_reference_image *ref) {
     if (!ref) { pm_view_set_reference(view, 0, 0, NULL); return; }
     size_t n = (size_t)ref->width * ref->height;
-    float *rgb = malloc(3 * n * sizeof *rgb);
-    if (!rgb) return;
+    uint64_t mark = pm_memory_failure_mark();
+    float *rgb = pm_malloc(3 * n * sizeof *rgb, "the reference's display copy");
+    if (!rgb) {
+        /* the error view then compares against nothing: said, not silent */
+        fprintf(stderr, "pmview: error: out of memory (%s): the reference is not shown\n",
+                pm_memory_failure_since_or(mark, "the reference's display copy"));
+        pm_view_set_reference(view, 0, 0, NULL);
+        return;
+    }
     for (size_t i = 0; i < n; i++)
         for (int c = 0; c < 3; c++) rgb[3 * i + c] = ref->rgb[c][i];
     pm_view_set_reference(view, ref->width, ref->height, rgb);

@@ -1,4 +1,4 @@
-/* test_memory_failures.c: every checked allocation of a render made to fail in turn, the memory limit refusing a photon pass, and the limit bounding the sum of what is admitted: a reason each time, never a crash, a leak (ASan) or a commitment left behind. */
+/* test_memory_failures.c: every checked allocation of a render made to fail in turn, the memory limit refusing a photon pass, the limit bounding the sum of what is admitted, and failures kept apart by owner (thread, parallel-for) and forgiven when handled: a reason each time, never a crash, a leak (ASan) or a commitment left behind. */
 #include <pthread.h>
 #include <sched.h>
 #include <stdlib.h>
@@ -11,6 +11,7 @@
 #include "film.h"
 #include "loader.h"
 #include "memory.h"
+#include "parallel.h"
 #include "photonmap.h"
 #include "progressive.h"
 #include "scene_builder.h"
@@ -197,14 +198,18 @@ static void test_error_names_new_cause(void) {
     pm_accel *a = caustic_box(&s, &cam);
     pm_progressive_settings ps = session_config(PM_MODE_PROGRESSIVE, 8, 8).progressive;
     int checked = 0, wrong = 0;
-    for (uint64_t n = 1; n < 64; n++) {
+    char err[256] = "";
+    pm_memory_fail_at(0, false);
+    pm_progressive_destroy(pm_progressive_create(&s, a, &cam, &ps, err, sizeof err));
+    uint64_t creation = pm_memory_allocations();
+    for (uint64_t n = 1; n <= creation; n++) {
         pm_memory_clear_failure();
         pm_memory_fail(1, "an old failure, handled");
         pm_memory_fail_at(n, false);
-        char err[256] = "";
+        err[0] = 0;
         pm_progressive *p = pm_progressive_create(&s, a, &cam, &ps, err, sizeof err);
         pm_memory_fail_at(0, false);
-        if (p) { pm_progressive_destroy(p); break; }
+        if (p) { pm_progressive_destroy(p); continue; } /* a failure it handled (the clip cache, which only saves time) */
         checked++;
         if (strstr(err, "an old failure")) wrong++;
     }
@@ -213,6 +218,49 @@ static void test_error_names_new_cause(void) {
     pm_memory_clear_failure();
     pm_accel_destroy(a);
     pm_scene_free(&s);
+}
+
+static void *fail_elsewhere(void *arg) {
+    pm_memory_fail(50, "another thread's structure");
+    return arg;
+}
+
+static void fail_in_task(void *ctx, size_t task, int thread) {
+    if (task == 1) pm_memory_fail(90, "a task's structure");
+}
+
+/* A failure is its owner's: a call's mark never answers with another thread's failure, a
+ * parallel-for's tasks fail on behalf of the thread that started it, and a failure the caller
+ * handled and forgave is named by no later error. */
+static void test_failures_belong_to_their_owner(void) {
+    pm_memory_clear_failure();
+    uint64_t mark = pm_memory_failure_mark();
+    pthread_t other;
+    CHECK(pthread_create(&other, NULL, fail_elsewhere, NULL) == 0, "thread");
+    pthread_join(other, NULL);
+    CHECK(pm_memory_failure_since(mark) == NULL, "criterion: another thread's failure after the mark is not this thread's");
+    pm_memory_fail(60, "this thread's structure");
+    const char *since = pm_memory_failure_since(mark);
+    CHECK(since && !strcmp(since, "this thread's structure, 60 bytes"), "criterion: the call's own failure: \"%s\"", since ? since : "");
+    mark = pm_memory_failure_mark();
+    pm_parallel_for(2, 4, fail_in_task, NULL);
+    since = pm_memory_failure_since(mark);
+    CHECK(since && !strcmp(since, "a task's structure, 90 bytes"), "criterion: a task's failure is the caller's: \"%s\"",
+          since ? since : "");
+    /* forgiven: a handled failure names nothing, before or after a real one */
+    pm_memory_clear_failure();
+    mark = pm_memory_failure_mark();
+    pm_memory_fail(70, "a cache done without");
+    pm_memory_forgive_last();
+    CHECK(!pm_memory_failure() && !pm_memory_failure_since(mark), "criterion: a forgiven failure is no record");
+    pm_memory_fail(80, "the real one");
+    since = pm_memory_failure_since(mark);
+    CHECK(since && !strcmp(since, "the real one, 80 bytes") && pm_memory_failure() && !strcmp(pm_memory_failure(), since),
+          "after a forgiven failure the real one is named: \"%s\"", since ? since : "");
+    pm_memory_fail(85, "handled after it");
+    pm_memory_forgive_last();
+    CHECK(pm_memory_failure() && !strcmp(pm_memory_failure(), "the real one, 80 bytes"), "forgiving a later one keeps the first");
+    pm_memory_clear_failure();
 }
 
 /* A memory limit below one pass's photon records: the pass fails at once with the estimate,
@@ -408,6 +456,7 @@ int main(void) {
     test_allocation_failures(true);
     test_photon_record_limit();
     test_error_names_new_cause();
+    test_failures_belong_to_their_owner();
     test_session_failures(PM_MODE_PROGRESSIVE);
     test_session_failures(PM_MODE_CLASSIC);
     test_session_failures(PM_MODE_PATHTRACE);
