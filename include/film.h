@@ -1,15 +1,17 @@
 /* film.h: per-component radiance accumulation (direct, specular, caustic, indirect), and the progressive photon statistics.
  *
  * A component the scene analysis rules out gets no buffer at all (sum[c] == NULL): it is
- * black by construction and costs no memory. The film stores sums of samples, each with its
- * Kahan compensation (a window runs to 10^5 samples a pixel, where a plain float sum has lost
- * the low digits of every sample it adds: 10^6 samples of 0.1 summed in float come out 1% off);
+ * black by construction and costs no memory. The film stores sums of samples, each a float and
+ * the bits below it (a window runs to 10^5 samples a pixel, where a plain float sum has lost the
+ * low digits of every sample it adds: 10^6 samples of 0.1 summed in float come out 1% off);
  * every pixel holds the same sample count, except after a pass cut short (a deadline, a cancel), which
  * reached only some pixels: those hold one sample more, and the resolve divides each pixel by
  * its own count, so neither kind of pixel is biased. The progressive mode adds per-pixel photon
  * statistics (slots, each allocated only when the scene can use it). Everything that reads an
  * image, the view, the EXR writer, the error measures, goes through pm_film_resolve(): nothing
- * else knows how a mode accumulates.
+ * else knows how a mode accumulates. Per pixel the film holds 18 bytes a component, 20 a
+ * statistics slot and one for the ahead bits: the copy a cancel puts back exists only while an
+ * iteration that can be cancelled runs (pm_film_open_copy).
  */
 #ifndef PM_FILM_H
 #define PM_FILM_H
@@ -21,9 +23,11 @@
 
 /* Stochastic progressive photon mapping statistics of one estimate at one pixel (Hachisuka and
  * Jensen 2009): photon count N, the flux tau gathered so far (already rescaled to the current
- * radius) and the squared radius; r2 == 0 until the pixel's first visible point. Doubles, so
- * that after 10^4 iterations neither N nor tau has lost its low digits. */
-typedef struct { double tau[3]; double n; double r2; } pm_ppm_stat;
+ * radius) and the squared radius; r2 == 0 until the pixel's first visible point. Floats, each
+ * update computed in double and rounded once: an update rescales tau and N rather than adding a
+ * small part to a large sum, so the rounding of 10^4 updates stays a random walk of relative
+ * size 10^-5, far below the photons' noise (r2 is a float in the photon grid's queries anyway). */
+typedef struct { float tau[3]; float n; float r2; } pm_ppm_stat;
 
 /* Which photons and which visible points a slot gathers: caustic (L S+ D) or other indirect
  * photons, at a visible point seen directly or through specular bounces. */
@@ -42,9 +46,10 @@ enum { PM_FILM_AHEAD_SAMPLE = 1, PM_FILM_AHEAD_PHOTON_PASS = 2 };
 typedef struct {
     int width, height;
     float *sum[PM_COMPONENT_COUNT]; /* 3*width*height floats each, row 0 = top; NULL = always black */
-    /* Kahan compensation of each sum (the true sum is sum - carry): NULL in a film made by hand,
-     * whose sums are taken as exact */
-    float *carry[PM_COMPONENT_COUNT];
+    /* the bits of each sum below its float, in units of 2^-16 of the float's last place (the
+     * true sum is sum + low * ulp(sum) / 65536: 40 significant bits, so 10^6 samples of a
+     * constant drift less than 10^-6): NULL in a film made by hand, whose sums are taken as exact */
+    int16_t *low[PM_COMPONENT_COUNT];
     uint32_t samples;               /* samples every pixel holds (eye passes that reached every pixel) */
     uint32_t photon_passes;         /* the progressive mode's photon passes every pixel's statistics hold: what they divide by */
     pm_ppm_stat *ppm[PM_SLOT_COUNT];/* width*height each, or NULL: the progressive mode's photon statistics */
@@ -55,10 +60,14 @@ typedef struct {
     uint8_t *ahead;
     bool ragged;                    /* a pass was cut: the end of a run, to be read or cleared, never passed over again */
     /* the running iteration's starting state of the pixels it has written (pm_film_save_rect),
-     * for a cancel to put back: the same layout as sum, carry and ppm (NULL in a film made by
-     * hand, which cannot take a cancel back) */
-    float *saved_sum[PM_COMPONENT_COUNT], *saved_carry[PM_COMPONENT_COUNT];
+     * for a cancel to put back: the same layout as sum, low and ppm, allocated only between
+     * pm_film_open_copy and pm_film_close_copy (NULL otherwise) */
+    float *saved_sum[PM_COMPONENT_COUNT];
+    int16_t *saved_low[PM_COMPONENT_COUNT];
     pm_ppm_stat *saved_ppm[PM_SLOT_COUNT];
+    bool copy_open;
+    uint64_t copy_admitted;         /* bytes admitted for that copy while open, given back by pm_film_close_copy */
+    uint64_t copy_reserved;         /* bytes admitted ahead for every copy (pm_film_reserve_copy), given back by pm_film_free */
 } pm_film;
 
 bool pm_film_init(pm_film *f, int width, int height, const bool component_enabled[PM_COMPONENT_COUNT]);
@@ -66,16 +75,25 @@ bool pm_film_init(pm_film *f, int width, int height, const bool component_enable
 bool pm_film_enable_ppm(pm_film *f, const bool slot_enabled[PM_SLOT_COUNT]);
 void pm_film_free(pm_film *f);
 void pm_film_clear(pm_film *f);
-/* Copies the pixels [x0, x1) x [y0, y1) (sums, carries, statistics) aside before an iteration
- * first writes them, and puts them back after a cancel: the film is then exactly as before the
- * iteration. Disjoint rectangles may be saved or restored from several threads at once. The
- * counts (samples, photon_passes) are the caller's to put back. */
+/* The copy a cancel puts back, held only while an iteration that can be cancelled runs: opened
+ * (allocated, admitted against --max-memory) before it, closed (freed) after it. False, with the
+ * failure recorded in memory.c, when it does not fit; true at once when already open. */
+bool pm_film_open_copy(pm_film *f);
+void pm_film_close_copy(pm_film *f);
+/* Admits the copy's bytes once, ahead, for a film that will run cancellable iterations (a session's):
+ * running out of room is then the film's set-up error, before any rendering, and opening the copy
+ * admits nothing more. False, with the refusal recorded, when they do not fit. */
+bool pm_film_reserve_copy(pm_film *f);
+/* Bytes that copy takes while open (what an iteration holds beside the film). */
+size_t pm_film_copy_bytes(const pm_film *f);
+/* Copies the pixels [x0, x1) x [y0, y1) (sums, their low bits, statistics) into the open copy
+ * before an iteration first writes them, and puts them back after a cancel: the film is then
+ * exactly as before the iteration. Disjoint rectangles may be saved or restored from several
+ * threads at once. Nothing happens without an open copy. The counts (samples, photon_passes)
+ * are the caller's to put back. */
 void pm_film_save_rect(pm_film *f, int x0, int y0, int x1, int y1);
 void pm_film_restore_rect(pm_film *f, int x0, int y0, int x1, int y1);
-/* Frees that copy (and gives its bytes back): for a film no iteration writes, which never takes one
- * back (a cluster's merged film). */
-void pm_film_drop_restore(pm_film *f);
-/* Whether the film keeps that copy (pm_film_init made it; a film made by hand does not). */
+/* Whether the copy is open, so a cancel can be taken back. */
 bool pm_film_can_restore(const pm_film *f);
 /* A pass cut short reached the pixels [x0, x1) x [y0, y1): they hold `what` (PM_FILM_AHEAD_*)
  * beyond the film's counts, and the film is ragged. */
@@ -92,16 +110,16 @@ void pm_film_resolve(const pm_film *f, pm_component c, float *out);
 /* The sum of all components into out (3*w*h floats). It allocates nothing, so it cannot fail: the
  * true it returns is for callers written when it could. */
 bool pm_film_resolve_total(const pm_film *f, float *out);
-/* Bytes the buffers hold: per pixel, 24 a component (sums and compensation), 48 a statistics
- * slot, the same again for the copy a cancel restores, and the ahead byte. */
+/* Bytes the film's buffers hold: per pixel, 18 a component (sums and their low bits), 20 a
+ * statistics slot and the ahead byte (the copy a cancel restores is pm_film_copy_bytes, apart). */
 size_t pm_film_bytes(const pm_film *f);
-/* Adds radiance v to a pixel's sum of component c (which must be enabled), compensated. False,
+/* Adds radiance v to a pixel's sum of component c (which must be enabled), to 40 bits. False,
  * and nothing added, when v or the new sum is not finite: a NaN from a degenerate case must not
  * poison a pixel forever, nor a finite sample overflow it, so the film never holds an Inf
  * (callers count these as dropped samples). */
 bool pm_film_add(pm_film *f, pm_component c, size_t pixel, vec3 v);
 /* Channel k of the sum of samples at element i (3 * pixel + channel) of component c, in double
- * (sum - carry). The component must be enabled. */
+ * (the float and its low bits). The component must be enabled. */
 double pm_film_sum_at(const pm_film *f, pm_component c, size_t i);
 
 /* ---- the additive form: what the ranks of a cluster sum (cluster.h) ----

@@ -259,7 +259,6 @@ static bool prepare_merged(pm_cluster *c, int width, int height, const bool comp
     if (!pm_film_init(&c->merged, width, height, components)) return out_of_memory(c, mark);
     c->merged_made = true;
     if (!pm_film_enable_ppm(&c->merged, slots)) return out_of_memory(c, mark);
-    pm_film_drop_restore(&c->merged); /* no iteration writes it: nothing to take back */
     return true;
 }
 

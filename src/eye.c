@@ -843,8 +843,15 @@ bool pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, 
                     uint32_t iteration, pm_film *film, pm_eye_stats *stats) {
     /* out of memory and a cancel add no sample (a cancel leaves the film as it was); a pass cut
      * by the deadline marked the pixels it reached */
+    /* the copy a cancel puts back lives only while a cancellable pass runs */
+    bool copy = pm_parallel_get_cancel() && !film->ragged;
+    if (copy && !pm_film_open_copy(film)) {
+        if (stats) stats->failed = true;
+        return false;
+    }
     pm_eye_pass_result r = run_eye_pass(s, a, cam, settings, iteration, film, false, false, NULL, NULL,
                                         PM_FILM_AHEAD_SAMPLE, true, stats);
+    pm_film_close_copy(film);
     if (r == PM_EYE_PASS_WHOLE) film->samples++;
     return r != PM_EYE_PASS_FAILED;
 }

@@ -9,9 +9,34 @@
 
 const pm_component pm_slot_component[PM_SLOT_COUNT] = {PM_CAUSTIC, PM_INDIRECT, PM_SPECULAR, PM_SPECULAR};
 
-/* Bytes a component (sums, compensation, and their saved copy) or a statistics slot (and its copy) holds. */
-static uint64_t component_bytes(size_t pixels) { return (uint64_t)pixels * 3 * sizeof(float) * 4; }
-static uint64_t slot_bytes(size_t pixels) { return (uint64_t)pixels * sizeof(pm_ppm_stat) * 2; }
+/* Bytes a component (sums and their low bits) or a statistics slot holds. */
+static uint64_t component_bytes(size_t pixels) { return (uint64_t)pixels * 3 * (sizeof(float) + sizeof(int16_t)); }
+static uint64_t slot_bytes(size_t pixels) { return (uint64_t)pixels * sizeof(pm_ppm_stat); }
+
+/* A sum is a float and its low bits: an int16 in units of 2^-16 of the float's last place, 40
+ * significant bits in all. Adding a sample rounds the exact total once to those 40 bits (where a
+ * float sum rounds it to 24), so the sum of 10^6 samples of a constant is off by at most 10^6
+ * roundings of 2^-41 of it, under 10^-6, while a float sum is percents off. */
+static inline double low_unit(float hi) {
+    uint32_t b;
+    memcpy(&b, &hi, sizeof b);
+    int e = (int)((b >> 23) & 0xffu);
+    if (e == 0) e = 1; /* zero and the subnormals: their last place is 2^-149 */
+    uint64_t bits = (uint64_t)(e - 150 - 16 + 1023) << 52; /* the last place is 2^(e - 150) */
+    double unit;
+    memcpy(&unit, &bits, sizeof unit);
+    return unit;
+}
+
+static inline double value_of(float hi, int16_t low) { return low ? (double)hi + low * low_unit(hi) : (double)hi; }
+
+/* The float nearest v, and what it leaves of v in low bits (a power-of-two scale: exact). */
+static inline float split(double v, int16_t *low) {
+    float hi = (float)v;
+    long q = lrint((v - (double)hi) / low_unit(hi));
+    *low = (int16_t)(q > INT16_MAX ? INT16_MAX : (q < -INT16_MAX ? -INT16_MAX : q));
+    return hi;
+}
 
 bool pm_film_init(pm_film *f, int width, int height, const bool enabled[PM_COMPONENT_COUNT]) {
     memset(f, 0, sizeof *f);
@@ -26,10 +51,8 @@ bool pm_film_init(pm_film *f, int width, int height, const bool enabled[PM_COMPO
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         if (!enabled[c]) continue;
         f->sum[c] = pm_calloc(n, sizeof(float), "film");
-        f->carry[c] = f->sum[c] ? pm_calloc(n, sizeof(float), "film") : NULL;
-        f->saved_sum[c] = f->carry[c] ? pm_malloc(n * sizeof(float), "film (the copy a cancel restores)") : NULL;
-        f->saved_carry[c] = f->saved_sum[c] ? pm_malloc(n * sizeof(float), "film (the copy a cancel restores)") : NULL;
-        if (!f->saved_carry[c]) { pm_film_free(f); return false; }
+        f->low[c] = f->sum[c] ? pm_calloc(n, sizeof(int16_t), "film") : NULL;
+        if (!f->low[c]) { pm_film_free(f); return false; }
     }
     f->ahead = pm_calloc(pixels, 1, "film");
     if (!f->ahead) { pm_film_free(f); return false; }
@@ -45,28 +68,18 @@ bool pm_film_enable_ppm(pm_film *f, const bool slot_enabled[PM_SLOT_COUNT]) {
         f->admitted += slot_bytes(n);
         f->ppm[k] = pm_calloc(n, sizeof(pm_ppm_stat), "progressive photon statistics");
         if (!f->ppm[k]) return false;
-        f->saved_ppm[k] = pm_malloc(n * sizeof(pm_ppm_stat), "progressive photon statistics (the copy a cancel restores)");
-        if (!f->saved_ppm[k]) {
-            free(f->ppm[k]);
-            f->ppm[k] = NULL;
-            return false;
-        }
     }
     return true;
 }
 
 void pm_film_free(pm_film *f) {
+    pm_film_close_copy(f);
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         free(f->sum[c]);
-        free(f->carry[c]);
-        free(f->saved_sum[c]);
-        free(f->saved_carry[c]);
+        free(f->low[c]);
     }
-    for (int k = 0; k < PM_SLOT_COUNT; k++) {
-        free(f->ppm[k]);
-        free(f->saved_ppm[k]);
-    }
-    pm_memory_release(f->admitted);
+    for (int k = 0; k < PM_SLOT_COUNT; k++) free(f->ppm[k]);
+    pm_memory_release(f->admitted + f->copy_reserved);
     free(f->ahead);
     memset(f, 0, sizeof *f);
 }
@@ -75,7 +88,7 @@ void pm_film_clear(pm_film *f) {
     size_t n = 3 * (size_t)f->width * f->height;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         if (f->sum[c]) memset(f->sum[c], 0, n * sizeof(float));
-        if (f->carry[c]) memset(f->carry[c], 0, n * sizeof(float));
+        if (f->low[c]) memset(f->low[c], 0, n * sizeof(int16_t));
     }
     for (int k = 0; k < PM_SLOT_COUNT; k++)
         if (f->ppm[k]) memset(f->ppm[k], 0, (n / 3) * sizeof(pm_ppm_stat));
@@ -85,48 +98,81 @@ void pm_film_clear(pm_film *f) {
     f->ragged = false;
 }
 
-void pm_film_drop_restore(pm_film *f) {
+size_t pm_film_copy_bytes(const pm_film *f) {
+    size_t pixels = (size_t)f->width * f->height, n = 0;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        n += (f->sum[c] ? 3 * pixels * sizeof(float) : 0) + (f->low[c] ? 3 * pixels * sizeof(int16_t) : 0);
+    for (int k = 0; k < PM_SLOT_COUNT; k++) n += f->ppm[k] ? (size_t)slot_bytes(pixels) : 0;
+    return n;
+}
+
+bool pm_film_can_restore(const pm_film *f) { return f->copy_open; }
+
+bool pm_film_reserve_copy(pm_film *f) {
+    uint64_t bytes = pm_film_copy_bytes(f);
+    if (f->copy_reserved >= bytes) return true;
+    if (!pm_memory_admit(bytes - f->copy_reserved, "film (the copy a cancel restores)")) return false;
+    f->copy_reserved = bytes;
+    return true;
+}
+
+bool pm_film_open_copy(pm_film *f) {
+    if (f->copy_open) return true;
+    uint64_t bytes = pm_film_copy_bytes(f);
+    if (f->copy_reserved < bytes) {
+        if (!pm_memory_admit(bytes, "film (the copy a cancel restores)")) return false;
+        f->copy_admitted = bytes;
+    }
+    f->copy_open = true;
     size_t pixels = (size_t)f->width * f->height;
-    uint64_t freed = 0;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        freed += (f->saved_sum[c] ? 1u : 0u) * (uint64_t)pixels * 3 * sizeof(float);
-        freed += (f->saved_carry[c] ? 1u : 0u) * (uint64_t)pixels * 3 * sizeof(float);
-        free(f->saved_sum[c]);
-        free(f->saved_carry[c]);
-        f->saved_sum[c] = f->saved_carry[c] = NULL;
+        if (!f->sum[c]) continue;
+        f->saved_sum[c] = pm_malloc(3 * pixels * sizeof(float), "film (the copy a cancel restores)");
+        if (!f->saved_sum[c]) { pm_film_close_copy(f); return false; }
+        if (!f->low[c]) continue;
+        f->saved_low[c] = pm_malloc(3 * pixels * sizeof(int16_t), "film (the copy a cancel restores)");
+        if (!f->saved_low[c]) { pm_film_close_copy(f); return false; }
     }
     for (int k = 0; k < PM_SLOT_COUNT; k++) {
-        freed += (f->saved_ppm[k] ? 1u : 0u) * (uint64_t)pixels * sizeof(pm_ppm_stat);
+        if (!f->ppm[k]) continue;
+        f->saved_ppm[k] = pm_malloc(pixels * sizeof(pm_ppm_stat), "film (the copy a cancel restores)");
+        if (!f->saved_ppm[k]) { pm_film_close_copy(f); return false; }
+    }
+    return true;
+}
+
+void pm_film_close_copy(pm_film *f) {
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
+        free(f->saved_sum[c]);
+        free(f->saved_low[c]);
+        f->saved_sum[c] = NULL;
+        f->saved_low[c] = NULL;
+    }
+    for (int k = 0; k < PM_SLOT_COUNT; k++) {
         free(f->saved_ppm[k]);
         f->saved_ppm[k] = NULL;
     }
-    if (freed > f->admitted) freed = f->admitted;
-    pm_memory_release(freed);
-    f->admitted -= freed;
-}
-
-bool pm_film_can_restore(const pm_film *f) {
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-        if (f->sum[c] && (!f->carry[c] || !f->saved_sum[c] || !f->saved_carry[c])) return false;
-    for (int k = 0; k < PM_SLOT_COUNT; k++)
-        if (f->ppm[k] && !f->saved_ppm[k]) return false;
-    return true;
+    pm_memory_release(f->copy_admitted);
+    f->copy_admitted = 0;
+    f->copy_open = false;
 }
 
 /* Copies the rectangle's rows of every buffer from the film to its saved copy (save) or back. */
 static void copy_rect(pm_film *f, int x0, int y0, int x1, int y1, bool save) {
-    if (x1 <= x0 || y1 <= y0) return;
+    if (x1 <= x0 || y1 <= y0 || !f->copy_open) return;
     size_t w = (size_t)(x1 - x0);
     for (int y = y0; y < y1; y++) {
         size_t first = (size_t)y * f->width + x0;
         for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-            if (!f->sum[c] || !f->saved_sum[c] || !f->carry[c] || !f->saved_carry[c]) continue;
-            float *live[2] = {f->sum[c] + 3 * first, f->carry[c] + 3 * first};
-            float *kept[2] = {f->saved_sum[c] + 3 * first, f->saved_carry[c] + 3 * first};
-            for (int b = 0; b < 2; b++) memcpy(save ? kept[b] : live[b], save ? live[b] : kept[b], 3 * w * sizeof(float));
+            if (!f->saved_sum[c]) continue;
+            float *live = f->sum[c] + 3 * first, *kept = f->saved_sum[c] + 3 * first;
+            memcpy(save ? kept : live, save ? live : kept, 3 * w * sizeof(float));
+            if (!f->saved_low[c]) continue;
+            int16_t *live_low = f->low[c] + 3 * first, *kept_low = f->saved_low[c] + 3 * first;
+            memcpy(save ? kept_low : live_low, save ? live_low : kept_low, 3 * w * sizeof(int16_t));
         }
         for (int k = 0; k < PM_SLOT_COUNT; k++) {
-            if (!f->ppm[k] || !f->saved_ppm[k]) continue;
+            if (!f->saved_ppm[k]) continue;
             memcpy(save ? f->saved_ppm[k] + first : f->ppm[k] + first, save ? f->ppm[k] + first : f->saved_ppm[k] + first,
                    w * sizeof(pm_ppm_stat));
         }
@@ -167,25 +213,26 @@ static void resolve_into(const pm_film *f, pm_component c, float *out, bool add)
     int slots = 0;
     for (int k = 0; k < PM_SLOT_COUNT; k++)
         if (pm_slot_component[k] == c && f->ppm[k]) slot[slots++] = f->ppm[k];
-    /* sum - carry rounds once to the float nearest the compensated sum: the mean keeps float's
+    /* the sum and its low bits make one double, divided and rounded once: the mean keeps float's
      * precision however many samples were added */
-    const float *sum = f->sum[c], *carry = f->carry[c];
-    float inv_even = f->samples ? 1.f / (float)f->samples : 0.f;
-    if (!slots && !f->ragged && carry) {
-        /* the common case as straight loops the compiler vectorises: a window resolves every frame */
+    const float *sum = f->sum[c];
+    const int16_t *low = f->low[c];
+    double inv_even = f->samples ? 1.0 / (double)f->samples : 0.0;
+    if (!slots && !f->ragged && low) {
+        /* the common case as straight loops: a window resolves every frame */
         size_t n = 3 * pixels;
         if (add)
-            for (size_t i = 0; i < n; i++) out[i] += (sum[i] - carry[i]) * inv_even;
+            for (size_t i = 0; i < n; i++) out[i] += (float)(value_of(sum[i], low[i]) * inv_even);
         else
-            for (size_t i = 0; i < n; i++) out[i] = (sum[i] - carry[i]) * inv_even;
+            for (size_t i = 0; i < n; i++) out[i] = (float)(value_of(sum[i], low[i]) * inv_even);
         return;
     }
     for (size_t i = 0; i < pixels; i++) {
         unsigned ahead = ahead_of(f, i);
-        float inv = inv_even;
-        if (ahead & PM_FILM_AHEAD_SAMPLE) inv = 1.f / (float)(f->samples + 1u);
+        double inv = inv_even;
+        if (ahead & PM_FILM_AHEAD_SAMPLE) inv = 1.0 / (double)(f->samples + 1u);
         float v[3];
-        for (int ch = 0; ch < 3; ch++) v[ch] = (sum[3 * i + ch] - (carry ? carry[3 * i + ch] : 0.f)) * inv;
+        for (int ch = 0; ch < 3; ch++) v[ch] = (float)((low ? value_of(sum[3 * i + ch], low[3 * i + ch]) : sum[3 * i + ch]) * inv);
         uint32_t passes = f->photon_passes + (ahead & PM_FILM_AHEAD_PHOTON_PASS ? 1u : 0u);
         for (int k = 0; k < slots && passes; k++) {
             const pm_ppm_stat *st = &slot[k][i];
@@ -206,37 +253,37 @@ bool pm_film_resolve_total(const pm_film *f, float *out) {
 }
 
 bool pm_film_add(pm_film *f, pm_component c, size_t pixel, vec3 v) {
-    float *px = f->sum[c] + 3 * pixel, *cp = f->carry[c] ? f->carry[c] + 3 * pixel : NULL;
+    float *px = f->sum[c] + 3 * pixel;
+    int16_t *lo = f->low[c] ? f->low[c] + 3 * pixel : NULL;
     if (!v3_is_finite(v)) return false;
-    float add[3] = {v.x, v.y, v.z}, sum[3], carry[3] = {0.f, 0.f, 0.f};
+    const float add[3] = {v.x, v.y, v.z};
+    float hi[3];
+    int16_t bits[3] = {0, 0, 0};
     for (int ch = 0; ch < 3; ch++) {
-        /* Kahan: y is the sample less what the last addition lost; what this one loses goes to carry */
-        float y = add[ch] - (cp ? cp[ch] : 0.f);
-        sum[ch] = px[ch] + y;
-        if (cp) carry[ch] = (sum[ch] - px[ch]) - y;
-        if (!isfinite(sum[ch]) || !isfinite(carry[ch])) return false;
+        /* the exact total (a 40-bit sum plus a float fits a double's 53 bits but for far smaller
+         * samples), rounded once */
+        double total = (lo ? value_of(px[ch], lo[ch]) : (double)px[ch]) + add[ch];
+        hi[ch] = lo ? split(total, &bits[ch]) : (float)total;
+        if (!isfinite(hi[ch])) return false;
     }
     for (int ch = 0; ch < 3; ch++) {
-        px[ch] = sum[ch];
-        if (cp) cp[ch] = carry[ch];
+        px[ch] = hi[ch];
+        if (lo) lo[ch] = bits[ch];
     }
     return true;
 }
 
 double pm_film_sum_at(const pm_film *f, pm_component c, size_t i) {
-    return (double)f->sum[c][i] - (f->carry[c] ? (double)f->carry[c][i] : 0.0);
+    return f->low[c] ? value_of(f->sum[c][i], f->low[c][i]) : (double)f->sum[c][i];
 }
 
 size_t pm_film_bytes(const pm_film *f) {
     size_t n = 0, pixels = (size_t)f->width * f->height;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        float *const buffers[4] = {f->sum[c], f->carry[c], f->saved_sum[c], f->saved_carry[c]};
-        for (int b = 0; b < 4; b++) n += buffers[b] ? 3 * pixels * sizeof(float) : 0;
+        n += f->sum[c] ? 3 * pixels * sizeof(float) : 0;
+        n += f->low[c] ? 3 * pixels * sizeof(int16_t) : 0;
     }
-    for (int k = 0; k < PM_SLOT_COUNT; k++) {
-        if (f->ppm[k]) n += pixels * sizeof(pm_ppm_stat);
-        if (f->saved_ppm[k]) n += pixels * sizeof(pm_ppm_stat);
-    }
+    for (int k = 0; k < PM_SLOT_COUNT; k++) n += f->ppm[k] ? pixels * sizeof(pm_ppm_stat) : 0;
     if (f->ahead) n += pixels;
     return n;
 }
@@ -320,11 +367,10 @@ void pm_film_unpack(pm_film *f, const double *in) {
         for (size_t i = 0; i < pixels; i++) {
             double scale = counts[i] > 0.0 ? samples / counts[i] : 0.0;
             for (int ch = 0; ch < 3; ch++) {
-                double v = next[3 * i + ch] * scale;
-                float rounded = (float)fmin(fmax(v, -FLT_MAX), FLT_MAX);
-                f->sum[c][3 * i + ch] = rounded;
-                /* the true sum is sum - carry: the carry keeps what rounding to float lost */
-                if (f->carry[c]) f->carry[c][3 * i + ch] = (float)((double)rounded - v);
+                double v = fmin(fmax(next[3 * i + ch] * scale, -FLT_MAX), FLT_MAX);
+                /* the low bits keep what rounding to float lost */
+                if (f->low[c]) f->sum[c][3 * i + ch] = split(v, &f->low[c][3 * i + ch]);
+                else f->sum[c][3 * i + ch] = (float)v;
             }
         }
         next += 3 * pixels;
@@ -339,7 +385,7 @@ void pm_film_unpack(pm_film *f, const double *in) {
             if (passes_total < 1.0) passes_total = 1.0;
             st->r2 = r2[i] / has[i];
             st->n = n[i];
-            for (int ch = 0; ch < 3; ch++) st->tau[ch] = s[3 * i + ch] * st->r2 * passes_total / passes[i];
+            for (int ch = 0; ch < 3; ch++) st->tau[ch] = (float)fmin(s[3 * i + ch] * st->r2 * passes_total / passes[i], FLT_MAX);
         }
         next += SLOT_FIELDS * pixels;
     }

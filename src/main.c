@@ -215,6 +215,8 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
      * before, it ends the process at once */
     if (o->snapshot) pm_snapshot_catch_signals(r->session);
     pm_memory_forecast_hold((int64_t)pm_session_forecast_bytes(r->session));
+    /* each iteration that can be cancelled holds a copy of the film while it runs */
+    pm_memory_forecast_phase(pm_film_copy_bytes(pm_session_film(r->session)));
     if (o->stats) {
         pm_print_film_stats(pm_session_film(r->session));
         fflush(stdout); /* a script waiting for the render to start sees it */

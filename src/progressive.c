@@ -16,6 +16,7 @@
 #include "memory.h"
 
 #include <assert.h>
+#include <float.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -604,7 +605,7 @@ static int start_radius(gather_job *job, pm_ppm_stat *st, const pm_visible_point
         r = fmin(r, PM_PPM_CURVED_RADIUS * curvature_radius(p->scene, vp->tri));
     }
     if (!(r > 0.0)) return START_NONE;
-    st->r2 = r * r;
+    st->r2 = (float)fmin(r * r, FLT_MAX); /* the photon grid reads a float radius anyway */
     return START_FRESH;
 }
 
@@ -645,11 +646,13 @@ static void update_statistics(gather_job *job, pm_ppm_stat *st, const pm_visible
     double floor = (double)p->scene->ray_scale * 1e-7;
     if (r2_new < floor * floor) r2_new = fmin(st->r2, floor * floor);
     double ratio = r2_new / st->r2;
-    st->tau[0] = (st->tau[0] + phi.x) * ratio;
-    st->tau[1] = (st->tau[1] + phi.y) * ratio;
-    st->tau[2] = (st->tau[2] + phi.z) * ratio;
-    st->n = n;
-    st->r2 = r2_new;
+    /* in double, rounded once to the statistics' floats; a flux past float's range is dropped */
+    double tau[3] = {((double)st->tau[0] + phi.x) * ratio, ((double)st->tau[1] + phi.y) * ratio,
+                     ((double)st->tau[2] + phi.z) * ratio};
+    if (!(fmax(tau[0], fmax(tau[1], tau[2])) <= FLT_MAX)) { job->counters[thread].dropped++; return; }
+    for (int ch = 0; ch < 3; ch++) st->tau[ch] = (float)tau[ch];
+    st->n = (float)n;
+    st->r2 = fmaxf((float)r2_new, FLT_MIN); /* never 0: that is a pixel without statistics */
     assert(st->r2 > 0.0 && st->n >= 0.0);
 }
 
@@ -909,7 +912,19 @@ static bool take_back(pm_progressive *p, pm_film *film, const iteration_start *s
     return true;
 }
 
+static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples);
+
 bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
+    /* the copy a cancel puts back lives only while a cancellable iteration runs (a pass over a
+     * ragged film is never cancelled) */
+    bool copy = pm_parallel_get_cancel() && !film->ragged;
+    if (copy && !pm_film_open_copy(film)) return false;
+    bool ok = iterate(p, film, max_samples);
+    pm_film_close_copy(film);
+    return ok;
+}
+
+static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
     assert((size_t)film->width * film->height == p->pixels);
     uint32_t iteration = film->photon_passes;
     const pm_progressive_settings *set = &p->settings;
@@ -1023,6 +1038,7 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     uint32_t whole_passes = 0;
     bool cut = false, failed = false;
     if (measure_only) {
+        if (!pm_film_open_copy(film)) { free(job); return !take_back(p, film, &start); }
         pm_film_save_rect(film, 0, 0, film->width, film->height);
         p->eye.deadline = 0.0;
     }

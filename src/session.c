@@ -104,6 +104,12 @@ static bool build_state(const pm_session *s, const pm_session_config *config, co
         snprintf(err, err_size, "out of memory (%s) for a %dx%d film", memory_failure_or(mark, "film"), config->width, config->height);
     else if (*progressive)
         ok = pm_progressive_bind(*progressive, film, err, err_size);
+    /* room for the copy each iteration makes for a cancel to put back, taken now: refused, the
+     * session cannot be made, rather than failing at its first iteration */
+    if (ok && !pm_film_reserve_copy(film)) {
+        snprintf(err, err_size, "out of memory (%s) for a %dx%d film", memory_failure_or(mark, "film"), config->width, config->height);
+        ok = false;
+    }
     if (!ok) {
         pm_progressive_destroy(*progressive);
         *progressive = NULL;

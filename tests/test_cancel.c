@@ -66,13 +66,13 @@ static void disarm(canceller *c) {
     atomic_store(&c->flag, false);
 }
 
-/* The film's buffers bit for bit: sums, compensations, statistics, counts. */
+/* The film's buffers bit for bit: sums, their low bits, statistics, counts. */
 static bool same_film(const pm_film *a, const pm_film *b) {
     size_t n = 3 * (size_t)PIXELS;
     if (a->samples != b->samples || a->photon_passes != b->photon_passes || a->ragged != b->ragged) return false;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
         if (!a->sum[c] != !b->sum[c]) return false;
-        if (a->sum[c] && (memcmp(a->sum[c], b->sum[c], n * sizeof(float)) || memcmp(a->carry[c], b->carry[c], n * sizeof(float))))
+        if (a->sum[c] && (memcmp(a->sum[c], b->sum[c], n * sizeof(float)) || memcmp(a->low[c], b->low[c], n * sizeof(int16_t))))
             return false;
     }
     for (int k = 0; k < PM_SLOT_COUNT; k++) {
@@ -87,7 +87,7 @@ static void copy_film(pm_film *to, const pm_film *from) {
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
         if (from->sum[c]) {
             memcpy(to->sum[c], from->sum[c], n * sizeof(float));
-            memcpy(to->carry[c], from->carry[c], n * sizeof(float));
+            memcpy(to->low[c], from->low[c], n * sizeof(int16_t));
         }
     for (int k = 0; k < PM_SLOT_COUNT; k++)
         if (from->ppm[k]) memcpy(to->ppm[k], from->ppm[k], PIXELS * sizeof(pm_ppm_stat));

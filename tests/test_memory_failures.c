@@ -405,10 +405,15 @@ static void test_structures_give_back(void) {
     pm_film film;
     const bool all[PM_COMPONENT_COUNT] = {true, true, true, true};
     CHECK(pm_film_init(&film, 64, 32, all), "film");
-    CHECK(pm_memory_committed() == base + 4 * 4 * 3 * 4 * 64 * 32 + 64 * 32,
-          "the film commits its buffers (four layers, each with its compensation and the copy a cancel restores of both; one "
-          "ahead byte a pixel): %llu bytes",
+    CHECK(pm_memory_committed() == base + 4 * 3 * (4 + 2) * 64 * 32 + 64 * 32,
+          "the film commits its buffers (four layers, each a float and 16 low bits a channel; one ahead byte a pixel): %llu bytes",
           (unsigned long long)(pm_memory_committed() - base));
+    /* the copy a cancel puts back is committed only while it is open */
+    CHECK(pm_film_open_copy(&film) && pm_memory_committed() == base + 2 * (4 * 3 * (4 + 2) * 64 * 32) + 64 * 32,
+          "criterion: the open copy commits the layers again: %llu bytes", (unsigned long long)(pm_memory_committed() - base));
+    pm_film_close_copy(&film);
+    CHECK(pm_memory_committed() == base + 4 * 3 * (4 + 2) * 64 * 32 + 64 * 32 && !pm_film_can_restore(&film),
+          "criterion: closing the copy gives its bytes back");
     pm_film_free(&film);
     CHECK(pm_memory_committed() == base, "pm_film_free gives the film's bytes back");
 

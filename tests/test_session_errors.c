@@ -1,4 +1,4 @@
-/* test_session_errors.c: a session's error belongs to the call that failed: a resize that runs out of memory is reported and handled (the session keeps its size and renders on), and a later, different failure names its own cause, never the earlier one. */
+/* test_session_errors.c: a session's error belongs to the call that failed: a resize that runs out of memory is reported and handled (the session keeps its size and renders on), a later, different failure names its own cause, never the earlier one, and a session whose cancel copy the limit refuses names that copy. */
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
@@ -6,6 +6,7 @@
 
 #include "accel.h"
 #include "clock.h"
+#include "film.h"
 #include "memory.h"
 #include "session.h"
 #include "scene_builder.h"
@@ -149,6 +150,37 @@ static void pilot_then_film(const pm_scene *s, const pm_accel *a, const pm_camer
     pm_session_destroy(session);
 }
 
+/* The copy a cancel puts back is made for each iteration that can be cancelled (every session
+ * iteration), in room the session takes when it is made: refused by the memory limit, the session
+ * cannot be made and its error names that copy; made, its iterations commit nothing more and keep
+ * no copy between them. */
+static void copy_refused(const pm_scene *s, const pm_accel *a, const pm_camera *cam) {
+    char err[256];
+    pm_session_config config = small_config(PM_MODE_PROGRESSIVE);
+    uint64_t base = pm_memory_committed();
+    pm_session *session = pm_session_create(s, a, cam, &config, err, sizeof err);
+    CHECK(session != NULL, "session: %s", err);
+    if (!session) return;
+    uint64_t made = pm_memory_committed(), copy = pm_film_copy_bytes(pm_session_film(session));
+    CHECK(copy > 0 && made - base >= copy + pm_film_bytes(pm_session_film(session)),
+          "the session commits its film and the copy's room (%llu bytes, the copy %llu)", (unsigned long long)(made - base),
+          (unsigned long long)copy);
+    CHECK(pm_session_iterate(session, 1) && pm_memory_committed() == made && !pm_film_can_restore(pm_session_film(session)),
+          "criterion: an iteration commits nothing more and keeps no copy after it (%llu more)",
+          (unsigned long long)(pm_memory_committed() - made));
+    pm_session_destroy(session);
+    CHECK(pm_memory_committed() == base, "the session gives everything back");
+    uint64_t limit = pm_memory_limit();
+    pm_memory_set_limit(made - 1); /* the copy's room, taken last, does not fit */
+    session = pm_session_create(s, a, cam, &config, err, sizeof err);
+    pm_memory_set_limit(limit);
+    printf("a session whose copy the limit refuses: '%s'\n", session ? "" : err);
+    CHECK(!session && strstr(err, "out of memory (film (the copy a cancel restores), ") != NULL,
+          "criterion: the session's error names the copy: '%s'", err);
+    CHECK(pm_memory_committed() == base, "a refused session keeps nothing committed (%llu)", (unsigned long long)(pm_memory_committed() - base));
+    pm_session_destroy(session);
+}
+
 int main(void) {
     pm_scene s;
     build_room(&s);
@@ -161,6 +193,7 @@ int main(void) {
     resize_then_save(&s, a, &cam);
     background_resize(&s, a, &cam);
     pilot_then_film(&s, a, &cam);
+    copy_refused(&s, a, &cam);
     pm_accel_destroy(a);
     pm_scene_free(&s);
     return pm_test_done("test_session_errors");
