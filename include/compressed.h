@@ -39,6 +39,14 @@ bool pm_meshopt_decode(void *dst, size_t count, size_t stride, int mode, int fil
 #define PM_DRACO_SECONDS 2.0
 #define PM_DRACO_SECONDS_PER_BYTE 1e-5
 
+/* What a Draco decode may hold at most, forecast from the counts its stream states before its
+ * payload (and the stream's size): admitted under --max-memory before the decode starts, and the
+ * decode is refused when libdraco asks for more (a corrupt count). */
+#define PM_DRACO_BASE_BYTES (1ull << 20)
+#define PM_DRACO_BYTES_PER_VERTEX 512ull
+#define PM_DRACO_BYTES_PER_FACE 256ull
+uint64_t pm_draco_forecast_bytes(uint64_t vertices, uint64_t faces, uint64_t stream_bytes);
+
 /* A decoded Draco mesh, until pm_draco_free. */
 typedef struct pm_draco_mesh pm_draco_mesh;
 
