@@ -230,10 +230,10 @@ int pm_cluster_agree(pm_cluster *c, int code, uint64_t digest) {
     if (!c) return code;
     /* every rank loads the same scene, so their set-ups take about as long: a rank silent for many
      * times rank 0's own set-up is stopped or hung, not slow (the others' bound is wider: rank 0
-     * also opens the window) */
+     * also opens the window; and so is rank 0's when it failed early, before the scene's load) */
     double setup = pm_now_seconds() - c->joined_at;
-    double patience = c->rank == 0 ? PM_CLUSTER_AGREE_SECONDS + PM_CLUSTER_AGREE_FACTOR * setup
-                                    : 3 * PM_CLUSTER_AGREE_SECONDS + 3 * PM_CLUSTER_AGREE_FACTOR * setup;
+    double patience = c->rank == 0 && code < 0 ? PM_CLUSTER_AGREE_SECONDS + PM_CLUSTER_AGREE_FACTOR * setup
+                                               : 3 * PM_CLUSTER_AGREE_SECONDS + 3 * PM_CLUSTER_AGREE_FACTOR * setup;
     agree_verdict verdict = {-1, c->size, 0};
     if (c->rank != 0) {
         agree_word word = {code, digest};
