@@ -62,6 +62,18 @@ static void nap(void) {
     nanosleep(&t, NULL);
 }
 
+/* Rank 0: ends the job naming the ranks not marked answered ("rank 1, 3 " then `why`): each wait
+ * for another rank is bounded, and a rank silent past its bound (stopped, hung or gone) cannot be
+ * waited for or ended by itself (MPI_Abort ends it). */
+static void end_naming_silent(pm_cluster *c, const char *why) {
+    int n = snprintf(c->error, sizeof c->error, "rank");
+    int listed = 0;
+    for (int k = 1; k < c->size && n < (int)sizeof c->error - 512; k++)
+        if (!c->answered[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
+    snprintf(c->error + n, sizeof c->error - (size_t)n, " %s", why);
+    pm_cluster_abort(c, c->error);
+}
+
 
 pm_cluster *pm_cluster_join(int *argc, char ***argv) {
     if (!getenv("OMPI_COMM_WORLD_SIZE") && !getenv("PMI_SIZE") && !getenv("PMIX_RANK")) return NULL;
@@ -115,13 +127,10 @@ static void say_goodbye(pm_cluster *c) {
     for (int heard = 0; heard < c->size - 1;) {
         if (take_word(c, TAG_BYE)) { heard++; continue; }
         if (pm_now_seconds() - start > PM_CLUSTER_QUIT_SECONDS) {
-            int n = snprintf(c->error, sizeof c->error, "rank");
-            int listed = 0;
-            for (int k = 1; k < c->size && n < (int)sizeof c->error - 160; k++)
-                if (!c->answered[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
-            snprintf(c->error + n, sizeof c->error - (size_t)n, " gave no word that it is leaving within %.3g s (stopped or hung): the job ends",
+            char why[160];
+            snprintf(why, sizeof why, "gave no word that it is leaving within %.3g s (stopped or hung): the job ends",
                      PM_CLUSTER_QUIT_SECONDS);
-            pm_cluster_abort(c, c->error);
+            end_naming_silent(c, why);
         }
         nap();
     }
@@ -251,14 +260,10 @@ int pm_cluster_agree(pm_cluster *c, int code, uint64_t digest) {
         for (int heard = 0; heard < c->size - 1; heard++) {
             MPI_Status status;
             if (!wait_for_message(MPI_ANY_SOURCE, TAG_AGREE, patience, &status)) {
-                int n = snprintf(c->error, sizeof c->error, "rank");
-                int listed = 0;
-                for (int k = 1; k < c->size && n < (int)sizeof c->error - 128; k++)
-                    if (!c->answered[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
-                snprintf(c->error + n, sizeof c->error - (size_t)n,
-                         " gave no word at the set-up's agreement %.3g s after rank 0's set-up (stopped or hung): the job ends",
+                char why[160];
+                snprintf(why, sizeof why, "gave no word at the set-up's agreement %.3g s after rank 0's set-up (stopped or hung): the job ends",
                          patience);
-                pm_cluster_abort(c, c->error);
+                end_naming_silent(c, why);
             }
             agree_word word;
             MPI_Recv(&word, sizeof word, MPI_BYTE, status.MPI_SOURCE, TAG_AGREE, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
@@ -428,12 +433,9 @@ static void check_silence(pm_cluster *c, double *since, const char *awaited) {
     if (!c->interrupted || !*c->interrupted) return;
     if (*since == 0.0) { *since = pm_now_seconds(); return; }
     if (pm_now_seconds() - *since <= PM_CLUSTER_SILENCE_SECONDS) return;
-    int n = snprintf(c->error, sizeof c->error, "rank");
-    int listed = 0;
-    for (int k = 1; k < c->size && n < (int)sizeof c->error - 96; k++)
-        if (!c->answered[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
-    snprintf(c->error + n, sizeof c->error - (size_t)n, " gave no %s after the signal: taken for gone, the job ends", awaited);
-    pm_cluster_abort(c, c->error);
+    char why[160];
+    snprintf(why, sizeof why, "gave no %s after the signal: taken for gone, the job ends", awaited);
+    end_naming_silent(c, why);
 }
 
 /* Rank 0: one word of `tag` from any rank if one has come, its sender marked as answered. Each rank
@@ -557,13 +559,10 @@ const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(voi
         if (tick) tick(context);
         check_silence(c, &since, "word that its run is over");
         if (c->end_patience > 0.0 && pm_now_seconds() - ended > c->end_patience) {
-            int n = snprintf(c->error, sizeof c->error, "rank");
-            int listed = 0;
-            for (int k = 1; k < c->size && n < (int)sizeof c->error - 128; k++)
-                if (!c->answered[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
-            snprintf(c->error + n, sizeof c->error - (size_t)n,
-                     " gave no word that its run is over %.3g s past --time: taken for stopped, the job ends", c->end_patience);
-            pm_cluster_abort(c, c->error);
+            char why[160];
+            snprintf(why, sizeof why, "gave no word that its run is over %.3g s past --time: taken for stopped, the job ends",
+                     c->end_patience);
+            end_naming_silent(c, why);
         }
         nap();
     }
@@ -599,17 +598,13 @@ void pm_cluster_send_resize(pm_cluster *c, int width, int height, const pm_camer
     send_all(c, &cmd);
 }
 
-/* Rank 0 at the window's quit: the ranks not yet marked answered gave no word within `patience`
- * seconds: they are stopped (SIGSTOP) or hung, as silent as a dead rank, and the job ends naming
- * them (MPI_Abort: a stopped rank cannot end by itself, and MPI_Finalize would wait for it). */
+/* Rank 0 at the window's quit: the ranks not yet marked answered gave no word within
+ * PM_CLUSTER_QUIT_SECONDS: stopped (SIGSTOP) or hung, as silent as a dead rank. */
 static void silent_at_quit(pm_cluster *c, const char *awaited) {
-    int n = snprintf(c->error, sizeof c->error, "rank");
-    int listed = 0;
-    for (int k = 1; k < c->size && n < (int)sizeof c->error - 160; k++)
-        if (!c->answered[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
-    snprintf(c->error + n, sizeof c->error - (size_t)n, " gave no %s within %.3g s of the quit (stopped or hung): the job ends",
-             awaited, PM_CLUSTER_QUIT_SECONDS);
-    pm_cluster_abort(c, c->error);
+    char why[160];
+    snprintf(why, sizeof why, "gave no %s within %.3g s of the quit (stopped or hung): the job ends", awaited,
+             PM_CLUSTER_QUIT_SECONDS);
+    end_naming_silent(c, why);
 }
 
 void pm_cluster_send_quit(pm_cluster *c) {
