@@ -298,8 +298,10 @@ void decode_draco(const std::shared_ptr<DracoJob> &job) {
     // libdraco may turn a failed allocation into a status of its own: the budget says what happened
     if (job->budget.exceeded) {
         mesh.reset();
-        error = "the Draco stream asks for more than the " + std::to_string(job->budget.limit >> 20) +
-                " MiB its vertex and face counts allow (a corrupt count): refused";
+        char mib[32];
+        snprintf(mib, sizeof mib, "%.1f", static_cast<double>(job->budget.limit) / (1 << 20));
+        error = std::string("the Draco stream asks for more than the ") + mib +
+                " MiB its counts and size allow (a corrupt count): refused";
     }
     thread_budget = nullptr;
     std::lock_guard<std::mutex> hold(job->lock);
@@ -321,7 +323,7 @@ extern "C" uint64_t pm_draco_decodes(void) { return draco_decodes.load(); }
 
 extern "C" uint64_t pm_draco_forecast_bytes(uint64_t vertices, uint64_t faces, uint64_t stream_bytes) {
     return PM_DRACO_BASE_BYTES + vertices * PM_DRACO_BYTES_PER_VERTEX + faces * PM_DRACO_BYTES_PER_FACE +
-           2 * stream_bytes;
+           stream_bytes * PM_DRACO_BYTES_PER_STREAM_BYTE;
 }
 
 extern "C" pm_draco_mesh *pm_draco_decode(const void *src, size_t size, char *err, size_t err_size) {
