@@ -39,6 +39,17 @@ bool pm_meshopt_decode(void *dst, size_t count, size_t stride, int mode, int fil
 #define PM_DRACO_SECONDS 2.0
 #define PM_DRACO_SECONDS_PER_BYTE 1e-5
 
+/* What a Draco decode may hold at most, forecast from the counts its stream states before its
+ * payload and from the stream's size (each attribute component of a vertex is a byte or two of
+ * the stream and about 20 bytes while it decodes; the Duck's three attributes peak at 687 KB
+ * against a forecast of 3.0 MB): admitted under --max-memory before the decode starts, and the
+ * decode is refused when libdraco asks for more (a corrupt count). */
+#define PM_DRACO_BASE_BYTES (1ull << 20)
+#define PM_DRACO_BYTES_PER_VERTEX 256ull
+#define PM_DRACO_BYTES_PER_FACE 256ull
+#define PM_DRACO_BYTES_PER_STREAM_BYTE 32ull
+uint64_t pm_draco_forecast_bytes(uint64_t vertices, uint64_t faces, uint64_t stream_bytes);
+
 /* A decoded Draco mesh, until pm_draco_free. */
 typedef struct pm_draco_mesh pm_draco_mesh;
 

@@ -7,12 +7,13 @@
 #define PM_IMAGE_IO_H
 
 #include <stdbool.h>
+#include <signal.h>
 #include <stddef.h>
 #include <stdint.h>
 #include "film.h"
 
-/* Written to a hidden temporary file beside path, renamed over it at the end; an existing path
- * must be a file the user may write. Its buffers (pm_exr_write_bytes) are admitted against
+/* Written to a file beside path, renamed over it at the end; an existing path must be a file the
+ * user may write. Its buffers (pm_exr_write_bytes) are admitted against
  * --max-memory for the time of the write. */
 bool pm_write_exr(const char *path, const pm_film *film, char *err, size_t err_size);
 /* The same file from already resolved layers (width*height*3 floats each, NULL = black): an image
@@ -27,17 +28,23 @@ bool pm_write_exr_layers(const char *path, int width, int height, const float *c
 uint64_t pm_exr_write_bytes(int width, int height);
 uint64_t pm_png_write_bytes(int width, int height);
 
-/* For a SIGINT or SIGTERM handler: removes the file a writer has under way (an EXR's temporary
- * file, a PNG begun in place), if any. Async-signal-safe; the handler then exits. */
+/* For a SIGINT or SIGTERM handler: removes the file a writer has under way (a named temporary
+ * file, a PNG begun in place on a device or pipe), if any. Async-signal-safe; the handler then
+ * exits. Files are written unnamed where the file system allows (O_TMPFILE) and named only once
+ * whole, so a kill (SIGKILL) at any moment leaves the previous file and nothing else. */
 void pm_remove_partial_output(void);
+/* A signal handler's flag: once set, EXRs are written uncompressed (several times faster: the
+ * image must be on disk before mpirun's SIGKILL, 1 s after its SIGTERM), and a compressed write
+ * under way when it is set starts again uncompressed. NULL: none. */
+void pm_output_watch(volatile sig_atomic_t *flag);
 
 /* Whether a and b name the same file: the same device and inode when both exist, else the same
  * path once their folders are resolved (links, "./" and ".." do not hide a match). */
 bool pm_same_file(const char *a, const char *b);
 
 /* Whether an output file can be written at path, checked before any work: not a directory, an
- * existing file writable by the user (a PNG is written in place, an EXR must not replace a
- * read-only file), and a new file (or an EXR's temporary file) creatable in its folder. On refusal
+ * existing file writable by the user (the file written beside it must not replace a read-only
+ * one), and a new file creatable in its folder. On refusal
  * err holds "PATH: the cause". Creates nothing that outlives the call. */
 bool pm_check_output_path(const char *path, char *err, size_t err_size);
 

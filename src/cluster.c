@@ -15,7 +15,7 @@
 #include "defaults.h"
 #include "memory.h"
 
-enum { TAG_COMMAND = 11, TAG_DONE = 12, TAG_TEXT = 13, TAG_READY = 14 };
+enum { TAG_COMMAND = 11, TAG_DONE = 12, TAG_TEXT = 13, TAG_READY = 14, TAG_AGREE = 15, TAG_VERDICT = 16, TAG_BYE = 17 };
 enum { CMD_MERGE = 1, CMD_FINAL, CMD_RESTART, CMD_PAUSE, CMD_RESIZE, CMD_QUIT, CMD_STOP };
 /* ahead of the film's additive form in a merge: the photons each rank emitted */
 enum { TOTALS_FIELDS = 1 };
@@ -49,14 +49,29 @@ struct pm_cluster {
     uint64_t epoch, flight_epoch;
     size_t flight_count;
     double last_merge_start;
+    double joined_at;      /* when MPI started (pm_now_seconds): the set-up's time is measured from it */
     double agreed_at;      /* when the set-up was agreed (pm_now_seconds) */
     double end_patience;   /* rank 0: seconds it waits past its run's end for the others' word, 0: no bound */
     char error[1024];
 };
 
+static bool take_word(pm_cluster *c, int tag);
+
 static void nap(void) {
     struct timespec t = {0, 500000}; /* half a millisecond: MPI's own waits spin a core the renderer needs */
     nanosleep(&t, NULL);
+}
+
+/* Rank 0: ends the job naming the ranks not marked answered ("rank 1, 3 " then `why`): each wait
+ * for another rank is bounded, and a rank silent past its bound (stopped, hung or gone) cannot be
+ * waited for or ended by itself (MPI_Abort ends it). */
+static void end_naming_silent(pm_cluster *c, const char *why) {
+    int n = snprintf(c->error, sizeof c->error, "rank");
+    int listed = 0;
+    for (int k = 1; k < c->size && n < (int)sizeof c->error - 512; k++)
+        if (!c->answered[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
+    snprintf(c->error + n, sizeof c->error - (size_t)n, " %s", why);
+    pm_cluster_abort(c, c->error);
 }
 
 
@@ -75,6 +90,7 @@ pm_cluster *pm_cluster_join(int *argc, char ***argv) {
     }
     MPI_Comm_rank(MPI_COMM_WORLD, &c->rank);
     MPI_Comm_size(MPI_COMM_WORLD, &c->size);
+    c->joined_at = pm_now_seconds();
     c->real_stderr = -1;
     c->answered = pm_calloc((size_t)c->size, sizeof *c->answered, "the cluster's table of ranks");
     if (!c->answered) {
@@ -96,8 +112,33 @@ pm_cluster *pm_cluster_join(int *argc, char ***argv) {
     return c;
 }
 
+/* Before MPI_Finalize, which waits for every rank: each rank's word that it is leaving, rank 0
+ * waiting PM_CLUSTER_QUIT_SECONDS at most for them. A rank stopped (SIGSTOP) after the last merge
+ * held the job for ever in MPI_Finalize; it ends the job with a line naming it instead (rank 0's
+ * files are written by then). */
+static void say_goodbye(pm_cluster *c) {
+    int bye = 1;
+    if (c->rank != 0) {
+        MPI_Send(&bye, 1, MPI_INT, 0, TAG_BYE, MPI_COMM_WORLD);
+        return;
+    }
+    memset(c->answered, 0, (size_t)c->size * sizeof *c->answered);
+    double start = pm_now_seconds();
+    for (int heard = 0; heard < c->size - 1;) {
+        if (take_word(c, TAG_BYE)) { heard++; continue; }
+        if (pm_now_seconds() - start > PM_CLUSTER_QUIT_SECONDS) {
+            char why[160];
+            snprintf(why, sizeof why, "gave no word that it is leaving within %.3g s (stopped or hung): the job ends",
+                     PM_CLUSTER_QUIT_SECONDS);
+            end_naming_silent(c, why);
+        }
+        nap();
+    }
+}
+
 void pm_cluster_leave(pm_cluster *c) {
     if (!c) return;
+    say_goodbye(c);
     if (c->merged_made) pm_film_free(&c->merged);
     free(c->send);
     free(c->receive);
@@ -169,39 +210,93 @@ static void print_as_rank(FILE *f, int rank, const char *line) {
     fprintf(f, "pmview: rank %d: %s\n", rank, rest);
 }
 
+/* A rank's word at the agreement, and rank 0's verdict on them all. */
+typedef struct {
+    int64_t code; /* < 0: ready; else the exit code of its failure */
+    uint64_t digest;
+} agree_word;
+typedef struct {
+    int64_t agreed;  /* the first failing rank's code, or -1 */
+    int32_t first;   /* the lowest rank that failed, or size */
+    int32_t differs; /* the lowest rank whose digest is not rank 0's, or 0 */
+} agree_verdict;
+
+/* Waits for a message of `tag` from `source` (MPI_ANY_SOURCE: any), napping, for at most `patience`
+ * seconds; false when none came. Point-to-point with a bound rather than a collective: a rank that
+ * is stopped (SIGSTOP) or hung would hold a collective, and so the whole job, for ever. */
+static bool wait_for_message(int source, int tag, double patience, MPI_Status *status) {
+    double start = pm_now_seconds();
+    for (;;) {
+        int waiting = 0;
+        MPI_Iprobe(source, tag, MPI_COMM_WORLD, &waiting, status);
+        if (waiting) return true;
+        if (pm_now_seconds() - start > patience) return false;
+        nap();
+    }
+}
+
 int pm_cluster_agree(pm_cluster *c, int code, uint64_t digest) {
     if (!c) return code;
-    int mine = code < 0 ? c->size : c->rank, first = c->size;
-    MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    /* every rank loads the same scene, so their set-ups take about as long: a rank silent for many
+     * times rank 0's own set-up is stopped or hung, not slow (the others' bound is wider: rank 0
+     * also opens the window; and so is rank 0's when it failed early, before the scene's load) */
+    double setup = pm_now_seconds() - c->joined_at;
+    double patience = c->rank == 0 && code < 0 ? PM_CLUSTER_AGREE_SECONDS + PM_CLUSTER_AGREE_FACTOR * setup
+                                               : 3 * PM_CLUSTER_AGREE_SECONDS + 3 * PM_CLUSTER_AGREE_FACTOR * setup;
+    agree_verdict verdict = {-1, c->size, 0};
+    if (c->rank != 0) {
+        agree_word word = {code, digest};
+        MPI_Send(&word, sizeof word, MPI_BYTE, 0, TAG_AGREE, MPI_COMM_WORLD);
+        if (!wait_for_message(0, TAG_VERDICT, patience, MPI_STATUS_IGNORE)) {
+            char message[256];
+            snprintf(message, sizeof message, "rank 0 gave no word at the set-up's agreement in %.3g s (stopped or hung): the job ends",
+                     patience);
+            pm_cluster_abort(c, message);
+        }
+        MPI_Recv(&verdict, sizeof verdict, MPI_BYTE, 0, TAG_VERDICT, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    } else {
+        memset(c->answered, 0, (size_t)c->size * sizeof *c->answered);
+        if (code >= 0) { verdict.first = 0; verdict.agreed = code; }
+        for (int heard = 0; heard < c->size - 1; heard++) {
+            MPI_Status status;
+            if (!wait_for_message(MPI_ANY_SOURCE, TAG_AGREE, patience, &status)) {
+                char why[160];
+                snprintf(why, sizeof why, "gave no word at the set-up's agreement %.3g s after rank 0's set-up (stopped or hung): the job ends",
+                         patience);
+                end_naming_silent(c, why);
+            }
+            agree_word word;
+            MPI_Recv(&word, sizeof word, MPI_BYTE, status.MPI_SOURCE, TAG_AGREE, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            int k = status.MPI_SOURCE;
+            c->answered[k] = true;
+            if (word.code >= 0 && k < verdict.first) { verdict.first = k; verdict.agreed = word.code; }
+            /* each must hold rank 0's scene and options, or their images would be summed into one
+             * (a different file per rank, a stale copy at the same path elsewhere) */
+            if (word.code < 0 && code < 0 && word.digest != digest && (verdict.differs == 0 || k < verdict.differs))
+                verdict.differs = k;
+        }
+        for (int k = 1; k < c->size; k++) MPI_Send(&verdict, sizeof verdict, MPI_BYTE, k, TAG_VERDICT, MPI_COMM_WORLD);
+    }
     c->agreed_at = pm_now_seconds();
-    if (first == c->size) {
-        /* every rank is ready: each must hold rank 0's scene and options, or their images would be
-         * summed into one (a different file per rank, a stale copy at the same path elsewhere) */
-        uint64_t root = digest;
-        MPI_Bcast(&root, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
-        int other = digest != root ? c->rank : c->size, differs = c->size;
-        MPI_Allreduce(&other, &differs, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-        if (differs == c->size) differs = 0;
-        if (!differs) return -1;
+    if (verdict.first == c->size) {
+        if (!verdict.differs) return -1;
         if (c->rank == 0)
             fprintf(stderr, "pmview: error: rank %d holds another scene or other options than rank 0 (their digests "
-                            "differ): every rank must load the same file with the same options\n", differs);
+                            "differ): every rank must load the same file with the same options\n", verdict.differs);
         return 1;
     }
-    int agreed = code;
-    MPI_Bcast(&agreed, 1, MPI_INT, first, MPI_COMM_WORLD);
-    if (first != 0) {
+    if (verdict.first != 0) {
         char line[1024];
-        if (c->rank == first) {
+        if (c->rank == verdict.first) {
             last_kept_line(c, line, sizeof line);
             MPI_Send(line, (int)strlen(line) + 1, MPI_CHAR, 0, TAG_TEXT, MPI_COMM_WORLD);
         } else if (c->rank == 0) {
-            MPI_Recv(line, sizeof line, MPI_CHAR, first, TAG_TEXT, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            MPI_Recv(line, sizeof line, MPI_CHAR, verdict.first, TAG_TEXT, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
             line[sizeof line - 1] = 0;
-            print_as_rank(stderr, first, line[0] ? line : "failed during set-up");
+            print_as_rank(stderr, verdict.first, line[0] ? line : "failed during set-up");
         }
     }
-    return agreed;
+    return (int)verdict.agreed;
 }
 
 void pm_cluster_abort(pm_cluster *c, const char *message) {
@@ -340,12 +435,9 @@ static void check_silence(pm_cluster *c, double *since, const char *awaited) {
     if (!c->interrupted || !*c->interrupted) return;
     if (*since == 0.0) { *since = pm_now_seconds(); return; }
     if (pm_now_seconds() - *since <= PM_CLUSTER_SILENCE_SECONDS) return;
-    int n = snprintf(c->error, sizeof c->error, "rank");
-    int listed = 0;
-    for (int k = 1; k < c->size && n < (int)sizeof c->error - 96; k++)
-        if (!c->answered[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
-    snprintf(c->error + n, sizeof c->error - (size_t)n, " gave no %s after the signal: taken for gone, the job ends", awaited);
-    pm_cluster_abort(c, c->error);
+    char why[160];
+    snprintf(why, sizeof why, "gave no %s after the signal: taken for gone, the job ends", awaited);
+    end_naming_silent(c, why);
 }
 
 /* Rank 0: one word of `tag` from any rank if one has come, its sender marked as answered. Each rank
@@ -469,13 +561,10 @@ const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(voi
         if (tick) tick(context);
         check_silence(c, &since, "word that its run is over");
         if (c->end_patience > 0.0 && pm_now_seconds() - ended > c->end_patience) {
-            int n = snprintf(c->error, sizeof c->error, "rank");
-            int listed = 0;
-            for (int k = 1; k < c->size && n < (int)sizeof c->error - 128; k++)
-                if (!c->answered[k]) n += snprintf(c->error + n, sizeof c->error - (size_t)n, "%s %d", listed++ ? "," : "", k);
-            snprintf(c->error + n, sizeof c->error - (size_t)n,
-                     " gave no word that its run is over %.3g s past --time: taken for stopped, the job ends", c->end_patience);
-            pm_cluster_abort(c, c->error);
+            char why[160];
+            snprintf(why, sizeof why, "gave no word that its run is over %.3g s past --time: taken for stopped, the job ends",
+                     c->end_patience);
+            end_naming_silent(c, why);
         }
         nap();
     }
@@ -511,14 +600,34 @@ void pm_cluster_send_resize(pm_cluster *c, int width, int height, const pm_camer
     send_all(c, &cmd);
 }
 
+/* Rank 0 at the window's quit: the ranks not yet marked answered gave no word within
+ * PM_CLUSTER_QUIT_SECONDS: stopped (SIGSTOP) or hung, as silent as a dead rank. */
+static void silent_at_quit(pm_cluster *c, const char *awaited) {
+    char why[160];
+    snprintf(why, sizeof why, "gave no %s within %.3g s of the quit (stopped or hung): the job ends", awaited,
+             PM_CLUSTER_QUIT_SECONDS);
+    end_naming_silent(c, why);
+}
+
 void pm_cluster_send_quit(pm_cluster *c) {
     if (!c) return;
+    double start = pm_now_seconds();
     if (c->in_flight) {
-        take_ready(c, true);
+        while (!take_ready(c, false)) {
+            if (pm_now_seconds() - start > PM_CLUSTER_QUIT_SECONDS) silent_at_quit(c, "image for the merge under way");
+            nap();
+        }
         reduce_at_root(c, c->flight_count, false);
     }
     command cmd = {.type = CMD_QUIT, .indirect = -1};
     send_all(c, &cmd);
+    /* every rank's word that it has stopped its session, so none is left waiting in MPI_Finalize */
+    memset(c->answered, 0, (size_t)c->size * sizeof *c->answered);
+    for (int heard = 0; heard < c->size - 1;) {
+        if (take_word(c, TAG_DONE)) { heard++; continue; }
+        if (pm_now_seconds() - start > PM_CLUSTER_QUIT_SECONDS) silent_at_quit(c, "word that it has quit");
+        nap();
+    }
 }
 
 const pm_film *pm_cluster_poll_merge(pm_cluster *c, pm_session *s) {
@@ -562,7 +671,12 @@ int pm_cluster_follow(pm_cluster *c, pm_session *s) {
                 pm_cluster_abort(c, pm_session_error(s));
             break;
         case CMD_MERGE: answer_merge(c, s, &cmd, true); break;
-        case CMD_QUIT: pm_session_stop(s); return 0;
+        case CMD_QUIT: {
+            pm_session_stop(s);
+            int done = 1;
+            MPI_Send(&done, 1, MPI_INT, 0, TAG_DONE, MPI_COMM_WORLD);
+            return 0;
+        }
         default: break;
         }
     }

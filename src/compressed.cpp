@@ -1,8 +1,17 @@
 /* compressed.cpp: EXT_meshopt_compression and KHR_draco_mesh_compression decoding through Debian's libmeshoptimizer and libdraco (see compressed.h). */
 #include "compressed.h"
+extern "C" {
+#include "memory.h"
+}
 
+#include <draco/compression/config/compression_shared.h>
 #include <draco/compression/decode.h>
+#include <draco/compression/point_cloud/point_cloud_decoder.h>
+#include <draco/core/varint_decoding.h>
 #include <draco/mesh/mesh.h>
+#include <draco/metadata/geometry_metadata.h>
+#include <draco/metadata/metadata_decoder.h>
+#include <malloc.h>
 #include <meshoptimizer.h>
 
 #include <algorithm>
@@ -11,6 +20,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <memory>
@@ -69,6 +79,8 @@ bool store_component(double v, int type, bool normalized, unsigned char *out) {
 
 struct pm_draco_mesh {
     std::unique_ptr<draco::Mesh> mesh;
+    uint64_t admitted = 0; // bytes admitted for the decode, given back with the mesh
+    ~pm_draco_mesh() { pm_memory_release(admitted); }
 };
 
 extern "C" int pm_meshopt_mode(const char *name) {
@@ -130,8 +142,123 @@ extern "C" bool pm_meshopt_decode(void *dst, size_t count, size_t stride, int mo
 
 namespace {
 
+// libdraco allocates with operator new and takes no allocator, and it trusts some counts of a
+// corrupt stream (a 10 KB stream asked for 220 MB). Its decode thread therefore runs under a
+// budget: the process's operator new (replaced below) counts what that thread holds and throws
+// std::bad_alloc past the budget, which was admitted under --max-memory before the decode began.
+// Every other thread allocates as the C++ library would.
+struct DracoBudget {
+    uint64_t limit = 0, used = 0;
+    bool exceeded = false;
+    std::atomic<bool> abandoned{false}; // the caller stopped waiting: the decode is to end
+};
+thread_local DracoBudget *thread_budget = nullptr;
+
+void *counted_new(std::size_t size) {
+    DracoBudget *b = thread_budget;
+    if (b && (b->abandoned.load(std::memory_order_relaxed) || size > b->limit || b->used > b->limit - size)) {
+        b->exceeded = !b->abandoned.load(std::memory_order_relaxed);
+        throw std::bad_alloc();
+    }
+    void *p = std::malloc(size ? size : 1);
+    if (!p) throw std::bad_alloc();
+    if (b) b->used += malloc_usable_size(p);
+    return p;
+}
+
+void counted_delete(void *p) noexcept {
+    DracoBudget *b = thread_budget;
+    if (p && b) {
+        uint64_t n = malloc_usable_size(p);
+        b->used = n < b->used ? b->used - n : 0; // a block allocated by another thread may be freed here
+    }
+    std::free(p);
+}
+
+}  // namespace
+
+void *operator new(std::size_t size) { return counted_new(size); }
+void *operator new[](std::size_t size) { return counted_new(size); }
+void *operator new(std::size_t size, const std::nothrow_t &) noexcept {
+    try { return counted_new(size); } catch (...) { return nullptr; }
+}
+void *operator new[](std::size_t size, const std::nothrow_t &) noexcept {
+    try { return counted_new(size); } catch (...) { return nullptr; }
+}
+void operator delete(void *p) noexcept { counted_delete(p); }
+void operator delete[](void *p) noexcept { counted_delete(p); }
+void operator delete(void *p, std::size_t) noexcept { counted_delete(p); }
+void operator delete[](void *p, std::size_t) noexcept { counted_delete(p); }
+void operator delete(void *p, const std::nothrow_t &) noexcept { counted_delete(p); }
+void operator delete[](void *p, const std::nothrow_t &) noexcept { counted_delete(p); }
+
+namespace {
+
+// What a stream says of itself before its payload: the header, the metadata when the flags say
+// there is some, then the connectivity's counts (libdraco's MeshSequentialDecoder and
+// MeshEdgebreakerDecoderImpl read them in this order; counts are varints from bitstream 2.0 on,
+// except the sequential coder's, from 2.2).
+struct DracoCounts {
+    bool ok = false;
+    std::string error;
+    uint64_t vertices = 0, faces = 0;
+};
+
+DracoCounts draco_counts(const char *src, size_t size) {
+    DracoCounts c;
+    draco::DecoderBuffer buffer;
+    buffer.Init(src, size);
+    draco::DracoHeader header;
+    if (!draco::PointCloudDecoder::DecodeHeader(&buffer, &header).ok()) {
+        c.error = "not a Draco stream (no DRACO header)";
+        return c;
+    }
+    if (header.encoder_type != draco::TRIANGULAR_MESH) {
+        c.error = "the Draco stream holds a point cloud, not a triangle mesh";
+        return c;
+    }
+    const uint16_t version = DRACO_BITSTREAM_VERSION(header.version_major, header.version_minor);
+    buffer.set_bitstream_version(version);
+    if (header.flags & METADATA_FLAG_MASK) {
+        draco::MetadataDecoder metadata_decoder;
+        draco::GeometryMetadata metadata;
+        if (!metadata_decoder.DecodeGeometryMetadata(&buffer, &metadata)) {
+            c.error = "corrupt Draco stream: its metadata cannot be read";
+            return c;
+        }
+    }
+    uint32_t vertices = 0, faces = 0;
+    bool read = false;
+    if (header.encoder_method == draco::MESH_SEQUENTIAL_ENCODING) {
+        if (version < DRACO_BITSTREAM_VERSION(2, 2)) read = buffer.Decode(&faces) && buffer.Decode(&vertices);
+        else read = draco::DecodeVarint(&faces, &buffer) && draco::DecodeVarint(&vertices, &buffer);
+    } else if (header.encoder_method == draco::MESH_EDGEBREAKER_ENCODING) {
+        uint8_t traversal = 0;
+        uint32_t new_vertices = 0;
+        const bool varints = version >= DRACO_BITSTREAM_VERSION(2, 0);
+        read = buffer.Decode(&traversal);
+        if (read && version < DRACO_BITSTREAM_VERSION(2, 2))
+            read = varints ? draco::DecodeVarint(&new_vertices, &buffer) : buffer.Decode(&new_vertices);
+        if (read) read = varints ? draco::DecodeVarint(&vertices, &buffer) : buffer.Decode(&vertices);
+        if (read) read = varints ? draco::DecodeVarint(&faces, &buffer) : buffer.Decode(&faces);
+        vertices += new_vertices;
+    } else {
+        c.error = "the Draco stream names an unknown mesh encoding (" + std::to_string(header.encoder_method) + ")";
+        return c;
+    }
+    if (!read) {
+        c.error = "corrupt or truncated Draco stream: its vertex and face counts cannot be read";
+        return c;
+    }
+    c.ok = true;
+    c.vertices = vertices;
+    c.faces = faces;
+    return c;
+}
+
 // One Draco decode, shared by the thread that runs it and the caller that waits for it: a caller
-// that stops waiting leaves the job to the thread, which frees it when it ends.
+// that stops waiting marks it abandoned (the thread's next allocation fails, which ends the decode)
+// and leaves the job to the thread, which frees it and gives its admitted bytes back when it ends.
 struct DracoJob {
     std::mutex lock;
     std::condition_variable finished_signal;
@@ -139,11 +266,15 @@ struct DracoJob {
     std::vector<char> bytes;
     std::unique_ptr<draco::Mesh> mesh;
     std::string error;
+    DracoBudget budget;
+    uint64_t admitted = 0;
+    ~DracoJob() { pm_memory_release(admitted); }
 };
 
 void decode_draco(const std::shared_ptr<DracoJob> &job) {
     std::unique_ptr<draco::Mesh> mesh;
     std::string error;
+    thread_budget = &job->budget;
     try {
         draco::DecoderBuffer buffer;
         buffer.Init(job->bytes.data(), job->bytes.size());
@@ -164,6 +295,15 @@ void decode_draco(const std::shared_ptr<DracoJob> &job) {
     } catch (const std::exception &e) {
         error = std::string("corrupt Draco stream: ") + e.what();
     }
+    // libdraco may turn a failed allocation into a status of its own: the budget says what happened
+    if (job->budget.exceeded) {
+        mesh.reset();
+        char mib[32];
+        snprintf(mib, sizeof mib, "%.1f", static_cast<double>(job->budget.limit) / (1 << 20));
+        error = std::string("the Draco stream asks for more than the ") + mib +
+                " MiB its counts and size allow (a corrupt count): refused";
+    }
+    thread_budget = nullptr;
     std::lock_guard<std::mutex> hold(job->lock);
     job->mesh = std::move(mesh);
     job->error = error;
@@ -175,16 +315,36 @@ void decode_draco(const std::shared_ptr<DracoJob> &job) {
 
 // libdraco 1.5.5 trusts some counts in a stream (texture coordinates' orientation bits): a corrupt
 // one costs up to 2^31 steps (about 30 s and 300 MB) before the stream is refused. The decode runs
-// on a thread of its own with a time budget far above a valid stream's decoding time; past it the
-// stream is refused and the thread left to end on its own.
+// on a thread of its own under the memory budget its counts forecast (such a count asks for far
+// more and fails at once) and with a time budget far above a valid stream's decoding time; past
+// that the stream is refused, and the thread's next allocation fails, which ends its decode.
 static std::atomic<uint64_t> draco_decodes{0};
 extern "C" uint64_t pm_draco_decodes(void) { return draco_decodes.load(); }
+
+extern "C" uint64_t pm_draco_forecast_bytes(uint64_t vertices, uint64_t faces, uint64_t stream_bytes) {
+    return PM_DRACO_BASE_BYTES + vertices * PM_DRACO_BYTES_PER_VERTEX + faces * PM_DRACO_BYTES_PER_FACE +
+           stream_bytes * PM_DRACO_BYTES_PER_STREAM_BYTE;
+}
 
 extern "C" pm_draco_mesh *pm_draco_decode(const void *src, size_t size, char *err, size_t err_size) {
     draco_decodes++;
     const double budget = PM_DRACO_SECONDS + static_cast<double>(size) * PM_DRACO_SECONDS_PER_BYTE;
     try {
+        DracoCounts counts = draco_counts(static_cast<const char *>(src), size);
+        if (!counts.ok) return set_error(err, err_size, counts.error), nullptr;
+        // the stream's own counts bound what a valid decode needs: admitted before it starts
+        const uint64_t forecast = pm_draco_forecast_bytes(counts.vertices, counts.faces, size);
+        const uint64_t mark = pm_memory_failure_mark();
+        if (!pm_memory_admit(forecast, "the Draco decoder")) {
+            const char *why = pm_memory_failure_since(mark);
+            return set_error(err, err_size, "a Draco stream of " + std::to_string(counts.vertices) + " vertices and " +
+                                                std::to_string(counts.faces) + " triangles: out of memory (" +
+                                                (why ? why : "the Draco decoder") + ")"),
+                   nullptr;
+        }
         auto job = std::make_shared<DracoJob>();
+        job->admitted = forecast;
+        job->budget.limit = forecast;
         job->bytes.assign(static_cast<const char *>(src), static_cast<const char *>(src) + size);
         std::thread worker(decode_draco, job);
         std::unique_lock<std::mutex> hold(job->lock);
@@ -192,6 +352,7 @@ extern "C" pm_draco_mesh *pm_draco_decode(const void *src, size_t size, char *er
                                                       [&] { return job->finished; });
         hold.unlock();
         if (!finished) {
+            job->budget.abandoned = true;
             worker.detach();
             char seconds[32];
             snprintf(seconds, sizeof seconds, "%.3g", budget);
@@ -203,6 +364,8 @@ extern "C" pm_draco_mesh *pm_draco_decode(const void *src, size_t size, char *er
         if (!job->mesh) return set_error(err, err_size, job->error), nullptr;
         std::unique_ptr<pm_draco_mesh> out(new pm_draco_mesh);
         out->mesh = std::move(job->mesh);
+        out->admitted = forecast; // the decoded mesh holds its share until pm_draco_free
+        job->admitted = 0;
         return out.release();
     } catch (const std::bad_alloc &) {
         set_error(err, err_size, "out of memory decoding the Draco stream");

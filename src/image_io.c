@@ -10,8 +10,8 @@
  * a thread-local buffer keeps the first message of the current call so every failure ends up
  * as one line, "PATH: what went wrong (library detail)", instead of text on stderr.
  */
-/* realpath is XSI, beyond the POSIX level the build asks for */
-#define _XOPEN_SOURCE 700
+/* realpath is XSI and O_TMPFILE Linux's, beyond the POSIX level the build asks for */
+#define _GNU_SOURCE
 #include "image_io.h"
 #include "memory.h"
 
@@ -25,6 +25,7 @@
 #include <strings.h>
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <openexr.h>
@@ -139,6 +140,140 @@ static bool temporary_beside(const char *path, char *temp, size_t size, volatile
     return true;
 }
 
+/* A signal's flag (pm_output_watch): once it is set, an EXR is written uncompressed, which takes a
+ * fraction of the time (mpirun's SIGKILL follows its SIGTERM by 1 s), and a compressed write
+ * under way when it comes starts again so. */
+static volatile sig_atomic_t *hurry_flag;
+
+void pm_output_watch(volatile sig_atomic_t *flag) { hurry_flag = flag; }
+
+static bool hurried(void) { return hurry_flag && *hurry_flag; }
+
+/* An output under way. Its bytes go to an unnamed file in the target's folder (O_TMPFILE), which
+ * a kill at any moment (mpirun's SIGKILL) takes with it; it is named only once whole, by a link
+ * to a hidden name renamed at once over the target. Where the folder's file system has no unnamed
+ * files, a hidden named file from the start (a signal handler removes it; SIGKILL cannot). */
+typedef struct {
+    int fd;
+    bool named;   /* temp names the file on disk */
+    bool claimed; /* temp is partial_path, which the signal handler removes */
+    char *temp;
+    char own[sizeof partial_path];
+} pending_output;
+
+static bool pending_open(const char *path, pending_output *o, char *err, size_t err_size) {
+    o->fd = -1;
+    o->named = false;
+    o->claimed = !atomic_flag_test_and_set(&partial_claimed);
+    o->temp = o->claimed ? partial_path : o->own;
+    o->temp[0] = '\0';
+#ifdef O_TMPFILE
+    char folder[4096];
+    folder_of(path, folder, sizeof folder);
+    o->fd = open(folder, O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666); /* the umask applies as for any new file */
+    if (o->fd >= 0) return true;
+#endif
+    if (!temporary_beside(path, o->temp, sizeof partial_path, o->claimed ? &partial_armed : NULL, err, err_size)) {
+        disarm_partial(o->claimed);
+        return false;
+    }
+    o->named = true;
+    o->fd = open(o->temp, O_WRONLY | O_CLOEXEC);
+    if (o->fd < 0) {
+        char what[320];
+        snprintf(what, sizeof what, "cannot open the temporary file (%s)", strerror(errno));
+        set_error(err, err_size, path, what);
+        unlink(o->temp);
+        disarm_partial(o->claimed);
+        return false;
+    }
+    return true;
+}
+
+/* Gives the unnamed file a hidden name beside path (".NAME.XXXXXX"), armed for the handler first. */
+static bool pending_name(const char *path, pending_output *o, char *err, size_t err_size) {
+    char folder[4096], proc[64];
+    folder_of(path, folder, sizeof folder);
+    const char *slash = strrchr(path, '/');
+    snprintf(proc, sizeof proc, "/proc/self/fd/%d", o->fd);
+    static const char letters[] = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789";
+    uint64_t seed = (uint64_t)getpid() * 0x9e3779b97f4a7c15ull ^ (uint64_t)(uintptr_t)o;
+    struct timespec t;
+    clock_gettime(CLOCK_REALTIME, &t);
+    seed ^= (uint64_t)t.tv_nsec << 20 ^ (uint64_t)t.tv_sec;
+    for (int attempt = 0; attempt < 64; attempt++) {
+        char suffix[7];
+        for (int k = 0; k < 6; k++) {
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            suffix[k] = letters[(seed >> 33) % (sizeof letters - 1)];
+        }
+        suffix[6] = '\0';
+        int n = snprintf(o->temp, sizeof partial_path, "%s/.%s.%s", folder, slash ? slash + 1 : path, suffix);
+        if (n < 0 || (size_t)n >= sizeof partial_path) {
+            o->temp[0] = '\0';
+            set_error(err, err_size, path, "the file name is too long");
+            return false;
+        }
+        atomic_thread_fence(memory_order_seq_cst); /* the whole name is in place before the flag says so */
+        if (o->claimed) partial_armed = 1;
+        if (linkat(AT_FDCWD, proc, AT_FDCWD, o->temp, AT_SYMLINK_FOLLOW) == 0) {
+            o->named = true;
+            return true;
+        }
+        int why = errno;
+        if (o->claimed) partial_armed = 0;
+        if (why != EEXIST) {
+            char what[4400];
+            snprintf(what, sizeof what, "cannot name the file written in the folder %s (%s)", folder, strerror(why));
+            o->temp[0] = '\0';
+            set_error(err, err_size, path, what);
+            return false;
+        }
+    }
+    o->temp[0] = '\0';
+    set_error(err, err_size, path, "cannot find a free temporary name beside it");
+    return false;
+}
+
+/* The whole file becomes path (ok), or goes; either way the output ends. */
+static bool pending_finish(const char *path, pending_output *o, bool ok, char *err, size_t err_size) {
+    if (ok && !o->named) ok = pending_name(path, o, err, err_size);
+    if (ok && rename(o->temp, path) != 0) {
+        char what[320];
+        snprintf(what, sizeof what, "cannot replace the file (%s)", strerror(errno));
+        set_error(err, err_size, path, what);
+        ok = false;
+    }
+    if (!ok && o->named) unlink(o->temp);
+    if (o->fd >= 0) close(o->fd);
+    o->fd = -1;
+    disarm_partial(o->claimed);
+    return ok;
+}
+
+/* An EXR's bytes into the pending file. */
+typedef struct {
+    int fd;
+} exr_sink;
+
+static int64_t exr_sink_write(exr_const_context_t ctxt, void *userdata, const void *buffer, uint64_t size, uint64_t offset,
+                              exr_stream_error_func_ptr_t error_cb) {
+    const exr_sink *sink = userdata;
+    const char *bytes = buffer;
+    uint64_t done = 0;
+    while (done < size) {
+        ssize_t n = pwrite(sink->fd, bytes + done, (size_t)(size - done), (off_t)(offset + done));
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) {
+            /* SIGXFSZ is ignored, so a file-size limit reads EFBIG here */
+            error_cb(ctxt, EXR_ERR_WRITE_IO, "%s", n < 0 ? strerror(errno) : "nothing written");
+            return -1;
+        }
+        done += (uint64_t)n;
+    }
+    return (int64_t)size;
+}
+
 /* Whether an existing file opens for writing (nothing is truncated); else err says why. */
 static bool file_takes_writing(const char *path, char *err, size_t err_size) {
     int fd = open(path, O_WRONLY | O_NOCTTY | O_NONBLOCK);
@@ -150,6 +285,12 @@ static bool file_takes_writing(const char *path, char *err, size_t err_size) {
     }
     close(fd);
     return true;
+}
+
+/* An existing file replaced by a rename must be one its owner lets us write. */
+static bool file_takes_writing_if_present(const char *path, char *err, size_t err_size) {
+    struct stat st;
+    return !(stat(path, &st) == 0 && S_ISREG(st.st_mode)) || file_takes_writing(path, err, err_size);
 }
 
 bool pm_check_output_path(const char *path, char *err, size_t err_size) {
@@ -168,16 +309,108 @@ bool pm_check_output_path(const char *path, char *err, size_t err_size) {
         set_error(err, err_size, path, "is not a regular file (an EXR is written beside it and renamed over it)");
         return false;
     }
-    /* A PNG is written in place: the file itself must take writing (not truncated here). An EXR
-     * is renamed over it, which the folder alone allows: the same test keeps it from replacing a
-     * file its owner made read-only. */
+    /* A file is written beside a regular file and renamed over it, which the folder alone allows:
+     * the same test keeps it from replacing a file its owner made read-only. A PNG onto anything
+     * else (a device, a pipe) is written in place. */
     if (exists && !file_takes_writing(path, err, err_size)) return false;
-    if (exists && !exr) return true;
-    /* a new file (or an EXR's temporary one) must be creatable in the folder: try it */
+    if (exists && !exr && !S_ISREG(st.st_mode)) return true;
+    /* a new file (or the one written beside it) must be creatable in the folder: try it */
     char temp[4096];
     if (!temporary_beside(path, temp, sizeof temp, NULL, err, err_size)) return false;
     unlink(temp);
     return true;
+}
+
+/* The planes as an EXR into fd: 1 written, 0 failed (err says why), -1 abandoned for a signal
+ * that came during a compressed write (hurried()). */
+static int encode_exr(const char *path, int fd, int width, int height, const float *planes,
+                      char names[PM_EXR_CHANNELS][32], bool compress, char *err, size_t err_size) {
+    const size_t npix = (size_t)width * height;
+    int result = 0;
+    exr_context_t ctxt = NULL;
+    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    bool enc_started = false;
+    exr_sink sink = {fd};
+    exr_context_initializer_t init = exr_initializer();
+    init.user_data = &sink;
+    init.write_fn = exr_sink_write;
+    exr_result_t rv = exr_start_write(&ctxt, path, EXR_WRITE_FILE_DIRECTLY, &init);
+    if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot create the file", rv); goto done; }
+
+    int part = 0;
+    rv = exr_add_part(ctxt, "pmview", EXR_STORAGE_SCANLINE, &part);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_initialize_required_attr_simple(ctxt, part, width, height, compress ? EXR_COMPRESSION_ZIP : EXR_COMPRESSION_NONE);
+    /* zlib's fastest level: float radiance barely compresses further (a 512 x 512 snapshot: 6.89 MB
+     * against 6.85 MB at the library's default), and the default took 0.3 s more to write it */
+    if (rv == EXR_ERR_SUCCESS && compress) rv = exr_set_zip_compression_level(ctxt, part, 1);
+    for (int ch = 0; ch < PM_EXR_CHANNELS && rv == EXR_ERR_SUCCESS; ch++)
+        rv = exr_add_channel(ctxt, part, names[ch], EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    if (rv == EXR_ERR_SUCCESS) rv = exr_write_header(ctxt);
+    if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot write the EXR header", rv); goto done; }
+
+    int32_t lines_per_chunk = 0;
+    rv = exr_get_scanlines_per_chunk(ctxt, part, &lines_per_chunk);
+    if (rv != EXR_ERR_SUCCESS || lines_per_chunk <= 0) {
+        set_exr_error(err, err_size, path, "cannot size the EXR chunks", rv);
+        goto done;
+    }
+
+    for (int y = 0; y < height; y += lines_per_chunk) {
+        if (compress && hurried()) { result = -1; goto done; }
+        exr_chunk_info_t cinfo;
+        rv = exr_write_scanline_chunk_info(ctxt, part, y, &cinfo);
+        if (rv == EXR_ERR_SUCCESS) {
+            if (!enc_started) {
+                enc_started = true;
+                rv = exr_encoding_initialize(ctxt, part, &cinfo, &enc);
+            } else {
+                rv = exr_encoding_update(ctxt, part, &cinfo, &enc);
+            }
+        }
+        if (rv != EXR_ERR_SUCCESS) {
+            set_exr_error(err, err_size, path, "cannot prepare an EXR chunk", rv);
+            goto done;
+        }
+        for (int i = 0; i < enc.channel_count; i++) {
+            exr_coding_channel_info_t *chan = &enc.channels[i];
+            int ch = 0;
+            while (ch < PM_EXR_CHANNELS && strcmp(names[ch], chan->channel_name) != 0) ch++;
+            if (ch == PM_EXR_CHANNELS) {
+                set_error(err, err_size, path, "the EXR encoder lists a channel that was never added");
+                goto done;
+            }
+            chan->user_bytes_per_element = 4;
+            chan->user_data_type = EXR_PIXEL_FLOAT;
+            chan->user_pixel_stride = 4;
+            chan->user_line_stride = 4 * width;
+            chan->encode_from_ptr = (const uint8_t *)(planes + (size_t)ch * npix + (size_t)cinfo.start_y * width);
+        }
+        /* after the pointers: the routine chosen depends on the channel layout */
+        rv = exr_encoding_choose_default_routines(ctxt, part, &enc);
+        if (rv == EXR_ERR_SUCCESS) rv = exr_encoding_run(ctxt, part, &enc);
+        if (rv != EXR_ERR_SUCCESS) {
+            set_exr_error(err, err_size, path, "cannot encode or write an EXR chunk", rv);
+            goto done;
+        }
+    }
+    result = 1;
+
+done:
+    if (enc_started) exr_encoding_destroy(ctxt, &enc);
+    if (ctxt) {
+        /* exr_finish writes the chunk table: of no use to an abandoned write */
+        if (result == 1) {
+            rv = exr_finish(&ctxt);
+            if (rv != EXR_ERR_SUCCESS) {
+                set_exr_error(err, err_size, path, "cannot finish the file", rv);
+                result = 0;
+            }
+        } else {
+            exr_finish(&ctxt);
+        }
+    }
+    return result;
 }
 
 /* The layers come from the film (resolved) or, without one, from `layers` as they are. */
@@ -217,14 +450,6 @@ static bool write_exr(const char *path, int width, int height, const pm_film *fi
     }
 
     bool ok = false;
-    exr_context_t ctxt = NULL;
-    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
-    bool enc_started = false;
-    /* the temporary file's name in the registered buffer when free, so a signal can remove it */
-    const bool claimed = !atomic_flag_test_and_set(&partial_claimed);
-    char own_temp[sizeof partial_path] = "";
-    char *temp_path = claimed ? partial_path : own_temp;
-    temp_path[0] = '\0';
     float *planes = pm_malloc(PM_EXR_CHANNELS * npix * sizeof(float), "EXR output buffers");
     float *rgb = planes ? pm_malloc(3 * npix * sizeof(float), "EXR output buffers") : NULL;
     if (!planes || !rgb) {
@@ -253,89 +478,29 @@ static bool write_exr(const char *path, int width, int height, const pm_film *fi
         }
     }
 
-    exr_context_initializer_t init = exr_initializer();
-    /* A temporary file beside the target, renamed over it at the end: a failed write leaves any
-     * previous file untouched, and the temporary file is removed on every failure (OpenEXR's own
-     * temporary file outlived a failed rename) */
-    if (!temporary_beside(path, temp_path, sizeof partial_path, claimed ? &partial_armed : NULL, err, err_size)) goto done;
-    exr_result_t rv = exr_start_write(&ctxt, temp_path, EXR_WRITE_FILE_DIRECTLY, &init);
-    if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot create the file", rv); goto done; }
-
-    int part = 0;
-    rv = exr_add_part(ctxt, "pmview", EXR_STORAGE_SCANLINE, &part);
-    if (rv == EXR_ERR_SUCCESS)
-        rv = exr_initialize_required_attr_simple(ctxt, part, width, height, EXR_COMPRESSION_ZIP);
-    /* zlib's fastest level: float radiance barely compresses further (a 512 x 512 snapshot: 6.89 MB
-     * against 6.85 MB at the library's default), and the default took 0.3 s more to write it */
-    if (rv == EXR_ERR_SUCCESS) rv = exr_set_zip_compression_level(ctxt, part, 1);
-    for (int ch = 0; ch < PM_EXR_CHANNELS && rv == EXR_ERR_SUCCESS; ch++)
-        rv = exr_add_channel(ctxt, part, names[ch], EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
-    if (rv == EXR_ERR_SUCCESS) rv = exr_write_header(ctxt);
-    if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot write the EXR header", rv); goto done; }
-
-    int32_t lines_per_chunk = 0;
-    rv = exr_get_scanlines_per_chunk(ctxt, part, &lines_per_chunk);
-    if (rv != EXR_ERR_SUCCESS || lines_per_chunk <= 0) {
-        set_exr_error(err, err_size, path, "cannot size the EXR chunks", rv);
-        goto done;
-    }
-
-    for (int y = 0; y < height; y += lines_per_chunk) {
-        exr_chunk_info_t cinfo;
-        rv = exr_write_scanline_chunk_info(ctxt, part, y, &cinfo);
-        if (rv == EXR_ERR_SUCCESS) {
-            if (!enc_started) {
-                enc_started = true;
-                rv = exr_encoding_initialize(ctxt, part, &cinfo, &enc);
-            } else {
-                rv = exr_encoding_update(ctxt, part, &cinfo, &enc);
-            }
+    /* A file beside the target, renamed over it at the end: a failed write leaves any previous
+     * file untouched, and nothing of it is left on any failure (OpenEXR's own temporary file
+     * outlived a failed rename), nor after a kill (pending_output) */
+    pending_output out;
+    if (!pending_open(path, &out, err, err_size)) goto done;
+    for (;;) {
+        bool compress = !hurried();
+        int written = encode_exr(path, out.fd, width, height, planes, names, compress, err, err_size);
+        if (written >= 0) {
+            ok = written == 1;
+            break;
         }
-        if (rv != EXR_ERR_SUCCESS) {
-            set_exr_error(err, err_size, path, "cannot prepare an EXR chunk", rv);
-            goto done;
-        }
-        for (int i = 0; i < enc.channel_count; i++) {
-            exr_coding_channel_info_t *chan = &enc.channels[i];
-            int ch = 0;
-            while (ch < PM_EXR_CHANNELS && strcmp(names[ch], chan->channel_name) != 0) ch++;
-            if (ch == PM_EXR_CHANNELS) {
-                set_error(err, err_size, path, "the EXR encoder lists a channel that was never added");
-                goto done;
-            }
-            chan->user_bytes_per_element = 4;
-            chan->user_data_type = EXR_PIXEL_FLOAT;
-            chan->user_pixel_stride = 4;
-            chan->user_line_stride = 4 * width;
-            chan->encode_from_ptr = (const uint8_t *)(planes + (size_t)ch * npix + (size_t)cinfo.start_y * width);
-        }
-        /* after the pointers: the routine chosen depends on the channel layout */
-        rv = exr_encoding_choose_default_routines(ctxt, part, &enc);
-        if (rv == EXR_ERR_SUCCESS) rv = exr_encoding_run(ctxt, part, &enc);
-        if (rv != EXR_ERR_SUCCESS) {
-            set_exr_error(err, err_size, path, "cannot encode or write an EXR chunk", rv);
-            goto done;
+        /* a signal during a compressed write: the same image again, uncompressed, from the start */
+        if (ftruncate(out.fd, 0) != 0) {
+            char what[320];
+            snprintf(what, sizeof what, "cannot write the file (%s)", strerror(errno));
+            set_error(err, err_size, path, what);
+            break;
         }
     }
-    ok = true;
+    ok = pending_finish(path, &out, ok, err, err_size);
 
 done:
-    if (enc_started) exr_encoding_destroy(ctxt, &enc);
-    if (ctxt) {
-        rv = exr_finish(&ctxt);
-        if (ok && rv != EXR_ERR_SUCCESS) {
-            set_exr_error(err, err_size, path, "cannot finish the file", rv);
-            ok = false;
-        }
-    }
-    if (ok && rename(temp_path, path) != 0) {
-        char what[320];
-        snprintf(what, sizeof what, "cannot replace the file (%s)", strerror(errno));
-        set_error(err, err_size, path, what);
-        ok = false;
-    }
-    if (!ok && temp_path[0]) unlink(temp_path);
-    disarm_partial(claimed);
     free(rgb);
     free(planes);
     pm_memory_release(buffer_bytes);
@@ -645,16 +810,34 @@ bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, 
         set_error(err, err_size, path, what);
         return false;
     }
+    /* a regular file (or a new one) is replaced whole at the end, as an EXR is: a kill during the
+     * write leaves the previous image (a checkpoint's) and nothing else; anything else (a device,
+     * a pipe) is written in place */
+    struct stat st;
+    const bool in_place = stat(path, &st) == 0 && !S_ISREG(st.st_mode);
+    if (!in_place && !file_takes_writing_if_present(path, err, err_size)) {
+        pm_memory_release(encoder_bytes);
+        return false;
+    }
+    pending_output out = {.fd = -1};
+    png_sink sink = {NULL, false, 0};
+    if (in_place) sink.f = fopen(path, "wb");
+    else if (pending_open(path, &out, err, err_size)) {
+        sink.f = fdopen(dup(out.fd), "wb");
+        if (!sink.f) pending_finish(path, &out, false, err, err_size);
+    } else {
+        pm_memory_release(encoder_bytes);
+        return false;
+    }
     /* our own FILE rather than stbi_write_png: stb reports only "failed", errno says why */
-    png_sink sink = {fopen(path, "wb"), false, 0};
     if (!sink.f) {
         pm_memory_release(encoder_bytes);
         snprintf(what, sizeof what, "cannot create the file (%s)", strerror(errno));
         set_error(err, err_size, path, what);
         return false;
     }
-    /* truncated now: a signal before the end removes it rather than leave half an image */
-    const bool claimed = strlen(path) < sizeof partial_path && !atomic_flag_test_and_set(&partial_claimed);
+    /* in place, truncated now: a signal before the end removes it rather than leave half an image */
+    const bool claimed = in_place && strlen(path) < sizeof partial_path && !atomic_flag_test_and_set(&partial_claimed);
     if (claimed) {
         memcpy(partial_path, path, strlen(path) + 1);
         atomic_thread_fence(memory_order_seq_cst);
@@ -667,12 +850,13 @@ bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, 
         if (!encoded) snprintf(what, sizeof what, "PNG encoding failed (out of memory?)");
         else snprintf(what, sizeof what, "cannot write the file (%s)", strerror(sink.failed_errno));
         set_error(err, err_size, path, what);
-        remove(path); /* a truncated PNG would look like a valid file to a quick glance */
+        if (in_place) remove(path); /* a truncated PNG would look like a valid file to a quick glance */
+        else pending_finish(path, &out, false, NULL, 0);
         disarm_partial(claimed);
         return false;
     }
     disarm_partial(claimed);
-    return true;
+    return in_place || pending_finish(path, &out, true, err, err_size);
 }
 
 /* path with its folder resolved (the name kept: it need not exist yet) into out; false when the

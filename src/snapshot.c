@@ -220,6 +220,7 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
     char err[1024];
     pm_snapshot_catch_signals(session);
     pm_cluster_watch(cluster, &interrupted_by);
+    pm_output_watch(&interrupted_by);
     bool root = pm_cluster_rank(cluster) == 0;
     const pm_film *film = pm_session_film(session);
     observer ob = {.o = o, .cluster = cluster, .reference = reference, .next_progress = 1,

@@ -55,7 +55,7 @@ OPTIMISED="test_convergence test_photons test_pathtrace test_hard_energy test_mi
 # Tests that measure what a person would see in seconds (a window's first frame, an answer to a key
 # or a signal, ranks exchanging iterations) or render for a set time (--time): another test beside
 # them could push them past their bounds.
-ALONE="test_window test_window_cluster test_window_loading test_window_room test_interactive test_cluster test_hangs test_convergence_report"
+ALONE="test_window test_window_cluster test_window_cluster_stop test_signal_writes test_window_loading test_window_room test_interactive test_cluster test_hangs test_convergence_report"
 # The longest tests start first, so the last one to end is a short one.
 FIRST="test_convergence test_progressive test_glossy test_leaks test_robust test_threads test_photons test_memory_failures test_log test_cli"
 

@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, ranks holding different scenes or options, --max-memory counting the merge's buffers, a stopped rank under --time, SIGTERM to rank 0 alone, the cluster stat line.
+# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, ranks holding different scenes or options, --max-memory counting the merge's buffers, a stopped rank under --time, SIGTERM to rank 0 alone, a rank stopped in its set-up, the cluster stat line.
 #
 # Every job is small (64 px or less, --threads 1) so the whole runs in well under a minute on two
 # busy cores. The ASan build's leak check is off inside mpirun jobs only: Open MPI keeps its own
@@ -369,6 +369,62 @@ check "SIGTERM to rank 0 alone: the job ended $wall s after the signal, want <= 
 check "SIGTERM to rank 0 alone: no 'interrupted: the image so far'" grep -q "'^pmview: wrote .*interrupted: the image so far'" "$tmp/term0.out"
 check "SIGTERM to rank 0 alone: the image is not an EXR" is_exr "$tmp/term0.exr"
 check "SIGTERM to rank 0 alone: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
+for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+
+# --- 12. a rank stopped (SIGSTOP) during its set-up, before its word at the agreement: rank 0
+# waits 10 s + 4 times its own set-up for every rank's word, then ends the job naming it (16 s
+# after the stop on a loaded machine). Before,
+# the agreement was a collective, which a stopped rank held for ever. The scene is a generated
+# 500,000-triangle emitting grid, so that a rank's set-up lasts long enough to be stopped in it;
+# a rank is past MPI's start once its stderr is the file it keeps (a deleted temporary file).
+python3 - "$tmp/grid.gltf" 500 <<'EOF'
+import json, struct, sys
+out, n = sys.argv[1], int(sys.argv[2])
+pos = b''.join(struct.pack('<3f', i / n - 0.5, j / n - 0.5, 0.0) for j in range(n + 1) for i in range(n + 1))
+idx = b''.join(struct.pack('<6I', a, a + 1, a + n + 2, a, a + n + 2, a + n + 1)
+               for a in (j * (n + 1) + i for j in range(n) for i in range(n)))
+open(out + '.bin', 'wb').write(pos + idx)
+json.dump({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1]}],
+           "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0, 0, 2]}],
+           "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.01}}],
+           "materials": [{"emissiveFactor": [1, 1, 1], "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1]}}],
+           "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]}],
+           "buffers": [{"uri": out.split('/')[-1] + '.bin', "byteLength": len(pos) + len(idx)}],
+           "bufferViews": [{"buffer": 0, "byteLength": len(pos)},
+                           {"buffer": 0, "byteOffset": len(pos), "byteLength": len(idx)}],
+           "accessors": [{"bufferView": 0, "componentType": 5126, "count": (n + 1) ** 2, "type": "VEC3",
+                          "min": [-0.5, -0.5, 0], "max": [0.5, 0.5, 0]},
+                         {"bufferView": 1, "componentType": 5125, "count": 6 * n * n, "type": "SCALAR"}]},
+          open(out, 'w'))
+EOF
+mpi_job "$tmp/grid.gltf" --threads 1 --width 32 --iterations 4 --snapshot "$tmp/setup-stop.exr" >"$tmp/setup-stop.out" 2>&1 &
+job=$!
+i=0; rank1=""
+# mpirun's children, not all of /proc: found within milliseconds of their start
+while [ -z "$rank1" ] && [ "$i" -lt 3000 ] && kill -0 "$job" 2>/dev/null; do
+    for p in $(ps -o pid= --ppid "$job"); do
+        tr '\0' '\n' <"/proc/$p/environ" 2>/dev/null | grep -qx OMPI_COMM_WORLD_RANK=1 && rank1=$p
+    done
+    i=$((i + 1)); [ -z "$rank1" ] && sleep 0.01
+done
+i=0; stopped=false
+while [ -n "$rank1" ] && [ "$i" -lt 3000 ] && kill -0 "$rank1" 2>/dev/null; do
+    if readlink "/proc/$rank1/fd/2" 2>/dev/null | grep -q '(deleted)'; then kill -STOP $rank1; stopped=true; break; fi
+    sleep 0.01; i=$((i + 1))
+done
+sent=$(now)
+i=0
+while kill -0 "$job" 2>/dev/null && [ "$i" -lt 900 ]; do sleep 0.1; i=$((i + 1)); done
+wall=$(elapsed "$sent" "$(now)")
+if kill -0 "$job" 2>/dev/null; then fail "stopped in the set-up: mpirun still running 90 s after the stop"; kill -KILL "$job"; fi
+wait "$job"; rc=$?; job=""
+[ -n "$rank1" ] && kill -CONT $rank1 2>/dev/null
+echo "stopped in the set-up: mpirun ended $wall s after the stop, exit $rc, $(grep "^pmview:" "$tmp/setup-stop.out" | head -n 1)"
+check "stopped in the set-up: no rank 1 past MPI's start to stop" $stopped
+check "stopped in the set-up: exit 0" [ "$rc" -ne 0 ]
+named=$(grep -c "^pmview: error: rank 1 gave no word at the set-up.s agreement .* (stopped or hung): the job ends" "$tmp/setup-stop.out")
+check "stopped in the set-up: $named lines naming rank 1 as silent at the agreement, want 1" [ "$named" -eq 1 ]
+check "stopped in the set-up: rendering was reported" ! grep -q "'^pmview: wrote'" "$tmp/setup-stop.out"
 for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
 
 echo "test_cluster: $checks checks, $fails failed"

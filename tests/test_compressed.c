@@ -1,10 +1,13 @@
 /* test_compressed.c: the Draco and meshopt ducks in tests/models/duck load as the plain duck does, and corrupt or lying compressed streams give one clear error. */
 #define _GNU_SOURCE
+#include <dirent.h>
 #include <stdint.h>
 #include <string.h>
+#include <time.h>
 
 #include "compressed.h"
 #include "loader.h"
+#include "memory.h"
 #include "testing.h"
 
 #define DUCKS "tests/models/duck/"
@@ -25,6 +28,21 @@ static bytes read_file(const char *path) {
     if (fread(b.data, 1, b.size, f) != b.size) b.size = 0;
     fclose(f);
     return b;
+}
+
+static int thread_count(void) {
+    int n = 0;
+    DIR *d = opendir("/proc/self/task");
+    if (!d) return -1;
+    for (struct dirent *e; (e = readdir(d));) n += e->d_name[0] != '.';
+    closedir(d);
+    return n;
+}
+
+static double now_seconds(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return t.tv_sec + t.tv_nsec * 1e-9;
 }
 
 static uint32_t u32(const unsigned char *p) { return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24; }
@@ -264,18 +282,67 @@ int main(void) {
         }
     }
     {
-        /* this byte makes libdraco count 2^31-ish texture-coordinate orientation bits (8 s, 160 MB):
-         * refused once the time budget of a 10 KB stream is spent */
+        /* this byte makes libdraco count 2^31-ish texture-coordinate orientation bits (8 s, 160 MB,
+         * and the decode thread was left running after the time budget refused it): the memory
+         * the stream's counts forecast is its decode's budget, so it is refused at the first
+         * allocation past it, at once, and its thread has ended when the refusal comes */
         unsigned char *bin = malloc(d.bin_size);
         memcpy(bin, d.bin, d.bin_size);
         bin[6052] = 0xbb;
         bytes b = pack(d.json, bin, d.bin_size);
         pm_scene scene;
-        CHECK(!load(b, &scene, err, sizeof err) && strstr(err, "the Draco stream is still decoding after 2.1 s") &&
+        int threads_before = thread_count();
+        double start = now_seconds();
+        bool refused = !load(b, &scene, err, sizeof err);
+        double seconds = now_seconds() - start;
+        CHECK(refused && strstr(err, "the Draco stream asks for more than the 2.9 MiB its counts and size allow") &&
                   strstr(err, "(mesh 0 primitive 0 KHR_draco_mesh_compression"),
-              "a stream libdraco spends seconds on is refused: %s", err);
+              "a stream that asks libdraco for 160 MB is refused by its budget: %s", err);
+        CHECK(seconds < 1.0, "the corrupt count refused in %.2f s, want under 1 s (the time budget is 2.1 s)", seconds);
+        CHECK(thread_count() == threads_before, "%d threads after the refusal, %d before: the decode thread was left running",
+              thread_count(), threads_before);
+        CHECK(pm_memory_committed() == 0, "%llu bytes still admitted after the refusal", (unsigned long long)pm_memory_committed());
         free(b.data);
         free(bin);
+    }
+    {
+        /* the Draco decoder's memory under --max-memory: its forecast (from the stream's vertex
+         * and face counts) is admitted before the decode; a limit below it refuses the stream in
+         * one line naming the decoder, a limit above it lets the duck load */
+        uint64_t forecast = pm_draco_forecast_bytes(2108, 4212, draco_length);
+        pm_scene scene;
+        bytes textureless = pack(d.json, d.bin, d.bin_size); /* the duck's image is not what is measured */
+        pm_memory_set_limit(forecast / 2);
+        pm_memory_clear_failure();
+        CHECK(!load(textureless, &scene, err, sizeof err) && strstr(err, "a Draco stream of 2108 vertices and 4212 triangles: out of memory") &&
+                  strstr(err, "the Draco decoder") && !strchr(err, '\n'),
+              "the Draco duck under a limit of half its decoder's forecast: %s", err);
+        CHECK(pm_memory_committed() == 0, "%llu bytes still admitted after the refusal", (unsigned long long)pm_memory_committed());
+        pm_memory_set_limit(forecast + (64u << 20));
+        bool ok = load(textureless, &scene, err, sizeof err);
+        free(textureless.data);
+        CHECK(ok, "the Draco duck under a limit of its forecast + 64 MiB: %s", err);
+        if (ok) pm_scene_free(&scene);
+        CHECK(pm_memory_committed() == 0, "%llu bytes still admitted once the duck is loaded and freed",
+              (unsigned long long)pm_memory_committed());
+
+        /* a stream whose header states 50 million vertices and 100 million triangles (a large
+         * stream, or a lying one): refused under 64 MiB before libdraco is asked for anything.
+         * Before, libdraco took 123 MB under a 16 MB limit for a large stream. */
+        unsigned char header[32] = {'D', 'R', 'A', 'C', 'O', 2, 2, 1 /* mesh */, 1 /* edgebreaker */, 0, 0,
+                                    0 /* traversal */};
+        size_t n = 12;
+        for (uint32_t v = 50000000u; ; v >>= 7) { header[n++] = (unsigned char)((v & 0x7f) | (v > 0x7f ? 0x80 : 0)); if (v <= 0x7f) break; }
+        for (uint32_t v = 100000000u; ; v >>= 7) { header[n++] = (unsigned char)((v & 0x7f) | (v > 0x7f ? 0x80 : 0)); if (v <= 0x7f) break; }
+        pm_memory_set_limit(64u << 20);
+        pm_memory_clear_failure();
+        double start = now_seconds();
+        CHECK(!pm_draco_decode(header, sizeof header, err, sizeof err) &&
+                  strstr(err, "a Draco stream of 50000000 vertices and 100000000 triangles: out of memory") &&
+                  strstr(err, "--max-memory"),
+              "a header of 5e7 vertices and 1e8 triangles under 64 MiB: %s", err);
+        CHECK(now_seconds() - start < 0.1, "refused in %.3f s: not before the decode", now_seconds() - start);
+        pm_memory_set_limit(0);
     }
     {
         /* 60 primitives of the placed mesh name the one stream, and an unused mesh's 60 primitives
