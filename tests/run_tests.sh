@@ -48,12 +48,13 @@ TSAN_TESTS="test_threads test_texture_threads"
 export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 # Convergence tests run hundreds of iterations, test_photons millions of photons, test_pathtrace
 # hundreds of paths per pixel, test_hard_energy an albedo-0.99 furnace of 100-bounce photon paths,
-# test_glossy 512-iteration renders against Mitsuba, test_leaks three scenes in up to three modes: they
-# run optimised (processor time: test_photons 45 s against 136 s, test_glossy 15 s against 31 s,
-# test_leaks 17 s against 34 s); the code they drive runs under ASan/UBSan in test_progressive,
+# test_glossy, test_reference and test_splats long renders against Mitsuba, test_leaks three scenes
+# in up to three modes: they run optimised (processor time: test_photons 45 s against 136 s,
+# test_glossy 15 s against 31 s, test_leaks 17 s against 34 s, test_splats 8 s against 16 s,
+# test_reference 8 s against 13 s); the code they drive runs under ASan/UBSan in test_progressive,
 # test_volume, test_brdf, test_layers, the classic runs of test_cli and the path-traced runs of
 # test_log (build/asan/pmview), and (make check) under TSan in test_threads.
-OPTIMISED="test_convergence test_photons test_pathtrace test_hard_energy test_mirror_box test_glossy test_leaks"
+OPTIMISED="test_convergence test_photons test_pathtrace test_hard_energy test_mirror_box test_glossy test_leaks test_reference test_splats"
 # Tests that measure what a person would see in seconds (a window's first frame, an answer to a key
 # or a signal, ranks exchanging iterations) or render for a set time (--time): another test beside
 # them could push them past their bounds.
