@@ -73,9 +73,10 @@ pmview: build/rel/main.o build/rel/libpm.a
 run: deps pmview
 	@sh tools/run-default.sh $(SCENE)
 
-# what `make test` runs: the ASan build of every test program, the optimised build of the few that
-# run optimised, and the two pmview builds the script tests drive (the TSan build is make check's)
-tests-build: pmview build/rel/error_map build/asan/pmview $(addprefix build/asan/tests/,$(TESTS)) $(addprefix build/rel/tests/,$(OPTIMISED_TESTS))
+# what `make test` runs: the ASan build of every test program but the few that run optimised, their optimised
+# build, and the two pmview builds the script tests drive
+tests-build: pmview build/rel/error_map build/asan/pmview $(addprefix build/asan/tests/,$(filter-out $(OPTIMISED_TESTS),$(TESTS))) \
+             $(addprefix build/rel/tests/,$(OPTIMISED_TESTS))
 
 build/asan/pmview: build/asan/main.o build/asan/libpm.a
 	$(CC) $(CFLAGS) $(ASAN_FLAGS) $^ -o $@ $(LIBS) $(ASAN_FLAGS)
@@ -87,7 +88,7 @@ test: deps
 # everything under ASan+UBSan (the optimised tests too), the threaded tests under TSan, a render under valgrind
 check:
 	@sh tools/install-deps.sh check
-	@$(MAKE) --no-print-directory -j2 tests-build $(addprefix build/tsan/tests/,$(TSAN_TESTS))
+	@$(MAKE) --no-print-directory -j2 tests-build $(addprefix build/asan/tests/,$(OPTIMISED_TESTS)) $(addprefix build/tsan/tests/,$(TSAN_TESTS))
 	@PMVIEW_CHECK=1 JOBS=$(JOBS) sh tests/run_tests.sh
 
 # The fuzz target: clang's libFuzzer over the whole library, built with its own compiler and flags.

@@ -47,11 +47,14 @@ jobs=${JOBS:-2}
 TSAN_TESTS="test_threads test_texture_threads"
 export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 # Convergence tests run hundreds of iterations, test_photons millions of photons, test_pathtrace
-# hundreds of paths per pixel, test_hard_energy an albedo-0.99 furnace of 100-bounce photon paths:
-# they run optimised (test_photons 45 s against 136 s); the code they drive runs under ASan/UBSan
-# in test_progressive, test_glossy, test_volume, the classic runs of test_cli and the path-traced
-# runs of test_log (build/asan/pmview), and (make check) under TSan in test_threads.
-OPTIMISED="test_convergence test_photons test_pathtrace test_hard_energy test_mirror_box"
+# hundreds of paths per pixel, test_hard_energy an albedo-0.99 furnace of 100-bounce photon paths,
+# test_glossy, test_reference and test_splats long renders against Mitsuba, test_leaks three scenes
+# in up to three modes: they run optimised (processor time: test_photons 45 s against 136 s,
+# test_glossy 15 s against 31 s, test_leaks 17 s against 34 s, test_splats 8 s against 16 s,
+# test_reference 8 s against 13 s); the code they drive runs under ASan/UBSan in test_progressive,
+# test_volume, test_brdf, test_layers, the classic runs of test_cli and the path-traced runs of
+# test_log (build/asan/pmview), and (make check) under TSan in test_threads.
+OPTIMISED="test_convergence test_photons test_pathtrace test_hard_energy test_mirror_box test_glossy test_leaks test_reference test_splats"
 # Tests that measure what a person would see in seconds (a window's first frame, an answer to a key
 # or a signal, ranks exchanging iterations) or render for a set time (--time): another test beside
 # them could push them past their bounds.
@@ -67,13 +70,13 @@ add() { # name command...: queue a test, in the list of those run alone when it 
     case " $ALONE " in *" $base "*) echo "$*" >>"$alone" ;; *) echo "$*" >>"$list" ;; esac
 }
 entries=$(mktemp) || exit 1
-for t in build/asan/tests/test_*; do
-    [ -f "$t" ] && [ -x "$t" ] || continue
-    name=$(basename "$t")
+# every test program, from its source: make test builds the OPTIMISED ones only optimised
+for src in tests/test_*.c; do
+    name=$(basename "$src" .c)
     if [ "$check" = 0 ] && case " $OPTIMISED " in *" $name "*) true ;; *) false ;; esac; then
-        echo "$name[optimised] build/rel/tests/$name"
+        [ -x "build/rel/tests/$name" ] && echo "$name[optimised] build/rel/tests/$name"
     else
-        echo "$name $t"
+        [ -x "build/asan/tests/$name" ] && echo "$name build/asan/tests/$name"
     fi
 done >"$entries"
 for t in $TSAN_TESTS; do

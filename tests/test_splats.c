@@ -17,6 +17,8 @@ typedef struct {
 } run_result;
 
 /* The caustic scene rendered for `iterations` with or without splats. */
+static uint64_t seed = 1; /* argv[2]: the tests' seed, 1 by default */
+
 static run_result render(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int w, int h, bool splats, int threads,
                          int iterations) {
     run_result out;
@@ -24,6 +26,7 @@ static run_result render(const pm_scene *s, const pm_accel *a, const pm_camera *
     pm_progressive_settings ps = default_settings(w, h);
     ps.caustic_by_statistics = !splats;
     ps.threads = threads;
+    ps.seed = seed;
     ps.eye_passes = 1; /* equal photon passes for both estimators */
     session r;
     if (!start(&r, s, a, cam, w, h, &ps)) return out;
@@ -46,6 +49,7 @@ static void release(run_result *r) {
 
 int main(int argc, char **argv) {
     int iterations = argc > 1 ? atoi(argv[1]) : 120; /* more, to watch the statistics' radius bias shrink */
+    if (argc > 2) seed = strtoull(argv[2], NULL, 10);
     pm_scene s;
     pm_load_report rep;
     char err[512];
@@ -95,7 +99,13 @@ int main(int argc, char **argv) {
     }
 
     /* 3. An orthographic camera looking down at the caustic: its own importance (no distance
-     * or angle term) against the statistics. */
+     * or angle term) against the statistics. Seen from above, the ball's focus lies on its
+     * silhouette and holds 85% of the caustic layer in the 5x5 pixels around it; there the
+     * statistics' discs, a hundred visible points a pixel, catch or miss a peak smaller than a
+     * pixel, so their focus reads 0.93 to 1.11 of the splats' at seeds 1-3 (120 iterations),
+     * the whole image's ratio with it. A wrong importance scales every pixel alike, so the
+     * estimators are compared without the focus: 0.9955 to 0.9978 at seeds 1-3 (a disc's
+     * blur toward the ball's shadow), bounded at 1.5%. */
     pm_camera ortho = cam;
     ortho.orthographic = true;
     ortho.position = v3(0.f, 3.f, 0.f);
@@ -105,10 +115,29 @@ int main(int argc, char **argv) {
     ortho.ymag = 1.5f;
     run_result oon = render(&s, a, &ortho, W, H, true, 2, iterations), ooff = render(&s, a, &ortho, W, H, false, 2, iterations);
     double oratio = oon.caustic_mean / ooff.caustic_mean;
+    double ofocus = 0.0, orest = 1.0;
+    if (oon.caustic && ooff.caustic) {
+        size_t focus = 0;
+        for (size_t i = 1; i < (size_t)W * H; i++) if (oon.caustic[3 * i] > oon.caustic[3 * focus]) focus = i;
+        double focus_on = 0.0, focus_off = 0.0, rest_on = 0.0, rest_off = 0.0;
+        for (size_t i = 0; i < (size_t)W * H; i++) {
+            double von = oon.caustic[3 * i] + oon.caustic[3 * i + 1] + oon.caustic[3 * i + 2];
+            double voff = ooff.caustic[3 * i] + ooff.caustic[3 * i + 1] + ooff.caustic[3 * i + 2];
+            bool near = labs((long)(i % W) - (long)(focus % W)) <= 2 && labs((long)(i / W) - (long)(focus / W)) <= 2;
+            if (near) { focus_on += von; focus_off += voff; } else { rest_on += von; rest_off += voff; }
+        }
+        ofocus = focus_on / focus_off;
+        orest = rest_on / rest_off;
+        printf("orthographic: focus (%zu,%zu) holds %.1f%% of the splats' caustic; splats/statistics %.4f there, %.4f elsewhere\n",
+               focus % W, focus / W, 100.0 * focus_on / (focus_on + rest_on), ofocus, orest);
+    }
     printf("orthographic: caustic layer mean %.5f with splats (%llu), %.5f from statistics, ratio %.4f\n",
            oon.caustic_mean, (unsigned long long)oon.splats, ooff.caustic_mean, oratio);
     CHECK(oon.splats > 1000 && ooff.caustic_mean > 0.0, "orthographic: the caustic is not in view");
-    CHECK(fabs(oratio - 1.0) < 0.06, "orthographic: splats and statistics differ by %.2f%%", 100 * (oratio - 1.0));
+    CHECK(fabs(orest - 1.0) < 0.015, "orthographic: away from the focus, splats and statistics differ by %.2f%%",
+          100 * (orest - 1.0));
+    /* the focus itself: the statistics' spread there (0.93 to 1.11), with room */
+    CHECK(ofocus > 0.8 && ofocus < 1.25, "orthographic: at the focus, splats/statistics %.3f", ofocus);
 
     /* 4. Splats merge in photon order: the same image at any thread count. */
     run_result one = render(&s, a, &cam, W, H, true, 1, 6), two = render(&s, a, &cam, W, H, true, 2, 6);
