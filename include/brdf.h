@@ -45,7 +45,7 @@ typedef struct {
  *   specular:  the dielectric part above with F0 = specular_f0 and F90 = specular, its diffuse
  *              base under 1 - specular x F(max(specular_f0), cos) at the two macro angles;
  *   sheen:     f_sheen = sheen_color D_Charlie(h) V_Charlie (Conty Estevez and Kulla 2017, the
- *              visibility of their lambda fit, alphaG = sheenRoughness), the layers below times
+ *              visibility of their lambda fit, alphaG = sheenRoughness^2), the layers below times
  *              min(1 - max3(sheen_color) E(cos_o), 1 - max3(sheen_color) E(cos_i)) with E the
  *              sheen lobe's directional albedo (a table, pm_sheen_albedo);
  *   clearcoat: c F(0.04, v.h) D(h; clearcoat_alpha) V on top, everything below times
@@ -55,7 +55,9 @@ typedef struct {
  * Sampling picks the coat, the base's specular lobe, its cosine lobe or the sheen (uniform over
  * the hemisphere) in proportion to their estimated albedos at wo. The whole stays reciprocal and
  * below albedo 1 (tests/test_layers.c), so photons treat it as the plain lobe: D = weight. */
-#define PM_SHEEN_MIN_ROUGHNESS 0.07f
+/* sheenRoughness floor: alphaG = 0.265^2 = 0.07, below which the Charlie lobe with its lambda-fit
+ * visibility reflects more than it receives at grazing angles (tests/test_layers.c) */
+#define PM_SHEEN_MIN_ROUGHNESS 0.265f
 
 /* The smallest GGX alpha among the lobe's layers: how sharp its sharpest part is (eye.c's gather
  * rays go on through a lobe sharper than PM_PPM_GATHER_LOBE_ALPHA rather than read photons there). */

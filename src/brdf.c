@@ -47,7 +47,8 @@ static double charlie_lambda(double c, double r) {
     return c < 0.5 ? exp(charlie_l(c, r)) : exp(2.0 * charlie_l(0.5, r) - charlie_l(1.0 - c, r));
 }
 
-/* D_Charlie(h) V_Charlie(wo, wi) (double: the table integrates it; eval rounds it to float). */
+/* D_Charlie(h) V_Charlie(wo, wi) of alphaG = r (double: the table integrates it; eval rounds it to
+ * float). The extension maps sheenRoughness to alphaG = sheenRoughness^2. */
 static double charlie_dv(double r, double cos_o, double cos_i, double cos_h) {
     double inv_r = 1.0 / r, sin2h = fmax(0.0, 1.0 - cos_h * cos_h);
     double d = (2.0 + inv_r) * pow(sin2h, 0.5 * inv_r) / (2.0 * pi_d);
@@ -67,7 +68,7 @@ static float sheen_node_roughness(int j) {
  * (the lobe is symmetric about the plane of wo and n). */
 static void fill_sheen_table(void) {
     for (int j = 0; j < SHEEN_ROUGH_STEPS; j++) {
-        double r = sheen_node_roughness(j);
+        double r = (double)sheen_node_roughness(j) * sheen_node_roughness(j);
         for (int k = 0; k < SHEEN_COS_STEPS; k++) {
             double cos_o = fmax(1e-3, (double)k / (SHEEN_COS_STEPS - 1)), sin_o = sqrt(1.0 - cos_o * cos_o), sum = 0.0;
             for (int a = 0; a < SHEEN_THETA_QUAD; a++) {
@@ -195,7 +196,7 @@ vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
     if (has_sheen(b)) {
         float r = b->sheen_roughness, m = v3_max_component(b->sheen_color);
         float scale = pm_minf(1.f - m * pm_sheen_albedo(cos_o, r), 1.f - m * pm_sheen_albedo(cos_i, r));
-        float sheen = (float)charlie_dv(r, cos_o, cos_i, cos_h);
+        float sheen = (float)charlie_dv((double)r * r, cos_o, cos_i, cos_h);
         f = v3_add(v3_scale(f, pm_maxf(0.f, scale)), v3_scale(b->sheen_color, sheen));
     }
     if (has_coat(b)) {

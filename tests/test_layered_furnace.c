@@ -86,9 +86,9 @@ int main(int argc, char **argv) {
     }
     printf("layered furnace (Lambert 0.6, sheen, coat): reference %.4f +- %.4f; path tracer %.4f (%+.2f%%), progressive %.4f (%+.2f%%)\n",
            ref, ref_error, traced, 100 * (traced / ref - 1), photons, 100 * (photons / ref - 1));
-    /* The reference is 1.0321 +- 0.0006. Seeds 1-5: the path tracer (192 iterations) -0.18% to +0.06%,
+    /* The reference is 1.0099 +- 0.0006. Seeds 1-5: the path tracer (192 iterations) -0.18% to +0.06%,
      * the progressive mode (48) -0.41% to +0.57%; the bounds are five of their spreads. Leaving out
-     * the sheen's dimming of the base moves the answer 27% (tests/ref/README.md). */
+     * the sheen's dimming of the base moves the answer 15% (tests/ref/README.md). */
     CHECK_NEAR(traced, ref, 0.006, 0, "path tracer against the independent furnace");
     CHECK_NEAR(photons, ref, 0.02, 0, "progressive against the independent furnace");
     CHECK_NEAR(photons, traced, 0.03, 0, "photons estimate the layered lobe as paths do");

@@ -15,7 +15,8 @@ LE = 0.5                                   # the walls' emitted radiance
 BASE = np.array([0.6, 0.6, 0.6])           # base colour, metallic 0, roughness 1 (alpha 1)
 BASE_ALPHA = 1.0
 SHEEN = np.array([0.9, 0.7, 0.5])          # sheenColorFactor
-SHEEN_R = 0.5                              # sheenRoughnessFactor (brdf.h: alphaG = sheenRoughness)
+SHEEN_R = 0.5                              # sheenRoughnessFactor
+SHEEN_ALPHA = SHEEN_R * SHEEN_R            # KHR_materials_sheen: alphaG = sheenRoughness^2
 COAT = 1.0                                 # clearcoatFactor
 COAT_ALPHA = 0.4 * 0.4                     # clearcoatRoughness^2
 CAM_POS = np.array([0.0, 0.0, 0.5])        # sb_camera(position, target, up, yfov 60 degrees), 16x16
@@ -90,7 +91,7 @@ def layered_f(co, ci, ch, oh, e_o, e_i):
     base = spec[:, None] + diffuse[:, None] * BASE[None, :] / math.pi
     m = SHEEN.max()
     scale = np.maximum(0.0, np.minimum(1.0 - m * e_o, 1.0 - m * e_i))
-    below = scale[:, None] * base + SHEEN[None, :] * charlie_dv(SHEEN_R, co, ci, ch)[:, None]
+    below = scale[:, None] * base + SHEEN[None, :] * charlie_dv(SHEEN_ALPHA, co, ci, ch)[:, None]
     coat = COAT * schlick(0.04, 1.0, oh) * ggx_dv(COAT_ALPHA, co, ci, ch)
     dim = (1.0 - COAT * schlick(0.04, 1.0, co)) * (1.0 - COAT * schlick(0.04, 1.0, ci))
     return coat[:, None] + dim[:, None] * below
@@ -158,7 +159,7 @@ def main():
     ap.add_argument("--seed", type=int, default=7)
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
-    cos_grid, table = sheen_albedo_table(SHEEN_R)
+    cos_grid, table = sheen_albedo_table(SHEEN_ALPHA)
     means, per_path = [], []
     done = 0
     while done < args.paths:
