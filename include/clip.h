@@ -78,6 +78,9 @@ void pm_clip_cache_destroy(pm_clip_cache *c);
  * may be NULL. */
 typedef enum { PM_CLEAR_UNKNOWN, PM_CLEAR_OPEN, PM_CLEAR_NEAR } pm_clip_known;
 pm_clip_known pm_clip_cache_lookup(pm_clip_cache *c, uint32_t tri, vec3 p, float reach);
+/* Starts loading p's cell on triangle tri, for a lookup soon after: a batch of discs prefetches
+ * all its cells first, so that their cache misses overlap. */
+void pm_clip_cache_prefetch(pm_clip_cache *c, uint32_t tri, vec3 p);
 
 /* A clip that keeps everything: an estimate may read its disc unclipped. */
 static inline bool pm_clip_is_open(const pm_clip *c) {

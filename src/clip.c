@@ -251,7 +251,7 @@ static double triangle_distance(const double q[3], const double v[3][3], const d
 }
 
 /* One triangle the BVH offers near p; false ends the search (the answer is known to be too small). */
-static bool clear_visit(void *user, uint32_t tri) {
+static bool clear_visit(void *user, uint32_t tri, float *radius) {
     clear_search *o = user;
     const pm_scene *s = o->s;
     for (int i = 0; i < o->seen; i++)
@@ -292,7 +292,12 @@ static bool clear_visit(void *user, uint32_t tri) {
         return true;
     }
     double d = opaque ? triangle_distance(o->p, v, m) : 0.0;
-    if (d < o->best) o->best = d;
+    if (d < o->best) {
+        o->best = d;
+        /* nothing beyond the nearest surface found can lower it: the search narrows to it (the
+         * flat triangles that close an edge nearer than that lie within it too) */
+        *radius = pm_minf(*radius, (float)d * 1.001f + (float)o->tolerance);
+    }
     return o->best >= o->need;
 }
 
@@ -356,13 +361,13 @@ bool pm_clip_needless(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, floa
 
 /* ---- per-triangle clearance grids ----
  *
- * A triangle many discs ask about gets a grid over its plane: per cell, a clearance every point
- * of the triangle in the cell has at least (the clearance at the cell's centre less its half
- * diagonal: a distance changes no faster than the point moves). A disc whose point's cell
- * certifies OPEN_REACH radii needs no search at all. Grids are built whole by the first thread to
- * ask and published at once; a cell that certifies nothing sends the disc on to the search and the
- * probes. Either way the clip is the probes' own, so the image does not depend on which thread
- * built what, or when. */
+ * A triangle many discs ask about gets a grid over its plane: per cell, the clearance at the
+ * cell's centre. A distance changes no faster than the point moves, so a point at distance d from
+ * the centre has a clearance within d of it: a disc whose bound certifies OPEN_REACH radii needs
+ * no search at all, and one whose bound shows a surface nearer goes straight to the probes. Grids
+ * are built whole by the first thread to ask and published at once; a cell that certifies neither
+ * sends the disc on to the search. Either way the clip is the probes' own, so the image does not
+ * depend on which thread built what, or when. */
 
 #define GRID_AFTER 16       /* asks before a triangle's grid is built */
 #define GRID_MAX 64         /* cells a side */
@@ -371,10 +376,12 @@ bool pm_clip_needless(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, floa
 
 typedef struct {
     vec3 origin, u, w;  /* the plane's frame: origin + x u + y w */
+    vec3 m;             /* its unit normal */
     float cell;         /* side of a cell */
     int nu, nw;
-    float bound[];      /* nu x nw cells, row by row, two floats each: every point of the triangle in the
-                           cell has a clearance of at least the first and at most the second */
+    float reach;        /* clearances were searched this far */
+    float clear[];      /* nu x nw cells, row by row: the clearance at the cell's centre (-1: unknown;
+                           INFINITY: at least reach) */
 } clear_grid;
 
 struct pm_clip_cache {
@@ -436,22 +443,20 @@ static clear_grid *build_grid(pm_clip_cache *c, uint32_t tri, float r) {
     int cells = (int)pm_minf(GRID_MAX, pm_maxf(1.f, ceilf(extent / (0.5f * r))));
     float cell = extent / (float)cells * 1.0001f;
     int nu = (int)pm_maxf(1.f, ceilf((hi_u - lo_u) / cell)), nw = (int)pm_maxf(1.f, ceilf((hi_w - lo_w) / cell));
-    size_t bytes = sizeof(clear_grid) + 2 * sizeof(float) * (size_t)nu * (size_t)nw;
+    size_t bytes = sizeof(clear_grid) + sizeof(float) * (size_t)nu * (size_t)nw;
     if (atomic_fetch_add(&c->bytes, bytes) + bytes > GRID_BYTES) return NULL;
     clear_grid *g = pm_malloc(bytes, "clip cache grid");
     if (!g) { pm_memory_forgive_last(); return NULL; } /* the disc searches the BVH: the same answer */
     g->origin = v3_add(v[0], v3_add(v3_scale(u, lo_u), v3_scale(w, lo_w)));
-    g->u = u, g->w = w, g->cell = cell, g->nu = nu, g->nw = nw;
-    float half_diagonal = 0.70711f * cell;
+    g->u = u, g->w = w, g->m = m, g->cell = cell, g->nu = nu, g->nw = nw;
     /* clearances are searched up to what a disc a few times this one's size could ask */
-    double reach = OPEN_REACH * 4.0 * r + half_diagonal;
+    double reach = OPEN_REACH * 4.0 * r + 0.70711 * cell;
+    g->reach = (float)reach;
     for (int j = 0; j < nw; j++)
         for (int i = 0; i < nu; i++) {
             vec3 centre = v3_add(g->origin, v3_add(v3_scale(u, (i + 0.5f) * cell), v3_scale(w, (j + 0.5f) * cell)));
             double clear = clearance(s, c->accel, centre, m, reach, 0.0);
-            float *b = &g->bound[2 * (j * nu + i)];
-            b[0] = clear < 0.0 ? -1.f : (float)(clear - half_diagonal) * 0.9999f;
-            b[1] = clear < 0.0 || clear >= reach ? INFINITY : (float)(clear + half_diagonal) * 1.0001f;
+            g->clear[j * nu + i] = clear < 0.0 ? -1.f : clear >= reach ? INFINITY : (float)clear;
         }
     return g;
 }
@@ -469,11 +474,31 @@ pm_clip_known pm_clip_cache_lookup(pm_clip_cache *c, uint32_t tri, vec3 p, float
     }
     if (g == GRID_BUILDING) return PM_CLEAR_UNKNOWN;
     vec3 d = v3_sub(p, g->origin);
-    int i = (int)floorf(v3_dot(d, g->u) / g->cell), j = (int)floorf(v3_dot(d, g->w) / g->cell);
+    float x = v3_dot(d, g->u) / g->cell, y = v3_dot(d, g->w) / g->cell;
+    int i = (int)floorf(x), j = (int)floorf(y);
     if (i < 0 || j < 0 || i >= g->nu || j >= g->nw) return PM_CLEAR_UNKNOWN;
-    const float *b = &g->bound[2 * (j * g->nu + i)];
+    float clear = g->clear[j * g->nu + i];
+    if (clear < 0.f) return PM_CLEAR_UNKNOWN;
+    /* p's distance from the cell's centre: across the plane, and off it (p lies on it up to rounding) */
+    float du = (x - (float)i - 0.5f) * g->cell, dw = (y - (float)j - 0.5f) * g->cell;
+    float off = v3_dot(d, g->m);
+    float moved = sqrtf(du * du + dw * dw + off * off) * 1.001f;
     float need = OPEN_REACH * reach;
-    return b[0] >= need ? PM_CLEAR_OPEN : b[1] < need ? PM_CLEAR_NEAR : PM_CLEAR_UNKNOWN;
+    /* relative margins far above float rounding of the distances */
+    if (clear == INFINITY) return g->reach - moved >= need * 1.0001f ? PM_CLEAR_OPEN : PM_CLEAR_UNKNOWN;
+    if (clear * 0.9999f - moved >= need * 1.0001f) return PM_CLEAR_OPEN;
+    if (clear * 1.0001f + moved < need * 0.9999f) return PM_CLEAR_NEAR;
+    return PM_CLEAR_UNKNOWN;
+}
+
+void pm_clip_cache_prefetch(pm_clip_cache *c, uint32_t tri, vec3 p) {
+    if (!c || tri >= c->count) return;
+    clear_grid *g = atomic_load_explicit(&c->grid[tri], memory_order_acquire);
+    if (!g || g == GRID_BUILDING) return;
+    vec3 d = v3_sub(p, g->origin);
+    int i = (int)(v3_dot(d, g->u) / g->cell), j = (int)(v3_dot(d, g->w) / g->cell);
+    if (i < 0 || j < 0 || i >= g->nu || j >= g->nw) return;
+    __builtin_prefetch(&g->clear[j * g->nu + i]);
 }
 
 void pm_clip_make(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
