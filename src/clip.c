@@ -195,6 +195,19 @@ static float normal_probe(const pm_clip *c, const pm_scene *s, const pm_accel *a
 /* A triangle lies in p's plane when its normal is within this cosine of p's and p within rounding of its plane. */
 #define OPEN_FLAT_COS 0.99999
 #define OPEN_SEEN_MAX 32
+/* Beyond the fan's reach: its probes go r / cos(pi / PM_CLIP_PROBES) along the tangent plane from
+ * an origin lifted PM_CLIP_LIFT r off it, and the rays down from their ends meet p's own surface
+ * within two lifts, where p's flat surface runs closed all round (1.4142 + 0.004, with a margin). A
+ * disc whose clearance is at least this many radii gets no plane from the fan: only the probes
+ * along the normal can bound it. */
+#define SLAB_REACH 1.45f
+
+/* SLAB_REACH radii, plus what the probes' origins move off p (toward the centroid and off the
+ * surface, a few steps of the scene's rounding each). */
+static float slab_need(const pm_scene *s, vec3 p, float reach) {
+    float m = pm_maxf(fabsf(p.x), pm_maxf(fabsf(p.y), fabsf(p.z)));
+    return SLAB_REACH * reach + 8.f * pm_maxf(s->ray_scale * (1.f / 65536.f), m * (1.f / 262144.f));
+}
 
 typedef struct {
     const pm_scene *s;
@@ -359,6 +372,12 @@ bool pm_clip_needless(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, floa
     return clearance(s, a, p, n, need, need) >= need;
 }
 
+pm_clip_known pm_clip_search(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, float reach) {
+    double need = OPEN_REACH * (double)reach, slab = slab_need(s, p, reach);
+    double clear = clearance(s, a, p, n, need, slab);
+    return clear >= need ? PM_CLEAR_OPEN : clear >= slab ? PM_CLEAR_SLAB : PM_CLEAR_NEAR;
+}
+
 /* ---- per-triangle clearance grids ----
  *
  * A triangle many discs ask about gets a grid over its plane: per cell, the clearance at the
@@ -483,11 +502,12 @@ pm_clip_known pm_clip_cache_lookup(pm_clip_cache *c, uint32_t tri, vec3 p, float
     float du = (x - (float)i - 0.5f) * g->cell, dw = (y - (float)j - 0.5f) * g->cell;
     float off = v3_dot(d, g->m);
     float moved = sqrtf(du * du + dw * dw + off * off) * 1.001f;
-    float need = OPEN_REACH * reach;
+    float need = OPEN_REACH * reach, slab = slab_need(c->scene, p, reach);
     /* relative margins far above float rounding of the distances */
-    if (clear == INFINITY) return g->reach - moved >= need * 1.0001f ? PM_CLEAR_OPEN : PM_CLEAR_UNKNOWN;
-    if (clear * 0.9999f - moved >= need * 1.0001f) return PM_CLEAR_OPEN;
-    if (clear * 1.0001f + moved < need * 0.9999f) return PM_CLEAR_NEAR;
+    float least = clear == INFINITY ? g->reach - moved : clear * 0.9999f - moved;
+    if (least >= need * 1.0001f) return PM_CLEAR_OPEN;
+    if (least >= slab * 1.0001f) return PM_CLEAR_SLAB;
+    if (clear * 1.0001f + moved < slab * 0.9999f) return PM_CLEAR_NEAR;
     return PM_CLEAR_UNKNOWN;
 }
 
@@ -501,17 +521,34 @@ void pm_clip_cache_prefetch(pm_clip_cache *c, uint32_t tri, vec3 p) {
     __builtin_prefetch(&g->clear[j * g->nu + i]);
 }
 
+static void make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                        uint64_t seed, uint64_t *rays, bool fan_reaches);
+
 void pm_clip_make(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
                   uint64_t seed, uint64_t *rays) {
-    if (reach > 0.f && isfinite(reach) && pm_clip_needless(s, a, p, n, reach)) {
-        pm_clip_open(c, p, n);
-        return;
-    }
-    pm_clip_make_probed(c, s, a, p, n, tri, reach, seed, rays);
+    pm_clip_make_known(c, s, a, p, n, tri, reach, seed, rays, PM_CLEAR_UNKNOWN);
+}
+
+void pm_clip_make_known(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                        uint64_t seed, uint64_t *rays, pm_clip_known known) {
+    if (known == PM_CLEAR_UNKNOWN && reach > 0.f && isfinite(reach)) known = pm_clip_search(s, a, p, n, reach);
+    if (known == PM_CLEAR_OPEN) pm_clip_open(c, p, n);
+    else make_probed(c, s, a, p, n, tri, reach, seed, rays, known != PM_CLEAR_SLAB);
 }
 
 void pm_clip_make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
                          uint64_t seed, uint64_t *rays) {
+    make_probed(c, s, a, p, n, tri, reach, seed, rays, true);
+}
+
+void pm_clip_make_slab(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                       uint64_t seed, uint64_t *rays) {
+    make_probed(c, s, a, p, n, tri, reach, seed, rays, false);
+}
+
+/* The probes; without the fan where it is known to meet nothing (fan_reaches false). */
+static void make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                        uint64_t seed, uint64_t *rays, bool fan_reaches) {
     pm_clip_open(c, p, n);
     if (!(reach > 0.f) || !isfinite(reach)) return;
     uint64_t h = pm_hash64(seed);
@@ -527,7 +564,7 @@ void pm_clip_make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 
     vec3 o = v3_madd(pm_offset_surface_origin(p, centroid, n, s->ray_scale), n, lift);
     /* a straight wall across the disc meets the nearest probe within reach / cos(pi / probes) */
     float fan_reach = reach / cosf(PM_PI / PM_CLIP_PROBES);
-    for (int k = 0; k < PM_CLIP_PROBES; k++) {
+    for (int k = 0; k < PM_CLIP_PROBES && fan_reaches; k++) {
         float angle = fan + 2.f * PM_PI * (float)k / PM_CLIP_PROBES;
         vec3 d = v3_add(v3_scale(c->t1, cosf(angle)), v3_scale(c->t2, sinf(angle)));
         float clear = tangent_probe(c, s, a, o, d, fan_reach, lift, rays);

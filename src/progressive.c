@@ -671,8 +671,8 @@ static pm_grid_query disc_query(gather_job *job, const pm_photon_grid *grid, con
     pm_clip_known known = PM_CLEAR_OPEN;
     if (!p->settings.unclipped && pm_photon_grid_may_find(grid, vp->p, (float)r2) &&
         (known = pm_clip_cache_lookup(p->clip_cache, vp->tri, vp->p, (float)sqrt(r2))) != PM_CLEAR_OPEN) {
-        (known == PM_CLEAR_NEAR ? pm_clip_make_probed : pm_clip_make)(clip, p->scene, p->accel, vp->p, vp->n, vp->tri,
-                                                                     (float)sqrt(r2), seed, &job->counters[thread].clip_rays);
+        pm_clip_make_known(clip, p->scene, p->accel, vp->p, vp->n, vp->tri, (float)sqrt(r2), seed, &job->counters[thread].clip_rays,
+                           known);
         q.clip = pm_clip_is_open(clip) ? NULL : clip; /* nothing to test photons against */
     } else {
         pm_clip_open(clip, vp->p, vp->n);
