@@ -4,7 +4,9 @@
 # Time: each scene renders ITERATIONS iterations at 256x256 (and `make run`'s scene, the Cornell
 # box, 64 iterations at its default 512x512) with --clip on and --clip off, alternating, twice;
 # the line gives each run's seconds (the snapshot's own figure: set-up, photons, eye passes and
-# gather, not the file), gather_seconds and clip_rays, and time_on_over_off from the sums.
+# gather, not the file), gather_seconds and clip_rays, and time_on_over_off from the sums; and
+# the CPU seconds each whole run took (user + system, /usr/bin/time), cpu_on_over_off from their
+# sums: on a shared machine the steadier of the two.
 # Error: each scene with a reference in tests/ref renders 64x64 for the same wall time
 # (BENCH_SECONDS, default 10) both ways; relmse_on_over_off above 1 means clipping costs error
 # at equal time (on scenes where discs meet walls it may also mend a bias). Every figure was
@@ -16,6 +18,8 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 field() { sed -n "s/.*$1=\([^ ]*\).*/\1/p" "$2" | tail -n 1; }
 # the seconds pmview reports for its snapshot ("wrote FILE (WxH, N iterations, S s)")
+# user + system CPU seconds /usr/bin/time wrote: on a loaded machine the CPU a run took moves far less than its wall time
+cpu() { awk '{print $1 + $2}' "$1" 2>/dev/null; }
 render_seconds() { sed -n 's/.*iterations, \([0-9.]*\) s).*/\1/p' "$1" | tail -n 1; }
 
 # scene, extra options, reference (or -)
@@ -35,21 +39,23 @@ timing() { # name scene size iterations extra
     for round in 1 2; do
         for c in on off; do
             # shellcheck disable=SC2086
-            ./pmview "$scene" $extra --width "$size" --height "$size" --iterations "$count" --clip $c --stats \
+            /usr/bin/time -f "%U %S" -o "$tmp/$c.$round.cpu" ./pmview "$scene" $extra --width "$size" --height "$size" --iterations "$count" --clip $c --stats \
                 --snapshot "$tmp/t.png" >"$tmp/$c.$round" 2>&1 || { echo "bench clip: pmview failed on $scene"; cat "$tmp/$c.$round"; exit 1; }
         done
     done
     python3 - "$name" "$scene" "$size" "$count" \
         "$(render_seconds "$tmp/on.1")" "$(render_seconds "$tmp/on.2")" "$(render_seconds "$tmp/off.1")" "$(render_seconds "$tmp/off.2")" \
         "$(field gather_seconds "$tmp/on.1")" "$(field gather_seconds "$tmp/on.2")" "$(field gather_seconds "$tmp/off.1")" "$(field gather_seconds "$tmp/off.2")" \
-        "$(field clip_rays "$tmp/on.1")" <<'EOF'
+        "$(field clip_rays "$tmp/on.1")" "$(cpu "$tmp/on.1.cpu")" "$(cpu "$tmp/on.2.cpu")" "$(cpu "$tmp/off.1.cpu")" "$(cpu "$tmp/off.2.cpu")" <<'EOF'
 import sys
 name, scene, size, count = sys.argv[1:5]
 on1, on2, off1, off2, gon1, gon2, goff1, goff2 = (float(x or 0) for x in sys.argv[5:13])
 rays = sys.argv[13] or "0"
-print("bench clip_time case=%s scene=%s size=%s iterations=%s seconds_on=%.2f,%.2f seconds_off=%.2f,%.2f gather_seconds_on=%.2f,%.2f gather_seconds_off=%.2f,%.2f clip_rays=%s time_on_over_off=%.3f gather_on_over_off=%.2f"
+con1, con2, coff1, coff2 = (float(x or 0) for x in sys.argv[14:18])
+print("bench clip_time case=%s scene=%s size=%s iterations=%s seconds_on=%.2f,%.2f seconds_off=%.2f,%.2f gather_seconds_on=%.2f,%.2f gather_seconds_off=%.2f,%.2f clip_rays=%s time_on_over_off=%.3f gather_on_over_off=%.2f cpu_seconds_on=%.2f,%.2f cpu_seconds_off=%.2f,%.2f cpu_on_over_off=%.3f"
       % (name, scene, size, count, on1, on2, off1, off2, gon1, gon2, goff1, goff2, rays,
-         (on1 + on2) / max(off1 + off2, 1e-9), (gon1 + gon2) / max(goff1 + goff2, 1e-9)))
+         (on1 + on2) / max(off1 + off2, 1e-9), (gon1 + gon2) / max(goff1 + goff2, 1e-9),
+         con1, con2, coff1, coff2, (con1 + con2) / max(coff1 + coff2, 1e-9)))
 EOF
 }
 

@@ -42,11 +42,14 @@ void pm_accel_intersect_packets(const pm_accel *a, size_t n, const vec3 *o, cons
                                 pm_hit *hits);
 /* True when anything blocks (0, tmax). */
 bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax);
-/* Calls visit(user, tri) for every triangle that may lie within radius of p (at least those that
- * do: Embree offers each triangle whose bounds reach the ball, possibly more than once), in no set
- * order, until visit returns false. Returns true when every candidate was visited, false when
- * visit ended the search (or p or radius is out of Embree's range). */
-bool pm_accel_triangles_near(const pm_accel *a, vec3 p, float radius, bool (*visit)(void *user, uint32_t tri), void *user);
+/* Calls visit(user, tri, &radius) for every triangle that may lie within radius of p (at least
+ * those that do: Embree offers each triangle whose bounds reach the ball, possibly more than
+ * once), in no set order, until visit returns false. The visitor may shrink the radius it is
+ * given: the search then offers what may lie within the smaller ball (within instances the ball
+ * keeps its first radius). Returns true when every candidate was visited, false when visit ended
+ * the search (or p or radius is out of Embree's range). */
+bool pm_accel_triangles_near(const pm_accel *a, vec3 p, float radius, bool (*visit)(void *user, uint32_t tri, float *radius),
+                             void *user);
 size_t pm_accel_bytes(const pm_accel *a);
 /* The memory forecast's share for the BVH of s: what it keeps, or (building) the build's peak. */
 uint64_t pm_accel_forecast_bytes(const pm_scene *s, bool building);

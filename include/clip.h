@@ -47,6 +47,12 @@ typedef struct {
     vec3 plane_normal[PM_CLIP_MAX_PLANES]; /* unit, toward p's side */
 } pm_clip;
 
+/* What is known of the surfaces around a disc's point before any probe: nothing, nothing within
+ * any probe's reach (PM_CLEAR_OPEN: the clip stays open), nothing within the tangent fan's reach
+ * (PM_CLEAR_SLAB: only the probes along the normal can bound it), or a surface within the fan's
+ * reach (PM_CLEAR_NEAR: every probe is cast). */
+typedef enum { PM_CLEAR_UNKNOWN, PM_CLEAR_OPEN, PM_CLEAR_NEAR, PM_CLEAR_SLAB } pm_clip_known;
+
 /* Probes the geometry around p (on triangle tri, or PM_CLIP_NO_TRIANGLE where it is not known;
  * unit normal n on the side photons arrive) for a disc of radius up to reach; seed rotates the
  * probe fan (a hash of the pixel and the iteration, so the image does not depend on the threads).
@@ -54,6 +60,14 @@ typedef struct {
 #define PM_CLIP_NO_TRIANGLE UINT32_MAX
 void pm_clip_make(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
                   uint64_t seed, uint64_t *rays);
+/* The same given what is known (pm_clip_cache_lookup; UNKNOWN: pm_clip_make, which asks
+ * pm_clip_search): the same clip, with only the probes that can meet something cast. */
+void pm_clip_make_known(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                        uint64_t seed, uint64_t *rays, pm_clip_known known);
+/* Only the probes along the normal: the clip pm_clip_make_probed makes where nothing lies within
+ * the fan's reach (PM_CLEAR_SLAB); what the shortcut must agree with (tests/test_clip_shortcut.c). */
+void pm_clip_make_slab(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                       uint64_t seed, uint64_t *rays);
 /* The same with the probes always cast (pm_clip_make skips them where pm_clip_needless): what the
  * shortcut must agree with (tests/test_clip_shortcut.c). */
 void pm_clip_make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
@@ -65,6 +79,8 @@ void pm_clip_make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 
  * and leaves such a clip open. False where unsure (a curved or cut-out surface, many small
  * triangles). */
 bool pm_clip_needless(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, float reach);
+/* What the same query knows (never PM_CLEAR_UNKNOWN): open, slab or near. */
+pm_clip_known pm_clip_search(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, float reach);
 
 /* Per-triangle clearance grids, built for a triangle once discs have asked about it a few times:
  * where a cell of p's triangle shows what pm_clip_needless would say, no search is made.
@@ -72,12 +88,13 @@ bool pm_clip_needless(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, floa
 typedef struct pm_clip_cache pm_clip_cache;
 pm_clip_cache *pm_clip_cache_create(const pm_scene *s, const pm_accel *a);
 void pm_clip_cache_destroy(pm_clip_cache *c);
-/* What p's cell on triangle tri shows for a disc of radius reach: no clip needed
- * (PM_CLEAR_OPEN: leave it open), a surface within the probes' reach (PM_CLEAR_NEAR:
- * pm_clip_make_probed, pm_clip_needless would say no), or unknown (pm_clip_make). Thread safe; c
- * may be NULL. */
-typedef enum { PM_CLEAR_UNKNOWN, PM_CLEAR_OPEN, PM_CLEAR_NEAR } pm_clip_known;
+/* What p's cell on triangle tri shows for a disc of radius reach (pm_clip_known; for
+ * pm_clip_make_known). Thread safe; c may be NULL. */
+
 pm_clip_known pm_clip_cache_lookup(pm_clip_cache *c, uint32_t tri, vec3 p, float reach);
+/* Starts loading p's cell on triangle tri, for a lookup soon after: a batch of discs prefetches
+ * all its cells first, so that their cache misses overlap. */
+void pm_clip_cache_prefetch(pm_clip_cache *c, uint32_t tri, vec3 p);
 
 /* A clip that keeps everything: an estimate may read its disc unclipped. */
 static inline bool pm_clip_is_open(const pm_clip *c) {

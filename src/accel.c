@@ -457,24 +457,32 @@ bool pm_accel_occluded(const pm_accel *a, vec3 o, vec3 d, float tmax) {
 /* What a point query carries through Embree to its visitor. */
 struct near_query {
     const pm_accel *accel;
-    bool (*visit)(void *user, uint32_t tri);
+    bool (*visit)(void *user, uint32_t tri, float *radius);
     void *user;
     bool ended;
 };
 
 /* Embree's point query callback: one candidate primitive whose bounds reach the query's ball.
- * Shrinking the radius to 0 stops the traversal once the visitor has seen enough. */
+ * Shrinking the radius to 0 stops the traversal once the visitor has seen enough; a visitor that
+ * shrinks it prunes what lies beyond (outside instances only, where the ball is the world's). */
 static bool near_candidate(struct RTCPointQueryFunctionArguments *args) {
     struct near_query *q = args->userPtr;
     if (q->ended) return false;
-    unsigned inst = args->context->instStackSize ? args->context->instID[0] : RTC_INVALID_GEOMETRY_ID;
-    if (q->visit(q->user, triangle_id(q->accel, inst, args->geomID, args->primID))) return false;
+    bool instanced = args->context->instStackSize != 0;
+    unsigned inst = instanced ? args->context->instID[0] : RTC_INVALID_GEOMETRY_ID;
+    float radius = args->query->radius;
+    if (q->visit(q->user, triangle_id(q->accel, inst, args->geomID, args->primID), &radius)) {
+        if (instanced || !(radius < args->query->radius)) return false;
+        args->query->radius = radius;
+        return true;
+    }
     q->ended = true;
     args->query->radius = 0.f;
     return true;
 }
 
-bool pm_accel_triangles_near(const pm_accel *a, vec3 p, float radius, bool (*visit)(void *user, uint32_t tri), void *user) {
+bool pm_accel_triangles_near(const pm_accel *a, vec3 p, float radius, bool (*visit)(void *user, uint32_t tri, float *radius),
+                             void *user) {
     if (!ray_in_range(p, v3s(0.f), radius) || !(radius >= 0.f) || !isfinite(radius)) return false;
     struct RTCPointQuery query = {p.x, p.y, p.z, 0.f, radius};
     struct RTCPointQueryContext ctx;

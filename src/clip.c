@@ -195,6 +195,19 @@ static float normal_probe(const pm_clip *c, const pm_scene *s, const pm_accel *a
 /* A triangle lies in p's plane when its normal is within this cosine of p's and p within rounding of its plane. */
 #define OPEN_FLAT_COS 0.99999
 #define OPEN_SEEN_MAX 32
+/* Beyond the fan's reach: its probes go r / cos(pi / PM_CLIP_PROBES) along the tangent plane from
+ * an origin lifted PM_CLIP_LIFT r off it, and the rays down from their ends meet p's own surface
+ * within two lifts, where p's flat surface runs closed all round (1.4142 + 0.004, with a margin). A
+ * disc whose clearance is at least this many radii gets no plane from the fan: only the probes
+ * along the normal can bound it. */
+#define SLAB_REACH 1.45f
+
+/* SLAB_REACH radii, plus what the probes' origins move off p (toward the centroid and off the
+ * surface, a few steps of the scene's rounding each). */
+static float slab_need(const pm_scene *s, vec3 p, float reach) {
+    float m = pm_maxf(fabsf(p.x), pm_maxf(fabsf(p.y), fabsf(p.z)));
+    return SLAB_REACH * reach + 8.f * pm_maxf(s->ray_scale * (1.f / 65536.f), m * (1.f / 262144.f));
+}
 
 typedef struct {
     const pm_scene *s;
@@ -251,7 +264,7 @@ static double triangle_distance(const double q[3], const double v[3][3], const d
 }
 
 /* One triangle the BVH offers near p; false ends the search (the answer is known to be too small). */
-static bool clear_visit(void *user, uint32_t tri) {
+static bool clear_visit(void *user, uint32_t tri, float *radius) {
     clear_search *o = user;
     const pm_scene *s = o->s;
     for (int i = 0; i < o->seen; i++)
@@ -292,7 +305,12 @@ static bool clear_visit(void *user, uint32_t tri) {
         return true;
     }
     double d = opaque ? triangle_distance(o->p, v, m) : 0.0;
-    if (d < o->best) o->best = d;
+    if (d < o->best) {
+        o->best = d;
+        /* nothing beyond the nearest surface found can lower it: the search narrows to it (the
+         * flat triangles that close an edge nearer than that lie within it too) */
+        *radius = pm_minf(*radius, (float)d * 1.001f + (float)o->tolerance);
+    }
     return o->best >= o->need;
 }
 
@@ -354,15 +372,21 @@ bool pm_clip_needless(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, floa
     return clearance(s, a, p, n, need, need) >= need;
 }
 
+pm_clip_known pm_clip_search(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, float reach) {
+    double need = OPEN_REACH * (double)reach, slab = slab_need(s, p, reach);
+    double clear = clearance(s, a, p, n, need, slab);
+    return clear >= need ? PM_CLEAR_OPEN : clear >= slab ? PM_CLEAR_SLAB : PM_CLEAR_NEAR;
+}
+
 /* ---- per-triangle clearance grids ----
  *
- * A triangle many discs ask about gets a grid over its plane: per cell, a clearance every point
- * of the triangle in the cell has at least (the clearance at the cell's centre less its half
- * diagonal: a distance changes no faster than the point moves). A disc whose point's cell
- * certifies OPEN_REACH radii needs no search at all. Grids are built whole by the first thread to
- * ask and published at once; a cell that certifies nothing sends the disc on to the search and the
- * probes. Either way the clip is the probes' own, so the image does not depend on which thread
- * built what, or when. */
+ * A triangle many discs ask about gets a grid over its plane: per cell, the clearance at the
+ * cell's centre. A distance changes no faster than the point moves, so a point at distance d from
+ * the centre has a clearance within d of it: a disc whose bound certifies OPEN_REACH radii needs
+ * no search at all, and one whose bound shows a surface nearer goes straight to the probes. Grids
+ * are built whole by the first thread to ask and published at once; a cell that certifies neither
+ * sends the disc on to the search. Either way the clip is the probes' own, so the image does not
+ * depend on which thread built what, or when. */
 
 #define GRID_AFTER 16       /* asks before a triangle's grid is built */
 #define GRID_MAX 64         /* cells a side */
@@ -371,10 +395,12 @@ bool pm_clip_needless(const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, floa
 
 typedef struct {
     vec3 origin, u, w;  /* the plane's frame: origin + x u + y w */
+    vec3 m;             /* its unit normal */
     float cell;         /* side of a cell */
     int nu, nw;
-    float bound[];      /* nu x nw cells, row by row, two floats each: every point of the triangle in the
-                           cell has a clearance of at least the first and at most the second */
+    float reach;        /* clearances were searched this far */
+    float clear[];      /* nu x nw cells, row by row: the clearance at the cell's centre (-1: unknown;
+                           INFINITY: at least reach) */
 } clear_grid;
 
 struct pm_clip_cache {
@@ -436,22 +462,20 @@ static clear_grid *build_grid(pm_clip_cache *c, uint32_t tri, float r) {
     int cells = (int)pm_minf(GRID_MAX, pm_maxf(1.f, ceilf(extent / (0.5f * r))));
     float cell = extent / (float)cells * 1.0001f;
     int nu = (int)pm_maxf(1.f, ceilf((hi_u - lo_u) / cell)), nw = (int)pm_maxf(1.f, ceilf((hi_w - lo_w) / cell));
-    size_t bytes = sizeof(clear_grid) + 2 * sizeof(float) * (size_t)nu * (size_t)nw;
+    size_t bytes = sizeof(clear_grid) + sizeof(float) * (size_t)nu * (size_t)nw;
     if (atomic_fetch_add(&c->bytes, bytes) + bytes > GRID_BYTES) return NULL;
     clear_grid *g = pm_malloc(bytes, "clip cache grid");
     if (!g) { pm_memory_forgive_last(); return NULL; } /* the disc searches the BVH: the same answer */
     g->origin = v3_add(v[0], v3_add(v3_scale(u, lo_u), v3_scale(w, lo_w)));
-    g->u = u, g->w = w, g->cell = cell, g->nu = nu, g->nw = nw;
-    float half_diagonal = 0.70711f * cell;
+    g->u = u, g->w = w, g->m = m, g->cell = cell, g->nu = nu, g->nw = nw;
     /* clearances are searched up to what a disc a few times this one's size could ask */
-    double reach = OPEN_REACH * 4.0 * r + half_diagonal;
+    double reach = OPEN_REACH * 4.0 * r + 0.70711 * cell;
+    g->reach = (float)reach;
     for (int j = 0; j < nw; j++)
         for (int i = 0; i < nu; i++) {
             vec3 centre = v3_add(g->origin, v3_add(v3_scale(u, (i + 0.5f) * cell), v3_scale(w, (j + 0.5f) * cell)));
             double clear = clearance(s, c->accel, centre, m, reach, 0.0);
-            float *b = &g->bound[2 * (j * nu + i)];
-            b[0] = clear < 0.0 ? -1.f : (float)(clear - half_diagonal) * 0.9999f;
-            b[1] = clear < 0.0 || clear >= reach ? INFINITY : (float)(clear + half_diagonal) * 1.0001f;
+            g->clear[j * nu + i] = clear < 0.0 ? -1.f : clear >= reach ? INFINITY : (float)clear;
         }
     return g;
 }
@@ -469,24 +493,62 @@ pm_clip_known pm_clip_cache_lookup(pm_clip_cache *c, uint32_t tri, vec3 p, float
     }
     if (g == GRID_BUILDING) return PM_CLEAR_UNKNOWN;
     vec3 d = v3_sub(p, g->origin);
-    int i = (int)floorf(v3_dot(d, g->u) / g->cell), j = (int)floorf(v3_dot(d, g->w) / g->cell);
+    float x = v3_dot(d, g->u) / g->cell, y = v3_dot(d, g->w) / g->cell;
+    int i = (int)floorf(x), j = (int)floorf(y);
     if (i < 0 || j < 0 || i >= g->nu || j >= g->nw) return PM_CLEAR_UNKNOWN;
-    const float *b = &g->bound[2 * (j * g->nu + i)];
-    float need = OPEN_REACH * reach;
-    return b[0] >= need ? PM_CLEAR_OPEN : b[1] < need ? PM_CLEAR_NEAR : PM_CLEAR_UNKNOWN;
+    float clear = g->clear[j * g->nu + i];
+    if (clear < 0.f) return PM_CLEAR_UNKNOWN;
+    /* p's distance from the cell's centre: across the plane, and off it (p lies on it up to rounding) */
+    float du = (x - (float)i - 0.5f) * g->cell, dw = (y - (float)j - 0.5f) * g->cell;
+    float off = v3_dot(d, g->m);
+    float moved = sqrtf(du * du + dw * dw + off * off) * 1.001f;
+    float need = OPEN_REACH * reach, slab = slab_need(c->scene, p, reach);
+    /* relative margins far above float rounding of the distances */
+    float least = clear == INFINITY ? g->reach - moved : clear * 0.9999f - moved;
+    if (least >= need * 1.0001f) return PM_CLEAR_OPEN;
+    if (least >= slab * 1.0001f) return PM_CLEAR_SLAB;
+    if (clear * 1.0001f + moved < slab * 0.9999f) return PM_CLEAR_NEAR;
+    return PM_CLEAR_UNKNOWN;
 }
+
+void pm_clip_cache_prefetch(pm_clip_cache *c, uint32_t tri, vec3 p) {
+    if (!c || tri >= c->count) return;
+    clear_grid *g = atomic_load_explicit(&c->grid[tri], memory_order_acquire);
+    if (!g || g == GRID_BUILDING) return;
+    vec3 d = v3_sub(p, g->origin);
+    int i = (int)(v3_dot(d, g->u) / g->cell), j = (int)(v3_dot(d, g->w) / g->cell);
+    if (i < 0 || j < 0 || i >= g->nu || j >= g->nw) return;
+    __builtin_prefetch(&g->clear[j * g->nu + i]);
+}
+
+static void make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                        uint64_t seed, uint64_t *rays, bool fan_reaches);
 
 void pm_clip_make(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
                   uint64_t seed, uint64_t *rays) {
-    if (reach > 0.f && isfinite(reach) && pm_clip_needless(s, a, p, n, reach)) {
-        pm_clip_open(c, p, n);
-        return;
-    }
-    pm_clip_make_probed(c, s, a, p, n, tri, reach, seed, rays);
+    pm_clip_make_known(c, s, a, p, n, tri, reach, seed, rays, PM_CLEAR_UNKNOWN);
+}
+
+void pm_clip_make_known(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                        uint64_t seed, uint64_t *rays, pm_clip_known known) {
+    if (known == PM_CLEAR_UNKNOWN && reach > 0.f && isfinite(reach)) known = pm_clip_search(s, a, p, n, reach);
+    if (known == PM_CLEAR_OPEN) pm_clip_open(c, p, n);
+    else make_probed(c, s, a, p, n, tri, reach, seed, rays, known != PM_CLEAR_SLAB);
 }
 
 void pm_clip_make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
                          uint64_t seed, uint64_t *rays) {
+    make_probed(c, s, a, p, n, tri, reach, seed, rays, true);
+}
+
+void pm_clip_make_slab(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                       uint64_t seed, uint64_t *rays) {
+    make_probed(c, s, a, p, n, tri, reach, seed, rays, false);
+}
+
+/* The probes; without the fan where it is known to meet nothing (fan_reaches false). */
+static void make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 p, vec3 n, uint32_t tri, float reach,
+                        uint64_t seed, uint64_t *rays, bool fan_reaches) {
     pm_clip_open(c, p, n);
     if (!(reach > 0.f) || !isfinite(reach)) return;
     uint64_t h = pm_hash64(seed);
@@ -502,7 +564,7 @@ void pm_clip_make_probed(pm_clip *c, const pm_scene *s, const pm_accel *a, vec3 
     vec3 o = v3_madd(pm_offset_surface_origin(p, centroid, n, s->ray_scale), n, lift);
     /* a straight wall across the disc meets the nearest probe within reach / cos(pi / probes) */
     float fan_reach = reach / cosf(PM_PI / PM_CLIP_PROBES);
-    for (int k = 0; k < PM_CLIP_PROBES; k++) {
+    for (int k = 0; k < PM_CLIP_PROBES && fan_reaches; k++) {
         float angle = fan + 2.f * PM_PI * (float)k / PM_CLIP_PROBES;
         vec3 d = v3_add(v3_scale(c->t1, cosf(angle)), v3_scale(c->t2, sinf(angle)));
         float clear = tangent_probe(c, s, a, o, d, fan_reach, lift, rays);

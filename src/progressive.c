@@ -671,8 +671,8 @@ static pm_grid_query disc_query(gather_job *job, const pm_photon_grid *grid, con
     pm_clip_known known = PM_CLEAR_OPEN;
     if (!p->settings.unclipped && pm_photon_grid_may_find(grid, vp->p, (float)r2) &&
         (known = pm_clip_cache_lookup(p->clip_cache, vp->tri, vp->p, (float)sqrt(r2))) != PM_CLEAR_OPEN) {
-        (known == PM_CLEAR_NEAR ? pm_clip_make_probed : pm_clip_make)(clip, p->scene, p->accel, vp->p, vp->n, vp->tri,
-                                                                     (float)sqrt(r2), seed, &job->counters[thread].clip_rays);
+        pm_clip_make_known(clip, p->scene, p->accel, vp->p, vp->n, vp->tri, (float)sqrt(r2), seed, &job->counters[thread].clip_rays,
+                           known);
         q.clip = pm_clip_is_open(clip) ? NULL : clip; /* nothing to test photons against */
     } else {
         pm_clip_open(clip, vp->p, vp->n);
@@ -710,6 +710,9 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
         size_t end = count - base < BATCH ? count : base + BATCH;
         /* statistics at visible points: caustic photons, and indirect ones without final gathering;
          * once per photon pass, since N and tau count the photons a pixel has seen */
+        /* the clearance grids' cells first, so that their cache misses overlap */
+        for (size_t k = base; k < end && job->statistics && !job->p->settings.unclipped; k++)
+            if (visible[k].valid) pm_clip_cache_prefetch(job->p->clip_cache, visible[k].tri, visible[k].p);
         for (int kind = 0; kind < KIND_COUNT && job->statistics; kind++) {
             const pm_photon_grid *grid = kind == KIND_CAUSTIC ? job->caustic : job->global;
             if (!grid) continue;
@@ -745,6 +748,8 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
          * was traced by the eye pass, and their first hits were not stored) */
         if (!gathered || !job->global || !(job->gather_r2 > 0.0)) continue;
         size_t n = 0;
+        for (size_t k = base; k < end && !job->p->settings.unclipped; k++)
+            if (gathered[k].valid) pm_clip_cache_prefetch(job->p->clip_cache, gathered[k].tri, gathered[k].p);
         for (size_t k = base; k < end; k++)
             if (gathered[k].valid) {
                 query[n] = disc_query(job, job->global, &gathered[k], job->gather_r2, 7u, clip_seed(job, pixels[k], KIND_COUNT),

@@ -78,6 +78,7 @@ int main(void) {
         point_tri[k] = lo;
         point[k] = v3_add(c[0], v3_add(v3_scale(v3_sub(c[1], c[0]), u), v3_scale(v3_sub(c[2], c[0]), v)));
     }
+    uint64_t slab_discs = 0, slab_wrong = 0, slab_cached = 0, searched_wrong = 0;
     uint64_t discs = 0, probed_open = 0, spotted = 0, wrong = 0, cached_open = 0, cached_wrong = 0, probes_known = 0, probes_wrong = 0;
     pm_clip_cache *cache = pm_clip_cache_create(&s, a);
     CHECK(cache != NULL, "a clearance cache for a small flat scene");
@@ -91,12 +92,23 @@ int main(void) {
                 bool cached = known == PM_CLEAR_OPEN;
                 if (pass < 2) continue;
                 bool needless = pm_clip_needless(&s, a, p, n, r);
+                pm_clip_known searched = pm_clip_search(&s, a, p, n, r);
                 bool all_open = true;
-                for (int rot = 0; rot < ROTATIONS && all_open; rot++) {
-                    pm_clip clip;
-                    pm_clip_make_probed(&clip, &s, a, p, n, t, r, pm_hash64((uint64_t)k << 8 ^ (uint64_t)ri << 4 ^ (uint64_t)rot), NULL);
-                    all_open = open_clip(&clip);
+                for (int rot = 0; rot < ROTATIONS; rot++) {
+                    pm_clip clip, slab;
+                    uint64_t seed = pm_hash64((uint64_t)k << 8 ^ (uint64_t)ri << 4 ^ (uint64_t)rot);
+                    pm_clip_make_probed(&clip, &s, a, p, n, t, r, seed, NULL);
+                    all_open &= open_clip(&clip);
+                    if (known != PM_CLEAR_SLAB && searched != PM_CLEAR_SLAB) continue;
+                    /* only the probes along the normal: the same clip, plane for plane */
+                    pm_clip_make_slab(&slab, &s, a, p, n, t, r, seed, NULL);
+                    bool same = clip.planes == 0 && slab.planes == 0 && clip.below == slab.below && clip.above == slab.above;
+                    slab_discs += rot == 0;
+                    slab_wrong += !same;
+                    if (!same) printf("slab wrong: triangle %u, p (%g %g %g), r %g, %d planes\n", t, p.x, p.y, p.z, r, clip.planes);
                 }
+                slab_cached += known == PM_CLEAR_SLAB;
+                searched_wrong += (searched == PM_CLEAR_OPEN) != needless;
                 discs++;
                 probed_open += all_open;
                 spotted += all_open && needless;
@@ -119,6 +131,13 @@ int main(void) {
            (unsigned long long)probes_wrong);
     CHECK(probes_wrong == 0, "the grids send to the probes only discs the search would send there (%llu)", (unsigned long long)probes_wrong);
     CHECK(probes_known > 0, "the grids send some discs near walls straight to the probes (%llu)", (unsigned long long)probes_known);
+    printf("the fan is known to meet nothing for %llu discs (the grids %llu): their clips along the normal alone differ %llu times\n",
+           (unsigned long long)slab_discs, (unsigned long long)slab_cached, (unsigned long long)slab_wrong);
+    CHECK(slab_wrong == 0, "where the fan is known to meet nothing, the probes along the normal make the same clip (%llu)",
+          (unsigned long long)slab_wrong);
+    CHECK(slab_cached > 0 && slab_discs > slab_cached / 2, "the grids and the search find discs the fan cannot clip (%llu, %llu)",
+          (unsigned long long)slab_cached, (unsigned long long)slab_discs);
+    CHECK(searched_wrong == 0, "the search's open is pm_clip_needless's (%llu)", (unsigned long long)searched_wrong);
     CHECK(probed_open > discs / 4, "the room has open discs to find (%llu of %llu)", (unsigned long long)probed_open,
           (unsigned long long)discs);
     CHECK(spotted * 2 >= probed_open, "the search spots at least half of the open discs (%llu of %llu)",
