@@ -105,9 +105,11 @@
 #define PM_PPM_PROBE_PIXELS 1024           /* the noise probe that chooses them watches about this many pixels ... */
 #define PM_PPM_PROBE_ITERATIONS 8          /* ... over at least this many iterations of two eye passes first */
 #define PM_PPM_GATHER_PHOTONS 8.0          /* final gathering: the shared radius starts holding this many (each estimate is averaged over pixels and iterations) */
-#define PM_PPM_CHOICE_ITERATIONS 8        /* the final gather's source (photons or the path tracer) is chosen after at most this many iterations of each, alternating: after n of each (from 2 on) where one's predicted relMSE is below the other's by this / n ... */
+#define PM_PPM_CHOICE_ITERATIONS 8        /* the final gather's source (photons or the path tracer) is chosen after at most this many iterations of each, alternating ... */
+#define PM_PPM_CHOICE_MARGIN 2.0           /* ... and after n of each (from 2 on) where one's predicted relMSE is below the other's by a factor 1 + this / n ... */
 #define PM_PPM_CHOICE_HORIZON 256.0        /* ... for the lower predicted relMSE after this many iterations' worth of the photon gather's cost */
 #define PM_PPM_EXAMINED_COST 0.2           /* a photon within a disc's radius costs this many rays in that prediction (its tests and sum; measured on the window room, where the ground under the floor fills the discs) */
+#define PM_PPM_QUERY_COST 4.0              /* ... and a disc query (its clip's search or lookup, the grid's cells) this many (one thread's CPU time over counts: 3.2 on the point-lit room, 4.6 on the window room, 6.7 on the glossy spheres' lobes) */
 #define PM_MAX_RADIUS 1e18                 /* --radius and --max-radius (scene units) at most: a disc query squares the radius in float */
 #define PM_MIN_RADIUS 1e-18                /* ... and at least: (FLT_MAX 3.4e38, FLT_MIN 1.2e-38), with room for the sums of squares */
 

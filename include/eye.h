@@ -58,6 +58,8 @@ typedef struct {
     const pm_shadow_map *shadow; /* shadow photons; NULL: every punctual light sample casts its shadow ray */
     bool unclipped;           /* classic estimates read their whole disc, through walls (no clip.h): only to measure what clipping mends */
     double deadline;          /* CLOCK_MONOTONIC seconds (0 = none): tiles not started by then are left out (see above) */
+    const uint8_t *only_pixels; /* NULL: every pixel; else only the pixels whose byte is non-zero are traced (a
+                                   measurement's sparse pixels, progressive.c); the others keep their sums */
 } pm_eye_settings;
 
 typedef struct {

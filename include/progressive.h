@@ -87,6 +87,7 @@ typedef struct {
     double gather_seconds;
     uint64_t photons_found;    /* photons that fell inside a visible or gather point's disc */
     uint64_t photons_examined; /* photons within a disc's radius that its surface and clip tests ran on */
+    uint64_t disc_queries;     /* discs queried (visible points' statistics and gather points' estimates), each with its clip */
     uint64_t splats;           /* caustic photons splatted to the camera */
     uint64_t clip_rays;        /* rays the clips' probes cast (clip.h) */
     uint64_t photons_stored;   /* photon records the passes stored */

@@ -731,10 +731,12 @@ static void render_tile(void *ctx, size_t task, int thread) {
     pm_hit hits[TILE * TILE];
     uint16_t ray_of[TILE * TILE]; /* by the pixel's place in the tile, row by row */
     size_t traced = 0;
+    const uint8_t *only = job->settings->only_pixels;
     for (int by = y0; by < y1; by += BLOCK_H)
         for (int bx = x0; bx < x1; bx += BLOCK_W)
             for (int y = by; y < by + BLOCK_H && y < y1; y++)
                 for (int x = bx; x < bx + BLOCK_W && x < x1; x++) {
+                    if (only && !only[(size_t)y * film->width + x]) continue;
                     pm_rng *rng = &rngs[traced];
                     *rng = pm_rng_for(job->settings->seed, job->iteration, (size_t)y * film->width + x);
                     /* y's number first: the order the images have always had */
@@ -747,7 +749,9 @@ static void render_tile(void *ctx, size_t task, int thread) {
     rays += traced;
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
-            size_t pixel = (size_t)y * film->width + x, k = ray_of[(y - y0) * TILE + (x - x0)];
+            size_t pixel = (size_t)y * film->width + x;
+            if (only && !only[pixel]) continue;
+            size_t k = ray_of[(y - y0) * TILE + (x - x0)];
             pm_rng rng = rngs[k];
             vec3 o = origin[k], d = direction[k];
             surface_bounce camera = {.sampled = true, .hit = hit[k]};

@@ -52,6 +52,8 @@ typedef struct {
     double *within;              /* the sum over iterations of (first - second)^2 / 2 */
     double *source_mean[2], *source_m2[2]; /* the same as mean and m2 over the learning iterations of each gather source */
     double *saved;               /* the kept arrays at the start of the running iteration, for a cancel to put back */
+    uint8_t *only;               /* one byte a pixel of the image, 1 at the probed ones: the photons' measuring
+                                    iterations trace these alone (pm_eye_settings.only_pixels) */
     uint32_t pairs;              /* iterations probed */
     int columns;                 /* the grid's: pixel[y * columns + x] */
 } noise_probe;
@@ -260,10 +262,14 @@ static bool probe_alloc(noise_probe *pr, int width, int height) {
     pr->columns = nx;
     pr->pixel = pm_malloc(pr->count * sizeof(size_t), "noise probe");
     pr->total = pm_calloc(PROBE_ARRAYS * pr->count, sizeof(double), "noise probe");
-    if (!pr->pixel || !pr->total) return false;
+    pr->only = pm_calloc((size_t)width * height, 1, "noise probe");
+    if (!pr->pixel || !pr->total || !pr->only) return false;
     for (int y = 0; y < ny; y++)
-        for (int x = 0; x < nx; x++)
-            pr->pixel[(size_t)y * nx + x] = (size_t)((2 * y + 1) * height / (2 * ny)) * width + (size_t)((2 * x + 1) * width / (2 * nx));
+        for (int x = 0; x < nx; x++) {
+            size_t pixel = (size_t)((2 * y + 1) * height / (2 * ny)) * width + (size_t)((2 * x + 1) * width / (2 * nx));
+            pr->pixel[(size_t)y * nx + x] = pixel;
+            pr->only[pixel] = 1;
+        }
     pr->statistics = pr->total + pr->count;
     pr->shared = pr->statistics + pr->count;
     pr->first = pr->shared + pr->count;
@@ -281,6 +287,7 @@ static bool probe_alloc(noise_probe *pr, int width, int height) {
 static void probe_free(noise_probe *pr) {
     free(pr->pixel);
     free(pr->total);
+    free(pr->only);
     memset(pr, 0, sizeof *pr);
 }
 
@@ -375,15 +382,18 @@ static uint32_t choose_eye_passes(const noise_probe *pr, uint32_t photon_passes,
 
 /* The final gather's source for the rest of the run, from the learning iterations, in which the
  * two sources alternated: after n probed pairs of each, once one's prediction is below the
- * other's by a factor PM_PPM_CHOICE_ITERATIONS / n (4 after 2, 2 after 4, any after 8; a clear
- * case is decided early, since the photons' learning iterations are spent; false while undecided). Each is an
+ * other's by a factor 1 + PM_PPM_CHOICE_MARGIN / n (2 after 2, 1.5 after 4), and after
+ * PM_PPM_CHOICE_ITERATIONS whatever the factor (the photons' learning iterations are spent, and
+ * the predicted ratio's spread over seeds is about a quarter at n = 2; false while undecided). Each is an
  * estimate of the same pixels: the photons' biased by the shared radius, the path tracer's not.
  * Per probed pixel and relative to (mean^2 + 0.01) as relMSE weighs it: V_s, the variance of a
  * pair of eye passes over iterations (photon noise included); and the photons' squared bias, the
  * squared mean difference of the two over blocks of 4 x 4 probed pixels (bias is smooth in the
  * image, noise is not) less what their own variances put into it. Costs are counts: the rays of
- * the photon pass, of two eye passes and of the clips' probes, and every photon within a disc's
- * radius (tested, counted or not) at PM_PPM_EXAMINED_COST rays. The prediction is for a run that
+ * the photon pass, of two eye passes and of the clips' probes, every photon within a disc's
+ * radius (tested, counted or not) at PM_PPM_EXAMINED_COST rays and every disc queried at
+ * PM_PPM_QUERY_COST; a measuring iteration's eye passes, traced at the probed pixels alone, are
+ * counted at the whole image's. The prediction is for a run that
  * spends PM_PPM_CHOICE_HORIZON photon iterations' cost: V_s c_s / budget, plus for the photons
  * the squared bias, which falls with the shared radius's square (r^2 ~ N^(alpha - 1)) from the
  * learning iterations' to the horizon's. The lower wins. Counts and the film only: the same
@@ -421,7 +431,9 @@ static bool choose_gather(pm_progressive *p) {
     double budget = PM_PPM_CHOICE_HORIZON * cost[0];
     double shrink = pow((n[0] + n[1]) / PM_PPM_CHOICE_HORIZON, 2.0 * (1.0 - p->settings.alpha));
     double err[2] = {var[0] * cost[0] / budget + bias2 * shrink, var[1] * cost[1] / budget};
-    if (fmax(err[0], err[1]) < PM_PPM_CHOICE_ITERATIONS / fmin(n[0], n[1]) * fmin(err[0], err[1])) return false;
+    double least = fmin(n[0], n[1]);
+    if (least < PM_PPM_CHOICE_ITERATIONS && fmax(err[0], err[1]) < (1.0 + PM_PPM_CHOICE_MARGIN / least) * fmin(err[0], err[1]))
+        return false;
     p->radii.gather_source = err[PM_GATHER_PATH] < err[PM_GATHER_PHOTONS] ? PM_GATHER_PATH : PM_GATHER_PHOTONS;
     p->radii.gather_chosen = true;
     p->stats.gather_source = (int)p->radii.gather_source;
@@ -561,6 +573,7 @@ typedef struct {
         double radius_sum;                   /* initial radii set in this iteration */
         uint64_t radius_count, found, dropped;
         uint64_t inside;                     /* photons within the discs' radii, tested (pm_grid_result.inside) */
+        uint64_t queries;                    /* discs queried */
         double query_sum[KIND_COUNT];        /* radii gathered with, for the next grid's cell */
         uint64_t query_count[KIND_COUNT];
         double seconds;                      /* spent gathering, on this thread */
@@ -733,6 +746,7 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
                 point[n++] = k;
             }
             pm_photon_grid_sum_many(grid, query, n, result);
+            job->counters[thread].queries += n;
             for (size_t j = 0; j < n; j++) {
                 job->counters[thread].inside += result[j].inside;
                 if (fresh[j]) {
@@ -757,6 +771,7 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
                 point[n++] = k;
             }
         pm_photon_grid_sum_many(job->global, query, n, result);
+        job->counters[thread].queries += n;
         for (size_t j = 0; j < n; j++) {
             const pm_visible_point *gp = &gathered[point[j]];
             size_t i = pixels[point[j]];
@@ -934,27 +949,28 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
     uint32_t iteration = film->photon_passes;
     const pm_progressive_settings *set = &p->settings;
     uint32_t eye_passes = max_samples && p->radii.eye_passes > max_samples ? max_samples : p->radii.eye_passes;
-    /* the final gather's source: after the first image (the photons'), while learning, the path
-     * tracer and the photons take turns, each with a probed pair of eye passes. The photons'
-     * learning iterations are measurements only: the film is put back after them (their early
+    /* the final gather's source: until it is chosen, the image is the path tracer's (the first
+     * image too), and from the second iteration on the path tracer and the photons take turns,
+     * each with a probed pair of eye passes. The photons' learning iterations are measurements
+     * only: they trace the probe's pixels alone and the film is put back after them (their early
      * estimates carry the bias of wide radii and an unlearned guide, which the image would keep),
-     * so the image holds the first iteration and the path tracer's unbiased samples until the
-     * choice. Such an iteration is never cut by the deadline (a cut pass marks pixels ahead). */
+     * so a scene that ends with the path tracer has spent on photons no more than their passes
+     * and the probed pixels' gathers, and its image holds the path tracer's samples alone. Such
+     * an iteration is never cut by the deadline (a cut pass marks pixels ahead). */
     bool chosen = p->radii.gather_chosen, learning = !chosen && iteration > 0 && !(max_samples && max_samples < 2);
     pm_gather_source source = chosen ? p->radii.gather_source
-                                     : (learning ? (p->radii.learn_step % 2 ? PM_GATHER_PHOTONS : PM_GATHER_PATH)
-                                                 : (iteration > 0 ? PM_GATHER_PATH : PM_GATHER_PHOTONS)); /* the last sample of a capped run: unbiased */
+                                     : (learning && p->radii.learn_step % 2 ? PM_GATHER_PHOTONS : PM_GATHER_PATH);
     bool measure_only = learning && source == PM_GATHER_PHOTONS;
     double deadline = p->eye.deadline;
     p->eye.gather_source = source;
     if (learning && eye_passes < 2) eye_passes = 2;
     bool global_pass = p->trace_global && !(p->gathering && source == PM_GATHER_PATH);
-    uint64_t clip_rays_before = p->stats.clip_rays, examined_before = p->stats.photons_examined;
 
     /* 1. photon passes: a fresh, independent set every iteration, sorted into hash grids */
     uint64_t seed = pm_hash64(set->seed * 0x9e3779b97f4a7c15ULL + iteration);
     double t0 = pm_now_seconds();
     uint64_t photon_rays_before = p->stats.photons.rays, eye_rays_before = p->stats.eye.rays;
+    uint64_t saved_before = p->stats.eye.shadow_rays_saved;
     bool ok = true, probing = p->probe.total != NULL;
     iteration_start start;
     keep_start(p, film, &start);
@@ -1002,9 +1018,9 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
     if ((!p->radii.seen_measured || remeasure) && global->count && set->initial_radius <= 0.0) {
         const pm_photon_grid *g = &p->grid[KIND_INDIRECT];
         double mean_r2 = p->radii.density_r2[KIND_INDIRECT] * (p->gathering ? PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS : 1.0);
-        if (!p->radii.seen_measured) {
+        if (!p->radii.seen_measured && !p->gathering) { /* gather points start from the shared radius alone */
             double seen = seen_density_radius2(p, g, 0, mean_r2, PM_PPM_INITIAL_PHOTONS, to_whole[KIND_INDIRECT]);
-            if (seen > 0.0 && !p->gathering) p->radii.density_r2[KIND_INDIRECT] = fmin(seen, p->radii.density_r2[KIND_INDIRECT]);
+            if (seen > 0.0) p->radii.density_r2[KIND_INDIRECT] = fmin(seen, p->radii.density_r2[KIND_INDIRECT]);
         }
         if (p->gathering) {
             double gathered = seen_density_radius2(p, g, 1, remeasure ? p->radii.gather_r2 : mean_r2, PM_PPM_GATHER_PHOTONS,
@@ -1016,6 +1032,10 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
     double t1 = pm_now_seconds();
     p->stats.grid_seconds += t1 - t_grid;
     p->stats.photons.seconds += t1 - t0;
+
+    /* what the eye passes' gathers cost (the radii's measurement above is the run's, once) */
+    uint64_t clip_rays_before = p->stats.clip_rays, examined_before = p->stats.photons_examined;
+    uint64_t queries_before = p->stats.disc_queries;
 
     /* 2. eye passes: visible points (and gather points), emission and direct light; each tile's
      * points gather this iteration's photons as soon as the tile is traced (statistics at visible
@@ -1042,10 +1062,14 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
      * iteration back (its first pass saved every pixel it wrote) */
     uint32_t whole_passes = 0;
     bool cut = false, failed = false;
+    /* the photons' measuring iteration traces the probed pixels alone: its samples are read there
+     * and nowhere else, and its cost is counted as the whole image's (eye_scale) */
+    double eye_scale = measure_only ? (double)p->pixels / (double)p->probe.count : 1.0;
     if (measure_only) {
         if (!pm_film_open_copy(film)) { free(job); return !take_back(p, film, &start); }
         pm_film_save_rect(film, 0, 0, film->width, film->height);
         p->eye.deadline = 0.0;
+        p->eye.only_pixels = p->probe.only;
     }
     for (uint32_t pass = 0; pass < eye_passes && !cut; pass++) {
         job->statistics = pass == 0;
@@ -1055,7 +1079,7 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
         pm_eye_pass_result r = pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, film->samples, film,
                                                      p->gathering, photons_here ? gather_tile : NULL, job, reached,
                                                      pass == 0, &p->stats.eye);
-        if (r == PM_EYE_PASS_FAILED && pass == 0) { p->eye.deadline = deadline; free(job); return !take_back(p, film, &start); } /* nothing ran */
+        if (r == PM_EYE_PASS_FAILED && pass == 0) { p->eye.deadline = deadline; p->eye.only_pixels = NULL; free(job); return !take_back(p, film, &start); } /* nothing ran */
         if (r == PM_EYE_PASS_FAILED) {
             /* out of memory after whole passes: the iteration ends with them (their splats, their
              * counts), so the film holds nothing half counted, and the failure is reported */
@@ -1066,6 +1090,7 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
             /* the first pass put back the tiles it traced; after it, every pixel was saved */
             if (pass > 0 || measure_only) pm_film_restore_rect(film, 0, 0, film->width, film->height);
             p->eye.deadline = deadline;
+            p->eye.only_pixels = NULL;
             free(job);
             return take_back(p, film, &start);
         }
@@ -1079,6 +1104,7 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
     }
     if (p->splatting) add_splats(p, film, whole_passes, cut);
     p->eye.deadline = deadline;
+    p->eye.only_pixels = NULL;
     int threads = pm_thread_count(set->threads);
     double query_sum[KIND_COUNT] = {0, 0}, gather_seconds = 0.0;
     uint64_t query_count[KIND_COUNT] = {0, 0};
@@ -1087,6 +1113,7 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
         p->radii.initial_radius_count += job->counters[t].radius_count;
         p->stats.photons_found += job->counters[t].found;
         p->stats.photons_examined += job->counters[t].inside;
+        p->stats.disc_queries += job->counters[t].queries;
         p->stats.eye.dropped_samples += job->counters[t].dropped;
         p->stats.clip_rays += job->counters[t].clip_rays;
         gather_seconds += job->counters[t].seconds;
@@ -1116,7 +1143,8 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
     }
     if (p->guiding && source == PM_GATHER_PHOTONS) {
         /* the marks this iteration made are the next global pass's to learn from (the path
-         * tracer's iterations read no photons and make none: the last ones are kept) */
+         * tracer's iterations read no photons and make none: the last ones are kept; a measuring
+         * iteration's come from the probed pixels alone) */
         pm_marks swap = p->marks;
         p->marks = p->marks_next;
         p->marks_next = swap;
@@ -1125,8 +1153,13 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
     if (learning && probing && whole_passes >= 2) {
         /* this iteration's cost for a pair of eye passes, in rays (see choose_gather) */
         double passes = (double)whole_passes;
-        double eye = (double)(p->stats.eye.rays - eye_rays_before) + (double)(p->stats.clip_rays - clip_rays_before) +
-                     PM_PPM_EXAMINED_COST * (double)(p->stats.photons_examined - examined_before);
+        /* a shadow test the shadow photons decided counts as the ray it saved: whether they are
+         * built is measured in seconds (shadowmap.c), and the choice must not depend on it */
+        double eye = (double)(p->stats.eye.rays - eye_rays_before) + (double)(p->stats.eye.shadow_rays_saved - saved_before) +
+                     (double)(p->stats.clip_rays - clip_rays_before) +
+                     PM_PPM_EXAMINED_COST * (double)(p->stats.photons_examined - examined_before) +
+                     PM_PPM_QUERY_COST * (double)(p->stats.disc_queries - queries_before);
+        eye *= eye_scale; /* a measuring iteration's eye passes cost what they would over the whole image */
         p->radii.learn_cost[source] += (double)(p->stats.photons.rays - photon_rays_before) + 2.0 * eye / passes;
         p->radii.learned[source]++;
         if (p->radii.learned[0] >= 2 && p->radii.learned[1] >= 2 && choose_gather(p)) {
@@ -1143,7 +1176,7 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
     }
     if (probing && !cut)
         p->radii.eye_passes = choose_eye_passes(&p->probe, film->photon_passes, photon_rays,
-                                          (double)(p->stats.eye.rays - eye_rays_before) / eye_passes);
+                                          eye_scale * (double)(p->stats.eye.rays - eye_rays_before) / eye_passes);
     p->stats.iterations = film->samples;
     p->stats.photon_passes = film->photon_passes;
     return !failed;
