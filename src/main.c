@@ -69,6 +69,8 @@ typedef struct {
     pm_camera camera;
     uint64_t output_reserved; /* the snapshot writers' room, admitted before the render */
     _Atomic(const char *) *stage; /* where the window reads the set-up's stage; NULL without a window */
+    bool start_session;           /* the window's first scene, one process: its session starts at the end of the
+                                     set-up, so that its preview renders while the window opens */
     /* a reload asked by the window (--watch, a dropped file): */
     bool heap;                    /* allocated for it, freed with it */
     bool keep_camera;             /* `kept` replaces the file's camera */
@@ -237,6 +239,7 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
             return failed(r, 1, "%s: the reference is %dx%d but the image is %dx%d (use --width/--height)", reference,
                           r->reference.width, r->reference.height, width, height);
     }
+    if (r->start_session && !pm_session_start(r->session, err, sizeof err)) return failed(r, 1, "%s", err);
     return -1;
 }
 
@@ -341,6 +344,8 @@ int main(int argc, char **argv) {
             pm_window_job wait = {.work = set_up_for_window, .arg = &job, .scene_path = r.opt.scene_path};
             atomic_init(&wait.stage, NULL);
             r.stage = &wait.stage;
+            /* (under mpirun every rank's session starts once the ranks have agreed) */
+            r.start_session = !cluster;
             if (getenv("DISPLAY")) pm_window_job_start(&wait); /* (without one the window is refused at once) */
             code = pm_window_open(&r.opt, cluster, process_start, &window);
             if (code < 0) {
