@@ -331,6 +331,13 @@ int main(int argc, char **argv) {
     memset(&r, 0, sizeof r);
     int code = pm_options_parse(argc, argv, &r.opt);
     reloads reloaded = {.parsed = r.opt, .current = &r};
+    /* a reload runs the whole set-up again in one process: under mpirun every rank would have to
+     * reload alike, so --watch is refused there at once (a file dropped on the window only says so
+     * in its title) */
+    if (code < 0 && cluster && r.opt.watch) {
+        fprintf(stderr, "pmview: --watch is for a single process, not under mpirun (every rank would have to reload alike)\n");
+        code = 2;
+    }
     pm_window *window = NULL;
     if (code < 0) {
         setvbuf(stdout, NULL, _IOLBF, 0);

@@ -446,8 +446,7 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
         show_reference(view, cur.reference);
     }
     watcher watch = {.fd = -1};
-    if (opt->watch && reloader) watch_start(&watch, scene_path, opt);
-    else if (opt->watch) fprintf(stderr, "pmview: warning: --watch is for a single process: under mpirun every rank would have to reload alike\n");
+    if (opt->watch && reloader) watch_start(&watch, scene_path, opt); /* (main refuses --watch under mpirun) */
     reload_job job;
     memset(&job, 0, sizeof job);
     job.reloader = reloader;
