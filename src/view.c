@@ -115,6 +115,9 @@ struct pm_view {
 
     GLFWwindow *window;
     GLXContext glx_context;     /* the window's, made by pm_view_prepare */
+    Window gl_window;           /* the X11 window it draws into: a child filling GLFW's (see make_window_context) */
+    Colormap gl_colormap;
+    int gl_window_width, gl_window_height;
     OSMesaContext osmesa;
     void *osmesa_buffer;        /* OSMesa's default framebuffer; never drawn to, but it must exist */
 
@@ -197,6 +200,7 @@ static pm_gl_proc osmesa_loader(const char *name) {
 static struct {
     GLXFBConfig *(*ChooseFBConfig)(Display *display, int screen, const int *attributes, int *count);
     XVisualInfo *(*GetVisualFromFBConfig)(Display *display, GLXFBConfig config);
+    int (*GetFBConfigAttrib)(Display *display, GLXFBConfig config, int attribute, int *value);
     const char *(*QueryExtensionsString)(Display *display, int screen);
     Bool (*MakeCurrent)(Display *display, GLXDrawable drawable, GLXContext context);
     GLXContext (*GetCurrentContext)(void);
@@ -219,6 +223,7 @@ static void open_glx(void) {
     struct { const char *name; void *slot; size_t size; } entries[] = {
         {"glXChooseFBConfig", &glx.ChooseFBConfig, sizeof glx.ChooseFBConfig},
         {"glXGetVisualFromFBConfig", &glx.GetVisualFromFBConfig, sizeof glx.GetVisualFromFBConfig},
+        {"glXGetFBConfigAttrib", &glx.GetFBConfigAttrib, sizeof glx.GetFBConfigAttrib},
         {"glXQueryExtensionsString", &glx.QueryExtensionsString, sizeof glx.QueryExtensionsString},
         {"glXMakeCurrent", &glx.MakeCurrent, sizeof glx.MakeCurrent},
         {"glXGetCurrentContext", &glx.GetCurrentContext, sizeof glx.GetCurrentContext},
@@ -281,16 +286,37 @@ static bool make_window_context(pm_view *v, char *err, size_t err_size) {
                                  GLX_DOUBLEBUFFER, True, GLX_RED_SIZE, 8, GLX_GREEN_SIZE, 8, GLX_BLUE_SIZE, 8, None};
     int count = 0;
     GLXFBConfig *configs = glx.ChooseFBConfig(display, screen, wanted, &count), chosen = NULL;
-    VisualID visual = XVisualIDFromVisual(attributes.visual);
-    for (int i = 0; i < count && !chosen; i++) {
+    /* The configuration with the fewest extra buffers: nothing here uses depth, stencil or
+     * multisampling, and each is allocated at the window's size (a depth and stencil buffer made
+     * the first frame of an 8192 x 8192 window take seconds). A server may offer none such for the
+     * window's own visual (Xvfb's default visual has one configuration, with both), so the GL
+     * draws into a child window of the configuration's visual; its pixels must mean what the
+     * parent's do (the same depth and masks, TrueColor), so that X shows, and xwd reads, them alike. */
+    int least = 0;
+    XVisualInfo chosen_visual = {0};
+    for (int i = 0; i < count; i++) {
         XVisualInfo *info = glx.GetVisualFromFBConfig(display, configs[i]);
-        if (info && info->visualid == visual) chosen = configs[i];
+        bool alike = info && info->class == TrueColor && info->depth == attributes.depth &&
+                     info->red_mask == attributes.visual->red_mask && info->green_mask == attributes.visual->green_mask &&
+                     info->blue_mask == attributes.visual->blue_mask;
+        if (alike) {
+            int depth = 0, stencil = 0, samples = 0;
+            glx.GetFBConfigAttrib(display, configs[i], GLX_DEPTH_SIZE, &depth);
+            glx.GetFBConfigAttrib(display, configs[i], GLX_STENCIL_SIZE, &stencil);
+            glx.GetFBConfigAttrib(display, configs[i], GLX_SAMPLES, &samples);
+            int extra = 1000 * samples + depth + stencil;
+            if (!chosen || extra < least) {
+                chosen = configs[i];
+                least = extra;
+                chosen_visual = *info;
+            }
+        }
         if (info) XFree(info);
     }
     if (configs) XFree(configs);
     if (!chosen) {
-        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: no double-buffered RGB8 configuration for the window's visual 0x%lx",
-                 (unsigned long)visual);
+        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: no double-buffered RGB8 configuration for a %d-bit TrueColor window",
+                 attributes.depth);
         return false;
     }
     GLXContext (*create)(Display *, GLXFBConfig, GLXContext, Bool, const int *);
@@ -312,18 +338,32 @@ static bool make_window_context(pm_view *v, char *err, size_t err_size) {
         snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: GLX refused it (X error %d)", glx_x_error);
         return false;
     }
-    if (!glx.MakeCurrent(display, window, context)) {
+    /* the child: no events selected, so keys and the mouse go on to GLFW's window; no background,
+     * so what the parent shows (the first image) stays until GL draws */
+    XSetWindowAttributes child = {.background_pixmap = None, .border_pixel = 0};
+    child.colormap = XCreateColormap(display, window, chosen_visual.visual, AllocNone);
+    int width = attributes.width > 0 ? attributes.width : 1, height = attributes.height > 0 ? attributes.height : 1;
+    Window gl_window = XCreateWindow(display, window, 0, 0, (unsigned)width, (unsigned)height, 0, chosen_visual.depth, InputOutput,
+                                     chosen_visual.visual, CWBackPixmap | CWBorderPixel | CWColormap, &child);
+    if (!gl_window || !glx.MakeCurrent(display, gl_window, context)) {
         glx.DestroyContext(display, context);
+        if (gl_window) XDestroyWindow(display, gl_window);
+        XFreeColormap(display, child.colormap);
         snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: glXMakeCurrent failed");
         return false;
     }
+    XMapWindow(display, gl_window);
     v->glx_context = context;
+    v->gl_window = gl_window;
+    v->gl_colormap = child.colormap;
+    v->gl_window_width = width;
+    v->gl_window_height = height;
     /* rendering iterations are not to be throttled by the monitor's refresh */
     if (has_extension(extensions, "GLX_EXT_swap_control")) {
         void (*interval)(Display *, GLXDrawable, int);
         found = glx.GetProcAddress((const GLubyte *)"glXSwapIntervalEXT");
         memcpy(&interval, &found, sizeof interval);
-        if (interval) interval(display, window, 0);
+        if (interval) interval(display, gl_window, 0);
     } else if (has_extension(extensions, "GLX_MESA_swap_control")) {
         int (*interval)(unsigned);
         found = glx.GetProcAddress((const GLubyte *)"glXSwapIntervalMESA");
@@ -332,8 +372,6 @@ static bool make_window_context(pm_view *v, char *err, size_t err_size) {
     }
     if (!load_gl(&v->gl, glx_loader, err, err_size)) return false;
     v->gl_loaded = true;
-    /* GL draws every pixel from here: the server's grey background would flash on each expose */
-    XSetWindowBackgroundPixmap(display, window, None);
     XFlush(display);
     return true;
 }
@@ -356,7 +394,7 @@ static void make_current(pm_view *v) {
         if (osmesa.GetCurrentContext() != v->osmesa)
             osmesa.MakeCurrent(v->osmesa, v->osmesa_buffer, GL_UNSIGNED_BYTE, v->width, v->height);
     } else if (v->glx_context && glx.GetCurrentContext() != v->glx_context) {
-        glx.MakeCurrent(glfwGetX11Display(), glfwGetX11Window(v->window), v->glx_context);
+        glx.MakeCurrent(glfwGetX11Display(), v->gl_window, v->glx_context);
     }
 }
 
@@ -537,6 +575,8 @@ void pm_view_destroy(pm_view *v) {
                 release_gl(v);
                 glx.MakeCurrent(glfwGetX11Display(), None, NULL);
                 glx.DestroyContext(glfwGetX11Display(), v->glx_context);
+                XDestroyWindow(glfwGetX11Display(), v->gl_window);
+                XFreeColormap(glfwGetX11Display(), v->gl_colormap);
             }
             glfwDestroyWindow(v->window);
         }
@@ -1123,6 +1163,12 @@ static void copy_to_window(pm_view *v) {
     int fw = 0, fh = 0;
     glfwGetFramebufferSize(v->window, &fw, &fh);
     if (fw < 1 || fh < 1) return; /* minimised */
+    if (fw != v->gl_window_width || fh != v->gl_window_height) {
+        /* the GL's child window follows GLFW's; GL reads its new size at the next draw */
+        XResizeWindow(glfwGetX11Display(), v->gl_window, (unsigned)fw, (unsigned)fh);
+        v->gl_window_width = fw;
+        v->gl_window_height = fh;
+    }
     double s = fmin((double)fw / v->width, (double)fh / v->height);
     int dw = (int)lround(v->width * s), dh = (int)lround(v->height * s);
     int dx = (fw - dw) / 2, dy = (fh - dh) / 2;
@@ -1147,7 +1193,7 @@ void pm_view_draw(pm_view *v, const pm_display *d) {
     draw_composite(v, d);
     if (v->backend != PM_BACKEND_WINDOW) return;
     copy_to_window(v);
-    glx.SwapBuffers(glfwGetX11Display(), glfwGetX11Window(v->window));
+    glx.SwapBuffers(glfwGetX11Display(), v->gl_window);
 }
 
 void pm_view_read_rgba8(pm_view *v, uint8_t *rgba) {
