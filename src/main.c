@@ -69,8 +69,8 @@ typedef struct {
     pm_camera camera;
     uint64_t output_reserved; /* the snapshot writers' room, admitted before the render */
     _Atomic(const char *) *stage; /* where the window reads the set-up's stage; NULL without a window */
-    bool start_session;           /* the window's first scene, one process: its session starts at the end of the
-                                     set-up, so that its preview renders while the window opens */
+    bool start_session;           /* the window's first scene, one process: its session starts, held, at the end
+                                     of the set-up, so that its preview renders while the window opens */
     /* a reload asked by the window (--watch, a dropped file): */
     bool heap;                    /* allocated for it, freed with it */
     bool keep_camera;             /* `kept` replaces the file's camera */
@@ -239,7 +239,10 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
             return failed(r, 1, "%s: the reference is %dx%d but the image is %dx%d (use --width/--height)", reference,
                           r->reference.width, r->reference.height, width, height);
     }
-    if (r->start_session && !pm_session_start(r->session, err, sizeof err)) return failed(r, 1, "%s", err);
+    if (r->start_session) {
+        pm_session_hold(r->session, true); /* (released by the window, once it shows the preview) */
+        if (!pm_session_start(r->session, err, sizeof err)) return failed(r, 1, "%s", err);
+    }
     return -1;
 }
 

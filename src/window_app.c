@@ -425,6 +425,9 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
             nanosleep(&(struct timespec){.tv_nsec = 1000000}, NULL);
         }
     }
+    /* the first image is up (or not coming soon): the iterations may take the cores now (a session
+     * the set-up started was held at its preview while the window opened) */
+    pm_session_hold(cur.session, false);
     if (!prepared(w, err, sizeof err) || !pm_view_set_size(view, width, height, err, sizeof err)) {
         if (cluster) pm_cluster_abort(cluster, err); /* the other ranks are waiting for its commands */
         fprintf(stderr, "pmview: error: %s\n", err);
