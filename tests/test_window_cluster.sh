@@ -84,12 +84,11 @@ cat >"$tmp/inner_ref.sh" <<'EOF'
 # merged, its relMSE is read and P saves the image shown; "$1" is the temp folder
 tmp=$1
 log="$tmp/ref.log"
-fail() { echo "inner: $*"; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- mpirun's log:"; cat "$log"; exit 1; }
+. tests/window_inner.sh
 mpirun --oversubscribe -np 2 ./pmview scenes/cornell-box.gltf --width 64 --height 64 --threads 1 --iterations 40 \
     --reference tests/ref/cornell_path_64.exr --screenshot "$tmp/merged.png" </dev/null >"$log" 2>&1 &
 pid=$!
-wid=$(timeout 30 xdotool search --sync --name '^pmview \(2 ranks\)' | head -n 1)
-[ -n "$wid" ] || fail "no window named 'pmview (2 ranks)' after 30 s"
+focus_window '^pmview \(2 ranks\)'
 i=0
 while :; do
     kill -0 "$pid" 2>/dev/null || fail "mpirun exited before the title showed 40 merged iterations"
@@ -101,16 +100,11 @@ while :; do
 done
 echo "$relmse" >"$tmp/title_relmse"
 echo "inner: title: $title"
-xdotool windowfocus --sync "$wid" || fail "cannot focus the window"
-xdotool key --clearmodifiers p || fail "xdotool key p failed"
-i=0
-while ! grep -q "^pmview: saved" "$log"; do
-    i=$((i + 1)); [ "$i" -gt 100 ] && fail "P saved nothing in 10 s"
-    sleep 0.1
-done
-xdotool key --clearmodifiers Escape || fail "xdotool key Escape failed"
-xdotool keyup Escape
-wait "$pid" || fail "mpirun exited with $? after Escape"
+press p
+wait_for "^pmview: saved" 1 10
+press Escape
+wait_exit 10
+[ "$rc" -eq 0 ] || fail "mpirun exited with $rc after Escape"
 echo "inner: ok"
 EOF
 
