@@ -12,15 +12,18 @@
 CC      ?= cc
 CXX     ?= c++
 OPT     ?= -O2
-# Open MPI's headers and library (cluster.c is the one file that uses them)
+# Open MPI's headers and library: only src/cluster.c uses them, built alone as the module
+# pmview-cluster.so that pmview opens (dlopen) next to itself when an MPI launcher started it
 MPI_CFLAGS = $(shell pkg-config --cflags ompi-c 2>/dev/null || echo -I/usr/lib/x86_64-linux-gnu/openmpi/include)
 MPI_LIBS   = $(shell pkg-config --libs ompi-c 2>/dev/null || echo -lmpi)
-CFLAGS_COMMON = -g -fno-math-errno -Wall -Wextra -Wno-unused-parameter -pthread -Iinclude -Ibuild -I/usr/include/OpenEXR $(MPI_CFLAGS)
+CFLAGS_COMMON = -g -fno-math-errno -Wall -Wextra -Wno-unused-parameter -pthread -Iinclude -Ibuild -I/usr/include/OpenEXR
 CFLAGS   = -std=c11 $(OPT) $(CFLAGS_COMMON) -D_POSIX_C_SOURCE=200809L
 CXXFLAGS = -std=c++14 $(OPT) -g -Wall -pthread -Iinclude -I/usr/include/stb
-LIBS     = -lembree3 -lglfw -lX11 -lOpenEXRCore-3_1 -lstb -ldraco -lmeshoptimizer $(MPI_LIBS) -lstdc++ -lm -pthread
+LIBS     = -lembree3 -lglfw -lX11 -lOpenEXRCore-3_1 -lstb -ldraco -lmeshoptimizer -lstdc++ -lm -pthread
+# pmview's own functions the MPI module calls (the film, the session, the memory accounting)
+EXPORT_TO_MODULE = -Wl,--export-dynamic-symbol=pm_*
 
-C_SRC   := $(filter-out src/main.c,$(wildcard src/*.c))
+C_SRC   := $(filter-out src/main.c src/cluster.c,$(wildcard src/*.c))
 CXX_SRC := $(wildcard src/*.cpp)
 TESTS   := $(patsubst tests/%.c,%,$(wildcard tests/test_*.c))
 SCENE   ?= scenes/cornell-box.gltf
@@ -57,6 +60,11 @@ build/$(1)/%.o: src/%.cpp
 build/$(1)/tests/%: tests/%.c build/$(1)/libpm.a
 	@mkdir -p build/$(1)/tests
 	$$(CC) $$(CFLAGS) $(DEPFLAGS) $(2) -Itests $$< build/$(1)/libpm.a -o $$@ $(2) $$(LIBS)
+build/$(1)/pic/cluster.o: src/cluster.c
+	@mkdir -p build/$(1)/pic
+	$$(CC) $$(CFLAGS) $$(MPI_CFLAGS) $(DEPFLAGS) $(2) -fPIC -fvisibility=hidden -c $$< -o $$@
+build/$(1)/pmview-cluster.so: build/$(1)/pic/cluster.o
+	$$(CC) -shared $$< -o $$@ $(2) $$(MPI_LIBS)
 build/$(1)/libpm.a: $(patsubst src/%.c,build/$(1)/%.o,$(C_SRC)) $(patsubst src/%.cpp,build/$(1)/%.o,$(CXX_SRC))
 	@rm -f $$@
 	ar rcs $$@ $$^
@@ -67,8 +75,11 @@ ASAN_FLAGS := -fsanitize=address$(comma)undefined -fno-omit-frame-pointer -fno-s
 $(eval $(call variant,asan,$(ASAN_FLAGS)))
 $(eval $(call variant,tsan,-fsanitize=thread))
 
-pmview: build/rel/main.o build/rel/libpm.a
-	$(CC) $(CFLAGS) $^ -o $@ $(LIBS)
+pmview: build/rel/main.o build/rel/libpm.a pmview-cluster.so
+	$(CC) $(CFLAGS) build/rel/main.o build/rel/libpm.a -o $@ $(LIBS) $(EXPORT_TO_MODULE)
+
+pmview-cluster.so: build/rel/pmview-cluster.so
+	cp $< $@
 
 run: deps pmview
 	@sh tools/run-default.sh $(SCENE)
@@ -78,8 +89,8 @@ run: deps pmview
 tests-build: pmview build/rel/error_map build/asan/pmview $(addprefix build/asan/tests/,$(filter-out $(OPTIMISED_TESTS),$(TESTS))) \
              $(addprefix build/rel/tests/,$(OPTIMISED_TESTS))
 
-build/asan/pmview: build/asan/main.o build/asan/libpm.a
-	$(CC) $(CFLAGS) $(ASAN_FLAGS) $^ -o $@ $(LIBS) $(ASAN_FLAGS)
+build/asan/pmview: build/asan/main.o build/asan/libpm.a build/asan/pmview-cluster.so
+	$(CC) $(CFLAGS) $(ASAN_FLAGS) build/asan/main.o build/asan/libpm.a -o $@ $(LIBS) $(ASAN_FLAGS) $(EXPORT_TO_MODULE)
 
 test: deps
 	@start=$$(date +%s); $(MAKE) --no-print-directory -j2 tests-build && echo "make test: built in $$(( $$(date +%s) - start )) s"
@@ -152,7 +163,7 @@ build/rel/error_map: tools/error_map.c build/rel/libpm.a
 	$(CC) $(CFLAGS) $(DEPFLAGS) $< build/rel/libpm.a -o $@ $(LIBS)
 
 clean:
-	rm -rf build pmview
+	rm -rf build pmview pmview-cluster.so
 
 # the headers each object, test and tool was built from, as the compiler found them
--include $(wildcard build/*/*.d build/*/tests/*.d)
+-include $(wildcard build/*/*.d build/*/tests/*.d build/*/pic/*.d)

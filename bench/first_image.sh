@@ -6,7 +6,8 @@
 # Each run: the shell notes the wall clock, starts `BINARY --iterations 2 --threads 2 --stats`,
 # waits for the render to finish and presses Esc; pmview's `stat window first_image_realtime`
 # (the wall clock at the first image) minus the start is the figure, and `first_frame_seconds`
-# plus the same offset the window's. Prints each run and, per binary, the median and range.
+# plus the same offset the window's; `first_image_cpu_seconds` is the process's processor time then
+# (every thread, the dynamic loading included). Prints each run and, per binary, the median and range.
 cd "$(dirname "$0")/.." || exit 1
 rounds=${1:-10}; [ $# -gt 0 ] && shift
 [ $# -eq 0 ] && set -- ./pmview
@@ -31,9 +32,10 @@ for r in $(seq 1 "$rounds"); do
         # (a binary without first_image_realtime gives only the times from main())
         awk -v t0="$t0" -v bin="$bin" '$1 == "stat" && $2 == "window" {
             for (i = 3; i <= NF; i++) { split($i, kv, "="); v[kv[1]] = kv[2] }
-            printf "%s image_ms=%s window_from_main_ms=%.0f image_from_main_ms=%.0f\n", bin,
+            printf "%s image_ms=%s window_from_main_ms=%.0f image_from_main_ms=%.0f cpu_ms=%s\n", bin,
                    v["first_image_realtime"] ? sprintf("%.0f", (v["first_image_realtime"] - t0) * 1000) : "-",
-                   v["first_frame_seconds"] * 1000, v["first_image_seconds"] * 1000 }' "$log"
+                   v["first_frame_seconds"] * 1000, v["first_image_seconds"] * 1000,
+                   v["first_image_cpu_seconds"] ? sprintf("%.0f", v["first_image_cpu_seconds"] * 1000) : "-" }' "$log"
     done
 done
 INNER
@@ -42,5 +44,6 @@ median() { sort -n | awk '{ v[NR] = $1 } END { if (NR) printf "%d ms (median of 
 for bin in "$@"; do
     echo "$bin: first image $(grep "^$bin " "$tmp/all.txt" | sed -n 's/.* image_ms=\([0-9]*\) .*/\1/p' | median) after the process started;" \
          "after main(): window $(grep "^$bin " "$tmp/all.txt" | sed -n 's/.*window_from_main_ms=\([0-9]*\).*/\1/p' | median)," \
-         "first image $(grep "^$bin " "$tmp/all.txt" | sed -n 's/.*image_from_main_ms=\([0-9]*\).*/\1/p' | median)"
+         "first image $(grep "^$bin " "$tmp/all.txt" | sed -n 's/.*image_from_main_ms=\([0-9]*\).*/\1/p' | median);" \
+         "processor time to the first image $(grep "^$bin " "$tmp/all.txt" | sed -n 's/.*cpu_ms=\([0-9]*\).*/\1/p' | median)"
 done

@@ -12,8 +12,8 @@
 #define PM_CLUSTER_QUIT_SECONDS 5.0      /* the window's quit: a rank that has not answered it by then is taken for stopped */
 #define PM_DEFAULT_WINDOW_ITERATIONS 100000 /* the window keeps converging until closed */
 #define PM_WATCH_SETTLE_SECONDS 0.15      /* --watch: a reload starts once the scene's folder has been quiet this long (a burst of saves is one reload) */
-#define PM_PREPARE_AFTER_SECONDS 0.03   /* the window: a set-up longer than this compiles the display shader meanwhile; a
-                                           shorter one shows its first image composed on the CPU before the shader is built */
+#define PM_PREPARE_AFTER_SECONDS 0.03   /* the window: a set-up longer than this makes the GL context and compiles the display
+                                           shader meanwhile; a shorter one shows its first image composed on the CPU first */
 #define PM_QUICK_IMAGE_WAIT_SECONDS 0.1 /* the window: how long the first image (the session's preview) is waited for before
                                            the shader is built anyway */
 #define PM_WINDOW_MOTION_GAP 0.2          /* the window: camera changes less than this many seconds apart are one motion (a drag, a held key) */

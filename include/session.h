@@ -161,6 +161,10 @@ bool pm_session_resize(pm_session *s, int width, int height, const pm_camera *ca
 /* Starts the worker; false with err (and pm_session_error) set. */
 bool pm_session_start(pm_session *s, char *err, size_t err_size);
 void pm_session_pause(pm_session *s, bool paused);
+/* Held, the worker renders its previews (the first, and one after each restart) but no iteration
+ * until released: a window's first scene publishes its coarse image while the window opens, and
+ * the photon and eye passes wait for the window instead of taking its cores meanwhile. */
+void pm_session_hold(pm_session *s, bool held);
 /* Takes effect at once: the running pass stops at its next task. camera may be NULL (same camera).
  * indirect: -1 keeps the setting, else the new pm_indirect_mode (the G key). */
 void pm_session_request_restart(pm_session *s, const pm_camera *camera, int indirect);

@@ -43,9 +43,10 @@ typedef struct {
 } pm_view_events;
 
 /* The shaders in shaders/ are compiled into the binary (build/shaders.inc, made by the Makefile).
- * A window is on screen, cleared to grey, when create returns; its shaders and textures come with
+ * A window is on screen, grey, when create returns; its GL context, shaders and textures come with
  * pm_view_prepare (until then uploads and draws do nothing), so the window can show while the
- * scene loads and the shader is compiled meanwhile. An offscreen view is prepared at once. */
+ * scene loads and the context is made and the shader compiled meanwhile, or after the first image
+ * (pm_view_show_quick). An offscreen view is prepared at once. */
 pm_view *pm_view_create_window(int width, int height, const char *title,
                                char *err, size_t err_size);
 bool pm_view_prepare(pm_view *v, char *err, size_t err_size);

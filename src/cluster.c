@@ -1,5 +1,6 @@
-/* cluster.c: the MPI side of pmview: joining a job, agreeing on the set-up, merging the ranks' films by one reduction, and the window's commands to every rank. */
+/* cluster.c: the MPI side of pmview: joining a job, agreeing on the set-up, merging the ranks' films by one reduction, and the window's commands to every rank; built alone as the module pmview-cluster.so (include/cluster_module.h). */
 #include "cluster.h"
+#include "cluster_module.h"
 
 #include <fcntl.h>
 #include <limits.h>
@@ -680,4 +681,18 @@ int pm_cluster_follow(pm_cluster *c, pm_session *s) {
         default: break;
         }
     }
+}
+
+/* ---- the module's one exported function (the rest is hidden: -fvisibility=hidden) ---- */
+
+__attribute__((visibility("default"))) const pm_cluster_module *pm_cluster_module_functions(void) {
+    static const pm_cluster_module functions = {
+        .join = pm_cluster_join, .leave = pm_cluster_leave, .rank = pm_cluster_rank, .size = pm_cluster_size,
+        .agree = pm_cluster_agree, .prepare = pm_cluster_prepare, .abort = pm_cluster_abort, .seed = pm_cluster_seed,
+        .share = pm_cluster_share, .get_totals = pm_cluster_get_totals, .watch = pm_cluster_watch,
+        .merge_now = pm_cluster_merge_now, .serve = pm_cluster_serve, .send_stop = pm_cluster_send_stop,
+        .end_run = pm_cluster_end_run, .expect_end = pm_cluster_expect_end, .error = pm_cluster_error,
+        .send_restart = pm_cluster_send_restart, .send_pause = pm_cluster_send_pause, .send_resize = pm_cluster_send_resize,
+        .send_quit = pm_cluster_send_quit, .poll_merge = pm_cluster_poll_merge, .follow = pm_cluster_follow};
+    return &functions;
 }

@@ -69,6 +69,8 @@ typedef struct {
     pm_camera camera;
     uint64_t output_reserved; /* the snapshot writers' room, admitted before the render */
     _Atomic(const char *) *stage; /* where the window reads the set-up's stage; NULL without a window */
+    bool start_session;           /* the window's first scene, one process: its session starts, held, at the end
+                                     of the set-up, so that its preview renders while the window opens */
     /* a reload asked by the window (--watch, a dropped file): */
     bool heap;                    /* allocated for it, freed with it */
     bool keep_camera;             /* `kept` replaces the file's camera */
@@ -237,6 +239,10 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
             return failed(r, 1, "%s: the reference is %dx%d but the image is %dx%d (use --width/--height)", reference,
                           r->reference.width, r->reference.height, width, height);
     }
+    if (r->start_session) {
+        pm_session_hold(r->session, true); /* (released by the window, once it shows the preview) */
+        if (!pm_session_start(r->session, err, sizeof err)) return failed(r, 1, "%s", err);
+    }
     return -1;
 }
 
@@ -328,6 +334,13 @@ int main(int argc, char **argv) {
     memset(&r, 0, sizeof r);
     int code = pm_options_parse(argc, argv, &r.opt);
     reloads reloaded = {.parsed = r.opt, .current = &r};
+    /* a reload runs the whole set-up again in one process: under mpirun every rank would have to
+     * reload alike, so --watch is refused there at once (a file dropped on the window only says so
+     * in its title) */
+    if (code < 0 && cluster && r.opt.watch) {
+        fprintf(stderr, "pmview: --watch is for a single process, not under mpirun (every rank would have to reload alike)\n");
+        code = 2;
+    }
     pm_window *window = NULL;
     if (code < 0) {
         setvbuf(stdout, NULL, _IOLBF, 0);
@@ -341,6 +354,8 @@ int main(int argc, char **argv) {
             pm_window_job wait = {.work = set_up_for_window, .arg = &job, .scene_path = r.opt.scene_path};
             atomic_init(&wait.stage, NULL);
             r.stage = &wait.stage;
+            /* (under mpirun every rank's session starts once the ranks have agreed) */
+            r.start_session = !cluster;
             if (getenv("DISPLAY")) pm_window_job_start(&wait); /* (without one the window is refused at once) */
             code = pm_window_open(&r.opt, cluster, process_start, &window);
             if (code < 0) {

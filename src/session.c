@@ -47,6 +47,7 @@ struct pm_session {
     int preview_divisor;                  /* the next preview's pixels are this many film pixels across */
     double last_restart;                  /* when the worker took the last restart (0: none yet) */
     bool stop, paused, restart_pending, have_camera_change;
+    bool held;                            /* pm_session_hold: previews only, no iteration */
     int indirect_change;                  /* -1 none */
     pm_camera pending_camera;
     float *front[PM_COMPONENT_COUNT], *back[PM_COMPONENT_COUNT];
@@ -647,7 +648,7 @@ static void *worker_main(void *arg) {
         bool done = !need_clear && s->config.max_iterations && s->film.samples >= s->config.max_iterations;
         s->published.finished = done;
         s->published.paused = s->paused;
-        if (s->paused || done) {
+        if (s->paused || done || (s->held && !need_preview)) {
             pthread_cond_wait(&s->wake, &s->lock);
             continue;
         }
@@ -753,6 +754,13 @@ bool pm_session_resize(pm_session *s, int width, int height, const pm_camera *ca
     if (running && !pm_session_start(s, s->error, sizeof s->error)) return false;
     snprintf(s->error, sizeof s->error, "%s", error);
     return built;
+}
+
+void pm_session_hold(pm_session *s, bool held) {
+    pthread_mutex_lock(&s->lock);
+    s->held = held;
+    pthread_cond_signal(&s->wake);
+    pthread_mutex_unlock(&s->lock);
 }
 
 void pm_session_pause(pm_session *s, bool paused) {

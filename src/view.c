@@ -10,6 +10,12 @@
  * so every entry point is fetched through the current context's get-proc-address into a table
  * (pm_gl) and all GL code goes through v->gl. libOSMesa is opened (dlopen) at the first
  * offscreen view, not linked: it brings LLVM, whose loading took 65 ms of every start.
+ *
+ * The window is made the same way: GLFW opens it without a context (its X11 window, its events),
+ * and the GL context is made on it later through GLX, libGL opened with dlopen by
+ * pm_view_prepare. Loading the GL driver (Mesa's brings LLVM too) took longer than the rest of a
+ * small scene's start together; without it the window and the first image (pm_view_show_quick,
+ * through X11) come first.
  */
 #include <dlfcn.h>
 #include <math.h>
@@ -28,11 +34,15 @@
 Display *glfwGetX11Display(void);
 Window glfwGetX11Window(GLFWwindow *window);
 #include <GL/osmesa.h> /* also brings GL/gl.h and GL/glext.h: types and enums only */
+#include <GL/glx.h>    /* types and enums only: libGL's entry points are fetched with dlsym */
 
 #include "view.h"
 #include "memory.h"
 
 #include "shaders.inc"
+
+/* the bars' grey in 8 bits, drawn by X11 before GL exists: copy_to_window's clear to 0.1 */
+#define PM_VIEW_BAR_GREY 26u
 
 /* Every GL function used here: return type, name without the gl prefix, parameters. */
 #define PM_GL_FUNCTIONS(X) \
@@ -104,6 +114,10 @@ struct pm_view {
     int width, height;          /* the film, the FBO and the component textures */
 
     GLFWwindow *window;
+    GLXContext glx_context;     /* the window's, made by pm_view_prepare */
+    Window gl_window;           /* the X11 window it draws into: a child filling GLFW's (see make_window_context) */
+    Colormap gl_colormap;
+    int gl_window_width, gl_window_height;
     OSMesaContext osmesa;
     void *osmesa_buffer;        /* OSMesa's default framebuffer; never drawn to, but it must exist */
 
@@ -130,6 +144,7 @@ struct pm_view {
 
 static void draw_composite(pm_view *v, const pm_display *d);
 static void copy_to_window(pm_view *v);
+static bool load_gl(pm_gl *gl, pm_gl_loader load, char *err, size_t err_size);
 
 /* GLFW reports errors through a callback; the last message becomes part of create's error. */
 static char glfw_error[256];
@@ -181,8 +196,184 @@ static pm_gl_proc osmesa_loader(const char *name) {
     return (pm_gl_proc)osmesa.GetProcAddress(name);
 }
 
-static pm_gl_proc glfw_loader(const char *name) {
-    return (pm_gl_proc)glfwGetProcAddress(name);
+/* libGL's GLX entry points, from the library opened when the first window's context is made. */
+static struct {
+    GLXFBConfig *(*ChooseFBConfig)(Display *display, int screen, const int *attributes, int *count);
+    XVisualInfo *(*GetVisualFromFBConfig)(Display *display, GLXFBConfig config);
+    int (*GetFBConfigAttrib)(Display *display, GLXFBConfig config, int attribute, int *value);
+    const char *(*QueryExtensionsString)(Display *display, int screen);
+    Bool (*MakeCurrent)(Display *display, GLXDrawable drawable, GLXContext context);
+    GLXContext (*GetCurrentContext)(void);
+    void (*SwapBuffers)(Display *display, GLXDrawable drawable);
+    void (*DestroyContext)(Display *display, GLXContext context);
+    pm_gl_proc (*GetProcAddress)(const GLubyte *name);
+    bool loaded;
+    char error[256];
+} glx;
+static pthread_once_t glx_once = PTHREAD_ONCE_INIT;
+
+static void open_glx(void) {
+    void *lib = dlopen("libGL.so.1", RTLD_NOW | RTLD_LOCAL);
+    if (!lib) lib = dlopen("libGL.so", RTLD_NOW | RTLD_LOCAL);
+    if (!lib) {
+        const char *why = dlerror();
+        snprintf(glx.error, sizeof glx.error, "cannot open libGL (%s)", why ? why : "dlopen failed");
+        return;
+    }
+    struct { const char *name; void *slot; size_t size; } entries[] = {
+        {"glXChooseFBConfig", &glx.ChooseFBConfig, sizeof glx.ChooseFBConfig},
+        {"glXGetVisualFromFBConfig", &glx.GetVisualFromFBConfig, sizeof glx.GetVisualFromFBConfig},
+        {"glXGetFBConfigAttrib", &glx.GetFBConfigAttrib, sizeof glx.GetFBConfigAttrib},
+        {"glXQueryExtensionsString", &glx.QueryExtensionsString, sizeof glx.QueryExtensionsString},
+        {"glXMakeCurrent", &glx.MakeCurrent, sizeof glx.MakeCurrent},
+        {"glXGetCurrentContext", &glx.GetCurrentContext, sizeof glx.GetCurrentContext},
+        {"glXSwapBuffers", &glx.SwapBuffers, sizeof glx.SwapBuffers},
+        {"glXDestroyContext", &glx.DestroyContext, sizeof glx.DestroyContext},
+        {"glXGetProcAddressARB", &glx.GetProcAddress, sizeof glx.GetProcAddress}};
+    for (size_t i = 0; i < sizeof entries / sizeof *entries; i++) {
+        void *f = dlsym(lib, entries[i].name);
+        if (!f) {
+            snprintf(glx.error, sizeof glx.error, "libGL has no %s", entries[i].name);
+            return;
+        }
+        memcpy(entries[i].slot, &f, entries[i].size);
+    }
+    glx.loaded = true;
+}
+
+static pm_gl_proc glx_loader(const char *name) {
+    return glx.GetProcAddress((const GLubyte *)name);
+}
+
+/* An X error while the context is made (a server without 3.3 core contexts answers BadMatch or
+ * GLXBadFBConfig) is noted here rather than ending the process, Xlib's default. */
+static volatile int glx_x_error;
+static int note_x_error(Display *display, XErrorEvent *event) {
+    (void)display;
+    glx_x_error = event->error_code ? event->error_code : 1;
+    return 0;
+}
+
+static bool has_extension(const char *list, const char *name) {
+    size_t n = strlen(name);
+    for (const char *at = list; at && (at = strstr(at, name)); at += n)
+        if ((at == list || at[-1] == ' ') && (at[n] == ' ' || at[n] == 0)) return true;
+    return false;
+}
+
+/* The window's OpenGL 3.3 core context, made through GLX on the X11 window GLFW opened (its
+ * visual: a framebuffer configuration of that visual), current on the calling thread. */
+static bool make_window_context(pm_view *v, char *err, size_t err_size) {
+    pthread_once(&glx_once, open_glx);
+    if (!glx.loaded) {
+        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: %s", glx.error);
+        return false;
+    }
+    Display *display = glfwGetX11Display();
+    Window window = glfwGetX11Window(v->window);
+    XWindowAttributes attributes;
+    if (!display || !window || !XGetWindowAttributes(display, window, &attributes)) {
+        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: the window's X11 attributes are unknown");
+        return false;
+    }
+    int screen = XScreenNumberOfScreen(attributes.screen);
+    const char *extensions = glx.QueryExtensionsString(display, screen);
+    if (!has_extension(extensions, "GLX_ARB_create_context") || !has_extension(extensions, "GLX_ARB_create_context_profile")) {
+        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: GLX has no GLX_ARB_create_context_profile");
+        return false;
+    }
+    static const int wanted[] = {GLX_X_RENDERABLE, True, GLX_DRAWABLE_TYPE, GLX_WINDOW_BIT, GLX_RENDER_TYPE, GLX_RGBA_BIT,
+                                 GLX_DOUBLEBUFFER, True, GLX_RED_SIZE, 8, GLX_GREEN_SIZE, 8, GLX_BLUE_SIZE, 8, None};
+    int count = 0;
+    GLXFBConfig *configs = glx.ChooseFBConfig(display, screen, wanted, &count), chosen = NULL;
+    /* The configuration with the fewest extra buffers: nothing here uses depth, stencil or
+     * multisampling, and each is allocated at the window's size (a depth and stencil buffer made
+     * the first frame of an 8192 x 8192 window take seconds). A server may offer none such for the
+     * window's own visual (Xvfb's default visual has one configuration, with both), so the GL
+     * draws into a child window of the configuration's visual; its pixels must mean what the
+     * parent's do (the same depth and masks, TrueColor), so that X shows, and xwd reads, them alike. */
+    int least = 0;
+    XVisualInfo chosen_visual = {0};
+    for (int i = 0; i < count; i++) {
+        XVisualInfo *info = glx.GetVisualFromFBConfig(display, configs[i]);
+        bool alike = info && info->class == TrueColor && info->depth == attributes.depth &&
+                     info->red_mask == attributes.visual->red_mask && info->green_mask == attributes.visual->green_mask &&
+                     info->blue_mask == attributes.visual->blue_mask;
+        if (alike) {
+            int depth = 0, stencil = 0, samples = 0;
+            glx.GetFBConfigAttrib(display, configs[i], GLX_DEPTH_SIZE, &depth);
+            glx.GetFBConfigAttrib(display, configs[i], GLX_STENCIL_SIZE, &stencil);
+            glx.GetFBConfigAttrib(display, configs[i], GLX_SAMPLES, &samples);
+            int extra = 1000 * samples + depth + stencil;
+            if (!chosen || extra < least) {
+                chosen = configs[i];
+                least = extra;
+                chosen_visual = *info;
+            }
+        }
+        if (info) XFree(info);
+    }
+    if (configs) XFree(configs);
+    if (!chosen) {
+        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: no double-buffered RGB8 configuration for a %d-bit TrueColor window",
+                 attributes.depth);
+        return false;
+    }
+    GLXContext (*create)(Display *, GLXFBConfig, GLXContext, Bool, const int *);
+    pm_gl_proc found = glx.GetProcAddress((const GLubyte *)"glXCreateContextAttribsARB");
+    memcpy(&create, &found, sizeof create);
+    static const int context_attributes[] = {GLX_CONTEXT_MAJOR_VERSION_ARB, 3, GLX_CONTEXT_MINOR_VERSION_ARB, 3,
+                                             GLX_CONTEXT_PROFILE_MASK_ARB, GLX_CONTEXT_CORE_PROFILE_BIT_ARB,
+                                             GLX_CONTEXT_FLAGS_ARB, GLX_CONTEXT_FORWARD_COMPATIBLE_BIT_ARB, None};
+    /* (the handler is the process's: GLFW sets its own only around its own calls on the window's
+     * thread, none of which runs while a context is made, the window's thread waiting meanwhile) */
+    XSync(display, False);
+    glx_x_error = 0;
+    XErrorHandler previous = XSetErrorHandler(note_x_error);
+    GLXContext context = create ? create(display, chosen, NULL, True, context_attributes) : NULL;
+    XSync(display, False);
+    XSetErrorHandler(previous);
+    if (!context || glx_x_error) {
+        if (context) glx.DestroyContext(display, context);
+        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: GLX refused it (X error %d)", glx_x_error);
+        return false;
+    }
+    /* the child: no events selected, so keys and the mouse go on to GLFW's window; no background,
+     * so what the parent shows (the first image) stays until GL draws */
+    XSetWindowAttributes child = {.background_pixmap = None, .border_pixel = 0};
+    child.colormap = XCreateColormap(display, window, chosen_visual.visual, AllocNone);
+    int width = attributes.width > 0 ? attributes.width : 1, height = attributes.height > 0 ? attributes.height : 1;
+    Window gl_window = XCreateWindow(display, window, 0, 0, (unsigned)width, (unsigned)height, 0, chosen_visual.depth, InputOutput,
+                                     chosen_visual.visual, CWBackPixmap | CWBorderPixel | CWColormap, &child);
+    if (!gl_window || !glx.MakeCurrent(display, gl_window, context)) {
+        glx.DestroyContext(display, context);
+        if (gl_window) XDestroyWindow(display, gl_window);
+        XFreeColormap(display, child.colormap);
+        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: glXMakeCurrent failed");
+        return false;
+    }
+    XMapWindow(display, gl_window);
+    v->glx_context = context;
+    v->gl_window = gl_window;
+    v->gl_colormap = child.colormap;
+    v->gl_window_width = width;
+    v->gl_window_height = height;
+    /* rendering iterations are not to be throttled by the monitor's refresh */
+    if (has_extension(extensions, "GLX_EXT_swap_control")) {
+        void (*interval)(Display *, GLXDrawable, int);
+        found = glx.GetProcAddress((const GLubyte *)"glXSwapIntervalEXT");
+        memcpy(&interval, &found, sizeof interval);
+        if (interval) interval(display, gl_window, 0);
+    } else if (has_extension(extensions, "GLX_MESA_swap_control")) {
+        int (*interval)(unsigned);
+        found = glx.GetProcAddress((const GLubyte *)"glXSwapIntervalMESA");
+        memcpy(&interval, &found, sizeof interval);
+        if (interval) interval(0);
+    }
+    if (!load_gl(&v->gl, glx_loader, err, err_size)) return false;
+    v->gl_loaded = true;
+    XFlush(display);
+    return true;
 }
 
 static bool load_gl(pm_gl *gl, pm_gl_loader load, char *err, size_t err_size) {
@@ -202,8 +393,8 @@ static void make_current(pm_view *v) {
     if (v->backend == PM_BACKEND_OFFSCREEN) {
         if (osmesa.GetCurrentContext() != v->osmesa)
             osmesa.MakeCurrent(v->osmesa, v->osmesa_buffer, GL_UNSIGNED_BYTE, v->width, v->height);
-    } else if (glfwGetCurrentContext() != v->window) {
-        glfwMakeContextCurrent(v->window);
+    } else if (v->glx_context && glx.GetCurrentContext() != v->glx_context) {
+        glx.MakeCurrent(glfwGetX11Display(), v->gl_window, v->glx_context);
     }
 }
 
@@ -379,9 +570,14 @@ void pm_view_destroy(pm_view *v) {
         free(v->osmesa_buffer);
     } else {
         if (v->window) {
-            make_current(v);
-            release_gl(v);
-            glfwMakeContextCurrent(NULL);
+            if (v->glx_context) {
+                make_current(v);
+                release_gl(v);
+                glx.MakeCurrent(glfwGetX11Display(), None, NULL);
+                glx.DestroyContext(glfwGetX11Display(), v->glx_context);
+                XDestroyWindow(glfwGetX11Display(), v->gl_window);
+                XFreeColormap(glfwGetX11Display(), v->gl_colormap);
+            }
             glfwDestroyWindow(v->window);
         }
         if (--glfw_users == 0) glfwTerminate();
@@ -686,10 +882,8 @@ pm_view *pm_view_create_window(int width, int height, const char *title, char *e
         pm_view_destroy(v);
         return NULL;
     }
-    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
-    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
-    glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
-    glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+    /* the context comes later (pm_view_prepare), through GLX */
+    glfwWindowHint(GLFW_CLIENT_API, GLFW_NO_API);
     glfwWindowHint(GLFW_RESIZABLE, GLFW_TRUE);
     glfwWindowHint(GLFW_DEPTH_BITS, 0);
     glfwWindowHint(GLFW_STENCIL_BITS, 0);
@@ -697,14 +891,10 @@ pm_view *pm_view_create_window(int width, int height, const char *title, char *e
     window_size_for(width, height, &win_w, &win_h);
     v->window = glfwCreateWindow(win_w, win_h, v->title, NULL, NULL);
     if (!v->window) {
-        snprintf(err, err_size, "cannot create an OpenGL 3.3 core context: %s",
-                 glfw_error[0] ? glfw_error : "glfwCreateWindow failed");
+        snprintf(err, err_size, "cannot open a window: %s", glfw_error[0] ? glfw_error : "glfwCreateWindow failed");
         pm_view_destroy(v);
         return NULL;
     }
-    glfwMakeContextCurrent(v->window);
-    /* rendering iterations are not to be throttled by the monitor's refresh */
-    glfwSwapInterval(0);
     glfwSetWindowUserPointer(v->window, v);
     glfwSetKeyCallback(v->window, on_key);
     glfwSetMouseButtonCallback(v->window, on_mouse_button);
@@ -713,26 +903,31 @@ pm_view *pm_view_create_window(int width, int height, const char *title, char *e
     glfwSetFramebufferSizeCallback(v->window, on_framebuffer_size);
     glfwSetWindowCloseCallback(v->window, on_close);
     glfwSetDropCallback(v->window, on_drop);
-    if (!load_gl(&v->gl, glfw_loader, err, err_size)) {
-        pm_view_destroy(v);
-        return NULL;
+    /* The first frame: the bars' grey, the X server's own background for the window until GL
+     * draws. The GL context, the compose shader and Mesa's software rasteriser turning it into
+     * code at its first draw take longer than opening the window; pm_view_prepare does them while
+     * the scene loads, or after the first image. */
+    Display *display = glfwGetX11Display();
+    Window window = glfwGetX11Window(v->window);
+    XWindowAttributes attributes;
+    if (display && window && XGetWindowAttributes(display, window, &attributes) && attributes.visual->class == TrueColor) {
+        unsigned long grey = 0, masks[3] = {attributes.visual->red_mask, attributes.visual->green_mask, attributes.visual->blue_mask};
+        for (int c = 0; c < 3; c++) {
+            int shift = 0;
+            while (masks[c] && !((masks[c] >> shift) & 1)) shift++;
+            grey |= ((unsigned long)PM_VIEW_BAR_GREY << shift) & masks[c];
+        }
+        XSetWindowBackground(display, window, grey);
+        XClearWindow(display, window);
+        XFlush(display);
     }
-    v->gl_loaded = true;
-    /* The first frame: the bars' grey, cleared and shown before any shader exists. Compiling the
-     * compose shader and Mesa's software rasteriser turning it into code at its first draw take
-     * longer than opening the window; pm_view_prepare does both while the scene loads. */
-    int fw = 0, fh = 0;
-    glfwGetFramebufferSize(v->window, &fw, &fh);
-    v->gl.Viewport(0, 0, fw > 0 ? fw : 1, fh > 0 ? fh : 1);
-    v->gl.ClearColor(0.1f, 0.1f, 0.1f, 1.f);
-    v->gl.Clear(GL_COLOR_BUFFER_BIT);
-    glfwSwapBuffers(v->window);
     return v;
 }
 
 bool pm_view_prepare(pm_view *v, char *err, size_t err_size) {
     if (!v) return false;
     if (v->prepared) return true;
+    if (v->backend == PM_BACKEND_WINDOW && !v->glx_context && !make_window_context(v, err, err_size)) return false;
     make_current(v);
     if (!prepare_gl(v, v->width, v->height, err, err_size)) return false;
     /* one draw into the FBO, finished: the software rasteriser compiles the shader for the state
@@ -765,7 +960,8 @@ bool pm_view_set_size(pm_view *v, int width, int height, char *err, size_t err_s
 }
 
 void pm_view_release_context(pm_view *v) {
-    if (v && v->backend == PM_BACKEND_WINDOW && glfwGetCurrentContext() == v->window) glfwMakeContextCurrent(NULL);
+    if (v && v->backend == PM_BACKEND_WINDOW && v->glx_context && glx.GetCurrentContext() == v->glx_context)
+        glx.MakeCurrent(glfwGetX11Display(), None, NULL);
 }
 
 void pm_view_hide(pm_view *v) {
@@ -897,7 +1093,7 @@ void pm_view_show_quick(pm_view *v, int width, int height, const float *const la
     }
     double scale = fmin((double)fw / width, (double)fh / height);
     int dw = (int)lround(width * scale), dh = (int)lround(height * scale), dx = (fw - dw) / 2, dy = (fh - dh) / 2;
-    const unsigned long bar = 26; /* the bars' grey: the GL clear's 0.1 in an 8-bit framebuffer */
+    const unsigned long bar = PM_VIEW_BAR_GREY;
     uint32_t grey = 0;
     for (int ch = 0; ch < 3; ch++) grey |= (uint32_t)((bar << shifts[ch]) & masks[ch]);
     for (int y = 0; y < fh; y++) {
@@ -967,6 +1163,12 @@ static void copy_to_window(pm_view *v) {
     int fw = 0, fh = 0;
     glfwGetFramebufferSize(v->window, &fw, &fh);
     if (fw < 1 || fh < 1) return; /* minimised */
+    if (fw != v->gl_window_width || fh != v->gl_window_height) {
+        /* the GL's child window follows GLFW's; GL reads its new size at the next draw */
+        XResizeWindow(glfwGetX11Display(), v->gl_window, (unsigned)fw, (unsigned)fh);
+        v->gl_window_width = fw;
+        v->gl_window_height = fh;
+    }
     double s = fmin((double)fw / v->width, (double)fh / v->height);
     int dw = (int)lround(v->width * s), dh = (int)lround(v->height * s);
     int dx = (fw - dw) / 2, dy = (fh - dh) / 2;
@@ -991,7 +1193,7 @@ void pm_view_draw(pm_view *v, const pm_display *d) {
     draw_composite(v, d);
     if (v->backend != PM_BACKEND_WINDOW) return;
     copy_to_window(v);
-    glfwSwapBuffers(v->window);
+    glx.SwapBuffers(glfwGetX11Display(), v->gl_window);
 }
 
 void pm_view_read_rgba8(pm_view *v, uint8_t *rgba) {

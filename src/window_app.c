@@ -396,6 +396,7 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
     pm_exit_on_signals();
     pm_window_scene cur = *start;
     double first_image_realtime = 0; /* the wall clock at the first image, for a time from the process's exec */
+    double first_image_cpu = 0;      /* the process's processor time then, its loading before main() included */
     const pm_film *film = pm_session_film(cur.session);
     int width = film->width, height = film->height;
     pm_view *view = w->view;
@@ -418,11 +419,15 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
                 pm_session_unlock_latest(cur.session);
                 first_image = pm_now_seconds() - w->process_start;
                 first_image_realtime = pm_realtime_seconds();
+                first_image_cpu = pm_process_cpu_seconds();
                 break;
             }
             nanosleep(&(struct timespec){.tv_nsec = 1000000}, NULL);
         }
     }
+    /* the first image is up (or not coming soon): the iterations may take the cores now (a session
+     * the set-up started was held at its preview while the window opened) */
+    pm_session_hold(cur.session, false);
     if (!prepared(w, err, sizeof err) || !pm_view_set_size(view, width, height, err, sizeof err)) {
         if (cluster) pm_cluster_abort(cluster, err); /* the other ranks are waiting for its commands */
         fprintf(stderr, "pmview: error: %s\n", err);
@@ -444,8 +449,7 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
         show_reference(view, cur.reference);
     }
     watcher watch = {.fd = -1};
-    if (opt->watch && reloader) watch_start(&watch, scene_path, opt);
-    else if (opt->watch) fprintf(stderr, "pmview: warning: --watch is for a single process: under mpirun every rank would have to reload alike\n");
+    if (opt->watch && reloader) watch_start(&watch, scene_path, opt); /* (main refuses --watch under mpirun) */
     reload_job job;
     memset(&job, 0, sizeof job);
     job.reloader = reloader;
@@ -737,6 +741,7 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
             if (first_image == 0) {
                 first_image = t - process_start;
                 first_image_realtime = pm_realtime_seconds();
+                first_image_cpu = pm_process_cpu_seconds();
             }
             if (restart_requested > 0 && progress.preview) {
                 restart_to_image += t - restart_requested;
@@ -795,11 +800,11 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
     if (opt->stats)
         printf("stat window first_frame_seconds=%.4f first_image_seconds=%.4f ui_loops_per_second=%.1f frames_per_second=%.1f restarts=%llu restart_to_image_seconds=%.4f"
                " motion_seconds=%.3f motion_images=%llu motion_images_per_second=%.1f coarsest_preview_divisor=%d setup_seconds=%.4f"
-               " reloads=%llu failed_reloads=%llu relmse=%.6g first_image_realtime=%.6f\n",
+               " reloads=%llu failed_reloads=%llu relmse=%.6g first_image_realtime=%.6f first_image_cpu_seconds=%.4f\n",
                first_frame, first_image, seconds > 0 ? loops / seconds : 0.0, seconds > 0 ? frames / seconds : 0.0,
                (unsigned long long)restarts, restarts ? restart_to_image / restarts : 0.0, motion_seconds,
                (unsigned long long)motion_images, motion_seconds > 0 ? motion_images / motion_seconds : 0.0, coarsest_preview,
-               w->setup_done, (unsigned long long)reloads, (unsigned long long)failed_reloads, relmse, first_image_realtime);
+               w->setup_done, (unsigned long long)reloads, (unsigned long long)failed_reloads, relmse, first_image_realtime, first_image_cpu);
     pm_cluster_send_quit(cluster);
     pm_session_stop(cur.session);
     pm_view_destroy(view);

@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, a --log that cannot be written, ranks holding different scenes or options, --max-memory counting the merge's buffers, a stopped rank under --time, SIGTERM to rank 0 alone, a rank stopped in its set-up, the cluster stat line.
+# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, --watch refused, pmview without libmpi (its module has it), a --log that cannot be written, ranks holding different scenes or options, --max-memory counting the merge's buffers, a stopped rank under --time, SIGTERM to rank 0 alone, a rank stopped in its set-up, the cluster stat line.
 #
 # Every job is small (64 px or less, --threads 1) so the whole runs in well under a minute on two
 # busy cores. The ASan build's leak check is off inside mpirun jobs only: Open MPI keeps its own
@@ -265,6 +265,21 @@ for scene in "$tmp/no-such-scene.gltf" "$tmp/corrupt.gltf"; do
     check "$name: an image was written" [ ! -e "'$tmp/bad.exr'" ]
     grep "^pmview:" "$tmp/bad.err"
 done
+
+# --- 6b. --watch under mpirun (a reload is one process's set-up): refused at the start, one
+# 'pmview:' line naming --watch and mpirun, exit 2, nothing rendered
+mpi $cornell --width 16 --threads 1 --iterations 1 --watch --snapshot "$tmp/watch.exr" >"$tmp/watch.out" 2>"$tmp/watch.err"
+rc=$?
+lines=$(grep -c "^pmview:" "$tmp/watch.err")
+check "--watch under mpirun: exit $rc, want 2" [ "$rc" -eq 2 ]
+check "--watch under mpirun: $lines 'pmview:' lines on stderr, want 1" [ "$lines" -eq 1 ]
+check "--watch under mpirun: the line does not name --watch and mpirun" grep -q "'^pmview: --watch .*mpirun'" "$tmp/watch.err"
+check "--watch under mpirun: an image was written" [ ! -e "'$tmp/watch.exr'" ]
+grep "^pmview:" "$tmp/watch.err"
+
+# --- 6c. pmview itself does not link Open MPI: its module, beside it, does
+check "pmview links libmpi (only pmview-cluster.so should)" "! readelf -d $bin | grep -q 'NEEDED.*libmpi'"
+check "pmview-cluster.so beside $bin does not link libmpi" "readelf -d $(dirname "$bin")/pmview-cluster.so | grep -q 'NEEDED.*libmpi'"
 
 # --- 7. --log into a missing folder or onto a directory: refused in the set-up, so every rank
 # ends: one 'pmview:' line naming the path, non-zero, no rank left. Before, rank 0 printed its

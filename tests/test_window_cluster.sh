@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_window_cluster.sh: the window under mpirun with 2 ranks, under Xvfb and xdotool: one window titled "pmview (2 ranks)", its merged iteration count rising, a left drag restarting both ranks (the count drops), Esc ending every process.
+# test_window_cluster.sh: the window under mpirun with 2 ranks, under Xvfb and xdotool: one window titled "pmview (2 ranks)", its merged iteration count rising, a left drag restarting both ranks (the count drops), Esc ending every process; with --reference the title's relMSE is the merged image's.
 #
 # pmview runs inside xvfb-run through an inner script (xvfb-run makes its own display, so the
 # mouse and keys must be sent from inside it), which reads the title ("pmview (2 ranks) 2 ranks
@@ -79,6 +79,35 @@ restarts=$(sed -n 's/^stat window .*restarts=\([0-9]*\) .*/\1/p' "$log")
 echo "inner: ok"
 EOF
 
+cat >"$tmp/inner_ref.sh" <<'EOF'
+# runs under xvfb-run: a 2-rank job with --reference; once the title shows both ranks' iterations
+# merged, its relMSE is read and P saves the image shown; "$1" is the temp folder
+tmp=$1
+log="$tmp/ref.log"
+. tests/window_inner.sh
+mpirun --oversubscribe -np 2 ./pmview scenes/cornell-box.gltf --width 64 --height 64 --threads 1 --iterations 40 \
+    --reference tests/ref/cornell_path_64.exr --screenshot "$tmp/merged.png" </dev/null >"$log" 2>&1 &
+pid=$!
+focus_window '^pmview \(2 ranks\)'
+i=0
+while :; do
+    kill -0 "$pid" 2>/dev/null || fail "mpirun exited before the title showed 40 merged iterations"
+    title=$(xdotool getwindowname "$wid" 2>/dev/null)
+    relmse=$(echo "$title" | sed -n 's/.* 2 ranks  40 it .*relMSE \([0-9.e+-]*\) .*/\1/p')
+    [ -n "$relmse" ] && break
+    i=$((i + 1)); [ "$i" -gt 900 ] && fail "the title never showed 40 merged iterations with a relMSE in 90 s: $title"
+    sleep 0.1
+done
+echo "$relmse" >"$tmp/title_relmse"
+echo "inner: title: $title"
+press p
+wait_for "^pmview: saved" 1 10
+press Escape
+wait_exit 10
+[ "$rc" -eq 0 ] || fail "mpirun exited with $rc after Escape"
+echo "inner: ok"
+EOF
+
 start=$(date +%s)
 run_inner test_window_cluster 120 "$tmp/inner.sh" "$tmp"
 left=$(job_processes)
@@ -86,4 +115,17 @@ if [ -n "$left" ]; then
     echo "test_window_cluster: FAILED: pmview processes left after Escape: $left"
     exit 1
 fi
-echo "test_window_cluster: one window, count rising, drag restarting both ranks, Esc ending both ($(($(date +%s) - start)) s)"
+# --reference under mpirun: the title's relMSE is the merged image's. Once the title shows both
+# ranks' 40 iterations merged, P saves the image shown (the merge); its relMSE against the
+# reference, computed apart by error_map, must be the title's (printed to 3 digits). Rank 0's own
+# 20 iterations would give another figure.
+[ -x build/rel/error_map ] || { echo "test_window_cluster: FAILED: build/rel/error_map is not built"; exit 1; }
+run_inner test_window_cluster 120 "$tmp/inner_ref.sh" "$tmp"
+title=$(cat "$tmp/title_relmse")
+saved=$(build/rel/error_map "$tmp/merged.exr" tests/ref/cornell_path_64.exr "$tmp/image.png" "$tmp/error.png" | sed -n 's/.*relmse=\([0-9.e+-]*\).*/\1/p')
+echo "--reference under 2 ranks: the title's relMSE $title, the saved merged image's $saved"
+if ! awk -v a="$title" -v b="$saved" 'BEGIN { exit !(a > 0 && b > 0 && a / b > 0.995 && a / b < 1.005) }'; then
+    echo "test_window_cluster: FAILED: the title's relMSE $title is not the merged image's $saved"
+    exit 1
+fi
+echo "test_window_cluster: one window, count rising, drag restarting both ranks, Esc ending both; the title's relMSE the merged image's ($(($(date +%s) - start)) s)"
