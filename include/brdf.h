@@ -38,7 +38,15 @@ typedef struct {
      * the base's: read only when coat_normal; the functions below turn it to the side of their n */
     bool coat_normal;
     vec3 coat_n;
+    /* The parts left out (PM_BRDF_* bits; 0, the whole lobe): evaluation, density, sampling and
+     * the albedo estimate read only the others. The vertex kernel's near-specular split sets it
+     * (vertex.h); a struct made without it is the whole lobe. */
+    unsigned skip;
 } pm_brdf;
+
+/* The parts of a lobe, each one technique of the sampler: the base's GGX reflection, the coat's
+ * GGX reflection, the base's diffuse term, the sheen. */
+enum { PM_BRDF_SPECULAR = 1, PM_BRDF_COAT = 2, PM_BRDF_DIFFUSE = 4, PM_BRDF_SHEEN = 8 };
 
 /* The layers, each as its extension text defines it (a reciprocal form where the text's is not):
  *
@@ -59,13 +67,25 @@ typedef struct {
  * visibility reflects more than it receives at grazing angles (tests/test_layers.c) */
 #define PM_SHEEN_MIN_ROUGHNESS 0.265f
 
-/* The smallest GGX alpha among the lobe's layers: how sharp its sharpest part is (eye.c's gather
- * rays go on through a lobe sharper than PM_PPM_GATHER_LOBE_ALPHA rather than read photons there). */
-static inline float pm_brdf_sharpest_alpha(const pm_brdf *b) {
-    if (!b->layered) return b->alpha;
-    /* a metallic 0 point whose file turns the dielectric lobe off (specular 0): its base is Lambert */
-    float base = b->metallic > 0.f || b->specular > 0.f ? b->alpha : 1.f;
-    return b->clearcoat > 0.f && b->clearcoat_alpha < base ? b->clearcoat_alpha : base;
+/* The parts the lobe has (PM_BRDF_* bits), skipped ones included. */
+static inline unsigned pm_brdf_parts(const pm_brdf *b) {
+    unsigned parts = 0;
+    if (!b->layered || b->metallic > 0.f || b->specular > 0.f) parts |= PM_BRDF_SPECULAR;
+    if (b->metallic < 1.f && v3_max_component(b->base) > 0.f) parts |= PM_BRDF_DIFFUSE;
+    if (b->layered && b->clearcoat > 0.f) parts |= PM_BRDF_COAT;
+    if (b->layered && v3_max_component(b->sheen_color) > 0.f) parts |= PM_BRDF_SHEEN;
+    return parts;
+}
+
+/* The parts of the lobe that are GGX reflections of alpha below `alpha` (PM_BRDF_SPECULAR,
+ * PM_BRDF_COAT): the vertex kernel's one rule for which parts count as near-specular (vertex.h).
+ * A metallic 0 point whose file turns the dielectric lobe off (specular 0) has no base reflection. */
+static inline unsigned pm_brdf_parts_sharper_than(const pm_brdf *b, float alpha) {
+    unsigned parts = 0;
+    bool base_reflects = !b->layered || b->metallic > 0.f || b->specular > 0.f;
+    if (base_reflects && b->alpha < alpha) parts |= PM_BRDF_SPECULAR;
+    if (b->layered && b->clearcoat > 0.f && b->clearcoat_alpha < alpha) parts |= PM_BRDF_COAT;
+    return parts;
 }
 
 /* E(cos, sheenRoughness): the directional albedo of the sheen lobe of colour 1 (bilinear in a
@@ -85,5 +105,9 @@ float pm_brdf_pdf(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi);
 /* Samples wi from three uniform numbers; fills f(wo, wi) and the pdf. False when the sample is
  * lost (below the surface): the caller ends the path there. */
 bool pm_brdf_sample(const pm_brdf *b, vec3 n, vec3 wo, float u0, float u1, float u2, vec3 *wi, vec3 *f, float *pdf);
+/* An estimate of the directional albedo at wo of the parts not skipped (the weights the sampler
+ * picks its techniques by, times the lobe's weight): positive wherever those parts reflect
+ * anything, so a choice made in proportion to it reaches every path. */
+float pm_brdf_albedo_estimate(const pm_brdf *b, vec3 n, vec3 wo);
 
 #endif

@@ -89,6 +89,12 @@
 
 /* materials */
 #define PM_GLOSSY_MIN_ALPHA 1e-3f         /* GGX alpha = roughness^2 below this is the perfect mirror (roughness < 0.032) */
+#define PM_NEAR_SPECULAR_ALPHA 0.1f       /* a GGX reflection sharper than this alpha (roughness 0.32) is near-specular (vertex.h):
+                                             paths go on through it, as through mirrors, rather than read photons there. A photon
+                                             estimate weights each photon by the lobe, which peaks at 1 / (pi alpha^2): the noise
+                                             of reading photons and of going on cross between roughness 0.2 and 0.3
+                                             (docs/benchmarks.md, "Sharp glossy lobes"), and below it reading explodes (relMSE
+                                             2.0 at roughness 0.1, 90 at 0.05, against 0.018 going on) */
 
 /* progressive photon mapping (the default mode) */
 #define PM_DEFAULT_ALPHA (2.0 / 3.0)       /* Hachisuka and Jensen's radius reduction */
@@ -99,7 +105,6 @@
 #define PM_PPM_FOOTPRINT_PIXELS 1.0        /* initial radius at least this many pixel footprints ... */
 #define PM_PPM_CURVED_RADIUS 0.43         /* ... and at most this many radii of the surface's curvature (the chord of the photons' 25-degree normal test) */
 #define PM_PPM_INITIAL_PHOTONS 16.0        /* ... and wide enough to hold this many first-iteration photons at the scene's mean density */
-#define PM_PPM_GATHER_LOBE_ALPHA 0.1f      /* final gathering goes on through a glossy lobe sharper than this GGX alpha (roughness 0.32) instead of reading photons there */
 #define PM_PPM_MAX_EYE_PASSES 8            /* automatic eye passes per photon pass: at most this many (--eye-passes sets any) */
 #define PM_PPM_EYE_RAY_COST 2.0            /* an eye ray with its gathering costs this many photon rays (each with its storing) */
 #define PM_PPM_PROBE_PIXELS 1024           /* the noise probe that chooses them watches about this many pixels ... */

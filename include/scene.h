@@ -119,6 +119,7 @@ typedef struct {
     /* derived by pm_scene_finalize: whether each lobe's weight can be non-zero at some point of
      * the material (the factors with the data textures' whole range of texel values) */
     bool may_diffuse, may_mirror, may_glass, may_glossy;
+    bool may_near_specular; /* some point's glossy lobe has a part paths go on through (vertex.h, pm_vertex_near_specular_parts) */
     bool may_see_through;    /* derived too: pm_material_can_be_transparent (it reads the whole alpha texture) */
     /* KHR_materials_unlit: the camera sees base colour x its texture as it is, directly or through
      * mirrors and glass (pm_surface.emission, unlit set); everything else meets a black absorber
@@ -177,6 +178,8 @@ extern const char *const pm_component_names[PM_COMPONENT_COUNT]; /* "direct", "s
 typedef struct {
     bool has_diffuse, has_mirror, has_glass, has_textures;
     bool has_glossy;         /* some material has the GGX lobe (has_diffuse is then true too: it is a D surface) */
+    bool has_near_specular;  /* some material's lobe has a near-specular part (vertex.h): paths go on through it as
+                                through mirrors, so it makes caustics and the specular component as they do */
     bool has_emissive_triangles, has_punctual_lights, has_sky;
     bool has_thin_glass;     /* some material can let light straight through a thin wall: shadow rays cross it (thin.h) */
     bool has_non_opaque;     /* some triangle's material can let rays through (MASK or BLEND with alpha that can cut) */
@@ -631,6 +634,7 @@ static inline pm_brdf pm_brdf_at(vec3 base, float metallic, float roughness, flo
     b.alpha = pm_maxf(PM_GLOSSY_MIN_ALPHA, rough * rough);
     b.weight = 1.f - pm_clamp01(transmission) * (1.f - metal);
     b.layered = false;
+    b.skip = 0; /* the whole lobe */
     return b;
 }
 /* The layers at a point (their textures applied) added to its lobe b. */

@@ -1,80 +1,114 @@
-/* vertex.h: the one step every path takes at a surface (eye chains, gather walks, the path tracer, photons): lobe choice, continuation sampling, survival.
+/* vertex.h: the one step every path takes at a surface (eye chains, gather walks, the path tracer, photons): the part chosen, its sample, value and pdf, and survival.
  *
- * A surface has a diffuse part (Lambert's kd, or the glossy GGX lobe with its weight) of mean
- * weight D and a specular part (mirror ks and glass kt, pm_scatter_specular) of mean weight S;
- * glTF's split keeps D + S <= 1 (Jensen's condition for Russian roulette on them). A path at a
- * vertex:
- *   1. chooses the part it goes on with in proportion to D and S (pm_vertex_choose), every
- *      contribution the caller makes for that part (a photon record, a visible point, direct
- *      light) divided by the choice's probability; a caller that reads the diffuse part where
- *      it is (the classic eye chain, a classic gather walk) goes on with the specular part only;
- *   2. samples the chosen part (pm_vertex_sample): the cosine or the lobe's own sampler for the
- *      diffuse part, the shared specular function for the other, so photons and eye paths
- *      scatter identically (photon estimates are unbiased only then);
- *   3. survives (pm_vertex_survives) from vertex policy->roulette_from on with probability
- *      q = min(PM_MAX_SURVIVAL, mean of the weight the bounce multiplies the path by), the
- *      weight divided by q. For Lambert, mirrors and glass that weight's mean is D + S: Jensen's
- *      albedo roulette, under which a photon keeps its power; for the GGX lobe it is the sampled
- *      f cos / pdf. The cap keeps q above albedo^2 (finite variance, defaults.h) and ends paths
- *      in a closed room of albedo 1 after 1 / (1 - PM_MAX_SURVIVAL) bounces on average.
- * What differs between the tracers is their business: a path tracer goes on through diffuse
- * vertices and adds direct light there, a visible-point walk stops at its first diffuse vertex,
- * photons store records; they share this kernel and its one survival rule.
+ * A surface has three parts (Jensen's roulette split, extended to rough lobes):
+ *   non-specular (N):  Lambert's kd, or the parts of the glossy lobe (brdf.h) wider than
+ *                      PM_NEAR_SPECULAR_ALPHA: its diffuse base, its sheen, a rough GGX reflection.
+ *                      Photons are stored here, visible points made, the lobe evaluated against
+ *                      photons and lights;
+ *   near-specular (G): the glossy lobe's GGX reflections sharper than PM_NEAR_SPECULAR_ALPHA (a
+ *                      polished dielectric's or metal's base, a smooth coat): paths go on through
+ *                      them by sampling, as through mirrors and glass;
+ *   specular (S):      the perfect mirror ks and glass kt (pm_scatter_specular).
+ * The rule that sorts a rough lobe into N or G is one, here (pm_vertex_near_specular_parts). A
+ * path at a vertex, in one order of random numbers (pm_vertex_step):
+ *   1. chooses the part it goes on with in proportion to the parts' estimated albedos at wo
+ *      (one number, drawn only when two parts can be chosen); everything the tracer adds for that
+ *      part (a photon record, a visible point, direct light) is multiplied by out->choice, the
+ *      inverse of the choice's probability; a tracer that reads N where it is (the classic eye
+ *      chain) chooses between G and S only;
+ *   2. samples the chosen part (the cosine or the N lobe's sampler, the G lobe's sampler, the
+ *      shared specular function), so photons and eye paths scatter identically;
+ *   3. survives from policy->roulette_from on with probability q = min(PM_MAX_SURVIVAL, mean of
+ *      the weight the bounce multiplies the path by), the weight divided by q. For Lambert, mirrors
+ *      and glass that mean is the sum of the choice weights: Jensen's albedo roulette, under which
+ *      a photon keeps its power; for a GGX part it is the sample's f cos / pdf over its choice. The
+ *      cap keeps q above albedo^2 (finite variance, defaults.h).
+ * What differs between tracers is a policy (where roulette starts, whether N is read in place or
+ * ends the path); what they add at a vertex is theirs: the path tracer direct light at N and the
+ * punctual lights' at G, a visible-point walk its point, photons their records.
  */
 #ifndef PM_VERTEX_H
 #define PM_VERTEX_H
 
 #include <stdbool.h>
+#include "brdf.h"
+#include "defaults.h"
 #include "pm_math.h"
 #include "rng.h"
 #include "scatter.h"
 #include "scene.h"
 
-typedef enum { PM_LOBE_NONE, PM_LOBE_DIFFUSE, PM_LOBE_SPECULAR } pm_lobe;
+typedef enum { PM_LOBE_NONE, PM_LOBE_NONSPECULAR, PM_LOBE_NEAR_SPECULAR, PM_LOBE_SPECULAR } pm_lobe;
 
 typedef struct {
-    int roulette_from;     /* survival applies at the surface of this index (0: the first a path meets) and later */
-    bool diffuse_in_place; /* the diffuse part is read at the vertex (classic eye chain): only the specular part goes on */
-    bool diffuse_ends;     /* choosing the diffuse part ends the path (a caustic photon): pm_vertex_step samples nothing */
+    int roulette_from;         /* survival applies at the surface of this index (0: the first a path meets) and later */
+    bool nonspecular_in_place; /* N is read at the vertex (classic eye chain): only G and S are chosen */
+    bool nonspecular_ends;     /* choosing N ends the path there, unsampled (a caustic photon, a walk to a point) */
+    pm_lobe only;              /* PM_LOBE_NONE: the part is chosen; else the path goes on by this part alone, with
+                                  choice 1 and no number drawn (a classic final-gather ray leaving its point by N) */
 } pm_vertex_policy;
 
-/* The continuation a vertex samples. */
+/* What a vertex step chose and sampled. */
 typedef struct {
     vec3 direction;       /* unit, leaving the surface */
     vec3 origin;          /* offset off the surface on the side the ray leaves */
-    vec3 weight;          /* f cos / pdf of the sampled part (kd for Lambert's cosine samples, the specular colour) */
-    float pdf;            /* the diffuse part's sampling density per solid angle (MIS); 0 for the specular part */
+    vec3 value;           /* f cos / pdf of the sample within its part (kd for Lambert's cosine samples, the specular colour) */
+    vec3 weight;          /* what the path's weight is multiplied by going on: value x choice / survival */
+    float choice;         /* 1 / P(the part chosen) */
+    float pdf;            /* the sample's density per solid angle within its part (MIS); 0 for mirrors and glass */
     float radiance_scale; /* (eta_i / eta_t)^2 across a refraction, else 1: radiance carries it, flux not */
     bool transmitted;
     bool straight;        /* crossed a thin wall along the incoming direction: no scattering as far as
                              paths' kinds go (direct light and shadow rays cross it too, thin.h) */
-    pm_lobe lobe;         /* the part chosen (pm_vertex_step) */
+    bool sampled;         /* direction, origin, value and pdf hold a sample (also when the roulette then ended the path) */
+    pm_lobe lobe;         /* the part chosen; PM_LOBE_NONE: the surface has none to go on with */
 } pm_vertex_ray;
 
-/* D: the diffuse part's mean weight (the glossy lobe's share of the surface, else mean kd). */
-static inline float pm_vertex_diffuse_weight(const pm_surface *sf) { return sf->glossy ? sf->brdf.weight : v3_average(sf->kd); }
+/* The one rule: which parts of a glossy lobe count as near-specular (GGX reflections of alpha
+ * below PM_NEAR_SPECULAR_ALPHA, defaults.h). */
+static inline unsigned pm_vertex_near_specular_parts(const pm_brdf *b) {
+    return pm_brdf_parts_sharper_than(b, PM_NEAR_SPECULAR_ALPHA);
+}
 
-/* Chooses the part a path goes on with, in proportion to D and S (S alone with diffuse_in_place),
- * by one number of rng; *inverse_probability = 1 / P(choice). PM_LOBE_NONE: the surface has no part to go on with. */
-pm_lobe pm_vertex_choose(const pm_surface *sf, bool diffuse_in_place, pm_rng *rng, float *inverse_probability);
+/* The lobe of part N or G of a glossy surface: its brdf with the other part's components skipped. */
+static inline pm_brdf pm_vertex_part_lobe(const pm_surface *sf, pm_lobe part) {
+    pm_brdf b = sf->brdf;
+    unsigned near = pm_vertex_near_specular_parts(&b);
+    b.skip |= part == PM_LOBE_NEAR_SPECULAR ? (unsigned)(PM_BRDF_SPECULAR | PM_BRDF_COAT | PM_BRDF_DIFFUSE | PM_BRDF_SHEEN) & ~near
+                                            : near;
+    return b;
+}
 
-/* Samples the diffuse part (cosine for Lambert, the lobe's sampler for glossy) for a path arriving
- * from wo; false when the sample is lost (below the surface). ng and ns are taken on wo's side. */
-bool pm_vertex_sample_diffuse(const pm_surface *sf, vec3 wo, pm_rng *rng, float scale, pm_vertex_ray *out);
+/* Whether photons are stored at sf and visible points made there: it has a non-specular part
+ * (needs no shading normal: a photon's lean hit record decides with it). */
+static inline bool pm_vertex_has_nonspecular(const pm_surface *sf) {
+    if (!sf->glossy) return !v3_is_black(sf->kd);
+    return sf->brdf.weight > 0.f && (pm_brdf_parts(&sf->brdf) & ~pm_vertex_near_specular_parts(&sf->brdf)) != 0;
+}
 
-/* Samples the chosen part for a path arriving along unit d; false when the path ends there. */
-bool pm_vertex_sample(const pm_surface *sf, pm_lobe lobe, vec3 d, pm_rng *rng, float scale, pm_vertex_ray *out);
+/* Whether a path can go on from sf by a near-specular or specular part (a caustic photon's only way on). */
+static inline bool pm_vertex_has_specular(const pm_surface *sf) {
+    if (pm_specular_weight(sf) > 0.f) return true;
+    return sf->glossy && sf->brdf.weight > 0.f && (pm_brdf_parts(&sf->brdf) & pm_vertex_near_specular_parts(&sf->brdf)) != 0;
+}
 
-/* The one survival rule (see above) at the vertex of that index, on the weight the bounce
- * multiplies the path by (the lobe's weight over its choice probability): false ends the path,
- * else *weight is divided by the survival probability. */
-bool pm_vertex_survives(int vertex, const pm_vertex_policy *policy, pm_rng *rng, vec3 *weight);
+/* The shading normal a vertex evaluates and samples with for light leaving toward wo. */
+static inline vec3 pm_vertex_normal(const pm_surface *sf, vec3 wo) { return pm_facing(sf->ns, pm_facing(sf->ng, wo)); }
 
-/* Steps 1 to 3 at once for a caller that adds nothing between them: false when the path ends
- * (out->lobe says which part was chosen, PM_LOBE_NONE for none); out->weight is then all the
- * path's weight is multiplied by (radiance_scale apart). Where the bounce's mean weight is known
- * before sampling (Lambert, mirror, glass: D + S) the survival comes first, so an ended path
- * samples nothing; the rule is the same. */
+/* f (no cosine) of part N or G for light arriving from wi and leaving toward wo, ns from
+ * pm_vertex_normal: Lambert's kd / pi, or the part's lobe; 0 for a part the surface lacks. */
+vec3 pm_vertex_f(const pm_surface *sf, pm_lobe part, vec3 ns, vec3 wo, vec3 wi);
+/* The density per solid angle with which part N or G samples wi (pm_vertex_sample_part). */
+float pm_vertex_pdf(const pm_surface *sf, pm_lobe part, vec3 ns, vec3 wo, vec3 wi);
+
+/* Samples part N or G for a path leaving toward wo (as step 2 does); false when the sample is lost
+ * (below the surface). out->choice and out->weight are left to the caller. */
+bool pm_vertex_sample_part(const pm_surface *sf, pm_lobe part, vec3 wo, pm_rng *rng, float scale, pm_vertex_ray *out);
+
+/* Steps 1 to 3 for a path arriving along unit d at the surface of index `vertex`: true when the
+ * path goes on along out->direction from out->origin, its weight multiplied by out->weight
+ * (radiance also by out->radiance_scale). out->lobe and out->choice say what was chosen whatever
+ * the answer, out->sampled whether a sample was drawn (N chosen under nonspecular_ends draws none). */
 bool pm_vertex_step(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_policy *policy, pm_rng *rng, float scale,
                     pm_vertex_ray *out);
 

@@ -116,50 +116,92 @@ static inline vec3 coat_normal(const pm_brdf *b, vec3 n) {
  * requires): in proportion to each layer's estimated albedo there. Within the base, the
  * specular lobe's share is its Fresnel-weighted reflectance's, kept within [0.2, 0.8] while there
  * is a diffuse part so neither is left to rare samples; a coat or sheen keeps at least a tenth
- * of its share. */
+ * of its share. The parts a lobe skips get none, the others' shares scaled to sum to 1. */
 typedef struct { float coat, specular, diffuse, sheen; } lobe_choice;
 
-/* The base's specular probability and its estimated albedo at wo, with the dielectric's weight s
- * and F0 (KHR_materials_specular's, or the constants 1 and 0.04, which inlining folds in for the
- * plain lobe). */
-static inline float base_specular_probability(const pm_brdf *b, float s, vec3 f0v, float cos_o, float *albedo) {
+/* The base's estimated albedos at wo, its specular and its diffuse term, with the dielectric's
+ * weight s and F0 (KHR_materials_specular's, or the constants 1 and 0.04, which inlining folds
+ * in for the plain lobe). */
+static inline void base_albedos(const pm_brdf *b, float s, vec3 f0v, float cos_o, float *spec, float *diff) {
     float w = schlick_weight(cos_o);
     float f0_d = v3_average(f0v), f0_max = v3_max_component(f0v);
     float f0 = (1.f - b->metallic) * s * f0_d + b->metallic * v3_average(b->base);
     float f90 = 1.f - (1.f - b->metallic) * (1.f - s);
-    float spec = f0 + (f90 - f0) * w;
-    float diff = (1.f - b->metallic) * v3_average(b->base) * dielectric_transmittance(s, f0_max, cos_o);
-    float p_spec = 1.f;
-    if (!(spec > 0.f)) p_spec = 0.f; /* the dielectric alone with specular 0: Lambert */
-    else if (diff > 0.f) p_spec = pm_minf(0.8f, pm_maxf(0.2f, spec / (spec + diff)));
-    *albedo = spec + diff;
-    return p_spec;
+    *spec = f0 + (f90 - f0) * w;
+    *diff = (1.f - b->metallic) * v3_average(b->base) * dielectric_transmittance(s, f0_max, cos_o);
+}
+
+/* The base's specular probability from its two albedos. */
+static inline float base_specular_probability(float spec, float diff) {
+    if (!(spec > 0.f)) return 0.f; /* the dielectric alone with specular 0: Lambert */
+    if (diff > 0.f) return pm_minf(0.8f, pm_maxf(0.2f, spec / (spec + diff)));
+    return 1.f;
+}
+
+/* The layers' estimated albedos at wo before any part is skipped: coat, sheen, and the base
+ * (its specular and diffuse terms) under them. */
+typedef struct { float coat, sheen, base, spec, diff; } layer_albedos;
+
+static inline layer_albedos albedos(const pm_brdf *b, float cos_o, float coat_cos_o) {
+    layer_albedos a = {0.f, 0.f, 0.f, 0.f, 0.f};
+    if (!b->layered) {
+        base_albedos(b, 1.f, v3s(0.04f), cos_o, &a.spec, &a.diff);
+        a.base = 1.f;
+        return a;
+    }
+    base_albedos(b, b->specular, b->specular_f0, cos_o, &a.spec, &a.diff);
+    a.coat = has_coat(b) && coat_cos_o > 0.f ? b->clearcoat * coat_fresnel(coat_cos_o) : 0.f;
+    float sheen_share = has_sheen(b) ? v3_max_component(b->sheen_color) * pm_sheen_albedo(cos_o, b->sheen_roughness) : 0.f;
+    a.sheen = (1.f - a.coat) * sheen_share;
+    a.base = (1.f - a.coat) * pm_maxf(0.f, 1.f - sheen_share); /* what reaches the base */
+    return a;
 }
 
 static inline lobe_choice choose_lobes(const pm_brdf *b, float cos_o, float coat_cos_o) {
     lobe_choice p = {0.f, 0.f, 0.f, 0.f};
-    float estimate;
+    layer_albedos a = albedos(b, cos_o, coat_cos_o);
+    float p_spec = base_specular_probability(a.spec, a.diff);
     if (!b->layered) {
-        p.specular = base_specular_probability(b, 1.f, v3s(0.04f), cos_o, &estimate);
+        p.specular = p_spec;
         p.diffuse = 1.f - p.specular;
-        return p;
+    } else {
+        float base = a.base * (a.spec + a.diff);
+        float total = a.coat + a.sheen + base;
+        int present = 1 + (a.coat > 0.f) + (a.sheen > 0.f);
+        float floor_share = 0.1f / present;
+        float pc = a.coat > 0.f ? 0.9f * a.coat / total + floor_share : 0.f;
+        float ps = a.sheen > 0.f ? 0.9f * a.sheen / total + floor_share : 0.f;
+        float pb = 1.f - pc - ps;
+        p.coat = pc;
+        p.sheen = ps;
+        p.specular = pb * p_spec;
+        p.diffuse = pb - p.specular;
     }
-    float p_spec = base_specular_probability(b, b->specular, b->specular_f0, cos_o, &estimate);
-    float coat = has_coat(b) && coat_cos_o > 0.f ? b->clearcoat * coat_fresnel(coat_cos_o) : 0.f;
-    float sheen_share = has_sheen(b) ? v3_max_component(b->sheen_color) * pm_sheen_albedo(cos_o, b->sheen_roughness) : 0.f;
-    float sheen = (1.f - coat) * sheen_share;
-    float base = (1.f - coat) * pm_maxf(0.f, 1.f - sheen_share) * estimate;
-    float total = coat + sheen + base;
-    int present = 1 + (coat > 0.f) + (sheen > 0.f);
-    float floor_share = 0.1f / present;
-    float pc = coat > 0.f ? 0.9f * coat / total + floor_share : 0.f;
-    float ps = sheen > 0.f ? 0.9f * sheen / total + floor_share : 0.f;
-    float pb = 1.f - pc - ps;
-    p.coat = pc;
-    p.sheen = ps;
-    p.specular = pb * p_spec;
-    p.diffuse = pb - p.specular;
+    if (b->skip) {
+        if (b->skip & PM_BRDF_SPECULAR) p.specular = 0.f;
+        if (b->skip & PM_BRDF_COAT) p.coat = 0.f;
+        if (b->skip & PM_BRDF_DIFFUSE) p.diffuse = 0.f;
+        if (b->skip & PM_BRDF_SHEEN) p.sheen = 0.f;
+        float sum = p.specular + p.coat + p.diffuse + p.sheen;
+        if (sum > 0.f) {
+            float scale = 1.f / sum;
+            p.specular *= scale;
+            p.coat *= scale;
+            p.diffuse *= scale;
+            p.sheen *= scale;
+        }
+    }
     return p;
+}
+
+float pm_brdf_albedo_estimate(const pm_brdf *b, vec3 n, vec3 wo) {
+    float cos_o = v3_dot(n, wo);
+    if (!(cos_o > 0.f)) return 0.f;
+    float coat_cos_o = b->layered && b->coat_normal ? v3_dot(coat_normal(b, n), wo) : cos_o;
+    layer_albedos a = albedos(b, cos_o, coat_cos_o);
+    float base = (b->skip & PM_BRDF_SPECULAR ? 0.f : a.spec) + (b->skip & PM_BRDF_DIFFUSE ? 0.f : a.diff);
+    float sum = a.base * base + (b->skip & PM_BRDF_COAT ? 0.f : a.coat) + (b->skip & PM_BRDF_SHEEN ? 0.f : a.sheen);
+    return sum * b->weight;
 }
 
 /* ---- evaluation ---- */
@@ -167,7 +209,7 @@ static inline lobe_choice choose_lobes(const pm_brdf *b, float cos_o, float coat
 /* The base lobe (metal and dielectric, the dielectric's weight s and F0 as in
  * base_specular_probability). */
 static inline vec3 base_eval(const pm_brdf *b, float s, vec3 f0d, float cos_o, float cos_i, float cos_h, float v_h) {
-    float dv = ggx_dv(b->alpha * b->alpha, cos_o, cos_i, cos_h), w = schlick_weight(v_h);
+    float dv = b->skip & PM_BRDF_SPECULAR ? 0.f : ggx_dv(b->alpha * b->alpha, cos_o, cos_i, cos_h), w = schlick_weight(v_h);
     /* Schlick is linear in F0 and F90: the metal (F0 = base, F90 = 1) and the dielectric (F0 =
      * specular_f0, F90 = specular) merge into one lobe; with the defaults this is
      * F0 = mix(0.04, base, metallic), F90 = 1 */
@@ -178,8 +220,9 @@ static inline vec3 base_eval(const pm_brdf *b, float s, vec3 f0d, float cos_o, f
      * v.h as the sample viewer does, whose sum with the coat reflects up to 1.39 at grazing
      * angles (measured, tests/test_brdf.c) where Russian roulette needs at most 1; still reciprocal. */
     float f0_max = v3_max_component(f0d);
-    float diffuse = (1.f - b->metallic) * dielectric_transmittance(s, f0_max, cos_o) *
-                    dielectric_transmittance(s, f0_max, cos_i) * PM_INV_PI;
+    float diffuse = b->skip & PM_BRDF_DIFFUSE ? 0.f
+                                              : (1.f - b->metallic) * dielectric_transmittance(s, f0_max, cos_o) *
+                                                    dielectric_transmittance(s, f0_max, cos_i) * PM_INV_PI;
     return v3_add(v3_scale(fresnel, dv), v3_scale(b->base, diffuse));
 }
 
@@ -196,7 +239,7 @@ vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
     if (has_sheen(b)) {
         float r = b->sheen_roughness, m = v3_max_component(b->sheen_color);
         float scale = pm_minf(1.f - m * pm_sheen_albedo(cos_o, r), 1.f - m * pm_sheen_albedo(cos_i, r));
-        float sheen = (float)charlie_dv((double)r * r, cos_o, cos_i, cos_h);
+        float sheen = b->skip & PM_BRDF_SHEEN ? 0.f : (float)charlie_dv((double)r * r, cos_o, cos_i, cos_h);
         f = v3_add(v3_scale(f, pm_maxf(0.f, scale)), v3_scale(b->sheen_color, sheen));
     }
     if (has_coat(b)) {
@@ -207,7 +250,7 @@ vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
             ci = pm_maxf(0.f, v3_dot(cn, wi));
             ch = pm_maxf(0.f, v3_dot(cn, h));
         }
-        float coat = co > 0.f && ci > 0.f ? c * coat_fresnel(v_h) * ggx_dv(b->clearcoat_alpha * b->clearcoat_alpha, co, ci, ch) : 0.f;
+        float coat = co > 0.f && ci > 0.f && !(b->skip & PM_BRDF_COAT) ? c * coat_fresnel(v_h) * ggx_dv(b->clearcoat_alpha * b->clearcoat_alpha, co, ci, ch) : 0.f;
         float under = (1.f - c * coat_fresnel(co)) * (1.f - c * coat_fresnel(ci));
         f = v3_add(v3_scale(f, under), v3s(coat));
     }
@@ -294,10 +337,12 @@ bool pm_brdf_sample(const pm_brdf *b, vec3 n, vec3 wo, float u0, float u1, float
     vec3 cn = coat_normal(b, n);
     float coat_cos_o = b->layered && b->coat_normal ? v3_dot(cn, wo) : cos_o;
     lobe_choice p = choose_lobes(b, cos_o, coat_cos_o);
+    if (!(p.specular + p.coat + p.sheen + p.diffuse > 0.f)) return false; /* every part skipped */
     if (u0 < p.specular) *wi = sample_ggx_reflection(b->alpha, n, wo, cos_o, u1, u2);
     else if (u0 < p.specular + p.coat) *wi = sample_ggx_reflection(b->clearcoat_alpha, cn, wo, coat_cos_o, u1, u2);
     else if (u0 < p.specular + p.coat + p.sheen) *wi = sample_uniform_hemisphere(n, u1, u2);
-    else *wi = pm_sample_cosine(n, u1, u2);
+    else if (p.diffuse > 0.f) *wi = pm_sample_cosine(n, u1, u2);
+    else return false; /* u0 past the others' sum by rounding, with the diffuse part skipped */
     if (!(v3_dot(n, *wi) > 0.f)) return false;
     *pdf = pm_brdf_pdf(b, n, wo, *wi);
     if (!(*pdf > 0.f)) return false;

@@ -37,7 +37,6 @@ typedef struct {
     uint32_t iteration;
     pm_film *film;
     bool visible_points, gather_points;  /* progressive mode: find each pixel's points, hand them to visit */
-    bool through_lobes;                  /* gather rays may go on through sharp glossy lobes (walk_to_diffuse) */
     pm_visible_points_fn visit;
     void *visit_ctx;
     int tiles_x;
@@ -47,20 +46,21 @@ typedef struct {
     uint8_t done[];                      /* per tile: traced (a cut pass marks these in the film) */
 } eye_job;
 
-/* The survival rules of the eye paths (vertex.h): a classic chain reads the diffuse part where it
- * is and goes on with the specular part; a walk to a visible point and the path tracer choose. */
-static const pm_vertex_policy chain_policy = {.roulette_from = PM_EYE_ROULETTE_VERTEX, .diffuse_in_place = true};
-static const pm_vertex_policy choosing_policy = {.roulette_from = PM_EYE_ROULETTE_VERTEX};
+/* The eye paths' policies at the path-vertex kernel (vertex.h): a classic chain reads the
+ * non-specular part where it is and goes on with the others; a walk to a visible or gather point
+ * stops at a non-specular choice; the path tracer, and a walk whose visible point sends a
+ * final-gather ray, go on from it with the sample the step drew; a classic final-gather ray
+ * leaves its point by the non-specular part. */
+static const pm_vertex_policy chain_policy = {.roulette_from = PM_EYE_ROULETTE_VERTEX, .nonspecular_in_place = true};
+static const pm_vertex_policy walk_policy = {.roulette_from = PM_EYE_ROULETTE_VERTEX, .nonspecular_ends = true};
+static const pm_vertex_policy continuing_policy = {.roulette_from = PM_EYE_ROULETTE_VERTEX};
+static const pm_vertex_policy gather_ray_policy = {.roulette_from = PM_EYE_ROULETTE_VERTEX, .only = PM_LOBE_NONSPECULAR};
 
-/* The ray direct_light() draws from the material's own sampling, handed on as the path's next
- * segment: a path that continues from a diffuse or glossy point (a final-gather ray, a path
- * tracer's bounce) would draw a direction from the same distribution and trace it again, so one
- * ray serves both the light it meets (weighted by MIS) and the continuation. */
+/* A segment already traced: the camera ray with its tile, or the non-specular sample that direct
+ * light traced for its own use and that the path goes on along, so one ray serves both the light
+ * it meets (weighted by MIS) and the continuation. */
 typedef struct {
-    bool sampled;   /* a direction on wo's side of the surface: the path goes on */
-    vec3 direction;
-    vec3 weight;    /* f cos / pdf: kd for Lambert's cosine samples */
-    vec3 origin;
+    bool traced;
     bool hit;       /* false: the ray left the scene */
     pm_hit h;
 } surface_bounce;
@@ -105,22 +105,14 @@ static inline float power_heuristic(float a, float b) {
     return a2 + b2 > 0.f ? a2 / (a2 + b2) : 0.f;
 }
 
-/* f cos for a light sample arriving along wi: the glossy lobe's, or the cosine alone on a Lambert
- * surface (whose kd/pi is applied once, at the end). */
-static inline vec3 reflected(const pm_surface *sf, vec3 ns, vec3 wo, vec3 wi, float cos_s) {
-    return sf->glossy ? v3_scale(pm_brdf_eval(&sf->brdf, ns, wo, wi), cos_s) : v3s(cos_s);
+/* f cos of the part for a light sample arriving along wi (cos_s = ns.wi), from the kernel. */
+static inline vec3 reflected(const pm_surface *sf, pm_lobe part, vec3 ns, vec3 wo, vec3 wi, float cos_s) {
+    return v3_scale(pm_vertex_f(sf, part, ns, wo, wi), cos_s);
 }
 
-/* The radiance a light sum of punctual_light or direct_light stands for: a glossy lobe's already
- * is, Lambert's irradiance takes kd/pi. */
-static inline vec3 radiance_from_light_sum(const pm_surface *sf, vec3 e) {
-    return sf->glossy ? e : v3_scale(v3_mul(sf->kd, e), PM_INV_PI);
-}
-
-/* The punctual lights' share of direct_light (below): their light reflected toward wo, Lambert's
- * as irradiance (kd/pi not applied), a glossy lobe's as radiance; *cast and *saved count shadow
- * rays cast and made unnecessary by shadow photons. */
-static vec3 punctual_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, vec3 wo, vec3 ng, vec3 ns,
+/* The punctual lights' share of direct_light (below): their light reflected toward wo by the
+ * part; *cast and *saved count shadow rays cast and made unnecessary by shadow photons. */
+static vec3 punctual_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, pm_lobe part, vec3 wo, vec3 ng, vec3 ns,
                            vec3 origin, pm_rng *rng, uint64_t *rays, const pm_shadow_map *shadow, uint64_t *cast,
                            uint64_t *saved) {
     vec3 e = v3s(0.f);
@@ -167,29 +159,33 @@ static vec3 punctual_light(const pm_scene *s, const pm_accel *a, const pm_surfac
             (*cast)++;
             if (!pm_thin_visible(s, a, origin, wi, tmax, &through, rays)) continue;
         }
-        e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance_scale, pick_weight), through), reflected(sf, ns, wo, wi, cos_s)));
+        e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance_scale, pick_weight), through), reflected(sf, part, ns, wo, wi, cos_s)));
     }
     return e;
 }
 
-/* Direct light reflected toward wo at a diffuse or glossy point. One shadow ray per punctual
+/* Direct light reflected toward wo by a part of sf: the non-specular part, or the near-specular part
+ * where an eye path goes on through it (its light-finding ray is then the path's own next segment,
+ * and what that segment meets is counted here, weighted by MIS, not where the path meets it). One shadow ray per punctual
  * light (with more than PM_DIRECT_LIGHT_SAMPLES lights, that many drawn by power, stratified,
  * each weighted by 1 / (samples x its pick probability)), one to a power-picked emissive
  * triangle, one ray from the surface's own sampling (cosine on Lambert, the lobe's sampler on
- * glossy) for the sky and the emitters, combined with the area sample by multiple importance
+ * glossy; the vertex step's own sample when the caller has one, `bounce`) for the sky and the
+ * emitters, combined with the area sample by multiple importance
  * sampling (punctual lights are deltas: no other strategy can find them, so they take no MIS
  * weight). With shadow photons (shadow != NULL) a punctual light that the records near the point
  * surely show or surely hide costs no ray; shadow_counts (may be NULL) adds the shadow rays cast
  * to light samples [0] and those the records made unnecessary [1]. A NULL shadow map is exactly
- * the ray-only estimate, random numbers included. */
-static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, vec3 wo, pm_rng *rng,
-                         uint64_t *rays, const pm_shadow_map *shadow, uint64_t shadow_counts[2], surface_bounce *next) {
+ * the ray-only estimate, random numbers included. With `next`, the bounce's ray is traced whatever
+ * the scene's lights, its hit kept there for the path that goes on along it. */
+static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, pm_lobe part, vec3 wo, pm_rng *rng,
+                         uint64_t *rays, const pm_shadow_map *shadow, uint64_t shadow_counts[2], const pm_vertex_ray *bounce,
+                         surface_bounce *next) {
     vec3 ng = pm_facing(sf->ng, wo);
     vec3 ns = v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
     vec3 origin = pm_surface_origin(sf, ng, s->ray_scale);
     uint64_t cast = 0, saved = 0;
-    /* Lambert: irradiance E (times kd/pi at the end); glossy: radiance */
-    vec3 e = punctual_light(s, a, sf, wo, ng, ns, origin, rng, rays, shadow, &cast, &saved);
+    vec3 e = punctual_light(s, a, sf, part, wo, ng, ns, origin, rng, rays, shadow, &cast, &saved);
 
     if (s->emitter_count) {
         float pick_pdf;
@@ -217,10 +213,10 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                 if (seg_len > 0.f && pm_thin_visible(s, a, origin, v3_scale(seg, 1.f / seg_len), seg_len, &through, rays)) {
                     float g = cos_l / (dist * dist);
                     float pdf_light = pick_pdf * dist * dist / (area * cos_l);
-                    float pdf_surface = sf->glossy ? pm_brdf_pdf(&sf->brdf, ns, wo, wi) : cos_s * PM_INV_PI;
+                    float pdf_surface = pm_vertex_pdf(sf, part, ns, wo, wi);
                     e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance, g * area / pick_pdf * power_heuristic(pdf_light, pdf_surface)),
                                                 through),
-                                         reflected(sf, ns, wo, wi, cos_s)));
+                                         reflected(sf, part, ns, wo, wi, cos_s)));
                 }
             }
         }
@@ -236,11 +232,11 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         if (pdf_sky > 0.f && cos_s > 0.f && v3_dot(ng, wi) > 0.f) {
             (*rays)++;
             cast++;
-            float pdf_surface = sf->glossy ? pm_brdf_pdf(&sf->brdf, ns, wo, wi) : cos_s * PM_INV_PI;
+            float pdf_surface = pm_vertex_pdf(sf, part, ns, wo, wi);
             vec3 through;
             if (pm_thin_visible(s, a, origin, wi, INFINITY, &through, rays))
                 e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance, power_heuristic(pdf_sky, pdf_surface) / pdf_sky), through),
-                                     reflected(sf, ns, wo, wi, cos_s)));
+                                     reflected(sf, part, ns, wo, wi, cos_s)));
         }
     }
 
@@ -248,26 +244,25 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
      * sample above, the emitters: near an emitter (a lamp's own wall, a glowing corner) area
      * sampling alone has unbounded variance, and this sample bounds it (and on a glossy surface
      * it finds the highlight of a large lamp that area sampling rarely would). The same ray is
-     * the path's next segment when the caller asks for one. */
-    if (next) next->sampled = false;
+     * the path's next segment when the caller goes on along it (next). */
+    if (next) next->traced = false;
     if (s->sky || s->emitter_count || next) {
-        pm_vertex_ray ray; /* the continuation's sampling: the same for every path (vertex.h) */
-        bool leaves = pm_vertex_sample_diffuse(sf, wo, rng, s->ray_scale, &ray);
-        vec3 wi = ray.direction, weight = sf->glossy ? ray.weight : v3s(PM_PI); /* Lambert: cos / (cos / pi), kd/pi at the end */
-        float pdf_surface = ray.pdf, cos_s = leaves ? v3_dot(ns, wi) : 0.f;
+        pm_vertex_ray own;
+        if (!bounce) { /* no step drew one (a classic point, a walk that stops here): the kernel's sampler */
+            pm_vertex_sample_part(sf, part, wo, rng, s->ray_scale, &own);
+            bounce = &own;
+        }
+        bool leaves = bounce->sampled;
+        vec3 wi = bounce->direction, weight = bounce->value;
+        float pdf_surface = bounce->pdf, cos_s = leaves ? v3_dot(ns, wi) : 0.f;
         bool lit = leaves && cos_s > 0.f && (s->sky || s->emitter_count);
         float sky_weight = lit && s->sky_map ? power_heuristic(pdf_surface, pm_sky_map_pdf(s->sky_map, wi)) : 1.f;
-        if (leaves && next) {
-            next->sampled = true;
-            next->direction = wi;
-            next->weight = ray.weight;
-            next->origin = origin;
-        }
         if (leaves && (next || s->emitter_count)) {
             (*rays)++;
             pm_hit h;
             bool hit = pm_accel_intersect(a, origin, wi, INFINITY, &h);
             if (next) {
+                next->traced = true;
                 next->hit = hit;
                 next->h = h;
             }
@@ -306,11 +301,9 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
         shadow_counts[0] += cast;
         shadow_counts[1] += saved;
     }
-    return radiance_from_light_sum(sf, e);
+    return e;
 }
 
-/* Radiance reflected toward wo by a photon map's estimate at a diffuse or glossy point: kd/pi x
- * the irradiance estimate, or each photon weighted by the lobe. */
 /* Where a classic estimate at sf (on triangle tri) is clipped to its side of the geometry
  * (clip.h): its probes' rotation follows the point and the iteration, not the thread. made: a
  * clip already made there, or NULL. */
@@ -322,23 +315,29 @@ static pm_clip_site clip_site(const eye_job *job, const pm_surface *sf, uint32_t
     return site;
 }
 
+/* Radiance reflected toward wo by a photon map's estimate at the non-specular part of sf: kd/pi x
+ * the irradiance estimate, or each photon weighted by the part's lobe. */
 static vec3 map_estimate(const eye_job *job, const pm_kdtree *map, const pm_surface *sf, uint32_t tri, vec3 ng, vec3 wo,
                          const pm_estimate_settings *e, uint64_t *rays) {
     pm_clip_site site = clip_site(job, sf, tri, NULL, rays);
     const pm_clip_site *clip = job->settings->unclipped ? NULL : &site;
-    if (sf->glossy) return pm_photon_estimate_brdf(map, sf->p, ng, e, &sf->brdf, pm_facing(sf->ns, ng), wo, clip);
+    if (sf->glossy) {
+        pm_brdf lobe = pm_vertex_part_lobe(sf, PM_LOBE_NONSPECULAR);
+        return pm_photon_estimate_brdf(map, sf->p, ng, e, &lobe, pm_facing(sf->ns, ng), wo, clip);
+    }
     return v3_scale(v3_mul(sf->kd, pm_photon_estimate(map, sf->p, ng, e, clip)), PM_INV_PI);
 }
 
-/* Radiance reflected toward the gather ray from the first diffuse surface it reaches (through
- * any specular bounces): the global map's estimate there, emission excluded (direct light and
- * caustics at the gathering point already count it). The gather ray is the eye path's second
- * vertex on: its walk is a classic chain (chain_policy) from vertex 1. */
-static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 wo0, pm_rng *rng, uint64_t *rays) {
+/* Radiance reflected toward the gather ray's origin (a classic point reached along d0) from the
+ * first surface where the ray meets a non-specular part (through any specular and near-specular
+ * bounces): the global map's estimate there, emission excluded (direct light and caustics at the
+ * gathering point already count it). The ray leaves its point by the non-specular part
+ * (gather_ray_policy); its walk is a classic chain (chain_policy) from vertex 1. */
+static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 d0, pm_rng *rng, uint64_t *rays) {
     const pm_scene *s = job->scene;
     const pm_eye_settings *set = job->settings;
     pm_vertex_ray ray;
-    if (!pm_vertex_sample_diffuse(sf, wo0, rng, s->ray_scale, &ray)) return v3s(0.f);
+    if (!pm_vertex_step(sf, d0, 0, &gather_ray_policy, rng, s->ray_scale, &ray)) return v3s(0.f);
     vec3 d = ray.direction, o = ray.origin, weight = ray.weight, result = v3s(0.f);
     for (int depth = 1; depth <= set->max_specular_depth; depth++) {
         pm_hit h;
@@ -349,7 +348,8 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 wo0, pm_rng *r
         weight = v3_mul(weight, pm_volume_transmittance(s, &y, d, h.t));
         vec3 wo = v3_neg(d), yng = pm_facing(y.ng, wo);
         if (y.glossy) {
-            result = v3_add(result, v3_mul(weight, map_estimate(job, &set->maps->global, &y, h.tri, yng, wo, &set->global_estimate, rays)));
+            if (pm_vertex_has_nonspecular(&y))
+                result = v3_add(result, v3_mul(weight, map_estimate(job, &set->maps->global, &y, h.tri, yng, wo, &set->global_estimate, rays)));
         } else if (!v3_is_black(y.kd)) {
             vec3 e;
             /* one clip for the lookup and the estimate it may fall back to */
@@ -361,14 +361,27 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 wo0, pm_rng *r
                 e = pm_photon_estimate(&set->maps->global, y.p, yng, &set->global_estimate, set->unclipped ? NULL : &site);
             result = v3_add(result, v3_mul(weight, v3_scale(v3_mul(y.kd, e), PM_INV_PI)));
         }
-        /* the specular part of the same surface (a mixed material) reflects what it sees too */
-        pm_vertex_ray sp;
-        if (!pm_vertex_step(&y, d, depth, &chain_policy, rng, s->ray_scale, &sp)) return result;
-        weight = v3_scale(v3_mul(weight, sp.weight), sp.radiance_scale);
-        d = sp.direction;
-        o = sp.origin;
+        /* the specular and near-specular parts of the same surface reflect what they see too */
+        if (!pm_vertex_step(&y, d, depth, &chain_policy, rng, s->ray_scale, &ray)) return result;
+        weight = v3_scale(v3_mul(weight, ray.weight), ray.radiance_scale);
+        d = ray.direction;
+        o = ray.origin;
     }
     return result;
+}
+
+/* The punctual lights' direct light reflected toward wo by a part of sf (a gather point's
+ * non-specular part), times throughput, added to *out; its shadow rays counted. */
+static void add_punctual_light(const eye_job *job, const pm_surface *sf, pm_lobe part, vec3 wo, vec3 throughput,
+                               pm_rng *rng, uint64_t *rays, uint64_t shadow_counts[2], vec3 *out) {
+    uint64_t cast = 0, saved = 0;
+    vec3 ng = pm_facing(sf->ng, wo), ns = pm_facing(sf->ns, ng), origin = pm_surface_origin(sf, ng, job->scene->ray_scale);
+    vec3 e = punctual_light(job->scene, job->accel, sf, part, wo, ng, ns, origin, rng, rays, job->settings->shadow, &cast, &saved);
+    *out = v3_add(*out, v3_mul(throughput, e));
+    if (shadow_counts) {
+        shadow_counts[0] += cast;
+        shadow_counts[1] += saved;
+    }
 }
 
 static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
@@ -376,19 +389,22 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
     const pm_scene *s = job->scene;
     vec3 throughput = v3s(1.f);
     float path_length = 0.f; /* the pixel's cone widens along the chain as it would unfolded (flat mirrors) */
+    surface_bounce pending = *camera; /* a segment already traced: the camera ray, or a near-specular bounce's */
+    bool lit = true; /* light the segment meets counts here (not after a near-specular bounce: its direct light did) */
     for (int depth = 0;; depth++) {
         int comp = depth == 0 ? PM_DIRECT : PM_SPECULAR;
         pm_hit h;
         bool hit;
-        if (depth == 0) {
-            hit = camera->hit;
-            h = camera->h;
+        if (pending.traced) {
+            hit = pending.hit;
+            h = pending.h;
+            pending.traced = false;
         } else {
             (*rays)++;
             hit = pm_accel_intersect(job->accel, o, d, INFINITY, &h);
         }
         if (!hit) {
-            if (s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
+            if (lit && s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
             return;
         }
         path_length += h.t;
@@ -397,9 +413,9 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
         throughput = v3_mul(throughput, pm_volume_transmittance(s, &sf, d, h.t));
         vec3 wo = v3_neg(d);
         bool front = v3_dot(sf.ng, wo) > 0.f;
-        if ((front || sf.double_sided) && !v3_is_black(sf.emission))
+        if (lit && (front || sf.double_sided) && !v3_is_black(sf.emission))
             out[comp] = v3_add(out[comp], v3_mul(throughput, sf.emission));
-        if (!v3_is_black(sf.kd) || sf.glossy) {
+        if (pm_vertex_has_nonspecular(&sf)) {
             const pm_eye_settings *set = job->settings;
             vec3 ng = pm_facing(sf.ng, wo);
             if (set->view_photons && set->maps) {
@@ -410,8 +426,8 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
                 out[depth == 0 ? PM_INDIRECT : PM_SPECULAR] = v3_add(out[depth == 0 ? PM_INDIRECT : PM_SPECULAR],
                     v3_mul(throughput, map_estimate(job, &set->maps->global, &sf, h.tri, ng, wo, &indirect_only, rays)));
             } else {
-                out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, &sf, wo, rng, rays, set->shadow,
-                                                                              shadow_counts, NULL)));
+                out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, &sf, PM_LOBE_NONSPECULAR, wo, rng, rays,
+                                                                              set->shadow, shadow_counts, NULL, NULL)));
             }
             if (set->maps && set->maps->caustic.count) {
                 int c = depth == 0 ? PM_CAUSTIC : PM_SPECULAR;
@@ -422,7 +438,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
                 vec3 l = v3s(0.f);
                 if (set->indirect == PM_INDIRECT_GATHER && depth == 0 && set->gather_rays > 0) {
                     /* each gather ray carries its sample's weight: kd x L for Lambert's cosine rays */
-                    for (int g = 0; g < set->gather_rays; g++) l = v3_add(l, gather(job, &sf, wo, rng, rays));
+                    for (int g = 0; g < set->gather_rays; g++) l = v3_add(l, gather(job, &sf, d, rng, rays));
                     l = v3_scale(v3_mul(throughput, l), 1.f / set->gather_rays);
                 } else {
                     pm_estimate_settings indirect_only = set->global_estimate;
@@ -433,74 +449,75 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
             }
         }
 
-        /* the specular part goes on; the diffuse part was read here */
+        /* the specular and near-specular parts go on; the non-specular part was read here */
         if (depth >= job->settings->max_specular_depth) return;
-        pm_vertex_ray sp;
-        if (!pm_vertex_step(&sf, d, depth, &chain_policy, rng, s->ray_scale, &sp)) return;
-        throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
-        d = sp.direction;
-        o = sp.origin;
+        pm_vertex_ray ray;
+        bool goes_on = pm_vertex_step(&sf, d, depth, &chain_policy, rng, s->ray_scale, &ray);
+        lit = ray.lobe != PM_LOBE_NEAR_SPECULAR;
+        if (!lit)
+            out[PM_SPECULAR] = v3_add(out[PM_SPECULAR], v3_mul(v3_scale(throughput, ray.choice),
+                                                               direct_light(s, job->accel, &sf, PM_LOBE_NEAR_SPECULAR, wo, rng, rays,
+                                                                            job->settings->shadow, shadow_counts, &ray,
+                                                                            goes_on ? &pending : NULL)));
+        if (!goes_on) return;
+        throughput = v3_scale(v3_mul(throughput, ray.weight), ray.radiance_scale);
+        d = ray.direction;
+        o = ray.origin;
     }
 }
 
-/* A gather path's punctual light at a vertex (a sharp lobe it goes on through, or its gather
- * point): reflected toward wo, times throughput, added to *out; its shadow rays counted. */
-static void add_punctual_light(const eye_job *job, const pm_surface *sf, vec3 wo, vec3 ng, vec3 ns, vec3 origin,
-                               vec3 throughput, pm_rng *rng, uint64_t *rays, uint64_t shadow_counts[2], vec3 *out) {
-    uint64_t cast = 0, saved = 0;
-    vec3 e = punctual_light(job->scene, job->accel, sf, wo, ng, ns, origin, rng, rays, job->settings->shadow, &cast, &saved);
-    *out = v3_add(*out, v3_mul(throughput, radiance_from_light_sum(sf, e)));
-    if (shadow_counts) {
-        shadow_counts[0] += cast;
-        shadow_counts[1] += saved;
-    }
-}
+/* The segment a visible point's path goes on along (its final-gather ray, or the path tracer's
+ * continuation): the vertex step's sample, the path's weight along it, and its hit when direct
+ * light traced it. */
+typedef struct {
+    bool goes_on;
+    pm_vertex_ray ray;
+    vec3 throughput;
+    surface_bounce traced;
+} point_exit;
 
-/* Follows a ray through specular bounces to the first surface where it becomes diffuse, and
- * returns that point (false when the path leaves the scene, is absorbed or cut). Camera rays add
- * the emission they see on the way to out[] and direct light at the point. A mixed surface is the
- * point with probability D / (D + S) and scatters on otherwise, each choice weighted by the
- * inverse of its probability.
+/* Follows a ray through specular and near-specular bounces to the first surface where the vertex
+ * kernel chooses its non-specular part, and returns that point (false when the path leaves the
+ * scene, is absorbed or cut). Camera rays add the emission they see on the way to out[], direct
+ * light at the point, and at a near-specular bounce the direct light reflected there (MIS with the
+ * bounce's own sample, which direct light traces: what that segment meets it counts, not the walk). A mixed surface is the point with the
+ * probability of its non-specular part, scatters on otherwise, each choice weighted by the
+ * inverse of its probability (vertex.h). With `exit`, the point's step samples the segment the
+ * path goes on along (continuing_policy), which direct light uses and traces; without, the walk
+ * stops there unsampled (walk_policy).
  *
- * Gather rays add nothing through specular bounces (direct light and caustics at their origin
- * already count it); at their gather point they add the punctual lights' direct light, by shadow
+ * Gather rays add nothing through specular and near-specular bounces (direct light and caustics
+ * at their origin already count it: the caustic photons go on through near-specular parts as
+ * through mirrors); at their gather point they add the punctual lights' direct light, by shadow
  * rays as at a visible point (out[lobe_component]), and the global passes store no first hit of
  * a punctual light (pm_photon_tracer_skip_punctual_first_hits): read as photons, that light was
  * most of a gather estimate's noise and its dark bias where a disc overhangs an edge, while shadow
  * photons make most of its rays free. Emitters and the sky stay with the photons: an area sample
  * and its MIS partner would be two more rays a pixel (an iteration 30% longer on the Cornell box
- * at 512x512 for the same error at 320x320). Gather rays go on through a sharp glossy lobe (GGX
- * alpha below PM_PPM_GATHER_LOBE_ALPHA) by sampling it, as photons do: read there, each photon
- * weighted by a lobe that peaks at 1 / (pi alpha^2), such a point turns a few photons into bright
- * speckles that take thousands of iterations to clear (the floor beside a smooth metal ball). Photons there would
- * count all light arriving at the lobe; instead the ray finds it: punctual lights by a shadow ray
- * from the lobe, emission and sky where the ray meets them past the lobe (through mirrors and
- * glass too), the rest in the photons at the next diffuse point; all but that last go to
- * out[lobe_component]. A punctual light's light through mirrors or glass onto the lobe would be
- * found by none of these, so a scene with punctual lights and mirrors or glass does not go on
- * (job->through_lobes). */
+ * at 512x512 for the same error at 320x320). */
 static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bounce *traced, vec3 throughput,
                             bool camera_ray, int first_vertex, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], int lobe_component, uint64_t *rays,
                             uint64_t shadow_counts[2], pm_visible_point *vp, pm_surface *sf, vec3 *point_throughput,
-                            surface_bounce *next) {
+                            point_exit *exit) {
     const pm_scene *s = job->scene;
     float path_length = 0.f;
-    bool past_lobe = false; /* a gather ray that went on through a sharp lobe */
+    surface_bounce pending = {.traced = false};
+    if (traced) pending = *traced;
+    bool lit = camera_ray; /* light the segment meets counts here (a camera path's, not after a near-specular bounce) */
     for (int depth = 0;; depth++) {
         int comp = depth == 0 ? PM_DIRECT : PM_SPECULAR;
         pm_hit h;
         bool hit;
-        if (depth == 0 && traced) {
-            hit = traced->hit;
-            h = traced->h;
+        if (pending.traced) {
+            hit = pending.hit;
+            h = pending.h;
+            pending.traced = false;
         } else {
             (*rays)++;
             hit = pm_accel_intersect(job->accel, o, d, INFINITY, &h);
         }
-        if (past_lobe) comp = lobe_component;
-        bool adds_light = camera_ray || past_lobe;
         if (!hit) {
-            if (adds_light && s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
+            if (lit && s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
             return false;
         }
         path_length += h.t;
@@ -511,38 +528,30 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
         throughput = v3_mul(throughput, pm_volume_transmittance(s, sf, d, h.t));
         vec3 wo = v3_neg(d);
         bool front = v3_dot(sf->ng, wo) > 0.f;
-        if (adds_light && (front || sf->double_sided) && !v3_is_black(sf->emission) && (!sf->unlit || (camera_ray && !past_lobe)))
+        if (lit && (front || sf->double_sided) && !v3_is_black(sf->emission))
             out[comp] = v3_add(out[comp], v3_mul(throughput, sf->emission));
-        /* a glossy lobe is a visible point like Lambert's, chosen by its share of the surface */
-        float choice;
-        pm_lobe lobe = pm_vertex_choose(sf, false, rng, &choice);
-        if (lobe == PM_LOBE_NONE) return false;
-        if (lobe == PM_LOBE_DIFFUSE) {
+        pm_vertex_ray ray;
+        bool goes_on = pm_vertex_step(sf, d, first_vertex + depth, exit ? &continuing_policy : &walk_policy, rng,
+                                      s->ray_scale, &ray);
+        if (ray.lobe == PM_LOBE_NONE) return false;
+        if (ray.lobe == PM_LOBE_NONSPECULAR) {
             vec3 ng = pm_facing(sf->ng, wo);
-            if (!camera_ray && job->through_lobes && sf->glossy && pm_brdf_sharpest_alpha(&sf->brdf) < PM_PPM_GATHER_LOBE_ALPHA &&
-                depth < job->settings->max_specular_depth) {
-                if (s->light_count)
-                    add_punctual_light(job, sf, wo, ng, pm_facing(sf->ns, ng), pm_surface_origin(sf, ng, s->ray_scale),
-                                       v3_scale(throughput, choice), rng, rays, shadow_counts, &out[lobe_component]);
-                pm_vertex_ray lobe_ray;
-                if (!pm_vertex_sample_diffuse(sf, wo, rng, s->ray_scale, &lobe_ray)) return false;
-                lobe_ray.weight = v3_scale(lobe_ray.weight, choice);
-                if (!pm_vertex_survives(first_vertex + depth, &choosing_policy, rng, &lobe_ray.weight)) return false;
-                throughput = v3_mul(throughput, lobe_ray.weight);
-                d = lobe_ray.direction;
-                o = lobe_ray.origin;
-                past_lobe = true;
-                continue;
+            vec3 before = throughput;
+            throughput = v3_scale(throughput, ray.choice);
+            if (exit) {
+                exit->goes_on = goes_on;
+                exit->ray = ray;
+                exit->throughput = v3_mul(before, ray.weight);
+                exit->traced.traced = false;
             }
-            throughput = v3_scale(throughput, choice);
             if (camera_ray) {
-                out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, sf, wo, rng, rays,
-                                                                              job->settings->shadow, shadow_counts, next)));
+                out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, sf, PM_LOBE_NONSPECULAR, wo, rng, rays,
+                                                                              job->settings->shadow, shadow_counts, exit ? &ray : NULL,
+                                                                              exit && goes_on ? &exit->traced : NULL)));
             } else if (s->light_count) {
                 /* the punctual lights at a gather point: the visible point's indirect light, traced
                  * (their first-hit photons are not stored, see above) */
-                add_punctual_light(job, sf, wo, ng, pm_facing(sf->ns, ng), pm_surface_origin(sf, ng, s->ray_scale), throughput,
-                                   rng, rays, shadow_counts, &out[lobe_component]);
+                add_punctual_light(job, sf, PM_LOBE_NONSPECULAR, wo, throughput, rng, rays, shadow_counts, &out[lobe_component]);
             }
             vp->p = sf->p;
             vp->n = ng;
@@ -550,7 +559,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
             vp->wo = wo;
             if (sf->glossy) {
                 vp->weight = throughput;
-                vp->brdf = sf->brdf;
+                vp->brdf = pm_vertex_part_lobe(sf, PM_LOBE_NONSPECULAR);
                 vp->ns = pm_facing(sf->ns, ng);
             } else {
                 vp->weight = v3_mul(throughput, v3_scale(sf->kd, PM_INV_PI));
@@ -563,14 +572,15 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
             *point_throughput = throughput;
             return true;
         }
-        if (depth >= job->settings->max_specular_depth) return false;
-        pm_vertex_ray sp;
-        if (!pm_vertex_sample(sf, PM_LOBE_SPECULAR, d, rng, s->ray_scale, &sp)) return false;
-        sp.weight = v3_scale(sp.weight, choice);
-        if (!pm_vertex_survives(first_vertex + depth, &choosing_policy, rng, &sp.weight)) return false;
-        throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
-        d = sp.direction;
-        o = sp.origin;
+        if (!goes_on || depth >= job->settings->max_specular_depth) return false;
+        lit = camera_ray && ray.lobe != PM_LOBE_NEAR_SPECULAR;
+        if (camera_ray && !lit)
+            out[PM_SPECULAR] = v3_add(out[PM_SPECULAR], v3_mul(v3_scale(throughput, ray.choice),
+                                                               direct_light(s, job->accel, sf, PM_LOBE_NEAR_SPECULAR, wo, rng, rays,
+                                                                            job->settings->shadow, shadow_counts, &ray, &pending)));
+        throughput = v3_scale(v3_mul(throughput, ray.weight), ray.radiance_scale);
+        d = ray.direction;
+        o = ray.origin;
     }
 }
 
@@ -592,9 +602,9 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
                        uint64_t *vertices);
 
 /* The progressive mode's eye sample: the pixel's visible point and, with final gathering, the
- * point its one gather ray finds (the ray direct light drew from the material at the visible
- * point); emission and direct light go to out[]. With
- * PM_GATHER_PATH the path tracer goes on from the visible point instead (no gather point). */
+ * point its one gather ray finds (the segment the visible point's step drew, which direct light
+ * there traced); emission and direct light go to out[]. With PM_GATHER_PATH the path tracer goes
+ * on from the visible point instead (no gather point). */
 static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
                           vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2], uint64_t *vertices,
                           pm_visible_point *vp, pm_visible_point *gp) {
@@ -604,20 +614,20 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
     if (gp) gp->valid = false;
     pm_surface sf, y;
     vec3 throughput, unused;
-    surface_bounce next;
+    point_exit exit;
     if (!walk_to_diffuse(job, o, d, camera, v3s(1.f), true, 0, rng, out, PM_DIRECT, rays, shadow_counts, vp, &sf, &throughput,
-                         gp ? &next : NULL) ||
-        !gp || !next.sampled)
+                         gp ? &exit : NULL) ||
+        !gp || !exit.goes_on)
         return;
     if (job->settings->gather_source == PM_GATHER_PATH) {
         /* the path tracer from here on: its light is the visible point's indirect light */
-        path_start from = {v3_mul(throughput, next.weight), 1, false, !vp->seen_directly, true};
-        trace_path(job, next.origin, next.direction, &next, &from, rng, out, rays, shadow_counts, vertices);
+        path_start from = {exit.throughput, 1, false, !vp->seen_directly, true};
+        trace_path(job, exit.ray.origin, exit.ray.direction, &exit.traced, &from, rng, out, rays, shadow_counts, vertices);
         return;
     }
-    /* light the gather ray meets past a sharp lobe is the visible point's indirect light */
+    /* light the gather point's punctual lights give is the visible point's indirect light */
     int lobe_component = vp->seen_directly ? PM_INDIRECT : PM_SPECULAR;
-    if (walk_to_diffuse(job, next.origin, next.direction, &next, v3_mul(throughput, next.weight), false, 1, rng, out,
+    if (walk_to_diffuse(job, exit.ray.origin, exit.ray.direction, &exit.traced, exit.throughput, false, 1, rng, out,
                         lobe_component, rays, shadow_counts, gp, &y, &unused, NULL))
         gp->seen_directly = vp->seen_directly; /* the component is the visible point's */
 }
@@ -626,7 +636,9 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
 /* The path tracer's sample (settings->path_trace; the rules are in eye.h at pm_eye_iterate), or
  * its continuation from a visible point (start). `seen` is the component that light met along the
  * next segment belongs to, `lit_by_segment` whether such light counts at all (camera ray, or the
- * last bounce was specular). first: the first segment, already traced. */
+ * last bounce was specular). first: the first segment, already traced. At a non-specular or
+ * near-specular choice direct light adds the lights (MIS with the step's own sample, which it
+ * traces for the path to go on along, counting what that segment meets). */
 static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce *first, const path_start *start,
                        pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
                        uint64_t *vertices) {
@@ -642,10 +654,10 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
     for (int depth = start->depth; depth < PM_PATHTRACE_MAX_VERTICES; depth++) {
         pm_hit h;
         bool hit;
-        if (next.sampled) { /* the segment direct light traced from the last diffuse vertex */
+        if (next.traced) { /* the segment direct light traced from the last diffuse vertex */
             hit = next.hit;
             h = next.h;
-            next.sampled = false;
+            next.traced = false;
         } else {
             (*rays)++;
             hit = pm_accel_intersect(job->accel, o, d, INFINITY, &h);
@@ -664,41 +676,39 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
         bool front = v3_dot(sf.ng, wo) > 0.f;
         if (lit_by_segment && (front || sf.double_sided) && !v3_is_black(sf.emission) && (!sf.unlit || cone))
             out[seen] = v3_add(out[seen], v3_mul(throughput, sf.emission));
-        float choice;
-        pm_lobe lobe = pm_vertex_choose(&sf, false, rng, &choice);
-        if (lobe == PM_LOBE_NONE) return;
-        if (lobe == PM_LOBE_DIFFUSE) {
+        pm_vertex_ray ray;
+        bool goes_on = pm_vertex_step(&sf, d, depth, &continuing_policy, rng, s->ray_scale, &ray);
+        if (ray.lobe == PM_LOBE_NONE) return;
+        if (ray.lobe == PM_LOBE_NONSPECULAR) {
             int here = depth == 0 ? PM_DIRECT : (behind_specular ? PM_SPECULAR : PM_INDIRECT);
-            /* direct light samples the continuation too (next): the kernel's diffuse sampling */
-            out[here] = v3_add(out[here], v3_mul(v3_scale(throughput, choice),
-                                                 direct_light(s, job->accel, &sf, wo, rng, rays, job->settings->shadow,
-                                                              shadow_counts, &next)));
+            out[here] = v3_add(out[here], v3_mul(v3_scale(throughput, ray.choice),
+                                                 direct_light(s, job->accel, &sf, PM_LOBE_NONSPECULAR, wo, rng, rays,
+                                                              job->settings->shadow, shadow_counts, &ray, goes_on ? &next : NULL)));
             /* from a first-hit diffuse vertex, what specular bounces lead to is the caustic */
             seen = depth == 0 ? PM_CAUSTIC : here;
             lit_by_segment = false;
             caustic_segment = false;
             cone = false;
-            vec3 weight = v3_scale(next.weight, choice);
-            if (!next.sampled || !pm_vertex_survives(depth, &choosing_policy, rng, &weight)) return;
-            throughput = v3_mul(throughput, weight);
-            d = next.direction;
-            o = next.origin;
         } else {
             if (depth == 0) {
                 behind_specular = true;
                 seen = PM_SPECULAR;
             }
-            pm_vertex_ray sp;
-            if (!pm_vertex_sample(&sf, PM_LOBE_SPECULAR, d, rng, s->ray_scale, &sp)) return;
             /* straight across a thin wall scatters nothing: light met past it is counted where
              * it was before (after a diffuse vertex, by its direct light, which crosses thin walls) */
-            if (!sp.straight && !caustic_segment) lit_by_segment = true;
-            sp.weight = v3_scale(sp.weight, choice);
-            if (!pm_vertex_survives(depth, &choosing_policy, rng, &sp.weight)) return;
-            throughput = v3_scale(v3_mul(throughput, sp.weight), sp.radiance_scale);
-            d = sp.direction;
-            o = sp.origin;
+            if (ray.sampled && !ray.straight && !caustic_segment) lit_by_segment = true;
+            if (ray.lobe == PM_LOBE_NEAR_SPECULAR && ray.sampled && !caustic_segment) {
+                /* the lights by MIS with this sample, which direct light traces and counts */
+                out[seen] = v3_add(out[seen], v3_mul(v3_scale(throughput, ray.choice),
+                                                     direct_light(s, job->accel, &sf, PM_LOBE_NEAR_SPECULAR, wo, rng, rays,
+                                                                  job->settings->shadow, shadow_counts, &ray, goes_on ? &next : NULL)));
+                lit_by_segment = false;
+            }
         }
+        if (!goes_on) return;
+        throughput = v3_scale(v3_mul(throughput, ray.weight), ray.radiance_scale);
+        d = ray.direction;
+        o = ray.origin;
     }
 }
 
@@ -754,7 +764,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
             size_t k = ray_of[(y - y0) * TILE + (x - x0)];
             pm_rng rng = rngs[k];
             vec3 o = origin[k], d = direction[k];
-            surface_bounce camera = {.sampled = true, .hit = hit[k]};
+            surface_bounce camera = {.traced = true, .hit = hit[k]};
             if (hit[k]) camera.h = hits[k];
             vec3 out[PM_COMPONENT_COUNT] = {{0}};
             if (job->settings->path_trace)
@@ -805,7 +815,6 @@ static pm_eye_pass_result run_eye_pass(const pm_scene *s, const pm_accel *a, con
     job->film = film;
     job->visible_points = visible_points;
     job->gather_points = visible_points && gather_points;
-    job->through_lobes = !(s->analysis.has_punctual_lights && (s->analysis.has_mirror || s->analysis.has_glass));
     job->visit = visit;
     job->visit_ctx = visit_ctx;
     job->tiles_x = tiles_x;

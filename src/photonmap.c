@@ -127,7 +127,7 @@ typedef struct {
 
 /* Photons meet the one survival rule from their first surface on (Jensen: a photon keeps its power). */
 static const pm_vertex_policy photon_policy = {.roulette_from = 0};
-static const pm_vertex_policy caustic_photon_policy = {.roulette_from = 0, .diffuse_ends = true};
+static const pm_vertex_policy caustic_photon_policy = {.roulette_from = 0, .nonspecular_ends = true};
 
 /* Flux of a spot: I x integral of the falloff over the cone (midpoint rule in cos theta). */
 static float spot_solid_angle(const pm_light *l) {
@@ -203,7 +203,7 @@ static sphere *specular_spheres(const pm_scene *s, uint32_t *count) {
     bool used[G * G * G] = {false};
     for (pm_triangle_walk w = {.placement = -2}; pm_scene_walk_next(s, &w);) {
         const pm_material *m = &s->materials[s->triangle_material[w.stored]];
-        if (!m->may_mirror && !m->may_glass) continue;
+        if (!m->may_mirror && !m->may_glass && !m->may_near_specular) continue; /* caustic photons go on through all three */
         vec3 corners[3];
         pm_scene_walk_corners(s, &w, corners);
         vec3 p0 = corners[0], p1 = corners[1], p2 = corners[2];
@@ -570,7 +570,7 @@ static void splat_to_camera(pass *ps, splat_list *out, const pm_hit *h, bool *sh
     if (!(cos_x > 0.f)) return; /* the camera sees the other side */
     vec3 ns = complete_shading(ps->scene, h, *shading_left, ng, sf);
     *shading_left = false;
-    vec3 f = sf->glossy ? pm_brdf_eval(&sf->brdf, ns, c.to_camera, v3_neg(d)) : v3_scale(sf->kd, PM_INV_PI);
+    vec3 f = pm_vertex_f(sf, PM_LOBE_NONSPECULAR, ns, c.to_camera, v3_neg(d));
     vec3 l = v3_scale(v3_mul(f, power), cos_x * c.importance);
     if (v3_is_black(l) || !v3_is_finite(l)) return;
     vec3 o = pm_surface_origin(sf, ng, ps->scene->ray_scale);
@@ -648,11 +648,11 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
     bool shading_left = pm_scene_surface_lean(s, h->tri, h->b1, h->b2, &sf);
     if (ps->volumes) p->power = v3_mul(p->power, pm_volume_transmittance(s, &sf, *d, h->t));
     vec3 ng = pm_facing(sf.ng, v3_neg(*d));
-    if (pm_vertex_diffuse_weight(&sf) > 0.f) {
+    if (pm_vertex_has_nonspecular(&sf)) {
         if (ps->caustic_pass) {
-            /* stored, and the roulette below decides: a diffuse bounce ends the caustic
-             * path, while the specular part of a mixed surface carries it on (L S+ D is
-             * stored again at the next diffuse surface it reaches) */
+            /* stored, and the roulette below decides: a non-specular bounce ends the caustic
+             * path, while the specular and near-specular parts of a mixed surface carry it on
+             * (L S+ D is stored again at the next non-specular surface it reaches) */
             if (p->specular_bounces > 0) {
                 push(list, sf.p, ng, *d, p->power, PM_PATH_CAUSTIC);
                 if (ps->splat) splat_to_camera(ps, splats, h, &shading_left, &sf, ng, *d, p->power, rays);
@@ -670,9 +670,9 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
         }
     }
     /* the vertex kernel: the part to go on with, its sample and the survival (vertex.h); the
-     * caustic pass ends at a diffuse or glossy choice, as L S+ D was stored above (and where
-     * nothing specular could carry it on, before the shading record is completed) */
-    if (ps->caustic_pass && !(pm_specular_weight(&sf) > 0.f)) return false;
+     * caustic pass ends at a non-specular choice, as L S+ D was stored above (and where nothing
+     * specular or near-specular could carry it on, before the shading record is completed) */
+    if (ps->caustic_pass && !pm_vertex_has_specular(&sf)) return false;
     complete_shading(s, h, shading_left, ng, &sf);
     pm_vertex_ray ray;
     if (!pm_vertex_step(&sf, *d, p->bounce, ps->caustic_pass ? &caustic_photon_policy : &photon_policy, rng, s->ray_scale,
@@ -683,7 +683,7 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
     *o = ray.origin;
     if (ray.straight) return true; /* no caustic: direct light crosses thin walls too */
     p->scattered = true;
-    if (ray.lobe == PM_LOBE_DIFFUSE) p->diffuse_seen = true;
+    if (ray.lobe == PM_LOBE_NONSPECULAR) p->diffuse_seen = true;
     else p->specular_bounces++;
     return true;
 }

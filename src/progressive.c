@@ -26,6 +26,7 @@
 #include "parallel.h"
 #include "photongrid.h"
 #include "rng.h"
+#include "vertex.h"
 
 #define MAX_THREADS PM_MAX_THREADS
 
@@ -450,8 +451,8 @@ static bool choose_gather(pm_progressive *p) {
 
 /* The mean pixel footprint (the first radius of a visible point seen directly) over a sparse grid
  * of camera rays: before any visible point exists, the first grid's cell follows it. Only the
- * grid's speed depends on it, never the image. The rays' diffuse and glossy hits, and one cosine
- * bounce from each, are kept as the points whose photon density sets the first radii. */
+ * grid's speed depends on it, never the image. The rays' non-specular hits, and one bounce of
+ * their non-specular part from each, are kept as the points whose photon density sets the first radii. */
 static double probe_footprint(pm_progressive *p, const pm_film *film) {
     const pm_scene *s = p->scene;
     double sum = 0.0;
@@ -470,15 +471,17 @@ static double probe_footprint(pm_progressive *p, const pm_film *film) {
             for (int bounce = 0; bounce < 2; bounce++) {
                 pm_surface sf;
                 pm_scene_surface(s, h.tri, h.b1, h.b2, &sf);
-                if (v3_is_black(sf.kd) && !sf.glossy) break;
+                if (!pm_vertex_has_nonspecular(&sf)) break;
                 vec3 n = v3_dot(sf.ng, d) < 0.f ? sf.ng : v3_neg(sf.ng);
                 int k = p->seen_count[bounce]++;
                 p->seen[bounce][k].p = sf.p;
                 p->seen[bounce][k].n = n;
                 p->seen[bounce][k].tri = h.tri;
                 if (bounce) break;
-                d = pm_sample_cosine(n, pm_rng_float(&rng), pm_rng_float(&rng));
-                o = pm_surface_origin(&sf, n, s->ray_scale);
+                pm_vertex_ray bounce_ray; /* the bounce a visible point's gather ray takes (vertex.h) */
+                if (!pm_vertex_sample_part(&sf, PM_LOBE_NONSPECULAR, v3_neg(d), &rng, s->ray_scale, &bounce_ray)) break;
+                d = bounce_ray.direction;
+                o = bounce_ray.origin;
                 if (!pm_accel_intersect(p->accel, o, d, INFINITY, &h)) break;
             }
         }

@@ -4,6 +4,7 @@
  * the analysis decides which maps, passes and buffers the later stages build at all.
  */
 #include "scene.h"
+#include "vertex.h"
 #include "memory.h"
 #include "defaults.h"
 
@@ -134,7 +135,9 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
     const pm_material_layers *l = &m->layers;
     const float factor[4] = {m->metallic, m->roughness, m->transmission, m->layered ? l->specular : 1.f};
     bool layer_lobe = m->layered && (l->clearcoat > 0.f || v3_max_component(l->sheen_color) > 0.f);
-    m->may_diffuse = m->may_mirror = m->may_glass = m->may_glossy = false;
+    m->may_diffuse = m->may_mirror = m->may_glass = m->may_glossy = m->may_near_specular = false;
+    /* the coat's smallest roughness: its factor's, or 0 under a texture that may darken it */
+    float coat_roughness = m->layered && l->clearcoat_roughness_texture.texture < 0 ? l->clearcoat_roughness : 0.f;
     for (int corner = 0; corner < 16; corner++) {
         float x[4];
         for (int k = 0; k < 4; k++) x[k] = factor[k] * ((corner >> k & 1) ? hi[k] : lo[k]);
@@ -143,6 +146,12 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
         pm_material_split_at(m->base_color, x[0], x[1], x[2], x[3], &kd, &ks, &grazing, &kt);
         bool glossy = layer_lobe || pm_glossy_at(x[0], x[1], x[2], x[3]);
         m->may_glossy |= glossy;
+        if (glossy) {
+            /* a lobe part sharp enough that paths go on through it (the vertex kernel's rule) */
+            pm_brdf b = pm_brdf_at(m->base_color, x[0], x[1], x[2]);
+            if (m->layered) pm_brdf_add_layers(&b, x[3], l->specular_color, l->sheen_color, l->sheen_roughness, l->clearcoat, coat_roughness);
+            m->may_near_specular |= (pm_brdf_parts(&b) & pm_vertex_near_specular_parts(&b)) != 0;
+        }
         if (!glossy) {
             m->may_diffuse |= !v3_is_black(kd);
             m->may_mirror |= !v3_is_black(ks);
@@ -154,7 +163,7 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
                        !layers_textured(m);
     if (m->unlit) {
         /* no lobe at all, wherever its base colour texture goes */
-        m->may_diffuse = m->may_mirror = m->may_glass = m->may_glossy = m->split_glossy = false;
+        m->may_diffuse = m->may_mirror = m->may_glass = m->may_glossy = m->may_near_specular = m->split_glossy = false;
         m->uniform_split = true;
         m->split_kd = m->split_ks = m->split_kt = v3s(0.f);
         m->split_ks_grazing = 0.f;
@@ -189,6 +198,7 @@ static void analyse(pm_scene *s) {
         a->has_diffuse |= m->may_diffuse || m->may_glossy;
         a->has_mirror |= m->may_mirror;
         a->has_glass |= m->may_glass;
+        a->has_near_specular |= m->may_near_specular;
         a->has_thin_glass |= m->may_glass && m->thin_walled;
         a->has_textures |= m->base_color_texture >= 0 || m->emission_texture >= 0 ||
                            m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0 ||
@@ -200,7 +210,7 @@ static void analyse(pm_scene *s) {
     a->has_punctual_lights = s->light_count > 0;
     a->has_sky = s->sky;
     bool lit = a->has_emissive_triangles || a->has_punctual_lights || a->has_sky;
-    bool specular = a->has_mirror || a->has_glass;
+    bool specular = a->has_mirror || a->has_glass || a->has_near_specular; /* paths go on through all three alike */
     a->caustics_possible = lit && specular && a->has_diffuse;
     a->interreflection_possible = a->has_diffuse && lit && (specular || !diffuse_coplanar(s));
     a->component_possible[PM_DIRECT] = a->has_emissive_triangles || a->has_sky || (a->has_diffuse && lit) || a->has_unlit;

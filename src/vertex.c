@@ -1,92 +1,117 @@
-/* vertex.c: the path-vertex kernel (vertex.h): lobe choice, continuation sampling and the one survival rule. */
+/* vertex.c: the path-vertex kernel (vertex.h): the part chosen, its sampling, value and pdf, and the one survival rule. */
 #include "vertex.h"
 
-#include "brdf.h"
-#include "defaults.h"
-
-pm_lobe pm_vertex_choose(const pm_surface *sf, bool diffuse_in_place, pm_rng *rng, float *inverse_probability) {
-    float D = diffuse_in_place ? 0.f : pm_vertex_diffuse_weight(sf), S = pm_specular_weight(sf);
-    *inverse_probability = 1.f;
-    if (!(D > 0.f) && !(S > 0.f)) return PM_LOBE_NONE;
-    /* one part: no number drawn, so a path through pure mirrors or pure Lambert uses none here */
-    if (!(S > 0.f)) return PM_LOBE_DIFFUSE;
-    if (!(D > 0.f)) return PM_LOBE_SPECULAR;
-    if (pm_rng_float(rng) * (D + S) < D) {
-        *inverse_probability = (D + S) / D;
-        return PM_LOBE_DIFFUSE;
-    }
-    *inverse_probability = (D + S) / S;
-    return PM_LOBE_SPECULAR;
+vec3 pm_vertex_f(const pm_surface *sf, pm_lobe part, vec3 ns, vec3 wo, vec3 wi) {
+    if (!sf->glossy) return part == PM_LOBE_NONSPECULAR ? v3_scale(sf->kd, PM_INV_PI) : v3s(0.f);
+    if (part != PM_LOBE_NONSPECULAR && part != PM_LOBE_NEAR_SPECULAR) return v3s(0.f);
+    pm_brdf b = pm_vertex_part_lobe(sf, part);
+    return pm_brdf_eval(&b, ns, wo, wi);
 }
 
-bool pm_vertex_sample_diffuse(const pm_surface *sf, vec3 wo, pm_rng *rng, float scale, pm_vertex_ray *out) {
+float pm_vertex_pdf(const pm_surface *sf, pm_lobe part, vec3 ns, vec3 wo, vec3 wi) {
+    if (!sf->glossy) return part == PM_LOBE_NONSPECULAR ? pm_maxf(0.f, v3_dot(ns, wi)) * PM_INV_PI : 0.f;
+    if (part != PM_LOBE_NONSPECULAR && part != PM_LOBE_NEAR_SPECULAR) return 0.f;
+    pm_brdf b = pm_vertex_part_lobe(sf, part);
+    return pm_brdf_pdf(&b, ns, wo, wi);
+}
+
+bool pm_vertex_sample_part(const pm_surface *sf, pm_lobe part, vec3 wo, pm_rng *rng, float scale, pm_vertex_ray *out) {
     vec3 ng = pm_facing(sf->ng, wo), ns = pm_facing(sf->ns, ng);
     out->radiance_scale = 1.f;
     out->transmitted = out->straight = false;
+    out->sampled = false;
     if (sf->glossy) {
+        pm_brdf b = pm_vertex_part_lobe(sf, part);
         vec3 f;
-        if (!pm_brdf_sample(&sf->brdf, ns, wo, pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), &out->direction, &f,
-                            &out->pdf))
+        if (!pm_brdf_sample(&b, ns, wo, pm_rng_float(rng), pm_rng_float(rng), pm_rng_float(rng), &out->direction, &f, &out->pdf))
             return false;
-        out->weight = v3_scale(f, v3_dot(ns, out->direction) / out->pdf);
+        out->value = v3_scale(f, v3_dot(ns, out->direction) / out->pdf);
     } else {
+        if (part != PM_LOBE_NONSPECULAR) return false;
         out->direction = pm_sample_cosine(ns, pm_rng_float(rng), pm_rng_float(rng));
         out->pdf = pm_maxf(0.f, v3_dot(ns, out->direction)) * PM_INV_PI;
-        out->weight = sf->kd; /* kd/pi x cos / (cos/pi) */
+        out->value = sf->kd; /* kd/pi x cos / (cos/pi) */
     }
     out->origin = pm_surface_origin(sf, ng, scale);
-    return v3_dot(out->direction, ng) > 0.f;
+    out->sampled = v3_dot(out->direction, ng) > 0.f;
+    return out->sampled;
 }
 
-bool pm_vertex_sample(const pm_surface *sf, pm_lobe lobe, vec3 d, pm_rng *rng, float scale, pm_vertex_ray *out) {
-    if (lobe == PM_LOBE_DIFFUSE) return pm_vertex_sample_diffuse(sf, v3_neg(d), rng, scale, out);
-    if (lobe != PM_LOBE_SPECULAR) return false;
-    pm_specular_sample sp;
-    if (!pm_scatter_specular(sf, d, rng, scale, &sp)) return false;
-    out->direction = sp.direction;
-    out->origin = sp.origin;
-    out->weight = sp.weight;
-    out->pdf = 0.f;
-    out->radiance_scale = sp.radiance_scale;
-    out->transmitted = sp.transmitted;
-    out->straight = sp.straight;
-    return true;
+/* The parts' choice weights at wo: N's and G's estimated albedos (Lambert's mean kd), S the
+ * mirror's and glass's mean weights. */
+static void part_weights(const pm_surface *sf, vec3 wo, bool nonspecular_in_place, float *n, float *g, float *s) {
+    *s = pm_specular_weight(sf);
+    if (!sf->glossy) {
+        *n = nonspecular_in_place ? 0.f : v3_average(sf->kd);
+        *g = 0.f;
+        return;
+    }
+    vec3 ns = pm_vertex_normal(sf, wo);
+    unsigned near = pm_vertex_near_specular_parts(&sf->brdf);
+    *n = 0.f;
+    if (!nonspecular_in_place) {
+        pm_brdf b = pm_vertex_part_lobe(sf, PM_LOBE_NONSPECULAR);
+        *n = pm_brdf_albedo_estimate(&b, ns, wo);
+    }
+    *g = 0.f;
+    if (near) {
+        pm_brdf b = pm_vertex_part_lobe(sf, PM_LOBE_NEAR_SPECULAR);
+        *g = pm_brdf_albedo_estimate(&b, ns, wo);
+    }
 }
 
-/* The rule on the bounce's mean weight: false ends the path, else *scale = 1 / the survival probability. */
-static bool survives(int vertex, const pm_vertex_policy *policy, pm_rng *rng, float mean_weight, float *scale) {
-    *scale = 1.f;
-    if (vertex < policy->roulette_from) return true;
-    float q = pm_minf(PM_MAX_SURVIVAL, mean_weight);
-    if (!(q > 0.f) || pm_rng_float(rng) >= q) return false;
-    *scale = 1.f / q;
-    return true;
-}
-
-bool pm_vertex_survives(int vertex, const pm_vertex_policy *policy, pm_rng *rng, vec3 *weight) {
-    float scale;
-    if (!survives(vertex, policy, rng, v3_average(*weight), &scale)) return false;
-    *weight = v3_scale(*weight, scale);
-    return true;
+/* Step 1: the part, by one number when two or more can be chosen; *total is the weights' sum. */
+static pm_lobe choose(float n, float g, float s, pm_rng *rng, float *choice, float *total) {
+    n = n > 0.f ? n : 0.f;
+    g = g > 0.f ? g : 0.f;
+    s = s > 0.f ? s : 0.f;
+    *total = n + g + s;
+    *choice = 1.f;
+    int present = (n > 0.f) + (g > 0.f) + (s > 0.f);
+    if (!present) return PM_LOBE_NONE;
+    if (present == 1) return n > 0.f ? PM_LOBE_NONSPECULAR : (g > 0.f ? PM_LOBE_NEAR_SPECULAR : PM_LOBE_SPECULAR);
+    float u = pm_rng_float(rng) * *total;
+    if (u < n) { *choice = *total / n; return PM_LOBE_NONSPECULAR; }
+    if (u < n + g || !(s > 0.f)) { *choice = *total / g; return PM_LOBE_NEAR_SPECULAR; }
+    *choice = *total / s;
+    return PM_LOBE_SPECULAR;
 }
 
 bool pm_vertex_step(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_policy *policy, pm_rng *rng, float scale,
                     pm_vertex_ray *out) {
-    float inverse_probability, survival;
-    pm_lobe lobe = pm_vertex_choose(sf, policy->diffuse_in_place, rng, &inverse_probability);
-    out->lobe = lobe;
-    if (lobe == PM_LOBE_NONE || (lobe == PM_LOBE_DIFFUSE && policy->diffuse_ends)) return false;
-    if (lobe == PM_LOBE_DIFFUSE && sf->glossy) {
-        /* the lobe's weight depends on the direction drawn: survival on the sample's */
-        if (!pm_vertex_sample(sf, lobe, d, rng, scale, out)) return false;
-        out->weight = v3_scale(out->weight, inverse_probability);
-        return pm_vertex_survives(vertex, policy, rng, &out->weight);
+    vec3 wo = v3_neg(d);
+    float n, g, s, total;
+    part_weights(sf, wo, policy->nonspecular_in_place, &n, &g, &s);
+    if (policy->only != PM_LOBE_NONE) {
+        n = policy->only == PM_LOBE_NONSPECULAR ? n : 0.f;
+        g = policy->only == PM_LOBE_NEAR_SPECULAR ? g : 0.f;
+        s = policy->only == PM_LOBE_SPECULAR ? s : 0.f;
     }
-    /* kd's mean is D, the specular sample's S (its colour over the mirror-or-glass pick): the
-     * weight's mean is the chosen part's weight over its probability */
-    float part = lobe == PM_LOBE_DIFFUSE ? pm_vertex_diffuse_weight(sf) : pm_specular_weight(sf);
-    if (!survives(vertex, policy, rng, part * inverse_probability, &survival)) return false;
-    if (!pm_vertex_sample(sf, lobe, d, rng, scale, out)) return false;
-    out->weight = v3_scale(out->weight, inverse_probability * survival);
+    out->lobe = choose(n, g, s, rng, &out->choice, &total);
+    out->sampled = false;
+    if (out->lobe == PM_LOBE_NONE || (out->lobe == PM_LOBE_NONSPECULAR && policy->nonspecular_ends)) return false;
+    /* step 2 */
+    if (out->lobe == PM_LOBE_SPECULAR) {
+        pm_specular_sample sp;
+        if (!pm_scatter_specular(sf, d, rng, scale, &sp)) return false;
+        out->direction = sp.direction;
+        out->origin = sp.origin;
+        out->value = sp.weight;
+        out->pdf = 0.f;
+        out->radiance_scale = sp.radiance_scale;
+        out->transmitted = sp.transmitted;
+        out->straight = sp.straight;
+        out->sampled = true;
+    } else if (!pm_vertex_sample_part(sf, out->lobe, wo, rng, scale, out)) {
+        return false;
+    }
+    out->weight = v3_scale(out->value, out->choice);
+    /* step 3: Lambert's, the mirror's and glass's mean weight over their choice is the weights' sum;
+     * a GGX part's weight depends on the direction drawn: the sample's */
+    if (vertex < policy->roulette_from) return true;
+    float mean = sf->glossy && out->lobe != PM_LOBE_SPECULAR ? v3_average(out->weight) : total;
+    float q = pm_minf(PM_MAX_SURVIVAL, mean);
+    if (!(q > 0.f) || pm_rng_float(rng) >= q) return false;
+    out->weight = v3_scale(out->weight, 1.f / q);
     return true;
 }

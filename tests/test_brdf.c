@@ -204,12 +204,13 @@ static void reciprocity(void) {
 
 /* The sampler's histogram over (cos theta, phi) bins against pdf() integrated over each bin, and
  * pdf() integrated over the hemisphere against the share of samples that were not lost. */
-static void sampler_matches_pdf(float metallic, float roughness, float cos_o) {
+static void sampler_matches_pdf(float metallic, float roughness, float cos_o, unsigned skip) {
     enum { NZ = 12, NP = 24, SUB = 12, SAMPLES = 1000000 };
     static double hist[NZ][NP];
     memset(hist, 0, sizeof hist);
     vec3 n = v3(0, 0, 1), wo = direction_at(cos_o, 0.f);
     pm_brdf b = make_brdf(v3(0.9f, 0.6f, 0.3f), metallic, roughness);
+    b.skip = skip; /* one part of the vertex kernel's split samples the others alone */
     pm_rng rng = pm_rng_for(11, (uint64_t)(roughness * 100), (uint64_t)(cos_o * 100));
     int kept = 0, pdf_mismatch = 0;
     for (int i = 0; i < SAMPLES; i++) {
@@ -237,12 +238,47 @@ static void sampler_matches_pdf(float metallic, float roughness, float cos_o) {
             double freq = hist[iz][ip] / SAMPLES, tol = 5.0 * sqrt(p / SAMPLES) + 0.03 * p + 2e-5;
             worst = fmax(worst, fabs(freq - p) / tol);
         }
-    printf("sampler vs pdf (metallic %.1f roughness %.1f cos %.1f): integral of pdf %.4f, samples kept %.4f, worst bin %.2f of its tolerance\n",
-           metallic, roughness, cos_o, total, (double)kept / SAMPLES, worst);
+    printf("sampler vs pdf (metallic %.1f roughness %.1f cos %.1f skip %u): integral of pdf %.4f, samples kept %.4f, worst bin %.2f of its tolerance\n",
+           metallic, roughness, cos_o, skip, total, (double)kept / SAMPLES, worst);
     CHECK(pdf_mismatch == 0, "the sample's pdf is pm_brdf_pdf at the sampled direction (%d differ)", pdf_mismatch);
     CHECK(total <= 1.0 + 5e-3, "pdf integrates to <= 1 (%g)", total);
     CHECK_NEAR(total, (double)kept / SAMPLES, 0.01, 2e-3, "pdf integral = share of samples kept");
     CHECK(worst <= 1.0, "every bin's frequency matches the integral of pdf() over it (worst %.2f of tolerance)", worst);
+}
+
+/* The vertex kernel's split of a lobe into parts (brdf.h skip): the parts' values add up to the
+ * whole's, their albedo estimates too, and each part's sampler estimates its own albedo (the
+ * brute force over the hemisphere of that part alone). */
+static void split_parts(void) {
+    vec3 n = v3(0, 0, 1);
+    pm_brdf whole = make_brdf(v3(0.9f, 0.6f, 0.3f), 0.3f, 0.2f), spec = whole, rest = whole;
+    spec.skip = PM_BRDF_DIFFUSE | PM_BRDF_SHEEN | PM_BRDF_COAT;
+    rest.skip = PM_BRDF_SPECULAR;
+    pm_rng rng = pm_rng_for(13, 0, 0);
+    double worst = 0.0;
+    for (int i = 0; i < 2000; i++) {
+        vec3 wo = direction_at(0.05f + 0.95f * pm_rng_float(&rng), 0.f);
+        vec3 wi = direction_at(0.05f + 0.95f * pm_rng_float(&rng), 2.f * PM_PI * pm_rng_float(&rng));
+        vec3 f = pm_brdf_eval(&whole, n, wo, wi), a = pm_brdf_eval(&spec, n, wo, wi), b = pm_brdf_eval(&rest, n, wo, wi);
+        for (int c = 0; c < 3; c++)
+            worst = fmax(worst, fabs(v3_get(a, c) + v3_get(b, c) - v3_get(f, c)) / fmax(1e-6, v3_get(f, c)));
+    }
+    CHECK(worst < 1e-5, "the parts' values add up to the lobe's (worst relative difference %g)", worst);
+    vec3 wo = direction_at(0.6f, 0.f);
+    float e_whole = pm_brdf_albedo_estimate(&whole, n, wo), e_spec = pm_brdf_albedo_estimate(&spec, n, wo),
+          e_rest = pm_brdf_albedo_estimate(&rest, n, wo);
+    CHECK(e_spec > 0.f && e_rest > 0.f, "each part reflects something (estimates %g, %g)", e_spec, e_rest);
+    CHECK_NEAR(e_spec + e_rest, e_whole, 1e-6, 1e-6, "the parts' albedo estimates add up to the lobe's");
+    const pm_brdf *parts[2] = {&spec, &rest};
+    for (int k = 0; k < 2; k++) {
+        double max_weight;
+        estimate u = albedo_uniform(parts[k], n, wo, 400), smp = albedo_sampled(parts[k], n, wo, 400000, &max_weight);
+        double tol = 4.0 * (u.stderr_max + smp.stderr_max) + 1e-3;
+        printf("part %d: albedo by the sampler %.4f %.4f, brute force %.4f %.4f (tolerance %.4f)\n", k, smp.mean[0], smp.mean[2],
+               u.mean[0], u.mean[2], tol);
+        CHECK(fabs(smp.mean[0] - u.mean[0]) <= tol && fabs(smp.mean[2] - u.mean[2]) <= tol,
+              "part %d: the sampler's albedo is the brute force's", k);
+    }
 }
 
 static void material_mapping(void) {
@@ -360,10 +396,13 @@ static void glass_furnace(void) {
 int main(void) {
     material_mapping();
     reciprocity();
-    sampler_matches_pdf(1.f, 0.3f, 0.9f);
-    sampler_matches_pdf(1.f, 0.7f, 0.2f);
-    sampler_matches_pdf(0.4f, 0.5f, 0.5f);
-    sampler_matches_pdf(0.1f, 1.0f, 0.95f);
+    sampler_matches_pdf(1.f, 0.3f, 0.9f, 0);
+    sampler_matches_pdf(1.f, 0.7f, 0.2f, 0);
+    sampler_matches_pdf(0.4f, 0.5f, 0.5f, 0);
+    sampler_matches_pdf(0.1f, 1.0f, 0.95f, 0);
+    sampler_matches_pdf(0.4f, 0.5f, 0.5f, PM_BRDF_SPECULAR);
+    sampler_matches_pdf(0.4f, 0.5f, 0.5f, PM_BRDF_DIFFUSE);
+    split_parts();
     white_furnace();
     sharp_furnace();
     glass_furnace();

@@ -303,14 +303,18 @@ static void defaults(void) {
     pm_brdf metal = pm_brdf_at(v3s(1.f), 1.f, 0.6f, 0.f);
     vec3 fn = pm_brdf_eval(&no_spec, v3(0, 0, 1), wo, wi), fm = pm_brdf_eval(&metal, v3(0, 0, 1), wo, wi);
     CHECK_NEAR(fn.x, 0.5 * fm.x + 0.5 / PI_D, 1e-5, 0, "specular 0: half metal, half Lambert");
-    /* the sharpness eye.c's gather rays look at: the coat's where it is sharper, none from a Lambert base */
+    /* the parts the vertex kernel's near-specular rule looks at: the coat where it is sharp, the
+     * base's reflection where it is, none from a Lambert base (specular 0) */
     pm_brdf coated = layered(v3s(0.5f), 0.f, 0.1f, 1.f, v3s(1.f), v3s(0.f), 0.5f, 1.f, 0.f);
-    CHECK(pm_brdf_sharpest_alpha(&coated) == PM_GLOSSY_MIN_ALPHA, "a smooth coat is sharp");
+    CHECK(pm_brdf_parts_sharper_than(&coated, 0.1f) == (PM_BRDF_SPECULAR | PM_BRDF_COAT), "a smooth coat over a sharp base");
+    CHECK(pm_brdf_parts_sharper_than(&coated, 0.005f) == PM_BRDF_COAT, "alpha 0.01 is not below 0.005: the coat alone");
     coated.clearcoat = 0.f;
-    CHECK_NEAR(pm_brdf_sharpest_alpha(&coated), 0.01, 1e-6, 0, "without the coat: the dielectric lobe's alpha");
+    CHECK(pm_brdf_parts_sharper_than(&coated, 0.1f) == PM_BRDF_SPECULAR, "without the coat: the dielectric lobe");
     coated.specular = 0.f;
-    CHECK(pm_brdf_sharpest_alpha(&coated) == 1.f, "a Lambert base (specular 0) is not, whatever its roughness");
-    CHECK_NEAR(pm_brdf_sharpest_alpha(&metal), 0.36, 1e-6, 0, "a plain lobe: its alpha");
+    CHECK(pm_brdf_parts_sharper_than(&coated, 0.1f) == 0, "a Lambert base (specular 0) is not, whatever its roughness");
+    CHECK(pm_brdf_parts(&coated) == PM_BRDF_DIFFUSE, "a Lambert base: its diffuse part alone");
+    CHECK(pm_brdf_parts_sharper_than(&metal, 0.5f) == PM_BRDF_SPECULAR && pm_brdf_parts_sharper_than(&metal, 0.36f) == 0,
+          "a plain lobe: by its alpha, 0.36");
 }
 
 /* The coat's own normal (clearcoatNormalTexture): its highlight turns with it, the base's stays
