@@ -134,6 +134,8 @@ typedef struct {
     pm_session *session;
     uint32_t logged_whole;    /* the image's samples in the last log row: under mpirun the merged
                                * film's, which other ranks' iterations raise after rank 0's last */
+    double logged_rendered;   /* the rendering seconds of the last log row */
+    long last_row_at;         /* where the last log row starts in the file */
 } observer;
 
 /* The snapshot's progress: a bar redrawn on a terminal, nothing otherwise (one summary at the end). */
@@ -199,9 +201,11 @@ static void observe(void *context, pm_session *session, const pm_session_run_sta
     bool save = checkpoint_due(ob);
     const pm_film *film = log_row || progress || save ? whole_image(ob) : NULL;
     if (log_row) {
+        ob->last_row_at = ftell(ob->log);
         pm_log_row(ob->log, session, film, whole_photons(ob, state->photons), ob->reference, ob->scratch, state->rendered);
         ob->logged = state->samples;
         ob->logged_whole = film->samples;
+        ob->logged_rendered = state->rendered;
     }
     if (progress) {
         /* at 1, 2, 4, 8, ... samples, or the first count past each when an iteration adds several */
@@ -270,6 +274,18 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
     double seconds = pm_now_seconds() - ob.start;
     if (ob.log && (ob.logged != state.samples || (cluster && ob.logged_whole != film->samples)) && film->samples)
         pm_log_row(ob.log, session, film, whole_photons(&ob, state.photons), reference, ob.scratch, state.rendered);
+    else if (ob.log && film->samples && state.rendered != ob.logged_rendered && ob.last_row_at > 0) {
+        /* a pass cut by --time after the last row added samples to some pixels but no whole
+         * iteration: the last row is written again for the image that is saved (iterations stay
+         * distinct) */
+        int fd = fileno(ob.log);
+        if (fflush(ob.log) == 0 && fseek(ob.log, ob.last_row_at, SEEK_SET) == 0) {
+            pm_log_row(ob.log, session, film, whole_photons(&ob, state.photons), reference, ob.scratch, state.rendered);
+            long end = fflush(ob.log) == 0 ? ftell(ob.log) : -1;
+            /* a pipe or device never gets here (no fseek); a file is cut after the new row */
+            if (end > 0 && ftruncate(fd, end) != 0) fprintf(stderr, "pmview: warning: %s: the log's last row could not be rewritten\n", o->log);
+        }
+    }
     if (ob.log) {
         /* the flush reports why the buffered rows cannot be written (a full disk, EFBIG) */
         errno = 0;

@@ -61,7 +61,8 @@ EOF
 # 143, and the image so far is written. A 2-million-photon pass in the closed albedo-1 room (its
 # paths bounce 50 times: 30 s of tracing and sorting); 20 million photons under a limit they
 # would cross in a few seconds (out of memory must not replace the signal's exit); a path-traced
-# eye pass in that room (100-bounce paths: seconds a pass at 256x256).
+# eye pass in that room (100-bounce paths: seconds a pass at 256x256). --gather photons: the default
+# path-traces a room without mirrors or glass until it has measured what the photons would give.
 signal_case() { # description, signal, delay (s) into the render, want exit, pmview arguments...
     desc=$1; sig=$2; delay=$3; want=$4; shift 4
     rm -f "$tmp/s.exr" "$tmp/out" # not the last case's output: the redirection below happens in the background
@@ -82,9 +83,9 @@ signal_case() { # description, signal, delay (s) into the render, want exit, pmv
     { [ $rc -eq "$want" ] && [ $ms -le 1000 ] && [ -s "$tmp/s.exr" ] && grep -q "interrupted: the image so far" "$tmp/out"; } ||
         { fail "$desc: want exit $want within 1000 ms and the image so far written, got exit $rc after $ms ms"; cat "$tmp/out" "$tmp/err" | grep -v "^stat" | head -n 5; }
 }
-signal_case "2M photons, albedo-1 room" INT 2 130 "$tmp/room.gltf" --width 64 --height 64 --photons 2000000 --iterations 4
-signal_case "2M photons, albedo-1 room" TERM 3 143 "$tmp/room.gltf" --width 64 --height 64 --photons 2000000 --iterations 4
-signal_case "20M photons under --max-memory 1G" TERM 1 143 "$tmp/room.gltf" --width 64 --height 64 --photons 20000000 --iterations 4 --max-memory 1G
+signal_case "2M photons, albedo-1 room" INT 2 130 "$tmp/room.gltf" --width 64 --height 64 --photons 2000000 --gather photons --iterations 4
+signal_case "2M photons, albedo-1 room" TERM 3 143 "$tmp/room.gltf" --width 64 --height 64 --photons 2000000 --gather photons --iterations 4
+signal_case "20M photons under --max-memory 1G" TERM 1 143 "$tmp/room.gltf" --width 64 --height 64 --photons 20000000 --gather photons --iterations 4 --max-memory 1G
 signal_case "path-traced eye pass, albedo-1 room" INT 2 130 "$tmp/room.gltf" --width 256 --height 256 --mode pathtrace --iterations 64
 
 # 4. --time at a size where a pass does not fit in the time left: the run ends at the budget (not
