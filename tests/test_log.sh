@@ -72,7 +72,7 @@ assert all(r[p + "_" + m] is None for r in rows for p in ("direct", "specular", 
 # RMSE falls about as N^-1/2 (0.78, 0.50, 0.34, 0.25 at 2, 4, 8, 16) and relMSE as N^-1
 rmse = {int(r["iterations"]): r["total_rmse"] for r in rows}
 assert all(rmse[2 * k] < 0.85 * rmse[k] for k in (2, 4, 8)), rmse
-# relMSE at 16 over 4 iterations: 0.25 in theory; the caustic fireflies of one seed's run read
+# relMSE at 16 over 4 iterations: 0.25 in theory; the caustic fireflies of a single run read
 # 0.3-0.5 (0.504 at seed 1 with the one-vertex-step order of random numbers)
 assert last["total_relmse"] < 0.6 * rows[3]["total_relmse"], (rows[3]["total_relmse"], last["total_relmse"])
 assert abs(last["total_rel_bias"]) < 0.05, last["total_rel_bias"]'
