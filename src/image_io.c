@@ -631,6 +631,65 @@ bool pm_read_exr_size(const char *path, int count, const char *const channels[],
     return true;
 }
 
+/* A chunk's channels pointed at their places: names[k] at rows + k with `count` floats a pixel (rows:
+ * the chunk's first line in the output), every other channel at the growing scratch area. */
+static bool route_channels(const char *path, exr_decode_pipeline_t *dec, const exr_chunk_info_t *cinfo, int count,
+                           const char *const names[], int width, float *rows, uint8_t **scratch, size_t *scratch_size,
+                           long long y, char *err, size_t err_size) {
+    char what[512];
+    /* Every channel gets a destination, the others a scratch area: OpenEXR 3.1's fast HALF to
+     * FLOAT routines write all channels of the chunk and crash on a skipped (NULL) one. */
+    size_t scratch_need = 0;
+    for (int i = 0; i < dec->channel_count; i++) {
+        const exr_coding_channel_info_t *chan = &dec->channels[i];
+        if (chan->width < 0 || chan->height < 0 || chan->bytes_per_element <= 0) {
+            set_error(err, err_size, path, "a chunk has a channel of invalid size");
+            return false;
+        }
+        scratch_need += (size_t)chan->width * (size_t)chan->height * (size_t)chan->bytes_per_element;
+    }
+    if (scratch_need == 0) scratch_need = 1;
+    if (scratch_need > *scratch_size) {
+        void *bigger = pm_realloc(*scratch, scratch_need, "EXR decoding scratch");
+        if (!bigger) { set_error(err, err_size, path, "out of memory decoding a chunk"); return false; }
+        *scratch = bigger;
+        *scratch_size = scratch_need;
+    }
+    uint8_t *next_scratch = *scratch;
+    unsigned found = 0; /* bit k: names[k] has its destination (a duplicate name in the file goes to scratch) */
+    for (int i = 0; i < dec->channel_count; i++) {
+        exr_coding_channel_info_t *chan = &dec->channels[i];
+        int k = 0;
+        while (k < count && (strcmp(chan->channel_name, names[k]) != 0 || (found >> k & 1u))) k++;
+        if (k == count) {
+            chan->user_bytes_per_element = chan->bytes_per_element;
+            chan->user_data_type = chan->data_type;
+            chan->user_pixel_stride = chan->bytes_per_element;
+            chan->user_line_stride = chan->width * chan->bytes_per_element;
+            chan->decode_to_ptr = next_scratch;
+            next_scratch += (size_t)chan->width * (size_t)chan->height * (size_t)chan->bytes_per_element;
+            continue;
+        }
+        if (chan->width != width || chan->height != cinfo->height) {
+            set_error(err, err_size, path, "a chunk's channel size disagrees with the data window");
+            return false;
+        }
+        found |= 1u << k;
+        chan->user_bytes_per_element = 4;
+        chan->user_data_type = EXR_PIXEL_FLOAT;
+        chan->user_pixel_stride = 4 * count;
+        chan->user_line_stride = 4 * count * width;
+        chan->decode_to_ptr = (uint8_t *)(rows + k);
+    }
+    for (int k = 0; k < count; k++)
+        if (!(found >> k & 1u)) {
+            snprintf(what, sizeof what, "channel \"%s\" missing from the chunk at line %lld", names[k], y);
+            set_error(err, err_size, path, what);
+            return false;
+        }
+    return true;
+}
+
 /* The channels named, decoded together chunk by chunk: `count` floats a pixel, in the order named. */
 static float *read_exr_channels(const char *path, int count, const char *const names[], int *width_out,
                                 int *height_out, char *err, size_t err_size) {
@@ -697,56 +756,9 @@ static float *read_exr_channels(const char *path, int count, const char *const n
             set_exr_error(err, err_size, path, what, rv);
             goto done;
         }
-        /* Every channel gets a destination, the others a scratch area: OpenEXR 3.1's fast HALF to
-         * FLOAT routines write all channels of the chunk and crash on a skipped (NULL) one. */
-        size_t scratch_need = 0;
-        for (int i = 0; i < dec.channel_count; i++) {
-            const exr_coding_channel_info_t *chan = &dec.channels[i];
-            if (chan->width < 0 || chan->height < 0 || chan->bytes_per_element <= 0) {
-                set_error(err, err_size, path, "a chunk has a channel of invalid size");
-                goto done;
-            }
-            scratch_need += (size_t)chan->width * (size_t)chan->height * (size_t)chan->bytes_per_element;
-        }
-        if (scratch_need == 0) scratch_need = 1;
-        if (scratch_need > scratch_size) {
-            void *bigger = pm_realloc(scratch, scratch_need, "EXR decoding scratch");
-            if (!bigger) { set_error(err, err_size, path, "out of memory decoding a chunk"); goto done; }
-            scratch = bigger;
-            scratch_size = scratch_need;
-        }
-        uint8_t *next_scratch = scratch;
-        unsigned found = 0; /* bit k: names[k] has its destination (a duplicate name in the file goes to scratch) */
-        for (int i = 0; i < dec.channel_count; i++) {
-            exr_coding_channel_info_t *chan = &dec.channels[i];
-            int k = 0;
-            while (k < count && (strcmp(chan->channel_name, names[k]) != 0 || (found >> k & 1u))) k++;
-            if (k == count) {
-                chan->user_bytes_per_element = chan->bytes_per_element;
-                chan->user_data_type = chan->data_type;
-                chan->user_pixel_stride = chan->bytes_per_element;
-                chan->user_line_stride = chan->width * chan->bytes_per_element;
-                chan->decode_to_ptr = next_scratch;
-                next_scratch += (size_t)chan->width * (size_t)chan->height * (size_t)chan->bytes_per_element;
-                continue;
-            }
-            if (chan->width != width || chan->height != cinfo.height) {
-                set_error(err, err_size, path, "a chunk's channel size disagrees with the data window");
-                goto done;
-            }
-            found |= 1u << k;
-            chan->user_bytes_per_element = 4;
-            chan->user_data_type = EXR_PIXEL_FLOAT;
-            chan->user_pixel_stride = 4 * count;
-            chan->user_line_stride = 4 * count * width;
-            chan->decode_to_ptr = (uint8_t *)(out + ((size_t)(cinfo.start_y - dw.min.y) * width) * count + k);
-        }
-        for (int k = 0; k < count; k++)
-            if (!(found >> k & 1u)) {
-                snprintf(what, sizeof what, "channel \"%s\" missing from the chunk at line %lld", names[k], (long long)y);
-                set_error(err, err_size, path, what);
-                goto done;
-            }
+        if (!route_channels(path, &dec, &cinfo, count, names, width, out + ((size_t)(cinfo.start_y - dw.min.y) * width) * count,
+                            &scratch, &scratch_size, (long long)y, err, err_size))
+            goto done;
         /* after the pointers: the routine chosen depends on the output layout */
         rv = exr_decoding_choose_default_routines(ctxt, part, &dec);
         if (rv == EXR_ERR_SUCCESS) rv = exr_decoding_run(ctxt, part, &dec);
