@@ -710,6 +710,21 @@ vec3 pm_scene_emitted_at(const pm_scene *s, uint32_t tri, float b1, float b2);
  * texture's alpha there (1 for an OPAQUE material). */
 float pm_scene_alpha_at(const pm_scene *s, uint32_t tri, float b1, float b2);
 
+/* ---- shared by the scene's finalisation (scene.c) and surface evaluation (surface.c) ---- */
+
+/* The unit normal of triangle (p0, p1, p2) by the right-hand rule, computed in double. */
+vec3 pm_face_normal(vec3 p0, vec3 p1, vec3 p2);
+/* The share of triangle tri at (b1, b2) that a crossing ray meets: 1 when opaque, 0 or 1 by a
+ * MASK's cutoff, alpha on BLEND (pm_scene_emitted_at's factor). */
+float pm_scene_coverage_at(const pm_scene *s, uint32_t tri, float b1, float b2);
+/* Whether a layered material reads a texture for its layers. */
+bool pm_material_layers_textured(const pm_material *m);
+/* A material's point from its base colour, metallic, roughness and transmission there: the layers'
+ * values (their textures read at uv over footprint when s is not NULL), then the lobe split. */
+void pm_material_point(const pm_material *m, vec3 base, float metallic, float roughness, float transmission,
+                       const pm_scene *s, const float uv[2][2], const float footprint[2], vec3 *kd, vec3 *ks,
+                       float *ks_grazing, vec3 *kt, bool *glossy, pm_brdf *brdf);
+
 /* Picks a punctual light by power (uniformly when the distribution could not be allocated);
  * returns its index and the probability of that pick. The scene must have a light. */
 uint32_t pm_scene_pick_light(const pm_scene *s, float u, float *pick_pdf);

@@ -222,6 +222,40 @@ static bool split_triangles(const pm_scene *s, uint32_t first, uint32_t total, u
     return true;
 }
 
+/* Instanced mesh i as a child scene of its own, over its own vertices, committed; false when out of memory. */
+static bool add_instanced_mesh(pm_accel *a, const pm_scene *s, uint32_t i) {
+    const pm_instanced_mesh *m = &s->instanced_meshes[i];
+    a->filter_users[i + 1] = (struct filter_user){a, (int32_t)i};
+    RTCScene child = a->mesh_scenes[i] = rtcNewScene(a->device);
+    rtcSetSceneBuildQuality(child, RTC_BUILD_QUALITY_HIGH);
+    rtcSetSceneFlags(child, RTC_SCENE_FLAG_ROBUST);
+    uint32_t *opaque, *alpha, opaque_count, alpha_count;
+    if (!split_triangles(s, m->first_triangle, m->triangle_count, &opaque, &opaque_count, &alpha, &alpha_count)) return false;
+    RTCBuffer mesh_vertices = rtcNewBuffer(a->device, 3 * sizeof(float) * (size_t)m->vertex_count + 16);
+    float *data = mesh_vertices ? rtcGetBufferData(mesh_vertices) : NULL;
+    bool ok = data != NULL;
+    if (ok) memcpy(data, s->positions + m->first_vertex, 3 * sizeof(float) * (size_t)m->vertex_count);
+    if (ok && !s->analysis.has_non_opaque)
+        ok = add_geometry_to(a, child, mesh_vertices, m->first_vertex, m->vertex_count, s, NULL, m->first_triangle,
+                             m->triangle_count, OPAQUE_GEOMETRY, NULL, &a->mesh_tri_of_prim[i][OPAQUE_GEOMETRY]);
+    if (ok && opaque_count) {
+        ok = add_geometry_to(a, child, mesh_vertices, m->first_vertex, m->vertex_count, s, opaque, 0, opaque_count,
+                             OPAQUE_GEOMETRY, NULL, &a->mesh_tri_of_prim[i][OPAQUE_GEOMETRY]);
+        if (ok) opaque = NULL;
+    }
+    if (ok && alpha_count) {
+        ok = add_geometry_to(a, child, mesh_vertices, m->first_vertex, m->vertex_count, s, alpha, 0, alpha_count,
+                             ALPHA_GEOMETRY, &a->filter_users[i + 1], &a->mesh_tri_of_prim[i][ALPHA_GEOMETRY]);
+        if (ok) alpha = NULL;
+        if (ok) a->alpha_tested += alpha_count;
+    }
+    free(opaque);
+    free(alpha);
+    if (mesh_vertices) rtcReleaseBuffer(mesh_vertices);
+    if (ok) rtcCommitScene(child);
+    return ok;
+}
+
 pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
     /* a failure reported below is one of this build's, never one handled before it */
     uint64_t failures = pm_memory_failure_mark();
@@ -291,35 +325,7 @@ pm_accel *pm_accel_create(const pm_scene *s, char *err, size_t err_size) {
     if (vertices) rtcReleaseBuffer(vertices);
     /* each instanced mesh once, as a child scene over its own vertices */
     for (uint32_t i = 0; ok && i < s->instanced_mesh_count; i++) {
-        const pm_instanced_mesh *m = &s->instanced_meshes[i];
-        a->filter_users[i + 1] = (struct filter_user){a, (int32_t)i};
-        RTCScene child = a->mesh_scenes[i] = rtcNewScene(a->device);
-        rtcSetSceneBuildQuality(child, RTC_BUILD_QUALITY_HIGH);
-        rtcSetSceneFlags(child, RTC_SCENE_FLAG_ROBUST);
-        ok = split_triangles(s, m->first_triangle, m->triangle_count, &opaque, &opaque_count, &alpha, &alpha_count);
-        if (!ok) break;
-        RTCBuffer mesh_vertices = rtcNewBuffer(a->device, 3 * sizeof(float) * (size_t)m->vertex_count + 16);
-        float *data = mesh_vertices ? rtcGetBufferData(mesh_vertices) : NULL;
-        ok = data != NULL;
-        if (ok) memcpy(data, s->positions + m->first_vertex, 3 * sizeof(float) * (size_t)m->vertex_count);
-        if (ok && !s->analysis.has_non_opaque)
-            ok = add_geometry_to(a, child, mesh_vertices, m->first_vertex, m->vertex_count, s, NULL, m->first_triangle,
-                                 m->triangle_count, OPAQUE_GEOMETRY, NULL, &a->mesh_tri_of_prim[i][OPAQUE_GEOMETRY]);
-        if (ok && opaque_count) {
-            ok = add_geometry_to(a, child, mesh_vertices, m->first_vertex, m->vertex_count, s, opaque, 0, opaque_count,
-                                 OPAQUE_GEOMETRY, NULL, &a->mesh_tri_of_prim[i][OPAQUE_GEOMETRY]);
-            if (ok) opaque = NULL;
-        }
-        if (ok && alpha_count) {
-            ok = add_geometry_to(a, child, mesh_vertices, m->first_vertex, m->vertex_count, s, alpha, 0, alpha_count,
-                                 ALPHA_GEOMETRY, &a->filter_users[i + 1], &a->mesh_tri_of_prim[i][ALPHA_GEOMETRY]);
-            if (ok) alpha = NULL;
-            if (ok) a->alpha_tested += alpha_count;
-        }
-        free(opaque);
-        free(alpha);
-        if (mesh_vertices) rtcReleaseBuffer(mesh_vertices);
-        if (ok) rtcCommitScene(child);
+        ok = add_instanced_mesh(a, s, i);
     }
     /* each placement an instance of its mesh's child scene */
     for (uint32_t p = 0; ok && p < s->placement_count; p++) {

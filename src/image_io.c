@@ -13,6 +13,7 @@
 /* realpath is XSI and O_TMPFILE Linux's, beyond the POSIX level the build asks for */
 #define _GNU_SOURCE
 #include "image_io.h"
+#include "output_path.h"
 #include "memory.h"
 
 #include <errno.h>
@@ -34,23 +35,6 @@
 #include "memory.h"
 
 #define PM_EXR_CHANNELS (3 + 3 * PM_COMPONENT_COUNT)
-
-/* The file being written, for pm_remove_partial_output() from a signal handler: one writer at a
- * time holds the claim (another writes unregistered). The name lives here, and mkstemp fills it in
- * place after it is armed, so the file never exists under a name the handler cannot see. */
-static char partial_path[4096];
-static volatile sig_atomic_t partial_armed;
-static atomic_flag partial_claimed = ATOMIC_FLAG_INIT;
-
-void pm_remove_partial_output(void) {
-    if (partial_armed) unlink(partial_path); /* async-signal-safe: a flag read and unlink */
-}
-
-static void disarm_partial(bool claimed) {
-    if (!claimed) return;
-    partial_armed = 0;
-    atomic_flag_clear(&partial_claimed);
-}
 
 uint64_t pm_exr_write_bytes(int width, int height) {
     /* the channel planes and one resolved component */
@@ -79,177 +63,15 @@ static exr_context_initializer_t exr_initializer(void) {
     return init;
 }
 
-/* Messages go to a terminal or a log line: keep them to one line whatever the library said. */
-static void one_line(char *err) {
-    for (char *p = err; *p; p++)
-        if (*p == '\n' || *p == '\r') *p = ' ';
-}
-
-static void set_error(char *err, size_t err_size, const char *path, const char *what) {
-    if (!err || err_size == 0) return;
-    snprintf(err, err_size, "%s: %s", path ? path : "(null)", what);
-    one_line(err);
-}
-
 static void set_exr_error(char *err, size_t err_size, const char *path, const char *what, exr_result_t rv) {
     if (!err || err_size == 0) return;
     const char *detail = exr_detail[0] ? exr_detail : exr_get_default_error_message(rv);
-    snprintf(err, err_size, "%s: %s (%s)", path ? path : "(null)", what, detail);
-    one_line(err);
+    char with_detail[4096 + 512];
+    snprintf(with_detail, sizeof with_detail, "%s (%s)", what, detail);
+    pm_io_error(err, err_size, path, with_detail);
 }
 
 /* ---------------------------------------------------------------------------------------------- */
-
-/* The folder part of path ("." for a bare name) into out. */
-static void folder_of(const char *path, char *out, size_t size) {
-    const char *slash = strrchr(path, '/');
-    if (!slash) snprintf(out, size, ".");
-    else if (slash == path) snprintf(out, size, "/");
-    else snprintf(out, size, "%.*s", (int)(slash - path), path);
-}
-
-/* Creates an empty, uniquely named hidden file in path's folder: ".NAME.XXXXXX"; *armed (when
- * given) is set once temp holds the whole template, before the file can exist. */
-static bool temporary_beside(const char *path, char *temp, size_t size, volatile sig_atomic_t *armed, char *err,
-                             size_t err_size) {
-    char folder[4096];
-    folder_of(path, folder, sizeof folder);
-    const char *slash = strrchr(path, '/');
-    int n = snprintf(temp, size, "%s/.%s.XXXXXX", folder, slash ? slash + 1 : path);
-    if (n < 0 || (size_t)n >= size) {
-        temp[0] = '\0';
-        set_error(err, err_size, path, "the file name is too long");
-        return false;
-    }
-    atomic_thread_fence(memory_order_seq_cst); /* the whole name is in place before the flag says so */
-    if (armed) *armed = 1;
-    int fd = mkstemp(temp);
-    if (fd < 0) {
-        char what[4200];
-        snprintf(what, sizeof what, "cannot create a file in the folder %s (%s)", folder, strerror(errno));
-        if (armed) *armed = 0;
-        temp[0] = '\0';
-        set_error(err, err_size, path, what);
-        return false;
-    }
-    /* mkstemp makes it private (0600); the file it becomes gets the usual permissions */
-    mode_t mask = umask(0);
-    umask(mask);
-    fchmod(fd, 0666 & ~mask);
-    close(fd);
-    return true;
-}
-
-/* A signal's flag (pm_output_watch): once it is set, an EXR is written uncompressed, which takes a
- * fraction of the time (mpirun's SIGKILL follows its SIGTERM by 1 s), and a compressed write
- * under way when it comes starts again so. */
-static volatile sig_atomic_t *hurry_flag;
-
-void pm_output_watch(volatile sig_atomic_t *flag) { hurry_flag = flag; }
-
-static bool hurried(void) { return hurry_flag && *hurry_flag; }
-
-/* An output under way. Its bytes go to an unnamed file in the target's folder (O_TMPFILE), which
- * a kill at any moment (mpirun's SIGKILL) takes with it; it is named only once whole, by a link
- * to a hidden name renamed at once over the target. Where the folder's file system has no unnamed
- * files, a hidden named file from the start (a signal handler removes it; SIGKILL cannot). */
-typedef struct {
-    int fd;
-    bool named;   /* temp names the file on disk */
-    bool claimed; /* temp is partial_path, which the signal handler removes */
-    char *temp;
-    char own[sizeof partial_path];
-} pending_output;
-
-static bool pending_open(const char *path, pending_output *o, char *err, size_t err_size) {
-    o->fd = -1;
-    o->named = false;
-    o->claimed = !atomic_flag_test_and_set(&partial_claimed);
-    o->temp = o->claimed ? partial_path : o->own;
-    o->temp[0] = '\0';
-#ifdef O_TMPFILE
-    char folder[4096];
-    folder_of(path, folder, sizeof folder);
-    o->fd = open(folder, O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666); /* the umask applies as for any new file */
-    if (o->fd >= 0) return true;
-#endif
-    if (!temporary_beside(path, o->temp, sizeof partial_path, o->claimed ? &partial_armed : NULL, err, err_size)) {
-        disarm_partial(o->claimed);
-        return false;
-    }
-    o->named = true;
-    o->fd = open(o->temp, O_WRONLY | O_CLOEXEC);
-    if (o->fd < 0) {
-        char what[320];
-        snprintf(what, sizeof what, "cannot open the temporary file (%s)", strerror(errno));
-        set_error(err, err_size, path, what);
-        unlink(o->temp);
-        disarm_partial(o->claimed);
-        return false;
-    }
-    return true;
-}
-
-/* Gives the unnamed file a hidden name beside path (".NAME.XXXXXX"), armed for the handler first. */
-static bool pending_name(const char *path, pending_output *o, char *err, size_t err_size) {
-    char folder[4096], proc[64];
-    folder_of(path, folder, sizeof folder);
-    const char *slash = strrchr(path, '/');
-    snprintf(proc, sizeof proc, "/proc/self/fd/%d", o->fd);
-    static const char letters[] = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789";
-    uint64_t seed = (uint64_t)getpid() * 0x9e3779b97f4a7c15ull ^ (uint64_t)(uintptr_t)o;
-    struct timespec t;
-    clock_gettime(CLOCK_REALTIME, &t);
-    seed ^= (uint64_t)t.tv_nsec << 20 ^ (uint64_t)t.tv_sec;
-    for (int attempt = 0; attempt < 64; attempt++) {
-        char suffix[7];
-        for (int k = 0; k < 6; k++) {
-            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-            suffix[k] = letters[(seed >> 33) % (sizeof letters - 1)];
-        }
-        suffix[6] = '\0';
-        int n = snprintf(o->temp, sizeof partial_path, "%s/.%s.%s", folder, slash ? slash + 1 : path, suffix);
-        if (n < 0 || (size_t)n >= sizeof partial_path) {
-            o->temp[0] = '\0';
-            set_error(err, err_size, path, "the file name is too long");
-            return false;
-        }
-        atomic_thread_fence(memory_order_seq_cst); /* the whole name is in place before the flag says so */
-        if (o->claimed) partial_armed = 1;
-        if (linkat(AT_FDCWD, proc, AT_FDCWD, o->temp, AT_SYMLINK_FOLLOW) == 0) {
-            o->named = true;
-            return true;
-        }
-        int why = errno;
-        if (o->claimed) partial_armed = 0;
-        if (why != EEXIST) {
-            char what[4400];
-            snprintf(what, sizeof what, "cannot name the file written in the folder %s (%s)", folder, strerror(why));
-            o->temp[0] = '\0';
-            set_error(err, err_size, path, what);
-            return false;
-        }
-    }
-    o->temp[0] = '\0';
-    set_error(err, err_size, path, "cannot find a free temporary name beside it");
-    return false;
-}
-
-/* The whole file becomes path (ok), or goes; either way the output ends. */
-static bool pending_finish(const char *path, pending_output *o, bool ok, char *err, size_t err_size) {
-    if (ok && !o->named) ok = pending_name(path, o, err, err_size);
-    if (ok && rename(o->temp, path) != 0) {
-        char what[320];
-        snprintf(what, sizeof what, "cannot replace the file (%s)", strerror(errno));
-        set_error(err, err_size, path, what);
-        ok = false;
-    }
-    if (!ok && o->named) unlink(o->temp);
-    if (o->fd >= 0) close(o->fd);
-    o->fd = -1;
-    disarm_partial(o->claimed);
-    return ok;
-}
 
 /* An EXR's bytes into the pending file. */
 typedef struct {
@@ -274,55 +96,8 @@ static int64_t exr_sink_write(exr_const_context_t ctxt, void *userdata, const vo
     return (int64_t)size;
 }
 
-/* Whether an existing file opens for writing (nothing is truncated); else err says why. */
-static bool file_takes_writing(const char *path, char *err, size_t err_size) {
-    int fd = open(path, O_WRONLY | O_NOCTTY | O_NONBLOCK);
-    if (fd < 0) {
-        char what[320];
-        snprintf(what, sizeof what, "cannot write the file (%s)", strerror(errno));
-        set_error(err, err_size, path, what);
-        return false;
-    }
-    close(fd);
-    return true;
-}
-
-/* An existing file replaced by a rename must be one its owner lets us write. */
-static bool file_takes_writing_if_present(const char *path, char *err, size_t err_size) {
-    struct stat st;
-    return !(stat(path, &st) == 0 && S_ISREG(st.st_mode)) || file_takes_writing(path, err, err_size);
-}
-
-bool pm_check_output_path(const char *path, char *err, size_t err_size) {
-    if (!path || !*path) { set_error(err, err_size, path ? path : "", "no output file name given"); return false; }
-    char what[4200];
-    struct stat st;
-    bool exists = stat(path, &st) == 0;
-    if (!exists && errno != ENOENT) {
-        snprintf(what, sizeof what, "cannot write there (%s)", strerror(errno));
-        set_error(err, err_size, path, what);
-        return false;
-    }
-    if (exists && S_ISDIR(st.st_mode)) { set_error(err, err_size, path, "is a directory, not a file name"); return false; }
-    bool exr = pm_has_extension(path, ".exr");
-    if (exists && exr && !S_ISREG(st.st_mode)) {
-        set_error(err, err_size, path, "is not a regular file (an EXR is written beside it and renamed over it)");
-        return false;
-    }
-    /* A file is written beside a regular file and renamed over it, which the folder alone allows:
-     * the same test keeps it from replacing a file its owner made read-only. A PNG onto anything
-     * else (a device, a pipe) is written in place. */
-    if (exists && !file_takes_writing(path, err, err_size)) return false;
-    if (exists && !exr && !S_ISREG(st.st_mode)) return true;
-    /* a new file (or the one written beside it) must be creatable in the folder: try it */
-    char temp[4096];
-    if (!temporary_beside(path, temp, sizeof temp, NULL, err, err_size)) return false;
-    unlink(temp);
-    return true;
-}
-
 /* The planes as an EXR into fd: 1 written, 0 failed (err says why), -1 abandoned for a signal
- * that came during a compressed write (hurried()). */
+ * that came during a compressed write (pm_output_hurried()). */
 static int encode_exr(const char *path, int fd, int width, int height, const float *planes,
                       char names[PM_EXR_CHANNELS][32], bool compress, char *err, size_t err_size) {
     const size_t npix = (size_t)width * height;
@@ -357,7 +132,7 @@ static int encode_exr(const char *path, int fd, int width, int height, const flo
     }
 
     for (int y = 0; y < height; y += lines_per_chunk) {
-        if (compress && hurried()) { result = -1; goto done; }
+        if (compress && pm_output_hurried()) { result = -1; goto done; }
         exr_chunk_info_t cinfo;
         rv = exr_write_scanline_chunk_info(ctxt, part, y, &cinfo);
         if (rv == EXR_ERR_SUCCESS) {
@@ -377,7 +152,7 @@ static int encode_exr(const char *path, int fd, int width, int height, const flo
             int ch = 0;
             while (ch < PM_EXR_CHANNELS && strcmp(names[ch], chan->channel_name) != 0) ch++;
             if (ch == PM_EXR_CHANNELS) {
-                set_error(err, err_size, path, "the EXR encoder lists a channel that was never added");
+                pm_io_error(err, err_size, path, "the EXR encoder lists a channel that was never added");
                 goto done;
             }
             chan->user_bytes_per_element = 4;
@@ -416,13 +191,13 @@ done:
 /* The layers come from the film (resolved) or, without one, from `layers` as they are. */
 static bool write_exr(const char *path, int width, int height, const pm_film *film,
                       const float *const layers[PM_COMPONENT_COUNT], char *err, size_t err_size) {
-    if (!path || !*path) { set_error(err, err_size, path ? path : "", "no output file name given"); return false; }
+    if (!path || !*path) { pm_io_error(err, err_size, path ? path : "", "no output file name given"); return false; }
     if (width <= 0 || height <= 0) {
-        set_error(err, err_size, path, "cannot write an EXR of an empty film");
+        pm_io_error(err, err_size, path, "cannot write an EXR of an empty film");
         return false;
     }
     if ((size_t)width > SIZE_MAX / sizeof(float) / PM_EXR_CHANNELS / (size_t)height || width > INT32_MAX / 4) {
-        set_error(err, err_size, path, "image too large for an EXR file");
+        pm_io_error(err, err_size, path, "image too large for an EXR file");
         return false;
     }
     const size_t npix = (size_t)width * height;
@@ -439,13 +214,13 @@ static bool write_exr(const char *path, int width, int height, const pm_film *fi
 
     /* an existing target replaced by the rename must be one its owner lets us write */
     struct stat st;
-    if (stat(path, &st) == 0 && S_ISREG(st.st_mode) && !file_takes_writing(path, err, err_size)) return false;
+    if (stat(path, &st) == 0 && S_ISREG(st.st_mode) && !pm_file_takes_writing(path, err, err_size)) return false;
     const uint64_t buffer_bytes = pm_exr_write_bytes(width, height);
     const uint64_t mark = pm_memory_failure_mark(); /* what this write meets, never an older failure */
     if (!pm_memory_admit(buffer_bytes, "EXR output buffers")) {
         char what[400];
         snprintf(what, sizeof what, "out of memory (%s)", pm_memory_failure_since_or(mark, "EXR output buffers"));
-        set_error(err, err_size, path, what);
+        pm_io_error(err, err_size, path, what);
         return false;
     }
 
@@ -455,7 +230,7 @@ static bool write_exr(const char *path, int width, int height, const pm_film *fi
     if (!planes || !rgb) {
         char what[400];
         snprintf(what, sizeof what, "out of memory (%s)", pm_memory_failure_since_or(mark, "EXR output buffers"));
-        set_error(err, err_size, path, what);
+        pm_io_error(err, err_size, path, what);
         goto done;
     }
 
@@ -480,11 +255,11 @@ static bool write_exr(const char *path, int width, int height, const pm_film *fi
 
     /* A file beside the target, renamed over it at the end: a failed write leaves any previous
      * file untouched, and nothing of it is left on any failure (OpenEXR's own temporary file
-     * outlived a failed rename), nor after a kill (pending_output) */
-    pending_output out;
-    if (!pending_open(path, &out, err, err_size)) goto done;
+     * outlived a failed rename), nor after a kill (pm_pending_output) */
+    pm_pending_output out;
+    if (!pm_output_open(path, &out, err, err_size)) goto done;
     for (;;) {
-        bool compress = !hurried();
+        bool compress = !pm_output_hurried();
         int written = encode_exr(path, out.fd, width, height, planes, names, compress, err, err_size);
         if (written >= 0) {
             ok = written == 1;
@@ -494,11 +269,11 @@ static bool write_exr(const char *path, int width, int height, const pm_film *fi
         if (ftruncate(out.fd, 0) != 0) {
             char what[320];
             snprintf(what, sizeof what, "cannot write the file (%s)", strerror(errno));
-            set_error(err, err_size, path, what);
+            pm_io_error(err, err_size, path, what);
             break;
         }
     }
-    ok = pending_finish(path, &out, ok, err, err_size);
+    ok = pm_output_finish(path, &out, ok, err, err_size);
 
 done:
     free(rgb);
@@ -543,7 +318,7 @@ static bool regular_file(const char *path, char *err, size_t err_size) {
     char what[320];
     if (stat(path, &st) != 0) {
         snprintf(what, sizeof what, "cannot open (%s)", strerror(errno));
-        set_error(err, err_size, path, what);
+        pm_io_error(err, err_size, path, what);
         return false;
     }
     if (S_ISREG(st.st_mode)) return true;
@@ -553,7 +328,7 @@ static bool regular_file(const char *path, char *err, size_t err_size) {
                        : S_ISSOCK(st.st_mode)                      ? "a socket"
                                                                    : "something else";
     snprintf(what, sizeof what, "is %s, not a regular file", kind);
-    set_error(err, err_size, path, what);
+    pm_io_error(err, err_size, path, what);
     return false;
 }
 
@@ -563,7 +338,7 @@ static bool regular_file(const char *path, char *err, size_t err_size) {
 static bool exr_open_checked(const char *path, int count, const char *const names[], exr_context_t *ctxt,
                              exr_attr_box2i_t *dw, int *width, int *height, char *err, size_t err_size) {
     *ctxt = NULL;
-    if (!path || !*path) { set_error(err, err_size, path ? path : "", "no input file name given"); return false; }
+    if (!path || !*path) { pm_io_error(err, err_size, path ? path : "", "no input file name given"); return false; }
     if (!regular_file(path, err, err_size)) return false;
     char what[512];
     exr_context_initializer_t init = exr_initializer();
@@ -575,7 +350,7 @@ static bool exr_open_checked(const char *path, int count, const char *const name
     rv = exr_get_storage(*ctxt, part, &storage);
     if (rv != EXR_ERR_SUCCESS) { set_exr_error(err, err_size, path, "cannot read the EXR storage type", rv); goto fail; }
     if (storage != EXR_STORAGE_SCANLINE) {
-        set_error(err, err_size, path, storage == EXR_STORAGE_TILED ? "tiled EXR files are not supported (scanline only)"
+        pm_io_error(err, err_size, path, storage == EXR_STORAGE_TILED ? "tiled EXR files are not supported (scanline only)"
                                                                     : "deep EXR files are not supported (scanline only)");
         goto fail;
     }
@@ -590,18 +365,18 @@ static bool exr_open_checked(const char *path, int count, const char *const name
             char have[256];
             list_channels(chl, have, sizeof have);
             snprintf(what, sizeof what, "no channel \"%s\" (the file has: %s)", names[k], have);
-            set_error(err, err_size, path, what);
+            pm_io_error(err, err_size, path, what);
             goto fail;
         }
         if (entry->pixel_type != EXR_PIXEL_HALF && entry->pixel_type != EXR_PIXEL_FLOAT) {
             snprintf(what, sizeof what, "channel \"%s\" holds integers, not HALF or FLOAT radiance", names[k]);
-            set_error(err, err_size, path, what);
+            pm_io_error(err, err_size, path, what);
             goto fail;
         }
         if (entry->x_sampling != 1 || entry->y_sampling != 1) {
             snprintf(what, sizeof what, "channel \"%s\" is subsampled (%dx%d), which is not supported", names[k],
                      entry->x_sampling, entry->y_sampling);
-            set_error(err, err_size, path, what);
+            pm_io_error(err, err_size, path, what);
             goto fail;
         }
     }
@@ -610,7 +385,7 @@ static bool exr_open_checked(const char *path, int count, const char *const name
     int64_t w64 = (int64_t)dw->max.x - dw->min.x + 1, h64 = (int64_t)dw->max.y - dw->min.y + 1;
     if (w64 <= 0 || h64 <= 0 || w64 > INT32_MAX / 4 || h64 > INT_MAX ||
         (uint64_t)w64 * (uint64_t)h64 > SIZE_MAX / sizeof(float) / (count > 0 ? (size_t)count : 1)) {
-        set_error(err, err_size, path, "the data window is empty or too large");
+        pm_io_error(err, err_size, path, "the data window is empty or too large");
         goto fail;
     }
     *width = (int)w64;
@@ -631,14 +406,73 @@ bool pm_read_exr_size(const char *path, int count, const char *const channels[],
     return true;
 }
 
+/* A chunk's channels pointed at their places: names[k] at rows + k with `count` floats a pixel (rows:
+ * the chunk's first line in the output), every other channel at the growing scratch area. */
+static bool route_channels(const char *path, exr_decode_pipeline_t *dec, const exr_chunk_info_t *cinfo, int count,
+                           const char *const names[], int width, float *rows, uint8_t **scratch, size_t *scratch_size,
+                           long long y, char *err, size_t err_size) {
+    char what[512];
+    /* Every channel gets a destination, the others a scratch area: OpenEXR 3.1's fast HALF to
+     * FLOAT routines write all channels of the chunk and crash on a skipped (NULL) one. */
+    size_t scratch_need = 0;
+    for (int i = 0; i < dec->channel_count; i++) {
+        const exr_coding_channel_info_t *chan = &dec->channels[i];
+        if (chan->width < 0 || chan->height < 0 || chan->bytes_per_element <= 0) {
+            pm_io_error(err, err_size, path, "a chunk has a channel of invalid size");
+            return false;
+        }
+        scratch_need += (size_t)chan->width * (size_t)chan->height * (size_t)chan->bytes_per_element;
+    }
+    if (scratch_need == 0) scratch_need = 1;
+    if (scratch_need > *scratch_size) {
+        void *bigger = pm_realloc(*scratch, scratch_need, "EXR decoding scratch");
+        if (!bigger) { pm_io_error(err, err_size, path, "out of memory decoding a chunk"); return false; }
+        *scratch = bigger;
+        *scratch_size = scratch_need;
+    }
+    uint8_t *next_scratch = *scratch;
+    unsigned found = 0; /* bit k: names[k] has its destination (a duplicate name in the file goes to scratch) */
+    for (int i = 0; i < dec->channel_count; i++) {
+        exr_coding_channel_info_t *chan = &dec->channels[i];
+        int k = 0;
+        while (k < count && (strcmp(chan->channel_name, names[k]) != 0 || (found >> k & 1u))) k++;
+        if (k == count) {
+            chan->user_bytes_per_element = chan->bytes_per_element;
+            chan->user_data_type = chan->data_type;
+            chan->user_pixel_stride = chan->bytes_per_element;
+            chan->user_line_stride = chan->width * chan->bytes_per_element;
+            chan->decode_to_ptr = next_scratch;
+            next_scratch += (size_t)chan->width * (size_t)chan->height * (size_t)chan->bytes_per_element;
+            continue;
+        }
+        if (chan->width != width || chan->height != cinfo->height) {
+            pm_io_error(err, err_size, path, "a chunk's channel size disagrees with the data window");
+            return false;
+        }
+        found |= 1u << k;
+        chan->user_bytes_per_element = 4;
+        chan->user_data_type = EXR_PIXEL_FLOAT;
+        chan->user_pixel_stride = 4 * count;
+        chan->user_line_stride = 4 * count * width;
+        chan->decode_to_ptr = (uint8_t *)(rows + k);
+    }
+    for (int k = 0; k < count; k++)
+        if (!(found >> k & 1u)) {
+            snprintf(what, sizeof what, "channel \"%s\" missing from the chunk at line %lld", names[k], y);
+            pm_io_error(err, err_size, path, what);
+            return false;
+        }
+    return true;
+}
+
 /* The channels named, decoded together chunk by chunk: `count` floats a pixel, in the order named. */
 static float *read_exr_channels(const char *path, int count, const char *const names[], int *width_out,
                                 int *height_out, char *err, size_t err_size) {
     if (width_out) *width_out = 0;
     if (height_out) *height_out = 0;
-    if (count < 1 || count > 32) { set_error(err, err_size, path ? path : "", "1 to 32 channels can be read at once"); return NULL; }
+    if (count < 1 || count > 32) { pm_io_error(err, err_size, path ? path : "", "1 to 32 channels can be read at once"); return NULL; }
     for (int k = 0; k < count; k++)
-        if (!names[k] || !*names[k]) { set_error(err, err_size, path ? path : "", "no channel name given"); return NULL; }
+        if (!names[k] || !*names[k]) { pm_io_error(err, err_size, path ? path : "", "no channel name given"); return NULL; }
 
     char what[512];
     float *out = NULL;
@@ -665,7 +499,7 @@ static float *read_exr_channels(const char *path, int count, const char *const n
     out = pm_malloc(out_bytes, "EXR channels");
     if (!out) {
         snprintf(what, sizeof what, "out of memory for the channels (%zu bytes)", out_bytes);
-        set_error(err, err_size, path, what);
+        pm_io_error(err, err_size, path, what);
         goto done;
     }
 
@@ -683,7 +517,7 @@ static float *read_exr_channels(const char *path, int count, const char *const n
         if (cinfo.start_y < dw.min.y || cinfo.height <= 0 || (int64_t)cinfo.start_y + cinfo.height - 1 > dw.max.y ||
             cinfo.width != width) {
             snprintf(what, sizeof what, "the chunk at line %lld lies outside the data window", (long long)y);
-            set_error(err, err_size, path, what);
+            pm_io_error(err, err_size, path, what);
             goto done;
         }
         if (!dec_started) {
@@ -697,56 +531,9 @@ static float *read_exr_channels(const char *path, int count, const char *const n
             set_exr_error(err, err_size, path, what, rv);
             goto done;
         }
-        /* Every channel gets a destination, the others a scratch area: OpenEXR 3.1's fast HALF to
-         * FLOAT routines write all channels of the chunk and crash on a skipped (NULL) one. */
-        size_t scratch_need = 0;
-        for (int i = 0; i < dec.channel_count; i++) {
-            const exr_coding_channel_info_t *chan = &dec.channels[i];
-            if (chan->width < 0 || chan->height < 0 || chan->bytes_per_element <= 0) {
-                set_error(err, err_size, path, "a chunk has a channel of invalid size");
-                goto done;
-            }
-            scratch_need += (size_t)chan->width * (size_t)chan->height * (size_t)chan->bytes_per_element;
-        }
-        if (scratch_need == 0) scratch_need = 1;
-        if (scratch_need > scratch_size) {
-            void *bigger = pm_realloc(scratch, scratch_need, "EXR decoding scratch");
-            if (!bigger) { set_error(err, err_size, path, "out of memory decoding a chunk"); goto done; }
-            scratch = bigger;
-            scratch_size = scratch_need;
-        }
-        uint8_t *next_scratch = scratch;
-        unsigned found = 0; /* bit k: names[k] has its destination (a duplicate name in the file goes to scratch) */
-        for (int i = 0; i < dec.channel_count; i++) {
-            exr_coding_channel_info_t *chan = &dec.channels[i];
-            int k = 0;
-            while (k < count && (strcmp(chan->channel_name, names[k]) != 0 || (found >> k & 1u))) k++;
-            if (k == count) {
-                chan->user_bytes_per_element = chan->bytes_per_element;
-                chan->user_data_type = chan->data_type;
-                chan->user_pixel_stride = chan->bytes_per_element;
-                chan->user_line_stride = chan->width * chan->bytes_per_element;
-                chan->decode_to_ptr = next_scratch;
-                next_scratch += (size_t)chan->width * (size_t)chan->height * (size_t)chan->bytes_per_element;
-                continue;
-            }
-            if (chan->width != width || chan->height != cinfo.height) {
-                set_error(err, err_size, path, "a chunk's channel size disagrees with the data window");
-                goto done;
-            }
-            found |= 1u << k;
-            chan->user_bytes_per_element = 4;
-            chan->user_data_type = EXR_PIXEL_FLOAT;
-            chan->user_pixel_stride = 4 * count;
-            chan->user_line_stride = 4 * count * width;
-            chan->decode_to_ptr = (uint8_t *)(out + ((size_t)(cinfo.start_y - dw.min.y) * width) * count + k);
-        }
-        for (int k = 0; k < count; k++)
-            if (!(found >> k & 1u)) {
-                snprintf(what, sizeof what, "channel \"%s\" missing from the chunk at line %lld", names[k], (long long)y);
-                set_error(err, err_size, path, what);
-                goto done;
-            }
+        if (!route_channels(path, &dec, &cinfo, count, names, width, out + ((size_t)(cinfo.start_y - dw.min.y) * width) * count,
+                            &scratch, &scratch_size, (long long)y, err, err_size))
+            goto done;
         /* after the pointers: the routine chosen depends on the output layout */
         rv = exr_decoding_choose_default_routines(ctxt, part, &dec);
         if (rv == EXR_ERR_SUCCESS) rv = exr_decoding_run(ctxt, part, &dec);
@@ -772,7 +559,7 @@ float *pm_read_exr_channel(const char *path, const char *channel, int *width, in
     if (!channel || !*channel) {
         if (width) *width = 0;
         if (height) *height = 0;
-        set_error(err, err_size, path ? path : "", "no channel name given");
+        pm_io_error(err, err_size, path ? path : "", "no channel name given");
         return NULL;
     }
     const char *const names[1] = {channel};
@@ -796,9 +583,9 @@ static void png_write_bytes(void *context, void *data, int size) {
 }
 
 bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, char *err, size_t err_size) {
-    if (!path || !*path) { set_error(err, err_size, path ? path : "", "no output file name given"); return false; }
+    if (!path || !*path) { pm_io_error(err, err_size, path ? path : "", "no output file name given"); return false; }
     if (width <= 0 || height <= 0 || width > INT_MAX / 4 || !rgba) {
-        set_error(err, err_size, path, "cannot write a PNG of an empty or oversized image");
+        pm_io_error(err, err_size, path, "cannot write a PNG of an empty or oversized image");
         return false;
     }
     char what[400];
@@ -807,7 +594,7 @@ bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, 
     const uint64_t mark = pm_memory_failure_mark(); /* what this write meets, never an older failure */
     if (!pm_memory_admit(encoder_bytes, "PNG encoder")) {
         snprintf(what, sizeof what, "out of memory (%s)", pm_memory_failure_since_or(mark, "PNG encoder"));
-        set_error(err, err_size, path, what);
+        pm_io_error(err, err_size, path, what);
         return false;
     }
     /* a regular file (or a new one) is replaced whole at the end, as an EXR is: a kill during the
@@ -815,16 +602,16 @@ bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, 
      * a pipe) is written in place */
     struct stat st;
     const bool in_place = stat(path, &st) == 0 && !S_ISREG(st.st_mode);
-    if (!in_place && !file_takes_writing_if_present(path, err, err_size)) {
+    if (!in_place && !pm_file_takes_writing_if_present(path, err, err_size)) {
         pm_memory_release(encoder_bytes);
         return false;
     }
-    pending_output out = {.fd = -1};
+    pm_pending_output out = {.fd = -1};
     png_sink sink = {NULL, false, 0};
     if (in_place) sink.f = fopen(path, "wb");
-    else if (pending_open(path, &out, err, err_size)) {
+    else if (pm_output_open(path, &out, err, err_size)) {
         sink.f = fdopen(dup(out.fd), "wb");
-        if (!sink.f) pending_finish(path, &out, false, err, err_size);
+        if (!sink.f) pm_output_finish(path, &out, false, err, err_size);
     } else {
         pm_memory_release(encoder_bytes);
         return false;
@@ -833,55 +620,25 @@ bool pm_write_png(const char *path, int width, int height, const uint8_t *rgba, 
     if (!sink.f) {
         pm_memory_release(encoder_bytes);
         snprintf(what, sizeof what, "cannot create the file (%s)", strerror(errno));
-        set_error(err, err_size, path, what);
+        pm_io_error(err, err_size, path, what);
         return false;
     }
     /* in place, truncated now: a signal before the end removes it rather than leave half an image */
-    const bool claimed = in_place && strlen(path) < sizeof partial_path && !atomic_flag_test_and_set(&partial_claimed);
-    if (claimed) {
-        memcpy(partial_path, path, strlen(path) + 1);
-        atomic_thread_fence(memory_order_seq_cst);
-        partial_armed = 1;
-    }
+    const bool claimed = in_place && pm_output_claim_in_place(path);
     int encoded = stbi_write_png_to_func(png_write_bytes, &sink, width, height, 4, rgba, 4 * width);
     pm_memory_release(encoder_bytes);
     if (fclose(sink.f) != 0 && !sink.failed) { sink.failed = true; sink.failed_errno = errno; }
     if (!encoded || sink.failed) {
         if (!encoded) snprintf(what, sizeof what, "PNG encoding failed (out of memory?)");
         else snprintf(what, sizeof what, "cannot write the file (%s)", strerror(sink.failed_errno));
-        set_error(err, err_size, path, what);
+        pm_io_error(err, err_size, path, what);
         if (in_place) remove(path); /* a truncated PNG would look like a valid file to a quick glance */
-        else pending_finish(path, &out, false, NULL, 0);
-        disarm_partial(claimed);
+        else pm_output_finish(path, &out, false, NULL, 0);
+        pm_output_release(claimed);
         return false;
     }
-    disarm_partial(claimed);
-    return in_place || pending_finish(path, &out, true, err, err_size);
-}
-
-/* path with its folder resolved (the name kept: it need not exist yet) into out; false when the
- * folder cannot be resolved. */
-static bool resolved(const char *path, char *out, size_t size) {
-    char folder[4096], real[PATH_MAX];
-    folder_of(path, folder, sizeof folder);
-    if (!realpath(folder, real)) return false;
-    const char *slash = strrchr(path, '/'), *name = slash ? slash + 1 : path;
-    int n = snprintf(out, size, "%s/%s", strcmp(real, "/") ? real : "", name);
-    return n >= 0 && (size_t)n < size;
-}
-
-bool pm_same_file(const char *a, const char *b) {
-    if (!a || !b) return false;
-    struct stat sa, sb;
-    if (stat(a, &sa) == 0 && stat(b, &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
-    char ra[4200], rb[4200];
-    if (resolved(a, ra, sizeof ra) && resolved(b, rb, sizeof rb)) return strcmp(ra, rb) == 0;
-    return strcmp(a, b) == 0;
-}
-
-bool pm_has_extension(const char *path, const char *ext) {
-    size_t n = strlen(path), e = strlen(ext);
-    return n > e && strcasecmp(path + n - e, ext) == 0;
+    pm_output_release(claimed);
+    return in_place || pm_output_finish(path, &out, true, err, err_size);
 }
 
 /* ---- Radiance .hdr (RGBE) ----
@@ -918,24 +675,24 @@ static bool hdr_open(const char *path, hdr_file *h, char *err, size_t err_size) 
     h->f = fopen(path, "rb");
     if (!h->f) {
         snprintf(what, sizeof what, "cannot open (%s)", strerror(errno));
-        set_error(err, err_size, path, what);
+        pm_io_error(err, err_size, path, what);
         return false;
     }
     size_t budget = HDR_MAX_HEADER;
     if (!hdr_line(h->f, line, sizeof line, &budget) || (strncmp(line, "#?RADIANCE", 10) && strncmp(line, "#?RGBE", 6))) {
-        set_error(err, err_size, path, "not a Radiance .hdr file (it does not begin with #?RADIANCE or #?RGBE)");
+        pm_io_error(err, err_size, path, "not a Radiance .hdr file (it does not begin with #?RADIANCE or #?RGBE)");
         goto fail;
     }
     for (;;) {
         if (!hdr_line(h->f, line, sizeof line, &budget)) {
-            set_error(err, err_size, path, budget ? "the file ends inside its header (no blank line, no resolution line)"
+            pm_io_error(err, err_size, path, budget ? "the file ends inside its header (no blank line, no resolution line)"
                                                   : "the header does not end within 64 KiB");
             goto fail;
         }
         if (!line[0]) break;
         if (!strncmp(line, "FORMAT=", 7) && strcmp(line + 7, "32-bit_rle_rgbe")) {
             snprintf(what, sizeof what, "pixels of FORMAT=%.64s are not supported (32-bit_rle_rgbe only)", line + 7);
-            set_error(err, err_size, path, what);
+            pm_io_error(err, err_size, path, what);
             goto fail;
         }
     }
@@ -945,13 +702,13 @@ static bool hdr_open(const char *path, hdr_file *h, char *err, size_t err_size) 
         line[used] != '\0') {
         snprintf(what, sizeof what, "the resolution line \"%.64s\" is not \"-Y HEIGHT +X WIDTH\" (other orientations are not supported)",
                  line);
-        set_error(err, err_size, path, what);
+        pm_io_error(err, err_size, path, what);
         goto fail;
     }
     if (rows < 1 || columns < 1 || rows > INT_MAX || columns > INT32_MAX / 4 ||
         (uint64_t)rows * (uint64_t)columns > SIZE_MAX / (3 * sizeof(float))) {
         snprintf(what, sizeof what, "the resolution line claims %ldx%ld texels, which is not usable", columns, rows);
-        set_error(err, err_size, path, what);
+        pm_io_error(err, err_size, path, what);
         goto fail;
     }
     h->width = (int)columns;
@@ -981,7 +738,7 @@ static bool hdr_row(const char *path, hdr_file *h, int y, uint8_t *rgbe, char *e
     if ((lead[2] << 8 | lead[3]) != w) {
         snprintf(what, sizeof what, "row %d of %d is encoded %d texels wide in a map %d wide", y + 1, h->height,
                  lead[2] << 8 | lead[3], w);
-        set_error(err, err_size, path, what);
+        pm_io_error(err, err_size, path, what);
         return false;
     }
     for (int k = 0; k < 4; k++) {
@@ -1007,11 +764,11 @@ static bool hdr_row(const char *path, hdr_file *h, int y, uint8_t *rgbe, char *e
 truncated:
     if (nothing) snprintf(what, sizeof what, "the file ends after its header: no pixels (truncated or empty)");
     else snprintf(what, sizeof what, "the file ends in row %d of %d (truncated)", y + 1, h->height);
-    set_error(err, err_size, path, what);
+    pm_io_error(err, err_size, path, what);
     return false;
 broken:
     snprintf(what, sizeof what, "bad run-length data in row %d of %d", y + 1, h->height);
-    set_error(err, err_size, path, what);
+    pm_io_error(err, err_size, path, what);
     return false;
 }
 
@@ -1025,7 +782,7 @@ static float *read_hdr(const char *path, int *width, int *height, char *err, siz
     if (!ok) {
         char what[200];
         snprintf(what, sizeof what, "out of memory (environment map, %zu bytes)", 3 * n * sizeof(float));
-        set_error(err, err_size, path, what);
+        pm_io_error(err, err_size, path, what);
     }
     for (int y = 0; ok && y < h.height; y++) {
         ok = hdr_row(path, &h, y, row, err, err_size);
@@ -1055,7 +812,7 @@ bool pm_environment_size(const char *path, int *width, int *height, char *err, s
         int first = getc(h.f);
         fclose(h.f);
         if (first == EOF) {
-            set_error(err, err_size, path, "the file ends after its header: no pixels (truncated or empty)");
+            pm_io_error(err, err_size, path, "the file ends after its header: no pixels (truncated or empty)");
             return false;
         }
         *width = h.width;
@@ -1063,7 +820,7 @@ bool pm_environment_size(const char *path, int *width, int *height, char *err, s
         return true;
     }
     if (!pm_has_extension(path, ".exr")) {
-        set_error(err, err_size, path, "an environment map must be .exr or .hdr");
+        pm_io_error(err, err_size, path, "an environment map must be .exr or .hdr");
         return false;
     }
     return pm_read_exr_size(path, 3, rgb_channels, width, height, err, err_size);
@@ -1073,7 +830,7 @@ float *pm_read_environment(const char *path, int *width, int *height, char *err,
     *width = *height = 0;
     if (pm_has_extension(path, ".hdr")) return read_hdr(path, width, height, err, err_size);
     if (!pm_has_extension(path, ".exr")) {
-        set_error(err, err_size, path, "an environment map must be .exr or .hdr");
+        pm_io_error(err, err_size, path, "an environment map must be .exr or .hdr");
         return NULL;
     }
     return read_exr_channels(path, 3, rgb_channels, width, height, err, err_size);

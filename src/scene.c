@@ -1,4 +1,4 @@
-/* scene.c: derived scene data (bounds, emitter distribution, default sky, analysis), surface evaluation and textures.
+/* scene.c: derived scene data (bounds, emitter distribution, default sky, analysis); surfaces are evaluated in surface.c, textures read in texture.c.
  *
  * Everything here is computed from what the loader filled in, once, before any ray is cast;
  * the analysis decides which maps, passes and buffers the later stages build at all.
@@ -67,60 +67,6 @@ static void channel_range(const pm_scene *s, int texture, int channel, float *lo
     *hi = b / 255.f;
 }
 
-/* Whether a layered material reads a texture for its layers. */
-static bool layers_textured(const pm_material *m) {
-    const pm_material_layers *l = &m->layers;
-    return m->layered && (l->specular_texture.texture >= 0 || l->specular_color_texture.texture >= 0 ||
-                          l->sheen_color_texture.texture >= 0 || l->sheen_roughness_texture.texture >= 0 ||
-                          l->clearcoat_texture.texture >= 0 || l->clearcoat_roughness_texture.texture >= 0 ||
-                          l->clearcoat_normal_texture.texture >= 0);
-}
-
-static vec3 texture_at(const pm_scene *s, const float uv[2][2], const float footprint[2], int texture, int texcoord,
-                       const pm_uv_transform *t, bool srgb);
-static inline void apply_uv_transform(const pm_uv_transform *t, float *u, float *v);
-
-/* A layer texture's texel (rgb, or alpha in x for `alpha`), 1 without a texture or without the point's UVs (s NULL). */
-static vec3 layer_texel(const pm_scene *s, const float uv[2][2], const float footprint[2], const pm_texture_ref *r, bool srgb,
-                        bool alpha) {
-    if (!s || r->texture < 0 || (uint32_t)r->texture >= s->texture_count) return v3s(1.f);
-    if (!alpha) return texture_at(s, uv, footprint, r->texture, r->texcoord, &r->transform, srgb);
-    float u = uv[r->texcoord == 1][0], v = uv[r->texcoord == 1][1];
-    apply_uv_transform(&r->transform, &u, &v);
-    return v3s(pm_texture_alpha(&s->textures[r->texture], u, v));
-}
-
-/* A material's point (its base colour, metallic, roughness and transmission there, textures
- * applied): the layers' values there (their textures read when s is not NULL), then the split. A
- * point with a coat or a sheen is all the layered lobe (kt apart: kd = ks = 0); one without them
- * is glossy or not as pm_glossy_at says, with the dielectric's specular weight there, so a point
- * whose file turns that lobe off (specularFactor 0) is the plain Lambert, mirror and glass split. */
-static void material_point(const pm_material *m, vec3 base, float metallic, float roughness, float transmission,
-                           const pm_scene *s, const float uv[2][2], const float footprint[2], vec3 *kd, vec3 *ks,
-                           float *ks_grazing, vec3 *kt, bool *glossy, pm_brdf *brdf) {
-    if (!m->layered) {
-        pm_material_split_at(base, metallic, roughness, transmission, 1.f, kd, ks, ks_grazing, kt);
-        *glossy = pm_glossy_at(metallic, roughness, transmission, 1.f);
-        if (*glossy) *brdf = pm_brdf_at(base, metallic, roughness, transmission);
-        return;
-    }
-    const pm_material_layers *l = &m->layers;
-    float specular = l->specular * layer_texel(s, uv, footprint, &l->specular_texture, false, true).x;
-    pm_material_split_at(base, metallic, roughness, transmission, specular, kd, ks, ks_grazing, kt);
-    vec3 sheen_color = v3_mul(l->sheen_color, layer_texel(s, uv, footprint, &l->sheen_color_texture, true, false));
-    float clearcoat = l->clearcoat * layer_texel(s, uv, footprint, &l->clearcoat_texture, false, false).x;
-    *glossy = pm_glossy_at(metallic, roughness, transmission, specular) || clearcoat > 0.f || v3_max_component(sheen_color) > 0.f;
-    if (!*glossy) return;
-    *kd = *ks = v3s(0.f);
-    *ks_grazing = 0.f;
-    *brdf = pm_brdf_at(base, metallic, roughness, transmission);
-    vec3 specular_color = v3_mul(l->specular_color, layer_texel(s, uv, footprint, &l->specular_color_texture, true, false));
-    float sheen_roughness = l->sheen_roughness * layer_texel(s, uv, footprint, &l->sheen_roughness_texture, false, true).x;
-    float clearcoat_roughness =
-        l->clearcoat_roughness * layer_texel(s, uv, footprint, &l->clearcoat_roughness_texture, false, false).y;
-    pm_brdf_add_layers(brdf, specular, specular_color, sheen_color, sheen_roughness, clearcoat, clearcoat_roughness);
-}
-
 /* Which lobes a material can have somewhere. Each lobe weight is linear in metallic, roughness
  * and transmission separately, so its largest value over the box of their possible values is
  * at one of the box's eight corners; the dielectric's specular weight (a factor times a
@@ -160,7 +106,7 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
     }
     m->may_see_through = pm_material_can_be_transparent(s, m);
     m->uniform_split = m->base_color_texture < 0 && m->metallic_roughness_texture < 0 && m->transmission_texture < 0 &&
-                       !layers_textured(m);
+                       !pm_material_layers_textured(m);
     if (m->unlit) {
         /* no lobe at all, wherever its base colour texture goes */
         m->may_diffuse = m->may_mirror = m->may_glass = m->may_glossy = m->may_near_specular = m->split_glossy = false;
@@ -169,7 +115,7 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
         m->split_ks_grazing = 0.f;
         m->split_glass_alpha = 0.f;
     } else if (m->uniform_split) {
-        material_point(m, m->base_color, m->metallic, m->roughness, m->transmission, NULL, NULL, NULL, &m->split_kd,
+        pm_material_point(m, m->base_color, m->metallic, m->roughness, m->transmission, NULL, NULL, NULL, &m->split_kd,
                        &m->split_ks, &m->split_ks_grazing, &m->split_kt, &m->split_glossy, &m->split_brdf);
         m->split_glass_alpha = pm_glass_alpha_at(m->roughness);
     }
@@ -177,7 +123,7 @@ static void material_lobes(const pm_scene *s, pm_material *m) {
 
 /* The unit normal of triangle (p0, p1, p2) by the right-hand rule, computed in double: a float
  * cross product of edges underflows for tiny triangles and overflows for huge ones. */
-static vec3 face_normal(vec3 p0, vec3 p1, vec3 p2) {
+vec3 pm_face_normal(vec3 p0, vec3 p1, vec3 p2) {
     double e1[3] = {(double)p1.x - p0.x, (double)p1.y - p0.y, (double)p1.z - p0.z};
     double e2[3] = {(double)p2.x - p0.x, (double)p2.y - p0.y, (double)p2.z - p0.z};
     double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
@@ -202,7 +148,7 @@ static void analyse(pm_scene *s) {
         a->has_thin_glass |= m->may_glass && m->thin_walled;
         a->has_textures |= m->base_color_texture >= 0 || m->emission_texture >= 0 ||
                            m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0 ||
-                           (m->normal_texture >= 0 && s->tangents) || layers_textured(m);
+                           (m->normal_texture >= 0 && s->tangents) || pm_material_layers_textured(m);
         a->has_non_opaque |= pm_material_can_be_transparent(s, m);
         a->has_unlit |= m->unlit;
     }
@@ -217,15 +163,6 @@ static void analyse(pm_scene *s) {
     a->component_possible[PM_SPECULAR] = specular && (lit || a->has_unlit);
     a->component_possible[PM_CAUSTIC] = a->caustics_possible;
     a->component_possible[PM_INDIRECT] = a->interreflection_possible;
-}
-
-/* The share of triangle tri at (b1, b2) that a crossing ray meets: 1 when opaque, 0 or 1 by a
- * MASK's cutoff, alpha on BLEND (pm_scene_emitted_at's factor). */
-static float coverage_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
-    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
-    if (m->alpha_mode == PM_ALPHA_OPAQUE) return 1.f;
-    float alpha = pm_scene_alpha_at(s, tri, b1, b2);
-    return m->alpha_mode == PM_ALPHA_MASK ? (alpha >= m->alpha_cutoff ? 1.f : 0.f) : pm_clamp01(alpha);
 }
 
 /* A triangle's emission averaged over its area: the factor alone, or with a texture or cut-outs
@@ -246,7 +183,7 @@ static vec3 triangle_mean_emission(const pm_scene *s, uint32_t t) {
             if (u + v > 1.f) { u = 1.f - u; v = 1.f - v; }
             vec3 e = pm_scene_emission_at(s, t, u, v); /* one texture read for both sums */
             uncovered = v3_add(uncovered, e);
-            if (!v3_is_black(e)) sum = v3_add(sum, v3_scale(e, coverage_at(s, t, u, v)));
+            if (!v3_is_black(e)) sum = v3_add(sum, v3_scale(e, pm_scene_coverage_at(s, t, u, v)));
         }
     vec3 mean = v3_scale(sum, 1.f / (N * N));
     return v3_is_black(mean) ? v3_scale(uncovered, 1.f / (N * N * N * N)) : mean;
@@ -540,7 +477,7 @@ bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     for (uint32_t t = 0; t < s->triangle_count; t++) s->materials[s->triangle_material[t]].used = true;
     for (uint32_t t = 0; t < s->triangle_count; t++) {
         const uint32_t *ix = s->indices + 3 * (size_t)t;
-        s->face_normals[t] = face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);
+        s->face_normals[t] = pm_face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);
     }
     if (!build_emitters(s) || !build_light_distribution(s) || !build_texture_filtering(s)) return false;
     if (added_sky) *added_sky = false;
@@ -710,562 +647,6 @@ pm_camera pm_scene_fit_camera(const pm_scene *s, pm_camera c, float aspect) {
     c.position = v3_sub(center, v3_scale(c.forward, (float)dist));
     c.znear = (float)dist * 1e-3f;
     return c;
-}
-
-static float srgb_table[256];
-static pthread_once_t srgb_table_once = PTHREAD_ONCE_INIT; /* filled once, before any thread reads it */
-static void init_srgb_table(void) {
-    for (int i = 0; i < 256; i++) srgb_table[i] = pm_srgb_to_linear(i / 255.f);
-}
-
-/* floorf of a finite float without a libm call: from 2^23 up every float is an integer. */
-static inline float floor_finite(float x) {
-    if (!(fabsf(x) < 8388608.f)) return x;
-    float t = (float)(int)x;
-    return t > x ? t - 1.f : t;
-}
-
-/* One axis of a lookup: the two texels around coordinate c (in [0, 1] across the texture) with
- * the wrap mode, and the weight of the second. The coordinate is first brought into one period
- * (two for MIRROR, [-1, 2] for CLAMP), so the texel index needs compares, not an integer division:
- * this runs four times for every texture of every hit. */
-static inline void wrap_axis(float c, int n, int mode, int *i0, int *i1, float *frac) {
-    if (mode == PM_WRAP_CLAMP) c = pm_minf(pm_maxf(c, -1.f), 2.f);
-    else if (mode == PM_WRAP_MIRROR) c -= 2.f * floor_finite(0.5f * c); /* [0, 2] */
-    else c -= floor_finite(c);                                         /* [0, 1] */
-    float x = c * (float)n - 0.5f, fx = floor_finite(x);
-    int x0 = (int)fx, x1 = x0 + 1;
-    *frac = x - fx;
-    if (mode == PM_WRAP_CLAMP) {
-        *i0 = x0 < 0 ? 0 : (x0 >= n ? n - 1 : x0);
-        *i1 = x1 < 0 ? 0 : (x1 >= n ? n - 1 : x1);
-    } else if (mode == PM_WRAP_MIRROR) {
-        /* x0 in [-1, 2n - 1], x1 in [0, 2n]: into [0, 2n), then folded at n */
-        int m0 = x0 < 0 ? x0 + 2 * n : x0, m1 = x1 >= 2 * n ? x1 - 2 * n : x1;
-        *i0 = m0 < n ? m0 : 2 * n - 1 - m0;
-        *i1 = m1 < n ? m1 : 2 * n - 1 - m1;
-    } else {
-        /* x0 in [-1, n - 1], x1 in [0, n] */
-        *i0 = x0 < 0 ? x0 + n : x0;
-        *i1 = x1 >= n ? x1 - n : x1;
-    }
-}
-
-/* The four texels around (u, v) and their bilinear weights, with the texture's wrap modes, in an
- * image of w x h texels (level 0 or a mip level): the footprint of every lookup (colour, data and
- * alpha). u and v are finite. */
-typedef struct { size_t texel[4]; float weight[4]; } bilinear_taps;
-static inline bilinear_taps bilinear_in(int w, int h, int wrap_s, int wrap_t, float u, float v) {
-    int xa, xb, ya, yb;
-    float ax, ay;
-    wrap_axis(u, w, wrap_s, &xa, &xb, &ax);
-    wrap_axis(v, h, wrap_t, &ya, &yb, &ay);
-    bilinear_taps b = {{(size_t)ya * w + xa, (size_t)ya * w + xb, (size_t)yb * w + xa, (size_t)yb * w + xb},
-                       {(1.f - ax) * (1.f - ay), ax * (1.f - ay), (1.f - ax) * ay, ax * ay}};
-    return b;
-}
-static bilinear_taps bilinear(const pm_texture *t, float u, float v) {
-    return bilinear_in(t->width, t->height, t->wrap_s, t->wrap_t, u, v);
-}
-
-/* Bilinear RGB in one image of w x h texels with t's wrap modes. */
-static inline vec3 image_bilinear(const pm_texture *t, const uint8_t *rgba, int w, int h, float u, float v, bool srgb) {
-    bilinear_taps b = bilinear_in(w, h, t->wrap_s, t->wrap_t, u, v);
-    vec3 sum = v3s(0.f);
-    for (int k = 0; k < 4; k++) {
-        const uint8_t *p = rgba + 4 * b.texel[k];
-        vec3 c = srgb ? v3(srgb_table[p[0]], srgb_table[p[1]], srgb_table[p[2]])
-                      : v3(p[0] * (1.f / 255.f), p[1] * (1.f / 255.f), p[2] * (1.f / 255.f));
-        sum = v3_madd(sum, c, b.weight[k]);
-    }
-    return sum;
-}
-
-/* The texel of one image under (u, v) (a sampler's NEAREST): of the two bilinear taps on each axis,
- * the one whose centre is nearer. */
-static inline size_t nearest_texel(const pm_texture *t, int w, int h, float u, float v) {
-    int xa, xb, ya, yb;
-    float ax, ay;
-    wrap_axis(u, w, t->wrap_s, &xa, &xb, &ax);
-    wrap_axis(v, h, t->wrap_t, &ya, &yb, &ay);
-    return (size_t)(ay < 0.5f ? ya : yb) * w + (ax < 0.5f ? xa : xb);
-}
-static inline vec3 image_nearest(const pm_texture *t, const uint8_t *rgba, int w, int h, float u, float v, bool srgb) {
-    const uint8_t *p = rgba + 4 * nearest_texel(t, w, h, u, v);
-    return srgb ? v3(srgb_table[p[0]], srgb_table[p[1]], srgb_table[p[2]])
-                : v3(p[0] * (1.f / 255.f), p[1] * (1.f / 255.f), p[2] * (1.f / 255.f));
-}
-/* One image read with the texel filter `nearest` or bilinear. */
-static inline vec3 image_read(const pm_texture *t, const uint8_t *rgba, int w, int h, float u, float v, bool srgb, bool nearest) {
-    return nearest ? image_nearest(t, rgba, w, h, u, v, srgb) : image_bilinear(t, rgba, w, h, u, v, srgb);
-}
-
-/* Level 0 under the magnification filter. */
-static vec3 texture_bilinear(const pm_texture *t, float u, float v, bool srgb) {
-    pthread_once(&srgb_table_once, init_srgb_table);
-    if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
-    return image_read(t, t->rgba, t->width, t->height, u, v, srgb, t->mag_nearest);
-}
-
-vec3 pm_texture_lookup(const pm_texture *t, float u, float v) { return texture_bilinear(t, u, v, true); }
-vec3 pm_texture_lookup_data(const pm_texture *t, float u, float v) { return texture_bilinear(t, u, v, false); }
-
-/* Level k of t as an image (level 0 is rgba). */
-static inline const uint8_t *level_texels(const pm_texture *t, int k, int *w, int *h) {
-    if (k == 0) {
-        *w = t->width;
-        *h = t->height;
-        return t->rgba;
-    }
-    *w = t->level_width[k];
-    *h = t->level_height[k];
-    return t->levels + t->level_offset[k];
-}
-
-vec3 pm_texture_filtered(const pm_texture *t, float u, float v, float texels, bool srgb) {
-    /* a footprint of at most a texel (or 0, or NaN) is level 0 exactly */
-    if (!(texels > 1.f) || t->level_count <= 1 || !t->levels) return texture_bilinear(t, u, v, srgb);
-    pthread_once(&srgb_table_once, init_srgb_table);
-    if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return v3s(1.f);
-    int top = t->level_count - 1, w, h, min = t->min_filter;
-    bool nearest = min == PM_MIN_NEAREST || min == PM_MIN_NEAREST_MIPMAP_NEAREST || min == PM_MIN_NEAREST_MIPMAP_LINEAR;
-    if (min == PM_MIN_NEAREST || min == PM_MIN_LINEAR) /* no mipmapping asked for: level 0 */
-        return image_read(t, t->rgba, t->width, t->height, u, v, srgb, nearest);
-    float level = log2f(texels); /* > 0; +inf for an infinite footprint */
-    if (min == PM_MIN_NEAREST_MIPMAP_NEAREST || min == PM_MIN_LINEAR_MIPMAP_NEAREST)
-        level = floor_finite(level + 0.5f); /* the nearest level */
-    if (!(level < (float)top)) {
-        const uint8_t *p = level_texels(t, top, &w, &h);
-        return image_read(t, p, w, h, u, v, srgb, nearest);
-    }
-    int k = (int)level;
-    float f = level - (float)k;
-    const uint8_t *p0 = level_texels(t, k, &w, &h);
-    vec3 a = image_read(t, p0, w, h, u, v, srgb, nearest);
-    if (f == 0.f) return a;
-    const uint8_t *p1 = level_texels(t, k + 1, &w, &h);
-    vec3 b = image_read(t, p1, w, h, u, v, srgb, nearest);
-    return v3_add(v3_scale(a, 1.f - f), v3_scale(b, f));
-}
-
-/* The tables a level's build decodes and re-encodes with: its own, so that building levels while
- * loading touches nothing the lookups share (the lookups' table is set up by the first lookup). */
-enum { LINEAR_STEPS = 65536 };
-typedef struct {
-    float decode[256];                   /* sRGB byte -> linear */
-    uint8_t nearest[LINEAR_STEPS + 1];   /* the sRGB byte nearest to linear i / LINEAR_STEPS */
-} srgb_codec;
-static uint8_t nearest_srgb_byte_from(const float decode[256], float x, int c) {
-    while (c < 255 && fabsf(decode[c + 1] - x) < fabsf(decode[c] - x)) c++;
-    while (c > 0 && fabsf(decode[c - 1] - x) < fabsf(decode[c] - x)) c--;
-    return (uint8_t)c;
-}
-static void srgb_codec_make(srgb_codec *k) {
-    for (int i = 0; i < 256; i++) k->decode[i] = pm_srgb_to_linear(i / 255.f);
-    int c = 0;
-    for (int i = 0; i <= LINEAR_STEPS; i++) k->nearest[i] = (uint8_t)(c = nearest_srgb_byte_from(k->decode, (float)i / LINEAR_STEPS, c));
-}
-/* The nearest byte to within 1 / (2 LINEAR_STEPS) in linear value: a value that close to the
- * midpoint of two bytes may take the farther one. */
-static inline uint8_t nearest_srgb_byte(const srgb_codec *k, float x) {
-    return k->nearest[(int)(pm_clamp01(x) * LINEAR_STEPS + 0.5f)];
-}
-
-/* One axis of a halving from n texels to m: texel i of the smaller level covers the source
- * interval [i n / m, (i + 1) n / m), and each source texel it overlaps weighs its share of that
- * interval. Every source texel's shares add up to one texel's worth whatever n is (odd sizes
- * included), so each level keeps the mean of the one before. */
-typedef struct { int first, count; float weight[4]; } box_taps;
-static void box_axis(int n, int m, box_taps *taps) {
-    for (int i = 0; i < m; i++) {
-        double lo = (double)i * n / m, hi = (double)(i + 1) * n / m;
-        box_taps *b = &taps[i];
-        b->first = (int)floor(lo);
-        b->count = 0;
-        for (int j = b->first; j < n && (double)j < hi && b->count < 4; j++) {
-            double overlap = fmin(hi, j + 1.0) - fmax(lo, (double)j);
-            b->weight[b->count++] = (float)(overlap * m / n);
-        }
-    }
-}
-
-/* One texel of a level from the source texels p[0..n) with weights w (summing to 1): colour by
- * srgb (NULL: data bytes), see pm_texture_build_levels. */
-static inline void box_texel(const uint8_t *const *p, const float *w, int n, const srgb_codec *srgb, uint8_t *q) {
-    float colour[3] = {0.f, 0.f, 0.f}, plain[3] = {0.f, 0.f, 0.f}, coverage = 0.f;
-    for (int k = 0; k < n; k++) {
-        float a = p[k][3] * (1.f / 255.f);
-        for (int c = 0; c < 3; c++) {
-            float value = srgb ? srgb->decode[p[k][c]] : p[k][c] * (1.f / 255.f);
-            plain[c] += w[k] * value;
-            colour[c] += w[k] * a * value;
-        }
-        coverage += w[k] * a;
-    }
-    for (int c = 0; c < 3; c++) {
-        /* colour textures: what the cut-outs leave, where anything is left */
-        float value = srgb && coverage > 0.f ? colour[c] / coverage : plain[c];
-        q[c] = srgb ? nearest_srgb_byte(srgb, value) : (uint8_t)(pm_clamp01(value) * 255.f + 0.5f);
-    }
-    q[3] = (uint8_t)(pm_clamp01(coverage) * 255.f + 0.5f);
-}
-
-/* Level dst (dw x dh) from level src (sw x sh), box-filtered; an even halving (the common case,
- * and the whole cost of an 8K texture's levels) reads its 2 x 2 blocks directly. */
-static void halve_level(const uint8_t *src, int sw, int sh, uint8_t *dst, int dw, int dh, const box_taps *xs,
-                        const box_taps *ys, const srgb_codec *srgb) {
-    if (sw == 2 * dw && sh == 2 * dh) {
-        for (int y = 0; y < dh; y++) {
-            const uint8_t *row0 = src + 4 * (size_t)(2 * y) * sw, *row1 = row0 + 4 * (size_t)sw;
-            uint8_t *q = dst + 4 * (size_t)y * dw;
-            for (int x = 0; x < dw; x++, q += 4) {
-                const uint8_t *p[4] = {row0 + 8 * x, row0 + 8 * x + 4, row1 + 8 * x, row1 + 8 * x + 4};
-                if (!srgb) {
-                    /* the mean of four bytes, rounded to nearest (halves up) */
-                    for (int c = 0; c < 4; c++) q[c] = (uint8_t)((p[0][c] + p[1][c] + p[2][c] + p[3][c] + 2) >> 2);
-                    continue;
-                }
-                static const float quarter[4] = {0.25f, 0.25f, 0.25f, 0.25f};
-                box_texel(p, quarter, 4, srgb, q);
-            }
-        }
-        return;
-    }
-    for (int y = 0; y < dh; y++)
-        for (int x = 0; x < dw; x++) {
-            const box_taps *bx = &xs[x], *by = &ys[y];
-            const uint8_t *p[16];
-            float w[16];
-            int n = 0;
-            for (int j = 0; j < by->count; j++)
-                for (int i = 0; i < bx->count; i++) {
-                    p[n] = src + 4 * ((size_t)(by->first + j) * sw + (size_t)(bx->first + i));
-                    w[n++] = by->weight[j] * bx->weight[i];
-                }
-            box_texel(p, w, n, srgb, dst + 4 * ((size_t)y * dw + x));
-        }
-}
-
-bool pm_texture_build_levels(pm_texture *t, bool srgb, uint64_t *admitted) {
-    if (t->levels || !t->rgba || t->width <= 0 || t->height <= 0) return true; /* built, or nothing to build */
-    int count = 1, w = t->width, h = t->height;
-    size_t bytes = 0;
-    t->level_width[0] = w;
-    t->level_height[0] = h;
-    t->level_offset[0] = 0;
-    while ((w > 1 || h > 1) && count < PM_TEXTURE_MAX_LEVELS) {
-        w = w > 1 ? w / 2 : 1;
-        h = h > 1 ? h / 2 : 1;
-        t->level_width[count] = w;
-        t->level_height[count] = h;
-        t->level_offset[count] = bytes;
-        bytes += 4 * (size_t)w * (size_t)h;
-        count++;
-    }
-    t->level_count = 1;
-    if (count == 1) return true;
-    if (!pm_memory_admit(bytes, "texture mip levels")) return false;
-    uint8_t *levels = pm_malloc(bytes, "texture mip levels");
-    int largest = t->width > t->height ? t->width : t->height;
-    box_taps *taps = levels ? pm_malloc(2 * sizeof *taps * (size_t)largest, "texture mip levels") : NULL;
-    srgb_codec *codec = taps && srgb ? pm_malloc(sizeof *codec, "texture mip levels") : NULL;
-    if (!taps || (srgb && !codec)) {
-        free(taps);
-        free(levels);
-        pm_memory_release(bytes);
-        return false;
-    }
-    if (codec) srgb_codec_make(codec);
-    for (int k = 1; k < count; k++) {
-        int sw = t->level_width[k - 1], sh = t->level_height[k - 1], dw = t->level_width[k], dh = t->level_height[k];
-        const uint8_t *src = k == 1 ? t->rgba : levels + t->level_offset[k - 1];
-        box_axis(sw, dw, taps);
-        box_axis(sh, dh, taps + largest);
-        halve_level(src, sw, sh, levels + t->level_offset[k], dw, dh, taps, taps + largest, codec);
-    }
-    free(taps);
-    free(codec);
-    t->levels = levels;
-    t->level_count = count;
-    *admitted += bytes;
-    return true;
-}
-
-/* Interpolated TEXCOORD set (0 or 1) at barycentrics; (0, 0) when the scene lacks the set. */
-static void interpolated_uv(const pm_scene *s, const uint32_t *ix, float b0, float b1, float b2, int set, float *u,
-                            float *v) {
-    const float *uv = set == 1 ? s->uvs1 : s->uvs;
-    if (!uv) {
-        *u = *v = 0.f;
-        return;
-    }
-    *u = b0 * uv[2 * ix[0]] + b1 * uv[2 * ix[1]] + b2 * uv[2 * ix[2]];
-    *v = b0 * uv[2 * ix[0] + 1] + b1 * uv[2 * ix[1] + 1] + b2 * uv[2 * ix[2] + 1];
-}
-
-static inline void apply_uv_transform(const pm_uv_transform *t, float *u, float *v) {
-    if (!t->transformed) return;
-    float x = *u, y = *v;
-    *u = t->m[0] * x + t->m[1] * y + t->m[2];
-    *v = t->m[3] * x + t->m[4] * y + t->m[5];
-}
-
-void pm_scene_texcoord(const pm_scene *s, uint32_t tri, float b1, float b2, int texcoord, const pm_uv_transform *t,
-                       float *u, float *v) {
-    interpolated_uv(s, s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, NULL), 1.f - b1 - b2, b1, b2, texcoord, u, v);
-    apply_uv_transform(t, u, v);
-}
-
-/* A texture reference's value at a point, from the point's interpolated TEXCOORD sets and the
- * footprint there in each set's UV units (0: level 0, bilinear). */
-static vec3 texture_at(const pm_scene *s, const float uv[2][2], const float footprint[2], int texture, int texcoord,
-                       const pm_uv_transform *t, bool srgb) {
-    if ((uint32_t)texture >= s->texture_count) return v3s(1.f); /* a material filled by hand with 0, not -1 */
-    float u = uv[texcoord == 1][0], v = uv[texcoord == 1][1];
-    apply_uv_transform(t, &u, &v);
-    const pm_texture *tex = &s->textures[texture];
-    float f = footprint[texcoord == 1];
-    if (f > 0.f) {
-        /* the transform scales areas by its determinant, lengths by its root */
-        if (t->transformed) f *= sqrtf(fabsf(t->m[0] * t->m[4] - t->m[1] * t->m[3]));
-        return pm_texture_filtered(tex, u, v, f * sqrtf((float)tex->width * (float)tex->height), srgb);
-    }
-    return texture_bilinear(tex, u, v, srgb);
-}
-
-float pm_texture_alpha(const pm_texture *t, float u, float v) {
-    if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return 1.f;
-    if (t->mag_nearest) return t->rgba[4 * nearest_texel(t, t->width, t->height, u, v) + 3] * (1.f / 255.f);
-    bilinear_taps b = bilinear(t, u, v);
-    float sum = 0.f;
-    for (int k = 0; k < 4; k++) sum += t->rgba[4 * b.texel[k] + 3] * b.weight[k];
-    return sum * (1.f / 255.f);
-}
-
-bool pm_material_can_be_transparent(const pm_scene *s, const pm_material *m) {
-    if (m->alpha_mode == PM_ALPHA_OPAQUE) return false;
-    /* bilinear filtering never goes below the smallest texel (and coverage is never read from a mip level) */
-    uint8_t least = 255;
-    if (m->base_color_texture >= 0 && (uint32_t)m->base_color_texture < s->texture_count) {
-        const pm_texture *t = &s->textures[m->base_color_texture];
-        size_t n = t->rgba ? (size_t)t->width * (size_t)t->height : 0;
-        for (size_t i = 0; i < n && least > 0; i++)
-            if (t->rgba[4 * i + 3] < least) least = t->rgba[4 * i + 3];
-    }
-    float smallest = m->alpha * (least / 255.f);
-    return m->alpha_mode == PM_ALPHA_MASK ? smallest < m->alpha_cutoff : smallest < 1.f;
-}
-
-/* A normal texel's (x, y), a slope along the texture's own axes (image right = +u', up = -v'), as the
- * same slope along the tangent frame's (+u, -v) when KHR_texture_transform maps (u, v) to (u', v') by
- * A = [m0 m1; m3 m4]. Slopes are gradients, which the chain rule carries by the transpose of the
- * map: in the (u, -v) axes that is F A^T F with F = diag(1, -1). Dividing by sqrt|det A| keeps a
- * uniform scale (tiling) from changing how steep the bumps are, so what is left is the inverse
- * of the UV rotation, with a mirror for a negative scale. */
-static inline void texture_slope_to_surface(const pm_uv_transform *t, float *x, float *y) {
-    float det = fabsf(t->m[0] * t->m[4] - t->m[1] * t->m[3]);
-    if (!(det > 0.f) || !isfinite(det)) return;
-    float k = 1.f / sqrtf(det), tx = *x, ty = *y;
-    *x = k * (t->m[0] * tx - t->m[3] * ty);
-    *y = k * (-t->m[1] * tx + t->m[4] * ty);
-}
-
-/* The shading normal a normal map gives at barycentrics (b0, b1, b2) of the triangle with
- * corners ix: the texel (linear, [0,1] -> [-1,1], x and y times the scale) in the frame of the
- * interpolated tangent T (orthogonalised against n), B = w cross(n, T) and n, the interpolated
- * normal already on ng's side.
- *
- * Guard against light leaks: the result is pulled back toward ng until dot(ns, ng) >=
- * PM_NORMAL_MAP_MIN_COS (keeping its azimuth around ng), so a steep texel never turns the
- * shading hemisphere under the surface. Energy: every integrator scatters about ns but drops
- * directions below the geometric plane (eye.c direct_light's shadow, emitter, sky and surface
- * rays, sample_reflection for gather rays and the visible point's gather, photonmap.c's diffuse
- * and glossy bounces), Lambert's sample weight is kd whatever ns is, and the glossy lobe (brdf.c)
- * is evaluated and sampled about ns with an albedo of at most 1 and is zero when wo or wi is
- * below ns: dropping directions only loses energy, so a normal map can darken but never
- * brighten a furnace (tests/test_normalmap.c). */
-static vec3 normal_mapped(const pm_scene *s, int texture, int texcoord, const pm_uv_transform *transform, float scale,
-                          const uint32_t *ix, const pm_placement *placement, const float b[3], const float uv[2][2],
-                          const float footprint[2], vec3 n, vec3 ng) {
-    vec3 t = v3s(0.f);
-    float w = 0.f;
-    for (int k = 0; k < 3; k++) {
-        const float *tk = s->tangents + 4 * (size_t)ix[k];
-        vec3 corner = v3(tk[0], tk[1], tk[2]);
-        /* a tangent is a direction, each corner's placed and made unit as the flattened copy stores it */
-        if (placement) corner = v3_normalize(pm_placement_direction(placement, corner));
-        t = v3_madd(t, corner, b[k]);
-        w += tk[3] * b[k];
-    }
-    if (placement) w *= placement->handedness; /* a mirror flips the bitangent, as in the loader */
-    t = v3_sub(t, v3_scale(n, v3_dot(t, n)));
-    float len = v3_length(t);
-    vec3 bt;
-    if (len > 1e-6f && isfinite(len)) {
-        t = v3_scale(t, 1.f / len);
-        bt = v3_scale(v3_cross(n, t), w < 0.f ? -1.f : 1.f);
-    } else {
-        v3_basis(n, &t, &bt); /* no usable tangent here: any frame around n */
-    }
-    vec3 c = texture_at(s, uv, footprint, texture, texcoord, transform, false);
-    float x = (2.f * c.x - 1.f) * scale, y = (2.f * c.y - 1.f) * scale, z = 2.f * c.z - 1.f;
-    if (transform->transformed) texture_slope_to_surface(transform, &x, &y);
-    vec3 p = v3_add(v3_add(v3_scale(t, x), v3_scale(bt, y)), v3_scale(n, z));
-    float plen = v3_length(p);
-    if (!(plen > 0.f) || !isfinite(plen)) return n;
-    p = v3_scale(p, 1.f / plen);
-    float cos_g = v3_dot(p, ng);
-    if (cos_g >= PM_NORMAL_MAP_MIN_COS) return p;
-    vec3 side = v3_sub(p, v3_scale(ng, cos_g));
-    float side_len = v3_length(side);
-    if (!(side_len > 1e-6f)) return ng;
-    const float c_min = PM_NORMAL_MAP_MIN_COS, s_min = sqrtf(1.f - PM_NORMAL_MAP_MIN_COS * PM_NORMAL_MAP_MIN_COS);
-    return v3_add(v3_scale(ng, c_min), v3_scale(side, s_min / side_len));
-}
-
-/* pm_scene_surface_scattering for a ray along dir with a cone `width` wide at the hit; the
- * footprint in each TEXCOORD set's UV units goes to footprint[] (both 0 for width 0). */
-static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, float width, vec3 dir,
-                               pm_surface *out, float footprint[2]) {
-    int32_t placement;
-    uint32_t stored = pm_scene_stored_triangle(s, tri, &placement);
-    const uint32_t *ix = s->indices + 3 * (size_t)stored;
-    float b0 = 1.f - b1 - b2;
-    vec3 ng = s->face_normals || placement >= 0 ? pm_scene_triangle_face_normal(s, tri)
-                                                : face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);
-    pm_scene_surface_point(s, tri, b1, b2, ng, out);
-    pm_scene_surface_shading(s, tri, b1, b2, out);
-    const pm_material *m = &s->materials[out->material];
-    /* texture coordinates only for a textured material: every photon bounce comes through here */
-    float uv[2][2] = {{0.f, 0.f}, {0.f, 0.f}};
-    footprint[0] = footprint[1] = 0.f;
-    if (m->base_color_texture >= 0 || m->metallic_roughness_texture >= 0 || m->transmission_texture >= 0 ||
-        m->normal_texture >= 0 || m->emission_texture >= 0 || layers_textured(m)) {
-        interpolated_uv(s, ix, b0, b1, b2, 0, &uv[0][0], &uv[0][1]);
-        if (s->uvs1) interpolated_uv(s, ix, b0, b1, b2, 1, &uv[1][0], &uv[1][1]);
-        if (width > 0.f && s->uv_density) {
-            /* the cone's cross-section on the surface: an ellipse 1/cos longer one way, taken as
-             * the circle of the same area */
-            float on_surface = width / sqrtf(pm_maxf(fabsf(v3_dot(ng, dir)), PM_FOOTPRINT_MIN_COS));
-            if (placement >= 0) { /* the density is per mesh-space area: scale the footprint back to mesh space */
-                vec3 p0 = s->positions[ix[0]], p1 = s->positions[ix[1]], p2 = s->positions[ix[2]], w[3];
-                pm_scene_stored_corners(s, stored, placement, w);
-                float mesh_area = v3_length(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
-                float world_area = v3_length(v3_cross(v3_sub(w[1], w[0]), v3_sub(w[2], w[0])));
-                if (world_area > 0.f) on_surface *= sqrtf(mesh_area / world_area);
-            }
-            footprint[0] = on_surface * s->uv_density[2 * (size_t)stored];
-            footprint[1] = on_surface * s->uv_density[2 * (size_t)stored + 1];
-        }
-    }
-    out->u = uv[0][0];
-    out->v = uv[0][1];
-    vec3 interpolated = out->ns; /* the coat's normal map bends the interpolated normal, not the base's map */
-    if (m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents) {
-        const float b[3] = {b0, b1, b2};
-        out->ns = normal_mapped(s, m->normal_texture, m->normal_texcoord, &m->normal_transform, m->normal_scale, ix,
-                                placement >= 0 ? &s->placements[placement] : NULL, b, uv, footprint, out->ns, out->ng);
-    }
-    if (m->uniform_split) {
-        out->kd = m->split_kd;
-        out->ks = m->split_ks;
-        out->ks_grazing = m->split_ks_grazing;
-        out->glass_alpha = m->split_glass_alpha;
-        out->kt = m->split_kt;
-        out->glossy = m->split_glossy;
-        if (out->glossy) out->brdf = m->split_brdf;
-    } else {
-        vec3 base = m->base_color;
-        if (m->base_color_texture >= 0)
-            base = v3_mul(base, texture_at(s, uv, footprint, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform, true));
-        float metallic = m->metallic, roughness = m->roughness, transmission = m->transmission;
-        if (m->metallic_roughness_texture >= 0) {
-            vec3 mr = texture_at(s, uv, footprint, m->metallic_roughness_texture, m->metallic_roughness_texcoord,
-                                 &m->metallic_roughness_transform, false);
-            roughness *= mr.y;
-            metallic *= mr.z;
-        }
-        if (m->transmission_texture >= 0 && transmission > 0.f)
-            transmission *= texture_at(s, uv, footprint, m->transmission_texture, m->transmission_texcoord, &m->transmission_transform,
-                                       false).x;
-        material_point(m, base, metallic, roughness, transmission, s, uv, footprint, &out->kd, &out->ks, &out->ks_grazing,
-                       &out->kt, &out->glossy, &out->brdf);
-        out->glass_alpha = pm_glass_alpha_at(roughness);
-    }
-    const pm_texture_ref *coat_map = &m->layers.clearcoat_normal_texture;
-    if (out->glossy && out->brdf.layered && out->brdf.clearcoat > 0.f && pm_material_coat_normal_mapped(m) &&
-        (uint32_t)coat_map->texture < s->texture_count && s->tangents) {
-        const float b[3] = {b0, b1, b2};
-        out->brdf.coat_n = normal_mapped(s, coat_map->texture, coat_map->texcoord, &coat_map->transform, m->layers.clearcoat_normal_scale,
-                                         ix, placement >= 0 ? &s->placements[placement] : NULL, b, uv, footprint, interpolated,
-                                         out->ng);
-        out->brdf.coat_normal = true;
-    }
-    out->ior = m->ior > 0.f ? m->ior : 1.5f;
-    out->thin = m->thin_walled;
-    out->emission = m->emission; /* the factor alone: pm_scene_surface applies the texture */
-    out->double_sided = m->double_sided;
-    out->unlit = false;
-}
-
-void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
-    float footprint[2];
-    surface_scattering(s, tri, b1, b2, 0.f, v3s(0.f), out, footprint);
-}
-
-void pm_scene_surface_footprint(const pm_scene *s, uint32_t tri, float b1, float b2, float width, vec3 dir,
-                                pm_surface *out) {
-    float footprint[2];
-    surface_scattering(s, tri, b1, b2, width, dir, out, footprint);
-    const pm_material *m = &s->materials[out->material];
-    /* the second UV set, for a texture of emission or of an unlit colour that reads it */
-    const uint32_t *ix = s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, NULL);
-    if (m->emission_texture >= 0 && !v3_is_black(m->emission)) {
-        float uv[2][2] = {{out->u, out->v}, {0.f, 0.f}};
-        if (s->uvs1) interpolated_uv(s, ix, 1.f - b1 - b2, b1, b2, 1, &uv[1][0], &uv[1][1]);
-        out->emission = v3_mul(m->emission, texture_at(s, uv, footprint, m->emission_texture, m->emission_texcoord,
-                                                       &m->emission_transform, true));
-    }
-    if (m->unlit) {
-        vec3 base = m->base_color;
-        if (m->base_color_texture >= 0) {
-            float uv[2][2] = {{out->u, out->v}, {0.f, 0.f}};
-            if (s->uvs1) interpolated_uv(s, ix, 1.f - b1 - b2, b1, b2, 1, &uv[1][0], &uv[1][1]);
-            base = v3_mul(base, texture_at(s, uv, footprint, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform, true));
-        }
-        out->emission = base;
-        out->unlit = true;
-    }
-}
-
-void pm_scene_surface(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
-    pm_scene_surface_footprint(s, tri, b1, b2, 0.f, v3s(0.f), out);
-}
-
-vec3 pm_surface_origin(const pm_surface *sf, vec3 side_normal, float scale) {
-    return pm_offset_surface_origin(sf->p, sf->centroid, side_normal, scale);
-}
-
-vec3 pm_scene_emission_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
-    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
-    if (m->emission_texture < 0 || v3_is_black(m->emission)) return m->emission;
-    float u, v;
-    pm_scene_texcoord(s, tri, b1, b2, m->emission_texcoord, &m->emission_transform, &u, &v);
-    return v3_mul(m->emission, pm_texture_lookup(&s->textures[m->emission_texture], u, v));
-}
-
-vec3 pm_scene_emitted_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
-    vec3 e = pm_scene_emission_at(s, tri, b1, b2);
-    return v3_is_black(e) ? e : v3_scale(e, coverage_at(s, tri, b1, b2));
-}
-
-float pm_scene_alpha_at(const pm_scene *s, uint32_t tri, float b1, float b2) {
-    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
-    if (m->alpha_mode == PM_ALPHA_OPAQUE) return 1.f;
-    if (m->base_color_texture < 0 || (uint32_t)m->base_color_texture >= s->texture_count) return m->alpha;
-    float u, v; /* the base colour texture's own set and transform, as pm_scene_surface reads it */
-    pm_scene_texcoord(s, tri, b1, b2, m->base_color_texcoord, &m->base_color_transform, &u, &v);
-    return m->alpha * pm_texture_alpha(&s->textures[m->base_color_texture], u, v);
 }
 
 float pm_scene_emitter_pdf(const pm_scene *s, uint32_t tri) {

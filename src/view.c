@@ -25,122 +25,10 @@
 #include <string.h>
 #include <unistd.h>
 
-#define GLFW_INCLUDE_NONE
-#include <GLFW/glfw3.h>
-#include <X11/Xlib.h>
-#include <X11/Xutil.h>
-/* GLFW's X11 access (glfw3native.h, whose X11 part needs the Xrandr headers): the first image is
- * put into the window by X11 itself (pm_view_show_quick) */
-Display *glfwGetX11Display(void);
-Window glfwGetX11Window(GLFWwindow *window);
-#include <GL/osmesa.h> /* also brings GL/gl.h and GL/glext.h: types and enums only */
-#include <GL/glx.h>    /* types and enums only: libGL's entry points are fetched with dlsym */
-
-#include "view.h"
+#include "view_state.h"
 #include "memory.h"
 
 #include "shaders.inc"
-
-/* the bars' grey in 8 bits, drawn by X11 before GL exists: copy_to_window's clear to 0.1 */
-#define PM_VIEW_BAR_GREY 26u
-
-/* Every GL function used here: return type, name without the gl prefix, parameters. */
-#define PM_GL_FUNCTIONS(X) \
-    X(GLenum, GetError, (void)) \
-    X(const GLubyte *, GetString, (GLenum name)) \
-    X(void, GetIntegerv, (GLenum pname, GLint *data)) \
-    X(void, Viewport, (GLint x, GLint y, GLsizei w, GLsizei h)) \
-    X(void, ClearColor, (GLfloat r, GLfloat g, GLfloat b, GLfloat a)) \
-    X(void, Clear, (GLbitfield mask)) \
-    X(void, Disable, (GLenum cap)) \
-    X(void, Enable, (GLenum cap)) \
-    X(void, Scissor, (GLint x, GLint y, GLsizei w, GLsizei h)) \
-    X(void, PixelStorei, (GLenum pname, GLint param)) \
-    X(void, ReadPixels, (GLint x, GLint y, GLsizei w, GLsizei h, GLenum format, GLenum type, void *pixels)) \
-    X(void, GenTextures, (GLsizei n, GLuint *textures)) \
-    X(void, DeleteTextures, (GLsizei n, const GLuint *textures)) \
-    X(void, BindTexture, (GLenum target, GLuint texture)) \
-    X(void, ActiveTexture, (GLenum texture)) \
-    X(void, TexParameteri, (GLenum target, GLenum pname, GLint param)) \
-    X(void, TexImage2D, (GLenum target, GLint level, GLint internalformat, GLsizei w, GLsizei h, GLint border, \
-                         GLenum format, GLenum type, const void *pixels)) \
-    X(void, TexSubImage2D, (GLenum target, GLint level, GLint x, GLint y, GLsizei w, GLsizei h, GLenum format, \
-                            GLenum type, const void *pixels)) \
-    X(void, GenFramebuffers, (GLsizei n, GLuint *framebuffers)) \
-    X(void, DeleteFramebuffers, (GLsizei n, const GLuint *framebuffers)) \
-    X(void, BindFramebuffer, (GLenum target, GLuint framebuffer)) \
-    X(void, FramebufferTexture2D, (GLenum target, GLenum attachment, GLenum textarget, GLuint texture, GLint level)) \
-    X(GLenum, CheckFramebufferStatus, (GLenum target)) \
-    X(void, BlitFramebuffer, (GLint sx0, GLint sy0, GLint sx1, GLint sy1, GLint dx0, GLint dy0, GLint dx1, GLint dy1, \
-                              GLbitfield mask, GLenum filter)) \
-    X(void, GenVertexArrays, (GLsizei n, GLuint *arrays)) \
-    X(void, DeleteVertexArrays, (GLsizei n, const GLuint *arrays)) \
-    X(void, BindVertexArray, (GLuint array)) \
-    X(void, DrawArrays, (GLenum mode, GLint first, GLsizei count)) \
-    X(GLuint, CreateShader, (GLenum type)) \
-    X(void, ShaderSource, (GLuint shader, GLsizei count, const GLchar *const *strings, const GLint *lengths)) \
-    X(void, CompileShader, (GLuint shader)) \
-    X(void, GetShaderiv, (GLuint shader, GLenum pname, GLint *params)) \
-    X(void, GetShaderInfoLog, (GLuint shader, GLsizei size, GLsizei *length, GLchar *log)) \
-    X(void, DeleteShader, (GLuint shader)) \
-    X(GLuint, CreateProgram, (void)) \
-    X(void, AttachShader, (GLuint program, GLuint shader)) \
-    X(void, LinkProgram, (GLuint program)) \
-    X(void, GetProgramiv, (GLuint program, GLenum pname, GLint *params)) \
-    X(void, GetProgramInfoLog, (GLuint program, GLsizei size, GLsizei *length, GLchar *log)) \
-    X(void, DeleteProgram, (GLuint program)) \
-    X(void, UseProgram, (GLuint program)) \
-    X(GLint, GetUniformLocation, (GLuint program, const GLchar *name)) \
-    X(void, Uniform1i, (GLint location, GLint v0)) \
-    X(void, Uniform1f, (GLint location, GLfloat v0)) \
-    X(void, Finish, (void))
-
-typedef struct {
-#define PM_GL_MEMBER(ret, name, params) ret (GLAPIENTRY *name) params;
-    PM_GL_FUNCTIONS(PM_GL_MEMBER)
-#undef PM_GL_MEMBER
-} pm_gl;
-
-typedef void (*pm_gl_proc)(void);
-typedef pm_gl_proc (*pm_gl_loader)(const char *name);
-
-enum { PM_BACKEND_WINDOW, PM_BACKEND_OFFSCREEN };
-
-struct pm_view {
-    int backend;
-    pm_gl gl;
-    bool gl_loaded;             /* every entry point in gl is set */
-    bool prepared;              /* the shaders, the FBO and the textures exist (a window's come after its first frame) */
-    int width, height;          /* the film, the FBO and the component textures */
-
-    GLFWwindow *window;
-    GLXContext glx_context;     /* the window's, made by pm_view_prepare */
-    Window gl_window;           /* the X11 window it draws into: a child filling GLFW's (see make_window_context) */
-    Colormap gl_colormap;
-    int gl_window_width, gl_window_height;
-    OSMesaContext osmesa;
-    void *osmesa_buffer;        /* OSMesa's default framebuffer; never drawn to, but it must exist */
-
-    GLuint program, vao, fbo, target, black;
-    GLuint component_tex[PM_COMPONENT_COUNT];
-    bool present[PM_COMPONENT_COUNT];
-    float scale;
-    GLint u_component[PM_COMPONENT_COUNT], u_enabled[PM_COMPONENT_COUNT], u_scale, u_exposure, u_tonemap, u_height;
-    GLuint reference_tex;       /* --reference's total, for the relative-error view; 0 = none */
-    int reference_width, reference_height;
-    GLint u_reference, u_error_view;
-
-    /* window input between callbacks; display is the caller's state, only set while polling */
-    pm_view_events pending;
-    pm_display *display;
-    bool title_set;
-    char title[128];
-    char status[512];
-    double last_x, last_y;      /* cursor, window pixels */
-    int buttons;                /* bit 0 left, 1 right, 2 middle held */
-    double last_click;          /* time of the last left press, for double clicks */
-    int asked_width, asked_height; /* the window size pm_view_set_size asked for: its size event is no user's resize */
-};
 
 static void draw_composite(pm_view *v, const pm_display *d);
 static void copy_to_window(pm_view *v);
@@ -637,225 +525,6 @@ pm_view *pm_view_create_offscreen(int width, int height, char *err, size_t err_s
     return v;
 }
 
-/* ---- window input ---- */
-
-static const char *const key_names[PM_COMPONENT_COUNT] = {"direct", "specular", "caustic", "indirect"};
-
-static void update_title(pm_view *v, const pm_display *d) {
-    char t[sizeof v->title + sizeof v->status + 192];
-    int n = snprintf(t, sizeof t, "%s %s", v->title, v->status);
-    for (int c = 0; c < PM_COMPONENT_COUNT && n < (int)sizeof t; c++)
-        n += snprintf(t + n, sizeof t - n, " [%d %s]", c + 1, d->enabled[c] ? key_names[c] : "off");
-    if (n < (int)sizeof t)
-        snprintf(t + n, sizeof t - n, "  ev %+.1f%s", d->exposure_ev, d->tonemap ? "  reinhard" : "");
-    glfwSetWindowTitle(v->window, t);
-}
-
-static void change_exposure(pm_display *d, float delta) {
-    /* the same range the command line accepts, so 2^ev stays a finite float */
-    float ev = d->exposure_ev + delta;
-    d->exposure_ev = ev > 64.f ? 64.f : ev < -64.f ? -64.f : ev;
-}
-
-static void on_key(GLFWwindow *window, int key, int scancode, int action, int mods) {
-    pm_view *v = glfwGetWindowUserPointer(window);
-    if (!v || action == GLFW_RELEASE) return;
-    bool repeatable = key == GLFW_KEY_EQUAL || key == GLFW_KEY_KP_ADD || key == GLFW_KEY_MINUS ||
-                      key == GLFW_KEY_KP_SUBTRACT;
-    pm_display *d = v->display;
-    bool changed = true;
-    bool fly_key = key == GLFW_KEY_W || key == GLFW_KEY_A || key == GLFW_KEY_S || key == GLFW_KEY_D ||
-                   key == GLFW_KEY_Q || key == GLFW_KEY_E;
-    if (action == GLFW_REPEAT && !repeatable && !fly_key) return;
-    v->pending.fast = v->pending.fast || (mods & GLFW_MOD_SHIFT);
-    switch (key) {
-    case GLFW_KEY_ESCAPE: v->pending.quit = true; return;
-    case GLFW_KEY_P: case GLFW_KEY_F12: v->pending.save_png = true; return;
-    case GLFW_KEY_W: v->pending.fly[0] += 1.f; return;
-    case GLFW_KEY_S: v->pending.fly[0] -= 1.f; return;
-    case GLFW_KEY_D: v->pending.fly[1] += 1.f; return;
-    case GLFW_KEY_A: v->pending.fly[1] -= 1.f; return;
-    case GLFW_KEY_E: v->pending.fly[2] += 1.f; return;
-    case GLFW_KEY_Q: v->pending.fly[2] -= 1.f; return;
-    case GLFW_KEY_F: v->pending.frame = true; return;
-    case GLFW_KEY_C: v->pending.next_camera = true; return;
-    case GLFW_KEY_M: v->pending.next_variant = true; return;
-    case GLFW_KEY_HOME: v->pending.home = true; return;
-    case GLFW_KEY_G: v->pending.toggle_gather = true; return;
-    case GLFW_KEY_V: v->pending.cycle_view = true; return;
-    case GLFW_KEY_SPACE: v->pending.pause = true; return;
-    case GLFW_KEY_R: v->pending.restart = true; return;
-    case GLFW_KEY_H: v->pending.help = true; return;
-    default: break;
-    }
-    if (!d) return;
-    switch (key) {
-    case GLFW_KEY_1: case GLFW_KEY_2: case GLFW_KEY_3: case GLFW_KEY_4:
-        d->enabled[key - GLFW_KEY_1] = !d->enabled[key - GLFW_KEY_1];
-        break;
-    case GLFW_KEY_KP_1: case GLFW_KEY_KP_2: case GLFW_KEY_KP_3: case GLFW_KEY_KP_4:
-        d->enabled[key - GLFW_KEY_KP_1] = !d->enabled[key - GLFW_KEY_KP_1];
-        break;
-    case GLFW_KEY_EQUAL: case GLFW_KEY_KP_ADD: change_exposure(d, 0.5f); break;
-    case GLFW_KEY_MINUS: case GLFW_KEY_KP_SUBTRACT: change_exposure(d, -0.5f); break;
-    case GLFW_KEY_0: case GLFW_KEY_KP_0:
-        d->exposure_ev = 0.f;
-        for (int c = 0; c < PM_COMPONENT_COUNT; c++) d->enabled[c] = true;
-        break;
-    case GLFW_KEY_T: d->tonemap = !d->tonemap; break;
-    default: changed = false; break;
-    }
-    if (changed) v->pending.display_changed = true;
-}
-
-/* Window pixels to film pixels (the film is letterboxed into the window). */
-static void window_to_film(const pm_view *v, double wx, double wy, double *fx, double *fy) {
-    int ww = 1, wh = 1;
-    glfwGetWindowSize(v->window, &ww, &wh);
-    double s = fmin((double)ww / v->width, (double)wh / v->height);
-    *fx = (wx - 0.5 * (ww - v->width * s)) / s;
-    *fy = (wy - 0.5 * (wh - v->height * s)) / s;
-}
-
-static void on_mouse_button(GLFWwindow *window, int button, int action, int mods) {
-    pm_view *v = glfwGetWindowUserPointer(window);
-    if (!v) return;
-    int bit = button == GLFW_MOUSE_BUTTON_LEFT ? 1 : (button == GLFW_MOUSE_BUTTON_RIGHT ? 2 : (button == GLFW_MOUSE_BUTTON_MIDDLE ? 4 : 0));
-    if (action == GLFW_PRESS) {
-        v->buttons |= bit;
-        glfwGetCursorPos(window, &v->last_x, &v->last_y);
-        if (bit == 1) {
-            double now = glfwGetTime();
-            if (now - v->last_click < 0.35) {
-                v->pending.pick = true;
-                window_to_film(v, v->last_x, v->last_y, &v->pending.pick_x, &v->pending.pick_y);
-            }
-            v->last_click = now;
-        }
-    } else {
-        v->buttons &= ~bit;
-    }
-    v->pending.fast = v->pending.fast || (mods & GLFW_MOD_SHIFT);
-}
-
-static void on_cursor(GLFWwindow *window, double x, double y) {
-    pm_view *v = glfwGetWindowUserPointer(window);
-    if (!v || !v->buttons) return;
-    double dx = x - v->last_x, dy = y - v->last_y;
-    v->last_x = x;
-    v->last_y = y;
-    if (v->buttons & 1) { v->pending.orbit_dx += dx; v->pending.orbit_dy += dy; }
-    else { v->pending.pan_dx += dx; v->pending.pan_dy += dy; }
-}
-
-/* A window's pixels that no monitor shows are not worth rendering: a film for a window larger
- * than the primary monitor keeps the window's shape at the monitor's size (as a window made for a
- * film larger than the screen is smaller than it), and the picture is scaled up into the window.
- * An 8192 x 8192 window on a small screen thus renders, uploads and composes a screenful, not 67
- * million pixels of float textures that took a software OpenGL half a minute to take in. */
-static void on_framebuffer_size(GLFWwindow *window, int width, int height) {
-    pm_view *v = glfwGetWindowUserPointer(window);
-    if (!v || width < 1 || height < 1) return; /* minimised: keep rendering at the old size */
-    GLFWmonitor *monitor = glfwGetPrimaryMonitor();
-    const GLFWvidmode *mode = monitor ? glfwGetVideoMode(monitor) : NULL;
-    int ww = 0, wh = 0;
-    glfwGetWindowSize(window, &ww, &wh);
-    if (v->asked_width && ww == v->asked_width && wh == v->asked_height) {
-        /* the size pm_view_set_size gave the film's window, not a resize by the user */
-        v->asked_width = v->asked_height = 0;
-        return;
-    }
-    if (mode && ww > 0 && wh > 0) {
-        /* the monitor's size in framebuffer pixels (screen coordinates times the window's pixel ratio) */
-        double mw = (double)mode->width * width / ww, mh = (double)mode->height * height / wh;
-        double s = fmin(1.0, fmin(mw / width, mh / height));
-        if (s < 1.0) {
-            width = (int)(width * s) > 0 ? (int)(width * s) : 1;
-            height = (int)(height * s) > 0 ? (int)(height * s) : 1;
-        }
-    }
-    v->pending.resized_width = width;
-    v->pending.resized_height = height;
-}
-
-/* The part of the window's framebuffer that some monitor shows, in GL's framebuffer coordinates
- * (origin at the bottom): clearing and scaling the picture into the rest (most of an 8192 x 8192
- * window on a small screen) took a software OpenGL seconds a frame. The whole framebuffer when
- * GLFW knows no monitor or the window seems to be on none. */
-static void shown_part(const pm_view *v, int fw, int fh, int rect[4]) {
-    rect[0] = rect[1] = 0;
-    rect[2] = fw;
-    rect[3] = fh;
-    int ww = 0, wh = 0, wx = 0, wy = 0, count = 0;
-    glfwGetWindowSize(v->window, &ww, &wh);
-    glfwGetWindowPos(v->window, &wx, &wy);
-    GLFWmonitor **monitors = glfwGetMonitors(&count);
-    if (ww < 1 || wh < 1 || !monitors) return;
-    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-    for (int m = 0; m < count; m++) {
-        const GLFWvidmode *mode = glfwGetVideoMode(monitors[m]);
-        int mx = 0, my = 0;
-        glfwGetMonitorPos(monitors[m], &mx, &my);
-        if (!mode) continue;
-        /* the monitor's rectangle in window coordinates, clipped to the window */
-        double x0 = fmax(0.0, mx - wx), y0 = fmax(0.0, my - wy);
-        double x1 = fmin(ww, mx + mode->width - wx), y1 = fmin(wh, my + mode->height - wy);
-        if (x1 <= x0 || y1 <= y0) continue;
-        lo[0] = fmin(lo[0], x0), lo[1] = fmin(lo[1], y0), hi[0] = fmax(hi[0], x1), hi[1] = fmax(hi[1], y1);
-    }
-    if (!(hi[0] > lo[0] && hi[1] > lo[1])) return;
-    double sx = (double)fw / ww, sy = (double)fh / wh;
-    int x0 = (int)floor(lo[0] * sx), x1 = (int)ceil(hi[0] * sx), y0 = (int)floor(lo[1] * sy), y1 = (int)ceil(hi[1] * sy);
-    rect[0] = x0;
-    rect[1] = fh - (y1 < fh ? y1 : fh);
-    rect[2] = (x1 < fw ? x1 : fw) - x0;
-    rect[3] = (y1 < fh ? y1 : fh) - y0;
-}
-
-static void on_scroll(GLFWwindow *window, double xoffset, double yoffset) {
-    pm_view *v = glfwGetWindowUserPointer(window);
-    if (v) v->pending.dolly += yoffset;
-}
-
-void pm_view_set_status(pm_view *v, const char *status) {
-    if (!v || v->backend != PM_BACKEND_WINDOW) return;
-    snprintf(v->status, sizeof v->status, "%s", status ? status : "");
-    v->title_set = false; /* the next poll rewrites the title */
-}
-
-void pm_view_drop(pm_view *v, const char *path) {
-    if (v && path) snprintf(v->pending.dropped, sizeof v->pending.dropped, "%s", path);
-}
-
-/* GLFW's drop: the first file of what was dropped (one scene or one sky at a time). */
-static void on_drop(GLFWwindow *window, int count, const char **paths) {
-    pm_view *v = glfwGetWindowUserPointer(window);
-    if (v && count > 0) pm_view_drop(v, paths[0]);
-}
-
-/* Tests drive the drop handler through a file, since a virtual X server has no drag source:
- * PMVIEW_TEST_DROP names a file whose first line, once it appears, is dropped (the file removed). */
-static void test_drop(pm_view *v) {
-    static const char *hook;
-    static bool looked;
-    if (!looked) { hook = getenv("PMVIEW_TEST_DROP"); looked = true; }
-    if (!hook) return;
-    FILE *f = fopen(hook, "r");
-    if (!f) return;
-    char line[sizeof v->pending.dropped] = "";
-    bool read = fgets(line, sizeof line, f) != NULL;
-    fclose(f);
-    if (!read || !strchr(line, '\n')) return; /* still being written */
-    *strchr(line, '\n') = '\0';
-    unlink(hook);
-    pm_view_drop(v, line);
-}
-
-static void on_close(GLFWwindow *window) {
-    pm_view *v = glfwGetWindowUserPointer(window);
-    if (v) v->pending.quit = true;
-}
-
 /* A film larger than the screen gets a smaller window of the same shape; the picture is scaled
  * into it and the saved PNG keeps the film's full size. */
 static void window_size_for(int width, int height, int *win_w, int *win_h) {
@@ -896,13 +565,7 @@ pm_view *pm_view_create_window(int width, int height, const char *title, char *e
         return NULL;
     }
     glfwSetWindowUserPointer(v->window, v);
-    glfwSetKeyCallback(v->window, on_key);
-    glfwSetMouseButtonCallback(v->window, on_mouse_button);
-    glfwSetCursorPosCallback(v->window, on_cursor);
-    glfwSetScrollCallback(v->window, on_scroll);
-    glfwSetFramebufferSizeCallback(v->window, on_framebuffer_size);
-    glfwSetWindowCloseCallback(v->window, on_close);
-    glfwSetDropCallback(v->window, on_drop);
+    pm_view_listen(v);
     /* The first frame: the bars' grey, the X server's own background for the window until GL
      * draws. The GL context, the compose shader and Mesa's software rasteriser turning it into
      * code at its first draw take longer than opening the window; pm_view_prepare does them while
@@ -1158,6 +821,40 @@ static void draw_composite(pm_view *v, const pm_display *d) {
 }
 
 /* The FBO copied into the window's back buffer. */
+/* The part of the window's framebuffer that some monitor shows, in GL's framebuffer coordinates
+ * (origin at the bottom): clearing and scaling the picture into the rest (most of an 8192 x 8192
+ * window on a small screen) took a software OpenGL seconds a frame. The whole framebuffer when
+ * GLFW knows no monitor or the window seems to be on none. */
+static void shown_part(const pm_view *v, int fw, int fh, int rect[4]) {
+    rect[0] = rect[1] = 0;
+    rect[2] = fw;
+    rect[3] = fh;
+    int ww = 0, wh = 0, wx = 0, wy = 0, count = 0;
+    glfwGetWindowSize(v->window, &ww, &wh);
+    glfwGetWindowPos(v->window, &wx, &wy);
+    GLFWmonitor **monitors = glfwGetMonitors(&count);
+    if (ww < 1 || wh < 1 || !monitors) return;
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int m = 0; m < count; m++) {
+        const GLFWvidmode *mode = glfwGetVideoMode(monitors[m]);
+        int mx = 0, my = 0;
+        glfwGetMonitorPos(monitors[m], &mx, &my);
+        if (!mode) continue;
+        /* the monitor's rectangle in window coordinates, clipped to the window */
+        double x0 = fmax(0.0, mx - wx), y0 = fmax(0.0, my - wy);
+        double x1 = fmin(ww, mx + mode->width - wx), y1 = fmin(wh, my + mode->height - wy);
+        if (x1 <= x0 || y1 <= y0) continue;
+        lo[0] = fmin(lo[0], x0), lo[1] = fmin(lo[1], y0), hi[0] = fmax(hi[0], x1), hi[1] = fmax(hi[1], y1);
+    }
+    if (!(hi[0] > lo[0] && hi[1] > lo[1])) return;
+    double sx = (double)fw / ww, sy = (double)fh / wh;
+    int x0 = (int)floor(lo[0] * sx), x1 = (int)ceil(hi[0] * sx), y0 = (int)floor(lo[1] * sy), y1 = (int)ceil(hi[1] * sy);
+    rect[0] = x0;
+    rect[1] = fh - (y1 < fh ? y1 : fh);
+    rect[2] = (x1 < fw ? x1 : fw) - x0;
+    rect[3] = (y1 < fh ? y1 : fh) - y0;
+}
+
 static void copy_to_window(pm_view *v) {
     /* Copy to the window, as large as fits with the film's aspect ratio, bars in dark grey. */
     int fw = 0, fh = 0;
@@ -1216,24 +913,6 @@ void pm_view_read_rgba8(pm_view *v, uint8_t *rgba) {
             memcpy(b + at, tmp, n);
         }
     }
-}
-
-pm_view_events pm_view_poll(pm_view *v, pm_display *d, bool wait, double timeout) {
-    pm_view_events none;
-    memset(&none, 0, sizeof none);
-    if (!v || v->backend != PM_BACKEND_WINDOW) return none;
-    v->display = d;
-    if (d && !v->title_set) { update_title(v, d); v->title_set = true; }
-    /* GLFW rejects a zero or infinite timeout */
-    if (wait && timeout > 0 && isfinite(timeout)) glfwWaitEventsTimeout(timeout);
-    else glfwPollEvents();
-    v->display = NULL;
-    if (glfwWindowShouldClose(v->window)) v->pending.quit = true;
-    test_drop(v);
-    pm_view_events ev = v->pending;
-    v->pending = none;
-    if (ev.display_changed && d) update_title(v, d);
-    return ev;
 }
 
 bool pm_view_is_window(const pm_view *v) {

@@ -386,40 +386,85 @@ void pm_window_close(pm_window *w) {
     free(w);
 }
 
-int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, const pm_window_scene *start,
-                  const pm_window_reloader *reloader) {
+/* ---- the window's loop: its state, its set-up, one function a phase of a turn, its ending ---- */
+
+/* everything the loop carries from one turn to the next */
+typedef struct {
+    pm_window *w;
+    const pm_options *opt;
+    pm_cluster *cluster;
+    const pm_window_reloader *reloader;
+    pm_view *view;
+    int ranks;
     char err[1024];
-    int ranks = pm_cluster_size(cluster);
     merged_layers merged;
-    memset(&merged, 0, sizeof merged);
-    /* Ctrl-C in the terminal during a P save: the half-written file goes with the process */
-    pm_exit_on_signals();
-    pm_window_scene cur = *start;
-    double first_image_realtime = 0; /* the wall clock at the first image, for a time from the process's exec */
-    double first_image_cpu = 0;      /* the process's processor time then, its loading before main() included */
-    const pm_film *film = pm_session_film(cur.session);
-    int width = film->width, height = film->height;
-    pm_view *view = w->view;
+    pm_window_scene cur;
+    double first_image;          /* from the process's start */
+    double first_image_realtime; /* the wall clock at the first image, for a time from the process's exec */
+    double first_image_cpu;      /* the process's processor time then, its loading before main() included */
+    int width, height;
+    pm_display display;
+    /* the scene shown: its file (a dropped one replaces it) and a dropped sky */
+    char scene_path[4096], sky[4096];
+    char tracing[160];
+    float *total; /* --reference: the title's relMSE, V's error view */
+    watcher watch;
+    reload_job job;
+    char dropped[4096]; /* a dropped file waiting for the reload in flight to end */
+    /* KHR_materials_variants: the variant shown (-1: the file's default materials), the one M asked
+     * for and not yet loaded (-2: none), and its name for the title */
+    int variant, wanted_variant;
+    char variant_note[160];
+    char notice[1200]; /* a failed reload or drop, in the title until the next success */
+    char status[1600];
+    uint64_t reloads, failed_reloads;
+    double relmse, ratio[3];
+    double process_start, first_frame, restart_requested, restart_to_image;
+    uint64_t loops, frames, restarts;
+    /* While the camera moves (changes less than PM_WINDOW_MOTION_GAP apart): how long, and how many
+     * new images, of a camera asked for since the motion began, reached the screen. Frames drawn
+     * count redraws of an old image too; this is what makes motion look fluid. */
+    double last_move, motion_seconds;
+    uint64_t motion_images;
+    int coarsest_preview;
+    double loop_start;
+    pm_camera camera, home;
+    vec3 pivot;
+    float step;
+    uint32_t camera_index;
+    uint64_t version;
+    bool finished_said, paused;
+    int view_mode;
+    int indirect; /* the G key's setting */
+    /* this turn: the title and the window want redrawing */
+    bool notice_changed, redraw;
+} window_run;
+
+/* The session started, its first image shown if it comes soon, the view prepared: 0, or 1 with the
+ * error printed (and, under mpirun, the other ranks told). */
+static int start_showing(window_run *r) {
+    pm_window *w = r->w;
+    pm_cluster *cluster = r->cluster;
+    pm_session *session = r->cur.session;
     /* the session first: its preview renders while the view's preparation may still be running */
-    if ((cluster && !pm_session_keep_packed(cur.session, true)) || !pm_session_start(cur.session, err, sizeof err)) {
-        if (cluster) pm_cluster_abort(cluster, pm_session_error(cur.session));
-        fprintf(stderr, "pmview: error: %s\n", err);
+    if ((cluster && !pm_session_keep_packed(session, true)) || !pm_session_start(session, r->err, sizeof r->err)) {
+        if (cluster) pm_cluster_abort(cluster, pm_session_error(session));
+        fprintf(stderr, "pmview: error: %s\n", r->err);
         return 1;
     }
     /* A set-up that finished before the shader was wanted: the session's first image (its coarse
      * preview, out within milliseconds) is shown composed on the CPU, then the shader is built. */
-    double first_image = 0;
     if (!w->preparation.started) {
         double give_up = pm_now_seconds() + PM_QUICK_IMAGE_WAIT_SECONDS;
         uint64_t seen = 0;
         while (pm_now_seconds() < give_up) {
-            const float *const *quick = pm_session_lock_latest(cur.session, &seen, NULL);
+            const float *const *quick = pm_session_lock_latest(session, &seen, NULL);
             if (quick) {
-                pm_view_show_quick(view, width, height, quick, &w->display);
-                pm_session_unlock_latest(cur.session);
-                first_image = pm_now_seconds() - w->process_start;
-                first_image_realtime = pm_realtime_seconds();
-                first_image_cpu = pm_process_cpu_seconds();
+                pm_view_show_quick(r->view, r->width, r->height, quick, &w->display);
+                pm_session_unlock_latest(session);
+                r->first_image = pm_now_seconds() - w->process_start;
+                r->first_image_realtime = pm_realtime_seconds();
+                r->first_image_cpu = pm_process_cpu_seconds();
                 break;
             }
             nanosleep(&(struct timespec){.tv_nsec = 1000000}, NULL);
@@ -427,389 +472,461 @@ int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, cons
     }
     /* the first image is up (or not coming soon): the iterations may take the cores now (a session
      * the set-up started was held at its preview while the window opened) */
-    pm_session_hold(cur.session, false);
-    if (!prepared(w, err, sizeof err) || !pm_view_set_size(view, width, height, err, sizeof err)) {
-        if (cluster) pm_cluster_abort(cluster, err); /* the other ranks are waiting for its commands */
-        fprintf(stderr, "pmview: error: %s\n", err);
-        pm_session_stop(cur.session);
+    pm_session_hold(session, false);
+    if (!prepared(w, r->err, sizeof r->err) || !pm_view_set_size(r->view, r->width, r->height, r->err, sizeof r->err)) {
+        if (cluster) pm_cluster_abort(cluster, r->err); /* the other ranks are waiting for its commands */
+        fprintf(stderr, "pmview: error: %s\n", r->err);
+        pm_session_stop(session);
         return 1;
     }
-    pm_display display = w->display;
-    /* the scene shown: its file (a dropped one replaces it) and a dropped sky */
-    char scene_path[4096], sky[4096] = "";
-    snprintf(scene_path, sizeof scene_path, "%s", opt->scene_path);
-    char tracing[160];
-    snprintf(tracing, sizeof tracing, "tracing %.140s", file_name(scene_path));
-    pm_view_set_status(view, tracing);
-    /* --reference: the title's relMSE, V's error view */
-    float *total = NULL;
-    if (cur.reference) {
-        total = pm_malloc(3 * sizeof(float) * (size_t)cur.reference->width * cur.reference->height, "the window's reference measure");
-        if (!total) cur.reference = NULL;
-        show_reference(view, cur.reference);
+    return 0;
+}
+
+/* the loop's state before its first turn, the view prepared */
+static void start_loop(window_run *r) {
+    const pm_options *opt = r->opt;
+    r->display = r->w->display;
+    snprintf(r->scene_path, sizeof r->scene_path, "%s", opt->scene_path);
+    r->sky[0] = '\0';
+    snprintf(r->tracing, sizeof r->tracing, "tracing %.140s", file_name(r->scene_path));
+    pm_view_set_status(r->view, r->tracing);
+    if (r->cur.reference) {
+        r->total = pm_malloc(3 * sizeof(float) * (size_t)r->cur.reference->width * r->cur.reference->height,
+                             "the window's reference measure");
+        if (!r->total) r->cur.reference = NULL;
+        show_reference(r->view, r->cur.reference);
     }
-    watcher watch = {.fd = -1};
-    if (opt->watch && reloader) watch_start(&watch, scene_path, opt); /* (main refuses --watch under mpirun) */
-    reload_job job;
-    memset(&job, 0, sizeof job);
-    job.reloader = reloader;
-    job.view = view;
-    atomic_init(&job.done, false);
-    char dropped[4096] = "";   /* a dropped file waiting for the reload in flight to end */
-    /* KHR_materials_variants: the variant shown (-1: the file's default materials), the one M asked
-     * for and not yet loaded (-2: none), and its name for the title */
-    int variant = variant_index(cur.scene, opt->variant), wanted_variant = -2;
-    char variant_note[160] = "";
-    if (variant >= 0) {
+    r->watch = (watcher){.fd = -1};
+    if (opt->watch && r->reloader) watch_start(&r->watch, r->scene_path, opt); /* (main refuses --watch under mpirun) */
+    r->job.reloader = r->reloader;
+    r->job.view = r->view;
+    atomic_init(&r->job.done, false);
+    r->variant = variant_index(r->cur.scene, opt->variant);
+    r->wanted_variant = -2;
+    if (r->variant >= 0) {
         char shown[128];
-        printable_name(variant_name(cur.scene, variant), shown, sizeof shown);
-        snprintf(variant_note, sizeof variant_note, "variant %s  ", shown);
+        printable_name(variant_name(r->cur.scene, r->variant), shown, sizeof shown);
+        snprintf(r->variant_note, sizeof r->variant_note, "variant %s  ", shown);
     }
-    char notice[1200] = "";    /* a failed reload or drop, in the title until the next success */
-    char status[1600] = "";
-    uint64_t reloads = 0, failed_reloads = 0;
-    double relmse = -1, ratio[3] = {0, 0, 0};
+    r->relmse = -1;
     /* no frame is drawn here: the window's grey one is on screen, and the first image (the
      * session's preview) follows within milliseconds */
-    double process_start = w->process_start, first_frame = w->first_frame, restart_requested = 0, restart_to_image = 0;
-    uint64_t loops = 0, frames = 1, restarts = 0;
-    /* While the camera moves (changes less than PM_WINDOW_MOTION_GAP apart): how long, and how many
-     * new images, of a camera asked for since the motion began, reached the screen. Frames drawn
-     * count redraws of an old image too; this is what makes motion look fluid. */
-    double last_move = -1, motion_seconds = 0;
-    uint64_t motion_images = 0;
-    int coarsest_preview = 0;
-    double loop_start = pm_now_seconds();
-    pm_camera camera = cur.camera, home = cur.camera;
-    vec3 pivot = cur.scene->center;
-    float step = 0.05f * (cur.scene->radius > 0.f ? cur.scene->radius : 1.f);
-    uint32_t camera_index = opt->camera >= 0 ? (uint32_t)opt->camera : 0;
-    uint64_t version = 0;
-    bool finished_said = false, paused = false;
-    int view_mode = PM_VIEW_SHADED;
-    int indirect = opt->indirect; /* the G key's setting */
-    int code = 0;
-    for (;;) {
-        pm_view_events ev = pm_view_poll(view, &display, true, 1.0 / 60.0);
-        if (ev.quit || w->quit) break;
-        pm_session *session = cur.session;
-        const pm_scene *scene = cur.scene;
-        bool moved = false;
-        pm_camera before = camera;
-        if (ev.orbit_dx != 0 || ev.orbit_dy != 0)
-            camera = pm_camera_orbit(camera, pivot, (float)(-ev.orbit_dx * 0.01), (float)(-ev.orbit_dy * 0.01));
-        if (ev.pan_dx != 0 || ev.pan_dy != 0) camera = pm_camera_pan(camera, &pivot, (float)ev.pan_dx, (float)ev.pan_dy, height);
-        if (ev.dolly != 0) camera = pm_camera_dolly(camera, pivot, (float)ev.dolly);
-        if (ev.fly[0] != 0 || ev.fly[1] != 0 || ev.fly[2] != 0) camera = pm_camera_fly(camera, &pivot, ev.fly, ev.fast ? 5.f * step : step);
-        if (ev.frame) { camera = pm_camera_frame(scene, camera, (float)width / height); pivot = scene->center; }
-        if (ev.home) { camera = home; pivot = scene->center; }
-        if (ev.next_camera && scene->camera_count) {
-            camera_index = (camera_index + 1) % scene->camera_count;
-            camera = scene->cameras[camera_index];
-            pivot = scene->center;
-        }
-        if (ev.pick) {
-            vec3 o, d;
-            pm_hit h;
-            pm_camera_ray(&camera, width, height, (float)ev.pick_x, (float)ev.pick_y, &o, &d);
-            if (pm_accel_intersect(cur.accel, o, d, INFINITY, &h)) pivot = v3_madd(o, d, h.t);
-        }
-        moved = memcmp(&before, &camera, sizeof camera) != 0;
-        if (moved) {
-            double t = pm_now_seconds();
-            if (last_move >= 0 && t - last_move < PM_WINDOW_MOTION_GAP) motion_seconds += t - last_move;
-            last_move = t;
-        }
-        if (moved || ev.restart) {
-            pm_session_request_restart(session, moved ? &camera : NULL, -1);
-            pm_cluster_send_restart(cluster, moved ? &camera : NULL, -1);
-            merged.shown = false;
-            if (restart_requested == 0) restart_requested = pm_now_seconds();
-        }
-        if (ev.toggle_gather && opt->mode == PM_MODE_PROGRESSIVE) {
-            indirect = indirect == PM_INDIRECT_GATHER ? PM_INDIRECT_PHOTONS : PM_INDIRECT_GATHER;
-            pm_session_request_restart(session, NULL, indirect);
-            pm_cluster_send_restart(cluster, NULL, indirect);
-            merged.shown = false;
-            printf("pmview: indirect light by %s\n", indirect == PM_INDIRECT_GATHER ? "final gathering" : "photons at the visible point");
-        }
-        if (ev.pause) {
-            paused = !paused;
-            pm_session_pause(session, paused);
-            pm_cluster_send_pause(cluster, paused);
-        }
-        if (ev.help) fputs(window_help, stdout);
-        bool redraw = ev.display_changed;
-        if (ev.cycle_view) {
-            static const char *const names[PM_VIEW_COUNT] = {"shaded", "photon density (false colour, log scale)",
-                                                             "radius (false colour, log scale)"};
-            /* shaded, the progressive mode's photon density and radius, then with --reference each
-             * pixel's relative error, and round again */
-            if (display.error_view) {
-                display.error_view = false;
-                view_mode = PM_VIEW_SHADED;
-                printf("pmview: view: %s\n", names[view_mode]);
-            } else if (view_mode + 1 < PM_VIEW_COUNT && pm_session_set_view(session, (pm_session_view)(view_mode + 1))) {
-                view_mode++;
-                printf("pmview: view: %s\n", names[view_mode]);
-            } else if (cur.reference && total) {
-                if (view_mode != PM_VIEW_SHADED) pm_session_set_view(session, PM_VIEW_SHADED);
-                view_mode = PM_VIEW_SHADED;
-                display.error_view = true;
-                printf("pmview: view: relative error against %s (false colour, log scale: blue 0.001, green 0.03, red 1)\n",
-                       file_name(opt->reference));
-            } else {
-                bool had_none = view_mode == PM_VIEW_SHADED;
-                view_mode = PM_VIEW_SHADED;
-                pm_session_set_view(session, PM_VIEW_SHADED);
-                if (had_none) printf("pmview: the photon density and radius views need the progressive mode\n");
-                else printf("pmview: view: %s\n", names[view_mode]);
-            }
-            redraw = true;
-        }
-        if (ev.resized_width && (ev.resized_width != width || ev.resized_height != height)) {
-            /* a new size is a new film, rendered with the camera as it is */
-            if (!pm_session_resize(session, ev.resized_width, ev.resized_height, &camera)) {
-                fprintf(stderr, "pmview: error: %s (window resized to %dx%d); keeping %dx%d\n", pm_session_error(session),
-                        ev.resized_width, ev.resized_height, width, height);
-            } else {
-                pm_cluster_send_resize(cluster, ev.resized_width, ev.resized_height, &camera);
-                merged.shown = false;
-                width = ev.resized_width;
-                height = ev.resized_height;
-                printf("pmview: rendering at %dx%d\n", width, height);
-            }
-        }
-        /* --watch and drops: a dropped file while a reload runs waits for it; a bad file changes
-         * nothing but the title */
-        bool notice_changed = false;
-        /* M: the next material variant, then the file's default materials, and round again; the
-         * file is loaded again with it and rendered from scratch, the camera kept */
-        if (ev.next_variant) {
-            if (!scene->variant_count) {
-                snprintf(notice, sizeof notice, "%.400s has no material variants  ", file_name(scene_path));
-                fprintf(stderr, "pmview: %s has no material variants (KHR_materials_variants): M changes nothing\n", scene_path);
-                notice_changed = true;
-            } else if (!reloader) {
-                snprintf(notice, sizeof notice, "material variants: for a single process, not under mpirun  ");
-                fprintf(stderr, "pmview: material variants are for a single process: under mpirun every rank would have to reload alike\n");
-                notice_changed = true;
-            } else {
-                int from = wanted_variant >= -1 ? wanted_variant : variant;
-                wanted_variant = from + 1 < (int)scene->variant_count ? from + 1 : -1;
-            }
-        }
-        if (ev.dropped[0]) {
-            if (!reloader) {
-                snprintf(notice, sizeof notice, "drop: a dropped file is for a single process, not under mpirun  ");
-                notice_changed = true;
-            } else if (pm_has_extension(ev.dropped, ".gltf") || pm_has_extension(ev.dropped, ".glb") ||
-                       pm_has_extension(ev.dropped, ".hdr") || pm_has_extension(ev.dropped, ".exr")) {
-                snprintf(dropped, sizeof dropped, "%s", ev.dropped);
-            } else {
-                snprintf(notice, sizeof notice, "drop: %.400s is not a .gltf, .glb, .hdr or .exr file  ", file_name(ev.dropped));
-                fprintf(stderr, "pmview: error: %s: dropped, but not a .gltf, .glb, .hdr or .exr file\n", ev.dropped);
-                notice_changed = true;
-            }
-        }
-        watch_read(&watch);
-        if (reloader && !job.running) {
-            if (dropped[0]) {
-                bool is_sky = pm_has_extension(dropped, ".hdr") || pm_has_extension(dropped, ".exr");
-                int sw = 0, sh = 0;
-                if (is_sky && !pm_environment_size(dropped, &sw, &sh, err, sizeof err)) {
-                    snprintf(notice, sizeof notice, "drop failed: %s  ", err);
-                    fprintf(stderr, "pmview: error: %s\n", err);
-                    failed_reloads++;
-                    notice_changed = true;
-                } else {
-                    /* a sky keeps the variant; another file starts with its default materials */
-                    reload_start(&job, is_sky ? RELOAD_SKY : RELOAD_SCENE, is_sky ? scene_path : dropped, is_sky ? dropped : sky,
-                                 width, height, &camera, is_sky ? variant : -1, is_sky ? variant_name(scene, variant) : NULL);
-                }
-                dropped[0] = '\0';
-            } else if (watch.pending && pm_now_seconds() - watch.last_event >= PM_WATCH_SETTLE_SECONDS) {
-                watch.pending = false;
-                reload_start(&job, RELOAD_WATCH, scene_path, sky, width, height, &camera, variant, variant_name(scene, variant));
-            } else if (wanted_variant >= -1) {
-                reload_start(&job, RELOAD_VARIANT, scene_path, sky, width, height, &camera, wanted_variant,
-                             variant_name(scene, wanted_variant));
-                wanted_variant = -2;
-            }
-            if (job.running) {
-                char loading[160];
-                if (job.kind == RELOAD_VARIANT) {
-                    char shown[128];
-                    printable_name(job.variant_index >= 0 ? job.variant : "the default materials", shown, sizeof shown);
-                    snprintf(loading, sizeof loading, "loading variant %s  ", shown);
-                } else {
-                    snprintf(loading, sizeof loading, "%s %.140s  ", job.kind == RELOAD_WATCH ? "reloading" : "loading",
-                             file_name(job.kind == RELOAD_SKY ? job.sky : job.scene_path));
-                }
-                snprintf(notice, sizeof notice, "%s", loading);
-                notice_changed = true;
-            }
-        }
-        if (job.running && atomic_load(&job.done)) {
-            pthread_join(job.thread, NULL);
-            job.running = false;
-            if (job.ok) {
-                pm_session_stop(cur.session);
-                reloader->adopt(reloader->context, &job.out);
-                cur = job.out;
-                session = cur.session;
-                scene = cur.scene;
-                if (!pm_session_start(session, err, sizeof err)) {
-                    fprintf(stderr, "pmview: error: %s\n", err);
-                    code = 1;
-                    break;
-                }
-                if (job.kind == RELOAD_SCENE) {
-                    snprintf(scene_path, sizeof scene_path, "%s", job.scene_path);
-                    camera = home = cur.camera;
-                    pivot = scene->center;
-                    step = 0.05f * (scene->radius > 0.f ? scene->radius : 1.f);
-                    camera_index = 0;
-                    if (watch.fd >= 0) watch_start(&watch, scene_path, opt);
-                } else if (memcmp(&camera, &job.camera, sizeof camera)) {
-                    pm_session_request_restart(session, &camera, -1); /* moved while it loaded */
-                }
-                if (job.kind == RELOAD_SKY) snprintf(sky, sizeof sky, "%s", job.sky);
-                variant = job.variant_index;
-                variant_note[0] = '\0';
-                char shown[128] = "";
-                if (variant >= 0) {
-                    printable_name(job.variant, shown, sizeof shown);
-                    snprintf(variant_note, sizeof variant_note, "variant %s  ", shown);
-                }
-                if (view_mode != PM_VIEW_SHADED) pm_session_set_view(session, (pm_session_view)view_mode);
-                if (indirect != opt->indirect) pm_session_request_restart(session, NULL, indirect);
-                if (paused) pm_session_pause(session, true);
-                if (cur.reference && total) show_reference(view, cur.reference);
-                else cur.reference = NULL;
-                version = 0;
-                finished_said = false;
-                reloads++;
-                notice[0] = '\0';
-                if (job.kind == RELOAD_VARIANT && variant >= 0)
-                    printf("pmview: material variant %s (%d of %u)\n", shown, variant + 1, scene->variant_count);
-                else if (job.kind == RELOAD_VARIANT)
-                    printf("pmview: the file's default materials\n");
-                else
-                    printf("pmview: %s %s\n", job.kind == RELOAD_WATCH ? "reloaded" : "loaded",
-                           job.kind == RELOAD_SKY ? job.sky : job.scene_path);
-            } else {
-                failed_reloads++;
-                snprintf(notice, sizeof notice, "%s failed: %s  ",
-                         job.kind == RELOAD_WATCH ? "reload" : job.kind == RELOAD_VARIANT ? "variant" : "drop", job.err);
-                /* the set-up printed its line; a failure before it did is said here */
-                if (!job.err[0]) fprintf(stderr, "pmview: error: %s: the reload failed\n", job.scene_path);
-            }
-            notice_changed = true;
-        }
-        /* before the session's lock is taken: a merge reads the session's packed image under it */
-        const pm_film *whole = pm_cluster_poll_merge(cluster, session);
-        pm_session_progress progress;
-        const float *const *layers = pm_session_lock_latest(session, &version, &progress);
-        loops++;
-        /* under mpirun the merged image, once one of this camera and size has come, stands for the
-         * session's own (its preview and first iterations show until then) */
-        if (layers && merged.shown) {
-            pm_session_unlock_latest(session);
-            layers = NULL;
-        }
-        char error_note[96] = "";
-        if (whole && whole->width == width && whole->height == height && whole->samples > 0 && !layers) {
-            if (resolve_merged(&merged, whole)) {
-                merged.shown = true;
-                pm_view_upload_layers(view, width, height, (const float *const *)merged.layers);
-                if (ev.save_png) save_from_window(opt, (const float *const *)merged.layers, width, height, &display);
-                ev.save_png = false;
-                redraw = true;
-                if (cur.reference && total) {
-                    relmse = window_relmse((const float *const *)merged.layers, cur.reference, total, ratio);
-                    snprintf(error_note, sizeof error_note, "  relMSE %.3g  ratio %.3f", relmse, (ratio[0] + ratio[1] + ratio[2]) / 3);
-                }
-                pm_cluster_totals totals = pm_cluster_get_totals(cluster);
-                snprintf(status, sizeof status, "%d ranks  %u it  %.2f Mphotons  %.1f s  r %.3g%s%s", ranks, whole->samples,
-                         totals.photons * 1e-6, progress.seconds, progress.mean_radius, error_note, paused ? "  paused" : "");
-                notice_changed = true;
-            }
-        }
-        if (layers) {
-            double t = pm_now_seconds();
-            if (first_image == 0) {
-                first_image = t - process_start;
-                first_image_realtime = pm_realtime_seconds();
-                first_image_cpu = pm_process_cpu_seconds();
-            }
-            if (restart_requested > 0 && progress.preview) {
-                restart_to_image += t - restart_requested;
-                restarts++;
-                restart_requested = 0;
-            }
-            if (last_move >= 0 && t - last_move < PM_WINDOW_MOTION_GAP) motion_images++;
-            if (progress.preview_divisor > coarsest_preview) coarsest_preview = progress.preview_divisor;
-            pm_view_upload_layers(view, width, height, layers);
-            if (ev.save_png) save_from_window(opt, layers, width, height, &display);
-            ev.save_png = false;
-            /* a preview is a quarter of the size: measured only at the film's */
-            if (cur.reference && total && !progress.preview) {
-                relmse = window_relmse(layers, cur.reference, total, ratio);
-                snprintf(error_note, sizeof error_note, "  relMSE %.3g  ratio %.3f", relmse, (ratio[0] + ratio[1] + ratio[2]) / 3);
-            }
-            pm_session_unlock_latest(session);
-            redraw = true;
-            /* under mpirun, until the first merge of this camera: rank 0's own image */
-            char own[32] = "";
-            if (cluster) snprintf(own, sizeof own, "%d ranks (rank 0)  ", ranks);
-            char preview_note[32] = "";
-            if (progress.preview) snprintf(preview_note, sizeof preview_note, "preview 1/%d  ", progress.preview_divisor);
-            snprintf(status, sizeof status, "%s%s%u it  %.2f Mphotons  %.3g Mphotons/s  %.1f s  r %.3g%s%s", own, preview_note,
-                     progress.iterations, progress.photons * 1e-6, progress.seconds > 0 ? progress.photons / progress.seconds * 1e-6 : 0.0,
-                     progress.seconds, progress.mean_radius, error_note, paused ? "  paused" : "");
-            notice_changed = true;
-            if (progress.finished && !finished_said) { printf("pmview: iterations done (%u)\n", progress.iterations); finished_said = true; }
-        }
-        if (notice_changed) {
-            char title[sizeof notice + sizeof variant_note + sizeof status];
-            snprintf(title, sizeof title, "%s%s%s", notice, variant_note, status[0] ? status : tracing);
-            pm_view_set_status(view, title);
-        }
-        if (ev.save_png && merged.shown) {
-            save_from_window(opt, (const float *const *)merged.layers, width, height, &display);
-            ev.save_png = false;
-        }
-        if (ev.save_png) {
-            /* nothing newer was published: save the image on screen */
-            uint64_t any = 0;
-            const float *const *shown = pm_session_lock_latest(session, &any, NULL);
-            if (shown) {
-                save_from_window(opt, shown, width, height, &display);
-                pm_session_unlock_latest(session);
-            }
-        }
-        if (redraw) { pm_view_draw(view, &display); frames++; }
+    r->process_start = r->w->process_start;
+    r->first_frame = r->w->first_frame;
+    r->frames = 1;
+    r->last_move = -1;
+    r->loop_start = pm_now_seconds();
+    r->camera = r->home = r->cur.camera;
+    r->pivot = r->cur.scene->center;
+    r->step = 0.05f * (r->cur.scene->radius > 0.f ? r->cur.scene->radius : 1.f);
+    r->camera_index = opt->camera >= 0 ? (uint32_t)opt->camera : 0;
+    r->view_mode = PM_VIEW_SHADED;
+    r->indirect = opt->indirect;
+}
+
+/* navigation: the camera moved by the events, and a restart asked for a moved camera or R */
+static void move_camera(window_run *r, const pm_view_events *ev) {
+    const pm_scene *scene = r->cur.scene;
+    pm_camera before = r->camera;
+    pm_camera camera = r->camera;
+    vec3 pivot = r->pivot;
+    if (ev->orbit_dx != 0 || ev->orbit_dy != 0)
+        camera = pm_camera_orbit(camera, pivot, (float)(-ev->orbit_dx * 0.01), (float)(-ev->orbit_dy * 0.01));
+    if (ev->pan_dx != 0 || ev->pan_dy != 0) camera = pm_camera_pan(camera, &pivot, (float)ev->pan_dx, (float)ev->pan_dy, r->height);
+    if (ev->dolly != 0) camera = pm_camera_dolly(camera, pivot, (float)ev->dolly);
+    if (ev->fly[0] != 0 || ev->fly[1] != 0 || ev->fly[2] != 0)
+        camera = pm_camera_fly(camera, &pivot, ev->fly, ev->fast ? 5.f * r->step : r->step);
+    if (ev->frame) { camera = pm_camera_frame(scene, camera, (float)r->width / r->height); pivot = scene->center; }
+    if (ev->home) { camera = r->home; pivot = scene->center; }
+    if (ev->next_camera && scene->camera_count) {
+        r->camera_index = (r->camera_index + 1) % scene->camera_count;
+        camera = scene->cameras[r->camera_index];
+        pivot = scene->center;
     }
-    if (job.running) { /* a reload under way when the window closed: waited for, then freed */
-        pthread_join(job.thread, NULL);
-        if (job.ok) reloader->discard(reloader->context, &job.out);
+    if (ev->pick) {
+        vec3 o, d;
+        pm_hit h;
+        pm_camera_ray(&camera, r->width, r->height, (float)ev->pick_x, (float)ev->pick_y, &o, &d);
+        if (pm_accel_intersect(r->cur.accel, o, d, INFINITY, &h)) pivot = v3_madd(o, d, h.t);
     }
-    watch_stop(&watch);
-    double seconds = pm_now_seconds() - loop_start;
-    if (opt->stats)
+    r->camera = camera;
+    r->pivot = pivot;
+    bool moved = memcmp(&before, &camera, sizeof camera) != 0;
+    if (moved) {
+        double t = pm_now_seconds();
+        if (r->last_move >= 0 && t - r->last_move < PM_WINDOW_MOTION_GAP) r->motion_seconds += t - r->last_move;
+        r->last_move = t;
+    }
+    if (moved || ev->restart) {
+        pm_session_request_restart(r->cur.session, moved ? &r->camera : NULL, -1);
+        pm_cluster_send_restart(r->cluster, moved ? &r->camera : NULL, -1);
+        r->merged.shown = false;
+        if (r->restart_requested == 0) r->restart_requested = pm_now_seconds();
+    }
+}
+
+/* V: shaded, the progressive mode's photon density and radius, then with --reference each pixel's
+ * relative error, and round again */
+static void cycle_view(window_run *r) {
+    static const char *const names[PM_VIEW_COUNT] = {"shaded", "photon density (false colour, log scale)",
+                                                     "radius (false colour, log scale)"};
+    pm_session *session = r->cur.session;
+    if (r->display.error_view) {
+        r->display.error_view = false;
+        r->view_mode = PM_VIEW_SHADED;
+        printf("pmview: view: %s\n", names[r->view_mode]);
+    } else if (r->view_mode + 1 < PM_VIEW_COUNT && pm_session_set_view(session, (pm_session_view)(r->view_mode + 1))) {
+        r->view_mode++;
+        printf("pmview: view: %s\n", names[r->view_mode]);
+    } else if (r->cur.reference && r->total) {
+        if (r->view_mode != PM_VIEW_SHADED) pm_session_set_view(session, PM_VIEW_SHADED);
+        r->view_mode = PM_VIEW_SHADED;
+        r->display.error_view = true;
+        printf("pmview: view: relative error against %s (false colour, log scale: blue 0.001, green 0.03, red 1)\n",
+               file_name(r->opt->reference));
+    } else {
+        bool had_none = r->view_mode == PM_VIEW_SHADED;
+        r->view_mode = PM_VIEW_SHADED;
+        pm_session_set_view(session, PM_VIEW_SHADED);
+        if (had_none) printf("pmview: the photon density and radius views need the progressive mode\n");
+        else printf("pmview: view: %s\n", names[r->view_mode]);
+    }
+}
+
+/* the keys that change how the session renders (G, Space, V), H, and a resized window */
+static void handle_keys(window_run *r, const pm_view_events *ev) {
+    pm_session *session = r->cur.session;
+    pm_cluster *cluster = r->cluster;
+    if (ev->toggle_gather && r->opt->mode == PM_MODE_PROGRESSIVE) {
+        r->indirect = r->indirect == PM_INDIRECT_GATHER ? PM_INDIRECT_PHOTONS : PM_INDIRECT_GATHER;
+        pm_session_request_restart(session, NULL, r->indirect);
+        pm_cluster_send_restart(cluster, NULL, r->indirect);
+        r->merged.shown = false;
+        printf("pmview: indirect light by %s\n", r->indirect == PM_INDIRECT_GATHER ? "final gathering" : "photons at the visible point");
+    }
+    if (ev->pause) {
+        r->paused = !r->paused;
+        pm_session_pause(session, r->paused);
+        pm_cluster_send_pause(cluster, r->paused);
+    }
+    if (ev->help) fputs(window_help, stdout);
+    r->redraw = ev->display_changed;
+    if (ev->cycle_view) {
+        cycle_view(r);
+        r->redraw = true;
+    }
+    if (ev->resized_width && (ev->resized_width != r->width || ev->resized_height != r->height)) {
+        /* a new size is a new film, rendered with the camera as it is */
+        if (!pm_session_resize(session, ev->resized_width, ev->resized_height, &r->camera)) {
+            fprintf(stderr, "pmview: error: %s (window resized to %dx%d); keeping %dx%d\n", pm_session_error(session),
+                    ev->resized_width, ev->resized_height, r->width, r->height);
+        } else {
+            pm_cluster_send_resize(cluster, ev->resized_width, ev->resized_height, &r->camera);
+            r->merged.shown = false;
+            r->width = ev->resized_width;
+            r->height = ev->resized_height;
+            printf("pmview: rendering at %dx%d\n", r->width, r->height);
+        }
+    }
+}
+
+/* --watch and drops: a dropped file while a reload runs waits for it; a bad file changes nothing but
+ * the title. M: the next material variant, then the file's default materials, and round again; the
+ * file is loaded again with it and rendered from scratch, the camera kept. */
+static void take_requests(window_run *r, const pm_view_events *ev) {
+    const pm_scene *scene = r->cur.scene;
+    r->notice_changed = false;
+    if (ev->next_variant) {
+        if (!scene->variant_count) {
+            snprintf(r->notice, sizeof r->notice, "%.400s has no material variants  ", file_name(r->scene_path));
+            fprintf(stderr, "pmview: %s has no material variants (KHR_materials_variants): M changes nothing\n", r->scene_path);
+            r->notice_changed = true;
+        } else if (!r->reloader) {
+            snprintf(r->notice, sizeof r->notice, "material variants: for a single process, not under mpirun  ");
+            fprintf(stderr, "pmview: material variants are for a single process: under mpirun every rank would have to reload alike\n");
+            r->notice_changed = true;
+        } else {
+            int from = r->wanted_variant >= -1 ? r->wanted_variant : r->variant;
+            r->wanted_variant = from + 1 < (int)scene->variant_count ? from + 1 : -1;
+        }
+    }
+    if (ev->dropped[0]) {
+        if (!r->reloader) {
+            snprintf(r->notice, sizeof r->notice, "drop: a dropped file is for a single process, not under mpirun  ");
+            r->notice_changed = true;
+        } else if (pm_has_extension(ev->dropped, ".gltf") || pm_has_extension(ev->dropped, ".glb") ||
+                   pm_has_extension(ev->dropped, ".hdr") || pm_has_extension(ev->dropped, ".exr")) {
+            snprintf(r->dropped, sizeof r->dropped, "%s", ev->dropped);
+        } else {
+            snprintf(r->notice, sizeof r->notice, "drop: %.400s is not a .gltf, .glb, .hdr or .exr file  ", file_name(ev->dropped));
+            fprintf(stderr, "pmview: error: %s: dropped, but not a .gltf, .glb, .hdr or .exr file\n", ev->dropped);
+            r->notice_changed = true;
+        }
+    }
+}
+
+/* with no reload running: one started for a dropped file, a settled change to a watched one, or M */
+static void start_reload(window_run *r) {
+    reload_job *job = &r->job;
+    const pm_scene *scene = r->cur.scene;
+    if (r->dropped[0]) {
+        bool is_sky = pm_has_extension(r->dropped, ".hdr") || pm_has_extension(r->dropped, ".exr");
+        int sw = 0, sh = 0;
+        if (is_sky && !pm_environment_size(r->dropped, &sw, &sh, r->err, sizeof r->err)) {
+            snprintf(r->notice, sizeof r->notice, "drop failed: %s  ", r->err);
+            fprintf(stderr, "pmview: error: %s\n", r->err);
+            r->failed_reloads++;
+            r->notice_changed = true;
+        } else {
+            /* a sky keeps the variant; another file starts with its default materials */
+            reload_start(job, is_sky ? RELOAD_SKY : RELOAD_SCENE, is_sky ? r->scene_path : r->dropped, is_sky ? r->dropped : r->sky,
+                         r->width, r->height, &r->camera, is_sky ? r->variant : -1, is_sky ? variant_name(scene, r->variant) : NULL);
+        }
+        r->dropped[0] = '\0';
+    } else if (r->watch.pending && pm_now_seconds() - r->watch.last_event >= PM_WATCH_SETTLE_SECONDS) {
+        r->watch.pending = false;
+        reload_start(job, RELOAD_WATCH, r->scene_path, r->sky, r->width, r->height, &r->camera, r->variant,
+                     variant_name(scene, r->variant));
+    } else if (r->wanted_variant >= -1) {
+        reload_start(job, RELOAD_VARIANT, r->scene_path, r->sky, r->width, r->height, &r->camera, r->wanted_variant,
+                     variant_name(scene, r->wanted_variant));
+        r->wanted_variant = -2;
+    }
+    if (job->running) {
+        char loading[160];
+        if (job->kind == RELOAD_VARIANT) {
+            char shown[128];
+            printable_name(job->variant_index >= 0 ? job->variant : "the default materials", shown, sizeof shown);
+            snprintf(loading, sizeof loading, "loading variant %s  ", shown);
+        } else {
+            snprintf(loading, sizeof loading, "%s %.140s  ", job->kind == RELOAD_WATCH ? "reloading" : "loading",
+                     file_name(job->kind == RELOAD_SKY ? job->sky : job->scene_path));
+        }
+        snprintf(r->notice, sizeof r->notice, "%s", loading);
+        r->notice_changed = true;
+    }
+}
+
+/* a finished reload: its scene adopted and started with the window's settings (false: it would not
+ * start, the error printed), or its failure in the title */
+static bool finish_reload(window_run *r) {
+    reload_job *job = &r->job;
+    pthread_join(job->thread, NULL);
+    job->running = false;
+    r->notice_changed = true;
+    if (!job->ok) {
+        r->failed_reloads++;
+        snprintf(r->notice, sizeof r->notice, "%s failed: %s  ",
+                 job->kind == RELOAD_WATCH ? "reload" : job->kind == RELOAD_VARIANT ? "variant" : "drop", job->err);
+        /* the set-up printed its line; a failure before it did is said here */
+        if (!job->err[0]) fprintf(stderr, "pmview: error: %s: the reload failed\n", job->scene_path);
+        return true;
+    }
+    pm_session_stop(r->cur.session);
+    r->reloader->adopt(r->reloader->context, &job->out);
+    r->cur = job->out;
+    pm_session *session = r->cur.session;
+    const pm_scene *scene = r->cur.scene;
+    if (!pm_session_start(session, r->err, sizeof r->err)) {
+        fprintf(stderr, "pmview: error: %s\n", r->err);
+        return false;
+    }
+    if (job->kind == RELOAD_SCENE) {
+        snprintf(r->scene_path, sizeof r->scene_path, "%s", job->scene_path);
+        r->camera = r->home = r->cur.camera;
+        r->pivot = scene->center;
+        r->step = 0.05f * (scene->radius > 0.f ? scene->radius : 1.f);
+        r->camera_index = 0;
+        if (r->watch.fd >= 0) watch_start(&r->watch, r->scene_path, r->opt);
+    } else if (memcmp(&r->camera, &job->camera, sizeof r->camera)) {
+        pm_session_request_restart(session, &r->camera, -1); /* moved while it loaded */
+    }
+    if (job->kind == RELOAD_SKY) snprintf(r->sky, sizeof r->sky, "%s", job->sky);
+    r->variant = job->variant_index;
+    r->variant_note[0] = '\0';
+    char shown[128] = "";
+    if (r->variant >= 0) {
+        printable_name(job->variant, shown, sizeof shown);
+        snprintf(r->variant_note, sizeof r->variant_note, "variant %s  ", shown);
+    }
+    if (r->view_mode != PM_VIEW_SHADED) pm_session_set_view(session, (pm_session_view)r->view_mode);
+    if (r->indirect != r->opt->indirect) pm_session_request_restart(session, NULL, r->indirect);
+    if (r->paused) pm_session_pause(session, true);
+    if (r->cur.reference && r->total) show_reference(r->view, r->cur.reference);
+    else r->cur.reference = NULL;
+    r->version = 0;
+    r->finished_said = false;
+    r->reloads++;
+    r->notice[0] = '\0';
+    if (job->kind == RELOAD_VARIANT && r->variant >= 0)
+        printf("pmview: material variant %s (%d of %u)\n", shown, r->variant + 1, scene->variant_count);
+    else if (job->kind == RELOAD_VARIANT)
+        printf("pmview: the file's default materials\n");
+    else
+        printf("pmview: %s %s\n", job->kind == RELOAD_WATCH ? "reloaded" : "loaded", job->kind == RELOAD_SKY ? job->sky : job->scene_path);
+    return true;
+}
+
+/* under mpirun: a merged image of this camera and size, uploaded (and saved for P) */
+static void show_merged(window_run *r, const pm_film *whole, const pm_session_progress *progress, bool *save_png) {
+    if (!resolve_merged(&r->merged, whole)) return;
+    const float *const *layers = (const float *const *)r->merged.layers;
+    char error_note[96] = "";
+    r->merged.shown = true;
+    pm_view_upload_layers(r->view, r->width, r->height, layers);
+    if (*save_png) save_from_window(r->opt, layers, r->width, r->height, &r->display);
+    *save_png = false;
+    r->redraw = true;
+    if (r->cur.reference && r->total) {
+        r->relmse = window_relmse(layers, r->cur.reference, r->total, r->ratio);
+        snprintf(error_note, sizeof error_note, "  relMSE %.3g  ratio %.3f", r->relmse, (r->ratio[0] + r->ratio[1] + r->ratio[2]) / 3);
+    }
+    pm_cluster_totals totals = pm_cluster_get_totals(r->cluster);
+    snprintf(r->status, sizeof r->status, "%d ranks  %u it  %.2f Mphotons  %.1f s  r %.3g%s%s", r->ranks, whole->samples,
+             totals.photons * 1e-6, progress->seconds, progress->mean_radius, error_note, r->paused ? "  paused" : "");
+    r->notice_changed = true;
+}
+
+/* the session's newest image, locked: uploaded (and saved for P), measured, the title's status set, the lock let go */
+static void show_published(window_run *r, const float *const *layers, const pm_session_progress *progress, bool *save_png) {
+    double t = pm_now_seconds();
+    char error_note[96] = "";
+    if (r->first_image == 0) {
+        r->first_image = t - r->process_start;
+        r->first_image_realtime = pm_realtime_seconds();
+        r->first_image_cpu = pm_process_cpu_seconds();
+    }
+    if (r->restart_requested > 0 && progress->preview) {
+        r->restart_to_image += t - r->restart_requested;
+        r->restarts++;
+        r->restart_requested = 0;
+    }
+    if (r->last_move >= 0 && t - r->last_move < PM_WINDOW_MOTION_GAP) r->motion_images++;
+    if (progress->preview_divisor > r->coarsest_preview) r->coarsest_preview = progress->preview_divisor;
+    pm_view_upload_layers(r->view, r->width, r->height, layers);
+    if (*save_png) save_from_window(r->opt, layers, r->width, r->height, &r->display);
+    *save_png = false;
+    /* a preview is a quarter of the size: measured only at the film's */
+    if (r->cur.reference && r->total && !progress->preview) {
+        r->relmse = window_relmse(layers, r->cur.reference, r->total, r->ratio);
+        snprintf(error_note, sizeof error_note, "  relMSE %.3g  ratio %.3f", r->relmse, (r->ratio[0] + r->ratio[1] + r->ratio[2]) / 3);
+    }
+    pm_session_unlock_latest(r->cur.session);
+    r->redraw = true;
+    /* under mpirun, until the first merge of this camera: rank 0's own image */
+    char own[32] = "";
+    if (r->cluster) snprintf(own, sizeof own, "%d ranks (rank 0)  ", r->ranks);
+    char preview_note[32] = "";
+    if (progress->preview) snprintf(preview_note, sizeof preview_note, "preview 1/%d  ", progress->preview_divisor);
+    snprintf(r->status, sizeof r->status, "%s%s%u it  %.2f Mphotons  %.3g Mphotons/s  %.1f s  r %.3g%s%s", own, preview_note,
+             progress->iterations, progress->photons * 1e-6,
+             progress->seconds > 0 ? progress->photons / progress->seconds * 1e-6 : 0.0, progress->seconds,
+             progress->mean_radius, error_note, r->paused ? "  paused" : "");
+    r->notice_changed = true;
+    if (progress->finished && !r->finished_said) {
+        printf("pmview: iterations done (%u)\n", progress->iterations);
+        r->finished_said = true;
+    }
+}
+
+/* the newest image (merged under mpirun, else the session's) shown, the title set, P saved, the window drawn */
+static void show_latest(window_run *r, bool save_png) {
+    pm_session *session = r->cur.session;
+    /* before the session's lock is taken: a merge reads the session's packed image under it */
+    const pm_film *whole = pm_cluster_poll_merge(r->cluster, session);
+    pm_session_progress progress;
+    const float *const *layers = pm_session_lock_latest(session, &r->version, &progress);
+    r->loops++;
+    /* under mpirun the merged image, once one of this camera and size has come, stands for the
+     * session's own (its preview and first iterations show until then) */
+    if (layers && r->merged.shown) {
+        pm_session_unlock_latest(session);
+        layers = NULL;
+    }
+    if (whole && whole->width == r->width && whole->height == r->height && whole->samples > 0 && !layers)
+        show_merged(r, whole, &progress, &save_png);
+    if (layers) show_published(r, layers, &progress, &save_png);
+    if (r->notice_changed) {
+        char title[sizeof r->notice + sizeof r->variant_note + sizeof r->status];
+        snprintf(title, sizeof title, "%s%s%s", r->notice, r->variant_note, r->status[0] ? r->status : r->tracing);
+        pm_view_set_status(r->view, title);
+    }
+    if (save_png && r->merged.shown) {
+        save_from_window(r->opt, (const float *const *)r->merged.layers, r->width, r->height, &r->display);
+        save_png = false;
+    }
+    if (save_png) {
+        /* nothing newer was published: save the image on screen */
+        uint64_t any = 0;
+        const float *const *shown = pm_session_lock_latest(session, &any, NULL);
+        if (shown) {
+            save_from_window(r->opt, shown, r->width, r->height, &r->display);
+            pm_session_unlock_latest(session);
+        }
+    }
+    if (r->redraw) { pm_view_draw(r->view, &r->display); r->frames++; }
+}
+
+/* the loop left: a reload in flight waited for, the window's figures printed, everything stopped and freed */
+static void end_loop(window_run *r) {
+    pm_window *w = r->w;
+    if (r->job.running) { /* a reload under way when the window closed: waited for, then freed */
+        pthread_join(r->job.thread, NULL);
+        if (r->job.ok) r->reloader->discard(r->reloader->context, &r->job.out);
+    }
+    watch_stop(&r->watch);
+    double seconds = pm_now_seconds() - r->loop_start;
+    if (r->opt->stats)
         printf("stat window first_frame_seconds=%.4f first_image_seconds=%.4f ui_loops_per_second=%.1f frames_per_second=%.1f restarts=%llu restart_to_image_seconds=%.4f"
                " motion_seconds=%.3f motion_images=%llu motion_images_per_second=%.1f coarsest_preview_divisor=%d setup_seconds=%.4f"
                " reloads=%llu failed_reloads=%llu relmse=%.6g first_image_realtime=%.6f first_image_cpu_seconds=%.4f\n",
-               first_frame, first_image, seconds > 0 ? loops / seconds : 0.0, seconds > 0 ? frames / seconds : 0.0,
-               (unsigned long long)restarts, restarts ? restart_to_image / restarts : 0.0, motion_seconds,
-               (unsigned long long)motion_images, motion_seconds > 0 ? motion_images / motion_seconds : 0.0, coarsest_preview,
-               w->setup_done, (unsigned long long)reloads, (unsigned long long)failed_reloads, relmse, first_image_realtime, first_image_cpu);
-    pm_cluster_send_quit(cluster);
-    pm_session_stop(cur.session);
-    pm_view_destroy(view);
+               r->first_frame, r->first_image, seconds > 0 ? r->loops / seconds : 0.0, seconds > 0 ? r->frames / seconds : 0.0,
+               (unsigned long long)r->restarts, r->restarts ? r->restart_to_image / r->restarts : 0.0, r->motion_seconds,
+               (unsigned long long)r->motion_images, r->motion_seconds > 0 ? r->motion_images / r->motion_seconds : 0.0,
+               r->coarsest_preview, w->setup_done, (unsigned long long)r->reloads, (unsigned long long)r->failed_reloads,
+               r->relmse, r->first_image_realtime, r->first_image_cpu);
+    pm_cluster_send_quit(r->cluster);
+    pm_session_stop(r->cur.session);
+    pm_view_destroy(r->view);
     w->view = NULL;
-    free_merged(&merged);
-    free(total);
+    free_merged(&r->merged);
+    free(r->total);
+}
+
+int pm_window_run(pm_window *w, const pm_options *opt, pm_cluster *cluster, const pm_window_scene *start,
+                  const pm_window_reloader *reloader) {
+    /* Ctrl-C in the terminal during a P save: the half-written file goes with the process */
+    pm_exit_on_signals();
+    window_run run; /* (the loop's locals, as one: a few pages of the window's thread's stack) */
+    memset(&run, 0, sizeof run);
+    window_run *r = &run;
+    r->w = w;
+    r->opt = opt;
+    r->cluster = cluster;
+    r->reloader = reloader;
+    r->view = w->view;
+    r->ranks = pm_cluster_size(cluster);
+    r->cur = *start;
+    const pm_film *film = pm_session_film(r->cur.session);
+    r->width = film->width;
+    r->height = film->height;
+    int code = start_showing(r);
+    if (code) return code;
+    start_loop(r);
+    for (;;) {
+        pm_view_events ev = pm_view_poll(r->view, &r->display, true, 1.0 / 60.0);
+        if (ev.quit || w->quit) break;
+        move_camera(r, &ev);
+        handle_keys(r, &ev);
+        take_requests(r, &ev);
+        watch_read(&r->watch);
+        if (reloader && !r->job.running) start_reload(r);
+        if (r->job.running && atomic_load(&r->job.done) && !finish_reload(r)) {
+            code = 1;
+            break;
+        }
+        show_latest(r, ev.save_png);
+    }
+    end_loop(r);
     return code;
 }
