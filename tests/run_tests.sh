@@ -57,10 +57,11 @@ export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 OPTIMISED="test_convergence test_photons test_pathtrace test_hard_energy test_mirror_box test_glossy test_leaks test_reference test_splats"
 # Tests that measure what a person would see in seconds (a window's first frame, an answer to a key
 # or a signal, ranks exchanging iterations) or render for a set time (--time): another test beside
-# them could push them past their bounds.
-ALONE="test_window test_window_cluster test_window_cluster_stop test_signal_writes test_window_loading test_window_room test_interactive test_cluster test_hangs test_convergence_report"
-# The longest tests start first, so the last one to end is a short one.
-FIRST="test_convergence test_progressive test_glossy test_leaks test_robust test_threads test_photons test_memory_failures test_log test_cli"
+# them could push them past their bounds. (test_window_room renders a set number of iterations and
+# checks only what they converge to, so it runs beside the others.)
+ALONE="test_window test_window_cluster test_window_cluster_stop test_signal_writes test_window_loading test_interactive test_cluster test_hangs test_convergence_report"
+# The longest tests start first (by their processor time), so the last one to end is a short one.
+FIRST="test_convergence test_progressive test_window_room test_leaks test_glossy test_photons test_memory test_window_default test_splats test_reference test_accel test_cli test_guide test_mirror_box test_robust test_memory_failures test_brdf test_kdtree test_threads test_log"
 
 list=$(mktemp) || exit 1
 alone=$(mktemp) || exit 1
