@@ -23,7 +23,7 @@ export PMVIEW_TEST_JOB="test_cluster.$$"
 job=""
 cleanup() {
     [ -n "$job" ] && kill -KILL "$job" 2>/dev/null
-    for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+    for p in $(job_processes any); do kill -KILL "$p" 2>/dev/null; done
     rm -rf "$tmp"
 }
 trap cleanup EXIT
@@ -42,16 +42,7 @@ elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", b - a }'; }
 at_most() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a <= b) }'; }
 # mpi ARGS...: a 2-rank job of the binary under test, stdin closed (mpirun forwards it to rank 0)
 mpi() { ASAN_OPTIONS=detect_leaks=0 mpirun --oversubscribe -np 2 $bin "$@" </dev/null; }
-# ranks_of_job RANK|any: the pids of this script's pmview ranks (RANK: only that one)
-ranks_of_job() {
-    for d in /proc/[0-9]*; do
-        [ "$(cat "$d/comm" 2>/dev/null)" = pmview ] || continue
-        vars=$( (tr '\0' '\n' <"$d/environ") 2>/dev/null)
-        echo "$vars" | grep -qx "PMVIEW_TEST_JOB=$PMVIEW_TEST_JOB" || continue
-        [ "$1" = any ] || echo "$vars" | grep -qx "OMPI_COMM_WORLD_RANK=$1" || continue
-        echo "${d#/proc/}"
-    done
-}
+. tests/job_processes.sh
 # exec_with_sigint ARGS...: becomes ARGS (same pid) with SIGINT's default action: a job a script
 # starts in the background inherits SIGINT ignored, and mpirun keeps it so, as Ctrl-C never does
 exec_with_sigint() {
@@ -220,7 +211,7 @@ check "SIGINT: the job ended $wall s after the signal, want <= 5" at_most "$wall
 check "SIGINT: no 'interrupted: the image so far' on stdout" grep -q "'^pmview: wrote .*interrupted: the image so far'" "$tmp/int.out"
 check "SIGINT: the image is not an EXR" is_exr "$tmp/int.exr"
 check "SIGINT: pmview cannot read the image as a reference" readable_render "$tmp/int.exr"
-check "SIGINT: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
+check "SIGINT: a pmview rank is left running" [ -z "'$(job_processes any)'" ]
 
 # --- 5. a killed rank: the job ends naming it, non-zero, with the last checkpoint valid
 wall=""
@@ -229,7 +220,7 @@ job=$!
 i=0
 while ! is_exr "$tmp/ck.exr" && [ "$i" -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
 sleep 1.5
-rank1=$(ranks_of_job 1)
+rank1=$(job_processes 1)
 if [ -z "$rank1" ] || ! is_exr "$tmp/ck.exr"; then
     fail "killed rank: no rank 1 ('$rank1') or no checkpoint after 10 s"
     sed 's/^/    /' "$tmp/ck.out" | head -5
@@ -247,7 +238,7 @@ check "killed rank: the output does not name rank 1" grep -q "'rank 1'" "$tmp/ck
 check "killed rank: pmview's own line does not name rank 1" grep -q "'^pmview: .*rank 1'" "$tmp/ck.out"
 check "killed rank: the checkpoint is not an EXR" is_exr "$tmp/ck.exr"
 check "killed rank: pmview cannot read the checkpoint as a reference" readable_render "$tmp/ck.exr"
-check "killed rank: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
+check "killed rank: a pmview rank is left running" [ -z "'$(job_processes any)'" ]
 [ "$fails" -gt 0 ] && sed 's/^/    | /' "$tmp/ck.out"
 
 # --- 6. a bad scene is refused once: one 'pmview:' line (mpirun's own banner never starts so),
@@ -294,8 +285,8 @@ for log in "$tmp/no-such-folder/run.csv" "$tmp"; do
     check "--log $log: exit 0" [ "$rc" -ne 0 ]
     check "--log $log: $lines 'pmview:' lines on stderr, want 1" [ "$lines" -eq 1 ]
     check "--log $log: the line does not name the log" grep -q "'^pmview: error: $log: cannot write the log'" "$tmp/log.err"
-    check "--log $log: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
-    for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+    check "--log $log: a pmview rank is left running" [ -z "'$(job_processes any)'" ]
+    for p in $(job_processes any); do kill -KILL "$p" 2>/dev/null; done
 done
 
 # --- 8. ranks that disagree: a different file per rank, a stale copy at the same path in each
@@ -316,7 +307,7 @@ disagree() { # description, want (text in the line), then mpirun's app contexts
     check "$desc: $lines 'pmview:' lines on stderr, want 1" [ "$lines" -eq 1 ]
     check "$desc: the line does not say '$want'" grep -q "'^pmview: .*$want'" "$tmp/mpmd.err"
     check "$desc: an image was written" [ ! -e "'$tmp/mpmd.exr'" ]
-    for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+    for p in $(job_processes any); do kill -KILL "$p" 2>/dev/null; done
 }
 opts="--width 16 --threads 1 --iterations 2 --snapshot $tmp/mpmd.exr"
 disagree "a different scene per rank" "rank 1 holds another scene or other options than rank 0" \
@@ -351,7 +342,7 @@ check "--max-memory 90M on 2 ranks: rendering reported" ! grep -q "'^stat eye\|w
 mpi_job $cornell --width 32 --time 6 --snapshot "$tmp/stop.exr" >"$tmp/stop.out" 2>&1 &
 job=$!
 i=0; rank1=""
-while [ -z "$rank1" ] && [ "$i" -lt 100 ]; do sleep 0.1; i=$((i + 1)); rank1=$(ranks_of_job 1); done
+while [ -z "$rank1" ] && [ "$i" -lt 100 ]; do sleep 0.1; i=$((i + 1)); rank1=$(job_processes 1); done
 sleep 2  # past the set-up's agreement: the render is under way
 sent=$(now)
 [ -n "$rank1" ] && kill -STOP $rank1
@@ -363,7 +354,7 @@ check "stopped rank: no rank 1 to stop" [ -n "'$rank1'" ]
 check "stopped rank: the job ended $wall s after the stop, want <= 12 (--time 6 less 2 s, then 5.6 s)" at_most "$wall" 12
 check "stopped rank: exit 0" [ "$rc" -ne 0 ]
 check "stopped rank: pmview's line does not name rank 1 as stopped" grep -q "'^pmview: error: rank 1 gave no word that its run is over .* past --time'" "$tmp/stop.out"
-for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+for p in $(job_processes any); do kill -KILL "$p" 2>/dev/null; done
 
 # --- 11. SIGTERM to rank 0 alone (kill on its pid, not mpirun's to every rank): rank 0 asks the
 # others to end their runs, merges and writes the image so far, exit 143, within 5 s. Before,
@@ -372,7 +363,7 @@ rm -f "$tmp/term0.exr"
 mpi_job $cornell --width 32 --time 60 --snapshot "$tmp/term0.exr" >"$tmp/term0.out" 2>&1 &
 job=$!
 i=0; rank0=""
-while [ -z "$rank0" ] && [ "$i" -lt 100 ]; do sleep 0.1; i=$((i + 1)); rank0=$(ranks_of_job 0); done
+while [ -z "$rank0" ] && [ "$i" -lt 100 ]; do sleep 0.1; i=$((i + 1)); rank0=$(job_processes 0); done
 sleep 2  # past the set-up: the render is under way
 sent=$(now)
 [ -n "$rank0" ] && kill -TERM $rank0
@@ -383,8 +374,8 @@ check "SIGTERM to rank 0 alone: no rank 0 found" [ -n "'$rank0'" ]
 check "SIGTERM to rank 0 alone: the job ended $wall s after the signal, want <= 5" at_most "$wall" 5
 check "SIGTERM to rank 0 alone: no 'interrupted: the image so far'" grep -q "'^pmview: wrote .*interrupted: the image so far'" "$tmp/term0.out"
 check "SIGTERM to rank 0 alone: the image is not an EXR" is_exr "$tmp/term0.exr"
-check "SIGTERM to rank 0 alone: a pmview rank is left running" [ -z "'$(ranks_of_job any)'" ]
-for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+check "SIGTERM to rank 0 alone: a pmview rank is left running" [ -z "'$(job_processes any)'" ]
+for p in $(job_processes any); do kill -KILL "$p" 2>/dev/null; done
 
 # --- 12. a rank stopped (SIGSTOP) during its set-up, before its word at the agreement: rank 0
 # waits 10 s + 4 times its own set-up for every rank's word, then ends the job naming it (16 s
@@ -440,7 +431,7 @@ check "stopped in the set-up: exit 0" [ "$rc" -ne 0 ]
 named=$(grep -c "^pmview: error: rank 1 gave no word at the set-up.s agreement .* (stopped or hung): the job ends" "$tmp/setup-stop.out")
 check "stopped in the set-up: $named lines naming rank 1 as silent at the agreement, want 1" [ "$named" -eq 1 ]
 check "stopped in the set-up: rendering was reported" ! grep -q "'^pmview: wrote'" "$tmp/setup-stop.out"
-for p in $(ranks_of_job any); do kill -KILL "$p" 2>/dev/null; done
+for p in $(job_processes any); do kill -KILL "$p" 2>/dev/null; done
 
 echo "test_cluster: $checks checks, $fails failed"
 [ "$fails" -eq 0 ]

@@ -31,16 +31,7 @@ check() { # description of the failure, then a shell condition (eval'd)
 }
 now() { date +%s.%N; }
 elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", b - a }'; }
-# job_processes RANK|any: this script's pmview processes (RANK: that MPI rank only)
-job_processes() {
-    for d in /proc/[0-9]*; do
-        [ "$(cat "$d/comm" 2>/dev/null)" = pmview ] || continue
-        vars=$( (tr '\0' '\n' <"$d/environ") 2>/dev/null)
-        echo "$vars" | grep -qx "PMVIEW_TEST_JOB=$PMVIEW_TEST_JOB" || continue
-        [ "$1" = any ] || echo "$vars" | grep -qx "OMPI_COMM_WORLD_RANK=$1" || continue
-        echo "${d#/proc/}"
-    done
-}
+. tests/job_processes.sh
 # writing PID DIR: PID holds an unnamed file of DIR open (a write under way)
 writing() { ls -l "/proc/$1/fd" 2>/dev/null | grep -q -- "-> $2/#[0-9]* (deleted)"; }
 # wait_writing PID DIR [N]: until PID starts its N-th write into DIR (1 by default), at most 120 s; false if it never does

@@ -14,15 +14,9 @@ need_tools test_window_cluster xvfb-run xdotool mpirun
 
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export PMVIEW_TEST_JOB="test_window_cluster.$$"
-# job_processes: the pids of this test's pmview ranks still running
-job_processes() {
-    for d in /proc/[0-9]*; do
-        [ "$(cat "$d/comm" 2>/dev/null)" = pmview ] || continue
-        (tr '\0' '\n' <"$d/environ") 2>/dev/null | grep -qx "PMVIEW_TEST_JOB=$PMVIEW_TEST_JOB" && echo "${d#/proc/}"
-    done
-}
+. tests/job_processes.sh
 # the ranks, should mpirun have left any
-cleanup_more() { for p in $(job_processes); do kill -KILL "$p" 2>/dev/null; done; }
+cleanup_more() { for p in $(job_processes any); do kill -KILL "$p" 2>/dev/null; done; }
 start_temp
 
 cat >"$tmp/inner.sh" <<'EOF'
@@ -110,7 +104,7 @@ EOF
 
 start=$(date +%s)
 run_inner test_window_cluster 120 "$tmp/inner.sh" "$tmp"
-left=$(job_processes)
+left=$(job_processes any)
 if [ -n "$left" ]; then
     echo "test_window_cluster: FAILED: pmview processes left after Escape: $left"
     exit 1

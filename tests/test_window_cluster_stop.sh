@@ -21,20 +21,7 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export PMVIEW_TEST_JOB="test_window_cluster_stop.$$"
 tmp=$(mktemp -d) || exit 1
 group=""
-# job_processes RANK|any: the pids of this test's pmview ranks still running (in a file: the
-# inner script finds rank 1 with it too)
-cat >"$tmp/find.sh" <<'END'
-job_processes() {
-    for d in /proc/[0-9]*; do
-        [ "$(cat "$d/comm" 2>/dev/null)" = pmview ] || continue
-        vars=$( (tr '\0' '\n' <"$d/environ") 2>/dev/null)
-        echo "$vars" | grep -qx "PMVIEW_TEST_JOB=$PMVIEW_TEST_JOB" || continue
-        [ "$1" = any ] || echo "$vars" | grep -qx "OMPI_COMM_WORLD_RANK=$1" || continue
-        echo "${d#/proc/}"
-    done
-}
-END
-. "$tmp/find.sh"
+. tests/job_processes.sh
 cleanup() {
     [ -n "$group" ] && kill -TERM -- "-$group" 2>/dev/null
     for p in $(job_processes any); do kill -KILL "$p" 2>/dev/null; done
@@ -47,7 +34,7 @@ trap 'exit 1' INT TERM HUP
 cat >"$tmp/inner.sh" <<'EOF'
 # runs under xvfb-run: start the 2-rank job, wait for the merged image, stop rank 1, Esc; "$1" is the temp folder
 tmp=$1
-. "$tmp/find.sh"
+. tests/job_processes.sh
 log="$tmp/pmview.log"
 fail() { echo "inner: $*"; [ -n "$rank1" ] && kill -CONT "$rank1" 2>/dev/null; [ -n "$pid" ] && kill "$pid" 2>/dev/null; echo "--- mpirun's log:"; cat "$log"; exit 1; }
 mpirun --oversubscribe -np 2 ./pmview scenes/cornell-box.gltf --width 96 --threads 1 </dev/null >"$log" 2>&1 &
