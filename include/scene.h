@@ -552,6 +552,18 @@ static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, flo
  * map in effect they are the geometry and the material's constants: inline, no texture
  * coordinate, and ns and centroid are left to pm_scene_surface_shading (returns true: the
  * caller makes them before it reads them); any other material takes pm_scene_surface_scattering (false). */
+/* The scattering of a material whose split is the same at every point (uniform_split), computed
+ * once at load. */
+static inline void pm_material_uniform_scattering(const pm_material *m, pm_surface *out) {
+    out->kd = m->split_kd;
+    out->ks = m->split_ks;
+    out->ks_grazing = m->split_ks_grazing;
+    out->glass_alpha = m->split_glass_alpha;
+    out->kt = m->split_kt;
+    out->glossy = m->split_glossy;
+    if (out->glossy) out->brdf = m->split_brdf;
+}
+
 static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
     const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
     bool normal_mapped = m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents;
@@ -560,13 +572,7 @@ static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float 
         return false;
     }
     pm_scene_surface_point(s, tri, b1, b2, pm_scene_triangle_face_normal(s, tri), out);
-    out->kd = m->split_kd;
-    out->ks = m->split_ks;
-    out->ks_grazing = m->split_ks_grazing;
-    out->glass_alpha = m->split_glass_alpha;
-    out->kt = m->split_kt;
-    out->glossy = m->split_glossy;
-    if (out->glossy) out->brdf = m->split_brdf;
+    pm_material_uniform_scattering(m, out);
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
     out->thin = m->thin_walled;
     out->unlit = false;

@@ -230,13 +230,7 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
                                 placement >= 0 ? &s->placements[placement] : NULL, b, uv, footprint, out->ns, out->ng);
     }
     if (m->uniform_split) {
-        out->kd = m->split_kd;
-        out->ks = m->split_ks;
-        out->ks_grazing = m->split_ks_grazing;
-        out->glass_alpha = m->split_glass_alpha;
-        out->kt = m->split_kt;
-        out->glossy = m->split_glossy;
-        if (out->glossy) out->brdf = m->split_brdf;
+        pm_material_uniform_scattering(m, out);
     } else {
         vec3 base = m->base_color;
         if (m->base_color_texture >= 0)
