@@ -66,6 +66,37 @@ typedef struct {
 } surface_bounce;
 
 
+/* Where a path's next segment ends: the surface it meets (from *pending when that segment was
+ * already traced), with the medium's transmittance along it applied to *throughput. When `lit`,
+ * the light the segment meets counts toward *light: the sky on a miss, or the surface's emission
+ * toward the path (an unlit surface's only along a pixel's cone, where it is seen as painted).
+ * `cone`: the pixel's cone picks the texture levels (a gather or scattered ray has no cone worth
+ * the name and reads level 0). False when the segment leaves the scene. */
+static bool meet_surface(const eye_job *job, surface_bounce *pending, vec3 o, vec3 d, bool lit, bool cone,
+                         float *path_length, vec3 *throughput, vec3 *light, uint64_t *rays, pm_hit *h, pm_surface *sf) {
+    const pm_scene *s = job->scene;
+    bool hit;
+    if (pending->traced) {
+        hit = pending->hit;
+        *h = pending->h;
+        pending->traced = false;
+    } else {
+        (*rays)++;
+        hit = pm_accel_intersect(job->accel, o, d, INFINITY, h);
+    }
+    if (!hit) {
+        if (lit && s->sky) *light = v3_add(*light, v3_mul(*throughput, pm_scene_sky(s, d)));
+        return false;
+    }
+    *path_length += h->t;
+    pm_scene_surface_footprint(s, h->tri, h->b1, h->b2, cone ? job->cone_width + job->cone_spread * *path_length : 0.f, d, sf);
+    *throughput = v3_mul(*throughput, pm_volume_transmittance(s, sf, d, h->t));
+    bool front = v3_dot(sf->ng, v3_neg(d)) > 0.f;
+    if (lit && (front || sf->double_sided) && !v3_is_black(sf->emission) && (!sf->unlit || cone))
+        *light = v3_add(*light, v3_mul(*throughput, sf->emission));
+    return true;
+}
+
 void pm_eye_enclosure(const pm_scene *s, const pm_accel *a, const pm_camera *cam, float aspect, float *view_fraction,
                       float *around_fraction) {
     enum { GRID = 32, AROUND = 1024, BOUNCES = 4 };
@@ -394,27 +425,9 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
     for (int depth = 0;; depth++) {
         int comp = depth == 0 ? PM_DIRECT : PM_SPECULAR;
         pm_hit h;
-        bool hit;
-        if (pending.traced) {
-            hit = pending.hit;
-            h = pending.h;
-            pending.traced = false;
-        } else {
-            (*rays)++;
-            hit = pm_accel_intersect(job->accel, o, d, INFINITY, &h);
-        }
-        if (!hit) {
-            if (lit && s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
-            return;
-        }
-        path_length += h.t;
         pm_surface sf;
-        pm_scene_surface_footprint(s, h.tri, h.b1, h.b2, job->cone_width + job->cone_spread * path_length, d, &sf);
-        throughput = v3_mul(throughput, pm_volume_transmittance(s, &sf, d, h.t));
+        if (!meet_surface(job, &pending, o, d, lit, true, &path_length, &throughput, &out[comp], rays, &h, &sf)) return;
         vec3 wo = v3_neg(d);
-        bool front = v3_dot(sf.ng, wo) > 0.f;
-        if (lit && (front || sf.double_sided) && !v3_is_black(sf.emission))
-            out[comp] = v3_add(out[comp], v3_mul(throughput, sf.emission));
         if (pm_vertex_has_nonspecular(&sf)) {
             const pm_eye_settings *set = job->settings;
             vec3 ng = pm_facing(sf.ng, wo);
@@ -507,29 +520,8 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
     for (int depth = 0;; depth++) {
         int comp = depth == 0 ? PM_DIRECT : PM_SPECULAR;
         pm_hit h;
-        bool hit;
-        if (pending.traced) {
-            hit = pending.hit;
-            h = pending.h;
-            pending.traced = false;
-        } else {
-            (*rays)++;
-            hit = pm_accel_intersect(job->accel, o, d, INFINITY, &h);
-        }
-        if (!hit) {
-            if (lit && s->sky) out[comp] = v3_add(out[comp], v3_mul(throughput, pm_scene_sky(s, d)));
-            return false;
-        }
-        path_length += h.t;
-        /* a camera ray's pixel cone picks the texture levels; a gather ray has no cone of its own
-         * worth the name (a cosine lobe), and reads level 0 */
-        pm_scene_surface_footprint(s, h.tri, h.b1, h.b2,
-                                   camera_ray ? job->cone_width + job->cone_spread * path_length : 0.f, d, sf);
-        throughput = v3_mul(throughput, pm_volume_transmittance(s, sf, d, h.t));
+        if (!meet_surface(job, &pending, o, d, lit, camera_ray, &path_length, &throughput, &out[comp], rays, &h, sf)) return false;
         vec3 wo = v3_neg(d);
-        bool front = v3_dot(sf->ng, wo) > 0.f;
-        if (lit && (front || sf->double_sided) && !v3_is_black(sf->emission))
-            out[comp] = v3_add(out[comp], v3_mul(throughput, sf->emission));
         pm_vertex_ray ray;
         bool goes_on = pm_vertex_step(sf, d, first_vertex + depth, exit ? &continuing_policy : &walk_policy, rng,
                                       s->ray_scale, &ray);
@@ -653,29 +645,10 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
     surface_bounce next = *first; /* the camera ray, traced with its tile, or the visible point's direct light's */
     for (int depth = start->depth; depth < PM_PATHTRACE_MAX_VERTICES; depth++) {
         pm_hit h;
-        bool hit;
-        if (next.traced) { /* the segment direct light traced from the last diffuse vertex */
-            hit = next.hit;
-            h = next.h;
-            next.traced = false;
-        } else {
-            (*rays)++;
-            hit = pm_accel_intersect(job->accel, o, d, INFINITY, &h);
-        }
-        if (!hit) {
-            if (lit_by_segment && s->sky) out[seen] = v3_add(out[seen], v3_mul(throughput, pm_scene_sky(s, d)));
-            return;
-        }
-        (*vertices)++;
-        path_length += h.t;
         pm_surface sf;
-        pm_scene_surface_footprint(s, h.tri, h.b1, h.b2, cone ? job->cone_width + job->cone_spread * path_length : 0.f, d,
-                                   &sf);
-        throughput = v3_mul(throughput, pm_volume_transmittance(s, &sf, d, h.t));
+        if (!meet_surface(job, &next, o, d, lit_by_segment, cone, &path_length, &throughput, &out[seen], rays, &h, &sf)) return;
+        (*vertices)++;
         vec3 wo = v3_neg(d);
-        bool front = v3_dot(sf.ng, wo) > 0.f;
-        if (lit_by_segment && (front || sf.double_sided) && !v3_is_black(sf.emission) && (!sf.unlit || cone))
-            out[seen] = v3_add(out[seen], v3_mul(throughput, sf.emission));
         pm_vertex_ray ray;
         bool goes_on = pm_vertex_step(&sf, d, depth, &continuing_policy, rng, s->ray_scale, &ray);
         if (ray.lobe == PM_LOBE_NONE) return;
