@@ -947,168 +947,170 @@ bool pm_progressive_iterate(pm_progressive *p, pm_film *film, uint32_t max_sampl
     return ok;
 }
 
-static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
-    assert((size_t)film->width * film->height == p->pixels);
-    uint32_t iteration = film->photon_passes;
-    const pm_progressive_settings *set = &p->settings;
-    uint32_t eye_passes = max_samples && p->radii.eye_passes > max_samples ? max_samples : p->radii.eye_passes;
-    /* the final gather's source: until it is chosen, the image is the path tracer's (the first
-     * image too), and from the second iteration on the path tracer and the photons take turns,
-     * each with a probed pair of eye passes. The photons' learning iterations are measurements
-     * only: they trace the probe's pixels alone and the film is put back after them (their early
-     * estimates carry the bias of wide radii and an unlearned guide, which the image would keep),
-     * so a scene that ends with the path tracer has spent on photons no more than their passes
-     * and the probed pixels' gathers, and its image holds the path tracer's samples alone. Such
-     * an iteration is never cut by the deadline (a cut pass marks pixels ahead). */
-    bool chosen = p->radii.gather_chosen, learning = !chosen && iteration > 0 && !(max_samples && max_samples < 2);
-    pm_gather_source source = chosen ? p->radii.gather_source
-                                     : (learning && p->radii.learn_step % 2 ? PM_GATHER_PHOTONS : PM_GATHER_PATH);
-    bool measure_only = learning && source == PM_GATHER_PHOTONS;
-    double deadline = p->eye.deadline;
-    p->eye.gather_source = source;
-    if (learning && eye_passes < 2) eye_passes = 2;
-    bool global_pass = p->trace_global && !(p->gathering && source == PM_GATHER_PATH);
+/* ---- the iteration ---- */
 
-    /* 1. photon passes: a fresh, independent set every iteration, sorted into hash grids */
-    uint64_t seed = pm_hash64(set->seed * 0x9e3779b97f4a7c15ULL + iteration);
-    double t0 = pm_now_seconds();
-    uint64_t photon_rays_before = p->stats.photons.rays, eye_rays_before = p->stats.eye.rays;
-    uint64_t saved_before = p->stats.eye.shadow_rays_saved;
-    bool ok = true, probing = p->probe.total != NULL;
-    iteration_start start;
-    keep_start(p, film, &start);
-    if (probing) probe_begin(&p->probe, film);
+/* One iteration as its phases hand it on: what begin_iteration decided, and the counts each
+ * phase leaves for the next (iterate runs them in order; pbrt-v4's SPPM integrator has the same
+ * shape). Kept in one value so that no phase takes a dozen parameters. */
+typedef struct {
+    uint32_t iteration;                  /* the film's photon passes when it began */
+    uint32_t eye_passes;                 /* asked of this iteration */
+    bool learning;                       /* one of the gather source's learning iterations (begin_iteration) */
+    bool measure_only;                   /* the photons' learning iteration: probed pixels alone, film put back */
+    bool probing;                        /* the noise probe runs (automatic eye passes) */
+    pm_gather_source source;             /* the final gather's source in this iteration */
+    double deadline;                     /* the eye passes', which a measuring iteration lifts while it runs */
+    double to_whole[KIND_COUNT];         /* a whole iteration's photons over those asked (whole_over_asked) */
+    iteration_start start;               /* what a cancel or a failure puts back */
+    /* the run's counters when the iteration began: what they gained is its cost */
+    uint64_t photon_rays_before, eye_rays_before, saved_before;
+    uint64_t clip_rays_before, examined_before, queries_before;
+    double t0, t_grid;                   /* when the photon pass and the grids' sort began */
+    double photon_rays;                  /* a whole photon pass's rays, for the next iteration's eye passes */
+    double eye_scale;                    /* the measuring iteration's eye cost over the whole image's */
+    uint32_t whole_passes;               /* eye passes that ran to their end */
+    bool cut, failed;                    /* the last eye pass was cut by the deadline, or failed after whole ones */
+} iteration_run;
+
+/* How a phase ended: on anything but PHASE_DONE the iteration is taken back (give_up). */
+typedef enum { PHASE_DONE, PHASE_CANCELLED, PHASE_FAILED } phase_result;
+
+/* A cancel (a restart, a stop, a signal) or a failure: the state as the iteration found it. True
+ * for a cancel, which is no failure. */
+static bool give_up(pm_progressive *p, pm_film *film, const iteration_run *it, phase_result r) {
+    return take_back(p, film, &it->start) && r == PHASE_CANCELLED;
+}
+
+/* Decides what the iteration does and keeps what a cancel puts back. The final gather's source:
+ * until it is chosen, the image is the path tracer's (the first image too), and from the second
+ * iteration on the path tracer and the photons take turns, each with a probed pair of eye passes.
+ * The photons' learning iterations are measurements only: they trace the probe's pixels alone
+ * and the film is put back after them (their early estimates carry the bias of wide radii and an
+ * unlearned guide, which the image would keep), so a scene that ends with the path tracer has
+ * spent on photons no more than their passes and the probed pixels' gathers, and its image holds
+ * the path tracer's samples alone. Such an iteration is never cut by the deadline (a cut pass
+ * marks pixels ahead). */
+static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_samples, iteration_run *it) {
+    memset(it, 0, sizeof *it);
+    it->iteration = film->photon_passes;
+    it->eye_passes = max_samples && p->radii.eye_passes > max_samples ? max_samples : p->radii.eye_passes;
+    bool chosen = p->radii.gather_chosen;
+    it->learning = !chosen && it->iteration > 0 && !(max_samples && max_samples < 2);
+    it->source = chosen ? p->radii.gather_source
+                        : (it->learning && p->radii.learn_step % 2 ? PM_GATHER_PHOTONS : PM_GATHER_PATH);
+    it->measure_only = it->learning && it->source == PM_GATHER_PHOTONS;
+    it->deadline = p->eye.deadline;
+    p->eye.gather_source = it->source;
+    if (it->learning && it->eye_passes < 2) it->eye_passes = 2;
+    it->t0 = pm_now_seconds();
+    it->photon_rays_before = p->stats.photons.rays;
+    it->eye_rays_before = p->stats.eye.rays;
+    it->saved_before = p->stats.eye.shadow_rays_saved;
+    it->probing = p->probe.total != NULL;
+    keep_start(p, film, &it->start);
+    if (it->probing) probe_begin(&p->probe, film);
+}
+
+/* Phase 1: the photon passes, a fresh, independent set every iteration. */
+static phase_result trace_photon_passes(pm_progressive *p, pm_film *film, iteration_run *it) {
+    const pm_progressive_settings *set = &p->settings;
+    bool global_pass = p->trace_global && !(p->gathering && it->source == PM_GATHER_PATH);
+    uint64_t seed = pm_hash64(set->seed * 0x9e3779b97f4a7c15ULL + it->iteration);
+    bool ok = true;
     pm_photon_buffer *caustic = &p->buffer[KIND_CAUSTIC], *global = &p->buffer[KIND_INDIRECT];
     caustic->count = global->count = 0;
-    uint64_t asked[KIND_COUNT] = {photons_to_emit(set, set->caustic_photons, iteration),
-                                  photons_to_emit(set, set->photons, iteration)};
-    double to_whole[KIND_COUNT] = {whole_over_asked(set->caustic_photons, asked[KIND_CAUSTIC]),
-                                   whole_over_asked(set->photons, asked[KIND_INDIRECT])};
+    uint64_t asked[KIND_COUNT] = {photons_to_emit(set, set->caustic_photons, it->iteration),
+                                  photons_to_emit(set, set->photons, it->iteration)};
+    it->to_whole[KIND_CAUSTIC] = whole_over_asked(set->caustic_photons, asked[KIND_CAUSTIC]);
+    it->to_whole[KIND_INDIRECT] = whole_over_asked(set->photons, asked[KIND_INDIRECT]);
     if (p->trace_caustic) {
         pm_photon_tracer_set_splats(p->tracer, p->splatting ? &p->camera : NULL, film->width, film->height, &p->splats);
         ok = pm_photon_tracer_trace_into(p->tracer, true, asked[KIND_CAUSTIC], seed, caustic, &p->stats.photons);
     }
     if (ok && global_pass && !pm_parallel_cancelled())
         ok = pm_photon_tracer_trace_into(p->tracer, false, asked[KIND_INDIRECT], seed, global, &p->stats.photons);
-    /* cancelled (a restart, a stop, a signal): the iteration is dropped before it touched the film */
-    if (pm_parallel_cancelled()) return take_back(p, film, &start);
-    if (!ok) return !take_back(p, film, &start); /* out of memory: the film untouched, the state as the iteration found it */
-    if (probing) probe_splats(&p->probe, film, &p->splats);
+    /* cancelled: the iteration is dropped before it touched the film; out of memory: the film
+     * untouched, the state as the iteration found it */
+    if (pm_parallel_cancelled()) return PHASE_CANCELLED;
+    if (!ok) return PHASE_FAILED;
+    if (it->probing) probe_splats(&p->probe, film, &p->splats);
     /* a whole pass's rays (the first pass asks fewer photons), for the next iteration's eye passes */
-    double photon_rays = (double)(p->stats.photons.rays - photon_rays_before) *
-                         (p->trace_global ? to_whole[KIND_INDIRECT] : to_whole[KIND_CAUSTIC]);
+    it->photon_rays = (double)(p->stats.photons.rays - it->photon_rays_before) *
+                      (p->trace_global ? it->to_whole[KIND_INDIRECT] : it->to_whole[KIND_CAUSTIC]);
+    return PHASE_DONE;
+}
+
+/* Phase 2: the radii the photons' density sets where none is known yet, and the photons sorted
+ * into hash grids. */
+static phase_result build_photon_grids(pm_progressive *p, iteration_run *it) {
+    const pm_progressive_settings *set = &p->settings;
+    pm_photon_buffer *caustic = &p->buffer[KIND_CAUSTIC], *global = &p->buffer[KIND_INDIRECT];
     if (p->radii.density_r2[KIND_CAUSTIC] == 0.0)
-        p->radii.density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count, to_whole[KIND_CAUSTIC]);
+        p->radii.density_r2[KIND_CAUSTIC] = density_radius2(p, caustic->count, it->to_whole[KIND_CAUSTIC]);
     p->stats.photons_stored += caustic->count + global->count;
     /* visible points read only indirect photons (direct light and caustics have their own
      * estimates); gather points read all of them */
     if (!p->gathering) keep_tagged(global, 1u << PM_PATH_INDIRECT);
     if (p->radii.density_r2[KIND_INDIRECT] == 0.0)
-        p->radii.density_r2[KIND_INDIRECT] = density_radius2(p, global->count, to_whole[KIND_INDIRECT]);
+        p->radii.density_r2[KIND_INDIRECT] = density_radius2(p, global->count, it->to_whole[KIND_INDIRECT]);
     if (p->gathering && p->radii.gather_r2 == 0.0)
         p->radii.gather_r2 = set->initial_radius > 0.0 ? set->initial_radius * set->initial_radius
                                                  : p->radii.density_r2[KIND_INDIRECT] * PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS;
-    double t_grid = pm_now_seconds();
+    it->t_grid = pm_now_seconds();
     bool built = build_grid(p, KIND_CAUSTIC) && build_grid(p, KIND_INDIRECT);
-    if (pm_parallel_cancelled()) return take_back(p, film, &start); /* a cancelled sort left the grids empty */
-    if (!built) return !take_back(p, film, &start);
-    /* the first pass with global photons: the radii from their density where the camera looks;
-     * while the guide learns to send photons there (at every power of two of the iterations), the
-     * shared gather radius may shrink again to the denser light's (a deterministic sequence that
-     * only ever shrinks faster, so the limit is unchanged) */
+    if (pm_parallel_cancelled()) return PHASE_CANCELLED; /* a cancelled sort left the grids empty */
+    return built ? PHASE_DONE : PHASE_FAILED;
+}
+
+/* Phase 3: the first pass with global photons sets the radii from their density where the camera
+ * looks; while the guide learns to send photons there (at every power of two of the iterations),
+ * the shared gather radius may shrink again to the denser light's (a deterministic sequence that
+ * only ever shrinks faster, so the limit is unchanged). */
+static void measure_seen_radii(pm_progressive *p, const iteration_run *it) {
+    uint32_t iteration = it->iteration;
     bool remeasure = p->guiding && p->gathering && p->radii.gather_chosen && p->radii.seen_measured && iteration >= 2 &&
                      (iteration & (iteration - 1)) == 0;
-    if ((!p->radii.seen_measured || remeasure) && global->count && set->initial_radius <= 0.0) {
-        const pm_photon_grid *g = &p->grid[KIND_INDIRECT];
-        double mean_r2 = p->radii.density_r2[KIND_INDIRECT] * (p->gathering ? PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS : 1.0);
-        if (!p->radii.seen_measured && !p->gathering) { /* gather points start from the shared radius alone */
-            double seen = seen_density_radius2(p, g, 0, mean_r2, PM_PPM_INITIAL_PHOTONS, to_whole[KIND_INDIRECT]);
-            if (seen > 0.0) p->radii.density_r2[KIND_INDIRECT] = fmin(seen, p->radii.density_r2[KIND_INDIRECT]);
-        }
-        if (p->gathering) {
-            double gathered = seen_density_radius2(p, g, 1, remeasure ? p->radii.gather_r2 : mean_r2, PM_PPM_GATHER_PHOTONS,
-                                                   to_whole[KIND_INDIRECT]);
-            if (gathered > 0.0) p->radii.gather_r2 = fmin(gathered, p->radii.gather_r2);
-        }
-        p->radii.seen_measured = true;
+    if ((p->radii.seen_measured && !remeasure) || !p->buffer[KIND_INDIRECT].count || !(p->settings.initial_radius <= 0.0)) return;
+    const pm_photon_grid *g = &p->grid[KIND_INDIRECT];
+    double mean_r2 = p->radii.density_r2[KIND_INDIRECT] * (p->gathering ? PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS : 1.0);
+    if (!p->radii.seen_measured && !p->gathering) { /* gather points start from the shared radius alone */
+        double seen = seen_density_radius2(p, g, 0, mean_r2, PM_PPM_INITIAL_PHOTONS, it->to_whole[KIND_INDIRECT]);
+        if (seen > 0.0) p->radii.density_r2[KIND_INDIRECT] = fmin(seen, p->radii.density_r2[KIND_INDIRECT]);
     }
-    double t1 = pm_now_seconds();
-    p->stats.grid_seconds += t1 - t_grid;
-    p->stats.photons.seconds += t1 - t0;
+    if (p->gathering) {
+        double gathered = seen_density_radius2(p, g, 1, remeasure ? p->radii.gather_r2 : mean_r2, PM_PPM_GATHER_PHOTONS,
+                                               it->to_whole[KIND_INDIRECT]);
+        if (gathered > 0.0) p->radii.gather_r2 = fmin(gathered, p->radii.gather_r2);
+    }
+    p->radii.seen_measured = true;
+}
 
-    /* what the eye passes' gathers cost (the radii's measurement above is the run's, once) */
-    uint64_t clip_rays_before = p->stats.clip_rays, examined_before = p->stats.photons_examined;
-    uint64_t queries_before = p->stats.disc_queries;
-
-    /* 2. eye passes: visible points (and gather points), emission and direct light; each tile's
-     * points gather this iteration's photons as soon as the tile is traced (statistics at visible
-     * points in the first pass, estimates at gather points in every pass) */
+/* The eye passes' gather job over this iteration's grids, and the guide's marks cleared for them
+ * (a mark's cell: twice the radius global photons are read with). NULL when out of memory. */
+static gather_job *new_gather_job(pm_progressive *p, pm_film *film, const iteration_run *it) {
     gather_job *job = pm_calloc(1, sizeof *job, "gather job");
-    if (!job) return !take_back(p, film, &start);
+    if (!job) return NULL;
     job->p = p;
     job->film = film;
     job->caustic = p->grid[KIND_CAUSTIC].count ? &p->grid[KIND_CAUSTIC] : NULL;
     job->global = p->grid[KIND_INDIRECT].count ? &p->grid[KIND_INDIRECT] : NULL;
     job->gather_r2 = p->radii.gather_r2;
-    job->to_whole[KIND_CAUSTIC] = to_whole[KIND_CAUSTIC];
-    job->to_whole[KIND_INDIRECT] = to_whole[KIND_INDIRECT];
-    bool photons_here = job->caustic || job->global;
+    job->to_whole[KIND_CAUSTIC] = it->to_whole[KIND_CAUSTIC];
+    job->to_whole[KIND_INDIRECT] = it->to_whole[KIND_INDIRECT];
     if (p->guiding) {
-        /* a mark's cell: twice the radius global photons are read with */
         double read_radius = p->gathering ? sqrt(p->radii.gather_r2)
                                           : (p->radii.query_radius[KIND_INDIRECT] > 0.0 ? p->radii.query_radius[KIND_INDIRECT]
                                                                                   : mean_initial_radius(p, KIND_INDIRECT));
         pm_marks_clear(&p->marks_next, (float)(0.25 * read_radius));
     }
-    /* a pass cut short by the deadline is the iteration's last: the pixels it reached are marked
-     * in the film, which divides each pixel by its own counts; a cancelled pass takes the whole
-     * iteration back (its first pass saved every pixel it wrote) */
-    uint32_t whole_passes = 0;
-    bool cut = false, failed = false;
-    /* the photons' measuring iteration traces the probed pixels alone: its samples are read there
-     * and nowhere else, and its cost is counted as the whole image's (eye_scale) */
-    double eye_scale = measure_only ? (double)p->pixels / (double)p->probe.count : 1.0;
-    if (measure_only) {
-        if (!pm_film_open_copy(film)) { free(job); return !take_back(p, film, &start); }
-        pm_film_save_rect(film, 0, 0, film->width, film->height);
-        p->eye.deadline = 0.0;
-        p->eye.only_pixels = p->probe.only;
-    }
-    for (uint32_t pass = 0; pass < eye_passes && !cut; pass++) {
-        job->statistics = pass == 0;
-        job->sample = film->samples;
-        /* gather points even with no photon to read there: their punctual light is traced */
-        unsigned reached = PM_FILM_AHEAD_SAMPLE | (pass == 0 ? PM_FILM_AHEAD_PHOTON_PASS : 0u);
-        pm_eye_pass_result r = pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, film->samples, film,
-                                                     p->gathering, photons_here ? gather_tile : NULL, job, reached,
-                                                     pass == 0, &p->stats.eye);
-        if (r == PM_EYE_PASS_FAILED && pass == 0) { p->eye.deadline = deadline; p->eye.only_pixels = NULL; free(job); return !take_back(p, film, &start); } /* nothing ran */
-        if (r == PM_EYE_PASS_FAILED) {
-            /* out of memory after whole passes: the iteration ends with them (their splats, their
-             * counts), so the film holds nothing half counted, and the failure is reported */
-            failed = true;
-            break;
-        }
-        if (r == PM_EYE_PASS_CANCELLED) {
-            /* the first pass put back the tiles it traced; after it, every pixel was saved */
-            if (pass > 0 || measure_only) pm_film_restore_rect(film, 0, 0, film->width, film->height);
-            p->eye.deadline = deadline;
-            p->eye.only_pixels = NULL;
-            free(job);
-            return take_back(p, film, &start);
-        }
-        cut = r == PM_EYE_PASS_CUT;
-        if (cut) break;
-        film->samples++;
-        if (pass == 0) film->photon_passes++;
-        whole_passes++;
-        if (probing && pass < 2)
-            probe_eye_pass(&p->probe, film, pass, learning ? (int)source : -1, p->radii.learned[source]);
-    }
-    if (p->splatting) add_splats(p, film, whole_passes, cut);
-    p->eye.deadline = deadline;
-    p->eye.only_pixels = NULL;
-    int threads = pm_thread_count(set->threads);
+    return job;
+}
+
+/* The gather's per-thread counters summed into the run's statistics and radii. The gathering ran
+ * inside the eye pass's wall time: its share (thread seconds over threads) is reported as gather
+ * time, the rest as the eye pass's. */
+static void add_gather_counters(pm_progressive *p, const gather_job *job) {
+    int threads = pm_thread_count(p->settings.threads);
     double query_sum[KIND_COUNT] = {0, 0}, gather_seconds = 0.0;
     uint64_t query_count[KIND_COUNT] = {0, 0};
     for (int t = 0; t < threads; t++) {
@@ -1129,22 +1131,98 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
         if (query_count[k]) p->radii.query_radius[k] = query_sum[k] / (double)query_count[k];
         p->stats.photons_read += pm_photon_grid_read_count(&p->grid[k]);
     }
-    free(job);
-    /* the gathering ran inside the eye pass's wall time: its share (thread seconds over threads)
-     * is reported as gather time, the rest as the eye pass's */
     gather_seconds /= threads;
     p->stats.gather_seconds += gather_seconds;
     p->stats.eye.seconds -= fmin(gather_seconds, p->stats.eye.seconds);
+}
+
+/* Phase 4: the eye passes: visible points (and gather points), emission and direct light; each
+ * tile's points gather this iteration's photons as soon as the tile is traced (statistics at
+ * visible points in the first pass, estimates at gather points in every pass). A pass cut short
+ * by the deadline is the iteration's last: the pixels it reached are marked in the film, which
+ * divides each pixel by its own counts; a cancelled pass takes the whole iteration back (its
+ * first pass saved every pixel it wrote). */
+static phase_result run_eye_passes(pm_progressive *p, pm_film *film, iteration_run *it) {
+    gather_job *job = new_gather_job(p, film, it);
+    if (!job) return PHASE_FAILED;
+    bool photons_here = job->caustic || job->global;
+    /* the photons' measuring iteration traces the probed pixels alone: its samples are read there
+     * and nowhere else, and its cost is counted as the whole image's (eye_scale) */
+    it->eye_scale = it->measure_only ? (double)p->pixels / (double)p->probe.count : 1.0;
+    if (it->measure_only) {
+        if (!pm_film_open_copy(film)) { free(job); return PHASE_FAILED; }
+        pm_film_save_rect(film, 0, 0, film->width, film->height);
+        p->eye.deadline = 0.0;
+        p->eye.only_pixels = p->probe.only;
+    }
+    phase_result result = PHASE_DONE;
+    for (uint32_t pass = 0; pass < it->eye_passes && !it->cut; pass++) {
+        job->statistics = pass == 0;
+        job->sample = film->samples;
+        /* gather points even with no photon to read there: their punctual light is traced */
+        unsigned reached = PM_FILM_AHEAD_SAMPLE | (pass == 0 ? PM_FILM_AHEAD_PHOTON_PASS : 0u);
+        pm_eye_pass_result r = pm_eye_visible_points(p->scene, p->accel, &p->camera, &p->eye, film->samples, film,
+                                                     p->gathering, photons_here ? gather_tile : NULL, job, reached,
+                                                     pass == 0, &p->stats.eye);
+        if (r == PM_EYE_PASS_FAILED && pass == 0) { result = PHASE_FAILED; break; } /* nothing ran */
+        /* out of memory after whole passes: the iteration ends with them (their splats, their
+         * counts), so the film holds nothing half counted, and the failure is reported */
+        if (r == PM_EYE_PASS_FAILED) { it->failed = true; break; }
+        if (r == PM_EYE_PASS_CANCELLED) {
+            /* the first pass put back the tiles it traced; after it, every pixel was saved */
+            if (pass > 0 || it->measure_only) pm_film_restore_rect(film, 0, 0, film->width, film->height);
+            result = PHASE_CANCELLED;
+            break;
+        }
+        it->cut = r == PM_EYE_PASS_CUT;
+        if (it->cut) break;
+        film->samples++;
+        if (pass == 0) film->photon_passes++;
+        it->whole_passes++;
+        if (it->probing && pass < 2)
+            probe_eye_pass(&p->probe, film, pass, it->learning ? (int)it->source : -1, p->radii.learned[it->source]);
+    }
+    if (result == PHASE_DONE && p->splatting) add_splats(p, film, it->whole_passes, it->cut);
+    p->eye.deadline = it->deadline;
+    p->eye.only_pixels = NULL;
+    if (result == PHASE_DONE) add_gather_counters(p, job);
+    free(job);
+    return result;
+}
+
+/* A learning iteration's cost for a pair of eye passes, in rays, for choose_gather; once both
+ * sources are learned the choice is made and the eye passes are learned again on it alone. */
+static void learn_gather_cost(pm_progressive *p, const iteration_run *it) {
+    double passes = (double)it->whole_passes;
+    /* a shadow test the shadow photons decided counts as the ray it saved: whether they are
+     * built is measured in seconds (shadowmap.c), and the choice must not depend on it */
+    double eye = (double)(p->stats.eye.rays - it->eye_rays_before) + (double)(p->stats.eye.shadow_rays_saved - it->saved_before) +
+                 (double)(p->stats.clip_rays - it->clip_rays_before) +
+                 PM_PPM_EXAMINED_COST * (double)(p->stats.photons_examined - it->examined_before) +
+                 PM_PPM_QUERY_COST * (double)(p->stats.disc_queries - it->queries_before);
+    eye *= it->eye_scale; /* a measuring iteration's eye passes cost what they would over the whole image */
+    p->radii.learn_cost[it->source] += (double)(p->stats.photons.rays - it->photon_rays_before) + 2.0 * eye / passes;
+    p->radii.learned[it->source]++;
+    if (p->radii.learned[0] >= 2 && p->radii.learned[1] >= 2 && choose_gather(p)) {
+        memset(p->probe.mean, 0, 3 * p->probe.count * sizeof(double));
+        p->probe.pairs = 0;
+    }
+}
+
+/* Phase 5: what the next iteration starts from: the shrunk gather radius, the guide's marks, the
+ * gather source's learning, the eye passes per photon pass, and the counts. */
+static void end_iteration(pm_progressive *p, pm_film *film, const iteration_run *it) {
+    const pm_progressive_settings *set = &p->settings;
     /* Knaus and Zwicker's shrinking radius for the next iteration's gather points (an iteration
      * whose statistics pass was cut counts no photon pass: the next one reads with this radius) */
-    if (p->gathering && p->radii.gather_r2 > 0.0 && whole_passes > 0) {
+    if (p->gathering && p->radii.gather_r2 > 0.0 && it->whole_passes > 0) {
         uint32_t steps = set->radius_steps > 1 ? set->radius_steps : 1u;
         for (uint32_t step = 0; step < steps; step++) {
-            double i = (double)iteration * steps + step + 1.0;
+            double i = (double)it->iteration * steps + step + 1.0;
             p->radii.gather_r2 *= (i + set->alpha) / (i + 1.0);
         }
     }
-    if (p->guiding && source == PM_GATHER_PHOTONS) {
+    if (p->guiding && it->source == PM_GATHER_PHOTONS) {
         /* the marks this iteration made are the next global pass's to learn from (the path
          * tracer's iterations read no photons and make none: the last ones are kept; a measuring
          * iteration's come from the probed pixels alone) */
@@ -1152,37 +1230,41 @@ static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
         p->marks = p->marks_next;
         p->marks_next = swap;
     }
-    if (learning && !cut) p->radii.learn_step++;
-    if (learning && probing && whole_passes >= 2) {
-        /* this iteration's cost for a pair of eye passes, in rays (see choose_gather) */
-        double passes = (double)whole_passes;
-        /* a shadow test the shadow photons decided counts as the ray it saved: whether they are
-         * built is measured in seconds (shadowmap.c), and the choice must not depend on it */
-        double eye = (double)(p->stats.eye.rays - eye_rays_before) + (double)(p->stats.eye.shadow_rays_saved - saved_before) +
-                     (double)(p->stats.clip_rays - clip_rays_before) +
-                     PM_PPM_EXAMINED_COST * (double)(p->stats.photons_examined - examined_before) +
-                     PM_PPM_QUERY_COST * (double)(p->stats.disc_queries - queries_before);
-        eye *= eye_scale; /* a measuring iteration's eye passes cost what they would over the whole image */
-        p->radii.learn_cost[source] += (double)(p->stats.photons.rays - photon_rays_before) + 2.0 * eye / passes;
-        p->radii.learned[source]++;
-        if (p->radii.learned[0] >= 2 && p->radii.learned[1] >= 2 && choose_gather(p)) {
-            /* the eye passes are learned again on the chosen source alone */
-            memset(p->probe.mean, 0, 3 * p->probe.count * sizeof(double));
-            p->probe.pairs = 0;
-        }
-    }
-    if (measure_only) {
-        /* the photons' learning iteration leaves the image as it found it (see above) */
+    if (it->learning && !it->cut) p->radii.learn_step++;
+    if (it->learning && it->probing && it->whole_passes >= 2) learn_gather_cost(p, it);
+    if (it->measure_only) {
+        /* the photons' learning iteration leaves the image as it found it (see begin_iteration) */
         pm_film_restore_rect(film, 0, 0, film->width, film->height);
-        film->samples = start.samples;
-        film->photon_passes = start.photon_passes;
+        film->samples = it->start.samples;
+        film->photon_passes = it->start.photon_passes;
     }
-    if (probing && !cut)
-        p->radii.eye_passes = choose_eye_passes(&p->probe, film->photon_passes, photon_rays,
-                                          eye_scale * (double)(p->stats.eye.rays - eye_rays_before) / eye_passes);
+    if (it->probing && !it->cut)
+        p->radii.eye_passes = choose_eye_passes(&p->probe, film->photon_passes, it->photon_rays,
+                                                it->eye_scale * (double)(p->stats.eye.rays - it->eye_rays_before) / it->eye_passes);
     p->stats.iterations = film->samples;
     p->stats.photon_passes = film->photon_passes;
-    return !failed;
+}
+
+/* One iteration: its phases in order; a cancel or a failure in any of them takes it back whole. */
+static bool iterate(pm_progressive *p, pm_film *film, uint32_t max_samples) {
+    assert((size_t)film->width * film->height == p->pixels);
+    iteration_run it;
+    begin_iteration(p, film, max_samples, &it);
+    phase_result r = trace_photon_passes(p, film, &it);
+    if (r == PHASE_DONE) r = build_photon_grids(p, &it);
+    if (r != PHASE_DONE) return give_up(p, film, &it, r);
+    measure_seen_radii(p, &it);
+    double t1 = pm_now_seconds();
+    p->stats.grid_seconds += t1 - it.t_grid;
+    p->stats.photons.seconds += t1 - it.t0;
+    /* what the eye passes' gathers cost (the radii's measurement above is the run's, once) */
+    it.clip_rays_before = p->stats.clip_rays;
+    it.examined_before = p->stats.photons_examined;
+    it.queries_before = p->stats.disc_queries;
+    r = run_eye_passes(p, film, &it);
+    if (r != PHASE_DONE) return give_up(p, film, &it, r);
+    end_iteration(p, film, &it);
+    return !it.failed;
 }
 
 void pm_progressive_set_deadline(pm_progressive *p, double deadline) {
