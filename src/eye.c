@@ -195,6 +195,139 @@ static vec3 punctual_light(const pm_scene *s, const pm_accel *a, const pm_surfac
     return e;
 }
 
+/* What direct_light's strategies share: the point lit, seen from wo, its shading frame facing wo,
+ * the origin of its rays, and the counts its rays add to. */
+typedef struct {
+    const pm_scene *s;
+    const pm_accel *a;
+    const pm_surface *sf;
+    pm_lobe part;
+    vec3 wo, ng, ns, origin;
+    uint64_t *rays;              /* every ray traced */
+    uint64_t cast;               /* shadow rays to light samples */
+} light_site;
+
+/* The area sample: one point on a power-picked emissive triangle, weighted by MIS against the
+ * surface's own sampling (own_ray_light), added to *e. */
+static void emitter_area_sample(light_site *ls, pm_rng *rng, vec3 *e) {
+    const pm_scene *s = ls->s;
+    const pm_surface *sf = ls->sf;
+    vec3 ns = ls->ns, origin = ls->origin;
+    float pick_pdf;
+    uint32_t tri = pm_scene_pick_emitter(s, pm_rng_float(rng), &pick_pdf);
+    float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng);
+    vec3 radiance = pm_scene_emitted_at(s, tri, r1 * (1.f - r2), r1 * r2); /* a point picked by area: cut-outs count */
+    pm_triangle_geometry g = pm_triangle_geometry_of(s, tri);
+    vec3 q = pm_triangle_point(&g, r1 * (1.f - r2), r1 * r2), nl = g.normal;
+    float area = g.area;
+    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
+    vec3 to_light = v3_sub(q, origin);
+    float dist = v3_length(to_light);
+    if (!(dist > 0.f && area > 0.f && pick_pdf > 0.f && !v3_is_black(radiance))) return; /* a cut-out or black texel */
+    vec3 wi = v3_scale(to_light, 1.f / dist);
+    float cos_l = -v3_dot(nl, wi);
+    if (m->double_sided) cos_l = fabsf(cos_l);
+    float cos_s = v3_dot(ns, wi);
+    if (!(cos_l > 0.f && cos_s > 0.f && v3_dot(ls->ng, wi) > 0.f)) return;
+    vec3 target = pm_offset_ray_origin(q, pm_facing(nl, v3_neg(wi)), s->ray_scale);
+    vec3 seg = v3_sub(target, origin);
+    float seg_len = v3_length(seg);
+    (*ls->rays)++;
+    ls->cast++;
+    vec3 through;
+    if (seg_len > 0.f && pm_thin_visible(s, ls->a, origin, v3_scale(seg, 1.f / seg_len), seg_len, &through, ls->rays)) {
+        float g = cos_l / (dist * dist);
+        float pdf_light = pick_pdf * dist * dist / (area * cos_l);
+        float pdf_surface = pm_vertex_pdf(sf, ls->part, ns, ls->wo, wi);
+        *e = v3_add(*e, v3_mul(v3_mul(v3_scale(radiance, g * area / pick_pdf * power_heuristic(pdf_light, pdf_surface)),
+                                      through),
+                               reflected(sf, ls->part, ns, ls->wo, wi, cos_s)));
+    }
+}
+
+/* A sky with a map (a sun, a bright window) gets a ray drawn from the map too, weighted against
+ * the surface's own ray (own_ray_light); a uniform sky is sampled best by that ray alone. */
+static void sky_map_sample(light_site *ls, pm_rng *rng, vec3 *e) {
+    const pm_scene *s = ls->s;
+    vec3 wi;
+    float pdf_sky;
+    vec3 radiance = v3_mul(s->sky_radiance, pm_sky_map_sample(s->sky_map, pm_rng_float(rng), pm_rng_float(rng), &wi, &pdf_sky));
+    float cos_s = v3_dot(ls->ns, wi);
+    if (!(pdf_sky > 0.f && cos_s > 0.f && v3_dot(ls->ng, wi) > 0.f)) return;
+    (*ls->rays)++;
+    ls->cast++;
+    float pdf_surface = pm_vertex_pdf(ls->sf, ls->part, ls->ns, ls->wo, wi);
+    vec3 through;
+    if (pm_thin_visible(s, ls->a, ls->origin, wi, INFINITY, &through, ls->rays))
+        *e = v3_add(*e, v3_mul(v3_mul(v3_scale(radiance, power_heuristic(pdf_sky, pdf_surface) / pdf_sky), through),
+                               reflected(ls->sf, ls->part, ls->ns, ls->wo, wi, cos_s)));
+}
+
+/* The light the own ray (direction wi, value weight, pdf pdf_surface) finds at its hit h and past
+ * every thin wall it meets (emitting or not), which the continuation crosses as no scattering:
+ * counted here, once. The sky by sky_weight, the emitters by MIS against the area sample. */
+static void light_along_own_ray(light_site *ls, vec3 wi, vec3 weight, float pdf_surface, float sky_weight, pm_hit h,
+                                bool hit, vec3 *e) {
+    const pm_scene *s = ls->s;
+    for (int crossings = 0;; crossings++) {
+        if (!hit) {
+            if (s->sky) *e = v3_add(*e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
+        } else if (s->emitter_count) {
+            const pm_material *m = &s->materials[pm_scene_triangle_material(s, h.tri)];
+            float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
+            if (pick_pdf > 0.f) {
+                pm_triangle_geometry g = pm_triangle_geometry_of(s, h.tri);
+                float cos_l = g.area > 0.f ? -v3_dot(g.normal, wi) : 0.f;
+                if (m->double_sided) cos_l = fabsf(cos_l);
+                if (cos_l > 0.f) {
+                    float pdf_light = pick_pdf * h.t * h.t / (g.area * cos_l);
+                    *e = v3_add(*e, v3_mul(v3_scale(pm_scene_emission_at(s, h.tri, h.b1, h.b2),
+                                                    power_heuristic(pdf_surface, pdf_light)), weight));
+                }
+            }
+        }
+        if (!hit || !s->analysis.has_thin_glass || crossings == PM_THIN_MAX_CROSSINGS ||
+            !pm_thin_step(s, ls->a, ls->origin, wi, INFINITY, &h, &hit, &weight, ls->rays))
+            break;
+    }
+}
+
+/* One ray from the surface's own sampling serves the sky and, weighted against the area sample,
+ * the emitters: near an emitter (a lamp's own wall, a glowing corner) area sampling alone has
+ * unbounded variance, and this sample bounds it (and on a glossy surface it finds the highlight
+ * of a large lamp that area sampling rarely would). The same ray is the path's next segment when
+ * the caller goes on along it (next). */
+static void own_ray_light(light_site *ls, pm_rng *rng, const pm_vertex_ray *bounce, surface_bounce *next, vec3 *e) {
+    const pm_scene *s = ls->s;
+    pm_vertex_ray own;
+    if (!bounce) { /* no step drew one (a classic point, a walk that stops here): the kernel's sampler */
+        pm_vertex_sample_part(ls->sf, ls->part, ls->wo, rng, s->ray_scale, &own);
+        bounce = &own;
+    }
+    bool leaves = bounce->sampled;
+    vec3 wi = bounce->direction, weight = bounce->value;
+    float pdf_surface = bounce->pdf, cos_s = leaves ? v3_dot(ls->ns, wi) : 0.f;
+    bool lit = leaves && cos_s > 0.f && (s->sky || s->emitter_count);
+    float sky_weight = lit && s->sky_map ? power_heuristic(pdf_surface, pm_sky_map_pdf(s->sky_map, wi)) : 1.f;
+    if (leaves && (next || s->emitter_count)) {
+        (*ls->rays)++;
+        pm_hit h;
+        bool hit = pm_accel_intersect(ls->a, ls->origin, wi, INFINITY, &h);
+        if (next) {
+            next->traced = true;
+            next->hit = hit;
+            next->h = h;
+        }
+        if (lit) light_along_own_ray(ls, wi, weight, pdf_surface, sky_weight, h, hit, e);
+    } else if (lit) {
+        /* a sky without emitters: only whether the ray gets out matters */
+        (*ls->rays)++;
+        vec3 through;
+        if (pm_thin_visible(s, ls->a, ls->origin, wi, INFINITY, &through, ls->rays))
+            *e = v3_add(*e, v3_mul(v3_mul(pm_scene_sky(s, wi), through), v3_scale(weight, sky_weight)));
+    }
+}
+
 /* Direct light reflected toward wo by a part of sf: the non-specular part, or the near-specular part
  * where an eye path goes on through it (its light-finding ray is then the path's own next segment,
  * and what that segment meets is counted here, weighted by MIS, not where the path meets it). One shadow ray per punctual
@@ -214,122 +347,15 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
                          surface_bounce *next) {
     vec3 ng = pm_facing(sf->ng, wo);
     vec3 ns = v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
-    vec3 origin = pm_surface_origin(sf, ng, s->ray_scale);
-    uint64_t cast = 0, saved = 0;
-    vec3 e = punctual_light(s, a, sf, part, wo, ng, ns, origin, rng, rays, shadow, &cast, &saved);
-
-    if (s->emitter_count) {
-        float pick_pdf;
-        uint32_t tri = pm_scene_pick_emitter(s, pm_rng_float(rng), &pick_pdf);
-        float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng);
-        vec3 radiance = pm_scene_emitted_at(s, tri, r1 * (1.f - r2), r1 * r2); /* a point picked by area: cut-outs count */
-        pm_triangle_geometry g = pm_triangle_geometry_of(s, tri);
-        vec3 q = pm_triangle_point(&g, r1 * (1.f - r2), r1 * r2), nl = g.normal;
-        float area = g.area;
-        const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
-        vec3 to_light = v3_sub(q, origin);
-        float dist = v3_length(to_light);
-        if (dist > 0.f && area > 0.f && pick_pdf > 0.f && !v3_is_black(radiance)) { /* not a cut-out or black texel */
-            vec3 wi = v3_scale(to_light, 1.f / dist);
-            float cos_l = -v3_dot(nl, wi);
-            if (m->double_sided) cos_l = fabsf(cos_l);
-            float cos_s = v3_dot(ns, wi);
-            if (cos_l > 0.f && cos_s > 0.f && v3_dot(ng, wi) > 0.f) {
-                vec3 target = pm_offset_ray_origin(q, pm_facing(nl, v3_neg(wi)), s->ray_scale);
-                vec3 seg = v3_sub(target, origin);
-                float seg_len = v3_length(seg);
-                (*rays)++;
-                cast++;
-                vec3 through;
-                if (seg_len > 0.f && pm_thin_visible(s, a, origin, v3_scale(seg, 1.f / seg_len), seg_len, &through, rays)) {
-                    float g = cos_l / (dist * dist);
-                    float pdf_light = pick_pdf * dist * dist / (area * cos_l);
-                    float pdf_surface = pm_vertex_pdf(sf, part, ns, wo, wi);
-                    e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance, g * area / pick_pdf * power_heuristic(pdf_light, pdf_surface)),
-                                                through),
-                                         reflected(sf, part, ns, wo, wi, cos_s)));
-                }
-            }
-        }
-    }
-
-    /* A sky with a map (a sun, a bright window) gets a ray drawn from the map too, weighted
-     * against the cosine ray below; a uniform sky is sampled best by the cosine ray alone. */
-    if (s->sky && s->sky_map) {
-        vec3 wi;
-        float pdf_sky;
-        vec3 radiance = v3_mul(s->sky_radiance, pm_sky_map_sample(s->sky_map, pm_rng_float(rng), pm_rng_float(rng), &wi, &pdf_sky));
-        float cos_s = v3_dot(ns, wi);
-        if (pdf_sky > 0.f && cos_s > 0.f && v3_dot(ng, wi) > 0.f) {
-            (*rays)++;
-            cast++;
-            float pdf_surface = pm_vertex_pdf(sf, part, ns, wo, wi);
-            vec3 through;
-            if (pm_thin_visible(s, a, origin, wi, INFINITY, &through, rays))
-                e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance, power_heuristic(pdf_sky, pdf_surface) / pdf_sky), through),
-                                     reflected(sf, part, ns, wo, wi, cos_s)));
-        }
-    }
-
-    /* One ray from the surface's own sampling serves the sky and, weighted against the area
-     * sample above, the emitters: near an emitter (a lamp's own wall, a glowing corner) area
-     * sampling alone has unbounded variance, and this sample bounds it (and on a glossy surface
-     * it finds the highlight of a large lamp that area sampling rarely would). The same ray is
-     * the path's next segment when the caller goes on along it (next). */
+    light_site ls = {s, a, sf, part, wo, ng, ns, pm_surface_origin(sf, ng, s->ray_scale), rays, 0};
+    uint64_t saved = 0;
+    vec3 e = punctual_light(s, a, sf, part, wo, ng, ns, ls.origin, rng, rays, shadow, &ls.cast, &saved);
+    if (s->emitter_count) emitter_area_sample(&ls, rng, &e);
+    if (s->sky && s->sky_map) sky_map_sample(&ls, rng, &e);
     if (next) next->traced = false;
-    if (s->sky || s->emitter_count || next) {
-        pm_vertex_ray own;
-        if (!bounce) { /* no step drew one (a classic point, a walk that stops here): the kernel's sampler */
-            pm_vertex_sample_part(sf, part, wo, rng, s->ray_scale, &own);
-            bounce = &own;
-        }
-        bool leaves = bounce->sampled;
-        vec3 wi = bounce->direction, weight = bounce->value;
-        float pdf_surface = bounce->pdf, cos_s = leaves ? v3_dot(ns, wi) : 0.f;
-        bool lit = leaves && cos_s > 0.f && (s->sky || s->emitter_count);
-        float sky_weight = lit && s->sky_map ? power_heuristic(pdf_surface, pm_sky_map_pdf(s->sky_map, wi)) : 1.f;
-        if (leaves && (next || s->emitter_count)) {
-            (*rays)++;
-            pm_hit h;
-            bool hit = pm_accel_intersect(a, origin, wi, INFINITY, &h);
-            if (next) {
-                next->traced = true;
-                next->hit = hit;
-                next->h = h;
-            }
-            /* the light this sample finds at its hit and past every thin wall it meets (emitting
-             * or not), which the continuation (next) crosses as no scattering: counted here, once */
-            for (int crossings = 0; lit; crossings++) {
-                if (!hit) {
-                    if (s->sky) e = v3_add(e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
-                } else if (s->emitter_count) {
-                    const pm_material *m = &s->materials[pm_scene_triangle_material(s, h.tri)];
-                    float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
-                    if (pick_pdf > 0.f) {
-                        pm_triangle_geometry g = pm_triangle_geometry_of(s, h.tri);
-                        float cos_l = g.area > 0.f ? -v3_dot(g.normal, wi) : 0.f;
-                        if (m->double_sided) cos_l = fabsf(cos_l);
-                        if (cos_l > 0.f) {
-                            float pdf_light = pick_pdf * h.t * h.t / (g.area * cos_l);
-                            e = v3_add(e, v3_mul(v3_scale(pm_scene_emission_at(s, h.tri, h.b1, h.b2),
-                                                          power_heuristic(pdf_surface, pdf_light)), weight));
-                        }
-                    }
-                }
-                if (!hit || !s->analysis.has_thin_glass || crossings == PM_THIN_MAX_CROSSINGS ||
-                    !pm_thin_step(s, a, origin, wi, INFINITY, &h, &hit, &weight, rays))
-                    break;
-            }
-        } else if (lit) {
-            /* a sky without emitters: only whether the ray gets out matters */
-            (*rays)++;
-            vec3 through;
-            if (pm_thin_visible(s, a, origin, wi, INFINITY, &through, rays))
-                e = v3_add(e, v3_mul(v3_mul(pm_scene_sky(s, wi), through), v3_scale(weight, sky_weight)));
-        }
-    }
+    if (s->sky || s->emitter_count || next) own_ray_light(&ls, rng, bounce, next, &e);
     if (shadow_counts) {
-        shadow_counts[0] += cast;
+        shadow_counts[0] += ls.cast;
         shadow_counts[1] += saved;
     }
     return e;
