@@ -118,40 +118,54 @@ static void release(run_state *r) {
     r->scene_loaded = false;
 }
 
-/* Everything before the render: -1 when it is ready, else the exit code (its line printed). Under
- * mpirun every rank sets up its own scene and session; only rank 0 checks the outputs and the
- * reference, which only it reads or writes. */
-static int set_up(pm_cluster *cluster, run_state *r, bool window) {
+/* What set_up's phases share besides the run state: the rank's part, the image's size as it
+ * becomes known, and the line a callee writes its error into. */
+typedef struct {
+    pm_cluster *cluster;
+    bool root;                   /* rank 0: it alone checks the outputs and reads the reference */
+    const char *reference;       /* the reference image's path on rank 0, else NULL */
+    int width, height;           /* height 0 until the camera gives the aspect */
+    char err[1024];
+} set_up_context;
+
+/* Before any work: the outputs writable and sparing the inputs, the sky map and the reference
+ * usable (a snapshot or a log that cannot be written would waste the whole render; a bad sky map
+ * or reference costs no load and no BVH build). */
+static int check_files(run_state *r, set_up_context *c, bool window) {
     pm_options *o = &r->opt;
-    char err[1024] = "";
-    bool root = pm_cluster_rank(cluster) == 0;
-    if (root && !outputs_spare_inputs(o, window)) return noted(r, 1, "an output would overwrite an input");
-    /* before any work: a snapshot that cannot be written would waste the whole render */
-    if (root && o->snapshot && !pm_check_output_path(o->snapshot, err, sizeof err)) return failed(r, 1, "%s", err);
+    if (c->root && !outputs_spare_inputs(o, window)) return noted(r, 1, "an output would overwrite an input");
+    if (c->root && o->snapshot && !pm_check_output_path(o->snapshot, c->err, sizeof c->err)) return failed(r, 1, "%s", c->err);
     /* the log too, here where a refusal reaches every rank through the set-up's agreement: opened
      * after it, a failure ended rank 0 alone and mpirun waited for ever on the others */
-    if (root && o->log && !pm_check_output_path(o->log, err, sizeof err)) {
+    if (c->root && o->log && !pm_check_output_path(o->log, c->err, sizeof c->err)) {
         size_t named = strlen(o->log);
-        const char *why = strncmp(err, o->log, named) == 0 && strncmp(err + named, ": ", 2) == 0 ? err + named + 2 : err;
+        const char *why = strncmp(c->err, o->log, named) == 0 && strncmp(c->err + named, ": ", 2) == 0 ? c->err + named + 2 : c->err;
         return failed(r, 1, "%s: cannot write the log (%s)", o->log, why);
     }
-    /* before the scene too: a sky map or a reference that cannot be used costs no load and no BVH
-     * build (the reference's height is compared once the camera gives the image's) */
     r->sky = (pm_sky_request){.sky = o->sky, .no_default_light = o->no_default_light, .scene_path = o->scene_path,
                               .quiet = o->quiet, .stats = o->stats, .rotate_degrees = o->sky_rotate};
     /* (pm_sky_prepare and pm_choose_sky print their own line; the title gets a short one) */
     if (!pm_sky_prepare(&r->sky)) return noted(r, 1, "%s: the environment map cannot be used", o->sky);
     r->sky_prepared = true;
-    int width = o->width ? (int)o->width : PM_DEFAULT_WIDTH, height = (int)o->height;
-    const char *reference = root ? o->reference : NULL;
-    if (reference && !pm_reference_check(reference, width, height, err, sizeof err)) return failed(r, 1, "%s", err);
+    c->width = o->width ? (int)o->width : PM_DEFAULT_WIDTH;
+    c->height = (int)o->height;
+    c->reference = c->root ? o->reference : NULL;
+    /* (the reference's height is compared again once the camera gives the image's) */
+    if (c->reference && !pm_reference_check(c->reference, c->width, c->height, c->err, sizeof c->err))
+        return failed(r, 1, "%s", c->err);
+    return -1;
+}
+
+/* The scene loaded and finalised, and the options' lengths brought to its units. */
+static int load_scene(run_state *r, set_up_context *c) {
+    pm_options *o = &r->opt;
     /* the forecast's baseline: code, libraries and (with a window) its context, before any scene */
     pm_memory_forecast_start();
     pm_load_report report;
     say_stage(r, "loading");
     pm_load_options load_options = {.flatten_instances = o->flatten_instances, .variant = o->variant};
-    if (!pm_load_gltf_with(o->scene_path, &load_options, o->quiet, &r->scene, &report, err, sizeof err))
-        return failed(r, 1, "%s", err);
+    if (!pm_load_gltf_with(o->scene_path, &load_options, o->quiet, &r->scene, &report, c->err, sizeof c->err))
+        return failed(r, 1, "%s", c->err);
     r->scene_loaded = true;
     pm_memory_forecast_phase(report.peak_bytes);
     uint64_t mark = pm_memory_failure_mark(); /* what the finalisation meets, never an older failure */
@@ -171,48 +185,66 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
                 o->scene_path, report.unit_scale);
         return 2;
     }
+    return -1;
+}
+
+/* The camera (the file's, the one asked for, or one made to frame the scene; a reload's kept
+ * camera over them all), which sets the image's height when none was given. */
+static int place_camera(run_state *r, set_up_context *c) {
+    pm_options *o = &r->opt;
     if (o->camera >= 0 && (uint32_t)o->camera >= r->scene.camera_count)
         return failed(r, 1, "%s: --camera %ld but the scene has %u perspective camera(s)", o->scene_path, o->camera,
                       r->scene.camera_count);
     if (r->scene.camera_count) {
         r->camera = r->scene.cameras[o->camera >= 0 ? o->camera : 0];
-        if (!height) height = r->camera.aspect > 0.f ? (int)lroundf(width / r->camera.aspect) : width;
+        if (!c->height) c->height = r->camera.aspect > 0.f ? (int)lroundf(c->width / r->camera.aspect) : c->width;
     } else {
-        if (!height) height = width;
-        r->camera = pm_scene_auto_camera(&r->scene, (float)width / height);
+        if (!c->height) c->height = c->width;
+        r->camera = pm_scene_auto_camera(&r->scene, (float)c->width / c->height);
     }
     if (r->keep_camera) r->camera = r->kept;
-    if (height < 1) height = 1;
-    if (height > PM_MAX_IMAGE_SIDE) height = PM_MAX_IMAGE_SIDE;
-    if (reference && !o->height && !pm_reference_check(reference, width, height, err, sizeof err)) return failed(r, 1, "%s", err);
+    if (c->height < 1) c->height = 1;
+    if (c->height > PM_MAX_IMAGE_SIDE) c->height = PM_MAX_IMAGE_SIDE;
+    if (c->reference && !o->height && !pm_reference_check(c->reference, c->width, c->height, c->err, sizeof c->err))
+        return failed(r, 1, "%s", c->err);
+    return -1;
+}
 
+/* The BVH, then the environment, whose choice looks through the scene from the camera. */
+static int build_accel(run_state *r, set_up_context *c) {
+    pm_options *o = &r->opt;
     say_stage(r, "building the BVH of");
     pm_memory_forecast_phase(pm_accel_forecast_bytes(&r->scene, true));
     pm_memory_forecast_hold((int64_t)pm_accel_forecast_bytes(&r->scene, false));
-    r->accel = pm_accel_create(&r->scene, err, sizeof err);
-    if (!r->accel) return failed(r, 1, "%s: %s", o->scene_path, err);
+    r->accel = pm_accel_create(&r->scene, c->err, sizeof c->err);
+    if (!r->accel) return failed(r, 1, "%s: %s", o->scene_path, c->err);
     if (o->stats) pm_print_bvh_stats(r->accel);
-    if (!pm_choose_sky(&r->sky, &r->scene, r->accel, &r->camera, (float)width / height))
+    if (!pm_choose_sky(&r->sky, &r->scene, r->accel, &r->camera, (float)c->width / c->height))
         return noted(r, 1, "%s: the environment map cannot be used", o->sky ? o->sky : "the sky");
     if (o->stats) pm_print_analysis_stats(&r->scene);
+    return -1;
+}
 
+/* The render session, this rank's share of the cluster's iterations, and the film's memory. */
+static int create_session(run_state *r, set_up_context *c) {
+    pm_options *o = &r->opt;
     say_stage(r, "setting up");
     pm_session_config config;
     /* each rank renders iterations of its own: rank 0 with the seed given, the others apart */
     long seed = o->seed;
-    o->seed = (long)pm_cluster_seed(cluster, (uint64_t)seed);
-    pm_options_session_config(o, &r->scene, width, height, &config);
+    o->seed = (long)pm_cluster_seed(c->cluster, (uint64_t)seed);
+    pm_options_session_config(o, &r->scene, c->width, c->height, &config);
     o->seed = seed;
-    config.progressive.radius_steps = (uint32_t)pm_cluster_size(cluster);
+    config.progressive.radius_steps = (uint32_t)pm_cluster_size(c->cluster);
     /* the window's --iterations is the whole image's too */
     if (config.max_iterations) {
-        uint32_t share = pm_cluster_share(cluster, config.max_iterations);
+        uint32_t share = pm_cluster_share(c->cluster, config.max_iterations);
         config.max_iterations = share ? share : 1;
     }
-    r->session = pm_session_create(&r->scene, r->accel, &r->camera, &config, err, sizeof err);
-    if (!r->session) return failed(r, 1, "%s: %s", o->scene_path, err);
-    if (!pm_cluster_prepare(cluster, pm_session_film(r->session)))
-        return failed(r, 1, "%s: %s", o->scene_path, pm_cluster_error(cluster));
+    r->session = pm_session_create(&r->scene, r->accel, &r->camera, &config, c->err, sizeof c->err);
+    if (!r->session) return failed(r, 1, "%s: %s", o->scene_path, c->err);
+    if (!pm_cluster_prepare(c->cluster, pm_session_film(r->session)))
+        return failed(r, 1, "%s: %s", o->scene_path, pm_cluster_error(c->cluster));
     /* from here a signal is the snapshot's: the image so far (none yet) is written, 130 or 143;
      * before, it ends the process at once */
     if (o->snapshot) pm_snapshot_catch_signals(r->session);
@@ -223,9 +255,16 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
         pm_print_film_stats(pm_session_film(r->session));
         fflush(stdout); /* a script waiting for the render to start sees it */
     }
-    if (o->snapshot && root) {
+    return -1;
+}
+
+/* Rank 0's room for the snapshot's writers, admitted before the render, and the reference read
+ * (its size is the image's); then the window's first session starts, held. */
+static int prepare_outputs(run_state *r, set_up_context *c) {
+    pm_options *o = &r->opt;
+    if (o->snapshot && c->root) {
         uint64_t bytes = pm_snapshot_output_bytes(o->snapshot, pm_session_film(r->session));
-        mark = pm_memory_failure_mark();
+        uint64_t mark = pm_memory_failure_mark();
         if (!pm_memory_admit(bytes, pm_has_extension(o->snapshot, ".png") ? "PNG output buffers" : "EXR output buffers"))
             return failed(r, 1, "%s: out of memory (%s)", o->snapshot, pm_memory_failure_since_or(mark, "output buffers"));
         r->output_reserved = bytes;
@@ -233,17 +272,31 @@ static int set_up(pm_cluster *cluster, run_state *r, bool window) {
          * library opened then) */
         pm_memory_forecast_phase(bytes + (pm_has_extension(o->snapshot, ".png") ? PM_GL_RESIDENT_BYTES + PM_OSMESA_LIBRARY_BYTES : 0));
     }
-    if (reference) {
-        if (!pm_reference_load(reference, o->log != NULL, &r->reference, err, sizeof err)) return failed(r, 1, "%s", err);
-        if (r->reference.width != width || r->reference.height != height)
-            return failed(r, 1, "%s: the reference is %dx%d but the image is %dx%d (use --width/--height)", reference,
-                          r->reference.width, r->reference.height, width, height);
+    if (c->reference) {
+        if (!pm_reference_load(c->reference, o->log != NULL, &r->reference, c->err, sizeof c->err)) return failed(r, 1, "%s", c->err);
+        if (r->reference.width != c->width || r->reference.height != c->height)
+            return failed(r, 1, "%s: the reference is %dx%d but the image is %dx%d (use --width/--height)", c->reference,
+                          r->reference.width, r->reference.height, c->width, c->height);
     }
     if (r->start_session) {
         pm_session_hold(r->session, true); /* (released by the window, once it shows the preview) */
-        if (!pm_session_start(r->session, err, sizeof err)) return failed(r, 1, "%s", err);
+        if (!pm_session_start(r->session, c->err, sizeof c->err)) return failed(r, 1, "%s", c->err);
     }
     return -1;
+}
+
+/* Everything before the render, phase by phase: -1 when it is ready, else the exit code (its line
+ * printed). Under mpirun every rank sets up its own scene and session; only rank 0 checks the
+ * outputs and the reference, which only it reads or writes. */
+static int set_up(pm_cluster *cluster, run_state *r, bool window) {
+    set_up_context c = {.cluster = cluster, .root = pm_cluster_rank(cluster) == 0};
+    int code = check_files(r, &c, window);
+    if (code < 0) code = load_scene(r, &c);
+    if (code < 0) code = place_camera(r, &c);
+    if (code < 0) code = build_accel(r, &c);
+    if (code < 0) code = create_session(r, &c);
+    if (code < 0) code = prepare_outputs(r, &c);
+    return code;
 }
 
 typedef struct {
