@@ -70,7 +70,7 @@ const char *const kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_material
                                             "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_materials_unlit",
                                             "EXT_mesh_gpu_instancing", "KHR_materials_variants"};
 
-// ---------------------------------------------------------------- errors and messages
+// ---------------- errors and messages
 
 struct LoadError {
     std::string message;  // "what (where)", without the file name
@@ -144,7 +144,7 @@ std::string describe(const json &v) {
     return printable(v.dump(-1, ' ', false, json::error_handler_t::replace), 40);
 }
 
-// ---------------------------------------------------------------- paths
+// ---------------- paths
 
 // A path reduced lexically: "." and empty segments dropped, "a/.." folded; ".." survives only at the front.
 struct LexicalPath {
@@ -294,7 +294,7 @@ bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, s
     return true;
 }
 
-// ---------------------------------------------------------------- raw JSON access
+// ---------------- raw JSON access
 
 const json *find_member(const json &object, const char *key) {
     if (!object.is_object()) return nullptr;
@@ -505,7 +505,7 @@ std::string safe_relative_path(const std::string &uri, const std::string &folder
     return decoded;
 }
 
-// ---------------------------------------------------------------- accessors
+// ---------------- accessors
 
 size_t component_size(int type) {
     switch (type) {
@@ -651,7 +651,7 @@ std::vector<T> read_accessor(const AccessorLayout &l, int index) {
     return out;
 }
 
-// ---------------------------------------------------------------- transforms
+// ---------------- transforms
 
 struct Mat4 {
     double m[16];  // column-major, as glTF stores it: element (row r, column c) is m[c*4 + r]
@@ -775,7 +775,7 @@ struct WorldTransform {
     }
 };
 
-// ---------------------------------------------------------------- the loader
+// ---------------- the loader's types and the Loader class
 
 struct DecodedPrimitive {
     bool triangles = false;             // false: points or lines, skipped
@@ -890,7 +890,7 @@ public:
     uint64_t forecast_peak() const { return forecast_peak_; }
 
 private:
-    // stage 1
+    // validation (stage 1)
     std::vector<unsigned char> read_model_file();
     void split_container(const std::vector<unsigned char> &file);
     void model_from_json();
@@ -909,7 +909,7 @@ private:
     void preflight_other_indices(const json &root);
     void preflight_uri_target(const json &object, const std::string &where, bool is_buffer, uint64_t byte_length);
     void preflight_compressed(const json &root);
-    // stage 2
+    // model building (stage 2)
     void build_model(const json &root);
     bool parse_model_geometry(const json &root, ModelParse &parse);
     bool mark_buffer_view_targets(ModelParse &parse);
@@ -934,7 +934,7 @@ private:
     };
     void fill_from_draco(const DracoFill &fill, int accessor, uint64_t count, const char *what,
                          const std::function<bool(void *)> &decode);
-    // stage 3
+    // the scene: graph, materials, geometry, instancing, frame (stage 3)
     void traverse_default_scene();
     const DecodedMesh &decoded_mesh(int mesh);
     DecodedPrimitive decode_primitive(int mesh, int primitive);
@@ -960,6 +960,13 @@ private:
     void place_triangle(PlacedPrimitive *placed, bool mirrored, size_t t);
     void add_light(int light, const WorldTransform &world, int node);
     void choose_frame();
+    struct PlacedBounds {
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        uint64_t triangles = 0;
+        double smallest = INFINITY;  // the narrowest triangle's extent (largest axis of its bounds), degenerate ones aside
+    };
+    PlacedBounds placed_bounds() const;
+    void frame_attenuation();
     void add_camera(int camera, const WorldTransform &world, int node);
     void convert_materials();
     void apply_variant();
@@ -1122,7 +1129,7 @@ private:
     }
 };
 
-// ---- stage 1: bytes, container, JSON, preflight
+// ---------------- validation: the file, its container and JSON, the preflight's checks
 
 std::vector<unsigned char> Loader::read_model_file() {
     if (memory_) {
@@ -1620,46 +1627,50 @@ void Loader::preflight_other_indices(const json &root) {
     });
 }
 
+// A material's members and those of its extensions, each of the type and length glTF's schema gives.
+void check_material_member_types(const json &m, const std::string &where) {
+    typed_string(m, "name", false, {}, where);
+    if (const json *pbr = typed_object(m, "pbrMetallicRoughness", where)) {
+        std::string sub = where + " pbrMetallicRoughness";
+        typed_numbers(*pbr, "baseColorFactor", 4, sub);
+        typed_number(*pbr, "metallicFactor", false, sub);
+        typed_number(*pbr, "roughnessFactor", false, sub);
+    }
+    if (const json *normal = typed_object(m, "normalTexture", where))
+        typed_number(*normal, "scale", false, where + " normalTexture");
+    if (const json *occlusion = typed_object(m, "occlusionTexture", where))
+        typed_number(*occlusion, "strength", false, where + " occlusionTexture");
+    typed_numbers(m, "emissiveFactor", 3, where);
+    typed_string(m, "alphaMode", false, {"OPAQUE", "MASK", "BLEND"}, where);
+    typed_number(m, "alphaCutoff", false, where);
+    typed_bool(m, "doubleSided", where);
+    const json *ext = typed_object(m, "extensions", where);
+    if (!ext) return;
+    struct { const char *extension; const char *members[3]; } numbers[] = {
+        {"KHR_materials_transmission", {"transmissionFactor"}},
+        {"KHR_materials_ior", {"ior"}},
+        {"KHR_materials_emissive_strength", {"emissiveStrength"}},
+        {"KHR_materials_volume", {"thicknessFactor", "attenuationDistance"}},
+        {"KHR_materials_clearcoat", {"clearcoatFactor", "clearcoatRoughnessFactor"}},
+        {"KHR_materials_sheen", {"sheenRoughnessFactor"}},
+        {"KHR_materials_specular", {"specularFactor"}}};
+    for (const auto &n : numbers) {
+        const json *e = typed_object(*ext, n.extension, where);
+        if (!e) continue;
+        for (const char *member : n.members)
+            if (member) typed_number(*e, member, false, where + " " + n.extension);
+        if (!strcmp(n.extension, "KHR_materials_volume"))
+            typed_numbers(*e, "attenuationColor", 3, where + " " + n.extension);
+        if (!strcmp(n.extension, "KHR_materials_sheen")) typed_numbers(*e, "sheenColorFactor", 3, where + " " + n.extension);
+        if (!strcmp(n.extension, "KHR_materials_specular"))
+            typed_numbers(*e, "specularColorFactor", 3, where + " " + n.extension);
+    }
+}
+
 // Material, light, camera and node members of the wrong type or length (see typed_number).
 void Loader::preflight_typed_members(const json &root) {
-    for_each_object(root, "materials", "material", [&](const json &m, const std::string &where, size_t) {
-        typed_string(m, "name", false, {}, where);
-        if (const json *pbr = typed_object(m, "pbrMetallicRoughness", where)) {
-            std::string sub = where + " pbrMetallicRoughness";
-            typed_numbers(*pbr, "baseColorFactor", 4, sub);
-            typed_number(*pbr, "metallicFactor", false, sub);
-            typed_number(*pbr, "roughnessFactor", false, sub);
-        }
-        if (const json *normal = typed_object(m, "normalTexture", where))
-            typed_number(*normal, "scale", false, where + " normalTexture");
-        if (const json *occlusion = typed_object(m, "occlusionTexture", where))
-            typed_number(*occlusion, "strength", false, where + " occlusionTexture");
-        typed_numbers(m, "emissiveFactor", 3, where);
-        typed_string(m, "alphaMode", false, {"OPAQUE", "MASK", "BLEND"}, where);
-        typed_number(m, "alphaCutoff", false, where);
-        typed_bool(m, "doubleSided", where);
-        const json *ext = typed_object(m, "extensions", where);
-        if (!ext) return;
-        struct { const char *extension; const char *members[3]; } numbers[] = {
-            {"KHR_materials_transmission", {"transmissionFactor"}},
-            {"KHR_materials_ior", {"ior"}},
-            {"KHR_materials_emissive_strength", {"emissiveStrength"}},
-            {"KHR_materials_volume", {"thicknessFactor", "attenuationDistance"}},
-            {"KHR_materials_clearcoat", {"clearcoatFactor", "clearcoatRoughnessFactor"}},
-            {"KHR_materials_sheen", {"sheenRoughnessFactor"}},
-            {"KHR_materials_specular", {"specularFactor"}}};
-        for (const auto &n : numbers) {
-            const json *e = typed_object(*ext, n.extension, where);
-            if (!e) continue;
-            for (const char *member : n.members)
-                if (member) typed_number(*e, member, false, where + " " + n.extension);
-            if (!strcmp(n.extension, "KHR_materials_volume"))
-                typed_numbers(*e, "attenuationColor", 3, where + " " + n.extension);
-            if (!strcmp(n.extension, "KHR_materials_sheen")) typed_numbers(*e, "sheenColorFactor", 3, where + " " + n.extension);
-            if (!strcmp(n.extension, "KHR_materials_specular"))
-                typed_numbers(*e, "specularColorFactor", 3, where + " " + n.extension);
-        }
-    });
+    for_each_object(root, "materials", "material",
+                    [&](const json &m, const std::string &where, size_t) { check_material_member_types(m, where); });
 
     const json *root_ext = find_member(root, "extensions");
     const json *lights_ext = root_ext ? find_member(*root_ext, "KHR_lights_punctual") : nullptr;
@@ -1770,7 +1781,7 @@ void Loader::preflight_uri_target(const json &object, const std::string &where, 
              " bytes but byteLength is " + str(byte_length) + " (" + where + ")");
 }
 
-// ---- stage 2: tinygltf's Model from the parsed document
+// ---------------- model building: tinygltf's Model from the checked document, geometry decompressed
 
 // Calls parse(element) for each element of the array parent[key], in order, until one returns
 // false. The preflight made every such array one of objects; a document it did not check is refused.
@@ -2152,7 +2163,7 @@ void Loader::fill_from_draco(const DracoFill &fill, int a, uint64_t count, const
     accessor.byteOffset = 0;
 }
 
-// ---- stage 3: scene graph, meshes, materials
+// ---------------- scene graph: the default scene's nodes, their lights and cameras
 
 void Loader::traverse_default_scene() {
     if (model_.scenes.empty()) fail("nothing to render (the file has no scene)");
@@ -2225,97 +2236,6 @@ void Loader::traverse_default_scene() {
     }
 }
 
-// EXT_mesh_gpu_instancing on a node with a mesh: the mesh is placed once per instance, at the
-// node's transform times the instance's translation x rotation x scale, instead of at the node.
-// Refused as a node's transform is: an attribute of the wrong type, counts that differ, a value
-// not finite, a rotation of zero length. An instance with a zero scale places nothing (it would
-// only make degenerate triangles): left out, counted in one warning.
-void Loader::read_instance_set(int node_index, const tinygltf::Node &node, const tinygltf::Value &extension) {
-    std::string where = "node " + str(node_index) + " EXT_mesh_gpu_instancing";
-    InstanceSet set;
-    set.node = node_index;
-    auto admit = [&](uint64_t bytes) {
-        const uint64_t mark = pm_memory_failure_mark();
-        if (!pm_memory_admit(bytes, "GPU instances"))
-            fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "GPU instances")) + ") (" + where + ")");
-        decoded_.bytes += bytes;
-    };
-    struct { const char *name; int components; std::vector<float> *into; } parts[] = {
-        {"TRANSLATION", 3, &set.translation}, {"ROTATION", 4, &set.rotation}, {"SCALE", 3, &set.scale}};
-    const tinygltf::Value &attributes = extension.Get("attributes");
-    uint64_t count = 0;
-    bool any = false;
-    for (const auto &part : parts) {
-        if (!attributes.IsObject() || !attributes.Has(part.name)) continue;
-        int a = attributes.Get(part.name).GetNumberAsInt();  // range-checked in the preflight
-        AccessorLayout l = accessor_layout(model_, a);
-        bool is_float = l.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT;
-        // glTF allows normalized signed bytes and shorts for rotations, and with KHR_mesh_quantization any
-        // byte or short for translations and scales
-        bool signed_small = l.component_type == TINYGLTF_COMPONENT_TYPE_BYTE || l.component_type == TINYGLTF_COMPONENT_TYPE_SHORT;
-        bool small = signed_small || l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
-                     l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
-        bool allowed = is_float || (part.components == 4 ? signed_small && l.normalized : quantization_ && small);
-        if (l.components != part.components || !allowed)
-            fail(std::string(part.name) + " must be a float " + (part.components == 4 ? "VEC4" : "VEC3") +
-                 (part.components == 4 ? " or a normalized byte/short one" : quantization_ ? " or (KHR_mesh_quantization) a byte/short one" : "") +
-                 " (accessor " + str(a) + ", " + where + ")");
-        if (any && l.count != count)
-            fail(std::string(part.name) + " count " + str(l.count) + " differs from the other attributes' " + str(count) + " (" +
-                 where + ")");
-        count = l.count;
-        any = true;
-        admit(l.count * part.components * sizeof(float));
-        *part.into = read_accessor<float>(l, a);
-        for (size_t i = 0; i < part.into->size(); i++)
-            if (!std::isfinite((*part.into)[i]))
-                fail(std::string("non-finite ") + part.name + " at instance " + str(i / part.components) + " (accessor " + str(a) +
-                     ", " + where + ")");
-    }
-    if (!any) fail("no TRANSLATION, ROTATION or SCALE attribute (" + where + ")");
-    if (count > kMaxSceneTriangles) fail(str(count) + " instances, more than " + str(kMaxSceneTriangles) + " (" + where + ")");
-    for (size_t i = 0; i < set.rotation.size(); i += 4) {
-        const float *q = &set.rotation[i];
-        double len = std::sqrt(static_cast<double>(q[0]) * q[0] + static_cast<double>(q[1]) * q[1] +
-                               static_cast<double>(q[2]) * q[2] + static_cast<double>(q[3]) * q[3]);
-        if (!(len > 0)) fail("ROTATION quaternion has zero length at instance " + str(i / 4) + " (" + where + ")");
-    }
-    int set_index = static_cast<int>(instance_sets_.size());
-    admit(count * sizeof(Instance));
-    for (uint64_t i = 0; i < count; i++) {
-        if (!set.scale.empty() && (set.scale[3 * i] == 0 || set.scale[3 * i + 1] == 0 || set.scale[3 * i + 2] == 0)) {
-            if (zero_scale_instances_++ == 0) first_zero_scale_ = "instance " + str(i) + ", " + where;
-            continue;
-        }
-        Instance instance;
-        instance.node = node_index;
-        instance.mesh = node.mesh;
-        instance.set = set_index;
-        instance.element = static_cast<uint32_t>(i);
-        instances_.push_back(instance);
-    }
-    instance_sets_.push_back(std::move(set));
-}
-
-// The world transform that places an instance (framed once choose_frame has run: the node's is).
-Mat4 Loader::instance_world(const Instance &instance) const {
-    if (instance.set < 0) return world_[instance.node];
-    const InstanceSet &set = instance_sets_[instance.set];
-    size_t i = instance.element;
-    double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
-    if (!set.translation.empty())
-        for (int k = 0; k < 3; k++) t[k] = set.translation[3 * i + k];
-    if (!set.rotation.empty()) {
-        double len = 0;
-        for (int k = 0; k < 4; k++) len += static_cast<double>(set.rotation[4 * i + k]) * set.rotation[4 * i + k];
-        len = std::sqrt(len);
-        for (int k = 0; k < 4; k++) q[k] = set.rotation[4 * i + k] / len;
-    }
-    if (!set.scale.empty())
-        for (int k = 0; k < 3; k++) s[k] = set.scale[3 * i + k];
-    return multiply(world_[instance.node], trs_matrix(t, q, s));
-}
-
 // A number the preflight found finite, brought into [lo, hi] with a warning naming it.
 double Loader::checked(double value, double lo, double hi, const char *field, const std::string &object) {
     if (!std::isfinite(value)) fail(std::string("non-finite ") + field + " (" + object + ")");
@@ -2344,16 +2264,6 @@ vec3 Loader::emission_within_film(const double hue[3], double magnitude, const c
     return v3(static_cast<float>(value[0]), static_cast<float>(value[1]), static_cast<float>(value[2]));
 }
 
-std::string Loader::material_label(size_t material) const {
-    const std::string &name = model_.materials[material].name;
-    return "material " + str(material) + (name.empty() ? "" : " (" + printable(name) + ")");
-}
-
-std::string Loader::mesh_label(int mesh, int primitive) const {
-    const std::string &name = model_.meshes[mesh].name;
-    return "mesh " + str(mesh) + (name.empty() ? "" : " (" + printable(name) + ")") + " primitive " + str(primitive);
-}
-
 double extension_number(const tinygltf::ExtensionMap &extensions, const char *extension, const char *key,
                         double fallback) {
     auto it = extensions.find(extension);
@@ -2362,33 +2272,14 @@ double extension_number(const tinygltf::ExtensionMap &extensions, const char *ex
     return v.IsNumber() ? v.GetNumberAsDouble() : fallback;
 }
 
-// KHR_materials_volume's attenuation coefficient: -ln(attenuationColor) / attenuationDistance per
-// channel, for a material with a volume (thicknessFactor > 0; 0 is thin-walled) and a finite
-// distance; 0 otherwise. thicknessFactor itself is for rasterizers: a ray tracer measures the
-// distance inside the mesh. In double, per unit length of the file: choose_frame rescales it
-// before it becomes a float. Returns whether the material has a volume (thicknessFactor > 0):
-// without one, KHR_materials_transmission is a thin wall.
-bool Loader::volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &object, double sigma[3]) {
-    std::fill(sigma, sigma + 3, 0.0);
-    auto it = extensions.find("KHR_materials_volume");
-    if (it == extensions.end() || !it->second.IsObject()) return false;
-    double thickness = checked(extension_number(extensions, "KHR_materials_volume", "thicknessFactor", 0), 0, INFINITY,
-                               "KHR_materials_volume thicknessFactor", object);
-    double distance = extension_number(extensions, "KHR_materials_volume", "attenuationDistance", INFINITY);
-    if (!(distance > 0)) fail("attenuationDistance must be positive (" + object + ")");
-    double color[3] = {1, 1, 1};
-    if (it->second.Has("attenuationColor")) {
-        const tinygltf::Value &c = it->second.Get("attenuationColor");
-        if (!c.IsArray() || c.ArrayLen() != 3) fail("attenuationColor must have 3 numbers (" + object + ")");
-        for (int k = 0; k < 3; k++) {
-            if (!c.Get(k).IsNumber()) fail("attenuationColor must have 3 numbers (" + object + ")");
-            color[k] = checked(c.Get(k).GetNumberAsDouble(), 0, 1, "KHR_materials_volume attenuationColor", object);
-        }
-    }
-    if (!(thickness > 0)) return false;
-    if (std::isfinite(distance))
-        for (int k = 0; k < 3; k++) sigma[k] = -std::log(std::max(color[k], 1e-30)) / distance;
-    return true;
+std::string Loader::material_label(size_t material) const {
+    const std::string &name = model_.materials[material].name;
+    return "material " + str(material) + (name.empty() ? "" : " (" + printable(name) + ")");
+}
+
+std::string Loader::mesh_label(int mesh, int primitive) const {
+    const std::string &name = model_.meshes[mesh].name;
+    return "mesh " + str(mesh) + (name.empty() ? "" : " (" + printable(name) + ")") + " primitive " + str(primitive);
 }
 
 void Loader::add_light(int index, const WorldTransform &world, int node) {
@@ -2489,6 +2380,37 @@ void Loader::add_camera(int index, const WorldTransform &world, int node) {
         cam.znear = static_cast<float>(std::min<double>(znear, FLT_MAX));
     }
     cameras_.push_back(cam);
+}
+
+// ---------------- materials: pm_materials from glTF's and its extensions', textures, variants
+
+// KHR_materials_volume's attenuation coefficient: -ln(attenuationColor) / attenuationDistance per
+// channel, for a material with a volume (thicknessFactor > 0; 0 is thin-walled) and a finite
+// distance; 0 otherwise. thicknessFactor itself is for rasterizers: a ray tracer measures the
+// distance inside the mesh. In double, per unit length of the file: choose_frame rescales it
+// before it becomes a float. Returns whether the material has a volume (thicknessFactor > 0):
+// without one, KHR_materials_transmission is a thin wall.
+bool Loader::volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &object, double sigma[3]) {
+    std::fill(sigma, sigma + 3, 0.0);
+    auto it = extensions.find("KHR_materials_volume");
+    if (it == extensions.end() || !it->second.IsObject()) return false;
+    double thickness = checked(extension_number(extensions, "KHR_materials_volume", "thicknessFactor", 0), 0, INFINITY,
+                               "KHR_materials_volume thicknessFactor", object);
+    double distance = extension_number(extensions, "KHR_materials_volume", "attenuationDistance", INFINITY);
+    if (!(distance > 0)) fail("attenuationDistance must be positive (" + object + ")");
+    double color[3] = {1, 1, 1};
+    if (it->second.Has("attenuationColor")) {
+        const tinygltf::Value &c = it->second.Get("attenuationColor");
+        if (!c.IsArray() || c.ArrayLen() != 3) fail("attenuationColor must have 3 numbers (" + object + ")");
+        for (int k = 0; k < 3; k++) {
+            if (!c.Get(k).IsNumber()) fail("attenuationColor must have 3 numbers (" + object + ")");
+            color[k] = checked(c.Get(k).GetNumberAsDouble(), 0, 1, "KHR_materials_volume attenuationColor", object);
+        }
+    }
+    if (!(thickness > 0)) return false;
+    if (std::isfinite(distance))
+        for (int k = 0; k < 3; k++) sigma[k] = -std::log(std::max(color[k], 1e-30)) / distance;
+    return true;
 }
 
 // A sampler's magFilter and minFilter into the texture (absent: LINEAR and trilinear by footprint).
@@ -2738,6 +2660,73 @@ void Loader::convert_materials() {
         warn("ignored: " + k.first + " in " + str(k.second.count) + " material(s), first " + k.second.first);
 }
 
+// KHR_materials_variants: with a variant asked for, every primitive whose mappings name it takes
+// the mapped material (the preflight checked the material indices); the others keep their default.
+// A name the file's root list does not hold fails the load with the names it does hold.
+void Loader::apply_variant() {
+    std::vector<std::string> names;
+    auto root = model_.extensions.find("KHR_materials_variants");
+    if (root != model_.extensions.end() && root->second.IsObject() && root->second.Has("variants")) {
+        const tinygltf::Value &list = root->second.Get("variants");
+        for (size_t k = 0; list.IsArray() && k < list.ArrayLen(); k++) {
+            const tinygltf::Value &v = list.Get(static_cast<int>(k));
+            names.push_back(v.IsObject() && v.Has("name") && v.Get("name").IsString() ? v.Get("name").Get<std::string>() : "");
+        }
+    }
+    // the names for the window's variant key, which reloads the file with one of them (an
+    // embedded '\0' would cut a name short: such a name stays reachable by --variant alone)
+    for (const std::string &n : names) {
+        variant_names_.insert(variant_names_.end(), n.begin(), n.end());
+        variant_names_.push_back('\0');
+    }
+    variant_count_ = static_cast<uint32_t>(names.size());
+    if (!options_.variant) return;
+    const std::string wanted = options_.variant;
+    int index = -1;
+    for (size_t k = 0; k < names.size() && index < 0; k++)
+        if (names[k] == wanted) index = static_cast<int>(k);
+    if (index < 0) {
+        std::string known;
+        for (const std::string &n : names) known += (known.empty() ? "" : ", ") + printable(n);
+        fail("no material variant " + printable(wanted) + " (KHR_materials_variants lists " +
+             (names.empty() ? std::string("none") : known) + ")");
+    }
+    for (tinygltf::Mesh &mesh : model_.meshes)
+        for (tinygltf::Primitive &prim : mesh.primitives) {
+            auto ext = prim.extensions.find("KHR_materials_variants");
+            if (ext == prim.extensions.end() || !ext->second.IsObject() || !ext->second.Has("mappings")) continue;
+            const tinygltf::Value &mappings = ext->second.Get("mappings");
+            for (size_t k = 0; mappings.IsArray() && k < mappings.ArrayLen(); k++) {
+                const tinygltf::Value &m = mappings.Get(static_cast<int>(k));
+                if (!m.IsObject() || !m.Has("material") || !m.Get("material").IsNumber() || !m.Has("variants")) continue;
+                const tinygltf::Value &vs = m.Get("variants");
+                for (size_t j = 0; vs.IsArray() && j < vs.ArrayLen(); j++)
+                    if (vs.Get(static_cast<int>(j)).IsNumber() && vs.Get(static_cast<int>(j)).GetNumberAsInt() == index)
+                        prim.material = m.Get("material").GetNumberAsInt();
+            }
+        }
+}
+
+// The material of primitives without one: glTF's default (white, fully metallic and rough).
+void Loader::add_default_material() {
+    pm_material m;
+    memset(&m, 0, sizeof m);
+    m.base_color = v3(1, 1, 1);
+    m.base_color_texture = -1;
+    m.emission_texture = -1;
+    m.metallic_roughness_texture = -1;
+    m.transmission_texture = -1;
+    m.normal_texture = -1;
+    m.normal_scale = 1.f;
+    m.metallic = m.roughness = 1.f;
+    m.ior = 1.5f;
+    m.alpha = 1.f;
+    m.alpha_cutoff = 0.5f;
+    materials_.push_back(m);
+}
+
+// ---------------- geometry: primitives decoded, meshes appended as triangles through a transform
+
 enum class VertexRole { kPosition, kNormal, kTexcoord, kTangent };
 
 // Component types a vertex attribute may use. Core glTF: float everywhere, and normalized
@@ -2980,6 +2969,22 @@ const DecodedMesh &Loader::decoded_mesh(int mesh) {
     return *meshes_[mesh];
 }
 
+// Each placed mesh decoded once, however often it is placed; returns how many placements each mesh has.
+std::vector<uint32_t> Loader::decode_placed_meshes() {
+    std::vector<uint32_t> uses(model_.meshes.size(), 0);
+    for (const Instance &instance : instances_) {
+        uses[instance.mesh]++;
+        decoded_mesh(instance.mesh);
+        const std::vector<double> &own = model_.nodes[instance.node].weights;
+        if (!own.empty() && own != model_.meshes[instance.mesh].weights && !node_weights_warned_) {
+            node_weights_warned_ = true;
+            warn("node " + str(instance.node) + " gives mesh " + str(instance.mesh) +
+                 " morph weights of its own: the mesh's default weights are rendered (one pose a mesh)");
+        }
+    }
+    return uses;
+}
+
 // Appends the mesh's triangles through `transform`: the node's world transform for a flat copy,
 // the identity for an instanced mesh's one stored copy.
 void Loader::instance_mesh(const Instance &instance, const Mat4 &transform) {
@@ -3149,6 +3154,384 @@ void Loader::place_triangle(PlacedPrimitive *placed, bool mirrored, size_t t) {
     triangle_material_.push_back(prim.material);
 }
 
+// ---------------- instancing: GPU instance sets, the meshes stored once, their placements
+
+// EXT_mesh_gpu_instancing on a node with a mesh: the mesh is placed once per instance, at the
+// node's transform times the instance's translation x rotation x scale, instead of at the node.
+// Refused as a node's transform is: an attribute of the wrong type, counts that differ, a value
+// not finite, a rotation of zero length. An instance with a zero scale places nothing (it would
+// only make degenerate triangles): left out, counted in one warning.
+void Loader::read_instance_set(int node_index, const tinygltf::Node &node, const tinygltf::Value &extension) {
+    std::string where = "node " + str(node_index) + " EXT_mesh_gpu_instancing";
+    InstanceSet set;
+    set.node = node_index;
+    auto admit = [&](uint64_t bytes) {
+        const uint64_t mark = pm_memory_failure_mark();
+        if (!pm_memory_admit(bytes, "GPU instances"))
+            fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "GPU instances")) + ") (" + where + ")");
+        decoded_.bytes += bytes;
+    };
+    struct { const char *name; int components; std::vector<float> *into; } parts[] = {
+        {"TRANSLATION", 3, &set.translation}, {"ROTATION", 4, &set.rotation}, {"SCALE", 3, &set.scale}};
+    const tinygltf::Value &attributes = extension.Get("attributes");
+    uint64_t count = 0;
+    bool any = false;
+    for (const auto &part : parts) {
+        if (!attributes.IsObject() || !attributes.Has(part.name)) continue;
+        int a = attributes.Get(part.name).GetNumberAsInt();  // range-checked in the preflight
+        AccessorLayout l = accessor_layout(model_, a);
+        bool is_float = l.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT;
+        // glTF allows normalized signed bytes and shorts for rotations, and with KHR_mesh_quantization any
+        // byte or short for translations and scales
+        bool signed_small = l.component_type == TINYGLTF_COMPONENT_TYPE_BYTE || l.component_type == TINYGLTF_COMPONENT_TYPE_SHORT;
+        bool small = signed_small || l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                     l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+        bool allowed = is_float || (part.components == 4 ? signed_small && l.normalized : quantization_ && small);
+        if (l.components != part.components || !allowed)
+            fail(std::string(part.name) + " must be a float " + (part.components == 4 ? "VEC4" : "VEC3") +
+                 (part.components == 4 ? " or a normalized byte/short one" : quantization_ ? " or (KHR_mesh_quantization) a byte/short one" : "") +
+                 " (accessor " + str(a) + ", " + where + ")");
+        if (any && l.count != count)
+            fail(std::string(part.name) + " count " + str(l.count) + " differs from the other attributes' " + str(count) + " (" +
+                 where + ")");
+        count = l.count;
+        any = true;
+        admit(l.count * part.components * sizeof(float));
+        *part.into = read_accessor<float>(l, a);
+        for (size_t i = 0; i < part.into->size(); i++)
+            if (!std::isfinite((*part.into)[i]))
+                fail(std::string("non-finite ") + part.name + " at instance " + str(i / part.components) + " (accessor " + str(a) +
+                     ", " + where + ")");
+    }
+    if (!any) fail("no TRANSLATION, ROTATION or SCALE attribute (" + where + ")");
+    if (count > kMaxSceneTriangles) fail(str(count) + " instances, more than " + str(kMaxSceneTriangles) + " (" + where + ")");
+    for (size_t i = 0; i < set.rotation.size(); i += 4) {
+        const float *q = &set.rotation[i];
+        double len = std::sqrt(static_cast<double>(q[0]) * q[0] + static_cast<double>(q[1]) * q[1] +
+                               static_cast<double>(q[2]) * q[2] + static_cast<double>(q[3]) * q[3]);
+        if (!(len > 0)) fail("ROTATION quaternion has zero length at instance " + str(i / 4) + " (" + where + ")");
+    }
+    int set_index = static_cast<int>(instance_sets_.size());
+    admit(count * sizeof(Instance));
+    for (uint64_t i = 0; i < count; i++) {
+        if (!set.scale.empty() && (set.scale[3 * i] == 0 || set.scale[3 * i + 1] == 0 || set.scale[3 * i + 2] == 0)) {
+            if (zero_scale_instances_++ == 0) first_zero_scale_ = "instance " + str(i) + ", " + where;
+            continue;
+        }
+        Instance instance;
+        instance.node = node_index;
+        instance.mesh = node.mesh;
+        instance.set = set_index;
+        instance.element = static_cast<uint32_t>(i);
+        instances_.push_back(instance);
+    }
+    instance_sets_.push_back(std::move(set));
+}
+
+// The world transform that places an instance (framed once choose_frame has run: the node's is).
+Mat4 Loader::instance_world(const Instance &instance) const {
+    if (instance.set < 0) return world_[instance.node];
+    const InstanceSet &set = instance_sets_[instance.set];
+    size_t i = instance.element;
+    double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+    if (!set.translation.empty())
+        for (int k = 0; k < 3; k++) t[k] = set.translation[3 * i + k];
+    if (!set.rotation.empty()) {
+        double len = 0;
+        for (int k = 0; k < 4; k++) len += static_cast<double>(set.rotation[4 * i + k]) * set.rotation[4 * i + k];
+        len = std::sqrt(len);
+        for (int k = 0; k < 4; k++) q[k] = set.rotation[4 * i + k] / len;
+    }
+    if (!set.scale.empty())
+        for (int k = 0; k < 3; k++) s[k] = set.scale[3 * i + k];
+    return multiply(world_[instance.node], trs_matrix(t, q, s));
+}
+
+// A placement whose transform is singular, far from a unit scale or close to flattening an
+// axis, or whose matrix or normal matrix does not fit in float, flattens its mesh: the flat
+// path checks every transformed vertex. Embree traces a placement in mesh space through the
+// float inverse, and an extreme one (a scale of 1e20, entries of 1e30, one axis scaled by
+// 1e-20) hands its intersector a ray it aborts the process on. Bounds, with the Frobenius
+// norm f >= the largest singular value: the smallest one is at least |det| / f^2, so
+// f^3 / |det| bounds the condition number.
+bool placement_instanceable(const Mat4 &w) {
+    double det = w.at(0, 0) * (w.at(1, 1) * w.at(2, 2) - w.at(1, 2) * w.at(2, 1)) -
+                 w.at(0, 1) * (w.at(1, 0) * w.at(2, 2) - w.at(1, 2) * w.at(2, 0)) +
+                 w.at(0, 2) * (w.at(1, 0) * w.at(2, 1) - w.at(1, 1) * w.at(2, 0));
+    if (!(det != 0) || !std::isfinite(det) || !std::isfinite(1 / det)) return false;
+    double frobenius = 0;
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) frobenius += w.at(r, c) * w.at(r, c);
+    frobenius = std::sqrt(frobenius);
+    if (!(frobenius >= std::ldexp(1.0, -20) && frobenius <= std::ldexp(1.0, 20)) ||
+        !(frobenius * frobenius * frobenius <= std::ldexp(1.0, 20) * std::fabs(det)))
+        return false;
+    WorldTransform world(w);
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 4; c++)
+            if (!std::isfinite(static_cast<float>(world.matrix.at(r, c))) ||
+                (c < 3 && !std::isfinite(static_cast<float>(world.normal_matrix[r][c]))))
+                return false;
+    return true;
+}
+
+// A mesh placed by two or more nodes, each with an invertible transform, is stored once and
+// placed (instanced); the rest is flattened into world space. Returns per mesh whether it is instanced.
+std::vector<char> Loader::choose_instanced_meshes(const std::vector<uint32_t> &uses) const {
+    std::vector<char> instanced(model_.meshes.size(), 0);
+    for (size_t m = 0; m < uses.size(); m++) instanced[m] = uses[m] >= 2 && !options_.flatten_instances && framed_alone(m);
+    for (const Instance &instance : instances_)
+        if (instanced[instance.mesh] && !placement_instanceable(instance_world(instance))) instanced[instance.mesh] = 0;
+    return instanced;
+}
+
+// Whether a mesh's own coordinates are what the scene's framing (choose_frame) would leave alone:
+// extent within [2^-20, 2^20] and no farther from its origin than 2^10 extents. A stored mesh
+// keeps its own coordinates, which Embree traces in mesh space, so one that the framing would
+// rescale or recentre is flattened instead, through the framed world transforms.
+bool Loader::framed_alone(size_t mesh) const {
+    if (!meshes_[mesh]) return false;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (const DecodedPrimitive &prim : meshes_[mesh]->primitives)
+        for (size_t i = 0; prim.triangles && i + 2 < prim.positions.size(); i += 3)
+            for (int r = 0; r < 3; r++) {
+                lo[r] = std::min(lo[r], static_cast<double>(prim.positions[i + r]));
+                hi[r] = std::max(hi[r], static_cast<double>(prim.positions[i + r]));
+            }
+    double extent = 0, farthest = 0;
+    for (int r = 0; r < 3; r++) {
+        extent = std::max(extent, hi[r] - lo[r]);
+        farthest = std::max(farthest, std::fabs(0.5 * lo[r] + 0.5 * hi[r]));
+    }
+    return extent >= std::ldexp(1.0, -20) && extent <= std::ldexp(1.0, 20) && std::isfinite(farthest) &&
+           farthest <= std::ldexp(1.0, 10) * extent;
+}
+
+// After the flat triangles: each instanced mesh (uses > 0) once, in mesh space, then its
+// placements, grouped by mesh (pm_instanced_mesh.first_placement), each with the node's world
+// transform. Triangle ids follow: the flat triangles', then each placement's in order.
+void Loader::place_instanced_meshes(const std::vector<uint32_t> &uses) {
+    triangle_ids_ = triangle_material_.size();
+    std::vector<std::vector<const Instance *>> placed_by(uses.size());  // one pass over the instances, not one a mesh
+    for (const Instance &instance : instances_)
+        if (uses[instance.mesh]) placed_by[instance.mesh].push_back(&instance);
+    for (size_t m = 0; m < uses.size(); m++) {
+        if (!uses[m]) continue;
+        const Instance *first = placed_by[m].front();
+        pm_instanced_mesh mesh;
+        memset(&mesh, 0, sizeof mesh);
+        mesh.first_triangle = static_cast<uint32_t>(triangle_material_.size());
+        mesh.first_vertex = static_cast<uint32_t>(positions_.size());
+        uint64_t degenerate = degenerate_, skipped = skipped_prims_;
+        instance_mesh(*first, identity());
+        // counted as often as the mesh is placed, as a flattened scene counts them
+        degenerate_ += (degenerate_ - degenerate) * (uses[m] - 1);
+        skipped_prims_ += (skipped_prims_ - skipped) * (uses[m] - 1);
+        mesh.triangle_count = static_cast<uint32_t>(triangle_material_.size()) - mesh.first_triangle;
+        mesh.vertex_count = static_cast<uint32_t>(positions_.size()) - mesh.first_vertex;
+        mesh.first_placement = static_cast<uint32_t>(placements_.size());
+        for (const Instance *instance : placed_by[m]) {
+            WorldTransform world(instance_world(*instance));
+            pm_placement p;
+            memset(&p, 0, sizeof p);
+            p.mesh = static_cast<uint32_t>(instanced_meshes_.size());
+            p.first_id = static_cast<uint32_t>(triangle_ids_);
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 4; c++) p.object_to_world[4 * r + c] = static_cast<float>(world.matrix.at(r, c));
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 3; c++) p.normal_matrix[3 * r + c] = static_cast<float>(world.normal_matrix[r][c]);
+            p.handedness = world.mirrored ? -1.f : 1.f;
+            placements_.push_back(p);
+            triangle_ids_ += mesh.triangle_count;
+        }
+        mesh.placement_count = static_cast<uint32_t>(placements_.size()) - mesh.first_placement;
+        instanced_meshes_.push_back(mesh);
+    }
+}
+
+// ---------------- framing and output: the scene's frame, the load's memory, the pm_scene's arrays
+
+// The file's triangles in world space (before the frame), one after another, for pm_core_bounds.
+struct FrameWalk {
+    const std::vector<Instance> *instances;
+    const std::vector<std::unique_ptr<DecodedMesh>> *meshes;
+    const std::vector<Mat4> *world;
+    size_t instance = 0, primitive = 0, corner = 0;
+
+    static bool next(void *context, bool restart, double corners[9]) {
+        FrameWalk &w = *static_cast<FrameWalk *>(context);
+        if (restart) w.instance = w.primitive = w.corner = 0;
+        for (; w.instance < w.instances->size(); w.instance++, w.primitive = 0, w.corner = 0) {
+            const Instance &instance = (*w.instances)[w.instance];
+            const Mat4 &m = (*w.world)[instance.node];
+            const std::vector<DecodedPrimitive> &prims = (*w.meshes)[instance.mesh]->primitives;
+            for (; w.primitive < prims.size(); w.primitive++, w.corner = 0) {
+                const DecodedPrimitive &prim = prims[w.primitive];
+                if (!prim.triangles || w.corner + 3 > prim.corners.size()) continue;
+                for (int k = 0; k < 3; k++) {
+                    const float *p = &prim.positions[3 * static_cast<size_t>(prim.corners[w.corner + k])];
+                    for (int r = 0; r < 3; r++)
+                        corners[3 * k + r] = m.at(r, 0) * p[0] + m.at(r, 1) * p[1] + m.at(r, 2) * p[2] + m.at(r, 3);
+                }
+                w.corner += 3;
+                return true;
+            }
+        }
+        return false;
+    }
+};
+
+// The placed triangles' world-space bounds in the file's frame, their number, and the narrowest one's extent.
+Loader::PlacedBounds Loader::placed_bounds() const {
+    PlacedBounds b;
+    double *lo = b.lo, *hi = b.hi;
+    for (const Instance &instance : instances_) {
+        const Mat4 m = instance_world(instance);
+        for (const DecodedPrimitive &prim : meshes_[instance.mesh]->primitives) {
+            if (!prim.triangles) continue;
+            b.triangles += prim.corners.size() / 3;
+            for (size_t c = 0; c + 3 <= prim.corners.size(); c += 3) {
+                double tlo[3] = {INFINITY, INFINITY, INFINITY}, thi[3] = {-INFINITY, -INFINITY, -INFINITY};
+                for (int k = 0; k < 3; k++) {
+                    const float *p = &prim.positions[3 * static_cast<size_t>(prim.corners[c + k])];
+                    for (int r = 0; r < 3; r++) {
+                        double x = m.at(r, 0) * p[0] + m.at(r, 1) * p[1] + m.at(r, 2) * p[2] + m.at(r, 3);
+                        tlo[r] = std::min(tlo[r], x);
+                        thi[r] = std::max(thi[r], x);
+                    }
+                }
+                double e = std::max(thi[0] - tlo[0], std::max(thi[1] - tlo[1], thi[2] - tlo[2]));
+                if (e > 0) b.smallest = std::min(b.smallest, e);
+            }
+            for (size_t i = 0; i + 2 < prim.positions.size(); i += 3)
+                for (int r = 0; r < 3; r++) {
+                    double x = m.at(r, 0) * prim.positions[i] + m.at(r, 1) * prim.positions[i + 1] +
+                               m.at(r, 2) * prim.positions[i + 2] + m.at(r, 3);
+                    lo[r] = std::min(lo[r], x);
+                    hi[r] = std::max(hi[r], x);
+                }
+        }
+    }
+    return b;
+}
+
+// The renderer works in float and squares lengths (areas, distances, densities), which leave a
+// float's range for extents beyond about 1e+-19, and a model far from the origin loses its
+// detail to the float spacing there. The image does not change when the whole scene (camera and
+// lights included) is moved or scaled, so a scene whose core's extent (pm_core_bounds: small
+// strays far away left out) is outside [2^-20, 2^20] is scaled by the power of two that brings it
+// near 1 (exact in float), and one whose core lies more than 2^10 extents from the origin is
+// moved to it; point and spot intensities scale by the square (the same irradiance), volume
+// attenuation by the inverse. Computed in double from the file.
+void Loader::choose_frame() {
+    PlacedBounds bounds = placed_bounds();
+    double *lo = bounds.lo, *hi = bounds.hi;
+    const uint64_t triangles = bounds.triangles;
+    const double smallest = bounds.smallest;
+    // framed by its core (scene_core.c): a small stray far from the bulk neither shrinks the
+    // scene to a speck nor moves it; it stays where it is, refused by the accel past the reach
+    // Embree can trace
+    bool whole = std::isfinite(lo[0]) && std::isfinite(hi[0]) && std::isfinite(lo[1]) && std::isfinite(hi[1]) &&
+                 std::isfinite(lo[2]) && std::isfinite(hi[2]);
+    if (whole) {
+        FrameWalk walk{&instances_, &meshes_, &world_};
+        pm_core_source source = {triangles, &walk, FrameWalk::next};
+        if (!pm_core_bounds(&source, lo, hi)) throw std::bad_alloc();
+    }
+    double extent = 0, center[3], farthest = 0;
+    for (int r = 0; r < 3; r++) {
+        extent = std::max(extent, hi[r] - lo[r]);
+        center[r] = 0.5 * lo[r] + 0.5 * hi[r];
+        farthest = std::max(farthest, std::fabs(center[r]));
+    }
+    if (extent > 0 && std::isfinite(extent) && std::isfinite(farthest)) {
+        if (extent < std::ldexp(1.0, -20) || extent > std::ldexp(1.0, 20)) frame_scale_ = std::ldexp(1.0, -std::ilogb(extent));
+        if (farthest > std::ldexp(1.0, 10) * extent) {
+            recentered_ = true;
+            std::copy(center, center + 3, frame_center_);
+        }
+    }
+    // Shrinking a scene whose bulk is huge must not shrink its small parts below what float can
+    // render (a triangle narrower than 2^-62 has an area under float's smallest normal number): a
+    // unit box beside a sphere placed with a scale of 1e38 would become dust and render black.
+    if (frame_scale_ < 1 && smallest * frame_scale_ < std::ldexp(1.0, -62))
+        fail("the scene's sizes span more than float can render: a triangle " + num(smallest) + " wide beside a bulk " +
+             num(extent) + " wide (at most 2^62 apart)");
+    if (frame_scale_ != 1 || recentered_) {
+        Mat4 frame = identity();
+        for (int r = 0; r < 3; r++) {
+            frame.m[r * 5] = frame_scale_;
+            frame.m[12 + r] = -frame_center_[r] * frame_scale_;
+        }
+        for (Mat4 &w : world_) w = multiply(frame, w);
+    }
+    frame_attenuation();
+    for (const Placed &p : placed_) {
+        WorldTransform world(world_[p.node]);
+        if (p.light) add_light(p.index, world, p.node);
+        else add_camera(p.index, world, p.node);
+    }
+}
+
+// Volume attenuation per unit length: divided by the frame's scale, in double before it becomes a float.
+void Loader::frame_attenuation() {
+    for (size_t i = 0; i < materials_.size(); i++) {
+        float sigma[3];
+        for (int k = 0; k < 3; k++) {
+            double framed = attenuation_[i][k] / frame_scale_;
+            if (framed > FLT_MAX) note(material_label(i), "KHR_materials_volume attenuation", num(framed) +
+                                       " per unit length (-ln attenuationColor / attenuationDistance) clamped to " +
+                                       num(FLT_MAX));
+            sigma[k] = static_cast<float>(std::min<double>(framed, FLT_MAX));
+        }
+        materials_[i].attenuation = v3(sigma[0], sigma[1], sigma[2]);
+    }
+}
+
+// The scene's totals after instancing (each instanced mesh's triangles counted once), refused past
+// the scene limits or 32-bit triangle ids; triangle_ids_ counts every placed triangle.
+Loader::SceneTotals Loader::count_scene(const std::vector<char> &instanced) {
+    SceneTotals totals;
+    std::vector<char> counted(model_.meshes.size(), 0);
+    for (const Instance &instance : instances_) {
+        const DecodedMesh &mesh = *meshes_[instance.mesh];
+        if (instanced[instance.mesh]) {
+            totals.placements++;
+            triangle_ids_ += mesh.triangles;
+            if (counted[instance.mesh]++) continue;  // stored once
+        } else {
+            triangle_ids_ += mesh.triangles;
+        }
+        totals.vertices += mesh.vertices;
+        totals.triangles += mesh.triangles;
+        if (totals.vertices > kMaxSceneVertices || totals.triangles > kMaxSceneTriangles)
+            fail("scene too large: more than " + str(kMaxSceneVertices) + " vertices or " + str(kMaxSceneTriangles) +
+                 " triangles after instancing");
+    }
+    if (triangle_ids_ >= UINT32_MAX)
+        fail("scene too large: " + str(triangle_ids_) + " placed triangles (a triangle id is 32 bits)");
+    return totals;
+}
+
+// The scene's arrays and the acceleration structure, estimated before either is allocated.
+void Loader::admit_scene_geometry(const SceneTotals &totals) {
+    uint64_t per_vertex = 2 * sizeof(vec3) + 2 * sizeof(float) * (uv1_needed_ ? 2 : 1) + (tangents_needed_ ? 4 * sizeof(float) : 0);
+    // (Embree's share as the memory forecast counts it: accel.c, pm_accel_forecast_bytes)
+    uint64_t accel = totals.triangles * PM_ACCEL_BUILD_BYTES_PER_TRIANGLE + totals.vertices * PM_ACCEL_BYTES_PER_VERTEX +
+                     totals.placements * PM_ACCEL_BYTES_PER_PLACEMENT;
+    uint64_t bytes = totals.vertices * per_vertex + totals.triangles * 4 * sizeof(uint32_t) +
+                     totals.placements * sizeof(pm_placement) + accel +
+                     placed_.size() * (sizeof(pm_light) + sizeof(float) + sizeof(pm_camera));  // lights, their power table, cameras
+    const uint64_t mark = pm_memory_failure_mark();
+    if (!pm_memory_admit(bytes, "scene geometry and its acceleration structure"))
+        fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "scene geometry and its acceleration structure")) +
+             "): " + str(totals.triangles) +
+             " triangles after instancing");
+    // the acceleration structure's share was a forecast: Embree's allocations are admitted as they happen
+    pm_memory_release(accel);
+    admitted_.bytes += bytes - accel;
+}
+
 template <class T>
 T *malloc_copy(const std::vector<T> &v) {
     if (v.empty()) return nullptr;
@@ -3226,241 +3609,7 @@ void Loader::emit(pm_scene *out) {
     *out = s;
 }
 
-// The renderer works in float and squares lengths (areas, distances, densities), which leave a
-// float's range for extents beyond about 1e+-19, and a model far from the origin loses its
-// detail to the float spacing there. The image does not change when the whole scene (camera and
-// lights included) is moved or scaled, so a scene whose core's extent (pm_core_bounds: small
-// strays far away left out) is outside [2^-20, 2^20] is scaled by the power of two that brings it
-// near 1 (exact in float), and one whose core lies more than 2^10 extents from the origin is
-// moved to it; point and spot intensities scale by the square (the same irradiance), volume
-// attenuation by the inverse. Computed in double from the file.
-// The file's triangles in world space (before the frame), one after another, for pm_core_bounds.
-struct FrameWalk {
-    const std::vector<Instance> *instances;
-    const std::vector<std::unique_ptr<DecodedMesh>> *meshes;
-    const std::vector<Mat4> *world;
-    size_t instance = 0, primitive = 0, corner = 0;
-
-    static bool next(void *context, bool restart, double corners[9]) {
-        FrameWalk &w = *static_cast<FrameWalk *>(context);
-        if (restart) w.instance = w.primitive = w.corner = 0;
-        for (; w.instance < w.instances->size(); w.instance++, w.primitive = 0, w.corner = 0) {
-            const Instance &instance = (*w.instances)[w.instance];
-            const Mat4 &m = (*w.world)[instance.node];
-            const std::vector<DecodedPrimitive> &prims = (*w.meshes)[instance.mesh]->primitives;
-            for (; w.primitive < prims.size(); w.primitive++, w.corner = 0) {
-                const DecodedPrimitive &prim = prims[w.primitive];
-                if (!prim.triangles || w.corner + 3 > prim.corners.size()) continue;
-                for (int k = 0; k < 3; k++) {
-                    const float *p = &prim.positions[3 * static_cast<size_t>(prim.corners[w.corner + k])];
-                    for (int r = 0; r < 3; r++)
-                        corners[3 * k + r] = m.at(r, 0) * p[0] + m.at(r, 1) * p[1] + m.at(r, 2) * p[2] + m.at(r, 3);
-                }
-                w.corner += 3;
-                return true;
-            }
-        }
-        return false;
-    }
-};
-
-void Loader::choose_frame() {
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    uint64_t triangles = 0;
-    double smallest = INFINITY;  // the narrowest triangle's extent (largest axis of its bounds), degenerate ones aside
-    for (const Instance &instance : instances_) {
-        const Mat4 m = instance_world(instance);
-        for (const DecodedPrimitive &prim : meshes_[instance.mesh]->primitives) {
-            if (!prim.triangles) continue;
-            triangles += prim.corners.size() / 3;
-            for (size_t c = 0; c + 3 <= prim.corners.size(); c += 3) {
-                double tlo[3] = {INFINITY, INFINITY, INFINITY}, thi[3] = {-INFINITY, -INFINITY, -INFINITY};
-                for (int k = 0; k < 3; k++) {
-                    const float *p = &prim.positions[3 * static_cast<size_t>(prim.corners[c + k])];
-                    for (int r = 0; r < 3; r++) {
-                        double x = m.at(r, 0) * p[0] + m.at(r, 1) * p[1] + m.at(r, 2) * p[2] + m.at(r, 3);
-                        tlo[r] = std::min(tlo[r], x);
-                        thi[r] = std::max(thi[r], x);
-                    }
-                }
-                double e = std::max(thi[0] - tlo[0], std::max(thi[1] - tlo[1], thi[2] - tlo[2]));
-                if (e > 0) smallest = std::min(smallest, e);
-            }
-            for (size_t i = 0; i + 2 < prim.positions.size(); i += 3)
-                for (int r = 0; r < 3; r++) {
-                    double x = m.at(r, 0) * prim.positions[i] + m.at(r, 1) * prim.positions[i + 1] +
-                               m.at(r, 2) * prim.positions[i + 2] + m.at(r, 3);
-                    lo[r] = std::min(lo[r], x);
-                    hi[r] = std::max(hi[r], x);
-                }
-        }
-    }
-    // framed by its core (scene_core.c): a small stray far from the bulk neither shrinks the
-    // scene to a speck nor moves it; it stays where it is, refused by the accel past the reach
-    // Embree can trace
-    bool whole = std::isfinite(lo[0]) && std::isfinite(hi[0]) && std::isfinite(lo[1]) && std::isfinite(hi[1]) &&
-                 std::isfinite(lo[2]) && std::isfinite(hi[2]);
-    if (whole) {
-        FrameWalk walk{&instances_, &meshes_, &world_};
-        pm_core_source source = {triangles, &walk, FrameWalk::next};
-        if (!pm_core_bounds(&source, lo, hi)) throw std::bad_alloc();
-    }
-    double extent = 0, center[3], farthest = 0;
-    for (int r = 0; r < 3; r++) {
-        extent = std::max(extent, hi[r] - lo[r]);
-        center[r] = 0.5 * lo[r] + 0.5 * hi[r];
-        farthest = std::max(farthest, std::fabs(center[r]));
-    }
-    if (extent > 0 && std::isfinite(extent) && std::isfinite(farthest)) {
-        if (extent < std::ldexp(1.0, -20) || extent > std::ldexp(1.0, 20)) frame_scale_ = std::ldexp(1.0, -std::ilogb(extent));
-        if (farthest > std::ldexp(1.0, 10) * extent) {
-            recentered_ = true;
-            std::copy(center, center + 3, frame_center_);
-        }
-    }
-    // Shrinking a scene whose bulk is huge must not shrink its small parts below what float can
-    // render (a triangle narrower than 2^-62 has an area under float's smallest normal number): a
-    // unit box beside a sphere placed with a scale of 1e38 would become dust and render black.
-    if (frame_scale_ < 1 && smallest * frame_scale_ < std::ldexp(1.0, -62))
-        fail("the scene's sizes span more than float can render: a triangle " + num(smallest) + " wide beside a bulk " +
-             num(extent) + " wide (at most 2^62 apart)");
-    if (frame_scale_ != 1 || recentered_) {
-        Mat4 frame = identity();
-        for (int r = 0; r < 3; r++) {
-            frame.m[r * 5] = frame_scale_;
-            frame.m[12 + r] = -frame_center_[r] * frame_scale_;
-        }
-        for (Mat4 &w : world_) w = multiply(frame, w);
-    }
-    // attenuation per unit length: divided by the frame's scale, in double before it becomes a float
-    for (size_t i = 0; i < materials_.size(); i++) {
-        float sigma[3];
-        for (int k = 0; k < 3; k++) {
-            double framed = attenuation_[i][k] / frame_scale_;
-            if (framed > FLT_MAX) note(material_label(i), "KHR_materials_volume attenuation", num(framed) +
-                                       " per unit length (-ln attenuationColor / attenuationDistance) clamped to " +
-                                       num(FLT_MAX));
-            sigma[k] = static_cast<float>(std::min<double>(framed, FLT_MAX));
-        }
-        materials_[i].attenuation = v3(sigma[0], sigma[1], sigma[2]);
-    }
-    for (const Placed &p : placed_) {
-        WorldTransform world(world_[p.node]);
-        if (p.light) add_light(p.index, world, p.node);
-        else add_camera(p.index, world, p.node);
-    }
-}
-
-// Whether a mesh's own coordinates are what the scene's framing (choose_frame) would leave alone:
-// extent within [2^-20, 2^20] and no farther from its origin than 2^10 extents. A stored mesh
-// keeps its own coordinates, which Embree traces in mesh space, so one that the framing would
-// rescale or recentre is flattened instead, through the framed world transforms.
-bool Loader::framed_alone(size_t mesh) const {
-    if (!meshes_[mesh]) return false;
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (const DecodedPrimitive &prim : meshes_[mesh]->primitives)
-        for (size_t i = 0; prim.triangles && i + 2 < prim.positions.size(); i += 3)
-            for (int r = 0; r < 3; r++) {
-                lo[r] = std::min(lo[r], static_cast<double>(prim.positions[i + r]));
-                hi[r] = std::max(hi[r], static_cast<double>(prim.positions[i + r]));
-            }
-    double extent = 0, farthest = 0;
-    for (int r = 0; r < 3; r++) {
-        extent = std::max(extent, hi[r] - lo[r]);
-        farthest = std::max(farthest, std::fabs(0.5 * lo[r] + 0.5 * hi[r]));
-    }
-    return extent >= std::ldexp(1.0, -20) && extent <= std::ldexp(1.0, 20) && std::isfinite(farthest) &&
-           farthest <= std::ldexp(1.0, 10) * extent;
-}
-
-// After the flat triangles: each instanced mesh (uses > 0) once, in mesh space, then its
-// placements, grouped by mesh (pm_instanced_mesh.first_placement), each with the node's world
-// transform. Triangle ids follow: the flat triangles', then each placement's in order.
-void Loader::place_instanced_meshes(const std::vector<uint32_t> &uses) {
-    triangle_ids_ = triangle_material_.size();
-    std::vector<std::vector<const Instance *>> placed_by(uses.size());  // one pass over the instances, not one a mesh
-    for (const Instance &instance : instances_)
-        if (uses[instance.mesh]) placed_by[instance.mesh].push_back(&instance);
-    for (size_t m = 0; m < uses.size(); m++) {
-        if (!uses[m]) continue;
-        const Instance *first = placed_by[m].front();
-        pm_instanced_mesh mesh;
-        memset(&mesh, 0, sizeof mesh);
-        mesh.first_triangle = static_cast<uint32_t>(triangle_material_.size());
-        mesh.first_vertex = static_cast<uint32_t>(positions_.size());
-        uint64_t degenerate = degenerate_, skipped = skipped_prims_;
-        instance_mesh(*first, identity());
-        // counted as often as the mesh is placed, as a flattened scene counts them
-        degenerate_ += (degenerate_ - degenerate) * (uses[m] - 1);
-        skipped_prims_ += (skipped_prims_ - skipped) * (uses[m] - 1);
-        mesh.triangle_count = static_cast<uint32_t>(triangle_material_.size()) - mesh.first_triangle;
-        mesh.vertex_count = static_cast<uint32_t>(positions_.size()) - mesh.first_vertex;
-        mesh.first_placement = static_cast<uint32_t>(placements_.size());
-        for (const Instance *instance : placed_by[m]) {
-            WorldTransform world(instance_world(*instance));
-            pm_placement p;
-            memset(&p, 0, sizeof p);
-            p.mesh = static_cast<uint32_t>(instanced_meshes_.size());
-            p.first_id = static_cast<uint32_t>(triangle_ids_);
-            for (int r = 0; r < 3; r++)
-                for (int c = 0; c < 4; c++) p.object_to_world[4 * r + c] = static_cast<float>(world.matrix.at(r, c));
-            for (int r = 0; r < 3; r++)
-                for (int c = 0; c < 3; c++) p.normal_matrix[3 * r + c] = static_cast<float>(world.normal_matrix[r][c]);
-            p.handedness = world.mirrored ? -1.f : 1.f;
-            placements_.push_back(p);
-            triangle_ids_ += mesh.triangle_count;
-        }
-        mesh.placement_count = static_cast<uint32_t>(placements_.size()) - mesh.first_placement;
-        instanced_meshes_.push_back(mesh);
-    }
-}
-
-// KHR_materials_variants: with a variant asked for, every primitive whose mappings name it takes
-// the mapped material (the preflight checked the material indices); the others keep their default.
-// A name the file's root list does not hold fails the load with the names it does hold.
-void Loader::apply_variant() {
-    std::vector<std::string> names;
-    auto root = model_.extensions.find("KHR_materials_variants");
-    if (root != model_.extensions.end() && root->second.IsObject() && root->second.Has("variants")) {
-        const tinygltf::Value &list = root->second.Get("variants");
-        for (size_t k = 0; list.IsArray() && k < list.ArrayLen(); k++) {
-            const tinygltf::Value &v = list.Get(static_cast<int>(k));
-            names.push_back(v.IsObject() && v.Has("name") && v.Get("name").IsString() ? v.Get("name").Get<std::string>() : "");
-        }
-    }
-    // the names for the window's variant key, which reloads the file with one of them (an
-    // embedded '\0' would cut a name short: such a name stays reachable by --variant alone)
-    for (const std::string &n : names) {
-        variant_names_.insert(variant_names_.end(), n.begin(), n.end());
-        variant_names_.push_back('\0');
-    }
-    variant_count_ = static_cast<uint32_t>(names.size());
-    if (!options_.variant) return;
-    const std::string wanted = options_.variant;
-    int index = -1;
-    for (size_t k = 0; k < names.size() && index < 0; k++)
-        if (names[k] == wanted) index = static_cast<int>(k);
-    if (index < 0) {
-        std::string known;
-        for (const std::string &n : names) known += (known.empty() ? "" : ", ") + printable(n);
-        fail("no material variant " + printable(wanted) + " (KHR_materials_variants lists " +
-             (names.empty() ? std::string("none") : known) + ")");
-    }
-    for (tinygltf::Mesh &mesh : model_.meshes)
-        for (tinygltf::Primitive &prim : mesh.primitives) {
-            auto ext = prim.extensions.find("KHR_materials_variants");
-            if (ext == prim.extensions.end() || !ext->second.IsObject() || !ext->second.Has("mappings")) continue;
-            const tinygltf::Value &mappings = ext->second.Get("mappings");
-            for (size_t k = 0; mappings.IsArray() && k < mappings.ArrayLen(); k++) {
-                const tinygltf::Value &m = mappings.Get(static_cast<int>(k));
-                if (!m.IsObject() || !m.Has("material") || !m.Get("material").IsNumber() || !m.Has("variants")) continue;
-                const tinygltf::Value &vs = m.Get("variants");
-                for (size_t j = 0; vs.IsArray() && j < vs.ArrayLen(); j++)
-                    if (vs.Get(static_cast<int>(j)).IsNumber() && vs.Get(static_cast<int>(j)).GetNumberAsInt() == index)
-                        prim.material = m.Get("material").GetNumberAsInt();
-            }
-        }
-}
+// ---------------- the load: every stage in order, then its closing checks and warnings
 
 void Loader::load(pm_scene *out) {
     std::vector<unsigned char> file = read_model_file();
@@ -3496,84 +3645,6 @@ void Loader::load(pm_scene *out) {
     emit(out);
 }
 
-// Each placed mesh decoded once, however often it is placed; returns how many placements each mesh has.
-std::vector<uint32_t> Loader::decode_placed_meshes() {
-    std::vector<uint32_t> uses(model_.meshes.size(), 0);
-    for (const Instance &instance : instances_) {
-        uses[instance.mesh]++;
-        decoded_mesh(instance.mesh);
-        const std::vector<double> &own = model_.nodes[instance.node].weights;
-        if (!own.empty() && own != model_.meshes[instance.mesh].weights && !node_weights_warned_) {
-            node_weights_warned_ = true;
-            warn("node " + str(instance.node) + " gives mesh " + str(instance.mesh) +
-                 " morph weights of its own: the mesh's default weights are rendered (one pose a mesh)");
-        }
-    }
-    return uses;
-}
-
-// The scene's totals after instancing (each instanced mesh's triangles counted once), refused past
-// the scene limits or 32-bit triangle ids; triangle_ids_ counts every placed triangle.
-Loader::SceneTotals Loader::count_scene(const std::vector<char> &instanced) {
-    SceneTotals totals;
-    std::vector<char> counted(model_.meshes.size(), 0);
-    for (const Instance &instance : instances_) {
-        const DecodedMesh &mesh = *meshes_[instance.mesh];
-        if (instanced[instance.mesh]) {
-            totals.placements++;
-            triangle_ids_ += mesh.triangles;
-            if (counted[instance.mesh]++) continue;  // stored once
-        } else {
-            triangle_ids_ += mesh.triangles;
-        }
-        totals.vertices += mesh.vertices;
-        totals.triangles += mesh.triangles;
-        if (totals.vertices > kMaxSceneVertices || totals.triangles > kMaxSceneTriangles)
-            fail("scene too large: more than " + str(kMaxSceneVertices) + " vertices or " + str(kMaxSceneTriangles) +
-                 " triangles after instancing");
-    }
-    if (triangle_ids_ >= UINT32_MAX)
-        fail("scene too large: " + str(triangle_ids_) + " placed triangles (a triangle id is 32 bits)");
-    return totals;
-}
-
-// The scene's arrays and the acceleration structure, estimated before either is allocated.
-void Loader::admit_scene_geometry(const SceneTotals &totals) {
-    uint64_t per_vertex = 2 * sizeof(vec3) + 2 * sizeof(float) * (uv1_needed_ ? 2 : 1) + (tangents_needed_ ? 4 * sizeof(float) : 0);
-    // (Embree's share as the memory forecast counts it: accel.c, pm_accel_forecast_bytes)
-    uint64_t accel = totals.triangles * PM_ACCEL_BUILD_BYTES_PER_TRIANGLE + totals.vertices * PM_ACCEL_BYTES_PER_VERTEX +
-                     totals.placements * PM_ACCEL_BYTES_PER_PLACEMENT;
-    uint64_t bytes = totals.vertices * per_vertex + totals.triangles * 4 * sizeof(uint32_t) +
-                     totals.placements * sizeof(pm_placement) + accel +
-                     placed_.size() * (sizeof(pm_light) + sizeof(float) + sizeof(pm_camera));  // lights, their power table, cameras
-    const uint64_t mark = pm_memory_failure_mark();
-    if (!pm_memory_admit(bytes, "scene geometry and its acceleration structure"))
-        fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "scene geometry and its acceleration structure")) +
-             "): " + str(totals.triangles) +
-             " triangles after instancing");
-    // the acceleration structure's share was a forecast: Embree's allocations are admitted as they happen
-    pm_memory_release(accel);
-    admitted_.bytes += bytes - accel;
-}
-
-// The material of primitives without one: glTF's default (white, fully metallic and rough).
-void Loader::add_default_material() {
-    pm_material m;
-    memset(&m, 0, sizeof m);
-    m.base_color = v3(1, 1, 1);
-    m.base_color_texture = -1;
-    m.emission_texture = -1;
-    m.metallic_roughness_texture = -1;
-    m.transmission_texture = -1;
-    m.normal_texture = -1;
-    m.normal_scale = 1.f;
-    m.metallic = m.roughness = 1.f;
-    m.ior = 1.5f;
-    m.alpha = 1.f;
-    m.alpha_cutoff = 0.5f;
-    materials_.push_back(m);
-}
-
 // A load without a triangle to render fails with the reason.
 void Loader::check_something_to_render() const {
     if (triangle_material_.empty() && degenerate_)
@@ -3597,44 +3668,6 @@ void Loader::warn_load_counts() {
     if (collapsed_normals_)
         warn(str(collapsed_normals_) + " NORMAL value(s) lost their direction to their node's transform (first: " +
              first_collapsed_ + "): their triangles get flat normals, as without NORMAL");
-}
-
-// A placement whose transform is singular, far from a unit scale or close to flattening an
-// axis, or whose matrix or normal matrix does not fit in float, flattens its mesh: the flat
-// path checks every transformed vertex. Embree traces a placement in mesh space through the
-// float inverse, and an extreme one (a scale of 1e20, entries of 1e30, one axis scaled by
-// 1e-20) hands its intersector a ray it aborts the process on. Bounds, with the Frobenius
-// norm f >= the largest singular value: the smallest one is at least |det| / f^2, so
-// f^3 / |det| bounds the condition number.
-bool placement_instanceable(const Mat4 &w) {
-    double det = w.at(0, 0) * (w.at(1, 1) * w.at(2, 2) - w.at(1, 2) * w.at(2, 1)) -
-                 w.at(0, 1) * (w.at(1, 0) * w.at(2, 2) - w.at(1, 2) * w.at(2, 0)) +
-                 w.at(0, 2) * (w.at(1, 0) * w.at(2, 1) - w.at(1, 1) * w.at(2, 0));
-    if (!(det != 0) || !std::isfinite(det) || !std::isfinite(1 / det)) return false;
-    double frobenius = 0;
-    for (int r = 0; r < 3; r++)
-        for (int c = 0; c < 3; c++) frobenius += w.at(r, c) * w.at(r, c);
-    frobenius = std::sqrt(frobenius);
-    if (!(frobenius >= std::ldexp(1.0, -20) && frobenius <= std::ldexp(1.0, 20)) ||
-        !(frobenius * frobenius * frobenius <= std::ldexp(1.0, 20) * std::fabs(det)))
-        return false;
-    WorldTransform world(w);
-    for (int r = 0; r < 3; r++)
-        for (int c = 0; c < 4; c++)
-            if (!std::isfinite(static_cast<float>(world.matrix.at(r, c))) ||
-                (c < 3 && !std::isfinite(static_cast<float>(world.normal_matrix[r][c]))))
-                return false;
-    return true;
-}
-
-// A mesh placed by two or more nodes, each with an invertible transform, is stored once and
-// placed (instanced); the rest is flattened into world space. Returns per mesh whether it is instanced.
-std::vector<char> Loader::choose_instanced_meshes(const std::vector<uint32_t> &uses) const {
-    std::vector<char> instanced(model_.meshes.size(), 0);
-    for (size_t m = 0; m < uses.size(); m++) instanced[m] = uses[m] >= 2 && !options_.flatten_instances && framed_alone(m);
-    for (const Instance &instance : instances_)
-        if (instanced[instance.mesh] && !placement_instanceable(instance_world(instance))) instanced[instance.mesh] = 0;
-    return instanced;
 }
 
 }  // namespace
