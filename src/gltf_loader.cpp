@@ -70,7 +70,7 @@ const char *const kSupportedExtensions[] = {"KHR_lights_punctual", "KHR_material
                                             "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_materials_unlit",
                                             "EXT_mesh_gpu_instancing", "KHR_materials_variants"};
 
-// ---------------------------------------------------------------- errors and messages
+// ---------------- errors and messages
 
 struct LoadError {
     std::string message;  // "what (where)", without the file name
@@ -144,7 +144,7 @@ std::string describe(const json &v) {
     return printable(v.dump(-1, ' ', false, json::error_handler_t::replace), 40);
 }
 
-// ---------------------------------------------------------------- paths
+// ---------------- paths
 
 // A path reduced lexically: "." and empty segments dropped, "a/.." folded; ".." survives only at the front.
 struct LexicalPath {
@@ -294,7 +294,7 @@ bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, s
     return true;
 }
 
-// ---------------------------------------------------------------- raw JSON access
+// ---------------- raw JSON access
 
 const json *find_member(const json &object, const char *key) {
     if (!object.is_object()) return nullptr;
@@ -505,7 +505,7 @@ std::string safe_relative_path(const std::string &uri, const std::string &folder
     return decoded;
 }
 
-// ---------------------------------------------------------------- accessors
+// ---------------- accessors
 
 size_t component_size(int type) {
     switch (type) {
@@ -651,7 +651,7 @@ std::vector<T> read_accessor(const AccessorLayout &l, int index) {
     return out;
 }
 
-// ---------------------------------------------------------------- transforms
+// ---------------- transforms
 
 struct Mat4 {
     double m[16];  // column-major, as glTF stores it: element (row r, column c) is m[c*4 + r]
@@ -775,7 +775,7 @@ struct WorldTransform {
     }
 };
 
-// ---------------------------------------------------------------- the loader
+// ---------------- the loader's types and the Loader class
 
 struct DecodedPrimitive {
     bool triangles = false;             // false: points or lines, skipped
@@ -790,6 +790,23 @@ struct DecodedPrimitive {
 struct DecodedMesh {
     std::vector<DecodedPrimitive> primitives;
     uint64_t vertices = 0, triangles = 0;  // per instance, before degenerate triangles are dropped
+};
+
+// One primitive placed through one transform (instance_mesh): its vertices in world space and
+// how its tangents are made.
+struct PlacedPrimitive {
+    explicit PlacedPrimitive(const DecodedPrimitive &p) : prim(p) {}
+    const DecodedPrimitive &prim;
+    std::vector<vec3> positions, normals;  // world space; normals empty without NORMAL
+    bool flat = false;                     // no NORMAL, or none keeps a direction
+    bool has_uv = false, has_uv1 = false;
+    bool mapped = false;                   // a normal map reads the tangents
+    bool given_tangents = false;           // from TANGENT, else generated
+    const std::vector<float> *tangent_uvs = nullptr;  // the normal texture's UV set
+    std::vector<float> tangents;           // given: 4 per vertex in world space
+    std::vector<vec3> du_sum;              // generated: per shared vertex, its triangles' dp/du
+    std::vector<double> hand_sum;          // and handedness votes
+    uint32_t base = 0;                     // the first shared vertex's index in the scene's arrays
 };
 
 // A mesh placed by a node: by the node itself, or (EXT_mesh_gpu_instancing) by element `element`
@@ -835,6 +852,15 @@ struct TextureList {
     }
 };
 
+// What tinygltf's parsers share while build_model fills the Model: the guarded file-system hooks,
+// the image decoder, and the errors and warnings they append to.
+struct ModelParse {
+    static constexpr bool kKeepJson = false;  // tinygltf's copies of extensions and extras as text: nothing reads them
+    tinygltf::FsCallbacks fs;
+    tinygltf::LoadImageDataFunction image_loader;
+    std::string error, warning;
+};
+
 class Loader {
 public:
     explicit Loader(const std::string &path) : path_(path) {
@@ -864,27 +890,83 @@ public:
     uint64_t forecast_peak() const { return forecast_peak_; }
 
 private:
-    // stage 1
+    // validation (stage 1)
     std::vector<unsigned char> read_model_file();
     void split_container(const std::vector<unsigned char> &file);
     void model_from_json();
     json parse_json();
     void preflight(const json &root);
+    void preflight_asset_and_extensions(const json &root);
+    void preflight_counts(const json &root);
     void preflight_buffers(const json &root);
+    std::vector<uint64_t> preflight_buffer_views(const json &root);
+    void preflight_accessors(const json &root);
+    std::vector<int> preflight_images_and_textures(const json &root, const std::vector<uint64_t> &view_lengths);
+    void preflight_material_references(const json &root, const std::vector<int> &texture_sources);
+    void preflight_meshes(const json &root);
+    void preflight_nodes_and_scenes(const json &root);
     void preflight_typed_members(const json &root);
     void preflight_other_indices(const json &root);
     void preflight_uri_target(const json &object, const std::string &where, bool is_buffer, uint64_t byte_length);
     void preflight_compressed(const json &root);
-    // stage 2
+    // model building (stage 2)
     void build_model(const json &root);
+    bool parse_model_geometry(const json &root, ModelParse &parse);
+    bool mark_buffer_view_targets(ModelParse &parse);
+    bool parse_model_nodes_and_materials(const json &root, ModelParse &parse);
+    bool parse_model_images(const json &root, ModelParse &parse);
+    bool parse_model_remaining(const json &root, ModelParse &parse);
+    void check_model_counts();
     void decode_compressed();
-    // stage 3
+    void admit_decoded(uint64_t bytes, const std::string &where);
+    int own_buffer(std::vector<unsigned char> &&bytes);
+    void decode_meshopt_views();
+    std::vector<char> meshes_in_default_scene() const;
+    void decode_draco_primitives();
+    // One Draco primitive's stream (its bufferView), where it is for messages, the accessors
+    // already filled (each by one stream) and the decoders' message buffer.
+    struct DracoFill {
+        int view;
+        std::string where;
+        std::map<int, int> *filled_from;
+        char *message;
+        size_t message_size;
+    };
+    void fill_from_draco(const DracoFill &fill, int accessor, uint64_t count, const char *what,
+                         const std::function<bool(void *)> &decode);
+    // the scene: graph, materials, geometry, instancing, frame (stage 3)
     void traverse_default_scene();
     const DecodedMesh &decoded_mesh(int mesh);
     DecodedPrimitive decode_primitive(int mesh, int primitive);
+    // The primitive being decoded: which it is, its glTF description, where it is for messages.
+    struct PrimitiveSource {
+        int mesh, index;
+        const tinygltf::Primitive &prim;
+        std::string where;
+        size_t vertices;  // POSITION's count, once read
+    };
+    size_t read_positions(const PrimitiveSource &source, DecodedPrimitive *out);
+    void read_vertex_attributes(const PrimitiveSource &source, DecodedPrimitive *out);
+    void apply_morph_targets(const PrimitiveSource &source, DecodedPrimitive *out);
+    void round_tangent_signs(const PrimitiveSource &source, DecodedPrimitive *out);
+    std::vector<uint32_t> read_index_sequence(const PrimitiveSource &source);
+    void assemble_corners(const tinygltf::Primitive &prim, const std::vector<uint32_t> &sequence, const std::string &where,
+                          DecodedPrimitive *out);
+    void flatten_unusable_normals(const PrimitiveSource &source, DecodedPrimitive *out);
     void instance_mesh(const Instance &instance, const Mat4 &transform);
+    void place_vertices(PlacedPrimitive *placed, const WorldTransform &world, const std::string &where);
+    void place_tangents(PlacedPrimitive *placed, const WorldTransform &world);
+    void append_vertex(const PlacedPrimitive &placed, size_t i, vec3 normal);
+    void place_triangle(PlacedPrimitive *placed, bool mirrored, size_t t);
     void add_light(int light, const WorldTransform &world, int node);
     void choose_frame();
+    struct PlacedBounds {
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        uint64_t triangles = 0;
+        double smallest = INFINITY;  // the narrowest triangle's extent (largest axis of its bounds), degenerate ones aside
+    };
+    PlacedBounds placed_bounds() const;
+    void frame_attenuation();
     void add_camera(int camera, const WorldTransform &world, int node);
     void convert_materials();
     void apply_variant();
@@ -991,6 +1073,14 @@ private:
     std::vector<pm_placement> placements_;
     uint64_t triangle_ids_ = 0;
     void place_instanced_meshes(const std::vector<uint32_t> &uses);
+    std::vector<uint32_t> decode_placed_meshes();
+    std::vector<char> choose_instanced_meshes(const std::vector<uint32_t> &uses) const;
+    struct SceneTotals { uint64_t vertices = 0, triangles = 0, placements = 0; };  // stored, after instancing
+    SceneTotals count_scene(const std::vector<char> &instanced);
+    void admit_scene_geometry(const SceneTotals &totals);
+    void add_default_material();
+    void check_something_to_render() const;
+    void warn_load_counts();
     bool framed_alone(size_t mesh) const;
     struct Placed { int node, index; bool light; };
     std::vector<Placed> placed_;  // cameras and lights in traversal order
@@ -1039,7 +1129,7 @@ private:
     }
 };
 
-// ---- stage 1: bytes, container, JSON, preflight
+// ---------------- validation: the file, its container and JSON, the preflight's checks
 
 std::vector<unsigned char> Loader::read_model_file() {
     if (memory_) {
@@ -1178,6 +1268,27 @@ void read_texture_transform(const json &info, const std::string &where, TextureR
 }
 
 void Loader::preflight(const json &root) {
+    preflight_asset_and_extensions(root);
+    preflight_counts(root);
+    preflight_buffers(root);
+    std::vector<uint64_t> view_lengths = preflight_buffer_views(root);
+    preflight_accessors(root);
+    std::vector<int> texture_sources = preflight_images_and_textures(root, view_lengths);
+    preflight_material_references(root, texture_sources);
+    preflight_meshes(root);
+    preflight_nodes_and_scenes(root);
+    preflight_other_indices(root);
+    preflight_typed_members(root);
+    preflight_compressed(root);
+}
+
+bool extension_supported(const std::string &name) {
+    return std::find(std::begin(kSupportedExtensions), std::end(kSupportedExtensions), name) !=
+           std::end(kSupportedExtensions);
+}
+
+// asset.version, the required extensions (each supported) and the used ones pmview ignores.
+void Loader::preflight_asset_and_extensions(const json &root) {
     if (!root.is_object()) fail("the JSON root is not an object");
     const json *asset = find_member(root, "asset");
     const json *version = asset ? find_member(*asset, "version") : nullptr;
@@ -1185,14 +1296,10 @@ void Loader::preflight(const json &root) {
     std::string v = version->get<std::string>();
     if (v.compare(0, 2, "2.") != 0) fail("unsupported glTF version " + printable(v) + " (asset.version)");
 
-    auto supported = [](const std::string &name) {
-        return std::find(std::begin(kSupportedExtensions), std::end(kSupportedExtensions), name) !=
-               std::end(kSupportedExtensions);
-    };
     const json &required = optional_array(root, "extensionsRequired", "top level");
     for (const json &e : required) {
         if (!e.is_string()) fail("extensionsRequired holds " + describe(e) + ", not a name");
-        if (!supported(e.get<std::string>()))
+        if (!extension_supported(e.get<std::string>()))
             fail("required extension " + printable(e.get<std::string>()) + " is not supported");
     }
     std::string ignored;
@@ -1201,14 +1308,16 @@ void Loader::preflight(const json &root) {
         if (e.get<std::string>() == "KHR_mesh_quantization") quantization_ = true;
     for (const json &e : optional_array(root, "extensionsUsed", "top level")) {
         if (e.is_string() && e.get<std::string>() == "KHR_mesh_quantization") quantization_ = true;
-        if (!e.is_string() || supported(e.get<std::string>())) continue;
+        if (!e.is_string() || extension_supported(e.get<std::string>())) continue;
         if (ignored_count++ < 8) ignored += (ignored.empty() ? "" : ", ") + printable(e.get<std::string>());
     }
     if (ignored_count)
         warn("ignoring unsupported extension(s) " + ignored + (ignored_count > 8 ? ", ..." : "") +
              " (used, not required)");
+}
 
-    // sizes first: every index below is checked against them
+// The top-level arrays' sizes, first: every index the preflight meets is checked against them.
+void Loader::preflight_counts(const json &root) {
     count_scenes_ = optional_array(root, "scenes", "top level").size();
     count_nodes_ = optional_array(root, "nodes", "top level").size();
     count_meshes_ = optional_array(root, "meshes", "top level").size();
@@ -1224,9 +1333,10 @@ void Loader::preflight(const json &root) {
     const json *root_ext = find_member(root, "extensions");
     const json *lights_ext = root_ext ? find_member(*root_ext, "KHR_lights_punctual") : nullptr;
     if (lights_ext) count_lights_ = optional_array(*lights_ext, "lights", "KHR_lights_punctual").size();
+}
 
-    preflight_buffers(root);
-
+// Each bufferView inside its buffer, with a valid byteStride; returns their byteLengths.
+std::vector<uint64_t> Loader::preflight_buffer_views(const json &root) {
     std::vector<uint64_t> view_lengths;
     for_each_object(root, "bufferViews", "bufferView", [&](const json &bv, const std::string &where, size_t i) {
         int buffer = required_index(bv, "buffer", count_buffers_, "buffer", where);
@@ -1244,7 +1354,11 @@ void Loader::preflight(const json &root) {
         }
         view_lengths.push_back(length);
     });
+    return view_lengths;
+}
 
+// Each accessor's members and its sparse substitution's (their ranges are checked in accessor_layout).
+void Loader::preflight_accessors(const json &root) {
     for_each_object(root, "accessors", "accessor", [&](const json &a, const std::string &where, size_t) {
         optional_index(a, "bufferView", count_views_, "bufferView", where);
         unsigned_member(a, "byteOffset", false, 0, UINT64_MAX, where);
@@ -1265,7 +1379,10 @@ void Loader::preflight(const json &root) {
         }
         unsigned_member(*find_member(*sparse, "indices"), "componentType", true, 0, UINT32_MAX, where + " sparse indices");
     });
+}
 
+// Images, samplers and textures; returns each texture's image (-1 none).
+std::vector<int> Loader::preflight_images_and_textures(const json &root, const std::vector<uint64_t> &view_lengths) {
     for_each_object(root, "images", "image", [&](const json &image, const std::string &where, size_t) {
         int view = optional_index(image, "bufferView", count_views_, "bufferView", where);
         if (view >= 0 && view_lengths[view] > static_cast<uint64_t>(INT_MAX))
@@ -1286,7 +1403,12 @@ void Loader::preflight(const json &root) {
         texture_sources.push_back(optional_index(t, "source", count_images_, "image", where));
         optional_index(t, "sampler", count_samplers_, "sampler", where);
     });
+    return texture_sources;
+}
 
+// Every material's texture references, kept per material (references_); the images they reach
+// are the ones load_wanted_image decodes.
+void Loader::preflight_material_references(const json &root, const std::vector<int> &texture_sources) {
     for_each_object(root, "materials", "material", [&](const json &m, const std::string &where, size_t) {
         const json *pbr = find_member(m, "pbrMetallicRoughness");
         const json *extensions = find_member(m, "extensions");
@@ -1319,7 +1441,10 @@ void Loader::preflight(const json &root) {
             if (texture_sources[texture] >= 0) hooks_.image_wanted[texture_sources[texture]] = 1;
         }
     });
+}
 
+// Each mesh's primitives: their attributes, indices, material and mode.
+void Loader::preflight_meshes(const json &root) {
     for_each_object(root, "meshes", "mesh", [&](const json &mesh, const std::string &where, size_t) {
         const json *prims = find_member(mesh, "primitives");
         if (!prims || !prims->is_array()) fail("missing primitives array (" + where + ")");
@@ -1337,7 +1462,11 @@ void Loader::preflight(const json &root) {
         }
         primitives_per_mesh_.push_back(prims->size());
     });
+}
 
+// The nodes' references (children, mesh, camera, skin, light, GPU instancing attributes), the
+// scenes' nodes and the default scene.
+void Loader::preflight_nodes_and_scenes(const json &root) {
     for_each_object(root, "nodes", "node", [&](const json &node, const std::string &where, size_t) {
         for (const json &child : optional_array(node, "children", where))
             index_value(child, count_nodes_, "node", where + " children");
@@ -1361,9 +1490,6 @@ void Loader::preflight(const json &root) {
         for (const json &n : optional_array(scene, "nodes", where)) index_value(n, count_nodes_, "node", where);
     });
     optional_index(root, "scene", count_scenes_, "scene", "default scene");
-    preflight_other_indices(root);
-    preflight_typed_members(root);
-    preflight_compressed(root);
 }
 
 // EXT_meshopt_compression on bufferViews and KHR_draco_mesh_compression on primitives: their
@@ -1501,46 +1627,50 @@ void Loader::preflight_other_indices(const json &root) {
     });
 }
 
+// A material's members and those of its extensions, each of the type and length glTF's schema gives.
+void check_material_member_types(const json &m, const std::string &where) {
+    typed_string(m, "name", false, {}, where);
+    if (const json *pbr = typed_object(m, "pbrMetallicRoughness", where)) {
+        std::string sub = where + " pbrMetallicRoughness";
+        typed_numbers(*pbr, "baseColorFactor", 4, sub);
+        typed_number(*pbr, "metallicFactor", false, sub);
+        typed_number(*pbr, "roughnessFactor", false, sub);
+    }
+    if (const json *normal = typed_object(m, "normalTexture", where))
+        typed_number(*normal, "scale", false, where + " normalTexture");
+    if (const json *occlusion = typed_object(m, "occlusionTexture", where))
+        typed_number(*occlusion, "strength", false, where + " occlusionTexture");
+    typed_numbers(m, "emissiveFactor", 3, where);
+    typed_string(m, "alphaMode", false, {"OPAQUE", "MASK", "BLEND"}, where);
+    typed_number(m, "alphaCutoff", false, where);
+    typed_bool(m, "doubleSided", where);
+    const json *ext = typed_object(m, "extensions", where);
+    if (!ext) return;
+    struct { const char *extension; const char *members[3]; } numbers[] = {
+        {"KHR_materials_transmission", {"transmissionFactor"}},
+        {"KHR_materials_ior", {"ior"}},
+        {"KHR_materials_emissive_strength", {"emissiveStrength"}},
+        {"KHR_materials_volume", {"thicknessFactor", "attenuationDistance"}},
+        {"KHR_materials_clearcoat", {"clearcoatFactor", "clearcoatRoughnessFactor"}},
+        {"KHR_materials_sheen", {"sheenRoughnessFactor"}},
+        {"KHR_materials_specular", {"specularFactor"}}};
+    for (const auto &n : numbers) {
+        const json *e = typed_object(*ext, n.extension, where);
+        if (!e) continue;
+        for (const char *member : n.members)
+            if (member) typed_number(*e, member, false, where + " " + n.extension);
+        if (!strcmp(n.extension, "KHR_materials_volume"))
+            typed_numbers(*e, "attenuationColor", 3, where + " " + n.extension);
+        if (!strcmp(n.extension, "KHR_materials_sheen")) typed_numbers(*e, "sheenColorFactor", 3, where + " " + n.extension);
+        if (!strcmp(n.extension, "KHR_materials_specular"))
+            typed_numbers(*e, "specularColorFactor", 3, where + " " + n.extension);
+    }
+}
+
 // Material, light, camera and node members of the wrong type or length (see typed_number).
 void Loader::preflight_typed_members(const json &root) {
-    for_each_object(root, "materials", "material", [&](const json &m, const std::string &where, size_t) {
-        typed_string(m, "name", false, {}, where);
-        if (const json *pbr = typed_object(m, "pbrMetallicRoughness", where)) {
-            std::string sub = where + " pbrMetallicRoughness";
-            typed_numbers(*pbr, "baseColorFactor", 4, sub);
-            typed_number(*pbr, "metallicFactor", false, sub);
-            typed_number(*pbr, "roughnessFactor", false, sub);
-        }
-        if (const json *normal = typed_object(m, "normalTexture", where))
-            typed_number(*normal, "scale", false, where + " normalTexture");
-        if (const json *occlusion = typed_object(m, "occlusionTexture", where))
-            typed_number(*occlusion, "strength", false, where + " occlusionTexture");
-        typed_numbers(m, "emissiveFactor", 3, where);
-        typed_string(m, "alphaMode", false, {"OPAQUE", "MASK", "BLEND"}, where);
-        typed_number(m, "alphaCutoff", false, where);
-        typed_bool(m, "doubleSided", where);
-        const json *ext = typed_object(m, "extensions", where);
-        if (!ext) return;
-        struct { const char *extension; const char *members[3]; } numbers[] = {
-            {"KHR_materials_transmission", {"transmissionFactor"}},
-            {"KHR_materials_ior", {"ior"}},
-            {"KHR_materials_emissive_strength", {"emissiveStrength"}},
-            {"KHR_materials_volume", {"thicknessFactor", "attenuationDistance"}},
-            {"KHR_materials_clearcoat", {"clearcoatFactor", "clearcoatRoughnessFactor"}},
-            {"KHR_materials_sheen", {"sheenRoughnessFactor"}},
-            {"KHR_materials_specular", {"specularFactor"}}};
-        for (const auto &n : numbers) {
-            const json *e = typed_object(*ext, n.extension, where);
-            if (!e) continue;
-            for (const char *member : n.members)
-                if (member) typed_number(*e, member, false, where + " " + n.extension);
-            if (!strcmp(n.extension, "KHR_materials_volume"))
-                typed_numbers(*e, "attenuationColor", 3, where + " " + n.extension);
-            if (!strcmp(n.extension, "KHR_materials_sheen")) typed_numbers(*e, "sheenColorFactor", 3, where + " " + n.extension);
-            if (!strcmp(n.extension, "KHR_materials_specular"))
-                typed_numbers(*e, "specularColorFactor", 3, where + " " + n.extension);
-        }
-    });
+    for_each_object(root, "materials", "material",
+                    [&](const json &m, const std::string &where, size_t) { check_material_member_types(m, where); });
 
     const json *root_ext = find_member(root, "extensions");
     const json *lights_ext = root_ext ? find_member(*root_ext, "KHR_lights_punctual") : nullptr;
@@ -1651,7 +1781,7 @@ void Loader::preflight_uri_target(const json &object, const std::string &where, 
              " bytes but byteLength is " + str(byte_length) + " (" + where + ")");
 }
 
-// ---- stage 2: tinygltf's Model from the parsed document
+// ---------------- model building: tinygltf's Model from the checked document, geometry decompressed
 
 // Calls parse(element) for each element of the array parent[key], in order, until one returns
 // false. The preflight made every such array one of objects; a document it did not check is refused.
@@ -1685,148 +1815,178 @@ bool parse_objects(const json &parent, const char *key, std::vector<T> *out, F p
 // checks are the preflight's and split_container's already, each stricter. Buffers are read through
 // the guarded file-system hooks and images decoded through load_wanted_image.
 void Loader::build_model(const json &root) {
-    tinygltf::FsCallbacks fs = {guarded_file_exists, unexpanded_path, guarded_read_file, refuse_write, &hooks_};
-    tinygltf::LoadImageDataFunction image_loader = load_wanted_image;
-    const bool keep_json = false;  // tinygltf's copies of extensions and extras as text: nothing reads them
-    std::string error, warning;
-    std::string *err = &error;
-    Model &model = model_;
-    bool ok = [&]() {
-        if (const json *asset = find_member(root, "asset"))
-            if (asset->is_object()) tinygltf::ParseAsset(&model.asset, err, *asset, keep_json);
-        for (const char *key : {"extensionsUsed", "extensionsRequired"}) {
-            std::vector<std::string> &names = !strcmp(key, "extensionsUsed") ? model.extensionsUsed : model.extensionsRequired;
-            const json *list = find_member(root, key);
-            if (list && list->is_array())
-                for (const json &e : *list) names.push_back(e.is_string() ? e.get<std::string>() : std::string());
-        }
-        const unsigned char *bin = binary_ ? bin_data_ : nullptr;
-        size_t bin_size = binary_ && bin_data_ ? bin_size_ : 0;
-        if (!parse_objects(root, "buffers", &model.buffers, [&](tinygltf::Buffer *b, const json &o) {
-                if (fallback_buffers_[model.buffers.size()]) return true;  // its bufferViews are decoded
-                return tinygltf::ParseBuffer(b, err, o, keep_json, &fs, folder_, binary_, bin, bin_size);
-            }))
-            return false;
-        if (!parse_objects(root, "bufferViews", &model.bufferViews, [&](tinygltf::BufferView *v, const json &o) {
-                return tinygltf::ParseBufferView(v, err, o, keep_json);
-            }))
-            return false;
-        if (!parse_objects(root, "accessors", &model.accessors, [&](tinygltf::Accessor *a, const json &o) {
-                return tinygltf::ParseAccessor(a, err, o, keep_json);
-            }))
-            return false;
-        if (!parse_objects(root, "meshes", &model.meshes, [&](tinygltf::Mesh *mesh, const json &o) {
-                return tinygltf::ParseMesh(mesh, &model, err, o, keep_json);
-            }))
-            return false;
-        // bufferView targets from their use, as LoadFromString sets them; it refuses an index
-        // accessor without a bufferView
-        auto mark_target = [&](int accessor, int target) {
-            if (accessor < 0 || static_cast<size_t>(accessor) >= model.accessors.size()) return;
-            int view = model.accessors[accessor].bufferView;
-            if (view >= 0 && static_cast<size_t>(view) < model.bufferViews.size()) model.bufferViews[view].target = target;
-        };
-        for (tinygltf::Mesh &mesh : model.meshes)
-            for (tinygltf::Primitive &p : mesh.primitives) {
-                if (p.indices > -1) {
-                    if (static_cast<size_t>(p.indices) >= model.accessors.size()) {
-                        error += "primitive indices accessor out of bounds";
-                        return false;
-                    }
-                    int view = model.accessors[p.indices].bufferView;
-                    // a Draco primitive's indices have no bufferView until decode_compressed fills them
-                    bool draco = view < 0 && p.extensions.count("KHR_draco_mesh_compression");
-                    if (!draco && (view < 0 || static_cast<size_t>(view) >= model.bufferViews.size())) {
-                        error += "accessor[" + std::to_string(p.indices) + "] invalid bufferView";
-                        return false;
-                    }
-                    if (!draco) model.bufferViews[view].target = TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER;
-                }
-                for (const auto &a : p.attributes) mark_target(a.second, TINYGLTF_TARGET_ARRAY_BUFFER);
-                for (const auto &t : p.targets)
-                    for (const auto &a : t) mark_target(a.second, TINYGLTF_TARGET_ARRAY_BUFFER);
-            }
-        if (!parse_objects(root, "nodes", &model.nodes, [&](tinygltf::Node *n, const json &o) {
-                return tinygltf::ParseNode(n, err, o, keep_json);
-            }))
-            return false;
-        parse_objects(root, "scenes", &model.scenes, [&](tinygltf::Scene *s, const json &o) {
-            tinygltf::ParseIntegerArrayProperty(&s->nodes, err, o, "nodes", false);
-            tinygltf::ParseStringProperty(&s->name, err, o, "name", false);
-            tinygltf::ParseExtensionsProperty(&s->extensions, err, o);
-            tinygltf::ParseExtrasProperty(&s->extras, o);
-            return true;
-        });
-        if (const json *scene = find_member(root, "scene")) tinygltf::GetInt(*scene, model.defaultScene);
-        if (!parse_objects(root, "materials", &model.materials, [&](tinygltf::Material *material, const json &o) {
-                tinygltf::ParseStringProperty(&material->name, err, o, "name", false);
-                return tinygltf::ParseMaterial(material, err, o, keep_json);
-            }))
-            return false;
-        uint32_t sourceless_images = 0;
-        int first_sourceless = -1;
-        if (!parse_objects(root, "images", &model.images, [&](tinygltf::Image *image, const json &o) {
-                int index = static_cast<int>(model.images.size());
-                // gltfpack writes an image with neither for every image it could not read: left
-                // out (its textures with it) as an unreadable file is, not the whole model refused
-                if (!find_member(o, "uri") && !find_member(o, "bufferView")) {
-                    if (sourceless_images++ == 0) first_sourceless = index;
-                    tinygltf::ParseStringProperty(&image->name, err, o, "name", false);
-                    return true;
-                }
-                if (!tinygltf::ParseImage(image, index, err, &warning, o, keep_json, folder_, &fs, &image_loader, &hooks_))
-                    return false;
-                if (image->bufferView < 0) return true;
-                // the preflight checked the view's range inside its buffer, whose bytes ParseBuffer read in full
-                const tinygltf::BufferView &view = model.bufferViews.at(image->bufferView);
-                const tinygltf::Buffer &buffer = model.buffers.at(view.buffer);
-                if (view.byteOffset > buffer.data.size() || view.byteLength > buffer.data.size() - view.byteOffset)
-                    fail("image " + str(index) + ": its bufferView exceeds the bytes read");
-                return image_loader(image, index, err, &warning, image->width, image->height,
-                                    buffer.data.data() + view.byteOffset, static_cast<int>(view.byteLength), &hooks_);
-            }))
-            return false;
-        if (sourceless_images)
-            warn("ignored: " + str(sourceless_images) + " image(s) with neither uri nor bufferView (no data; their textures are " +
-                 "left out), first image " + str(first_sourceless));
-        if (!parse_objects(root, "textures", &model.textures, [&](tinygltf::Texture *t, const json &o) {
-                return tinygltf::ParseTexture(t, err, o, keep_json, folder_);
-            }))
-            return false;
-        if (!parse_objects(root, "animations", &model.animations, [&](tinygltf::Animation *a, const json &o) {
-                return tinygltf::ParseAnimation(a, err, o, keep_json);
-            }))
-            return false;
-        if (!parse_objects(root, "skins", &model.skins, [&](tinygltf::Skin *s, const json &o) {
-                return tinygltf::ParseSkin(s, err, o, keep_json);
-            }))
-            return false;
-        if (!parse_objects(root, "samplers", &model.samplers, [&](tinygltf::Sampler *s, const json &o) {
-                return tinygltf::ParseSampler(s, err, o, keep_json);
-            }))
-            return false;
-        if (!parse_objects(root, "cameras", &model.cameras, [&](tinygltf::Camera *c, const json &o) {
-                return tinygltf::ParseCamera(c, err, o, keep_json);
-            }))
-            return false;
-        tinygltf::ParseExtensionsProperty(&model.extensions, err, root);
-        const json *extensions = find_member(root, "extensions");
-        const json *punctual = extensions ? find_member(*extensions, "KHR_lights_punctual") : nullptr;
-        if (punctual && punctual->is_object() && !parse_objects(*punctual, "lights", &model.lights,
-                                                                [&](tinygltf::Light *l, const json &o) {
-                                                                    return tinygltf::ParseLight(l, err, o, keep_json);
-                                                                }))
-            return false;
-        tinygltf::ParseExtrasProperty(&model.extras, root);
-        return true;
-    }();
+    ModelParse parse;
+    parse.fs = {guarded_file_exists, unexpanded_path, guarded_read_file, refuse_write, &hooks_};
+    parse.image_loader = load_wanted_image;
+    bool ok = parse_model_geometry(root, parse) && mark_buffer_view_targets(parse) &&
+              parse_model_nodes_and_materials(root, parse) && parse_model_images(root, parse) &&
+              parse_model_remaining(root, parse);
     if (!hooks_.error.empty()) fail(hooks_.error);
-    if (!ok) fail("tinygltf: " + (error.empty() ? std::string("load failed") : one_line(error)));
+    if (!ok) fail("tinygltf: " + (parse.error.empty() ? std::string("load failed") : one_line(parse.error)));
     for (const std::string &w : hooks_.warnings) warn(w);
-    if (!warning.empty()) warn("tinygltf: " + one_line(warning));
-    if (!error.empty()) warn("tinygltf: " + one_line(error));
+    if (!parse.warning.empty()) warn("tinygltf: " + one_line(parse.warning));
+    if (!parse.error.empty()) warn("tinygltf: " + one_line(parse.error));
+    check_model_counts();
+    decode_compressed();
+    // every accessor's byte ranges, used by the default scene or not, as for every other index
+    for (size_t a = 0; a < model_.accessors.size(); a++) accessor_layout(model_, static_cast<int>(a));
+}
 
-    // The preflight checked indices against the raw JSON; tinygltf must have kept every element.
+// The asset, the extension lists, buffers, bufferViews, accessors and meshes.
+bool Loader::parse_model_geometry(const json &root, ModelParse &parse) {
+    Model &model = model_;
+    std::string *err = &parse.error;
+    const bool keep_json = ModelParse::kKeepJson;
+    if (const json *asset = find_member(root, "asset"))
+        if (asset->is_object()) tinygltf::ParseAsset(&model.asset, err, *asset, keep_json);
+    for (const char *key : {"extensionsUsed", "extensionsRequired"}) {
+        std::vector<std::string> &names = !strcmp(key, "extensionsUsed") ? model.extensionsUsed : model.extensionsRequired;
+        const json *list = find_member(root, key);
+        if (list && list->is_array())
+            for (const json &e : *list) names.push_back(e.is_string() ? e.get<std::string>() : std::string());
+    }
+    const unsigned char *bin = binary_ ? bin_data_ : nullptr;
+    size_t bin_size = binary_ && bin_data_ ? bin_size_ : 0;
+    return parse_objects(root, "buffers", &model.buffers,
+                         [&](tinygltf::Buffer *b, const json &o) {
+                             if (fallback_buffers_[model.buffers.size()]) return true;  // its bufferViews are decoded
+                             return tinygltf::ParseBuffer(b, err, o, keep_json, &parse.fs, folder_, binary_, bin, bin_size);
+                         }) &&
+           parse_objects(root, "bufferViews", &model.bufferViews, [&](tinygltf::BufferView *v, const json &o) {
+               return tinygltf::ParseBufferView(v, err, o, keep_json);
+           }) &&
+           parse_objects(root, "accessors", &model.accessors, [&](tinygltf::Accessor *a, const json &o) {
+               return tinygltf::ParseAccessor(a, err, o, keep_json);
+           }) &&
+           parse_objects(root, "meshes", &model.meshes, [&](tinygltf::Mesh *mesh, const json &o) {
+               return tinygltf::ParseMesh(mesh, &model, err, o, keep_json);
+           });
+}
+
+// bufferView targets from their use, as LoadFromString sets them; it refuses an index accessor
+// without a bufferView.
+bool Loader::mark_buffer_view_targets(ModelParse &parse) {
+    Model &model = model_;
+    auto mark_target = [&](int accessor, int target) {
+        if (accessor < 0 || static_cast<size_t>(accessor) >= model.accessors.size()) return;
+        int view = model.accessors[accessor].bufferView;
+        if (view >= 0 && static_cast<size_t>(view) < model.bufferViews.size()) model.bufferViews[view].target = target;
+    };
+    for (tinygltf::Mesh &mesh : model.meshes)
+        for (tinygltf::Primitive &p : mesh.primitives) {
+            if (p.indices > -1) {
+                if (static_cast<size_t>(p.indices) >= model.accessors.size()) {
+                    parse.error += "primitive indices accessor out of bounds";
+                    return false;
+                }
+                int view = model.accessors[p.indices].bufferView;
+                // a Draco primitive's indices have no bufferView until decode_compressed fills them
+                bool draco = view < 0 && p.extensions.count("KHR_draco_mesh_compression");
+                if (!draco && (view < 0 || static_cast<size_t>(view) >= model.bufferViews.size())) {
+                    parse.error += "accessor[" + std::to_string(p.indices) + "] invalid bufferView";
+                    return false;
+                }
+                if (!draco) model.bufferViews[view].target = TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER;
+            }
+            for (const auto &a : p.attributes) mark_target(a.second, TINYGLTF_TARGET_ARRAY_BUFFER);
+            for (const auto &t : p.targets)
+                for (const auto &a : t) mark_target(a.second, TINYGLTF_TARGET_ARRAY_BUFFER);
+        }
+    return true;
+}
+
+// Nodes, scenes, the default scene and materials.
+bool Loader::parse_model_nodes_and_materials(const json &root, ModelParse &parse) {
+    Model &model = model_;
+    std::string *err = &parse.error;
+    const bool keep_json = ModelParse::kKeepJson;
+    if (!parse_objects(root, "nodes", &model.nodes, [&](tinygltf::Node *n, const json &o) {
+            return tinygltf::ParseNode(n, err, o, keep_json);
+        }))
+        return false;
+    parse_objects(root, "scenes", &model.scenes, [&](tinygltf::Scene *s, const json &o) {
+        tinygltf::ParseIntegerArrayProperty(&s->nodes, err, o, "nodes", false);
+        tinygltf::ParseStringProperty(&s->name, err, o, "name", false);
+        tinygltf::ParseExtensionsProperty(&s->extensions, err, o);
+        tinygltf::ParseExtrasProperty(&s->extras, o);
+        return true;
+    });
+    if (const json *scene = find_member(root, "scene")) tinygltf::GetInt(*scene, model.defaultScene);
+    return parse_objects(root, "materials", &model.materials, [&](tinygltf::Material *material, const json &o) {
+        tinygltf::ParseStringProperty(&material->name, err, o, "name", false);
+        return tinygltf::ParseMaterial(material, err, o, keep_json);
+    });
+}
+
+// Images, each decoded through load_wanted_image from its file, data: URI or bufferView.
+bool Loader::parse_model_images(const json &root, ModelParse &parse) {
+    Model &model = model_;
+    std::string *err = &parse.error;
+    uint32_t sourceless_images = 0;
+    int first_sourceless = -1;
+    if (!parse_objects(root, "images", &model.images, [&](tinygltf::Image *image, const json &o) {
+            int index = static_cast<int>(model.images.size());
+            // gltfpack writes an image with neither for every image it could not read: left
+            // out (its textures with it) as an unreadable file is, not the whole model refused
+            if (!find_member(o, "uri") && !find_member(o, "bufferView")) {
+                if (sourceless_images++ == 0) first_sourceless = index;
+                tinygltf::ParseStringProperty(&image->name, err, o, "name", false);
+                return true;
+            }
+            if (!tinygltf::ParseImage(image, index, err, &parse.warning, o, ModelParse::kKeepJson, folder_, &parse.fs,
+                                      &parse.image_loader, &hooks_))
+                return false;
+            if (image->bufferView < 0) return true;
+            // the preflight checked the view's range inside its buffer, whose bytes ParseBuffer read in full
+            const tinygltf::BufferView &view = model.bufferViews.at(image->bufferView);
+            const tinygltf::Buffer &buffer = model.buffers.at(view.buffer);
+            if (view.byteOffset > buffer.data.size() || view.byteLength > buffer.data.size() - view.byteOffset)
+                fail("image " + str(index) + ": its bufferView exceeds the bytes read");
+            return parse.image_loader(image, index, err, &parse.warning, image->width, image->height,
+                                      buffer.data.data() + view.byteOffset, static_cast<int>(view.byteLength), &hooks_);
+        }))
+        return false;
+    if (sourceless_images)
+        warn("ignored: " + str(sourceless_images) + " image(s) with neither uri nor bufferView (no data; their textures are " +
+             "left out), first image " + str(first_sourceless));
+    return true;
+}
+
+// Textures, animations, skins, samplers, cameras, the root's extensions, lights and extras.
+bool Loader::parse_model_remaining(const json &root, ModelParse &parse) {
+    Model &model = model_;
+    std::string *err = &parse.error;
+    const bool keep_json = ModelParse::kKeepJson;
+    if (!parse_objects(root, "textures", &model.textures, [&](tinygltf::Texture *t, const json &o) {
+            return tinygltf::ParseTexture(t, err, o, keep_json, folder_);
+        }) ||
+        !parse_objects(root, "animations", &model.animations, [&](tinygltf::Animation *a, const json &o) {
+            return tinygltf::ParseAnimation(a, err, o, keep_json);
+        }) ||
+        !parse_objects(root, "skins", &model.skins, [&](tinygltf::Skin *s, const json &o) {
+            return tinygltf::ParseSkin(s, err, o, keep_json);
+        }) ||
+        !parse_objects(root, "samplers", &model.samplers, [&](tinygltf::Sampler *s, const json &o) {
+            return tinygltf::ParseSampler(s, err, o, keep_json);
+        }) ||
+        !parse_objects(root, "cameras", &model.cameras, [&](tinygltf::Camera *c, const json &o) {
+            return tinygltf::ParseCamera(c, err, o, keep_json);
+        }))
+        return false;
+    tinygltf::ParseExtensionsProperty(&model.extensions, err, root);
+    const json *extensions = find_member(root, "extensions");
+    const json *punctual = extensions ? find_member(*extensions, "KHR_lights_punctual") : nullptr;
+    if (punctual && punctual->is_object() &&
+        !parse_objects(*punctual, "lights", &model.lights, [&](tinygltf::Light *l, const json &o) {
+            return tinygltf::ParseLight(l, err, o, keep_json);
+        }))
+        return false;
+    tinygltf::ParseExtrasProperty(&model.extras, root);
+    return true;
+}
+
+// The preflight checked indices against the raw JSON; tinygltf must have kept every element.
+void Loader::check_model_counts() {
     struct { size_t raw, parsed; const char *what; } counts[] = {
         {count_scenes_, model_.scenes.size(), "scenes"}, {count_nodes_, model_.nodes.size(), "nodes"},
         {count_meshes_, model_.meshes.size(), "meshes"}, {count_accessors_, model_.accessors.size(), "accessors"},
@@ -1844,9 +2004,6 @@ void Loader::build_model(const json &root) {
         if (!fallback_buffers_[b] && model_.buffers[b].data.size() != buffer_lengths_[b])
             fail("loaded " + str(model_.buffers[b].data.size()) + " bytes, byteLength is " + str(buffer_lengths_[b]) +
                  ": buffer size mismatch (buffer " + str(b) + ")");
-    decode_compressed();
-    // every accessor's byte ranges, used by the default scene or not, as for every other index
-    for (size_t a = 0; a < model_.accessors.size(); a++) accessor_layout(model_, static_cast<int>(a));
 }
 
 // Compressed geometry into plain buffers: each decoded bufferView or Draco attribute gets a buffer
@@ -1856,18 +2013,33 @@ void Loader::build_model(const json &root) {
 // PM_MESHOPT_MAX_RATIO times its stream; a Draco attribute to exactly its accessor's count, which
 // must equal the points the stream decoded.
 void Loader::decode_compressed() {
+    decode_meshopt_views();
+    for (size_t v = 0; v < model_.bufferViews.size(); v++) {
+        int b = model_.bufferViews[v].buffer;
+        if (static_cast<size_t>(b) < fallback_buffers_.size() && fallback_buffers_[b])
+            fail("bufferView " + str(v) + " lies in buffer " + str(b) +
+                 ", a fallback buffer without data, and is not EXT_meshopt_compression-compressed");
+    }
+    decode_draco_primitives();
+}
+
+// Decoded geometry's bytes admitted against --max-memory before they are allocated.
+void Loader::admit_decoded(uint64_t bytes, const std::string &where) {
+    const uint64_t mark = pm_memory_failure_mark();
+    if (!pm_memory_admit(bytes, "decoded geometry"))
+        fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "decoded geometry")) + ") (" + where + ")");
+    decoded_.bytes += bytes;
+}
+
+// Decoded bytes as a buffer of their own; returns its index.
+int Loader::own_buffer(std::vector<unsigned char> &&bytes) {
+    model_.buffers.emplace_back();
+    model_.buffers.back().data = std::move(bytes);
+    return static_cast<int>(model_.buffers.size() - 1);
+}
+
+void Loader::decode_meshopt_views() {
     char message[512];
-    auto admit = [&](uint64_t bytes, const std::string &where) {
-        const uint64_t mark = pm_memory_failure_mark();
-        if (!pm_memory_admit(bytes, "decoded geometry"))
-            fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "decoded geometry")) + ") (" + where + ")");
-        decoded_.bytes += bytes;
-    };
-    auto own_buffer = [&](std::vector<unsigned char> &&bytes) {
-        model_.buffers.emplace_back();
-        model_.buffers.back().data = std::move(bytes);
-        return static_cast<int>(model_.buffers.size() - 1);
-    };
     for (const MeshoptView &m : meshopt_views_) {
         std::string where = "bufferView " + str(m.view) + " EXT_meshopt_compression";
         tinygltf::BufferView &bv = model_.bufferViews[m.view];
@@ -1880,7 +2052,7 @@ void Loader::decode_compressed() {
         if (decoded / PM_MESHOPT_MAX_RATIO > m.length)
             fail("count " + str(m.count) + " x byteStride " + str(m.stride) + " is over " + str(PM_MESHOPT_MAX_RATIO) +
                  " times the " + str(m.length) + "-byte stream (" + where + ")");
-        admit(decoded, where);
+        admit_decoded(decoded, where);
         std::vector<unsigned char> bytes(decoded);
         const unsigned char *src = model_.buffers[m.buffer].data.data() + m.offset;
         if (!pm_meshopt_decode(bytes.data(), m.count, m.stride, m.mode, m.filter, src, m.length, message, sizeof message))
@@ -1889,32 +2061,35 @@ void Loader::decode_compressed() {
         bv.byteOffset = 0;
         bv.byteLength = decoded;  // what the accessors may read: the decoded bytes
     }
-    for (size_t v = 0; v < model_.bufferViews.size(); v++) {
-        int b = model_.bufferViews[v].buffer;
-        if (static_cast<size_t>(b) < fallback_buffers_.size() && fallback_buffers_[b])
-            fail("bufferView " + str(v) + " lies in buffer " + str(b) +
-                 ", a fallback buffer without data, and is not EXT_meshopt_compression-compressed");
-    }
-    // Draco streams are decoded for the primitives of meshes the default scene's nodes place, each
-    // stream once however many primitives name it: a file of thousands of primitives naming one
-    // stream, or of unused meshes, took minutes decoding the same bytes again. The nodes reached
-    // from the default scene (cycles are refused later by the traversal; here a node is visited once).
+}
+
+// Per mesh, whether a node reached from the default scene places it (cycles are refused later by
+// the traversal; here a node is visited once).
+std::vector<char> Loader::meshes_in_default_scene() const {
     std::vector<char> placed_mesh(model_.meshes.size(), 0);
-    if (!model_.scenes.empty()) {
-        size_t scene = model_.defaultScene >= 0 ? static_cast<size_t>(model_.defaultScene) : 0;
-        std::vector<char> seen(model_.nodes.size(), 0);
-        std::vector<int> stack;
-        if (scene < model_.scenes.size()) stack = model_.scenes[scene].nodes;
-        while (!stack.empty()) {
-            int n = stack.back();
-            stack.pop_back();
-            if (n < 0 || static_cast<size_t>(n) >= model_.nodes.size() || seen[n]) continue;
-            seen[n] = 1;
-            const tinygltf::Node &node = model_.nodes[n];
-            if (node.mesh >= 0 && static_cast<size_t>(node.mesh) < placed_mesh.size()) placed_mesh[node.mesh] = 1;
-            stack.insert(stack.end(), node.children.begin(), node.children.end());
-        }
+    if (model_.scenes.empty()) return placed_mesh;
+    size_t scene = model_.defaultScene >= 0 ? static_cast<size_t>(model_.defaultScene) : 0;
+    std::vector<char> seen(model_.nodes.size(), 0);
+    std::vector<int> stack;
+    if (scene < model_.scenes.size()) stack = model_.scenes[scene].nodes;
+    while (!stack.empty()) {
+        int n = stack.back();
+        stack.pop_back();
+        if (n < 0 || static_cast<size_t>(n) >= model_.nodes.size() || seen[n]) continue;
+        seen[n] = 1;
+        const tinygltf::Node &node = model_.nodes[n];
+        if (node.mesh >= 0 && static_cast<size_t>(node.mesh) < placed_mesh.size()) placed_mesh[node.mesh] = 1;
+        stack.insert(stack.end(), node.children.begin(), node.children.end());
     }
+    return placed_mesh;
+}
+
+// Draco streams are decoded for the primitives of meshes the default scene's nodes place, each
+// stream once however many primitives name it: a file of thousands of primitives naming one
+// stream, or of unused meshes, took minutes decoding the same bytes again.
+void Loader::decode_draco_primitives() {
+    char message[512];
+    std::vector<char> placed_mesh = meshes_in_default_scene();
     std::vector<size_t> order;  // the placed Draco primitives, grouped by stream
     for (size_t i = 0; i < draco_primitives_.size(); i++)
         if (placed_mesh[draco_primitives_[i].mesh]) order.push_back(i);
@@ -1925,7 +2100,9 @@ void Loader::decode_compressed() {
     std::map<int, int> filled_from;  // accessor -> the bufferView of the Draco stream that filled it
     for (size_t index : order) {
         const DracoPrimitive &d = draco_primitives_[index];
-        std::string where = "mesh " + str(d.mesh) + " primitive " + str(d.primitive) + " KHR_draco_mesh_compression";
+        DracoFill fill = {d.view, "mesh " + str(d.mesh) + " primitive " + str(d.primitive) + " KHR_draco_mesh_compression",
+                          &filled_from, message, sizeof message};
+        const std::string &where = fill.where;
         tinygltf::Primitive &prim = model_.meshes[d.mesh].primitives[d.primitive];
         if (prim.mode != TINYGLTF_MODE_TRIANGLES) {
             if (prim.mode < TINYGLTF_MODE_TRIANGLES) continue;  // points and lines are skipped anyway
@@ -1942,46 +2119,51 @@ void Loader::decode_compressed() {
         }
         uint64_t points = pm_draco_points(mesh.get()), triangles = pm_draco_triangles(mesh.get());
         if (triangles == 0) fail("the Draco stream holds no triangles (" + where + ")");
-        auto fill = [&](int a, uint64_t count, const char *what, const std::function<bool(void *)> &decode) {
-            tinygltf::Accessor &accessor = model_.accessors[a];
-            auto first = filled_from.emplace(a, d.view);
-            if (!first.second) {
-                if (first.first->second == d.view) return;  // the same stream decoded for another primitive
-                fail("accessor " + str(a) + " is filled by two Draco streams (bufferViews " + str(first.first->second) +
-                     " and " + str(d.view) + ") (" + where + ")");
-            }
-            if (accessor.count != count)
-                fail("accessor " + str(a) + " has count " + str(accessor.count) + " but the Draco stream decodes " +
-                     str(count) + " " + what + " (" + where + ")");
-            int components = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(accessor.type));
-            size_t size = component_size(accessor.componentType);
-            if (components <= 0 || size == 0)
-                fail("unsupported accessor type (accessor " + str(a) + ", " + where + ")");
-            admit(count * size * static_cast<size_t>(components), where);
-            std::vector<unsigned char> bytes(count * size * static_cast<size_t>(components));
-            if (!decode(bytes.data())) fail(std::string(message) + " (accessor " + str(a) + ", " + where + ")");
-            model_.bufferViews.emplace_back();
-            tinygltf::BufferView &view = model_.bufferViews.back();
-            view.byteLength = bytes.size();
-            view.buffer = own_buffer(std::move(bytes));
-            accessor.bufferView = static_cast<int>(model_.bufferViews.size() - 1);
-            accessor.byteOffset = 0;
-        };
         for (const auto &ai : d.accessor_ids) {
             const tinygltf::Accessor &accessor = model_.accessors[ai.first];
             int components = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(accessor.type));
-            fill(ai.first, points, "points", [&](void *out) {
+            fill_from_draco(fill, ai.first, points, "points", [&](void *out) {
                 return pm_draco_attribute(mesh.get(), ai.second, accessor.componentType, components, accessor.normalized,
                                           out, message, sizeof message);
             });
         }
-        fill(prim.indices, 3 * triangles, "indices", [&](void *out) {
+        fill_from_draco(fill, prim.indices, 3 * triangles, "indices", [&](void *out) {
             return pm_draco_indices(mesh.get(), model_.accessors[prim.indices].componentType, out, message, sizeof message);
         });
     }
 }
 
-// ---- stage 3: scene graph, meshes, materials
+// Accessor a's `count` elements decoded from the Draco stream into a bufferView and buffer of their
+// own; an accessor the same stream filled already is left as it is.
+void Loader::fill_from_draco(const DracoFill &fill, int a, uint64_t count, const char *what,
+                             const std::function<bool(void *)> &decode) {
+    const std::string &where = fill.where;
+    tinygltf::Accessor &accessor = model_.accessors[a];
+    auto first = fill.filled_from->emplace(a, fill.view);
+    if (!first.second) {
+        if (first.first->second == fill.view) return;  // the same stream decoded for another primitive
+        fail("accessor " + str(a) + " is filled by two Draco streams (bufferViews " + str(first.first->second) +
+             " and " + str(fill.view) + ") (" + where + ")");
+    }
+    if (accessor.count != count)
+        fail("accessor " + str(a) + " has count " + str(accessor.count) + " but the Draco stream decodes " +
+             str(count) + " " + what + " (" + where + ")");
+    int components = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(accessor.type));
+    size_t size = component_size(accessor.componentType);
+    if (components <= 0 || size == 0)
+        fail("unsupported accessor type (accessor " + str(a) + ", " + where + ")");
+    admit_decoded(count * size * static_cast<size_t>(components), where);
+    std::vector<unsigned char> bytes(count * size * static_cast<size_t>(components));
+    if (!decode(bytes.data())) fail(std::string(fill.message) + " (accessor " + str(a) + ", " + where + ")");
+    model_.bufferViews.emplace_back();
+    tinygltf::BufferView &view = model_.bufferViews.back();
+    view.byteLength = bytes.size();
+    view.buffer = own_buffer(std::move(bytes));
+    accessor.bufferView = static_cast<int>(model_.bufferViews.size() - 1);
+    accessor.byteOffset = 0;
+}
+
+// ---------------- scene graph: the default scene's nodes, their lights and cameras
 
 void Loader::traverse_default_scene() {
     if (model_.scenes.empty()) fail("nothing to render (the file has no scene)");
@@ -2054,97 +2236,6 @@ void Loader::traverse_default_scene() {
     }
 }
 
-// EXT_mesh_gpu_instancing on a node with a mesh: the mesh is placed once per instance, at the
-// node's transform times the instance's translation x rotation x scale, instead of at the node.
-// Refused as a node's transform is: an attribute of the wrong type, counts that differ, a value
-// not finite, a rotation of zero length. An instance with a zero scale places nothing (it would
-// only make degenerate triangles): left out, counted in one warning.
-void Loader::read_instance_set(int node_index, const tinygltf::Node &node, const tinygltf::Value &extension) {
-    std::string where = "node " + str(node_index) + " EXT_mesh_gpu_instancing";
-    InstanceSet set;
-    set.node = node_index;
-    auto admit = [&](uint64_t bytes) {
-        const uint64_t mark = pm_memory_failure_mark();
-        if (!pm_memory_admit(bytes, "GPU instances"))
-            fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "GPU instances")) + ") (" + where + ")");
-        decoded_.bytes += bytes;
-    };
-    struct { const char *name; int components; std::vector<float> *into; } parts[] = {
-        {"TRANSLATION", 3, &set.translation}, {"ROTATION", 4, &set.rotation}, {"SCALE", 3, &set.scale}};
-    const tinygltf::Value &attributes = extension.Get("attributes");
-    uint64_t count = 0;
-    bool any = false;
-    for (const auto &part : parts) {
-        if (!attributes.IsObject() || !attributes.Has(part.name)) continue;
-        int a = attributes.Get(part.name).GetNumberAsInt();  // range-checked in the preflight
-        AccessorLayout l = accessor_layout(model_, a);
-        bool is_float = l.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT;
-        // glTF allows normalized signed bytes and shorts for rotations, and with KHR_mesh_quantization any
-        // byte or short for translations and scales
-        bool signed_small = l.component_type == TINYGLTF_COMPONENT_TYPE_BYTE || l.component_type == TINYGLTF_COMPONENT_TYPE_SHORT;
-        bool small = signed_small || l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
-                     l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
-        bool allowed = is_float || (part.components == 4 ? signed_small && l.normalized : quantization_ && small);
-        if (l.components != part.components || !allowed)
-            fail(std::string(part.name) + " must be a float " + (part.components == 4 ? "VEC4" : "VEC3") +
-                 (part.components == 4 ? " or a normalized byte/short one" : quantization_ ? " or (KHR_mesh_quantization) a byte/short one" : "") +
-                 " (accessor " + str(a) + ", " + where + ")");
-        if (any && l.count != count)
-            fail(std::string(part.name) + " count " + str(l.count) + " differs from the other attributes' " + str(count) + " (" +
-                 where + ")");
-        count = l.count;
-        any = true;
-        admit(l.count * part.components * sizeof(float));
-        *part.into = read_accessor<float>(l, a);
-        for (size_t i = 0; i < part.into->size(); i++)
-            if (!std::isfinite((*part.into)[i]))
-                fail(std::string("non-finite ") + part.name + " at instance " + str(i / part.components) + " (accessor " + str(a) +
-                     ", " + where + ")");
-    }
-    if (!any) fail("no TRANSLATION, ROTATION or SCALE attribute (" + where + ")");
-    if (count > kMaxSceneTriangles) fail(str(count) + " instances, more than " + str(kMaxSceneTriangles) + " (" + where + ")");
-    for (size_t i = 0; i < set.rotation.size(); i += 4) {
-        const float *q = &set.rotation[i];
-        double len = std::sqrt(static_cast<double>(q[0]) * q[0] + static_cast<double>(q[1]) * q[1] +
-                               static_cast<double>(q[2]) * q[2] + static_cast<double>(q[3]) * q[3]);
-        if (!(len > 0)) fail("ROTATION quaternion has zero length at instance " + str(i / 4) + " (" + where + ")");
-    }
-    int set_index = static_cast<int>(instance_sets_.size());
-    admit(count * sizeof(Instance));
-    for (uint64_t i = 0; i < count; i++) {
-        if (!set.scale.empty() && (set.scale[3 * i] == 0 || set.scale[3 * i + 1] == 0 || set.scale[3 * i + 2] == 0)) {
-            if (zero_scale_instances_++ == 0) first_zero_scale_ = "instance " + str(i) + ", " + where;
-            continue;
-        }
-        Instance instance;
-        instance.node = node_index;
-        instance.mesh = node.mesh;
-        instance.set = set_index;
-        instance.element = static_cast<uint32_t>(i);
-        instances_.push_back(instance);
-    }
-    instance_sets_.push_back(std::move(set));
-}
-
-// The world transform that places an instance (framed once choose_frame has run: the node's is).
-Mat4 Loader::instance_world(const Instance &instance) const {
-    if (instance.set < 0) return world_[instance.node];
-    const InstanceSet &set = instance_sets_[instance.set];
-    size_t i = instance.element;
-    double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
-    if (!set.translation.empty())
-        for (int k = 0; k < 3; k++) t[k] = set.translation[3 * i + k];
-    if (!set.rotation.empty()) {
-        double len = 0;
-        for (int k = 0; k < 4; k++) len += static_cast<double>(set.rotation[4 * i + k]) * set.rotation[4 * i + k];
-        len = std::sqrt(len);
-        for (int k = 0; k < 4; k++) q[k] = set.rotation[4 * i + k] / len;
-    }
-    if (!set.scale.empty())
-        for (int k = 0; k < 3; k++) s[k] = set.scale[3 * i + k];
-    return multiply(world_[instance.node], trs_matrix(t, q, s));
-}
-
 // A number the preflight found finite, brought into [lo, hi] with a warning naming it.
 double Loader::checked(double value, double lo, double hi, const char *field, const std::string &object) {
     if (!std::isfinite(value)) fail(std::string("non-finite ") + field + " (" + object + ")");
@@ -2173,16 +2264,6 @@ vec3 Loader::emission_within_film(const double hue[3], double magnitude, const c
     return v3(static_cast<float>(value[0]), static_cast<float>(value[1]), static_cast<float>(value[2]));
 }
 
-std::string Loader::material_label(size_t material) const {
-    const std::string &name = model_.materials[material].name;
-    return "material " + str(material) + (name.empty() ? "" : " (" + printable(name) + ")");
-}
-
-std::string Loader::mesh_label(int mesh, int primitive) const {
-    const std::string &name = model_.meshes[mesh].name;
-    return "mesh " + str(mesh) + (name.empty() ? "" : " (" + printable(name) + ")") + " primitive " + str(primitive);
-}
-
 double extension_number(const tinygltf::ExtensionMap &extensions, const char *extension, const char *key,
                         double fallback) {
     auto it = extensions.find(extension);
@@ -2191,33 +2272,14 @@ double extension_number(const tinygltf::ExtensionMap &extensions, const char *ex
     return v.IsNumber() ? v.GetNumberAsDouble() : fallback;
 }
 
-// KHR_materials_volume's attenuation coefficient: -ln(attenuationColor) / attenuationDistance per
-// channel, for a material with a volume (thicknessFactor > 0; 0 is thin-walled) and a finite
-// distance; 0 otherwise. thicknessFactor itself is for rasterizers: a ray tracer measures the
-// distance inside the mesh. In double, per unit length of the file: choose_frame rescales it
-// before it becomes a float. Returns whether the material has a volume (thicknessFactor > 0):
-// without one, KHR_materials_transmission is a thin wall.
-bool Loader::volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &object, double sigma[3]) {
-    std::fill(sigma, sigma + 3, 0.0);
-    auto it = extensions.find("KHR_materials_volume");
-    if (it == extensions.end() || !it->second.IsObject()) return false;
-    double thickness = checked(extension_number(extensions, "KHR_materials_volume", "thicknessFactor", 0), 0, INFINITY,
-                               "KHR_materials_volume thicknessFactor", object);
-    double distance = extension_number(extensions, "KHR_materials_volume", "attenuationDistance", INFINITY);
-    if (!(distance > 0)) fail("attenuationDistance must be positive (" + object + ")");
-    double color[3] = {1, 1, 1};
-    if (it->second.Has("attenuationColor")) {
-        const tinygltf::Value &c = it->second.Get("attenuationColor");
-        if (!c.IsArray() || c.ArrayLen() != 3) fail("attenuationColor must have 3 numbers (" + object + ")");
-        for (int k = 0; k < 3; k++) {
-            if (!c.Get(k).IsNumber()) fail("attenuationColor must have 3 numbers (" + object + ")");
-            color[k] = checked(c.Get(k).GetNumberAsDouble(), 0, 1, "KHR_materials_volume attenuationColor", object);
-        }
-    }
-    if (!(thickness > 0)) return false;
-    if (std::isfinite(distance))
-        for (int k = 0; k < 3; k++) sigma[k] = -std::log(std::max(color[k], 1e-30)) / distance;
-    return true;
+std::string Loader::material_label(size_t material) const {
+    const std::string &name = model_.materials[material].name;
+    return "material " + str(material) + (name.empty() ? "" : " (" + printable(name) + ")");
+}
+
+std::string Loader::mesh_label(int mesh, int primitive) const {
+    const std::string &name = model_.meshes[mesh].name;
+    return "mesh " + str(mesh) + (name.empty() ? "" : " (" + printable(name) + ")") + " primitive " + str(primitive);
 }
 
 void Loader::add_light(int index, const WorldTransform &world, int node) {
@@ -2318,6 +2380,37 @@ void Loader::add_camera(int index, const WorldTransform &world, int node) {
         cam.znear = static_cast<float>(std::min<double>(znear, FLT_MAX));
     }
     cameras_.push_back(cam);
+}
+
+// ---------------- materials: pm_materials from glTF's and its extensions', textures, variants
+
+// KHR_materials_volume's attenuation coefficient: -ln(attenuationColor) / attenuationDistance per
+// channel, for a material with a volume (thicknessFactor > 0; 0 is thin-walled) and a finite
+// distance; 0 otherwise. thicknessFactor itself is for rasterizers: a ray tracer measures the
+// distance inside the mesh. In double, per unit length of the file: choose_frame rescales it
+// before it becomes a float. Returns whether the material has a volume (thicknessFactor > 0):
+// without one, KHR_materials_transmission is a thin wall.
+bool Loader::volume_attenuation(const tinygltf::ExtensionMap &extensions, const std::string &object, double sigma[3]) {
+    std::fill(sigma, sigma + 3, 0.0);
+    auto it = extensions.find("KHR_materials_volume");
+    if (it == extensions.end() || !it->second.IsObject()) return false;
+    double thickness = checked(extension_number(extensions, "KHR_materials_volume", "thicknessFactor", 0), 0, INFINITY,
+                               "KHR_materials_volume thicknessFactor", object);
+    double distance = extension_number(extensions, "KHR_materials_volume", "attenuationDistance", INFINITY);
+    if (!(distance > 0)) fail("attenuationDistance must be positive (" + object + ")");
+    double color[3] = {1, 1, 1};
+    if (it->second.Has("attenuationColor")) {
+        const tinygltf::Value &c = it->second.Get("attenuationColor");
+        if (!c.IsArray() || c.ArrayLen() != 3) fail("attenuationColor must have 3 numbers (" + object + ")");
+        for (int k = 0; k < 3; k++) {
+            if (!c.Get(k).IsNumber()) fail("attenuationColor must have 3 numbers (" + object + ")");
+            color[k] = checked(c.Get(k).GetNumberAsDouble(), 0, 1, "KHR_materials_volume attenuationColor", object);
+        }
+    }
+    if (!(thickness > 0)) return false;
+    if (std::isfinite(distance))
+        for (int k = 0; k < 3; k++) sigma[k] = -std::log(std::max(color[k], 1e-30)) / distance;
+    return true;
 }
 
 // A sampler's magFilter and minFilter into the texture (absent: LINEAR and trilinear by footprint).
@@ -2567,6 +2660,73 @@ void Loader::convert_materials() {
         warn("ignored: " + k.first + " in " + str(k.second.count) + " material(s), first " + k.second.first);
 }
 
+// KHR_materials_variants: with a variant asked for, every primitive whose mappings name it takes
+// the mapped material (the preflight checked the material indices); the others keep their default.
+// A name the file's root list does not hold fails the load with the names it does hold.
+void Loader::apply_variant() {
+    std::vector<std::string> names;
+    auto root = model_.extensions.find("KHR_materials_variants");
+    if (root != model_.extensions.end() && root->second.IsObject() && root->second.Has("variants")) {
+        const tinygltf::Value &list = root->second.Get("variants");
+        for (size_t k = 0; list.IsArray() && k < list.ArrayLen(); k++) {
+            const tinygltf::Value &v = list.Get(static_cast<int>(k));
+            names.push_back(v.IsObject() && v.Has("name") && v.Get("name").IsString() ? v.Get("name").Get<std::string>() : "");
+        }
+    }
+    // the names for the window's variant key, which reloads the file with one of them (an
+    // embedded '\0' would cut a name short: such a name stays reachable by --variant alone)
+    for (const std::string &n : names) {
+        variant_names_.insert(variant_names_.end(), n.begin(), n.end());
+        variant_names_.push_back('\0');
+    }
+    variant_count_ = static_cast<uint32_t>(names.size());
+    if (!options_.variant) return;
+    const std::string wanted = options_.variant;
+    int index = -1;
+    for (size_t k = 0; k < names.size() && index < 0; k++)
+        if (names[k] == wanted) index = static_cast<int>(k);
+    if (index < 0) {
+        std::string known;
+        for (const std::string &n : names) known += (known.empty() ? "" : ", ") + printable(n);
+        fail("no material variant " + printable(wanted) + " (KHR_materials_variants lists " +
+             (names.empty() ? std::string("none") : known) + ")");
+    }
+    for (tinygltf::Mesh &mesh : model_.meshes)
+        for (tinygltf::Primitive &prim : mesh.primitives) {
+            auto ext = prim.extensions.find("KHR_materials_variants");
+            if (ext == prim.extensions.end() || !ext->second.IsObject() || !ext->second.Has("mappings")) continue;
+            const tinygltf::Value &mappings = ext->second.Get("mappings");
+            for (size_t k = 0; mappings.IsArray() && k < mappings.ArrayLen(); k++) {
+                const tinygltf::Value &m = mappings.Get(static_cast<int>(k));
+                if (!m.IsObject() || !m.Has("material") || !m.Get("material").IsNumber() || !m.Has("variants")) continue;
+                const tinygltf::Value &vs = m.Get("variants");
+                for (size_t j = 0; vs.IsArray() && j < vs.ArrayLen(); j++)
+                    if (vs.Get(static_cast<int>(j)).IsNumber() && vs.Get(static_cast<int>(j)).GetNumberAsInt() == index)
+                        prim.material = m.Get("material").GetNumberAsInt();
+            }
+        }
+}
+
+// The material of primitives without one: glTF's default (white, fully metallic and rough).
+void Loader::add_default_material() {
+    pm_material m;
+    memset(&m, 0, sizeof m);
+    m.base_color = v3(1, 1, 1);
+    m.base_color_texture = -1;
+    m.emission_texture = -1;
+    m.metallic_roughness_texture = -1;
+    m.transmission_texture = -1;
+    m.normal_texture = -1;
+    m.normal_scale = 1.f;
+    m.metallic = m.roughness = 1.f;
+    m.ior = 1.5f;
+    m.alpha = 1.f;
+    m.alpha_cutoff = 0.5f;
+    materials_.push_back(m);
+}
+
+// ---------------- geometry: primitives decoded, meshes appended as triangles through a transform
+
 enum class VertexRole { kPosition, kNormal, kTexcoord, kTangent };
 
 // Component types a vertex attribute may use. Core glTF: float everywhere, and normalized
@@ -2601,15 +2761,26 @@ int attribute(const tinygltf::Primitive &prim, const char *name) {
 
 DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
     const tinygltf::Primitive &prim = model_.meshes[mesh].primitives[index];
-    std::string where = "mesh " + str(mesh) + " primitive " + str(index);
+    PrimitiveSource source = {mesh, index, prim, "mesh " + str(mesh) + " primitive " + str(index), 0};
     DecodedPrimitive out;
     if (prim.mode < TINYGLTF_MODE_TRIANGLES) return out;
     out.triangles = true;
     out.material = prim.material >= 0 ? static_cast<uint32_t>(prim.material)
                                        : static_cast<uint32_t>(model_.materials.size());
     if (prim.material < 0) default_material_used_ = true;
+    source.vertices = read_positions(source, &out);
+    read_vertex_attributes(source, &out);
+    apply_morph_targets(source, &out);
+    round_tangent_signs(source, &out);
+    assemble_corners(prim, read_index_sequence(source), source.where, &out);
+    flatten_unusable_normals(source, &out);
+    return out;
+}
 
-    int position = attribute(prim, "POSITION");
+// POSITION, every value finite; returns the vertex count.
+size_t Loader::read_positions(const PrimitiveSource &source, DecodedPrimitive *out) {
+    const std::string &where = source.where;
+    int position = attribute(source.prim, "POSITION");
     if (position < 0) fail("triangles without a POSITION attribute (" + where + ")");
     AccessorLayout pl = accessor_layout(model_, position);
     if (pl.components != 3 || !vertex_type_allowed(pl, VertexRole::kPosition, quantization_))
@@ -2617,19 +2788,24 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
              (quantization_ ? " or (KHR_mesh_quantization) a byte/short one" : "") + " (accessor " + str(position) +
              ", " + where + ")");
     if (pl.count > UINT32_MAX) fail("more than 2^32 vertices (" + where + ")");
-    out.positions = read_accessor<float>(pl, position);
-    for (size_t i = 0; i < out.positions.size(); i++)
-        if (!std::isfinite(out.positions[i]))
+    out->positions = read_accessor<float>(pl, position);
+    for (size_t i = 0; i < out->positions.size(); i++)
+        if (!std::isfinite(out->positions[i]))
             fail("non-finite vertex position at vertex " + str(i / 3) + " (POSITION accessor " + str(position) + ", " +
                  where + ")");
-    const size_t vertices = pl.count;
+    return pl.count;
+}
 
+// NORMAL, TEXCOORD_0, and where something reads them TEXCOORD_1 and TANGENT: each of an allowed
+// type and of POSITION's count.
+void Loader::read_vertex_attributes(const PrimitiveSource &source, DecodedPrimitive *out) {
+    const std::string &where = source.where;
     struct { const char *name; int components; VertexRole role; std::vector<float> *into; } optional[] = {
-        {"NORMAL", 3, VertexRole::kNormal, &out.normals}, {"TEXCOORD_0", 2, VertexRole::kTexcoord, &out.uvs},
-        {"TEXCOORD_1", 2, VertexRole::kTexcoord, uv1_needed_ ? &out.uvs1 : nullptr},  // only when a texture reads it
-        {"TANGENT", 4, VertexRole::kTangent, tangents_needed_ ? &out.tangents : nullptr}};  // only with a normal map
+        {"NORMAL", 3, VertexRole::kNormal, &out->normals}, {"TEXCOORD_0", 2, VertexRole::kTexcoord, &out->uvs},
+        {"TEXCOORD_1", 2, VertexRole::kTexcoord, uv1_needed_ ? &out->uvs1 : nullptr},  // only when a texture reads it
+        {"TANGENT", 4, VertexRole::kTangent, tangents_needed_ ? &out->tangents : nullptr}};  // only with a normal map
     for (const auto &o : optional) {
-        int a = attribute(prim, o.name);
+        int a = attribute(source.prim, o.name);
         if (a < 0 || !o.into) continue;
         AccessorLayout l = accessor_layout(model_, a);
         bool texcoord = o.role == VertexRole::kTexcoord;
@@ -2641,8 +2817,9 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
                                             : std::string(" or (KHR_mesh_quantization) a normalized byte/short ") + vec)
                                 : std::string()) +
                  " (accessor " + str(a) + ", " + where + ")");
-        if (l.count != vertices)
-            fail(std::string(o.name) + " count " + str(l.count) + " != POSITION count " + str(vertices) + " (" + where + ")");
+        if (l.count != source.vertices)
+            fail(std::string(o.name) + " count " + str(l.count) + " != POSITION count " + str(source.vertices) + " (" +
+                 where + ")");
         *o.into = read_accessor<float>(l, a);
         // a NaN or infinite texture coordinate reads as an arbitrary texel (white, or an emissive
         // texture glowing at full strength): read as 0, counted in one warning
@@ -2653,22 +2830,28 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
                     (*o.into)[i] = 0.f;
                 }
     }
-    // Morph targets at the mesh's default weights: glTF's static pose is the base plus each
-    // target's POSITION and NORMAL displacements times mesh.weights (a morphed mesh rendered its
-    // base shape before). One pose a mesh: a node's own weights, when they differ, are warned of (load).
-    const std::vector<double> &weights = model_.meshes[mesh].weights;
+}
+
+// Morph targets at the mesh's default weights: glTF's static pose is the base plus each
+// target's POSITION and NORMAL displacements times mesh.weights (a morphed mesh rendered its
+// base shape before). One pose a mesh: a node's own weights, when they differ, are warned of (load).
+void Loader::apply_morph_targets(const PrimitiveSource &source, DecodedPrimitive *out) {
+    const tinygltf::Primitive &prim = source.prim;
+    const std::vector<double> &weights = model_.meshes[source.mesh].weights;
     for (size_t t = 0; t < prim.targets.size() && t < weights.size(); t++) {
         if (!(weights[t] != 0)) continue;
-        if (!std::isfinite(weights[t])) fail("non-finite weight " + str(t) + " (mesh " + str(mesh) + ")");
+        if (!std::isfinite(weights[t])) fail("non-finite weight " + str(t) + " (mesh " + str(source.mesh) + ")");
         for (const char *name : {"POSITION", "NORMAL"}) {
             auto it = prim.targets[t].find(name);
-            std::vector<float> &into = name[0] == 'P' ? out.positions : out.normals;
+            std::vector<float> &into = name[0] == 'P' ? out->positions : out->normals;
             if (it == prim.targets[t].end() || into.empty()) continue;
-            std::string target = std::string(name) + " of morph target " + str(t) + " (accessor " + str(it->second) + ", " + where + ")";
+            std::string target = std::string(name) + " of morph target " + str(t) + " (accessor " + str(it->second) + ", " +
+                                 source.where + ")";
             AccessorLayout l = accessor_layout(model_, it->second);
             if (l.components != 3 || (l.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT && !quantization_))
                 fail("the " + target + " must be a float VEC3" + (quantization_ ? " or a byte/short one" : ""));
-            if (l.count != vertices) fail("the " + target + " has count " + str(l.count) + ", POSITION " + str(vertices));
+            if (l.count != source.vertices)
+                fail("the " + target + " has count " + str(l.count) + ", POSITION " + str(source.vertices));
             std::vector<float> delta = read_accessor<float>(l, it->second);
             for (size_t i = 0; i < into.size() && i < delta.size(); i++) {
                 into[i] = static_cast<float>(into[i] + weights[t] * delta[i]);
@@ -2676,14 +2859,18 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
             }
         }
     }
-    // glTF: TANGENT's w is +1 or -1. Any other is read by its sign (0 and NaN as +1), counted in
-    // one warning; only where a normal map reads it.
-    bool mapped = !out.tangents.empty() && prim.material >= 0 && pm_material_tangents_read(&materials_[prim.material]);
+}
+
+// glTF: TANGENT's w is +1 or -1. Any other is read by its sign (0 and NaN as +1), counted in
+// one warning; only where a normal map reads it.
+void Loader::round_tangent_signs(const PrimitiveSource &source, DecodedPrimitive *out) {
+    const tinygltf::Primitive &prim = source.prim;
+    bool mapped = !out->tangents.empty() && prim.material >= 0 && pm_material_tangents_read(&materials_[prim.material]);
     uint64_t odd_w = 0;
     size_t first_odd = 0;
     float first_w = 0;
-    for (size_t i = 0; mapped && i < vertices; i++) {
-        float &w = out.tangents[4 * i + 3];
+    for (size_t i = 0; mapped && i < source.vertices; i++) {
+        float &w = out->tangents[4 * i + 3];
         if (w == 1.f || w == -1.f) continue;
         if (odd_w++ == 0) {
             first_odd = i;
@@ -2692,10 +2879,14 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
         w = w < 0 ? -1.f : 1.f;
     }
     if (odd_w)
-        warn(mesh_label(mesh, index) + " TANGENT: " + str(odd_w) + " of its " + str(vertices) +
+        warn(mesh_label(source.mesh, source.index) + " TANGENT: " + str(odd_w) + " of its " + str(source.vertices) +
              " w values are not +1 or -1 (first " + num(first_w) + " at vertex " + str(first_odd) +
              "); read by their sign, 0 or NaN as +1");
+}
 
+// The vertex sequence: the indices accessor's, each below the vertex count, or 0, 1, 2, ...
+std::vector<uint32_t> Loader::read_index_sequence(const PrimitiveSource &source) {
+    const tinygltf::Primitive &prim = source.prim;
     std::vector<uint32_t> sequence;
     if (prim.indices >= 0) {
         AccessorLayout il = accessor_layout(model_, prim.indices);
@@ -2703,21 +2894,27 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
                                    il.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
                                    il.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT))
             fail("indices must be UNSIGNED_BYTE/SHORT/INT scalars, got componentType " + str(il.component_type) +
-                 " (accessor " + str(prim.indices) + ", " + where + ")");
+                 " (accessor " + str(prim.indices) + ", " + source.where + ")");
         sequence = read_accessor<uint32_t>(il, prim.indices);
         for (uint32_t i : sequence)
-            if (i >= vertices) fail("index " + str(i) + " >= vertex count " + str(vertices) + " (" + where + ")");
+            if (i >= source.vertices)
+                fail("index " + str(i) + " >= vertex count " + str(source.vertices) + " (" + source.where + ")");
     } else {
-        sequence.resize(vertices);
-        for (size_t i = 0; i < vertices; i++) sequence[i] = static_cast<uint32_t>(i);
+        sequence.resize(source.vertices);
+        for (size_t i = 0; i < source.vertices; i++) sequence[i] = static_cast<uint32_t>(i);
     }
+    return sequence;
+}
 
+// The triangles' corners from the vertex sequence of a triangle list, strip or fan.
+void Loader::assemble_corners(const tinygltf::Primitive &prim, const std::vector<uint32_t> &sequence,
+                              const std::string &where, DecodedPrimitive *out) {
     size_t n = sequence.size();
     if (prim.mode == TINYGLTF_MODE_TRIANGLES) {
-        out.corners.assign(sequence.begin(), sequence.begin() + static_cast<long>(n / 3 * 3));
+        out->corners.assign(sequence.begin(), sequence.begin() + static_cast<long>(n / 3 * 3));
         if (n % 3) warn("ignored " + str(n % 3) + " trailing index(es) that do not form a triangle (" + where + ")");
     } else if (n >= 3) {
-        out.corners.reserve((n - 2) * 3);
+        out->corners.reserve((n - 2) * 3);
         for (size_t i = 0; i + 2 < n; i++) {
             // the glTF spec's orderings, which keep every triangle's winding consistent
             uint32_t tri[3];
@@ -2730,30 +2927,31 @@ DecodedPrimitive Loader::decode_primitive(int mesh, int index) {
                 tri[1] = sequence[i + 2];
                 tri[2] = sequence[0];
             }
-            out.corners.insert(out.corners.end(), tri, tri + 3);
+            out->corners.insert(out->corners.end(), tri, tri + 3);
         }
     }
-    // glTF gives a primitive without NORMAL flat normals; a NORMAL of zero length or not finite
-    // says as little, so each triangle with such a corner is flat too (its own three vertices
-    // with the face normal): the same shading as without NORMAL, where the file gives nothing.
-    if (!out.normals.empty()) {
-        uint64_t unusable = 0;
-        size_t first = 0;
-        for (size_t i = 0; i < vertices; i++)
-            if (!usable_normal(&out.normals[3 * i]) && unusable++ == 0) first = i;
-        for (size_t t = 0; unusable && t < out.corners.size(); t += 3)
-            for (int k = 0; k < 3; k++)
-                if (!usable_normal(&out.normals[3 * out.corners[t + k]])) {
-                    out.flat_triangles++;
-                    break;
-                }
-        if (unusable)
-            warn(mesh_label(mesh, index) + " NORMAL: " + str(unusable) + " of its " + str(vertices) +
-                 " values have zero length or are not finite (first (" + num(out.normals[3 * first]) + ", " +
-                 num(out.normals[3 * first + 1]) + ", " + num(out.normals[3 * first + 2]) + ") at vertex " + str(first) +
-                 "); the " + str(out.flat_triangles) + " triangle(s) with such a corner get flat normals, as without NORMAL");
-    }
-    return out;
+}
+
+// glTF gives a primitive without NORMAL flat normals; a NORMAL of zero length or not finite
+// says as little, so each triangle with such a corner is flat too (its own three vertices
+// with the face normal): the same shading as without NORMAL, where the file gives nothing.
+void Loader::flatten_unusable_normals(const PrimitiveSource &source, DecodedPrimitive *out) {
+    if (out->normals.empty()) return;
+    uint64_t unusable = 0;
+    size_t first = 0;
+    for (size_t i = 0; i < source.vertices; i++)
+        if (!usable_normal(&out->normals[3 * i]) && unusable++ == 0) first = i;
+    for (size_t t = 0; unusable && t < out->corners.size(); t += 3)
+        for (int k = 0; k < 3; k++)
+            if (!usable_normal(&out->normals[3 * out->corners[t + k]])) {
+                out->flat_triangles++;
+                break;
+            }
+    if (unusable)
+        warn(mesh_label(source.mesh, source.index) + " NORMAL: " + str(unusable) + " of its " + str(source.vertices) +
+             " values have zero length or are not finite (first (" + num(out->normals[3 * first]) + ", " +
+             num(out->normals[3 * first + 1]) + ", " + num(out->normals[3 * first + 2]) + ") at vertex " + str(first) +
+             "); the " + str(out->flat_triangles) + " triangle(s) with such a corner get flat normals, as without NORMAL");
 }
 
 const DecodedMesh &Loader::decoded_mesh(int mesh) {
@@ -2771,6 +2969,22 @@ const DecodedMesh &Loader::decoded_mesh(int mesh) {
     return *meshes_[mesh];
 }
 
+// Each placed mesh decoded once, however often it is placed; returns how many placements each mesh has.
+std::vector<uint32_t> Loader::decode_placed_meshes() {
+    std::vector<uint32_t> uses(model_.meshes.size(), 0);
+    for (const Instance &instance : instances_) {
+        uses[instance.mesh]++;
+        decoded_mesh(instance.mesh);
+        const std::vector<double> &own = model_.nodes[instance.node].weights;
+        if (!own.empty() && own != model_.meshes[instance.mesh].weights && !node_weights_warned_) {
+            node_weights_warned_ = true;
+            warn("node " + str(instance.node) + " gives mesh " + str(instance.mesh) +
+                 " morph weights of its own: the mesh's default weights are rendered (one pose a mesh)");
+        }
+    }
+    return uses;
+}
+
 // Appends the mesh's triangles through `transform`: the node's world transform for a flat copy,
 // the identity for an instanced mesh's one stored copy.
 void Loader::instance_mesh(const Instance &instance, const Mat4 &transform) {
@@ -2783,122 +2997,539 @@ void Loader::instance_mesh(const Instance &instance, const Mat4 &transform) {
             continue;
         }
         std::string where = "mesh " + str(instance.mesh) + " primitive " + str(p) + " on node " + str(instance.node);
-        size_t count = prim.positions.size() / 3;
-        std::vector<vec3> positions(count), normals;
-        for (size_t i = 0; i < count; i++) {
-            positions[i] = world.point(&prim.positions[3 * i]);
-            if (!v3_is_finite(positions[i])) fail("vertex position overflows after the transform (" + where + ")");
-        }
-        bool flat = prim.normals.empty();
-        if (!flat) {
-            normals.resize(count);
-            for (size_t i = 0; i < count; i++) {
-                const double n[3] = {prim.normals[3 * i], prim.normals[3 * i + 1], prim.normals[3 * i + 2]};
-                normals[i] = world.unit(n, true);  // (0,0,0): no direction, its triangles are flat
-                if (v3_is_black(normals[i]) && usable_normal(&prim.normals[3 * i]) && collapsed_normals_++ == 0)
-                    first_collapsed_ = where;
-            }
-            // no direction anywhere: exactly the primitive without NORMAL, without unused shared vertices
-            flat = std::all_of(normals.begin(), normals.end(), [](vec3 n) { return v3_is_black(n); });
-        }
-        bool has_uv = !prim.uvs.empty(), has_uv1 = !prim.uvs1.empty();
-        any_uv_ = any_uv_ || has_uv;
-        any_uv1_ = any_uv1_ || has_uv1;
-        // Tangents for a normal-mapped material: TANGENT transformed like a direction (its w
-        // flips with a mirroring transform, as the bitangent w cross(n, t) would), else generated
-        // below from the positions and the normal texture's UV set.
-        const pm_material &material = materials_[prim.material];
-        bool mapped = tangents_needed_ && pm_material_tangents_read(&material);
-        bool given_tangents = mapped && !prim.tangents.empty();
-        const std::vector<float> &tangent_uvs = pm_material_tangent_texcoord(&material) == 1 ? prim.uvs1 : prim.uvs;
-        std::vector<float> tangents;  // given: 4 per vertex in world space
-        if (given_tangents) {
-            tangents.resize(4 * count);
-            for (size_t i = 0; i < count; i++) {
-                const double d[3] = {prim.tangents[4 * i], prim.tangents[4 * i + 1], prim.tangents[4 * i + 2]};
-                vec3 t = world.unit(d, false);  // (0,0,0): no usable tangent, the scene picks a frame
-                tangents[4 * i] = t.x;
-                tangents[4 * i + 1] = t.y;
-                tangents[4 * i + 2] = t.z;
-                tangents[4 * i + 3] = (prim.tangents[4 * i + 3] < 0) != world.mirrored ? -1.f : 1.f;
-            }
-        }
-        // generated: per vertex, the sum of its triangles' dp/du scaled by |det| (so weighted by
-        // their UV area) and of their handedness votes (weighted by area)
-        std::vector<vec3> du_sum(mapped && !given_tangents && !flat ? count : 0, v3s(0.f));
-        std::vector<double> hand_sum(du_sum.size(), 0.0);
-        auto append_vertex = [&](size_t i, vec3 normal) {
-            positions_.push_back(positions[i]);
-            normals_.push_back(normal);
-            if (tangents_needed_)
-                for (int k = 0; k < 4; k++) tangents_.push_back(given_tangents ? tangents[4 * i + k] : (k == 3 ? 1.f : 0.f));
-            uvs_.push_back(has_uv ? prim.uvs[2 * i] : 0.f);
-            uvs_.push_back(has_uv ? prim.uvs[2 * i + 1] : 0.f);
-            if (uv1_needed_) {
-                uvs1_.push_back(has_uv1 ? prim.uvs1[2 * i] : 0.f);
-                uvs1_.push_back(has_uv1 ? prim.uvs1[2 * i + 1] : 0.f);
-            }
-        };
-        uint32_t base = static_cast<uint32_t>(positions_.size());
-        if (!flat)
-            for (size_t i = 0; i < count; i++) append_vertex(i, normals[i]);
-        for (size_t t = 0; t < prim.corners.size(); t += 3) {
-            uint32_t c[3] = {prim.corners[t], prim.corners[t + 1], prim.corners[t + 2]};
-            if (world.mirrored) std::swap(c[1], c[2]);
-            // in double: edges of a tiny triangle square to below a float's range, a huge one's above it
-            double e1[3], e2[3], cross[3];
-            for (int k = 0; k < 3; k++) {
-                e1[k] = static_cast<double>(v3_get(positions[c[1]], k)) - v3_get(positions[c[0]], k);
-                e2[k] = static_cast<double>(v3_get(positions[c[2]], k)) - v3_get(positions[c[0]], k);
-            }
-            for (int k = 0; k < 3; k++) cross[k] = e1[(k + 1) % 3] * e2[(k + 2) % 3] - e1[(k + 2) % 3] * e2[(k + 1) % 3];
-            double length = std::sqrt(cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]);
-            if (!(length > 0) || !std::isfinite(length)) {
-                degenerate_++;
-                continue;
-            }
-            vec3 face = v3(static_cast<float>(cross[0] / length), static_cast<float>(cross[1] / length),
-                           static_cast<float>(cross[2] / length));
-            vec3 du = v3s(0.f);  // dp/du x |det|: along +u, weighted by the triangle's UV area
-            float hand = 0.f;  // no vote from a triangle without a UV mapping
-            if (mapped && !given_tangents && !tangent_uvs.empty()) {
-                // p - p0 = dp/du (u - u0) + dp/dv (v - v0) on the triangle, solved for dp/du; glTF's
-                // v runs down the image and the map's +y up it, so the bitangent is -dp/dv and
-                // w = sign((n x dp/du) . -dp/dv) = -sign(det) with n along cross(e1, e2)
-                const float *uv = tangent_uvs.data();
-                double du1 = uv[2 * c[1]] - uv[2 * c[0]], dv1 = uv[2 * c[1] + 1] - uv[2 * c[0] + 1];
-                double du2 = uv[2 * c[2]] - uv[2 * c[0]], dv2 = uv[2 * c[2] + 1] - uv[2 * c[0] + 1];
-                double det = du1 * dv2 - du2 * dv1;
-                vec3 e1 = v3_sub(positions[c[1]], positions[c[0]]), e2 = v3_sub(positions[c[2]], positions[c[0]]);
-                if (det != 0 && std::isfinite(det)) {
-                    float sign = det > 0 ? 1.f : -1.f;
-                    du = v3_scale(v3_sub(v3_scale(e1, static_cast<float>(dv2)), v3_scale(e2, static_cast<float>(dv1))), sign);
-                    hand = -sign;
-                }
-            }
-            // without NORMAL, or with a corner whose NORMAL gives no direction: flat, on vertices of its own
-            bool flat_triangle = flat || v3_is_black(normals[c[0]]) || v3_is_black(normals[c[1]]) || v3_is_black(normals[c[2]]);
-            if (!du_sum.empty() && !flat_triangle)
-                for (int k = 0; k < 3; k++) {
-                    du_sum[c[k]] = v3_add(du_sum[c[k]], du);
-                    hand_sum[c[k]] += hand * length;
-                }
-            for (int k = 0; k < 3; k++) {
-                if (flat_triangle) {
-                    indices_.push_back(static_cast<uint32_t>(positions_.size()));
-                    append_vertex(c[k], face);
-                    if (mapped && !given_tangents) set_tangent(positions_.size() - 1, du, face, hand < 0 ? -1.f : 1.f);
-                } else {
-                    indices_.push_back(base + c[k]);
-                }
-            }
-            triangle_material_.push_back(prim.material);
-        }
-        if (!flat)  // a shared vertex without a direction serves no triangle; it still holds a unit normal
+        PlacedPrimitive placed(prim);
+        place_vertices(&placed, world, where);
+        place_tangents(&placed, world);
+        size_t count = placed.positions.size();
+        placed.base = static_cast<uint32_t>(positions_.size());
+        if (!placed.flat)
+            for (size_t i = 0; i < count; i++) append_vertex(placed, i, placed.normals[i]);
+        for (size_t t = 0; t < prim.corners.size(); t += 3) place_triangle(&placed, world.mirrored, t);
+        uint32_t base = placed.base;
+        if (!placed.flat)  // a shared vertex without a direction serves no triangle; it still holds a unit normal
             for (size_t i = base; i < base + count; i++)
                 if (v3_is_black(normals_[i])) normals_[i] = v3(0, 0, 1);
-        for (size_t i = 0; i < du_sum.size(); i++) set_tangent(base + i, du_sum[i], normals_[base + i], hand_sum[i] < 0 ? -1.f : 1.f);
+        for (size_t i = 0; i < placed.du_sum.size(); i++)
+            set_tangent(base + i, placed.du_sum[i], normals_[base + i], placed.hand_sum[i] < 0 ? -1.f : 1.f);
     }
+}
+
+// The primitive's positions and normals through the transform; flat when it has no NORMAL or none
+// keeps a direction.
+void Loader::place_vertices(PlacedPrimitive *placed, const WorldTransform &world, const std::string &where) {
+    const DecodedPrimitive &prim = placed->prim;
+    size_t count = prim.positions.size() / 3;
+    placed->positions.resize(count);
+    for (size_t i = 0; i < count; i++) {
+        placed->positions[i] = world.point(&prim.positions[3 * i]);
+        if (!v3_is_finite(placed->positions[i])) fail("vertex position overflows after the transform (" + where + ")");
+    }
+    placed->flat = prim.normals.empty();
+    if (!placed->flat) {
+        std::vector<vec3> &normals = placed->normals;
+        normals.resize(count);
+        for (size_t i = 0; i < count; i++) {
+            const double n[3] = {prim.normals[3 * i], prim.normals[3 * i + 1], prim.normals[3 * i + 2]};
+            normals[i] = world.unit(n, true);  // (0,0,0): no direction, its triangles are flat
+            if (v3_is_black(normals[i]) && usable_normal(&prim.normals[3 * i]) && collapsed_normals_++ == 0)
+                first_collapsed_ = where;
+        }
+        // no direction anywhere: exactly the primitive without NORMAL, without unused shared vertices
+        placed->flat = std::all_of(normals.begin(), normals.end(), [](vec3 n) { return v3_is_black(n); });
+    }
+    placed->has_uv = !prim.uvs.empty();
+    placed->has_uv1 = !prim.uvs1.empty();
+    any_uv_ = any_uv_ || placed->has_uv;
+    any_uv1_ = any_uv1_ || placed->has_uv1;
+}
+
+// Tangents for a normal-mapped material: TANGENT transformed like a direction (its w flips with a
+// mirroring transform, as the bitangent w cross(n, t) would), else generated by place_triangle
+// from the positions and the normal texture's UV set.
+void Loader::place_tangents(PlacedPrimitive *placed, const WorldTransform &world) {
+    const DecodedPrimitive &prim = placed->prim;
+    size_t count = placed->positions.size();
+    const pm_material &material = materials_[prim.material];
+    placed->mapped = tangents_needed_ && pm_material_tangents_read(&material);
+    placed->given_tangents = placed->mapped && !prim.tangents.empty();
+    placed->tangent_uvs = pm_material_tangent_texcoord(&material) == 1 ? &prim.uvs1 : &prim.uvs;
+    if (placed->given_tangents) {
+        std::vector<float> &tangents = placed->tangents;
+        tangents.resize(4 * count);
+        for (size_t i = 0; i < count; i++) {
+            const double d[3] = {prim.tangents[4 * i], prim.tangents[4 * i + 1], prim.tangents[4 * i + 2]};
+            vec3 t = world.unit(d, false);  // (0,0,0): no usable tangent, the scene picks a frame
+            tangents[4 * i] = t.x;
+            tangents[4 * i + 1] = t.y;
+            tangents[4 * i + 2] = t.z;
+            tangents[4 * i + 3] = (prim.tangents[4 * i + 3] < 0) != world.mirrored ? -1.f : 1.f;
+        }
+    }
+    // generated: per vertex, the sum of its triangles' dp/du scaled by |det| (so weighted by
+    // their UV area) and of their handedness votes (weighted by area)
+    placed->du_sum.assign(placed->mapped && !placed->given_tangents && !placed->flat ? count : 0, v3s(0.f));
+    placed->hand_sum.assign(placed->du_sum.size(), 0.0);
+}
+
+// Appends vertex i of the placed primitive with the given normal to the scene's vertex arrays.
+void Loader::append_vertex(const PlacedPrimitive &placed, size_t i, vec3 normal) {
+    const DecodedPrimitive &prim = placed.prim;
+    positions_.push_back(placed.positions[i]);
+    normals_.push_back(normal);
+    if (tangents_needed_)
+        for (int k = 0; k < 4; k++) tangents_.push_back(placed.given_tangents ? placed.tangents[4 * i + k] : (k == 3 ? 1.f : 0.f));
+    uvs_.push_back(placed.has_uv ? prim.uvs[2 * i] : 0.f);
+    uvs_.push_back(placed.has_uv ? prim.uvs[2 * i + 1] : 0.f);
+    if (uv1_needed_) {
+        uvs1_.push_back(placed.has_uv1 ? prim.uvs1[2 * i] : 0.f);
+        uvs1_.push_back(placed.has_uv1 ? prim.uvs1[2 * i + 1] : 0.f);
+    }
+}
+
+// The unit face normal of corners c and the length of their edges' cross product, in double: edges
+// of a tiny triangle square to below a float's range, a huge one's above it. False when degenerate.
+bool face_normal(const std::vector<vec3> &positions, const uint32_t c[3], vec3 *face, double *length) {
+    double e1[3], e2[3], cross[3];
+    for (int k = 0; k < 3; k++) {
+        e1[k] = static_cast<double>(v3_get(positions[c[1]], k)) - v3_get(positions[c[0]], k);
+        e2[k] = static_cast<double>(v3_get(positions[c[2]], k)) - v3_get(positions[c[0]], k);
+    }
+    for (int k = 0; k < 3; k++) cross[k] = e1[(k + 1) % 3] * e2[(k + 2) % 3] - e1[(k + 2) % 3] * e2[(k + 1) % 3];
+    *length = std::sqrt(cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]);
+    if (!(*length > 0) || !std::isfinite(*length)) return false;
+    *face = v3(static_cast<float>(cross[0] / *length), static_cast<float>(cross[1] / *length),
+               static_cast<float>(cross[2] / *length));
+    return true;
+}
+
+// p - p0 = dp/du (u - u0) + dp/dv (v - v0) on the triangle, solved for dp/du (times |det|: along
+// +u, weighted by the triangle's UV area); glTF's v runs down the image and the map's +y up it, so
+// the bitangent is -dp/dv and w = sign((n x dp/du) . -dp/dv) = -sign(det) with n along cross(e1, e2).
+// A triangle without a UV mapping leaves du 0 and gives no vote (hand 0).
+void uv_tangent(const std::vector<vec3> &positions, const float *uv, const uint32_t c[3], vec3 *du, float *hand) {
+    double du1 = uv[2 * c[1]] - uv[2 * c[0]], dv1 = uv[2 * c[1] + 1] - uv[2 * c[0] + 1];
+    double du2 = uv[2 * c[2]] - uv[2 * c[0]], dv2 = uv[2 * c[2] + 1] - uv[2 * c[0] + 1];
+    double det = du1 * dv2 - du2 * dv1;
+    vec3 e1 = v3_sub(positions[c[1]], positions[c[0]]), e2 = v3_sub(positions[c[2]], positions[c[0]]);
+    if (det != 0 && std::isfinite(det)) {
+        float sign = det > 0 ? 1.f : -1.f;
+        *du = v3_scale(v3_sub(v3_scale(e1, static_cast<float>(dv2)), v3_scale(e2, static_cast<float>(dv1))), sign);
+        *hand = -sign;
+    }
+}
+
+// The triangle at corners t..t+2: dropped when degenerate, else its indices (shared vertices, or
+// vertices of its own when flat), material and tangent contribution.
+void Loader::place_triangle(PlacedPrimitive *placed, bool mirrored, size_t t) {
+    const DecodedPrimitive &prim = placed->prim;
+    uint32_t c[3] = {prim.corners[t], prim.corners[t + 1], prim.corners[t + 2]};
+    if (mirrored) std::swap(c[1], c[2]);
+    vec3 face;
+    double length;
+    if (!face_normal(placed->positions, c, &face, &length)) {
+        degenerate_++;
+        return;
+    }
+    vec3 du = v3s(0.f);  // dp/du x |det|: along +u, weighted by the triangle's UV area
+    float hand = 0.f;  // no vote from a triangle without a UV mapping
+    bool generated = placed->mapped && !placed->given_tangents;
+    if (generated && !placed->tangent_uvs->empty()) uv_tangent(placed->positions, placed->tangent_uvs->data(), c, &du, &hand);
+    // without NORMAL, or with a corner whose NORMAL gives no direction: flat, on vertices of its own
+    const std::vector<vec3> &normals = placed->normals;
+    bool flat_triangle = placed->flat || v3_is_black(normals[c[0]]) || v3_is_black(normals[c[1]]) || v3_is_black(normals[c[2]]);
+    if (!placed->du_sum.empty() && !flat_triangle)
+        for (int k = 0; k < 3; k++) {
+            placed->du_sum[c[k]] = v3_add(placed->du_sum[c[k]], du);
+            placed->hand_sum[c[k]] += hand * length;
+        }
+    for (int k = 0; k < 3; k++) {
+        if (flat_triangle) {
+            indices_.push_back(static_cast<uint32_t>(positions_.size()));
+            append_vertex(*placed, c[k], face);
+            if (generated) set_tangent(positions_.size() - 1, du, face, hand < 0 ? -1.f : 1.f);
+        } else {
+            indices_.push_back(placed->base + c[k]);
+        }
+    }
+    triangle_material_.push_back(prim.material);
+}
+
+// ---------------- instancing: GPU instance sets, the meshes stored once, their placements
+
+// EXT_mesh_gpu_instancing on a node with a mesh: the mesh is placed once per instance, at the
+// node's transform times the instance's translation x rotation x scale, instead of at the node.
+// Refused as a node's transform is: an attribute of the wrong type, counts that differ, a value
+// not finite, a rotation of zero length. An instance with a zero scale places nothing (it would
+// only make degenerate triangles): left out, counted in one warning.
+void Loader::read_instance_set(int node_index, const tinygltf::Node &node, const tinygltf::Value &extension) {
+    std::string where = "node " + str(node_index) + " EXT_mesh_gpu_instancing";
+    InstanceSet set;
+    set.node = node_index;
+    auto admit = [&](uint64_t bytes) {
+        const uint64_t mark = pm_memory_failure_mark();
+        if (!pm_memory_admit(bytes, "GPU instances"))
+            fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "GPU instances")) + ") (" + where + ")");
+        decoded_.bytes += bytes;
+    };
+    struct { const char *name; int components; std::vector<float> *into; } parts[] = {
+        {"TRANSLATION", 3, &set.translation}, {"ROTATION", 4, &set.rotation}, {"SCALE", 3, &set.scale}};
+    const tinygltf::Value &attributes = extension.Get("attributes");
+    uint64_t count = 0;
+    bool any = false;
+    for (const auto &part : parts) {
+        if (!attributes.IsObject() || !attributes.Has(part.name)) continue;
+        int a = attributes.Get(part.name).GetNumberAsInt();  // range-checked in the preflight
+        AccessorLayout l = accessor_layout(model_, a);
+        bool is_float = l.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT;
+        // glTF allows normalized signed bytes and shorts for rotations, and with KHR_mesh_quantization any
+        // byte or short for translations and scales
+        bool signed_small = l.component_type == TINYGLTF_COMPONENT_TYPE_BYTE || l.component_type == TINYGLTF_COMPONENT_TYPE_SHORT;
+        bool small = signed_small || l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                     l.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+        bool allowed = is_float || (part.components == 4 ? signed_small && l.normalized : quantization_ && small);
+        if (l.components != part.components || !allowed)
+            fail(std::string(part.name) + " must be a float " + (part.components == 4 ? "VEC4" : "VEC3") +
+                 (part.components == 4 ? " or a normalized byte/short one" : quantization_ ? " or (KHR_mesh_quantization) a byte/short one" : "") +
+                 " (accessor " + str(a) + ", " + where + ")");
+        if (any && l.count != count)
+            fail(std::string(part.name) + " count " + str(l.count) + " differs from the other attributes' " + str(count) + " (" +
+                 where + ")");
+        count = l.count;
+        any = true;
+        admit(l.count * part.components * sizeof(float));
+        *part.into = read_accessor<float>(l, a);
+        for (size_t i = 0; i < part.into->size(); i++)
+            if (!std::isfinite((*part.into)[i]))
+                fail(std::string("non-finite ") + part.name + " at instance " + str(i / part.components) + " (accessor " + str(a) +
+                     ", " + where + ")");
+    }
+    if (!any) fail("no TRANSLATION, ROTATION or SCALE attribute (" + where + ")");
+    if (count > kMaxSceneTriangles) fail(str(count) + " instances, more than " + str(kMaxSceneTriangles) + " (" + where + ")");
+    for (size_t i = 0; i < set.rotation.size(); i += 4) {
+        const float *q = &set.rotation[i];
+        double len = std::sqrt(static_cast<double>(q[0]) * q[0] + static_cast<double>(q[1]) * q[1] +
+                               static_cast<double>(q[2]) * q[2] + static_cast<double>(q[3]) * q[3]);
+        if (!(len > 0)) fail("ROTATION quaternion has zero length at instance " + str(i / 4) + " (" + where + ")");
+    }
+    int set_index = static_cast<int>(instance_sets_.size());
+    admit(count * sizeof(Instance));
+    for (uint64_t i = 0; i < count; i++) {
+        if (!set.scale.empty() && (set.scale[3 * i] == 0 || set.scale[3 * i + 1] == 0 || set.scale[3 * i + 2] == 0)) {
+            if (zero_scale_instances_++ == 0) first_zero_scale_ = "instance " + str(i) + ", " + where;
+            continue;
+        }
+        Instance instance;
+        instance.node = node_index;
+        instance.mesh = node.mesh;
+        instance.set = set_index;
+        instance.element = static_cast<uint32_t>(i);
+        instances_.push_back(instance);
+    }
+    instance_sets_.push_back(std::move(set));
+}
+
+// The world transform that places an instance (framed once choose_frame has run: the node's is).
+Mat4 Loader::instance_world(const Instance &instance) const {
+    if (instance.set < 0) return world_[instance.node];
+    const InstanceSet &set = instance_sets_[instance.set];
+    size_t i = instance.element;
+    double t[3] = {0, 0, 0}, q[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+    if (!set.translation.empty())
+        for (int k = 0; k < 3; k++) t[k] = set.translation[3 * i + k];
+    if (!set.rotation.empty()) {
+        double len = 0;
+        for (int k = 0; k < 4; k++) len += static_cast<double>(set.rotation[4 * i + k]) * set.rotation[4 * i + k];
+        len = std::sqrt(len);
+        for (int k = 0; k < 4; k++) q[k] = set.rotation[4 * i + k] / len;
+    }
+    if (!set.scale.empty())
+        for (int k = 0; k < 3; k++) s[k] = set.scale[3 * i + k];
+    return multiply(world_[instance.node], trs_matrix(t, q, s));
+}
+
+// A placement whose transform is singular, far from a unit scale or close to flattening an
+// axis, or whose matrix or normal matrix does not fit in float, flattens its mesh: the flat
+// path checks every transformed vertex. Embree traces a placement in mesh space through the
+// float inverse, and an extreme one (a scale of 1e20, entries of 1e30, one axis scaled by
+// 1e-20) hands its intersector a ray it aborts the process on. Bounds, with the Frobenius
+// norm f >= the largest singular value: the smallest one is at least |det| / f^2, so
+// f^3 / |det| bounds the condition number.
+bool placement_instanceable(const Mat4 &w) {
+    double det = w.at(0, 0) * (w.at(1, 1) * w.at(2, 2) - w.at(1, 2) * w.at(2, 1)) -
+                 w.at(0, 1) * (w.at(1, 0) * w.at(2, 2) - w.at(1, 2) * w.at(2, 0)) +
+                 w.at(0, 2) * (w.at(1, 0) * w.at(2, 1) - w.at(1, 1) * w.at(2, 0));
+    if (!(det != 0) || !std::isfinite(det) || !std::isfinite(1 / det)) return false;
+    double frobenius = 0;
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) frobenius += w.at(r, c) * w.at(r, c);
+    frobenius = std::sqrt(frobenius);
+    if (!(frobenius >= std::ldexp(1.0, -20) && frobenius <= std::ldexp(1.0, 20)) ||
+        !(frobenius * frobenius * frobenius <= std::ldexp(1.0, 20) * std::fabs(det)))
+        return false;
+    WorldTransform world(w);
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 4; c++)
+            if (!std::isfinite(static_cast<float>(world.matrix.at(r, c))) ||
+                (c < 3 && !std::isfinite(static_cast<float>(world.normal_matrix[r][c]))))
+                return false;
+    return true;
+}
+
+// A mesh placed by two or more nodes, each with an invertible transform, is stored once and
+// placed (instanced); the rest is flattened into world space. Returns per mesh whether it is instanced.
+std::vector<char> Loader::choose_instanced_meshes(const std::vector<uint32_t> &uses) const {
+    std::vector<char> instanced(model_.meshes.size(), 0);
+    for (size_t m = 0; m < uses.size(); m++) instanced[m] = uses[m] >= 2 && !options_.flatten_instances && framed_alone(m);
+    for (const Instance &instance : instances_)
+        if (instanced[instance.mesh] && !placement_instanceable(instance_world(instance))) instanced[instance.mesh] = 0;
+    return instanced;
+}
+
+// Whether a mesh's own coordinates are what the scene's framing (choose_frame) would leave alone:
+// extent within [2^-20, 2^20] and no farther from its origin than 2^10 extents. A stored mesh
+// keeps its own coordinates, which Embree traces in mesh space, so one that the framing would
+// rescale or recentre is flattened instead, through the framed world transforms.
+bool Loader::framed_alone(size_t mesh) const {
+    if (!meshes_[mesh]) return false;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (const DecodedPrimitive &prim : meshes_[mesh]->primitives)
+        for (size_t i = 0; prim.triangles && i + 2 < prim.positions.size(); i += 3)
+            for (int r = 0; r < 3; r++) {
+                lo[r] = std::min(lo[r], static_cast<double>(prim.positions[i + r]));
+                hi[r] = std::max(hi[r], static_cast<double>(prim.positions[i + r]));
+            }
+    double extent = 0, farthest = 0;
+    for (int r = 0; r < 3; r++) {
+        extent = std::max(extent, hi[r] - lo[r]);
+        farthest = std::max(farthest, std::fabs(0.5 * lo[r] + 0.5 * hi[r]));
+    }
+    return extent >= std::ldexp(1.0, -20) && extent <= std::ldexp(1.0, 20) && std::isfinite(farthest) &&
+           farthest <= std::ldexp(1.0, 10) * extent;
+}
+
+// After the flat triangles: each instanced mesh (uses > 0) once, in mesh space, then its
+// placements, grouped by mesh (pm_instanced_mesh.first_placement), each with the node's world
+// transform. Triangle ids follow: the flat triangles', then each placement's in order.
+void Loader::place_instanced_meshes(const std::vector<uint32_t> &uses) {
+    triangle_ids_ = triangle_material_.size();
+    std::vector<std::vector<const Instance *>> placed_by(uses.size());  // one pass over the instances, not one a mesh
+    for (const Instance &instance : instances_)
+        if (uses[instance.mesh]) placed_by[instance.mesh].push_back(&instance);
+    for (size_t m = 0; m < uses.size(); m++) {
+        if (!uses[m]) continue;
+        const Instance *first = placed_by[m].front();
+        pm_instanced_mesh mesh;
+        memset(&mesh, 0, sizeof mesh);
+        mesh.first_triangle = static_cast<uint32_t>(triangle_material_.size());
+        mesh.first_vertex = static_cast<uint32_t>(positions_.size());
+        uint64_t degenerate = degenerate_, skipped = skipped_prims_;
+        instance_mesh(*first, identity());
+        // counted as often as the mesh is placed, as a flattened scene counts them
+        degenerate_ += (degenerate_ - degenerate) * (uses[m] - 1);
+        skipped_prims_ += (skipped_prims_ - skipped) * (uses[m] - 1);
+        mesh.triangle_count = static_cast<uint32_t>(triangle_material_.size()) - mesh.first_triangle;
+        mesh.vertex_count = static_cast<uint32_t>(positions_.size()) - mesh.first_vertex;
+        mesh.first_placement = static_cast<uint32_t>(placements_.size());
+        for (const Instance *instance : placed_by[m]) {
+            WorldTransform world(instance_world(*instance));
+            pm_placement p;
+            memset(&p, 0, sizeof p);
+            p.mesh = static_cast<uint32_t>(instanced_meshes_.size());
+            p.first_id = static_cast<uint32_t>(triangle_ids_);
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 4; c++) p.object_to_world[4 * r + c] = static_cast<float>(world.matrix.at(r, c));
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 3; c++) p.normal_matrix[3 * r + c] = static_cast<float>(world.normal_matrix[r][c]);
+            p.handedness = world.mirrored ? -1.f : 1.f;
+            placements_.push_back(p);
+            triangle_ids_ += mesh.triangle_count;
+        }
+        mesh.placement_count = static_cast<uint32_t>(placements_.size()) - mesh.first_placement;
+        instanced_meshes_.push_back(mesh);
+    }
+}
+
+// ---------------- framing and output: the scene's frame, the load's memory, the pm_scene's arrays
+
+// The file's triangles in world space (before the frame), one after another, for pm_core_bounds.
+struct FrameWalk {
+    const std::vector<Instance> *instances;
+    const std::vector<std::unique_ptr<DecodedMesh>> *meshes;
+    const std::vector<Mat4> *world;
+    size_t instance = 0, primitive = 0, corner = 0;
+
+    static bool next(void *context, bool restart, double corners[9]) {
+        FrameWalk &w = *static_cast<FrameWalk *>(context);
+        if (restart) w.instance = w.primitive = w.corner = 0;
+        for (; w.instance < w.instances->size(); w.instance++, w.primitive = 0, w.corner = 0) {
+            const Instance &instance = (*w.instances)[w.instance];
+            const Mat4 &m = (*w.world)[instance.node];
+            const std::vector<DecodedPrimitive> &prims = (*w.meshes)[instance.mesh]->primitives;
+            for (; w.primitive < prims.size(); w.primitive++, w.corner = 0) {
+                const DecodedPrimitive &prim = prims[w.primitive];
+                if (!prim.triangles || w.corner + 3 > prim.corners.size()) continue;
+                for (int k = 0; k < 3; k++) {
+                    const float *p = &prim.positions[3 * static_cast<size_t>(prim.corners[w.corner + k])];
+                    for (int r = 0; r < 3; r++)
+                        corners[3 * k + r] = m.at(r, 0) * p[0] + m.at(r, 1) * p[1] + m.at(r, 2) * p[2] + m.at(r, 3);
+                }
+                w.corner += 3;
+                return true;
+            }
+        }
+        return false;
+    }
+};
+
+// The placed triangles' world-space bounds in the file's frame, their number, and the narrowest one's extent.
+Loader::PlacedBounds Loader::placed_bounds() const {
+    PlacedBounds b;
+    double *lo = b.lo, *hi = b.hi;
+    for (const Instance &instance : instances_) {
+        const Mat4 m = instance_world(instance);
+        for (const DecodedPrimitive &prim : meshes_[instance.mesh]->primitives) {
+            if (!prim.triangles) continue;
+            b.triangles += prim.corners.size() / 3;
+            for (size_t c = 0; c + 3 <= prim.corners.size(); c += 3) {
+                double tlo[3] = {INFINITY, INFINITY, INFINITY}, thi[3] = {-INFINITY, -INFINITY, -INFINITY};
+                for (int k = 0; k < 3; k++) {
+                    const float *p = &prim.positions[3 * static_cast<size_t>(prim.corners[c + k])];
+                    for (int r = 0; r < 3; r++) {
+                        double x = m.at(r, 0) * p[0] + m.at(r, 1) * p[1] + m.at(r, 2) * p[2] + m.at(r, 3);
+                        tlo[r] = std::min(tlo[r], x);
+                        thi[r] = std::max(thi[r], x);
+                    }
+                }
+                double e = std::max(thi[0] - tlo[0], std::max(thi[1] - tlo[1], thi[2] - tlo[2]));
+                if (e > 0) b.smallest = std::min(b.smallest, e);
+            }
+            for (size_t i = 0; i + 2 < prim.positions.size(); i += 3)
+                for (int r = 0; r < 3; r++) {
+                    double x = m.at(r, 0) * prim.positions[i] + m.at(r, 1) * prim.positions[i + 1] +
+                               m.at(r, 2) * prim.positions[i + 2] + m.at(r, 3);
+                    lo[r] = std::min(lo[r], x);
+                    hi[r] = std::max(hi[r], x);
+                }
+        }
+    }
+    return b;
+}
+
+// The renderer works in float and squares lengths (areas, distances, densities), which leave a
+// float's range for extents beyond about 1e+-19, and a model far from the origin loses its
+// detail to the float spacing there. The image does not change when the whole scene (camera and
+// lights included) is moved or scaled, so a scene whose core's extent (pm_core_bounds: small
+// strays far away left out) is outside [2^-20, 2^20] is scaled by the power of two that brings it
+// near 1 (exact in float), and one whose core lies more than 2^10 extents from the origin is
+// moved to it; point and spot intensities scale by the square (the same irradiance), volume
+// attenuation by the inverse. Computed in double from the file.
+void Loader::choose_frame() {
+    PlacedBounds bounds = placed_bounds();
+    double *lo = bounds.lo, *hi = bounds.hi;
+    const uint64_t triangles = bounds.triangles;
+    const double smallest = bounds.smallest;
+    // framed by its core (scene_core.c): a small stray far from the bulk neither shrinks the
+    // scene to a speck nor moves it; it stays where it is, refused by the accel past the reach
+    // Embree can trace
+    bool whole = std::isfinite(lo[0]) && std::isfinite(hi[0]) && std::isfinite(lo[1]) && std::isfinite(hi[1]) &&
+                 std::isfinite(lo[2]) && std::isfinite(hi[2]);
+    if (whole) {
+        FrameWalk walk{&instances_, &meshes_, &world_};
+        pm_core_source source = {triangles, &walk, FrameWalk::next};
+        if (!pm_core_bounds(&source, lo, hi)) throw std::bad_alloc();
+    }
+    double extent = 0, center[3], farthest = 0;
+    for (int r = 0; r < 3; r++) {
+        extent = std::max(extent, hi[r] - lo[r]);
+        center[r] = 0.5 * lo[r] + 0.5 * hi[r];
+        farthest = std::max(farthest, std::fabs(center[r]));
+    }
+    if (extent > 0 && std::isfinite(extent) && std::isfinite(farthest)) {
+        if (extent < std::ldexp(1.0, -20) || extent > std::ldexp(1.0, 20)) frame_scale_ = std::ldexp(1.0, -std::ilogb(extent));
+        if (farthest > std::ldexp(1.0, 10) * extent) {
+            recentered_ = true;
+            std::copy(center, center + 3, frame_center_);
+        }
+    }
+    // Shrinking a scene whose bulk is huge must not shrink its small parts below what float can
+    // render (a triangle narrower than 2^-62 has an area under float's smallest normal number): a
+    // unit box beside a sphere placed with a scale of 1e38 would become dust and render black.
+    if (frame_scale_ < 1 && smallest * frame_scale_ < std::ldexp(1.0, -62))
+        fail("the scene's sizes span more than float can render: a triangle " + num(smallest) + " wide beside a bulk " +
+             num(extent) + " wide (at most 2^62 apart)");
+    if (frame_scale_ != 1 || recentered_) {
+        Mat4 frame = identity();
+        for (int r = 0; r < 3; r++) {
+            frame.m[r * 5] = frame_scale_;
+            frame.m[12 + r] = -frame_center_[r] * frame_scale_;
+        }
+        for (Mat4 &w : world_) w = multiply(frame, w);
+    }
+    frame_attenuation();
+    for (const Placed &p : placed_) {
+        WorldTransform world(world_[p.node]);
+        if (p.light) add_light(p.index, world, p.node);
+        else add_camera(p.index, world, p.node);
+    }
+}
+
+// Volume attenuation per unit length: divided by the frame's scale, in double before it becomes a float.
+void Loader::frame_attenuation() {
+    for (size_t i = 0; i < materials_.size(); i++) {
+        float sigma[3];
+        for (int k = 0; k < 3; k++) {
+            double framed = attenuation_[i][k] / frame_scale_;
+            if (framed > FLT_MAX) note(material_label(i), "KHR_materials_volume attenuation", num(framed) +
+                                       " per unit length (-ln attenuationColor / attenuationDistance) clamped to " +
+                                       num(FLT_MAX));
+            sigma[k] = static_cast<float>(std::min<double>(framed, FLT_MAX));
+        }
+        materials_[i].attenuation = v3(sigma[0], sigma[1], sigma[2]);
+    }
+}
+
+// The scene's totals after instancing (each instanced mesh's triangles counted once), refused past
+// the scene limits or 32-bit triangle ids; triangle_ids_ counts every placed triangle.
+Loader::SceneTotals Loader::count_scene(const std::vector<char> &instanced) {
+    SceneTotals totals;
+    std::vector<char> counted(model_.meshes.size(), 0);
+    for (const Instance &instance : instances_) {
+        const DecodedMesh &mesh = *meshes_[instance.mesh];
+        if (instanced[instance.mesh]) {
+            totals.placements++;
+            triangle_ids_ += mesh.triangles;
+            if (counted[instance.mesh]++) continue;  // stored once
+        } else {
+            triangle_ids_ += mesh.triangles;
+        }
+        totals.vertices += mesh.vertices;
+        totals.triangles += mesh.triangles;
+        if (totals.vertices > kMaxSceneVertices || totals.triangles > kMaxSceneTriangles)
+            fail("scene too large: more than " + str(kMaxSceneVertices) + " vertices or " + str(kMaxSceneTriangles) +
+                 " triangles after instancing");
+    }
+    if (triangle_ids_ >= UINT32_MAX)
+        fail("scene too large: " + str(triangle_ids_) + " placed triangles (a triangle id is 32 bits)");
+    return totals;
+}
+
+// The scene's arrays and the acceleration structure, estimated before either is allocated.
+void Loader::admit_scene_geometry(const SceneTotals &totals) {
+    uint64_t per_vertex = 2 * sizeof(vec3) + 2 * sizeof(float) * (uv1_needed_ ? 2 : 1) + (tangents_needed_ ? 4 * sizeof(float) : 0);
+    // (Embree's share as the memory forecast counts it: accel.c, pm_accel_forecast_bytes)
+    uint64_t accel = totals.triangles * PM_ACCEL_BUILD_BYTES_PER_TRIANGLE + totals.vertices * PM_ACCEL_BYTES_PER_VERTEX +
+                     totals.placements * PM_ACCEL_BYTES_PER_PLACEMENT;
+    uint64_t bytes = totals.vertices * per_vertex + totals.triangles * 4 * sizeof(uint32_t) +
+                     totals.placements * sizeof(pm_placement) + accel +
+                     placed_.size() * (sizeof(pm_light) + sizeof(float) + sizeof(pm_camera));  // lights, their power table, cameras
+    const uint64_t mark = pm_memory_failure_mark();
+    if (!pm_memory_admit(bytes, "scene geometry and its acceleration structure"))
+        fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "scene geometry and its acceleration structure")) +
+             "): " + str(totals.triangles) +
+             " triangles after instancing");
+    // the acceleration structure's share was a forecast: Embree's allocations are admitted as they happen
+    pm_memory_release(accel);
+    admitted_.bytes += bytes - accel;
 }
 
 template <class T>
@@ -2978,241 +3609,7 @@ void Loader::emit(pm_scene *out) {
     *out = s;
 }
 
-// The renderer works in float and squares lengths (areas, distances, densities), which leave a
-// float's range for extents beyond about 1e+-19, and a model far from the origin loses its
-// detail to the float spacing there. The image does not change when the whole scene (camera and
-// lights included) is moved or scaled, so a scene whose core's extent (pm_core_bounds: small
-// strays far away left out) is outside [2^-20, 2^20] is scaled by the power of two that brings it
-// near 1 (exact in float), and one whose core lies more than 2^10 extents from the origin is
-// moved to it; point and spot intensities scale by the square (the same irradiance), volume
-// attenuation by the inverse. Computed in double from the file.
-// The file's triangles in world space (before the frame), one after another, for pm_core_bounds.
-struct FrameWalk {
-    const std::vector<Instance> *instances;
-    const std::vector<std::unique_ptr<DecodedMesh>> *meshes;
-    const std::vector<Mat4> *world;
-    size_t instance = 0, primitive = 0, corner = 0;
-
-    static bool next(void *context, bool restart, double corners[9]) {
-        FrameWalk &w = *static_cast<FrameWalk *>(context);
-        if (restart) w.instance = w.primitive = w.corner = 0;
-        for (; w.instance < w.instances->size(); w.instance++, w.primitive = 0, w.corner = 0) {
-            const Instance &instance = (*w.instances)[w.instance];
-            const Mat4 &m = (*w.world)[instance.node];
-            const std::vector<DecodedPrimitive> &prims = (*w.meshes)[instance.mesh]->primitives;
-            for (; w.primitive < prims.size(); w.primitive++, w.corner = 0) {
-                const DecodedPrimitive &prim = prims[w.primitive];
-                if (!prim.triangles || w.corner + 3 > prim.corners.size()) continue;
-                for (int k = 0; k < 3; k++) {
-                    const float *p = &prim.positions[3 * static_cast<size_t>(prim.corners[w.corner + k])];
-                    for (int r = 0; r < 3; r++)
-                        corners[3 * k + r] = m.at(r, 0) * p[0] + m.at(r, 1) * p[1] + m.at(r, 2) * p[2] + m.at(r, 3);
-                }
-                w.corner += 3;
-                return true;
-            }
-        }
-        return false;
-    }
-};
-
-void Loader::choose_frame() {
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    uint64_t triangles = 0;
-    double smallest = INFINITY;  // the narrowest triangle's extent (largest axis of its bounds), degenerate ones aside
-    for (const Instance &instance : instances_) {
-        const Mat4 m = instance_world(instance);
-        for (const DecodedPrimitive &prim : meshes_[instance.mesh]->primitives) {
-            if (!prim.triangles) continue;
-            triangles += prim.corners.size() / 3;
-            for (size_t c = 0; c + 3 <= prim.corners.size(); c += 3) {
-                double tlo[3] = {INFINITY, INFINITY, INFINITY}, thi[3] = {-INFINITY, -INFINITY, -INFINITY};
-                for (int k = 0; k < 3; k++) {
-                    const float *p = &prim.positions[3 * static_cast<size_t>(prim.corners[c + k])];
-                    for (int r = 0; r < 3; r++) {
-                        double x = m.at(r, 0) * p[0] + m.at(r, 1) * p[1] + m.at(r, 2) * p[2] + m.at(r, 3);
-                        tlo[r] = std::min(tlo[r], x);
-                        thi[r] = std::max(thi[r], x);
-                    }
-                }
-                double e = std::max(thi[0] - tlo[0], std::max(thi[1] - tlo[1], thi[2] - tlo[2]));
-                if (e > 0) smallest = std::min(smallest, e);
-            }
-            for (size_t i = 0; i + 2 < prim.positions.size(); i += 3)
-                for (int r = 0; r < 3; r++) {
-                    double x = m.at(r, 0) * prim.positions[i] + m.at(r, 1) * prim.positions[i + 1] +
-                               m.at(r, 2) * prim.positions[i + 2] + m.at(r, 3);
-                    lo[r] = std::min(lo[r], x);
-                    hi[r] = std::max(hi[r], x);
-                }
-        }
-    }
-    // framed by its core (scene_core.c): a small stray far from the bulk neither shrinks the
-    // scene to a speck nor moves it; it stays where it is, refused by the accel past the reach
-    // Embree can trace
-    bool whole = std::isfinite(lo[0]) && std::isfinite(hi[0]) && std::isfinite(lo[1]) && std::isfinite(hi[1]) &&
-                 std::isfinite(lo[2]) && std::isfinite(hi[2]);
-    if (whole) {
-        FrameWalk walk{&instances_, &meshes_, &world_};
-        pm_core_source source = {triangles, &walk, FrameWalk::next};
-        if (!pm_core_bounds(&source, lo, hi)) throw std::bad_alloc();
-    }
-    double extent = 0, center[3], farthest = 0;
-    for (int r = 0; r < 3; r++) {
-        extent = std::max(extent, hi[r] - lo[r]);
-        center[r] = 0.5 * lo[r] + 0.5 * hi[r];
-        farthest = std::max(farthest, std::fabs(center[r]));
-    }
-    if (extent > 0 && std::isfinite(extent) && std::isfinite(farthest)) {
-        if (extent < std::ldexp(1.0, -20) || extent > std::ldexp(1.0, 20)) frame_scale_ = std::ldexp(1.0, -std::ilogb(extent));
-        if (farthest > std::ldexp(1.0, 10) * extent) {
-            recentered_ = true;
-            std::copy(center, center + 3, frame_center_);
-        }
-    }
-    // Shrinking a scene whose bulk is huge must not shrink its small parts below what float can
-    // render (a triangle narrower than 2^-62 has an area under float's smallest normal number): a
-    // unit box beside a sphere placed with a scale of 1e38 would become dust and render black.
-    if (frame_scale_ < 1 && smallest * frame_scale_ < std::ldexp(1.0, -62))
-        fail("the scene's sizes span more than float can render: a triangle " + num(smallest) + " wide beside a bulk " +
-             num(extent) + " wide (at most 2^62 apart)");
-    if (frame_scale_ != 1 || recentered_) {
-        Mat4 frame = identity();
-        for (int r = 0; r < 3; r++) {
-            frame.m[r * 5] = frame_scale_;
-            frame.m[12 + r] = -frame_center_[r] * frame_scale_;
-        }
-        for (Mat4 &w : world_) w = multiply(frame, w);
-    }
-    // attenuation per unit length: divided by the frame's scale, in double before it becomes a float
-    for (size_t i = 0; i < materials_.size(); i++) {
-        float sigma[3];
-        for (int k = 0; k < 3; k++) {
-            double framed = attenuation_[i][k] / frame_scale_;
-            if (framed > FLT_MAX) note(material_label(i), "KHR_materials_volume attenuation", num(framed) +
-                                       " per unit length (-ln attenuationColor / attenuationDistance) clamped to " +
-                                       num(FLT_MAX));
-            sigma[k] = static_cast<float>(std::min<double>(framed, FLT_MAX));
-        }
-        materials_[i].attenuation = v3(sigma[0], sigma[1], sigma[2]);
-    }
-    for (const Placed &p : placed_) {
-        WorldTransform world(world_[p.node]);
-        if (p.light) add_light(p.index, world, p.node);
-        else add_camera(p.index, world, p.node);
-    }
-}
-
-// Whether a mesh's own coordinates are what the scene's framing (choose_frame) would leave alone:
-// extent within [2^-20, 2^20] and no farther from its origin than 2^10 extents. A stored mesh
-// keeps its own coordinates, which Embree traces in mesh space, so one that the framing would
-// rescale or recentre is flattened instead, through the framed world transforms.
-bool Loader::framed_alone(size_t mesh) const {
-    if (!meshes_[mesh]) return false;
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (const DecodedPrimitive &prim : meshes_[mesh]->primitives)
-        for (size_t i = 0; prim.triangles && i + 2 < prim.positions.size(); i += 3)
-            for (int r = 0; r < 3; r++) {
-                lo[r] = std::min(lo[r], static_cast<double>(prim.positions[i + r]));
-                hi[r] = std::max(hi[r], static_cast<double>(prim.positions[i + r]));
-            }
-    double extent = 0, farthest = 0;
-    for (int r = 0; r < 3; r++) {
-        extent = std::max(extent, hi[r] - lo[r]);
-        farthest = std::max(farthest, std::fabs(0.5 * lo[r] + 0.5 * hi[r]));
-    }
-    return extent >= std::ldexp(1.0, -20) && extent <= std::ldexp(1.0, 20) && std::isfinite(farthest) &&
-           farthest <= std::ldexp(1.0, 10) * extent;
-}
-
-// After the flat triangles: each instanced mesh (uses > 0) once, in mesh space, then its
-// placements, grouped by mesh (pm_instanced_mesh.first_placement), each with the node's world
-// transform. Triangle ids follow: the flat triangles', then each placement's in order.
-void Loader::place_instanced_meshes(const std::vector<uint32_t> &uses) {
-    triangle_ids_ = triangle_material_.size();
-    std::vector<std::vector<const Instance *>> placed_by(uses.size());  // one pass over the instances, not one a mesh
-    for (const Instance &instance : instances_)
-        if (uses[instance.mesh]) placed_by[instance.mesh].push_back(&instance);
-    for (size_t m = 0; m < uses.size(); m++) {
-        if (!uses[m]) continue;
-        const Instance *first = placed_by[m].front();
-        pm_instanced_mesh mesh;
-        memset(&mesh, 0, sizeof mesh);
-        mesh.first_triangle = static_cast<uint32_t>(triangle_material_.size());
-        mesh.first_vertex = static_cast<uint32_t>(positions_.size());
-        uint64_t degenerate = degenerate_, skipped = skipped_prims_;
-        instance_mesh(*first, identity());
-        // counted as often as the mesh is placed, as a flattened scene counts them
-        degenerate_ += (degenerate_ - degenerate) * (uses[m] - 1);
-        skipped_prims_ += (skipped_prims_ - skipped) * (uses[m] - 1);
-        mesh.triangle_count = static_cast<uint32_t>(triangle_material_.size()) - mesh.first_triangle;
-        mesh.vertex_count = static_cast<uint32_t>(positions_.size()) - mesh.first_vertex;
-        mesh.first_placement = static_cast<uint32_t>(placements_.size());
-        for (const Instance *instance : placed_by[m]) {
-            WorldTransform world(instance_world(*instance));
-            pm_placement p;
-            memset(&p, 0, sizeof p);
-            p.mesh = static_cast<uint32_t>(instanced_meshes_.size());
-            p.first_id = static_cast<uint32_t>(triangle_ids_);
-            for (int r = 0; r < 3; r++)
-                for (int c = 0; c < 4; c++) p.object_to_world[4 * r + c] = static_cast<float>(world.matrix.at(r, c));
-            for (int r = 0; r < 3; r++)
-                for (int c = 0; c < 3; c++) p.normal_matrix[3 * r + c] = static_cast<float>(world.normal_matrix[r][c]);
-            p.handedness = world.mirrored ? -1.f : 1.f;
-            placements_.push_back(p);
-            triangle_ids_ += mesh.triangle_count;
-        }
-        mesh.placement_count = static_cast<uint32_t>(placements_.size()) - mesh.first_placement;
-        instanced_meshes_.push_back(mesh);
-    }
-}
-
-// KHR_materials_variants: with a variant asked for, every primitive whose mappings name it takes
-// the mapped material (the preflight checked the material indices); the others keep their default.
-// A name the file's root list does not hold fails the load with the names it does hold.
-void Loader::apply_variant() {
-    std::vector<std::string> names;
-    auto root = model_.extensions.find("KHR_materials_variants");
-    if (root != model_.extensions.end() && root->second.IsObject() && root->second.Has("variants")) {
-        const tinygltf::Value &list = root->second.Get("variants");
-        for (size_t k = 0; list.IsArray() && k < list.ArrayLen(); k++) {
-            const tinygltf::Value &v = list.Get(static_cast<int>(k));
-            names.push_back(v.IsObject() && v.Has("name") && v.Get("name").IsString() ? v.Get("name").Get<std::string>() : "");
-        }
-    }
-    // the names for the window's variant key, which reloads the file with one of them (an
-    // embedded '\0' would cut a name short: such a name stays reachable by --variant alone)
-    for (const std::string &n : names) {
-        variant_names_.insert(variant_names_.end(), n.begin(), n.end());
-        variant_names_.push_back('\0');
-    }
-    variant_count_ = static_cast<uint32_t>(names.size());
-    if (!options_.variant) return;
-    const std::string wanted = options_.variant;
-    int index = -1;
-    for (size_t k = 0; k < names.size() && index < 0; k++)
-        if (names[k] == wanted) index = static_cast<int>(k);
-    if (index < 0) {
-        std::string known;
-        for (const std::string &n : names) known += (known.empty() ? "" : ", ") + printable(n);
-        fail("no material variant " + printable(wanted) + " (KHR_materials_variants lists " +
-             (names.empty() ? std::string("none") : known) + ")");
-    }
-    for (tinygltf::Mesh &mesh : model_.meshes)
-        for (tinygltf::Primitive &prim : mesh.primitives) {
-            auto ext = prim.extensions.find("KHR_materials_variants");
-            if (ext == prim.extensions.end() || !ext->second.IsObject() || !ext->second.Has("mappings")) continue;
-            const tinygltf::Value &mappings = ext->second.Get("mappings");
-            for (size_t k = 0; mappings.IsArray() && k < mappings.ArrayLen(); k++) {
-                const tinygltf::Value &m = mappings.Get(static_cast<int>(k));
-                if (!m.IsObject() || !m.Has("material") || !m.Get("material").IsNumber() || !m.Has("variants")) continue;
-                const tinygltf::Value &vs = m.Get("variants");
-                for (size_t j = 0; vs.IsArray() && j < vs.ArrayLen(); j++)
-                    if (vs.Get(static_cast<int>(j)).IsNumber() && vs.Get(static_cast<int>(j)).GetNumberAsInt() == index)
-                        prim.material = m.Get("material").GetNumberAsInt();
-            }
-        }
-}
+// ---------------- the load: every stage in order, then its closing checks and warnings
 
 void Loader::load(pm_scene *out) {
     std::vector<unsigned char> file = read_model_file();
@@ -3224,113 +3621,32 @@ void Loader::load(pm_scene *out) {
     apply_variant();
     convert_materials();  // first: whether any texture reads TEXCOORD_1 decides what the meshes keep
     meshes_.resize(model_.meshes.size());
-    // A mesh placed by two or more nodes, each with an invertible transform, is stored once and
-    // placed (instanced); the rest is flattened into world space.
-    std::vector<uint32_t> uses(model_.meshes.size(), 0);
-    std::vector<char> instanced(model_.meshes.size(), 0), counted(model_.meshes.size(), 0);
-    for (const Instance &instance : instances_) {
-        uses[instance.mesh]++;
-        decoded_mesh(instance.mesh);  // each mesh once, however often it is placed
-        const std::vector<double> &own = model_.nodes[instance.node].weights;
-        if (!own.empty() && own != model_.meshes[instance.mesh].weights && !node_weights_warned_) {
-            node_weights_warned_ = true;
-            warn("node " + str(instance.node) + " gives mesh " + str(instance.mesh) +
-                 " morph weights of its own: the mesh's default weights are rendered (one pose a mesh)");
-        }
-    }
+    std::vector<uint32_t> uses = decode_placed_meshes();
     choose_frame();  // the placements' matrices below are the framed ones
-    for (size_t m = 0; m < uses.size(); m++) instanced[m] = uses[m] >= 2 && !options_.flatten_instances && framed_alone(m);
-    // A placement whose transform is singular, far from a unit scale or close to flattening an
-    // axis, or whose matrix or normal matrix does not fit in float, flattens its mesh: the flat
-    // path checks every transformed vertex. Embree traces a placement in mesh space through the
-    // float inverse, and an extreme one (a scale of 1e20, entries of 1e30, one axis scaled by
-    // 1e-20) hands its intersector a ray it aborts the process on. Bounds, with the Frobenius
-    // norm f >= the largest singular value: the smallest one is at least |det| / f^2, so
-    // f^3 / |det| bounds the condition number.
-    for (const Instance &instance : instances_) {
-        const Mat4 w = instance_world(instance);
-        double det = w.at(0, 0) * (w.at(1, 1) * w.at(2, 2) - w.at(1, 2) * w.at(2, 1)) -
-                     w.at(0, 1) * (w.at(1, 0) * w.at(2, 2) - w.at(1, 2) * w.at(2, 0)) +
-                     w.at(0, 2) * (w.at(1, 0) * w.at(2, 1) - w.at(1, 1) * w.at(2, 0));
-        if (!(det != 0) || !std::isfinite(det) || !std::isfinite(1 / det)) instanced[instance.mesh] = 0;
-        double frobenius = 0;
-        for (int r = 0; r < 3; r++)
-            for (int c = 0; c < 3; c++) frobenius += w.at(r, c) * w.at(r, c);
-        frobenius = std::sqrt(frobenius);
-        if (!(frobenius >= std::ldexp(1.0, -20) && frobenius <= std::ldexp(1.0, 20)) ||
-            !(frobenius * frobenius * frobenius <= std::ldexp(1.0, 20) * std::fabs(det)))
-            instanced[instance.mesh] = 0;
-        if (!instanced[instance.mesh]) continue;
-        WorldTransform world(w);
-        for (int r = 0; r < 3; r++)
-            for (int c = 0; c < 4; c++)
-                if (!std::isfinite(static_cast<float>(world.matrix.at(r, c))) ||
-                    (c < 3 && !std::isfinite(static_cast<float>(world.normal_matrix[r][c]))))
-                    instanced[instance.mesh] = 0;
-    }
-    uint64_t vertices = 0, triangles = 0, placements = 0;
-    for (const Instance &instance : instances_) {
-        const DecodedMesh &mesh = *meshes_[instance.mesh];
-        if (instanced[instance.mesh]) {
-            placements++;
-            triangle_ids_ += mesh.triangles;
-            if (counted[instance.mesh]++) continue;  // stored once
-        } else {
-            triangle_ids_ += mesh.triangles;
-        }
-        vertices += mesh.vertices;
-        triangles += mesh.triangles;
-        if (vertices > kMaxSceneVertices || triangles > kMaxSceneTriangles)
-            fail("scene too large: more than " + str(kMaxSceneVertices) + " vertices or " + str(kMaxSceneTriangles) +
-                 " triangles after instancing");
-    }
-    if (triangle_ids_ >= UINT32_MAX)
-        fail("scene too large: " + str(triangle_ids_) + " placed triangles (a triangle id is 32 bits)");
+    std::vector<char> instanced = choose_instanced_meshes(uses);
+    SceneTotals totals = count_scene(instanced);
     for (size_t m = 0; m < uses.size(); m++)
         if (!instanced[m]) uses[m] = 0;
-    {
-        // the scene's arrays and the acceleration structure, estimated before either is allocated
-        uint64_t per_vertex = 2 * sizeof(vec3) + 2 * sizeof(float) * (uv1_needed_ ? 2 : 1) + (tangents_needed_ ? 4 * sizeof(float) : 0);
-        // (Embree's share as the memory forecast counts it: accel.c, pm_accel_forecast_bytes)
-        uint64_t accel = triangles * PM_ACCEL_BUILD_BYTES_PER_TRIANGLE + vertices * PM_ACCEL_BYTES_PER_VERTEX +
-                         placements * PM_ACCEL_BYTES_PER_PLACEMENT;
-        uint64_t bytes = vertices * per_vertex + triangles * 4 * sizeof(uint32_t) + placements * sizeof(pm_placement) + accel +
-                         placed_.size() * (sizeof(pm_light) + sizeof(float) + sizeof(pm_camera));  // lights, their power table, cameras
-        const uint64_t mark = pm_memory_failure_mark();
-        if (!pm_memory_admit(bytes, "scene geometry and its acceleration structure"))
-            fail("out of memory (" + std::string(pm_memory_failure_since_or(mark, "scene geometry and its acceleration structure")) +
-                 "): " + str(triangles) +
-                 " triangles after instancing");
-        // the acceleration structure's share was a forecast: Embree's allocations are admitted as they happen
-        pm_memory_release(accel);
-        admitted_.bytes += bytes - accel;
-    }
-    if (default_material_used_) {
-        pm_material m;
-        memset(&m, 0, sizeof m);
-        m.base_color = v3(1, 1, 1);
-        m.base_color_texture = -1;
-        m.emission_texture = -1;
-        m.metallic_roughness_texture = -1;
-        m.transmission_texture = -1;
-        m.normal_texture = -1;
-        m.normal_scale = 1.f;
-        m.metallic = m.roughness = 1.f;
-        m.ior = 1.5f;
-        m.alpha = 1.f;
-        m.alpha_cutoff = 0.5f;
-        materials_.push_back(m);
-    }
-    positions_.reserve(vertices);
-    normals_.reserve(vertices);
-    uvs_.reserve(2 * vertices);
-    if (uv1_needed_) uvs1_.reserve(2 * vertices);
-    if (tangents_needed_) tangents_.reserve(4 * vertices);
-    indices_.reserve(3 * triangles);
-    triangle_material_.reserve(triangles);
+    admit_scene_geometry(totals);
+    if (default_material_used_) add_default_material();
+    positions_.reserve(totals.vertices);
+    normals_.reserve(totals.vertices);
+    uvs_.reserve(2 * totals.vertices);
+    if (uv1_needed_) uvs1_.reserve(2 * totals.vertices);
+    if (tangents_needed_) tangents_.reserve(4 * totals.vertices);
+    indices_.reserve(3 * totals.triangles);
+    triangle_material_.reserve(totals.triangles);
     for (const Instance &instance : instances_)
         if (!uses[instance.mesh]) instance_mesh(instance, instance_world(instance));
     place_instanced_meshes(uses);
+    check_something_to_render();
+    warn_load_counts();
+    finish_notes();
+    emit(out);
+}
+
+// A load without a triangle to render fails with the reason.
+void Loader::check_something_to_render() const {
     if (triangle_material_.empty() && degenerate_)
         fail("nothing to render: all " + str(degenerate_) +
              " triangle(s) of the default scene are degenerate (zero area, or not representable after the transforms)");
@@ -3338,7 +3654,10 @@ void Loader::load(pm_scene *out) {
         fail("nothing to render: the default scene has only points/lines primitives (" + str(skipped_prims_) +
              " skipped; only triangles render)");
     if (triangle_material_.empty()) fail("nothing to render (no triangles in the default scene)");
+}
 
+// One warning per kind of input the load left out or replaced, with its count and first instance.
+void Loader::warn_load_counts() {
     if (degenerate_) warn("skipped " + str(degenerate_) + " degenerate triangle(s) (zero area or non-finite normal)");
     if (nonfinite_uvs_)
         warn(str(nonfinite_uvs_) + " non-finite texture coordinate(s) read as 0 (first: " + first_nonfinite_uv_ + ")");
@@ -3349,8 +3668,6 @@ void Loader::load(pm_scene *out) {
     if (collapsed_normals_)
         warn(str(collapsed_normals_) + " NORMAL value(s) lost their direction to their node's transform (first: " +
              first_collapsed_ + "): their triangles get flat normals, as without NORMAL");
-    finish_notes();
-    emit(out);
 }
 
 }  // namespace
