@@ -53,6 +53,8 @@ typedef struct {
 
 bool pm_guide_init(pm_guide *g, uint32_t sources);
 void pm_guide_free(pm_guide *g);
+/* Copies src's distribution and counts into dst, both initialised for as many sources. */
+void pm_guide_copy(pm_guide *dst, const pm_guide *src);
 /* Back to uniform, the counts forgotten (a restart). */
 void pm_guide_reset(pm_guide *g);
 /* Draws a cell of source s's learned distribution with u_cell, and places u1, u2 (uniform in

@@ -1,6 +1,7 @@
 /* guide.c: the marks of where estimates read photons (a hashed bit set) and the learned emission guide's cells, probabilities and sampling. */
 #include "guide.h"
 
+#include <assert.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -73,6 +74,15 @@ void pm_guide_free(pm_guide *g) {
     free(g->emitted);
     free(g->useful);
     memset(g, 0, sizeof *g);
+}
+
+void pm_guide_copy(pm_guide *dst, const pm_guide *src) {
+    assert(dst->sources == src->sources);
+    size_t cells = (size_t)src->sources * PM_GUIDE_CELL_COUNT;
+    if (!cells) return;
+    memcpy(dst->cdf, src->cdf, (cells + src->sources) * sizeof(float));
+    memcpy(dst->emitted, src->emitted, cells * sizeof(uint64_t));
+    memcpy(dst->useful, src->useful, cells * sizeof(uint64_t));
 }
 
 /* Source s's CDF from its counts: each cell's useful records per photon (the mean rate where a

@@ -908,12 +908,7 @@ static void keep_start(pm_progressive *p, const pm_film *film, iteration_start *
     st->probe_pairs = p->probe.pairs;
     st->stats = p->stats;
     if (p->probe.total) memcpy(p->probe.saved, p->probe.mean, PROBE_KEPT * p->probe.count * sizeof(double));
-    if (p->guiding) {
-        size_t cells = (size_t)p->guide.sources * PM_GUIDE_CELL_COUNT;
-        memcpy(p->guide_saved.cdf, p->guide.cdf, (cells + p->guide.sources) * sizeof(float));
-        memcpy(p->guide_saved.emitted, p->guide.emitted, cells * sizeof(uint64_t));
-        memcpy(p->guide_saved.useful, p->guide.useful, cells * sizeof(uint64_t));
-    }
+    if (p->guiding) pm_guide_copy(&p->guide_saved, &p->guide);
 }
 
 /* A cancel, or a failure before the film was written: everything as before the iteration (the
@@ -926,12 +921,7 @@ static bool take_back(pm_progressive *p, pm_film *film, const iteration_start *s
     p->probe.pairs = st->probe_pairs;
     p->stats = st->stats;
     if (p->probe.total) memcpy(p->probe.mean, p->probe.saved, PROBE_KEPT * p->probe.count * sizeof(double));
-    if (p->guiding) {
-        size_t cells = (size_t)p->guide.sources * PM_GUIDE_CELL_COUNT;
-        memcpy(p->guide.cdf, p->guide_saved.cdf, (cells + p->guide.sources) * sizeof(float));
-        memcpy(p->guide.emitted, p->guide_saved.emitted, cells * sizeof(uint64_t));
-        memcpy(p->guide.useful, p->guide_saved.useful, cells * sizeof(uint64_t));
-    }
+    if (p->guiding) pm_guide_copy(&p->guide, &p->guide_saved);
     return true;
 }
 
