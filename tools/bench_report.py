@@ -200,18 +200,27 @@ read below 2 whenever the load average was above 0 during the run.""")
 `photon_ceiling` records the rays the progressive mode's photon passes cast (the link wraps
 `pm_accel_intersect` and `pm_accel_intersect_packets` for that program only; the renderer's code is
 unchanged), then traces the same rays again in a bare `rtcIntersect1` loop: the speed the pass would
-reach if pmview's own work cost nothing. One thread, pairs of a pass and its replay;
-`ratio_to_raw_own_rays` is the median pair's ratio (the target is 0.7 or more), the quartiles its
-spread. The packets column replays the pass's own packets with `rtcIntersect8`: about the share of
+reach if pmview's own work cost nothing. One thread, 15 pairs of a pass and its replay; the
+ratio is the median pair's (the target is 0.7 or more), the quartiles its spread, for the global
+and caustic passes together and each alone. The packets column replays the pass's own packets with `rtcIntersect8`: about the share of
 the pass's time that is Embree's. Scenes whose photons mostly leave into the open (a low hit
 fraction) read lower: their rays cost Embree little, so the work per ray around them weighs more.""")
         rows = []
-        for f in select(self.r, "bench", "photon_ceiling"):
-            rows.append([short(f.get("scene")), f.get("pass", "-"), num(f.get("rays")), num(f.get("hit_fraction")),
-                         "%s (%s)" % (num(f.get("ratio_to_raw_own_rays")), pair(f.get("ratio_quartiles")).replace(", ", "-")),
-                         num(f.get("ratio_to_raw_packets")), num(f.get("photon_rays_per_second")), num(f.get("raw_own_rays_per_second"))])
-        self.add(table(["scene", "pass", "rays", "hit fraction", "over raw, own rays (quartiles)", "over raw packets",
-                        "pass rays/s", "raw rays/s"], rows) if rows else "(no lines in this run)")
+        for f in select(self.r, "bench", "photon_ceiling", **{"pass": "both"}):
+            scene = f.get("scene")
+            alone = {p: first(self.r, "bench", "photon_ceiling", scene=scene, **{"pass": p}).get("ratio_to_raw_own_rays")
+                     for p in ("global", "caustic")}
+            rows.append([short(scene), num(f.get("rays")), num(f.get("hit_fraction")),
+                         "**%s** (%s)" % (num(f.get("ratio_to_raw_own_rays")), pair(f.get("ratio_quartiles")).replace(", ", "-")),
+                         num(alone["global"]), num(alone["caustic"]), num(f.get("ratio_to_raw_packets")),
+                         num(f.get("photon_rays_per_second")), num(f.get("raw_own_rays_per_second"))])
+        self.add(table(["scene", "rays", "hit fraction", "both passes over raw (quartiles)", "global pass alone", "caustic pass alone",
+                        "over raw packets", "pass rays/s", "raw rays/s"], rows) if rows else "(no lines in this run)")
+        both = [float(f["ratio_to_raw_own_rays"]) for f in select(self.r, "bench", "photon_ceiling", **{"pass": "both"})
+                if f.get("ratio_to_raw_own_rays")]
+        if both:
+            self.add("", "In this run %d of %d scenes reach 0.7 with both passes (median over scenes %.3f)."
+                     % (sum(x >= 0.7 for x in both), len(both), sorted(both)[(len(both) - 1) // 2]))
 
     def default_vs_pathtrace(self):
         self.section("The default against the path tracer, every scene with a reference", "sh bench/default_vs_pathtrace.sh", """
@@ -230,6 +239,12 @@ sky. layered-spheres has no reference and is not in this table.""")
                          num(f.get("relmse_default")), num(f.get("relmse_pathtrace")), "**%s**" % num(f.get("ratio"))])
         self.add(table(["scene", "size", "seed", "gather source", "iterations, default / path tracer", "relMSE default",
                         "relMSE path tracer", "ratio"], rows) if rows else "(no lines in this run)")
+        runs = [(float(f["ratio"]), f.get("scene", "-"), f.get("size", "64")) for f in select(self.r, "bench", "default_vs_pathtrace")
+                if f.get("ratio") and float(f["ratio"]) > 0]
+        if runs:
+            behind = ["%s at %sx%s (%.2f)" % (n, z, z, r) for r, n, z in runs if r > 1]
+            self.add("", "In this run the default is ahead on %d of %d; behind on %s." % (len(runs) - len(behind), len(runs),
+                     ", ".join(behind) if behind else "none"))
 
     def clip(self):
         self.section("What clipping costs, every shipped scene", "sh bench/clip_bench.sh", """
