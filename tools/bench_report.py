@@ -142,16 +142,24 @@ class Report:
                  ]),
                  "",
                  "**How to read it.** The machine may be shared: a load average above the number of cores means",
-                 "other work took processor time during the run, and absolute rates and seconds then move by",
-                 "10-30% (more under heavy load). The figures to compare are **ratios measured within this run**:",
+                 "other work took processor time during the run, and absolute rates and seconds then fall and",
+                 "vary from run to run. The figures to compare are **ratios measured within this run**:",
                  "a pass against raw Embree on the same rays, one setting against another alternated, the",
                  "default against the path tracer at equal wall time. Error against time for each method is in",
                  "docs/convergence.md; the algorithms measured here are described in docs/design.md. Each",
                  "section names the command that makes its lines alone (run from the repository root after",
                  "`make bench` has built the programs); relMSE is the mean over pixels and channels of",
                  "(x - r)^2 / (r^2 + 0.01) against the scene's reference in tests/ref.")
+        loads = [float(x.split(",")[0]) for x in [start.get("load_start", ""), end.get("load_end", "")] +
+                 [f.get("load", "") for f in select(self.r, "run", "step")] if x]
+        cores = float(start.get("nproc", 0) or 0)
+        if loads and cores:
+            self.add("", "In this run the 1-minute load average read %.1f to %.1f on %d cores%s." % (
+                min(loads), max(loads), cores,
+                ": other work shared the machine throughout, so read the ratios, not the rates" if min(loads) > cores else
+                (": other work shared the machine for part of it" if max(loads) > cores else "")))
         if self.notes:
-            self.add("", "Notes the run printed (steps skipped or checks that failed):", "")
+            self.add("", "Lines the run printed besides its figures:", "")
             self.add(*["- `%s`" % n for n in self.notes])
 
     def throughput(self):
@@ -164,7 +172,7 @@ median of 9 pairs of a pass and a raw replay right after it is the steadier figu
 progressive iteration at 512x512 and its phases, and the first iteration at 640x480 over one
 without photons (what a user waits for after a camera move). A ratio near 1 means the pass spends
 its time in Embree; the rest is shading, sampling, the film and the gather. Two-thread speed-ups
-read below 2 whenever the load average was above 0 during the run.""")
+read below 2 whenever other work took processor time during the run.""")
         scenes = [f["scene"] for f in select(self.r, "bench", "") if "triangles" in f]
         if not scenes:
             self.add("(no `bench_pm` lines in this run)")
@@ -174,7 +182,7 @@ read below 2 whenever the load average was above 0 during the run.""")
         rows = []
         def row(label, fn):
             rows.append([label] + [fn(s) for s in scenes])
-        row("triangles", lambda s: get("", "triangles", s))
+        row("triangles", lambda s: "{:,}".format(int(get("", "triangles", s) or 0)))
         row("load, BVH build seconds", lambda s: "%s, %s" % (num(get("", "load_seconds", s)), num(get("", "bvh_seconds", s))))
         row("raw eye-like / scattered rays per second, 1 thread",
             lambda s: "%s / %s" % (num(get("raw", "eye_like_rays_per_second", s, threads="1")), num(get("raw", "scattered_rays_per_second", s, threads="1"))))
@@ -227,8 +235,8 @@ fraction) read lower: their rays cost Embree little, so the work per ray around 
 Every shipped scene that has a reference in tests/ref renders at the reference's size for the
 same wall time (`BENCH_SECONDS`, 10 s by default) on all cores, the default mode and then `--mode
 pathtrace`, alternating per seed (`BENCH_SEEDS`). The ratio is the default's relMSE over the path
-tracer's: **below 1 the default is ahead**, and the default must never lose (a ratio within about
-0.2 of 1 is within the noise of one pair under load). `gather source` is what the default's final
+tracer's: **below 1 the default is ahead**, and the default must never lose (one seed's pair
+carries the noise of two short runs: more seeds narrow it). `gather source` is what the default's final
 gathering chose (`stat progressive gather_source`: photons, or the path tracer's own light). The
 window rooms render under the references' constant white sky (`--sky white`), the others without a
 sky. layered-spheres has no reference and is not in this table.""")
@@ -334,14 +342,13 @@ row's speed-up shows the run's noise).""")
                                 "eye pass speed-up", "map seconds, bytes"], rows))
 
     def memory(self):
-        self.section("Memory: the forecast against the peak", "sh bench/memory_table.sh   # FULL=1 adds 5x10^7 triangles (about 8 GB)", """
+        self.section("Memory: the forecast against the peak", "sh bench/memory_table.sh   # FULL=1 adds 5x10^7 triangles", """
 `--stats` prints `stat memory estimate_bytes=` (the peak forecast from the structures' sizes,
 docs/design.md) beside `peak_rss_bytes=`. The script generates each scene and renders a 256x256 EXR
 of one iteration: flat, bench/big_scene.py's height field with smooth normals; instanced,
 bench/instanced_scene.py's 1,000 placements of one mesh of a thousandth of the triangles. The step
-fails when a ratio leaves 0.75-1.25. About 60 MB of every row is the baseline (code, libraries, the
-threads' arenas).""")
-        rows = [[f.get("triangles", "-"), f.get("kind", "-"), num(int(f.get("file_bytes", 0) or 0) / 1048576.0) + " MB",
+fails when a ratio leaves 0.75-1.25.""")
+        rows = [["{:,}".format(int(f.get("triangles", 0) or 0)), f.get("kind", "-"), num(int(f.get("file_bytes", 0) or 0) / 1048576.0) + " MB",
                  f.get("estimate_mb", "-") + " MB", f.get("peak_mb", "-") + " MB", num(f.get("peak_over_estimate"))]
                 for f in select(self.r, "bench", "memory_table")]
         self.add(table(["triangles", "kind", "file", "estimate", "peak RSS", "peak / estimate"], rows) if rows else "(no lines in this run)")
