@@ -1,7 +1,7 @@
 # Makefile: builds pmview, its tests (under ASan/UBSan and TSan) and benchmarks; installs missing Debian packages first.
 #
 #   make          build ./pmview                 make run    install, build, render the default scene
-#   make test     install, build, run all tests  make bench  speed figures (ratios measured in one run)
+#   make test     install, build, run all tests  make bench  speed figures (ratios measured in one run), written to docs/benchmarks.md
 #                 (JOBS=N: N tests side by side, 2 by default)
 #   make check    the whole suite under ASan+UBSan, the threaded tests under TSan, a render under valgrind
 #   make fuzz     libFuzzer (clang): glTF through load, set-up, accel and a tiny render, then the sky, reference

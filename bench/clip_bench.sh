@@ -31,6 +31,7 @@ scenes/mirror-caustic.gltf:--sky none:tests/ref/mirror_path_64.exr
 scenes/point-room.gltf:--sky none:tests/ref/point_room_path_64.exr
 scenes/window-room.gltf:--sky white:tests/ref/window_room_64.exr
 scenes/window-hollow.gltf:--sky white:tests/ref/window_hollow_64.exr
+scenes/dielectric-spheres.gltf:--sky none:tests/ref/dielectric_spheres_path_64.exr
 scenes/layered-spheres.gltf::-"
 
 timing() { # name scene size iterations extra

@@ -3,7 +3,7 @@
 #
 # Usage: sh bench/default_vs_pathtrace.sh   (BENCH_SECONDS per run, default 10; BENCH_SEEDS, default "1";
 # BENCH_SCENES, the scenes to run, default all of the list below)
-# Each scene renders 64x64 on all cores for the same wall time, the default and then --mode
+# Each scene renders at its reference's size (64x64; the hollow window room also 128x128) on all cores for the same wall time, the default and then --mode
 # pathtrace, alternating per seed, so a machine's drift over the runs falls on both alike. ratio =
 # relmse_default / relmse_pathtrace: below 1 the default is ahead. gather_source is what the
 # default's final gathering chose (photons, path; none where nothing is gathered).
@@ -13,16 +13,17 @@ seeds=${BENCH_SEEDS:-1}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 field() { sed -n "s/.*[ ]$1=\([^ ]*\).*/\1/p" "$2" | tail -n 1; }
-# scene:reference:sky (the references' environments: none but the window rooms' constant white sky)
-for entry in cornell-box:cornell_path_64:none caustic:caustic_floor_64:none glossy-spheres:glossy_path_64:none \
-             mirror-caustic:mirror_path_64:none point-room:point_room_path_64:none window-room:window_room_64:white \
-             window-hollow:window_hollow_64:white dielectric-spheres:dielectric_spheres_path_64:none; do
-    scene=${entry%%:*}; rest=${entry#*:}; ref=tests/ref/${rest%%:*}.exr; sky=${rest#*:}
+# scene:reference:sky:size (the references' environments: none but the window rooms' constant white sky)
+for entry in cornell-box:cornell_path_64:none:64 caustic:caustic_floor_64:none:64 glossy-spheres:glossy_path_64:none:64 \
+             mirror-caustic:mirror_path_64:none:64 point-room:point_room_path_64:none:64 window-room:window_room_64:white:64 \
+             window-hollow:window_hollow_64:white:64 window-hollow:window_hollow_128:white:128 \
+             dielectric-spheres:dielectric_spheres_path_64:none:64; do
+    scene=${entry%%:*}; rest=${entry#*:}; ref=tests/ref/${rest%%:*}.exr; rest=${rest#*:}; sky=${rest%%:*}; size=${rest#*:}
     case " ${BENCH_SCENES:-$scene} " in *" $scene "*) ;; *) continue ;; esac
     [ -f "$ref" ] || { echo "bench default_vs_pathtrace scene=$scene skipped ($ref missing)"; continue; }
     for seed in $seeds; do
         for mode in progressive pathtrace; do
-            ./pmview "scenes/$scene.gltf" --sky "$sky" --width 64 --height 64 --time "$seconds" --seed "$seed" --quiet \
+            ./pmview "scenes/$scene.gltf" --sky "$sky" --width "$size" --height "$size" --time "$seconds" --seed "$seed" --quiet \
                 --mode "$mode" --reference "$ref" --stats --snapshot "$tmp/$mode.exr" >"$tmp/$mode" 2>&1 ||
                 { echo "bench default_vs_pathtrace: pmview failed on $scene ($mode)"; cat "$tmp/$mode"; exit 1; }
             grep '^stat error' "$tmp/$mode" | tail -n 1 >"$tmp/$mode.error"
@@ -30,8 +31,8 @@ for entry in cornell-box:cornell_path_64:none caustic:caustic_floor_64:none glos
         grep '^stat progressive ' "$tmp/progressive" >"$tmp/progressive.stats"
         d=$(field relmse "$tmp/progressive.error"); p=$(field relmse "$tmp/pathtrace.error")
         source=$(field gather_source "$tmp/progressive.stats")
-        printf 'bench default_vs_pathtrace scene=%s seed=%s seconds=%s relmse_default=%s relmse_pathtrace=%s ratio=%s iterations_default=%s iterations_pathtrace=%s gather_source=%s\n' \
-            "$scene" "$seed" "$seconds" "$d" "$p" "$(python3 -c "import sys; a, b = float(sys.argv[1] or 0), float(sys.argv[2] or 0); print(\"%.3f\" % (a / b if b > 0 else 0))" "$d" "$p")" \
+        printf 'bench default_vs_pathtrace scene=%s size=%s seed=%s seconds=%s relmse_default=%s relmse_pathtrace=%s ratio=%s iterations_default=%s iterations_pathtrace=%s gather_source=%s\n' \
+            "$scene" "$size" "$seed" "$seconds" "$d" "$p" "$(python3 -c "import sys; a, b = float(sys.argv[1] or 0), float(sys.argv[2] or 0); print(\"%.3f\" % (a / b if b > 0 else 0))" "$d" "$p")" \
             "$(field iterations "$tmp/progressive.error")" "$(field iterations "$tmp/pathtrace.error")" "${source:-none}"
     done
 done

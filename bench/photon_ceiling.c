@@ -18,7 +18,7 @@
  * give the second ceiling, raw_packet_rays_per_second, and ratio_to_raw_packets: about the share
  * of the pass's time that is Embree's, the rest being our own work per ray. The rays are logged
  * in the pass's order (a wave's first rays, then its second, ...); rtcIntersect1 takes them 2-6%
- * slower than one photon's bounces after another (docs/benchmarks.md, the photon pass against its own rays).
+ * slower than one photon's bounces after another (docs/design.md, why the photon pass traces in waves).
  */
 #include <stdbool.h>
 #include <stdio.h>

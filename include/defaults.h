@@ -45,7 +45,7 @@
 #define PM_ACCEL_BYTES_PER_VERTEX 16          /* the vertex buffers Embree reads (padded to 16 bytes) */
 #define PM_ACCEL_BYTES_PER_PLACEMENT 384 /* one Embree instance of a shared mesh, its geometry object and its share of the top BVH
                                             (measured: 83 bytes in Embree's count, 356-386 of resident memory for 250,000 to 10^6
-                                            placements, docs/benchmarks.md, Instancing) */
+                                            placements, docs/design.md, Instancing) */
 #define PM_PHOTON_PASS_RECORDS 3             /* photon records alive per photon of an iteration: the threads' lists, the merged list, the grid */
 #define PM_PHOTON_MAP_RECORDS 3              /* the global map's records per emitted photon: stored bounces, irradiance points, the tree
                                                 (a caustic photon is stored once, if at all) */
@@ -93,7 +93,7 @@
                                              paths go on through it, as through mirrors, rather than read photons there. A photon
                                              estimate weights each photon by the lobe, which peaks at 1 / (pi alpha^2): the noise
                                              of reading photons and of going on cross between roughness 0.2 and 0.3
-                                             (docs/benchmarks.md, "Sharp glossy lobes"), and below it reading explodes (relMSE
+                                             (docs/design.md, "Sharp glossy lobes"), and below it reading explodes (relMSE
                                              2.0 at roughness 0.1, 90 at 0.05, against 0.018 going on) */
 
 /* progressive photon mapping (the default mode) */

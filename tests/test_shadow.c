@@ -443,7 +443,7 @@ static void twenty_thousand_lights(void) {
     CHECK_NEAR(many.mean, many.expected, 0.03, 0, "20000 lights: the direct layer's mean against the analytic one");
 }
 
-/* `test_shadow stress SIZE TRIALS`: not a test but the measurement docs/benchmarks.md quotes (Shadow photons): random poles
+/* `test_shadow stress SIZE TRIALS`: not a test but the measurement docs/design.md quotes (Shadow photons): random poles
  * (diameter SIZE) and strips (SIZE wide) in a 4-unit scene under a random point light and a low
  * directional light, every verdict at 128x128 camera-visible points against its ray. */
 static int stress(float size, int trials) {
