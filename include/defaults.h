@@ -81,8 +81,14 @@
 #define PM_SHADOW_MIN_COUNT 8             /* the threshold: a light is decided without a ray only when at least this many of its
                                              photons are near and all agree (at most 15) */
 #define PM_SHADOW_MAX_CROSSINGS 16        /* surfaces a shadow photon passes through before it stops */
-#define PM_SHADOW_MIN_GAIN 2.0            /* ... and keeps it only when, timed on random surface points, the shadow rays it decides
-                                             take at least this many times as long as its lookups (big scenes, alpha-tested leaves) */
+#define PM_SHADOW_MIN_GAIN 2.0            /* ... and keeps it only when, on random surface points, the shadow rays it decides would
+                                             cost at least this many times as much as its lookups, priced by PM_SHADOW_LOOKUP_OVER_RAY */
+#define PM_SHADOW_LOOKUP_OVER_RAY 0.45    /* a lookup's cost over a shadow ray's, fixed so that whether a scene gets shadow photons
+                                             (and so its eye pass) never depends on the machine's load: the probe's own timing
+                                             (`stat shadow_photons probe_lookup_ns probe_ray_ns`, fastest of 15 builds, one thread)
+                                             read 22.5/35.1 ns caustic, 35.4/116.3 point-room, 23.2/54.8 window-hollow, 21.3/27.9
+                                             window-room, 25.9/75.1 a two-light test scene: 0.31-0.76, geometric mean 0.47. With
+                                             PM_SHADOW_MIN_GAIN, a map is kept where it decides at least 90% of the light samples */
 #define PM_SHADOW_TIME_SHARE 0.1         /* with --time: the shadow photons stop starting chunks after this share of the budget */
 #define PM_SHADOW_PAYBACK 4.0             /* by default a render gets shadow photons only when its shadow rays (samples x lights
                                              shaded) are at least this many times the photons the map would trace */

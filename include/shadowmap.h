@@ -47,8 +47,9 @@ typedef struct {
     size_t cells, bytes;         /* table entries in use, bytes of the table */
     double seconds;
     float cell_size, spacing;    /* scene units; spacing: between one light's records at their mean density */
-    /* the probe (random surface points, every light): the share of light samples the map decides,
-     * and the nanoseconds per light sample of the lookups and of the shadow rays */
+    /* the probe (random surface points, every light): the share of light samples the map decides
+     * (which alone decides whether the map is kept), and the nanoseconds per light sample of the
+     * lookups and of the shadow rays (reported, never decisive) */
     double probe_decided, probe_lookup_ns, probe_ray_ns;
     bool out_of_memory;
 } pm_shadow_stats;
@@ -64,6 +65,11 @@ uint64_t pm_shadow_default_photons(int width, int height);
  * PM_SHADOW_PAYBACK x the photons). After building, auto also drops a map whose probe finds
  * the rays it saves cheaper than PM_SHADOW_MIN_GAIN x its lookups ("would_not_pay"). */
 const char *pm_shadow_map_unneeded(const pm_scene *s, const pm_shadow_settings *set);
+
+/* Whether a map that decides this share of the probe's light samples is kept by default: the
+ * rays it saves, priced at a fixed cost ratio (PM_SHADOW_LOOKUP_OVER_RAY), at least
+ * PM_SHADOW_MIN_GAIN times its lookups. From counts alone, so the choice never depends on load. */
+bool pm_shadow_map_pays(double decided);
 
 /* The most memory a build would hold at once (records and cells), for the memory forecast; 0 when the scene gets no map. */
 uint64_t pm_shadow_map_forecast_bytes(const pm_scene *s, const pm_shadow_settings *set);

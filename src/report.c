@@ -96,10 +96,11 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
         }
     }
     const pm_shadow_stats *sh = pm_session_shadow_stats(session);
-    printf("stat shadow_photons built=%d reason=%s lights=%u photons=%llu records=%llu rays=%llu cells=%zu bytes=%zu cell_size=%.6g spacing=%.6g seconds=%.4f probe_decided=%.3f probe_lookup_ns=%.1f probe_ray_ns=%.1f\n",
+    printf("stat shadow_photons built=%d reason=%s lights=%u photons=%llu records=%llu rays=%llu cells=%zu bytes=%zu cell_size=%.6g spacing=%.6g seconds=%.4f probe_decided=%.3f probe_lookup_ns=%.1f probe_ray_ns=%.1f probe_needed=%.3f\n",
            sh->built, sh->built ? "none" : (sh->reason ? sh->reason : "not_reached"), sh->lights,
            (unsigned long long)sh->photons, (unsigned long long)sh->records, (unsigned long long)sh->rays, sh->cells,
-           sh->bytes, sh->cell_size, sh->spacing, sh->seconds, sh->probe_decided, sh->probe_lookup_ns, sh->probe_ray_ns);
+           sh->bytes, sh->cell_size, sh->spacing, sh->seconds, sh->probe_decided, sh->probe_lookup_ns, sh->probe_ray_ns,
+           PM_SHADOW_MIN_GAIN * PM_SHADOW_LOOKUP_OVER_RAY);
     if (pathtrace) {
         double paths = (double)film->samples * film->width * film->height;
         printf("stat pathtrace iterations=%u paths=%.0f rays=%llu seconds=%.4f rays_per_second=%.0f paths_per_second=%.0f mean_path_vertices=%.4f roulette_vertex=%d max_survival=%.2f\n",

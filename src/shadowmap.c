@@ -340,6 +340,8 @@ uint64_t pm_shadow_map_forecast_bytes(const pm_scene *s, const pm_shadow_setting
     return photons_per_light(set) * s->light_count * PM_SHADOW_RECORDS_PER_PHOTON * sizeof(record);
 }
 
+bool pm_shadow_map_pays(double decided) { return decided >= PM_SHADOW_MIN_GAIN * PM_SHADOW_LOOKUP_OVER_RAY; }
+
 pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const pm_shadow_settings *set,
                                    pm_shadow_stats *stats) {
     double start = pm_now_seconds();
@@ -409,9 +411,10 @@ pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const p
         stats->out_of_memory = true;
         return NULL;
     }
-    if (set->mode == PM_SHADOW_AUTO &&
-        !(stats->probe_decided * stats->probe_ray_ns >= PM_SHADOW_MIN_GAIN * stats->probe_lookup_ns)) {
-        /* the rays it would save are too cheap for the lookups (a small scene): no map */
+    /* priced by counts, not by the probe's clock: the same scene and settings get the same map
+     * (and the same eye pass) on any machine under any load */
+    if (set->mode == PM_SHADOW_AUTO && !pm_shadow_map_pays(stats->probe_decided)) {
+        /* the map would decide too few light samples to pay for its lookups: no map */
         pm_shadow_map_free(m);
         stats->reason = "would_not_pay";
         return NULL;

@@ -339,7 +339,24 @@ static void savings(void) {
           "8 iterations of 32x32 do not pay for 65536 photons a light");
     set.expected_samples = 512.0 * 512 * 64;
     CHECK(pm_shadow_map_unneeded(&s, &set) == NULL, "64 iterations of 512x512 do");
-    set.mode = PM_SHADOW_ON; /* auto would also time lookups against rays, which on a scene this small are cheap */
+    /* by default the map is kept from the probe's counts alone: the same answer at every build,
+     * whatever the probe's clock read (here, under load, the lookups and rays it timed) */
+    pm_shadow_stats first, again;
+    pm_shadow_map *kept = pm_shadow_map_build(&s, a, &set, &first);
+    CHECK((kept != NULL) == pm_shadow_map_pays(first.probe_decided) && first.built == (kept != NULL),
+          "auto keeps the map exactly when its decided share (%.3f) pays", first.probe_decided);
+    pm_shadow_map_free(kept);
+    printf("savings scene, auto: %.1f%% decided (%.1f%% needed), built %d\n", 100.0 * first.probe_decided,
+           100.0 * PM_SHADOW_MIN_GAIN * PM_SHADOW_LOOKUP_OVER_RAY, first.built);
+    for (int k = 0; k < 3; k++) {
+        kept = pm_shadow_map_build(&s, a, &set, &again);
+        CHECK(again.probe_decided == first.probe_decided && again.built == first.built,
+              "auto decides alike at every build (decided %.3f built %d, then %.3f built %d)", first.probe_decided,
+              first.built, again.probe_decided, again.built);
+        pm_shadow_map_free(kept);
+    }
+    CHECK(pm_shadow_map_pays(0.99) && !pm_shadow_map_pays(0.5), "a map deciding 99%% of the samples pays, 50%% does not");
+    set.mode = PM_SHADOW_ON;
     pm_shadow_stats st;
     pm_shadow_map *m = pm_shadow_map_build(&s, a, &set, &st);
     CHECK(m != NULL, "savings scene: a map");
