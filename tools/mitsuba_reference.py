@@ -200,6 +200,13 @@ def box_downsample(img, width, height, factor):
     return mi.TensorXf([v * scale for v in out], shape=(sh, sw, 3))
 
 
+def write_exr(img, path):
+    """An (height, width, 3) image as an RGB float32 EXR; Mitsuba writes it as lossless PIZ, which
+    pmview reads with OpenEXRCore."""
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    mi.Bitmap(img, pixel_format=mi.Bitmap.PixelFormat.RGB).write(path)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", choices=sorted(SCENES), default="cornell")
@@ -216,6 +223,12 @@ def main():
     ap.add_argument("--halves", action="store_true",
                     help="render spp/2 twice with seeds seed and seed+1, write their mean and print relMSE(half1, half2)/4, "
                          "an estimate of the written image's own relMSE against the converged image")
+    ap.add_argument("--chunks", type=int, default=2,
+                    help="with --halves: render spp in this many equal chunks (seeds seed, seed+1, ...; even chunks make "
+                         "one half, odd ones the other), writing the image so far after every pair (default 2: the halves)")
+    ap.add_argument("--max-seconds", type=float, default=None,
+                    help="with --halves: start no new pair of chunks after this many seconds; the file then holds the "
+                         "pairs done, and the line 'spp done' gives the --spp and --chunks that render it again")
     ap.add_argument("--out", required=True)
     ap.add_argument("--box-downsample", nargs=2, metavar=("FACTOR", "OUT"), default=None,
                     help="also write the image averaged over FACTORxFACTOR blocks: with pmview's box pixel filter that is "
@@ -229,14 +242,38 @@ def main():
                         args.segments, args.sky)
     t0 = time.time()
     if args.halves:
-        half = max(1, args.spp // 2)
-        a = mi.render(scene, seed=args.seed, spp=half)
-        b = mi.render(scene, seed=args.seed + 1, spp=half)
-        img = (a + b) * 0.5
+        if args.chunks < 2 or args.chunks % 2:
+            sys.exit("mitsuba_reference: --chunks must be even and at least 2 (got %d)" % args.chunks)
+        chunk = max(1, args.spp // args.chunks)
+        sum_a = sum_b = None
+        pairs = 0
+        # chunks 2k and 2k+1 (seeds seed+2k, seed+2k+1) go to halves a and b; with 2 chunks this is
+        # one render of spp/2 per half, seeds seed and seed+1.
+        while 2 * pairs < args.chunks:
+            ca = mi.render(scene, seed=args.seed + 2 * pairs, spp=chunk)
+            cb = mi.render(scene, seed=args.seed + 2 * pairs + 1, spp=chunk)
+            sum_a = ca if sum_a is None else sum_a + ca
+            sum_b = cb if sum_b is None else sum_b + cb
+            pairs += 1
+            a, b = sum_a / pairs, sum_b / pairs
+            img = (a + b) * 0.5
+            if 2 * pairs < args.chunks:
+                # the image so far, so that a run stopped from outside still leaves a usable file
+                # (written on the full pool: see below)
+                dr.set_thread_count(all_threads)
+                write_exr(img, args.out)
+                if args.threads is not None:
+                    dr.set_thread_count(args.threads)
+                print("chunks %d of %d, %d spp, %.1f s, estimated relMSE %.3g" % (
+                    2 * pairs, args.chunks, 2 * pairs * chunk, time.time() - t0, halves_relmse(a, b, img) / 4.0),
+                    flush=True)
+                if args.max_seconds is not None and time.time() - t0 > args.max_seconds:
+                    break
         # E[(a-b)^2] = 2 var(half) = 4 var(mean): the divide by 4 makes it the mean's own error.
         noise = halves_relmse(a, b, img) / 4.0
         mean_a, mean_b, mean_se = channel_means(a), channel_means(b), halves_mean_error(a, b)
-        spp = 2 * half
+        spp = 2 * pairs * chunk
+        print("spp done: --spp %d --chunks %d" % (spp, 2 * pairs))
     else:
         img = mi.render(scene, seed=args.seed, spp=args.spp)
         noise, spp = None, args.spp
@@ -245,10 +282,7 @@ def main():
     # waits on OpenEXR's own thread pool forever), so writing gets the default pool back.
     dr.set_thread_count(all_threads)
 
-    out_dir = os.path.dirname(os.path.abspath(args.out))
-    os.makedirs(out_dir, exist_ok=True)
-    # Mitsuba writes EXR as lossless PIZ; pmview reads it with OpenEXRCore.
-    mi.Bitmap(img, pixel_format=mi.Bitmap.PixelFormat.RGB).write(args.out)
+    write_exr(img, args.out)
     print("wrote %s: %s %s %dx%d, %d spp, seed %d, sky %s, %.1f s, mitsuba %s" % (
         args.out, args.scene, args.integrator, args.width, args.height, spp, args.seed, args.sky, seconds,
         mi.__version__))
