@@ -6,7 +6,7 @@ command -v gnuplot >/dev/null || { echo "skip: gnuplot is not installed (sh tool
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 methods="ppm-a0.67-gather classic-100k-photons-cone pt"
-if ! CONV_OUT="$tmp" CONV_SCENES=cornell CONV_METHODS="$methods" CONV_SECONDS=3 CONV_COMMAND="tiny test" \
+if ! CONV_OUT="$tmp" CONV_SIZES=64 CONV_SCENES=cornell CONV_METHODS="$methods" CONV_SECONDS=3 CONV_COMMAND="tiny test" \
      sh tools/convergence.sh >"$tmp/out" 2>&1; then
     sed 's/^/    /' "$tmp/out"; echo "FAIL: tools/convergence.sh failed"; exit 1
 fi
@@ -31,7 +31,7 @@ print('NaN reference pixels skipped: relMSE %g (error_map %g), unmasked %g' % (m
 python3 - "$tmp" "$methods" <<'EOF' || exit 1
 import csv, os, re, sys
 tmp, methods = sys.argv[1], sys.argv[2].split()
-d = os.path.join(tmp, "convergence")
+d = os.path.join(tmp, "convergence", "64")
 fails = []
 def check(ok, what):
     if not ok:
@@ -47,7 +47,7 @@ def png(path):
     return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
 report = open(os.path.join(tmp, "convergence.md")).read()
 check(png(os.path.join(d, "cornell.png")) == (900, 720), "the plot cornell.png is not a 900x720 PNG")
-check("(convergence/cornell.png)" in report, "the report does not show the plot")
+check("(convergence/64/cornell.png)" in report, "the report does not show the plot")
 check(png(os.path.join(d, "cornell_reference.png")) == (192, 192), "no reference image")
 check("`tiny test`" in report and re.search(r"with 2 cores|with \d+ cores", report), "command or core count missing")
 check(re.search(r"at pmview commit [0-9a-f?]+", report), "no commit")
@@ -59,7 +59,7 @@ check(len(slope_rows) == len(methods), "slope table: %d rows, want %d" % (len(sl
 for m, row in zip(methods, slope_rows):
     check(png(os.path.join(d, "cornell-%s.png" % m)) == (192, 192), "%s: no image" % m)
     check(png(os.path.join(d, "cornell-%s-error.png" % m)) == (192, 192), "%s: no error map" % m)
-    check("(convergence/cornell-%s-error.png)" % m in report, "%s: error map not in the grid" % m)
+    check("(convergence/64/cornell-%s-error.png)" % m in report, "%s: error map not in the grid" % m)
     with open(os.path.join(d, "data", "cornell-%s.csv" % m)) as f:
         rows = [r for r in csv.DictReader(f)]
     first, last = float(rows[0]["total_relmse"]), float(rows[-1]["total_relmse"])
