@@ -29,19 +29,26 @@ SCENES = {
     "point-room": ("scenes/point-room.gltf",
                    "a closed room lit by a point light: diffuse interreflection only, where photons are easy"),
 }
-# (scene, size) -> how its reference was made, with the reference's own noise (tests/ref/README.md)
+# (scene, size) -> how its reference was made, and the reference's own noise: its expected relMSE
+# against the converged image, from two independent halves (tests/ref/README.md). A method's measured
+# relMSE is about its own plus this, so values near it say only "as good as the reference".
 REFERENCES = {
-    ("cornell", 64): "Mitsuba 3 path tracer, 204800 spp (the 320x320 image averaged over 5x5 blocks); noise about 2e-5 "
-                     "(the 320x320 image's 5.4e-4 over 25)",
-    ("caustic", 64): "Mitsuba 3 particle tracer, 65536 light paths per pixel, noise 4.3e-4; the 332 of 4096 pixels the "
-                     "glass ball touches are unknown to it (it cannot see through glass) and left out of every measure "
-                     "(NaN in the file, grey in the grid; tools/mitsuba_caustic_reference.py)",
-    ("mirror", 64): "Mitsuba 3 path tracer, 65536 spp, noise 4.8e-4",
-    ("window", 64): "Mitsuba 3 path tracer, 65536 spp, constant sky of radiance 1, noise 2.4e-5",
-    ("window-hollow", 64): "Mitsuba 3 path tracer, 65536 spp, constant sky of radiance 1, noise 3.7e-5",
-    ("point-room", 64): "Mitsuba 3 path tracer, 32768 spp, noise 2.6e-5",
-    ("window-hollow", 128): "Mitsuba 3 path tracer, 8192 spp, constant sky of radiance 1, noise 3.1e-4",
+    ("cornell", 64): ("Mitsuba 3 path tracer, 204800 spp (the 320x320 image averaged over 5x5 blocks)", 2e-5),
+    ("caustic", 64): ("Mitsuba 3 particle tracer, 65536 light paths per pixel; the 332 of 4096 pixels the glass ball "
+                      "touches are unknown to it (it cannot see through glass) and left out of every measure (NaN in "
+                      "the file, grey in the grid; tools/mitsuba_caustic_reference.py)", 4.3e-4),
+    ("mirror", 64): ("Mitsuba 3 path tracer, 65536 spp", 4.8e-4),
+    ("window", 64): ("Mitsuba 3 path tracer, 65536 spp, constant sky of radiance 1", 2.4e-5),
+    ("window-hollow", 64): ("Mitsuba 3 path tracer, 65536 spp, constant sky of radiance 1", 3.7e-5),
+    ("point-room", 64): ("Mitsuba 3 path tracer, 32768 spp", 2.6e-5),
+    ("window-hollow", 128): ("Mitsuba 3 path tracer, 8192 spp, constant sky of radiance 1", 3.1e-4),
 }
+
+
+def reference_noise(s, z):
+    return REFERENCES[(s, z)][1] if (s, z) in REFERENCES else None
+
+
 TARGETS = (0.03, 0.01, 0.003)
 TABLE_SECONDS = (1, 4, 16, 64)
 
@@ -254,16 +261,18 @@ def summary(w, z, size, T):
     """Per scene at one size: the best method, the default's and the path tracer's errors at T."""
     w("### %dx%d" % (z, z))
     w("")
-    w("| scene | best method at %g s | its relMSE | default's relMSE | path tracing's relMSE | default / path tracing |" % T)
-    w("|---|---|---|---|---|---|")
+    w("| scene | best method at %g s | its relMSE | default's relMSE | path tracing's relMSE | default / path tracing "
+      "| reference's own noise |" % T)
+    w("|---|---|---|---|---|---|---|")
     for s in size["scenes"]:
         finals = {m: size["logs"][(s, m)][-1]["relmse"] for m in size["methods"] if (s, m) in size["logs"]}
         best = min(finals, key=finals.get)
         d, pt = finals.get("default"), finals.get("pt")
-        w("| %s | %s | %s | %s | %s | %s |" % (s, method_label(best), fmt(finals[best]), fmt(d), fmt(pt),
-                                               "%.2f" % (d / pt) if d is not None and pt else "-"))
+        w("| %s | %s | %s | %s | %s | %s | %s |" % (s, method_label(best), fmt(finals[best]), fmt(d), fmt(pt),
+                                                    "%.2f" % (d / pt) if d is not None and pt else "-",
+                                                    fmt(reference_noise(s, z), 2)))
     for s, ref in size["missing"].items():
-        w("| %s | left out: no reference `%s` | | | | |" % (s, ref))
+        w("| %s | left out: no reference `%s` | | | | | |" % (s, ref))
     w("")
 
 
@@ -396,14 +405,17 @@ def main():
         cells = []
         for z, size in sizes.items():
             if s in size["refs"]:
-                cells.append("`%s`: %s" % (size["refs"][s], REFERENCES.get((s, z), "see tests/ref/README.md")))
+                how, noise = REFERENCES.get((s, z), ("see tests/ref/README.md", None))
+                cells.append("`%s`: %s%s" % (size["refs"][s], how, "; noise %s" % fmt(noise, 2) if noise else ""))
             elif s in size["missing"]:
                 cells.append("none (`%s` missing): left out" % size["missing"][s])
             else:
                 cells.append("not run")
         w("| %s | `%s` | %s | %s |" % (s, f, what, " | ".join(cells)))
     w("")
-    w("A relMSE near a reference's own noise means nothing more than \"as good as the reference\". The "
+    w("The noise is the reference's own expected relMSE against the converged image (two independent halves); "
+      "a method's measured relMSE is about its own plus that, so a relMSE near a reference's noise means nothing "
+      "more than \"as good as the reference\". The "
       "references never come from pmview, so no method is compared with itself (tests/ref/README.md has "
       "their commands, samples and noise).")
     w("")
