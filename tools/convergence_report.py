@@ -42,6 +42,12 @@ REFERENCES = {
     ("window-hollow", 64): ("Mitsuba 3 path tracer, 65536 spp, constant sky of radiance 1", 3.7e-5),
     ("point-room", 64): ("Mitsuba 3 path tracer, 32768 spp", 2.6e-5),
     ("window-hollow", 128): ("Mitsuba 3 path tracer, 8192 spp, constant sky of radiance 1", 3.1e-4),
+    ("cornell", 128): ("Mitsuba 3 path tracer, 3328 spp", 1.3e-3),
+    ("caustic", 128): ("Mitsuba 3 particle tracer, 24576 light paths per pixel; the 1254 of 16384 pixels the glass "
+                       "ball touches left out, as at 64x64", 1.05e-3),
+    ("mirror", 128): ("Mitsuba 3 path tracer, 7936 spp", 4.0e-3),
+    ("window", 128): ("Mitsuba 3 path tracer, 3072 spp, constant sky of radiance 1", 5.2e-4),
+    ("point-room", 128): ("Mitsuba 3 path tracer, 2560 spp", 3.3e-4),
 }
 
 
@@ -448,6 +454,9 @@ def main():
       "the two sizes show which way they move." % size_words)
     w("- One run per method, scene and size (seed 1): the slopes and crossing times carry that run's noise, and "
       "a curve's firefly jumps fall where that seed puts them; no second seed was run.")
+    w("- The 128x128 references hold 2560 to 8192 samples a pixel (tests/ref/README.md): their noise, in the "
+      "summary's last column, is a large share of a good method's error there (the Cornell box's 1.3e-3, the "
+      "mirror's 4.0e-3), so at 128x128 a ratio between two methods understates the better one's lead.")
     w("- The caustic scene is measured on the floor only (the pixels the glass ball does not touch): what the "
       "ball shows is unknown to every independent renderer at hand (tests/ref/README.md).")
     w("- The mirror scene's lamp (radius 0.2) is as small as Mitsuba's path tracer could converge; with it, "
