@@ -98,6 +98,8 @@ typedef struct {
     int gather_source;
     double choice_relmse[2], choice_bias2, choice_cost[2];
     uint32_t choice_iterations;  /* learning iterations probed before the choice, both sources */
+    double choice_caustic_share; /* of the light the photons' measuring iterations gathered at the probed pixels'
+                                  * gather points, the share that came off a mirror or glass last (0: none measured) */
 } pm_progressive_stats;
 
 /* Radii over the pixels whose statistics have started (scene units). */

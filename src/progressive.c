@@ -40,7 +40,7 @@ enum { SEEN_GRID = 32, SEEN_POINTS = SEEN_GRID * SEEN_GRID };
  * statistics' estimate from this photon pass alone, Phi / (pi R^2) at the radius it was gathered
  * with). Relative, as relMSE: each variance over (mean^2 + 0.01). Only the first two samples of an
  * iteration are probed, and only in iterations that have two. */
-enum { PROBE_KEPT = 7, PROBE_ARRAYS = 4 + 2 * PROBE_KEPT };
+enum { PROBE_KEPT = 7, PROBE_ARRAYS = 6 + 2 * PROBE_KEPT };
 typedef struct {
     size_t count;                /* pixels probed */
     size_t *pixel;               /* which: a grid over the image */
@@ -53,6 +53,8 @@ typedef struct {
     double *within;              /* the sum over iterations of (first - second)^2 / 2 */
     double *source_mean[2], *source_m2[2]; /* the same as mean and m2 over the learning iterations of each gather source */
     double *saved;               /* the kept arrays at the start of the running iteration, for a cancel to put back */
+    double *gathered[2];         /* a photon measuring iteration's light at its gather points: all, and off a
+                                    mirror or glass last (written by the pixel's own thread, summed in order) */
     uint8_t *only;               /* one byte a pixel of the image, 1 at the probed ones: the photons' measuring
                                     iterations trace these alone (pm_eye_settings.only_pixels) */
     uint32_t pairs;              /* iterations probed */
@@ -78,6 +80,8 @@ typedef struct {
     uint32_t learn_step;                 /* learning iterations run (the path tracer's at even steps) */
     uint32_t learned[2];                 /* learning iterations probed, per source */
     double learn_cost[2];                /* their summed cost per pair of eye passes, in rays */
+    double gathered_light[2];            /* the photons' measuring iterations' light at the probed pixels' gather
+                                          * points: all of it, and what came off a mirror or glass last (keep_photons) */
 } radius_state;
 
 struct pm_progressive {
@@ -89,6 +93,7 @@ struct pm_progressive {
     pm_eye_settings eye;
     pm_photon_tracer *tracer;
     bool trace_caustic, trace_global;    /* which photon passes the scene can use */
+    bool caustic_surfaces;               /* some mirror or glass makes caustics (scene_has_caustic_surfaces) */
     bool slot_used[PM_SLOT_COUNT];
     bool gathering;                      /* final gathering at gather points */
     bool splatting;                      /* the caustic seen directly by camera splats */
@@ -282,6 +287,8 @@ static bool probe_alloc(noise_probe *pr, int width, int height) {
     pr->source_m2[0] = pr->source_mean[1] + pr->count;
     pr->source_m2[1] = pr->source_m2[0] + pr->count;
     pr->saved = pr->source_m2[1] + pr->count; /* PROBE_KEPT arrays from mean on */
+    pr->gathered[0] = pr->saved + PROBE_KEPT * pr->count;
+    pr->gathered[1] = pr->gathered[0] + pr->count;
     return true;
 }
 
@@ -379,6 +386,27 @@ static uint32_t choose_eye_passes(const noise_probe *pr, uint32_t photon_passes,
         k = best < 1.0 ? 1 : (best > PM_PPM_MAX_EYE_PASSES ? PM_PPM_MAX_EYE_PASSES : (uint32_t)best);
     }
     return k < 2 && photon_passes % PM_PPM_PROBE_ITERATIONS == 0 ? 2 : k;
+}
+
+/* Whether the photons are kept without waiting for the prediction: where mirrors or glass send at
+ * least PM_PPM_CHOICE_CAUSTIC_SHARE of the light the photons bring to the probed pixels' gather
+ * points off a specular surface last. That light reaches the path tracer's continuation only
+ * where a direction sampled at a diffuse vertex happens to find the lamp through the specular
+ * chain: rare, bright samples, whose variance a few probed iterations underestimate many times
+ * over (the Cornell box's glass ball: the path tracer predicted 1.5 to 2.5 times ahead, measured 5
+ * to 8 times behind), while the photons carry that light by construction. Measured by the
+ * photons' measuring iterations themselves (their global photons, as gathered), so it costs one
+ * more count query per probed gather point. */
+static bool keep_photons(pm_progressive *p) {
+    const radius_state *rs = &p->radii;
+    double share = rs->gathered_light[0] > 0.0 ? rs->gathered_light[1] / rs->gathered_light[0] : 0.0;
+    p->stats.choice_caustic_share = share;
+    if (!(share >= PM_PPM_CHOICE_CAUSTIC_SHARE)) return false;
+    p->radii.gather_source = PM_GATHER_PHOTONS;
+    p->radii.gather_chosen = true;
+    p->stats.gather_source = PM_GATHER_PHOTONS;
+    p->stats.choice_iterations = rs->learned[0] + rs->learned[1];
+    return true;
 }
 
 /* The final gather's source for the rest of the run, from the learning iterations, in which the
@@ -492,17 +520,29 @@ static double probe_footprint(pm_progressive *p, const pm_film *film) {
  * lowers it): light across it scatters (scatter.h), as through solid glass. */
 static bool thin_may_be_rough(const pm_material *m) { return pm_glass_alpha_at(m->roughness) > 0.f; }
 
-/* Whether some surface makes caustics: a mirror, or glass that is not smooth and thin-walled (smooth thin
- * glass lets light straight through, and direct light's rays cross it). Light such a surface brings to
- * the second vertex of an eye path is what a path tracer finds only by chance (a lamp through a
- * glass ball: rare, bright samples, never a point light), a variance too heavy-tailed for a few
- * probed iterations to measure, and what the global photons carry by construction: there the
- * final gather keeps to the photons. */
+/* Whether some surface makes caustics: a mirror, or glass that is not smooth and thin-walled (smooth
+ * thin glass lets light straight through, and direct light's rays cross it). */
 static bool scene_has_caustic_surfaces(const pm_scene *s) {
     for (uint32_t i = 0; i < s->material_count; i++)
         if (s->materials[i].may_mirror || (s->materials[i].may_glass && (!s->materials[i].thin_walled || thin_may_be_rough(&s->materials[i]))))
             return true;
     return false;
+}
+
+/* Whether the path tracer's continuation can find all of a visible point's indirect light. Not
+ * where a punctual light (point, spot, directional: a delta in position or direction) shines
+ * and a mirror or glass makes caustics: light from a delta light through a specular bounce
+ * onto the second vertex is no path the path tracer samples (its light sample cannot cross the
+ * specular surface, its BSDF sample never hits a point or one direction), while the global
+ * photons carry it by construction. Emitting surfaces and the environment seen through the same
+ * surfaces are found by the continuation's BSDF samples (rarely for a small lamp: bright samples
+ * whose variance the choice's prediction weighs, see choose_gather). One such light is enough:
+ * the continuation replaces the photons for every light at once. */
+static bool path_finds_all_light(const pm_scene *s) {
+    bool delta_light = false;
+    for (uint32_t i = 0; i < s->light_count; i++)
+        delta_light |= s->lights[i].intensity.x > 0.f || s->lights[i].intensity.y > 0.f || s->lights[i].intensity.z > 0.f;
+    return !(delta_light && scene_has_caustic_surfaces(s));
 }
 
 static void reset_state(pm_progressive *p, const pm_film *film) {
@@ -523,15 +563,17 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     p->radii.eye_passes = p->settings.eye_passes > 0 ? (uint32_t)p->settings.eye_passes : 1;
     probe_reset(&p->probe);
     memset(&p->stats, 0, sizeof p->stats);
-    /* the path tracer cannot find a punctual light through a mirror or glass onto the second
-     * vertex (the global photons can): there the photons stay the source */
-    bool path_possible = !scene_has_caustic_surfaces(p->scene);
+    /* where the path tracer cannot find some light (a punctual light through a mirror or glass,
+     * see path_finds_all_light) the photons stay the source */
+    p->caustic_surfaces = scene_has_caustic_surfaces(p->scene);
+    bool path_possible = path_finds_all_light(p->scene);
     pm_gather_choice forced = p->settings.gather;
     p->radii.gather_source = forced == PM_GATHER_FORCE_PATH ? PM_GATHER_PATH : PM_GATHER_PHOTONS;
     p->radii.gather_chosen = forced != PM_GATHER_AUTO || !(p->gathering && p->probe.total && path_possible);
     p->radii.learned[0] = p->radii.learned[1] = 0;
     p->radii.learn_step = 0;
     p->radii.learn_cost[0] = p->radii.learn_cost[1] = 0.0;
+    p->radii.gathered_light[0] = p->radii.gathered_light[1] = 0.0;
     p->stats.gather_source = p->radii.gather_chosen ? (p->gathering ? (int)p->radii.gather_source : -1) : -2;
 }
 
@@ -572,6 +614,8 @@ typedef struct {
     uint32_t sample;             /* the film's sample this eye pass adds: the clips' probes follow it */
     double gather_r2;
     double to_whole[KIND_COUNT]; /* a whole iteration's photons over those this one asked for (the first asks fewer) */
+    bool measure_caustic;        /* a photon measuring iteration: the gather points' light off a mirror or glass
+                                  * is summed apart too, per probed pixel (noise_probe.gathered) */
     struct {
         double radius_sum;                   /* initial radii set in this iteration */
         uint64_t radius_count, found, dropped;
@@ -775,6 +819,25 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
             }
         pm_photon_grid_sum_many(job->global, query, n, result);
         job->counters[thread].queries += n;
+        if (job->measure_caustic) {
+            /* the same discs, photons whose last bounce was specular alone: a measurement only */
+            pm_grid_query only_caustic[BATCH];
+            pm_grid_result caustic_result[BATCH];
+            for (size_t j = 0; j < n; j++) {
+                only_caustic[j] = query[j];
+                only_caustic[j].path_mask = 1u << PM_PATH_CAUSTIC;
+            }
+            pm_photon_grid_sum_many(job->global, only_caustic, n, caustic_result);
+            noise_probe *pr = &job->p->probe;
+            for (size_t j = 0; j < n; j++) {
+                size_t pixel = pixels[point[j]];
+                const size_t *at = bsearch(&pixel, pr->pixel, pr->count, sizeof *pr->pixel, compare_pixels);
+                if (!at) continue;
+                vec3 w = gathered[point[j]].weight;
+                pr->gathered[0][at - pr->pixel] += v3_luminance(v3_mul(w, result[j].power));
+                pr->gathered[1][at - pr->pixel] += v3_luminance(v3_mul(w, caustic_result[j].power));
+            }
+        }
         for (size_t j = 0; j < n; j++) {
             const pm_visible_point *gp = &gathered[point[j]];
             size_t i = pixels[point[j]];
@@ -879,6 +942,14 @@ static double seen_density_radius2(pm_progressive *p, const pm_photon_grid *grid
     for (int k = 0; k < p->seen_count[which]; k++) {
         double r2 = mean_r2 / 4.0;
         for (int step = 0; step < SEEN_STEPS; step++, r2 *= 4.0) {
+            /* the clip keeps a subset of the whole disc's photons: a step whose whole disc holds
+             * too few would fail clipped too, and is passed without probing */
+            if (step < SEEN_STEPS - 1) {
+                pm_grid_query whole = {p->seen[which][k].p, p->seen[which][k].n, (float)r2, 7u, NULL, v3s(0.f), v3s(0.f), NULL};
+                pm_grid_result w;
+                pm_photon_grid_sum_many(grid, &whole, 1, &w);
+                if (w.found < PM_PPM_INITIAL_PHOTONS) continue;
+            }
             pm_clip clip;
             pm_clip_make(&clip, p->scene, p->accel, p->seen[which][k].p, p->seen[which][k].n, p->seen[which][k].tri,
                          (float)sqrt(r2), pm_hash64((uint64_t)which << 32 | (uint64_t)k), &p->stats.clip_rays);
@@ -1139,6 +1210,8 @@ static phase_result run_eye_passes(pm_progressive *p, pm_film *film, iteration_r
     /* the photons' measuring iteration traces the probed pixels alone: its samples are read there
      * and nowhere else, and its cost is counted as the whole image's (eye_scale) */
     it->eye_scale = it->measure_only ? (double)p->pixels / (double)p->probe.count : 1.0;
+    job->measure_caustic = it->measure_only && p->caustic_surfaces;
+    if (job->measure_caustic) memset(p->probe.gathered[0], 0, 2 * p->probe.count * sizeof(double));
     if (it->measure_only) {
         if (!pm_film_open_copy(film)) { free(job); return PHASE_FAILED; }
         pm_film_save_rect(film, 0, 0, film->width, film->height);
@@ -1193,7 +1266,12 @@ static void learn_gather_cost(pm_progressive *p, const iteration_run *it) {
     eye *= it->eye_scale; /* a measuring iteration's eye passes cost what they would over the whole image */
     p->radii.learn_cost[it->source] += (double)(p->stats.photons.rays - it->photon_rays_before) + 2.0 * eye / passes;
     p->radii.learned[it->source]++;
-    if (p->radii.learned[0] >= 2 && p->radii.learned[1] >= 2 && choose_gather(p)) {
+    if (it->measure_only && p->caustic_surfaces)
+        for (size_t i = 0; i < p->probe.count; i++) {
+            p->radii.gathered_light[0] += p->probe.gathered[0][i];
+            p->radii.gathered_light[1] += p->probe.gathered[1][i];
+        }
+    if ((it->measure_only && keep_photons(p)) || (p->radii.learned[0] >= 2 && p->radii.learned[1] >= 2 && choose_gather(p))) {
         memset(p->probe.mean, 0, 3 * p->probe.count * sizeof(double));
         p->probe.pairs = 0;
     }
@@ -1231,6 +1309,9 @@ static void end_iteration(pm_progressive *p, pm_film *film, const iteration_run 
     if (it->probing && !it->cut)
         p->radii.eye_passes = choose_eye_passes(&p->probe, film->photon_passes, it->photon_rays,
                                                 it->eye_scale * (double)(p->stats.eye.rays - it->eye_rays_before) / it->eye_passes);
+    /* a learning iteration needs a pair of eye passes, and the session plans as many as asked for
+     * here: one would stall the learning (where photon noise dominates the probe asks one) */
+    if (!p->radii.gather_chosen && p->radii.eye_passes < 2) p->radii.eye_passes = 2;
     p->stats.iterations = film->samples;
     p->stats.photon_passes = film->photon_passes;
 }
