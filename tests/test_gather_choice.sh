@@ -1,0 +1,60 @@
+#!/bin/sh
+# test_gather_choice.sh: where the default's final gathering learns its light's source and where it keeps the photons: glass under an area lamp is learned, glass with a punctual light is not, a bright caustic seen by gather points keeps the photons.
+#
+# Scenes: scenes/dielectric-spheres.gltf with its black sphere made a small solid glass ball
+# (radius 0.1, KHR_materials_volume), lit by its area lamp alone, then with a point light added;
+# and scenes/cornell-box.gltf (an area lamp over a large glass ball). Read from `stat progressive`:
+# gather_source, choice_iterations (learning iterations before the choice, 0 when kept without
+# learning) and choice_caustic_share (of the light the photons' measuring iterations gathered, the
+# share that came off a mirror or glass last: 1% or more keeps the photons).
+cd "$(dirname "$0")/.." || exit 1
+bin=./pmview
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fails=0
+python3 - "$tmp" <<'EOF2' || { echo "FAIL: the scene script"; exit 1; }
+import json, sys
+d = sys.argv[1]
+doc = json.load(open("scenes/dielectric-spheres.gltf"))
+glass = [i for i, m in enumerate(doc["materials"]) if m.get("pbrMetallicRoughness", {}).get("roughnessFactor") == 0.05][0]
+doc["materials"][glass] = {"name": "glass", "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0, "roughnessFactor": 0.0},
+                           "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5},
+                                          "KHR_materials_volume": {"thicknessFactor": 1.0}}}
+doc["extensionsUsed"] = sorted(set(doc["extensionsUsed"]) | {"KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume"})
+ball = [n for n in doc["nodes"] if n.get("name") == "black_plastic"][0]
+ball["scale"] = [0.1, 0.1, 0.1]
+ball["translation"] = [-1.1, 0.1, 0.8]
+json.dump(doc, open(d + "/glass_area.gltf", "w"))
+doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "point", "color": [1, 1, 1], "intensity": 2.0}]}}
+doc["extensionsUsed"].append("KHR_lights_punctual")
+doc["nodes"].append({"name": "point", "translation": [0.8, 2.0, 0.5], "extensions": {"KHR_lights_punctual": {"light": 0}}})
+doc["scenes"][doc.get("scene", 0)]["nodes"].append(len(doc["nodes"]) - 1)
+json.dump(doc, open(d + "/glass_point.gltf", "w"))
+EOF2
+run() { # name, scene
+    "$bin" "$2" --width 64 --height 64 --iterations 24 --seed 1 --quiet --stats --snapshot "$tmp/$1.exr" >"$tmp/$1" 2>&1 ||
+        echo "pmview failed on $1: $(tail -n 1 "$tmp/$1")"
+}
+value() { sed -n "s/^stat progressive .*[ ]$1=\([^ ]*\).*/\1/p" "$2"; }
+check() { # description, condition (python over source, learned, share)
+    if python3 -c "import sys; source, learned, share = sys.argv[1], int(sys.argv[2] or -1), float(sys.argv[3] or 'nan'); sys.exit(0 if ($2) else 1)" \
+        "$source" "$learned" "$share"; then
+        echo "ok: $1 (gather_source=$source choice_iterations=$learned choice_caustic_share=$share)"
+    else
+        fails=$((fails + 1)); echo "FAIL: $1 (gather_source=${source:-none} choice_iterations=${learned:-none} choice_caustic_share=${share:-none})"
+    fi
+}
+read_choice() { source=$(value gather_source "$tmp/$1"); learned=$(value choice_iterations "$tmp/$1"); share=$(value choice_caustic_share "$tmp/$1"); }
+run glass_area "$tmp/glass_area.gltf"
+read_choice glass_area
+check "solid glass under an area lamp: the source is learned, and the path tracer's chosen (little light off the glass)" \
+    "source == 'path' and learned >= 4 and 0 < share < 0.01"
+run glass_point "$tmp/glass_point.gltf"
+read_choice glass_point
+check "the same glass with a point light: the photons are kept without learning (the path tracer cannot find the point through glass)" \
+    "source == 'photons' and learned == 0"
+run cornell scenes/cornell-box.gltf
+read_choice cornell
+check "the Cornell box's glass ball under its lamp: learned, and the photons kept for the light off the glass" \
+    "source == 'photons' and learned >= 2 and share >= 0.01"
+if [ "$fails" -eq 0 ]; then echo "test_gather_choice: all 3 checks passed"; else echo "test_gather_choice: $fails of 3 checks failed"; exit 1; fi
