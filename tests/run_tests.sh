@@ -3,8 +3,11 @@
 #
 # PMVIEW_CHECK=1 (make check): the OPTIMISED tests run under ASan/UBSan too, the threaded tests
 # run again under TSan, and the valgrind test is added.
-# JOBS (default 2): how many tests run side by side. The tests that time what a person would see
-# (windows, signals, cluster ranks) run afterwards, one at a time, with nothing beside them.
+# JOBS (default 2): how many tests run side by side. First the tests that bound their own wall time
+# (TIMED below) run JOBS at a time. Then the tests that time what a person would see (windows,
+# signals, cluster ranks: ALONE below) run one at a time while the rest run JOBS at a time beside
+# them at the lowest priority (nice 19, in a scheduling group of their own), so they take only the
+# processor time the ALONE test leaves idle.
 # Each test's output is kept in build/test-logs/NAME.log, its result in build/test-logs/NAME.result.
 # With names (run_tests.sh test_film_sums test_cancel), only those tests run.
 cd "$(dirname "$0")/.." || exit 1
@@ -60,15 +63,26 @@ OPTIMISED="test_convergence test_photons test_pathtrace test_hard_energy test_mi
 # them could push them past their bounds. (test_window_room renders a set number of iterations and
 # checks only what they converge to, so it runs beside the others.)
 ALONE="test_window test_window_cluster test_window_cluster_stop test_signal_writes test_window_loading test_interactive test_cluster test_hangs test_convergence_report"
+# Tests that bound their own wall time (a refusal within 1-10 s, a timeout of 20 s, a reload within
+# 2 s, a SIGINT 1.5 s after the start, a deadline of a share of a measured pass): at the lowest
+# priority an ALONE test using both cores could hold them past those bounds, so they run first, JOBS
+# at a time, at the usual priority. Every other test has no clock in its checks (at most a
+# generous guard against a hang) and runs beside the ALONE tests.
+TIMED="test_cli test_hostile_sky test_memory test_robust test_window_reload test_window_variants test_real_models test_gpu_instancing test_compressed test_threads test_fuzz_regressions test_cut test_session_errors"
 # The longest tests start first (by their processor time), so the last one to end is a short one.
 FIRST="test_convergence test_progressive test_window_room test_leaks test_glossy test_photons test_memory test_window_default test_splats test_reference test_accel test_cli test_guide test_mirror_box test_robust test_memory_failures test_brdf test_kdtree test_threads test_log"
 
 list=$(mktemp) || exit 1
 alone=$(mktemp) || exit 1
-trap 'rm -f "$list" "$alone"' EXIT
-add() { # name command...: queue a test, in the list of those run alone when it is one of them
+timed=$(mktemp) || exit 1
+background=""
+trap 'rm -f "$list" "$alone" "$timed"; [ -n "$background" ] && kill -TERM -- "-$background" 2>/dev/null' EXIT
+trap 'exit 1' INT TERM HUP
+add() { # name command...: queue a test in its list: run alone, timed, or the rest
     base=${1%%\[*}
-    case " $ALONE " in *" $base "*) echo "$*" >>"$alone" ;; *) echo "$*" >>"$list" ;; esac
+    case " $ALONE " in *" $base "*) echo "$*" >>"$alone"; return ;; esac
+    case " $TIMED " in *" $base "*) echo "$*" >>"$timed"; return ;; esac
+    echo "$*" >>"$list"
 }
 entries=$(mktemp) || exit 1
 # every test program, from its source: make test builds the OPTIMISED ones only optimised
@@ -103,8 +117,25 @@ done
 grep -v -E "^($(echo $FIRST | tr ' ' '|'))[[ ]" "$entries" | while read -r line; do add $line; done
 rm -f "$entries"
 
-xargs -r -P "$jobs" -L 1 sh tests/run_tests.sh --one <"$list"
+xargs -r -P "$jobs" -L 1 sh tests/run_tests.sh --one <"$timed"
+# The rest at the lowest priority beside the ALONE tests. setsid gives them a process group (killed
+# on an early exit) and, where the kernel groups processes by session for scheduling (autogroup),
+# a group of their own, whose weight is set to nice 19 as well: otherwise an ALONE test in another
+# session (xvfb-run's) would get only half the processors against them. The window tests among them
+# carry their nice value into their own sessions (tests/xvfb_inner.sh).
+setsid -w sh -c 'echo 19 >/proc/self/autogroup 2>/dev/null; exec nice -n 19 xargs -r -P "$1" -L 1 sh tests/run_tests.sh --one' \
+    background "$jobs" <"$list" &
+background=$!
 xargs -r -P 1 -L 1 sh tests/run_tests.sh --one <"$alone"
+# the ALONE tests are over: the rest's group gets the usual weight again, which a loaded machine
+# shared with other work needs (a lowered value needs no privilege as long as it is not negative;
+# the kernel takes one change a tenth of a second)
+i=0
+while [ -w "/proc/$background/autogroup" ] && ! echo 0 >"/proc/$background/autogroup" 2>/dev/null && [ "$i" -lt 20 ]; do
+    i=$((i + 1)); sleep 0.1
+done
+wait "$background"
+background=""
 
 passed=0; failed=0; skipped=0; failed_names=""; total=0; total_cpu=0
 for r in "$logs"/*.result; do
@@ -118,7 +149,7 @@ for r in "$logs"/*.result; do
         *) failed=$((failed + 1)); failed_names="$failed_names $name" ;;
     esac
 done
-queued=$(cat "$list" "$alone" | wc -l)
+queued=$(cat "$list" "$alone" "$timed" | wc -l)
 missing=$((queued - passed - failed - skipped))
 [ "$missing" -gt 0 ] && { failed=$((failed + missing)); failed_names="$failed_names (${missing} left no result)"; }
 echo "tests ran in $(( $(date +%s) - began )) s, $jobs at a time; their own times add up to $total s, their processor times to $total_cpu s"
