@@ -76,7 +76,7 @@ list=$(mktemp) || exit 1
 alone=$(mktemp) || exit 1
 timed=$(mktemp) || exit 1
 background=""
-trap 'rm -f "$list" "$alone" "$timed"; [ -n "$background" ] && kill -TERM -- "-$background" 2>/dev/null' EXIT
+trap 'rm -f "$list" "$alone" "$timed"; [ -n "$background" ] && kill -TERM "-$background" 2>/dev/null' EXIT
 trap 'exit 1' INT TERM HUP
 add() { # name command...: queue a test in its list: run alone, timed, or the rest
     base=${1%%\[*}
@@ -129,7 +129,12 @@ background=$!
 xargs -r -P 1 -L 1 sh tests/run_tests.sh --one <"$alone"
 # the ALONE tests are over: the rest's group gets the usual weight again, which a loaded machine
 # shared with other work needs (a lowered value needs no privilege as long as it is not negative;
-# the kernel takes one change a tenth of a second)
+# the kernel takes one change a tenth of a second). With no ALONE test to run this comes at once,
+# so it waits first for the rest's own change to nice 19 (at most 5 s), which would otherwise undo it.
+i=0
+while [ -r "/proc/$background/autogroup" ] && ! grep -q "nice 19" "/proc/$background/autogroup" 2>/dev/null && [ "$i" -lt 50 ]; do
+    i=$((i + 1)); sleep 0.1
+done
 i=0
 while [ -w "/proc/$background/autogroup" ] && ! echo 0 >"/proc/$background/autogroup" 2>/dev/null && [ "$i" -lt 20 ]; do
     i=$((i + 1)); sleep 0.1

@@ -23,7 +23,7 @@ tmp=$(mktemp -d) || exit 1
 group=""
 . tests/job_processes.sh
 cleanup() {
-    [ -n "$group" ] && kill -TERM -- "-$group" 2>/dev/null
+    [ -n "$group" ] && kill -TERM "-$group" 2>/dev/null
     for p in $(job_processes any); do kill -KILL "$p" 2>/dev/null; done
     rm -rf "$tmp"
 }

@@ -22,7 +22,7 @@ start_temp() {
 }
 end_temp() {
     # the group's leader is xvfb-run; Xvfb, the inner script and pmview (or mpirun) are its members
-    [ -n "$group" ] && kill -TERM -- "-$group" 2>/dev/null
+    [ -n "$group" ] && kill -TERM "-$group" 2>/dev/null
     if command -v cleanup_more >/dev/null 2>&1; then cleanup_more; fi
     rm -rf "$tmp"
 }
