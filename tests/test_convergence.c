@@ -104,12 +104,17 @@ static double furnace_error(float rho, pm_indirect_mode indirect, int iterations
 /* The default (final gathering) within 0.3%, closer than the classic mode; reading indirect light
  * at the visible points (--indirect photons) keeps a bias at the box's edges, where the visible
  * points' discs hang over the wall, that shrinks only as fast as the radius (N^-1/6 at alpha
- * 2/3): checked within 1.5% and that it shrinks. */
+ * 2/3): checked within 1.5% and that it shrinks.
+ * At rho 0.95 the gather's paths are long: 400 iterations took 32 s of processor time, most of the
+ * test's. 100 iterations (8 s) read +0.118 -0.017 -0.106 -0.069 +0.049 +0.106 % at seeds 1-6
+ * (standard deviation 0.092%), so 0.3% is 3.2 of those and 2.5 times the largest seen, and a
+ * bias like the classic mode's (+1.35%) still fails it. */
 static void test_furnace(void) {
     const float rhos[2] = {0.5f, 0.95f};
+    const int iterations[2] = {400, 100};
     for (int k = 0; k < 2; k++) {
         double classic = furnace_error(rhos[k], PM_INDIRECT_GATHER, 64, true);
-        double e = furnace_error(rhos[k], PM_INDIRECT_GATHER, 400, false);
+        double e = furnace_error(rhos[k], PM_INDIRECT_GATHER, iterations[k], false);
         CHECK(fabs(e) <= 0.003, "furnace rho %g, gather: error %+.4f%% beyond 0.3%%", rhos[k], 100 * e);
         /* the classic mode's bias shows where light bounces long (rho 0.95); at rho 0.5 it is within noise */
         if (rhos[k] > 0.9f)
