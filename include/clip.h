@@ -95,6 +95,13 @@ pm_clip_known pm_clip_cache_lookup(pm_clip_cache *c, uint32_t tri, vec3 p, float
 /* Starts loading p's cell on triangle tri, for a lookup soon after: a batch of discs prefetches
  * all its cells first, so that their cache misses overlap. */
 void pm_clip_cache_prefetch(pm_clip_cache *c, uint32_t tri, vec3 p);
+/* What p's cell shows of p's clearance, whatever the disc: at least low, at most high (-INFINITY
+ * and INFINITY where the cell shows nothing). The discs of one point (a visible point's caustic
+ * and indirect statistics) read the cell once and each asks pm_clip_bound_known with its own
+ * radius; reach sizes the triangle's grid where this ask builds it. Thread safe; c may be NULL. */
+typedef struct { float low, high; } pm_clip_bound;
+void pm_clip_cache_bound(pm_clip_cache *c, uint32_t tri, vec3 p, float reach, pm_clip_bound *b);
+pm_clip_known pm_clip_bound_known(const pm_clip_bound *b, const pm_scene *s, vec3 p, float reach);
 
 /* A clip that keeps everything: an estimate may read its disc unclipped. */
 static inline bool pm_clip_is_open(const pm_clip *c) {

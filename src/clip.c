@@ -480,35 +480,47 @@ static clear_grid *build_grid(pm_clip_cache *c, uint32_t tri, float r) {
     return g;
 }
 
-pm_clip_known pm_clip_cache_lookup(pm_clip_cache *c, uint32_t tri, vec3 p, float reach) {
-    if (!c || tri >= c->count || !(reach > 0.f)) return PM_CLEAR_UNKNOWN;
+void pm_clip_cache_bound(pm_clip_cache *c, uint32_t tri, vec3 p, float reach, pm_clip_bound *b) {
+    b->low = -INFINITY, b->high = INFINITY; /* unknown */
+    if (!c || tri >= c->count || !(reach > 0.f)) return;
     clear_grid *g = atomic_load_explicit(&c->grid[tri], memory_order_acquire);
     if (!g) {
-        if (atomic_fetch_add_explicit(&c->asks[tri], 1, memory_order_relaxed) + 1 != GRID_AFTER) return PM_CLEAR_UNKNOWN;
+        if (atomic_fetch_add_explicit(&c->asks[tri], 1, memory_order_relaxed) + 1 != GRID_AFTER) return;
         clear_grid *none = NULL;
-        if (!atomic_compare_exchange_strong(&c->grid[tri], &none, GRID_BUILDING)) return PM_CLEAR_UNKNOWN;
+        if (!atomic_compare_exchange_strong(&c->grid[tri], &none, GRID_BUILDING)) return;
         g = build_grid(c, tri, reach);
         atomic_store_explicit(&c->grid[tri], g ? g : GRID_BUILDING, memory_order_release);
-        if (!g) return PM_CLEAR_UNKNOWN;
+        if (!g) return;
     }
-    if (g == GRID_BUILDING) return PM_CLEAR_UNKNOWN;
+    if (g == GRID_BUILDING) return;
     vec3 d = v3_sub(p, g->origin);
     float x = v3_dot(d, g->u) / g->cell, y = v3_dot(d, g->w) / g->cell;
     int i = (int)floorf(x), j = (int)floorf(y);
-    if (i < 0 || j < 0 || i >= g->nu || j >= g->nw) return PM_CLEAR_UNKNOWN;
+    if (i < 0 || j < 0 || i >= g->nu || j >= g->nw) return;
     float clear = g->clear[j * g->nu + i];
-    if (clear < 0.f) return PM_CLEAR_UNKNOWN;
+    if (clear < 0.f) return;
     /* p's distance from the cell's centre: across the plane, and off it (p lies on it up to rounding) */
     float du = (x - (float)i - 0.5f) * g->cell, dw = (y - (float)j - 0.5f) * g->cell;
     float off = v3_dot(d, g->m);
     float moved = sqrtf(du * du + dw * dw + off * off) * 1.001f;
-    float need = OPEN_REACH * reach, slab = slab_need(c->scene, p, reach);
     /* relative margins far above float rounding of the distances */
-    float least = clear == INFINITY ? g->reach - moved : clear * 0.9999f - moved;
-    if (least >= need * 1.0001f) return PM_CLEAR_OPEN;
-    if (least >= slab * 1.0001f) return PM_CLEAR_SLAB;
-    if (clear * 1.0001f + moved < slab * 0.9999f) return PM_CLEAR_NEAR;
+    b->low = clear == INFINITY ? g->reach - moved : clear * 0.9999f - moved;
+    b->high = clear == INFINITY ? INFINITY : clear * 1.0001f + moved;
+}
+
+pm_clip_known pm_clip_bound_known(const pm_clip_bound *b, const pm_scene *s, vec3 p, float reach) {
+    if (b->low >= OPEN_REACH * reach * 1.0001f) return PM_CLEAR_OPEN;
+    if (b->low == -INFINITY && b->high == INFINITY) return PM_CLEAR_UNKNOWN;
+    float slab = slab_need(s, p, reach);
+    if (b->low >= slab * 1.0001f) return PM_CLEAR_SLAB;
+    if (b->high < slab * 0.9999f) return PM_CLEAR_NEAR;
     return PM_CLEAR_UNKNOWN;
+}
+
+pm_clip_known pm_clip_cache_lookup(pm_clip_cache *c, uint32_t tri, vec3 p, float reach) {
+    pm_clip_bound b;
+    pm_clip_cache_bound(c, tri, p, reach, &b);
+    return c ? pm_clip_bound_known(&b, c->scene, p, reach) : PM_CLEAR_UNKNOWN;
 }
 
 void pm_clip_cache_prefetch(pm_clip_cache *c, uint32_t tri, vec3 p) {

@@ -725,14 +725,18 @@ static uint64_t clip_seed(const gather_job *job, size_t pixel, int kind) {
  * probes cast are counted. seed: the pixel, the iteration and the kind, so the probes do not
  * depend on the threads. */
 static pm_grid_query disc_query(gather_job *job, const pm_photon_grid *grid, const pm_visible_point *vp, double r2,
-                                unsigned path_mask, uint64_t seed, pm_clip *clip, int thread) {
+                                unsigned path_mask, uint64_t seed, pm_clip *clip, pm_clip_bound *bound, int thread) {
     pm_grid_query q = {vp->p, vp->n, (float)r2, path_mask, vp->glossy ? &vp->brdf : NULL, vp->ns, vp->wo, NULL};
     const pm_progressive *p = job->p;
     pm_clip_known known = PM_CLEAR_OPEN;
-    if (!p->settings.unclipped && pm_photon_grid_may_find(grid, vp->p, (float)r2) &&
-        (known = pm_clip_cache_lookup(p->clip_cache, vp->tri, vp->p, (float)sqrt(r2))) != PM_CLEAR_OPEN) {
-        pm_clip_make_known(clip, p->scene, p->accel, vp->p, vp->n, vp->tri, (float)sqrt(r2), seed, &job->counters[thread].clip_rays,
-                           known);
+    float r = (float)sqrt(r2);
+    /* the clearance grid's cell first (read once per point: bound->low is NAN until then): most
+     * discs are open there, and the disc's photon cells need planning (pm_photon_grid_may_find,
+     * as costly again) only for those that are not */
+    if (!p->settings.unclipped && isnan(bound->low)) pm_clip_cache_bound(p->clip_cache, vp->tri, vp->p, r, bound);
+    if (!p->settings.unclipped && (known = pm_clip_bound_known(bound, p->scene, vp->p, r)) != PM_CLEAR_OPEN &&
+        pm_photon_grid_may_find(grid, vp->p, (float)r2)) {
+        pm_clip_make_known(clip, p->scene, p->accel, vp->p, vp->n, vp->tri, r, seed, &job->counters[thread].clip_rays, known);
         q.clip = pm_clip_is_open(clip) ? NULL : clip; /* nothing to test photons against */
     } else {
         pm_clip_open(clip, vp->p, vp->n);
@@ -743,6 +747,7 @@ static pm_grid_query disc_query(gather_job *job, const pm_photon_grid *grid, con
 /* A photon sum over the disc it was found in, scaled to the whole disc: divided by the share of
  * it the clip keeps (the estimate divides by pi r^2). */
 static vec3 whole_disc(const pm_clip *clip, double r2, vec3 power) {
+    if (power.x == 0.f && power.y == 0.f && power.z == 0.f) return power; /* no photon: no share to count */
     return v3_scale(power, 1.f / pm_clip_area_fraction(clip, (float)sqrt(r2)));
 }
 
@@ -757,6 +762,7 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
     pm_grid_query query[BATCH];
     pm_grid_result result[BATCH];
     pm_clip clip[BATCH];
+    pm_clip_bound bound[BATCH]; /* what each point's clearance grid cell shows, read by its first disc */
     pm_ppm_stat *target[BATCH];
     size_t point[BATCH];
     bool fresh[BATCH];
@@ -771,8 +777,10 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
         /* statistics at visible points: caustic photons, and indirect ones without final gathering;
          * once per photon pass, since N and tau count the photons a pixel has seen */
         /* the clearance grids' cells first, so that their cache misses overlap */
-        for (size_t k = base; k < end && job->statistics && !job->p->settings.unclipped; k++)
+        for (size_t k = base; k < end && job->statistics && !job->p->settings.unclipped; k++) {
+            bound[k - base].low = NAN;
             if (visible[k].valid) pm_clip_cache_prefetch(job->p->clip_cache, visible[k].tri, visible[k].p);
+        }
         for (int kind = 0; kind < KIND_COUNT && job->statistics; kind++) {
             const pm_photon_grid *grid = kind == KIND_CAUSTIC ? job->caustic : job->global;
             if (!grid) continue;
@@ -787,7 +795,7 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
                 int start = start_radius(job, st, vp, kind);
                 if (start == START_NONE) continue;
                 query[n] = disc_query(job, grid, vp, st->r2, 1u << (kind == KIND_CAUSTIC ? PM_PATH_CAUSTIC : PM_PATH_INDIRECT),
-                                      clip_seed(job, pixels[k], kind), &clip[n], thread);
+                                      clip_seed(job, pixels[k], kind), &clip[n], &bound[k - base], thread);
                 target[n] = st;
                 fresh[n] = start == START_FRESH;
                 point[n++] = k;
@@ -809,12 +817,14 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
          * was traced by the eye pass, and their first hits were not stored) */
         if (!gathered || !job->global || !(job->gather_r2 > 0.0)) continue;
         size_t n = 0;
-        for (size_t k = base; k < end && !job->p->settings.unclipped; k++)
+        for (size_t k = base; k < end && !job->p->settings.unclipped; k++) {
+            bound[k - base].low = NAN;
             if (gathered[k].valid) pm_clip_cache_prefetch(job->p->clip_cache, gathered[k].tri, gathered[k].p);
+        }
         for (size_t k = base; k < end; k++)
             if (gathered[k].valid) {
                 query[n] = disc_query(job, job->global, &gathered[k], job->gather_r2, 7u, clip_seed(job, pixels[k], KIND_COUNT),
-                                      &clip[n], thread);
+                                      &clip[n], &bound[k - base], thread);
                 point[n++] = k;
             }
         pm_photon_grid_sum_many(job->global, query, n, result);
