@@ -69,4 +69,20 @@ static inline double mean_of(const float *img, size_t n) {
     return s / (double)n;
 }
 
+/* A small room with an emissive ceiling patch and a glass ball, scaled by `scale` about the origin. */
+static inline pm_accel *scaled_room(pm_scene *s, float scale, pm_camera *cam) {
+    memset(s, 0, sizeof *s);
+    uint32_t white = sb_lambert(s, v3s(0.7f)), red = sb_lambert(s, v3(0.7f, 0.1f, 0.1f));
+    uint32_t lamp = sb_material(s, v3s(0), 0, 1, 0, v3s(5.f), false);
+    uint32_t glass = sb_material(s, v3s(1), 0, 0, 1, v3s(0), false);
+    float k = scale;
+    sb_box(s, v3(-k, -k, -k), v3(k, k, k), white, true);
+    sb_quad(s, v3(-k, -k, -k), v3(-k, k, -k), v3(-k, k, k), v3(-k, -k, k), red);
+    sb_quad(s, v3(-0.3f * k, 0.99f * k, -0.3f * k), v3(0.3f * k, 0.99f * k, -0.3f * k), v3(0.3f * k, 0.99f * k, 0.3f * k),
+            v3(-0.3f * k, 0.99f * k, 0.3f * k), lamp);
+    sb_sphere(s, v3(0.3f * k, -0.6f * k, 0), 0.35f * k, 24, glass);
+    *cam = sb_camera(v3(0, 0, 0.95f * k), v3(0, -0.3f * k, -k), v3(0, 1, 0), 70.f);
+    return sb_finish(s);
+}
+
 #endif

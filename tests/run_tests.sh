@@ -49,7 +49,8 @@ jobs=${JOBS:-2}
 # the tests that render on several threads, run again under TSan by make check
 TSAN_TESTS="test_threads test_texture_threads"
 export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
-# Convergence tests run hundreds of iterations, test_photons millions of photons, test_pathtrace
+# Convergence tests run hundreds of iterations, test_progressive_long 10^4 iterations and a search of
+# up to 40 runs, test_photons millions of photons, test_pathtrace
 # hundreds of paths per pixel, test_hard_energy an albedo-0.99 furnace of 100-bounce photon paths,
 # test_glossy, test_reference and test_splats long renders against Mitsuba, test_leaks three scenes
 # in up to three modes: they run optimised (processor time: test_photons 45 s against 136 s,
@@ -57,7 +58,7 @@ export PMVIEW_CORPUS="${PMVIEW_CORPUS:-../shared/gltf-corpus}"
 # test_reference 8 s against 13 s); the code they drive runs under ASan/UBSan in test_progressive,
 # test_volume, test_brdf, test_layers, the classic runs of test_cli and the path-traced runs of
 # test_log (build/asan/pmview), and (make check) under TSan in test_threads.
-OPTIMISED="test_convergence test_photons test_pathtrace test_hard_energy test_mirror_box test_glossy test_leaks test_reference test_splats"
+OPTIMISED="test_convergence test_progressive_long test_photons test_pathtrace test_hard_energy test_mirror_box test_glossy test_leaks test_reference test_splats"
 # Tests that measure what a person would see in seconds (a window's first frame, an answer to a key
 # or a signal, ranks exchanging iterations) or render for a set time (--time): another test beside
 # them could push them past their bounds. (test_window_room renders a set number of iterations and
@@ -70,7 +71,7 @@ ALONE="test_window test_window_cluster test_window_cluster_stop test_signal_writ
 # generous guard against a hang) and runs beside the ALONE tests.
 TIMED="test_cli test_hostile_sky test_memory test_robust test_window_reload test_window_variants test_real_models test_gpu_instancing test_compressed test_threads test_fuzz_regressions test_cut test_session_errors"
 # The longest tests start first (by their processor time), so the last one to end is a short one.
-FIRST="test_convergence test_progressive test_window_room test_leaks test_glossy test_photons test_memory test_window_default test_splats test_reference test_accel test_cli test_guide test_mirror_box test_robust test_memory_failures test_brdf test_kdtree test_threads test_log"
+FIRST="test_convergence test_progressive_long test_progressive test_window_room test_leaks test_glossy test_photons test_memory test_window_default test_splats test_reference test_accel test_cli test_guide test_mirror_box test_robust test_memory_failures test_brdf test_kdtree test_threads test_log"
 
 list=$(mktemp) || exit 1
 alone=$(mktemp) || exit 1

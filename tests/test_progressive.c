@@ -1,4 +1,4 @@
-/* test_progressive.c: the progressive mode's invariants: thin walls, only the passes a scene needs, threads, restarts, scale, 10^4 iterations. */
+/* test_progressive.c: the progressive mode's invariants: thin walls, only the passes a scene needs, threads, restarts, scale, eye passes (the 10^4-iteration run and the eye passes' search: test_progressive_long.c). */
 #include <stdlib.h>
 #include <string.h>
 
@@ -79,22 +79,6 @@ static void test_no_photon_pass_when_useless(void) {
     pm_scene_free(&s);
 }
 
-/* A small room with an emissive ceiling patch and a glass ball, scaled by `scale` about the origin. */
-static pm_accel *scaled_room(pm_scene *s, float scale, pm_camera *cam) {
-    memset(s, 0, sizeof *s);
-    uint32_t white = sb_lambert(s, v3s(0.7f)), red = sb_lambert(s, v3(0.7f, 0.1f, 0.1f));
-    uint32_t lamp = sb_material(s, v3s(0), 0, 1, 0, v3s(5.f), false);
-    uint32_t glass = sb_material(s, v3s(1), 0, 0, 1, v3s(0), false);
-    float k = scale;
-    sb_box(s, v3(-k, -k, -k), v3(k, k, k), white, true);
-    sb_quad(s, v3(-k, -k, -k), v3(-k, k, -k), v3(-k, k, k), v3(-k, -k, k), red);
-    sb_quad(s, v3(-0.3f * k, 0.99f * k, -0.3f * k), v3(0.3f * k, 0.99f * k, -0.3f * k), v3(0.3f * k, 0.99f * k, 0.3f * k),
-            v3(-0.3f * k, 0.99f * k, 0.3f * k), lamp);
-    sb_sphere(s, v3(0.3f * k, -0.6f * k, 0), 0.35f * k, 24, glass);
-    *cam = sb_camera(v3(0, 0, 0.95f * k), v3(0, -0.3f * k, -k), v3(0, 1, 0), 70.f);
-    return sb_finish(s);
-}
-
 static void test_scale_invariance(void) {
     enum { W = 24, H = 24 };
     float *img[3];
@@ -158,53 +142,6 @@ static void test_threads_identical(void) {
     pm_scene_free(&s);
 }
 
-/* 10,000 iterations: statistics stay finite and consistent, radii positive and shrinking. */
-static void test_long_run(void) {
-    pm_scene s;
-    pm_camera cam;
-    pm_accel *a = scaled_room(&s, 1.f, &cam);
-    enum { W = 6, H = 6 };
-    pm_progressive_settings ps = default_settings(W, H);
-    ps.photons = ps.caustic_photons = 400;
-    ps.indirect = PM_INDIRECT_PHOTONS;
-    ps.eye_passes = 1; /* 10^4 photon passes, each shrinking the radii */
-    session r;
-    if (!start(&r, &s, a, &cam, W, H, &ps)) return;
-    iterate(&r, 100);
-    pm_radius_summary at100 = pm_progressive_radii(r.p, r.film);
-    iterate(&r, 9900);
-    pm_radius_summary at10k = pm_progressive_radii(r.p, r.film);
-    printf("10^4 iterations: mean radius %.5f at 100, %.5f at 10000 (min %.3g), initial %.5f\n", at100.mean, at10k.mean,
-           at10k.min, at10k.initial_mean);
-    CHECK(at10k.min > 0.0 && at10k.mean < at100.mean && at100.mean <= at10k.initial_mean, "radii positive and shrinking");
-    int bad = 0;
-    for (int k = 0; k < PM_SLOT_COUNT; k++) {
-        if (!r.film->ppm[k]) continue;
-        for (int i = 0; i < W * H; i++) {
-            const pm_ppm_stat *st = &r.film->ppm[k][i];
-            bad += !isfinite(st->n) || st->n < 0 || !(st->r2 >= 0) || !isfinite(st->r2);
-            for (int c = 0; c < 3; c++) bad += !isfinite(st->tau[c]) || st->tau[c] < 0;
-            /* N grows by alpha M per iteration with photons: never more than the photons stored */
-            bad += st->n > (double)pm_progressive_get_stats(r.p)->photons_found;
-        }
-    }
-    CHECK(bad == 0, "%d inconsistent statistics after 10^4 iterations", bad);
-    float *img = malloc(sizeof(float) * 3 * W * H);
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++) {
-        pm_film_resolve(r.film, c, img);
-        int nonfinite = 0;
-        for (int i = 0; i < 3 * W * H; i++) nonfinite += !isfinite(img[i]) || img[i] < 0.f;
-        CHECK(nonfinite == 0, "component %s: %d bad values after 10^4 iterations", pm_component_names[c], nonfinite);
-    }
-    CHECK(r.film->samples == 10000 && r.film->photon_passes == 10000, "10^4 samples and photon passes (%u, %u)",
-          r.film->samples, r.film->photon_passes);
-    free(img);
-    stop(&r);
-    pm_accel_destroy(a);
-    pm_scene_free(&s);
-}
-
-/* A restart clears every pixel's state without reallocating. */
 static void test_restart(void) {
     pm_scene s;
     pm_camera cam;
@@ -351,96 +288,6 @@ static void test_gather_traces_punctual_light(void) {
     pm_scene_free(&s);
 }
 
-/* The automatic eye passes a photon pass for a shipped scene at 64x64, past the probe's first iterations. */
-/* Brute force for the automatic eye passes: K eye passes a photon pass, fixed, over `seeds` runs
- * of `passes` photon passes. noise: the mean over pixels and channels of the variance between the
- * seeds' images (relative: over mean^2 + 0.01); cost: rays a photon pass, an eye ray counting
- * PM_PPM_EYE_RAY_COST photon rays (the cost model the choice states, so that the search, like the
- * choice, gives the same answer on any machine). noise x cost is the noise a fixed budget buys. */
-typedef struct { double noise, cost; } eye_pass_trial;
-static eye_pass_trial eye_pass_trial_run(const pm_scene *s, const pm_accel *a, const pm_camera *cam, int w, int h,
-                                         uint64_t photons, int eye_passes, int seeds, uint32_t passes) {
-    size_t n = (size_t)3 * w * h;
-    double *sum = calloc(n, sizeof(double)), *sum2 = calloc(n, sizeof(double)), rays = 0.0;
-    float *img = malloc(sizeof(float) * n);
-    eye_pass_trial t = {NAN, NAN};
-    bool ran = sum && sum2 && img;
-    for (int seed = 0; seed < seeds && ran; seed++) {
-        pm_progressive_settings ps = default_settings(w, h);
-        ps.photons = ps.caustic_photons = photons;
-        ps.eye_passes = eye_passes;
-        ps.seed = 1 + (uint64_t)seed;
-        session r;
-        ran = start(&r, s, a, cam, w, h, &ps);
-        if (!ran) break;
-        ran = iterate_passes(&r, passes) && pm_film_resolve_total(r.film, img);
-        const pm_progressive_stats *st = pm_progressive_get_stats(r.p);
-        rays += (double)st->photons.rays + PM_PPM_EYE_RAY_COST * (double)st->eye.rays;
-        for (size_t i = 0; i < n && ran; i++) {
-            sum[i] += img[i];
-            sum2[i] += (double)img[i] * img[i];
-        }
-        stop(&r);
-    }
-    if (ran) {
-        double noise = 0.0;
-        for (size_t i = 0; i < n; i++) {
-            double mean = sum[i] / seeds, var = fmax(0.0, (sum2[i] - seeds * mean * mean) / (seeds - 1.0));
-            noise += var / (mean * mean + 0.01) / (double)n;
-        }
-        t.noise = noise;
-        t.cost = rays / seeds / passes;
-    }
-    free(sum);
-    free(sum2);
-    free(img);
-    return t;
-}
-
-/* The automatic choice against that search, at 16x16 in the room: at the default photons a pass,
- * where a photon pass costs many eye passes' rays, and at 16 photons a pass, where it costs next
- * to nothing. The count the probe settles on must buy within 25% of the least noise x cost over
- * fixed counts of 1, 2, 4 and 8. */
-static void test_eye_passes_against_search(void) {
-    enum { W = 16, H = 16, SEEDS = 4, PASSES = 2 * PM_PPM_PROBE_ITERATIONS + 8 };
-    pm_scene s;
-    pm_camera cam;
-    pm_accel *a = scaled_room(&s, 1.f, &cam);
-    const uint64_t photon_counts[2] = {pm_progressive_default_photons(W, H), 16};
-    for (int c = 0; c < 2; c++) {
-        pm_progressive_settings ps = default_settings(W, H);
-        ps.photons = ps.caustic_photons = photon_counts[c];
-        session r;
-        uint32_t chosen = 0;
-        if (start(&r, &s, a, &cam, W, H, &ps)) {
-            if (iterate_passes(&r, 2 * PM_PPM_PROBE_ITERATIONS + 4)) chosen = pm_progressive_eye_passes(r.p);
-            stop(&r);
-        }
-        CHECK(chosen >= 1 && chosen <= PM_PPM_MAX_EYE_PASSES, "%llu photons: %u eye passes chosen",
-              (unsigned long long)photon_counts[c], chosen);
-        if (chosen < 1 || chosen > PM_PPM_MAX_EYE_PASSES) continue;
-        const int fixed[4] = {1, 2, 4, 8};
-        double best = INFINITY, at_chosen = NAN;
-        int best_k = 0;
-        for (int k = 0; k < 5; k++) {
-            int K = k < 4 ? fixed[k] : (int)chosen;
-            if (k == 4 && (chosen == 1 || chosen == 2 || chosen == 4 || chosen == 8)) break;
-            eye_pass_trial t = eye_pass_trial_run(&s, a, &cam, W, H, photon_counts[c], K, SEEDS, PASSES);
-            double e = t.noise * t.cost;
-            printf("eye passes, %llu photons a pass: %d fixed, noise %.5f x cost %.0f rays = %.1f\n",
-                   (unsigned long long)photon_counts[c], K, t.noise, t.cost, e);
-            if (k < 4 && e < best) { best = e; best_k = K; }
-            if (K == (int)chosen) at_chosen = e;
-        }
-        printf("eye passes, %llu photons a pass: chosen %u (%.1f), best fixed %d (%.1f)\n", (unsigned long long)photon_counts[c],
-               chosen, at_chosen, best_k, best);
-        CHECK(at_chosen <= 1.25 * best, "%llu photons a pass: %u eye passes chosen buy noise x cost %.1f, %d fixed %.1f",
-              (unsigned long long)photon_counts[c], chosen, at_chosen, best_k, best);
-    }
-    pm_accel_destroy(a);
-    pm_scene_free(&s);
-}
-
 /* Several eye passes reading one photon pass. The film divides its sums by eye passes and the
  * statistics by photon passes: with the same photon passes, 1 or 4 eye passes each give the same
  * caustic splats (each splat weighed by the eye passes of its pass; exact, the weights are powers
@@ -499,7 +346,7 @@ static void test_eye_passes(void) {
 
     /* automatic: one eye pass in the first iteration (the first image waits for nothing), never
      * past the samples asked for; what it settles on is checked against a search
-     * (test_eye_passes_against_search) */
+     * (test_progressive_long.c) */
     pm_progressive_settings ps = default_settings(W, H);
     session r;
     if (start(&r, &s, a, &cam, W, H, &ps)) {
@@ -514,7 +361,6 @@ static void test_eye_passes(void) {
 }
 
 int main(void) {
-    test_eye_passes_against_search();
     test_eye_passes();
     test_thin_wall();
     test_no_photon_pass_when_useless();
@@ -524,6 +370,5 @@ int main(void) {
     test_gather_traces_punctual_light();
     test_first_iteration_radii();
     test_scale_invariance();
-    test_long_run();
     return pm_test_done("test_progressive");
 }
