@@ -16,7 +16,7 @@
 # learning's share is checked on its own (below 2% of the path tracer's rays). The means: within
 # 0.5% of the reference, where the seed moves them by 0.08% (standard deviation over seeds 1-6). With the photons forced (--gather photons) the same work errs
 # 1.3 times as much (1.30 on both rooms, relMSE x rays), checked at 1.2, so the checks can fail. And the choice, made from
-# the film and counts, gives the same image on 1 and 2 threads.
+# the film and counts, gives the same image on 1 and 2 threads (on the solid room).
 cd "$(dirname "$0")/.." || exit 1
 bin=./pmview
 tmp=$(mktemp -d)
@@ -43,10 +43,13 @@ for room in window-room:window_room_64 window-hollow:window_hollow_64; do
         if python3 - "$2" "$(value error relmse "$tmp/default")" "$(rays "$tmp/default")" "$(value error relmse "$tmp/path")" \
             "$(rays "$tmp/path")" "$(value error relmse "$tmp/photons")" "$(rays "$tmp/photons")" \
             "$(value error mean_ratio_r "$tmp/default")" "$(value error mean_ratio_g "$tmp/default")" \
-            "$(value error mean_ratio_b "$tmp/default")" "$(rays "$tmp/path512")" >"$tmp/py" 2>&1 <<'EOF'
+            "$(value error mean_ratio_b "$tmp/default")" "$samples" >"$tmp/py" 2>&1 <<'EOF'
 import sys
 a = [float(x) for x in sys.argv[2:]]
-d = {"relmse": a[0], "rays": a[1], "means": a[6:9], "learning": a[1] / a[9] - 1}
+# the learning's share: the default's rays against the path tracer's for 512 samples, from its run
+# of a[9] samples (the same seed: the same paths, so the scaling errs only by the last few samples'
+# share of a path's average rays, well under 0.1%)
+d = {"relmse": a[0], "rays": a[1], "means": a[6:9], "learning": a[1] / (a[3] * 512 / a[9]) - 1}
 t = {"relmse": a[2], "rays": a[3]}
 f = {"relmse": a[4], "rays": a[5]}
 print("default relmse %.6f rays %.0f means %s learning +%.2f%% rays; path tracer relmse %.6f rays %.0f; photons forced relmse %.6f rays %.0f"
@@ -59,7 +62,6 @@ EOF
     }
     run default --iterations 512
     run path1 --mode pathtrace --iterations 64
-    run path512 --mode pathtrace --iterations 512
     # the path tracer's samples for the default's rays (its rays per sample from a short run of the same seed)
     samples=$(python3 -c "import sys; print(max(1, round(64 * float(sys.argv[1]) / float(sys.argv[2]))))" \
               "$(rays "$tmp/default")" "$(rays "$tmp/path1")")
@@ -78,7 +80,9 @@ EOF
     check "the default's relMSE at most the path tracer's at equal rays (1.02: see above)" "d['relmse'] <= 1.02 * t['relmse']"
     check "the photons forced err 1.2 times as much at about equal rays (the choice matters)" \
         "f['relmse'] * f['rays'] >= 1.2 * d['relmse'] * d['rays']"
-    # the choice reads the film and counts only: the same seed makes the same image at any thread count
+    # the choice reads the film and counts only: the same seed makes the same image at any thread
+    # count (a property of the code, not of the room: checked on the first room only)
+    [ "$name" = window-room ] || continue
     run threads1 --iterations 40 --threads 1
     run threads2 --iterations 40 --threads 2
     checks=$((checks + 1))
