@@ -83,10 +83,12 @@ signal_case() { # description, signal, delay (s) into the render, want exit, pmv
     { [ $rc -eq "$want" ] && [ $ms -le 1000 ] && [ -s "$tmp/s.exr" ] && grep -q "interrupted: the image so far" "$tmp/out"; } ||
         { fail "$desc: want exit $want within 1000 ms and the image so far written, got exit $rc after $ms ms"; cat "$tmp/out" "$tmp/err" | grep -v "^stat" | head -n 5; }
 }
-signal_case "2M photons, albedo-1 room" INT 2 130 "$tmp/room.gltf" --width 64 --height 64 --photons 2000000 --gather photons --iterations 4
-signal_case "2M photons, albedo-1 room" TERM 3 143 "$tmp/room.gltf" --width 64 --height 64 --photons 2000000 --gather photons --iterations 4
+# Each signal comes 1 s into the render: any moment of a pass that lasts seconds is mid-pass, and
+# each second longer costs two processors' second.
+signal_case "2M photons, albedo-1 room" INT 1 130 "$tmp/room.gltf" --width 64 --height 64 --photons 2000000 --gather photons --iterations 4
+signal_case "2M photons, albedo-1 room" TERM 1 143 "$tmp/room.gltf" --width 64 --height 64 --photons 2000000 --gather photons --iterations 4
 signal_case "20M photons under --max-memory 1G" TERM 1 143 "$tmp/room.gltf" --width 64 --height 64 --photons 20000000 --gather photons --iterations 4 --max-memory 1G
-signal_case "path-traced eye pass, albedo-1 room" INT 2 130 "$tmp/room.gltf" --width 256 --height 256 --mode pathtrace --iterations 64
+signal_case "path-traced eye pass, albedo-1 room" INT 1 130 "$tmp/room.gltf" --width 256 --height 256 --mode pathtrace --iterations 64
 
 # 4. --time at a size where a pass does not fit in the time left: the run ends at the budget (not
 # a pass past it, nor a pass short of it), a pass cut between tiles leaves some pixels a sample
