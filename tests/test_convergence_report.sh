@@ -1,12 +1,12 @@
 #!/bin/sh
-# test_convergence_report.sh: a tiny `make convergence` (the Cornell box, three methods, 3 s each) writes its report with plots, slopes, tables and the image grid, and its numbers agree with the logs.
+# test_convergence_report.sh: a tiny `make convergence` (the Cornell box, three methods, 2 s each) writes its report with plots, slopes, tables and the image grid, and its numbers agree with the logs.
 cd "$(dirname "$0")/.." || exit 1
 command -v gnuplot >/dev/null || { echo "skip: gnuplot is not installed (sh tools/install-deps.sh convergence)"; exit 0; }
 [ -x ./pmview ] && [ -x build/rel/error_map ] || { echo "FAIL: build ./pmview and build/rel/error_map first"; exit 1; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 methods="ppm-a0.67-gather classic-100k-photons-cone pt"
-if ! CONV_OUT="$tmp" CONV_SIZES=64 CONV_SCENES=cornell CONV_METHODS="$methods" CONV_SECONDS=3 CONV_COMMAND="tiny test" \
+if ! CONV_OUT="$tmp" CONV_SIZES=64 CONV_SCENES=cornell CONV_METHODS="$methods" CONV_SECONDS=2 CONV_COMMAND="tiny test" \
      sh tools/convergence.sh >"$tmp/out" 2>&1; then
     sed 's/^/    /' "$tmp/out"; echo "FAIL: tools/convergence.sh failed"; exit 1
 fi
@@ -72,10 +72,10 @@ for m, row in zip(methods, slope_rows):
     check(row[6] != "-" or m.startswith("classic"), "%s: no slope in seconds" % m)
     check(row[6] == "-" or float(row[6]) < 0, "%s: slope in seconds %s is not negative" % (m, row[6]))
     check(abs(float(row[8])) < 5, "%s: bias %s%% beyond 5%%" % (m, row[8]))
-times = re.search(r"^\| method \| relMSE at 1 s \| relMSE at 3 s \| time to 0.03 \| time to 0.01 \| time to 0.003 \|$", report, re.M)
+times = re.search(r"^\| method \| relMSE at 1 s \| relMSE at 2 s \| time to 0.03 \| time to 0.01 \| time to 0.003 \|$", report, re.M)
 check(times, "no error-at-times table")
 ppm = times and re.search(r"^\| PPM a=2/3, indirect gather \| ([0-9.e+-]+) \| ([0-9.e+-]+) \|", report[times.end():], re.M)
-check(ppm and float(ppm.group(2)) < float(ppm.group(1)), "PPM's error at 3 s is not below its error at 1 s")
+check(ppm and float(ppm.group(2)) < float(ppm.group(1)), "PPM's error at 2 s is not below its error at 1 s")
 for f in fails:
     print("FAIL: " + f)
 if fails:
