@@ -13,6 +13,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 #include "brdf.h"
 #include "defaults.h"
 #include "pm_math.h"
@@ -136,6 +137,20 @@ typedef struct {
     bool split_glossy;
     pm_brdf split_brdf;
 } pm_material;
+
+/* glTF's default material (white, fully metallic and rough, opaque, alpha cutoff 0.5, ior 1.5) with
+ * no texture: what a primitive without a material gets, and where every material starts. */
+static inline void pm_material_set_default(pm_material *m) {
+    memset(m, 0, sizeof *m);
+    m->base_color = v3(1.f, 1.f, 1.f);
+    m->base_color_texture = m->emission_texture = m->metallic_roughness_texture = -1;
+    m->transmission_texture = m->normal_texture = -1;
+    m->normal_scale = 1.f;
+    m->metallic = m->roughness = 1.f;
+    m->ior = 1.5f;
+    m->alpha = 1.f;
+    m->alpha_cutoff = 0.5f;
+}
 
 /* Whether the material's coat has its own normal map (KHR_materials_clearcoat clearcoatNormalTexture). */
 static inline bool pm_material_coat_normal_mapped(const pm_material *m) {

@@ -2710,18 +2710,7 @@ void Loader::apply_variant() {
 // The material of primitives without one: glTF's default (white, fully metallic and rough).
 void Loader::add_default_material() {
     pm_material m;
-    memset(&m, 0, sizeof m);
-    m.base_color = v3(1, 1, 1);
-    m.base_color_texture = -1;
-    m.emission_texture = -1;
-    m.metallic_roughness_texture = -1;
-    m.transmission_texture = -1;
-    m.normal_texture = -1;
-    m.normal_scale = 1.f;
-    m.metallic = m.roughness = 1.f;
-    m.ior = 1.5f;
-    m.alpha = 1.f;
-    m.alpha_cutoff = 0.5f;
+    pm_material_set_default(&m);
     materials_.push_back(m);
 }
 

@@ -30,22 +30,13 @@ static inline uint32_t sb_material(pm_scene *s, vec3 base, float metallic, float
                                    vec3 emission, bool double_sided) {
     s->materials = sb_grow(s->materials, s->material_count, sizeof *s->materials);
     pm_material m;
-    memset(&m, 0, sizeof m);
+    pm_material_set_default(&m);
     m.base_color = base;
-    m.base_color_texture = -1;
-    m.emission_texture = -1;
-    m.metallic_roughness_texture = -1;
-    m.transmission_texture = -1;
-    m.normal_texture = -1;
-    m.normal_scale = 1.f;
     m.metallic = metallic;
     m.roughness = roughness;
     m.transmission = transmission;
-    m.ior = 1.5f;
     m.emission = emission;
     m.double_sided = double_sided;
-    m.alpha = 1.f;
-    m.alpha_cutoff = 0.5f;
     /* KHR_materials_specular specularFactor 0: the builder's metallic 0 materials mean Lambert
      * (and black lamps), as in the files that say so; sb_specular turns glTF's dielectric lobe on */
     m.layered = true;
