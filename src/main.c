@@ -258,8 +258,9 @@ static int create_session(run_state *r, set_up_context *c) {
     return -1;
 }
 
-/* Rank 0's room for the snapshot's writers, admitted before the render, and the reference read
- * (its size is the image's); then the window's first session starts, held. */
+/* The outputs' set-up: rank 0's room for the snapshot's writers, admitted before the render; the
+ * reference, read and matched to the image's size; and the window's first session, started held
+ * until the window shows its preview. */
 static int prepare_outputs(run_state *r, set_up_context *c) {
     pm_options *o = &r->opt;
     if (o->snapshot && c->root) {
