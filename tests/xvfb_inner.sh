@@ -31,13 +31,39 @@ end_temp() {
 # sent from a script inside it; the script ends by printing "inner: ok". Prints its output; exits
 # the test (1) when it ran over LIMIT_SECONDS or did not say ok. Sets and clears `group` (the
 # process group the caller's cleanup kills) and uses "$tmp".
+#
+# xvfb-run -a takes the first display number without a lock file in /tmp, but a lock file is not
+# the whole story: an X server in another container that shares the network namespace holds the
+# abstract socket of that number unseen, and the client reaches it first and is refused. So the
+# display is proved (xdotool asks it its size) before the script starts, and an unusable one is
+# given up for another, starting from a number few others use.
 run_inner() {
     name=$1; limit=$2; shift 2
+    attempt=1
+    while :; do
+        start_display=$(( 200 + ($$ * 7 + attempt * 101) % 700 ))
+        xvfb_session "$start_display" "$@"
+        grep -q "^inner: no display" "$tmp/xvfb.log" || break
+        [ "$attempt" -lt 3 ] || break
+        attempt=$((attempt + 1))
+    done
+    cat "$tmp/xvfb.log"
+    if [ "$rc" -ne 0 ] || ! grep -q "^inner: ok" "$tmp/xvfb.log"; then
+        echo "$name: FAILED: the window session failed (exit $rc)"
+        exit 1
+    fi
+}
+# xvfb_session FIRST_DISPLAY SCRIPT ARGS...: one xvfb-run session, bounded by $limit; sets rc
+xvfb_session() {
+    first=$1; shift
     # the new session keeps the caller's priority: where the kernel groups processes by session for
     # scheduling (autogroup), its group gets the caller's nice value (run_tests.sh runs some tests
     # at nice 19 beside the ones that time what a person would see)
-    setsid sh -c 'echo "$(nice)" >/proc/self/autogroup 2>/dev/null; exec xvfb-run -a -s "-screen 0 1024x768x24" sh "$@"' \
-        run_inner "$@" >"$tmp/xvfb.log" 2>&1 &
+    setsid sh -c 'echo "$(nice)" >/proc/self/autogroup 2>/dev/null; first=$1; shift
+        exec xvfb-run -a -n "$first" -s "-screen 0 1024x768x24" sh -c "
+            xdotool getdisplaygeometry >/dev/null 2>&1 || { echo \"inner: no display (\$DISPLAY refused us)\"; exit 1; }
+            exec sh \"\$@\"" inner "$@"' \
+        run_inner "$first" "$@" >"$tmp/xvfb.log" 2>&1 &
     xpid=$!
     # setsid made xvfb-run a session (and group) leader; never take our own group by mistake
     g=$(ps -o pgid= -p "$xpid" 2>/dev/null | tr -d ' ')
@@ -53,9 +79,4 @@ run_inner() {
     done
     wait "$xpid"; rc=$?
     group=""
-    cat "$tmp/xvfb.log"
-    if [ "$rc" -ne 0 ] || ! grep -q "^inner: ok" "$tmp/xvfb.log"; then
-        echo "$name: FAILED: the window session failed (exit $rc)"
-        exit 1
-    fi
 }
