@@ -2606,7 +2606,7 @@ void Loader::convert_materials() {
                 e.first != "KHR_materials_sheen" && e.first != "KHR_materials_specular" && e.first != "KHR_materials_unlit")
                 note_ignored(e.first, name);
         pm_material m;
-        memset(&m, 0, sizeof m);
+        pm_material_set_default(&m);  // a field not read from the file below keeps glTF's default
         std::string label = material_label(i);
         float base[3];  // in order, so the warning quotes the first value clamped
         for (int k = 0; k < 3; k++) base[k] = static_cast<float>(checked(pbr.baseColorFactor[k], 0, 1, "baseColorFactor", label));
