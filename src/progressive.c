@@ -130,6 +130,7 @@ typedef struct {
     radius_state radii;
     uint32_t probe_pairs;
     pm_progressive_stats stats;
+    bool kept_probe_and_guide;           /* an iteration that may change them kept them (keep_start) */
 } iteration_start;
 
 uint64_t pm_progressive_default_photons(int width, int height) {
@@ -981,13 +982,17 @@ static double seen_density_radius2(pm_progressive *p, const pm_photon_grid *grid
     return r2;
 }
 
-/* Keeps what the iteration about to run may change outside the film's buffers (see iteration_start). */
-static void keep_start(pm_progressive *p, const pm_film *film, iteration_start *st) {
+/* Keeps what the iteration about to run may change outside the film's buffers (see iteration_start).
+ * An iteration that traces no photon and runs no probe (path_only) changes neither the probe nor
+ * the guide: copying them would be its largest serial work. */
+static void keep_start(pm_progressive *p, const pm_film *film, bool path_only, iteration_start *st) {
     st->samples = film->samples;
     st->photon_passes = film->photon_passes;
     st->radii = p->radii;
     st->probe_pairs = p->probe.pairs;
     st->stats = p->stats;
+    st->kept_probe_and_guide = !path_only;
+    if (path_only) return;
     if (p->probe.total) memcpy(p->probe.saved, p->probe.mean, PROBE_KEPT * p->probe.count * sizeof(double));
     if (p->guiding) pm_guide_copy(&p->guide_saved, &p->guide);
 }
@@ -1001,6 +1006,7 @@ static bool take_back(pm_progressive *p, pm_film *film, const iteration_start *s
     p->radii = st->radii;
     p->probe.pairs = st->probe_pairs;
     p->stats = st->stats;
+    if (!st->kept_probe_and_guide) return true;
     if (p->probe.total) memcpy(p->probe.mean, p->probe.saved, PROBE_KEPT * p->probe.count * sizeof(double));
     if (p->guiding) pm_guide_copy(&p->guide, &p->guide_saved);
     return true;
@@ -1029,6 +1035,8 @@ typedef struct {
     bool learning;                       /* one of the gather source's learning iterations (begin_iteration) */
     bool measure_only;                   /* the photons' learning iteration: probed pixels alone, film put back */
     bool probing;                        /* the noise probe runs (automatic eye passes) */
+    bool path_only;                      /* the path tracer's light chosen and no photon to trace: the
+                                          * eye passes alone, as --mode pathtrace's (begin_iteration) */
     pm_gather_source source;             /* the final gather's source in this iteration */
     double deadline;                     /* the eye passes', which a measuring iteration lifts while it runs */
     double to_whole[KIND_COUNT];         /* a whole iteration's photons over those asked (whole_over_asked) */
@@ -1077,8 +1085,20 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
     it->photon_rays_before = p->stats.photons.rays;
     it->eye_rays_before = p->stats.eye.rays;
     it->saved_before = p->stats.eye.shadow_rays_saved;
-    it->probing = p->probe.total != NULL;
-    keep_start(p, film, &it->start);
+    /* Once the path tracer's light is chosen on a scene that traces no caustic photons, nothing
+     * the probe weighs is left: eye passes per photon pass weigh eye noise against photon noise,
+     * and there are no photons. Such an iteration is the path tracer's samples alone, and runs
+     * without the probe and the guide's copies (serial work that, with the eye passes' threads
+     * waiting on it, cost a tenth of the iterations on two cores). The samples, and so the image,
+     * are the same at any eye passes an iteration (each sample's random numbers follow its index),
+     * and each is traced by the path tracer's own loop from the camera: with no caustic possible,
+     * the visible point's continuation adds exactly what it adds, so the image is --mode
+     * pathtrace's bit for bit, without the visible point's record. */
+    it->path_only = chosen && it->source == PM_GATHER_PATH && p->gathering && !p->trace_caustic &&
+                    !p->scene->analysis.component_possible[PM_CAUSTIC];
+    p->eye.path_trace = it->path_only;
+    it->probing = p->probe.total != NULL && !it->path_only;
+    keep_start(p, film, it->path_only, &it->start);
     if (it->probing) probe_begin(&p->probe, film);
 }
 
@@ -1168,7 +1188,7 @@ static gather_job *new_gather_job(pm_progressive *p, pm_film *film, const iterat
     job->gather_r2 = p->radii.gather_r2;
     job->to_whole[KIND_CAUSTIC] = it->to_whole[KIND_CAUSTIC];
     job->to_whole[KIND_INDIRECT] = it->to_whole[KIND_INDIRECT];
-    if (p->guiding) {
+    if (p->guiding && it->source == PM_GATHER_PHOTONS) { /* only such an iteration's marks are swapped in (end_iteration) */
         double read_radius = p->gathering ? sqrt(p->radii.gather_r2)
                                           : (p->radii.query_radius[KIND_INDIRECT] > 0.0 ? p->radii.query_radius[KIND_INDIRECT]
                                                                                   : mean_initial_radius(p, KIND_INDIRECT));
