@@ -98,6 +98,7 @@ typedef struct {
     int gather_source;
     double choice_relmse[2], choice_bias2, choice_cost[2];
     uint32_t choice_iterations;  /* learning iterations probed before the choice, both sources */
+    uint32_t path_only_samples;  /* samples taken as the path tracer's eye pass alone, the choice made (progressive.c, begin_iteration) */
     double choice_caustic_share; /* of the light the photons' measuring iterations gathered at the probed pixels'
                                   * gather points, the share that came off a mirror or glass last (0: none measured) */
 } pm_progressive_stats;

@@ -1328,6 +1328,7 @@ static void end_iteration(pm_progressive *p, pm_film *film, const iteration_run 
         p->marks = p->marks_next;
         p->marks_next = swap;
     }
+    if (it->path_only) p->stats.path_only_samples += it->whole_passes;
     if (it->learning && !it->cut) p->radii.learn_step++;
     if (it->learning && it->probing && it->whole_passes >= 2) learn_gather_cost(p, it);
     if (it->measure_only) {

@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_window_default.sh: the default mode on both window rooms lit by sun and sky (solid slabs, scenes/window-room.gltf; single-sided faces with hollow walls and a ground under the floor, scenes/window-hollow.gltf) against Mitsuba 3's references: the choice of the path tracer's light, every channel's mean, and the error at most the path tracer's at equal work.
+# test_window_default.sh: the default mode on both window rooms lit by sun and sky (solid slabs, scenes/window-room.gltf; single-sided faces with hollow walls and a ground under the floor, scenes/window-hollow.gltf) against Mitsuba 3's references: the choice of the path tracer's light, its image then --mode pathtrace's bit for bit, every channel's mean, and the error at most the path tracer's at equal work.
 #
 # Work is counted, never timed: the rays each run cast (eye rays with their shadow rays, photon
 # rays, the clips' probes), from the stat lines. The default renders 512 samples per pixel at
@@ -80,6 +80,16 @@ EOF
     check "the default's relMSE at most the path tracer's at equal rays (1.02: see above)" "d['relmse'] <= 1.02 * t['relmse']"
     check "the photons forced err 1.2 times as much at about equal rays (the choice matters)" \
         "f['relmse'] * f['rays'] >= 1.2 * d['relmse'] * d['rays']"
+    # once the path tracer's light is chosen (no caustic possible here), each iteration is the path
+    # tracer's own eye pass: the image after 40 samples is --mode pathtrace's bit for bit, and the
+    # samples after the choice were taken that way (path_only_samples)
+    run default40 --iterations 40
+    run path40 --mode pathtrace --iterations 40
+    checks=$((checks + 1))
+    path_only=$(value progressive path_only_samples "$tmp/default40")
+    if cmp -s "$tmp/default40.exr" "$tmp/path40.exr" && [ "${path_only:-0}" -ge 20 ]; then
+        echo "ok: $name: 40 samples bit for bit --mode pathtrace's, $path_only of them as its eye pass alone"
+    else fails=$((fails + 1)); echo "FAIL: $name: 40 samples differ from --mode pathtrace's, or only '${path_only}' taken as its eye pass alone"; fi
     # the choice reads the film and counts only: the same seed makes the same image at any thread
     # count (a property of the code, not of the room: checked on the first room only)
     [ "$name" = window-room ] || continue
