@@ -108,7 +108,7 @@ struct pm_progressive {
      * first photon pass's density there sets the initial and shared radii (seen_density) */
     struct { vec3 p, n; uint32_t tri; } seen[2][SEEN_POINTS];
     int seen_count[2];
-    double seen_density[SEEN_POINTS];    /* seen_density_radius2's scratch */
+    double seen_density[SEEN_POINTS];    /* seen_density_radius2's, per point */
     radius_state radii;                  /* what an iteration changes besides the film, the probe and the guide */
     noise_probe probe;                   /* automatic eye passes only */
     pm_photon_buffer buffer[KIND_COUNT]; /* this iteration's photons, reused */
@@ -944,14 +944,28 @@ static bool build_grid(pm_progressive *p, int kind) {
  * fitting the room's light, not the landscape's mean. 0 when too few points found photons. The
  * caller keeps the mean's radius where the seen light is sparser: a wider disc would blur more
  * than the mean's did, and only more photons where the camera looks can make it denser. */
-static double seen_density_radius2(pm_progressive *p, const pm_photon_grid *grid, int which, double mean_r2,
-                                   double photons, double to_whole) {
-    enum { SEEN_STEPS = 5, MIN_POINTS = 16 };
-    if (!grid->count || !(mean_r2 > 0.0)) return 0.0;
-    double *density = p->seen_density;
-    int known = 0;
-    for (int k = 0; k < p->seen_count[which]; k++) {
-        double r2 = mean_r2 / 4.0;
+enum { SEEN_STEPS = 5, SEEN_CHUNK = 32, SEEN_TASKS = (SEEN_POINTS + SEEN_CHUNK - 1) / SEEN_CHUNK };
+
+/* The measurement's work, shared out over the threads in chunks of points: each point's density
+ * (-1: it found none) and each chunk's probe rays, read in order afterwards, so the result is the
+ * one point-by-point order gives at any thread count. */
+typedef struct {
+    pm_progressive *p;
+    const pm_photon_grid *grid;
+    int which;
+    double mean_r2, to_whole;
+    uint64_t clip_rays[SEEN_TASKS];
+} seen_job;
+
+static void seen_chunk(void *ctx, size_t task, int thread) {
+    seen_job *job = ctx;
+    pm_progressive *p = job->p;
+    const pm_photon_grid *grid = job->grid;
+    int which = job->which, end = (int)((task + 1) * SEEN_CHUNK);
+    if (end > p->seen_count[which]) end = p->seen_count[which];
+    for (int k = (int)(task * SEEN_CHUNK); k < end; k++) {
+        p->seen_density[k] = -1.0; /* found none */
+        double r2 = job->mean_r2 / 4.0;
         for (int step = 0; step < SEEN_STEPS; step++, r2 *= 4.0) {
             /* the clip keeps a subset of the whole disc's photons: a step whose whole disc holds
              * too few would fail clipped too, and is passed without probing */
@@ -963,20 +977,41 @@ static double seen_density_radius2(pm_progressive *p, const pm_photon_grid *grid
             }
             pm_clip clip;
             pm_clip_make(&clip, p->scene, p->accel, p->seen[which][k].p, p->seen[which][k].n, p->seen[which][k].tri,
-                         (float)sqrt(r2), pm_hash64((uint64_t)which << 32 | (uint64_t)k), &p->stats.clip_rays);
+                         (float)sqrt(r2), pm_hash64((uint64_t)which << 32 | (uint64_t)k), &job->clip_rays[task]);
             pm_grid_query q = {p->seen[which][k].p, p->seen[which][k].n, (float)r2, 7u, NULL, v3s(0.f), v3s(0.f), &clip};
             pm_grid_result r;
             pm_photon_grid_sum_many(grid, &q, 1, &r);
             if (r.found >= PM_PPM_INITIAL_PHOTONS || step == SEEN_STEPS - 1) {
-                if (r.found) density[known++] = r.found * to_whole / (PM_PI * r2 * pm_clip_area_fraction(&clip, (float)sqrt(r2)));
+                if (r.found)
+                    p->seen_density[k] = r.found * job->to_whole / (PM_PI * r2 * pm_clip_area_fraction(&clip, (float)sqrt(r2)));
                 break;
             }
         }
     }
+}
+
+static double seen_density_radius2(pm_progressive *p, const pm_photon_grid *grid, int which, double mean_r2,
+                                   double photons, double to_whole) {
+    enum { MIN_POINTS = 16 };
+    if (!grid->count || !(mean_r2 > 0.0)) return 0.0;
+    seen_job job = {p, grid, which, mean_r2, to_whole, {0}};
+    size_t tasks = ((size_t)p->seen_count[which] + SEEN_CHUNK - 1) / SEEN_CHUNK;
+    /* the measurement is the run's once, never cut: the iteration it belongs to is taken back whole
+     * on a cancel (its radii with it) */
+    const atomic_bool *cancel = pm_parallel_get_cancel();
+    pm_parallel_set_cancel(NULL);
+    pm_parallel_for(pm_thread_count(p->settings.threads), tasks, seen_chunk, &job);
+    pm_parallel_set_cancel(cancel);
+    for (size_t t = 0; t < tasks; t++) p->stats.clip_rays += job.clip_rays[t];
+    /* the mean over the points that found photons, in the points' order */
+    int known = 0;
+    for (int k = 0; k < p->seen_count[which]; k++)
+        if (p->seen_density[k] != -1.0) known++;
     double r2 = 0.0;
     if (known >= MIN_POINTS) {
         double mean = 0.0;
-        for (int i = 0; i < known; i++) mean += density[i] / known;
+        for (int k = 0; k < p->seen_count[which]; k++)
+            if (p->seen_density[k] != -1.0) mean += p->seen_density[k] / known;
         r2 = photons / (PM_PI * mean);
     }
     return r2;
