@@ -14,9 +14,13 @@
 # 512 samples over seeds 1-6 spreads by 2.0% of its mean on the solid room and 1.7% on the
 # hollow one, so an equal-time comparison of independent runs could not tell 2% apart). The
 # learning's share is checked on its own (below 2% of the path tracer's rays). The means: within
-# 0.5% of the reference, where the seed moves them by 0.08% (standard deviation over seeds 1-6). With the photons forced (--gather photons) the same work errs
-# 1.3 times as much (1.30 on both rooms, relMSE x rays), checked at 1.2, so the checks can fail. And the choice, made from
-# the film and counts, gives the same image on 1 and 2 threads (on the solid room).
+# 0.5% of the reference, where the seed moves them by 0.08% (standard deviation over seeds 1-6).
+# With the photons forced (--gather photons) the same work errs more (relMSE x rays against the
+# default's; seeds 1-6: solid room 1.35 5.48 1.70 1.38 1.29 1.49, hollow room 1.31 2.90 1.99 1.62
+# 2.54 1.24), checked at 1.2 on the solid room only, as the control that the choice matters and the
+# checks can fail (on the hollow room its two runs took 4.5 s of the test's 33 s of processor time).
+# And the choice, made from the film and counts, gives the same image on 1 and 2 threads (on the
+# solid room).
 cd "$(dirname "$0")/.." || exit 1
 bin=./pmview
 tmp=$(mktemp -d)
@@ -41,11 +45,11 @@ for room in window-room:window_room_64 window-hollow:window_hollow_64; do
     check() { # description, python condition over d (default), t (path tracer) and f (photons forced): dicts of error and rays
         checks=$((checks + 1))
         if python3 - "$2" "$(value error relmse "$tmp/default")" "$(rays "$tmp/default")" "$(value error relmse "$tmp/path")" \
-            "$(rays "$tmp/path")" "$(value error relmse "$tmp/photons")" "$(rays "$tmp/photons")" \
+            "$(rays "$tmp/path")" "$(value error relmse "$tmp/photons" 2>/dev/null)" "$(rays "$tmp/photons" 2>/dev/null)" \
             "$(value error mean_ratio_r "$tmp/default")" "$(value error mean_ratio_g "$tmp/default")" \
             "$(value error mean_ratio_b "$tmp/default")" "$samples" >"$tmp/py" 2>&1 <<'EOF'
 import sys
-a = [float(x) for x in sys.argv[2:]]
+a = [float(x or "nan") for x in sys.argv[2:]]  # (no photons forced on the hollow room: nan)
 # the learning's share: the default's rays against the path tracer's for 512 samples, from its run
 # of a[9] samples (the same seed: the same paths, so the scaling errs only by the last few samples'
 # share of a path's average rays, well under 0.1%)
@@ -66,11 +70,15 @@ EOF
     samples=$(python3 -c "import sys; print(max(1, round(64 * float(sys.argv[1]) / float(sys.argv[2]))))" \
               "$(rays "$tmp/default")" "$(rays "$tmp/path1")")
     run path --mode pathtrace --iterations "$samples"
-    # the photons forced, for about the same rays (compared as relMSE x rays, which variance keeps constant)
-    run photons_short --gather photons --iterations 64
-    photon_samples=$(python3 -c "import sys; print(max(1, round(64 * float(sys.argv[1]) / float(sys.argv[2]))))" \
-                     "$(rays "$tmp/default")" "$(rays "$tmp/photons_short")")
-    run photons --gather photons --iterations "$photon_samples"
+    # the photons forced, for about the same rays (compared as relMSE x rays, which variance keeps
+    # constant), on the solid room only (see above)
+    rm -f "$tmp/photons_short" "$tmp/photons"
+    if [ "$name" = window-room ]; then
+        run photons_short --gather photons --iterations 64
+        photon_samples=$(python3 -c "import sys; print(max(1, round(64 * float(sys.argv[1]) / float(sys.argv[2]))))" \
+                         "$(rays "$tmp/default")" "$(rays "$tmp/photons_short")")
+        run photons --gather photons --iterations "$photon_samples"
+    fi
     source=$(value progressive gather_source "$tmp/default")
     checks=$((checks + 1))
     if [ "$source" = path ]; then echo "ok: $name: the default's final gathering chose the path tracer's light (gather_source=$source)"
@@ -78,8 +86,10 @@ EOF
     check "every channel's mean within 0.5% of the reference after 512 samples" "all(abs(m - 1) < 0.005 for m in d['means'])"
     check "the learning costs under 2% of the path tracer's rays for the same 512 samples" "0 <= d['learning'] < 0.02"
     check "the default's relMSE at most the path tracer's at equal rays (1.02: see above)" "d['relmse'] <= 1.02 * t['relmse']"
-    check "the photons forced err 1.2 times as much at about equal rays (the choice matters)" \
-        "f['relmse'] * f['rays'] >= 1.2 * d['relmse'] * d['rays']"
+    if [ "$name" = window-room ]; then
+        check "the photons forced err 1.2 times as much at about equal rays (the choice matters)" \
+            "f['relmse'] * f['rays'] >= 1.2 * d['relmse'] * d['rays']"
+    fi
     # once the path tracer's light is chosen (no caustic possible here), each iteration is the path
     # tracer's own eye pass: the image after 40 samples is --mode pathtrace's bit for bit, and the
     # samples after the choice were taken that way (path_only_samples)
