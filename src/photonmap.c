@@ -233,8 +233,9 @@ static sphere *specular_spheres(const pm_scene *s, uint32_t *count) {
 
 static vec3 cell_direction(int iz, int iphi, float fz, float fphi) {
     float z = 1.f - 2.f * ((iz + fz) / PROJ_Z), r = sqrtf(pm_maxf(0.f, 1.f - z * z));
-    float phi = 2.f * PM_PI * (iphi + fphi) / PROJ_PHI;
-    return v3(r * cosf(phi), r * sinf(phi), z);
+    float sin_phi, cos_phi; /* phi = 2 pi (iphi + fphi) / PROJ_PHI */
+    pm_sincos_turn((iphi + fphi) * (1.f / PROJ_PHI), &sin_phi, &cos_phi);
+    return v3(r * cos_phi, r * sin_phi, z);
 }
 
 /* Sources whose photons leave from a bounded region, so a map of directions can aim them. */
@@ -460,10 +461,11 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, const float
             /* uniform in the outer cone */
             float uz = guided ? guided[0] : pm_rng_float(rng), uphi = guided ? guided[1] : pm_rng_float(rng);
             float z = 1.f - uz * (1.f - pl->cos_outer), r = sqrtf(pm_maxf(0.f, 1.f - z * z));
-            float phi = 2.f * PM_PI * uphi;
+            float sin_phi, cos_phi; /* phi = 2 pi uphi */
+            pm_sincos_turn(uphi, &sin_phi, &cos_phi);
             vec3 t, b;
             v3_basis(pl->direction, &t, &b);
-            *d = v3_add(v3_scale(pl->direction, z), v3_add(v3_scale(t, r * cosf(phi)), v3_scale(b, r * sinf(phi))));
+            *d = v3_add(v3_scale(pl->direction, z), v3_add(v3_scale(t, r * cos_phi), v3_scale(b, r * sin_phi)));
             float omega = 2.f * PM_PI * (1.f - pl->cos_outer);
             *flux = v3_scale(pl->intensity, pm_spot_falloff(pl, *d) * omega);
             return !v3_is_black(*flux);
