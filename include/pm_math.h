@@ -76,6 +76,17 @@ static inline vec3 v3_reflect(vec3 d, vec3 n) { return v3_sub(d, v3_scale(n, 2.f
 /* sin and cos of 2 pi u for u in [0, 1), within a few float ulps, without a libm call (every
  * diffuse bounce and gather ray needs one). The quadrant comes from u; within it the angle is
  * centred on pi/4, where degree-8 Taylor polynomials are accurate to 3e-7. */
+/* c ? a : b by bit masks: GCC compiles a float ?: to a branch, which a random condition
+ * mispredicts half the time. */
+static inline float pm_selectf(bool c, float a, float b) {
+    uint32_t m = 0u - (uint32_t)c, ua, ub;
+    memcpy(&ua, &a, 4);
+    memcpy(&ub, &b, 4);
+    ua = (ua & m) | (ub & ~m);
+    memcpy(&a, &ua, 4);
+    return a;
+}
+
 /* sin and cos of x for |x| <= pi/4: the degree-8 Taylor polynomials, accurate to 3e-7 there. */
 static inline void pm_sincos_eighth(float x, float *s, float *c) {
     float x2 = x * x;
@@ -121,11 +132,11 @@ static inline vec3 pm_sample_cosine(vec3 n, float u1, float u2) {
 static inline void pm_sample_disc(float u1, float u2, float *x, float *y) {
     float a = 2.f * u1 - 1.f, b = 2.f * u2 - 1.f;
     bool wide = a * a > b * b;
-    float r = wide ? a : b, other = wide ? b : a;
-    float theta = r != 0.f ? (PM_PI / 4.f) * (other / r) : 0.f, s, c;
-    pm_sincos_eighth(theta, &s, &c);
-    *x = r * (wide ? c : s);
-    *y = r * (wide ? s : c);
+    float r = pm_selectf(wide, a, b), other = pm_selectf(wide, b, a);
+    float s, c; /* r = 0 only where other = 0 too: theta 0 there, not 0 / 0 */
+    pm_sincos_eighth((PM_PI / 4.f) * (other / pm_selectf(r != 0.f, r, 1.f)), &s, &c);
+    *x = r * pm_selectf(wide, c, s);
+    *y = r * pm_selectf(wide, s, c);
 }
 
 static inline vec3 pm_sample_sphere(float u1, float u2) {
