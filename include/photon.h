@@ -26,13 +26,15 @@ static inline uint16_t pm_oct_encode_bits(vec3 n, int bits) {
     int mask = (1 << bits) - 1;
     float s = fabsf(n.x) + fabsf(n.y) + fabsf(n.z);
     if (!(s > 0.f)) return (uint16_t)(((mask + 1) / 2) | (((mask + 1) / 2) << bits));
-    float x = n.x / s, y = n.y / s;
-    if (n.z < 0.f) {
-        float ox = (1.f - fabsf(y)) * (x >= 0.f ? 1.f : -1.f);
-        float oy = (1.f - fabsf(x)) * (y >= 0.f ? 1.f : -1.f);
-        x = ox;
-        y = oy;
-    }
+    float inv = 1.f / s, x = n.x * inv, y = n.y * inv;
+    /* the lower half's fold by sign copies and selects, not branches: every photon record encodes
+     * the direction it travelled, up or down and either way at random, and each branch was
+     * mispredicted half the time (at x or y = -0 the fold's sign differs, on the map's seam, where
+     * both signs decode to the same direction) */
+    float ox = copysignf(1.f - fabsf(y), x), oy = copysignf(1.f - fabsf(x), y);
+    bool lower = n.z < 0.f;
+    x = pm_selectf(lower, ox, x);
+    y = pm_selectf(lower, oy, y);
     int qx = (int)((x * 0.5f + 0.5f) * levels + 0.5f), qy = (int)((y * 0.5f + 0.5f) * levels + 0.5f); /* both >= 0 */
     return (uint16_t)((qx & mask) | ((qy & mask) << bits));
 }

@@ -76,12 +76,29 @@ static inline vec3 v3_reflect(vec3 d, vec3 n) { return v3_sub(d, v3_scale(n, 2.f
 /* sin and cos of 2 pi u for u in [0, 1), within a few float ulps, without a libm call (every
  * diffuse bounce and gather ray needs one). The quadrant comes from u; within it the angle is
  * centred on pi/4, where degree-8 Taylor polynomials are accurate to 3e-7. */
+/* c ? a : b by bit masks: GCC compiles a float ?: to a branch, which a random condition
+ * mispredicts half the time. */
+static inline float pm_selectf(bool c, float a, float b) {
+    uint32_t m = 0u - (uint32_t)c, ua, ub;
+    memcpy(&ua, &a, 4);
+    memcpy(&ub, &b, 4);
+    ua = (ua & m) | (ub & ~m);
+    memcpy(&a, &ua, 4);
+    return a;
+}
+
+/* sin and cos of x for |x| <= pi/4: the degree-8 Taylor polynomials, accurate to 3e-7 there. */
+static inline void pm_sincos_eighth(float x, float *s, float *c) {
+    float x2 = x * x;
+    *s = x * (1.f - x2 * (1.f / 6.f - x2 * (1.f / 120.f - x2 * (1.f / 5040.f))));
+    *c = 1.f - x2 * (0.5f - x2 * (1.f / 24.f - x2 * (1.f / 720.f - x2 * (1.f / 40320.f))));
+}
+
 static inline void pm_sincos_turn(float u, float *s, float *c) {
     float q4 = u * 4.f;
     int q = (int)q4;
-    float x = (q4 - (float)q - 0.5f) * (PM_PI / 2.f), x2 = x * x; /* |x| <= pi/4 */
-    float sx = x * (1.f - x2 * (1.f / 6.f - x2 * (1.f / 120.f - x2 * (1.f / 5040.f))));
-    float cx = 1.f - x2 * (0.5f - x2 * (1.f / 24.f - x2 * (1.f / 720.f - x2 * (1.f / 40320.f))));
+    float sx, cx;
+    pm_sincos_eighth((q4 - (float)q - 0.5f) * (PM_PI / 2.f), &sx, &cx); /* |x| <= pi/4 */
     const float h = 0.70710678118654752f; /* angle = x + pi/4 inside the quadrant */
     float sa = h * (sx + cx), ca = h * (cx - sx);
     /* quadrant q & 3 = 0: (sa, ca), 1: (ca, -sa), 2: (-sa, -ca), 3: (-ca, sa), by bit selects and
@@ -106,19 +123,26 @@ static inline vec3 pm_sample_cosine(vec3 n, float u1, float u2) {
     return v3_add(v3_add(v3_scale(t, x), v3_scale(b, y)), v3_scale(n, z));
 }
 
-/* Uniform point on the unit disc (concentric mapping keeps strata compact). */
+/* Uniform point on the unit disc (concentric mapping keeps strata compact). Which half of the
+ * square a point lies in is random, so the two cases are selects, not
+ * branches (a branch here was mispredicted half the time: every sun and sky photon starts on a
+ * disc), and the angle's sine and cosine come from pm_sincos_eighth, not libm: the case |a| > |b|
+ * has phi = theta, the other phi = pi/2 - theta, with theta = pi/4 x the smaller over the larger,
+ * so the second swaps sine and cosine. At the centre r = 0 and the point is (0, 0). */
 static inline void pm_sample_disc(float u1, float u2, float *x, float *y) {
-    float a = 2.f * u1 - 1.f, b = 2.f * u2 - 1.f, r, phi;
-    if (a == 0.f && b == 0.f) { *x = *y = 0.f; return; }
-    if (a * a > b * b) { r = a; phi = (PM_PI / 4.f) * (b / a); }
-    else { r = b; phi = (PM_PI / 2.f) - (PM_PI / 4.f) * (a / b); }
-    *x = r * cosf(phi);
-    *y = r * sinf(phi);
+    float a = 2.f * u1 - 1.f, b = 2.f * u2 - 1.f;
+    bool wide = a * a > b * b;
+    float r = pm_selectf(wide, a, b), other = pm_selectf(wide, b, a);
+    float s, c; /* r = 0 only where other = 0 too: theta 0 there, not 0 / 0 */
+    pm_sincos_eighth((PM_PI / 4.f) * (other / pm_selectf(r != 0.f, r, 1.f)), &s, &c);
+    *x = r * pm_selectf(wide, c, s);
+    *y = r * pm_selectf(wide, s, c);
 }
 
 static inline vec3 pm_sample_sphere(float u1, float u2) {
-    float z = 1.f - 2.f * u1, r = sqrtf(pm_maxf(0.f, 1.f - z * z)), phi = 2.f * PM_PI * u2;
-    return v3(r * cosf(phi), r * sinf(phi), z);
+    float z = 1.f - 2.f * u1, r = sqrtf(pm_maxf(0.f, 1.f - z * z)), sin_phi, cos_phi;
+    pm_sincos_turn(u2, &sin_phi, &cos_phi);
+    return v3(r * cos_phi, r * sin_phi, z);
 }
 
 /* Moves a surface point off its surface along the geometric normal n by a few float ulps of

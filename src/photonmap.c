@@ -233,8 +233,9 @@ static sphere *specular_spheres(const pm_scene *s, uint32_t *count) {
 
 static vec3 cell_direction(int iz, int iphi, float fz, float fphi) {
     float z = 1.f - 2.f * ((iz + fz) / PROJ_Z), r = sqrtf(pm_maxf(0.f, 1.f - z * z));
-    float phi = 2.f * PM_PI * (iphi + fphi) / PROJ_PHI;
-    return v3(r * cosf(phi), r * sinf(phi), z);
+    float sin_phi, cos_phi; /* phi = 2 pi (iphi + fphi) / PROJ_PHI */
+    pm_sincos_turn((iphi + fphi) * (1.f / PROJ_PHI), &sin_phi, &cos_phi);
+    return v3(r * cos_phi, r * sin_phi, z);
 }
 
 /* Sources whose photons leave from a bounded region, so a map of directions can aim them. */
@@ -378,41 +379,83 @@ static float emitter_point(const pass *ps, uint32_t e, float b1, float b2, pm_su
     return shape->area;
 }
 
+/* A start for light travelling along dir, uniform over the shadow the core's box casts on the
+ * plane across the scene behind it, from two numbers in [0, 1) (drawn, or the emission guide's):
+ * a line along dir enters a box through exactly one face that faces the light, so a face picked
+ * by its area across dir (|dir . normal| x area, by the first number, which is then rescaled to
+ * [0, 1)) and a uniform point on it give a uniform point of that shadow, which is then carried
+ * back along dir to the plane. A start outside that shadow would miss the whole core, and most of
+ * the disc around it is such: the disc across a room's ground of 120 m lit at 40 degrees is 2.4
+ * times its shadow, and such photons cost their emission and a ray each for nothing. Returns the
+ * shadow's area (0 for a box with no area across dir: the caller then takes the disc). */
+static float box_start(const pm_scene *s, vec3 dir, float u1, float u2, float back, vec3 *o) {
+    vec3 lo = s->core_min, ext = v3_sub(s->core_max, s->core_min);
+    float wx = fabsf(dir.x) * ext.y * ext.z, wy = fabsf(dir.y) * ext.x * ext.z, wz = fabsf(dir.z) * ext.x * ext.y;
+    float total = wx + wy + wz;
+    if (!(total > 0.f) || !isfinite(total)) return 0.f;
+    float pick = u1 * total, w;
+    vec3 p;
+    /* the face at the low side of an axis faces the light when dir runs up that axis */
+    if (pick < wx || !(wy + wz > 0.f)) {
+        w = wx;
+        float a = pm_minf(pick / w, 0.99999994f);
+        p = v3(dir.x > 0.f ? lo.x : s->core_max.x, lo.y + a * ext.y, lo.z + u2 * ext.z);
+    } else if (pick < wx + wy || !(wz > 0.f)) {
+        w = wy;
+        float a = pm_minf((pick - wx) / w, 0.99999994f);
+        p = v3(lo.x + a * ext.x, dir.y > 0.f ? lo.y : s->core_max.y, lo.z + u2 * ext.z);
+    } else {
+        w = wz;
+        float a = pm_minf(pm_maxf(pick - wx - wy, 0.f) / w, 0.99999994f);
+        p = v3(lo.x + a * ext.x, lo.y + u2 * ext.y, dir.z > 0.f ? lo.z : s->core_max.z);
+    }
+    /* onto the plane `back` behind the centre, across dir */
+    *o = v3_madd(p, dir, -(v3_dot(v3_sub(p, s->center), dir) + back));
+    return total;
+}
+
 /* Where light travelling along dir starts: a point on a plane across the scene, behind it.
- * Without targets, uniform on a disc of the scene's bounding radius; with them (the caustic
- * pass), uniform on the union of the targets' projected discs: pick a disc by area, a point in
- * it, and divide by how many discs cover that point, so overlaps are not counted twice.
+ * Without targets, for a directional light (box) uniform over the core box's shadow on that plane
+ * (box_start; a degenerate box falls back to the disc), for the sky uniform on a disc of the
+ * scene's bounding radius: the shadow's area varies with the direction (a flat landscape's from
+ * its whole top down to a thin strip seen edge on), so sky photons starting in it would carry
+ * powers that vary as much, and the many edge-on ones, weak but each a full path of rays, cost
+ * more than they bring (photons alone on window-room under a white sky: relMSE 0.0031 against the
+ * disc's 0.0025 at equal rays); a sun's shadow is one area, its photons keep one power. With
+ * targets (the caustic pass), uniform on
+ * the union of the targets' projected discs: pick a disc by area, a point in it, and divide by
+ * how many discs cover that point, so overlaps are not counted twice.
  * Returns the area that the sampling stands for: flux = irradiance x that area. */
-static float parallel_start(const pass *ps, vec3 dir, pm_rng *rng, const float *guided, vec3 *o) {
+static float parallel_start(const pass *ps, vec3 dir, bool box, pm_rng *rng, const float *guided, vec3 *o) {
     const pm_scene *s = ps->scene;
     float R = s->radius > 0.f ? s->radius : 1.f, x, y, area, back = 1.01f * R;
-    vec3 t, b;
-    v3_basis(dir, &t, &b);
-    if (guided) {
-        pm_sample_disc(guided[0], guided[1], &x, &y);
+    bool targets = ps->caustic_pass && ps->targets && ps->target_count;
+    if (!targets) {
+        float u1 = guided ? guided[0] : pm_rng_float(rng), u2 = guided ? guided[1] : pm_rng_float(rng);
+        area = box ? box_start(s, dir, u1, u2, back, o) : 0.f;
+        if (area > 0.f) return area;
+        vec3 t, b;
+        v3_basis(dir, &t, &b);
+        pm_sample_disc(u1, u2, &x, &y);
         *o = v3_add(v3_madd(s->center, dir, -back), v3_add(v3_scale(t, x * R), v3_scale(b, y * R)));
         return PM_PI * R * R;
     }
+    vec3 t, b;
+    v3_basis(dir, &t, &b);
     float u = pm_rng_float(rng);
     pm_sample_disc(pm_rng_float(rng), pm_rng_float(rng), &x, &y);
-    if (ps->caustic_pass && ps->targets && ps->target_count) {
-        const sphere *c = &ps->targets[pm_cdf_interval(ps->target_cdf, ps->target_count, u)];
-        vec3 rel = v3_sub(c->center, s->center);
-        x = v3_dot(rel, t) + x * c->radius;
-        y = v3_dot(rel, b) + y * c->radius;
-        int cover = 0;
-        for (uint32_t j = 0; j < ps->target_count; j++) {
-            vec3 rj = v3_sub(ps->targets[j].center, s->center);
-            float dx = x - v3_dot(rj, t), dy = y - v3_dot(rj, b), r = ps->targets[j].radius;
-            cover += dx * dx + dy * dy <= r * r;
-        }
-        area = ps->target_area / (float)(cover > 0 ? cover : 1); /* cover >= 1 but for rounding */
-        back = ps->target_reach;
-    } else {
-        x *= R;
-        y *= R;
-        area = PM_PI * R * R;
+    const sphere *c = &ps->targets[pm_cdf_interval(ps->target_cdf, ps->target_count, u)];
+    vec3 rel = v3_sub(c->center, s->center);
+    x = v3_dot(rel, t) + x * c->radius;
+    y = v3_dot(rel, b) + y * c->radius;
+    int cover = 0;
+    for (uint32_t j = 0; j < ps->target_count; j++) {
+        vec3 rj = v3_sub(ps->targets[j].center, s->center);
+        float dx = x - v3_dot(rj, t), dy = y - v3_dot(rj, b), r = ps->targets[j].radius;
+        cover += dx * dx + dy * dy <= r * r;
     }
+    area = ps->target_area / (float)(cover > 0 ? cover : 1); /* cover >= 1 but for rounding */
+    back = ps->target_reach;
     *o = v3_add(v3_madd(s->center, dir, -back), v3_add(v3_scale(t, x), v3_scale(b, y)));
     return area;
 }
@@ -452,7 +495,7 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, const float
         const pm_light *pl = &s->lights[l->light];
         if (pl->type == PM_LIGHT_DIRECTIONAL) {
             *d = pl->direction;
-            *flux = v3_scale(pl->intensity, parallel_start(ps, *d, rng, guided, o));
+            *flux = v3_scale(pl->intensity, parallel_start(ps, *d, true, rng, guided, o));
             return true;
         }
         *o = pl->position;
@@ -460,10 +503,11 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, const float
             /* uniform in the outer cone */
             float uz = guided ? guided[0] : pm_rng_float(rng), uphi = guided ? guided[1] : pm_rng_float(rng);
             float z = 1.f - uz * (1.f - pl->cos_outer), r = sqrtf(pm_maxf(0.f, 1.f - z * z));
-            float phi = 2.f * PM_PI * uphi;
+            float sin_phi, cos_phi; /* phi = 2 pi uphi */
+            pm_sincos_turn(uphi, &sin_phi, &cos_phi);
             vec3 t, b;
             v3_basis(pl->direction, &t, &b);
-            *d = v3_add(v3_scale(pl->direction, z), v3_add(v3_scale(t, r * cosf(phi)), v3_scale(b, r * sinf(phi))));
+            *d = v3_add(v3_scale(pl->direction, z), v3_add(v3_scale(t, r * cos_phi), v3_scale(b, r * sin_phi)));
             float omega = 2.f * PM_PI * (1.f - pl->cos_outer);
             *flux = v3_scale(pl->intensity, pm_spot_falloff(pl, *d) * omega);
             return !v3_is_black(*flux);
@@ -489,13 +533,13 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, const float
         vec3 radiance = pm_sky_map_sample(s->sky_map, u1, u2, &toward, &pdf);
         if (!(pdf > 0.f)) return false;
         *d = v3_neg(toward);
-        *flux = v3_scale(v3_mul(s->sky_radiance, radiance), parallel_start(ps, *d, rng, guided, o) / pdf);
+        *flux = v3_scale(v3_mul(s->sky_radiance, radiance), parallel_start(ps, *d, false, rng, guided, o) / pdf);
         return true;
     }
     float u1 = guided_direction ? guided_direction[0] : pm_rng_float(rng);
     float u2 = guided_direction ? guided_direction[1] : pm_rng_float(rng);
     *d = v3_neg(pm_sample_sphere(u1, u2));
-    *flux = v3_scale(s->sky_radiance, 4.f * PM_PI * parallel_start(ps, *d, rng, guided, o));
+    *flux = v3_scale(s->sky_radiance, 4.f * PM_PI * parallel_start(ps, *d, false, rng, guided, o));
     return true;
 }
 
