@@ -18,9 +18,36 @@
  *      node (scene.h, Instancing; place_instanced_meshes).
  * Any problem throws LoadError; pm_load_gltf turns it into the one line "FILE: what (where)".
  */
+// tinygltf is compiled inside an unnamed namespace, so its functions are local to this file and the
+// compiler drops those the loader never calls (its glTF writer and the JSON output it needs): a fifth
+// of this object's machine code, not compiled at all. The headers tinygltf includes on this platform
+// are included first, outside the namespace, so the standard library, nlohmann's JSON (hidden, as
+// tinygltf includes it) and stb_image keep their usual linkage; their include guards keep tinygltf
+// from including them again inside.
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+#pragma GCC visibility push(hidden)
+#include <nlohmann/json.hpp>
+#pragma GCC visibility pop
+#include <stb_image.h>
 #define TINYGLTF_IMPLEMENTATION
 #define TINYGLTF_NO_STB_IMAGE_WRITE
+namespace {
 #include <tiny_gltf.h>
+}
 
 #include <sys/stat.h>
 
