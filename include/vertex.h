@@ -15,7 +15,8 @@
  *      (one number, drawn only when two parts can be chosen); everything the tracer adds for that
  *      part (a photon record, a visible point, direct light) is multiplied by out->choice, the
  *      inverse of the choice's probability; a tracer that reads N where it is (the classic eye
- *      chain) chooses between G and S only;
+ *      chain) chooses between G and S only, and so does one that N would end (a caustic photon),
+ *      which then survives in step 3 as often as the choice among all three went on;
  *   2. samples the chosen part (the cosine or the N lobe's sampler, the G lobe's sampler, the
  *      shared specular function), so photons and eye paths scatter identically;
  *   3. survives from policy->roulette_from on with probability q = min(PM_MAX_SURVIVAL, mean of
@@ -43,7 +44,11 @@ typedef enum { PM_LOBE_NONE, PM_LOBE_NONSPECULAR, PM_LOBE_NEAR_SPECULAR, PM_LOBE
 typedef struct {
     int roulette_from;         /* survival applies at the surface of this index (0: the first a path meets) and later */
     bool nonspecular_in_place; /* N is read at the vertex (classic eye chain): only G and S are chosen */
-    bool nonspecular_ends;     /* choosing N ends the path there, unsampled (a caustic photon, a walk to a point) */
+    bool nonspecular_ends;     /* choosing N ends the path there, unsampled (a walk to a point) */
+    bool nonspecular_weighed;  /* N is never chosen: G or S is, in proportion to their weights (weight: value over
+                                  that probability), and the survival q is the choice among all three's, so a path
+                                  goes on with probability q where it did with P q, P = (g + s) / (n + g + s), its weight
+                                  P times that choice's instead (a caustic photon, which N would end: L S+ D) */
     pm_lobe only;              /* PM_LOBE_NONE: the part is chosen; else the path goes on by this part alone, with
                                   choice 1 and no number drawn (a classic final-gather ray leaving its point by N) */
 } pm_vertex_policy;

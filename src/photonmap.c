@@ -127,7 +127,10 @@ typedef struct {
 
 /* Photons meet the one survival rule from their first surface on (Jensen: a photon keeps its power). */
 static const pm_vertex_policy photon_policy = {.roulette_from = 0};
-static const pm_vertex_policy caustic_photon_policy = {.roulette_from = 0, .nonspecular_ends = true};
+/* A caustic photon (L S+ D) is stored at a non-specular surface and goes on by its specular parts
+ * only, with less power, rather than ended where it would choose N: it keeps going where it used
+ * to be dropped (vertex.h). */
+static const pm_vertex_policy caustic_photon_policy = {.roulette_from = 0, .nonspecular_weighed = true};
 
 /* Flux of a spot: I x integral of the falloff over the cone (midpoint rule in cos theta). */
 static float spot_solid_angle(const pm_light *l) {

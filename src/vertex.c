@@ -87,6 +87,14 @@ bool pm_vertex_step(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_po
         g = policy->only == PM_LOBE_NEAR_SPECULAR ? g : 0.f;
         s = policy->only == PM_LOBE_SPECULAR ? s : 0.f;
     }
+    /* N's share of the weights, which ends the path in a choice among all three, left out of the
+     * choice (G and S in proportion to theirs, their weight over their probability as always) */
+    float specular_share = 1.f;
+    if (policy->nonspecular_weighed && n > 0.f) {
+        float all = n + pm_maxf(0.f, g) + pm_maxf(0.f, s);
+        specular_share = (all - n) / all;
+        n = 0.f;
+    }
     out->lobe = choose(n, g, s, rng, &out->choice, &total);
     out->sampled = false;
     if (out->lobe == PM_LOBE_NONE || (out->lobe == PM_LOBE_NONSPECULAR && policy->nonspecular_ends)) return false;
@@ -107,9 +115,13 @@ bool pm_vertex_step(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_po
     }
     out->weight = v3_scale(out->value, out->choice);
     /* step 3: Lambert's, the mirror's and glass's mean weight over their choice is the weights' sum;
-     * a GGX part's weight depends on the direction drawn: the sample's */
+     * a GGX part's weight depends on the direction drawn: the sample's. With N left out of the
+     * choice (nonspecular_weighed) both are taken as in the choice among all three (the weight
+     * over P, the sum with N's): the path goes on with that choice's q where it used to with P q,
+     * and the weight it carries on with is P times that choice's (P <= 1: it only falls) */
     if (vertex < policy->roulette_from) return true;
     float mean = sf->glossy && out->lobe != PM_LOBE_SPECULAR ? v3_average(out->weight) : total;
+    mean /= specular_share;
     float q = pm_minf(PM_MAX_SURVIVAL, mean);
     if (!(q > 0.f) || pm_rng_float(rng) >= q) return false;
     out->weight = v3_scale(out->weight, 1.f / q);
