@@ -21,6 +21,12 @@ static pm_photon_settings photon_settings(uint64_t global, uint64_t caustic) {
     return p;
 }
 
+static size_t stored_count(const pm_kdtree *t, int path) {
+    size_t n = 0;
+    for (size_t i = 0; i < t->count; i++) n += path < 0 || pm_photon_path(&t->photons[i]) == path;
+    return n;
+}
+
 static vec3 stored_power(const pm_kdtree *t, int path) {
     double sum[3] = {0, 0, 0};
     for (size_t i = 0; i < t->count; i++) {
@@ -452,6 +458,15 @@ static void roulette_both_branches(void) {
         /* a caustic map photon took k >= 1 mirror bounces then arrived */
         CHECK_NEAR(v3_get(caustic, c), phi * walk_caustic[c], 0.03, 0, "mixed walls: caustic map power = the walks' mirror chains");
     }
+    /* The global pass's photons end their mirror chains where they choose the Lambert share; the
+     * caustic pass's go on by the mirror share alone, their power multiplied by its share of the
+     * albedo, so at the same power (above) its chains store several times the records: about
+     * T/(1-T) against s/(1-s) a photon, T the albedo and s the mirror share of it */
+    size_t global_chains = stored_count(&maps.global, PM_PATH_CAUSTIC), caustic_chains = stored_count(&maps.caustic, -1);
+    printf("mixed walls: %zu caustic map records against %zu mirror-chain records of the global pass, as many photons\n",
+           caustic_chains, global_chains);
+    CHECK(caustic_chains > 2 * global_chains, "mixed walls: caustic photons go on where the Lambert share would end them (%zu records against %zu)",
+          caustic_chains, global_chains);
     pm_photon_maps_free(&maps);
     pm_accel_destroy(a);
     pm_scene_free(&s);
