@@ -8,7 +8,7 @@
 # signals, cluster ranks: ALONE below) run one at a time while the rest run JOBS at a time beside
 # them at the lowest priority (nice 19, in a scheduling group of their own), so they take only the
 # processor time the ALONE test leaves idle. Last, the QUIET tests (windows, signals during a large
-# write) run one at a time with nothing beside them.
+# write) run one at a time, with only BESIDE_QUIET's tests beside them at the lowest priority.
 # Each test's output is kept in build/test-logs/NAME.log, its result in build/test-logs/NAME.result.
 # With names (run_tests.sh test_film_sums test_cancel), only those tests run.
 cd "$(dirname "$0")/.." || exit 1
@@ -67,8 +67,13 @@ OPTIMISED="test_convergence test_progressive_long test_photons test_pathtrace te
 ALONE="test_cluster test_hangs test_convergence_report"
 # Of those, the ones whose timing a test at the lowest priority beside them still upsets (a window
 # server's session, a 100 MB write within mpirun's 1 s while other tests write their files: each
-# failed once so) run last, one at a time, with nothing beside them.
+# failed once so) run last, one at a time, with nothing beside them but BESIDE_QUIET's tests, which
+# write no files and take only the processor time left idle.
 QUIET="test_window test_window_cluster test_window_cluster_stop test_signal_writes test_window_loading test_interactive"
+# Tests that only compute (no file written, no clock read, no window, no process of their own
+# beyond their threads), kept for last: one at a time at the lowest priority beside the QUIET
+# tests, they take the processor those leave idle (the QUIET tests keep about one of two busy).
+BESIDE_QUIET="test_convergence test_photons"
 # Tests that bound their own wall time (a refusal within 1-10 s, a timeout of 20 s, a reload within
 # 2 s, a SIGINT 1.5 s after the start, a deadline of a share of a measured pass): at the lowest
 # priority an ALONE test using both cores could hold them past those bounds, so they run first, JOBS
@@ -82,14 +87,16 @@ list=$(mktemp) || exit 1
 alone=$(mktemp) || exit 1
 timed=$(mktemp) || exit 1
 quiet=$(mktemp) || exit 1
+beside=$(mktemp) || exit 1
 background=""
-trap 'rm -f "$list" "$alone" "$timed" "$quiet"; [ -n "$background" ] && kill -TERM "-$background" 2>/dev/null' EXIT
+trap 'rm -f "$list" "$alone" "$timed" "$quiet" "$beside"; [ -n "$background" ] && kill -TERM "-$background" 2>/dev/null' EXIT
 trap 'exit 1' INT TERM HUP
 add() { # name command...: queue a test in its list: run alone, timed, or the rest
     base=${1%%\[*}
     case " $QUIET " in *" $base "*) echo "$*" >>"$quiet"; return ;; esac
     case " $ALONE " in *" $base "*) echo "$*" >>"$alone"; return ;; esac
     case " $TIMED " in *" $base "*) echo "$*" >>"$timed"; return ;; esac
+    case " $BESIDE_QUIET " in *" $base "*) echo "$*" >>"$beside"; return ;; esac
     echo "$*" >>"$list"
 }
 entries=$(mktemp) || exit 1
@@ -149,7 +156,12 @@ while [ -w "/proc/$background/autogroup" ] && ! echo 0 >"/proc/$background/autog
 done
 wait "$background"
 background=""
+setsid -w sh -c 'echo 19 >/proc/self/autogroup 2>/dev/null; exec nice -n 19 xargs -r -P 1 -L 1 sh tests/run_tests.sh --one' \
+    beside <"$beside" &
+background=$!
 xargs -r -P 1 -L 1 sh tests/run_tests.sh --one <"$quiet"
+wait "$background"
+background=""
 
 passed=0; failed=0; skipped=0; failed_names=""; total=0; total_cpu=0
 for r in "$logs"/*.result; do
@@ -163,7 +175,7 @@ for r in "$logs"/*.result; do
         *) failed=$((failed + 1)); failed_names="$failed_names $name" ;;
     esac
 done
-queued=$(cat "$list" "$alone" "$timed" "$quiet" | wc -l)
+queued=$(cat "$list" "$alone" "$timed" "$quiet" "$beside" | wc -l)
 missing=$((queued - passed - failed - skipped))
 [ "$missing" -gt 0 ] && { failed=$((failed + missing)); failed_names="$failed_names (${missing} left no result)"; }
 echo "tests ran in $(( $(date +%s) - began )) s, $jobs at a time; their own times add up to $total s, their processor times to $total_cpu s"
