@@ -117,8 +117,9 @@ bool pm_vertex_step(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_po
     /* step 3: Lambert's, the mirror's and glass's mean weight over their choice is the weights' sum;
      * a GGX part's weight depends on the direction drawn: the sample's. With N left out of the
      * choice (nonspecular_weighed) both are taken as in the choice among all three (the weight
-     * over P, the sum with N's): the path goes on with that choice's q where it used to with P q,
-     * and the weight it carries on with is P times that choice's (P <= 1: it only falls) */
+     * over P, the sum with N's): the path goes on with that choice's q where a choice among all
+     * three goes on with P q, and the weight it carries on with is P times that choice's (P <= 1:
+     * it only falls) */
     if (vertex < policy->roulette_from) return true;
     float mean = sf->glossy && out->lobe != PM_LOBE_SPECULAR ? v3_average(out->weight) : total;
     mean /= specular_share;
