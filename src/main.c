@@ -259,8 +259,8 @@ static int create_session(run_state *r, set_up_context *c) {
 }
 
 /* The outputs' set-up: rank 0's room for the snapshot's writers, admitted before the render; the
- * reference, read and matched to the image's size; and the window's first session, started held
- * until the window shows its preview. */
+ * reference, read and matched to the image's size; and the window's session, held until the window
+ * shows its preview. */
 static int prepare_outputs(run_state *r, set_up_context *c) {
     pm_options *o = &r->opt;
     if (o->snapshot && c->root) {
