@@ -88,7 +88,7 @@ end=$(date +%s.%N)
 wait $pid
 awk -v a="$start" -v b="$end" 'BEGIN { printf "window_wall seconds=%.3f\n", b - a }' >>"$2"
 INNER
-timeout 60 xvfb-run -a -s "-screen 0 1024x768x24" sh "$tmp/inner.sh" $scene "$tmp/window" "$seconds" >/dev/null 2>&1
+timeout 60 xvfb-run -a -s "-screen 0 1024x768x24 -noreset" sh "$tmp/inner.sh" $scene "$tmp/window" "$seconds" >/dev/null 2>&1
 grep '^stat cluster' "$tmp/window" >"$tmp/window.cluster" || { echo "bench cluster_bytes kind=window: no stat line"; exit 0; }
 merges=$(field merges "$tmp/window.cluster"); per=$(field bytes_per_merge "$tmp/window.cluster")
 awk -v t="$(field seconds "$tmp/window")" -v m="$merges" -v b="$per" -v sent="$(field bytes_sent "$tmp/window.cluster")" 'BEGIN {

@@ -39,7 +39,7 @@ for r in $(seq 1 "$rounds"); do
     done
 done
 INNER
-xvfb-run -a -s "-screen 0 1024x768x24" sh "$tmp/inner.sh" "$tmp" "$rounds" "$@" | tee "$tmp/all.txt"
+xvfb-run -a -s "-screen 0 1024x768x24 -noreset" sh "$tmp/inner.sh" "$tmp" "$rounds" "$@" | tee "$tmp/all.txt"
 median() { sort -n | awk '{ v[NR] = $1 } END { if (NR) printf "%d ms (median of %d; %d-%d)", v[int((NR + 1) / 2)], NR, v[1], v[NR]; else printf "-" }'; }
 for bin in "$@"; do
     echo "$bin: first image $(grep "^$bin " "$tmp/all.txt" | sed -n 's/.* image_ms=\([0-9]*\) .*/\1/p' | median) after the process started;" \

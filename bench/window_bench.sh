@@ -18,7 +18,7 @@ xdotool windowfocus --sync "$wid"; xdotool key Escape
 wait $pid
 EOF
 for scene in scenes/cornell-box.gltf scenes/caustic.gltf; do
-    timeout 120 xvfb-run -a -s "-screen 0 1024x768x24" sh "$tmp/inner.sh" "$scene" "$tmp/log" >/dev/null 2>&1
+    timeout 120 xvfb-run -a -s "-screen 0 1024x768x24 -noreset" sh "$tmp/inner.sh" "$scene" "$tmp/log" >/dev/null 2>&1
     line=$(grep '^stat window' "$tmp/log")
     echo "bench window scene=$scene ${line#stat window }"
 done

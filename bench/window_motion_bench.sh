@@ -41,7 +41,7 @@ done
 xdotool windowfocus --sync "\$wid"; xdotool key Escape
 wait \$pid
 EOF
-run() { timeout 180 xvfb-run -a -s "-screen 0 1024x768x24" sh "$tmp/inner.sh" "$1" "$tmp/log" "$2" >/dev/null 2>&1; }
+run() { timeout 180 xvfb-run -a -s "-screen 0 1024x768x24 -noreset" sh "$tmp/inner.sh" "$1" "$tmp/log" "$2" >/dev/null 2>&1; }
 field() { awk -v stage="$1" -v key="$2" '$1 == "stat" && $2 == stage { for (i = 3; i <= NF; i++) if (index($i, key "=") == 1) { print substr($i, length(key) + 2); exit } }' "$tmp/log"; }
 
 # process start to the first frame (the window, cleared, its title showing the set-up's stage)

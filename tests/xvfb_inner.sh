@@ -36,7 +36,9 @@ end_temp() {
 # the whole story: an X server in another container that shares the network namespace holds the
 # abstract socket of that number unseen, and the client reaches it first and is refused. So the
 # display is proved (xdotool asks it its size) before the script starts, and an unusable one is
-# given up for another, starting from a number few others use.
+# given up for another, starting from a number few others use. -noreset: by default an X server
+# resets when its last client leaves, and a client connecting meanwhile is refused (the check's own
+# connection, or one pmview's exit before the next one starts).
 run_inner() {
     name=$1; limit=$2; shift 2
     attempt=1
@@ -60,7 +62,7 @@ xvfb_session() {
     # scheduling (autogroup), its group gets the caller's nice value (run_tests.sh runs some tests
     # at nice 19 beside the ones that time what a person would see)
     setsid sh -c 'echo "$(nice)" >/proc/self/autogroup 2>/dev/null; first=$1; shift
-        exec xvfb-run -a -n "$first" -s "-screen 0 1024x768x24" sh -c "
+        exec xvfb-run -a -n "$first" -s "-screen 0 1024x768x24 -noreset" sh -c "
             xdotool getdisplaygeometry >/dev/null 2>&1 || { echo \"inner: no display (\$DISPLAY refused us)\"; exit 1; }
             exec sh \"\$@\"" inner "$@"' \
         run_inner "$first" "$@" >"$tmp/xvfb.log" 2>&1 &
