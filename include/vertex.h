@@ -23,7 +23,10 @@
  *      the weight the bounce multiplies the path by), the weight divided by q. For Lambert, mirrors
  *      and glass that mean is the sum of the choice weights: Jensen's albedo roulette, under which
  *      a photon keeps its power; for a GGX part it is the sample's f cos / pdf over its choice. The
- *      cap keeps q above albedo^2 (finite variance, defaults.h).
+ *      cap keeps q above albedo^2 (finite variance, defaults.h). A tracer that reads nothing of a
+ *      path the roulette ends (policy->ended_unsampled: photons) draws it before step 2 wherever q
+ *      does not hang on the sample (every part but a GGX one), so an absorbed photon costs no sample
+ *      and no shading normal: the choice, then absorption, as in Jensen's photon roulette.
  * What differs between tracers is a policy (where roulette starts, whether N is read in place or
  * ends the path); what they add at a vertex is theirs: the path tracer direct light at N and the
  * punctual lights' at G, a visible-point walk its point, photons their records.
@@ -49,6 +52,8 @@ typedef struct {
                                   that probability), and the survival q is the choice among all three's, so a path
                                   goes on with probability q where it did with P q, P = (g + s) / (n + g + s), its weight
                                   P times that choice's instead (a caustic photon, which N would end: L S+ D) */
+    bool ended_unsampled;      /* nothing is read of a path the roulette ends (photons): step 3 comes before step 2
+                                  where q does not hang on the sample */
     pm_lobe only;              /* PM_LOBE_NONE: the part is chosen; else the path goes on by this part alone, with
                                   choice 1 and no number drawn (a classic final-gather ray leaving its point by N) */
 } pm_vertex_policy;
@@ -67,6 +72,8 @@ typedef struct {
                              paths' kinds go (direct light and shadow rays cross it too, thin.h) */
     bool sampled;         /* direction, origin, value and pdf hold a sample (also when the roulette then ended the path) */
     pm_lobe lobe;         /* the part chosen; PM_LOBE_NONE: the surface has none to go on with */
+    float choice_total, specular_share, survival; /* between pm_vertex_choose and pm_vertex_sample_chosen: the
+                                                     choice weights' sum, P (nonspecular_weighed) and q once drawn */
 } pm_vertex_ray;
 
 /* The one rule: which parts of a glossy lobe count as near-specular (GGX reflections of alpha
@@ -116,5 +123,11 @@ bool pm_vertex_sample_part(const pm_surface *sf, pm_lobe part, vec3 wo, pm_rng *
  * the answer, out->sampled whether a sample was drawn (N chosen under nonspecular_ends draws none). */
 bool pm_vertex_step(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_policy *policy, pm_rng *rng, float scale,
                     pm_vertex_ray *out);
+/* pm_vertex_step in its two halves, for a tracer that completes its surface record between them
+ * (a photon's shading normal, which an absorbed photon never needs): step 1 (and 3 where it comes
+ * first), which reads sf->ns on a glossy surface only; then step 2 and the rest of 3. */
+bool pm_vertex_choose(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_policy *policy, pm_rng *rng, pm_vertex_ray *out);
+bool pm_vertex_sample_chosen(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_policy *policy, pm_rng *rng, float scale,
+                             pm_vertex_ray *out);
 
 #endif

@@ -125,12 +125,12 @@ typedef struct {
     size_t guide_cells;       /* guided sources x PM_GUIDE_CELL_COUNT */
 } pass;
 
-/* Photons meet the one survival rule from their first surface on (Jensen: a photon keeps its power). */
-static const pm_vertex_policy photon_policy = {.roulette_from = 0};
+/* Photons meet the one survival rule from their first surface on (Jensen: a photon keeps its power),
+ * and an absorbed one is read no further. */
+static const pm_vertex_policy photon_policy = {.roulette_from = 0, .ended_unsampled = true};
 /* A caustic photon (L S+ D) is stored at a non-specular surface and goes on by its specular parts
- * only, with less power, rather than ended where it would choose N: it keeps going where it used
- * to be dropped (vertex.h). */
-static const pm_vertex_policy caustic_photon_policy = {.roulette_from = 0, .nonspecular_weighed = true};
+ * only, with less power, rather than ended where it would choose N (vertex.h). */
+static const pm_vertex_policy caustic_photon_policy = {.roulette_from = 0, .nonspecular_weighed = true, .ended_unsampled = true};
 
 /* Flux of a spot: I x integral of the falloff over the cone (midpoint rule in cos theta). */
 static float spot_solid_angle(const pm_light *l) {
@@ -720,11 +720,16 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
      * caustic pass ends at a non-specular choice, as L S+ D was stored above (and where nothing
      * specular or near-specular could carry it on, before the shading record is completed) */
     if (ps->caustic_pass && !pm_vertex_has_specular(&sf)) return false;
-    complete_shading(s, h, shading_left, ng, &sf);
+    /* the choice reads the shading normal on a glossy lobe only; past it, an absorbed photon needs none */
+    const pm_vertex_policy *policy = ps->caustic_pass ? &caustic_photon_policy : &photon_policy;
+    if (sf.glossy) {
+        complete_shading(s, h, shading_left, ng, &sf);
+        shading_left = false;
+    }
     pm_vertex_ray ray;
-    if (!pm_vertex_step(&sf, *d, p->bounce, ps->caustic_pass ? &caustic_photon_policy : &photon_policy, rng, s->ray_scale,
-                        &ray))
-        return false;
+    if (!pm_vertex_choose(&sf, *d, p->bounce, policy, rng, &ray)) return false;
+    complete_shading(s, h, shading_left, ng, &sf);
+    if (!pm_vertex_sample_chosen(&sf, *d, p->bounce, policy, rng, s->ray_scale, &ray)) return false;
     p->power = v3_mul(p->power, ray.weight); /* flux: no radiance_scale across a refraction */
     *d = ray.direction;
     *o = ray.origin;

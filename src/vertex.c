@@ -77,8 +77,13 @@ static pm_lobe choose(float n, float g, float s, pm_rng *rng, float *choice, flo
     return PM_LOBE_SPECULAR;
 }
 
-bool pm_vertex_step(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_policy *policy, pm_rng *rng, float scale,
-                    pm_vertex_ray *out) {
+/* Step 3's draw: true when the path goes on, with q in *q. */
+static bool survives(float mean, pm_rng *rng, float *q) {
+    *q = pm_minf(PM_MAX_SURVIVAL, mean);
+    return *q > 0.f && pm_rng_float(rng) < *q;
+}
+
+bool pm_vertex_choose(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_policy *policy, pm_rng *rng, pm_vertex_ray *out) {
     vec3 wo = v3_neg(d);
     float n, g, s, total;
     part_weights(sf, wo, policy->nonspecular_in_place, &n, &g, &s);
@@ -89,15 +94,27 @@ bool pm_vertex_step(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_po
     }
     /* N's share of the weights, which ends the path in a choice among all three, left out of the
      * choice (G and S in proportion to theirs, their weight over their probability as always) */
-    float specular_share = 1.f;
+    out->specular_share = 1.f;
     if (policy->nonspecular_weighed && n > 0.f) {
         float all = n + pm_maxf(0.f, g) + pm_maxf(0.f, s);
-        specular_share = (all - n) / all;
+        out->specular_share = (all - n) / all;
         n = 0.f;
     }
     out->lobe = choose(n, g, s, rng, &out->choice, &total);
     out->sampled = false;
+    out->survival = 0.f;
+    out->choice_total = total;
     if (out->lobe == PM_LOBE_NONE || (out->lobe == PM_LOBE_NONSPECULAR && policy->nonspecular_ends)) return false;
+    /* step 3 before step 2 where the survival does not hang on the sample (every part but a GGX
+     * one) and nothing is read of a path that ends: a photon absorbed draws no sample */
+    bool sample_free = !sf->glossy || out->lobe == PM_LOBE_SPECULAR;
+    if (policy->ended_unsampled && sample_free && vertex >= policy->roulette_from)
+        return survives(total / out->specular_share, rng, &out->survival);
+    return true;
+}
+
+bool pm_vertex_sample_chosen(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_policy *policy, pm_rng *rng, float scale,
+                             pm_vertex_ray *out) {
     /* step 2 */
     if (out->lobe == PM_LOBE_SPECULAR) {
         pm_specular_sample sp;
@@ -110,7 +127,7 @@ bool pm_vertex_step(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_po
         out->transmitted = sp.transmitted;
         out->straight = sp.straight;
         out->sampled = true;
-    } else if (!pm_vertex_sample_part(sf, out->lobe, wo, rng, scale, out)) {
+    } else if (!pm_vertex_sample_part(sf, out->lobe, v3_neg(d), rng, scale, out)) {
         return false;
     }
     out->weight = v3_scale(out->value, out->choice);
@@ -121,10 +138,15 @@ bool pm_vertex_step(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_po
      * three goes on with P q, and the weight it carries on with is P times that choice's (P <= 1:
      * it only falls) */
     if (vertex < policy->roulette_from) return true;
-    float mean = sf->glossy && out->lobe != PM_LOBE_SPECULAR ? v3_average(out->weight) : total;
-    mean /= specular_share;
-    float q = pm_minf(PM_MAX_SURVIVAL, mean);
-    if (!(q > 0.f) || pm_rng_float(rng) >= q) return false;
-    out->weight = v3_scale(out->weight, 1.f / q);
+    if (!(out->survival > 0.f)) {
+        float mean = sf->glossy && out->lobe != PM_LOBE_SPECULAR ? v3_average(out->weight) : out->choice_total;
+        if (!survives(mean / out->specular_share, rng, &out->survival)) return false;
+    }
+    out->weight = v3_scale(out->weight, 1.f / out->survival);
     return true;
+}
+
+bool pm_vertex_step(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_policy *policy, pm_rng *rng, float scale,
+                    pm_vertex_ray *out) {
+    return pm_vertex_choose(sf, d, vertex, policy, rng, out) && pm_vertex_sample_chosen(sf, d, vertex, policy, rng, scale, out);
 }
