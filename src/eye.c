@@ -141,12 +141,30 @@ static inline vec3 reflected(const pm_surface *sf, pm_lobe part, vec3 ns, vec3 w
     return v3_scale(pm_vertex_f(sf, part, ns, wo, wi), cos_s);
 }
 
-/* The punctual lights' share of direct_light (below): their light reflected toward wo by the
- * part; *cast and *saved count shadow rays cast and made unnecessary by shadow photons. */
-static vec3 punctual_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, pm_lobe part, vec3 wo, vec3 ng, vec3 ns,
-                           vec3 origin, pm_rng *rng, uint64_t *rays, const pm_shadow_map *shadow, uint64_t *cast,
-                           uint64_t *saved) {
-    vec3 e = v3s(0.f);
+/* What direct_light's strategies share: the point lit, seen from wo, its shading frame facing wo,
+ * the origin of its rays, and the counts its rays add to. */
+typedef struct {
+    const pm_scene *s;
+    const pm_accel *a;
+    const pm_surface *sf;
+    pm_lobe part;
+    vec3 wo, ng, ns, origin;
+    uint64_t *rays;              /* every ray traced */
+    uint64_t cast;               /* shadow rays to light samples */
+} light_site;
+
+static light_site light_site_at(const pm_scene *s, const pm_accel *a, const pm_surface *sf, pm_lobe part, vec3 wo, uint64_t *rays) {
+    vec3 ng = pm_facing(sf->ng, wo);
+    light_site ls = {s, a, sf, part, wo, ng, pm_facing(sf->ns, ng), pm_surface_origin(sf, ng, s->ray_scale), rays, 0};
+    return ls;
+}
+
+/* The punctual lights' share of direct_light (below): their light reflected toward ls->wo by the
+ * part; ls->cast and *saved count shadow rays cast and made unnecessary by shadow photons. */
+static vec3 punctual_light(light_site *ls, pm_rng *rng, const pm_shadow_map *shadow, uint64_t *saved) {
+    const pm_scene *s = ls->s;
+    const pm_surface *sf = ls->sf;
+    vec3 ng = ls->ng, ns = ls->ns, origin = ls->origin, e = v3s(0.f);
     bool sampled_lights = s->light_count > PM_DIRECT_LIGHT_SAMPLES;
     uint32_t light_samples = sampled_lights ? PM_DIRECT_LIGHT_SAMPLES : s->light_count;
     float stratum = sampled_lights ? pm_rng_float(rng) : 0.f;
@@ -186,26 +204,14 @@ static vec3 punctual_light(const pm_scene *s, const pm_accel *a, const pm_surfac
         if (verdict == PM_VISIBILITY_SEEN) {
             (*saved)++;
         } else {
-            (*rays)++;
-            (*cast)++;
-            if (!pm_thin_visible(s, a, origin, wi, tmax, &through, rays)) continue;
+            (*ls->rays)++;
+            ls->cast++;
+            if (!pm_thin_visible(s, ls->a, origin, wi, tmax, &through, ls->rays)) continue;
         }
-        e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance_scale, pick_weight), through), reflected(sf, part, ns, wo, wi, cos_s)));
+        e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance_scale, pick_weight), through), reflected(sf, ls->part, ns, ls->wo, wi, cos_s)));
     }
     return e;
 }
-
-/* What direct_light's strategies share: the point lit, seen from wo, its shading frame facing wo,
- * the origin of its rays, and the counts its rays add to. */
-typedef struct {
-    const pm_scene *s;
-    const pm_accel *a;
-    const pm_surface *sf;
-    pm_lobe part;
-    vec3 wo, ng, ns, origin;
-    uint64_t *rays;              /* every ray traced */
-    uint64_t cast;               /* shadow rays to light samples */
-} light_site;
 
 /* The area sample: one point on a power-picked emissive triangle, weighted by MIS against the
  * surface's own sampling (own_ray_light), added to *e. */
@@ -345,11 +351,9 @@ static void own_ray_light(light_site *ls, pm_rng *rng, const pm_vertex_ray *boun
 static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, pm_lobe part, vec3 wo, pm_rng *rng,
                          uint64_t *rays, const pm_shadow_map *shadow, uint64_t shadow_counts[2], const pm_vertex_ray *bounce,
                          surface_bounce *next) {
-    vec3 ng = pm_facing(sf->ng, wo);
-    vec3 ns = v3_dot(sf->ns, ng) < 0.f ? v3_neg(sf->ns) : sf->ns;
-    light_site ls = {s, a, sf, part, wo, ng, ns, pm_surface_origin(sf, ng, s->ray_scale), rays, 0};
+    light_site ls = light_site_at(s, a, sf, part, wo, rays);
     uint64_t saved = 0;
-    vec3 e = punctual_light(s, a, sf, part, wo, ng, ns, ls.origin, rng, rays, shadow, &ls.cast, &saved);
+    vec3 e = punctual_light(&ls, rng, shadow, &saved);
     if (s->emitter_count) emitter_area_sample(&ls, rng, &e);
     if (s->sky && s->sky_map) sky_map_sample(&ls, rng, &e);
     if (next) next->traced = false;
@@ -431,12 +435,12 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 d0, pm_rng *rn
  * non-specular part), times throughput, added to *out; its shadow rays counted. */
 static void add_punctual_light(const eye_job *job, const pm_surface *sf, pm_lobe part, vec3 wo, vec3 throughput,
                                pm_rng *rng, uint64_t *rays, uint64_t shadow_counts[2], vec3 *out) {
-    uint64_t cast = 0, saved = 0;
-    vec3 ng = pm_facing(sf->ng, wo), ns = pm_facing(sf->ns, ng), origin = pm_surface_origin(sf, ng, job->scene->ray_scale);
-    vec3 e = punctual_light(job->scene, job->accel, sf, part, wo, ng, ns, origin, rng, rays, job->settings->shadow, &cast, &saved);
+    uint64_t saved = 0;
+    light_site ls = light_site_at(job->scene, job->accel, sf, part, wo, rays);
+    vec3 e = punctual_light(&ls, rng, job->settings->shadow, &saved);
     *out = v3_add(*out, v3_mul(throughput, e));
     if (shadow_counts) {
-        shadow_counts[0] += cast;
+        shadow_counts[0] += ls.cast;
         shadow_counts[1] += saved;
     }
 }
