@@ -91,7 +91,9 @@ void pm_cluster_expect_end(pm_cluster *c, double deadline, double patience);
 const char *pm_cluster_error(const pm_cluster *c);
 
 /* ---- the window: rank 0 draws, every rank renders in its session's worker ---- */
-/* Rank 0 asks every other rank for what it asks of its own session. */
+/* Rank 0 asks every other rank for what it asks of its own session. A resize and the quit first
+ * end the merge under way (pm_cluster_poll_merge), the quit then waits for every rank's word: a
+ * rank silent there for PM_CLUSTER_QUIT_SECONDS ends the job with a line naming it. */
 void pm_cluster_send_restart(pm_cluster *c, const pm_camera *camera, int indirect);
 void pm_cluster_send_pause(pm_cluster *c, bool paused);
 void pm_cluster_send_resize(pm_cluster *c, int width, int height, const pm_camera *camera);

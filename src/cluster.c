@@ -601,45 +601,48 @@ void pm_cluster_send_pause(pm_cluster *c, bool paused) {
     send_all(c, &cmd);
 }
 
+/* Rank 0 in the window: the ranks not yet marked answered gave no word within
+ * PM_CLUSTER_QUIT_SECONDS of `event` (the quit, a resize), where a live rank answers at once from
+ * its command loop (pm_cluster_follow): stopped (SIGSTOP) or hung, as silent as a dead rank. */
+static void silent_in_window(pm_cluster *c, const char *awaited, const char *event) {
+    char why[160];
+    snprintf(why, sizeof why, "gave no %s within %.3g s of the %s (stopped or hung): the job ends", awaited,
+             PM_CLUSTER_QUIT_SECONDS, event);
+    end_naming_silent(c, why);
+}
+
+/* Rank 0 in the window, from `start` (pm_now_seconds) of `event`: the merge under way, if any,
+ * ends (its sum dropped), as every other rank is in it. */
+static void end_merge_in_flight(pm_cluster *c, double start, const char *event) {
+    if (!c->in_flight) return;
+    while (!take_ready(c, false)) {
+        if (pm_now_seconds() - start > PM_CLUSTER_QUIT_SECONDS) silent_in_window(c, "image for the merge under way", event);
+        nap();
+    }
+    reduce_at_root(c, c->flight_count, false);
+}
+
 void pm_cluster_send_resize(pm_cluster *c, int width, int height, const pm_camera *camera) {
     if (!c) return;
-    /* the merge under way is of the old size: the others are in it, so it ends first */
-    if (c->in_flight) {
-        take_ready(c, true);
-        reduce_at_root(c, c->flight_count, false);
-    }
+    /* the merge under way is of the old size */
+    end_merge_in_flight(c, pm_now_seconds(), "resize");
     command cmd = {.type = CMD_RESIZE, .width = width, .height = height, .indirect = -1, .has_camera = camera != NULL};
     if (camera) cmd.camera = *camera;
     c->epoch++;
     send_all(c, &cmd);
 }
 
-/* Rank 0 at the window's quit: the ranks not yet marked answered gave no word within
- * PM_CLUSTER_QUIT_SECONDS: stopped (SIGSTOP) or hung, as silent as a dead rank. */
-static void silent_at_quit(pm_cluster *c, const char *awaited) {
-    char why[160];
-    snprintf(why, sizeof why, "gave no %s within %.3g s of the quit (stopped or hung): the job ends", awaited,
-             PM_CLUSTER_QUIT_SECONDS);
-    end_naming_silent(c, why);
-}
-
 void pm_cluster_send_quit(pm_cluster *c) {
     if (!c) return;
     double start = pm_now_seconds();
-    if (c->in_flight) {
-        while (!take_ready(c, false)) {
-            if (pm_now_seconds() - start > PM_CLUSTER_QUIT_SECONDS) silent_at_quit(c, "image for the merge under way");
-            nap();
-        }
-        reduce_at_root(c, c->flight_count, false);
-    }
+    end_merge_in_flight(c, start, "quit");
     command cmd = {.type = CMD_QUIT, .indirect = -1};
     send_all(c, &cmd);
     /* every rank's word that it has stopped its session, so none is left waiting in MPI_Finalize */
     memset(c->answered, 0, (size_t)c->size * sizeof *c->answered);
     for (int heard = 0; heard < c->size - 1;) {
         if (take_word(c, TAG_DONE)) { heard++; continue; }
-        if (pm_now_seconds() - start > PM_CLUSTER_QUIT_SECONDS) silent_at_quit(c, "word that it has quit");
+        if (pm_now_seconds() - start > PM_CLUSTER_QUIT_SECONDS) silent_in_window(c, "word that it has quit", "quit");
         nap();
     }
 }
