@@ -66,7 +66,8 @@ pm_cluster_totals pm_cluster_get_totals(const pm_cluster *c);
  * PM_CLUSTER_SILENCE_SECONDS, then ends the job with a line naming it (a rank that died). */
 void pm_cluster_watch(pm_cluster *c, volatile sig_atomic_t *interrupted);
 /* Rank 0, between its iterations: every rank's film summed into rank 0's merged film, returned
- * (NULL when out of memory, with pm_cluster_error set). Waits for each rank's running iteration. */
+ * (NULL when out of memory, with pm_cluster_error set). Waits for each rank's running iteration; a
+ * rank silent after a signal (pm_cluster_watch) or past --time (pm_cluster_expect_end) ends the job. */
 const pm_film *pm_cluster_merge_now(pm_cluster *c, pm_session *s);
 /* Ranks other than 0, between their iterations: answers rank 0's merges, never waiting, and ends
  * the run (pm_session_cancel) when rank 0 asks it to (pm_cluster_send_stop). */
@@ -77,17 +78,22 @@ void pm_cluster_send_stop(pm_cluster *c);
 /* After a rank's run that did not fail (a failure ends the job: pm_cluster_abort). Ranks other
  * than 0 tell rank 0, answer its merges until the last one, and return NULL. Rank 0 waits for
  * every rank, calling tick(context) every few milliseconds meanwhile (checkpoints), then merges a
- * last time and returns the film. A rank silent after a signal (pm_cluster_watch) ends the job. */
+ * last time and returns the film. A rank silent after a signal (pm_cluster_watch) or past --time
+ * (pm_cluster_expect_end) ends the job. */
 const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(void *context), void *context);
-/* With --time every rank ends at the same deadline: rank 0 waits at most `seconds` past its own
- * run's end for the others' word, then ends the job naming the silent ones (a stopped rank, which
- * no signal reveals). 0, the default: as long as they take (--iterations, whose shares differ in speed). */
-void pm_cluster_expect_end(pm_cluster *c, double seconds);
+/* Before a run with --time, whose iterations end by `deadline` (pm_now_seconds) on every rank:
+ * rank 0 waits for another rank's word (a merge's image, the run's end) until the later of the
+ * deadline and the wait's start plus `patience`, then ends the job naming the silent ones (a
+ * stopped rank, which no signal reveals). Patience 0, the default: as long as they take
+ * (--iterations, whose shares differ in speed). */
+void pm_cluster_expect_end(pm_cluster *c, double deadline, double patience);
 /* Why the last call above failed, naming the rank. */
 const char *pm_cluster_error(const pm_cluster *c);
 
 /* ---- the window: rank 0 draws, every rank renders in its session's worker ---- */
-/* Rank 0 asks every other rank for what it asks of its own session. */
+/* Rank 0 asks every other rank for what it asks of its own session. A resize and the quit first
+ * end the merge under way (pm_cluster_poll_merge), the quit then waits for every rank's word: a
+ * rank silent there for PM_CLUSTER_QUIT_SECONDS ends the job with a line naming it. */
 void pm_cluster_send_restart(pm_cluster *c, const pm_camera *camera, int indirect);
 void pm_cluster_send_pause(pm_cluster *c, bool paused);
 void pm_cluster_send_resize(pm_cluster *c, int width, int height, const pm_camera *camera);

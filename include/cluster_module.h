@@ -32,7 +32,7 @@ typedef struct {
     void (*serve)(pm_cluster *c, pm_session *s);
     void (*send_stop)(pm_cluster *c);
     const pm_film *(*end_run)(pm_cluster *c, pm_session *s, void (*tick)(void *context), void *context);
-    void (*expect_end)(pm_cluster *c, double seconds);
+    void (*expect_end)(pm_cluster *c, double deadline, double patience);
     const char *(*error)(const pm_cluster *c);
     void (*send_restart)(pm_cluster *c, const pm_camera *camera, int indirect);
     void (*send_pause)(pm_cluster *c, bool paused);

@@ -9,7 +9,7 @@
 #define PM_CLUSTER_SILENCE_SECONDS 0.5    /* after a signal, a rank that has not finished by then is taken for gone (mpirun's SIGKILL follows its SIGTERM by 1 s) */
 #define PM_CLUSTER_AGREE_SECONDS 10.0    /* the set-up's agreement: rank 0 waits this long plus PM_CLUSTER_AGREE_FACTOR times its */
 #define PM_CLUSTER_AGREE_FACTOR 4.0      /* own set-up for every rank's word, then ends the job naming the silent (stopped) ones */
-#define PM_CLUSTER_QUIT_SECONDS 5.0      /* the window's quit: a rank that has not answered it by then is taken for stopped */
+#define PM_CLUSTER_QUIT_SECONDS 5.0      /* the window's quit or resize: a rank that has not answered it by then is taken for stopped */
 #define PM_DEFAULT_WINDOW_ITERATIONS 100000 /* the window keeps converging until closed */
 #define PM_WATCH_SETTLE_SECONDS 0.15      /* --watch: a reload starts once the scene's folder has been quiet this long (a burst of saves is one reload) */
 #define PM_PREPARE_AFTER_SECONDS 0.03   /* the window: a set-up longer than this makes the GL context and compiles the display

@@ -52,7 +52,8 @@ struct pm_cluster {
     double last_merge_start;
     double joined_at;      /* when MPI started (pm_now_seconds): the set-up's time is measured from it */
     double agreed_at;      /* when the set-up was agreed (pm_now_seconds) */
-    double end_patience;   /* rank 0: seconds it waits past its run's end for the others' word, 0: no bound */
+    double deadline;       /* the run's --time deadline (pm_now_seconds), when end_patience is set */
+    double end_patience;   /* rank 0: seconds it waits past the deadline for another rank's word, 0: no bound */
     char error[1024];
 };
 
@@ -441,6 +442,20 @@ static void check_silence(pm_cluster *c, double *since, const char *awaited) {
     end_naming_silent(c, why);
 }
 
+/* Rank 0 waiting since `since` (pm_now_seconds) for a word from every rank: with a deadline
+ * (pm_cluster_expect_end), every rank's iterations end by it (a first iteration may run past it,
+ * on every rank alike), so a rank silent `end_patience` past the later of the deadline and the
+ * wait's start is stopped or hung, and the job ends naming it. A wait begun before the deadline
+ * lasts until then: a rank may take that long over an iteration. */
+static void check_deadline(pm_cluster *c, double since, const char *awaited) {
+    if (c->end_patience <= 0.0) return;
+    double from = since > c->deadline ? since : c->deadline;
+    if (pm_now_seconds() - from <= c->end_patience) return;
+    char why[160];
+    snprintf(why, sizeof why, "gave no %s %.3g s past --time: taken for stopped, the job ends", awaited, c->end_patience);
+    end_naming_silent(c, why);
+}
+
 /* Rank 0: one word of `tag` from any rank if one has come, its sender marked as answered. Each rank
  * sends one word of a kind per merge or run, so words can be counted. */
 static bool take_word(pm_cluster *c, int tag) {
@@ -455,7 +470,7 @@ static bool take_word(pm_cluster *c, int tag) {
 
 /* Rank 0: takes the ready words that have come (all of them when block), true once every rank's is in. */
 static bool take_ready(pm_cluster *c, bool block) {
-    double since = 0.0;
+    double since = 0.0, start = pm_now_seconds();
     if (c->ready == 0) memset(c->answered, 0, (size_t)c->size * sizeof *c->answered);
     while (c->ready < c->size - 1) {
         if (take_word(c, TAG_READY)) {
@@ -464,6 +479,7 @@ static bool take_ready(pm_cluster *c, bool block) {
         }
         if (!block) return false;
         check_silence(c, &since, "image for the merge");
+        check_deadline(c, start, "image for the merge");
         nap();
     }
     return true;
@@ -496,8 +512,10 @@ static const pm_film *merge_from_root(pm_cluster *c, pm_session *s, int type) {
 
 const pm_film *pm_cluster_merge_now(pm_cluster *c, pm_session *s) { return merge_from_root(c, s, CMD_MERGE); }
 
-void pm_cluster_expect_end(pm_cluster *c, double seconds) {
-    if (c) c->end_patience = seconds > 0.0 ? seconds : 0.0;
+void pm_cluster_expect_end(pm_cluster *c, double deadline, double patience) {
+    if (!c) return;
+    c->deadline = deadline;
+    c->end_patience = patience > 0.0 ? patience : 0.0;
 }
 
 bool pm_cluster_prepare(pm_cluster *c, const pm_film *film) {
@@ -561,12 +579,7 @@ const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(voi
         }
         if (tick) tick(context);
         check_silence(c, &since, "word that its run is over");
-        if (c->end_patience > 0.0 && pm_now_seconds() - ended > c->end_patience) {
-            char why[160];
-            snprintf(why, sizeof why, "gave no word that its run is over %.3g s past --time: taken for stopped, the job ends",
-                     c->end_patience);
-            end_naming_silent(c, why);
-        }
+        check_deadline(c, ended, "word that its run is over");
         nap();
     }
     return merge_from_root(c, s, CMD_FINAL);
@@ -588,45 +601,48 @@ void pm_cluster_send_pause(pm_cluster *c, bool paused) {
     send_all(c, &cmd);
 }
 
+/* Rank 0 in the window: the ranks not yet marked answered gave no word within
+ * PM_CLUSTER_QUIT_SECONDS of `event` (the quit, a resize), where a live rank answers at once from
+ * its command loop (pm_cluster_follow): stopped (SIGSTOP) or hung, as silent as a dead rank. */
+static void silent_in_window(pm_cluster *c, const char *awaited, const char *event) {
+    char why[160];
+    snprintf(why, sizeof why, "gave no %s within %.3g s of the %s (stopped or hung): the job ends", awaited,
+             PM_CLUSTER_QUIT_SECONDS, event);
+    end_naming_silent(c, why);
+}
+
+/* Rank 0 in the window, from `start` (pm_now_seconds) of `event`: the merge under way, if any,
+ * ends (its sum dropped), as every other rank is in it. */
+static void end_merge_in_flight(pm_cluster *c, double start, const char *event) {
+    if (!c->in_flight) return;
+    while (!take_ready(c, false)) {
+        if (pm_now_seconds() - start > PM_CLUSTER_QUIT_SECONDS) silent_in_window(c, "image for the merge under way", event);
+        nap();
+    }
+    reduce_at_root(c, c->flight_count, false);
+}
+
 void pm_cluster_send_resize(pm_cluster *c, int width, int height, const pm_camera *camera) {
     if (!c) return;
-    /* the merge under way is of the old size: the others are in it, so it ends first */
-    if (c->in_flight) {
-        take_ready(c, true);
-        reduce_at_root(c, c->flight_count, false);
-    }
+    /* the merge under way is of the old size */
+    end_merge_in_flight(c, pm_now_seconds(), "resize");
     command cmd = {.type = CMD_RESIZE, .width = width, .height = height, .indirect = -1, .has_camera = camera != NULL};
     if (camera) cmd.camera = *camera;
     c->epoch++;
     send_all(c, &cmd);
 }
 
-/* Rank 0 at the window's quit: the ranks not yet marked answered gave no word within
- * PM_CLUSTER_QUIT_SECONDS: stopped (SIGSTOP) or hung, as silent as a dead rank. */
-static void silent_at_quit(pm_cluster *c, const char *awaited) {
-    char why[160];
-    snprintf(why, sizeof why, "gave no %s within %.3g s of the quit (stopped or hung): the job ends", awaited,
-             PM_CLUSTER_QUIT_SECONDS);
-    end_naming_silent(c, why);
-}
-
 void pm_cluster_send_quit(pm_cluster *c) {
     if (!c) return;
     double start = pm_now_seconds();
-    if (c->in_flight) {
-        while (!take_ready(c, false)) {
-            if (pm_now_seconds() - start > PM_CLUSTER_QUIT_SECONDS) silent_at_quit(c, "image for the merge under way");
-            nap();
-        }
-        reduce_at_root(c, c->flight_count, false);
-    }
+    end_merge_in_flight(c, start, "quit");
     command cmd = {.type = CMD_QUIT, .indirect = -1};
     send_all(c, &cmd);
     /* every rank's word that it has stopped its session, so none is left waiting in MPI_Finalize */
     memset(c->answered, 0, (size_t)c->size * sizeof *c->answered);
     for (int heard = 0; heard < c->size - 1;) {
         if (take_word(c, TAG_DONE)) { heard++; continue; }
-        if (pm_now_seconds() - start > PM_CLUSTER_QUIT_SECONDS) silent_at_quit(c, "word that it has quit");
+        if (pm_now_seconds() - start > PM_CLUSTER_QUIT_SECONDS) silent_in_window(c, "word that it has quit", "quit");
         nap();
     }
 }

@@ -71,7 +71,7 @@ void pm_cluster_send_stop(pm_cluster *c) { if (c) module->send_stop(c); }
 const pm_film *pm_cluster_end_run(pm_cluster *c, pm_session *s, void (*tick)(void *context), void *context) {
     return module->end_run(c, s, tick, context);
 }
-void pm_cluster_expect_end(pm_cluster *c, double seconds) { if (c) module->expect_end(c, seconds); }
+void pm_cluster_expect_end(pm_cluster *c, double deadline, double patience) { if (c) module->expect_end(c, deadline, patience); }
 const char *pm_cluster_error(const pm_cluster *c) { return c ? module->error(c) : ""; }
 void pm_cluster_send_restart(pm_cluster *c, const pm_camera *camera, int indirect) { if (c) module->send_restart(c, camera, indirect); }
 void pm_cluster_send_pause(pm_cluster *c, bool paused) { if (c) module->send_pause(c, paused); }

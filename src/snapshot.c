@@ -249,6 +249,8 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
     pm_session_goal goal = {pm_cluster_share(cluster, total), o->time_limit};
     pm_session_run_state state = {0, 0, 0.0, 0.0, 0.0};
     ob.start = ob.last_checkpoint = pm_now_seconds();
+    /* every rank's run ends at --time: one silent well past it is stopped (SIGSTOP), not slow */
+    if (o->time_limit > 0) pm_cluster_expect_end(cluster, ob.start + o->time_limit, 5.0 + 0.1 * o->time_limit);
     pm_session_run_result result = goal.samples ? pm_session_run(session, &goal, observe, &ob, &state) : PM_RUN_DONE;
     if (result == PM_RUN_FAILED) {
         if (cluster) {
@@ -262,8 +264,6 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
     }
     if (cluster) {
         if (root && interrupted_by) pm_cluster_send_stop(cluster);
-        /* every rank's run ends at --time: one silent well past it is stopped (SIGSTOP), not slow */
-        if (o->time_limit > 0) pm_cluster_expect_end(cluster, 5.0 + 0.1 * o->time_limit);
         film = pm_cluster_end_run(cluster, session, root ? tick : NULL, &ob);
         if (!root) {
             free(ob.scratch);

@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, --watch refused, pmview without libmpi (its module has it), a --log that cannot be written, ranks holding different scenes or options, --max-memory counting the merge's buffers, a stopped rank under --time, SIGTERM to rank 0 alone, a rank stopped in its set-up, the cluster stat line.
+# test_cluster.sh: 2-rank MPI jobs (mpirun --oversubscribe -np 2): the same image twice for one seed in every mode, a furnace's mean equal to its analytic answer and to one process's, --time, --log, SIGINT, a killed rank, a bad scene, --watch refused, pmview without libmpi (its module has it), a --log that cannot be written, ranks holding different scenes or options, --max-memory counting the merge's buffers, a stopped rank under --time (at its run's end, and in a merge on 3 ranks), SIGTERM to rank 0 alone, a rank stopped in its set-up, the cluster stat line.
 #
 # Every job is small (64 px or less, --threads 1) so the whole runs in well under a minute on two
 # busy cores. The ASan build's leak check is off inside mpirun jobs only: Open MPI keeps its own
@@ -53,6 +53,8 @@ exec_with_sigint() {
 }
 # mpi_job ARGS...: the same in the background, started as `mpi_job ... &`: its $! is mpirun's pid
 mpi_job() { export ASAN_OPTIONS=detect_leaks=0; exec_with_sigint mpirun --oversubscribe -np 2 $bin "$@" </dev/null; }
+# mpi_job3 ARGS...: the same with 3 ranks
+mpi_job3() { export ASAN_OPTIONS=detect_leaks=0; exec_with_sigint mpirun --oversubscribe -np 3 $bin "$@" </dev/null; }
 # rendering FILE: waits (at most 60 s: an ASan set-up on a machine loaded 10 times over took 15)
 # until FILE, the output of a job started with --stats and a --reference, holds rank 0's first
 # 'stat progress' line: an iteration is done, so every rank has given its word
@@ -380,6 +382,33 @@ check "stopped rank: no rank 1 to stop" [ -n "'$rank1'" ]
 check "stopped rank: the job ended $wall s after the stop, want <= 12 (at most --time 4, then 5.4 s)" at_most "$wall" 12
 check "stopped rank: exit 0" [ "$rc" -ne 0 ]
 check "stopped rank: pmview's line does not name rank 1 as stopped" grep -q "'^pmview: error: rank 1 gave no word that its run is over .* past --time'" "$tmp/stop.out"
+for p in $(job_processes any); do kill -KILL "$p" 2>/dev/null; done
+
+# --- 10b. a rank stopped (SIGSTOP) at rank 0's first 'stat progress' of a 3-rank --time 1 run:
+# rank 0's next progress row is a merge, begun before the deadline, that waits for the stopped
+# rank's image. It waits until 1 s + 5.1 s of patience (5 s + 10% of --time) past the run's start,
+# then ends the job with one line naming rank 2 alone (rank 1 answered): at most 6.1 s after the
+# stop, and the job never ends before --time + patience from mpirun's start. Of the 3 s of margin,
+# MPI_Abort's teardown takes about 1 (mpirun's SIGKILL reaches the stopped rank 1 s after its
+# SIGTERM; the ASan build ended 7.1 s after the stop), the rest is room for a loaded machine.
+started=$(now)
+mpi_job3 $cornell $rendered32 --time 1 --snapshot "$tmp/stop3.exr" >"$tmp/stop3.out" 2>&1 &
+job=$!
+rendering "$tmp/stop3.out"
+rank2=$(rank_of "$job" 2)
+sent=$(now)
+[ -n "$rank2" ] && kill -STOP $rank2
+job_ends "stopped rank in a merge"
+wait "$job"; rc=$?; job=""
+[ -n "$rank2" ] && kill -CONT $rank2 2>/dev/null
+total=$(elapsed "$started" "$(now)")
+echo "stopped rank in a merge: mpirun ended $wall s after the stop ($total s after its start), exit $rc, $(grep "^pmview:" "$tmp/stop3.out" | head -n 1)"
+check "stopped rank in a merge: no rank 2 to stop" [ -n "'$rank2'" ]
+check "stopped rank in a merge: the job ended $wall s after the stop, want <= 9.1 (at most --time 1, then 5.1 s, and 3 s)" at_most "$wall" 9.1
+check "stopped rank in a merge: the job ended $total s after its start, before --time 1 and 5.1 s of patience" at_most 6.1 "$total"
+check "stopped rank in a merge: exit 0" [ "$rc" -ne 0 ]
+named=$(grep -c "^pmview: error: rank 2 gave no image for the merge 5.1 s past --time: taken for stopped, the job ends" "$tmp/stop3.out")
+check "stopped rank in a merge: $named lines naming rank 2 alone as stopped in a merge, want 1" [ "$named" -eq 1 ]
 for p in $(job_processes any); do kill -KILL "$p" 2>/dev/null; done
 
 # --- 11. SIGTERM to rank 0 alone (kill on its pid, not mpirun's to every rank): rank 0 asks the
