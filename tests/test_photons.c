@@ -8,6 +8,7 @@
 #include "scene_builder.h"
 #include "session_harness.h"
 #include "testing.h"
+#include "vertex.h"
 
 static pm_photon_settings photon_settings(uint64_t global, uint64_t caustic) {
     pm_photon_settings p;
@@ -426,6 +427,48 @@ static void point_lights_projection(void) {
     pm_scene_free(&s);
 }
 
+/* The vertex step in both orders of its roulette, on a surface part Lambert, part mirror: drawn
+ * before the sample (ended_unsampled, the photons' order) or after it (the eye's), the share of
+ * paths that go on is q = min(PM_MAX_SURVIVAL, kd + ks averaged) and the weight they carry (0 for
+ * an ended path) has the albedo kd + ks per channel as its mean, in both. A path ended in the
+ * photons' order drew no sample: what an absorbed photon saves. */
+static void roulette_orders_agree(void) {
+    pm_surface sf;
+    memset(&sf, 0, sizeof sf);
+    sf.ng = sf.ns = v3(0.f, 0.f, 1.f);
+    sf.p = sf.centroid = v3(0.1f, 0.2f, 0.f);
+    sf.kd = v3(0.5f, 0.3f, 0.1f);
+    sf.ks = v3s(0.2f);
+    sf.ks_grazing = 0.2f; /* no Schlick rise: the mirror reflects 0.2 at every angle */
+    sf.ior = 1.5f;
+    vec3 d = v3_normalize(v3(0.3f, 0.f, -1.f)), albedo = v3_add(sf.kd, sf.ks);
+    const int n = 200000;
+    for (int order = 0; order < 2; order++) {
+        pm_vertex_policy policy = {.roulette_from = 0, .ended_unsampled = order == 0};
+        pm_rng rng = pm_rng_for(11, (uint64_t)order, 0);
+        double sum[3] = {0, 0, 0};
+        int went_on = 0, ended_sampled = 0;
+        for (int i = 0; i < n; i++) {
+            pm_vertex_ray ray;
+            if (pm_vertex_step(&sf, d, 0, &policy, &rng, 1.f, &ray)) {
+                went_on++;
+                sum[0] += ray.weight.x;
+                sum[1] += ray.weight.y;
+                sum[2] += ray.weight.z;
+            } else {
+                ended_sampled += ray.sampled;
+            }
+        }
+        const char *name = order == 0 ? "survival before the sample" : "survival after the sample";
+        printf("vertex step, %s: %.4f of paths go on (q %.4f), mean weight %.4f %.4f %.4f (albedo %.2f %.2f %.2f)\n", name,
+               (double)went_on / n, (double)v3_average(albedo), sum[0] / n, sum[1] / n, sum[2] / n, albedo.x, albedo.y, albedo.z);
+        CHECK_NEAR((double)went_on / n, v3_average(albedo), 0, 0.006, "vertex step: the share of paths going on is q");
+        for (int c = 0; c < 3; c++) CHECK_NEAR(sum[c] / n, v3_get(albedo, c), 0.02, 0, "vertex step: the mean weight is the albedo");
+        if (order == 0) CHECK(ended_sampled == 0, "vertex step: %d paths ended before the sample drew one", ended_sampled);
+        else CHECK(ended_sampled > n / 4, "vertex step: paths ended after the sample drew one (%d)", ended_sampled);
+    }
+}
+
 /* Both branches of the roulette: walls half Lambert, half mirror (metallic 0.5, roughness 0),
  * reflectance rho in all. Every wall has a diffuse part, so the global map stores
  * every hit; whichever branch a photon takes, the later hits must carry rho/(1-rho) of the
@@ -546,6 +589,7 @@ int main(void) {
     waves_change_only_order();
     record_round_trip();
     roulette_both_branches();
+    roulette_orders_agree();
     parallel_light_projection(false);
     parallel_light_projection(true);
     point_lights_projection();
