@@ -406,7 +406,7 @@ echo "stopped rank in a merge: mpirun ended $wall s after the stop ($total s aft
 check "stopped rank in a merge: no rank 2 to stop" [ -n "'$rank2'" ]
 check "stopped rank in a merge: the job ended $wall s after the stop, want <= 9.1 (at most --time 1, then 5.1 s, and 3 s)" at_most "$wall" 9.1
 check "stopped rank in a merge: the job ended $total s after its start, before --time 1 and 5.1 s of patience" at_most 6.1 "$total"
-check "stopped rank in a merge: exit 0" [ "$rc" -ne 0 ]
+check "stopped rank in a merge: exit $rc, want non-zero" [ "$rc" -ne 0 ]
 named=$(grep -c "^pmview: error: rank 2 gave no image for the merge 5.1 s past --time: taken for stopped, the job ends" "$tmp/stop3.out")
 check "stopped rank in a merge: $named lines naming rank 2 alone as stopped in a merge, want 1" [ "$named" -eq 1 ]
 for p in $(job_processes any); do kill -KILL "$p" 2>/dev/null; done
