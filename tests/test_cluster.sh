@@ -224,6 +224,16 @@ job_ends() {
     if kill -0 "$job" 2>/dev/null; then fail "$1: mpirun still running 15 s after it"; kill -KILL "$job"; fi
 }
 
+# Stops rank process $1 (SIGSTOP; nothing when empty), waits for the job as job_ends does (its
+# exit in rc, the seconds from the stop in wall), then lets the rank go on.
+stopped_rank_ends() {
+    sent=$(now)
+    [ -n "$1" ] && kill -STOP "$1"
+    job_ends "$2"
+    wait "$job"; rc=$?; job=""
+    [ -n "$1" ] && kill -CONT "$1" 2>/dev/null
+}
+
 # --- 4. SIGINT to mpirun: the image so far, written and readable, within 5 s of the signal
 mpi_job $cornell $rendered64 --time 60 --snapshot "$tmp/int.exr" >"$tmp/int.out" 2>&1 &
 job=$!
@@ -364,19 +374,15 @@ check "--max-memory 90M on 2 ranks: rendering reported" ! grep -q "'^stat eye\|w
 
 # --- 10. a rank stopped (SIGSTOP) in the render of a --time 4 run: it never says its run is over,
 # and no signal reveals it; rank 0 waits 5 s + 10% of --time past its own end, then ends the job
-# naming it: at most 4 + 5.4 s after the stop. Before, the job ran on past --time for ever. The
-# stop comes 1 s after rank 0's set-up ended ('stat film'), when rank 1's has too: not at the
-# first 'stat progress' (see rendering), as rank 0 would then ask the stopped rank for merges.
+# naming it: at most 4 + 5.4 s after the stop. The stop comes 1 s after rank 0's set-up ended
+# ('stat film'), when rank 1's has too: not at the first 'stat progress' (see rendering), as rank 0
+# would then ask the stopped rank for merges (case 10b).
 mpi_job $cornell --width 32 --stats --time 4 --snapshot "$tmp/stop.exr" >"$tmp/stop.out" 2>&1 &
 job=$!
 i=0; while ! grep -qs "^stat film" "$tmp/stop.out" && [ "$i" -lt 1200 ]; do sleep 0.05; i=$((i + 1)); done
 sleep 1  # past the set-up's agreement: the render is under way
 rank1=$(rank_of "$job" 1)
-sent=$(now)
-[ -n "$rank1" ] && kill -STOP $rank1
-job_ends "stopped rank"
-wait "$job"; rc=$?; job=""
-[ -n "$rank1" ] && kill -CONT $rank1 2>/dev/null
+stopped_rank_ends "$rank1" "stopped rank"
 echo "stopped rank: mpirun ended $wall s after the stop, exit $rc, $(grep "^pmview:" "$tmp/stop.out" | head -n 1)"
 check "stopped rank: no rank 1 to stop" [ -n "'$rank1'" ]
 check "stopped rank: the job ended $wall s after the stop, want <= 12 (at most --time 4, then 5.4 s)" at_most "$wall" 12
@@ -396,11 +402,7 @@ mpi_job3 $cornell $rendered32 --time 1 --snapshot "$tmp/stop3.exr" >"$tmp/stop3.
 job=$!
 rendering "$tmp/stop3.out"
 rank2=$(rank_of "$job" 2)
-sent=$(now)
-[ -n "$rank2" ] && kill -STOP $rank2
-job_ends "stopped rank in a merge"
-wait "$job"; rc=$?; job=""
-[ -n "$rank2" ] && kill -CONT $rank2 2>/dev/null
+stopped_rank_ends "$rank2" "stopped rank in a merge"
 total=$(elapsed "$started" "$(now)")
 echo "stopped rank in a merge: mpirun ended $wall s after the stop ($total s after its start), exit $rc, $(grep "^pmview:" "$tmp/stop3.out" | head -n 1)"
 check "stopped rank in a merge: no rank 2 to stop" [ -n "'$rank2'" ]
