@@ -120,7 +120,8 @@ bool pm_vertex_sample_part(const pm_surface *sf, pm_lobe part, vec3 wo, pm_rng *
 /* Steps 1 to 3 for a path arriving along unit d at the surface of index `vertex`: true when the
  * path goes on along out->direction from out->origin, its weight multiplied by out->weight
  * (radiance also by out->radiance_scale). out->lobe and out->choice say what was chosen whatever
- * the answer, out->sampled whether a sample was drawn (N chosen under nonspecular_ends draws none). */
+ * the answer, out->sampled whether a sample was drawn (N chosen under nonspecular_ends draws none, nor
+ * does a path the roulette ends before step 2 under ended_unsampled). */
 bool pm_vertex_step(const pm_surface *sf, vec3 d, int vertex, const pm_vertex_policy *policy, pm_rng *rng, float scale,
                     pm_vertex_ray *out);
 /* pm_vertex_step in its two halves, for a tracer that completes its surface record between them
