@@ -71,8 +71,10 @@ ALONE="test_cluster test_hangs test_convergence_report"
 # write no files and take only the processor time left idle.
 QUIET="test_window test_window_cluster test_window_cluster_stop test_signal_writes test_window_loading test_interactive"
 # Tests that only compute (no file written, no clock read, no window, no process of their own
-# beyond their threads), kept for last: one at a time at the lowest priority beside the QUIET
-# tests, they take the processor those leave idle (the QUIET tests keep about one of two busy).
+# beyond their threads), kept for last: JOBS at a time at the lowest priority beside the QUIET
+# tests, in one scheduling group of nice 19 (whose weight is the group's, however many run in it),
+# they take the processor those leave idle (the QUIET tests keep about one of two busy); run one
+# at a time, the second would wait for the first and end after the QUIET tests.
 BESIDE_QUIET="test_convergence test_photons"
 # Tests that bound their own wall time (a refusal within 1-10 s, a timeout of 20 s, a reload within
 # 2 s, a SIGINT 1.5 s after the start, a deadline of a share of a measured pass): at the lowest
@@ -156,8 +158,8 @@ while [ -w "/proc/$background/autogroup" ] && ! echo 0 >"/proc/$background/autog
 done
 wait "$background"
 background=""
-setsid -w sh -c 'echo 19 >/proc/self/autogroup 2>/dev/null; exec nice -n 19 xargs -r -P 1 -L 1 sh tests/run_tests.sh --one' \
-    beside <"$beside" &
+setsid -w sh -c 'echo 19 >/proc/self/autogroup 2>/dev/null; exec nice -n 19 xargs -r -P "$1" -L 1 sh tests/run_tests.sh --one' \
+    beside "$jobs" <"$beside" &
 background=$!
 xargs -r -P 1 -L 1 sh tests/run_tests.sh --one <"$quiet"
 wait "$background"
