@@ -49,16 +49,8 @@ static inline __attribute__((always_inline)) vec3 pm_oct_decode_unnormalised(uin
      * either half at random, and the branch mispredicted half the time. copysignf gives exactly
      * (1 - |y|) x sign(x): x and y are never -0 here (they come out of a subtraction). */
     float fx = copysignf(1.f - fabsf(y), x), fy = copysignf(1.f - fabsf(x), y);
-    uint32_t fold = (uint32_t)0 - (uint32_t)(z < 0.f), bx, by, bfx, bfy;
-    memcpy(&bx, &x, 4);
-    memcpy(&by, &y, 4);
-    memcpy(&bfx, &fx, 4);
-    memcpy(&bfy, &fy, 4);
-    bx = (bfx & fold) | (bx & ~fold);
-    by = (bfy & fold) | (by & ~fold);
-    memcpy(&x, &bx, 4);
-    memcpy(&y, &by, 4);
-    return v3(x, y, z);
+    bool fold = z < 0.f;
+    return v3(pm_selectf(fold, fx, x), pm_selectf(fold, fy, y), z);
 }
 
 static inline vec3 pm_oct_decode_bits(uint16_t code, int bits) { return v3_normalize(pm_oct_decode_unnormalised(code, bits)); }

@@ -73,9 +73,6 @@ static inline void v3_basis(vec3 n, vec3 *t, vec3 *b) {
 
 static inline vec3 v3_reflect(vec3 d, vec3 n) { return v3_sub(d, v3_scale(n, 2.f * v3_dot(d, n))); }
 
-/* sin and cos of 2 pi u for u in [0, 1), within a few float ulps, without a libm call (every
- * diffuse bounce and gather ray needs one). The quadrant comes from u; within it the angle is
- * centred on pi/4, where degree-8 Taylor polynomials are accurate to 3e-7. */
 /* c ? a : b by bit masks: GCC compiles a float ?: to a branch, which a random condition
  * mispredicts half the time. */
 static inline float pm_selectf(bool c, float a, float b) {
@@ -94,6 +91,9 @@ static inline void pm_sincos_eighth(float x, float *s, float *c) {
     *c = 1.f - x2 * (0.5f - x2 * (1.f / 24.f - x2 * (1.f / 720.f - x2 * (1.f / 40320.f))));
 }
 
+/* sin and cos of 2 pi u for u in [0, 1), within a few float ulps, without a libm call (every
+ * diffuse bounce and gather ray needs one). The quadrant comes from u; within it the angle is
+ * centred on pi/4, where degree-8 Taylor polynomials are accurate to 3e-7. */
 static inline void pm_sincos_turn(float u, float *s, float *c) {
     float q4 = u * 4.f;
     int q = (int)q4;
