@@ -74,9 +74,10 @@ static inline uint32_t triangle_id(const pm_accel *a, unsigned inst, unsigned ge
  * shadow ray, without reaching Embree. */
 #define EMBREE_MAX_COORDINATE 1.8e18f
 static bool ray_in_range(vec3 o, vec3 d, float tmax) {
-    return fabsf(o.x) <= EMBREE_MAX_COORDINATE && fabsf(o.y) <= EMBREE_MAX_COORDINATE &&
-           fabsf(o.z) <= EMBREE_MAX_COORDINATE && fabsf(d.x) <= EMBREE_MAX_COORDINATE &&
-           fabsf(d.y) <= EMBREE_MAX_COORDINATE && fabsf(d.z) <= EMBREE_MAX_COORDINATE && !isnan(tmax);
+    /* & rather than &&: seven compares and no branch, on every ray cast */
+    return (fabsf(o.x) <= EMBREE_MAX_COORDINATE) & (fabsf(o.y) <= EMBREE_MAX_COORDINATE) &
+           (fabsf(o.z) <= EMBREE_MAX_COORDINATE) & (fabsf(d.x) <= EMBREE_MAX_COORDINATE) &
+           (fabsf(d.y) <= EMBREE_MAX_COORDINATE) & (fabsf(d.z) <= EMBREE_MAX_COORDINATE) & !isnan(tmax);
 }
 
 /* A uniform number in [0, 1) from the ray (origin and direction bits) and the triangle.
@@ -409,12 +410,14 @@ bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *h
 }
 
 /* A packet of the m <= PM_ACCEL_PACKET rays o[j], d[j]; lanes past m repeat the first ray (Embree
- * reads every lane; the caller leaves them invalid). */
-static void fill_packet(struct RTCRayHit8 *rh, const vec3 *o, const vec3 *d, size_t m, float tnear) {
+ * reads every lane). valid: -1 for the lanes Embree is to trace (the first m, those in range when
+ * check_range), 0 for the rest, which it answers as misses. */
+static void fill_packet(struct RTCRayHit8 *rh, int *valid, const vec3 *o, const vec3 *d, size_t m, float tnear, bool check_range) {
     for (size_t j = 0; j < PM_ACCEL_PACKET; j++) {
         size_t i = j < m ? j : 0;
-        rh->ray.org_x[j] = o[i].x; rh->ray.org_y[j] = o[i].y; rh->ray.org_z[j] = o[i].z;
-        rh->ray.dir_x[j] = d[i].x; rh->ray.dir_y[j] = d[i].y; rh->ray.dir_z[j] = d[i].z;
+        vec3 oi = o[i], di = d[i];
+        rh->ray.org_x[j] = oi.x; rh->ray.org_y[j] = oi.y; rh->ray.org_z[j] = oi.z;
+        rh->ray.dir_x[j] = di.x; rh->ray.dir_y[j] = di.y; rh->ray.dir_z[j] = di.z;
         rh->ray.tnear[j] = tnear;
         rh->ray.tfar[j] = INFINITY;
         rh->ray.time[j] = 0.f;
@@ -423,6 +426,7 @@ static void fill_packet(struct RTCRayHit8 *rh, const vec3 *o, const vec3 *d, siz
         rh->ray.flags[j] = 0;
         rh->hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
         rh->hit.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
+        valid[j] = -(int)((j < m) & (!check_range | ray_in_range(oi, di, INFINITY)));
     }
 }
 
@@ -434,13 +438,12 @@ void pm_accel_intersect_packets(const pm_accel *a, size_t n, const vec3 *o, cons
         size_t m = n - base < PM_ACCEL_PACKET ? n - base : PM_ACCEL_PACKET;
         _Alignas(32) int valid[PM_ACCEL_PACKET]; /* Embree asks for the mask aligned like the packet */
         struct RTCRayHit8 rh;
-        fill_packet(&rh, o + base, d + base, m, a->tnear);
-        /* lanes past the end and rays Embree must not see stay invalid: a miss */
-        for (size_t j = 0; j < PM_ACCEL_PACKET; j++) valid[j] = j < m && ray_in_range(o[base + j], d[base + j], INFINITY) ? -1 : 0;
+        /* rays Embree must not see stay invalid: a miss */
+        fill_packet(&rh, valid, o + base, d + base, m, a->tnear, true);
         rtcIntersect8(valid, a->scene, &ctx, &rh);
         for (size_t j = 0; j < m; j++) {
             size_t i = base + j;
-            hit[i] = valid[j] && rh.hit.geomID[j] != RTC_INVALID_GEOMETRY_ID;
+            hit[i] = (valid[j] != 0) & (rh.hit.geomID[j] != RTC_INVALID_GEOMETRY_ID);
             if (!hit[i]) continue;
             hits[i].t = rh.ray.tfar[j];
             hits[i].tri = triangle_id(a, rh.hit.instID[0][j], rh.hit.geomID[j], rh.hit.primID[j]);
@@ -522,8 +525,7 @@ double pm_accel_bench_raw(const pm_accel *a, const vec3 *origins, const vec3 *di
             size_t m = n - base < PM_ACCEL_PACKET ? n - base : PM_ACCEL_PACKET;
             _Alignas(32) int valid[PM_ACCEL_PACKET];
             struct RTCRayHit8 rh;
-            fill_packet(&rh, origins + base, dirs + base, m, a->tnear);
-            for (size_t j = 0; j < PM_ACCEL_PACKET; j++) valid[j] = j < m ? -1 : 0;
+            fill_packet(&rh, valid, origins + base, dirs + base, m, a->tnear, false);
             rtcIntersect8(valid, a->scene, &ctx, &rh);
             for (size_t j = 0; j < m; j++) count += rh.hit.geomID[j] != RTC_INVALID_GEOMETRY_ID;
         }

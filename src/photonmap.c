@@ -40,9 +40,22 @@
 
 typedef enum { SOURCE_EMITTERS, SOURCE_PUNCTUAL, SOURCE_SKY } source_kind;
 
+/* The shadow of the scene's core box on a plane across a directional light, as box_start samples
+ * it: per face that faces the light, its weight (|dir . normal| x area), what a pick subtracts
+ * before scaling to [0, 1), its low corner and its two edges. It depends on the direction alone,
+ * so it is set once per light: per photon, the face and the point cost a few operations. */
+typedef struct {
+    bool usable;             /* some area across the light, finite: else the disc is taken */
+    float total;             /* the shadow's area: the three weights summed */
+    float below_second, below_third; /* a pick at or past them takes the y face, the z face (+inf: never) */
+    float weight[3], skip[3], skip_more[3];
+    vec3 corner[3], edge_a[3], edge_b[3];
+} box_shadow;
+
 typedef struct {
     source_kind kind;
     uint32_t light;          /* index into scene lights for SOURCE_PUNCTUAL */
+    box_shadow shadow;       /* a directional light's: where its photons start (box_start) */
     vec3 power;              /* flux, W per channel */
     vec3 center;             /* where its photons leave from, for projection maps */
     float radius;            /* bounding radius of that region (0 for a point) */
@@ -153,6 +166,8 @@ static bool receives(const pm_material *m, const void *context) {
 
 double pm_photon_receiving_area(const pm_scene *s) { return pm_scene_area_where(s, receives, NULL); }
 
+static box_shadow box_shadow_across(const pm_scene *s, vec3 dir);
+
 static uint32_t build_sources(const pm_scene *s, light_source *out) {
     uint32_t n = 0;
     float R = s->radius > 0.f ? s->radius : 1.f;
@@ -187,6 +202,7 @@ static uint32_t build_sources(const pm_scene *s, light_source *out) {
         else if (pl->type == PM_LIGHT_SPOT) l->power = v3_scale(pl->intensity, spot_solid_angle(pl));
         else l->power = v3_scale(pl->intensity, PM_PI * R * R);
         l->center = pl->position;
+        if (pl->type == PM_LIGHT_DIRECTIONAL) l->shadow = box_shadow_across(s, pl->direction);
     }
     if (s->sky) {
         light_source *l = &out[n++];
@@ -389,32 +405,46 @@ static float emitter_point(const pass *ps, uint32_t e, float b1, float b2, pm_su
  * [0, 1)) and a uniform point on it give a uniform point of that shadow, which is then carried
  * back along dir to the plane. A start outside that shadow would miss the whole core, and most of
  * the disc around it is such: the disc across a room's ground of 120 m lit at 40 degrees is 2.4
- * times its shadow, and such photons cost their emission and a ray each for nothing. Returns the
+ * times its shadow, and such photons cost their emission and a ray each for nothing.
+ * box_shadow_across sets the faces up once per light; box_start draws a start, and returns the
  * shadow's area (0 for a box with no area across dir: the caller then takes the disc). */
-static float box_start(const pm_scene *s, vec3 dir, float u1, float u2, float back, vec3 *o) {
-    vec3 lo = s->core_min, ext = v3_sub(s->core_max, s->core_min);
+static box_shadow box_shadow_across(const pm_scene *s, vec3 dir) {
+    box_shadow b;
+    memset(&b, 0, sizeof b);
+    vec3 lo = s->core_min, hi = s->core_max, ext = v3_sub(hi, lo);
     float wx = fabsf(dir.x) * ext.y * ext.z, wy = fabsf(dir.y) * ext.x * ext.z, wz = fabsf(dir.z) * ext.x * ext.y;
-    float total = wx + wy + wz;
-    if (!(total > 0.f) || !isfinite(total)) return 0.f;
-    float pick = u1 * total, w;
-    vec3 p;
+    b.total = wx + wy + wz;
+    b.usable = b.total > 0.f && isfinite(b.total);
+    /* a face with no weight is never picked: a pick past the last weighted face stays on it */
+    b.below_second = wy + wz > 0.f ? wx : INFINITY;
+    b.below_third = wz > 0.f ? pm_maxf(wx + wy, b.below_second) : INFINITY;
+    float weight[3] = {wx, wy, wz}, skip[3] = {0.f, wx, wx}, skip_more[3] = {0.f, 0.f, wy};
     /* the face at the low side of an axis faces the light when dir runs up that axis */
-    if (pick < wx || !(wy + wz > 0.f)) {
-        w = wx;
-        float a = pm_minf(pick / w, 0.99999994f);
-        p = v3(dir.x > 0.f ? lo.x : s->core_max.x, lo.y + a * ext.y, lo.z + u2 * ext.z);
-    } else if (pick < wx + wy || !(wz > 0.f)) {
-        w = wy;
-        float a = pm_minf((pick - wx) / w, 0.99999994f);
-        p = v3(lo.x + a * ext.x, dir.y > 0.f ? lo.y : s->core_max.y, lo.z + u2 * ext.z);
-    } else {
-        w = wz;
-        float a = pm_minf(pm_maxf(pick - wx - wy, 0.f) / w, 0.99999994f);
-        p = v3(lo.x + a * ext.x, lo.y + u2 * ext.y, dir.z > 0.f ? lo.z : s->core_max.z);
+    vec3 face = v3(dir.x > 0.f ? lo.x : hi.x, dir.y > 0.f ? lo.y : hi.y, dir.z > 0.f ? lo.z : hi.z);
+    vec3 corner[3] = {v3(face.x, lo.y, lo.z), v3(lo.x, face.y, lo.z), v3(lo.x, lo.y, face.z)};
+    vec3 edge_a[3] = {v3(0.f, ext.y, 0.f), v3(ext.x, 0.f, 0.f), v3(ext.x, 0.f, 0.f)};
+    vec3 edge_b[3] = {v3(0.f, 0.f, ext.z), v3(0.f, 0.f, ext.z), v3(0.f, ext.y, 0.f)};
+    for (int k = 0; k < 3; k++) {
+        b.weight[k] = weight[k];
+        b.skip[k] = skip[k];
+        b.skip_more[k] = skip_more[k];
+        b.corner[k] = corner[k];
+        b.edge_a[k] = edge_a[k];
+        b.edge_b[k] = edge_b[k];
     }
+    return b;
+}
+
+static float box_start(const pm_scene *s, const box_shadow *b, vec3 dir, float u1, float u2, float back, vec3 *o) {
+    if (!b->usable) return 0.f;
+    float pick = u1 * b->total;
+    /* the face by compares, not branches: the pick is random */
+    int k = (pick >= b->below_second) + (pick >= b->below_third);
+    float a = pm_minf(pm_maxf(pick - b->skip[k] - b->skip_more[k], 0.f) / b->weight[k], 0.99999994f);
+    vec3 p = v3_add(v3_madd(b->corner[k], b->edge_a[k], a), v3_scale(b->edge_b[k], u2));
     /* onto the plane `back` behind the centre, across dir */
     *o = v3_madd(p, dir, -(v3_dot(v3_sub(p, s->center), dir) + back));
-    return total;
+    return b->total;
 }
 
 /* Where light travelling along dir starts: a point on a plane across the scene, behind it.
@@ -429,13 +459,13 @@ static float box_start(const pm_scene *s, vec3 dir, float u1, float u2, float ba
  * the union of the targets' projected discs: pick a disc by area, a point in it, and divide by
  * how many discs cover that point, so overlaps are not counted twice.
  * Returns the area that the sampling stands for: flux = irradiance x that area. */
-static float parallel_start(const pass *ps, vec3 dir, bool box, pm_rng *rng, const float *guided, vec3 *o) {
+static float parallel_start(const pass *ps, vec3 dir, const box_shadow *box, pm_rng *rng, const float *guided, vec3 *o) {
     const pm_scene *s = ps->scene;
     float R = s->radius > 0.f ? s->radius : 1.f, x, y, area, back = 1.01f * R;
     bool targets = ps->caustic_pass && ps->targets && ps->target_count;
     if (!targets) {
         float u1 = guided ? guided[0] : pm_rng_float(rng), u2 = guided ? guided[1] : pm_rng_float(rng);
-        area = box ? box_start(s, dir, u1, u2, back, o) : 0.f;
+        area = box ? box_start(s, box, dir, u1, u2, back, o) : 0.f;
         if (area > 0.f) return area;
         vec3 t, b;
         v3_basis(dir, &t, &b);
@@ -498,7 +528,7 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, const float
         const pm_light *pl = &s->lights[l->light];
         if (pl->type == PM_LIGHT_DIRECTIONAL) {
             *d = pl->direction;
-            *flux = v3_scale(pl->intensity, parallel_start(ps, *d, true, rng, guided, o));
+            *flux = v3_scale(pl->intensity, parallel_start(ps, *d, &l->shadow, rng, guided, o));
             return true;
         }
         *o = pl->position;
@@ -536,13 +566,13 @@ static bool emit(const pass *ps, const light_source *l, pm_rng *rng, const float
         vec3 radiance = pm_sky_map_sample(s->sky_map, u1, u2, &toward, &pdf);
         if (!(pdf > 0.f)) return false;
         *d = v3_neg(toward);
-        *flux = v3_scale(v3_mul(s->sky_radiance, radiance), parallel_start(ps, *d, false, rng, guided, o) / pdf);
+        *flux = v3_scale(v3_mul(s->sky_radiance, radiance), parallel_start(ps, *d, NULL, rng, guided, o) / pdf);
         return true;
     }
     float u1 = guided_direction ? guided_direction[0] : pm_rng_float(rng);
     float u2 = guided_direction ? guided_direction[1] : pm_rng_float(rng);
     *d = v3_neg(pm_sample_sphere(u1, u2));
-    *flux = v3_scale(s->sky_radiance, 4.f * PM_PI * parallel_start(ps, *d, false, rng, guided, o));
+    *flux = v3_scale(s->sky_radiance, 4.f * PM_PI * parallel_start(ps, *d, NULL, rng, guided, o));
     return true;
 }
 
