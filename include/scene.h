@@ -512,6 +512,34 @@ void pm_scene_surface_footprint(const pm_scene *s, uint32_t tri, float b1, float
  * scattering reads, for the photon pass, which never reads emission at a hit. */
 void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out);
 
+/* Prefetches of what a hit's surface record reads, for a tracer that knows its next hits before it
+ * makes their records (the photon pass's waves). On a mesh far larger than the caches a record
+ * otherwise waits on memory several times in a row: the triangle's row (its corners' indices, its
+ * material, its face normal), then its corners' positions, normals and texture coordinates, which
+ * need the indices first. Stage one asks for the row; stage two, some hits later when the indices
+ * have arrived, for the corners. */
+/* The bytes of the arrays a surface record reads (positions, normals, texture coordinates, the
+ * triangles' indices, materials and face normals): whether they stay cached, or prefetching pays. */
+static inline uint64_t pm_scene_hit_data_bytes(const pm_scene *s) {
+    uint64_t per_vertex = 2 * sizeof(vec3) + (s->uvs ? 2 * sizeof(float) : 0);
+    uint64_t per_triangle = 3 * sizeof(uint32_t) + sizeof(uint32_t) + (s->face_normals ? sizeof(vec3) : 0);
+    return per_vertex * s->vertex_count + per_triangle * s->triangle_count;
+}
+static inline void pm_scene_prefetch_triangle(const pm_scene *s, uint32_t tri) {
+    uint32_t stored = pm_scene_stored_triangle(s, tri, NULL);
+    __builtin_prefetch(s->indices + 3 * (size_t)stored);
+    __builtin_prefetch(s->triangle_material + stored);
+    if (s->face_normals) __builtin_prefetch(s->face_normals + stored);
+}
+static inline void pm_scene_prefetch_corners(const pm_scene *s, uint32_t tri) {
+    const uint32_t *ix = s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, NULL);
+    for (int k = 0; k < 3; k++) {
+        __builtin_prefetch(s->positions + ix[k]);
+        __builtin_prefetch(s->normals + ix[k]);
+        if (s->uvs) __builtin_prefetch(s->uvs + 2 * (size_t)ix[k]);
+    }
+}
+
 /* The geometric part of a surface record in two steps: the point, the unit face normal ng (given)
  * and the material, then the shading normal (interpolated, on ng's side, before any normal map)
  * and the centroid. pm_scene_surface makes both; the photon pass makes the second only for a

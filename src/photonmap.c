@@ -87,6 +87,7 @@ typedef struct {
     float *source_cdf;
     const emitter_shape *emitter_shapes; /* s->emitter_count entries */
     bool volumes;            /* some material attenuates inside its mesh (KHR_materials_volume) */
+    bool prefetch_hits;      /* the mesh outgrows the caches: hits' triangles are prefetched (PM_PREFETCH_GEOMETRY_BYTES) */
     bool caustic_pass;
     uint64_t photons;        /* emitted in this pass */
     uint64_t seed;
@@ -778,7 +779,7 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
  * faster than one call each. Each photon keeps its own random stream, so its path is what it would
  * be traced alone; only the order of the chunk's records depends on the waves, the same at any
  * thread count. */
-enum { WAVE = PM_PHOTON_WAVE };
+enum { WAVE = PM_PHOTON_WAVE, PREFETCH_ROWS = 16, PREFETCH_CORNERS = 8 };
 typedef struct {
     vec3 origin[WAVE], direction[WAVE];
     photon_path path[WAVE];
@@ -837,7 +838,20 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             rays += n;
             pm_accel_intersect_packets(ps->accel, n, w->origin, w->direction, false, w->hit, w->hits);
             size_t alive = 0;
+            /* on a large mesh the rows of the hits PREFETCH_ROWS ahead and the corners of those
+             * PREFETCH_CORNERS ahead are asked for while a hit bounces (pm_scene_prefetch_triangle) */
+            bool prefetch = ps->prefetch_hits;
+            for (size_t i = 0; prefetch && i < n && i < PREFETCH_ROWS; i++)
+                if (w->hit[i]) pm_scene_prefetch_triangle(ps->scene, w->hits[i].tri);
+            for (size_t i = 0; prefetch && i < n && i < PREFETCH_CORNERS; i++)
+                if (w->hit[i]) pm_scene_prefetch_corners(ps->scene, w->hits[i].tri);
             for (size_t i = 0; i < n; i++) {
+                if (prefetch) {
+                    if (i + PREFETCH_ROWS < n && w->hit[i + PREFETCH_ROWS])
+                        pm_scene_prefetch_triangle(ps->scene, w->hits[i + PREFETCH_ROWS].tri);
+                    if (i + PREFETCH_CORNERS < n && w->hit[i + PREFETCH_CORNERS])
+                        pm_scene_prefetch_corners(ps->scene, w->hits[i + PREFETCH_CORNERS].tri);
+                }
                 photon_path *p = &w->path[i];
                 if (!w->hit[i] || !photon_bounce(ps, p, &w->hits[i], &w->origin[i], &w->direction[i], &list, &splats, &rays))
                     continue;
@@ -1099,6 +1113,7 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
     ps->source_cdf = cdf;
     ps->emitter_shapes = t->emitter_shapes;
     for (uint32_t i = 0; i < s->material_count; i++) ps->volumes |= !v3_is_black(s->materials[i].attenuation);
+    ps->prefetch_hits = pm_scene_hit_data_bytes(s) > PM_PREFETCH_GEOMETRY_BYTES;
     t->global_possible = source_count && s->analysis.has_diffuse;
 
     if (source_count && s->analysis.caustics_possible) {
