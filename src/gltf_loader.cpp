@@ -865,11 +865,6 @@ enum {
     kSpecular, kSpecularColor, kSheenColor, kSheenRoughness, kClearcoat, kClearcoatRoughness, kClearcoatNormal,
     kReferenceKinds
 };
-const char *const kReferenceNames[kReferenceKinds] = {"baseColorTexture", "emissiveTexture",
-                                                      "metallicRoughnessTexture", "transmissionTexture",
-                                                      "normalTexture", "specularTexture", "specularColorTexture",
-                                                      "sheenColorTexture", "sheenRoughnessTexture", "clearcoatTexture",
-                                                      "clearcoatRoughnessTexture", "clearcoatNormalTexture"};
 
 // Owns the malloc'ed texels until the scene takes them.
 struct TextureList {
