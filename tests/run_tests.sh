@@ -75,7 +75,7 @@ QUIET="test_window test_window_cluster test_window_cluster_stop test_signal_writ
 # tests, in one scheduling group of nice 19 (whose weight is the group's, however many run in it),
 # they take the processor those leave idle (the QUIET tests keep about one of two busy); run one
 # at a time, the second would wait for the first and end after the QUIET tests.
-BESIDE_QUIET="test_convergence test_photons"
+BESIDE_QUIET="test_convergence test_photons test_glossy test_progressive_long"
 # Tests that bound their own wall time (a refusal within 1-10 s, a timeout of 20 s, a reload within
 # 2 s, a SIGINT 1.5 s after the start, a deadline of a share of a measured pass): at the lowest
 # priority an ALONE test using both cores could hold them past those bounds, so they run first, JOBS
