@@ -1113,7 +1113,7 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
     ps->source_cdf = cdf;
     ps->emitter_shapes = t->emitter_shapes;
     for (uint32_t i = 0; i < s->material_count; i++) ps->volumes |= !v3_is_black(s->materials[i].attenuation);
-    ps->prefetch_hits = pm_scene_hit_data_bytes(s) > PM_PREFETCH_GEOMETRY_BYTES;
+    ps->prefetch_hits = pm_scene_hit_data_bytes(s) > (settings->prefetch_bytes ? settings->prefetch_bytes - 1 : PM_PREFETCH_GEOMETRY_BYTES);
     t->global_possible = source_count && s->analysis.has_diffuse;
 
     if (source_count && s->analysis.caustics_possible) {

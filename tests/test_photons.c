@@ -519,9 +519,11 @@ static int compare_records(const void *a, const void *b) { return memcmp(a, b, s
 static int compare_splats(const void *a, const void *b) { return memcmp(a, b, sizeof(pm_camera_splat)); }
 
 /* Waves (PM_PHOTON_WAVE photons side by side) against the plain tracer, one photon's path after
- * another (wave 1), and an odd wave of 7: the same records and camera splats, bit for bit, only
- * in another order, and the same ray count, in both kinds of pass, on a room with glass, a mirror,
- * rough metal, an area light and a point light (every branch of a bounce). */
+ * another (wave 1), an odd wave of 7, and waves that prefetch their hits' triangles and waves that
+ * do not (a mesh larger than the caches prefetches by default; this one's 0.7 MB does): the same
+ * records and camera splats, bit for bit, only in another order, and the same ray count, in both
+ * kinds of pass, on a room with glass, a mirror, rough metal, an area light and a point light
+ * (every branch of a bounce). */
 static void waves_change_only_order(void) {
     pm_scene s;
     memset(&s, 0, sizeof s);
@@ -534,16 +536,20 @@ static void waves_change_only_order(void) {
     sb_point_light(&s, v3(1.2f, 2.4f, 1.2f), v3s(3.f));
     pm_accel *a = sb_finish(&s);
     pm_camera cam = sb_camera(v3(0.f, 1.5f, 1.95f), v3(0.f, 0.8f, 0.f), v3(0.f, 1.f, 0.f), 70.f);
-    int waves[3] = {1, 7, 0};
-    pm_photon_buffer records[2][3];
-    pm_splat_buffer splats[3];
-    uint64_t rays[2][3];
+    enum { RUNS = 4 };
+    int waves[RUNS] = {1, 7, 0, 0};
+    uint64_t prefetch_bytes[RUNS] = {0, 0, UINT64_MAX, 1}; /* default, default, never, always */
+    const char *prefetching[RUNS] = {"", "", " not prefetching", " prefetching"};
+    pm_photon_buffer records[2][RUNS];
+    pm_splat_buffer splats[RUNS];
+    uint64_t rays[2][RUNS];
     memset(records, 0, sizeof records);
     memset(splats, 0, sizeof splats);
     bool ok = true;
-    for (int w = 0; w < 3; w++) {
+    for (int w = 0; w < RUNS; w++) {
         pm_photon_settings ps = photon_settings(0, 0);
         ps.wave = waves[w];
+        ps.prefetch_bytes = prefetch_bytes[w];
         pm_photon_tracer *t = pm_photon_tracer_create(&s, a, &ps);
         ok = ok && t;
         if (!t) break;
@@ -558,25 +564,26 @@ static void waves_change_only_order(void) {
         qsort(splats[w].data, splats[w].count, sizeof(pm_camera_splat), compare_splats);
         pm_photon_tracer_destroy(t);
     }
-    CHECK(ok, "three tracers and their passes");
+    CHECK(ok, "four tracers and their passes");
     for (int caustic = 0; ok && caustic < 2; caustic++) {
         size_t n = records[caustic][0].count;
         printf("waves: %s pass, %zu records, %llu rays with one photon at a time\n", caustic ? "caustic" : "global", n,
                (unsigned long long)rays[caustic][0]);
         CHECK(n > 1000, "the %s pass stores photons (%zu)", caustic ? "caustic" : "global", n);
-        for (int w = 1; w < 3; w++) {
+        for (int w = 1; w < RUNS; w++) {
             CHECK(records[caustic][w].count == n && rays[caustic][w] == rays[caustic][0] &&
                       !memcmp(records[caustic][w].data, records[caustic][0].data, n * sizeof(pm_photon)),
-                  "wave %d: the same %s records and rays as one photon at a time (%zu of %zu records, %llu of %llu rays)",
-                  waves[w], caustic ? "caustic" : "global", records[caustic][w].count, n, (unsigned long long)rays[caustic][w],
+                  "wave %d%s: the same %s records and rays as one photon at a time (%zu of %zu records, %llu of %llu rays)",
+                  waves[w], prefetching[w], caustic ? "caustic" : "global", records[caustic][w].count, n, (unsigned long long)rays[caustic][w],
                   (unsigned long long)rays[caustic][0]);
         }
     }
     CHECK(splats[0].count > 100, "caustic photons seen by the camera (%zu splats)", splats[0].count);
-    for (int w = 1; ok && w < 3; w++)
+    for (int w = 1; ok && w < RUNS; w++)
         CHECK(splats[w].count == splats[0].count && !memcmp(splats[w].data, splats[0].data, splats[0].count * sizeof(pm_camera_splat)),
-              "wave %d: the same camera splats (%zu of %zu)", waves[w], splats[w].count, splats[0].count);
-    for (int w = 0; w < 3; w++) {
+              "wave %d%s: the same camera splats (%zu of %zu)", waves[w], prefetching[w], splats[w].count,
+              splats[0].count);
+    for (int w = 0; w < RUNS; w++) {
         free(records[0][w].data);
         free(records[1][w].data);
         free(splats[w].data);
