@@ -149,8 +149,8 @@
 /* the photon pass prefetches its hits' triangles and corners (pm_scene_prefetch_triangle) when what a
  * surface record reads of the mesh (pm_scene_hit_data_bytes) is larger than this, about half of a core's
  * L2 cache: photon_ceiling on height fields (bench/big_scene.py) read 0.97 of the unprefetched speed
- * at 4,428 triangles (0.18 MB), 1.02-1.03 at 20,000 (0.8 MB), 1.07-1.14 at 50,000, 1.25-1.28 at 250,000
- * and 1.36-1.40 at 1 million */
+ * at 4,428 triangles (0.18 MB), 1.02-1.03 at 20,000 (0.8 MB), 1.07-1.14 at 50,000 and 1.21-1.41 at
+ * 250,000 and a million */
 #define PM_PREFETCH_GEOMETRY_BYTES (512u * 1024u)
 #define PM_PHOTON_WAVE 256                 /* photons a chunk traces side by side: their rays go to Embree together, then their hits bounce (as fast as 1,024, faster than 64) */
 #define PM_DEFAULT_MAX_PHOTON_BOUNCES 1024 /* the path-length cap, a safety stop: Russian roulette ends paths; a closed room of albedo 0.99
