@@ -10,6 +10,8 @@
 #define PM_CLUSTER_AGREE_SECONDS 10.0    /* the set-up's agreement: rank 0 waits this long plus PM_CLUSTER_AGREE_FACTOR times its */
 #define PM_CLUSTER_AGREE_FACTOR 4.0      /* own set-up for every rank's word, then ends the job naming the silent (stopped) ones */
 #define PM_CLUSTER_QUIT_SECONDS 5.0      /* the window's quit or resize: a rank that has not answered it by then is taken for stopped */
+#define PM_CLUSTER_END_SECONDS 5.0       /* --time under MPI: a rank silent this long plus PM_CLUSTER_END_SHARE of --time past the */
+#define PM_CLUSTER_END_SHARE 0.1         /* deadline (or past the wait's start, if later) is taken for stopped and the job ends */
 #define PM_DEFAULT_WINDOW_ITERATIONS 100000 /* the window keeps converging until closed */
 #define PM_WATCH_SETTLE_SECONDS 0.15      /* --watch: a reload starts once the scene's folder has been quiet this long (a burst of saves is one reload) */
 #define PM_PREPARE_AFTER_SECONDS 0.03   /* the window: a set-up longer than this makes the GL context and compiles the display

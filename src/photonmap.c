@@ -410,29 +410,23 @@ static float emitter_point(const pass *ps, uint32_t e, float b1, float b2, pm_su
  * box_shadow_across sets the faces up once per light; box_start draws a start, and returns the
  * shadow's area (0 for a box with no area across dir: the caller then takes the disc). */
 static box_shadow box_shadow_across(const pm_scene *s, vec3 dir) {
-    box_shadow b;
-    memset(&b, 0, sizeof b);
     vec3 lo = s->core_min, hi = s->core_max, ext = v3_sub(hi, lo);
     float wx = fabsf(dir.x) * ext.y * ext.z, wy = fabsf(dir.y) * ext.x * ext.z, wz = fabsf(dir.z) * ext.x * ext.y;
-    b.total = wx + wy + wz;
+    /* the face at the low side of an axis faces the light when dir runs up that axis */
+    vec3 face = v3(dir.x > 0.f ? lo.x : hi.x, dir.y > 0.f ? lo.y : hi.y, dir.z > 0.f ? lo.z : hi.z);
+    box_shadow b = {
+        .total = wx + wy + wz,
+        .weight = {wx, wy, wz},
+        .skip = {0.f, wx, wx},
+        .skip_more = {0.f, 0.f, wy},
+        .corner = {v3(face.x, lo.y, lo.z), v3(lo.x, face.y, lo.z), v3(lo.x, lo.y, face.z)},
+        .edge_a = {v3(0.f, ext.y, 0.f), v3(ext.x, 0.f, 0.f), v3(ext.x, 0.f, 0.f)},
+        .edge_b = {v3(0.f, 0.f, ext.z), v3(0.f, 0.f, ext.z), v3(0.f, ext.y, 0.f)},
+    };
     b.usable = b.total > 0.f && isfinite(b.total);
     /* a face with no weight is never picked: a pick past the last weighted face stays on it */
     b.below_second = wy + wz > 0.f ? wx : INFINITY;
     b.below_third = wz > 0.f ? pm_maxf(wx + wy, b.below_second) : INFINITY;
-    float weight[3] = {wx, wy, wz}, skip[3] = {0.f, wx, wx}, skip_more[3] = {0.f, 0.f, wy};
-    /* the face at the low side of an axis faces the light when dir runs up that axis */
-    vec3 face = v3(dir.x > 0.f ? lo.x : hi.x, dir.y > 0.f ? lo.y : hi.y, dir.z > 0.f ? lo.z : hi.z);
-    vec3 corner[3] = {v3(face.x, lo.y, lo.z), v3(lo.x, face.y, lo.z), v3(lo.x, lo.y, face.z)};
-    vec3 edge_a[3] = {v3(0.f, ext.y, 0.f), v3(ext.x, 0.f, 0.f), v3(ext.x, 0.f, 0.f)};
-    vec3 edge_b[3] = {v3(0.f, 0.f, ext.z), v3(0.f, 0.f, ext.z), v3(0.f, ext.y, 0.f)};
-    for (int k = 0; k < 3; k++) {
-        b.weight[k] = weight[k];
-        b.skip[k] = skip[k];
-        b.skip_more[k] = skip_more[k];
-        b.corner[k] = corner[k];
-        b.edge_a[k] = edge_a[k];
-        b.edge_b[k] = edge_b[k];
-    }
     return b;
 }
 
@@ -787,6 +781,13 @@ typedef struct {
     pm_hit hits[WAVE];
 } photon_wave;
 
+/* Prefetches hit j of a wave of n, if it is one: its triangle's row, and its corners too when asked */
+static inline void prefetch_hit(const pm_scene *s, const photon_wave *w, size_t n, size_t j, bool corners) {
+    if (j >= n || !w->hit[j]) return;
+    if (corners) pm_scene_prefetch_corners(s, w->hits[j].tri);
+    else pm_scene_prefetch_triangle(s, w->hits[j].tri);
+}
+
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
     pass *ps = ctx;
     struct record_arena *arena = &ps->arenas[thread];
@@ -839,18 +840,15 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             pm_accel_intersect_packets(ps->accel, n, w->origin, w->direction, false, w->hit, w->hits);
             size_t alive = 0;
             /* on a large mesh the rows of the hits PREFETCH_ROWS ahead and the corners of those
-             * PREFETCH_CORNERS ahead are asked for while a hit bounces (pm_scene_prefetch_triangle) */
+             * PREFETCH_CORNERS ahead are asked for while a hit bounces (pm_scene_prefetch_triangle),
+             * the first ones before */
             bool prefetch = ps->prefetch_hits;
-            for (size_t i = 0; prefetch && i < n && i < PREFETCH_ROWS; i++)
-                if (w->hit[i]) pm_scene_prefetch_triangle(ps->scene, w->hits[i].tri);
-            for (size_t i = 0; prefetch && i < n && i < PREFETCH_CORNERS; i++)
-                if (w->hit[i]) pm_scene_prefetch_corners(ps->scene, w->hits[i].tri);
+            for (size_t j = 0; prefetch && j < PREFETCH_ROWS; j++) prefetch_hit(ps->scene, w, n, j, false);
+            for (size_t j = 0; prefetch && j < PREFETCH_CORNERS; j++) prefetch_hit(ps->scene, w, n, j, true);
             for (size_t i = 0; i < n; i++) {
                 if (prefetch) {
-                    if (i + PREFETCH_ROWS < n && w->hit[i + PREFETCH_ROWS])
-                        pm_scene_prefetch_triangle(ps->scene, w->hits[i + PREFETCH_ROWS].tri);
-                    if (i + PREFETCH_CORNERS < n && w->hit[i + PREFETCH_CORNERS])
-                        pm_scene_prefetch_corners(ps->scene, w->hits[i + PREFETCH_CORNERS].tri);
+                    prefetch_hit(ps->scene, w, n, i + PREFETCH_ROWS, false);
+                    prefetch_hit(ps->scene, w, n, i + PREFETCH_CORNERS, true);
                 }
                 photon_path *p = &w->path[i];
                 if (!w->hit[i] || !photon_bounce(ps, p, &w->hits[i], &w->origin[i], &w->direction[i], &list, &splats, &rays))
@@ -1113,7 +1111,7 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
     ps->source_cdf = cdf;
     ps->emitter_shapes = t->emitter_shapes;
     for (uint32_t i = 0; i < s->material_count; i++) ps->volumes |= !v3_is_black(s->materials[i].attenuation);
-    ps->prefetch_hits = pm_scene_hit_data_bytes(s) > (settings->prefetch_bytes ? settings->prefetch_bytes - 1 : PM_PREFETCH_GEOMETRY_BYTES);
+    ps->prefetch_hits = pm_scene_hit_data_bytes(s) >= (settings->prefetch_bytes ? settings->prefetch_bytes : PM_PREFETCH_GEOMETRY_BYTES + 1);
     t->global_possible = source_count && s->analysis.has_diffuse;
 
     if (source_count && s->analysis.caustics_possible) {

@@ -250,7 +250,7 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
     pm_session_run_state state = {0, 0, 0.0, 0.0, 0.0};
     ob.start = ob.last_checkpoint = pm_now_seconds();
     /* every rank's run ends at --time: one silent well past it is stopped (SIGSTOP), not slow */
-    if (o->time_limit > 0) pm_cluster_expect_end(cluster, ob.start + o->time_limit, 5.0 + 0.1 * o->time_limit);
+    if (o->time_limit > 0) pm_cluster_expect_end(cluster, ob.start + o->time_limit, PM_CLUSTER_END_SECONDS + PM_CLUSTER_END_SHARE * o->time_limit);
     pm_session_run_result result = goal.samples ? pm_session_run(session, &goal, observe, &ob, &state) : PM_RUN_DONE;
     if (result == PM_RUN_FAILED) {
         if (cluster) {
