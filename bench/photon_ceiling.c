@@ -19,6 +19,9 @@
  * of the pass's time that is Embree's, the rest being our own work per ray. The rays are logged
  * in the pass's order (a wave's first rays, then its second, ...); rtcIntersect1 takes them 2-6%
  * slower than one photon's bounces after another (docs/design.md, why the photon pass traces in waves).
+ * emission_share is what starting the photons alone costs (the same passes with max_bounces 0: the
+ * photons emitted, no ray cast; median of PAIRS) over the whole pass: the part of our own work that
+ * is no bounce.
  */
 #include <stdbool.h>
 #include <stdio.h>
@@ -89,7 +92,10 @@ int main(int argc, char **argv) {
     if (!a) { fprintf(stderr, "photon_ceiling: %s\n", err); return 1; }
     pm_photon_settings settings = bench_photon_settings(1);
     pm_photon_tracer *tracer = pm_photon_tracer_create(&s, a, &settings);
-    if (!tracer) { fprintf(stderr, "photon_ceiling: out of memory (tracer)\n"); return 1; }
+    pm_photon_settings emit_settings = settings;
+    emit_settings.max_bounces = 0;
+    pm_photon_tracer *emitter = pm_photon_tracer_create(&s, a, &emit_settings);
+    if (!tracer || !emitter) { fprintf(stderr, "photon_ceiling: out of memory (tracer)\n"); return 1; }
     logged_origin = malloc(MAX_LOGGED * sizeof *logged_origin);
     logged_direction = malloc(MAX_LOGGED * sizeof *logged_direction);
     if (!logged_origin || !logged_direction) { fprintf(stderr, "photon_ceiling: out of memory (ray log)\n"); return 1; }
@@ -110,9 +116,11 @@ int main(int argc, char **argv) {
          * apart): each pair's ratio sees the machine in one state, and the median of the ratios
          * shrugs off the pairs another tenant disturbed */
         double ratios[PAIRS], packet_ratios[PAIRS], pass_rates[PAIRS], raw_rates[PAIRS], packet_rates[PAIRS];
+        double pass_seconds[PAIRS], emit_seconds[PAIRS];
         size_t hits = 0, packet_hits = 0;
         for (int pair = 0; pair < PAIRS; pair++) {
             if (!photon_pass(tracer, kind, 1, &st)) return 1;
+            pass_seconds[pair] = st.trace_seconds;
             double t = pm_accel_bench_raw(a, logged_origin, logged_direction, logged, false, &hits);
             double tp = pm_accel_bench_raw(a, logged_origin, logged_direction, logged, true, &packet_hits);
             pass_rates[pair] = st.rays / st.trace_seconds;
@@ -121,6 +129,13 @@ int main(int argc, char **argv) {
             ratios[pair] = raw_rates[pair] > 0 ? pass_rates[pair] / raw_rates[pair] : 0.0;
             packet_ratios[pair] = packet_rates[pair] > 0 ? pass_rates[pair] / packet_rates[pair] : 0.0;
         }
+        for (int pair = 0; pair < PAIRS; pair++) {
+            pm_photon_stats emitted;
+            if (!photon_pass(emitter, kind, 1, &emitted) || emitted.rays) return 1;
+            emit_seconds[pair] = emitted.trace_seconds;
+        }
+        qsort(pass_seconds, PAIRS, sizeof *pass_seconds, compare_doubles);
+        qsort(emit_seconds, PAIRS, sizeof *emit_seconds, compare_doubles);
         if (hits != packet_hits) {
             fprintf(stderr, "photon_ceiling: single rays hit %zu times, packets %zu\n", hits, packet_hits);
             return 1;
@@ -133,13 +148,15 @@ int main(int argc, char **argv) {
         double pass_rate = pass_rates[PAIRS / 2], raw_rate = raw_rates[PAIRS / 2];
         printf("bench photon_ceiling scene=%s pass=%s threads=1 rays=%zu hit_fraction=%.3f photon_rays_per_second=%.0f "
                "raw_own_rays_per_second=%.0f ratio_to_raw_own_rays=%.3f ratio_quartiles=%.3f,%.3f pairs=%d "
-               "raw_packet_rays_per_second=%.0f ratio_to_raw_packets=%.3f\n",
+               "raw_packet_rays_per_second=%.0f ratio_to_raw_packets=%.3f emission_share=%.3f\n",
                path, pass_name[kind], logged, (double)hits / (double)logged, pass_rate, raw_rate, ratios[PAIRS / 2],
-               ratios[PAIRS / 4], ratios[3 * PAIRS / 4], PAIRS, packet_rates[PAIRS / 2], packet_ratios[PAIRS / 2]);
+               ratios[PAIRS / 4], ratios[3 * PAIRS / 4], PAIRS, packet_rates[PAIRS / 2], packet_ratios[PAIRS / 2],
+               pass_seconds[PAIRS / 2] > 0 ? emit_seconds[PAIRS / 2] / pass_seconds[PAIRS / 2] : 0.0);
     }
     free(global_records.data);
     free(caustic_records.data);
     pm_photon_tracer_destroy(tracer);
+    pm_photon_tracer_destroy(emitter);
     free(logged_origin);
     free(logged_direction);
     pm_accel_destroy(a);

@@ -41,8 +41,8 @@ typedef struct {
      * the same records, in another order; 1 traces one photon's path after another */
     int wave;
     /* the hits' triangles are prefetched when what a surface record reads of the mesh is at least
-     * this many bytes (0: more than PM_PREFETCH_GEOMETRY_BYTES; 1: always; UINT64_MAX: never): the
-     * records are the same either way */
+     * this many bytes, their texels when the textures' level 0 is (0: more than
+     * PM_PREFETCH_GEOMETRY_BYTES; 1: always; UINT64_MAX: never): the records are the same either way */
     uint64_t prefetch_bytes;
     bool projection_maps;      /* aim caustic photons at specular objects */
     /* Christensen's precomputation for final gathering: irradiance estimated once at every

@@ -540,6 +540,14 @@ static inline void pm_scene_prefetch_corners(const pm_scene *s, uint32_t tri) {
     }
 }
 
+/* Stage three, when the corners have arrived: the level-0 texels that the record of a hit at (b1, b2)
+ * reads (pm_scene_surface_scattering: base colour, metallic-roughness, transmission, normal map, the
+ * layers' textures; nothing on a material without textures). On large textures each of those reads
+ * is a miss of its own: a 2048 x 2048 texture is 16 MB, and photons land anywhere on it. */
+void pm_scene_prefetch_texels(const pm_scene *s, uint32_t tri, float b1, float b2);
+/* The bytes of the textures' level 0 (what photon records read): whether prefetching their texels pays. */
+uint64_t pm_scene_texture_bytes(const pm_scene *s);
+
 /* The geometric part of a surface record in two steps: the point, the unit face normal ng (given)
  * and the material, then the shading normal (interpolated, on ng's side, before any normal map)
  * and the centroid. pm_scene_surface makes both; the photon pass makes the second only for a
@@ -723,6 +731,8 @@ vec3 pm_texture_filtered(const pm_texture *t, float u, float v, float texels, bo
  * The bytes are admitted (pm_memory_admit) and added to *admitted; false when refused or out
  * of memory (the failure recorded, t left with level 0 alone). */
 bool pm_texture_build_levels(pm_texture *t, bool srgb, uint64_t *admitted);
+/* Asks for the level-0 texels pm_texture_lookup at (u, v) reads, without reading them. */
+void pm_texture_prefetch(const pm_texture *t, float u, float v);
 /* The alpha channel at (u, v), bilinear like pm_texture_lookup; alpha is stored linear (no sRGB). */
 float pm_texture_alpha(const pm_texture *t, float u, float v);
 

@@ -88,6 +88,7 @@ typedef struct {
     const emitter_shape *emitter_shapes; /* s->emitter_count entries */
     bool volumes;            /* some material attenuates inside its mesh (KHR_materials_volume) */
     bool prefetch_hits;      /* the mesh outgrows the caches: hits' triangles are prefetched (PM_PREFETCH_GEOMETRY_BYTES) */
+    bool prefetch_texels;    /* the textures outgrow them: hits' texels are prefetched (the same bound) */
     bool caustic_pass;
     uint64_t photons;        /* emitted in this pass */
     uint64_t seed;
@@ -773,7 +774,7 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
  * faster than one call each. Each photon keeps its own random stream, so its path is what it would
  * be traced alone; only the order of the chunk's records depends on the waves, the same at any
  * thread count. */
-enum { WAVE = PM_PHOTON_WAVE, PREFETCH_ROWS = 16, PREFETCH_CORNERS = 8 };
+enum { WAVE = PM_PHOTON_WAVE, PREFETCH_ROWS = 16, PREFETCH_CORNERS = 8, PREFETCH_TEXELS = 4 };
 typedef struct {
     vec3 origin[WAVE], direction[WAVE];
     photon_path path[WAVE];
@@ -781,11 +782,14 @@ typedef struct {
     pm_hit hits[WAVE];
 } photon_wave;
 
-/* Prefetches hit j of a wave of n, if it is one: its triangle's row, and its corners too when asked */
-static inline void prefetch_hit(const pm_scene *s, const photon_wave *w, size_t n, size_t j, bool corners) {
+/* Prefetches hit j of a wave of n, if it is one: its triangle's row, its corners or its texels */
+typedef enum { PREFETCH_ROW, PREFETCH_CORNER, PREFETCH_TEXEL } prefetch_stage;
+static inline void prefetch_hit(const pm_scene *s, const photon_wave *w, size_t n, size_t j, prefetch_stage stage) {
     if (j >= n || !w->hit[j]) return;
-    if (corners) pm_scene_prefetch_corners(s, w->hits[j].tri);
-    else pm_scene_prefetch_triangle(s, w->hits[j].tri);
+    const pm_hit *h = &w->hits[j];
+    if (stage == PREFETCH_CORNER) pm_scene_prefetch_corners(s, h->tri);
+    else if (stage == PREFETCH_ROW) pm_scene_prefetch_triangle(s, h->tri);
+    else pm_scene_prefetch_texels(s, h->tri, h->b1, h->b2);
 }
 
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
@@ -842,14 +846,16 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             /* on a large mesh the rows of the hits PREFETCH_ROWS ahead and the corners of those
              * PREFETCH_CORNERS ahead are asked for while a hit bounces (pm_scene_prefetch_triangle),
              * the first ones before */
-            bool prefetch = ps->prefetch_hits;
-            for (size_t j = 0; prefetch && j < PREFETCH_ROWS; j++) prefetch_hit(ps->scene, w, n, j, false);
-            for (size_t j = 0; prefetch && j < PREFETCH_CORNERS; j++) prefetch_hit(ps->scene, w, n, j, true);
+            bool prefetch = ps->prefetch_hits, texels = ps->prefetch_texels;
+            for (size_t j = 0; prefetch && j < PREFETCH_ROWS; j++) prefetch_hit(ps->scene, w, n, j, PREFETCH_ROW);
+            for (size_t j = 0; prefetch && j < PREFETCH_CORNERS; j++) prefetch_hit(ps->scene, w, n, j, PREFETCH_CORNER);
+            for (size_t j = 0; texels && j < PREFETCH_TEXELS; j++) prefetch_hit(ps->scene, w, n, j, PREFETCH_TEXEL);
             for (size_t i = 0; i < n; i++) {
                 if (prefetch) {
-                    prefetch_hit(ps->scene, w, n, i + PREFETCH_ROWS, false);
-                    prefetch_hit(ps->scene, w, n, i + PREFETCH_CORNERS, true);
+                    prefetch_hit(ps->scene, w, n, i + PREFETCH_ROWS, PREFETCH_ROW);
+                    prefetch_hit(ps->scene, w, n, i + PREFETCH_CORNERS, PREFETCH_CORNER);
                 }
+                if (texels) prefetch_hit(ps->scene, w, n, i + PREFETCH_TEXELS, PREFETCH_TEXEL);
                 photon_path *p = &w->path[i];
                 if (!w->hit[i] || !photon_bounce(ps, p, &w->hits[i], &w->origin[i], &w->direction[i], &list, &splats, &rays))
                     continue;
@@ -1111,7 +1117,9 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
     ps->source_cdf = cdf;
     ps->emitter_shapes = t->emitter_shapes;
     for (uint32_t i = 0; i < s->material_count; i++) ps->volumes |= !v3_is_black(s->materials[i].attenuation);
-    ps->prefetch_hits = pm_scene_hit_data_bytes(s) >= (settings->prefetch_bytes ? settings->prefetch_bytes : PM_PREFETCH_GEOMETRY_BYTES + 1);
+    uint64_t prefetch_from = settings->prefetch_bytes ? settings->prefetch_bytes : PM_PREFETCH_GEOMETRY_BYTES + 1;
+    ps->prefetch_hits = pm_scene_hit_data_bytes(s) >= prefetch_from;
+    ps->prefetch_texels = pm_scene_texture_bytes(s) >= prefetch_from;
     t->global_possible = source_count && s->analysis.has_diffuse;
 
     if (source_count && s->analysis.caustics_possible) {

@@ -265,6 +265,41 @@ static void surface_scattering(const pm_scene *s, uint32_t tri, float b1, float 
     out->unlit = false;
 }
 
+static void prefetch_texture(const pm_scene *s, const float uv[2][2], int texture, int texcoord, const pm_uv_transform *t) {
+    if (texture < 0 || (uint32_t)texture >= s->texture_count) return;
+    float u = uv[texcoord == 1][0], v = uv[texcoord == 1][1];
+    apply_uv_transform(t, &u, &v);
+    pm_texture_prefetch(&s->textures[texture], u, v);
+}
+
+void pm_scene_prefetch_texels(const pm_scene *s, uint32_t tri, float b1, float b2) {
+    uint32_t stored = pm_scene_stored_triangle(s, tri, NULL);
+    const pm_material *m = &s->materials[s->triangle_material[stored]];
+    bool normal_mapped = m->normal_texture >= 0 && s->tangents;
+    if (m->uniform_split && !normal_mapped) return; /* no texture read (a coat's normal map only comes with layer textures) */
+    const uint32_t *ix = s->indices + 3 * (size_t)stored;
+    float b0 = 1.f - b1 - b2, uv[2][2] = {{0.f, 0.f}, {0.f, 0.f}};
+    interpolated_uv(s, ix, b0, b1, b2, 0, &uv[0][0], &uv[0][1]);
+    if (s->uvs1) interpolated_uv(s, ix, b0, b1, b2, 1, &uv[1][0], &uv[1][1]);
+    if (normal_mapped) prefetch_texture(s, uv, m->normal_texture, m->normal_texcoord, &m->normal_transform);
+    if (m->uniform_split) return;
+    prefetch_texture(s, uv, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform);
+    prefetch_texture(s, uv, m->metallic_roughness_texture, m->metallic_roughness_texcoord, &m->metallic_roughness_transform);
+    if (m->transmission > 0.f) prefetch_texture(s, uv, m->transmission_texture, m->transmission_texcoord, &m->transmission_transform);
+    if (!pm_material_layers_textured(m)) return;
+    const pm_material_layers *l = &m->layers;
+    const pm_texture_ref *refs[] = {&l->specular_texture, &l->specular_color_texture, &l->sheen_color_texture, &l->sheen_roughness_texture,
+                                    &l->clearcoat_texture, &l->clearcoat_roughness_texture, &l->clearcoat_normal_texture};
+    for (size_t k = 0; k < sizeof refs / sizeof *refs; k++) prefetch_texture(s, uv, refs[k]->texture, refs[k]->texcoord, &refs[k]->transform);
+}
+
+uint64_t pm_scene_texture_bytes(const pm_scene *s) {
+    uint64_t bytes = 0;
+    for (uint32_t i = 0; i < s->texture_count; i++)
+        if (s->textures[i].rgba) bytes += 4 * (uint64_t)s->textures[i].width * (uint64_t)s->textures[i].height;
+    return bytes;
+}
+
 void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
     float footprint[2];
     surface_scattering(s, tri, b1, b2, 0.f, v3s(0.f), out, footprint);

@@ -285,6 +285,12 @@ bool pm_texture_build_levels(pm_texture *t, bool srgb, uint64_t *admitted) {
     return true;
 }
 
+void pm_texture_prefetch(const pm_texture *t, float u, float v) {
+    if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return;
+    bilinear_taps b = bilinear(t, u, v); /* NEAREST reads one of these four */
+    for (int k = 0; k < 4; k++) __builtin_prefetch(t->rgba + 4 * b.texel[k]);
+}
+
 float pm_texture_alpha(const pm_texture *t, float u, float v) {
     if (!t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return 1.f;
     if (t->mag_nearest) return t->rgba[4 * nearest_texel(t, t->width, t->height, u, v) + 3] * (1.f / 255.f);

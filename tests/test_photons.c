@@ -519,11 +519,12 @@ static int compare_records(const void *a, const void *b) { return memcmp(a, b, s
 static int compare_splats(const void *a, const void *b) { return memcmp(a, b, sizeof(pm_camera_splat)); }
 
 /* Waves (PM_PHOTON_WAVE photons side by side) against the plain tracer, one photon's path after
- * another (wave 1), an odd wave of 7, and waves that prefetch their hits' triangles and waves that
- * do not (a mesh larger than the caches prefetches by default; this one's 0.7 MB does): the same
- * records and camera splats, bit for bit, only in another order, and the same ray count, in both
- * kinds of pass, on a room with glass, a mirror, rough metal, an area light and a point light
- * (every branch of a bounce). */
+ * another (wave 1), an odd wave of 7, and waves that prefetch their hits' triangles and texels and
+ * waves that do not (a mesh or textures larger than the caches prefetch by default; this mesh's
+ * 0.7 MB and this texture's 1 MB do): the same records and camera splats, bit for bit, only in
+ * another order, and the same ray count, in both kinds of pass, on a room with glass, a mirror,
+ * rough metal, an area light and a point light (every branch of a bounce), its walls and the
+ * metal's roughness textured. */
 static void waves_change_only_order(void) {
     pm_scene s;
     memset(&s, 0, sizeof s);
@@ -534,6 +535,19 @@ static void waves_change_only_order(void) {
     sb_quad(&s, v3(-0.4f, 2.99f, -0.4f), v3(0.4f, 2.99f, -0.4f), v3(0.4f, 2.99f, 0.4f), v3(-0.4f, 2.99f, 0.4f),
             sb_material(&s, v3s(0.f), 0, 1, 0, v3s(8.f), false));
     sb_point_light(&s, v3(1.2f, 2.4f, 1.2f), v3s(3.f));
+    /* one 512 x 512 texture of stripes (colour on the walls, roughness on the metal), UVs from the positions */
+    s.uvs = malloc(2 * sizeof(float) * s.vertex_count);
+    s.textures = calloc(1, sizeof *s.textures);
+    if (!s.uvs || !s.textures) abort();
+    for (uint32_t i = 0; i < s.vertex_count; i++) {
+        s.uvs[2 * i] = 0.37f * (s.positions[i].x + s.positions[i].z);
+        s.uvs[2 * i + 1] = 0.41f * s.positions[i].y;
+    }
+    s.textures[0] = sb_texture(512, 512, PM_WRAP_REPEAT);
+    s.texture_count = 1;
+    for (size_t i = 0; i < 4 * (size_t)512 * 512; i++) s.textures[0].rgba[i] = (uint8_t)(96 + (i * 37 / 64) % 160);
+    s.materials[0].base_color_texture = 0;
+    s.materials[3].metallic_roughness_texture = 0;
     pm_accel *a = sb_finish(&s);
     pm_camera cam = sb_camera(v3(0.f, 1.5f, 1.95f), v3(0.f, 0.8f, 0.f), v3(0.f, 1.f, 0.f), 70.f);
     enum { RUNS = 4 };
