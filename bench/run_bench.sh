@@ -52,6 +52,12 @@ photon_ceiling() {
     else
         echo "bench photon_ceiling: the height field skipped (python3 numpy missing)"
     fi
+    # textured models by others (where the pass prefetches its hits' texels), when they are at hand
+    models=${PMVIEW_REAL_MODELS:-../shared/real-models}
+    for m in LightsPunctualLamp/LightsPunctualLamp.gltf MultiUVTest/MultiUVTest.gltf; do
+        if [ -f "$models/$m" ]; then build/rel/photon_ceiling "$models/$m" || return 1
+        else echo "bench photon_ceiling: $m skipped (not in $models; set PMVIEW_REAL_MODELS)"; fi
+    done
 }
 first_image() { sh bench/first_image.sh "${BENCH_ROUNDS:-5}" ./pmview | sed -n 's/^\.\/pmview /bench first_image /p'; }
 

@@ -206,7 +206,8 @@ read below 2 whenever other work took processor time during the run.""")
     def photon_ceiling(self):
         self.section("The photon pass against its own rays, every shipped scene and a large mesh",
                      "for s in scenes/*.gltf; do build/rel/photon_ceiling $s; done; python3 bench/big_scene.py "
-                     "height-field-1m.glb 1 --smooth; build/rel/photon_ceiling height-field-1m.glb", """
+                     "height-field-1m.glb 1 --smooth; build/rel/photon_ceiling height-field-1m.glb; "
+                     "build/rel/photon_ceiling ../shared/real-models/LightsPunctualLamp/LightsPunctualLamp.gltf (and MultiUVTest)", """
 `photon_ceiling` records the rays the progressive mode's photon passes cast (the link wraps
 `pm_accel_intersect` and `pm_accel_intersect_packets` for that program only; the renderer's code is
 unchanged), then traces the same rays again in a bare `rtcIntersect1` loop: the speed the pass would
@@ -217,7 +218,11 @@ the pass's time that is Embree's. Scenes whose photons mostly leave into the ope
 fraction) read lower: their rays cost Embree little, so the work per ray around them weighs more.
 height-field-1m is a bumpy height field of a million triangles under a sun (bench/big_scene.py,
 generated for the run), whose mesh is far larger than the caches: there the pass prefetches its
-hits' triangles (docs/design.md, large meshes).""")
+hits' triangles (docs/design.md, large meshes). LightsPunctualLamp (four 2048 x 2048 textures, five
+point lights) and MultiUVTest (an emissive cube alone in the void) are public glTF samples with
+textures larger than the caches, whose texels the pass prefetches; they are measured when
+../shared/real-models is at hand. Emission is the share of the pass's time that starting its
+photons takes (the same passes with no bounce at all): our own work that is no bounce.""")
         rows = []
         for f in select(self.r, "bench", "photon_ceiling", **{"pass": "both"}):
             scene = f.get("scene")
@@ -226,9 +231,9 @@ hits' triangles (docs/design.md, large meshes).""")
             rows.append([short(scene), num(f.get("rays")), num(f.get("hit_fraction")),
                          "**%s** (%s)" % (num(f.get("ratio_to_raw_own_rays")), pair(f.get("ratio_quartiles")).replace(", ", "-")),
                          num(alone["global"]), num(alone["caustic"]), num(f.get("ratio_to_raw_packets")),
-                         num(f.get("photon_rays_per_second")), num(f.get("raw_own_rays_per_second"))])
+                         num(f.get("emission_share")), num(f.get("photon_rays_per_second")), num(f.get("raw_own_rays_per_second"))])
         self.add(table(["scene", "rays", "hit fraction", "both passes over raw (quartiles)", "global pass alone", "caustic pass alone",
-                        "over raw packets", "pass rays/s", "raw rays/s"], rows) if rows else "(no lines in this run)")
+                        "over raw packets", "emission", "pass rays/s", "raw rays/s"], rows) if rows else "(no lines in this run)")
         both = [float(f["ratio_to_raw_own_rays"]) for f in select(self.r, "bench", "photon_ceiling", **{"pass": "both"})
                 if f.get("ratio_to_raw_own_rays")]
         if both:
