@@ -52,6 +52,10 @@ typedef struct {
     pm_estimate_settings caustic_estimate, global_estimate;
     pm_indirect_mode indirect;
     pm_gather_source gather_source; /* progressive, final gathering: photons or the path tracer (above) */
+    /* with PM_GATHER_PATH: the path's first non-specular vertex past the visible point is a gather
+     * point all the same, where the photons of light no path finds are read (PM_PATH_PUNCTUAL_SPECULAR:
+     * a punctual light's, past a mirror or glass first) */
+    bool gather_punctual_specular;
     int gather_rays;          /* final-gather rays per eye sample at the first diffuse hit */
     bool view_photons;        /* show the maps' estimates at the first diffuse hit, no shadow rays */
     bool path_trace;          /* the path tracer (--mode pathtrace): maps are ignored, see pm_eye_iterate */
@@ -131,8 +135,9 @@ bool pm_eye_iterate(const pm_scene *s, const pm_accel *a, const pm_camera *cam, 
  * light it meets, and a shadow ray from the lobe to each punctual light, go to the film as the
  * visible point's indirect light
  * (see walk_to_diffuse in eye.c for when it does not go on). With settings->gather_source
- * PM_GATHER_PATH no gather point is made: the path tracer goes on from the visible point instead
- * and its light goes to the film as the visible point's indirect light. Each tile's
+ * PM_GATHER_PATH the path tracer goes on from the visible point instead and its light goes to the
+ * film as the visible point's indirect light; its first non-specular vertex is the gather point
+ * with settings->gather_punctual_specular, and none is made without. Each tile's
  * points go to visit (when not NULL) at the end of the tile, on the thread that traced them: the
  * caller gathers this iteration's photons there while the points are still in cache, and no
  * per-pixel point array exists. pixels[k] is the film index of visible[k] (and gathered[k], NULL

@@ -18,8 +18,14 @@
 #include "kdtree.h"
 #include "scene.h"
 
-/* How a stored photon reached its surface (the record's 2-bit path tag). */
-enum { PM_PATH_DIRECT = 0, PM_PATH_CAUSTIC = 1, PM_PATH_INDIRECT = 2 };
+/* How a stored photon reached its surface (the record's 2-bit path tag): straight from its light,
+ * through mirrors and glass alone, past a diffuse or glossy bounce; or, where a tracer is asked to
+ * tell it apart (pm_photon_tracer_tag_punctual_specular), left a punctual light and met a mirror or
+ * glass before anything else scattered it, whatever came after: light no path from the camera
+ * finds, since neither a shadow ray nor a sampled direction crosses a specular surface to a point
+ * or a single direction. */
+enum { PM_PATH_DIRECT = 0, PM_PATH_CAUSTIC = 1, PM_PATH_INDIRECT = 2, PM_PATH_PUNCTUAL_SPECULAR = 3 };
+#define PM_PATH_ALL 15u /* a path mask of every tag */
 
 /* Radiance estimate kernels. */
 typedef enum { PM_KERNEL_DISC = 0, PM_KERNEL_GAUSSIAN = 1, PM_KERNEL_CONE = 2 } pm_kernel;
@@ -97,6 +103,13 @@ void pm_photon_tracer_set_deadline(pm_photon_tracer *t, double deadline);
  * light: the reader traces that light itself (the progressive mode's gather points, by shadow
  * rays). Its later hits are stored as any photon's. */
 void pm_photon_tracer_skip_punctual_first_hits(pm_photon_tracer *t, bool skip);
+
+/* With tag true, global passes tag PM_PATH_PUNCTUAL_SPECULAR the records of light that left a
+ * punctual light and met a mirror or glass first; with only true too, they store those records
+ * alone, end every other path as soon as it can no longer become one (a photon of an emitting
+ * surface or the sky never starts) and leave the emission guide alone: the photons a path-traced
+ * gather adds for the light it cannot find (the progressive mode's gather points). */
+void pm_photon_tracer_tag_punctual_specular(pm_photon_tracer *t, bool tag, bool only);
 
 /* The area photon records can land on (triangles whose material has a diffuse or glossy share
  * at some point, its textures' range of metallic and transmission included): the photon density

@@ -538,6 +538,28 @@ typedef struct {
  * photons make most of its rays free. Emitters and the sky stay with the photons: an area sample
  * and its MIS partner would be two more rays a pixel (an iteration 30% longer on the Cornell box
  * at 512x512 for the same error at 320x320). */
+/* A visible or gather point at surface sf (ng its face normal on the side of wo), reached with
+ * throughput (the choice of its non-specular part included). */
+static void set_point(pm_visible_point *vp, const pm_surface *sf, vec3 ng, vec3 wo, vec3 throughput, float path_length,
+                      uint32_t tri, bool seen_directly) {
+    vp->p = sf->p;
+    vp->n = ng;
+    vp->glossy = sf->glossy;
+    vp->wo = wo;
+    if (sf->glossy) {
+        vp->weight = throughput;
+        vp->brdf = pm_vertex_part_lobe(sf, PM_LOBE_NONSPECULAR);
+        vp->ns = pm_facing(sf->ns, ng);
+    } else {
+        vp->weight = v3_mul(throughput, v3_scale(sf->kd, PM_INV_PI));
+        vp->ns = ng; /* read by nothing on a Lambert point, but every field is set */
+    }
+    vp->path_length = path_length;
+    vp->tri = tri;
+    vp->seen_directly = seen_directly;
+    vp->valid = true;
+}
+
 static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bounce *traced, vec3 throughput,
                             bool camera_ray, int first_vertex, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], int lobe_component, uint64_t *rays,
                             uint64_t shadow_counts[2], pm_visible_point *vp, pm_surface *sf, vec3 *point_throughput,
@@ -575,22 +597,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
                  * (their first-hit photons are not stored, see above) */
                 add_punctual_light(job, sf, PM_LOBE_NONSPECULAR, wo, throughput, rng, rays, shadow_counts, &out[lobe_component]);
             }
-            vp->p = sf->p;
-            vp->n = ng;
-            vp->glossy = sf->glossy;
-            vp->wo = wo;
-            if (sf->glossy) {
-                vp->weight = throughput;
-                vp->brdf = pm_vertex_part_lobe(sf, PM_LOBE_NONSPECULAR);
-                vp->ns = pm_facing(sf->ns, ng);
-            } else {
-                vp->weight = v3_mul(throughput, v3_scale(sf->kd, PM_INV_PI));
-                vp->ns = ng; /* read by nothing on a Lambert point, but every field is set */
-            }
-            vp->path_length = path_length;
-            vp->tri = h.tri;
-            vp->seen_directly = depth == 0;
-            vp->valid = true;
+            set_point(vp, sf, ng, wo, throughput, path_length, h.tri, depth == 0);
             *point_throughput = throughput;
             return true;
         }
@@ -615,9 +622,12 @@ typedef struct {
     bool behind_specular;    /* the first eye vertex was specular: everything is the specular component */
     bool caustics_read;      /* light met through specular bounces before the next diffuse vertex is the caustic
                                 photons' (read at the visible point this path leaves): not counted */
+    /* where the path first chooses a non-specular part (when not NULL): a gather point, whose
+     * photons carry the light no path finds (settings->gather_punctual_specular) */
+    pm_visible_point *gather_point;
 } path_start;
 
-static const path_start path_from_camera = {{1.f, 1.f, 1.f}, 0, true, false, false};
+static const path_start path_from_camera = {{1.f, 1.f, 1.f}, 0, true, false, false, NULL};
 
 static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce *first, const path_start *start,
                        pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
@@ -642,9 +652,11 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
         !gp || !exit.goes_on)
         return;
     if (job->settings->gather_source == PM_GATHER_PATH) {
-        /* the path tracer from here on: its light is the visible point's indirect light */
-        path_start from = {exit.throughput, 1, false, !vp->seen_directly, true};
+        /* the path tracer from here on: its light is the visible point's indirect light; the
+         * light it cannot find, the photons bring to its first non-specular vertex */
+        path_start from = {exit.throughput, 1, false, !vp->seen_directly, true, job->settings->gather_punctual_specular ? gp : NULL};
         trace_path(job, exit.ray.origin, exit.ray.direction, &exit.traced, &from, rng, out, rays, shadow_counts, vertices);
+        if (gp->valid) gp->seen_directly = vp->seen_directly; /* the component is the visible point's */
         return;
     }
     /* light the gather point's punctual lights give is the visible point's indirect light */
@@ -683,6 +695,10 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
         bool goes_on = pm_vertex_step(&sf, d, depth, &continuing_policy, rng, s->ray_scale, &ray);
         if (ray.lobe == PM_LOBE_NONE) return;
         if (ray.lobe == PM_LOBE_NONSPECULAR) {
+            /* (a black surface reflects no photon's light: no point, as where the path meets an unlit one) */
+            if (start->gather_point && !start->gather_point->valid && (sf.glossy || !v3_is_black(sf.kd)))
+                set_point(start->gather_point, &sf, pm_facing(sf.ng, wo), wo, v3_scale(throughput, ray.choice), path_length, h.tri,
+                          false);
             int here = depth == 0 ? PM_DIRECT : (behind_specular ? PM_SPECULAR : PM_INDIRECT);
             out[here] = v3_add(out[here], v3_mul(v3_scale(throughput, ray.choice),
                                                  direct_light(s, job->accel, &sf, PM_LOBE_NONSPECULAR, wo, rng, rays,

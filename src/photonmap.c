@@ -89,6 +89,8 @@ typedef struct {
     bool volumes;            /* some material attenuates inside its mesh (KHR_materials_volume) */
     bool prefetch_hits;      /* the mesh outgrows the caches: hits' triangles are prefetched (PM_PREFETCH_GEOMETRY_BYTES) */
     bool prefetch_texels;    /* the textures outgrow them: hits' texels are prefetched (the same bound) */
+    bool tag_punctual_specular;  /* global records of a punctual light's light past a mirror or glass first are tagged so */
+    bool only_punctual_specular; /* ... and stored alone (pm_photon_tracer_tag_punctual_specular) */
     bool caustic_pass;
     uint64_t photons;        /* emitted in this pass */
     uint64_t seed;
@@ -672,6 +674,8 @@ typedef struct {
     bool diffuse_seen;
     bool scattered;         /* met a surface that turned it (a thin wall crossed straight does not): else its records are direct light */
     bool first_hit_skipped; /* its light is punctual and the reader traces its first hits: no record there */
+    bool punctual;          /* its light is a punctual light's */
+    bool punctual_specular; /* ... and a mirror or glass scattered it first (PM_PATH_PUNCTUAL_SPECULAR) */
     uint32_t guide_cell[2]; /* the emission guide's slots and cells it left from (guided, guided_direction), UINT32_MAX where unguided */
 } photon_path;
 
@@ -681,6 +685,8 @@ static bool start_photon(const pass *ps, pm_rng_family streams, uint64_t i, phot
     p->rng = pm_rng_member(streams, i);
     float source_pdf;
     const light_source *l = &ps->sources[pick_source(ps, pm_rng_float(&p->rng), &source_pdf)];
+    /* only a punctual light's light can be tagged: the others' carry nothing such a pass keeps */
+    if (ps->only_punctual_specular && !ps->caustic_pass && l->kind != SOURCE_PUNCTUAL) return false;
     vec3 flux;
     float pair[2][2], weight = 1.f;
     int slot[2] = {l->guided, l->guided_direction};
@@ -705,6 +711,8 @@ static bool start_photon(const pass *ps, pm_rng_family streams, uint64_t i, phot
                                    p->guide_cell[1] != UINT32_MAX ? pair[1] : NULL, o, d, &flux))
         return false;
     p->first_hit_skipped = ps->punctual_first_hits_skipped && l->kind == SOURCE_PUNCTUAL;
+    p->punctual = l->kind == SOURCE_PUNCTUAL;
+    p->punctual_specular = false;
     p->power = v3_scale(flux, weight / ((float)ps->photons * source_pdf));
     p->bounce = p->specular_bounces = 0;
     p->diffuse_seen = p->scattered = false;
@@ -732,8 +740,12 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
             }
         } else {
             /* past thin walls alone a photon is still direct light, as direct light's rays cross them (thin.h) */
-            int path = !p->scattered ? PM_PATH_DIRECT : (p->diffuse_seen ? PM_PATH_INDIRECT : PM_PATH_CAUSTIC);
-            if (p->scattered || !p->first_hit_skipped) push(list, sf.p, ng, *d, p->power, path);
+            int path = !p->scattered                                        ? PM_PATH_DIRECT
+                       : p->punctual_specular && ps->tag_punctual_specular ? PM_PATH_PUNCTUAL_SPECULAR
+                       : p->diffuse_seen                                   ? PM_PATH_INDIRECT
+                                                                           : PM_PATH_CAUSTIC;
+            bool kept = !ps->only_punctual_specular || path == PM_PATH_PUNCTUAL_SPECULAR;
+            if ((p->scattered || !p->first_hit_skipped) && kept) push(list, sf.p, ng, *d, p->power, path);
             /* a guided photon's hit where a camera point read photons last iteration: stored or
              * not (a punctual light's first hit, which the reader traces, shows the way in too) */
             if (p->guide_cell[0] != UINT32_MAX && pm_marks_test(ps->marks, sf.p)) {
@@ -760,10 +772,12 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
     *d = ray.direction;
     *o = ray.origin;
     if (ray.straight) return true; /* no caustic: direct light crosses thin walls too */
+    if (!p->scattered) p->punctual_specular = p->punctual && ray.lobe == PM_LOBE_SPECULAR;
     p->scattered = true;
     if (ray.lobe == PM_LOBE_NONSPECULAR) p->diffuse_seen = true;
     else p->specular_bounces++;
-    return true;
+    /* a path that can no longer be tagged carries nothing a pass of tagged records alone keeps */
+    return !(ps->only_punctual_specular && !ps->caustic_pass && !p->punctual_specular);
 }
 
 /* A chunk's photons in waves of WAVE (settings->wave if smaller): a wave starts with that many
@@ -1239,6 +1253,11 @@ void pm_photon_tracer_set_deadline(pm_photon_tracer *t, double deadline) { t->de
 
 void pm_photon_tracer_skip_punctual_first_hits(pm_photon_tracer *t, bool skip) { t->ps.punctual_first_hits_skipped = skip; }
 
+void pm_photon_tracer_tag_punctual_specular(pm_photon_tracer *t, bool tag, bool only) {
+    t->ps.tag_punctual_specular = tag || only;
+    t->ps.only_punctual_specular = only;
+}
+
 void pm_photon_tracer_set_splats(pm_photon_tracer *t, const pm_camera *camera, int width, int height, pm_splat_buffer *out) {
     t->ps.splat = camera && out && width > 0 && height > 0;
     if (t->ps.splat) t->ps.splat_view = pm_camera_view_make(camera, width, height);
@@ -1257,7 +1276,7 @@ bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t pho
     t->ps.photons = photons;
     t->ps.seed = caustic ? seed ^ 0xca05u : seed;
     /* the global pass is guided (the caustic pass has its projection maps) */
-    t->ps.guide = !caustic ? t->guide : NULL;
+    t->ps.guide = !caustic && !t->ps.only_punctual_specular ? t->guide : NULL;
     int threads = pm_thread_count(t->settings.threads);
     if (t->ps.guide) memset(t->ps.guide_counts, 0, sizeof(uint32_t) * (size_t)threads * 2 * t->ps.guide_cells);
     uint64_t rays = 0;

@@ -94,6 +94,9 @@ struct pm_progressive {
     pm_photon_tracer *tracer;
     bool trace_caustic, trace_global;    /* which photon passes the scene can use */
     bool caustic_surfaces;               /* some mirror or glass makes caustics (scene_has_caustic_surfaces) */
+    /* gathering where the path tracer cannot find some light (path_finds_all_light): its gathers
+     * read that light's photons (PM_PATH_PUNCTUAL_SPECULAR), traced in every iteration */
+    bool punctual_specular;
     bool slot_used[PM_SLOT_COUNT];
     bool gathering;                      /* final gathering at gather points */
     bool splatting;                      /* the caustic seen directly by camera splats */
@@ -219,7 +222,8 @@ void pm_progressive_destroy(pm_progressive *p) {
 bool pm_progressive_uses_photons(const pm_progressive *p) { return p->trace_caustic || p->trace_global; }
 
 uint64_t pm_progressive_photons_per_iteration(const pm_progressive *p) {
-    bool global = p->trace_global && !(p->gathering && p->radii.gather_chosen && p->radii.gather_source == PM_GATHER_PATH);
+    bool global = p->trace_global && !(p->gathering && p->radii.gather_chosen && p->radii.gather_source == PM_GATHER_PATH &&
+                                       !p->punctual_specular);
     return (p->trace_caustic ? p->settings.caustic_photons : 0) + (global ? p->settings.photons : 0);
 }
 
@@ -565,12 +569,12 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     probe_reset(&p->probe);
     memset(&p->stats, 0, sizeof p->stats);
     /* where the path tracer cannot find some light (a punctual light through a mirror or glass,
-     * see path_finds_all_light) the photons stay the source */
+     * see path_finds_all_light) its gathers read that light's photons */
     p->caustic_surfaces = scene_has_caustic_surfaces(p->scene);
-    bool path_possible = path_finds_all_light(p->scene);
+    p->punctual_specular = p->gathering && p->trace_global && !path_finds_all_light(p->scene);
     pm_gather_choice forced = p->settings.gather;
     p->radii.gather_source = forced == PM_GATHER_FORCE_PATH ? PM_GATHER_PATH : PM_GATHER_PHOTONS;
-    p->radii.gather_chosen = forced != PM_GATHER_AUTO || !(p->gathering && p->probe.total && path_possible);
+    p->radii.gather_chosen = forced != PM_GATHER_AUTO || !(p->gathering && p->probe.total);
     p->radii.learned[0] = p->radii.learned[1] = 0;
     p->radii.learn_step = 0;
     p->radii.learn_cost[0] = p->radii.learn_cost[1] = 0.0;
@@ -614,6 +618,7 @@ typedef struct {
     bool statistics;             /* this eye pass updates the visible points' statistics (the first after a photon pass) */
     uint32_t sample;             /* the film's sample this eye pass adds: the clips' probes follow it */
     double gather_r2;
+    unsigned gather_paths;       /* the path tags gather points read: all, or with the path tracer's light those it cannot find */
     double to_whole[KIND_COUNT]; /* a whole iteration's photons over those this one asked for (the first asks fewer) */
     bool measure_caustic;        /* a photon measuring iteration: the gather points' light off a mirror or glass
                                   * is summed apart too, per probed pixel (noise_probe.gathered) */
@@ -815,7 +820,8 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
             }
         }
         /* estimates at gather points: every photon stored there (the punctual lights' direct light
-         * was traced by the eye pass, and their first hits were not stored) */
+         * was traced by the eye pass, and their first hits were not stored), or where the path
+         * tracer goes on from the visible point, the photons of light it cannot find */
         if (!gathered || !job->global || !(job->gather_r2 > 0.0)) continue;
         size_t n = 0;
         for (size_t k = base; k < end && !job->p->settings.unclipped; k++) {
@@ -824,7 +830,7 @@ static void gather_tile(void *ctx, const size_t *pixels, const pm_visible_point 
         }
         for (size_t k = base; k < end; k++)
             if (gathered[k].valid) {
-                query[n] = disc_query(job, job->global, &gathered[k], job->gather_r2, 7u, clip_seed(job, pixels[k], KIND_COUNT),
+                query[n] = disc_query(job, job->global, &gathered[k], job->gather_r2, job->gather_paths, clip_seed(job, pixels[k], KIND_COUNT),
                                       &clip[n], &bound[k - base], thread);
                 point[n++] = k;
             }
@@ -970,7 +976,7 @@ static void seen_chunk(void *ctx, size_t task, int thread) {
             /* the clip keeps a subset of the whole disc's photons: a step whose whole disc holds
              * too few would fail clipped too, and is passed without probing */
             if (step < SEEN_STEPS - 1) {
-                pm_grid_query whole = {p->seen[which][k].p, p->seen[which][k].n, (float)r2, 7u, NULL, v3s(0.f), v3s(0.f), NULL};
+                pm_grid_query whole = {p->seen[which][k].p, p->seen[which][k].n, (float)r2, PM_PATH_ALL, NULL, v3s(0.f), v3s(0.f), NULL};
                 pm_grid_result w;
                 pm_photon_grid_sum_many(grid, &whole, 1, &w);
                 if (w.found < PM_PPM_INITIAL_PHOTONS) continue;
@@ -978,7 +984,7 @@ static void seen_chunk(void *ctx, size_t task, int thread) {
             pm_clip clip;
             pm_clip_make(&clip, p->scene, p->accel, p->seen[which][k].p, p->seen[which][k].n, p->seen[which][k].tri,
                          (float)sqrt(r2), pm_hash64((uint64_t)which << 32 | (uint64_t)k), &job->clip_rays[task]);
-            pm_grid_query q = {p->seen[which][k].p, p->seen[which][k].n, (float)r2, 7u, NULL, v3s(0.f), v3s(0.f), &clip};
+            pm_grid_query q = {p->seen[which][k].p, p->seen[which][k].n, (float)r2, PM_PATH_ALL, NULL, v3s(0.f), v3s(0.f), &clip};
             pm_grid_result r;
             pm_photon_grid_sum_many(grid, &q, 1, &r);
             if (r.found >= PM_PPM_INITIAL_PHOTONS || step == SEEN_STEPS - 1) {
@@ -1115,6 +1121,7 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
     it->measure_only = it->learning && it->source == PM_GATHER_PHOTONS;
     it->deadline = p->eye.deadline;
     p->eye.gather_source = it->source;
+    p->eye.gather_punctual_specular = p->punctual_specular;
     if (it->learning && it->eye_passes < 2) it->eye_passes = 2;
     it->t0 = pm_now_seconds();
     it->photon_rays_before = p->stats.photons.rays;
@@ -1130,7 +1137,7 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
      * the visible point's continuation adds exactly what it adds, so the image is --mode
      * pathtrace's bit for bit, without the visible point's record. */
     it->path_only = chosen && it->source == PM_GATHER_PATH && p->gathering && !p->trace_caustic &&
-                    !p->scene->analysis.component_possible[PM_CAUSTIC];
+                    !p->scene->analysis.component_possible[PM_CAUSTIC] && !p->punctual_specular;
     p->eye.path_trace = it->path_only;
     it->probing = p->probe.total != NULL && !it->path_only;
     keep_start(p, film, it->path_only, &it->start);
@@ -1140,7 +1147,12 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
 /* Phase 1: the photon passes, a fresh, independent set every iteration. */
 static phase_result trace_photon_passes(pm_progressive *p, pm_film *film, iteration_run *it) {
     const pm_progressive_settings *set = &p->settings;
-    bool global_pass = p->trace_global && !(p->gathering && it->source == PM_GATHER_PATH);
+    bool global_pass = p->trace_global && !(p->gathering && it->source == PM_GATHER_PATH && !p->punctual_specular);
+    /* the path tracer's gathers read only the light it cannot find: once the radii are measured
+     * (from all the photons), its iterations trace that light alone */
+    if (p->tracer)
+        pm_photon_tracer_tag_punctual_specular(p->tracer, p->punctual_specular,
+                                               p->punctual_specular && it->source == PM_GATHER_PATH && p->radii.seen_measured);
     uint64_t seed = pm_hash64(set->seed * 0x9e3779b97f4a7c15ULL + it->iteration);
     bool ok = true;
     pm_photon_buffer *caustic = &p->buffer[KIND_CAUSTIC], *global = &p->buffer[KIND_INDIRECT];
@@ -1194,8 +1206,8 @@ static phase_result build_photon_grids(pm_progressive *p, iteration_run *it) {
  * only ever shrinks faster, so the limit is unchanged). */
 static void measure_seen_radii(pm_progressive *p, const iteration_run *it) {
     uint32_t iteration = it->iteration;
-    bool remeasure = p->guiding && p->gathering && p->radii.gather_chosen && p->radii.seen_measured && iteration >= 2 &&
-                     (iteration & (iteration - 1)) == 0;
+    bool remeasure = p->guiding && p->gathering && p->radii.gather_chosen && p->radii.gather_source == PM_GATHER_PHOTONS &&
+                     p->radii.seen_measured && iteration >= 2 && (iteration & (iteration - 1)) == 0;
     if ((p->radii.seen_measured && !remeasure) || !p->buffer[KIND_INDIRECT].count || !(p->settings.initial_radius <= 0.0)) return;
     const pm_photon_grid *g = &p->grid[KIND_INDIRECT];
     double mean_r2 = p->radii.density_r2[KIND_INDIRECT] * (p->gathering ? PM_PPM_GATHER_PHOTONS / PM_PPM_INITIAL_PHOTONS : 1.0);
@@ -1221,6 +1233,7 @@ static gather_job *new_gather_job(pm_progressive *p, pm_film *film, const iterat
     job->caustic = p->grid[KIND_CAUSTIC].count ? &p->grid[KIND_CAUSTIC] : NULL;
     job->global = p->grid[KIND_INDIRECT].count ? &p->grid[KIND_INDIRECT] : NULL;
     job->gather_r2 = p->radii.gather_r2;
+    job->gather_paths = it->source == PM_GATHER_PATH ? 1u << PM_PATH_PUNCTUAL_SPECULAR : PM_PATH_ALL;
     job->to_whole[KIND_CAUSTIC] = it->to_whole[KIND_CAUSTIC];
     job->to_whole[KIND_INDIRECT] = it->to_whole[KIND_INDIRECT];
     if (p->guiding && it->source == PM_GATHER_PHOTONS) { /* only such an iteration's marks are swapped in (end_iteration) */

@@ -288,6 +288,49 @@ static void test_gather_traces_punctual_light(void) {
     pm_scene_free(&s);
 }
 
+/* A room lit by a point light and a mirror on one wall: the mirror's image of the light lights the
+ * room, light no path from the camera finds (neither a shadow ray nor a sampled direction crosses
+ * the mirror to a point). Where the path tracer gathers, the global photons of that light (tagged
+ * PM_PATH_PUNCTUAL_SPECULAR, stored alone in its iterations) are read at its first diffuse vertex:
+ * the indirect layer must hold what gathering from the photons holds. Without them it lacks the
+ * mirror image's light past the first bounce (measured: 0.74 of it). */
+static void test_path_gather_reads_punctual_specular(void) {
+    pm_scene s;
+    memset(&s, 0, sizeof s);
+    uint32_t white = sb_lambert(&s, v3s(0.6f)), mirror = sb_material(&s, v3s(0.95f), 1, 0, 0, v3s(0), false);
+    sb_box(&s, v3(-1, -1, -1), v3(1, 1, 1), white, true);
+    sb_quad(&s, v3(0.99f, -1, -1), v3(0.99f, -1, 1), v3(0.99f, 1, 1), v3(0.99f, 1, -1), mirror);
+    sb_point_light(&s, v3(0.6f, 0.7f, 0.f), v3s(2.f));
+    pm_accel *a = sb_finish(&s);
+    pm_camera cam = sb_camera(v3(0.f, 0.f, 0.95f), v3(-0.4f, -0.3f, -1), v3(0, 1, 0), 70.f);
+    enum { W = 16, H = 16 };
+    double indirect[2] = {0, 0};
+    uint64_t stored[2] = {0, 0};
+    float *img = malloc(sizeof(float) * 3 * W * H);
+    for (int run = 0; run < 2 && img; run++) {
+        pm_progressive_settings ps = default_settings(W, H);
+        ps.gather = run == 0 ? PM_GATHER_FORCE_PHOTONS : PM_GATHER_FORCE_PATH;
+        session r;
+        if (!start(&r, &s, a, &cam, W, H, &ps)) break;
+        iterate(&r, 192);
+        pm_film_resolve(r.film, PM_INDIRECT, img);
+        indirect[run] = mean_of(img, 3 * W * H);
+        stored[run] = pm_progressive_get_stats(r.p)->photons.stored_global;
+        stop(&r);
+    }
+    printf("point light and a mirror: indirect light %.5f gathering photons, %.5f with the path tracer and the tagged "
+           "photons (global records stored %llu and %llu)\n",
+           indirect[0], indirect[1], (unsigned long long)stored[0], (unsigned long long)stored[1]);
+    CHECK(indirect[0] > 0.0 && fabs(indirect[1] / indirect[0] - 1.0) < 0.04,
+          "the path tracer's gather with the tagged photons holds the photons' indirect light: %.5f against %.5f", indirect[1],
+          indirect[0]);
+    CHECK(stored[1] > 0 && stored[1] < stored[0] / 2, "the path tracer's iterations store the tagged photons alone (%llu against %llu)",
+          (unsigned long long)stored[1], (unsigned long long)stored[0]);
+    free(img);
+    pm_accel_destroy(a);
+    pm_scene_free(&s);
+}
+
 /* Several eye passes reading one photon pass. The film divides its sums by eye passes and the
  * statistics by photon passes: with the same photon passes, 1 or 4 eye passes each give the same
  * caustic splats (each splat weighed by the eye passes of its pass; exact, the weights are powers
@@ -368,6 +411,7 @@ int main(void) {
     test_restart();
     test_first_iteration_photons();
     test_gather_traces_punctual_light();
+    test_path_gather_reads_punctual_specular();
     test_first_iteration_radii();
     test_scale_invariance();
     return pm_test_done("test_progressive");

@@ -59,9 +59,14 @@ static pm_accel *build(pm_scene *s, int kind) {
     return a;
 }
 
-/* The total image of `mode` from a camera in front of the panel looking at it and down at the floor. */
-static float *render(const pm_scene *s, const pm_accel *a, pm_mode mode) {
+/* The total image of `mode` from a camera in front of the panel looking at it and down at the floor.
+ * The progressive mode's final gathering takes its light from `gather`: left to learn, it measures
+ * noise and cost, which the panel's kind changes (a black panel holds visible points, an unlit one
+ * none), and the two floors would differ by their choices; with each source forced they compare
+ * sample for sample. */
+static float *render(const pm_scene *s, const pm_accel *a, pm_mode mode, pm_gather_choice gather) {
     pm_session_config config = mode_config(mode, W, H, 9, 2);
+    config.progressive.gather = gather;
     if (mode == PM_MODE_CLASSIC) {
         pm_photon_settings photons = {.global_photons = 20000, .caustic_photons = 0, .seed = 4, .threads = 2,
                                       .max_bounces = PM_DEFAULT_MAX_PHOTON_BOUNCES};
@@ -79,8 +84,9 @@ static float *render(const pm_scene *s, const pm_accel *a, pm_mode mode) {
 
 int main(void) {
     const vec3 want = v3_mul(panel_factor, v3(pm_srgb_to_linear(200 / 255.f), pm_srgb_to_linear(128 / 255.f), 1.f));
-    static const pm_mode modes[3] = {PM_MODE_PROGRESSIVE, PM_MODE_CLASSIC, PM_MODE_PATHTRACE};
-    static const char *const names[3] = {"progressive", "classic", "path tracer"};
+    static const pm_mode modes[4] = {PM_MODE_PROGRESSIVE, PM_MODE_PROGRESSIVE, PM_MODE_CLASSIC, PM_MODE_PATHTRACE};
+    static const pm_gather_choice gathers[4] = {PM_GATHER_FORCE_PHOTONS, PM_GATHER_FORCE_PATH, PM_GATHER_AUTO, PM_GATHER_AUTO};
+    static const char *const names[4] = {"progressive", "prog., path", "classic", "path tracer"};
     pm_scene scenes[3];
     pm_accel *accels[3];
     for (int k = 0; k < 3; k++) accels[k] = build(&scenes[k], k);
@@ -126,9 +132,9 @@ int main(void) {
     CHECK(counts[PANEL] > 50 && counts[PANEL_IN_MIRROR] > 20 && counts[FLOOR] > 50,
           "the view holds the panel (%d pixels), its reflection (%d) and the floor (%d)", counts[PANEL], counts[PANEL_IN_MIRROR],
           counts[FLOOR]);
-    for (int mode = 0; mode < 3; mode++) {
+    for (int mode = 0; mode < 4; mode++) {
         float *img[3];
-        for (int k = 0; k < 3; k++) img[k] = render(&scenes[k], accels[k], modes[mode]);
+        for (int k = 0; k < 3; k++) img[k] = render(&scenes[k], accels[k], modes[mode], gathers[mode]);
         double worst_panel = 0.0, worst_mirror = 0.0, floor_sum[3] = {0, 0, 0};
         for (int i = 0; i < W * H; i++) {
             const float *p = img[PANEL_UNLIT] + 3 * i;
