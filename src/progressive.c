@@ -541,8 +541,9 @@ static bool scene_has_caustic_surfaces(const pm_scene *s) {
  * specular surface, its BSDF sample never hits a point or one direction), while the global
  * photons carry it by construction. Emitting surfaces and the environment seen through the same
  * surfaces are found by the continuation's BSDF samples (rarely for a small lamp: bright samples
- * whose variance the choice's prediction weighs, see choose_gather). One such light is enough:
- * the continuation replaces the photons for every light at once. */
+ * whose variance the choice's prediction weighs, see choose_gather). Where it cannot, the global
+ * passes tag that light's photons and the continuation's gather point reads them
+ * (PM_PATH_PUNCTUAL_SPECULAR): the light is split by its first segments. */
 static bool path_finds_all_light(const pm_scene *s) {
     bool delta_light = false;
     for (uint32_t i = 0; i < s->light_count; i++)
