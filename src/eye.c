@@ -519,25 +519,6 @@ typedef struct {
     surface_bounce traced;
 } point_exit;
 
-/* Follows a ray through specular and near-specular bounces to the first surface where the vertex
- * kernel chooses its non-specular part, and returns that point (false when the path leaves the
- * scene, is absorbed or cut). Camera rays add the emission they see on the way to out[], direct
- * light at the point, and at a near-specular bounce the direct light reflected there (MIS with the
- * bounce's own sample, which direct light traces: what that segment meets it counts, not the walk). A mixed surface is the point with the
- * probability of its non-specular part, scatters on otherwise, each choice weighted by the
- * inverse of its probability (vertex.h). With `exit`, the point's step samples the segment the
- * path goes on along (continuing_policy), which direct light uses and traces; without, the walk
- * stops there unsampled (walk_policy).
- *
- * Gather rays add nothing through specular and near-specular bounces (direct light and caustics
- * at their origin already count it: the caustic photons go on through near-specular parts as
- * through mirrors); at their gather point they add the punctual lights' direct light, by shadow
- * rays as at a visible point (out[lobe_component]), and the global passes store no first hit of
- * a punctual light (pm_photon_tracer_skip_punctual_first_hits): read as photons, that light was
- * most of a gather estimate's noise and its dark bias where a disc overhangs an edge, while shadow
- * photons make most of its rays free. Emitters and the sky stay with the photons: an area sample
- * and its MIS partner would be two more rays a pixel (an iteration 30% longer on the Cornell box
- * at 512x512 for the same error at 320x320). */
 /* A visible or gather point at surface sf (ng its face normal on the side of wo), reached with
  * throughput (the choice of its non-specular part included). */
 static void set_point(pm_visible_point *vp, const pm_surface *sf, vec3 ng, vec3 wo, vec3 throughput, float path_length,
@@ -560,6 +541,25 @@ static void set_point(pm_visible_point *vp, const pm_surface *sf, vec3 ng, vec3 
     vp->valid = true;
 }
 
+/* Follows a ray through specular and near-specular bounces to the first surface where the vertex
+ * kernel chooses its non-specular part, and returns that point (false when the path leaves the
+ * scene, is absorbed or cut). Camera rays add the emission they see on the way to out[], direct
+ * light at the point, and at a near-specular bounce the direct light reflected there (MIS with the
+ * bounce's own sample, which direct light traces: what that segment meets it counts, not the walk). A mixed surface is the point with the
+ * probability of its non-specular part, scatters on otherwise, each choice weighted by the
+ * inverse of its probability (vertex.h). With `exit`, the point's step samples the segment the
+ * path goes on along (continuing_policy), which direct light uses and traces; without, the walk
+ * stops there unsampled (walk_policy).
+ *
+ * Gather rays add nothing through specular and near-specular bounces (direct light and caustics
+ * at their origin already count it: the caustic photons go on through near-specular parts as
+ * through mirrors); at their gather point they add the punctual lights' direct light, by shadow
+ * rays as at a visible point (out[lobe_component]), and the global passes store no first hit of
+ * a punctual light (pm_photon_tracer_skip_punctual_first_hits): read as photons, that light was
+ * most of a gather estimate's noise and its dark bias where a disc overhangs an edge, while shadow
+ * photons make most of its rays free. Emitters and the sky stay with the photons: an area sample
+ * and its MIS partner would be two more rays a pixel (an iteration 30% longer on the Cornell box
+ * at 512x512 for the same error at 320x320). */
 static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bounce *traced, vec3 throughput,
                             bool camera_ray, int first_vertex, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], int lobe_component, uint64_t *rays,
                             uint64_t shadow_counts[2], pm_visible_point *vp, pm_surface *sf, vec3 *point_throughput,
