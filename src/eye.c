@@ -656,7 +656,6 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
          * light it cannot find, the photons bring to its first non-specular vertex */
         path_start from = {exit.throughput, 1, false, !vp->seen_directly, true, job->settings->gather_punctual_specular ? gp : NULL};
         trace_path(job, exit.ray.origin, exit.ray.direction, &exit.traced, &from, rng, out, rays, shadow_counts, vertices);
-        if (gp->valid) gp->seen_directly = vp->seen_directly; /* the component is the visible point's */
         return;
     }
     /* light the gather point's punctual lights give is the visible point's indirect light */
@@ -695,10 +694,10 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
         bool goes_on = pm_vertex_step(&sf, d, depth, &continuing_policy, rng, s->ray_scale, &ray);
         if (ray.lobe == PM_LOBE_NONE) return;
         if (ray.lobe == PM_LOBE_NONSPECULAR) {
-            /* (a black surface reflects no photon's light: no point, as where the path meets an unlit one) */
-            if (start->gather_point && !start->gather_point->valid && (sf.glossy || !v3_is_black(sf.kd)))
+            /* the gather point's component is the visible point's (seen directly unless behind specular) */
+            if (start->gather_point && !start->gather_point->valid)
                 set_point(start->gather_point, &sf, pm_facing(sf.ng, wo), wo, v3_scale(throughput, ray.choice), path_length, h.tri,
-                          false);
+                          !start->behind_specular);
             int here = depth == 0 ? PM_DIRECT : (behind_specular ? PM_SPECULAR : PM_INDIRECT);
             out[here] = v3_add(out[here], v3_mul(v3_scale(throughput, ray.choice),
                                                  direct_light(s, job->accel, &sf, PM_LOBE_NONSPECULAR, wo, rng, rays,

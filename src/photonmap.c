@@ -680,13 +680,17 @@ typedef struct {
 } photon_path;
 
 /* Starts photon number i of the pass (its own random stream): false when it carries nothing. */
+/* The pass stores punctual-specular records alone (pm_photon_tracer_tag_punctual_specular): a
+ * global pass asked to; the caustic pass is never so restricted. */
+static inline bool tagged_only(const pass *ps) { return ps->only_punctual_specular && !ps->caustic_pass; }
+
 static bool start_photon(const pass *ps, pm_rng_family streams, uint64_t i, photon_path *p, vec3 *o, vec3 *d,
                          uint32_t *guide_counts) {
     p->rng = pm_rng_member(streams, i);
     float source_pdf;
     const light_source *l = &ps->sources[pick_source(ps, pm_rng_float(&p->rng), &source_pdf)];
     /* only a punctual light's light can be tagged: the others' carry nothing such a pass keeps */
-    if (ps->only_punctual_specular && !ps->caustic_pass && l->kind != SOURCE_PUNCTUAL) return false;
+    if (tagged_only(ps) && l->kind != SOURCE_PUNCTUAL) return false;
     vec3 flux;
     float pair[2][2], weight = 1.f;
     int slot[2] = {l->guided, l->guided_direction};
@@ -744,7 +748,7 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
                        : p->punctual_specular && ps->tag_punctual_specular ? PM_PATH_PUNCTUAL_SPECULAR
                        : p->diffuse_seen                                   ? PM_PATH_INDIRECT
                                                                            : PM_PATH_CAUSTIC;
-            bool kept = !ps->only_punctual_specular || path == PM_PATH_PUNCTUAL_SPECULAR;
+            bool kept = !tagged_only(ps) || path == PM_PATH_PUNCTUAL_SPECULAR;
             if ((p->scattered || !p->first_hit_skipped) && kept) push(list, sf.p, ng, *d, p->power, path);
             /* a guided photon's hit where a camera point read photons last iteration: stored or
              * not (a punctual light's first hit, which the reader traces, shows the way in too) */
@@ -777,7 +781,7 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
     if (ray.lobe == PM_LOBE_NONSPECULAR) p->diffuse_seen = true;
     else p->specular_bounces++;
     /* a path that can no longer be tagged carries nothing a pass of tagged records alone keeps */
-    return !(ps->only_punctual_specular && !ps->caustic_pass && !p->punctual_specular);
+    return !(tagged_only(ps) && !p->punctual_specular);
 }
 
 /* A chunk's photons in waves of WAVE (settings->wave if smaller): a wave starts with that many

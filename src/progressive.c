@@ -221,10 +221,15 @@ void pm_progressive_destroy(pm_progressive *p) {
 
 bool pm_progressive_uses_photons(const pm_progressive *p) { return p->trace_caustic || p->trace_global; }
 
+/* Whether an iteration whose gather reads from `source` traces global photons: all of them but
+ * where the path tracer gathers, which reads only those of the light it cannot find, if any. */
+static bool traces_global(const pm_progressive *p, pm_gather_source source) {
+    return p->trace_global && !(p->gathering && source == PM_GATHER_PATH && !p->punctual_specular);
+}
+
 uint64_t pm_progressive_photons_per_iteration(const pm_progressive *p) {
-    bool global = p->trace_global && !(p->gathering && p->radii.gather_chosen && p->radii.gather_source == PM_GATHER_PATH &&
-                                       !p->punctual_specular);
-    return (p->trace_caustic ? p->settings.caustic_photons : 0) + (global ? p->settings.photons : 0);
+    pm_gather_source source = p->radii.gather_chosen ? p->radii.gather_source : PM_GATHER_PHOTONS;
+    return (p->trace_caustic ? p->settings.caustic_photons : 0) + (traces_global(p, source) ? p->settings.photons : 0);
 }
 
 uint32_t pm_progressive_eye_passes(const pm_progressive *p) { return p->radii.eye_passes; }
@@ -1148,7 +1153,7 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
 /* Phase 1: the photon passes, a fresh, independent set every iteration. */
 static phase_result trace_photon_passes(pm_progressive *p, pm_film *film, iteration_run *it) {
     const pm_progressive_settings *set = &p->settings;
-    bool global_pass = p->trace_global && !(p->gathering && it->source == PM_GATHER_PATH && !p->punctual_specular);
+    bool global_pass = traces_global(p, it->source);
     /* the path tracer's gathers read only the light it cannot find: once the radii are measured
      * (from all the photons), its iterations trace that light alone */
     if (p->tracer)

@@ -47,12 +47,25 @@ static vec3 texture_at(const pm_scene *s, const float uv[2][2], const float foot
 }
 
 /* Whether a layered material reads a texture for its layers. */
-bool pm_material_layers_textured(const pm_material *m) {
+enum { LAYER_TEXTURES = 7 };
+static void layer_texture_refs(const pm_material *m, const pm_texture_ref *refs[LAYER_TEXTURES]) {
     const pm_material_layers *l = &m->layers;
-    return m->layered && (l->specular_texture.texture >= 0 || l->specular_color_texture.texture >= 0 ||
-                          l->sheen_color_texture.texture >= 0 || l->sheen_roughness_texture.texture >= 0 ||
-                          l->clearcoat_texture.texture >= 0 || l->clearcoat_roughness_texture.texture >= 0 ||
-                          l->clearcoat_normal_texture.texture >= 0);
+    refs[0] = &l->specular_texture;
+    refs[1] = &l->specular_color_texture;
+    refs[2] = &l->sheen_color_texture;
+    refs[3] = &l->sheen_roughness_texture;
+    refs[4] = &l->clearcoat_texture;
+    refs[5] = &l->clearcoat_roughness_texture;
+    refs[6] = &l->clearcoat_normal_texture;
+}
+
+bool pm_material_layers_textured(const pm_material *m) {
+    if (!m->layered) return false;
+    const pm_texture_ref *refs[LAYER_TEXTURES];
+    layer_texture_refs(m, refs);
+    for (int k = 0; k < LAYER_TEXTURES; k++)
+        if (refs[k]->texture >= 0) return true;
+    return false;
 }
 
 /* A layer texture's texel (rgb, or alpha in x for `alpha`), 1 without a texture or without the point's UVs (s NULL). */
@@ -286,11 +299,10 @@ void pm_scene_prefetch_texels(const pm_scene *s, uint32_t tri, float b1, float b
     prefetch_texture(s, uv, m->base_color_texture, m->base_color_texcoord, &m->base_color_transform);
     prefetch_texture(s, uv, m->metallic_roughness_texture, m->metallic_roughness_texcoord, &m->metallic_roughness_transform);
     if (m->transmission > 0.f) prefetch_texture(s, uv, m->transmission_texture, m->transmission_texcoord, &m->transmission_transform);
-    if (!pm_material_layers_textured(m)) return;
-    const pm_material_layers *l = &m->layers;
-    const pm_texture_ref *refs[] = {&l->specular_texture, &l->specular_color_texture, &l->sheen_color_texture, &l->sheen_roughness_texture,
-                                    &l->clearcoat_texture, &l->clearcoat_roughness_texture, &l->clearcoat_normal_texture};
-    for (size_t k = 0; k < sizeof refs / sizeof *refs; k++) prefetch_texture(s, uv, refs[k]->texture, refs[k]->texcoord, &refs[k]->transform);
+    if (!m->layered) return;
+    const pm_texture_ref *refs[LAYER_TEXTURES];
+    layer_texture_refs(m, refs);
+    for (int k = 0; k < LAYER_TEXTURES; k++) prefetch_texture(s, uv, refs[k]->texture, refs[k]->texcoord, &refs[k]->transform);
 }
 
 uint64_t pm_scene_texture_bytes(const pm_scene *s) {
