@@ -1141,9 +1141,15 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
      * are the same at any eye passes an iteration (each sample's random numbers follow its index),
      * and each is traced by the path tracer's own loop from the camera: with no caustic possible,
      * the visible point's continuation adds exactly what it adds, so the image is --mode
-     * pathtrace's bit for bit, without the visible point's record. */
-    it->path_only = chosen && it->source == PM_GATHER_PATH && p->gathering && !p->trace_caustic &&
-                    !p->scene->analysis.component_possible[PM_CAUSTIC] && !p->punctual_specular;
+     * pathtrace's bit for bit, without the visible point's record. The same holds from the first
+     * iteration on a scene where neither a caustic nor indirect light is possible (a single object
+     * or plane under the sky): no photon pass exists to read, and past the first diffuse vertex
+     * the path tracer finds only what direct light's MIS already weighs, so its loop is the eye
+     * pass at the path tracer's speed. */
+    const pm_scene_analysis *an = &p->scene->analysis;
+    bool nothing_for_photons = !an->component_possible[PM_CAUSTIC] && !an->component_possible[PM_INDIRECT];
+    it->path_only = nothing_for_photons || (chosen && it->source == PM_GATHER_PATH && p->gathering && !p->trace_caustic &&
+                                            !an->component_possible[PM_CAUSTIC] && !p->punctual_specular);
     p->eye.path_trace = it->path_only;
     it->probing = p->probe.total != NULL && !it->path_only;
     keep_start(p, film, it->path_only, &it->start);

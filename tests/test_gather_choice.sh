@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_gather_choice.sh: where the default's final gathering learns its light's source and where it keeps the photons: glass under an area lamp is learned, glass with a punctual light too (the path tracer's gathers read the photons of the light it cannot find), a bright caustic seen by gather points keeps the photons; where the path tracer gathers, the caustic photons stay and earn their cost.
+# test_gather_choice.sh: where the default's final gathering learns its light's source and where it keeps the photons: glass under an area lamp is learned, glass with a punctual light too (the path tracer's gathers read the photons of the light it cannot find), a bright caustic seen by gather points keeps the photons; where the path tracer gathers, the caustic photons stay and earn their cost; where photons have nothing to carry, the default is the path tracer.
 #
 # Scenes: scenes/dielectric-spheres.gltf with its black sphere made a small solid glass ball
 # (radius 0.1, KHR_materials_volume), lit by its area lamp alone, then with a point light added;
@@ -15,6 +15,9 @@
 # pathtrace (the same continuation counting those paths itself) at the same 256 samples must read
 # at most 0.75 of the path tracer's relMSE (measured 0.48-0.53 at 400 samples, seeds 1 and 2): a
 # change that stops the caustic pass, or counts the caustics twice or never, fails it.
+# Where neither a caustic nor indirect light is possible (a lone square under the sky), the default
+# runs the path tracer's own loop from the first iteration: its image at 16 samples is --mode
+# pathtrace's bit for bit, and every sample is counted in path_only_samples.
 cd "$(dirname "$0")/.." || exit 1
 bin=./pmview
 tmp=$(mktemp -d)
@@ -38,6 +41,19 @@ doc["extensionsUsed"].append("KHR_lights_punctual")
 doc["nodes"].append({"name": "point", "translation": [0.8, 2.0, 0.5], "extensions": {"KHR_lights_punctual": {"light": 0}}})
 doc["scenes"][doc.get("scene", 0)]["nodes"].append(len(doc["nodes"]) - 1)
 json.dump(doc, open(d + "/glass_point.gltf", "w"))
+import base64, struct
+corners = [(-1, 0, -1), (1, 0, -1), (1, 0, 1), (-1, 0, 1)]
+data = b"".join(struct.pack("<3f", *c) for c in corners) + struct.pack("<6H", 0, 2, 1, 0, 3, 2)
+square = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1]}],
+          "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0, 1.5, 2.5], "rotation": [-0.2588, 0, 0, 0.9659]}],
+          "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.01}}],
+          "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]}],
+          "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.6, 0.5, 1], "metallicFactor": 0, "roughnessFactor": 0.8}}],
+          "buffers": [{"byteLength": len(data), "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}],
+          "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 12}],
+          "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, 0, -1], "max": [1, 0, 1]},
+                        {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}]}
+json.dump(square, open(d + "/square.gltf", "w"))
 EOF2
 run() { # name, scene[, iterations]
     "$bin" "$2" --width 64 --height 64 --iterations "${3:-24}" --seed 1 --quiet --stats --snapshot "$tmp/$1.exr" >"$tmp/$1" 2>&1 ||
@@ -92,4 +108,14 @@ if [ -f "$ref" ]; then
 else
     fails=$((fails + 1)); echo "FAIL: $ref is missing"
 fi
-if [ "$fails" -eq 0 ]; then echo "test_gather_choice: all 5 checks passed"; else echo "test_gather_choice: $fails of 5 checks failed"; exit 1; fi
+for mode in progressive pathtrace; do
+    "$bin" "$tmp/square.gltf" --mode $mode --width 48 --height 48 --iterations 16 --seed 1 --quiet --stats \
+        --snapshot "$tmp/square_$mode.exr" >"$tmp/square_$mode" 2>&1 || echo "pmview failed on the square ($mode): $(tail -n 1 "$tmp/square_$mode")"
+done
+path_only=$(value path_only_samples "$tmp/square_progressive")
+if [ -s "$tmp/square_pathtrace.exr" ] && cmp -s "$tmp/square_progressive.exr" "$tmp/square_pathtrace.exr" && [ "$path_only" = 16 ]; then
+    echo "ok: a lone square under the sky: the default is the path tracer, bit for bit (path_only_samples=$path_only)"
+else
+    fails=$((fails + 1)); echo "FAIL: a lone square under the sky: the default's image differs from --mode pathtrace's or path_only_samples=${path_only:-none} (16 expected)"
+fi
+if [ "$fails" -eq 0 ]; then echo "test_gather_choice: all 6 checks passed"; else echo "test_gather_choice: $fails of 6 checks failed"; exit 1; fi
