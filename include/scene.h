@@ -201,6 +201,9 @@ typedef struct {
     bool has_unlit;          /* some triangle's material is unlit: the camera sees it without any light */
     bool caustics_possible;  /* some light can reach a specular surface and then a diffuse one */
     bool interreflection_possible; /* light reflected by a diffuse surface can reach a diffuse one again */
+    bool light_diffuse;      /* all light is a sky no brighter anywhere than PM_DIFFUSE_SKY_PEAK times its mean (no emitting
+                                surface, no punctual light): a path's sample through any mirrors, glass and lobes meets no
+                                more than that, so the path tracer finds caustics as it finds any indirect light */
     bool component_possible[PM_COMPONENT_COUNT];
 } pm_scene_analysis;
 

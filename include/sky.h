@@ -21,6 +21,7 @@ typedef struct {
     float *row_cdf;      /* height+1: rows by their summed weight */
     float *column_cdf;   /* height*(width+1): texels within each row */
     vec3 mean;           /* radiance averaged over the sphere (per solid angle) */
+    float peak_over_mean;/* the brightest texel's channel mean over the sphere's (1 for a uniform map): how concentrated its light is */
     size_t clamped;      /* texels above PM_MAX_EMISSION or not finite, clamped: the caller warns */
     uint64_t admitted;   /* bytes admitted against --max-memory for it (memory.h), given back when it is freed */
     bool rotated;        /* turned about +Y (--sky-rotate): lookups and samples go through the turn */

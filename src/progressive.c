@@ -94,6 +94,9 @@ struct pm_progressive {
     pm_photon_tracer *tracer;
     bool trace_caustic, trace_global;    /* which photon passes the scene can use */
     bool caustic_surfaces;               /* some mirror or glass makes caustics (scene_has_caustic_surfaces) */
+    /* a scene lit by a diffuse sky alone (scene.h, light_diffuse), whose light the path tracer's
+     * gathers would take: every iteration is the path tracer's loop, and no photon is traced */
+    bool path_alone;
     /* gathering where the path tracer cannot find some light (path_finds_all_light): its gathers
      * read that light's photons (PM_PATH_PUNCTUAL_SPECULAR), traced in every iteration */
     bool punctual_specular;
@@ -157,8 +160,16 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
     p->eye.max_specular_depth = settings->max_specular_depth;
     p->eye.indirect = settings->indirect;
     const pm_scene_analysis *an = &s->analysis;
-    bool want_caustic = an->component_possible[PM_CAUSTIC] && settings->caustic_photons > 0;
-    bool want_global = an->component_possible[PM_INDIRECT] && settings->photons > 0;
+    /* Under a diffuse sky alone every sample of the path tracer, through any mirrors, glass and
+     * lobes, meets at most the sky's bounded radiance: its paths find caustics and indirect light
+     * alike with bounded variance, while the photons add their passes, their radius's bias and
+     * the learning. So where the program chooses the gather's light, it takes the path tracer's
+     * at once (measured: it chose the path tracer on every such scene tried, its prediction 2 to
+     * 10 times ahead, and the caustic photons it kept there cost up to 1.6 times the error). */
+    p->path_alone = settings->gather == PM_GATHER_AUTO && settings->indirect == PM_INDIRECT_GATHER && an->light_diffuse &&
+                    (an->component_possible[PM_CAUSTIC] || an->component_possible[PM_INDIRECT]);
+    bool want_caustic = !p->path_alone && an->component_possible[PM_CAUSTIC] && settings->caustic_photons > 0;
+    bool want_global = !p->path_alone && an->component_possible[PM_INDIRECT] && settings->photons > 0;
     if (want_caustic || want_global) {
         pm_photon_settings ps;
         memset(&ps, 0, sizeof ps);
@@ -242,8 +253,9 @@ void pm_progressive_components(const pm_progressive *p, bool enabled[PM_COMPONEN
     const pm_scene_analysis *an = &p->scene->analysis;
     enabled[PM_DIRECT] = an->component_possible[PM_DIRECT];
     enabled[PM_SPECULAR] = an->component_possible[PM_SPECULAR];
-    enabled[PM_CAUSTIC] = p->trace_caustic;
-    enabled[PM_INDIRECT] = p->trace_global;
+    /* the path tracer's loop writes every component the scene can make */
+    enabled[PM_CAUSTIC] = p->trace_caustic || (p->path_alone && an->component_possible[PM_CAUSTIC]);
+    enabled[PM_INDIRECT] = p->trace_global || (p->path_alone && an->component_possible[PM_INDIRECT]);
 }
 
 /* ---- eye passes per photon pass ---- */
@@ -586,6 +598,7 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     p->radii.learn_cost[0] = p->radii.learn_cost[1] = 0.0;
     p->radii.gathered_light[0] = p->radii.gathered_light[1] = 0.0;
     p->stats.gather_source = p->radii.gather_chosen ? (p->gathering ? (int)p->radii.gather_source : -1) : -2;
+    if (p->path_alone) p->stats.gather_source = PM_GATHER_PATH;
 }
 
 bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err_size) {
@@ -1145,11 +1158,13 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
      * iteration on a scene where neither a caustic nor indirect light is possible (a single object
      * or plane under the sky): no photon pass exists to read, and past the first diffuse vertex
      * the path tracer finds only what direct light's MIS already weighs, so its loop is the eye
-     * pass at the path tracer's speed. */
+     * pass at the path tracer's speed. So is every iteration under a diffuse sky alone, where
+     * no photon is traced (path_alone). */
     const pm_scene_analysis *an = &p->scene->analysis;
     bool nothing_for_photons = !an->component_possible[PM_CAUSTIC] && !an->component_possible[PM_INDIRECT];
-    it->path_only = nothing_for_photons || (chosen && it->source == PM_GATHER_PATH && p->gathering && !p->trace_caustic &&
-                                            !an->component_possible[PM_CAUSTIC] && !p->punctual_specular);
+    it->path_only = p->path_alone || nothing_for_photons ||
+                    (chosen && it->source == PM_GATHER_PATH && p->gathering && !p->trace_caustic &&
+                     !an->component_possible[PM_CAUSTIC] && !p->punctual_specular);
     p->eye.path_trace = it->path_only;
     it->probing = p->probe.total != NULL && !it->path_only;
     keep_start(p, film, it->path_only, &it->start);

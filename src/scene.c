@@ -155,6 +155,8 @@ static void analyse(pm_scene *s) {
     a->has_emissive_triangles = s->emitter_count > 0;
     a->has_punctual_lights = s->light_count > 0;
     a->has_sky = s->sky;
+    float sky_peak = s->sky_map ? s->sky_map->peak_over_mean : 1.f;
+    a->light_diffuse = a->has_sky && !a->has_emissive_triangles && !a->has_punctual_lights && sky_peak <= PM_DIFFUSE_SKY_PEAK;
     bool lit = a->has_emissive_triangles || a->has_punctual_lights || a->has_sky;
     bool specular = a->has_mirror || a->has_glass || a->has_near_specular; /* paths go on through all three alike */
     a->caustics_possible = lit && specular && a->has_diffuse;

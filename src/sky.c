@@ -99,7 +99,7 @@ pm_sky_map *pm_sky_map_adopt(int width, int height, float *rgb, char *err, size_
     /* Sums in double (2^28 texels of at most 1e20 stay far inside its range), stored normalised as
      * floats; a row of zero weight keeps a uniform column cdf (it is never picked, and lookups
      * need no special case) */
-    double total = 0.0, mean[3] = {0, 0, 0};
+    double total = 0.0, mean[3] = {0, 0, 0}, peak = 0.0;
     m->row_cdf[0] = 0.f;
     for (int y = 0; y < height; y++) {
         double omega = texel_solid_angle(m, y);
@@ -108,6 +108,7 @@ pm_sky_map *pm_sky_map_adopt(int width, int height, float *rgb, char *err, size_
         double run = 0.0;
         for (int x = 0; x < width; x++) {
             run += texel_weight(row + 3 * x);
+            peak = fmax(peak, texel_weight(row + 3 * x));
             for (int c = 0; c < 3; c++) mean[c] += row[3 * x + c] * omega;
         }
         /* a second pass, so that the partial sums reach the division in double rather than stored
@@ -136,6 +137,7 @@ pm_sky_map *pm_sky_map_adopt(int width, int height, float *rgb, char *err, size_
     m->row_cdf[height] = 1.f;
     free(row_sum);
     m->mean = v3((float)(mean[0] / (4.0 * PM_PI)), (float)(mean[1] / (4.0 * PM_PI)), (float)(mean[2] / (4.0 * PM_PI)));
+    m->peak_over_mean = (float)(peak / ((mean[0] + mean[1] + mean[2]) / (3.0 * 4.0 * PM_PI))); /* total > 0: the mean is too */
     return m;
 }
 

@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_gather_choice.sh: where the default's final gathering learns its light's source and where it keeps the photons: glass under an area lamp is learned, glass with a punctual light too (the path tracer's gathers read the photons of the light it cannot find), a bright caustic seen by gather points keeps the photons; where the path tracer gathers, the caustic photons stay and earn their cost; where photons have nothing to carry, the default is the path tracer.
+# test_gather_choice.sh: where the default's final gathering learns its light's source and where it keeps the photons: glass under an area lamp is learned, glass with a punctual light too (the path tracer's gathers read the photons of the light it cannot find), a bright caustic seen by gather points keeps the photons; where the path tracer gathers, the caustic photons stay and earn their cost; where photons have nothing to carry (no caustic or indirect light possible, or a diffuse sky alone), the default is the path tracer.
 #
 # Scenes: scenes/dielectric-spheres.gltf with its black sphere made a small solid glass ball
 # (radius 0.1, KHR_materials_volume), lit by its area lamp alone, then with a point light added;
@@ -15,9 +15,12 @@
 # pathtrace (the same continuation counting those paths itself) at the same 256 samples must read
 # at most 0.75 of the path tracer's relMSE (measured 0.48-0.53 at 400 samples, seeds 1 and 2): a
 # change that stops the caustic pass, or counts the caustics twice or never, fails it.
-# Where neither a caustic nor indirect light is possible (a lone square under the sky), the default
-# runs the path tracer's own loop from the first iteration: its image at 16 samples is --mode
-# pathtrace's bit for bit, and every sample is counted in path_only_samples.
+# Where the photons have nothing to carry, the default runs the path tracer's own loop from the
+# first iteration, and its image at 16 samples is --mode pathtrace's bit for bit (every sample
+# counted in path_only_samples, no photon traced): where neither a caustic nor indirect light is
+# possible (a lone square under the sky), and under a diffuse sky alone (the dielectric spheres with
+# their lamp off under --sky white, whose coats make caustics: light_diffuse=1). A sky map with a
+# sun in it (one texel 2000 times the rest) is no diffuse sky: there the photons are traced.
 cd "$(dirname "$0")/.." || exit 1
 bin=./pmview
 tmp=$(mktemp -d)
@@ -54,7 +57,13 @@ square = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1]}]
           "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, 0, -1], "max": [1, 0, 1]},
                         {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}]}
 json.dump(square, open(d + "/square.gltf", "w"))
+dark = json.load(open("scenes/dielectric-spheres.gltf"))
+for m in dark["materials"]:
+    m.pop("emissiveFactor", None)
+    m.get("extensions", {}).pop("KHR_materials_emissive_strength", None)
+json.dump(dark, open(d + "/sky_spheres.gltf", "w"))
 EOF2
+python3 tests/sky_files.py exr "$tmp/sun.exr" 32 16 1 5 3 2000 || { echo "FAIL: tests/sky_files.py"; exit 1; }
 run() { # name, scene[, iterations]
     "$bin" "$2" --width 64 --height 64 --iterations "${3:-24}" --seed 1 --quiet --stats --snapshot "$tmp/$1.exr" >"$tmp/$1" 2>&1 ||
         echo "pmview failed on $1: $(tail -n 1 "$tmp/$1")"
@@ -108,14 +117,26 @@ if [ -f "$ref" ]; then
 else
     fails=$((fails + 1)); echo "FAIL: $ref is missing"
 fi
-for mode in progressive pathtrace; do
-    "$bin" "$tmp/square.gltf" --mode $mode --width 48 --height 48 --iterations 16 --seed 1 --quiet --stats \
-        --snapshot "$tmp/square_$mode.exr" >"$tmp/square_$mode" 2>&1 || echo "pmview failed on the square ($mode): $(tail -n 1 "$tmp/square_$mode")"
-done
-path_only=$(value path_only_samples "$tmp/square_progressive")
-if [ -s "$tmp/square_pathtrace.exr" ] && cmp -s "$tmp/square_progressive.exr" "$tmp/square_pathtrace.exr" && [ "$path_only" = 16 ]; then
-    echo "ok: a lone square under the sky: the default is the path tracer, bit for bit (path_only_samples=$path_only)"
+path_tracer_alone() { # name, scene, what, sky
+    for mode in progressive pathtrace; do
+        "$bin" "$2" --sky "$4" --mode $mode --width 48 --height 48 --iterations 16 --seed 1 --quiet --stats \
+            --snapshot "$tmp/$1_$mode.exr" >"$tmp/$1_$mode" 2>&1 || echo "pmview failed on $1 ($mode): $(tail -n 1 "$tmp/$1_$mode")"
+    done
+    path_only=$(value path_only_samples "$tmp/$1_progressive"); traced=$(sed -n 's/^stat photons emitted=\([0-9]*\).*/\1/p' "$tmp/$1_progressive")
+    if [ -s "$tmp/$1_pathtrace.exr" ] && cmp -s "$tmp/$1_progressive.exr" "$tmp/$1_pathtrace.exr" && [ "$path_only" = 16 ] && [ "${traced:-1}" = 0 ]; then
+        echo "ok: $3: the default is the path tracer, bit for bit (path_only_samples=$path_only, photons emitted=$traced)"
+    else
+        fails=$((fails + 1)); echo "FAIL: $3: the default's image differs from --mode pathtrace's, or path_only_samples=${path_only:-none} (16 expected), photons emitted=${traced:-none} (0 expected)"
+    fi
+}
+path_tracer_alone square "$tmp/square.gltf" "a lone square under the sky" gradient
+path_tracer_alone sky_spheres "$tmp/sky_spheres.gltf" "the dielectric spheres under a white sky alone" white
+"$bin" "$tmp/sky_spheres.gltf" --sky "$tmp/sun.exr" --width 48 --height 48 --iterations 16 --seed 1 --quiet --stats \
+    --snapshot "$tmp/sun_spheres.exr" >"$tmp/sun_spheres" 2>&1 || echo "pmview failed on the spheres under the sun map: $(tail -n 1 "$tmp/sun_spheres")"
+diffuse=$(sed -n 's/^stat analysis .*light_diffuse=\([01]\).*/\1/p' "$tmp/sun_spheres"); traced=$(sed -n 's/^stat photons emitted=\([0-9]*\).*/\1/p' "$tmp/sun_spheres")
+if [ "$diffuse" = 0 ] && [ "${traced:-0}" -gt 0 ]; then
+    echo "ok: the same spheres under a sky map with a sun: no diffuse sky, the photons traced (emitted=$traced)"
 else
-    fails=$((fails + 1)); echo "FAIL: a lone square under the sky: the default's image differs from --mode pathtrace's or path_only_samples=${path_only:-none} (16 expected)"
+    fails=$((fails + 1)); echo "FAIL: the same spheres under a sky map with a sun: light_diffuse=${diffuse:-none} (0 expected), photons emitted=${traced:-none}"
 fi
-if [ "$fails" -eq 0 ]; then echo "test_gather_choice: all 6 checks passed"; else echo "test_gather_choice: $fails of 6 checks failed"; exit 1; fi
+if [ "$fails" -eq 0 ]; then echo "test_gather_choice: all 8 checks passed"; else echo "test_gather_choice: $fails of 8 checks failed"; exit 1; fi
