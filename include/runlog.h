@@ -46,6 +46,8 @@ double pm_reference_relmse_total(const float *total, const pm_reference_image *r
  * progressive iteration may add several samples). */
 bool pm_log_wanted(uint32_t logged, uint32_t samples);
 void pm_log_header(FILE *f);
+/* --log - writes the rows to standard output. */
+static inline bool pm_log_to_stdout(const char *path) { return path && path[0] == '-' && path[1] == '\0'; }
 /* One row: `film` (the session's, or a cluster's merged one) as it is after `seconds` of rendering,
  * `photons` emitted so far; the session gives the radii's mode state. scratch: 3 floats a pixel, or
  * NULL without a reference. */

@@ -36,7 +36,7 @@ static bool outputs_spare_inputs(const pm_options *o, bool window) {
     const struct { const char *path, *what; } inputs[] = {
         {o->scene_path, "the scene file"}, {o->reference, "the --reference image"}, {sky_file ? o->sky : NULL, "the --sky map"}};
     const struct { const char *path, *flag; } outputs[] = {
-        {o->snapshot, "--snapshot"}, {o->log, "--log"}, {window ? o->screenshot : NULL, "--screenshot"},
+        {o->snapshot, "--snapshot"}, {pm_log_to_stdout(o->log) ? NULL : o->log, "--log"}, {window ? o->screenshot : NULL, "--screenshot"},
         {window ? screenshot_exr : NULL, "--screenshot's EXR"}};
     const int n_in = sizeof inputs / sizeof *inputs, n_out = sizeof outputs / sizeof *outputs;
     for (int i = 0; i < n_out; i++) {
@@ -137,7 +137,7 @@ static int check_files(run_state *r, set_up_context *c, bool window) {
     if (c->root && o->snapshot && !pm_check_output_path(o->snapshot, c->err, sizeof c->err)) return failed(r, 1, "%s", c->err);
     /* the log too, here where a refusal reaches every rank through the set-up's agreement: opened
      * after it, a failure ended rank 0 alone and mpirun waited for ever on the others */
-    if (c->root && o->log && !pm_check_output_path(o->log, c->err, sizeof c->err)) {
+    if (c->root && o->log && !pm_log_to_stdout(o->log) && !pm_check_output_path(o->log, c->err, sizeof c->err)) {
         size_t named = strlen(o->log);
         const char *why = strncmp(c->err, o->log, named) == 0 && strncmp(c->err + named, ": ", 2) == 0 ? c->err + named + 2 : c->err;
         return failed(r, 1, "%s: cannot write the log (%s)", o->log, why);

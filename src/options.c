@@ -165,7 +165,7 @@ static const option options_table[] = {
      "with --stats also at iterations 1, 2, 4, 8, ... (an error-against-time curve)", {0}},
     {"--log", "FILE.csv", KIND_TEXT, FIELD(log), 0, 0, NULL, {0}, NULL, NULL, NULL, 0,
      "with --snapshot: one CSV row per iteration (then per doubling past %g): seconds,\n"
-     "iterations, photons, mean radius, and with --reference each layer's relMSE, RMSE, bias", {PM_LOG_EVERY_ITERATION_UNTIL}},
+     "iterations, photons, mean radius, and with --reference each layer's relMSE, RMSE, bias (- : standard output)", {PM_LOG_EVERY_ITERATION_UNTIL}},
     {"--components", "LIST", KIND_COMPONENTS, FIELD(components), 0, 0, NULL, {0}, NULL, NULL,
      "unknown component in --components '%s' (direct, specular, caustic, indirect)", 0,
      "what a PNG snapshot and the window show at first: direct,specular,caustic,indirect (default all)", {0}},

@@ -201,7 +201,8 @@ static void observe(void *context, pm_session *session, const pm_session_run_sta
     bool save = checkpoint_due(ob);
     const pm_film *film = log_row || progress || save ? whole_image(ob) : NULL;
     if (log_row) {
-        ob->last_row_at = ftell(ob->log);
+        /* standard output, even redirected to a file, may hold other lines after a row: never rewritten */
+        ob->last_row_at = ob->log == stdout ? -1 : ftell(ob->log);
         pm_log_row(ob->log, session, film, whole_photons(ob, state->photons), ob->reference, ob->scratch, state->rendered);
         ob->logged = state->samples;
         ob->logged_whole = film->samples;
@@ -234,7 +235,7 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
         if (!ob.scratch) { fprintf(stderr, "pmview: error: out of memory (%s)\n", pm_memory_failure_since(mark)); return 1; }
     }
     if (o->log && root) {
-        ob.log = fopen(o->log, "w");
+        ob.log = pm_log_to_stdout(o->log) ? stdout : fopen(o->log, "w");
         if (!ob.log) {
             snprintf(err, sizeof err, "%s: cannot write the log (%s)", o->log, strerror(errno));
             if (cluster) pm_cluster_abort(cluster, err); /* every rank ends, not rank 0 alone */
@@ -259,7 +260,7 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
         }
         fprintf(stderr, "%spmview: error: %s: %s\n", ob.tty ? "\n" : "", o->scene_path, pm_session_error(session));
         free(ob.scratch);
-        if (ob.log) fclose(ob.log);
+        if (ob.log && ob.log != stdout) fclose(ob.log);
         return 1;
     }
     if (cluster) {
@@ -291,7 +292,7 @@ int pm_snapshot_run(const pm_options *o, pm_cluster *cluster, pm_session *sessio
         errno = 0;
         bool written = fflush(ob.log) == 0 && !ferror(ob.log);
         int why = errno;
-        if (fclose(ob.log) != 0 && written) { written = false; why = errno; }
+        if (ob.log != stdout && fclose(ob.log) != 0 && written) { written = false; why = errno; }
         if (!written) {
             fprintf(stderr, "%spmview: error: %s: cannot write the log (%s)\n", ob.tty ? "\n" : "", o->log,
                     why ? strerror(why) : "write error");

@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_log.sh: --log run.csv in the three modes (columns, row cadence, error falling against --reference) and --mode pathtrace from the command line (under ASan).
+# test_log.sh: --log run.csv in the three modes (columns, row cadence, error falling against --reference), --log - to standard output, and --mode pathtrace from the command line (under ASan).
 cd "$(dirname "$0")/.." || exit 1
 . tests/cli_setup.sh
 fails=0; checks=0
@@ -111,6 +111,17 @@ expect "a long run" 0 $bin scenes/cornell-box.gltf --mode pathtrace --width 8 --
 check_csv "long run log" "$tmp/long.csv" '
 assert it == list(range(1, 65)) + [128, 130], it
 assert all(r["total_relmse"] is None and r["total_rel_bias"] is None for r in rows)'
+
+# --log - : the rows on standard output (the CSV, then the snapshot's line), and no file named "-"
+expect "a log to standard output" 0 env -C "$tmp" "$PWD/$bin" "$PWD/scenes/cornell-box.gltf" --mode pathtrace --width 8 --iterations 5 \
+    --log - --snapshot "$tmp/out.exr"
+grep -v '^pmview: wrote' "$tmp/out" >"$tmp/stdout.csv"
+check_csv "the log on standard output" "$tmp/stdout.csv" '
+assert it == [1, 2, 3, 4, 5], it'
+checks=$((checks + 1))
+if [ -e "$tmp/-" ] || [ "$(grep -c '^pmview: wrote' "$tmp/out")" -ne 1 ]; then
+    fails=$((fails + 1)); echo "FAIL: --log - must write no file named '-' and leave the snapshot's line after the rows"
+fi
 
 if [ "$fails" -ne 0 ]; then echo "test_log: $checks checks, $fails failed"; exit 1; fi
 echo "test_log: $checks checks, 0 failed"
