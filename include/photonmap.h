@@ -111,10 +111,6 @@ void pm_photon_tracer_skip_punctual_first_hits(pm_photon_tracer *t, bool skip);
  * gather adds for the light it cannot find (the progressive mode's gather points). */
 void pm_photon_tracer_tag_punctual_specular(pm_photon_tracer *t, bool tag, bool only);
 
-/* The area photon records can land on (triangles whose material has a diffuse or glossy share
- * at some point, its textures' range of metallic and transmission included): the photon density
- * that sets initial radii, and the shadow photons' cell, divide by it. */
-double pm_photon_receiving_area(const pm_scene *s);
 
 /* Camera splats: light tracing of the caustic seen directly. While set, every caustic pass also
  * connects each caustic photon it stores at a diffuse or glossy point to the camera (an image

@@ -201,9 +201,11 @@ typedef struct {
     bool has_unlit;          /* some triangle's material is unlit: the camera sees it without any light */
     bool caustics_possible;  /* some light can reach a specular surface and then a diffuse one */
     bool interreflection_possible; /* light reflected by a diffuse surface can reach a diffuse one again */
-    bool light_diffuse;      /* all light is a sky no brighter anywhere than PM_DIFFUSE_SKY_PEAK times its mean (no emitting
-                                surface, no punctual light): a path's sample through any mirrors, glass and lobes meets no
-                                more than that, so the path tracer finds caustics as it finds any indirect light */
+    double light_peak_over_mean; /* the brightest light's radiance over the mean the light arrives with, the sky's and
+                                    the emitters' (scene.c); punctual lights are not in it (a delta is concentrated) */
+    bool light_diffuse;      /* no punctual light, and no light (sky or emitting surface) brighter than PM_DIFFUSE_LIGHT_PEAK
+                                times that mean: a path's sample through any mirrors, glass and lobes meets no more than
+                                that, so the path tracer finds caustics as it finds any indirect light */
     bool component_possible[PM_COMPONENT_COUNT];
 } pm_scene_analysis;
 
@@ -312,6 +314,11 @@ double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo);
  * is a similarity (rotation, mirror, uniform scale) counts its mesh's area times its scale squared,
  * so the sum costs stored triangles plus placements, not placed triangles. */
 double pm_scene_area_where(const pm_scene *s, bool (*keep)(const pm_material *, const void *), const void *context);
+/* The area light can land on and be reflected from diffusely (triangles whose material has a diffuse
+ * or glossy share at some point, its textures' range of metallic and transmission included): the
+ * photon density that sets initial radii, the shadow photons' cell and the mean light
+ * (light_peak_over_mean) divide by it. */
+double pm_scene_receiving_area(const pm_scene *s);
 /* Replaces the sky (the scene takes the map; NULL map = uniform, sky false = none) and analyses
  * the scene again: which components are possible depends on it. */
 void pm_scene_set_sky(pm_scene *s, bool sky, vec3 radiance, pm_sky_map *map);

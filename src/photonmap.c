@@ -163,12 +163,6 @@ static float spot_solid_angle(const pm_light *l) {
     return (float)(2.0 * PM_PI * sum);
 }
 
-static bool receives(const pm_material *m, const void *context) {
-    (void)context;
-    return m->may_diffuse || m->may_glossy;
-}
-
-double pm_photon_receiving_area(const pm_scene *s) { return pm_scene_area_where(s, receives, NULL); }
 
 static box_shadow box_shadow_across(const pm_scene *s, vec3 dir);
 

@@ -40,8 +40,8 @@ void pm_print_analysis_stats(const pm_scene *s) {
     bool first = true;
     for (int c = 0; c < PM_COMPONENT_COUNT; c++)
         if (a->component_possible[c]) { printf("%s%s", first ? "" : ",", pm_component_names[c]); first = false; }
-    printf("%s non_opaque=%d thin_glass=%d unlit=%d near_specular=%d light_diffuse=%d\n", first ? "none" : "", a->has_non_opaque,
-           a->has_thin_glass, a->has_unlit, a->has_near_specular, a->light_diffuse);
+    printf("%s non_opaque=%d thin_glass=%d unlit=%d near_specular=%d light_diffuse=%d light_peak_over_mean=%.4g\n", first ? "none" : "",
+           a->has_non_opaque, a->has_thin_glass, a->has_unlit, a->has_near_specular, a->light_diffuse, a->light_peak_over_mean);
 }
 
 void pm_print_film_stats(const pm_film *film) {

@@ -134,6 +134,39 @@ vec3 pm_face_normal(vec3 p0, vec3 p1, vec3 p2) {
     return v3((float)(n[0] / len), (float)(n[1] / len), (float)(n[2] / len));
 }
 
+static bool receives_light(const pm_material *m, const void *context) {
+    (void)context;
+    return m->may_diffuse || m->may_glossy;
+}
+
+double pm_scene_receiving_area(const pm_scene *s) { return pm_scene_area_where(s, receives_light, NULL); }
+
+/* The brightest radiance any light sends (a sky map's brightest texel, an emitting triangle's
+ * radiance) over the mean radiance the scene's light arrives with: the sky's mean plus the
+ * emitters' power spread over the surfaces that receive it (pi x radiance x area over pi x the
+ * receiving area). Luminance-like: the channels' mean. Infinite where nothing receives. */
+static double light_peak_over_mean(const pm_scene *s) {
+    double peak = 0.0, mean = 0.0;
+    if (s->sky) {
+        vec3 m = s->sky_map ? v3_mul(s->sky_radiance, s->sky_map->mean) : s->sky_radiance;
+        double sky_mean = ((double)m.x + m.y + m.z) / 3.0;
+        mean += sky_mean;
+        peak = sky_mean * (s->sky_map ? s->sky_map->peak_over_mean : 1.0);
+    }
+    double emitted = 0.0;
+    for (uint32_t i = 0; i < s->emitter_count; i++) {
+        uint32_t t = s->emitters[i];
+        vec3 e = s->emitter_radiance[i];
+        double l = ((double)e.x + e.y + e.z) / 3.0;
+        const pm_material *mat = &s->materials[pm_scene_triangle_material(s, t)];
+        emitted += l * pm_triangle_area(s, t) * (mat->double_sided ? 2.0 : 1.0);
+        peak = fmax(peak, l);
+    }
+    double receiving = pm_scene_receiving_area(s);
+    if (emitted > 0.0) mean += receiving > 0.0 ? emitted / receiving : 0.0;
+    return mean > 0.0 ? peak / mean : INFINITY;
+}
+
 static void analyse(pm_scene *s) {
     pm_scene_analysis *a = &s->analysis;
     memset(a, 0, sizeof *a);
@@ -155,8 +188,9 @@ static void analyse(pm_scene *s) {
     a->has_emissive_triangles = s->emitter_count > 0;
     a->has_punctual_lights = s->light_count > 0;
     a->has_sky = s->sky;
-    float sky_peak = s->sky_map ? s->sky_map->peak_over_mean : 1.f;
-    a->light_diffuse = a->has_sky && !a->has_emissive_triangles && !a->has_punctual_lights && sky_peak <= PM_DIFFUSE_SKY_PEAK;
+    a->light_peak_over_mean = light_peak_over_mean(s);
+    a->light_diffuse = !a->has_punctual_lights && (a->has_sky || a->has_emissive_triangles) &&
+                       a->light_peak_over_mean <= PM_DIFFUSE_LIGHT_PEAK;
     bool lit = a->has_emissive_triangles || a->has_punctual_lights || a->has_sky;
     bool specular = a->has_mirror || a->has_glass || a->has_near_specular; /* paths go on through all three alike */
     a->caustics_possible = lit && specular && a->has_diffuse;

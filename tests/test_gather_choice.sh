@@ -1,5 +1,5 @@
 #!/bin/sh
-# test_gather_choice.sh: where the default's final gathering learns its light's source and where it keeps the photons: glass under an area lamp is learned, glass with a punctual light too (the path tracer's gathers read the photons of the light it cannot find), a bright caustic seen by gather points keeps the photons; where the path tracer gathers, the caustic photons stay and earn their cost; where photons have nothing to carry (no caustic or indirect light possible, or a diffuse sky alone), the default is the path tracer.
+# test_gather_choice.sh: where the default's final gathering learns its light's source and where it keeps the photons: glass under an area lamp is learned, glass with a punctual light too (the path tracer's gathers read the photons of the light it cannot find), a bright caustic seen by gather points keeps the photons; where the path tracer gathers, the caustic photons stay and earn their cost; where photons have nothing to carry (no caustic or indirect light possible, or broad light alone), the default is the path tracer.
 #
 # Scenes: scenes/dielectric-spheres.gltf with its black sphere made a small solid glass ball
 # (radius 0.1, KHR_materials_volume), lit by its area lamp alone, then with a point light added;
@@ -18,9 +18,10 @@
 # Where the photons have nothing to carry, the default runs the path tracer's own loop from the
 # first iteration, and its image at 16 samples is --mode pathtrace's bit for bit (every sample
 # counted in path_only_samples, no photon traced): where neither a caustic nor indirect light is
-# possible (a lone square under the sky), and under a diffuse sky alone (the dielectric spheres with
-# their lamp off under --sky white, whose coats make caustics: light_diffuse=1). A sky map with a
-# sun in it (one texel 2000 times the rest) is no diffuse sky: there the photons are traced.
+# possible (a lone square under the sky), and under broad light alone (light_diffuse=1): the
+# dielectric spheres with their lamp off under --sky white, whose coats make caustics, and the
+# Cornell box's mirror and glass balls under a lamp as wide as its ceiling. A sky map with a sun in
+# it (one texel 2000 times the rest) is no broad light: there the photons are traced.
 cd "$(dirname "$0")/.." || exit 1
 bin=./pmview
 tmp=$(mktemp -d)
@@ -62,6 +63,9 @@ for m in dark["materials"]:
     m.pop("emissiveFactor", None)
     m.get("extensions", {}).pop("KHR_materials_emissive_strength", None)
 json.dump(dark, open(d + "/sky_spheres.gltf", "w"))
+sys.path.insert(0, "scenes")
+import make_scenes
+json.dump(make_scenes.to_gltf(make_scenes.cornell_box(segments=16, light_strength=2.0, light_size=2.0)), open(d + "/panel_box.gltf", "w"))
 EOF2
 python3 tests/sky_files.py exr "$tmp/sun.exr" 32 16 1 5 3 2000 || { echo "FAIL: tests/sky_files.py"; exit 1; }
 run() { # name, scene[, iterations]
@@ -131,12 +135,13 @@ path_tracer_alone() { # name, scene, what, sky
 }
 path_tracer_alone square "$tmp/square.gltf" "a lone square under the sky" gradient
 path_tracer_alone sky_spheres "$tmp/sky_spheres.gltf" "the dielectric spheres under a white sky alone" white
+path_tracer_alone panel_box "$tmp/panel_box.gltf" "the Cornell box under a lamp as wide as its ceiling" none
 "$bin" "$tmp/sky_spheres.gltf" --sky "$tmp/sun.exr" --width 48 --height 48 --iterations 16 --seed 1 --quiet --stats \
     --snapshot "$tmp/sun_spheres.exr" >"$tmp/sun_spheres" 2>&1 || echo "pmview failed on the spheres under the sun map: $(tail -n 1 "$tmp/sun_spheres")"
 diffuse=$(sed -n 's/^stat analysis .*light_diffuse=\([01]\).*/\1/p' "$tmp/sun_spheres"); traced=$(sed -n 's/^stat photons emitted=\([0-9]*\).*/\1/p' "$tmp/sun_spheres")
 if [ "$diffuse" = 0 ] && [ "${traced:-0}" -gt 0 ]; then
-    echo "ok: the same spheres under a sky map with a sun: no diffuse sky, the photons traced (emitted=$traced)"
+    echo "ok: the same spheres under a sky map with a sun: no broad light, the photons traced (emitted=$traced)"
 else
     fails=$((fails + 1)); echo "FAIL: the same spheres under a sky map with a sun: light_diffuse=${diffuse:-none} (0 expected), photons emitted=${traced:-none}"
 fi
-if [ "$fails" -eq 0 ]; then echo "test_gather_choice: all 8 checks passed"; else echo "test_gather_choice: $fails of 8 checks failed"; exit 1; fi
+if [ "$fails" -eq 0 ]; then echo "test_gather_choice: all 9 checks passed"; else echo "test_gather_choice: $fails of 9 checks failed"; exit 1; fi
