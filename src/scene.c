@@ -144,7 +144,9 @@ double pm_scene_receiving_area(const pm_scene *s) { return pm_scene_area_where(s
 /* The brightest radiance any light sends (a sky map's brightest texel, an emitting triangle's
  * radiance) over the mean radiance the scene's light arrives with: the sky's mean plus the
  * emitters' power spread over the surfaces that receive it (pi x radiance x area over pi x the
- * receiving area). Luminance-like: the channels' mean. Infinite where nothing receives. */
+ * receiving area). Luminance-like: the channels' mean. A textured emitter counts its material's
+ * factor as its peak: a texel reads at most 1, and a small bright spot in a dark texture must not
+ * pass for a broad light by its triangle's mean. Infinite where nothing receives. */
 static double light_peak_over_mean(const pm_scene *s) {
     double peak = 0.0, mean = 0.0;
     if (s->sky) {
@@ -160,7 +162,8 @@ static double light_peak_over_mean(const pm_scene *s) {
         double l = ((double)e.x + e.y + e.z) / 3.0;
         const pm_material *mat = &s->materials[pm_scene_triangle_material(s, t)];
         emitted += l * pm_triangle_area(s, t) * (mat->double_sided ? 2.0 : 1.0);
-        peak = fmax(peak, l);
+        vec3 f = mat->emission;
+        peak = fmax(peak, mat->emission_texture >= 0 ? ((double)f.x + f.y + f.z) / 3.0 : l);
     }
     double receiving = pm_scene_receiving_area(s);
     if (emitted > 0.0) mean += receiving > 0.0 ? emitted / receiving : 0.0;

@@ -21,7 +21,10 @@
 # possible (a lone square under the sky), and under broad light alone (light_diffuse=1): the
 # dielectric spheres with their lamp off under --sky white, whose coats make caustics, and the
 # Cornell box's mirror and glass balls under a lamp as wide as its ceiling. A sky map with a sun in
-# it (one texel 2000 times the rest) is no broad light: there the photons are traced.
+# it (one texel 2000 times the rest) is no broad light: there the photons are traced. Nor is a
+# square whose emissive texture is dark but for one texel in 256, its factor 256 (the same mean
+# radiance as the untextured square of factor 1, which is broad light): a texel, not a triangle's
+# mean, is what a path meets.
 cd "$(dirname "$0")/.." || exit 1
 bin=./pmview
 tmp=$(mktemp -d)
@@ -66,6 +69,30 @@ json.dump(dark, open(d + "/sky_spheres.gltf", "w"))
 sys.path.insert(0, "scenes")
 import make_scenes
 json.dump(make_scenes.to_gltf(make_scenes.cornell_box(segments=16, light_strength=2.0, light_size=2.0)), open(d + "/panel_box.gltf", "w"))
+import zlib
+def png_chunk(kind, data):
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+rows = b"".join(b"\0" + b"".join(bytes((255, 255, 255) if (x, y) == (5, 9) else (0, 0, 0)) for x in range(16)) for y in range(16))
+spot = (b"\x89PNG\r\n\x1a\n" + png_chunk(b"IHDR", struct.pack(">IIBBBBB", 16, 16, 8, 2, 0, 0, 0)) +
+        png_chunk(b"IDAT", zlib.compress(rows)) + png_chunk(b"IEND", b""))
+uv = struct.pack("<8f", 0, 0, 1, 0, 1, 1, 0, 1)
+for name, textured in (("glow", False), ("spot", True)):
+    lamp = json.loads(json.dumps(square))
+    lamp["nodes"].append({"mesh": 1, "translation": [0, 1.5, 0], "rotation": [1, 0, 0, 0]})
+    lamp["scenes"][0]["nodes"].append(2)
+    lamp["meshes"].append({"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 2}, "indices": 1, "material": 1}]})
+    lamp["buffers"].append({"byteLength": len(uv), "uri": "data:application/octet-stream;base64," + base64.b64encode(uv).decode()})
+    lamp["bufferViews"].append({"buffer": 1, "byteOffset": 0, "byteLength": len(uv)})
+    lamp["accessors"].append({"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"})
+    glow = {"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1]}
+    if textured:
+        glow["emissiveTexture"] = {"index": 0}
+        glow["extensions"] = {"KHR_materials_emissive_strength": {"emissiveStrength": 256.0}}
+        lamp["extensionsUsed"] = ["KHR_materials_emissive_strength"]
+        lamp["textures"] = [{"source": 0}]
+        lamp["images"] = [{"uri": "data:image/png;base64," + base64.b64encode(spot).decode()}]
+    lamp["materials"].append(glow)
+    json.dump(lamp, open(d + "/square_" + name + ".gltf", "w"))
 EOF2
 python3 tests/sky_files.py exr "$tmp/sun.exr" 32 16 1 5 3 2000 || { echo "FAIL: tests/sky_files.py"; exit 1; }
 run() { # name, scene[, iterations]
@@ -144,4 +171,14 @@ if [ "$diffuse" = 0 ] && [ "${traced:-0}" -gt 0 ]; then
 else
     fails=$((fails + 1)); echo "FAIL: the same spheres under a sky map with a sun: light_diffuse=${diffuse:-none} (0 expected), photons emitted=${traced:-none}"
 fi
-if [ "$fails" -eq 0 ]; then echo "test_gather_choice: all 9 checks passed"; else echo "test_gather_choice: $fails of 9 checks failed"; exit 1; fi
+for name in glow spot; do
+    "$bin" "$tmp/square_$name.gltf" --sky none --width 16 --height 16 --iterations 1 --quiet --stats --snapshot "$tmp/square_$name.exr" \
+        >"$tmp/square_$name" 2>&1 || echo "pmview failed on square_$name: $(tail -n 1 "$tmp/square_$name")"
+done
+glow=$(sed -n 's/^stat analysis .*light_diffuse=\([01]\).*/\1/p' "$tmp/square_glow"); spot=$(sed -n 's/^stat analysis .*light_diffuse=\([01]\).*/\1/p' "$tmp/square_spot")
+if [ "$glow" = 1 ] && [ "$spot" = 0 ]; then
+    echo "ok: a lamp square over the square is broad light, the same mean from one texel in 256 is not"
+else
+    fails=$((fails + 1)); echo "FAIL: light_diffuse=${glow:-none} for the plain lamp (1 expected), ${spot:-none} for its one bright texel (0 expected)"
+fi
+if [ "$fails" -eq 0 ]; then echo "test_gather_choice: all 10 checks passed"; else echo "test_gather_choice: $fails of 10 checks failed"; exit 1; fi
