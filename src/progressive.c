@@ -167,8 +167,7 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
      * and the learning. So where the program chooses the gather's light, it takes the path
      * tracer's at once (measured in docs/design.md: the choice left to itself kept caustic
      * photons or all photons there at up to 1.6 times the path tracer's error, 120 on a mirror room). */
-    p->path_alone = settings->gather == PM_GATHER_AUTO && settings->indirect == PM_INDIRECT_GATHER && an->light_diffuse &&
-                    (an->component_possible[PM_CAUSTIC] || an->component_possible[PM_INDIRECT]);
+    p->path_alone = settings->gather == PM_GATHER_AUTO && settings->indirect == PM_INDIRECT_GATHER && an->light_diffuse;
     bool want_caustic = !p->path_alone && an->component_possible[PM_CAUSTIC] && settings->caustic_photons > 0;
     bool want_global = !p->path_alone && an->component_possible[PM_INDIRECT] && settings->photons > 0;
     if (want_caustic || want_global) {
@@ -1164,8 +1163,8 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
     const pm_scene_analysis *an = &p->scene->analysis;
     bool nothing_for_photons = !an->component_possible[PM_CAUSTIC] && !an->component_possible[PM_INDIRECT];
     it->path_only = p->path_alone || nothing_for_photons ||
-                    (chosen && it->source == PM_GATHER_PATH && p->gathering && !p->trace_caustic &&
-                     !an->component_possible[PM_CAUSTIC] && !p->punctual_specular);
+                    (chosen && it->source == PM_GATHER_PATH && p->gathering && !an->component_possible[PM_CAUSTIC] &&
+                     !p->punctual_specular);
     p->eye.path_trace = it->path_only;
     it->probing = p->probe.total != NULL && !it->path_only;
     keep_start(p, film, it->path_only, &it->start);

@@ -143,30 +143,23 @@ double pm_scene_receiving_area(const pm_scene *s) { return pm_scene_area_where(s
 
 /* The brightest radiance any light sends (a sky map's brightest texel, an emitting triangle's
  * radiance) over the mean radiance the scene's light arrives with: the sky's mean plus the
- * emitters' power spread over the surfaces that receive it (pi x radiance x area over pi x the
- * receiving area). Luminance-like: the channels' mean. A textured emitter counts its material's
- * factor as its peak: a texel reads at most 1, and a small bright spot in a dark texture must not
- * pass for a broad light by its triangle's mean. Infinite where nothing receives. */
+ * emitters' power (emitter_power, the light distribution's) spread over the surfaces that receive
+ * it, power over pi x the receiving area. Luminance, as that power weighs it (the map's peak is
+ * its own channels' mean over theirs). A textured emitter counts its material's factor as its
+ * peak: a texel reads at most 1, and a small bright spot in a dark texture must not pass for a
+ * broad light by its triangle's mean. Infinite where nothing receives. */
 static double light_peak_over_mean(const pm_scene *s) {
     double peak = 0.0, mean = 0.0;
     if (s->sky) {
-        vec3 m = s->sky_map ? v3_mul(s->sky_radiance, s->sky_map->mean) : s->sky_radiance;
-        double sky_mean = ((double)m.x + m.y + m.z) / 3.0;
-        mean += sky_mean;
-        peak = sky_mean * (s->sky_map ? s->sky_map->peak_over_mean : 1.0);
+        mean = v3_luminance(pm_scene_sky_mean(s));
+        peak = mean * (s->sky_map ? s->sky_map->peak_over_mean : 1.0);
     }
-    double emitted = 0.0;
     for (uint32_t i = 0; i < s->emitter_count; i++) {
-        uint32_t t = s->emitters[i];
-        vec3 e = s->emitter_radiance[i];
-        double l = ((double)e.x + e.y + e.z) / 3.0;
-        const pm_material *mat = &s->materials[pm_scene_triangle_material(s, t)];
-        emitted += l * pm_triangle_area(s, t) * (mat->double_sided ? 2.0 : 1.0);
-        vec3 f = mat->emission;
-        peak = fmax(peak, mat->emission_texture >= 0 ? ((double)f.x + f.y + f.z) / 3.0 : l);
+        const pm_material *m = &s->materials[pm_scene_triangle_material(s, s->emitters[i])];
+        peak = fmax(peak, v3_luminance(m->emission_texture >= 0 ? m->emission : s->emitter_radiance[i]));
     }
     double receiving = pm_scene_receiving_area(s);
-    if (emitted > 0.0) mean += receiving > 0.0 ? emitted / receiving : 0.0;
+    if (s->emitter_power > 0.f && receiving > 0.0) mean += s->emitter_power / (PM_PI * receiving);
     return mean > 0.0 ? peak / mean : INFINITY;
 }
 
