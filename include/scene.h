@@ -349,16 +349,22 @@ static inline uint32_t pm_scene_triangle_ids(const pm_scene *s) {
 static inline uint32_t pm_scene_flat_triangles(const pm_scene *s) {
     return s->instanced_mesh_count ? s->instanced_meshes[0].first_triangle : s->triangle_count;
 }
-/* The placement triangle id `id` lies in, -1 for a flat triangle. */
+/* The placement triangle id `id` lies in, -1 for a flat triangle. A mesh's placements are
+ * consecutive and its ids run through them in order, each placement as many as the mesh has
+ * triangles (the loader's place_instanced_meshes): the mesh is found among the few meshes, the
+ * placement by one division. Every hit asks several times, and a search over thousands of
+ * placements, its branches unpredictable, cost more than the rest of a photon's bounce. */
 static inline int32_t pm_scene_placement_of(const pm_scene *s, uint32_t id) {
     if (!s->placement_count || id < s->placements[0].first_id) return -1;
-    uint32_t lo = 0, hi = s->placement_count - 1;
-    while (lo < hi) { /* the last placement whose first_id <= id */
+    uint32_t lo = 0, hi = s->instanced_mesh_count - 1;
+    while (lo < hi) { /* the last mesh whose first placement's first_id <= id */
         uint32_t mid = lo + (hi - lo + 1) / 2;
-        if (s->placements[mid].first_id <= id) lo = mid;
+        if (s->placements[s->instanced_meshes[mid].first_placement].first_id <= id) lo = mid;
         else hi = mid - 1;
     }
-    return (int32_t)lo;
+    const pm_instanced_mesh *m = &s->instanced_meshes[lo];
+    uint32_t k = m->triangle_count ? (id - s->placements[m->first_placement].first_id) / m->triangle_count : 0;
+    return (int32_t)(m->first_placement + (k < m->placement_count ? k : m->placement_count - 1));
 }
 /* The stored triangle behind id, and its placement (-1 flat) in *placement when not NULL. */
 static inline uint32_t pm_scene_stored_triangle(const pm_scene *s, uint32_t id, int32_t *placement) {
@@ -410,12 +416,16 @@ static inline void pm_scene_triangle_corners(const pm_scene *s, uint32_t id, vec
     uint32_t stored = pm_scene_stored_triangle(s, id, &pl);
     pm_scene_stored_corners(s, stored, pl, p);
 }
+/* Stored triangle `stored`'s unit face normal through placement pl (-1: flat); face_normals must exist. */
+static inline vec3 pm_scene_stored_face_normal(const pm_scene *s, uint32_t stored, int32_t pl) {
+    return pl < 0 ? s->face_normals[stored] : pm_placement_normal(&s->placements[pl], s->face_normals[stored]);
+}
 /* Unit geometric normal in world space, glTF front side (face_normals through the placement; computed
  * from the corners when face_normals is missing). */
 static inline vec3 pm_scene_triangle_face_normal(const pm_scene *s, uint32_t id) {
     int32_t pl;
     uint32_t stored = pm_scene_stored_triangle(s, id, &pl);
-    if (s->face_normals) return pl < 0 ? s->face_normals[stored] : pm_placement_normal(&s->placements[pl], s->face_normals[stored]);
+    if (s->face_normals) return pm_scene_stored_face_normal(s, stored, pl);
     vec3 p[3];
     pm_scene_triangle_corners(s, id, p);
     /* a mirroring placement reverses the stored winding in world space */
@@ -562,15 +572,19 @@ uint64_t pm_scene_texture_bytes(const pm_scene *s);
  * and the material, then the shading normal (interpolated, on ng's side, before any normal map)
  * and the centroid. pm_scene_surface makes both; the photon pass makes the second only for a
  * path that goes on from the hit. */
-static inline void pm_scene_surface_point(const pm_scene *s, uint32_t tri, float b1, float b2, vec3 ng, pm_surface *out) {
+static inline void pm_scene_stored_surface_point(const pm_scene *s, uint32_t stored, int32_t pl, float b1, float b2, vec3 ng,
+                                                 pm_surface *out) {
     float b0 = 1.f - b1 - b2;
-    int32_t pl;
-    uint32_t stored = pm_scene_stored_triangle(s, tri, &pl); /* one placement search for the corners and the material */
     vec3 p[3];
     pm_scene_stored_corners(s, stored, pl, p);
     out->p = v3_add(v3_add(v3_scale(p[0], b0), v3_scale(p[1], b1)), v3_scale(p[2], b2));
     out->ng = ng;
     out->material = s->triangle_material[stored];
+}
+static inline void pm_scene_surface_point(const pm_scene *s, uint32_t tri, float b1, float b2, vec3 ng, pm_surface *out) {
+    int32_t pl;
+    uint32_t stored = pm_scene_stored_triangle(s, tri, &pl); /* one placement lookup for the corners and the material */
+    pm_scene_stored_surface_point(s, stored, pl, b1, b2, ng, out);
 }
 static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
     int32_t pl;
@@ -626,13 +640,15 @@ static inline void pm_material_uniform_scattering(const pm_material *m, pm_surfa
 }
 
 static inline bool pm_scene_surface_lean(const pm_scene *s, uint32_t tri, float b1, float b2, pm_surface *out) {
-    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
+    int32_t pl;
+    uint32_t stored = pm_scene_stored_triangle(s, tri, &pl); /* one lookup for the material, the normal and the point */
+    const pm_material *m = &s->materials[s->triangle_material[stored]];
     bool normal_mapped = m->normal_texture >= 0 && (uint32_t)m->normal_texture < s->texture_count && s->tangents;
     if (!m->uniform_split || normal_mapped || !s->face_normals) {
         pm_scene_surface_scattering(s, tri, b1, b2, out);
         return false;
     }
-    pm_scene_surface_point(s, tri, b1, b2, pm_scene_triangle_face_normal(s, tri), out);
+    pm_scene_stored_surface_point(s, stored, pl, b1, b2, pm_scene_stored_face_normal(s, stored, pl), out);
     pm_material_uniform_scattering(m, out);
     out->ior = m->ior > 0.f ? m->ior : 1.5f;
     out->thin = m->thin_walled;

@@ -490,7 +490,52 @@ static void test_extreme_placements(void) {
     }
 }
 
+/* Two meshes placed several times each, their nodes interleaved in the file (the floor of 2
+ * triangles four times, the torus three times): every triangle id's placement, found by one
+ * division within its mesh (pm_scene_placement_of), is the one a search over all placements finds,
+ * and the view's rays meet the same surfaces as in the flattened file. */
+static void test_two_meshes_placed(void) {
+    const char *nodes = ",{\"mesh\":1,\"translation\":[-2.5,0,0]},{\"mesh\":0,\"translation\":[0,-3,0]}"
+                        ",{\"mesh\":1,\"translation\":[0,0.2,1],\"scale\":[1.5,0.8,1.2]},{\"mesh\":0,\"translation\":[0,-5,0]}"
+                        ",{\"mesh\":1,\"translation\":[2.5,0,-1],\"scale\":[-1,1,1]},{\"mesh\":0,\"translation\":[0,-7,0]}";
+    char *text = make_gltf(nodes, ",2,3,4,5,6,7", "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.5,0.3,1],\"metallicFactor\":0}}", "3");
+    pm_scene inst, flat;
+    bool ok = load_text(text, false, &inst) & load_text(text, true, &flat);
+    free(text);
+    if (!ok) return;
+    CHECK(inst.instanced_mesh_count == 2 && inst.placement_count == 7, "two meshes: %u instanced meshes, %u placements (want 2, 7)",
+          inst.instanced_mesh_count, inst.placement_count);
+    int wrong = 0;
+    for (uint32_t id = 0; id < pm_scene_triangle_ids(&inst); id++) {
+        int32_t searched = -1;
+        for (uint32_t p = 0; p < inst.placement_count; p++)
+            if (inst.placements[p].first_id <= id) searched = (int32_t)p;
+        int32_t found;
+        uint32_t stored = pm_scene_stored_triangle(&inst, id, &found);
+        const pm_instanced_mesh *m = found >= 0 ? &inst.instanced_meshes[inst.placements[found].mesh] : NULL;
+        bool in_mesh = m ? stored >= m->first_triangle && stored < m->first_triangle + m->triangle_count : stored == id;
+        if ((found != searched || !in_mesh) && wrong++ < 3)
+            fprintf(stderr, "  id %u: placement %d, searched %d, stored %u\n", id, found, searched, stored);
+    }
+    CHECK(wrong == 0, "two meshes: %d triangle ids map to the wrong placement or stored triangle", wrong);
+    char err[256] = "";
+    if (wrong) { /* the surfaces would read another mesh's corners */
+        pm_scene_free(&inst);
+        pm_scene_free(&flat);
+        return;
+    }
+    CHECK(pm_scene_finalize(&inst, false, NULL) && pm_scene_finalize(&flat, false, NULL), "two meshes: finalize");
+    pm_accel *ai = pm_accel_create(&inst, err, sizeof err), *af = pm_accel_create(&flat, err, sizeof err);
+    CHECK(ai && af, "two meshes: accel: %s", err);
+    if (ai && af) compare_hits(&inst, ai, &flat, af, "two meshes", 1e-3f);
+    pm_accel_destroy(ai);
+    pm_accel_destroy(af);
+    pm_scene_free(&inst);
+    pm_scene_free(&flat);
+}
+
 int main(void) {
+    test_two_meshes_placed();
     test_same_as_flat(false, false, false);
     test_same_as_flat(true, false, false);
     test_same_as_flat(true, true, false);
