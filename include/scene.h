@@ -571,7 +571,8 @@ uint64_t pm_scene_texture_bytes(const pm_scene *s);
 /* The geometric part of a surface record in two steps: the point, the unit face normal ng (given)
  * and the material, then the shading normal (interpolated, on ng's side, before any normal map)
  * and the centroid. pm_scene_surface makes both; the photon pass makes the second only for a
- * path that goes on from the hit. */
+ * path that goes on from the hit; pm_scene_stored_surface_point takes a triangle already located
+ * (pm_scene_stored_triangle). */
 static inline void pm_scene_stored_surface_point(const pm_scene *s, uint32_t stored, int32_t pl, float b1, float b2, vec3 ng,
                                                  pm_surface *out) {
     float b0 = 1.f - b1 - b2;

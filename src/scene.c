@@ -8,6 +8,7 @@
 #include "memory.h"
 #include "defaults.h"
 
+#include <assert.h>
 #include <float.h>
 #include <pthread.h>
 #include <stdlib.h>
@@ -483,6 +484,16 @@ bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
             lo = v3_min(lo, p);
             hi = v3_max(hi, p);
         }
+    /* pm_scene_placement_of finds a placement by one division within its mesh: a mesh's placements
+     * are consecutive, and each takes as many ids as the mesh has triangles, in order */
+    for (uint32_t m = 0; m < s->instanced_mesh_count; m++) {
+        const pm_instanced_mesh *mesh = &s->instanced_meshes[m];
+        for (uint32_t k = 0; k < mesh->placement_count; k++) {
+            const pm_placement *pl = &s->placements[mesh->first_placement + k];
+            assert(pl->mesh == m && pl->first_id == s->placements[mesh->first_placement].first_id + k * mesh->triangle_count);
+            (void)pl;
+        }
+    }
     for (uint32_t i = 0; i < s->placement_count; i++) { /* every vertex of each placed mesh */
         const pm_instanced_mesh *m = &s->instanced_meshes[s->placements[i].mesh];
         for (uint32_t v = m->first_vertex; v < m->first_vertex + m->vertex_count; v++) {
