@@ -528,6 +528,27 @@ static void test_two_meshes_placed(void) {
     pm_accel *ai = pm_accel_create(&inst, err, sizeof err), *af = pm_accel_create(&flat, err, sizeof err);
     CHECK(ai && af, "two meshes: accel: %s", err);
     if (ai && af) compare_hits(&inst, ai, &flat, af, "two meshes", 1e-3f);
+    /* the packets' answers, coherent (in packets) and not (one by one through instances), are the single rays' */
+    enum { RAYS = 300 };
+    vec3 o[RAYS], d[RAYS];
+    bool hit[RAYS];
+    pm_hit hits[RAYS];
+    for (int i = 0; i < RAYS; i++) {
+        o[i] = v3(0.f, 2.f, 0.f);
+        d[i] = pm_sample_sphere((i % 20 + 0.5f) / 20, (i / 20 + 0.5f) / 15);
+    }
+    for (int coherent = 0; ai && coherent < 2; coherent++) {
+        pm_accel_intersect_packets(ai, RAYS, o, d, coherent, hit, hits);
+        int differ = 0, met = 0;
+        for (int i = 0; i < RAYS; i++) {
+            pm_hit one;
+            bool got = pm_accel_intersect(ai, o[i], d[i], INFINITY, &one);
+            met += got;
+            differ += got != hit[i] || (got && (one.tri != hits[i].tri || fabsf(one.t - hits[i].t) > 1e-5f * (1.f + one.t)));
+        }
+        CHECK(differ == 0 && met > RAYS / 4, "two meshes: %d of %d %s packet rays answer otherwise than alone (%d hits)", differ, RAYS,
+              coherent ? "coherent" : "unrelated", met);
+    }
     pm_accel_destroy(ai);
     pm_accel_destroy(af);
     pm_scene_free(&inst);
