@@ -353,7 +353,7 @@ static inline uint32_t pm_scene_flat_triangles(const pm_scene *s) {
  * consecutive and its ids run through them in order, each placement as many as the mesh has
  * triangles (the loader's place_instanced_meshes): the mesh is found among the few meshes, the
  * placement by one division. Every hit asks several times, and a search over thousands of
- * placements, its branches unpredictable, cost more than the rest of a photon's bounce. */
+ * placements, its branches unpredictable, costs more than the rest of a photon's bounce. */
 static inline int32_t pm_scene_placement_of(const pm_scene *s, uint32_t id) {
     if (!s->placement_count || id < s->placements[0].first_id) return -1;
     uint32_t lo = 0, hi = s->instanced_mesh_count - 1;
