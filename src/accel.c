@@ -409,6 +409,8 @@ static bool intersect_one(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit 
     return true;
 }
 
+/* The packets' one-by-one loop calls intersect_one, not this: bench/photon_ceiling.c wraps this
+ * symbol and the packets' to log each ray once. */
 bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *hit) { return intersect_one(a, o, d, tmax, hit); }
 
 /* A packet of the m <= PM_ACCEL_PACKET rays o[j], d[j]; lanes past m repeat the first ray (Embree
