@@ -201,6 +201,10 @@ typedef struct {
     bool has_unlit;          /* some triangle's material is unlit: the camera sees it without any light */
     bool caustics_possible;  /* some light can reach a specular surface and then a diffuse one */
     bool interreflection_possible; /* light reflected by a diffuse surface can reach a diffuse one again */
+    double receiving_area;   /* the area light can land on and be reflected from diffusely (triangles whose material has
+                                a diffuse or glossy share at some point, its textures' range of metallic and transmission
+                                included): the photon density that sets initial radii, the shadow photons' cell and the
+                                mean light (light_peak_over_mean) divide by it */
     double light_peak_over_mean; /* the brightest light's radiance over the mean the light arrives with, the sky's and
                                     the emitters' (scene.c); punctual lights are not in it (a delta is concentrated) */
     bool light_diffuse;      /* no punctual light, and no light (sky or emitting surface) brighter than PM_DIFFUSE_LIGHT_PEAK
@@ -314,11 +318,6 @@ double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo);
  * is a similarity (rotation, mirror, uniform scale) counts its mesh's area times its scale squared,
  * so the sum costs stored triangles plus placements, not placed triangles. */
 double pm_scene_area_where(const pm_scene *s, bool (*keep)(const pm_material *, const void *), const void *context);
-/* The area light can land on and be reflected from diffusely (triangles whose material has a diffuse
- * or glossy share at some point, its textures' range of metallic and transmission included): the
- * photon density that sets initial radii, the shadow photons' cell and the mean light
- * (light_peak_over_mean) divide by it. */
-double pm_scene_receiving_area(const pm_scene *s);
 /* Replaces the sky (the scene takes the map; NULL map = uniform, sky false = none) and analyses
  * the scene again: which components are possible depends on it. */
 void pm_scene_set_sky(pm_scene *s, bool sky, vec3 radiance, pm_sky_map *map);

@@ -197,7 +197,7 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
     p->slot_used[PM_SLOT_SPECULAR_CAUSTIC] = p->trace_caustic && specular;
     p->slot_used[PM_SLOT_INDIRECT] = p->trace_global && !p->gathering;
     p->slot_used[PM_SLOT_SPECULAR_INDIRECT] = p->trace_global && !p->gathering && specular;
-    p->diffuse_area = pm_scene_receiving_area(s);
+    p->diffuse_area = s->analysis.receiving_area;
     uint32_t guided = p->trace_global && !settings->unguided ? pm_photon_tracer_guided_sources(p->tracer) : 0;
     if (guided) {
         p->guiding = true;

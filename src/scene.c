@@ -140,7 +140,6 @@ static bool receives_light(const pm_material *m, const void *context) {
     return m->may_diffuse || m->may_glossy;
 }
 
-double pm_scene_receiving_area(const pm_scene *s) { return pm_scene_area_where(s, receives_light, NULL); }
 
 /* The brightest radiance any light sends (a sky map's brightest texel, an emitting triangle's
  * radiance) over the mean radiance the scene's light arrives with: the sky's mean plus the
@@ -149,7 +148,7 @@ double pm_scene_receiving_area(const pm_scene *s) { return pm_scene_area_where(s
  * its own channels' mean over theirs). A textured emitter counts its material's factor as its
  * peak: a texel reads at most 1, and a small bright spot in a dark texture must not pass for a
  * broad light by its triangle's mean. Infinite where nothing receives. */
-static double light_peak_over_mean(const pm_scene *s) {
+static double light_peak_over_mean(const pm_scene *s, double receiving) {
     double peak = 0.0, mean = 0.0;
     if (s->sky) {
         mean = v3_luminance(pm_scene_sky_mean(s));
@@ -159,7 +158,6 @@ static double light_peak_over_mean(const pm_scene *s) {
         const pm_material *m = &s->materials[pm_scene_triangle_material(s, s->emitters[i])];
         peak = fmax(peak, v3_luminance(m->emission_texture >= 0 ? m->emission : s->emitter_radiance[i]));
     }
-    double receiving = pm_scene_receiving_area(s);
     if (s->emitter_power > 0.f && receiving > 0.0) mean += s->emitter_power / (PM_PI * receiving);
     return mean > 0.0 ? peak / mean : INFINITY;
 }
@@ -185,7 +183,8 @@ static void analyse(pm_scene *s) {
     a->has_emissive_triangles = s->emitter_count > 0;
     a->has_punctual_lights = s->light_count > 0;
     a->has_sky = s->sky;
-    a->light_peak_over_mean = light_peak_over_mean(s);
+    a->receiving_area = pm_scene_area_where(s, receives_light, NULL);
+    a->light_peak_over_mean = light_peak_over_mean(s, a->receiving_area);
     a->light_diffuse = !a->has_punctual_lights && (a->has_sky || a->has_emissive_triangles) &&
                        a->light_peak_over_mean <= PM_DIFFUSE_LIGHT_PEAK;
     bool lit = a->has_emissive_triangles || a->has_punctual_lights || a->has_sky;

@@ -376,7 +376,7 @@ pm_shadow_map *pm_shadow_map_build(const pm_scene *s, const pm_accel *a, const p
      * one light on a surface where its records lie at their mean density */
     uint64_t records = 0;
     for (size_t t = 0; ok && t < tasks; t++) records += job->chunk_counts[t];
-    double area = pm_scene_receiving_area(s), density = area > 0.0 ? (double)records / s->light_count / area : 0.0;
+    double area = s->analysis.receiving_area, density = area > 0.0 ? (double)records / s->light_count / area : 0.0;
     double extent = s->ray_scale, cell = density > 0.0 ? sqrt(PM_SHADOW_LOOKUP_PHOTONS / (4.0 * density)) : extent;
     cell = fmin(fmax(cell, LAYERS * extent / ((1u << AXIS_BITS) - 4 * LAYERS)), extent);
     m->cell = (float)cell;

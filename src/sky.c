@@ -107,8 +107,9 @@ pm_sky_map *pm_sky_map_adopt(int width, int height, float *rgb, char *err, size_
         const float *row = m->rgb + 3 * (size_t)y * width;
         double run = 0.0;
         for (int x = 0; x < width; x++) {
-            run += texel_weight(row + 3 * x);
-            peak = fmax(peak, texel_weight(row + 3 * x));
+            double weight = texel_weight(row + 3 * x);
+            run += weight;
+            peak = fmax(peak, weight);
             for (int c = 0; c < 3; c++) mean[c] += row[3 * x + c] * omega;
         }
         /* a second pass, so that the partial sums reach the division in double rather than stored
