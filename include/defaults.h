@@ -122,6 +122,9 @@
 #define PM_PPM_CHOICE_MARGIN 2.0           /* ... and after n of each (from 2 on) where one's predicted relMSE is below the other's by a factor 1 + this / n ... */
 #define PM_PPM_CHOICE_HORIZON 256.0        /* ... for the lower predicted relMSE after this many iterations' worth of the photon gather's cost */
 #define PM_PPM_CHOICE_CAUSTIC_SHARE 0.01     /* ... and the photons are kept at once where mirrors or glass send this share of the light the photons bring to gather points */
+#define PM_PPM_TRIAL_ITERATIONS 16        /* the caustic trial: measured iterations of each arm, the caustic photons' and the path tracer's loop ... */
+#define PM_PPM_TRIAL_PIXELS 16384        /* ... over a grid of about this many pixels ... */
+#define PM_PPM_TRIAL_TAIL 4.0              /* ... each arm's caustic variance weighed this many times (rare bright samples, which a few iterations see less often than they come) */
 #define PM_DIFFUSE_LIGHT_PEAK 8.0f         /* light no brighter anywhere than this times the mean it arrives with is broad: the path tracer's alone (scene.h, light_diffuse) */
 #define PM_PPM_EXAMINED_COST 0.2           /* a photon within a disc's radius costs this many rays in that prediction (its tests and sum; measured on the window room, where the ground under the floor fills the discs) */
 #define PM_PPM_QUERY_COST 4.0              /* ... and a disc query (its clip's search or lookup, the grid's cells) this many (one thread's CPU time over counts: 3.2 on the point-lit room, 4.6 on the window room, 6.7 on the glossy spheres' lobes) */

@@ -59,6 +59,11 @@ typedef struct {
     int gather_rays;          /* final-gather rays per eye sample at the first diffuse hit */
     bool view_photons;        /* show the maps' estimates at the first diffuse hit, no shadow rays */
     bool path_trace;          /* the path tracer (--mode pathtrace): maps are ignored, see pm_eye_iterate */
+    /* with path_trace: the light a progressive visible point's continuation leaves to the caustic
+     * photons (met through specular and near-specular bounces between a path's first non-specular
+     * vertex and its second) goes to the caustic component whatever the first vertex was: the
+     * caustic trial's measure of what those photons would carry (progressive.c) */
+    bool caustic_apart;
     const pm_shadow_map *shadow; /* shadow photons; NULL: every punctual light sample casts its shadow ray */
     bool unclipped;           /* classic estimates read their whole disc, through walls (no clip.h): only to measure what clipping mends */
     double deadline;          /* CLOCK_MONOTONIC seconds (0 = none): tiles not started by then are left out (see above) */

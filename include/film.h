@@ -107,6 +107,11 @@ size_t pm_film_pixels_ahead(const pm_film *f);
  * own counts; zeros for an absent component and where a pixel holds nothing yet. The one way an
  * image leaves the film. */
 void pm_film_resolve(const pm_film *f, pm_component c, float *out);
+/* Statistics slot k's estimate folded into its component's sums, as if each of a pixel's samples
+ * had carried it, and the slot cleared: every pixel reads the same (to rounding), and from then on
+ * only samples add to it. For a run that stops gathering that slot's photons (the progressive
+ * mode's caustic trial). */
+void pm_film_fold_statistics(pm_film *f, pm_ppm_slot k);
 /* The sum of all components into out (3*w*h floats). It allocates nothing, so it cannot fail: the
  * true it returns is for callers written when it could. */
 bool pm_film_resolve_total(const pm_film *f, float *out);

@@ -76,6 +76,10 @@ typedef struct {
                                   radii of each rank shrink with the job's iterations, as one process's would, not with its own */
     bool unclipped;            /* estimates read their whole disc, through walls (no clip.h): only to measure what clipping costs and mends */
     bool unguided;             /* photons emitted without the learned guide (guide.h): only to measure what guiding gains */
+    /* the caustic photons stay wherever they are traced, with no caustic trial (progressive.c):
+     * under mpirun, where a rank that gave them up would dilute the others' caustic statistics in
+     * the merge (each rank's photon passes count in every pixel's) */
+    bool caustics_kept;
 } pm_progressive_settings;
 
 typedef struct {
@@ -99,6 +103,10 @@ typedef struct {
     double choice_relmse[2], choice_bias2, choice_cost[2];
     uint32_t choice_iterations;  /* learning iterations probed before the choice, both sources */
     uint32_t path_only_samples;  /* samples taken as the path tracer's eye pass alone, the choice made (progressive.c, begin_iteration) */
+    /* the caustic trial (progressive.c): -1 none run, 0 the caustic photons kept, 1 given up for the
+     * path tracer's loop; each arm's predicted error x cost and its cost per iteration */
+    int caustic_trial;
+    double caustic_trial_error[2], caustic_trial_cost[2];
     double choice_caustic_share; /* of the light the photons' measuring iterations gathered at the probed pixels'
                                   * gather points, the share that came off a mirror or glass last (0: none measured) */
 } pm_progressive_stats;

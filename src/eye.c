@@ -681,6 +681,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
     int seen = PM_DIRECT; /* from a visible point: set at the next diffuse vertex, before any light counts */
     bool lit_by_segment = start->from_camera;
     bool caustic_segment = start->caustics_read; /* no diffuse vertex yet since the visible point */
+    bool past_nonspecular = !start->from_camera; /* a non-specular vertex met (a visible point's continuation starts past one) */
     bool cone = start->from_camera; /* the pixel's cone, until the first diffuse or glossy bounce (level 0 after it) */
     float path_length = 0.f;
     surface_bounce next = *first; /* the camera ray, traced with its tile, or the visible point's direct light's */
@@ -702,8 +703,10 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
             out[here] = v3_add(out[here], v3_mul(v3_scale(throughput, ray.choice),
                                                  direct_light(s, job->accel, &sf, PM_LOBE_NONSPECULAR, wo, rng, rays,
                                                               job->settings->shadow, shadow_counts, &ray, goes_on ? &next : NULL)));
-            /* from a first-hit diffuse vertex, what specular bounces lead to is the caustic */
-            seen = depth == 0 ? PM_CAUSTIC : here;
+            /* from a first-hit diffuse vertex, what specular bounces lead to is the caustic (and
+             * from the first non-specular vertex behind specular ones, where it is measured apart) */
+            seen = depth == 0 || (job->settings->caustic_apart && !past_nonspecular) ? PM_CAUSTIC : here;
+            past_nonspecular = true;
             lit_by_segment = false;
             caustic_segment = false;
             cone = false;

@@ -2,6 +2,7 @@
 #include "film.h"
 #include "memory.h"
 
+#include <assert.h>
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -245,6 +246,25 @@ static void resolve_into(const pm_film *f, pm_component c, float *out, bool add)
 }
 
 void pm_film_resolve(const pm_film *f, pm_component c, float *out) { resolve_into(f, c, out, false); }
+
+void pm_film_fold_statistics(pm_film *f, pm_ppm_slot k) {
+    if (!f->ppm[k]) return;
+    pm_component c = pm_slot_component[k];
+    assert(f->sum[c]); /* a slot's component is enabled with it (pm_film_enable_ppm) */
+    size_t pixels = (size_t)f->width * f->height;
+    for (size_t i = 0; i < pixels; i++) {
+        pm_ppm_stat *st = &f->ppm[k][i];
+        uint32_t passes = f->photon_passes + (ahead_of(f, i) & PM_FILM_AHEAD_PHOTON_PASS ? 1u : 0u);
+        uint32_t samples = pm_film_samples_at(f, i);
+        if (st->r2 > 0.0 && passes && samples) {
+            double scale = (double)samples / (PM_PI * st->r2 * (double)passes);
+            vec3 v = {(float)fmin(st->tau[0] * scale, FLT_MAX), (float)fmin(st->tau[1] * scale, FLT_MAX),
+                      (float)fmin(st->tau[2] * scale, FLT_MAX)};
+            pm_film_add(f, c, i, v);
+        }
+        memset(st, 0, sizeof *st);
+    }
+}
 
 bool pm_film_resolve_total(const pm_film *f, float *out) {
     memset(out, 0, 3 * (size_t)f->width * f->height * sizeof(float));

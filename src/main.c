@@ -236,6 +236,7 @@ static int create_session(run_state *r, set_up_context *c) {
     pm_options_session_config(o, &r->scene, c->width, c->height, &config);
     o->seed = seed;
     config.progressive.radius_steps = (uint32_t)pm_cluster_size(c->cluster);
+    config.progressive.caustics_kept = pm_cluster_size(c->cluster) > 1;
     /* the window's --iterations is the whole image's too */
     if (config.max_iterations) {
         uint32_t share = pm_cluster_share(c->cluster, config.max_iterations);

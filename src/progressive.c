@@ -31,6 +31,8 @@
 #define MAX_THREADS PM_MAX_THREADS
 
 enum { KIND_CAUSTIC = 0, KIND_INDIRECT = 1, KIND_COUNT = 2 };
+/* the caustic trial's arms */
+enum { TRIAL_PHOTONS = 0, TRIAL_LOOP = 1 };
 enum { SEEN_GRID = 32, SEEN_POINTS = SEEN_GRID * SEEN_GRID };
 
 /* The noise of a sparse grid of pixels, split into the part eye passes can average away and the
@@ -40,7 +42,7 @@ enum { SEEN_GRID = 32, SEEN_POINTS = SEEN_GRID * SEEN_GRID };
  * statistics' estimate from this photon pass alone, Phi / (pi R^2) at the radius it was gathered
  * with). Relative, as relMSE: each variance over (mean^2 + 0.01). Only the first two samples of an
  * iteration are probed, and only in iterations that have two. */
-enum { PROBE_KEPT = 7, PROBE_ARRAYS = 6 + 2 * PROBE_KEPT };
+enum { PROBE_KEPT = 11, PROBE_ARRAYS = 8 + 2 * PROBE_KEPT };
 typedef struct {
     size_t count;                /* pixels probed */
     size_t *pixel;               /* which: a grid over the image */
@@ -52,9 +54,14 @@ typedef struct {
     double *mean, *m2;           /* Welford's running mean and squared deviations of the pair's mean over iterations */
     double *within;              /* the sum over iterations of (first - second)^2 / 2 */
     double *source_mean[2], *source_m2[2]; /* the same as mean and m2 over the learning iterations of each gather source */
+    /* the same over the caustic trial's iterations of each arm (TRIAL_*), of a pair less its
+     * caustic part (the caustic photons' share, or what the loop met there) */
+    double *trial_mean[2], *trial_m2[2];
     double *saved;               /* the kept arrays at the start of the running iteration, for a cancel to put back */
     double *gathered[2];         /* a photon measuring iteration's light at its gather points: all, and off a
                                     mirror or glass last (written by the pixel's own thread, summed in order) */
+    double *caustic_total;       /* a probed pixel's caustic sums so far, and its first sample's caustic part, */
+    double *caustic_first;       /* in the caustic trial's loop iterations */
     uint8_t *only;               /* one byte a pixel of the image, 1 at the probed ones: the photons' measuring
                                     iterations trace these alone (pm_eye_settings.only_pixels) */
     uint32_t pairs;              /* iterations probed */
@@ -82,6 +89,13 @@ typedef struct {
     double learn_cost[2];                /* their summed cost per pair of eye passes, in rays */
     double gathered_light[2];            /* the photons' measuring iterations' light at the probed pixels' gather
                                           * points: all of it, and what came off a mirror or glass last (keep_photons) */
+    /* the caustic trial (caustic_trial_due): its arms take turns, the caustic photons' iterations
+     * at even steps, the path tracer's loop's at odd ones */
+    bool caustic_decided;                /* the trial has decided, or none is run */
+    bool caustics_dropped;               /* the loop carries the caustics: no caustic photon is traced */
+    uint32_t trial_step;
+    uint32_t trial_learned[2];           /* probed iterations of each arm (TRIAL_PHOTONS, TRIAL_LOOP) */
+    double trial_cost[2];                /* their summed cost per pair of eye passes, in rays */
 } radius_state;
 
 struct pm_progressive {
@@ -116,6 +130,17 @@ struct pm_progressive {
     int seen_count[2];
     double seen_density[SEEN_POINTS];    /* seen_density_radius2's, per point */
     radius_state radii;                  /* what an iteration changes besides the film, the probe and the guide */
+    /* the caustic trial's measure of the caustic part (allocated while it runs), over a grid of
+     * up to PM_PPM_TRIAL_PIXELS pixels (pixel[], marked in `only` with the probe's): each one's
+     * relMSE weight, its caustic sums and statistics before the iteration, and the sum of its
+     * caustic part per arm; the weighted squares per arm */
+    struct {
+        size_t count, *pixel;
+        uint8_t *only;
+        size_t traced;                   /* pixels marked in only */
+        float *weight, *before_sum, *before_stats, *sum[2];
+        double square[2];
+    } whole;
     noise_probe probe;                   /* automatic eye passes only */
     pm_photon_buffer buffer[KIND_COUNT]; /* this iteration's photons, reused */
     pm_photon_grid grid[KIND_COUNT];
@@ -222,6 +247,7 @@ void pm_progressive_destroy(pm_progressive *p) {
         pm_photon_grid_free(&p->grid[k]);
     }
     free(p->splats.data);
+    free(p->whole.pixel);
     probe_free(&p->probe);
     pm_marks_free(&p->marks);
     pm_marks_free(&p->marks_next);
@@ -240,7 +266,8 @@ static bool traces_global(const pm_progressive *p, pm_gather_source source) {
 
 uint64_t pm_progressive_photons_per_iteration(const pm_progressive *p) {
     pm_gather_source source = p->radii.gather_chosen ? p->radii.gather_source : PM_GATHER_PHOTONS;
-    return (p->trace_caustic ? p->settings.caustic_photons : 0) + (traces_global(p, source) ? p->settings.photons : 0);
+    bool caustic = p->trace_caustic && !p->radii.caustics_dropped;
+    return (caustic ? p->settings.caustic_photons : 0) + (traces_global(p, source) ? p->settings.photons : 0);
 }
 
 uint32_t pm_progressive_eye_passes(const pm_progressive *p) { return p->radii.eye_passes; }
@@ -269,6 +296,21 @@ static double probed_total(const pm_film *film, size_t pixel) {
     return t / 3.0;
 }
 
+/* A pixel's sums of one component so far, the mean of its channels. */
+static double probed_component(const pm_film *film, size_t pixel, pm_component c) {
+    double t = 0.0;
+    if (film->sum[c])
+        for (int ch = 0; ch < 3; ch++) t += pm_film_sum_at(film, c, 3 * pixel + ch);
+    return t / 3.0;
+}
+
+/* Welford's step: x, the (n + 1)-th value, into a running mean and sum of squared deviations. */
+static void running_add(double *mean, double *m2, double x, double n) {
+    double d = x - *mean;
+    *mean += d / (n + 1.0);
+    *m2 += d * (x - *mean);
+}
+
 /* A pixel's statistics as a sum over photon passes: tau / (pi R^2) over slots, the mean of its channels. */
 static double probed_statistics(const pm_film *film, size_t pixel) {
     double t = 0.0;
@@ -279,13 +321,25 @@ static double probed_statistics(const pm_film *film, size_t pixel) {
     return t / 3.0;
 }
 
-/* A grid of about PM_PPM_PROBE_PIXELS pixels, evenly over the image's width and height. */
+/* A grid of about `target` pixels, evenly over the image's width and height: nx x ny of them, the
+ * (x, y)-th at grid_pixel. */
+static void grid_size(int width, int height, int target, int *nx, int *ny) {
+    int x = (int)fmax(1.0, floor(sqrt((double)target * width / height) + 0.5));
+    x = x < width ? x : width;
+    int y = (int)fmax(1.0, floor((double)target / x + 0.5));
+    y = y < height ? y : height;
+    if (x > target / y) x = target / y > 1 ? target / y : 1; /* a very wide image */
+    *nx = x;
+    *ny = y;
+}
+static size_t grid_pixel(int width, int height, int nx, int ny, int x, int y) {
+    return (size_t)((2 * y + 1) * height / (2 * ny)) * width + (size_t)((2 * x + 1) * width / (2 * nx));
+}
+
+/* The noise probe: a grid of about PM_PPM_PROBE_PIXELS pixels. */
 static bool probe_alloc(noise_probe *pr, int width, int height) {
-    int nx = (int)fmax(1.0, floor(sqrt((double)PM_PPM_PROBE_PIXELS * width / height) + 0.5)), ny;
-    nx = nx < width ? nx : width;
-    ny = (int)fmax(1.0, floor((double)PM_PPM_PROBE_PIXELS / nx + 0.5));
-    ny = ny < height ? ny : height;
-    if (nx > PM_PPM_PROBE_PIXELS / ny) nx = PM_PPM_PROBE_PIXELS / ny > 1 ? PM_PPM_PROBE_PIXELS / ny : 1; /* a very wide image */
+    int nx, ny;
+    grid_size(width, height, PM_PPM_PROBE_PIXELS, &nx, &ny);
     pr->count = (size_t)nx * ny;
     pr->columns = nx;
     pr->pixel = pm_malloc(pr->count * sizeof(size_t), "noise probe");
@@ -294,7 +348,7 @@ static bool probe_alloc(noise_probe *pr, int width, int height) {
     if (!pr->pixel || !pr->total || !pr->only) return false;
     for (int y = 0; y < ny; y++)
         for (int x = 0; x < nx; x++) {
-            size_t pixel = (size_t)((2 * y + 1) * height / (2 * ny)) * width + (size_t)((2 * x + 1) * width / (2 * nx));
+            size_t pixel = grid_pixel(width, height, nx, ny, x, y);
             pr->pixel[(size_t)y * nx + x] = pixel;
             pr->only[pixel] = 1;
         }
@@ -308,9 +362,15 @@ static bool probe_alloc(noise_probe *pr, int width, int height) {
     pr->source_mean[1] = pr->source_mean[0] + pr->count;
     pr->source_m2[0] = pr->source_mean[1] + pr->count;
     pr->source_m2[1] = pr->source_m2[0] + pr->count;
-    pr->saved = pr->source_m2[1] + pr->count; /* PROBE_KEPT arrays from mean on */
+    for (int arm = 0; arm < 2; arm++) {
+        pr->trial_mean[arm] = (arm ? pr->trial_m2[0] : pr->source_m2[1]) + pr->count;
+        pr->trial_m2[arm] = pr->trial_mean[arm] + pr->count;
+    }
+    pr->saved = pr->trial_m2[1] + pr->count; /* PROBE_KEPT arrays from mean on */
     pr->gathered[0] = pr->saved + PROBE_KEPT * pr->count;
     pr->gathered[1] = pr->gathered[0] + pr->count;
+    pr->caustic_total = pr->gathered[1] + pr->count;
+    pr->caustic_first = pr->caustic_total + pr->count;
     return true;
 }
 
@@ -331,6 +391,7 @@ static void probe_begin(noise_probe *pr, const pm_film *film) {
     for (size_t i = 0; i < pr->count; i++) {
         pr->total[i] = probed_total(film, pr->pixel[i]);
         pr->statistics[i] = probed_statistics(film, pr->pixel[i]);
+        pr->caustic_total[i] = probed_component(film, pr->pixel[i], PM_CAUSTIC);
     }
 }
 
@@ -356,8 +417,11 @@ static void probe_splats(noise_probe *pr, const pm_film *film, const pm_splat_bu
 /* After each of the first two eye passes of an iteration: the pair's mean goes into the running
  * variance over iterations (Vp + Ve / 2: what photons and eye passes leave together), their
  * difference into the variance within an iteration (Ve: what eye passes leave, the photons being
- * the same). Both from the same samples, so that a rare bright sample weighs in both alike. */
-static void probe_eye_pass(noise_probe *pr, const pm_film *film, uint32_t pass, int learning, uint32_t learned) {
+ * the same). Both from the same samples, so that a rare bright sample weighs in both alike. In the
+ * caustic trial's photon iterations (trial: the arm's iterations probed so far, else -1) the
+ * pair less the caustic photons' share (their splats and statistics, the same for both samples)
+ * is kept apart too. */
+static void probe_eye_pass(noise_probe *pr, const pm_film *film, uint32_t pass, int learning, uint32_t learned, int trial) {
     for (size_t i = 0; i < pr->count; i++) {
         if (pass == 0) /* the statistics were updated by this eye pass, once for the iteration */
             pr->shared[i] += probed_statistics(film, pr->pixel[i]) - pr->statistics[i];
@@ -376,8 +440,28 @@ static void probe_eye_pass(noise_probe *pr, const pm_film *film, uint32_t pass, 
             *m += dl / (learned + 1.0);
             pr->source_m2[learning][i] += dl * (pair - *m);
         }
+        if (trial >= 0) running_add(&pr->trial_mean[TRIAL_PHOTONS][i], &pr->trial_m2[TRIAL_PHOTONS][i], pair - pr->shared[i], trial);
     }
     if (pass == 1) pr->pairs++;
+}
+
+/* After each of the first two eye passes of the caustic trial's loop iterations (the path
+ * tracer's loop, which puts what the caustic photons would carry into the caustic component,
+ * pm_eye_settings.caustic_apart): the pair less its caustic part, as the photons' arm's. */
+static void probe_trial_loop_pass(noise_probe *pr, const pm_film *film, uint32_t pass, uint32_t learned) {
+    for (size_t i = 0; i < pr->count; i++) {
+        double now = probed_total(film, pr->pixel[i]), caustic_now = probed_component(film, pr->pixel[i], PM_CAUSTIC);
+        double y = now - pr->total[i], caustic = caustic_now - pr->caustic_total[i];
+        pr->total[i] = now;
+        pr->caustic_total[i] = caustic_now;
+        if (pass == 0) {
+            pr->first[i] = y;
+            pr->caustic_first[i] = caustic;
+            continue;
+        }
+        double pair = 0.5 * (pr->first[i] + y), pair_caustic = 0.5 * (pr->caustic_first[i] + caustic);
+        running_add(&pr->trial_mean[TRIAL_LOOP][i], &pr->trial_m2[TRIAL_LOOP][i], pair - pair_caustic, learned);
+    }
 }
 
 /* Eye passes per photon pass for the next iteration. One iteration of K eye passes has variance
@@ -497,6 +581,130 @@ static bool choose_gather(pm_progressive *p) {
     return true;
 }
 
+/* A pixel's caustic light so far, the mean of its channels: its caustic sums, and its caustic
+ * statistics as tau / (pi R^2) (a sum over photon passes), seen directly and behind specular. */
+static double caustic_sums(const pm_film *f, size_t i) { return probed_component(f, i, PM_CAUSTIC); }
+static double caustic_statistics(const pm_film *f, size_t i) {
+    double t = 0.0;
+    const int slots[2] = {PM_SLOT_CAUSTIC, PM_SLOT_SPECULAR_CAUSTIC};
+    for (int k = 0; k < 2; k++) {
+        const pm_ppm_stat *st = f->ppm[slots[k]] ? &f->ppm[slots[k]][i] : NULL;
+        if (st && st->r2 > 0.0) t += (st->tau[0] + st->tau[1] + st->tau[2]) / (PM_PI * st->r2);
+    }
+    return t / 3.0;
+}
+
+static void whole_free(pm_progressive *p) {
+    free(p->whole.pixel);
+    memset(&p->whole, 0, sizeof p->whole);
+}
+
+/* The trial's grid, its buffers (one block) and each pixel's relMSE weight, from the image so far. */
+static bool whole_begin(pm_progressive *p, const pm_film *film) {
+    if (p->whole.pixel) return true;
+    int nx, ny;
+    grid_size(film->width, film->height, PM_PPM_TRIAL_PIXELS, &nx, &ny);
+    size_t n = (size_t)nx * ny;
+    p->whole.pixel = pm_calloc(1, n * (sizeof(size_t) + 5 * sizeof(float)) + p->pixels, "caustic trial");
+    if (!p->whole.pixel) return false;
+    p->whole.count = n;
+    p->whole.weight = (float *)(p->whole.pixel + n);
+    p->whole.before_sum = p->whole.weight + n;
+    p->whole.before_stats = p->whole.before_sum + n;
+    p->whole.sum[0] = p->whole.before_stats + n;
+    p->whole.sum[1] = p->whole.sum[0] + n;
+    p->whole.only = (uint8_t *)(p->whole.sum[1] + n);
+    for (int y = 0; y < ny; y++)
+        for (int x = 0; x < nx; x++) p->whole.pixel[(size_t)y * nx + x] = grid_pixel(film->width, film->height, nx, ny, x, y);
+    /* the loop's iterations trace these and the probe's pixels, whose rest it measures */
+    memcpy(p->whole.only, p->probe.only, p->pixels);
+    p->whole.traced = p->probe.count;
+    for (size_t i = 0; i < n; i++) {
+        size_t px = p->whole.pixel[i];
+        p->whole.traced += !p->whole.only[px];
+        p->whole.only[px] = 1;
+        double m = probed_total(film, px) / (film->samples ? film->samples : 1u) + probed_statistics(film, px) / (film->photon_passes ? film->photon_passes : 1u);
+        p->whole.weight[i] = (float)(1.0 / (m * m + 0.01));
+    }
+    return true;
+}
+
+static void whole_before(pm_progressive *p, const pm_film *film) {
+    for (size_t i = 0; i < p->whole.count; i++) {
+        p->whole.before_sum[i] = (float)caustic_sums(film, p->whole.pixel[i]);
+        p->whole.before_stats[i] = (float)caustic_statistics(film, p->whole.pixel[i]);
+    }
+}
+
+/* After a trial iteration of K eye passes: each pixel's caustic part of the iteration's mean sample. */
+static void whole_after(pm_progressive *p, const pm_film *film, int arm, uint32_t passes) {
+    double square = 0.0;
+    for (size_t i = 0; i < p->whole.count; i++) {
+        size_t px = p->whole.pixel[i];
+        double x = (caustic_sums(film, px) - p->whole.before_sum[i]) / passes + (caustic_statistics(film, px) - p->whole.before_stats[i]);
+        square += p->whole.weight[i] * x * x;
+        p->whole.sum[arm][i] += (float)x;
+    }
+    p->whole.square[arm] += square;
+}
+
+/* Whether the caustic trial runs now: the path tracer's light chosen by the measurement, caustic
+ * photons traced beside it for the light its continuation leaves them, and nothing else that
+ * needs photons (reset_state rules out what never changes in a run). */
+static bool caustic_trial_due(const pm_progressive *p) {
+    const radius_state *rs = &p->radii;
+    return !rs->caustic_decided && rs->gather_chosen && rs->gather_source == PM_GATHER_PATH;
+}
+
+/* The caustic trial's decision, after PM_PPM_TRIAL_ITERATIONS measured iterations of each arm:
+ * whether the caustic photons go on carrying the light that mirrors, glass and sharp lobes bring
+ * to visible points, or the path tracer's loop takes it too (its continuation then adds what the
+ * photons did: --mode pathtrace's samples). Both arms estimate the same pixels with the same
+ * direct light and continuation and differ in that light alone, so a pair's variance is split:
+ * - the rest of the pair (its total less its caustic part), at the probed pixels, pooled over both
+ *   arms;
+ * - the caustic part over the whole image (whole_after): the photons' splats and statistics, or
+ *   what the loop met there (pm_eye_settings.caustic_apart). Either is rare bright samples in
+ *   some scenes (the loop's cosine bounce finding a small light through a sharp lobe, the
+ *   photons' splats through one), which a few iterations at a thousand pixels miss and the whole
+ *   image's thousands of pixels do not, and which are still seen less often than they come: each
+ *   arm's is weighed PM_PPM_TRIAL_TAIL times.
+ * Relative as relMSE (each pixel over mean^2 + 0.01), each arm's error for a pair of eye passes
+ * times its cost in rays (the photons' arm with its caustic pass). Given up, the caustic
+ * statistics the film holds are folded into its sums (pm_film_fold_statistics), so the image
+ * keeps what they gathered, and every iteration after is the loop's. */
+static void choose_caustics(pm_progressive *p, pm_film *film) {
+    const noise_probe *pr = &p->probe;
+    radius_state *rs = &p->radii;
+    double n[2] = {rs->trial_learned[TRIAL_PHOTONS], rs->trial_learned[TRIAL_LOOP]};
+    double rest = 0.0, caustic[2];
+    for (size_t i = 0; i < pr->count; i++) {
+        double m = 0.5 * (pr->trial_mean[TRIAL_PHOTONS][i] + pr->trial_mean[TRIAL_LOOP][i]);
+        for (int arm = 0; arm < 2; arm++) rest += 0.5 * pr->trial_m2[arm][i] / (n[arm] - 1.0) / (m * m + 0.01);
+    }
+    rest /= pr->count ? (double)pr->count : 1.0;
+    for (int arm = 0; arm < 2; arm++) {
+        double means = 0.0;
+        for (size_t i = 0; i < p->whole.count; i++) means += p->whole.weight[i] * (double)p->whole.sum[arm][i] * p->whole.sum[arm][i];
+        caustic[arm] = fmax(p->whole.square[arm] - means / n[arm], 0.0) / (n[arm] - 1.0) / (double)p->whole.count;
+    }
+    whole_free(p);
+    double cost[2], err[2];
+    for (int arm = 0; arm < 2; arm++) {
+        cost[arm] = rs->trial_cost[arm] / n[arm];
+        err[arm] = (rest + PM_PPM_TRIAL_TAIL * caustic[arm]) * cost[arm];
+        p->stats.caustic_trial_error[arm] = err[arm];
+        p->stats.caustic_trial_cost[arm] = cost[arm];
+    }
+    rs->caustic_decided = true;
+    rs->caustics_dropped = err[TRIAL_LOOP] < err[TRIAL_PHOTONS];
+    p->stats.caustic_trial = rs->caustics_dropped ? 1 : 0;
+    if (rs->caustics_dropped) {
+        pm_film_fold_statistics(film, PM_SLOT_CAUSTIC);
+        pm_film_fold_statistics(film, PM_SLOT_SPECULAR_CAUSTIC);
+    }
+}
+
 /* ---- restarts ---- */
 
 /* The mean pixel footprint (the first radius of a visible point seen directly) over a sparse grid
@@ -599,6 +807,16 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     p->radii.gathered_light[0] = p->radii.gathered_light[1] = 0.0;
     p->stats.gather_source = p->radii.gather_chosen ? (p->gathering ? (int)p->radii.gather_source : -1) : -2;
     if (p->path_alone) p->stats.gather_source = PM_GATHER_PATH;
+    /* the caustic trial, where the path tracer's light may be chosen beside caustic photons that
+     * nothing else needs (caustic_trial_due) */
+    p->radii.caustic_decided = !(forced == PM_GATHER_AUTO && p->gathering && p->probe.total && p->trace_caustic &&
+                                 !p->punctual_specular && !p->settings.caustics_kept);
+    p->radii.caustics_dropped = false;
+    p->radii.trial_step = 0;
+    p->radii.trial_learned[0] = p->radii.trial_learned[1] = 0;
+    p->radii.trial_cost[0] = p->radii.trial_cost[1] = 0.0;
+    p->stats.caustic_trial = -1;
+    whole_free(p);
 }
 
 bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err_size) {
@@ -1093,7 +1311,10 @@ typedef struct {
     uint32_t iteration;                  /* the film's photon passes when it began */
     uint32_t eye_passes;                 /* asked of this iteration */
     bool learning;                       /* one of the gather source's learning iterations (begin_iteration) */
-    bool measure_only;                   /* the photons' learning iteration: probed pixels alone, film put back */
+    bool measure_only;                   /* the photons' learning iteration, or the caustic trial's loop iteration:
+                                          * probed pixels alone, film put back */
+    bool trial;                          /* one of the caustic trial's iterations (caustic_trial_due) ... */
+    bool trial_loop;                     /* ... its path tracer's loop arm */
     bool probing;                        /* the noise probe runs (automatic eye passes) */
     bool path_only;                      /* the path tracer's light chosen and no photon to trace: the
                                           * eye passes alone, as --mode pathtrace's (begin_iteration) */
@@ -1137,11 +1358,16 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
     it->learning = !chosen && it->iteration > 0 && !(max_samples && max_samples < 2);
     it->source = chosen ? p->radii.gather_source
                         : (it->learning && p->radii.learn_step % 2 ? PM_GATHER_PHOTONS : PM_GATHER_PATH);
-    it->measure_only = it->learning && it->source == PM_GATHER_PHOTONS;
+    it->trial = caustic_trial_due(p) && !(max_samples && max_samples < 2);
+    if (it->trial && !whole_begin(p, film)) it->trial = false;
+    if (it->trial) whole_before(p, film);
+    it->trial_loop = it->trial && p->radii.trial_step % 2 == 1;
+    it->measure_only = (it->learning && it->source == PM_GATHER_PHOTONS) || it->trial_loop;
     it->deadline = p->eye.deadline;
     p->eye.gather_source = it->source;
     p->eye.gather_punctual_specular = p->punctual_specular;
     if (it->learning && it->eye_passes < 2) it->eye_passes = 2;
+    if (it->trial) it->eye_passes = 2; /* each arm measured by pairs (choose_caustics) */
     it->t0 = pm_now_seconds();
     it->photon_rays_before = p->stats.photons.rays;
     it->eye_rays_before = p->stats.eye.rays;
@@ -1162,12 +1388,13 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
      * photon is traced (path_alone). */
     const pm_scene_analysis *an = &p->scene->analysis;
     bool nothing_for_photons = !an->component_possible[PM_CAUSTIC] && !an->component_possible[PM_INDIRECT];
-    it->path_only = p->path_alone || nothing_for_photons ||
+    it->path_only = p->path_alone || nothing_for_photons || p->radii.caustics_dropped || it->trial_loop ||
                     (chosen && it->source == PM_GATHER_PATH && p->gathering && !an->component_possible[PM_CAUSTIC] &&
                      !p->punctual_specular);
     p->eye.path_trace = it->path_only;
-    it->probing = p->probe.total != NULL && !it->path_only;
-    keep_start(p, film, it->path_only, &it->start);
+    p->eye.caustic_apart = it->trial_loop;
+    it->probing = p->probe.total != NULL && (!it->path_only || it->trial_loop);
+    keep_start(p, film, it->path_only && !it->trial_loop, &it->start);
     if (it->probing) probe_begin(&p->probe, film);
 }
 
@@ -1188,7 +1415,8 @@ static phase_result trace_photon_passes(pm_progressive *p, pm_film *film, iterat
                                   photons_to_emit(set, set->photons, it->iteration)};
     it->to_whole[KIND_CAUSTIC] = whole_over_asked(set->caustic_photons, asked[KIND_CAUSTIC]);
     it->to_whole[KIND_INDIRECT] = whole_over_asked(set->photons, asked[KIND_INDIRECT]);
-    if (p->trace_caustic) {
+    p->splats.count = 0;
+    if (p->trace_caustic && !it->path_only) {
         pm_photon_tracer_set_splats(p->tracer, p->splatting ? &p->camera : NULL, film->width, film->height, &p->splats);
         ok = pm_photon_tracer_trace_into(p->tracer, true, asked[KIND_CAUSTIC], seed, caustic, &p->stats.photons);
     }
@@ -1314,14 +1542,18 @@ static phase_result run_eye_passes(pm_progressive *p, pm_film *film, iteration_r
     bool photons_here = job->caustic || job->global;
     /* the photons' measuring iteration traces the probed pixels alone: its samples are read there
      * and nowhere else, and its cost is counted as the whole image's (eye_scale) */
-    it->eye_scale = it->measure_only ? (double)p->pixels / (double)p->probe.count : 1.0;
-    job->measure_caustic = it->measure_only && p->caustic_surfaces;
+    it->eye_scale = 1.0;
+    if (it->measure_only) {
+        size_t traced = it->trial_loop ? p->whole.traced : p->probe.count;
+        it->eye_scale = (double)p->pixels / (double)traced;
+    }
+    job->measure_caustic = it->learning && it->measure_only && p->caustic_surfaces;
     if (job->measure_caustic) memset(p->probe.gathered[0], 0, 2 * p->probe.count * sizeof(double));
     if (it->measure_only) {
         if (!pm_film_open_copy(film)) { free(job); return PHASE_FAILED; }
         pm_film_save_rect(film, 0, 0, film->width, film->height);
         p->eye.deadline = 0.0;
-        p->eye.only_pixels = p->probe.only;
+        p->eye.only_pixels = it->trial_loop ? p->whole.only : p->probe.only;
     }
     phase_result result = PHASE_DONE;
     for (uint32_t pass = 0; pass < it->eye_passes && !it->cut; pass++) {
@@ -1347,10 +1579,13 @@ static phase_result run_eye_passes(pm_progressive *p, pm_film *film, iteration_r
         film->samples++;
         if (pass == 0) film->photon_passes++;
         it->whole_passes++;
-        if (it->probing && pass < 2)
-            probe_eye_pass(&p->probe, film, pass, it->learning ? (int)it->source : -1, p->radii.learned[it->source]);
+        if (it->probing && pass < 2 && it->trial_loop)
+            probe_trial_loop_pass(&p->probe, film, pass, p->radii.trial_learned[TRIAL_LOOP]);
+        else if (it->probing && pass < 2)
+            probe_eye_pass(&p->probe, film, pass, it->learning ? (int)it->source : -1, p->radii.learned[it->source],
+                           it->trial ? (int)p->radii.trial_learned[TRIAL_PHOTONS] : -1);
     }
-    if (result == PHASE_DONE && p->splatting) add_splats(p, film, it->whole_passes, it->cut);
+    if (result == PHASE_DONE && p->splatting && !it->path_only) add_splats(p, film, it->whole_passes, it->cut);
     p->eye.deadline = it->deadline;
     p->eye.only_pixels = NULL;
     if (result == PHASE_DONE) add_gather_counters(p, job);
@@ -1358,9 +1593,9 @@ static phase_result run_eye_passes(pm_progressive *p, pm_film *film, iteration_r
     return result;
 }
 
-/* A learning iteration's cost for a pair of eye passes, in rays, for choose_gather; once both
- * sources are learned the choice is made and the eye passes are learned again on it alone. */
-static void learn_gather_cost(pm_progressive *p, const iteration_run *it) {
+/* A measured iteration's cost for a pair of eye passes, in rays: its photon passes and two eye
+ * passes with their gathers. */
+static double pair_cost(const pm_progressive *p, const iteration_run *it) {
     double passes = (double)it->whole_passes;
     /* a shadow test the shadow photons decided counts as the ray it saved: whether they are
      * built is measured in seconds (shadowmap.c), and the choice must not depend on it */
@@ -1369,7 +1604,13 @@ static void learn_gather_cost(pm_progressive *p, const iteration_run *it) {
                  PM_PPM_EXAMINED_COST * (double)(p->stats.photons_examined - it->examined_before) +
                  PM_PPM_QUERY_COST * (double)(p->stats.disc_queries - it->queries_before);
     eye *= it->eye_scale; /* a measuring iteration's eye passes cost what they would over the whole image */
-    p->radii.learn_cost[it->source] += (double)(p->stats.photons.rays - it->photon_rays_before) + 2.0 * eye / passes;
+    return (double)(p->stats.photons.rays - it->photon_rays_before) + 2.0 * eye / passes;
+}
+
+/* A learning iteration's cost, for choose_gather; once both sources are learned the choice is
+ * made and the eye passes are learned again on it alone. */
+static void learn_gather_cost(pm_progressive *p, const iteration_run *it) {
+    p->radii.learn_cost[it->source] += pair_cost(p, it);
     p->radii.learned[it->source]++;
     if (it->measure_only && p->caustic_surfaces)
         for (size_t i = 0; i < p->probe.count; i++) {
@@ -1380,6 +1621,15 @@ static void learn_gather_cost(pm_progressive *p, const iteration_run *it) {
         memset(p->probe.mean, 0, 3 * p->probe.count * sizeof(double));
         p->probe.pairs = 0;
     }
+}
+
+/* A caustic trial iteration's cost, and the decision once both arms are measured (choose_caustics). */
+static void learn_caustic_trial(pm_progressive *p, pm_film *film, const iteration_run *it) {
+    int arm = it->trial_loop ? TRIAL_LOOP : TRIAL_PHOTONS;
+    p->radii.trial_cost[arm] += pair_cost(p, it);
+    p->radii.trial_learned[arm]++;
+    if (p->radii.trial_learned[TRIAL_PHOTONS] >= PM_PPM_TRIAL_ITERATIONS && p->radii.trial_learned[TRIAL_LOOP] >= PM_PPM_TRIAL_ITERATIONS)
+        choose_caustics(p, film);
 }
 
 /* Phase 5: what the next iteration starts from: the shrunk gather radius, the guide's marks, the
@@ -1403,16 +1653,19 @@ static void end_iteration(pm_progressive *p, pm_film *film, const iteration_run 
         p->marks = p->marks_next;
         p->marks_next = swap;
     }
-    if (it->path_only) p->stats.path_only_samples += it->whole_passes;
+    if (it->path_only && !it->measure_only) p->stats.path_only_samples += it->whole_passes;
     if (it->learning && !it->cut) p->radii.learn_step++;
     if (it->learning && it->probing && it->whole_passes >= 2) learn_gather_cost(p, it);
+    if (it->trial && !it->cut && it->whole_passes >= 2) whole_after(p, film, it->trial_loop ? TRIAL_LOOP : TRIAL_PHOTONS, it->whole_passes);
     if (it->measure_only) {
         /* the photons' learning iteration leaves the image as it found it (see begin_iteration) */
         pm_film_restore_rect(film, 0, 0, film->width, film->height);
         film->samples = it->start.samples;
         film->photon_passes = it->start.photon_passes;
     }
-    if (it->probing && !it->cut)
+    if (it->trial && !it->cut) p->radii.trial_step++;
+    if (it->trial && it->probing && it->whole_passes >= 2) learn_caustic_trial(p, film, it);
+    if (it->probing && !it->cut && !it->trial_loop)
         p->radii.eye_passes = choose_eye_passes(&p->probe, film->photon_passes, it->photon_rays,
                                                 it->eye_scale * (double)(p->stats.eye.rays - it->eye_rays_before) / it->eye_passes);
     /* a learning iteration needs a pair of eye passes, and the session plans as many as asked for

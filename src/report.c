@@ -69,7 +69,7 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
                pm_progressive_projection_fraction(progressive), (unsigned long long)ph->dropped);
         pm_radius_summary r = pm_progressive_radii(progressive, film);
         double useful = ps->photons_stored ? (double)ps->photons_read / (double)ps->photons_stored : 0.0;
-        printf("stat progressive iterations=%u photons_per_iteration=%llu alpha=%.4f radius_initial=%.6g radius_mean=%.6g radius_min=%.6g radius_max=%.6g gather_radius=%.6g gather_seconds=%.4f photons_found=%llu caustic_splats=%llu photon_passes=%u eye_passes_next=%u useful_share=%.4f useful_photons_per_second=%.0f clip_rays=%llu gather_source=%s choice_relmse_photons=%.6g choice_relmse_path=%.6g choice_bias2=%.6g choice_cost_photons=%.0f choice_cost_path=%.0f choice_iterations=%u photons_examined=%llu disc_queries=%llu choice_caustic_share=%.4g path_only_samples=%u\n",
+        printf("stat progressive iterations=%u photons_per_iteration=%llu alpha=%.4f radius_initial=%.6g radius_mean=%.6g radius_min=%.6g radius_max=%.6g gather_radius=%.6g gather_seconds=%.4f photons_found=%llu caustic_splats=%llu photon_passes=%u eye_passes_next=%u useful_share=%.4f useful_photons_per_second=%.0f clip_rays=%llu gather_source=%s choice_relmse_photons=%.6g choice_relmse_path=%.6g choice_bias2=%.6g choice_cost_photons=%.0f choice_cost_path=%.0f choice_iterations=%u photons_examined=%llu disc_queries=%llu choice_caustic_share=%.4g path_only_samples=%u caustic_trial=%d caustic_trial_error_photons=%.6g caustic_trial_error_path=%.6g caustic_trial_cost_photons=%.0f caustic_trial_cost_path=%.0f\n",
                film->samples, (unsigned long long)pm_progressive_photons_per_iteration(progressive), alpha,
                r.initial_mean, r.mean, r.min, r.max, r.gather, ps->gather_seconds,
                (unsigned long long)ps->photons_found, (unsigned long long)ps->splats, film->photon_passes,
@@ -79,7 +79,8 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
                ps->choice_relmse[PM_GATHER_PHOTONS], ps->choice_relmse[PM_GATHER_PATH], ps->choice_bias2,
                ps->choice_cost[PM_GATHER_PHOTONS], ps->choice_cost[PM_GATHER_PATH], ps->choice_iterations,
                (unsigned long long)ps->photons_examined, (unsigned long long)ps->disc_queries, ps->choice_caustic_share,
-               ps->path_only_samples);
+               ps->path_only_samples, ps->caustic_trial, ps->caustic_trial_error[0], ps->caustic_trial_error[1],
+               ps->caustic_trial_cost[0], ps->caustic_trial_cost[1]);
     } else {
         eye_stats = *pm_session_eye_stats(session);
         const pm_photon_maps *maps = pm_session_classic_maps(session);
