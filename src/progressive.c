@@ -138,9 +138,10 @@ struct pm_progressive {
         size_t count, *pixel;
         uint8_t *only;
         size_t traced;                   /* pixels marked in only */
-        float *weight, *before_sum, *before_stats, *sum[2];
+        double *before_sum, *before_stats; /* doubles: an iteration's part is small against the sums */
+        float *weight, *sum[2];
         double square[2];
-    } whole;
+    } trial_grid;
     noise_probe probe;                   /* automatic eye passes only */
     pm_photon_buffer buffer[KIND_COUNT]; /* this iteration's photons, reused */
     pm_photon_grid grid[KIND_COUNT];
@@ -247,7 +248,7 @@ void pm_progressive_destroy(pm_progressive *p) {
         pm_photon_grid_free(&p->grid[k]);
     }
     free(p->splats.data);
-    free(p->whole.pixel);
+    free(p->trial_grid.pixel);
     probe_free(&p->probe);
     pm_marks_free(&p->marks);
     pm_marks_free(&p->marks_next);
@@ -594,58 +595,58 @@ static double caustic_statistics(const pm_film *f, size_t i) {
     return t / 3.0;
 }
 
-static void whole_free(pm_progressive *p) {
-    free(p->whole.pixel);
-    memset(&p->whole, 0, sizeof p->whole);
+static void trial_grid_free(pm_progressive *p) {
+    free(p->trial_grid.pixel);
+    memset(&p->trial_grid, 0, sizeof p->trial_grid);
 }
 
 /* The trial's grid, its buffers (one block) and each pixel's relMSE weight, from the image so far. */
-static bool whole_begin(pm_progressive *p, const pm_film *film) {
-    if (p->whole.pixel) return true;
+static bool trial_grid_begin(pm_progressive *p, const pm_film *film) {
+    if (p->trial_grid.pixel) return true;
     int nx, ny;
     grid_size(film->width, film->height, PM_PPM_TRIAL_PIXELS, &nx, &ny);
     size_t n = (size_t)nx * ny;
-    p->whole.pixel = pm_calloc(1, n * (sizeof(size_t) + 5 * sizeof(float)) + p->pixels, "caustic trial");
-    if (!p->whole.pixel) return false;
-    p->whole.count = n;
-    p->whole.weight = (float *)(p->whole.pixel + n);
-    p->whole.before_sum = p->whole.weight + n;
-    p->whole.before_stats = p->whole.before_sum + n;
-    p->whole.sum[0] = p->whole.before_stats + n;
-    p->whole.sum[1] = p->whole.sum[0] + n;
-    p->whole.only = (uint8_t *)(p->whole.sum[1] + n);
+    p->trial_grid.pixel = pm_calloc(1, n * (sizeof(size_t) + 2 * sizeof(double) + 3 * sizeof(float)) + p->pixels, "caustic trial");
+    if (!p->trial_grid.pixel) return false;
+    p->trial_grid.count = n;
+    p->trial_grid.before_sum = (double *)(p->trial_grid.pixel + n);
+    p->trial_grid.before_stats = p->trial_grid.before_sum + n;
+    p->trial_grid.weight = (float *)(p->trial_grid.before_stats + n);
+    p->trial_grid.sum[0] = p->trial_grid.weight + n;
+    p->trial_grid.sum[1] = p->trial_grid.sum[0] + n;
+    p->trial_grid.only = (uint8_t *)(p->trial_grid.sum[1] + n);
     for (int y = 0; y < ny; y++)
-        for (int x = 0; x < nx; x++) p->whole.pixel[(size_t)y * nx + x] = grid_pixel(film->width, film->height, nx, ny, x, y);
+        for (int x = 0; x < nx; x++) p->trial_grid.pixel[(size_t)y * nx + x] = grid_pixel(film->width, film->height, nx, ny, x, y);
     /* the loop's iterations trace these and the probe's pixels, whose rest it measures */
-    memcpy(p->whole.only, p->probe.only, p->pixels);
-    p->whole.traced = p->probe.count;
+    memcpy(p->trial_grid.only, p->probe.only, p->pixels);
+    p->trial_grid.traced = p->probe.count;
     for (size_t i = 0; i < n; i++) {
-        size_t px = p->whole.pixel[i];
-        p->whole.traced += !p->whole.only[px];
-        p->whole.only[px] = 1;
+        size_t px = p->trial_grid.pixel[i];
+        p->trial_grid.traced += !p->trial_grid.only[px];
+        p->trial_grid.only[px] = 1;
         double m = probed_total(film, px) / (film->samples ? film->samples : 1u) + probed_statistics(film, px) / (film->photon_passes ? film->photon_passes : 1u);
-        p->whole.weight[i] = (float)(1.0 / (m * m + 0.01));
+        p->trial_grid.weight[i] = (float)(1.0 / (m * m + 0.01));
     }
     return true;
 }
 
-static void whole_before(pm_progressive *p, const pm_film *film) {
-    for (size_t i = 0; i < p->whole.count; i++) {
-        p->whole.before_sum[i] = (float)caustic_sums(film, p->whole.pixel[i]);
-        p->whole.before_stats[i] = (float)caustic_statistics(film, p->whole.pixel[i]);
+static void trial_grid_before(pm_progressive *p, const pm_film *film) {
+    for (size_t i = 0; i < p->trial_grid.count; i++) {
+        p->trial_grid.before_sum[i] = caustic_sums(film, p->trial_grid.pixel[i]);
+        p->trial_grid.before_stats[i] = caustic_statistics(film, p->trial_grid.pixel[i]);
     }
 }
 
 /* After a trial iteration of K eye passes: each pixel's caustic part of the iteration's mean sample. */
-static void whole_after(pm_progressive *p, const pm_film *film, int arm, uint32_t passes) {
+static void trial_grid_after(pm_progressive *p, const pm_film *film, int arm, uint32_t passes) {
     double square = 0.0;
-    for (size_t i = 0; i < p->whole.count; i++) {
-        size_t px = p->whole.pixel[i];
-        double x = (caustic_sums(film, px) - p->whole.before_sum[i]) / passes + (caustic_statistics(film, px) - p->whole.before_stats[i]);
-        square += p->whole.weight[i] * x * x;
-        p->whole.sum[arm][i] += (float)x;
+    for (size_t i = 0; i < p->trial_grid.count; i++) {
+        size_t px = p->trial_grid.pixel[i];
+        double x = (caustic_sums(film, px) - p->trial_grid.before_sum[i]) / passes + (caustic_statistics(film, px) - p->trial_grid.before_stats[i]);
+        square += p->trial_grid.weight[i] * x * x;
+        p->trial_grid.sum[arm][i] += (float)x;
     }
-    p->whole.square[arm] += square;
+    p->trial_grid.square[arm] += square;
 }
 
 /* Whether the caustic trial runs now: the path tracer's light chosen by the measurement, caustic
@@ -663,12 +664,12 @@ static bool caustic_trial_due(const pm_progressive *p) {
  * direct light and continuation and differ in that light alone, so a pair's variance is split:
  * - the rest of the pair (its total less its caustic part), at the probed pixels, pooled over both
  *   arms;
- * - the caustic part over the whole image (whole_after): the photons' splats and statistics, or
- *   what the loop met there (pm_eye_settings.caustic_apart). Either is rare bright samples in
- *   some scenes (the loop's cosine bounce finding a small light through a sharp lobe, the
- *   photons' splats through one), which a few iterations at a thousand pixels miss and the whole
- *   image's thousands of pixels do not, and which are still seen less often than they come: each
- *   arm's is weighed PM_PPM_TRIAL_TAIL times.
+ * - the caustic part over a grid of up to PM_PPM_TRIAL_PIXELS pixels (trial_grid_after): the photons'
+ *   splats and statistics, or what the loop met there (pm_eye_settings.caustic_apart). Either is
+ *   rare bright samples in some scenes (the loop's cosine bounce finding a small light through a
+ *   sharp lobe, the photons' splats through one), which a few iterations at the probe's thousand
+ *   pixels miss and the grid's many thousands do not, though they still see them less often than
+ *   they come: each arm's is weighed PM_PPM_TRIAL_TAIL times.
  * Relative as relMSE (each pixel over mean^2 + 0.01), each arm's error for a pair of eye passes
  * times its cost in rays (the photons' arm with its caustic pass). Given up, the caustic
  * statistics the film holds are folded into its sums (pm_film_fold_statistics), so the image
@@ -685,10 +686,10 @@ static void choose_caustics(pm_progressive *p, pm_film *film) {
     rest /= pr->count ? (double)pr->count : 1.0;
     for (int arm = 0; arm < 2; arm++) {
         double means = 0.0;
-        for (size_t i = 0; i < p->whole.count; i++) means += p->whole.weight[i] * (double)p->whole.sum[arm][i] * p->whole.sum[arm][i];
-        caustic[arm] = fmax(p->whole.square[arm] - means / n[arm], 0.0) / (n[arm] - 1.0) / (double)p->whole.count;
+        for (size_t i = 0; i < p->trial_grid.count; i++) means += p->trial_grid.weight[i] * (double)p->trial_grid.sum[arm][i] * p->trial_grid.sum[arm][i];
+        caustic[arm] = fmax(p->trial_grid.square[arm] - means / n[arm], 0.0) / (n[arm] - 1.0) / (double)p->trial_grid.count;
     }
-    whole_free(p);
+    trial_grid_free(p);
     double cost[2], err[2];
     for (int arm = 0; arm < 2; arm++) {
         cost[arm] = rs->trial_cost[arm] / n[arm];
@@ -816,7 +817,7 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     p->radii.trial_learned[0] = p->radii.trial_learned[1] = 0;
     p->radii.trial_cost[0] = p->radii.trial_cost[1] = 0.0;
     p->stats.caustic_trial = -1;
-    whole_free(p);
+    trial_grid_free(p);
 }
 
 bool pm_progressive_bind(pm_progressive *p, pm_film *film, char *err, size_t err_size) {
@@ -1311,8 +1312,8 @@ typedef struct {
     uint32_t iteration;                  /* the film's photon passes when it began */
     uint32_t eye_passes;                 /* asked of this iteration */
     bool learning;                       /* one of the gather source's learning iterations (begin_iteration) */
-    bool measure_only;                   /* the photons' learning iteration, or the caustic trial's loop iteration:
-                                          * probed pixels alone, film put back */
+    bool measure_only;                   /* the photons' learning iteration (the probe's pixels alone), or the caustic
+                                          * trial's loop iteration (its grid's and the probe's): the film put back */
     bool trial;                          /* one of the caustic trial's iterations (caustic_trial_due) ... */
     bool trial_loop;                     /* ... its path tracer's loop arm */
     bool probing;                        /* the noise probe runs (automatic eye passes) */
@@ -1359,8 +1360,11 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
     it->source = chosen ? p->radii.gather_source
                         : (it->learning && p->radii.learn_step % 2 ? PM_GATHER_PHOTONS : PM_GATHER_PATH);
     it->trial = caustic_trial_due(p) && !(max_samples && max_samples < 2);
-    if (it->trial && !whole_begin(p, film)) it->trial = false;
-    if (it->trial) whole_before(p, film);
+    if (it->trial && !trial_grid_begin(p, film)) { /* out of memory: the photons stay */
+        it->trial = false;
+        p->radii.caustic_decided = true;
+    }
+    if (it->trial) trial_grid_before(p, film);
     it->trial_loop = it->trial && p->radii.trial_step % 2 == 1;
     it->measure_only = (it->learning && it->source == PM_GATHER_PHOTONS) || it->trial_loop;
     it->deadline = p->eye.deadline;
@@ -1544,7 +1548,7 @@ static phase_result run_eye_passes(pm_progressive *p, pm_film *film, iteration_r
      * and nowhere else, and its cost is counted as the whole image's (eye_scale) */
     it->eye_scale = 1.0;
     if (it->measure_only) {
-        size_t traced = it->trial_loop ? p->whole.traced : p->probe.count;
+        size_t traced = it->trial_loop ? p->trial_grid.traced : p->probe.count;
         it->eye_scale = (double)p->pixels / (double)traced;
     }
     job->measure_caustic = it->learning && it->measure_only && p->caustic_surfaces;
@@ -1553,7 +1557,7 @@ static phase_result run_eye_passes(pm_progressive *p, pm_film *film, iteration_r
         if (!pm_film_open_copy(film)) { free(job); return PHASE_FAILED; }
         pm_film_save_rect(film, 0, 0, film->width, film->height);
         p->eye.deadline = 0.0;
-        p->eye.only_pixels = it->trial_loop ? p->whole.only : p->probe.only;
+        p->eye.only_pixels = it->trial_loop ? p->trial_grid.only : p->probe.only;
     }
     phase_result result = PHASE_DONE;
     for (uint32_t pass = 0; pass < it->eye_passes && !it->cut; pass++) {
@@ -1656,7 +1660,8 @@ static void end_iteration(pm_progressive *p, pm_film *film, const iteration_run 
     if (it->path_only && !it->measure_only) p->stats.path_only_samples += it->whole_passes;
     if (it->learning && !it->cut) p->radii.learn_step++;
     if (it->learning && it->probing && it->whole_passes >= 2) learn_gather_cost(p, it);
-    if (it->trial && !it->cut && it->whole_passes >= 2) whole_after(p, film, it->trial_loop ? TRIAL_LOOP : TRIAL_PHOTONS, it->whole_passes);
+    /* the caustic trial's measures, as learn_caustic_trial counts them (the loop's before its film is put back) */
+    if (it->trial && it->probing && it->whole_passes >= 2) trial_grid_after(p, film, it->trial_loop ? TRIAL_LOOP : TRIAL_PHOTONS, it->whole_passes);
     if (it->measure_only) {
         /* the photons' learning iteration leaves the image as it found it (see begin_iteration) */
         pm_film_restore_rect(film, 0, 0, film->width, film->height);
