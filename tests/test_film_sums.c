@@ -1,4 +1,4 @@
-/* test_film_sums.c: the film's compensated sums do not drift: 10^6 samples of a constant resolve to that constant within 1e-6 relative (a plain float sum is percents off), in every component and channel, on even and ragged films; statistics folded into the sums resolve as before. */
+/* test_film_sums.c: the film's compensated sums do not drift: 10^6 samples of a constant resolve to that constant within 1e-6 relative (a plain float sum is percents off), in every component and channel, on even and ragged films; statistics folded into the sums resolve the same after the fold. */
 #include <string.h>
 
 #include "film.h"
@@ -58,7 +58,7 @@ int main(void) {
         CHECK(fabs(total[k] - 2.0 * value[k % 3]) <= 2e-6 * value[k % 3], "total, pixel %d channel %d: %.9g", k / 3, k % 3, total[k]);
     pm_film_free(&f);
 
-    /* pm_film_fold_statistics: each pixel resolves as before (a pixel ahead by a sample and a
+    /* pm_film_fold_statistics: each pixel resolves the same after the fold (a pixel ahead by a sample and a
      * photon pass, and one whose statistics never started, among them), and the slot is empty */
     bool comps[PM_COMPONENT_COUNT] = {false, true, true, false};
     bool slots[PM_SLOT_COUNT] = {false, false, false, false};
