@@ -288,21 +288,19 @@ void pm_progressive_components(const pm_progressive *p, bool enabled[PM_COMPONEN
 
 /* ---- eye passes per photon pass ---- */
 
-/* A pixel's sums over the components so far, the mean of its channels (relMSE's 0.01 is per channel). */
-static double probed_total(const pm_film *film, size_t pixel) {
-    double t = 0.0;
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-        if (film->sum[c])
-            for (int ch = 0; ch < 3; ch++) t += pm_film_sum_at(film, (pm_component)c, 3 * pixel + ch);
-    return t / 3.0;
-}
-
-/* A pixel's sums of one component so far, the mean of its channels. */
+/* A pixel's sums of one component so far, the mean of its channels (relMSE's 0.01 is per channel). */
 static double probed_component(const pm_film *film, size_t pixel, pm_component c) {
     double t = 0.0;
     if (film->sum[c])
         for (int ch = 0; ch < 3; ch++) t += pm_film_sum_at(film, c, 3 * pixel + ch);
     return t / 3.0;
+}
+
+/* ... and over the components. */
+static double probed_total(const pm_film *film, size_t pixel) {
+    double t = 0.0;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++) t += probed_component(film, pixel, (pm_component)c);
+    return t;
 }
 
 /* Welford's step: x, the (n + 1)-th value, into a running mean and sum of squared deviations. */
@@ -312,11 +310,13 @@ static void running_add(double *mean, double *m2, double x, double n) {
     *m2 += d * (x - *mean);
 }
 
-/* A pixel's statistics as a sum over photon passes: tau / (pi R^2) over slots, the mean of its channels. */
-static double probed_statistics(const pm_film *film, size_t pixel) {
+/* A pixel's statistics as a sum over photon passes: tau / (pi R^2) over the slots in `slots` (a mask
+ * of 1 << pm_ppm_slot), the mean of its channels. */
+enum { ALL_SLOTS = (1 << PM_SLOT_COUNT) - 1, CAUSTIC_SLOTS = 1 << PM_SLOT_CAUSTIC | 1 << PM_SLOT_SPECULAR_CAUSTIC };
+static double probed_statistics(const pm_film *film, size_t pixel, unsigned slots) {
     double t = 0.0;
     for (int k = 0; k < PM_SLOT_COUNT; k++) {
-        const pm_ppm_stat *st = film->ppm[k] ? &film->ppm[k][pixel] : NULL;
+        const pm_ppm_stat *st = film->ppm[k] && (slots >> k & 1u) ? &film->ppm[k][pixel] : NULL;
         if (st && st->r2 > 0.0) t += (st->tau[0] + st->tau[1] + st->tau[2]) / (PM_PI * st->r2);
     }
     return t / 3.0;
@@ -391,7 +391,7 @@ static void probe_reset(noise_probe *pr) {
 static void probe_begin(noise_probe *pr, const pm_film *film) {
     for (size_t i = 0; i < pr->count; i++) {
         pr->total[i] = probed_total(film, pr->pixel[i]);
-        pr->statistics[i] = probed_statistics(film, pr->pixel[i]);
+        pr->statistics[i] = probed_statistics(film, pr->pixel[i], ALL_SLOTS);
         pr->caustic_total[i] = probed_component(film, pr->pixel[i], PM_CAUSTIC);
     }
 }
@@ -425,7 +425,7 @@ static void probe_splats(noise_probe *pr, const pm_film *film, const pm_splat_bu
 static void probe_eye_pass(noise_probe *pr, const pm_film *film, uint32_t pass, int learning, uint32_t learned, int trial) {
     for (size_t i = 0; i < pr->count; i++) {
         if (pass == 0) /* the statistics were updated by this eye pass, once for the iteration */
-            pr->shared[i] += probed_statistics(film, pr->pixel[i]) - pr->statistics[i];
+            pr->shared[i] += probed_statistics(film, pr->pixel[i], ALL_SLOTS) - pr->statistics[i];
         double now = probed_total(film, pr->pixel[i]), y = pr->shared[i] + (now - pr->total[i]);
         pr->total[i] = now;
         if (pass == 0) {
@@ -582,19 +582,6 @@ static bool choose_gather(pm_progressive *p) {
     return true;
 }
 
-/* A pixel's caustic light so far, the mean of its channels: its caustic sums, and its caustic
- * statistics as tau / (pi R^2) (a sum over photon passes), seen directly and behind specular. */
-static double caustic_sums(const pm_film *f, size_t i) { return probed_component(f, i, PM_CAUSTIC); }
-static double caustic_statistics(const pm_film *f, size_t i) {
-    double t = 0.0;
-    const int slots[2] = {PM_SLOT_CAUSTIC, PM_SLOT_SPECULAR_CAUSTIC};
-    for (int k = 0; k < 2; k++) {
-        const pm_ppm_stat *st = f->ppm[slots[k]] ? &f->ppm[slots[k]][i] : NULL;
-        if (st && st->r2 > 0.0) t += (st->tau[0] + st->tau[1] + st->tau[2]) / (PM_PI * st->r2);
-    }
-    return t / 3.0;
-}
-
 static void trial_grid_free(pm_progressive *p) {
     free(p->trial_grid.pixel);
     memset(&p->trial_grid, 0, sizeof p->trial_grid);
@@ -624,7 +611,7 @@ static bool trial_grid_begin(pm_progressive *p, const pm_film *film) {
         size_t px = p->trial_grid.pixel[i];
         p->trial_grid.traced += !p->trial_grid.only[px];
         p->trial_grid.only[px] = 1;
-        double m = probed_total(film, px) / (film->samples ? film->samples : 1u) + probed_statistics(film, px) / (film->photon_passes ? film->photon_passes : 1u);
+        double m = probed_total(film, px) / (film->samples ? film->samples : 1u) + probed_statistics(film, px, ALL_SLOTS) / (film->photon_passes ? film->photon_passes : 1u);
         p->trial_grid.weight[i] = (float)(1.0 / (m * m + 0.01));
     }
     return true;
@@ -632,8 +619,8 @@ static bool trial_grid_begin(pm_progressive *p, const pm_film *film) {
 
 static void trial_grid_before(pm_progressive *p, const pm_film *film) {
     for (size_t i = 0; i < p->trial_grid.count; i++) {
-        p->trial_grid.before_sum[i] = caustic_sums(film, p->trial_grid.pixel[i]);
-        p->trial_grid.before_stats[i] = caustic_statistics(film, p->trial_grid.pixel[i]);
+        p->trial_grid.before_sum[i] = probed_component(film, p->trial_grid.pixel[i], PM_CAUSTIC);
+        p->trial_grid.before_stats[i] = probed_statistics(film, p->trial_grid.pixel[i], CAUSTIC_SLOTS);
     }
 }
 
@@ -642,7 +629,8 @@ static void trial_grid_after(pm_progressive *p, const pm_film *film, int arm, ui
     double square = 0.0;
     for (size_t i = 0; i < p->trial_grid.count; i++) {
         size_t px = p->trial_grid.pixel[i];
-        double x = (caustic_sums(film, px) - p->trial_grid.before_sum[i]) / passes + (caustic_statistics(film, px) - p->trial_grid.before_stats[i]);
+        double x = (probed_component(film, px, PM_CAUSTIC) - p->trial_grid.before_sum[i]) / passes +
+                   (probed_statistics(film, px, CAUSTIC_SLOTS) - p->trial_grid.before_stats[i]);
         square += p->trial_grid.weight[i] * x * x;
         p->trial_grid.sum[arm][i] += (float)x;
     }
