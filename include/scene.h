@@ -241,6 +241,8 @@ typedef struct {
                                  the bitangent being w cross(normal, tangent); NULL when no material has a normal map */
     uint32_t *indices;        /* 3*triangle_count */
     uint32_t *triangle_material; /* triangle_count */
+    float *edge_altitudes;    /* 3*triangle_count: each stored triangle's altitudes (pm_triangle_altitudes), made with
+                                 face_normals; NULL when that allocation failed */
     vec3 *face_normals;       /* triangle_count unit geometric normals (glTF front side), computed in double by
                                  pm_scene_finalize; NULL when that allocation failed (each hit then computes its own) */
     float *uv_density;        /* 2*triangle_count: sqrt(UV area / world area) of each triangle for TEXCOORD_0 and _1
@@ -538,10 +540,11 @@ void pm_scene_surface_scattering(const pm_scene *s, uint32_t tri, float b1, floa
  * need the indices first. Stage one asks for the row; stage two, some hits later when the indices
  * have arrived, for the corners. */
 /* The bytes of the arrays a surface record reads (positions, normals, texture coordinates, the
- * triangles' indices, materials and face normals): whether they stay cached, or prefetching pays. */
+ * triangles' indices, materials, face normals and altitudes): whether they stay cached, or prefetching pays. */
 static inline uint64_t pm_scene_hit_data_bytes(const pm_scene *s) {
     uint64_t per_vertex = 2 * sizeof(vec3) + (s->uvs ? 2 * sizeof(float) : 0);
-    uint64_t per_triangle = 3 * sizeof(uint32_t) + sizeof(uint32_t) + (s->face_normals ? sizeof(vec3) : 0);
+    uint64_t per_triangle = 3 * sizeof(uint32_t) + sizeof(uint32_t) + (s->face_normals ? sizeof(vec3) : 0) +
+                            (s->edge_altitudes ? 3 * sizeof(float) : 0);
     return per_vertex * s->vertex_count + per_triangle * s->triangle_count;
 }
 static inline void pm_scene_prefetch_triangle(const pm_scene *s, uint32_t tri) {
@@ -549,6 +552,7 @@ static inline void pm_scene_prefetch_triangle(const pm_scene *s, uint32_t tri) {
     __builtin_prefetch(s->indices + 3 * (size_t)stored);
     __builtin_prefetch(s->triangle_material + stored);
     if (s->face_normals) __builtin_prefetch(s->face_normals + stored);
+    if (s->edge_altitudes) __builtin_prefetch(s->edge_altitudes + 3 * (size_t)stored);
 }
 static inline void pm_scene_prefetch_corners(const pm_scene *s, uint32_t tri) {
     const uint32_t *ix = s->indices + 3 * (size_t)pm_scene_stored_triangle(s, tri, NULL);
@@ -566,6 +570,31 @@ static inline void pm_scene_prefetch_corners(const pm_scene *s, uint32_t tri) {
 void pm_scene_prefetch_texels(const pm_scene *s, uint32_t tri, float b1, float b2);
 /* The bytes of the textures' level 0 (what photon records read): whether prefetching their texels pays. */
 uint64_t pm_scene_texture_bytes(const pm_scene *s);
+
+/* A triangle's altitudes: h[i] from corner i onto the edge across it (twice the area over that
+ * edge's length); 0 where the triangle has no area. */
+static inline void pm_triangle_altitudes(vec3 p0, vec3 p1, vec3 p2, float h[3]) {
+    float twice_area = v3_length(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
+    float edge[3] = {v3_length(v3_sub(p2, p1)), v3_length(v3_sub(p2, p0)), v3_length(v3_sub(p1, p0))};
+    for (int i = 0; i < 3; i++) h[i] = edge[i] > 0.f ? twice_area / edge[i] : 0.f;
+}
+
+/* Stored triangle `stored`'s three altitudes in world space through placement pl (-1: flat): h[i]
+ * from corner i onto the edge across it, so a point's distance to that edge is b_i h[i]; 0 for a
+ * degenerate triangle. Flat triangles read them from edge_altitudes; placed ones (any linear map,
+ * which changes altitudes unevenly) from their corners. */
+static inline void pm_scene_stored_altitudes(const pm_scene *s, uint32_t stored, int32_t pl, float h[3]) {
+    if (pl < 0 && s->edge_altitudes) {
+        const float *a = s->edge_altitudes + 3 * (size_t)stored;
+        h[0] = a[0];
+        h[1] = a[1];
+        h[2] = a[2];
+        return;
+    }
+    vec3 p[3];
+    pm_scene_stored_corners(s, stored, pl, p);
+    pm_triangle_altitudes(p[0], p[1], p[2], h);
+}
 
 /* The geometric part of a surface record in two steps: the point, the unit face normal ng (given)
  * and the material, then the shading normal (interpolated, on ng's side, before any normal map)
@@ -598,27 +627,29 @@ static inline void pm_scene_surface_shading(const pm_scene *s, uint32_t tri, flo
         n1 = pm_placement_normal(placement, n1);
         n2 = pm_placement_normal(placement, n2);
     }
-    vec3 n = v3_normalize(v3_add(v3_add(v3_scale(n0, b0), v3_scale(n1, b1)), v3_scale(n2, b2)));
+    /* a flat triangle's corners share one unit normal (the loader gives it vertices of its own):
+     * no interpolation, no root */
+    bool flat = n0.x == n1.x && n0.y == n1.y && n0.z == n1.z && n0.x == n2.x && n0.y == n2.y && n0.z == n2.z;
+    vec3 n = flat ? n0 : v3_normalize(v3_add(v3_add(v3_scale(n0, b0), v3_scale(n1, b1)), v3_scale(n2, b2)));
     /* Shading normals that disagree with the winding would light back faces: trust the winding. */
     out->ns = v3_dot(n, out->ng) < 0.f ? v3_neg(n) : n;
-    vec3 corners[3];
-    pm_scene_stored_corners(s, stored, pl, corners);
-    vec3 p0 = corners[0], p1 = corners[1], p2 = corners[2];
     /* Rays leave from the point pulled toward the centroid (pm_offset_surface_origin) only near
      * the triangle's edges, where a wall sharing the edge needs it: deep inside a large triangle
      * (a floor running on under a wall) the pull could carry the origin into a wall standing on
      * it, and the ray would start inside that wall. Near: closer to an edge than four of the
-     * pull's steps. */
-    /* the distance to edge i is b_i x twice the area / the edge's length: compared squared, with
-     * no root or division (the photon pass asks at every bounce) */
-    vec3 c = v3_cross(v3_sub(p1, p0), v3_sub(p2, p0));
-    float area2 = v3_dot(c, c);
+     * pull's steps. The distance to edge i is b_i x the altitude onto it. */
     float m = pm_maxf(fabsf(out->p.x), pm_maxf(fabsf(out->p.y), fabsf(out->p.z)));
-    float pull = pm_maxf(s->ray_scale * (1.f / 65536.f), m * 4e-6f), near2 = 16.f * pull * pull;
-    vec3 e0 = v3_sub(p2, p1), e1 = v3_sub(p2, p0), e2 = v3_sub(p1, p0);
-    bool inside = b0 > 0.f && b1 > 0.f && b2 > 0.f && b0 * b0 * area2 > near2 * v3_dot(e0, e0) &&
-                  b1 * b1 * area2 > near2 * v3_dot(e1, e1) && b2 * b2 * area2 > near2 * v3_dot(e2, e2);
-    out->centroid = inside ? out->p : v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
+    float near = 4.f * pm_maxf(s->ray_scale * (1.f / 65536.f), m * 4e-6f);
+    float h[3];
+    pm_scene_stored_altitudes(s, stored, pl, h);
+    bool inside = b0 * h[0] > near && b1 * h[1] > near && b2 * h[2] > near;
+    if (inside) {
+        out->centroid = out->p;
+        return;
+    }
+    vec3 corners[3];
+    pm_scene_stored_corners(s, stored, pl, corners);
+    out->centroid = v3_scale(v3_add(v3_add(corners[0], corners[1]), corners[2]), 1.f / 3.f);
 }
 
 /* The fields of pm_scene_surface that light transport reads (p, ng, ns, centroid, material, kd,

@@ -517,9 +517,13 @@ bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     if (!s->face_normals) return false;
     for (uint32_t i = 0; i < s->material_count; i++) s->materials[i].used = false;
     for (uint32_t t = 0; t < s->triangle_count; t++) s->materials[s->triangle_material[t]].used = true;
+    free(s->edge_altitudes);
+    s->edge_altitudes = pm_malloc(3 * sizeof(float) * (s->triangle_count ? s->triangle_count : 1), "triangle altitudes");
     for (uint32_t t = 0; t < s->triangle_count; t++) {
         const uint32_t *ix = s->indices + 3 * (size_t)t;
         s->face_normals[t] = pm_face_normal(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]]);
+        if (s->edge_altitudes)
+            pm_triangle_altitudes(s->positions[ix[0]], s->positions[ix[1]], s->positions[ix[2]], s->edge_altitudes + 3 * (size_t)t);
     }
     if (!build_emitters(s) || !build_light_distribution(s) || !build_texture_filtering(s)) return false;
     if (added_sky) *added_sky = false;
@@ -551,6 +555,7 @@ void pm_scene_free(pm_scene *s) {
     free(s->indices);
     free(s->triangle_material);
     free(s->face_normals);
+    free(s->edge_altitudes);
     free(s->materials);
     for (uint32_t i = 0; i < s->texture_count; i++) {
         free(s->textures[i].rgba);
@@ -579,6 +584,7 @@ uint64_t pm_scene_bytes(const pm_scene *s) {
     if (s->uvs1) bytes += v * 2 * sizeof(float);
     if (s->tangents) bytes += v * 4 * sizeof(float);
     if (s->face_normals) bytes += t * sizeof(vec3);
+    if (s->edge_altitudes) bytes += t * 3 * sizeof(float);
     if (s->uv_density) bytes += t * 2 * sizeof(float);
     bytes += (uint64_t)s->material_count * sizeof(pm_material) + (uint64_t)s->light_count * sizeof(pm_light) +
              (uint64_t)s->camera_count * sizeof(pm_camera) + (uint64_t)s->texture_count * sizeof(pm_texture);

@@ -178,10 +178,46 @@ static bool near(vec3 a, vec3 b, float tol) { return v3_length(v3_sub(a, b)) <= 
 /* ns_tol: a normal map's tangents are generated per vertex and made orthogonal to its normal, in
  * mesh space for a stored mesh and in world space for a flattened copy; under a non-uniform scale
  * the two frames differ slightly (about 1e-2), so mapped shading normals are compared at 3e-2. */
+/* Triangle tri's shading record at barycentrics near and far from its edges: the ray origin's
+ * pull toward the centroid is on (centroid != p) exactly where the point lies within 4 pull steps
+ * of an edge, each distance measured in double from the world corners, not from the altitudes the
+ * record uses (a flat triangle's from edge_altitudes, a placed one's from its corners). Points
+ * within 1e-3 of that bound either way count as agreeing. Returns the disagreements. */
+static int edge_pull_disagreements(const pm_scene *s, uint32_t tri) {
+    static const float at[][2] = {{0.3f, 0.3f},   {1e-7f, 0.5f}, {1e-5f, 0.4f},   {1e-4f, 0.3f},     {1e-3f, 0.2f},
+                                  {0.5f, 1e-6f},  {0.6f, 3e-4f}, {0.45f, 0.5499f}, {0.2f, 0.79999f}, {0.f, 0.5f}};
+    vec3 c[3];
+    pm_scene_triangle_corners(s, tri, c);
+    int bad = 0;
+    for (size_t k = 0; k < sizeof at / sizeof at[0]; k++) {
+        pm_surface sf;
+        memset(&sf, 0, sizeof sf);
+        pm_scene_surface_point(s, tri, at[k][0], at[k][1], pm_scene_triangle_face_normal(s, tri), &sf);
+        pm_scene_surface_shading(s, tri, at[k][0], at[k][1], &sf);
+        bool pulled = memcmp(&sf.centroid, &sf.p, sizeof sf.p) != 0;
+        double m = fmax(fabs(sf.p.x), fmax(fabs(sf.p.y), fabs(sf.p.z)));
+        double near = 4.0 * fmax(s->ray_scale / 65536.0, m * 4e-6);
+        double closest = INFINITY;
+        for (int e = 0; e < 3; e++) { /* edge e runs between the other two corners */
+            vec3 a = c[(e + 1) % 3], b = c[(e + 2) % 3];
+            double ex = (double)b.x - a.x, ey = (double)b.y - a.y, ez = (double)b.z - a.z;
+            double px = (double)sf.p.x - a.x, py = (double)sf.p.y - a.y, pz = (double)sf.p.z - a.z;
+            double cx = py * ez - pz * ey, cy = pz * ex - px * ez, cz = px * ey - py * ex;
+            double length = sqrt(ex * ex + ey * ey + ez * ez);
+            closest = fmin(closest, length > 0 ? sqrt(cx * cx + cy * cy + cz * cz) / length : 0.0);
+        }
+        bool expected = closest <= near;
+        if (pulled != expected && fabs(closest - near) > 1e-3 * near && bad++ < 3)
+            fprintf(stderr, "  triangle %u at (%g, %g): pulled %d, closest edge %g, bound %g\n", tri, at[k][0], at[k][1], pulled,
+                    closest, near);
+    }
+    return bad;
+}
+
 static void compare_hits(const pm_scene *inst, const pm_accel *ai, const pm_scene *flat, const pm_accel *af, const char *what,
                          float ns_tol) {
     pm_camera cam = pm_scene_auto_camera(flat, 1.f);
-    int n = 64, hits = 0, placed_hits = 0, bad = 0, mapped = 0;
+    int n = 64, hits = 0, placed_hits = 0, bad = 0, mapped = 0, pull_bad = 0;
     float tan_half = tanf(0.5f * cam.yfov);
     for (int y = 0; y < n; y++)
         for (int x = 0; x < n; x++) {
@@ -205,6 +241,7 @@ static void compare_hits(const pm_scene *inst, const pm_accel *ai, const pm_scen
             pm_scene_surface_point(inst, hi.tri, hi.b1, hi.b2, si.ng, &unmapped);
             pm_scene_surface_shading(inst, hi.tri, hi.b1, hi.b2, &unmapped);
             mapped += pm_scene_placement_of(inst, hi.tri) >= 0 && !near(unmapped.ns, si.ns, 0.1f);
+            pull_bad += edge_pull_disagreements(inst, hi.tri) + edge_pull_disagreements(flat, hf.tri);
             if (!same && bad++ < 3)
                 fprintf(stderr, "  %s ray (%d,%d): t %g/%g ng (%g %g %g)/(%g %g %g) ns (%g %g %g)/(%g %g %g) uv %g,%g/%g,%g\n", what, x, y,
                         hi.t, hf.t, si.ng.x, si.ng.y, si.ng.z, sf.ng.x, sf.ng.y, sf.ng.z, si.ns.x, si.ns.y, si.ns.z, sf.ns.x,
@@ -212,6 +249,7 @@ static void compare_hits(const pm_scene *inst, const pm_accel *ai, const pm_scen
         }
     CHECK(bad == 0, "%s: %d of %d rays differ between the instanced and the flat scene", what, bad, n * n);
     CHECK(placed_hits > 50, "%s: only %d rays met a placement (of %d hits)", what, placed_hits, hits);
+    CHECK(pull_bad == 0, "%s: the origin's pull toward the centroid disagrees with the edges' distances %d times", what, pull_bad);
     if (ns_tol > 1e-3f) CHECK(mapped > placed_hits / 2, "%s: the normal map tilted only %d of %d placed hits", what, mapped, placed_hits);
 }
 
