@@ -413,24 +413,66 @@ static bool intersect_one(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit 
  * symbol and the packets' to log each ray once. */
 bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *hit) { return intersect_one(a, o, d, tmax, hit); }
 
+/* Four consecutive vec3 (xyz xyz xyz xyz, three vector loads) as one vector per axis. */
+static inline void axes_of_four(const vec3 *v, pm_f4_ *x, pm_f4_ *y, pm_f4_ *z) {
+    pm_f4_ a, b, c;
+    memcpy(&a, (const char *)v, sizeof a);      /* x0 y0 z0 x1 */
+    memcpy(&b, (const char *)v + 16, sizeof b); /* y1 z1 x2 y2 */
+    memcpy(&c, (const char *)v + 32, sizeof c); /* z2 x3 y3 z3 */
+    *x = __builtin_shuffle(__builtin_shuffle(a, b, (pm_i4_){0, 3, 6, 7}), c, (pm_i4_){0, 1, 2, 5});
+    *y = __builtin_shuffle(__builtin_shuffle(a, b, (pm_i4_){1, 4, 7, 0}), c, (pm_i4_){0, 1, 2, 6});
+    *z = __builtin_shuffle(__builtin_shuffle(a, b, (pm_i4_){2, 5, 0, 0}), c, (pm_i4_){0, 1, 4, 7});
+}
+
+/* -1 in the lanes where |v| <= EMBREE_MAX_COORDINATE (not where v is NaN), else 0. */
+static inline pm_i4_ within_embree_range(pm_f4_ v) {
+    pm_f4_ magnitude = (pm_f4_)((pm_u4_)v & 0x7fffffffu);
+    return magnitude <= EMBREE_MAX_COORDINATE;
+}
+
 /* A packet of the m <= PM_ACCEL_PACKET rays o[j], d[j]; lanes past m repeat the first ray (Embree
  * reads every lane). valid: -1 for the lanes Embree is to trace (the first m, those in range when
- * check_range), 0 for the rest, which it answers as misses. */
+ * check_range, as ray_in_range decides), 0 for the rest, which it answers as misses. Four lanes
+ * at a time: a lane by lane copy took 60 instructions a ray, as many as a tenth of Embree's own. */
+_Static_assert(sizeof(vec3) == 12 && PM_ACCEL_PACKET == 8, "a packet is two sets of four packed vec3");
 static void fill_packet(struct RTCRayHit8 *rh, int *valid, const vec3 *o, const vec3 *d, size_t m, float tnear, bool check_range) {
-    for (size_t j = 0; j < PM_ACCEL_PACKET; j++) {
-        size_t i = j < m ? j : 0;
-        vec3 oi = o[i], di = d[i];
-        rh->ray.org_x[j] = oi.x; rh->ray.org_y[j] = oi.y; rh->ray.org_z[j] = oi.z;
-        rh->ray.dir_x[j] = di.x; rh->ray.dir_y[j] = di.y; rh->ray.dir_z[j] = di.z;
-        rh->ray.tnear[j] = tnear;
-        rh->ray.tfar[j] = INFINITY;
-        rh->ray.time[j] = 0.f;
-        rh->ray.mask[j] = 0xFFFFFFFFu;
-        rh->ray.id[j] = 0;
-        rh->ray.flags[j] = 0;
-        rh->hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
-        rh->hit.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
-        valid[j] = -(int)((j < m) & (!check_range | ray_in_range(oi, di, INFINITY)));
+    vec3 padded_o[PM_ACCEL_PACKET], padded_d[PM_ACCEL_PACKET];
+    if (m < PM_ACCEL_PACKET) {
+        for (size_t j = 0; j < PM_ACCEL_PACKET; j++) {
+            padded_o[j] = o[j < m ? j : 0];
+            padded_d[j] = d[j < m ? j : 0];
+        }
+        o = padded_o;
+        d = padded_d;
+    }
+    for (int half = 0; half < 2; half++) {
+        int at = 4 * half;
+        pm_f4_ ox, oy, oz, dx, dy, dz;
+        axes_of_four(o + at, &ox, &oy, &oz);
+        axes_of_four(d + at, &dx, &dy, &dz);
+        memcpy(rh->ray.org_x + at, &ox, sizeof ox);
+        memcpy(rh->ray.org_y + at, &oy, sizeof oy);
+        memcpy(rh->ray.org_z + at, &oz, sizeof oz);
+        memcpy(rh->ray.dir_x + at, &dx, sizeof dx);
+        memcpy(rh->ray.dir_y + at, &dy, sizeof dy);
+        memcpy(rh->ray.dir_z + at, &dz, sizeof dz);
+        pm_f4_ near = {tnear, tnear, tnear, tnear}, far = {INFINITY, INFINITY, INFINITY, INFINITY}, zero = {0.f, 0.f, 0.f, 0.f};
+        pm_u4_ all = {~0u, ~0u, ~0u, ~0u}, none = {0u, 0u, 0u, 0u};
+        pm_u4_ invalid = {RTC_INVALID_GEOMETRY_ID, RTC_INVALID_GEOMETRY_ID, RTC_INVALID_GEOMETRY_ID, RTC_INVALID_GEOMETRY_ID};
+        memcpy(rh->ray.tnear + at, &near, sizeof near);
+        memcpy(rh->ray.tfar + at, &far, sizeof far);
+        memcpy(rh->ray.time + at, &zero, sizeof zero);
+        memcpy(rh->ray.mask + at, &all, sizeof all);
+        memcpy(rh->ray.id + at, &none, sizeof none);
+        memcpy(rh->ray.flags + at, &none, sizeof none);
+        memcpy(rh->hit.geomID + at, &invalid, sizeof invalid);
+        memcpy(rh->hit.instID[0] + at, &invalid, sizeof invalid);
+        pm_i4_ lane = {at, at + 1, at + 2, at + 3}, count = {(int)m, (int)m, (int)m, (int)m};
+        pm_i4_ use = lane < count;
+        if (check_range)
+            use &= within_embree_range(ox) & within_embree_range(oy) & within_embree_range(oz) & within_embree_range(dx) &
+                   within_embree_range(dy) & within_embree_range(dz);
+        memcpy(valid + at, &use, sizeof use);
     }
 }
 
