@@ -433,7 +433,7 @@ static inline pm_i4_ within_embree_range(pm_f4_ v) {
 /* A packet of the m <= PM_ACCEL_PACKET rays o[j], d[j]; lanes past m repeat the first ray (Embree
  * reads every lane). valid: -1 for the lanes Embree is to trace (the first m, those in range when
  * check_range, as ray_in_range decides), 0 for the rest, which it answers as misses. Four lanes
- * at a time: a lane by lane copy took 60 instructions a ray, as many as a tenth of Embree's own. */
+ * at a time: 32 instructions a ray, where a lane by lane copy took 70, beside Embree's 770. */
 _Static_assert(sizeof(vec3) == 12 && PM_ACCEL_PACKET == 8, "a packet is two sets of four packed vec3");
 static void fill_packet(struct RTCRayHit8 *rh, int *valid, const vec3 *o, const vec3 *d, size_t m, float tnear, bool check_range) {
     vec3 padded_o[PM_ACCEL_PACKET], padded_d[PM_ACCEL_PACKET];
@@ -445,33 +445,37 @@ static void fill_packet(struct RTCRayHit8 *rh, int *valid, const vec3 *o, const 
         o = padded_o;
         d = padded_d;
     }
-    for (int half = 0; half < 2; half++) {
-        int at = 4 * half;
-        pm_f4_ ox, oy, oz, dx, dy, dz;
-        axes_of_four(o + at, &ox, &oy, &oz);
-        axes_of_four(d + at, &dx, &dy, &dz);
-        memcpy(rh->ray.org_x + at, &ox, sizeof ox);
-        memcpy(rh->ray.org_y + at, &oy, sizeof oy);
-        memcpy(rh->ray.org_z + at, &oz, sizeof oz);
-        memcpy(rh->ray.dir_x + at, &dx, sizeof dx);
-        memcpy(rh->ray.dir_y + at, &dy, sizeof dy);
-        memcpy(rh->ray.dir_z + at, &dz, sizeof dz);
-        pm_f4_ near = {tnear, tnear, tnear, tnear}, far = {INFINITY, INFINITY, INFINITY, INFINITY}, zero = {0.f, 0.f, 0.f, 0.f};
-        pm_u4_ all = {~0u, ~0u, ~0u, ~0u}, none = {0u, 0u, 0u, 0u};
-        pm_u4_ invalid = {RTC_INVALID_GEOMETRY_ID, RTC_INVALID_GEOMETRY_ID, RTC_INVALID_GEOMETRY_ID, RTC_INVALID_GEOMETRY_ID};
-        memcpy(rh->ray.tnear + at, &near, sizeof near);
-        memcpy(rh->ray.tfar + at, &far, sizeof far);
-        memcpy(rh->ray.time + at, &zero, sizeof zero);
-        memcpy(rh->ray.mask + at, &all, sizeof all);
-        memcpy(rh->ray.id + at, &none, sizeof none);
-        memcpy(rh->ray.flags + at, &none, sizeof none);
-        memcpy(rh->hit.geomID + at, &invalid, sizeof invalid);
-        memcpy(rh->hit.instID[0] + at, &invalid, sizeof invalid);
+    /* what Embree reads of every lane besides the coordinates: the same in all eight */
+    uint32_t near_bits, far_bits;
+    float far = INFINITY;
+    memcpy(&near_bits, &tnear, sizeof near_bits);
+    memcpy(&far_bits, &far, sizeof far_bits);
+    const struct { void *lanes; uint32_t bits; } same[] = {
+        {rh->ray.tnear, near_bits}, {rh->ray.tfar, far_bits}, {rh->ray.time, 0u},         {rh->ray.mask, ~0u},
+        {rh->ray.id, 0u},           {rh->ray.flags, 0u},      {rh->hit.geomID, RTC_INVALID_GEOMETRY_ID},
+        {rh->hit.instID[0], RTC_INVALID_GEOMETRY_ID},
+    };
+#pragma GCC unroll 8
+    for (size_t k = 0; k < sizeof same / sizeof same[0]; k++) {
+        pm_u4_ four = {same[k].bits, same[k].bits, same[k].bits, same[k].bits};
+        memcpy(same[k].lanes, &four, sizeof four);
+        memcpy((uint32_t *)same[k].lanes + 4, &four, sizeof four);
+    }
+    float *const axes[6] = {rh->ray.org_x, rh->ray.org_y, rh->ray.org_z, rh->ray.dir_x, rh->ray.dir_y, rh->ray.dir_z};
+#pragma GCC unroll 2
+    for (int at = 0; at < PM_ACCEL_PACKET; at += 4) {
+        pm_f4_ v[6];
+        axes_of_four(o + at, &v[0], &v[1], &v[2]);
+        axes_of_four(d + at, &v[3], &v[4], &v[5]);
+        pm_i4_ in_range = {-1, -1, -1, -1};
+#pragma GCC unroll 6
+        for (int k = 0; k < 6; k++) {
+            memcpy(axes[k] + at, &v[k], sizeof v[k]);
+            in_range &= within_embree_range(v[k]);
+        }
         pm_i4_ lane = {at, at + 1, at + 2, at + 3}, count = {(int)m, (int)m, (int)m, (int)m};
         pm_i4_ use = lane < count;
-        if (check_range)
-            use &= within_embree_range(ox) & within_embree_range(oy) & within_embree_range(oz) & within_embree_range(dx) &
-                   within_embree_range(dy) & within_embree_range(dz);
+        if (check_range) use &= in_range;
         memcpy(valid + at, &use, sizeof use);
     }
 }
