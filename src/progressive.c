@@ -432,15 +432,11 @@ static void probe_eye_pass(noise_probe *pr, const pm_film *film, uint32_t pass, 
             pr->first[i] = y;
             continue;
         }
-        double pair = 0.5 * (pr->first[i] + y), delta = pair - pr->mean[i], d = pr->first[i] - y;
-        pr->mean[i] += delta / (pr->pairs + 1.0);
-        pr->m2[i] += delta * (pair - pr->mean[i]);
+        double pair = 0.5 * (pr->first[i] + y), d = pr->first[i] - y;
+        running_add(&pr->mean[i], &pr->m2[i], pair, pr->pairs);
         pr->within[i] += 0.5 * d * d;
-        if (learning >= 0) { /* the pair as an estimate by this gather source */
-            double *m = &pr->source_mean[learning][i], dl = pair - *m;
-            *m += dl / (learned + 1.0);
-            pr->source_m2[learning][i] += dl * (pair - *m);
-        }
+        if (learning >= 0) /* the pair as an estimate by this gather source */
+            running_add(&pr->source_mean[learning][i], &pr->source_m2[learning][i], pair, learned);
         if (trial >= 0) running_add(&pr->trial_mean[TRIAL_PHOTONS][i], &pr->trial_m2[TRIAL_PHOTONS][i], pair - pr->shared[i], trial);
     }
     if (pass == 1) pr->pairs++;
