@@ -117,7 +117,9 @@ static double furnace_error(float rho, pm_indirect_mode indirect, int iterations
  * bias like the classic mode's (+1.35%) still fails it. At rho 0.5, 50 iterations read -0.005
  * -0.039 -0.014 -0.003 -0.007 +0.010 % at seeds 1-6 (standard deviation 0.016%; 400 iterations
  * cost 8 times as much for no tighter a check): 0.1% is 6 of those and 2.6 times the largest seen.
- * The classic mode's bias shows only where light bounces long, so it is run at rho 0.95 alone. */
+ * The classic mode's bias shows only where light bounces long, so it is run at rho 0.95 alone; it
+ * is its maps' (their building takes most of the run), and more eye passes leave it as it is
+ * (+1.61% after 1 iteration, +1.69% after 8, +1.63% after 64), so 8 iterations. */
 static void test_furnace(void) {
     const float rhos[2] = {0.5f, 0.95f};
     const int iterations[2] = {50, 100};
@@ -126,7 +128,7 @@ static void test_furnace(void) {
         double e = furnace_error(rhos[k], PM_INDIRECT_GATHER, iterations[k], false, NULL);
         CHECK(fabs(e) <= bounds[k], "furnace rho %g, gather: error %+.4f%% beyond %g%%", rhos[k], 100 * e, 100 * bounds[k]);
         if (rhos[k] > 0.9f) {
-            double classic = furnace_error(rhos[k], PM_INDIRECT_GATHER, 64, true, NULL);
+            double classic = furnace_error(rhos[k], PM_INDIRECT_GATHER, 8, true, NULL);
             CHECK(fabs(e) < fabs(classic), "furnace rho %g: progressive (%+.4f%%) not closer than classic (%+.4f%%)", rhos[k],
                   100 * e, 100 * classic);
         }
