@@ -195,11 +195,13 @@ int main(void) {
     }
     stop(&r);
 
-    /* indirect light from photons at the visible points: each photon weighted by the lobe */
+    /* indirect light from photons at the visible points: each photon weighted by the lobe. Seeds
+     * 1-5 at 256 iterations: relMSE 0.00087-0.00099, channel means within 0.45%, the spheres 0.976
+     * to 0.999 and 1.003 to 1.012 of the reference's */
     ps.indirect = PM_INDIRECT_PHOTONS;
-    if (start(&r, &s, a, &cam, W, H, &ps) && iterate(&r, 512)) {
+    if (start(&r, &s, a, &cam, W, H, &ps) && iterate(&r, 256)) {
         pm_film_resolve_total(r.film, img);
-        compare("progressive --indirect photons, 512 iterations", img, ref, masks, 0.02, 0.03, 0.04);
+        compare("progressive --indirect photons, 256 iterations", img, ref, masks, 0.02, 0.03, 0.04);
     }
     stop(&r);
 

@@ -23,7 +23,9 @@ static void test_long_run(void) {
     pm_accel *a = scaled_room(&s, 1.f, &cam);
     enum { W = 6, H = 6 };
     pm_progressive_settings ps = default_settings(W, H);
-    ps.photons = ps.caustic_photons = 400;
+    /* a hundred photons a pass: the statistics see 10^4 updates all the same (the mean radius at
+     * 10^4 iterations 0.47 of that at 100, as with 400) at 0.4 of the processor time */
+    ps.photons = ps.caustic_photons = 100;
     ps.indirect = PM_INDIRECT_PHOTONS;
     ps.eye_passes = 1; /* 10^4 photon passes, each shrinking the radii */
     session r;
@@ -111,9 +113,11 @@ static eye_pass_trial eye_pass_trial_run(const pm_scene *s, const pm_accel *a, c
 /* The automatic choice against that search, at 16x16 in the room: at the default photons a pass,
  * where a photon pass costs many eye passes' rays, and at 16 photons a pass, where it costs next
  * to nothing. The count the probe settles on must buy within 25% of the least noise x cost over
- * fixed counts of 1, 2, 4 and 8. */
+ * fixed counts of 1, 2, 4 and 8. Two seeds find the same best as four: over the pairs of seeds
+ * 1-2, 3-4, 5-6 and 7-8 it is 8 and 1, ahead of the next by 1.54-2.32x and 1.25-1.29x (seeds
+ * 1-4 and 5-8: 1.83-2.02x and 1.23-1.25x). */
 static void test_eye_passes_against_search(void) {
-    enum { W = 16, H = 16, SEEDS = 4, PASSES = 2 * PM_PPM_PROBE_ITERATIONS + 8 };
+    enum { W = 16, H = 16, SEEDS = 2, PASSES = 2 * PM_PPM_PROBE_ITERATIONS + 8 };
     pm_scene s;
     pm_camera cam;
     pm_accel *a = scaled_room(&s, 1.f, &cam);
