@@ -59,9 +59,11 @@ mpi_job3() { export ASAN_OPTIONS=detect_leaks=0; exec_with_sigint mpirun --overs
 # until FILE, the output of a job started with --stats and a --reference, holds rank 0's first
 # 'stat progress' line: an iteration is done, so every rank has given its word
 # at the set-up's agreement and catches signals. (A fixed wait instead was too short on a loaded
-# machine, where the set-up took longer, and too long on an idle one.)
+# machine, where the set-up took longer, and too long on an idle one.) The space after the stage
+# matters: 'stat progressive_setup' is printed during the set-up, before the agreement, and a rank
+# stopped then fails the agreement instead of the case under test.
 rendering() {
-    i=0; while ! grep -qs "^stat progress" "$1" && [ "$i" -lt 1200 ]; do sleep 0.05; i=$((i + 1)); done
+    i=0; while ! grep -qs "^stat progress " "$1" && [ "$i" -lt 1200 ]; do sleep 0.05; i=$((i + 1)); done
 }
 # stat_value FILE STAGE KEY: KEY's value on FILE's last 'stat STAGE' line
 stat_value() { grep "^stat $2 " "$1" | tail -n 1 | tr ' ' '\n' | sed -n "s/^$3=//p"; }
