@@ -948,8 +948,8 @@ static bool merge_chunks(void **chunk_data, const uint32_t *chunk_counts, size_t
 /* Copies the chunks' records out of the thread arenas, in chunk order, into out (grown to
  * hold them); *total is their count. False, with nothing copied, when growing fails. When one
  * arena already holds them all in chunk order from its start (one thread), out and that arena
- * trade buffers instead: the copy of tens of MB, and the first touch of the pages it fills, were
- * 2-3% of a one-thread pass. */
+ * trade buffers instead: the copy, tens of MB a pass, took up to 9% of a one-thread pass
+ * (docs/design.md, photonmap). */
 static bool merge_records(pass *ps, size_t chunks, pm_photon_buffer *out, size_t *total) {
     *total = 0;
     bool in_place = true;
