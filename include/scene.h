@@ -277,8 +277,9 @@ typedef struct {
     uint32_t *emitters;        /* triangle indices whose emission, averaged over the triangle, is not black */
     vec3 *emitter_radiance;    /* emitter_count: each one's radiance averaged over its triangle (texture included) */
     float *emitter_cdf;        /* emitter_count+1 entries, by area x luminance x sides */
+    uint32_t *emitter_cut;     /* emitter_count cut points of emitter_cdf (pm_cdf_cut_points) */
     uint32_t emitter_count;
-    uint64_t emitter_admitted; /* bytes of the three tables above admitted against --max-memory, given back when they go */
+    uint64_t emitter_admitted; /* bytes of the four tables above admitted against --max-memory, given back when they go */
     float emitter_power;       /* sum of area x luminance(radiance) x pi x sides */
     float *light_cdf;          /* light_count+1 entries by power, when there are more than PM_DIRECT_LIGHT_SAMPLES punctual lights; else NULL */
     uint32_t clamped_emission; /* materials, lights and sky whose emission finalize clamped to PM_MAX_EMISSION: the caller warns */
@@ -848,7 +849,7 @@ uint32_t pm_scene_pick_light(const pm_scene *s, float u, float *pick_pdf);
 uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf);
 /* The same pick as a position in s->emitters (for data kept per emitter). */
 static inline uint32_t pm_scene_pick_emitter_index(const pm_scene *s, float u, float *pick_pdf) {
-    uint32_t lo = pm_cdf_interval(s->emitter_cdf, s->emitter_count, u);
+    uint32_t lo = pm_cdf_interval_cut(s->emitter_cdf, s->emitter_cut, s->emitter_count, u);
     *pick_pdf = s->emitter_cdf[lo + 1] - s->emitter_cdf[lo];
     return lo;
 }

@@ -225,9 +225,11 @@ static vec3 triangle_mean_emission(const pm_scene *s, uint32_t t) {
 static bool build_emitters(pm_scene *s) {
     free(s->emitters);
     free(s->emitter_cdf);
+    free(s->emitter_cut);
     free(s->emitter_radiance);
     s->emitters = NULL;
     s->emitter_cdf = NULL;
+    s->emitter_cut = NULL;
     s->emitter_radiance = NULL;
     s->emitter_count = 0;
     s->emitter_power = 0.f;
@@ -239,7 +241,8 @@ static bool build_emitters(pm_scene *s) {
     if (!candidates) return true;
     /* a table a placed emissive triangle: placements can make it larger than the stored geometry
      * the loader admitted, so it is admitted too (the running sums only while it is built) */
-    uint64_t kept = (uint64_t)candidates * (sizeof *s->emitters + sizeof *s->emitter_radiance + sizeof *s->emitter_cdf) +
+    uint64_t kept = (uint64_t)candidates * (sizeof *s->emitters + sizeof *s->emitter_radiance + sizeof *s->emitter_cdf +
+                                            sizeof *s->emitter_cut) +
                     sizeof *s->emitter_cdf,
              building = ((uint64_t)candidates + 1) * sizeof(double);
     if (!pm_memory_admit(kept + building, "emitter distribution")) return false;
@@ -247,15 +250,18 @@ static bool build_emitters(pm_scene *s) {
     s->emitters = pm_malloc(candidates * sizeof *s->emitters, "emitter distribution");
     s->emitter_radiance = pm_malloc(candidates * sizeof *s->emitter_radiance, "emitter distribution");
     s->emitter_cdf = pm_malloc((candidates + 1) * sizeof *s->emitter_cdf, "emitter distribution");
+    s->emitter_cut = pm_malloc(candidates * sizeof *s->emitter_cut, "emitter distribution");
     double *running = pm_malloc((candidates + 1) * sizeof *running, "emitter distribution");
-    if (!s->emitters || !s->emitter_radiance || !s->emitter_cdf || !running) {
+    if (!s->emitters || !s->emitter_radiance || !s->emitter_cdf || !s->emitter_cut || !running) {
         free(s->emitters);
         free(s->emitter_radiance);
         free(s->emitter_cdf);
+        free(s->emitter_cut);
         free(running);
         s->emitters = NULL;
         s->emitter_radiance = NULL;
         s->emitter_cdf = NULL;
+        s->emitter_cut = NULL;
         pm_memory_release(kept + building);
         s->emitter_admitted = 0;
         return false;
@@ -283,6 +289,7 @@ static bool build_emitters(pm_scene *s) {
     s->emitter_cdf[0] = 0.f;
     for (uint32_t i = 1; i <= k; i++) s->emitter_cdf[i] = total > 0 ? (float)(running[i] / total) : (float)i / k;
     if (k) s->emitter_cdf[k] = 1.f;
+    pm_cdf_cut_points(s->emitter_cdf, k, s->emitter_cut);
     free(running);
     pm_memory_release(building);
     s->emitter_power = (float)(total * PM_PI);
@@ -570,6 +577,7 @@ void pm_scene_free(pm_scene *s) {
     free(s->variant_names);
     free(s->emitters);
     free(s->emitter_cdf);
+    free(s->emitter_cut);
     free(s->emitter_radiance);
     free(s->light_cdf);
     pm_memory_release(s->memory_admitted);
@@ -593,7 +601,7 @@ uint64_t pm_scene_bytes(const pm_scene *s) {
         bytes += 4ull * (uint64_t)x->width * (uint64_t)x->height;
         for (int k = 1; k < x->level_count; k++) bytes += 4ull * (uint64_t)x->level_width[k] * (uint64_t)x->level_height[k];
     }
-    bytes += (uint64_t)s->emitter_count * (sizeof(uint32_t) + sizeof(vec3) + sizeof(float));
+    bytes += (uint64_t)s->emitter_count * (2 * sizeof(uint32_t) + sizeof(vec3) + sizeof(float));
     if (s->light_cdf) bytes += ((uint64_t)s->light_count + 1) * sizeof(float);
     if (s->sky_map) bytes += pm_sky_map_bytes(s->sky_map->width, s->sky_map->height);
     bytes += (uint64_t)s->instanced_mesh_count * sizeof(pm_instanced_mesh) + (uint64_t)s->placement_count * sizeof(pm_placement);

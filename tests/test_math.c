@@ -57,30 +57,50 @@ static void test_octahedral_codes(void) {
     printf("octahedral round trip: at most %.3f degrees at 7 bits, %.3f at 8\n", worst[0], worst[1]);
 }
 
-/* pm_cdf_interval against a linear scan (the last i < n with cdf[i] <= u) on CDFs of every size
- * to 40, with runs of equal entries (lights of no power) and u on, between and past the entries */
+/* pm_cdf_interval and pm_cdf_interval_cut against a linear scan (the last i < n with cdf[i] <= u)
+ * on CDFs of every size to 40, normalized (as the renderer's) or not, with runs of equal entries
+ * (lights of no power) and u on, between and past the entries and next to the cut points' j / n */
 static void test_cdf_interval(void) {
     pm_rng rng = pm_rng_for(5, 1, 2);
-    long differ = 0, cases = 0;
+    long differ = 0, differ_cut = 0, cases = 0;
     for (uint32_t n = 0; n <= 40; n++) {
         for (int trial = 0; trial < 50; trial++) {
             float cdf[41];
+            uint32_t cut[40];
             cdf[0] = 0.f;
             for (uint32_t i = 1; i <= n; i++) cdf[i] = cdf[i - 1] + (pm_rng_float(&rng) < 0.3f ? 0.f : pm_rng_float(&rng));
-            for (int k = 0; k < 40; k++) {
-                float u = k < 20 ? cdf[(uint32_t)(pm_rng_float(&rng) * (float)(n + 1))] : pm_rng_float(&rng) * (cdf[n] + 0.1f);
+            if (trial % 2 && n && cdf[n] > 0.f)
+                for (uint32_t i = 1; i <= n; i++) cdf[i] = i == n ? 1.f : cdf[i] / cdf[n];
+            /* equal intervals (equal emitters): each entry on a cut point, where u * n rounded up
+             * to j from below j / n (n = 19, j = 9) starts past u and must step back */
+            if (trial == 0)
+                for (uint32_t i = 1; i <= n; i++) cdf[i] = (float)((double)i / n);
+            pm_cdf_cut_points(cdf, n, cut);
+            for (int k = 0; k < 60; k++) {
+                float u = k < 20   ? cdf[(uint32_t)(pm_rng_float(&rng) * (float)(n + 1))]
+                          : k < 40 ? pm_rng_float(&rng) * (cdf[n] + 0.1f)
+                                   : nextafterf((float)((double)((k / 2) % (n + 1)) / (n ? n : 1)), k % 2 ? 2.f : -1.f);
                 uint32_t expect = 0;
                 for (uint32_t i = 0; i < n; i++)
                     if (cdf[i] <= u) expect = i;
                 differ += pm_cdf_interval(cdf, n, u) != expect;
+                differ_cut += pm_cdf_interval_cut(cdf, cut, n, u) != expect;
                 cases++;
             }
         }
     }
     CHECK(differ == 0, "pm_cdf_interval differs from a linear scan in %ld of %ld cases", differ, cases);
+    CHECK(differ_cut == 0, "pm_cdf_interval_cut differs from a linear scan in %ld of %ld cases", differ_cut, cases);
     float one[2] = {0.f, 1.f};
+    uint32_t cut_one[1] = {0};
     CHECK(pm_cdf_interval(one, 1, 0.5f) == 0 && pm_cdf_interval(one, 0, 0.5f) == 0 && pm_cdf_interval(one, 1, NAN) == 0,
           "one interval, none, NaN");
+    float zero_first[4] = {0.f, 0.f, 0.f, 1.f}; /* two intervals of no width first: a NaN still picks 0, as the search */
+    uint32_t cut_three[3];
+    pm_cdf_cut_points(zero_first, 3, cut_three);
+    CHECK(pm_cdf_interval_cut(one, cut_one, 1, 0.5f) == 0 && pm_cdf_interval_cut(zero_first, cut_three, 3, NAN) == 0 &&
+              pm_cdf_interval_cut(zero_first, cut_three, 3, 0.f) == 2,
+          "cut points: one interval, NaN, u = 0 past intervals of no width");
 }
 
 int main(void) {
