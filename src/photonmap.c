@@ -86,6 +86,7 @@ typedef struct {
     float area;
     bool uniform_emission, double_sided;
 } emitter_shape;
+_Static_assert(sizeof(emitter_shape) <= PM_PHOTON_BYTES_PER_EMITTER, "the session's memory estimate counts emitter records");
 
 typedef struct {
     const pm_scene *scene;
