@@ -20,6 +20,8 @@ typedef struct {
     float *rgb;          /* width*height*3, linear radiance, row 0 = the zenith */
     float *row_cdf;      /* height+1: rows by their summed weight */
     float *column_cdf;   /* height*(width+1): texels within each row */
+    uint32_t *row_cut;   /* height: row_cdf's cut points (pm_cdf_cut_points) */
+    uint32_t *column_cut;/* height*width: each row's column cdf's */
     vec3 mean;           /* radiance averaged over the sphere (per solid angle) */
     float peak_over_mean;/* the brightest texel's channel mean over the sphere's (1 for a uniform map): how concentrated its light is */
     size_t clamped;      /* texels above PM_MAX_EMISSION or not finite, clamped: the caller warns */

@@ -16,6 +16,8 @@ void pm_sky_map_free(pm_sky_map *m) {
     free(m->rgb);
     free(m->row_cdf);
     free(m->column_cdf);
+    free(m->row_cut);
+    free(m->column_cut);
     free(m);
 }
 
@@ -50,9 +52,10 @@ static bool clamp_texel(float *t) {
 
 uint64_t pm_sky_map_bytes(int width, int height) {
     uint64_t w = width > 0 ? (uint64_t)width : 0, h = height > 0 ? (uint64_t)height : 0;
-    /* texels, each row's column cdf, the row cdf, and the row sums while the cdfs are built */
-    return sizeof(pm_sky_map) + 3 * sizeof(float) * w * h + sizeof(float) * h * (w + 1) + sizeof(float) * (h + 1) +
-           sizeof(double) * h;
+    /* texels, each row's column cdf and its cut points, the row cdf and its, and the row sums
+     * while the cdfs are built */
+    return sizeof(pm_sky_map) + 3 * sizeof(float) * w * h + sizeof(float) * h * (w + 1) + sizeof(uint32_t) * h * w +
+           sizeof(float) * (h + 1) + sizeof(uint32_t) * h + sizeof(double) * h;
 }
 
 pm_sky_map *pm_sky_map_create(int width, int height, const float *rgb, char *err, size_t err_size) {
@@ -84,9 +87,11 @@ pm_sky_map *pm_sky_map_adopt(int width, int height, float *rgb, char *err, size_
         rgb = NULL;
         m->row_cdf = pm_malloc(sizeof(float) * ((size_t)height + 1), "environment map");
         m->column_cdf = pm_malloc(sizeof(float) * (size_t)height * ((size_t)width + 1), "environment map");
+        m->row_cut = pm_malloc(sizeof(uint32_t) * (size_t)height, "environment map");
+        m->column_cut = pm_malloc(sizeof(uint32_t) * (size_t)height * (size_t)width, "environment map");
         row_sum = pm_malloc(sizeof(double) * (size_t)height, "environment map");
     }
-    if (!m || !m->row_cdf || !m->column_cdf || !row_sum) {
+    if (!m || !m->row_cdf || !m->column_cdf || !m->row_cut || !m->column_cut || !row_sum) {
         free(rgb);
         free(row_sum);
         pm_sky_map_free(m);
@@ -121,6 +126,7 @@ pm_sky_map *pm_sky_map_adopt(int width, int height, float *rgb, char *err, size_
             cdf[x + 1] = run > 0.0 ? (float)(partial / run) : (float)(x + 1) / width;
         }
         cdf[width] = 1.f;
+        pm_cdf_cut_points(cdf, (uint32_t)width, m->column_cut + (size_t)y * width);
         row_sum[y] = run * omega;
         total += row_sum[y];
     }
@@ -136,6 +142,7 @@ pm_sky_map *pm_sky_map_adopt(int width, int height, float *rgb, char *err, size_
         m->row_cdf[y + 1] = (float)(run / total);
     }
     m->row_cdf[height] = 1.f;
+    pm_cdf_cut_points(m->row_cdf, (uint32_t)height, m->row_cut);
     free(row_sum);
     m->mean = v3((float)(mean[0] / (4.0 * PM_PI)), (float)(mean[1] / (4.0 * PM_PI)), (float)(mean[2] / (4.0 * PM_PI)));
     m->peak_over_mean = (float)(peak / ((mean[0] + mean[1] + mean[2]) / (3.0 * 4.0 * PM_PI))); /* total > 0: the mean is too */
@@ -200,11 +207,11 @@ float pm_sky_map_pdf(const pm_sky_map *m, vec3 dir) {
 }
 
 vec3 pm_sky_map_sample(const pm_sky_map *m, float u1, float u2, vec3 *dir, float *pdf) {
-    int y = (int)pm_cdf_interval(m->row_cdf, (uint32_t)m->height, u1);
+    int y = (int)pm_cdf_interval_cut(m->row_cdf, m->row_cut, (uint32_t)m->height, u1);
     float row_p = m->row_cdf[y + 1] - m->row_cdf[y];
     float v = row_p > 0.f ? (u1 - m->row_cdf[y]) / row_p : 0.5f; /* reused: uniform within the row's slice */
     const float *cdf = m->column_cdf + (size_t)y * (m->width + 1);
-    int x = (int)pm_cdf_interval(cdf, (uint32_t)m->width, u2);
+    int x = (int)pm_cdf_interval_cut(cdf, m->column_cut + (size_t)y * m->width, (uint32_t)m->width, u2);
     float col_p = cdf[x + 1] - cdf[x];
     float w = col_p > 0.f ? (u2 - cdf[x]) / col_p : 0.5f;
     v = v < 0.f ? 0.f : (v > 1.f ? 1.f : v);
