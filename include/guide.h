@@ -48,6 +48,7 @@ bool pm_marks_test(const pm_marks *m, vec3 p);
 typedef struct {
     uint32_t sources;            /* guided sources, at most PM_GUIDE_MAX_SOURCES */
     float *cdf;                  /* per source, PM_GUIDE_CELL_COUNT + 1 entries */
+    uint32_t *cut;               /* per source, the cdf's PM_GUIDE_CELL_COUNT cut points (pm_cdf_cut_points) */
     uint64_t *emitted, *useful;  /* per source and cell, summed over the run */
 } pm_guide;
 

@@ -62,15 +62,17 @@ bool pm_guide_init(pm_guide *g, uint32_t sources) {
     g->sources = sources;
     if (!sources) return true;
     g->cdf = pm_malloc(sizeof(float) * sources * (PM_GUIDE_CELL_COUNT + 1), "photon guide");
+    g->cut = pm_malloc(sizeof(uint32_t) * sources * PM_GUIDE_CELL_COUNT, "photon guide");
     g->emitted = pm_calloc((size_t)sources * PM_GUIDE_CELL_COUNT, sizeof(uint64_t), "photon guide counts");
     g->useful = pm_calloc((size_t)sources * PM_GUIDE_CELL_COUNT, sizeof(uint64_t), "photon guide counts");
-    if (!g->cdf || !g->emitted || !g->useful) { pm_guide_free(g); return false; }
+    if (!g->cdf || !g->cut || !g->emitted || !g->useful) { pm_guide_free(g); return false; }
     pm_guide_reset(g);
     return true;
 }
 
 void pm_guide_free(pm_guide *g) {
     free(g->cdf);
+    free(g->cut);
     free(g->emitted);
     free(g->useful);
     memset(g, 0, sizeof *g);
@@ -81,6 +83,7 @@ void pm_guide_copy(pm_guide *dst, const pm_guide *src) {
     size_t cells = (size_t)src->sources * PM_GUIDE_CELL_COUNT;
     if (!cells) return;
     memcpy(dst->cdf, src->cdf, (cells + src->sources) * sizeof(float));
+    memcpy(dst->cut, src->cut, cells * sizeof(uint32_t));
     memcpy(dst->emitted, src->emitted, cells * sizeof(uint64_t));
     memcpy(dst->useful, src->useful, cells * sizeof(uint64_t));
 }
@@ -113,6 +116,7 @@ static void draw_cdf(pm_guide *g, uint32_t s) {
 #undef CELL_RATE
     for (int c = 1; c <= PM_GUIDE_CELL_COUNT; c++) cdf[c] = (float)(cdf[c] / acc);
     cdf[PM_GUIDE_CELL_COUNT] = 1.f;
+    pm_cdf_cut_points(cdf, PM_GUIDE_CELL_COUNT, g->cut + (size_t)s * PM_GUIDE_CELL_COUNT);
 }
 
 void pm_guide_reset(pm_guide *g) {
@@ -123,7 +127,8 @@ void pm_guide_reset(pm_guide *g) {
 }
 
 uint32_t pm_guide_pick(const pm_guide *g, uint32_t s, float u_cell, float *u1, float *u2) {
-    uint32_t c = pm_cdf_interval(g->cdf + (size_t)s * (PM_GUIDE_CELL_COUNT + 1), PM_GUIDE_CELL_COUNT, u_cell);
+    uint32_t c = pm_cdf_interval_cut(g->cdf + (size_t)s * (PM_GUIDE_CELL_COUNT + 1), g->cut + (size_t)s * PM_GUIDE_CELL_COUNT,
+                                     PM_GUIDE_CELL_COUNT, u_cell);
     *u1 = pm_minf(((float)(c % PM_GUIDE_CELLS) + *u1) * (1.f / PM_GUIDE_CELLS), 0x1.fffffep-1f);
     *u2 = pm_minf(((float)(c / PM_GUIDE_CELLS) + *u2) * (1.f / PM_GUIDE_CELLS), 0x1.fffffep-1f);
     return c;
