@@ -789,6 +789,8 @@ vec3 pm_texture_filtered(const pm_texture *t, float u, float v, float texels, bo
  * The bytes are admitted (pm_memory_admit) and added to *admitted; false when refused or out
  * of memory (the failure recorded, t left with level 0 alone). */
 bool pm_texture_build_levels(pm_texture *t, bool srgb, uint64_t *admitted);
+/* The smallest and largest byte of each channel (R, G, B, A) over level 0, in one pass. */
+void pm_texture_channel_bounds(const pm_texture *t, uint8_t lo[4], uint8_t hi[4]);
 /* Asks for the level-0 texels pm_texture_lookup at (u, v) reads, without reading them. */
 void pm_texture_prefetch(const pm_texture *t, float u, float v);
 /* The alpha channel at (u, v), bilinear like pm_texture_lookup; alpha is stored linear (no sRGB). */

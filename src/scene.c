@@ -12,6 +12,7 @@
 #include <float.h>
 #include <pthread.h>
 #include <stdlib.h>
+#include <string.h>
 
 const char *const pm_component_names[PM_COMPONENT_COUNT] = {"direct", "specular", "caustic", "indirect"};
 
@@ -50,35 +51,35 @@ static bool diffuse_coplanar(const pm_scene *s) {
     return true;
 }
 
+/* Per texture, the smallest and largest byte of each channel, read the first time a material's
+ * lobe bounds ask: an atlas that many materials share is read once, not once per material and
+ * channel. */
+typedef struct { uint8_t lo[4], hi[4]; bool known; } channel_bounds;
+
 /* The smallest and largest value of one channel over a texture's texels, as a fraction of 255
  * (neither bilinear filtering nor the mip levels' averages can leave this range); [1, 1] without a
  * texture, whose factor stands alone. */
-static void channel_range(const pm_scene *s, int texture, int channel, float *lo, float *hi) {
+static void channel_range(const pm_scene *s, channel_bounds *bounds, int texture, int channel, float *lo, float *hi) {
     *lo = *hi = 1.f;
     if (texture < 0 || (uint32_t)texture >= s->texture_count || !s->textures[texture].rgba) return;
-    const pm_texture *t = &s->textures[texture];
-    uint8_t a = 255, b = 0;
-    size_t n = (size_t)t->width * (size_t)t->height;
-    for (size_t i = 0; i < n; i++) {
-        uint8_t x = t->rgba[4 * i + channel];
-        a = x < a ? x : a;
-        b = x > b ? x : b;
-    }
-    *lo = a / 255.f;
-    *hi = b / 255.f;
+    channel_bounds *b = &bounds[texture];
+    if (!b->known) pm_texture_channel_bounds(&s->textures[texture], b->lo, b->hi);
+    b->known = true;
+    *lo = b->lo[channel] / 255.f;
+    *hi = b->hi[channel] / 255.f;
 }
 
 /* Which lobes a material can have somewhere. Each lobe weight is linear in metallic, roughness
  * and transmission separately, so its largest value over the box of their possible values is
  * at one of the box's eight corners; the dielectric's specular weight (a factor times a
  * texture's alpha) adds a fourth axis, and a coat or a sheen makes every point glossy. */
-static void material_lobes(const pm_scene *s, pm_material *m) {
+static void material_lobes(const pm_scene *s, channel_bounds *bounds, pm_material *m) {
     float lo[4], hi[4];
-    channel_range(s, m->metallic_roughness_texture, 2, &lo[0], &hi[0]);
-    channel_range(s, m->metallic_roughness_texture, 1, &lo[1], &hi[1]);
-    channel_range(s, m->transmission_texture, 0, &lo[2], &hi[2]);
+    channel_range(s, bounds, m->metallic_roughness_texture, 2, &lo[0], &hi[0]);
+    channel_range(s, bounds, m->metallic_roughness_texture, 1, &lo[1], &hi[1]);
+    channel_range(s, bounds, m->transmission_texture, 0, &lo[2], &hi[2]);
     lo[3] = hi[3] = 1.f;
-    if (m->layered) channel_range(s, m->layers.specular_texture.texture, 3, &lo[3], &hi[3]);
+    if (m->layered) channel_range(s, bounds, m->layers.specular_texture.texture, 3, &lo[3], &hi[3]);
     const pm_material_layers *l = &m->layers;
     const float factor[4] = {m->metallic, m->roughness, m->transmission, m->layered ? l->specular : 1.f};
     bool layer_lobe = m->layered && (l->clearcoat > 0.f || v3_max_component(l->sheen_color) > 0.f);
@@ -518,7 +519,10 @@ bool pm_scene_finalize(pm_scene *s, bool add_default_sky, bool *added_sky) {
     s->radius = 0.5f * v3_length(v3_sub(hi, lo));
     float extent = v3_max_component(v3_sub(hi, lo));
     s->ray_scale = extent > 0.f ? extent : 1.f;
-    for (uint32_t i = 0; i < s->material_count; i++) material_lobes(s, &s->materials[i]);
+    channel_bounds *bounds = pm_calloc(s->texture_count ? s->texture_count : 1, sizeof *bounds, "texture channel bounds");
+    if (!bounds) return false;
+    for (uint32_t i = 0; i < s->material_count; i++) material_lobes(s, bounds, &s->materials[i]);
+    free(bounds);
     free(s->face_normals);
     s->face_normals = pm_malloc(sizeof(vec3) * (s->triangle_count ? s->triangle_count : 1), "face normals");
     if (!s->face_normals) return false;

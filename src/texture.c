@@ -5,6 +5,7 @@
 #include <math.h>
 #include <pthread.h>
 #include <stdlib.h>
+#include <string.h>
 
 static float srgb_table[256];
 static pthread_once_t srgb_table_once = PTHREAD_ONCE_INIT; /* filled once, before any thread reads it */
@@ -298,4 +299,30 @@ float pm_texture_alpha(const pm_texture *t, float u, float v) {
     float sum = 0.f;
     for (int k = 0; k < 4; k++) sum += t->rgba[4 * b.texel[k] + 3] * b.weight[k];
     return sum * (1.f / 255.f);
+}
+
+void pm_texture_channel_bounds(const pm_texture *t, uint8_t lo[4], uint8_t hi[4]) {
+    size_t bytes = 4 * (size_t)t->width * (size_t)t->height, i = 0;
+    /* sixteen running bounds, four texels' channels side by side: the loop vectorizes */
+    uint8_t low[16], high[16];
+    memset(low, 255, sizeof low);
+    memset(high, 0, sizeof high);
+    for (; i + 16 <= bytes; i += 16)
+        for (int k = 0; k < 16; k++) {
+            uint8_t x = t->rgba[i + k];
+            low[k] = x < low[k] ? x : low[k];
+            high[k] = x > high[k] ? x : high[k];
+        }
+    for (; i < bytes; i++) { /* the last texels (fewer than four): byte i is channel i % 4 */
+        uint8_t x = t->rgba[i];
+        low[i % 16] = x < low[i % 16] ? x : low[i % 16];
+        high[i % 16] = x > high[i % 16] ? x : high[i % 16];
+    }
+    for (int c = 0; c < 4; c++) {
+        lo[c] = 255, hi[c] = 0;
+        for (int k = c; k < 16; k += 4) {
+            lo[c] = low[k] < lo[c] ? low[k] : lo[c];
+            hi[c] = high[k] > hi[c] ? high[k] : hi[c];
+        }
+    }
 }

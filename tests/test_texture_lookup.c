@@ -54,6 +54,44 @@ static double random_coordinate(pm_rng *rng, int n) {
     }
 }
 
+/* pm_texture_channel_bounds against a per-channel scan, on sizes whose byte counts are and are not
+ * multiples of its 16-byte stride, with each channel's extremes planted at the first texel, the
+ * last (in the tail past the stride) or between */
+static void test_channel_bounds(void) {
+    pm_rng rng = pm_rng_for(9, 1, 2);
+    const int widths[] = {1, 2, 3, 4, 5, 7, 64, 129};
+    long differ = 0, cases = 0;
+    for (size_t wi = 0; wi < sizeof widths / sizeof *widths; wi++)
+        for (int h = 1; h <= 3; h++)
+            for (int trial = 0; trial < 8; trial++) {
+                pm_texture t;
+                memset(&t, 0, sizeof t);
+                t.width = widths[wi], t.height = h;
+                size_t n = (size_t)t.width * h;
+                t.rgba = malloc(4 * n);
+                for (size_t i = 0; i < 4 * n; i++) t.rgba[i] = (uint8_t)(40 + (pm_rng_u32(&rng) % 170));
+                for (int c = 0; c < 4; c++) { /* a 0 and a 255 somewhere (or not) in each channel */
+                    size_t at[3] = {0, n - 1, pm_rng_u32(&rng) % n};
+                    if (trial % 4 != 3) t.rgba[4 * at[(trial + c) % 3] + c] = 0;
+                    if (trial % 4 != 2) t.rgba[4 * at[(trial + c + 1) % 3] + c] = 255;
+                }
+                uint8_t lo[4], hi[4];
+                pm_texture_channel_bounds(&t, lo, hi);
+                for (int c = 0; c < 4; c++) {
+                    uint8_t want_lo = 255, want_hi = 0;
+                    for (size_t i = 0; i < n; i++) {
+                        uint8_t x = t.rgba[4 * i + c];
+                        want_lo = x < want_lo ? x : want_lo;
+                        want_hi = x > want_hi ? x : want_hi;
+                    }
+                    differ += lo[c] != want_lo || hi[c] != want_hi;
+                    cases++;
+                }
+                free(t.rgba);
+            }
+    CHECK(differ == 0, "channel bounds differ from a per-channel scan in %ld of %ld cases", differ, cases);
+}
+
 int main(void) {
     const int sizes[] = {1, 2, 3, 5, 64, 257};
     const int modes[] = {PM_WRAP_REPEAT, PM_WRAP_CLAMP, PM_WRAP_MIRROR};
@@ -95,5 +133,6 @@ int main(void) {
     CHECK(outside == 0, "%ld lookups at extreme coordinates outside [0, 1]", outside);
     CHECK(lookups == 6 * 3 * 9 * 400, "lookups %ld", lookups);
     printf("worst difference from the reference %.3g over %ld lookups\n", worst, lookups);
+    test_channel_bounds();
     return pm_test_done("test_texture_lookup");
 }
