@@ -42,11 +42,14 @@ step() {
 ray_throughput() { for s in scenes/cornell-box.gltf scenes/caustic.gltf; do build/rel/bench_pm "$s" || return 1; done; }
 # the shipped scenes, then a mesh far larger than the caches (bench/big_scene.py's height field of a
 # million triangles, with shared vertices as exported meshes have): where the pass prefetches its hits;
-# and a grid of 10,000 placements of one small mesh, where every hit is located among the placements
+# a grid of 10,000 placements of one small mesh, where every hit is located among the placements; and a
+# room lit by an emissive sphere of 200,000 triangles, where each photon's emitter is prefetched
 photon_ceiling() {
     for s in scenes/*.gltf; do build/rel/photon_ceiling "$s" || return 1; done
     python3 bench/instanced_scene.py "$tmp/placements-10k.glb" --placements 10000 --triangles 200 >/dev/null || return 1
     build/rel/photon_ceiling "$tmp/placements-10k.glb" || return 1
+    python3 bench/emissive_scene.py "$tmp/emissive-sphere-200k.glb" 200000 >/dev/null || return 1
+    build/rel/photon_ceiling "$tmp/emissive-sphere-200k.glb" || return 1
     py=python3
     python3 -c "import numpy" 2>/dev/null || py=/usr/bin/python3
     if $py -c "import numpy" 2>/dev/null; then

@@ -99,6 +99,7 @@ typedef struct {
     bool volumes;            /* some material attenuates inside its mesh (KHR_materials_volume) */
     bool prefetch_hits;      /* the mesh outgrows the caches: hits' triangles are prefetched (PM_PREFETCH_GEOMETRY_BYTES) */
     bool prefetch_texels;    /* the textures outgrow them: hits' texels are prefetched (the same bound) */
+    bool prefetch_emitters;  /* the emitter tables outgrow them: photons' emitters are prefetched (the same bound) */
     bool tag_punctual_specular;  /* global records of a punctual light's light past a mirror or glass first are tagged so */
     bool only_punctual_specular; /* ... and stored alone (pm_photon_tracer_tag_punctual_specular) */
     bool caustic_pass;
@@ -807,7 +808,7 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
  * faster than one call each. Each photon keeps its own random stream, so its path is what it would
  * be traced alone; only the order of the chunk's records depends on the waves, the same at any
  * thread count. */
-enum { WAVE = PM_PHOTON_WAVE, PREFETCH_ROWS = 16, PREFETCH_CORNERS = 8, PREFETCH_TEXELS = 4 };
+enum { WAVE = PM_PHOTON_WAVE, PREFETCH_ROWS = 16, PREFETCH_CORNERS = 8, PREFETCH_TEXELS = 4, EMIT_AHEAD = 8 };
 typedef struct {
     vec3 origin[WAVE], direction[WAVE];
     photon_path path[WAVE];
@@ -823,6 +824,31 @@ static inline void prefetch_hit(const pm_scene *s, const photon_wave *w, size_t 
     if (stage == PREFETCH_CORNER) pm_scene_prefetch_corners(s, h->tri);
     else if (stage == PREFETCH_ROW) pm_scene_prefetch_triangle(s, h->tri);
     else pm_scene_prefetch_texels(s, h->tri, h->b1, h->b2);
+}
+
+/* Photon i's emitter, asked for ahead of its start on emitter tables larger than the caches: its
+ * pick is drawn from its own stream as start_photon and emit draw it (the source, then the
+ * emitter), and its chain of loads (the cut point, the CDF, the emitter's record), each a miss
+ * waiting on the last, is split over two calls: far ahead the cut point's line is asked for, near
+ * ahead (the cut point then cached) the CDF's and the record's. A photon of another kind of source
+ * asks for nothing; a peek that drew differently from the start would only fetch in vain. */
+static void prefetch_emitter(const pass *ps, pm_rng_family streams, uint64_t i, bool near) {
+    pm_rng rng = pm_rng_member(streams, i);
+    float pdf;
+    const light_source *l = &ps->sources[pick_source(ps, pm_rng_float(&rng), &pdf)];
+    const pm_scene *s = ps->scene;
+    uint32_t n = s->emitter_count;
+    if (l->kind != SOURCE_EMITTERS || n <= PM_CDF_SEARCH_MAX) return;
+    float x = pm_rng_float(&rng) * (float)n;
+    const uint32_t *cut = &s->emitter_cut[x < (float)n ? (uint32_t)x : n - 1];
+    if (!near) {
+        __builtin_prefetch(cut);
+        return;
+    }
+    uint32_t lo = *cut;
+    __builtin_prefetch(&s->emitter_cdf[lo + 1]);
+    __builtin_prefetch(&ps->emitter_shapes[lo]);
+    __builtin_prefetch((const char *)&ps->emitter_shapes[lo] + sizeof(emitter_shape) - 1);
 }
 
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
@@ -860,6 +886,10 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
             if (ps->cancel && atomic_load_explicit(ps->cancel, memory_order_relaxed)) {
                 next = last;
                 break;
+            }
+            if (ps->prefetch_emitters) {
+                if (next + 2 * EMIT_AHEAD < last) prefetch_emitter(ps, streams, next + 2 * EMIT_AHEAD, false);
+                if (next + EMIT_AHEAD < last) prefetch_emitter(ps, streams, next + EMIT_AHEAD, true);
             }
             if (!start_photon(ps, streams, next++, &w->path[n], &w->origin[n], &w->direction[n], list.guide_counts) ||
                 max_bounces < 1)
@@ -1175,6 +1205,7 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
     uint64_t prefetch_from = settings->prefetch_bytes ? settings->prefetch_bytes : PM_PREFETCH_GEOMETRY_BYTES + 1;
     ps->prefetch_hits = pm_scene_hit_data_bytes(s) >= prefetch_from;
     ps->prefetch_texels = pm_scene_texture_bytes(s) >= prefetch_from;
+    ps->prefetch_emitters = (uint64_t)s->emitter_count * (sizeof(emitter_shape) + sizeof(float) + sizeof(uint32_t)) >= prefetch_from;
     t->global_possible = source_count && s->analysis.has_diffuse;
 
     if (source_count && s->analysis.caustics_possible) {

@@ -528,8 +528,8 @@ static int compare_records(const void *a, const void *b) { return memcmp(a, b, s
 static int compare_splats(const void *a, const void *b) { return memcmp(a, b, sizeof(pm_camera_splat)); }
 
 /* Waves (PM_PHOTON_WAVE photons side by side) against the plain tracer, one photon's path after
- * another (wave 1), an odd wave of 7, and waves that prefetch their hits' triangles and texels and
- * waves that do not (a mesh or textures larger than the caches prefetch by default; this mesh's
+ * another (wave 1), an odd wave of 7, and waves that prefetch their hits' triangles, texels and
+ * photons' emitters and waves that do not (a mesh or textures larger than the caches prefetch by default; this mesh's
  * 0.7 MB and this texture's 1 MB do): the same records and camera splats, bit for bit, only in
  * another order, and the same ray count, in both kinds of pass, on a room with glass, a mirror,
  * rough metal, an area light and a point light (every branch of a bounce), its walls and the
@@ -541,8 +541,14 @@ static void waves_change_only_order(void) {
     add_sphere(&s, v3(-0.9f, 0.5f, 0.f), 0.45f, sb_material(&s, v3s(1.f), 0, 0, 1, v3s(0), false), 48, 24);
     add_sphere(&s, v3(0.2f, 0.5f, 0.6f), 0.4f, sb_material(&s, v3s(0.9f), 1, 0, 0, v3s(0), false), 48, 24);
     add_sphere(&s, v3(0.9f, 0.5f, -0.5f), 0.4f, sb_material(&s, v3(0.9f, 0.7f, 0.4f), 1, 0.5f, 0, v3s(0), false), 48, 24);
-    sb_quad(&s, v3(-0.4f, 2.99f, -0.4f), v3(0.4f, 2.99f, -0.4f), v3(0.4f, 2.99f, 0.4f), v3(-0.4f, 2.99f, 0.4f),
-            sb_material(&s, v3s(0.f), 0, 1, 0, v3s(8.f), false));
+    /* the area light as 3 x 3 quads: 18 emitters, past PM_CDF_SEARCH_MAX, picked by cut points and
+     * (prefetching) asked for ahead of their photons */
+    uint32_t lamp = sb_material(&s, v3s(0.f), 0, 1, 0, v3s(8.f), false);
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            float x0 = -0.4f + 0.8f * i / 3, x1 = -0.4f + 0.8f * (i + 1) / 3, z0 = -0.4f + 0.8f * j / 3, z1 = -0.4f + 0.8f * (j + 1) / 3;
+            sb_quad(&s, v3(x0, 2.99f, z0), v3(x1, 2.99f, z0), v3(x1, 2.99f, z1), v3(x0, 2.99f, z1), lamp);
+        }
     sb_point_light(&s, v3(1.2f, 2.4f, 1.2f), v3s(3.f));
     /* one 512 x 512 texture of stripes (colour on the walls, roughness on the metal), UVs from the positions */
     s.uvs = malloc(2 * sizeof(float) * s.vertex_count);

@@ -204,10 +204,11 @@ read below 2 whenever other work took processor time during the run.""")
         self.add(table(["figure"] + [short(s) for s in scenes], rows))
 
     def photon_ceiling(self):
-        self.section("The photon pass against its own rays, every shipped scene, a large mesh and many placements",
+        self.section("The photon pass against its own rays, every shipped scene, a large mesh, many placements and many emitters",
                      "for s in scenes/*.gltf; do build/rel/photon_ceiling $s; done; python3 bench/big_scene.py "
                      "height-field-1m.glb 1 --smooth; build/rel/photon_ceiling height-field-1m.glb; python3 bench/instanced_scene.py "
                      "placements-10k.glb --placements 10000 --triangles 200; build/rel/photon_ceiling placements-10k.glb; "
+                     "python3 bench/emissive_scene.py emissive-sphere-200k.glb 200000; build/rel/photon_ceiling emissive-sphere-200k.glb; "
                      "build/rel/photon_ceiling ../shared/real-models/LightsPunctualLamp/LightsPunctualLamp.gltf (and MultiUVTest)", """
 `photon_ceiling` records the rays the progressive mode's photon passes cast (the link wraps
 `pm_accel_intersect` and `pm_accel_intersect_packets` for that program only; the renderer's code is
@@ -222,7 +223,9 @@ generated for the run), whose mesh is far larger than the caches: there the pass
 hits' triangles (docs/design.md, large meshes). placements-10k is one torus of 200 triangles placed
 10,000 times on a grid under a sun (bench/instanced_scene.py): every hit is located among the
 placements (docs/design.md, Instancing), and Embree's rays cross two levels of its hierarchy.
-LightsPunctualLamp (four 2048 x 2048 textures, five
+emissive-sphere-200k is a room lit by an emissive sphere of 200,000 triangles (bench/emissive_scene.py),
+whose emitter tables are larger than the caches: there each photon's emitter is prefetched ahead of
+its start (docs/design.md, picks by cut points). LightsPunctualLamp (four 2048 x 2048 textures, five
 point lights) and MultiUVTest (an emissive cube alone in the void) are public glTF samples with
 textures larger than the caches, whose texels the pass prefetches; they are measured when
 ../shared/real-models is at hand. Emission is the share of the pass's time that starting its
