@@ -6,9 +6,17 @@
 #ifndef PM_PARALLEL_H
 #define PM_PARALLEL_H
 
+#ifdef __cplusplus
+/* the loader (C++) decodes its images in parallel; C11's atomic_bool is std::atomic_bool there */
+#include <atomic>
+#include <cstddef>
+typedef std::atomic_bool atomic_bool;
+extern "C" {
+#else
 #include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
+#endif
 
 /* Calls fn(ctx, task, thread) for task in [0, count), on `threads` threads (the caller's one
  * included); thread is in [0, threads). Returns when all tasks are done. */
@@ -32,5 +40,9 @@ bool pm_parallel_cancelled(void);
 int pm_thread_count(int requested);
 /* Number of online cores. */
 int pm_cpu_count(void);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

@@ -73,6 +73,7 @@ extern "C" {
 #include "loader.h"
 #include "memory.h"
 }
+#include "parallel.h"
 
 namespace {
 
@@ -222,15 +223,63 @@ struct Admitted {
     ~Admitted() { pm_memory_release(bytes); }
 };
 
+// An image load_wanted_image has checked and admitted, its decode put off so that the model's
+// images decode side by side (decode_pending_images): decoding PNGs and JPEGs one after another on
+// one core was most of a textured model's load.
+struct PendingImage {
+    int index, req_width, req_height;
+    std::vector<unsigned char> encoded;  // the file's bytes, copied: tinygltf frees its own after the hook
+    uint64_t held;                       // the decoded texels' bytes; twice this is admitted while decoding
+    bool attempted, decoded;
+    std::string error;
+};
+
 // What the file-system hooks and the image hook need; their refusals are kept to report them in our words.
 struct TinygltfHooks {
     LexicalPath folder;
     bool no_files = false;  // loading from memory: there is no folder to read external files from
     std::vector<char> image_wanted;  // per image: used by a texture pmview renders (base colour, emissive, data)
-    Admitted decoded;                // the decoded images, held by the model as long as the loader lives
+    Admitted decoded;                // the decoded images (and, until then, their files), held as long as the loader lives
     std::string error;
     std::vector<std::string> warnings;
+    std::vector<tinygltf::Image> *images = nullptr;  // the model's, where the pending images are decoded into
+    std::vector<PendingImage> pending;
 };
+
+void decode_one_image(void *ctx, size_t task, int) noexcept {
+    TinygltfHooks *hooks = static_cast<TinygltfHooks *>(ctx);
+    PendingImage &job = hooks->pending[task];
+    job.attempted = true;
+    std::string decode_warning;
+    try {
+        job.decoded = tinygltf::LoadImageData(&(*hooks->images)[job.index], job.index, &job.error, &decode_warning,
+                                              job.req_width, job.req_height, job.encoded.data(),
+                                              static_cast<int>(job.encoded.size()), nullptr);
+    } catch (const std::bad_alloc &) {
+        job.decoded = false;
+        job.error = "out of memory";
+    }
+}
+
+// Decodes the pending images on every core (stb_image keeps no shared state), then, in their
+// order, gives back what each no longer needs (the file's copy, and the second copy of the texels
+// a decode holds for a moment, or both where it failed) and warns of those that failed.
+void decode_pending_images(TinygltfHooks *hooks) {
+    if (hooks->pending.empty()) return;
+    pm_parallel_for(pm_thread_count(pm_cpu_count()), hooks->pending.size(), decode_one_image, hooks);
+    // a parallel-for on a thread whose cancel flag is up hands out no more tasks: those are decoded here
+    for (size_t i = 0; i < hooks->pending.size(); i++)
+        if (!hooks->pending[i].attempted) decode_one_image(hooks, i, 0);
+    for (PendingImage &job : hooks->pending) {
+        uint64_t unused = (job.decoded ? job.held : 2 * job.held) + job.encoded.size();
+        hooks->decoded.bytes -= unused;
+        pm_memory_release(unused);
+        if (!job.decoded)
+            hooks->warnings.push_back("image " + str(job.index) + " could not be decoded (" + one_line(job.error, 120) +
+                                      "); its textures are ignored");
+    }
+    hooks->pending.clear();
+}
 
 bool guarded_file_exists(const std::string &path, void *user) {
     TinygltfHooks *hooks = static_cast<TinygltfHooks *>(user);
@@ -300,24 +349,32 @@ bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, s
         return false;
     }
     // tinygltf asks stb for 4 channels (8 or 16 bits) and copies stb's buffer before freeing it:
-    // the decode needs twice what the model then holds
+    // the decode needs twice what the model then holds, and the file's copy waits beside it
     uint64_t held = static_cast<uint64_t>(width) * static_cast<uint64_t>(height) * 4 *
                     (stbi_is_16_bit_from_memory(bytes, size) ? 2 : 1);
-    const uint64_t mark = pm_memory_failure_mark();  // this refusal's line, never an older failure's
-    if (!pm_memory_admit(2 * held, "decoded image")) {
+    const uint64_t file = static_cast<uint64_t>(size), mark = pm_memory_failure_mark();  // this refusal's line, never an older failure's
+    auto admit = [&]() {
+        if (!pm_memory_admit(2 * held, "decoded image")) return false;
+        if (pm_memory_admit(file, "image file")) return true;
+        pm_memory_release(2 * held);
+        return false;
+    };
+    bool admitted = admit();
+    if (!admitted && !hooks->pending.empty()) {
+        // the images put off hold their second copies and files until decoded: with those given
+        // back, as one decode after another would have, this one may fit; asked again, the answer
+        // (and a refusal's line) is the second ask's
+        pm_memory_forgive_last();
+        decode_pending_images(hooks);
+        admitted = admit();
+    }
+    if (!admitted) {
         hooks->error = "out of memory (" + std::string(pm_memory_failure_since_or(mark, "decoded image")) + "): image " + str(index);
         return false;
     }
-    hooks->decoded.bytes += 2 * held;  // given back with the hooks should the decode throw
-    std::string decode_error, decode_warning;
-    bool decoded = tinygltf::LoadImageData(image, index, &decode_error, &decode_warning, req_width, req_height, bytes,
-                                           size, nullptr);
-    uint64_t unused = decoded ? held : 2 * held;
-    hooks->decoded.bytes -= unused;
-    pm_memory_release(unused);
-    if (!decoded)
-        hooks->warnings.push_back("image " + str(index) + " could not be decoded (" + one_line(decode_error, 120) +
-                                  "); its textures are ignored");
+    hooks->decoded.bytes += 2 * held + file;  // given back with the hooks should the decode throw
+    hooks->pending.push_back(PendingImage{index, req_width, req_height, std::vector<unsigned char>(bytes, bytes + size), held,
+                                          false, false, std::string()});
     return true;
 }
 
@@ -1840,9 +1897,11 @@ void Loader::build_model(const json &root) {
     ModelParse parse;
     parse.fs = {guarded_file_exists, unexpanded_path, guarded_read_file, refuse_write, &hooks_};
     parse.image_loader = load_wanted_image;
+    hooks_.images = &model_.images;
     bool ok = parse_model_geometry(root, parse) && mark_buffer_view_targets(parse) &&
-              parse_model_nodes_and_materials(root, parse) && parse_model_images(root, parse) &&
-              parse_model_remaining(root, parse);
+              parse_model_nodes_and_materials(root, parse) && parse_model_images(root, parse);
+    if (ok) decode_pending_images(&hooks_);
+    ok = ok && parse_model_remaining(root, parse);
     if (!hooks_.error.empty()) fail(hooks_.error);
     if (!ok) fail("tinygltf: " + (parse.error.empty() ? std::string("load failed") : one_line(parse.error)));
     for (const std::string &w : hooks_.warnings) warn(w);

@@ -52,7 +52,8 @@ python3 -B - "$tmp" <<'PY'
 import sys
 sys.path.insert(0, "tests")
 from texture_scene import write
-for name, sizes in (("one", [1024]), ("three", [1024] * 3), ("tiny", [64]), ("big", [2048]), ("claims", ["claim:16384"])):
+for name, sizes in (("one", [1024]), ("three", [1024] * 3), ("tiny", [64]), ("big", [2048]), ("claims", ["claim:16384"]),
+                    ("deep", ["deep:1024"] * 3)):
     write("%s/%s.gltf" % (sys.argv[1], name), sizes)
 PY
 run 18 "$tmp/tiny.gltf" --width 8 --iterations 1 --snapshot "$tmp/x.exr"
@@ -67,6 +68,14 @@ checks=$((checks + 1)); [ "$rc" -eq 0 ] || { fail "three 1024-square textures un
 run 16 "$tmp/big.gltf" --width 8 --iterations 1 --snapshot "$tmp/x.exr"
 refused "a 2048-square texture under 16 MiB" "decoded image, 33554432 bytes, with "
 within "a 2048-square texture refused" 16
+# images decode side by side, each holding a second copy of its texels until it is done: three of
+# 16-bit channels (8 MiB each, 16 while decoded, then ignored) at once would need 48 MiB, one after
+# another 32; under 36 MiB those waiting are decoded first and the third admitted after them, and
+# under 30 the refusal is the third's after the first two (16 MiB committed), as one at a time
+run 36 "$tmp/deep.gltf" --width 8 --iterations 1 --snapshot "$tmp/x.exr"
+checks=$((checks + 1)); [ "$rc" -eq 0 ] || { fail "three 16-bit 1024-square images under 36 MiB: exit $rc"; cat "$tmp/err"; }
+run 30 "$tmp/deep.gltf" --width 8 --iterations 1 --snapshot "$tmp/x.exr"
+refused "three 16-bit 1024-square images under 30 MiB" "decoded image, 16777216 bytes, with 16777216 bytes already committed"
 start=$(date +%s)
 run 256 "$tmp/claims.gltf" --width 8 --iterations 1 --snapshot "$tmp/x.exr"
 refused "a PNG header claiming 16384 x 16384 under 256 MiB" "decoded image, 2147483648 bytes, with "

@@ -5,7 +5,9 @@
 One quad per SIZE, side by side, each with its own baseColor texture: a SIZE x SIZE RGBA PNG
 written beside OUT.gltf. A SIZE written "claim:N" gives a PNG whose header says N x N but whose
 pixel data is a single short row: refusing it from the header costs nothing, decoding it would
-be needed to find that out. The scene has no light (pmview gives it the default sky)."""
+be needed to find that out. A SIZE written "deep:N" gives an N x N PNG of 16-bit channels, which
+is decoded (8 bytes a pixel, 16 while stb's copy is made) and then ignored (pmview reads 8-bit
+textures). The scene has no light (pmview gives it the default sky)."""
 import json
 import os
 import struct
@@ -17,12 +19,13 @@ def chunk(kind, data):
     return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
 
 
-def png(side, claimed_only):
-    header = struct.pack(">IIBBBBB", side, side, 8, 6, 0, 0, 0)  # 8-bit RGBA
+def png(side, claimed_only, deep=False):
+    header = struct.pack(">IIBBBBB", side, side, 16 if deep else 8, 6, 0, 0, 0)  # RGBA
     if claimed_only:
         pixels = zlib.compress(b"\0" + b"\x80" * 16)
     else:
-        row = b"\0" + bytes((200, 120, 40, 255)) * side  # filter 0, one colour: compresses to little
+        texel = bytes((200, 0, 120, 0, 40, 0, 255, 255)) if deep else bytes((200, 120, 40, 255))
+        row = b"\0" + texel * side  # filter 0, one colour: compresses to little
         pixels = zlib.compress(row * side, 9)
     return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", pixels) + chunk(b"IEND", b"")
 
@@ -53,11 +56,11 @@ def write(path, sizes):
     ]
     meshes, materials, textures, images = [], [], [], []
     for q, size in enumerate(sizes):
-        claimed = str(size).startswith("claim:")
+        claimed, deep = str(size).startswith("claim:"), str(size).startswith("deep:")
         side = int(str(size).split(":")[-1])
         name = "%s-%d.png" % (stem, q)
         with open(os.path.join(folder, name), "wb") as f:
-            f.write(png(side, claimed))
+            f.write(png(side, claimed, deep))
         images.append({"uri": name})
         textures.append({"source": q})
         materials.append({"pbrMetallicRoughness": {"baseColorTexture": {"index": q}, "metallicFactor": 0}})
