@@ -303,26 +303,32 @@ float pm_texture_alpha(const pm_texture *t, float u, float v) {
 
 void pm_texture_channel_bounds(const pm_texture *t, uint8_t lo[4], uint8_t hi[4]) {
     size_t bytes = 4 * (size_t)t->width * (size_t)t->height, i = 0;
-    /* sixteen running bounds, four texels' channels side by side: the loop vectorizes */
-    uint8_t low[16], high[16];
-    memset(low, 255, sizeof low);
-    memset(high, 0, sizeof high);
-    for (; i + 16 <= bytes; i += 16)
-        for (int k = 0; k < 16; k++) {
-            uint8_t x = t->rgba[i + k];
-            low[k] = x < low[k] ? x : low[k];
-            high[k] = x > high[k] ? x : high[k];
-        }
+    /* sixteen running bounds in one vector, four texels' channels side by side (GCC's vector
+     * extensions: at -O2 the plain loop stayed byte by byte, 2 GB/s) */
+    typedef uint8_t bytes16 __attribute__((vector_size(16)));
+    bytes16 low, high;
+    memset(&low, 255, sizeof low);
+    memset(&high, 0, sizeof high);
+    for (; i + 16 <= bytes; i += 16) {
+        bytes16 x;
+        memcpy(&x, t->rgba + i, sizeof x);
+        bytes16 below = (bytes16)(x < low), above = (bytes16)(x > high);
+        low = (low & ~below) | (x & below);
+        high = (high & ~above) | (x & above);
+    }
+    uint8_t l[16], h[16];
+    memcpy(l, &low, sizeof l);
+    memcpy(h, &high, sizeof h);
     for (; i < bytes; i++) { /* the last texels (fewer than four): byte i is channel i % 4 */
         uint8_t x = t->rgba[i];
-        low[i % 16] = x < low[i % 16] ? x : low[i % 16];
-        high[i % 16] = x > high[i % 16] ? x : high[i % 16];
+        l[i % 16] = x < l[i % 16] ? x : l[i % 16];
+        h[i % 16] = x > h[i % 16] ? x : h[i % 16];
     }
     for (int c = 0; c < 4; c++) {
         lo[c] = 255, hi[c] = 0;
         for (int k = c; k < 16; k += 4) {
-            lo[c] = low[k] < lo[c] ? low[k] : lo[c];
-            hi[c] = high[k] > hi[c] ? high[k] : hi[c];
+            lo[c] = l[k] < lo[c] ? l[k] : lo[c];
+            hi[c] = h[k] > hi[c] ? h[k] : hi[c];
         }
     }
 }
