@@ -239,7 +239,7 @@ struct TinygltfHooks {
     LexicalPath folder;
     bool no_files = false;  // loading from memory: there is no folder to read external files from
     std::vector<char> image_wanted;  // per image: used by a texture pmview renders (base colour, emissive, data)
-    Admitted decoded;                // the decoded images (and, until then, their files), held as long as the loader lives
+    Admitted decoded;                // the decoded images, held by the model as long as the loader lives
     std::string error;
     std::vector<std::string> warnings;
     std::vector<tinygltf::Image> *images = nullptr;  // the model's, where the pending images are decoded into
@@ -259,11 +259,12 @@ void decode_one_image(void *ctx, size_t task, int) noexcept {
         job.decoded = false;
         job.error = "out of memory";
     }
+    std::vector<unsigned char>().swap(job.encoded);  // the file's copy, no longer needed
 }
 
 // Decodes the pending images on every core (stb_image keeps no shared state), then, in their
-// order, gives back what each no longer needs (the file's copy, and the second copy of the texels
-// a decode holds for a moment, or both where it failed) and warns of those that failed.
+// order, gives back what each no longer needs (the second copy of the texels a decode holds for a
+// moment, or both where it failed) and warns of those that failed.
 void decode_pending_images(TinygltfHooks *hooks) {
     if (hooks->pending.empty()) return;
     pm_parallel_for(pm_thread_count(pm_cpu_count()), hooks->pending.size(), decode_one_image, hooks);
@@ -271,7 +272,7 @@ void decode_pending_images(TinygltfHooks *hooks) {
     for (size_t i = 0; i < hooks->pending.size(); i++)
         if (!hooks->pending[i].attempted) decode_one_image(hooks, i, 0);
     for (PendingImage &job : hooks->pending) {
-        uint64_t unused = (job.decoded ? job.held : 2 * job.held) + job.encoded.size();
+        uint64_t unused = job.decoded ? job.held : 2 * job.held;
         hooks->decoded.bytes -= unused;
         pm_memory_release(unused);
         if (!job.decoded)
@@ -349,30 +350,25 @@ bool load_wanted_image(tinygltf::Image *image, const int index, std::string *, s
         return false;
     }
     // tinygltf asks stb for 4 channels (8 or 16 bits) and copies stb's buffer before freeing it:
-    // the decode needs twice what the model then holds, and the file's copy waits beside it
+    // the decode needs twice what the model then holds. (The file's copy that waits for it is, as
+    // the buffers' bytes are, the model's input, not admitted.)
     uint64_t held = static_cast<uint64_t>(width) * static_cast<uint64_t>(height) * 4 *
                     (stbi_is_16_bit_from_memory(bytes, size) ? 2 : 1);
-    const uint64_t file = static_cast<uint64_t>(size), mark = pm_memory_failure_mark();  // this refusal's line, never an older failure's
-    auto admit = [&]() {
-        if (!pm_memory_admit(2 * held, "decoded image")) return false;
-        if (pm_memory_admit(file, "image file")) return true;
-        pm_memory_release(2 * held);
-        return false;
-    };
-    bool admitted = admit();
+    const uint64_t mark = pm_memory_failure_mark();  // this refusal's line, never an older failure's
+    bool admitted = pm_memory_admit(2 * held, "decoded image");
     if (!admitted && !hooks->pending.empty()) {
-        // the images put off hold their second copies and files until decoded: with those given
-        // back, as one decode after another would have, this one may fit; asked again, the answer
-        // (and a refusal's line) is the second ask's
+        // the images put off hold their second copies until decoded: with those given back, as
+        // one decode after another would have, this one may fit; asked again, the answer (and a
+        // refusal's line) is the second ask's
         pm_memory_forgive_last();
         decode_pending_images(hooks);
-        admitted = admit();
+        admitted = pm_memory_admit(2 * held, "decoded image");
     }
     if (!admitted) {
         hooks->error = "out of memory (" + std::string(pm_memory_failure_since_or(mark, "decoded image")) + "): image " + str(index);
         return false;
     }
-    hooks->decoded.bytes += 2 * held + file;  // given back with the hooks should the decode throw
+    hooks->decoded.bytes += 2 * held;  // given back with the hooks should the decode throw
     hooks->pending.push_back(PendingImage{index, req_width, req_height, std::vector<unsigned char>(bytes, bytes + size), held,
                                           false, false, std::string()});
     return true;
