@@ -51,7 +51,6 @@
 #define PM_PHOTON_PASS_RECORDS 3             /* photon records alive per photon of an iteration: the threads' lists, the merged list, the grid */
 #define PM_PHOTON_MAP_RECORDS 3              /* the global map's records per emitted photon: stored bounces, irradiance points, the tree
                                                 (a caustic photon is stored once, if at all) */
-#define PM_PHOTON_BYTES_PER_EMITTER 68       /* the photon tracer's record of each emissive triangle: corners, normal, emission, area, flags */
 #define PM_SHADOW_RECORDS_PER_PHOTON 2       /* shadow photon records per photon traced: about one crossing each, lists grown by doubling */
 #define PM_RENDER_RESIDENT_BYTES (8u << 20)  /* the render's threads, stacks and small tables */
 #define PM_GL_RESIDENT_BYTES (16u << 20)     /* an offscreen (OSMesa) context and its buffers, for PNG output */

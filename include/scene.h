@@ -230,6 +230,20 @@ typedef struct {
     float handedness;            /* 1, or -1 when M mirrors (the stored winding is then reversed in world space) */
 } pm_placement;
 
+/* One emissive triangle (in s->emitters order), all that a point picked on it reads, in one
+ * record: its world corners (p0 at barycentrics (0, 0); b1, b2 weigh p1, p2), unit normal by the
+ * winding and area (pm_triangle_geometry_of), and its material's emission where that is the same
+ * everywhere on it (no emissive texture, no cut-out: what pm_scene_emitted_at then returns), with
+ * its sides. A light sample or a photon start reads it in place of the triangle's indices, corners
+ * and material, a chain of loads each waiting on the last (on an emissive mesh larger than the
+ * caches, each a miss). */
+typedef struct {
+    vec3 p0, p1, p2, normal;
+    vec3 emission;
+    float area;
+    bool uniform_emission, double_sided;
+} pm_emitter;
+
 typedef struct {
     /* geometry, world space */
     uint32_t vertex_count, triangle_count;
@@ -275,11 +289,12 @@ typedef struct {
     vec3 center; float radius; /* the core's bounding sphere: the sky's and the sun's photon disc, framing */
     float ray_scale;           /* length scale for ray offsets and default radii (largest extent of the core) */
     uint32_t *emitters;        /* triangle indices whose emission, averaged over the triangle, is not black */
+    pm_emitter *emitter_records; /* emitter_count: what a point picked on each reads (pm_emitter) */
     vec3 *emitter_radiance;    /* emitter_count: each one's radiance averaged over its triangle (texture included) */
     float *emitter_cdf;        /* emitter_count+1 entries, by area x luminance x sides */
     uint32_t *emitter_cut;     /* emitter_count cut points of emitter_cdf (pm_cdf_cut_points) */
     uint32_t emitter_count;
-    uint64_t emitter_admitted; /* bytes of the four tables above admitted against --max-memory, given back when they go */
+    uint64_t emitter_admitted; /* bytes of the five tables above admitted against --max-memory, given back when they go */
     float emitter_power;       /* sum of area x luminance(radiance) x pi x sides */
     float *light_cdf;          /* light_count+1 entries by power, when there are more than PM_DIRECT_LIGHT_SAMPLES punctual lights; else NULL */
     uint32_t clamped_emission; /* materials, lights and sky whose emission finalize clamped to PM_MAX_EMISSION: the caller warns */
@@ -856,6 +871,15 @@ static inline uint32_t pm_scene_pick_emitter_index(const pm_scene *s, float u, f
     return lo;
 }
 float pm_triangle_area(const pm_scene *s, uint32_t tri);
+/* The point of an emitter at barycentrics (b1, b2) (pm_triangle_point's). */
+static inline vec3 pm_emitter_point(const pm_emitter *r, float b1, float b2) {
+    return v3_add(v3_add(v3_scale(r->p0, 1.f - b1 - b2), v3_scale(r->p1, b1)), v3_scale(r->p2, b2));
+}
+/* What emitter number e (a position in s->emitters) sends out at barycentrics (b1, b2). */
+static inline vec3 pm_emitter_emitted_at(const pm_scene *s, uint32_t e, float b1, float b2) {
+    const pm_emitter *r = &s->emitter_records[e];
+    return r->uniform_emission ? r->emission : pm_scene_emitted_at(s, s->emitters[e], b1, b2);
+}
 /* The probability that pm_scene_pick_emitter picks triangle tri (0 when it emits nothing). */
 float pm_scene_emitter_pdf(const pm_scene *s, uint32_t tri);
 

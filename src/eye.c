@@ -220,19 +220,18 @@ static void emitter_area_sample(light_site *ls, pm_rng *rng, vec3 *e) {
     const pm_surface *sf = ls->sf;
     vec3 ns = ls->ns, origin = ls->origin;
     float pick_pdf;
-    uint32_t tri = pm_scene_pick_emitter(s, pm_rng_float(rng), &pick_pdf);
-    float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng);
-    vec3 radiance = pm_scene_emitted_at(s, tri, r1 * (1.f - r2), r1 * r2); /* a point picked by area: cut-outs count */
-    pm_triangle_geometry g = pm_triangle_geometry_of(s, tri);
-    vec3 q = pm_triangle_point(&g, r1 * (1.f - r2), r1 * r2), nl = g.normal;
-    float area = g.area;
-    const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
+    uint32_t which = pm_scene_pick_emitter_index(s, pm_rng_float(rng), &pick_pdf);
+    float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng), b1 = r1 * (1.f - r2), b2 = r1 * r2;
+    const pm_emitter *light = &s->emitter_records[which];
+    vec3 radiance = pm_emitter_emitted_at(s, which, b1, b2); /* a point picked by area: cut-outs count */
+    vec3 q = pm_emitter_point(light, b1, b2), nl = light->normal;
+    float area = light->area;
     vec3 to_light = v3_sub(q, origin);
     float dist = v3_length(to_light);
     if (!(dist > 0.f && area > 0.f && pick_pdf > 0.f && !v3_is_black(radiance))) return; /* a cut-out or black texel */
     vec3 wi = v3_scale(to_light, 1.f / dist);
     float cos_l = -v3_dot(nl, wi);
-    if (m->double_sided) cos_l = fabsf(cos_l);
+    if (light->double_sided) cos_l = fabsf(cos_l);
     float cos_s = v3_dot(ns, wi);
     if (!(cos_l > 0.f && cos_s > 0.f && v3_dot(ls->ng, wi) > 0.f)) return;
     vec3 target = pm_offset_ray_origin(q, pm_facing(nl, v3_neg(wi)), s->ray_scale);

@@ -74,20 +74,6 @@ typedef struct {
 
 typedef struct { vec3 center; float radius; } sphere;
 
-/* Per emitter (in s->emitters order), all that emission reads of its triangle, in one record: its
- * world corners, the unit normal and area from one float cross product, and its material's
- * emission when that is constant (no emissive texture, no cut-out). Read from the scene, a
- * photon's start waits on a chain of loads (the emitter's triangle, its indices, its corners, its
- * material): on an emissive mesh larger than the caches each one a miss, and emission a third of
- * the pass (an emissive sphere of 200,000 triangles in a room). */
-typedef struct {
-    vec3 p0, p1, p2, ng;
-    vec3 emission;
-    float area;
-    bool uniform_emission, double_sided;
-} emitter_shape;
-_Static_assert(sizeof(emitter_shape) <= PM_PHOTON_BYTES_PER_EMITTER, "the session's memory estimate counts emitter records");
-
 typedef struct {
     const pm_scene *scene;
     const pm_accel *accel;
@@ -95,7 +81,6 @@ typedef struct {
     light_source *sources;
     uint32_t source_count;
     float *source_cdf;
-    const emitter_shape *emitter_shapes; /* s->emitter_count entries */
     bool volumes;            /* some material attenuates inside its mesh (KHR_materials_volume) */
     bool prefetch_hits;      /* the mesh outgrows the caches: hits' triangles are prefetched (PM_PREFETCH_GEOMETRY_BYTES) */
     bool prefetch_texels;    /* the textures outgrow them: hits' texels are prefetched (the same bound) */
@@ -388,33 +373,19 @@ static float sample_direction(const light_source *l, bool aimed, pm_rng *rng, ve
     return 4.f * PM_PI;
 }
 
-static emitter_shape *emitter_shapes(const pm_scene *s) {
-    emitter_shape *out = pm_malloc(sizeof(emitter_shape) * (s->emitter_count ? s->emitter_count : 1), "photon emitters");
-    for (uint32_t i = 0; out && i < s->emitter_count; i++) {
-        uint32_t tri = s->emitters[i];
-        pm_triangle_geometry g = pm_triangle_geometry_of(s, tri);
-        const pm_material *m = &s->materials[pm_scene_triangle_material(s, tri)];
-        out[i] = (emitter_shape){.p0 = g.p0, .p1 = g.p1, .p2 = g.p2, .ng = g.normal, .emission = m->emission, .area = g.area,
-                                 .double_sided = m->double_sided};
-        /* as pm_scene_emitted_at: the factor alone, unless a texture or a cut-out varies it */
-        out[i].uniform_emission = (m->emission_texture < 0 || v3_is_black(m->emission)) && !m->may_see_through;
-    }
-    return out;
-}
-
 /* The part of a surface record that emission needs (point, unit face normal, centroid for the
  * ray origin, emission, sides) on emitter number e; returns its area: one photon per call, so
  * the full pm_scene_surface would cost a measurable share of the pass. */
 static float emitter_point(const pass *ps, uint32_t e, float b1, float b2, pm_surface *sf) {
-    const emitter_shape *shape = &ps->emitter_shapes[e];
-    vec3 p0 = shape->p0, p1 = shape->p1, p2 = shape->p2;
+    const pm_emitter *r = &ps->scene->emitter_records[e];
+    vec3 p0 = r->p0, p1 = r->p1, p2 = r->p2;
     /* only the fields emission reads are set: clearing the whole record, once per photon, showed in profiles */
-    sf->p = v3_add(v3_add(v3_scale(p0, 1.f - b1 - b2), v3_scale(p1, b1)), v3_scale(p2, b2));
-    sf->ng = sf->ns = shape->ng;
+    sf->p = pm_emitter_point(r, b1, b2);
+    sf->ng = sf->ns = r->normal;
     sf->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
-    sf->emission = shape->uniform_emission ? shape->emission : pm_scene_emitted_at(ps->scene, ps->scene->emitters[e], b1, b2);
-    sf->double_sided = shape->double_sided;
-    return shape->area;
+    sf->emission = pm_emitter_emitted_at(ps->scene, e, b1, b2);
+    sf->double_sided = r->double_sided;
+    return r->area;
 }
 
 /* A start for light travelling along dir, uniform over the shadow the core's box casts on the
@@ -847,8 +818,8 @@ static void prefetch_emitter(const pass *ps, pm_rng_family streams, uint64_t i, 
     }
     uint32_t lo = *cut;
     __builtin_prefetch(&s->emitter_cdf[lo + 1]);
-    __builtin_prefetch(&ps->emitter_shapes[lo]);
-    __builtin_prefetch((const char *)&ps->emitter_shapes[lo] + sizeof(emitter_shape) - 1);
+    __builtin_prefetch(&s->emitter_records[lo]);
+    __builtin_prefetch((const char *)&s->emitter_records[lo] + sizeof(pm_emitter) - 1);
 }
 
 static void trace_chunk(void *ctx, size_t chunk, int thread) {
@@ -1148,7 +1119,6 @@ struct pm_photon_tracer {
     sphere *spheres;
     uint32_t sphere_count;
     float *target_cdf;
-    emitter_shape *emitter_shapes;
     pass ps;                   /* the pass template: sources, targets; photons and seed set per trace */
     bool global_possible, caustic_possible;
     double projection_fraction;
@@ -1169,8 +1139,7 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
     /* the emitter set, every punctual light and the sky: at most light_count + 2 sources */
     t->sources = pm_malloc(sizeof(light_source) * ((size_t)s->light_count + 2), "photon light sources");
     t->cdf = pm_malloc(sizeof(float) * ((size_t)s->light_count + 3), "photon light sources");
-    t->emitter_shapes = emitter_shapes(s);
-    if (!t->sources || !t->cdf || !t->emitter_shapes) { pm_photon_tracer_destroy(t); return NULL; }
+    if (!t->sources || !t->cdf) { pm_photon_tracer_destroy(t); return NULL; }
     uint32_t source_count = build_sources(s, t->sources);
     t->source_count = source_count;
     /* an emitter set's photons start all over its triangles: not guided; the sky's direction and
@@ -1200,12 +1169,11 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
     ps->sources = t->sources;
     ps->source_count = source_count;
     ps->source_cdf = cdf;
-    ps->emitter_shapes = t->emitter_shapes;
     for (uint32_t i = 0; i < s->material_count; i++) ps->volumes |= !v3_is_black(s->materials[i].attenuation);
     uint64_t prefetch_from = settings->prefetch_bytes ? settings->prefetch_bytes : PM_PREFETCH_GEOMETRY_BYTES + 1;
     ps->prefetch_hits = pm_scene_hit_data_bytes(s) >= prefetch_from;
     ps->prefetch_texels = pm_scene_texture_bytes(s) >= prefetch_from;
-    ps->prefetch_emitters = (uint64_t)s->emitter_count * (sizeof(emitter_shape) + sizeof(float) + sizeof(uint32_t)) >= prefetch_from;
+    ps->prefetch_emitters = (uint64_t)s->emitter_count * (sizeof(pm_emitter) + sizeof(float) + sizeof(uint32_t)) >= prefetch_from;
     t->global_possible = source_count && s->analysis.has_diffuse;
 
     if (source_count && s->analysis.caustics_possible) {
@@ -1272,7 +1240,6 @@ void pm_photon_tracer_destroy(pm_photon_tracer *t) {
         }
     free(t->spheres);
     free(t->target_cdf);
-    free(t->emitter_shapes);
     free(t->sources);
     free(t->cdf);
     free(t->ps.guide_counts);

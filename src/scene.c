@@ -4,6 +4,7 @@
  * the analysis decides which maps, passes and buffers the later stages build at all.
  */
 #include "scene.h"
+#include "light.h"
 #include "vertex.h"
 #include "memory.h"
 #include "parallel.h"
@@ -229,10 +230,12 @@ static bool build_emitters(pm_scene *s) {
     free(s->emitter_cdf);
     free(s->emitter_cut);
     free(s->emitter_radiance);
+    free(s->emitter_records);
     s->emitters = NULL;
     s->emitter_cdf = NULL;
     s->emitter_cut = NULL;
     s->emitter_radiance = NULL;
+    s->emitter_records = NULL;
     s->emitter_count = 0;
     s->emitter_power = 0.f;
     pm_memory_release(s->emitter_admitted);
@@ -244,7 +247,7 @@ static bool build_emitters(pm_scene *s) {
     /* a table a placed emissive triangle: placements can make it larger than the stored geometry
      * the loader admitted, so it is admitted too (the running sums only while it is built) */
     uint64_t kept = (uint64_t)candidates * (sizeof *s->emitters + sizeof *s->emitter_radiance + sizeof *s->emitter_cdf +
-                                            sizeof *s->emitter_cut) +
+                                            sizeof *s->emitter_cut + sizeof *s->emitter_records) +
                     sizeof *s->emitter_cdf,
              building = ((uint64_t)candidates + 1) * sizeof(double);
     if (!pm_memory_admit(kept + building, "emitter distribution")) return false;
@@ -253,17 +256,20 @@ static bool build_emitters(pm_scene *s) {
     s->emitter_radiance = pm_malloc(candidates * sizeof *s->emitter_radiance, "emitter distribution");
     s->emitter_cdf = pm_malloc((candidates + 1) * sizeof *s->emitter_cdf, "emitter distribution");
     s->emitter_cut = pm_malloc(candidates * sizeof *s->emitter_cut, "emitter distribution");
+    s->emitter_records = pm_malloc(candidates * sizeof *s->emitter_records, "emitter distribution");
     double *running = pm_malloc((candidates + 1) * sizeof *running, "emitter distribution");
-    if (!s->emitters || !s->emitter_radiance || !s->emitter_cdf || !s->emitter_cut || !running) {
+    if (!s->emitters || !s->emitter_radiance || !s->emitter_cdf || !s->emitter_cut || !s->emitter_records || !running) {
         free(s->emitters);
         free(s->emitter_radiance);
         free(s->emitter_cdf);
         free(s->emitter_cut);
+        free(s->emitter_records);
         free(running);
         s->emitters = NULL;
         s->emitter_radiance = NULL;
         s->emitter_cdf = NULL;
         s->emitter_cut = NULL;
+        s->emitter_records = NULL;
         pm_memory_release(kept + building);
         s->emitter_admitted = 0;
         return false;
@@ -281,8 +287,14 @@ static bool build_emitters(pm_scene *s) {
         double w = (double)pm_triangle_area(s, t) * fmax(v3_luminance(mean), 1e-3 * v3_max_component(mean)) *
                    (m->double_sided ? 2.0 : 1.0);
         if (!(w > 0.0)) continue;
+        pm_triangle_geometry g = pm_triangle_geometry_of(s, t);
         s->emitters[k] = t;
         s->emitter_radiance[k] = mean;
+        /* the emission is the factor alone (pm_scene_emitted_at's) unless a texture or a cut-out varies it */
+        s->emitter_records[k] = (pm_emitter){.p0 = g.p0, .p1 = g.p1, .p2 = g.p2, .normal = g.normal, .emission = m->emission,
+                                             .area = g.area, .double_sided = m->double_sided,
+                                             .uniform_emission = (m->emission_texture < 0 || v3_is_black(m->emission)) &&
+                                                                 !m->may_see_through};
         k++;
         total += w;
         running[k] = total;
@@ -603,6 +615,7 @@ void pm_scene_free(pm_scene *s) {
     free(s->emitter_cdf);
     free(s->emitter_cut);
     free(s->emitter_radiance);
+    free(s->emitter_records);
     free(s->light_cdf);
     pm_memory_release(s->memory_admitted);
     pm_memory_release(s->emitter_admitted);
@@ -625,7 +638,7 @@ uint64_t pm_scene_bytes(const pm_scene *s) {
         bytes += 4ull * (uint64_t)x->width * (uint64_t)x->height;
         for (int k = 1; k < x->level_count; k++) bytes += 4ull * (uint64_t)x->level_width[k] * (uint64_t)x->level_height[k];
     }
-    bytes += (uint64_t)s->emitter_count * (2 * sizeof(uint32_t) + sizeof(vec3) + sizeof(float));
+    bytes += (uint64_t)s->emitter_count * (2 * sizeof(uint32_t) + sizeof(vec3) + sizeof(float) + sizeof(pm_emitter));
     if (s->light_cdf) bytes += ((uint64_t)s->light_count + 1) * sizeof(float);
     if (s->sky_map) bytes += pm_sky_map_bytes(s->sky_map->width, s->sky_map->height);
     bytes += (uint64_t)s->instanced_mesh_count * sizeof(pm_instanced_mesh) + (uint64_t)s->placement_count * sizeof(pm_placement);

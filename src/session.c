@@ -111,9 +111,6 @@ uint64_t pm_session_forecast_bytes(const pm_session *s) {
     const pm_photon_settings *ps = &s->config.classic_photons;
     if (s->config.mode == PM_MODE_CLASSIC && s->config.classic_photon_pass)
         bytes += (ps->global_photons * PM_PHOTON_MAP_RECORDS + ps->caustic_photons) * sizeof(pm_photon);
-    bool photons = (s->progressive && pm_progressive_uses_photons(s->progressive)) ||
-                   (s->config.mode == PM_MODE_CLASSIC && s->config.classic_photon_pass);
-    if (photons) bytes += (uint64_t)s->scene->emitter_count * PM_PHOTON_BYTES_PER_EMITTER; /* every placed emissive triangle */
     return bytes + pm_shadow_map_forecast_bytes(s->scene, &s->config.shadow);
 }
 

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include "image_io.h"
+#include "light.h"
 #include "loader.h"
 #include "progressive_harness.h"
 
@@ -368,6 +369,20 @@ static void test_scaled_emitter(void) {
         if (k > 3) break;
     }
     CHECK(worst < 1e-3, "emitter: pick probabilities differ by %g", worst);
+    /* each emitter's record is its placed triangle's world geometry (corners through the placement,
+     * the normal by the mirrored winding) and emission, what light samples and photon starts read */
+    int records_off = 0;
+    for (uint32_t k = 0; k < si.emitter_count; k++) {
+        const pm_emitter *r = &si.emitter_records[k];
+        pm_triangle_geometry g = pm_triangle_geometry_of(&si, si.emitters[k]);
+        vec3 e = pm_scene_emitted_at(&si, si.emitters[k], 0.2f, 0.3f), q = pm_emitter_point(r, 0.2f, 0.3f);
+        vec3 want = pm_triangle_point(&g, 0.2f, 0.3f);
+        records_off += memcmp(&r->p0, &g.p0, sizeof(vec3)) || memcmp(&r->p2, &g.p2, sizeof(vec3)) ||
+                       memcmp(&r->normal, &g.normal, sizeof(vec3)) || r->area != g.area || !r->uniform_emission ||
+                       memcmp(&r->emission, &e, sizeof(vec3)) || memcmp(&q, &want, sizeof(vec3));
+    }
+    CHECK(records_off == 0, "emitter: %d of %u records differ from their placed triangles' geometry and emission", records_off,
+          si.emitter_count);
     pm_scene_free(&s1);
     pm_scene_free(&si);
     pm_scene_free(&sf);
