@@ -39,7 +39,7 @@ static inline uint32_t pm_cdf_interval(const float *cdf, uint32_t n, float u) {
  * u = j / n, for j < n. A pick then starts at its cell's cut and steps to the right interval: one
  * load and, in expectation over u, at most two compares, where the binary search makes log2 n
  * compares, each waiting for the last one's load (8 on an emissive sphere of 224 triangles: a
- * fifth of a photon's emission; 21 on a sky map of 2048 x 1024 texels, a sixth of a render). */
+ * fifth of a photon's emission; 21 on a sky map of 2048 x 1024 texels, 14% of a render). */
 static inline void pm_cdf_cut_points(const float *cdf, uint32_t n, uint32_t *cut) {
     uint32_t lo = 0; /* one walk up the cdf: the j / n rise with j (a sky map's rows hold millions of texels) */
     for (uint32_t j = 0; j < n; j++) {

@@ -224,8 +224,8 @@ struct Admitted {
 };
 
 // An image load_wanted_image has checked and admitted, its decode put off so that the model's
-// images decode side by side (decode_pending_images): decoding PNGs and JPEGs one after another on
-// one core was most of a textured model's load.
+// images decode side by side (decode_pending_images): one after another on one core, decoding PNGs
+// and JPEGs is most of a textured model's load.
 struct PendingImage {
     int index, req_width, req_height;
     std::vector<unsigned char> encoded;  // the file's bytes, copied: tinygltf frees its own after the hook

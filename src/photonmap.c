@@ -480,7 +480,7 @@ static float parallel_start(const pass *ps, vec3 dir, const box_shadow *box, pm_
 /* Starts one photon from source l: origin, direction and flux (before dividing by the photon
  * count and the pick probability). Returns false when it carries nothing. guided: the emission
  * guide's two numbers for the start on the disc across the scene (directional light, sky) or the
- * direction (point, spot), NULL to draw them. Out of line: inlined into the chunk's loop, it took
+ * direction (point, spot), NULL to draw them. Out of line: inlined into the chunk's loop, it takes
  * the inliner's budget from the bounce's pm_scene_surface_lean (3% of a Cornell box's pass). */
 static __attribute__((noinline)) bool emit(const pass *ps, const light_source *l, pm_rng *rng, const float *guided,
                                            const float *guided_direction, vec3 *o, vec3 *d, vec3 *flux) {

@@ -465,7 +465,7 @@ static void build_levels_task(void *ctx, size_t i, int thread) {
 
 static bool build_texture_filtering(pm_scene *s) {
     if (!s->texture_count) return true;
-    /* the textures' levels side by side, on every core: one after another they were a tenth of a
+    /* the textures' levels side by side, on every core: one after another they are a tenth of a
      * textured model's load */
     bool *srgb = pm_calloc(s->texture_count, 2 * sizeof(bool), "texture levels");
     uint64_t *admitted = pm_calloc(s->texture_count, sizeof(uint64_t), "texture levels");

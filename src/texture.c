@@ -304,7 +304,7 @@ float pm_texture_alpha(const pm_texture *t, float u, float v) {
 void pm_texture_channel_bounds(const pm_texture *t, uint8_t lo[4], uint8_t hi[4]) {
     size_t bytes = 4 * (size_t)t->width * (size_t)t->height, i = 0;
     /* sixteen running bounds in one vector, four texels' channels side by side (GCC's vector
-     * extensions: at -O2 the plain loop stayed byte by byte, 2 GB/s) */
+     * extensions: at -O2 GCC leaves the plain loop byte by byte, 2 GB/s) */
     typedef uint8_t bytes16 __attribute__((vector_size(16)));
     bytes16 low, high;
     memset(&low, 255, sizeof low);
