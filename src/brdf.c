@@ -50,7 +50,8 @@ static double charlie_lambda(double c, double r) {
 /* D_Charlie(h) V_Charlie(wo, wi) of alphaG = r (double: the table integrates it; eval rounds it to
  * float), from the two directions' lambdas (charlie_lambda), which the table's quadrature computes
  * once per direction rather than once per point (each is up to two pow and an exp: per point, the
- * table would take 0.15 s of a sheen scene's first image). The extension maps sheenRoughness to alphaG = sheenRoughness^2. */
+ * table would take 0.15 s of a sheen scene's first image). The extension maps sheenRoughness to
+ * alphaG = sheenRoughness^2. */
 static double charlie_dv_lambdas(double r, double cos_o, double cos_i, double cos_h, double lambda_o, double lambda_i) {
     double inv_r = 1.0 / r, sin2h = fmax(0.0, 1.0 - cos_h * cos_h);
     double d = (2.0 + inv_r) * pow(sin2h, 0.5 * inv_r) / (2.0 * pi_d);
