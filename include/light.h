@@ -33,7 +33,7 @@ static inline pm_triangle_geometry pm_triangle_geometry_of(const pm_scene *s, ui
 
 /* The point of the triangle at the barycentrics of p1 and p2. */
 static inline vec3 pm_triangle_point(const pm_triangle_geometry *g, float b1, float b2) {
-    return v3_add(v3_add(v3_scale(g->p0, 1.f - b1 - b2), v3_scale(g->p1, b1)), v3_scale(g->p2, b2));
+    return pm_barycentric_point(g->p0, g->p1, g->p2, b1, b2);
 }
 
 #endif

@@ -104,6 +104,11 @@ static inline void v3_basis(vec3 n, vec3 *t, vec3 *b) {
     *b = v3(bb, sign + n.y * n.y * a, -n.y);
 }
 
+/* The point at barycentrics (b1, b2) of the triangle p0 p1 p2 (b1 and b2 weigh p1 and p2). */
+static inline vec3 pm_barycentric_point(vec3 p0, vec3 p1, vec3 p2, float b1, float b2) {
+    return v3_add(v3_add(v3_scale(p0, 1.f - b1 - b2), v3_scale(p1, b1)), v3_scale(p2, b2));
+}
+
 static inline vec3 v3_reflect(vec3 d, vec3 n) { return v3_sub(d, v3_scale(n, 2.f * v3_dot(d, n))); }
 
 /* c ? a : b by bit masks: GCC compiles a float ?: to a branch, which a random condition

@@ -871,9 +871,9 @@ static inline uint32_t pm_scene_pick_emitter_index(const pm_scene *s, float u, f
     return lo;
 }
 float pm_triangle_area(const pm_scene *s, uint32_t tri);
-/* The point of an emitter at barycentrics (b1, b2) (pm_triangle_point's). */
+/* The point of an emitter at barycentrics (b1, b2). */
 static inline vec3 pm_emitter_point(const pm_emitter *r, float b1, float b2) {
-    return v3_add(v3_add(v3_scale(r->p0, 1.f - b1 - b2), v3_scale(r->p1, b1)), v3_scale(r->p2, b2));
+    return pm_barycentric_point(r->p0, r->p1, r->p2, b1, b2);
 }
 /* What emitter number e (a position in s->emitters) sends out at barycentrics (b1, b2). */
 static inline vec3 pm_emitter_emitted_at(const pm_scene *s, uint32_t e, float b1, float b2) {
