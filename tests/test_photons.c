@@ -529,11 +529,11 @@ static int compare_splats(const void *a, const void *b) { return memcmp(a, b, si
 
 /* Waves (PM_PHOTON_WAVE photons side by side) against the plain tracer, one photon's path after
  * another (wave 1), an odd wave of 7, and waves that prefetch their hits' triangles, texels and
- * photons' emitters and waves that do not (a mesh or textures larger than the caches prefetch by default; this mesh's
- * 0.7 MB and this texture's 1 MB do): the same records and camera splats, bit for bit, only in
- * another order, and the same ray count, in both kinds of pass, on a room with glass, a mirror,
- * rough metal, an area light and a point light (every branch of a bounce), its walls and the
- * metal's roughness textured. */
+ * photons' emitters and waves that do not (a mesh, textures or emitter tables larger than the
+ * caches prefetch by default; this mesh's 0.7 MB and this texture's 1 MB do): the same records
+ * and camera splats, bit for bit, only in another order, and the same ray count, in both kinds of
+ * pass, on a room with glass, a mirror, rough metal, an area light and a point light (every branch
+ * of a bounce), its walls and the metal's roughness textured. */
 static void waves_change_only_order(void) {
     pm_scene s;
     memset(&s, 0, sizeof s);
