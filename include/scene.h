@@ -862,9 +862,8 @@ void pm_material_point(const pm_material *m, vec3 base, float metallic, float ro
 /* Picks a punctual light by power (uniformly when the distribution could not be allocated);
  * returns its index and the probability of that pick. The scene must have a light. */
 uint32_t pm_scene_pick_light(const pm_scene *s, float u, float *pick_pdf);
-/* Picks an emissive triangle by power; returns its index and the probability of that pick. */
-uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf);
-/* The same pick as a position in s->emitters (for data kept per emitter). */
+/* Picks an emissive triangle by power; returns its position in s->emitters (and in
+ * s->emitter_records) and the probability of that pick. */
 static inline uint32_t pm_scene_pick_emitter_index(const pm_scene *s, float u, float *pick_pdf) {
     uint32_t lo = pm_cdf_interval_cut(s->emitter_cdf, s->emitter_cut, s->emitter_count, u);
     *pick_pdf = s->emitter_cdf[lo + 1] - s->emitter_cdf[lo];
@@ -880,7 +879,7 @@ static inline vec3 pm_emitter_emitted_at(const pm_scene *s, uint32_t e, float b1
     const pm_emitter *r = &s->emitter_records[e];
     return r->uniform_emission ? r->emission : pm_scene_emitted_at(s, s->emitters[e], b1, b2);
 }
-/* The probability that pm_scene_pick_emitter picks triangle tri (0 when it emits nothing). */
+/* The probability that pm_scene_pick_emitter_index picks triangle tri (0 when it emits nothing). */
 float pm_scene_emitter_pdf(const pm_scene *s, uint32_t tri);
 
 #endif

@@ -255,9 +255,15 @@ void decode_one_image(void *ctx, size_t task, int) noexcept {
         job.decoded = tinygltf::LoadImageData(&(*hooks->images)[job.index], job.index, &job.error, &decode_warning,
                                               job.req_width, job.req_height, job.encoded.data(),
                                               static_cast<int>(job.encoded.size()), nullptr);
-    } catch (const std::bad_alloc &) {
+    } catch (const std::bad_alloc &) {  // a worker's exception must not leave it (noexcept: it would end the process)
         job.decoded = false;
         job.error = "out of memory";
+    } catch (const std::exception &e) {
+        job.decoded = false;
+        job.error = e.what();
+    } catch (...) {
+        job.decoded = false;
+        job.error = "decoder failure";
     }
     std::vector<unsigned char>().swap(job.encoded);  // the file's copy, no longer needed
 }

@@ -752,6 +752,3 @@ float pm_scene_emitter_pdf(const pm_scene *s, uint32_t tri) {
     return s->emitter_cdf[lo + 1] - s->emitter_cdf[lo];
 }
 
-uint32_t pm_scene_pick_emitter(const pm_scene *s, float u, float *pick_pdf) {
-    return s->emitters[pm_scene_pick_emitter_index(s, u, pick_pdf)];
-}
