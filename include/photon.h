@@ -20,23 +20,37 @@ typedef struct {
 
 _Static_assert(sizeof(pm_photon) == 20, "photon record must stay 20 bytes");
 
-/* Octahedral code with `bits` bits per axis (at most 8). */
-static inline uint16_t pm_oct_encode_bits(vec3 n, int bits) {
-    float levels = (float)((1 << bits) - 1);
-    int mask = (1 << bits) - 1;
-    float s = fabsf(n.x) + fabsf(n.y) + fabsf(n.z);
-    if (!(s > 0.f)) return (uint16_t)(((mask + 1) / 2) | (((mask + 1) / 2) << bits));
-    float inv = 1.f / s, x = n.x * inv, y = n.y * inv;
-    /* the lower half's fold by sign copies and selects, not branches: every photon record encodes
-     * the direction it travelled, up or down and either way at random, and each branch was
-     * mispredicted half the time (at x or y = -0 the fold's sign differs, on the map's seam, where
-     * both signs decode to the same direction) */
-    float ox = copysignf(1.f - fabsf(y), x), oy = copysignf(1.f - fabsf(x), y);
-    bool lower = n.z < 0.f;
-    x = pm_selectf(lower, ox, x);
-    y = pm_selectf(lower, oy, y);
-    int qx = (int)((x * 0.5f + 0.5f) * levels + 0.5f), qy = (int)((y * 0.5f + 0.5f) * levels + 0.5f); /* both >= 0 */
-    return (uint16_t)((qx & mask) | ((qy & mask) << bits));
+/* The record's two octahedral codes at once, the surface normal at 7 bits per axis and the
+ * direction at 8, in one SSE register (GCC and clang vector extensions): lanes (normal x,
+ * direction x, normal y, direction y), each with the same operations a scalar encoder makes on
+ * that axis. Every record is encoded in the photon pass's inner loop, where two scalar encoders
+ * took a tenth of its time.
+ * A vector is scaled to |x| + |y| + |z| = 1; the lower half (z < 0) is folded over the diagonals,
+ * (x, y) -> (sign(x) (1 - |y|), sign(y) (1 - |x|)), by bit selects, not branches (every record's
+ * direction points up or down at random); each axis is then rounded to levels = 2^bits - 1 steps
+ * over [-1, 1]. A zero or NaN vector gets the centre code (x = y = 0). */
+typedef uint16_t pm_u8_ __attribute__((vector_size(16)));
+static inline void pm_oct_encode_pair(vec3 normal, vec3 direction, uint16_t *normal_code, uint16_t *direction_code) {
+    const pm_u4_ magnitude_bits = {0x7fffffffu, 0x7fffffffu, 0x7fffffffu, 0x7fffffffu};
+    pm_f4_ xy = {normal.x, direction.x, normal.y, direction.y}, z = {normal.z, direction.z, normal.z, direction.z};
+    pm_f4_ axy = (pm_f4_)((pm_u4_)xy & magnitude_bits), az = (pm_f4_)((pm_u4_)z & magnitude_bits);
+    pm_f4_ ayx = PM_SHUFFLE(axy, axy, 2, 3, 0, 1);
+    pm_f4_ sum = axy + ayx + az; /* |x| + |y| + |z| in every lane (a + b is b + a, bit for bit) */
+    pm_i4_ usable = sum > 0.f;   /* false for NaN too */
+    pm_f4_ uv = xy * (1.f / sum);
+    pm_f4_ auv = (pm_f4_)((pm_u4_)uv & magnitude_bits), avu = PM_SHUFFLE(auv, auv, 2, 3, 0, 1);
+    pm_u4_ fold = (pm_u4_)(1.f - avu) | ((pm_u4_)uv & ~magnitude_bits); /* copysign: 1 - |v| >= 0 takes u's sign */
+    pm_u4_ lower = (pm_u4_)(z < 0.f);
+    uv = (pm_f4_)((lower & fold) | (~lower & (pm_u4_)uv));
+    const pm_f4_ levels = {127.f, 255.f, 127.f, 255.f};
+    const pm_i4_ mask = {127, 255, 127, 255}, centre = {64, 128, 64, 128};
+    pm_i4_ q = __builtin_convertvector((uv * 0.5f + 0.5f) * levels + 0.5f, pm_i4_) & mask; /* truncated: >= 0 */
+    q = (usable & q) | (~usable & centre);
+    /* the y halves moved up by 7 and 8 bits, by a 16-bit multiply (SSE2 has no 32-bit one): 255 x 256 fits */
+    pm_i4_ shifted = (pm_i4_)((pm_u8_)q * (pm_u8_){1, 0, 1, 0, 128, 0, 256, 0});
+    pm_i4_ code = shifted | PM_SHUFFLE(shifted, shifted, 2, 3, 0, 1);
+    *normal_code = (uint16_t)code[0];
+    *direction_code = (uint16_t)code[1];
 }
 
 /* An octahedral code decoded without normalising: the direction is right, the length in [1/sqrt(3), 1]. */
@@ -55,7 +69,6 @@ static inline __attribute__((always_inline)) vec3 pm_oct_decode_unnormalised(uin
 
 static inline vec3 pm_oct_decode_bits(uint16_t code, int bits) { return v3_normalize(pm_oct_decode_unnormalised(code, bits)); }
 
-static inline uint16_t pm_oct_encode(vec3 n) { return pm_oct_encode_bits(n, 8); }
 static inline vec3 pm_oct_decode(uint16_t code) { return pm_oct_decode_bits(code, 8); }
 
 /* 2^e for a normal float exponent, -126 <= e <= 127, built from its bits. */
@@ -93,8 +106,9 @@ static inline void pm_photon_set(pm_photon *ph, vec3 p, vec3 normal, vec3 direct
     ph->pos[0] = p.x;
     ph->pos[1] = p.y;
     ph->pos[2] = p.z;
-    ph->normal_path = (uint16_t)(pm_oct_encode_bits(normal, 7) | ((path & 3) << 14));
-    ph->direction = pm_oct_encode(direction);
+    uint16_t normal_code;
+    pm_oct_encode_pair(normal, direction, &normal_code, &ph->direction);
+    ph->normal_path = (uint16_t)(normal_code | ((path & 3) << 14));
     pm_rgbe_encode(power, ph->power);
 }
 

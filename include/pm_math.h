@@ -198,6 +198,13 @@ static inline vec3 pm_sample_sphere(float u1, float u2) {
 typedef float pm_f4_ __attribute__((vector_size(16)));
 typedef uint32_t pm_u4_ __attribute__((vector_size(16)));
 typedef int32_t pm_i4_ __attribute__((vector_size(16)));
+/* Lanes i, j, k, l of a's and b's eight (0-3 a's, 4-7 b's): GCC and clang name and shape the
+ * builtin differently (make fuzz builds with clang). */
+#ifdef __clang__
+#define PM_SHUFFLE(a, b, i, j, k, l) __builtin_shufflevector(a, b, i, j, k, l)
+#else
+#define PM_SHUFFLE(a, b, i, j, k, l) __builtin_shuffle(a, b, (pm_i4_){i, j, k, l})
+#endif
 static inline vec3 pm_offset_ray_origin(vec3 p, vec3 n, float scale) {
     pm_f4_ vp = {p.x, p.y, p.z, 0.f}, vn = {n.x, n.y, n.z, 0.f};
     pm_u4_ of = (pm_u4_)__builtin_convertvector(vn * 32.f, pm_i4_); /* truncated, as (int32_t) does */

@@ -413,23 +413,15 @@ static bool intersect_one(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit 
  * symbol and the packets' to log each ray once. */
 bool pm_accel_intersect(const pm_accel *a, vec3 o, vec3 d, float tmax, pm_hit *hit) { return intersect_one(a, o, d, tmax, hit); }
 
-/* Lanes i, j, k, l of a's and b's eight (0-3 a's, 4-7 b's): GCC and clang name and shape the
- * builtin differently (make fuzz builds with clang). */
-#ifdef __clang__
-#define SHUFFLE(a, b, i, j, k, l) __builtin_shufflevector(a, b, i, j, k, l)
-#else
-#define SHUFFLE(a, b, i, j, k, l) __builtin_shuffle(a, b, (pm_i4_){i, j, k, l})
-#endif
-
 /* Four consecutive vec3 (xyz xyz xyz xyz, three vector loads) as one vector per axis. */
 static inline void axes_of_four(const vec3 *v, pm_f4_ *x, pm_f4_ *y, pm_f4_ *z) {
     pm_f4_ a, b, c;
     memcpy(&a, (const char *)v, sizeof a);      /* x0 y0 z0 x1 */
     memcpy(&b, (const char *)v + 16, sizeof b); /* y1 z1 x2 y2 */
     memcpy(&c, (const char *)v + 32, sizeof c); /* z2 x3 y3 z3 */
-    *x = SHUFFLE(SHUFFLE(a, b, 0, 3, 6, 7), c, 0, 1, 2, 5);
-    *y = SHUFFLE(SHUFFLE(a, b, 1, 4, 7, 0), c, 0, 1, 2, 6);
-    *z = SHUFFLE(SHUFFLE(a, b, 2, 5, 0, 0), c, 0, 1, 4, 7);
+    *x = PM_SHUFFLE(PM_SHUFFLE(a, b, 0, 3, 6, 7), c, 0, 1, 2, 5);
+    *y = PM_SHUFFLE(PM_SHUFFLE(a, b, 1, 4, 7, 0), c, 0, 1, 2, 6);
+    *z = PM_SHUFFLE(PM_SHUFFLE(a, b, 2, 5, 0, 0), c, 0, 1, 4, 7);
 }
 
 /* -1 in the lanes where |v| <= EMBREE_MAX_COORDINATE (not where v is NaN), else 0. */
