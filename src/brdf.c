@@ -234,13 +234,18 @@ static inline vec3 base_eval(const pm_brdf *b, float s, vec3 f0d, float cos_o, f
     return v3_add(v3_scale(fresnel, dv), v3_scale(b->base, diffuse));
 }
 
-vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
-    float cos_o = v3_dot(n, wo), cos_i = v3_dot(n, wi);
-    if (!(cos_o > 0.f) || !(cos_i > 0.f)) return v3s(0.f);
-    vec3 h = v3_add(wo, wi);
-    float hl = v3_length(h);
-    if (!(hl > 0.f)) return v3s(0.f);
-    h = v3_scale(h, 1.f / hl);
+/* The unit half vector of wo and wi; false where they cancel (no half vector: f = 0 there, and
+ * the specular parts have no density). */
+static inline bool half_vector(vec3 wo, vec3 wi, vec3 *h) {
+    vec3 sum = v3_add(wo, wi);
+    float hl = v3_length(sum);
+    if (!(hl > 0.f)) return false;
+    *h = v3_scale(sum, 1.f / hl);
+    return true;
+}
+
+/* f for cos_o, cos_i > 0 and their half vector h: pm_brdf_eval's and pm_brdf_sample's one body. */
+static vec3 eval_at(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi, float cos_o, float cos_i, vec3 h) {
     float cos_h = pm_maxf(0.f, v3_dot(n, h)), v_h = pm_maxf(0.f, v3_dot(wo, h));
     if (!b->layered) return v3_scale(base_eval(b, 1.f, v3s(0.04f), cos_o, cos_i, cos_h, v_h), b->weight);
     vec3 f = base_eval(b, b->specular, b->specular_f0, cos_o, cos_i, cos_h, v_h);
@@ -265,6 +270,14 @@ vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
     return v3_scale(f, b->weight);
 }
 
+vec3 pm_brdf_eval(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
+    float cos_o = v3_dot(n, wo), cos_i = v3_dot(n, wi);
+    if (!(cos_o > 0.f) || !(cos_i > 0.f)) return v3s(0.f);
+    vec3 h;
+    if (!half_vector(wo, wi, &h)) return v3s(0.f);
+    return eval_at(b, n, wo, wi, cos_o, cos_i, h);
+}
+
 /* ---- sampling ---- */
 
 /* The visible-normal density of GGX at alpha^2 for wi, per solid angle of wi: D(h) G1(wo) max(0,
@@ -274,26 +287,32 @@ static float ggx_reflection_pdf(float a2, float cos_o, float cos_h) {
     return ggx_d(a2, cos_h) * g1 / (4.f * cos_o);
 }
 
-float pm_brdf_pdf(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
-    float cos_o = v3_dot(n, wo), cos_i = v3_dot(n, wi);
-    if (!(cos_o > 0.f) || !(cos_i > 0.f)) return 0.f;
-    vec3 cn = coat_normal(b, n);
-    float coat_cos_o = b->layered && b->coat_normal ? v3_dot(cn, wo) : cos_o;
-    lobe_choice p = choose_lobes(b, cos_o, coat_cos_o);
-    float pdf = p.diffuse * cos_i * PM_INV_PI;
-    if (b->layered) pdf += p.sheen * (0.5f * PM_INV_PI);
-    vec3 h = v3_add(wo, wi);
-    float hl = v3_length(h);
-    if (hl > 0.f) {
-        h = v3_scale(h, 1.f / hl);
+/* The mixture's density at wi for cos_o, cos_i > 0, from the choice p made at wo (coat normal cn,
+ * its cosine coat_cos_o) and the half vector h where there is one (has_h): pm_brdf_pdf's and
+ * pm_brdf_sample's one body. */
+static float pdf_at(const pm_brdf *b, const lobe_choice *p, vec3 n, vec3 cn, vec3 wo, float cos_o, float coat_cos_o, float cos_i,
+                    bool has_h, vec3 h) {
+    float pdf = p->diffuse * cos_i * PM_INV_PI;
+    if (b->layered) pdf += p->sheen * (0.5f * PM_INV_PI);
+    if (has_h) {
         float cos_h = v3_dot(n, h), coat_cos_h = b->layered && b->coat_normal ? v3_dot(cn, h) : cos_h;
         if (v3_dot(wo, h) > 0.f) {
-            if (cos_h > 0.f) pdf += p.specular * ggx_reflection_pdf(b->alpha * b->alpha, cos_o, cos_h);
-            if (p.coat > 0.f && coat_cos_h > 0.f && coat_cos_o > 0.f)
-                pdf += p.coat * ggx_reflection_pdf(b->clearcoat_alpha * b->clearcoat_alpha, coat_cos_o, coat_cos_h);
+            if (cos_h > 0.f) pdf += p->specular * ggx_reflection_pdf(b->alpha * b->alpha, cos_o, cos_h);
+            if (p->coat > 0.f && coat_cos_h > 0.f && coat_cos_o > 0.f)
+                pdf += p->coat * ggx_reflection_pdf(b->clearcoat_alpha * b->clearcoat_alpha, coat_cos_o, coat_cos_h);
         }
     }
     return pdf;
+}
+
+float pm_brdf_pdf(const pm_brdf *b, vec3 n, vec3 wo, vec3 wi) {
+    float cos_o = v3_dot(n, wo), cos_i = v3_dot(n, wi);
+    if (!(cos_o > 0.f) || !(cos_i > 0.f)) return 0.f;
+    vec3 cn = coat_normal(b, n), h = v3s(0.f);
+    float coat_cos_o = b->layered && b->coat_normal ? v3_dot(cn, wo) : cos_o;
+    lobe_choice p = choose_lobes(b, cos_o, coat_cos_o);
+    bool has_h = half_vector(wo, wi, &h);
+    return pdf_at(b, &p, n, cn, wo, cos_o, coat_cos_o, cos_i, has_h, h);
 }
 
 /* A GGX microfacet normal seen from v (local frame, v.z > 0), distributed as D(m) G1(v) max(0, v.m) / v.z. */
@@ -351,9 +370,14 @@ bool pm_brdf_sample(const pm_brdf *b, vec3 n, vec3 wo, float u0, float u1, float
     else if (u0 < p.specular + p.coat + p.sheen) *wi = sample_uniform_hemisphere(n, u1, u2);
     else if (p.diffuse > 0.f) *wi = pm_sample_cosine(n, u1, u2);
     else return false; /* u0 past the others' sum by rounding, with the diffuse part skipped */
-    if (!(v3_dot(n, *wi) > 0.f)) return false;
-    *pdf = pm_brdf_pdf(b, n, wo, *wi);
+    /* the density and value as pm_brdf_pdf and pm_brdf_eval give them, from the choice above and
+     * one half vector */
+    float cos_i = v3_dot(n, *wi);
+    if (!(cos_i > 0.f)) return false;
+    vec3 h = v3s(0.f);
+    bool has_h = half_vector(wo, *wi, &h);
+    *pdf = pdf_at(b, &p, n, cn, wo, cos_o, coat_cos_o, cos_i, has_h, h);
     if (!(*pdf > 0.f)) return false;
-    *f = pm_brdf_eval(b, n, wo, *wi);
+    *f = has_h ? eval_at(b, n, wo, *wi, cos_o, cos_i, h) : v3s(0.f);
     return true;
 }
