@@ -29,7 +29,7 @@ _Static_assert(sizeof(pm_photon) == 20, "photon record must stay 20 bytes");
  * (x, y) -> (sign(x) (1 - |y|), sign(y) (1 - |x|)), by bit selects, not branches (every record's
  * direction points up or down at random); each axis is then rounded to levels = 2^bits - 1 steps
  * over [-1, 1]. A zero or NaN vector gets the centre code (x = y = 0). */
-typedef uint16_t pm_u8_ __attribute__((vector_size(16)));
+typedef uint16_t pm_u8_ __attribute__((vector_size(16))); /* eight 16-bit lanes */
 static inline void pm_oct_encode_pair(vec3 normal, vec3 direction, uint16_t *normal_code, uint16_t *direction_code) {
     const pm_u4_ magnitude_bits = {0x7fffffffu, 0x7fffffffu, 0x7fffffffu, 0x7fffffffu};
     pm_f4_ xy = {normal.x, direction.x, normal.y, direction.y}, z = {normal.z, direction.z, normal.z, direction.z};
