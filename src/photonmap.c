@@ -490,15 +490,23 @@ static __attribute__((noinline)) bool emit(const pass *ps, const light_source *l
         float pick_pdf;
         uint32_t e = pm_scene_pick_emitter_index(s, pm_rng_float(rng), &pick_pdf);
         float r1 = sqrtf(pm_rng_float(rng)), r2 = pm_rng_float(rng);
+        const pm_emitter *r = &s->emitter_records[e];
+        if (pick_pdf <= 0.f || r->area <= 0.f) return false;
+        vec3 n = r->normal;
+        /* an aimed direction is tested before the point is made: one that leaves through the
+         * emitter's back carries nothing (a lamp modelled as a sphere turns half of its aimed
+         * starts away), and the numbers are drawn in the same order either way */
+        float omega = 0.f, cos_t = 0.f;
+        if (aimed) {
+            omega = sample_direction(l, aimed, rng, d);
+            cos_t = v3_dot(n, *d);
+            if (r->double_sided) cos_t = fabsf(cos_t);
+            if (cos_t <= 0.f) return false;
+        }
         pm_surface sf;
         float area = emitter_point(ps, e, r1 * (1.f - r2), r1 * r2, &sf);
-        if (pick_pdf <= 0.f || area <= 0.f || v3_is_black(sf.emission)) return false; /* a black texel, a cut-out */
-        vec3 n = sf.ng;
+        if (v3_is_black(sf.emission)) return false; /* a black texel, a cut-out */
         if (aimed) {
-            float omega = sample_direction(l, aimed, rng, d);
-            float cos_t = v3_dot(n, *d);
-            if (sf.double_sided) cos_t = fabsf(cos_t);
-            if (cos_t <= 0.f) return false;
             *flux = v3_scale(sf.emission, cos_t * area / pick_pdf * omega);
             n = pm_facing(n, *d);
         } else {
