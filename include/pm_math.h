@@ -51,15 +51,21 @@ static inline void pm_cdf_cut_points(const float *cdf, uint32_t n, uint32_t *cut
 
 enum { PM_CDF_SEARCH_MAX = 16 };
 
+/* The cut point a pick at u starts from: cell floor(u n) of the table, the last for u = 1 (and
+ * the first for a NaN or negative u). */
+static inline uint32_t pm_cdf_cut_slot(uint32_t n, float u) {
+    float x = u * (float)n;
+    return !(x >= 0.f) ? 0 : x < (float)n ? (uint32_t)x : n - 1;
+}
+
 /* pm_cdf_interval's answer, the very same interval (its steps go both ways, so a cell's cut that
  * float rounding put past u is walked back), from the cut points of pm_cdf_cut_points. */
 static inline uint32_t pm_cdf_interval_cut(const float *cdf, const uint32_t *cut, uint32_t n, float u) {
     /* a short search costs less than the cut's conversion and extra load: a CDF within a cache
      * line or two stays with it (the branch goes one way for a whole table) */
     if (n <= PM_CDF_SEARCH_MAX) return pm_cdf_interval(cdf, n, u);
-    float x = u * (float)n;
-    if (!(x >= 0.f)) return 0; /* as the search: 0 for a NaN (or negative) u */
-    uint32_t lo = cut[x < (float)n ? (uint32_t)x : n - 1];
+    if (!(u * (float)n >= 0.f)) return 0; /* as the search: 0 for a NaN (or negative) u */
+    uint32_t lo = cut[pm_cdf_cut_slot(n, u)];
     /* the one step most picks take, as a select (whether u passes the cell's first interval is
      * random, a branch on it mispredicted); the loops after it rarely run */
     lo += lo + 1 < n && cdf[lo + 1] <= u;

@@ -374,10 +374,9 @@ static float sample_direction(const light_source *l, bool aimed, pm_rng *rng, ve
 }
 
 /* The part of a surface record that emission needs (point, unit face normal, centroid for the
- * ray origin, emission, sides) on emitter number e; returns its area: one photon per call, so
+ * ray origin, emission, sides) on emitter number e, whose record is r: one photon per call, so
  * the full pm_scene_surface would cost a measurable share of the pass. */
-static float emitter_point(const pass *ps, uint32_t e, float b1, float b2, pm_surface *sf) {
-    const pm_emitter *r = &ps->scene->emitter_records[e];
+static void emitter_point(const pass *ps, uint32_t e, const pm_emitter *r, float b1, float b2, pm_surface *sf) {
     vec3 p0 = r->p0, p1 = r->p1, p2 = r->p2;
     /* only the fields emission reads are set: clearing the whole record, once per photon, showed in profiles */
     sf->p = pm_emitter_point(r, b1, b2);
@@ -385,7 +384,6 @@ static float emitter_point(const pass *ps, uint32_t e, float b1, float b2, pm_su
     sf->centroid = v3_scale(v3_add(v3_add(p0, p1), p2), 1.f / 3.f);
     sf->emission = pm_emitter_emitted_at(ps->scene, e, b1, b2);
     sf->double_sided = r->double_sided;
-    return r->area;
 }
 
 /* A start for light travelling along dir, uniform over the shadow the core's box casts on the
@@ -504,8 +502,9 @@ static __attribute__((noinline)) bool emit(const pass *ps, const light_source *l
             if (cos_t <= 0.f) return false;
         }
         pm_surface sf;
-        float area = emitter_point(ps, e, r1 * (1.f - r2), r1 * r2, &sf);
+        emitter_point(ps, e, r, r1 * (1.f - r2), r1 * r2, &sf);
         if (v3_is_black(sf.emission)) return false; /* a black texel, a cut-out */
+        float area = r->area;
         if (aimed) {
             *flux = v3_scale(sf.emission, cos_t * area / pick_pdf * omega);
             n = pm_facing(n, *d);
@@ -822,8 +821,7 @@ static void prefetch_emitter(const pass *ps, pm_rng_family streams, uint64_t i, 
     const pm_scene *s = ps->scene;
     uint32_t n = s->emitter_count;
     if (l->kind != SOURCE_EMITTERS || n <= PM_CDF_SEARCH_MAX) return;
-    float x = pm_rng_float(&rng) * (float)n;
-    const uint32_t *cut = &s->emitter_cut[x < (float)n ? (uint32_t)x : n - 1];
+    const uint32_t *cut = &s->emitter_cut[pm_cdf_cut_slot(n, pm_rng_float(&rng))];
     if (!near) {
         __builtin_prefetch(cut);
         return;

@@ -453,9 +453,6 @@ double pm_scene_reflective_area_fraction(const pm_scene *s, float albedo) {
     return total > 0.0 ? reflective / total : 0.0;
 }
 
-/* What footprint filtering needs: each texture's mip levels (colour ones, read as sRGB by some
- * material's base colour, emission, sheen or specular colour, averaged in linear light; the rest as data) and each
- * triangle's UV density. False when out of memory (the failure recorded). */
 /* One texture's mip levels, a task of build_texture_filtering's parallel-for. */
 typedef struct { pm_scene *s; bool *srgb, *built; uint64_t *admitted; } level_job;
 static void build_levels_task(void *ctx, size_t i, int thread) {
@@ -463,6 +460,9 @@ static void build_levels_task(void *ctx, size_t i, int thread) {
     j->built[i] = pm_texture_build_levels(&j->s->textures[i], j->srgb[i], &j->admitted[i]);
 }
 
+/* What footprint filtering needs: each texture's mip levels (colour ones, read as sRGB by some
+ * material's base colour, emission, sheen or specular colour, averaged in linear light; the rest as data) and each
+ * triangle's UV density. False when out of memory (the failure recorded). */
 static bool build_texture_filtering(pm_scene *s) {
     if (!s->texture_count) return true;
     /* the textures' levels side by side, on every core: one after another they are a tenth of a
