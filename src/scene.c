@@ -224,8 +224,8 @@ static vec3 triangle_mean_emission(const pm_scene *s, uint32_t t) {
     return v3_is_black(mean) ? v3_scale(uncovered, 1.f / (N * N * N * N)) : mean;
 }
 
-/* False when out of memory (the failure recorded): the scene cannot be rendered without it. */
-static bool build_emitters(pm_scene *s) {
+/* The emitter tables gone, and the memory admitted for them given back. */
+static void drop_emitter_tables(pm_scene *s) {
     free(s->emitters);
     free(s->emitter_cdf);
     free(s->emitter_cut);
@@ -240,6 +240,11 @@ static bool build_emitters(pm_scene *s) {
     s->emitter_power = 0.f;
     pm_memory_release(s->emitter_admitted);
     s->emitter_admitted = 0;
+}
+
+/* False when out of memory (the failure recorded): the scene cannot be rendered without it. */
+static bool build_emitters(pm_scene *s) {
+    drop_emitter_tables(s);
     uint32_t candidates = 0; /* emissive placed triangles emit from every placement */
     for (pm_triangle_walk w = {.placement = -2}; pm_scene_walk_next(s, &w);)
         if (!v3_is_black(s->materials[s->triangle_material[w.stored]].emission)) candidates++;
@@ -259,19 +264,9 @@ static bool build_emitters(pm_scene *s) {
     s->emitter_records = pm_malloc(candidates * sizeof *s->emitter_records, "emitter distribution");
     double *running = pm_malloc((candidates + 1) * sizeof *running, "emitter distribution");
     if (!s->emitters || !s->emitter_radiance || !s->emitter_cdf || !s->emitter_cut || !s->emitter_records || !running) {
-        free(s->emitters);
-        free(s->emitter_radiance);
-        free(s->emitter_cdf);
-        free(s->emitter_cut);
-        free(s->emitter_records);
         free(running);
-        s->emitters = NULL;
-        s->emitter_radiance = NULL;
-        s->emitter_cdf = NULL;
-        s->emitter_cut = NULL;
-        s->emitter_records = NULL;
-        pm_memory_release(kept + building);
-        s->emitter_admitted = 0;
+        pm_memory_release(building);
+        drop_emitter_tables(s); /* and kept, admitted for them */
         return false;
     }
     double total = 0.0;
@@ -611,14 +606,9 @@ void pm_scene_free(pm_scene *s) {
     free(s->lights);
     free(s->cameras);
     free(s->variant_names);
-    free(s->emitters);
-    free(s->emitter_cdf);
-    free(s->emitter_cut);
-    free(s->emitter_radiance);
-    free(s->emitter_records);
+    drop_emitter_tables(s);
     free(s->light_cdf);
     pm_memory_release(s->memory_admitted);
-    pm_memory_release(s->emitter_admitted);
     memset(s, 0, sizeof *s);
 }
 
