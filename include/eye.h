@@ -43,6 +43,25 @@ typedef enum { PM_INDIRECT_GATHER = 0, PM_INDIRECT_PHOTONS = 1 } pm_indirect_mod
  * chooses per scene from measured error and cost (progressive.c, choose_gather). */
 typedef enum { PM_GATHER_PHOTONS = 0, PM_GATHER_PATH = 1 } pm_gather_source;
 
+/* Connections (eye.c, connect): at a path-traced sample's diffuse and glossy vertices, one light
+ * vertex (photonmap.h) drawn uniformly from a pass's is joined to the path by a shadow ray, and
+ * weighted by MIS (the power heuristic) against the path's own way to the same light: its sample
+ * from that vertex reaching the light vertex's point, whose punctual light is then traced. The
+ * connection's density per unit area at a point is the pass's first-hit density there
+ * (pm_photon_tracer_first_hit_density) x the chance a vertex there is kept x photons per kept
+ * vertex; the last is the mean of earlier passes (photons_per_vertex), never of the vertices it
+ * weighs, and any fixed stand-in keeps the two ways' weights summing to one. */
+typedef struct {
+    const pm_light_vertex *vertices;
+    uint32_t count;               /* 0: no vertex is joined (the pass only counts the worth) */
+    const pm_photon_tracer *tracer;
+    float photons_per_vertex;
+    const pm_cell_values *worth;  /* how the pass kept vertices (pm_light_vertex_keep) */
+    float worth_unit;             /* a connection's worth is counted in these (an integer in the cells) */
+    pm_cell_values *worth_next;   /* every connection adds its light vertex's worth here (NULL: nowhere): the next passes' keeping */
+    const uint8_t *pixels;        /* NULL: every pixel's paths join; else only those whose byte is non-zero */
+} pm_connections;
+
 typedef struct {
     uint64_t seed;
     int threads;
@@ -65,6 +84,7 @@ typedef struct {
      * caustic trial's measure of what those photons would carry (progressive.c) */
     bool caustic_apart;
     const pm_shadow_map *shadow; /* shadow photons; NULL: every punctual light sample casts its shadow ray */
+    const pm_connections *connections; /* light vertices the path tracer's samples join (above); NULL: none */
     bool unclipped;           /* classic estimates read their whole disc, through walls (no clip.h): only to measure what clipping mends */
     double deadline;          /* CLOCK_MONOTONIC seconds (0 = none): tiles not started by then are left out (see above) */
     const uint8_t *only_pixels; /* NULL: every pixel; else only the pixels whose byte is non-zero are traced (a
@@ -78,6 +98,8 @@ typedef struct {
     uint64_t path_vertices;   /* path tracer: surfaces its paths met (for the mean path length) */
     uint64_t shadow_rays;     /* shadow rays toward light samples (punctual, emitter, sky map), among rays: direct light's, and from sharp glossy lobes on gather paths */
     uint64_t shadow_rays_saved; /* punctual light samples that shadow photons decided without a ray */
+    uint64_t connections;     /* light vertices drawn to join (eye.h, connections) */
+    uint64_t connection_rays; /* ... their shadow rays, among rays */
     bool failed;              /* out of memory: the pass did not run */
 } pm_eye_stats;
 

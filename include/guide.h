@@ -42,6 +42,29 @@ void pm_marks_clear(pm_marks *m, float cell);
 void pm_marks_set(pm_marks *m, vec3 p);
 bool pm_marks_test(const pm_marks *m, vec3 p);
 
+/* ---- cell values: per cell, how many values were added and their sum, hashed as the marks are;
+ * integers, so that the sums do not depend on the order threads add in ---- */
+typedef struct {
+    uint32_t *count;     /* PM_VISIT_CELLS each */
+    uint64_t *sum;
+    float cell, inv_cell;
+    double total_sum, total_count, mean; /* over all cells (pm_cell_values_merge): the sums, and the mean value */
+} pm_cell_values;
+
+bool pm_cell_values_init(pm_cell_values *v);
+void pm_cell_values_free(pm_cell_values *v);
+/* Forgets every value and sets the cell size. */
+void pm_cell_values_clear(pm_cell_values *v, float cell);
+/* Adds a value to p's cell (several threads may add at once; a full counter stays full). */
+void pm_cell_values_add(pm_cell_values *v, vec3 p, uint32_t value);
+/* p's cell's mean value; false where none was added. */
+bool pm_cell_values_mean(const pm_cell_values *v, vec3 p, float *mean);
+/* Adds from's values to into's (both of one cell size), empties from, and sets into's mean.
+ * Reads from's counts (4 bytes a cell) and touches only the cells that hold values. */
+void pm_cell_values_merge(pm_cell_values *into, pm_cell_values *from);
+/* Empties v as pm_cell_values_merge does, its values dropped. */
+void pm_cell_values_drop(pm_cell_values *v);
+
 /* ---- the emission guide ---- */
 #define PM_GUIDE_CELL_COUNT (PM_GUIDE_CELLS * PM_GUIDE_CELLS)
 

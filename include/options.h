@@ -43,6 +43,7 @@ typedef struct {
     int caustic_statistics;  /* --caustic-splats off */
     int unclipped;           /* --clip off */
     int unguided;            /* --guide off */
+    int connect;             /* pm_connect_choice */
     int view_photons;        /* --view photons */
     bool stats, no_default_light, quiet, no_photons;
     bool flatten_instances;  /* --flatten-instances: pm_load_options.flatten_instances */

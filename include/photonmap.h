@@ -134,6 +134,43 @@ void pm_photon_tracer_set_splats(pm_photon_tracer *t, const pm_camera *camera, i
 uint32_t pm_photon_tracer_guided_sources(const pm_photon_tracer *t);
 bool pm_photon_tracer_set_guide(pm_photon_tracer *t, pm_guide *guide, const pm_marks *marks);
 
+/* Light vertices: where photons from the punctual lights first meet a diffuse or glossy surface
+ * (past thin walls crossed straight), kept for the eye paths to connect to (eye.c, connections).
+ * flux is the photon's power there (over keep, the probability it was kept with), ng faces the
+ * side it arrived from, to_light back along its way, light its scene light, (tri, b1, b2) the hit
+ * for the surface to be made again. */
+typedef struct {
+    vec3 p, ng, to_light, flux;
+    uint32_t tri, light;
+    float b1, b2, keep;
+} pm_light_vertex;
+/* A pass's light vertices in photon order, reused from pass to pass; photons: those it traced. */
+typedef struct {
+    pm_light_vertex *data;
+    size_t count, capacity;
+    uint64_t photons;
+} pm_light_vertex_buffer;
+/* A pass of `photons` photons from the punctual lights alone (guided as global passes are, the
+ * guide not taught), each ended at its first diffuse or glossy hit, which is kept with the
+ * probability pm_light_vertex_keep gives there, its flux divided by it. The same vertices at any
+ * thread count; a cancelled pass keeps none. False when out of memory. */
+bool pm_photon_tracer_trace_light_vertices(pm_photon_tracer *t, uint64_t photons, uint64_t seed, const pm_cell_values *worth,
+                                           pm_light_vertex_buffer *out, pm_photon_stats *stats);
+/* The density per unit area, for one photon of such a pass, of its first hits from scene light
+ * `light` at p (face normal ng), where that light reaches p unblocked: the source's pick, the
+ * guide's density over the cell its placing numbers fall in (emit's mapping turned back), and the
+ * start's density across the light (or the direction's per solid angle, over the square of the
+ * distance). 0 where no photon of it can start toward p. */
+float pm_photon_tracer_first_hit_density(const pm_photon_tracer *t, uint32_t light, vec3 p, vec3 ng);
+/* The probability a light vertex at p is kept: its cell's mean worth over the mean of all, between
+ * PM_CONNECT_KEEP_LEAST and 1; 1 in a cell not yet valued (or with no worth table). */
+static inline float pm_light_vertex_keep(const pm_cell_values *worth, vec3 p) {
+    float mean;
+    if (!worth || !(worth->mean > 0.0) || !pm_cell_values_mean(worth, p, &mean)) return 1.f;
+    float keep = mean / (float)worth->mean;
+    return keep < PM_CONNECT_KEEP_LEAST ? PM_CONNECT_KEEP_LEAST : (keep < 1.f ? keep : 1.f);
+}
+
 /* A growable array of photon records, reused from pass to pass. */
 typedef struct { pm_photon *data; size_t count, capacity; } pm_photon_buffer;
 /* The same pass into a buffer (grown when needed, never shrunk) instead of a new tree. A pass the

@@ -57,6 +57,7 @@
  * eye.h). AUTO (the default): both are measured over the first iterations and the one predicted
  * to err less at equal cost is kept (pm_progressive_iterate); PHOTONS or PATH force one. */
 typedef enum { PM_GATHER_AUTO = 0, PM_GATHER_FORCE_PHOTONS = 1, PM_GATHER_FORCE_PATH = 2 } pm_gather_choice;
+typedef enum { PM_CONNECT_AUTO = 0, PM_CONNECT_FORCE_ON = 1, PM_CONNECT_FORCE_OFF = 2 } pm_connect_choice;
 
 typedef struct {
     uint64_t seed;
@@ -76,6 +77,7 @@ typedef struct {
                                   radii of each rank shrink with the job's iterations, as one process's would, not with its own */
     bool unclipped;            /* estimates read their whole disc, through walls (no clip.h): only to measure what clipping costs and mends */
     bool unguided;             /* photons emitted without the learned guide (guide.h): only to measure what guiding gains */
+    pm_connect_choice connect; /* where the path tracer's light is chosen: its samples join light vertices (eye.h), measured or forced */
     /* the caustic photons stay wherever they are traced, with no caustic trial (progressive.c):
      * under mpirun, where a rank that gave them up would dilute the others' caustic statistics in
      * the merge (each rank's photon passes count in every pixel's) */
@@ -103,6 +105,11 @@ typedef struct {
     double choice_relmse[2], choice_bias2, choice_cost[2];
     uint32_t choice_iterations;  /* learning iterations probed before the choice, both sources */
     uint32_t path_only_samples;  /* samples taken as the path tracer's eye pass alone, the choice made (progressive.c, begin_iteration) */
+    uint64_t light_vertices;     /* light vertices the path iterations' passes kept for connections (eye.h) */
+    /* the connections' trial (progressive.c): -1 none run, 0 connections left off, 1 kept; each
+     * arm's predicted error x cost and its cost per iteration (CONNECT_ON, CONNECT_OFF) */
+    int connect_trial;
+    double connect_trial_error[2], connect_trial_cost[2];
     /* the caustic trial (progressive.c): -1 none run, 0 the caustic photons kept, 1 given up for the
      * path tracer's loop; each arm's predicted error x cost and its cost per iteration */
     int caustic_trial;

@@ -24,6 +24,8 @@
 #include "vertex.h"
 
 #define TILE 16
+enum { PATH_VERTICES, PATH_CONNECTIONS, PATH_CONNECTION_RAYS, PATH_COUNTS }; /* what a tile's paths count: surfaces met, light
+                                                                                vertices drawn to join, their shadow rays */
 #define MAX_THREADS PM_MAX_THREADS
 
 typedef struct {
@@ -42,7 +44,7 @@ typedef struct {
     int tiles_x;
     double deadline;                     /* tiles not started by then are left out (0 = none) */
     bool save;                           /* the iteration's first pass: each tile saves its pixels before writing them */
-    struct { uint64_t rays, dropped, vertices, shadow[2]; char pad[24]; } counters[MAX_THREADS];
+    struct { uint64_t rays, dropped, vertices, connections, connection_rays, shadow[2]; char pad[8]; } counters[MAX_THREADS];
     uint8_t done[];                      /* per tile: traced (a cut pass marks these in the film) */
 } eye_job;
 
@@ -151,12 +153,98 @@ typedef struct {
     vec3 wo, ng, ns, origin;
     uint64_t *rays;              /* every ray traced */
     uint64_t cast;               /* shadow rays to light samples */
+    /* the point reached by a path's sample from a vertex that joined a light vertex (connect):
+     * that sample's density per unit area here, against which the punctual lights are weighted;
+     * 0: reached otherwise, nothing to weigh */
+    const pm_connections *connections;
+    float arrival_pdf;
+    float arrival_keep;          /* with arrival_pdf: the probability a light vertex here is kept (pm_light_vertex_keep) */
 } light_site;
 
 static light_site light_site_at(const pm_scene *s, const pm_accel *a, const pm_surface *sf, pm_lobe part, vec3 wo, uint64_t *rays) {
     vec3 ng = pm_facing(sf->ng, wo);
-    light_site ls = {s, a, sf, part, wo, ng, pm_facing(sf->ns, ng), pm_surface_origin(sf, ng, s->ray_scale), rays, 0};
+    light_site ls = {s, a, sf, part, wo, ng, pm_facing(sf->ns, ng), pm_surface_origin(sf, ng, s->ray_scale), rays, 0, NULL, 0.f, 0.f};
     return ls;
+}
+
+/* ---- connections (eye.h) ---- */
+
+/* The connections' density per unit area at point p (face normal ng) for light i's vertices
+ * (eye.h), where a vertex is kept with probability keep. */
+static float connection_density(const pm_connections *c, uint32_t i, vec3 p, vec3 ng, float keep) {
+    return pm_photon_tracer_first_hit_density(c->tracer, i, p, ng) * keep * c->photons_per_vertex;
+}
+
+/* The density per unit area with which a path's sample from x (pdf per solid angle) meets the
+ * point p of face normal ng. */
+static inline float area_pdf(float pdf, vec3 x, vec3 p, vec3 ng) {
+    vec3 d = v3_sub(p, x);
+    float d2 = v3_dot(d, d);
+    return d2 > 0.f ? pdf * fabsf(v3_dot(ng, d)) / (d2 * sqrtf(d2)) : 0.f;
+}
+
+/* The light a connection brings to the non-specular part of sf, seen from wo and reached with
+ * weight: one light vertex y drawn uniformly from the pass's n, joined by a shadow ray. A vertex stands for the pass's
+ * photons, so n x its flux x f(x) cos_x cos_y / d^2 x f(y) x (shading cosine / face cosine of its
+ * arrival: the photon's density on the face, the light's own reflection by the shading normal,
+ * as direct light computes it) is the light the whole pass's vertices bring, which the power
+ * heuristic then shares with the path's sample from x meeting y and its punctual light there.
+ * A thin wall blocks the shadow ray: the path's sample crosses it as a vertex of its own, and
+ * such light stays the path's. */
+static vec3 join(const eye_job *job, const pm_connections *c, const pm_light_vertex *v, const pm_surface *sf, vec3 wo,
+                 vec3 weight, uint64_t *rays, float *worth);
+
+static vec3 connect(const eye_job *job, const pm_connections *c, const pm_surface *sf, vec3 wo, vec3 weight, pm_rng *rng,
+                    uint64_t *rays, uint64_t path_counts[PATH_COUNTS]) {
+    if (!c->count) return v3s(0.f);
+    path_counts[PATH_CONNECTIONS]++;
+    uint64_t rays_before = *rays;
+    uint32_t j = (uint32_t)(pm_rng_float(rng) * (float)c->count);
+    const pm_light_vertex *v = &c->vertices[j < c->count ? j : c->count - 1];
+    float worth = 0.f;
+    vec3 e = join(job, c, v, sf, wo, weight, rays, &worth);
+    path_counts[PATH_CONNECTION_RAYS] += *rays - rays_before;
+    if (c->worth_next && j % PM_CONNECT_WORTH_SHARE == 0) {
+        float units = worth / c->worth_unit + 0.5f;
+        pm_cell_values_add(c->worth_next, v->p, units < 4294967040.f ? (uint32_t)units : UINT32_MAX);
+    }
+    return e;
+}
+
+/* connect's light through vertex v; *worth: what it brings without the MIS weight, at the flux the
+ * vertex had before its keeping and as one vertex (the worth of its cell, pm_light_vertex_keep) */
+static vec3 join(const eye_job *job, const pm_connections *c, const pm_light_vertex *v, const pm_surface *sf, vec3 wo,
+                 vec3 weight, uint64_t *rays, float *worth) {
+    const pm_scene *s = job->scene;
+    vec3 ng = pm_facing(sf->ng, wo), ns = pm_facing(sf->ns, ng), origin = pm_surface_origin(sf, ng, s->ray_scale);
+    vec3 to = v3_sub(v->p, sf->p);
+    float d2 = v3_dot(to, to);
+    if (!(d2 > 0.f)) return v3s(0.f);
+    vec3 wi = v3_scale(to, 1.f / sqrtf(d2));
+    float cos_x = v3_dot(ns, wi), cos_y = -v3_dot(v->ng, wi);
+    if (!(cos_x > 0.f && v3_dot(ng, wi) > 0.f && cos_y > 0.f)) return v3s(0.f);
+    vec3 to_light = v->to_light;
+    float density = connection_density(c, v->light, v->p, v->ng, v->keep);
+    if (!(density > 0.f)) return v3s(0.f);
+    float cos_in = v3_dot(v->ng, to_light);
+    if (!(cos_in > 0.f)) return v3s(0.f);
+    vec3 target = pm_offset_ray_origin(v->p, v->ng, s->ray_scale), seg = v3_sub(target, origin);
+    float reach = v3_length(seg);
+    (*rays)++;
+    if (!(reach > 0.f) || pm_accel_occluded(job->accel, origin, v3_scale(seg, 1.f / reach), reach)) return v3s(0.f);
+    pm_surface y;
+    pm_scene_surface(s, v->tri, v->b1, v->b2, &y);
+    vec3 yns = pm_facing(y.ns, v->ng), wy = v3_neg(wi);
+    float cos_in_shading = v3_dot(yns, to_light);
+    if (!(cos_in_shading > 0.f && v3_dot(yns, wy) > 0.f)) return v3s(0.f);
+    /* the path's way: its sample from here reaching y, then y's punctual light */
+    float p_path = area_pdf(pm_vertex_pdf(sf, PM_LOBE_NONSPECULAR, ns, wo, wi), sf->p, v->p, v->ng);
+    float scale = (float)c->count * cos_y / d2 * cos_in_shading / cos_in;
+    vec3 fy = v3_mul(pm_vertex_f(&y, PM_LOBE_NONSPECULAR, yns, wy, to_light), pm_volume_transmittance(s, &y, wi, sqrtf(d2)));
+    vec3 e = v3_mul(v3_mul(v3_mul(reflected(sf, PM_LOBE_NONSPECULAR, ns, wo, wi, cos_x), fy), v3_scale(v->flux, scale)), weight);
+    if (!v3_is_finite(e)) return v3s(0.f);
+    *worth = v3_luminance(e) * v->keep / (float)c->count;
+    return v3_scale(e, power_heuristic(density, p_path));
 }
 
 /* The punctual lights' share of direct_light (below): their light reflected toward ls->wo by the
@@ -208,6 +296,8 @@ static vec3 punctual_light(light_site *ls, pm_rng *rng, const pm_shadow_map *sha
             ls->cast++;
             if (!pm_thin_visible(s, ls->a, origin, wi, tmax, &through, ls->rays)) continue;
         }
+        if (ls->arrival_pdf > 0.f)
+            pick_weight *= power_heuristic(ls->arrival_pdf, connection_density(ls->connections, i, sf->p, sf->ng, ls->arrival_keep));
         e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance_scale, pick_weight), through), reflected(sf, ls->part, ns, ls->wo, wi, cos_s)));
     }
     return e;
@@ -349,8 +439,11 @@ static void own_ray_light(light_site *ls, pm_rng *rng, const pm_vertex_ray *boun
  * the scene's lights, its hit kept there for the path that goes on along it. */
 static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, pm_lobe part, vec3 wo, pm_rng *rng,
                          uint64_t *rays, const pm_shadow_map *shadow, uint64_t shadow_counts[2], const pm_vertex_ray *bounce,
-                         surface_bounce *next) {
+                         surface_bounce *next, const pm_connections *connections, float arrival_pdf) {
     light_site ls = light_site_at(s, a, sf, part, wo, rays);
+    ls.connections = connections;
+    ls.arrival_pdf = connections ? arrival_pdf : 0.f;
+    if (ls.arrival_pdf > 0.f) ls.arrival_keep = pm_light_vertex_keep(connections->worth, sf->p);
     uint64_t saved = 0;
     vec3 e = punctual_light(&ls, rng, shadow, &saved);
     if (s->emitter_count) emitter_area_sample(&ls, rng, &e);
@@ -469,7 +562,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
                     v3_mul(throughput, map_estimate(job, &set->maps->global, &sf, h.tri, ng, wo, &indirect_only, rays)));
             } else {
                 out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, &sf, PM_LOBE_NONSPECULAR, wo, rng, rays,
-                                                                              set->shadow, shadow_counts, NULL, NULL)));
+                                                                              set->shadow, shadow_counts, NULL, NULL, NULL, 0.f)));
             }
             if (set->maps && set->maps->caustic.count) {
                 int c = depth == 0 ? PM_CAUSTIC : PM_SPECULAR;
@@ -500,7 +593,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
             out[PM_SPECULAR] = v3_add(out[PM_SPECULAR], v3_mul(v3_scale(throughput, ray.choice),
                                                                direct_light(s, job->accel, &sf, PM_LOBE_NEAR_SPECULAR, wo, rng, rays,
                                                                             job->settings->shadow, shadow_counts, &ray,
-                                                                            goes_on ? &pending : NULL)));
+                                                                            goes_on ? &pending : NULL, NULL, 0.f)));
         if (!goes_on) return;
         throughput = v3_scale(v3_mul(throughput, ray.weight), ray.radiance_scale);
         d = ray.direction;
@@ -590,7 +683,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
             if (camera_ray) {
                 out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, sf, PM_LOBE_NONSPECULAR, wo, rng, rays,
                                                                               job->settings->shadow, shadow_counts, exit ? &ray : NULL,
-                                                                              exit && goes_on ? &exit->traced : NULL)));
+                                                                              exit && goes_on ? &exit->traced : NULL, NULL, 0.f)));
             } else if (s->light_count) {
                 /* the punctual lights at a gather point: the visible point's indirect light, traced
                  * (their first-hit photons are not stored, see above) */
@@ -605,7 +698,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
         if (camera_ray && !lit)
             out[PM_SPECULAR] = v3_add(out[PM_SPECULAR], v3_mul(v3_scale(throughput, ray.choice),
                                                                direct_light(s, job->accel, sf, PM_LOBE_NEAR_SPECULAR, wo, rng, rays,
-                                                                            job->settings->shadow, shadow_counts, &ray, &pending)));
+                                                                            job->settings->shadow, shadow_counts, &ray, &pending, NULL, 0.f)));
         throughput = v3_scale(v3_mul(throughput, ray.weight), ray.radiance_scale);
         d = ray.direction;
         o = ray.origin;
@@ -624,21 +717,27 @@ typedef struct {
     /* where the path first chooses a non-specular part (when not NULL): a gather point, whose
      * photons carry the light no path finds (settings->gather_punctual_specular) */
     pm_visible_point *gather_point;
+    const pm_connections *connections; /* the light vertices the path joins (eye.h); NULL: none */
+    /* the visible point joined a light vertex (connect): where it is and its sample's pdf, against
+     * which the first vertex's punctual lights are weighed */
+    bool joined;
+    vec3 joined_at;
+    float joined_pdf;
 } path_start;
 
-static const path_start path_from_camera = {{1.f, 1.f, 1.f}, 0, true, false, false, NULL};
+static const path_start path_from_camera = {{1.f, 1.f, 1.f}, 0, true, false, false, NULL, NULL, false, {0.f, 0.f, 0.f}, 0.f};
 
 static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce *first, const path_start *start,
                        pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
-                       uint64_t *vertices);
+                       uint64_t path_counts[PATH_COUNTS]);
 
 /* The progressive mode's eye sample: the pixel's visible point and, with final gathering, the
  * point its one gather ray finds (the segment the visible point's step drew, which direct light
  * there traced); emission and direct light go to out[]. With PM_GATHER_PATH the path tracer goes
  * on from the visible point instead (no gather point). */
-static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
-                          vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2], uint64_t *vertices,
-                          pm_visible_point *vp, pm_visible_point *gp) {
+static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, const pm_connections *connections,
+                          pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
+                          uint64_t path_counts[PATH_COUNTS], pm_visible_point *vp, pm_visible_point *gp) {
     /* a point's fields are all written where it becomes valid; clearing two 96-byte records per
      * pixel would cost 2% of an iteration */
     vp->valid = false;
@@ -648,15 +747,24 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
     point_exit exit;
     if (!walk_to_diffuse(job, o, d, camera, v3s(1.f), true, 0, rng, out, PM_DIRECT, rays, shadow_counts, vp, &sf, &throughput,
                          gp ? &exit : NULL) ||
-        !gp || !exit.goes_on)
+        !gp)
         return;
     if (job->settings->gather_source == PM_GATHER_PATH) {
         /* the path tracer from here on: its light is the visible point's indirect light; the
-         * light it cannot find, the photons bring to its first non-specular vertex */
-        path_start from = {exit.throughput, 1, false, !vp->seen_directly, true, job->settings->gather_punctual_specular ? gp : NULL};
-        trace_path(job, exit.ray.origin, exit.ray.direction, &exit.traced, &from, rng, out, rays, shadow_counts, vertices);
+         * light it cannot find, the photons bring to its first non-specular vertex. A connection
+         * joins here whether the path goes on or not, as the path tracer's loop joins at every
+         * such vertex (its weight is the point's, unscaled by the survival). */
+        if (connections) {
+            int c = vp->seen_directly ? PM_INDIRECT : PM_SPECULAR;
+            out[c] = v3_add(out[c], connect(job, connections, &sf, vp->wo, throughput, rng, rays, path_counts));
+        }
+        if (!exit.goes_on) return;
+        path_start from = {exit.throughput, 1, false, !vp->seen_directly, true, job->settings->gather_punctual_specular ? gp : NULL,
+                           connections, connections && exit.ray.sampled, sf.p, exit.ray.pdf};
+        trace_path(job, exit.ray.origin, exit.ray.direction, &exit.traced, &from, rng, out, rays, shadow_counts, path_counts);
         return;
     }
+    if (!exit.goes_on) return;
     /* light the gather point's punctual lights give is the visible point's indirect light */
     int lobe_component = vp->seen_directly ? PM_INDIRECT : PM_SPECULAR;
     if (walk_to_diffuse(job, exit.ray.origin, exit.ray.direction, &exit.traced, exit.throughput, false, 1, rng, out,
@@ -673,7 +781,7 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
  * traces for the path to go on along, counting what that segment meets). */
 static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce *first, const path_start *start,
                        pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
-                       uint64_t *vertices) {
+                       uint64_t path_counts[PATH_COUNTS]) {
     const pm_scene *s = job->scene;
     vec3 throughput = start->throughput;
     bool behind_specular = start->behind_specular;
@@ -684,11 +792,15 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
     bool cone = start->from_camera; /* the pixel's cone, until the first diffuse or glossy bounce (level 0 after it) */
     float path_length = 0.f;
     surface_bounce next = *first; /* the camera ray, traced with its tile, or the visible point's direct light's */
+    const pm_connections *connections = start->connections;
+    bool joined = start->joined; /* the last vertex joined a light vertex: where it was, its sample's pdf */
+    vec3 joined_at = start->joined_at;
+    float joined_pdf = start->joined_pdf;
     for (int depth = start->depth; depth < PM_PATHTRACE_MAX_VERTICES; depth++) {
         pm_hit h;
         pm_surface sf;
         if (!meet_surface(job, &next, o, d, lit_by_segment, cone, &path_length, &throughput, &out[seen], rays, &h, &sf)) return;
-        (*vertices)++;
+        path_counts[PATH_VERTICES]++;
         vec3 wo = v3_neg(d);
         pm_vertex_ray ray;
         bool goes_on = pm_vertex_step(&sf, d, depth, &continuing_policy, rng, s->ray_scale, &ray);
@@ -699,9 +811,19 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
                 set_point(start->gather_point, &sf, pm_facing(sf.ng, wo), wo, v3_scale(throughput, ray.choice), path_length, h.tri,
                           !start->behind_specular);
             int here = depth == 0 ? PM_DIRECT : (behind_specular ? PM_SPECULAR : PM_INDIRECT);
+            float arrival_pdf = joined ? area_pdf(joined_pdf, joined_at, sf.p, sf.ng) : 0.f;
             out[here] = v3_add(out[here], v3_mul(v3_scale(throughput, ray.choice),
                                                  direct_light(s, job->accel, &sf, PM_LOBE_NONSPECULAR, wo, rng, rays,
-                                                              job->settings->shadow, shadow_counts, &ray, goes_on ? &next : NULL)));
+                                                              job->settings->shadow, shadow_counts, &ray, goes_on ? &next : NULL,
+                                                              connections, arrival_pdf)));
+            if (connections) {
+                /* the light a vertex reached from here adds by its punctual lights, as NEE there would */
+                int there = behind_specular ? PM_SPECULAR : PM_INDIRECT;
+                out[there] = v3_add(out[there], connect(job, connections, &sf, wo, v3_scale(throughput, ray.choice), rng, rays, path_counts));
+            }
+            joined = connections && ray.sampled;
+            joined_at = sf.p;
+            joined_pdf = ray.pdf;
             /* from a first-hit diffuse vertex, what specular bounces lead to is the caustic (and
              * from the first non-specular vertex behind specular ones, where it is measured apart) */
             seen = depth == 0 || (job->settings->caustic_apart && !past_nonspecular) ? PM_CAUSTIC : here;
@@ -710,6 +832,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
             caustic_segment = false;
             cone = false;
         } else {
+            joined = false;
             if (depth == 0) {
                 behind_specular = true;
                 seen = PM_SPECULAR;
@@ -721,7 +844,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
                 /* the lights by MIS with this sample, which direct light traces and counts */
                 out[seen] = v3_add(out[seen], v3_mul(v3_scale(throughput, ray.choice),
                                                      direct_light(s, job->accel, &sf, PM_LOBE_NEAR_SPECULAR, wo, rng, rays,
-                                                                  job->settings->shadow, shadow_counts, &ray, goes_on ? &next : NULL)));
+                                                                  job->settings->shadow, shadow_counts, &ray, goes_on ? &next : NULL, NULL, 0.f)));
                 lit_by_segment = false;
             }
         }
@@ -742,7 +865,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
     int x1 = x0 + TILE < film->width ? x0 + TILE : film->width;
     int y1 = y0 + TILE < film->height ? y0 + TILE : film->height;
     if (job->save) pm_film_save_rect(film, x0, y0, x1, y1); /* what a cancel puts back */
-    uint64_t rays = 0, dropped = 0, vertices = 0, shadow_counts[2] = {0, 0};
+    uint64_t rays = 0, dropped = 0, path_counts[PATH_COUNTS] = {0, 0}, shadow_counts[2] = {0, 0};
     pm_visible_point visible[TILE * TILE], gathered[TILE * TILE];
     size_t pixels[TILE * TILE], points = 0;
     /* a tile's rows are short runs in each component's sum, too short for the hardware prefetcher:
@@ -787,10 +910,15 @@ static void render_tile(void *ctx, size_t task, int thread) {
             surface_bounce camera = {.traced = true, .hit = hit[k]};
             if (hit[k]) camera.h = hits[k];
             vec3 out[PM_COMPONENT_COUNT] = {{0}};
-            if (job->settings->path_trace)
-                trace_path(job, o, d, &camera, &path_from_camera, &rng, out, &rays, shadow_counts, &vertices);
+            const pm_connections *joins = job->settings->connections;
+            if (joins && joins->pixels && !joins->pixels[pixel]) joins = NULL;
+            if (job->settings->path_trace) {
+                path_start from = path_from_camera;
+                from.connections = joins;
+                trace_path(job, o, d, &camera, &from, &rng, out, &rays, shadow_counts, path_counts);
+            }
             else if (job->visible_points) {
-                trace_visible(job, o, d, &camera, &rng, out, &rays, shadow_counts, &vertices, &visible[points],
+                trace_visible(job, o, d, &camera, joins, &rng, out, &rays, shadow_counts, path_counts, &visible[points],
                               job->gather_points ? &gathered[points] : NULL);
                 pixels[points++] = pixel;
             } else
@@ -806,7 +934,9 @@ static void render_tile(void *ctx, size_t task, int thread) {
     if (job->visit && points) job->visit(job->visit_ctx, pixels, visible, job->gather_points ? gathered : NULL, points, thread);
     job->counters[thread].rays += rays;
     job->counters[thread].dropped += dropped;
-    job->counters[thread].vertices += vertices;
+    job->counters[thread].vertices += path_counts[PATH_VERTICES];
+    job->counters[thread].connections += path_counts[PATH_CONNECTIONS];
+    job->counters[thread].connection_rays += path_counts[PATH_CONNECTION_RAYS];
     job->counters[thread].shadow[0] += shadow_counts[0];
     job->counters[thread].shadow[1] += shadow_counts[1];
 }
@@ -863,6 +993,8 @@ static pm_eye_pass_result run_eye_pass(const pm_scene *s, const pm_accel *a, con
             stats->rays += job->counters[t].rays;
             stats->dropped_samples += job->counters[t].dropped;
             stats->path_vertices += job->counters[t].vertices;
+            stats->connections += job->counters[t].connections;
+            stats->connection_rays += job->counters[t].connection_rays;
             stats->shadow_rays += job->counters[t].shadow[0];
             stats->shadow_rays_saved += job->counters[t].shadow[1];
         }

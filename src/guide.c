@@ -16,15 +16,17 @@ static inline int32_t mark_coord(float x, float inv_cell) {
     return i - (c < (float)i);
 }
 
-static inline size_t mark_bit(const pm_marks *m, vec3 p) {
-    uint32_t x = (uint32_t)mark_coord(p.x, m->inv_cell), y = (uint32_t)mark_coord(p.y, m->inv_cell),
-             z = (uint32_t)mark_coord(p.z, m->inv_cell);
+/* The hash of p's cell, for a table of 2^k entries: its low k bits. */
+static inline uint32_t cell_hash(vec3 p, float inv_cell) {
+    uint32_t x = (uint32_t)mark_coord(p.x, inv_cell), y = (uint32_t)mark_coord(p.y, inv_cell), z = (uint32_t)mark_coord(p.z, inv_cell);
     uint32_t h = (x * 73856093u) ^ (y * 19349663u) ^ (z * 83492791u);
     h ^= h >> 15;
     h *= 0x2c1b3c6du;
     h ^= h >> 12;
-    return (size_t)h & (PM_GUIDE_MARK_BITS - 1);
+    return h;
 }
+
+static inline size_t mark_bit(const pm_marks *m, vec3 p) { return (size_t)cell_hash(p, m->inv_cell) & (PM_GUIDE_MARK_BITS - 1); }
 
 bool pm_marks_init(pm_marks *m) {
     memset(m, 0, sizeof *m);
@@ -55,6 +57,71 @@ void pm_marks_set(pm_marks *m, vec3 p) {
 bool pm_marks_test(const pm_marks *m, vec3 p) {
     size_t b = mark_bit(m, p);
     return (m->bits[b >> 6] >> (b & 63)) & 1u;
+}
+
+bool pm_cell_values_init(pm_cell_values *v) {
+    memset(v, 0, sizeof *v);
+    v->count = pm_calloc(PM_VISIT_CELLS, sizeof *v->count, "cell values");
+    v->sum = pm_calloc(PM_VISIT_CELLS, sizeof *v->sum, "cell values");
+    if (v->count && v->sum) return true;
+    pm_cell_values_free(v);
+    return false;
+}
+
+void pm_cell_values_free(pm_cell_values *v) {
+    free(v->count);
+    free(v->sum);
+    memset(v, 0, sizeof *v);
+}
+
+void pm_cell_values_clear(pm_cell_values *v, float cell) {
+    memset(v->count, 0, PM_VISIT_CELLS * sizeof *v->count);
+    memset(v->sum, 0, PM_VISIT_CELLS * sizeof *v->sum);
+    v->cell = cell > 0.f && isfinite(cell) ? cell : 1.f;
+    v->inv_cell = 1.f / v->cell;
+    v->total_sum = v->total_count = v->mean = 0.0;
+}
+
+void pm_cell_values_add(pm_cell_values *v, vec3 p, uint32_t value) {
+    size_t i = cell_hash(p, v->inv_cell) & (PM_VISIT_CELLS - 1);
+    /* past 2^31 values a cell has been measured enough: it stops, and sums stay below 2^63 */
+    if (__atomic_load_n(&v->count[i], __ATOMIC_RELAXED) >= (1u << 31)) return;
+    __atomic_fetch_add(&v->count[i], 1u, __ATOMIC_RELAXED);
+    if (value) __atomic_fetch_add(&v->sum[i], (uint64_t)value, __ATOMIC_RELAXED);
+}
+
+bool pm_cell_values_mean(const pm_cell_values *v, vec3 p, float *mean) {
+    size_t i = cell_hash(p, v->inv_cell) & (PM_VISIT_CELLS - 1);
+    if (!v->count[i]) return false;
+    *mean = (float)v->sum[i] / (float)v->count[i];
+    return true;
+}
+
+void pm_cell_values_merge(pm_cell_values *into, pm_cell_values *from) {
+    assert(into->cell == from->cell);
+    const uint32_t full = 1u << 31;
+    for (size_t i = 0; i < PM_VISIT_CELLS; i++) {
+        uint32_t n = from->count[i];
+        if (!n) continue;
+        /* a full cell keeps its mean: what from adds to it is dropped */
+        if (into->count[i] < full) {
+            into->count[i] += n;
+            into->sum[i] += from->sum[i];
+            into->total_count += n;
+            into->total_sum += (double)from->sum[i];
+        }
+        from->count[i] = 0;
+        from->sum[i] = 0;
+    }
+    into->mean = into->total_count > 0.0 ? into->total_sum / into->total_count : 0.0;
+}
+
+void pm_cell_values_drop(pm_cell_values *v) {
+    for (size_t i = 0; i < PM_VISIT_CELLS; i++)
+        if (v->count[i]) {
+            v->count[i] = 0;
+            v->sum[i] = 0;
+        }
 }
 
 bool pm_guide_init(pm_guide *g, uint32_t sources) {

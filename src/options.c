@@ -159,6 +159,11 @@ static const option options_table[] = {
      "photon estimates stay on their side of walls (default on; off only to measure the leak)", {0}},
     {"--guide", "on|off", KIND_WORD, FIELD(unguided), 0, 0, "on|off", {0, 1}, NULL, NULL, NULL, RULE_PER_PASS_ONLY,
      "progressive: photons sent where the camera reads them, learned (default on)", {0}},
+    {"--connect", "auto|on|off", KIND_WORD, FIELD(connect), 0, 0, "auto|on|off", {PM_CONNECT_AUTO, PM_CONNECT_FORCE_ON, PM_CONNECT_FORCE_OFF},
+     NULL, NULL, NULL, RULE_PER_PASS_ONLY,
+     "progressive: where the path tracer's light is chosen, its samples joined to first hits of\n"
+     "point, spot and directional lights' photons: auto (default: with and without measured, the\n"
+     "one with less error per ray kept), on or off", {0}},
     {"--reference", "REF.exr", KIND_TEXT, FIELD(reference), 0, 0, ".exr", {0}, NULL, NULL,
      "--reference needs an .exr file, not '%s'", 0,
      "measure the total against REF's R,G,B (same size): relMSE and mean ratios;\n"
@@ -394,6 +399,7 @@ void pm_options_session_config(const pm_options *o, const pm_scene *scene, int w
         pp->caustic_by_statistics = o->caustic_statistics;
         pp->unclipped = o->unclipped;
         pp->unguided = o->unguided;
+        pp->connect = (pm_connect_choice)o->connect;
         if (o->stats)
             printf("stat progressive_setup photon_pass=%d caustic_photons=%llu global_photons=%llu indirect=%s caustic_splats=%d gather=%s\n",
                    (scene->analysis.component_possible[PM_CAUSTIC] && pp->caustic_photons) ||

@@ -136,6 +136,14 @@ typedef struct {
     const pm_marks *marks;
     uint32_t *guide_counts;
     size_t guide_cells;       /* guided sources x PM_GUIDE_CELL_COUNT */
+    /* a light-vertex pass (pm_photon_tracer_trace_light_vertices): the punctual lights' photons end
+     * at their first diffuse or glossy hit, kept where `vertex_region` marks (NULL: everywhere),
+     * per chunk, merged in chunk order */
+    bool light_vertex_pass;
+    const pm_cell_values *vertex_worth;
+    pm_light_vertex **chunk_vertices;
+    uint32_t *chunk_vertex_counts;
+    pm_light_vertex_buffer *vertex_out;
 } pass;
 
 /* Photons meet the one survival rule from their first surface on (Jensen: a photon keeps its power),
@@ -571,7 +579,8 @@ static __attribute__((noinline)) bool emit(const pass *ps, const light_source *l
 /* A chunk's view of its thread's record arena: it appends from `start`; `room` is where the
  * slow path must run next (the arena is full, or the chunk's next CHUNK records are to be
  * counted against the pass's storage bound). */
-typedef struct { pm_photon *data; size_t count, capacity, start, counted, room; bool failed; pass *ps; uint32_t *guide_counts; } photon_list;
+typedef struct { pm_light_vertex *data; uint32_t count, capacity; } vertex_list;
+typedef struct { pm_photon *data; size_t count, capacity, start, counted, room; bool failed; pass *ps; uint32_t *guide_counts; vertex_list *vertices; } photon_list;
 typedef struct { pm_camera_splat *data; uint32_t count, capacity; } splat_list;
 
 
@@ -674,6 +683,7 @@ typedef struct {
     bool first_hit_skipped; /* its light is punctual and the reader traces its first hits: no record there */
     bool punctual;          /* its light is a punctual light's */
     bool punctual_specular; /* ... and a mirror or glass scattered it first (PM_PATH_PUNCTUAL_SPECULAR) */
+    uint32_t light;         /* the scene light of a punctual light's photon */
     uint32_t guide_cell[2]; /* the emission guide's slots and cells it left from (guided, guided_direction), UINT32_MAX where unguided */
 } photon_path;
 
@@ -688,7 +698,7 @@ static bool start_photon(const pass *ps, pm_rng_family streams, uint64_t i, phot
     float source_pdf;
     const light_source *l = &ps->sources[pick_source(ps, pm_rng_float(&p->rng), &source_pdf)];
     /* only a punctual light's light can be tagged: the others' carry nothing such a pass keeps */
-    if (tagged_only(ps) && l->kind != SOURCE_PUNCTUAL) return false;
+    if ((tagged_only(ps) || ps->light_vertex_pass) && l->kind != SOURCE_PUNCTUAL) return false;
     vec3 flux;
     float pair[2][2], weight = 1.f;
     int slot[2] = {l->guided, l->guided_direction};
@@ -714,11 +724,26 @@ static bool start_photon(const pass *ps, pm_rng_family streams, uint64_t i, phot
         return false;
     p->first_hit_skipped = ps->punctual_first_hits_skipped && l->kind == SOURCE_PUNCTUAL;
     p->punctual = l->kind == SOURCE_PUNCTUAL;
+    p->light = l->light;
     p->punctual_specular = false;
     p->power = v3_scale(flux, weight / ((float)ps->photons * source_pdf));
     p->bounce = p->specular_bounces = 0;
     p->diffuse_seen = p->scattered = false;
     return true;
+}
+
+/* A light vertex where photon p first met a diffuse or glossy surface (ng facing where it came from). */
+static void push_light_vertex(photon_list *list, const pm_surface *sf, vec3 ng, vec3 to_light, const pm_hit *h, const photon_path *p,
+                              float keep) {
+    vertex_list *v = list->vertices;
+    if (v->count == v->capacity) {
+        uint32_t capacity = v->capacity ? 2 * v->capacity : 256;
+        pm_light_vertex *grown = pm_realloc(v->data, capacity * sizeof *grown, "light vertices of a chunk");
+        if (!grown) { list->failed = true; return; }
+        v->data = grown;
+        v->capacity = capacity;
+    }
+    v->data[v->count++] = (pm_light_vertex){sf->p, ng, to_light, v3_scale(p->power, 1.f / keep), h->tri, p->light, h->b1, h->b2, keep};
 }
 
 /* What photon p does where its ray (*o, *d) hit h: a record (and a camera splat) at a diffuse or
@@ -731,7 +756,14 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
     bool shading_left = pm_scene_surface_lean(s, h->tri, h->b1, h->b2, &sf);
     if (ps->volumes) p->power = v3_mul(p->power, pm_volume_transmittance(s, &sf, *d, h->t));
     vec3 ng = pm_facing(sf.ng, v3_neg(*d));
-    if (pm_vertex_has_nonspecular(&sf)) {
+    if (ps->light_vertex_pass) {
+        if (!p->scattered && pm_vertex_has_nonspecular(&sf)) {
+            float keep = pm_light_vertex_keep(ps->vertex_worth, sf.p);
+            if (keep >= 1.f || (keep > 0.f && pm_rng_float(rng) < keep)) push_light_vertex(list, &sf, ng, v3_neg(*d), h, p, keep);
+        }
+        /* only a thin wall crossed straight lets the photon on (below) */
+        if (!s->analysis.has_thin_glass) return false;
+    } else if (pm_vertex_has_nonspecular(&sf)) {
         if (ps->caustic_pass) {
             /* stored, and the roulette below decides: a non-specular bounce ends the caustic
              * path, while the specular and near-specular parts of a mixed surface carry it on
@@ -774,6 +806,7 @@ static bool photon_bounce(pass *ps, photon_path *p, const pm_hit *h, vec3 *o, ve
     *d = ray.direction;
     *o = ray.origin;
     if (ray.straight) return true; /* no caustic: direct light crosses thin walls too */
+    if (ps->light_vertex_pass) return false;
     if (!p->scattered) p->punctual_specular = p->punctual && ray.lobe == PM_LOBE_SPECULAR;
     p->scattered = true;
     if (ray.lobe == PM_LOBE_NONSPECULAR) p->diffuse_seen = true;
@@ -836,8 +869,10 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     pass *ps = ctx;
     struct record_arena *arena = &ps->arenas[thread];
     photon_list list = {arena->data, arena->count, arena->capacity, arena->count, 0, arena->count, false, ps,
-                        ps->guide ? ps->guide_counts + (size_t)thread * 2 * ps->guide_cells : NULL};
+                        ps->guide ? ps->guide_counts + (size_t)thread * 2 * ps->guide_cells : NULL, NULL};
     splat_list splats = {NULL, 0, 0};
+    vertex_list vertices = {NULL, 0, 0};
+    list.vertices = &vertices;
     if (atomic_load(&ps->out_of_memory)) return; /* the pass has failed: no use tracing on */
     /* the first chunk always runs: an iteration with no photon at all would bias its average */
     if (chunk > 0 && ps->deadline > 0.0 && pm_now_seconds() > ps->deadline) {
@@ -927,6 +962,12 @@ static void trace_chunk(void *ctx, size_t chunk, int thread) {
     } else {
         free(splats.data);
     }
+    if (ps->chunk_vertices) {
+        ps->chunk_vertices[chunk] = vertices.data;
+        ps->chunk_vertex_counts[chunk] = vertices.count;
+    } else {
+        free(vertices.data);
+    }
     if (list.failed) atomic_store(&ps->out_of_memory, true);
     ps->counters[thread].rays += rays;
     ps->counters[thread].dropped += dropped;
@@ -1007,6 +1048,10 @@ static void free_chunk_lists(pass *ps) {
     free(ps->chunk_cut);
     free(ps->chunk_splats);
     free(ps->chunk_splat_counts);
+    free(ps->chunk_vertices);
+    free(ps->chunk_vertex_counts);
+    ps->chunk_vertices = NULL;
+    ps->chunk_vertex_counts = NULL;
     ps->chunk_arena = NULL;
     ps->chunk_start = NULL;
     ps->chunk_counts = NULL;
@@ -1032,8 +1077,15 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
         ps->chunk_splats = pm_calloc(lists, sizeof(pm_camera_splat *), "camera splat chunk list");
         ps->chunk_splat_counts = pm_calloc(lists, sizeof(uint32_t), "camera splat chunk list");
     }
+    bool vertices = ps->light_vertex_pass && ps->vertex_out;
+    if (vertices) {
+        ps->vertex_out->count = 0;
+        ps->chunk_vertices = pm_calloc(lists, sizeof(pm_light_vertex *), "light vertex chunk list");
+        ps->chunk_vertex_counts = pm_calloc(lists, sizeof(uint32_t), "light vertex chunk list");
+    }
     if (!ps->chunk_arena || !ps->chunk_start || !ps->chunk_counts || !ps->chunk_skipped || !ps->chunk_cut ||
-        (splatting && (!ps->chunk_splats || !ps->chunk_splat_counts))) {
+        (splatting && (!ps->chunk_splats || !ps->chunk_splat_counts)) ||
+        (vertices && (!ps->chunk_vertices || !ps->chunk_vertex_counts))) {
         free_chunk_lists(ps);
         return false;
     }
@@ -1070,6 +1122,15 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
                           &so->capacity, &splat_total, ok && !cancelled, "camera splats of a pass") || cancelled;
         so->data = splats;
         so->count = ok && !cancelled ? splat_total : 0;
+    }
+    if (vertices) {
+        pm_light_vertex_buffer *vo = ps->vertex_out;
+        size_t vertex_total = 0;
+        void *data = vo->data;
+        ok = merge_chunks((void **)ps->chunk_vertices, ps->chunk_vertex_counts, chunks, sizeof(pm_light_vertex), &data,
+                          &vo->capacity, &vertex_total, ok && !cancelled, "light vertices of a pass") || cancelled;
+        vo->data = data;
+        vo->count = ok && !cancelled ? vertex_total : 0;
     }
     free_chunk_lists(ps);
     if (cancelled) {
@@ -1134,6 +1195,7 @@ struct pm_photon_tracer {
     double projection_fraction;
     double deadline;           /* of the time budget, 0 = none */
     uint32_t guided_sources;   /* sources the emission guide may steer (directional, sky, point, spot) */
+    uint32_t *source_of_light; /* per scene light, its source */
     pm_guide *guide;           /* set by pm_photon_tracer_set_guide: learns from each global pass */
 };
 
@@ -1152,6 +1214,10 @@ pm_photon_tracer *pm_photon_tracer_create(const pm_scene *s, const pm_accel *a, 
     if (!t->sources || !t->cdf) { pm_photon_tracer_destroy(t); return NULL; }
     uint32_t source_count = build_sources(s, t->sources);
     t->source_count = source_count;
+    t->source_of_light = pm_calloc(s->light_count ? s->light_count : 1, sizeof *t->source_of_light, "photon light sources");
+    if (!t->source_of_light) { pm_photon_tracer_destroy(t); return NULL; }
+    for (uint32_t i = 0; i < source_count; i++)
+        if (t->sources[i].kind == SOURCE_PUNCTUAL) t->source_of_light[t->sources[i].light] = i;
     /* an emitter set's photons start all over its triangles: not guided; the sky's direction and
      * start are guided apart (the product of two learned marginals) */
     for (uint32_t i = 0; i < source_count; i++) {
@@ -1250,6 +1316,7 @@ void pm_photon_tracer_destroy(pm_photon_tracer *t) {
         }
     free(t->spheres);
     free(t->target_cdf);
+    free(t->source_of_light);
     free(t->sources);
     free(t->cdf);
     free(t->ps.guide_counts);
@@ -1344,6 +1411,128 @@ bool pm_photon_tracer_trace_into(pm_photon_tracer *t, bool caustic, uint64_t pho
     else stats->stored_global += out->count;
     stats->trace_seconds += pm_now_seconds() - t0;
     return ok;
+}
+
+bool pm_photon_tracer_trace_light_vertices(pm_photon_tracer *t, uint64_t photons, uint64_t seed, const pm_cell_values *worth,
+                                           pm_light_vertex_buffer *out, pm_photon_stats *stats) {
+    const pm_scene *s = t->scene;
+    out->count = 0;
+    out->photons = 0;
+    if (!photons || !s->light_count || !t->global_possible) return true;
+    double t0 = pm_now_seconds();
+    pass *ps = &t->ps;
+    bool tag = ps->tag_punctual_specular, only = ps->only_punctual_specular;
+    ps->tag_punctual_specular = ps->only_punctual_specular = false;
+    ps->caustic_pass = false;
+    ps->light_vertex_pass = true;
+    ps->vertex_worth = worth;
+    ps->vertex_out = out;
+    ps->photons = photons;
+    ps->seed = seed ^ 0x11e7u;
+    ps->deadline = 0.0; /* a few thousand rays: never cut, so no vertex needs rescaling */
+    ps->guide = t->guide; /* drawn from as the global passes taught it, not taught here */
+    uint64_t rays = 0;
+    bool ok = trace_into(ps, &(pm_photon_buffer){NULL, 0, 0}, &rays);
+    ps->light_vertex_pass = false;
+    ps->vertex_worth = NULL;
+    ps->vertex_out = NULL;
+    ps->tag_punctual_specular = tag;
+    ps->only_punctual_specular = only;
+    out->photons = ps->traced;
+    stats->rays += rays;
+    stats->dropped += ps->dropped;
+    stats->emitted += ps->traced;
+    stats->trace_seconds += pm_now_seconds() - t0;
+    return ok;
+}
+
+/* The guide's two placing numbers of a directional light's start toward p (box_start turned
+ * back): the face where the line through p along dir enters the core's box, and the point there.
+ * False where that line misses the box. */
+static bool box_numbers(const pm_scene *s, const box_shadow *b, vec3 dir, vec3 p, float *u1, float *u2) {
+    float lo[3] = {s->core_min.x, s->core_min.y, s->core_min.z}, hi[3] = {s->core_max.x, s->core_max.y, s->core_max.z};
+    float o[3] = {p.x, p.y, p.z}, d[3] = {dir.x, dir.y, dir.z}, enter = -INFINITY, leave = INFINITY;
+    int face = -1;
+    for (int a = 0; a < 3; a++) {
+        if (d[a] == 0.f) {
+            if (o[a] < lo[a] || o[a] > hi[a]) return false;
+            continue;
+        }
+        float t_lo = (lo[a] - o[a]) / d[a], t_hi = (hi[a] - o[a]) / d[a];
+        float near = pm_minf(t_lo, t_hi), far = pm_maxf(t_lo, t_hi);
+        if (near > enter) { enter = near; face = a; }
+        leave = pm_minf(leave, far);
+    }
+    if (face < 0 || !(enter <= leave)) return false;
+    vec3 q = v3_sub(v3_madd(p, dir, enter), b->corner[face]);
+    float a = v3_dot(q, b->edge_a[face]) / pm_maxf(v3_dot(b->edge_a[face], b->edge_a[face]), FLT_MIN);
+    float v = v3_dot(q, b->edge_b[face]) / pm_maxf(v3_dot(b->edge_b[face], b->edge_b[face]), FLT_MIN);
+    *u1 = pm_minf(pm_maxf((b->skip[face] + b->skip_more[face] + a * b->weight[face]) / b->total, 0.f), 0.99999994f);
+    *u2 = pm_minf(pm_maxf(v, 0.f), 0.99999994f);
+    return true;
+}
+
+/* The turn of a direction's azimuth in the frame (x, y): in [0, 1), within 3e-7 of atan2's (a
+ * polynomial fit of atan on [0, 1], folded by octant): it only picks a guide cell, at every light
+ * vertex's weighing, where atan2f took a twentieth of the time. */
+static float azimuth_turn(float x, float y) {
+    float ax = fabsf(x), ay = fabsf(y), lo = pm_minf(ax, ay), hi = pm_maxf(ax, ay);
+    float t = hi > 0.f ? lo / hi : 0.f, t2 = t * t;
+    float a = t * (0.99997726f + t2 * (-0.33262347f + t2 * (0.19354346f + t2 * (-0.11643287f + t2 * (0.05265332f - 0.01172120f * t2)))));
+    if (ay > ax) a = (float)(PM_PI / 2.0) - a;
+    if (x < 0.f) a = (float)PM_PI - a;
+    if (y < 0.f) a = -a;
+    float turn = a * (float)(0.5 / PM_PI);
+    return turn < 0.f ? turn + 1.f : (turn >= 1.f ? 0.f : turn);
+}
+
+float pm_photon_tracer_first_hit_density(const pm_photon_tracer *t, uint32_t light, vec3 p, vec3 ng) {
+    const pm_scene *s = t->scene;
+    if (light >= s->light_count) return 0.f;
+    uint32_t k = t->source_of_light[light];
+    const light_source *l = &t->sources[k];
+    const pm_light *pl = &s->lights[light];
+    float pick = t->cdf[k + 1] - t->cdf[k], u1 = 0.f, u2 = 0.f, per_area;
+    bool placed = true;
+    if (pl->type == PM_LIGHT_DIRECTIONAL) {
+        float R = s->radius > 0.f ? s->radius : 1.f, cos_p = fabsf(v3_dot(ng, pl->direction));
+        if (l->shadow.usable) {
+            if (!box_numbers(s, &l->shadow, pl->direction, p, &u1, &u2)) return 0.f;
+            per_area = cos_p / l->shadow.total;
+        } else {
+            /* the disc across the scene: no photon starts outside it */
+            vec3 tb, bb, rel = v3_sub(p, s->center);
+            v3_basis(pl->direction, &tb, &bb);
+            float x = v3_dot(rel, tb), y = v3_dot(rel, bb);
+            if (x * x + y * y > R * R) return 0.f;
+            per_area = cos_p / (PM_PI * R * R);
+            placed = false; /* the disc's numbers are not turned back: the guide's mean stands for them */
+        }
+    } else {
+        vec3 to = v3_sub(p, pl->position);
+        float d2 = v3_dot(to, to);
+        if (!(d2 > 0.f)) return 0.f;
+        vec3 w = v3_scale(to, 1.f / sqrtf(d2));
+        float cos_p = fabsf(v3_dot(ng, w)) / d2;
+        if (pl->type == PM_LIGHT_SPOT) {
+            float z = v3_dot(w, pl->direction);
+            if (z < pl->cos_outer) return 0.f;
+            vec3 tb, bb;
+            v3_basis(pl->direction, &tb, &bb);
+            u1 = (1.f - z) / pm_maxf(1.f - pl->cos_outer, FLT_MIN);
+            u2 = azimuth_turn(v3_dot(w, tb), v3_dot(w, bb));
+            per_area = cos_p / (2.f * PM_PI * (1.f - pl->cos_outer));
+        } else {
+            u1 = 0.5f * (1.f - w.z);
+            u2 = azimuth_turn(w.x, w.y);
+            per_area = cos_p / (4.f * PM_PI);
+        }
+        u1 = pm_minf(pm_maxf(u1, 0.f), 0.99999994f);
+    }
+    double guided = 1.0;
+    if (t->guide && l->guided >= 0 && placed)
+        guided = PM_GUIDE_UNIFORM + (1.0 - PM_GUIDE_UNIFORM) * pm_guide_density(t->guide, (uint32_t)l->guided, pm_guide_cell_of(u1, u2));
+    return (float)(pick * guided) * per_area;
 }
 
 bool pm_photon_maps_build(const pm_scene *s, const pm_accel *a, const pm_photon_settings *settings,

@@ -96,6 +96,11 @@ typedef struct {
     uint32_t trial_step;
     uint32_t trial_learned[2];           /* probed iterations of each arm (TRIAL_PHOTONS, TRIAL_LOOP) */
     double trial_cost[2];                /* their summed cost per pair of eye passes, in rays */
+    /* the connections' trial (connection_trial_due): with connections at even steps, without at odd */
+    bool connect_decided;                /* the trial has decided, or none is run */
+    bool connect_on;                     /* its decision: the path tracer's samples join light vertices */
+    uint32_t connect_step;
+    double connect_cost[2];              /* the arms' summed work per iteration, in rays (CONNECT_ON, CONNECT_OFF) */
 } radius_state;
 
 struct pm_progressive {
@@ -152,6 +157,26 @@ struct pm_progressive {
     pm_marks marks_next;                 /* the running iteration's, swapped in when it is whole (a cancel drops them) */
     pm_guide guide;
     pm_guide guide_saved;                /* the guide before the running iteration learned, for a cancel to put back */
+    /* the path tracer's connections to the punctual lights' light vertices (eye.h): each path
+     * iteration's pass of them, and the photons and vertices of the passes before it, from which
+     * the connections' density is set */
+    bool connecting;
+    pm_light_vertex_buffer light_vertices;
+    pm_connections connections;
+    double history_photons, history_vertices; /* the earlier passes', each faded by PM_CONNECT_HISTORY_FADE per pass since */
+    float worth_unit;                    /* set from the first pass (connection_worth_unit) */
+    /* what connections to each cell's light vertices brought (connection_cell): a pass keeps light
+     * vertices in proportion (pm_light_vertex_keep); the running iteration's connections add to
+     * worth_next, merged into worth when it is whole */
+    pm_cell_values worth, worth_next;
+    bool worth_sized;
+    /* the connections' trial's grid (connection_trial_due): its pixels, each one's film total
+     * before the running iteration, and per arm the sums of an iteration's light and its square */
+    struct {
+        size_t count, *pixel;
+        uint8_t *only;                   /* a byte a pixel of the image, 1 at the grid's: the arm with connections joins there alone */
+        double *before, *mean, *sum[2], *square[2];
+    } connect_grid;
     pm_progressive_stats stats;
 };
 
@@ -236,6 +261,18 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
             return NULL;
         }
     }
+    /* light vertices to join where the path tracer's light may be chosen: the punctual lights'
+     * light reflected once more is what its samples find only by chance (a sunlit patch) */
+    p->connecting = p->gathering && settings->connect != PM_CONNECT_FORCE_OFF && s->light_count > 0 &&
+                    settings->gather != PM_GATHER_FORCE_PHOTONS;
+    if (p->connecting) {
+        if (!pm_cell_values_init(&p->worth) || !pm_cell_values_init(&p->worth_next)) {
+            const char *why = pm_memory_failure_since(mark);
+            snprintf(err, err_size, "out of memory (%s)", why ? why : "light vertices");
+            pm_progressive_destroy(p);
+            return NULL;
+        }
+    }
     return p;
 }
 
@@ -254,6 +291,17 @@ void pm_progressive_destroy(pm_progressive *p) {
     pm_marks_free(&p->marks_next);
     pm_guide_free(&p->guide);
     pm_guide_free(&p->guide_saved);
+    free(p->light_vertices.data);
+    pm_cell_values_free(&p->worth);
+    pm_cell_values_free(&p->worth_next);
+    free(p->connect_grid.pixel);
+    free(p->connect_grid.only);
+    free(p->connect_grid.before);
+    free(p->connect_grid.mean);
+    for (int arm = 0; arm < 2; arm++) {
+        free(p->connect_grid.sum[arm]);
+        free(p->connect_grid.square[arm]);
+    }
     free(p);
 }
 
@@ -770,6 +818,11 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
         pm_marks_clear(&p->marks, 1.f);
         pm_marks_clear(&p->marks_next, 1.f);
     }
+    if (p->connecting) {
+        p->history_photons = p->history_vertices = 0.0;
+        p->worth_unit = 0.f;
+        p->worth_sized = false;
+    }
     p->radii.query_radius[KIND_CAUSTIC] = p->radii.query_radius[KIND_INDIRECT] = 0.0;
     p->radii.initial_radius_sum = 0.0;
     p->radii.initial_radius_count = 0;
@@ -801,6 +854,15 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     p->radii.trial_learned[0] = p->radii.trial_learned[1] = 0;
     p->radii.trial_cost[0] = p->radii.trial_cost[1] = 0.0;
     p->stats.caustic_trial = -1;
+    p->radii.connect_decided = !(p->connecting && p->settings.connect == PM_CONNECT_AUTO);
+    p->radii.connect_on = p->connecting && p->settings.connect == PM_CONNECT_FORCE_ON;
+    p->radii.connect_step = 0;
+    p->radii.connect_cost[0] = p->radii.connect_cost[1] = 0.0;
+    p->stats.connect_trial = -1;
+    for (int arm = 0; arm < 2 && p->connect_grid.count; arm++) {
+        memset(p->connect_grid.sum[arm], 0, p->connect_grid.count * sizeof(double));
+        memset(p->connect_grid.square[arm], 0, p->connect_grid.count * sizeof(double));
+    }
     trial_grid_free(p);
 }
 
@@ -1269,6 +1331,7 @@ static bool take_back(pm_progressive *p, pm_film *film, const iteration_start *s
     p->radii = st->radii;
     p->probe.pairs = st->probe_pairs;
     p->stats = st->stats;
+    if (p->worth_sized) pm_cell_values_drop(&p->worth_next);
     if (!st->kept_probe_and_guide) return true;
     if (p->probe.total) memcpy(p->probe.mean, p->probe.saved, PROBE_KEPT * p->probe.count * sizeof(double));
     if (p->guiding) pm_guide_copy(&p->guide, &p->guide_saved);
@@ -1298,6 +1361,8 @@ typedef struct {
     bool learning;                       /* one of the gather source's learning iterations (begin_iteration) */
     bool measure_only;                   /* the photons' learning iteration (the probe's pixels alone), or the caustic
                                           * trial's loop iteration (its grid's and the probe's): the film put back */
+    bool connect_trial;                  /* one of the connections' trial's iterations (connection_trial_due) */
+    bool connecting;                     /* the path tracer's samples join light vertices (trace_light_vertices) */
     bool trial;                          /* one of the caustic trial's iterations (caustic_trial_due) ... */
     bool trial_loop;                     /* ... its path tracer's loop arm */
     bool probing;                        /* the noise probe runs (automatic eye passes) */
@@ -1308,7 +1373,7 @@ typedef struct {
     double to_whole[KIND_COUNT];         /* a whole iteration's photons over those asked (whole_over_asked) */
     iteration_start start;               /* what a cancel or a failure puts back */
     /* the run's counters when the iteration began: what they gained is its cost */
-    uint64_t photon_rays_before, eye_rays_before, saved_before;
+    uint64_t photon_rays_before, eye_rays_before, saved_before, connections_before, connection_rays_before;
     uint64_t clip_rays_before, examined_before, queries_before;
     double t0, t_grid;                   /* when the photon pass and the grids' sort began */
     double photon_rays;                  /* a whole photon pass's rays, for the next iteration's eye passes */
@@ -1325,6 +1390,12 @@ typedef enum { PHASE_DONE, PHASE_CANCELLED, PHASE_FAILED } phase_result;
 static bool give_up(pm_progressive *p, pm_film *film, const iteration_run *it, phase_result r) {
     return take_back(p, film, &it->start) && r == PHASE_CANCELLED;
 }
+
+/* the connections' trial (below, connection_trial_due) */
+enum { CONNECT_ON, CONNECT_OFF };
+static bool connection_trial_due(const pm_progressive *p);
+static int connection_trial_arm(const pm_progressive *p);
+static bool connection_grid_ready(pm_progressive *p, const pm_film *film);
 
 /* Decides what the iteration does and keeps what a cancel puts back. The final gather's source:
  * until it is chosen, the image is the path tracer's (the first image too), and from the second
@@ -1359,6 +1430,8 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
     it->t0 = pm_now_seconds();
     it->photon_rays_before = p->stats.photons.rays;
     it->eye_rays_before = p->stats.eye.rays;
+    it->connections_before = p->stats.eye.connections;
+    it->connection_rays_before = p->stats.eye.connection_rays;
     it->saved_before = p->stats.eye.shadow_rays_saved;
     /* Once the path tracer's light is chosen on a scene that traces no caustic photons, nothing
      * the probe weighs is left: eye passes per photon pass weigh eye noise against photon noise,
@@ -1382,8 +1455,194 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
     p->eye.path_trace = it->path_only;
     p->eye.caustic_apart = it->trial_loop;
     it->probing = p->probe.total != NULL && (!it->path_only || it->trial_loop);
+    it->connect_trial = connection_trial_due(p) && !it->trial && connection_grid_ready(p, film);
+    bool connect = it->connect_trial ? connection_trial_arm(p) == CONNECT_ON : p->radii.connect_on;
+    it->connecting = p->connecting && connect && chosen && it->source == PM_GATHER_PATH && !it->trial_loop;
     keep_start(p, film, it->path_only && !it->trial_loop, &it->start);
     if (it->probing) probe_begin(&p->probe, film);
+}
+
+/* The visits' cell: PM_CONNECT_CELL of the median distance from the camera to what its sparse
+ * grid of rays sees (a room's cells a few tens of centimetres wide, a landscape's metres), or of
+ * the scene's radius where it sees nothing. */
+static int compare_floats(const void *a, const void *b) {
+    float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
+
+static float connection_cell(const pm_progressive *p) {
+    int n = p->seen_count[0];
+    float distance[SEEN_POINTS];
+    for (int k = 0; k < n; k++) distance[k] = v3_length(v3_sub(p->seen[0][k].p, p->camera.position));
+    qsort(distance, (size_t)n, sizeof *distance, compare_floats);
+    return (float)PM_CONNECT_CELL * (n ? distance[n / 2] : p->scene->radius);
+}
+
+/* The unit a connection's worth is counted in (eye.c, join): a worth is about a reflectance
+ * squared x a vertex's flux / a distance squared, and a unit of 1e-7 of the first pass's mean
+ * flux over the cell squared counts 1e-6 to 1e3 of the flux per metre squared, at a cell of 10 cm,
+ * in 32 bits. 0 while no pass kept a vertex with flux. */
+static float connection_worth_unit(const pm_light_vertex_buffer *lv, float cell) {
+    double flux = 0.0;
+    for (size_t k = 0; k < lv->count; k++) flux += v3_luminance(lv->data[k].flux);
+    return lv->count && flux > 0.0 ? (float)(PM_CONNECT_WORTH_UNIT * flux / (double)lv->count / ((double)cell * cell)) : 0.f;
+}
+
+/* A path iteration's light vertices for its connections (eye.h): a pass of as many punctual-light
+ * photons as a global pass (guided as it is), whose first hits are kept in proportion to the worth
+ * earlier connections found in their cell (pm_light_vertex_keep): light no path is helped to is
+ * seldom joined, and the path's own samples find it. The connections' density takes the photons
+ * per kept vertex of the passes before this one (faded by PM_CONNECT_HISTORY_FADE each), so the
+ * first pass only measures. */
+static bool trace_light_vertices(pm_progressive *p, uint64_t photons, uint64_t seed, const uint8_t *pixels) {
+    if (!p->worth_sized) {
+        float cell = connection_cell(p);
+        pm_cell_values_clear(&p->worth, cell);
+        pm_cell_values_clear(&p->worth_next, cell);
+        p->worth_sized = true;
+    }
+    double photons_per_vertex = p->history_vertices > 0.0 ? p->history_photons / p->history_vertices : 0.0;
+    const pm_cell_values *worth = p->worth.mean > 0.0 ? &p->worth : NULL;
+    pm_light_vertex_buffer *lv = &p->light_vertices;
+    if (!pm_photon_tracer_trace_light_vertices(p->tracer, photons, seed, worth, lv, &p->stats.photons)) return false;
+    if (pm_parallel_cancelled()) return true;
+    p->connections = (pm_connections){lv->data, photons_per_vertex > 0.0 && p->worth_unit > 0.f ? (uint32_t)lv->count : 0,
+                                      p->tracer, (float)photons_per_vertex, worth, p->worth_unit, &p->worth_next, pixels};
+    p->eye.connections = &p->connections;
+    return true;
+}
+
+/* What a path iteration with connections leaves for the next, once it is whole: its pass in the
+ * history, and the worth its connections found (a cancelled iteration's is dropped, take_back). */
+static void end_light_vertices(pm_progressive *p) {
+    const pm_light_vertex_buffer *lv = &p->light_vertices;
+    if (!(p->worth_unit > 0.f)) p->worth_unit = connection_worth_unit(lv, p->worth.cell);
+    p->history_photons = PM_CONNECT_HISTORY_FADE * p->history_photons + (double)lv->photons;
+    p->history_vertices = PM_CONNECT_HISTORY_FADE * p->history_vertices + (double)lv->count;
+    p->stats.light_vertices += lv->count;
+    pm_cell_values_merge(&p->worth, &p->worth_next);
+}
+
+/* ---- the connections' trial ---- */
+/* (What the costs were measured from: docs/design.md, Connections, the trial.) */
+
+/* Connections help where the path tracer finds a punctual light's light reflected once more only
+ * by chance (a sunlit patch in a room), and cost a shadow ray and a light vertex pass where its
+ * own samples find that light well enough (a room under a sky, a point light among many surfaces).
+ * So once the path tracer's light is chosen (and any caustic trial decided), with --connect auto,
+ * 2 x PM_CONNECT_TRIAL_ITERATIONS iterations alternate with connections (even steps) and without;
+ * both arms are unbiased and every sample stays in the image. At up to PM_CONNECT_TRIAL_PIXELS
+ * pixels of an even grid each iteration's light (the film's total gained, by luminance) is summed
+ * with its square per arm: an arm's error is its iterations' variance per pixel relative to
+ * (mean^2 + 0.01), as relMSE weighs a pixel, averaged over the grid, times its work per iteration
+ * (rays, a connection at PM_CONNECT_COST rays beyond its own). The lower is kept for the rest of
+ * the run. Counts and the film only: the same choice at any thread count. */
+/* The arm of the trial's next iteration: PM_CONNECT_TRIAL_WARMUP iterations with connections,
+ * unmeasured (the first pass only measures their density, and the worth of cells is learned),
+ * then the two in turn. */
+static int connection_trial_arm(const pm_progressive *p) {
+    uint32_t step = p->radii.connect_step;
+    return step < PM_CONNECT_TRIAL_WARMUP || (step - PM_CONNECT_TRIAL_WARMUP) % 2 == 0 ? CONNECT_ON : CONNECT_OFF;
+}
+
+static bool connection_trial_due(const pm_progressive *p) {
+    return p->connecting && !p->radii.connect_decided && p->radii.gather_chosen && p->radii.gather_source == PM_GATHER_PATH &&
+           p->radii.caustic_decided;
+}
+
+/* The grid, made at the first trial iteration (false when out of memory: the trial is given up). */
+static bool connection_grid_ready(pm_progressive *p, const pm_film *film) {
+    if (p->connect_grid.count) return true;
+    int step = 1;
+    while ((size_t)((film->width + step - 1) / step) * (size_t)((film->height + step - 1) / step) > PM_CONNECT_TRIAL_PIXELS) step++;
+    size_t columns = (size_t)(film->width + step - 1) / (size_t)step, rows = (size_t)(film->height + step - 1) / (size_t)step;
+    size_t n = columns * rows;
+    p->connect_grid.pixel = pm_malloc(n * sizeof(size_t), "connection trial grid");
+    p->connect_grid.only = pm_calloc((size_t)film->width * film->height, 1, "connection trial grid");
+    p->connect_grid.before = pm_calloc(n, sizeof(double), "connection trial grid");
+    p->connect_grid.mean = pm_calloc(n, sizeof(double), "connection trial grid");
+    for (int arm = 0; arm < 2; arm++) {
+        p->connect_grid.sum[arm] = pm_calloc(n, sizeof(double), "connection trial grid");
+        p->connect_grid.square[arm] = pm_calloc(n, sizeof(double), "connection trial grid");
+    }
+    if (!p->connect_grid.pixel || !p->connect_grid.only || !p->connect_grid.before || !p->connect_grid.mean || !p->connect_grid.sum[0] || !p->connect_grid.sum[1] ||
+        !p->connect_grid.square[0] || !p->connect_grid.square[1]) {
+        p->radii.connect_decided = true; /* connections stay off */
+        return false;
+    }
+    size_t k = 0;
+    for (size_t y = 0; y < rows; y++)
+        for (size_t x = 0; x < columns; x++) {
+            size_t px = x * (size_t)step + (size_t)step / 2, py = y * (size_t)step + (size_t)step / 2;
+            if (px >= (size_t)film->width) px = (size_t)film->width - 1;
+            if (py >= (size_t)film->height) py = (size_t)film->height - 1;
+            p->connect_grid.pixel[k++] = py * (size_t)film->width + px;
+            p->connect_grid.only[py * (size_t)film->width + px] = 1;
+        }
+    p->connect_grid.count = n;
+    return true;
+}
+
+/* A pixel's light in the film, all components, by luminance. */
+static double film_total(const pm_film *film, size_t pixel) {
+    double total = 0.0;
+    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
+        if (film->sum[c]) {
+            const float *v = film->sum[c] + 3 * pixel;
+            total += v3_luminance(v3(v[0], v[1], v[2]));
+        }
+    return total;
+}
+
+/* The grid's film totals before an iteration; at the trial's first, each pixel's mean so far too,
+ * which weighs its variance: a mean of the trial's own samples would rise with their rare bright
+ * ones and hide the very variance they carry, most in the arm with the heavier tail. */
+static void connection_grid_before(pm_progressive *p, const pm_film *film) {
+    bool first = p->radii.connect_step == 0;
+    for (size_t k = 0; k < p->connect_grid.count; k++) {
+        p->connect_grid.before[k] = film_total(film, p->connect_grid.pixel[k]);
+        if (first) p->connect_grid.mean[k] = film->samples ? p->connect_grid.before[k] / film->samples : 0.0;
+    }
+}
+
+static void choose_connections(pm_progressive *p) {
+    double n = PM_CONNECT_TRIAL_ITERATIONS, score[2];
+    for (int arm = 0; arm < 2; arm++) {
+        double relative = 0.0;
+        for (size_t k = 0; k < p->connect_grid.count; k++) {
+            double mean = p->connect_grid.mean[k];
+            double s = p->connect_grid.sum[arm][k], var = fmax(0.0, (p->connect_grid.square[arm][k] - s * s / n) / (n - 1.0));
+            relative += var / (mean * mean + 0.01);
+        }
+        double error = relative / (double)p->connect_grid.count, cost = p->radii.connect_cost[arm] / n;
+        score[arm] = error * cost;
+        p->stats.connect_trial_error[arm] = score[arm];
+        p->stats.connect_trial_cost[arm] = cost;
+    }
+    p->radii.connect_on = score[CONNECT_ON] < score[CONNECT_OFF];
+    p->radii.connect_decided = true;
+    p->stats.connect_trial = p->radii.connect_on ? 1 : 0;
+}
+
+/* A whole trial iteration's light at the grid and its work, and the decision once both arms ran. */
+static void learn_connection_trial(pm_progressive *p, const pm_film *film, const iteration_run *it) {
+    int arm = connection_trial_arm(p);
+    if (p->radii.connect_step++ < PM_CONNECT_TRIAL_WARMUP) return;
+    for (size_t k = 0; k < p->connect_grid.count; k++) {
+        /* per sample, as relMSE weighs a pixel's mean */
+        double x = (film_total(film, p->connect_grid.pixel[k]) - p->connect_grid.before[k]) / it->whole_passes;
+        p->connect_grid.sum[arm][k] += x;
+        p->connect_grid.square[arm][k] += x * x;
+    }
+    /* the arm with connections joins at the grid's pixels alone: what joining adds is scaled to the
+     * whole image (the paths are the same otherwise) */
+    double whole = (double)p->pixels / (double)p->connect_grid.count;
+    double joins = (double)(p->stats.eye.connections - it->connections_before);
+    double join_rays = (double)(p->stats.eye.connection_rays - it->connection_rays_before);
+    p->radii.connect_cost[arm] += (double)(p->stats.eye.rays - it->eye_rays_before) - join_rays +
+                                  whole * (join_rays + PM_CONNECT_COST * joins) +
+                                  PM_CONNECT_PHOTON_COST * (double)(p->stats.photons.rays - it->photon_rays_before);
+    if (p->radii.connect_step == PM_CONNECT_TRIAL_WARMUP + 2 * PM_CONNECT_TRIAL_ITERATIONS) choose_connections(p);
 }
 
 /* Phase 1: the photon passes, a fresh, independent set every iteration. */
@@ -1410,6 +1669,10 @@ static phase_result trace_photon_passes(pm_progressive *p, pm_film *film, iterat
     }
     if (ok && global_pass && !pm_parallel_cancelled())
         ok = pm_photon_tracer_trace_into(p->tracer, false, asked[KIND_INDIRECT], seed, global, &p->stats.photons);
+    p->eye.connections = NULL;
+    if (ok && it->connect_trial) connection_grid_before(p, film);
+    if (ok && it->connecting && !pm_parallel_cancelled())
+        ok = trace_light_vertices(p, asked[KIND_INDIRECT], seed, it->connect_trial ? p->connect_grid.only : NULL);
     /* cancelled: the iteration is dropped before it touched the film; out of memory: the film
      * untouched, the state as the iteration found it */
     if (pm_parallel_cancelled()) return PHASE_CANCELLED;
@@ -1653,6 +1916,8 @@ static void end_iteration(pm_progressive *p, pm_film *film, const iteration_run 
         film->photon_passes = it->start.photon_passes;
     }
     if (it->trial && !it->cut) p->radii.trial_step++;
+    if (it->connecting) end_light_vertices(p);
+    if (it->connect_trial && !it->cut && it->whole_passes > 0) learn_connection_trial(p, film, it);
     if (it->trial && it->probing && it->whole_passes >= 2) learn_caustic_trial(p, film, it);
     if (it->probing && !it->cut && !it->trial_loop)
         p->radii.eye_passes = choose_eye_passes(&p->probe, film->photon_passes, it->photon_rays,
