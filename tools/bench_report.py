@@ -254,24 +254,27 @@ same wall time (`BENCH_SECONDS`, 10 s by default) on all cores, the default mode
 pathtrace`, alternating per seed (`BENCH_SEEDS`). The ratio is the default's relMSE over the path
 tracer's: **below 1 the default is ahead**, and the default must never lose (one seed's pair
 carries the noise of two short runs: more seeds narrow it). `gather source` is what the default's final
-gathering chose (`stat progressive gather_source`: photons, or the path tracer's own light). The
-window rooms render under the references' constant white sky (`--sky white`), the others without a
-sky. layered-spheres has no reference and is not in this table. `at equal processor time` weighs
+gathering chose (`stat progressive gather_source`: photons, or the path tracer's own light), and
+`connections` what the connections' trial decided where that light was chosen (`stat progressive
+connect_trial`: kept, left off; - where no trial ran). The window rooms render under the
+references' constant white sky (`--sky white`), and the hollow one also under its sun alone
+(against tests/ref/window_hollow_sun_64.exr); the others without a sky. layered-spheres has no reference and is not in this table. `at equal processor time` weighs
 each relMSE by the processor seconds its run got (relMSE x seconds, default over path tracer):
 where the error falls as one over time this is the ratio at equal processor time, which other work
 on the machine does not tilt the way it tilts the wall-time ratio.""")
         rows = []
         for f in select(self.r, "bench", "default_vs_pathtrace"):
-            rows.append([f.get("scene", "-"), "%sx%s" % (f.get("size", "64"), f.get("size", "64")), f.get("seed", "-"),
-                         f.get("gather_source", "-"), "%s / %s" % (f.get("iterations_default", "-"), f.get("iterations_pathtrace", "-")),
+            trial = {"1": "kept", "0": "left off"}.get(f.get("connect_trial", "-1"), "-")
+            rows.append([f.get("scene", "-"), f.get("sky", "-"), "%sx%s" % (f.get("size", "64"), f.get("size", "64")), f.get("seed", "-"),
+                         f.get("gather_source", "-"), trial, "%s / %s" % (f.get("iterations_default", "-"), f.get("iterations_pathtrace", "-")),
                          num(f.get("relmse_default")), num(f.get("relmse_pathtrace")), "**%s**" % num(f.get("ratio")),
                          "%s (%s / %s s)" % (num(f.get("ratio_equal_cpu")), f.get("cpu_default", "-"), f.get("cpu_pathtrace", "-"))])
-        self.add(table(["scene", "size", "seed", "gather source", "iterations, default / path tracer", "relMSE default",
+        self.add(table(["scene", "sky", "size", "seed", "gather source", "connections", "iterations, default / path tracer", "relMSE default",
                         "relMSE path tracer", "ratio", "at equal processor time (processor seconds)"], rows) if rows else "(no lines in this run)")
-        runs = [(float(f["ratio"]), f.get("scene", "-"), f.get("size", "64")) for f in select(self.r, "bench", "default_vs_pathtrace")
-                if f.get("ratio") and float(f["ratio"]) > 0]
+        runs = [(float(f["ratio"]), f.get("scene", "-"), f.get("size", "64"), f.get("sky", "-"))
+                for f in select(self.r, "bench", "default_vs_pathtrace") if f.get("ratio") and float(f["ratio"]) > 0]
         if runs:
-            behind = ["%s at %sx%s (%.2f)" % (n, z, z, r) for r, n, z in runs if r > 1]
+            behind = ["%s (sky %s) at %sx%s (%.2f)" % (n, k, z, z, r) for r, n, z, k in runs if r > 1]
             self.add("", "In this run the default is ahead on %d of %d; behind on %s." % (len(runs) - len(behind), len(runs),
                      ", ".join(behind) if behind else "none"))
 
