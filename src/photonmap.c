@@ -998,6 +998,17 @@ static bool merge_chunks(void **chunk_data, const uint32_t *chunk_counts, size_t
     return ok;
 }
 
+/* One kind of a pass's per-chunk output (splats, light vertices) merged by merge_chunks into its
+ * buffer, given as its data (returned, perhaps moved), capacity and count: the count is 0 unless
+ * the pass is whole and *ok; *ok is false when growing failed (a cancelled pass is no failure). */
+static void *merge_output(void **chunk_data, const uint32_t *chunk_counts, size_t chunks, size_t size, void *data,
+                          size_t *capacity, size_t *count, bool *ok, bool cancelled, const char *what) {
+    size_t total = 0;
+    *ok = merge_chunks(chunk_data, chunk_counts, chunks, size, &data, capacity, &total, *ok && !cancelled, what) || cancelled;
+    *count = *ok && !cancelled ? total : 0;
+    return data;
+}
+
 /* Copies the chunks' records out of the thread arenas, in chunk order, into out (grown to
  * hold them); *total is their count. False, with nothing copied, when growing fails. When one
  * arena already holds them all in chunk order from its start (one thread), out and that arena
@@ -1113,25 +1124,15 @@ static bool trace_into(pass *ps, pm_photon_buffer *out, uint64_t *rays) {
         *rays += ps->counters[t].rays;
         ps->dropped += ps->counters[t].dropped;
     }
-    if (splatting) {
-        /* the chunks' splats in chunk order, as the records: the same at any thread count */
-        pm_splat_buffer *so = ps->splat_out;
-        size_t splat_total = 0;
-        void *splats = so->data;
-        ok = merge_chunks((void **)ps->chunk_splats, ps->chunk_splat_counts, chunks, sizeof(pm_camera_splat), &splats,
-                          &so->capacity, &splat_total, ok && !cancelled, "camera splats of a pass") || cancelled;
-        so->data = splats;
-        so->count = ok && !cancelled ? splat_total : 0;
-    }
-    if (vertices) {
-        pm_light_vertex_buffer *vo = ps->vertex_out;
-        size_t vertex_total = 0;
-        void *data = vo->data;
-        ok = merge_chunks((void **)ps->chunk_vertices, ps->chunk_vertex_counts, chunks, sizeof(pm_light_vertex), &data,
-                          &vo->capacity, &vertex_total, ok && !cancelled, "light vertices of a pass") || cancelled;
-        vo->data = data;
-        vo->count = ok && !cancelled ? vertex_total : 0;
-    }
+    /* the chunks' splats and light vertices in chunk order, as the records: the same at any thread count */
+    if (splatting)
+        ps->splat_out->data = merge_output((void **)ps->chunk_splats, ps->chunk_splat_counts, chunks, sizeof(pm_camera_splat),
+                                           ps->splat_out->data, &ps->splat_out->capacity, &ps->splat_out->count, &ok, cancelled,
+                                           "camera splats of a pass");
+    if (vertices)
+        ps->vertex_out->data = merge_output((void **)ps->chunk_vertices, ps->chunk_vertex_counts, chunks, sizeof(pm_light_vertex),
+                                            ps->vertex_out->data, &ps->vertex_out->capacity, &ps->vertex_out->count, &ok, cancelled,
+                                            "light vertices of a pass");
     free_chunk_lists(ps);
     if (cancelled) {
         ps->traced = 0;

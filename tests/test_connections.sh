@@ -13,11 +13,7 @@
 # turned back), 512 samples with and without connections: every channel's mean within 1% of each
 # other's (both estimate the same image).
 cd "$(dirname "$0")/.." || exit 1
-bin=./pmview
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-fails=0; checks=0
-value() { sed -n "s/^stat $1 .*[ ]$2=\([^ ]*\).*/\1/p" "$3" | tail -n 1; }
+. tests/stat_setup.sh
 check() { # description, python condition over the named numbers that follow (name=value ...)
     desc=$1; cond=$2; shift 2
     checks=$((checks + 1))

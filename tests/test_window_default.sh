@@ -30,12 +30,7 @@
 # threads (on the solid room, 40 iterations: through the choice and into the trial, connections
 # joined).
 cd "$(dirname "$0")/.." || exit 1
-bin=./pmview
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-fails=0; checks=0
-# a stat line's key: stat STAGE key
-value() { sed -n "s/^stat $1 .*[ ]$2=\([^ ]*\).*/\1/p" "$3" | tail -n 1; }
+. tests/stat_setup.sh
 # the rays a run cast: eye (shadow rays and connections' included), photons, the clips' probes, and
 # a shadow test the shadow photons decided as the ray it saved (whether they are built is measured
 # in seconds: under load one run may build them and the next not). Summed by awk: a python3 start
