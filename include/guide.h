@@ -45,7 +45,7 @@ bool pm_marks_test(const pm_marks *m, vec3 p);
 /* ---- cell values: per cell, how many values were added and their sum, hashed as the marks are;
  * integers, so that the sums do not depend on the order threads add in ---- */
 typedef struct {
-    uint32_t *count;     /* PM_VISIT_CELLS each */
+    uint32_t *count;     /* PM_CELL_VALUES_CELLS each */
     uint64_t *sum;
     float cell, inv_cell;
     double total_sum, total_count, mean; /* over all cells (pm_cell_values_merge): the sums, and the mean value */

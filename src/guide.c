@@ -61,8 +61,8 @@ bool pm_marks_test(const pm_marks *m, vec3 p) {
 
 bool pm_cell_values_init(pm_cell_values *v) {
     memset(v, 0, sizeof *v);
-    v->count = pm_calloc(PM_VISIT_CELLS, sizeof *v->count, "cell values");
-    v->sum = pm_calloc(PM_VISIT_CELLS, sizeof *v->sum, "cell values");
+    v->count = pm_calloc(PM_CELL_VALUES_CELLS, sizeof *v->count, "cell values");
+    v->sum = pm_calloc(PM_CELL_VALUES_CELLS, sizeof *v->sum, "cell values");
     if (v->count && v->sum) return true;
     pm_cell_values_free(v);
     return false;
@@ -75,15 +75,15 @@ void pm_cell_values_free(pm_cell_values *v) {
 }
 
 void pm_cell_values_clear(pm_cell_values *v, float cell) {
-    memset(v->count, 0, PM_VISIT_CELLS * sizeof *v->count);
-    memset(v->sum, 0, PM_VISIT_CELLS * sizeof *v->sum);
+    memset(v->count, 0, PM_CELL_VALUES_CELLS * sizeof *v->count);
+    memset(v->sum, 0, PM_CELL_VALUES_CELLS * sizeof *v->sum);
     v->cell = cell > 0.f && isfinite(cell) ? cell : 1.f;
     v->inv_cell = 1.f / v->cell;
     v->total_sum = v->total_count = v->mean = 0.0;
 }
 
 void pm_cell_values_add(pm_cell_values *v, vec3 p, uint32_t value) {
-    size_t i = cell_hash(p, v->inv_cell) & (PM_VISIT_CELLS - 1);
+    size_t i = cell_hash(p, v->inv_cell) & (PM_CELL_VALUES_CELLS - 1);
     /* past 2^31 values a cell has been measured enough: it stops, and sums stay below 2^63 */
     if (__atomic_load_n(&v->count[i], __ATOMIC_RELAXED) >= (1u << 31)) return;
     __atomic_fetch_add(&v->count[i], 1u, __ATOMIC_RELAXED);
@@ -91,7 +91,7 @@ void pm_cell_values_add(pm_cell_values *v, vec3 p, uint32_t value) {
 }
 
 bool pm_cell_values_mean(const pm_cell_values *v, vec3 p, float *mean) {
-    size_t i = cell_hash(p, v->inv_cell) & (PM_VISIT_CELLS - 1);
+    size_t i = cell_hash(p, v->inv_cell) & (PM_CELL_VALUES_CELLS - 1);
     if (!v->count[i]) return false;
     *mean = (float)v->sum[i] / (float)v->count[i];
     return true;
@@ -100,7 +100,7 @@ bool pm_cell_values_mean(const pm_cell_values *v, vec3 p, float *mean) {
 void pm_cell_values_merge(pm_cell_values *into, pm_cell_values *from) {
     assert(into->cell == from->cell);
     const uint32_t full = 1u << 31;
-    for (size_t i = 0; i < PM_VISIT_CELLS; i++) {
+    for (size_t i = 0; i < PM_CELL_VALUES_CELLS; i++) {
         uint32_t n = from->count[i];
         if (!n) continue;
         /* a full cell keeps its mean: what from adds to it is dropped */
@@ -117,7 +117,7 @@ void pm_cell_values_merge(pm_cell_values *into, pm_cell_values *from) {
 }
 
 void pm_cell_values_drop(pm_cell_values *v) {
-    for (size_t i = 0; i < PM_VISIT_CELLS; i++)
+    for (size_t i = 0; i < PM_CELL_VALUES_CELLS; i++)
         if (v->count[i]) {
             v->count[i] = 0;
             v->sum[i] = 0;

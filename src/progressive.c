@@ -1462,7 +1462,7 @@ static void begin_iteration(pm_progressive *p, pm_film *film, uint32_t max_sampl
     if (it->probing) probe_begin(&p->probe, film);
 }
 
-/* The visits' cell: PM_CONNECT_CELL of the median distance from the camera to what its sparse
+/* The worth's cell: PM_CONNECT_CELL of the median distance from the camera to what its sparse
  * grid of rays sees (a room's cells a few tens of centimetres wide, a landscape's metres), or of
  * the scene's radius where it sees nothing. */
 static int compare_floats(const void *a, const void *b) {
