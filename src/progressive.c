@@ -175,7 +175,7 @@ struct pm_progressive {
     struct {
         size_t count, *pixel;
         uint8_t *only;                   /* a byte a pixel of the image, 1 at the grid's: the arm with connections joins there alone */
-        double *before, *mean, *sum[2], *square[2];
+        double *before, *mean, *sum[2], *square[2]; /* one allocation, before's */
     } connect_grid;
     pm_progressive_stats stats;
 };
@@ -296,12 +296,7 @@ void pm_progressive_destroy(pm_progressive *p) {
     pm_cell_values_free(&p->worth_next);
     free(p->connect_grid.pixel);
     free(p->connect_grid.only);
-    free(p->connect_grid.before);
-    free(p->connect_grid.mean);
-    for (int arm = 0; arm < 2; arm++) {
-        free(p->connect_grid.sum[arm]);
-        free(p->connect_grid.square[arm]);
-    }
+    free(p->connect_grid.before); /* with mean, sum and square */
     free(p);
 }
 
@@ -1532,8 +1527,8 @@ static void end_light_vertices(pm_progressive *p) {
  * So once the path tracer's light is chosen (and any caustic trial decided), with --connect auto,
  * 2 x PM_CONNECT_TRIAL_ITERATIONS iterations alternate with connections (even steps) and without;
  * both arms are unbiased and every sample stays in the image. At up to PM_CONNECT_TRIAL_PIXELS
- * pixels of an even grid each iteration's light (the film's total gained, by luminance) is summed
- * with its square per arm: an arm's error is its iterations' variance per pixel relative to
+ * pixels of an even grid (grid_size) each iteration's light (the film's total gained, the mean
+ * of its channels: probed_total) is summed with its square per arm: an arm's error is its iterations' variance per pixel relative to
  * (mean^2 + 0.01), as relMSE weighs a pixel, averaged over the grid, times its work per iteration
  * (rays, a connection at PM_CONNECT_COST rays beyond its own). The lower is kept for the rest of
  * the run. Counts and the film only: the same choice at any thread count. */
@@ -1550,48 +1545,33 @@ static bool connection_trial_due(const pm_progressive *p) {
            p->radii.caustic_decided;
 }
 
-/* The grid, made at the first trial iteration (false when out of memory: the trial is given up). */
+/* The grid (grid_size, as the probe's and the caustic trial's), made at the first trial iteration
+ * (false when out of memory: the trial is given up). */
 static bool connection_grid_ready(pm_progressive *p, const pm_film *film) {
     if (p->connect_grid.count) return true;
-    int step = 1;
-    while ((size_t)((film->width + step - 1) / step) * (size_t)((film->height + step - 1) / step) > PM_CONNECT_TRIAL_PIXELS) step++;
-    size_t columns = (size_t)(film->width + step - 1) / (size_t)step, rows = (size_t)(film->height + step - 1) / (size_t)step;
-    size_t n = columns * rows;
+    int nx, ny;
+    grid_size(film->width, film->height, PM_CONNECT_TRIAL_PIXELS, &nx, &ny);
+    size_t n = (size_t)nx * ny;
     p->connect_grid.pixel = pm_malloc(n * sizeof(size_t), "connection trial grid");
-    p->connect_grid.only = pm_calloc((size_t)film->width * film->height, 1, "connection trial grid");
-    p->connect_grid.before = pm_calloc(n, sizeof(double), "connection trial grid");
-    p->connect_grid.mean = pm_calloc(n, sizeof(double), "connection trial grid");
-    for (int arm = 0; arm < 2; arm++) {
-        p->connect_grid.sum[arm] = pm_calloc(n, sizeof(double), "connection trial grid");
-        p->connect_grid.square[arm] = pm_calloc(n, sizeof(double), "connection trial grid");
-    }
-    if (!p->connect_grid.pixel || !p->connect_grid.only || !p->connect_grid.before || !p->connect_grid.mean || !p->connect_grid.sum[0] || !p->connect_grid.sum[1] ||
-        !p->connect_grid.square[0] || !p->connect_grid.square[1]) {
+    p->connect_grid.only = pm_calloc(p->pixels, 1, "connection trial grid");
+    p->connect_grid.before = pm_calloc(6 * n, sizeof(double), "connection trial grid");
+    if (!p->connect_grid.pixel || !p->connect_grid.only || !p->connect_grid.before) {
         p->radii.connect_decided = true; /* connections stay off */
         return false;
     }
-    size_t k = 0;
-    for (size_t y = 0; y < rows; y++)
-        for (size_t x = 0; x < columns; x++) {
-            size_t px = x * (size_t)step + (size_t)step / 2, py = y * (size_t)step + (size_t)step / 2;
-            if (px >= (size_t)film->width) px = (size_t)film->width - 1;
-            if (py >= (size_t)film->height) py = (size_t)film->height - 1;
-            p->connect_grid.pixel[k++] = py * (size_t)film->width + px;
-            p->connect_grid.only[py * (size_t)film->width + px] = 1;
+    p->connect_grid.mean = p->connect_grid.before + n;
+    for (int arm = 0; arm < 2; arm++) {
+        p->connect_grid.sum[arm] = p->connect_grid.mean + (size_t)(1 + 2 * arm) * n;
+        p->connect_grid.square[arm] = p->connect_grid.sum[arm] + n;
+    }
+    for (int y = 0; y < ny; y++)
+        for (int x = 0; x < nx; x++) {
+            size_t px = grid_pixel(film->width, film->height, nx, ny, x, y);
+            p->connect_grid.pixel[(size_t)y * nx + x] = px;
+            p->connect_grid.only[px] = 1;
         }
     p->connect_grid.count = n;
     return true;
-}
-
-/* A pixel's light in the film, all components, by luminance. */
-static double film_total(const pm_film *film, size_t pixel) {
-    double total = 0.0;
-    for (int c = 0; c < PM_COMPONENT_COUNT; c++)
-        if (film->sum[c]) {
-            const float *v = film->sum[c] + 3 * pixel;
-            total += v3_luminance(v3(v[0], v[1], v[2]));
-        }
-    return total;
 }
 
 /* The grid's film totals before an iteration; at the trial's first, each pixel's mean so far too,
@@ -1600,7 +1580,7 @@ static double film_total(const pm_film *film, size_t pixel) {
 static void connection_grid_before(pm_progressive *p, const pm_film *film) {
     bool first = p->radii.connect_step == 0;
     for (size_t k = 0; k < p->connect_grid.count; k++) {
-        p->connect_grid.before[k] = film_total(film, p->connect_grid.pixel[k]);
+        p->connect_grid.before[k] = probed_total(film, p->connect_grid.pixel[k]);
         if (first) p->connect_grid.mean[k] = film->samples ? p->connect_grid.before[k] / film->samples : 0.0;
     }
 }
@@ -1630,7 +1610,7 @@ static void learn_connection_trial(pm_progressive *p, const pm_film *film, const
     if (p->radii.connect_step++ < PM_CONNECT_TRIAL_WARMUP) return;
     for (size_t k = 0; k < p->connect_grid.count; k++) {
         /* per sample, as relMSE weighs a pixel's mean */
-        double x = (film_total(film, p->connect_grid.pixel[k]) - p->connect_grid.before[k]) / it->whole_passes;
+        double x = (probed_total(film, p->connect_grid.pixel[k]) - p->connect_grid.before[k]) / it->whole_passes;
         p->connect_grid.sum[arm][k] += x;
         p->connect_grid.square[arm][k] += x * x;
     }
