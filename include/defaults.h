@@ -139,15 +139,16 @@
 #define PM_GUIDE_UNIFORM 0.1               /* share of the photons drawn uniformly whatever was learned (every emission stays possible) */
 #define PM_GUIDE_PRIOR 16.0                /* a cell's learned rate counts this many photons at the source's mean rate besides its own */
 #define PM_GUIDE_MAX_SOURCES 16            /* lights past this many are not guided */
-#define PM_GUIDE_MARK_BITS (1u << 22)      /* the marks' hashed bit set: 512 KB */
+#define PM_GUIDE_MARK_BITS (1u << 22)      /* the marks' hashed bit sets (either side, one side): 512 KB each */
 #define PM_CONNECT_CELL 0.0625             /* the connections' worth cells, of the median distance the camera sees */
 #define PM_CELL_VALUES_CELLS (1u << 15)    /* a cell value table's hashed cells: 384 KB, in a core's cache */
 #define PM_CONNECT_WORTH_UNIT 1e-7         /* a worth's unit, of the first pass's mean flux over the cell squared */
 #define PM_CONNECT_TRIAL_ITERATIONS 32     /* the connections' trial: iterations of each arm ... */
 #define PM_CONNECT_TRIAL_PIXELS 1024       /* ... the pixels it measures at most (the arm with connections joins there alone) ... */
-#define PM_CONNECT_TRIAL_WARMUP 48         /* ... after this many iterations with connections, unmeasured */
-#define PM_CONNECT_COST 0.2                /* a connection's work beyond its shadow ray, in eye rays */
-#define PM_CONNECT_PHOTON_COST 0.7         /* a light vertex pass's photon ray (emission, one hit), in eye rays */
+#define PM_CONNECT_TRIAL_WARMUP 16         /* ... after at least this many iterations with connections, unmeasured ... */
+#define PM_CONNECT_TRIAL_WARMUP_PHOTONS 1e6 /* ... and this many light vertex photons */
+#define PM_CONNECT_COST 0.05               /* a connection's work beyond its shadow ray, in eye rays */
+#define PM_CONNECT_PHOTON_COST 1.0         /* a light vertex pass's photon ray (emission, one hit), in eye rays */
 #define PM_CONNECT_WORTH_SHARE 4           /* one connection in this many adds its worth (the others would mostly repeat it) */
 #define PM_CONNECT_KEEP_LEAST 0.02f        /* a light vertex in a cell of little worth is kept at least this often */
 #define PM_CONNECT_HISTORY_FADE 0.875      /* photons per kept light vertex: each earlier pass's weight, per pass since */

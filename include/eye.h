@@ -45,8 +45,9 @@ typedef enum { PM_GATHER_PHOTONS = 0, PM_GATHER_PATH = 1 } pm_gather_source;
 
 /* Connections (eye.c, connect): at a path-traced sample's diffuse and glossy vertices, one light
  * vertex (photonmap.h) drawn uniformly from a pass's is joined to the path by a shadow ray, and
- * weighted by MIS (the power heuristic) against the path's own way to the same light: its sample
- * from that vertex reaching the light vertex's point, whose punctual light is then traced. The
+ * weighted by MIS (the power heuristic) against the path's own ways to the same light: its sample
+ * from that vertex reaching the light vertex's point, whose punctual light is then traced, or
+ * whose own ray or sky map sample finds the sky along the sky vertex's arrival. The
  * connection's density per unit area at a point is the pass's first-hit density there
  * (pm_photon_tracer_first_hit_density) x the chance a vertex there is kept x photons per kept
  * vertex; the last is the mean of earlier passes (photons_per_vertex), never of the vertices it
@@ -58,7 +59,9 @@ typedef struct {
     float photons_per_vertex;
     const pm_cell_values *worth;  /* how the pass kept vertices (pm_light_vertex_keep) */
     float worth_unit;             /* a connection's worth is counted in these (an integer in the cells) */
-    pm_cell_values *worth_next;   /* every connection adds its light vertex's worth here (NULL: nowhere): the next passes' keeping */
+    pm_cell_values *worth_next;   /* a table per eye thread, where a share of the connections add their light vertex's worth
+                                     (NULL: nowhere): the next passes' keeping */
+    int worth_tables;             /* how many: at least the eye pass's threads */
     const uint8_t *pixels;        /* NULL: every pixel's paths join; else only those whose byte is non-zero */
 } pm_connections;
 

@@ -4,7 +4,11 @@
  * window lights). The progressive mode learns, iteration after iteration, which emissions pay:
  *   - the marks are a hashed bit set over space: the eye pass marks the cell of every point that
  *     reads global photons (gather points, or visible points without final gathering), the cell
- *     twice the radius it reads with;
+ *     twice the radius it reads with, and that cell on the side its surface faces (one of six
+ *     axis directions). A global pass counts a record useful in a marked cell on either side;
+ *     a light vertex pass (photonmap.h) a first hit on its own side, so a first hit on a roof or
+ *     under a floor does not count for the ceiling or the floor a few centimetres away (see
+ *     count_useful in photonmap.c for why the global pass keeps either side);
  *   - the guide splits the two random numbers that place a guided source's photon (the start on
  *     the disc across the scene for a directional light and the sky, the direction for a point
  *     or spot light; the sky's direction and start, each apart) into PM_GUIDE_CELLS x PM_GUIDE_CELLS
@@ -29,7 +33,8 @@
 
 /* ---- marks ---- */
 typedef struct {
-    uint64_t *bits;      /* PM_GUIDE_MARK_BITS bits */
+    uint64_t *bits;      /* PM_GUIDE_MARK_BITS bits: cells */
+    uint64_t *facing_bits; /* as many: cells on one side (pm_marks_test_facing) */
     float cell, inv_cell;
     bool any;            /* some cell is marked */
 } pm_marks;
@@ -38,29 +43,37 @@ bool pm_marks_init(pm_marks *m);
 void pm_marks_free(pm_marks *m);
 /* Forgets every mark and sets the cell size for the next ones. */
 void pm_marks_clear(pm_marks *m, float cell);
-/* Marks p's cell (several threads may mark at once). */
-void pm_marks_set(pm_marks *m, vec3 p);
+/* Marks p's cell, and p's cell on the side n faces: the geometric normal on the side light
+ * arrives from (several threads may mark at once). */
+void pm_marks_set(pm_marks *m, vec3 p, vec3 n);
+/* Whether p's cell is marked, on any side. */
 bool pm_marks_test(const pm_marks *m, vec3 p);
+/* Whether p's cell is marked on the side n faces. */
+bool pm_marks_test_facing(const pm_marks *m, vec3 p, vec3 n);
 
 /* ---- cell values: per cell, how many values were added and their sum, hashed as the marks are;
- * integers, so that the sums do not depend on the order threads add in ---- */
+ * integers, so that the sums do not depend on the order tables are merged in. A table has one
+ * writer: threads add to tables of their own, merged into one when their work is whole ---- */
+#define PM_CELL_VALUES_BLOCK 64 /* cells a bit of `touched` stands for */
 typedef struct {
     uint32_t *count;     /* PM_CELL_VALUES_CELLS each */
     uint64_t *sum;
     float cell, inv_cell;
     double total_sum, total_count, mean; /* over all cells (pm_cell_values_merge): the sums, and the mean value */
+    /* the blocks of cells added to since the last merge or drop, so that these visit no others */
+    uint64_t touched[PM_CELL_VALUES_CELLS / PM_CELL_VALUES_BLOCK / 64];
 } pm_cell_values;
 
 bool pm_cell_values_init(pm_cell_values *v);
 void pm_cell_values_free(pm_cell_values *v);
 /* Forgets every value and sets the cell size. */
 void pm_cell_values_clear(pm_cell_values *v, float cell);
-/* Adds a value to p's cell (several threads may add at once; a full counter stays full). */
+/* Adds a value to p's cell (a full counter stays full). */
 void pm_cell_values_add(pm_cell_values *v, vec3 p, uint32_t value);
 /* p's cell's mean value; false where none was added. */
 bool pm_cell_values_mean(const pm_cell_values *v, vec3 p, float *mean);
 /* Adds from's values to into's (both of one cell size), empties from, and sets into's mean.
- * Reads from's counts (4 bytes a cell) and touches only the cells that hold values. */
+ * Visits only the blocks of from's cells that were added to. */
 void pm_cell_values_merge(pm_cell_values *into, pm_cell_values *from);
 /* Empties v as pm_cell_values_merge does, its values dropped. */
 void pm_cell_values_drop(pm_cell_values *v);

@@ -134,11 +134,12 @@ void pm_photon_tracer_set_splats(pm_photon_tracer *t, const pm_camera *camera, i
 uint32_t pm_photon_tracer_guided_sources(const pm_photon_tracer *t);
 bool pm_photon_tracer_set_guide(pm_photon_tracer *t, pm_guide *guide, const pm_marks *marks);
 
-/* Light vertices: where photons from the punctual lights first meet a diffuse or glossy surface
- * (past thin walls crossed straight), kept for the eye paths to connect to (eye.c, connections).
- * flux is the photon's power there (over keep, the probability it was kept with), ng faces the
- * side it arrived from, to_light back along its way, light its scene light, (tri, b1, b2) the hit
- * for the surface to be made again. */
+/* Light vertices: where photons from the punctual lights and the sky first meet a diffuse or
+ * glossy surface (past thin walls crossed straight), kept for the eye paths to connect to (eye.c,
+ * connections). flux is the photon's power there (over keep, the probability it was kept with),
+ * ng faces the side it arrived from, to_light back along its way, light its scene light
+ * (PM_LIGHT_VERTEX_SKY: the sky), (tri, b1, b2) the hit for the surface to be made again. */
+#define PM_LIGHT_VERTEX_SKY UINT32_MAX
 typedef struct {
     vec3 p, ng, to_light, flux;
     uint32_t tri, light;
@@ -150,8 +151,9 @@ typedef struct {
     size_t count, capacity;
     uint64_t photons;
 } pm_light_vertex_buffer;
-/* A pass of `photons` photons from the punctual lights alone (guided as global passes are, the
- * guide not taught), each ended at its first diffuse or glossy hit, which is kept with the
+/* A pass of `photons` photons from the punctual lights and the sky (not the emitters, whose area
+ * samples find their light; guided as global passes are, and teaching the guide by the first hits
+ * as they teach it by every record), each ended at its first diffuse or glossy hit, which is kept with the
  * probability pm_light_vertex_keep gives there, its flux divided by it. The same vertices at any
  * thread count; a cancelled pass keeps none. False when out of memory. */
 bool pm_photon_tracer_trace_light_vertices(pm_photon_tracer *t, uint64_t photons, uint64_t seed, const pm_cell_values *worth,
@@ -160,8 +162,10 @@ bool pm_photon_tracer_trace_light_vertices(pm_photon_tracer *t, uint64_t photons
  * `light` at p (face normal ng), where that light reaches p unblocked: the source's pick, the
  * guide's density over the cell its placing numbers fall in (emit's mapping turned back), and the
  * start's density across the light (or the direction's per solid angle, over the square of the
- * distance). 0 where no photon of it can start toward p. */
-float pm_photon_tracer_first_hit_density(const pm_photon_tracer *t, uint32_t light, vec3 p, vec3 ng);
+ * distance). The sky's (light PM_LIGHT_VERTEX_SKY) arriving from to_light is per unit area and
+ * per steradian of to_light: its start's density across the disc times its direction's. 0 where
+ * no photon of it can start toward p. */
+float pm_photon_tracer_first_hit_density(const pm_photon_tracer *t, uint32_t light, vec3 p, vec3 ng, vec3 to_light);
 /* The probability a light vertex at p is kept: its cell's mean worth over the mean of all, between
  * PM_CONNECT_KEEP_LEAST and 1; 1 in a cell not yet valued (or with no worth table). */
 static inline float pm_light_vertex_keep(const pm_cell_values *worth, vec3 p) {

@@ -22,6 +22,7 @@ typedef struct {
     float *column_cdf;   /* height*(width+1): texels within each row */
     uint32_t *row_cut;   /* height: row_cdf's cut points (pm_cdf_cut_points) */
     uint32_t *column_cut;/* height*width: each row's column cdf's */
+    double *band_cos;    /* height+1: the cosine of each row's upper polar angle (row height: the nadir's) */
     vec3 mean;           /* radiance averaged over the sphere (per solid angle) */
     float peak_over_mean;/* the brightest texel's channel mean over the sphere's (1 for a uniform map): how concentrated its light is */
     size_t clamped;      /* texels above PM_MAX_EMISSION or not finite, clamped: the caller warns */
@@ -55,5 +56,7 @@ vec3 pm_sky_map_radiance(const pm_sky_map *m, vec3 dir);
 /* A direction toward the sky drawn by luminance x solid angle; returns its radiance, *pdf per steradian. */
 vec3 pm_sky_map_sample(const pm_sky_map *m, float u1, float u2, vec3 *dir, float *pdf);
 float pm_sky_map_pdf(const pm_sky_map *m, vec3 dir);
+/* The two numbers pm_sky_map_sample turns into dir (its mapping turned back). */
+void pm_sky_map_numbers(const pm_sky_map *m, vec3 dir, float *u1, float *u2);
 
 #endif

@@ -11,6 +11,7 @@
 #include "clock.h"
 #include "memory.h"
 
+#include <assert.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -24,8 +25,13 @@
 #include "vertex.h"
 
 #define TILE 16
-enum { PATH_VERTICES, PATH_CONNECTIONS, PATH_CONNECTION_RAYS, PATH_COUNTS }; /* what a tile's paths count: surfaces met, light
-                                                                                vertices drawn to join, their shadow rays */
+/* what a tile's paths count (surfaces met, light vertices drawn to join, their shadow rays), and
+ * its thread's table for the worth connections find (a table a thread: one shared, the two cores'
+ * adds to the same few cells cost 1% of a run) */
+typedef struct {
+    uint64_t vertices, connections, connection_rays;
+    pm_cell_values *worth;
+} path_tally;
 #define MAX_THREADS PM_MAX_THREADS
 
 typedef struct {
@@ -158,21 +164,24 @@ typedef struct {
      * 0: reached otherwise, nothing to weigh */
     const pm_connections *connections;
     float arrival_pdf;
-    float arrival_keep;          /* with arrival_pdf: the probability a light vertex here is kept (pm_light_vertex_keep) */
+    float arrival_keep;          /* with arrival_pdf: the probability a light vertex here is kept (pm_light_vertex_keep), < 0 until looked up */
 } light_site;
 
 static light_site light_site_at(const pm_scene *s, const pm_accel *a, const pm_surface *sf, pm_lobe part, vec3 wo, uint64_t *rays) {
     vec3 ng = pm_facing(sf->ng, wo);
-    light_site ls = {s, a, sf, part, wo, ng, pm_facing(sf->ns, ng), pm_surface_origin(sf, ng, s->ray_scale), rays, 0, NULL, 0.f, 0.f};
+    light_site ls = {s, a, sf, part, wo, ng, pm_facing(sf->ns, ng), pm_surface_origin(sf, ng, s->ray_scale), rays, 0, NULL, 0.f, -1.f};
     return ls;
 }
 
 /* ---- connections (eye.h) ---- */
 
 /* The connections' density per unit area at point p (face normal ng) for light i's vertices
- * (eye.h), where a vertex is kept with probability keep. */
-static float connection_density(const pm_connections *c, uint32_t i, vec3 p, vec3 ng, float keep) {
-    return pm_photon_tracer_first_hit_density(c->tracer, i, p, ng) * keep * c->photons_per_vertex;
+ * (eye.h; the sky's arriving from to_light, per steradian too), where a vertex is kept with
+ * probability keep. */
+static float connection_density(const pm_connections *c, uint32_t i, vec3 p, vec3 ng, vec3 to_light, float keep) {
+    /* a pass that joins nothing takes no share of the path's own ways */
+    if (!c->count) return 0.f;
+    return pm_photon_tracer_first_hit_density(c->tracer, i, p, ng, to_light) * keep * c->photons_per_vertex;
 }
 
 /* The density per unit area with which a path's sample from x (pdf per solid angle) meets the
@@ -195,18 +204,18 @@ static vec3 join(const eye_job *job, const pm_connections *c, const pm_light_ver
                  vec3 weight, uint64_t *rays, float *worth);
 
 static vec3 connect(const eye_job *job, const pm_connections *c, const pm_surface *sf, vec3 wo, vec3 weight, pm_rng *rng,
-                    uint64_t *rays, uint64_t path_counts[PATH_COUNTS]) {
+                    uint64_t *rays, path_tally *tally) {
     if (!c->count) return v3s(0.f);
-    path_counts[PATH_CONNECTIONS]++;
+    tally->connections++;
     uint64_t rays_before = *rays;
     uint32_t j = (uint32_t)(pm_rng_float(rng) * (float)c->count);
     const pm_light_vertex *v = &c->vertices[j < c->count ? j : c->count - 1];
     float worth = 0.f;
     vec3 e = join(job, c, v, sf, wo, weight, rays, &worth);
-    path_counts[PATH_CONNECTION_RAYS] += *rays - rays_before;
-    if (c->worth_next && j % PM_CONNECT_WORTH_SHARE == 0) {
+    tally->connection_rays += *rays - rays_before;
+    if (tally->worth && j % PM_CONNECT_WORTH_SHARE == 0) {
         float units = worth / c->worth_unit + 0.5f;
-        pm_cell_values_add(c->worth_next, v->p, units < 4294967040.f ? (uint32_t)units : UINT32_MAX);
+        pm_cell_values_add(tally->worth, v->p, units < 4294967040.f ? (uint32_t)units : UINT32_MAX);
     }
     return e;
 }
@@ -224,8 +233,6 @@ static vec3 join(const eye_job *job, const pm_connections *c, const pm_light_ver
     float cos_x = v3_dot(ns, wi), cos_y = -v3_dot(v->ng, wi);
     if (!(cos_x > 0.f && v3_dot(ng, wi) > 0.f && cos_y > 0.f)) return v3s(0.f);
     vec3 to_light = v->to_light;
-    float density = connection_density(c, v->light, v->p, v->ng, v->keep);
-    if (!(density > 0.f)) return v3s(0.f);
     float cos_in = v3_dot(v->ng, to_light);
     if (!(cos_in > 0.f)) return v3s(0.f);
     vec3 target = pm_offset_ray_origin(v->p, v->ng, s->ray_scale), seg = v3_sub(target, origin);
@@ -237,14 +244,42 @@ static vec3 join(const eye_job *job, const pm_connections *c, const pm_light_ver
     vec3 yns = pm_facing(y.ns, v->ng), wy = v3_neg(wi);
     float cos_in_shading = v3_dot(yns, to_light);
     if (!(cos_in_shading > 0.f && v3_dot(yns, wy) > 0.f)) return v3s(0.f);
-    /* the path's way: its sample from here reaching y, then y's punctual light */
+    /* the path's way: its sample from here reaching y, then y's punctual light, or for the sky
+     * y's own ray or its sky map's sample (two ways, weighed as one of their densities' root
+     * sum of squares: the power heuristic over all three) */
     float p_path = area_pdf(pm_vertex_pdf(sf, PM_LOBE_NONSPECULAR, ns, wo, wi), sf->p, v->p, v->ng);
+    if (v->light == PM_LIGHT_VERTEX_SKY)
+        p_path *= hypotf(pm_vertex_pdf(&y, PM_LOBE_NONSPECULAR, yns, wy, to_light), s->sky_map ? pm_sky_map_pdf(s->sky_map, to_light) : 0.f);
     float scale = (float)c->count * cos_y / d2 * cos_in_shading / cos_in;
     vec3 fy = v3_mul(pm_vertex_f(&y, PM_LOBE_NONSPECULAR, yns, wy, to_light), pm_volume_transmittance(s, &y, wi, sqrtf(d2)));
     vec3 e = v3_mul(v3_mul(v3_mul(reflected(sf, PM_LOBE_NONSPECULAR, ns, wo, wi, cos_x), fy), v3_scale(v->flux, scale)), weight);
-    if (!v3_is_finite(e)) return v3s(0.f);
+    if (!v3_is_finite(e) || v3_is_black(e)) return v3s(0.f);
+    /* the density last: half of the connections end at a shadow ray or a cosine before it */
+    float density = connection_density(c, v->light, v->p, v->ng, to_light, v->keep);
+    if (!(density > 0.f)) return v3s(0.f);
     *worth = v3_luminance(e) * v->keep / (float)c->count;
     return v3_scale(e, power_heuristic(density, p_path));
+}
+
+/* The probability a light vertex at ls's point is kept, looked up once a light is seen there
+ * (most of a room's vertices see none). */
+static float arrival_keep(light_site *ls) {
+    if (ls->arrival_keep < 0.f) ls->arrival_keep = pm_light_vertex_keep(ls->connections->worth, ls->sf->p);
+    return ls->arrival_keep;
+}
+
+/* The power heuristic's weight of one way that the sky along wi is found at ls's point, the sky
+ * map's sample (by_map) or the surface's own ray, against the others: those two (pdf_map, 0
+ * without a map; pdf_surface; per steradian) and, where the path arrived from a vertex that joined
+ * a light vertex, the connection to a sky light vertex here (its density per unit area and
+ * steradian over the arrival's per unit area; join weighs it the same way). */
+static float sky_weight(light_site *ls, vec3 wi, bool by_map, float pdf_surface, float pdf_map) {
+    float joined = 0.f;
+    if (ls->arrival_pdf > 0.f)
+        joined = connection_density(ls->connections, PM_LIGHT_VERTEX_SKY, ls->sf->p, ls->sf->ng, wi, arrival_keep(ls)) / ls->arrival_pdf;
+    float way = by_map ? pdf_map : pdf_surface, other = by_map ? pdf_surface : pdf_map;
+    if (!(joined > 0.f)) return by_map || ls->s->sky_map ? power_heuristic(way, other) : 1.f;
+    return power_heuristic(way, hypotf(other, joined));
 }
 
 /* The punctual lights' share of direct_light (below): their light reflected toward ls->wo by the
@@ -296,8 +331,9 @@ static vec3 punctual_light(light_site *ls, pm_rng *rng, const pm_shadow_map *sha
             ls->cast++;
             if (!pm_thin_visible(s, ls->a, origin, wi, tmax, &through, ls->rays)) continue;
         }
-        if (ls->arrival_pdf > 0.f)
-            pick_weight *= power_heuristic(ls->arrival_pdf, connection_density(ls->connections, i, sf->p, sf->ng, ls->arrival_keep));
+        if (ls->arrival_pdf > 0.f) {
+            pick_weight *= power_heuristic(ls->arrival_pdf, connection_density(ls->connections, i, sf->p, sf->ng, wi, arrival_keep(ls)));
+        }
         e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance_scale, pick_weight), through), reflected(sf, ls->part, ns, ls->wo, wi, cos_s)));
     }
     return e;
@@ -354,19 +390,23 @@ static void sky_map_sample(light_site *ls, pm_rng *rng, vec3 *e) {
     float pdf_surface = pm_vertex_pdf(ls->sf, ls->part, ls->ns, ls->wo, wi);
     vec3 through;
     if (pm_thin_visible(s, ls->a, ls->origin, wi, INFINITY, &through, ls->rays))
-        *e = v3_add(*e, v3_mul(v3_mul(v3_scale(radiance, power_heuristic(pdf_sky, pdf_surface) / pdf_sky), through),
+        *e = v3_add(*e, v3_mul(v3_mul(v3_scale(radiance, sky_weight(ls, wi, true, pdf_surface, pdf_sky) / pdf_sky), through),
                                reflected(ls->sf, ls->part, ls->ns, ls->wo, wi, cos_s)));
+}
+
+/* The weight of the sky the surface's own ray finds along wi (sky_weight). */
+static inline float own_ray_sky_weight(light_site *ls, vec3 wi, float pdf_surface) {
+    return sky_weight(ls, wi, false, pdf_surface, ls->s->sky_map ? pm_sky_map_pdf(ls->s->sky_map, wi) : 0.f);
 }
 
 /* The light the own ray (direction wi, value weight, pdf pdf_surface) finds at its hit h and past
  * every thin wall it meets (emitting or not), which the continuation crosses as no scattering:
  * counted here, once. The sky by sky_weight, the emitters by MIS against the area sample. */
-static void light_along_own_ray(light_site *ls, vec3 wi, vec3 weight, float pdf_surface, float sky_weight, pm_hit h,
-                                bool hit, vec3 *e) {
+static void light_along_own_ray(light_site *ls, vec3 wi, vec3 weight, float pdf_surface, pm_hit h, bool hit, vec3 *e) {
     const pm_scene *s = ls->s;
     for (int crossings = 0;; crossings++) {
         if (!hit) {
-            if (s->sky) *e = v3_add(*e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, sky_weight)));
+            if (s->sky) *e = v3_add(*e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, own_ray_sky_weight(ls, wi, pdf_surface))));
         } else if (s->emitter_count) {
             const pm_material *m = &s->materials[pm_scene_triangle_material(s, h.tri)];
             float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
@@ -403,7 +443,6 @@ static void own_ray_light(light_site *ls, pm_rng *rng, const pm_vertex_ray *boun
     vec3 wi = bounce->direction, weight = bounce->value;
     float pdf_surface = bounce->pdf, cos_s = leaves ? v3_dot(ls->ns, wi) : 0.f;
     bool lit = leaves && cos_s > 0.f && (s->sky || s->emitter_count);
-    float sky_weight = lit && s->sky_map ? power_heuristic(pdf_surface, pm_sky_map_pdf(s->sky_map, wi)) : 1.f;
     if (leaves && (next || s->emitter_count)) {
         (*ls->rays)++;
         pm_hit h;
@@ -413,13 +452,13 @@ static void own_ray_light(light_site *ls, pm_rng *rng, const pm_vertex_ray *boun
             next->hit = hit;
             next->h = h;
         }
-        if (lit) light_along_own_ray(ls, wi, weight, pdf_surface, sky_weight, h, hit, e);
+        if (lit) light_along_own_ray(ls, wi, weight, pdf_surface, h, hit, e);
     } else if (lit) {
         /* a sky without emitters: only whether the ray gets out matters */
         (*ls->rays)++;
         vec3 through;
         if (pm_thin_visible(s, ls->a, ls->origin, wi, INFINITY, &through, ls->rays))
-            *e = v3_add(*e, v3_mul(v3_mul(pm_scene_sky(s, wi), through), v3_scale(weight, sky_weight)));
+            *e = v3_add(*e, v3_mul(v3_mul(pm_scene_sky(s, wi), through), v3_scale(weight, own_ray_sky_weight(ls, wi, pdf_surface))));
     }
 }
 
@@ -443,7 +482,6 @@ static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface 
     light_site ls = light_site_at(s, a, sf, part, wo, rays);
     ls.connections = connections;
     ls.arrival_pdf = connections ? arrival_pdf : 0.f;
-    if (ls.arrival_pdf > 0.f) ls.arrival_keep = pm_light_vertex_keep(connections->worth, sf->p);
     uint64_t saved = 0;
     vec3 e = punctual_light(&ls, rng, shadow, &saved);
     if (s->emitter_count) emitter_area_sample(&ls, rng, &e);
@@ -729,7 +767,7 @@ static const path_start path_from_camera = {{1.f, 1.f, 1.f}, 0, true, false, fal
 
 static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce *first, const path_start *start,
                        pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
-                       uint64_t path_counts[PATH_COUNTS]);
+                       path_tally *tally);
 
 /* The progressive mode's eye sample: the pixel's visible point and, with final gathering, the
  * point its one gather ray finds (the segment the visible point's step drew, which direct light
@@ -737,7 +775,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
  * on from the visible point instead (no gather point). */
 static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, const pm_connections *connections,
                           pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
-                          uint64_t path_counts[PATH_COUNTS], pm_visible_point *vp, pm_visible_point *gp) {
+                          path_tally *tally, pm_visible_point *vp, pm_visible_point *gp) {
     /* a point's fields are all written where it becomes valid; clearing two 96-byte records per
      * pixel would cost 2% of an iteration */
     vp->valid = false;
@@ -756,12 +794,12 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
          * such vertex (its weight is the point's, unscaled by the survival). */
         if (connections) {
             int c = vp->seen_directly ? PM_INDIRECT : PM_SPECULAR;
-            out[c] = v3_add(out[c], connect(job, connections, &sf, vp->wo, throughput, rng, rays, path_counts));
+            out[c] = v3_add(out[c], connect(job, connections, &sf, vp->wo, throughput, rng, rays, tally));
         }
         if (!exit.goes_on) return;
         path_start from = {exit.throughput, 1, false, !vp->seen_directly, true, job->settings->gather_punctual_specular ? gp : NULL,
                            connections, connections && exit.ray.sampled, sf.p, exit.ray.pdf};
-        trace_path(job, exit.ray.origin, exit.ray.direction, &exit.traced, &from, rng, out, rays, shadow_counts, path_counts);
+        trace_path(job, exit.ray.origin, exit.ray.direction, &exit.traced, &from, rng, out, rays, shadow_counts, tally);
         return;
     }
     if (!exit.goes_on) return;
@@ -781,7 +819,7 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
  * traces for the path to go on along, counting what that segment meets). */
 static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce *first, const path_start *start,
                        pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
-                       uint64_t path_counts[PATH_COUNTS]) {
+                       path_tally *tally) {
     const pm_scene *s = job->scene;
     vec3 throughput = start->throughput;
     bool behind_specular = start->behind_specular;
@@ -800,7 +838,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
         pm_hit h;
         pm_surface sf;
         if (!meet_surface(job, &next, o, d, lit_by_segment, cone, &path_length, &throughput, &out[seen], rays, &h, &sf)) return;
-        path_counts[PATH_VERTICES]++;
+        tally->vertices++;
         vec3 wo = v3_neg(d);
         pm_vertex_ray ray;
         bool goes_on = pm_vertex_step(&sf, d, depth, &continuing_policy, rng, s->ray_scale, &ray);
@@ -819,7 +857,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
             if (connections) {
                 /* the light a vertex reached from here adds by its punctual lights, as NEE there would */
                 int there = behind_specular ? PM_SPECULAR : PM_INDIRECT;
-                out[there] = v3_add(out[there], connect(job, connections, &sf, wo, v3_scale(throughput, ray.choice), rng, rays, path_counts));
+                out[there] = v3_add(out[there], connect(job, connections, &sf, wo, v3_scale(throughput, ray.choice), rng, rays, tally));
             }
             joined = connections && ray.sampled;
             joined_at = sf.p;
@@ -865,7 +903,10 @@ static void render_tile(void *ctx, size_t task, int thread) {
     int x1 = x0 + TILE < film->width ? x0 + TILE : film->width;
     int y1 = y0 + TILE < film->height ? y0 + TILE : film->height;
     if (job->save) pm_film_save_rect(film, x0, y0, x1, y1); /* what a cancel puts back */
-    uint64_t rays = 0, dropped = 0, path_counts[PATH_COUNTS] = {0, 0}, shadow_counts[2] = {0, 0};
+    uint64_t rays = 0, dropped = 0, shadow_counts[2] = {0, 0};
+    const pm_connections *joining = job->settings->connections;
+    path_tally tally = {0, 0, 0, joining && joining->worth_next ? &joining->worth_next[thread] : NULL};
+    assert(!tally.worth || thread < joining->worth_tables);
     pm_visible_point visible[TILE * TILE], gathered[TILE * TILE];
     size_t pixels[TILE * TILE], points = 0;
     /* a tile's rows are short runs in each component's sum, too short for the hardware prefetcher:
@@ -915,10 +956,10 @@ static void render_tile(void *ctx, size_t task, int thread) {
             if (job->settings->path_trace) {
                 path_start from = path_from_camera;
                 from.connections = joins;
-                trace_path(job, o, d, &camera, &from, &rng, out, &rays, shadow_counts, path_counts);
+                trace_path(job, o, d, &camera, &from, &rng, out, &rays, shadow_counts, &tally);
             }
             else if (job->visible_points) {
-                trace_visible(job, o, d, &camera, joins, &rng, out, &rays, shadow_counts, path_counts, &visible[points],
+                trace_visible(job, o, d, &camera, joins, &rng, out, &rays, shadow_counts, &tally, &visible[points],
                               job->gather_points ? &gathered[points] : NULL);
                 pixels[points++] = pixel;
             } else
@@ -934,9 +975,9 @@ static void render_tile(void *ctx, size_t task, int thread) {
     if (job->visit && points) job->visit(job->visit_ctx, pixels, visible, job->gather_points ? gathered : NULL, points, thread);
     job->counters[thread].rays += rays;
     job->counters[thread].dropped += dropped;
-    job->counters[thread].vertices += path_counts[PATH_VERTICES];
-    job->counters[thread].connections += path_counts[PATH_CONNECTIONS];
-    job->counters[thread].connection_rays += path_counts[PATH_CONNECTION_RAYS];
+    job->counters[thread].vertices += tally.vertices;
+    job->counters[thread].connections += tally.connections;
+    job->counters[thread].connection_rays += tally.connection_rays;
     job->counters[thread].shadow[0] += shadow_counts[0];
     job->counters[thread].shadow[1] += shadow_counts[1];
 }

@@ -26,38 +26,55 @@ static inline uint32_t cell_hash(vec3 p, float inv_cell) {
     return h;
 }
 
-static inline size_t mark_bit(const pm_marks *m, vec3 p) { return (size_t)cell_hash(p, m->inv_cell) & (PM_GUIDE_MARK_BITS - 1); }
+/* Which of the six axis directions n is nearest: 1-6. */
+static inline uint32_t facing_class(vec3 n) {
+    float ax = fabsf(n.x), ay = fabsf(n.y), az = fabsf(n.z);
+    return 1u + (ax >= ay && ax >= az ? (n.x < 0.f) : ay >= az ? 2u + (n.y < 0.f) : 4u + (n.z < 0.f));
+}
+
+/* A mark's bit: p's cell, and the side its surface faces (facing 1-6) or either side (0). */
+static inline size_t mark_bit(const pm_marks *m, vec3 p, uint32_t facing) {
+    return (size_t)(cell_hash(p, m->inv_cell) ^ (facing * 0x9e3779b9u)) & (PM_GUIDE_MARK_BITS - 1);
+}
+
+static inline void set_bit(uint64_t *bits, size_t b) {
+    uint64_t bit = 1ull << (b & 63);
+    /* most points mark a cell already marked: read before the atomic write */
+    if (!(__atomic_load_n(&bits[b >> 6], __ATOMIC_RELAXED) & bit)) __atomic_fetch_or(&bits[b >> 6], bit, __ATOMIC_RELAXED);
+}
+
+static inline bool test_bit(const uint64_t *bits, size_t b) { return (bits[b >> 6] >> (b & 63)) & 1u; }
 
 bool pm_marks_init(pm_marks *m) {
     memset(m, 0, sizeof *m);
     m->bits = pm_calloc(MARK_WORDS, sizeof(uint64_t), "photon guide marks");
-    return m->bits != NULL;
+    m->facing_bits = pm_calloc(MARK_WORDS, sizeof(uint64_t), "photon guide marks");
+    return m->bits && m->facing_bits;
 }
 
 void pm_marks_free(pm_marks *m) {
     free(m->bits);
+    free(m->facing_bits);
     memset(m, 0, sizeof *m);
 }
 
 void pm_marks_clear(pm_marks *m, float cell) {
     memset(m->bits, 0, MARK_WORDS * sizeof(uint64_t));
+    memset(m->facing_bits, 0, MARK_WORDS * sizeof(uint64_t));
     m->cell = cell > 0.f && isfinite(cell) ? cell : 1.f;
     m->inv_cell = 1.f / m->cell;
     m->any = false;
 }
 
-void pm_marks_set(pm_marks *m, vec3 p) {
-    size_t b = mark_bit(m, p);
-    uint64_t bit = 1ull << (b & 63);
-    /* most points mark a cell already marked: read before the atomic write */
-    if (!(__atomic_load_n(&m->bits[b >> 6], __ATOMIC_RELAXED) & bit)) __atomic_fetch_or(&m->bits[b >> 6], bit, __ATOMIC_RELAXED);
+void pm_marks_set(pm_marks *m, vec3 p, vec3 n) {
+    set_bit(m->bits, mark_bit(m, p, 0));
+    set_bit(m->facing_bits, mark_bit(m, p, facing_class(n)));
     if (!__atomic_load_n(&m->any, __ATOMIC_RELAXED)) __atomic_store_n(&m->any, true, __ATOMIC_RELAXED);
 }
 
-bool pm_marks_test(const pm_marks *m, vec3 p) {
-    size_t b = mark_bit(m, p);
-    return (m->bits[b >> 6] >> (b & 63)) & 1u;
-}
+bool pm_marks_test(const pm_marks *m, vec3 p) { return test_bit(m->bits, mark_bit(m, p, 0)); }
+
+bool pm_marks_test_facing(const pm_marks *m, vec3 p, vec3 n) { return test_bit(m->facing_bits, mark_bit(m, p, facing_class(n))); }
 
 bool pm_cell_values_init(pm_cell_values *v) {
     memset(v, 0, sizeof *v);
@@ -80,14 +97,17 @@ void pm_cell_values_clear(pm_cell_values *v, float cell) {
     v->cell = cell > 0.f && isfinite(cell) ? cell : 1.f;
     v->inv_cell = 1.f / v->cell;
     v->total_sum = v->total_count = v->mean = 0.0;
+    memset(v->touched, 0, sizeof v->touched);
 }
 
 void pm_cell_values_add(pm_cell_values *v, vec3 p, uint32_t value) {
     size_t i = cell_hash(p, v->inv_cell) & (PM_CELL_VALUES_CELLS - 1);
     /* past 2^31 values a cell has been measured enough: it stops, and sums stay below 2^63 */
-    if (__atomic_load_n(&v->count[i], __ATOMIC_RELAXED) >= (1u << 31)) return;
-    __atomic_fetch_add(&v->count[i], 1u, __ATOMIC_RELAXED);
-    if (value) __atomic_fetch_add(&v->sum[i], (uint64_t)value, __ATOMIC_RELAXED);
+    if (v->count[i] >= (1u << 31)) return;
+    v->count[i]++;
+    v->sum[i] += value;
+    size_t block = i / PM_CELL_VALUES_BLOCK;
+    v->touched[block / 64] |= 1ull << (block % 64);
 }
 
 bool pm_cell_values_mean(const pm_cell_values *v, vec3 p, float *mean) {
@@ -97,32 +117,36 @@ bool pm_cell_values_mean(const pm_cell_values *v, vec3 p, float *mean) {
     return true;
 }
 
+/* Empties from's touched blocks, adding their values to into's first (into NULL: dropped). */
+static void take_touched(pm_cell_values *into, pm_cell_values *from) {
+    const uint32_t full = 1u << 31;
+    for (size_t w = 0; w < sizeof from->touched / sizeof from->touched[0]; w++)
+        for (uint64_t bits = from->touched[w]; bits; bits &= bits - 1) {
+            size_t first = (w * 64 + (size_t)__builtin_ctzll(bits)) * PM_CELL_VALUES_BLOCK;
+            for (size_t i = first; i < first + PM_CELL_VALUES_BLOCK; i++) {
+                uint32_t n = from->count[i];
+                if (!n) continue;
+                /* a full cell keeps its mean: what from adds to it is dropped */
+                if (into && into->count[i] < full) {
+                    into->count[i] += n;
+                    into->sum[i] += from->sum[i];
+                    into->total_count += n;
+                    into->total_sum += (double)from->sum[i];
+                }
+                from->count[i] = 0;
+                from->sum[i] = 0;
+            }
+        }
+    memset(from->touched, 0, sizeof from->touched);
+}
+
 void pm_cell_values_merge(pm_cell_values *into, pm_cell_values *from) {
     assert(into->cell == from->cell);
-    const uint32_t full = 1u << 31;
-    for (size_t i = 0; i < PM_CELL_VALUES_CELLS; i++) {
-        uint32_t n = from->count[i];
-        if (!n) continue;
-        /* a full cell keeps its mean: what from adds to it is dropped */
-        if (into->count[i] < full) {
-            into->count[i] += n;
-            into->sum[i] += from->sum[i];
-            into->total_count += n;
-            into->total_sum += (double)from->sum[i];
-        }
-        from->count[i] = 0;
-        from->sum[i] = 0;
-    }
+    take_touched(into, from);
     into->mean = into->total_count > 0.0 ? into->total_sum / into->total_count : 0.0;
 }
 
-void pm_cell_values_drop(pm_cell_values *v) {
-    for (size_t i = 0; i < PM_CELL_VALUES_CELLS; i++)
-        if (v->count[i]) {
-            v->count[i] = 0;
-            v->sum[i] = 0;
-        }
-}
+void pm_cell_values_drop(pm_cell_values *v) { take_touched(NULL, v); }
 
 bool pm_guide_init(pm_guide *g, uint32_t sources) {
     memset(g, 0, sizeof *g);

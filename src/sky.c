@@ -18,13 +18,13 @@ void pm_sky_map_free(pm_sky_map *m) {
     free(m->column_cdf);
     free(m->row_cut);
     free(m->column_cut);
+    free(m->band_cos);
     free(m);
 }
 
 /* Solid angle of one texel of row `row`: the band between its two polar angles, split in width. */
 static double texel_solid_angle(const pm_sky_map *m, int row) {
-    double t0 = PM_PI * row / m->height, t1 = PM_PI * (row + 1) / m->height;
-    return 2.0 * PM_PI / m->width * (cos(t0) - cos(t1));
+    return 2.0 * PM_PI / m->width * (m->band_cos[row] - m->band_cos[row + 1]);
 }
 
 static double texel_weight(const float *rgb) { return ((double)rgb[0] + rgb[1] + rgb[2]) * (1.0 / 3.0); }
@@ -52,10 +52,10 @@ static bool clamp_texel(float *t) {
 
 uint64_t pm_sky_map_bytes(int width, int height) {
     uint64_t w = width > 0 ? (uint64_t)width : 0, h = height > 0 ? (uint64_t)height : 0;
-    /* texels, each row's column cdf and its cut points, the row cdf and its, and the row sums
-     * while the cdfs are built */
+    /* texels, each row's column cdf and its cut points, the row cdf and its, the bands' cosines,
+     * and the row sums while the cdfs are built */
     return sizeof(pm_sky_map) + 3 * sizeof(float) * w * h + sizeof(float) * h * (w + 1) + sizeof(uint32_t) * h * w +
-           sizeof(float) * (h + 1) + sizeof(uint32_t) * h + sizeof(double) * h;
+           sizeof(float) * (h + 1) + sizeof(uint32_t) * h + sizeof(double) * (h + 1) + sizeof(double) * h;
 }
 
 pm_sky_map *pm_sky_map_create(int width, int height, const float *rgb, char *err, size_t err_size) {
@@ -89,9 +89,10 @@ pm_sky_map *pm_sky_map_adopt(int width, int height, float *rgb, char *err, size_
         m->column_cdf = pm_malloc(sizeof(float) * (size_t)height * ((size_t)width + 1), "environment map");
         m->row_cut = pm_malloc(sizeof(uint32_t) * (size_t)height, "environment map");
         m->column_cut = pm_malloc(sizeof(uint32_t) * (size_t)height * (size_t)width, "environment map");
+        m->band_cos = pm_malloc(sizeof(double) * ((size_t)height + 1), "environment map");
         row_sum = pm_malloc(sizeof(double) * (size_t)height, "environment map");
     }
-    if (!m || !m->row_cdf || !m->column_cdf || !m->row_cut || !m->column_cut || !row_sum) {
+    if (!m || !m->row_cdf || !m->column_cdf || !m->row_cut || !m->column_cut || !m->band_cos || !row_sum) {
         free(rgb);
         free(row_sum);
         pm_sky_map_free(m);
@@ -100,6 +101,8 @@ pm_sky_map *pm_sky_map_adopt(int width, int height, float *rgb, char *err, size_
     }
     m->width = width;
     m->height = height;
+    /* read by every sample and density: a table, not two cosines a call */
+    for (int y = 0; y <= height; y++) m->band_cos[y] = cos(PM_PI * y / height);
     for (size_t i = 0; i < n; i++) m->clamped += clamp_texel(m->rgb + 3 * i);
     /* Sums in double (2^28 texels of at most 1e20 stay far inside its range), stored normalised as
      * floats; a row of zero weight keeps a uniform column cdf (it is never picked, and lookups
@@ -206,6 +209,20 @@ float pm_sky_map_pdf(const pm_sky_map *m, vec3 dir) {
     return omega > 0.0 ? (float)(p / omega) : 0.f;
 }
 
+void pm_sky_map_numbers(const pm_sky_map *m, vec3 dir, float *u1, float *u2) {
+    int x, y;
+    texel_of(m, dir, &x, &y);
+    dir = into_map(m, dir);
+    float len = v3_length(dir), cy = len > 0.f ? dir.y / len : 1.f;
+    double c0 = m->band_cos[y], c1 = m->band_cos[y + 1];
+    double v = c1 != c0 ? (cy - c0) / (c1 - c0) : 0.5, w = (0.5 + atan2(dir.x, -dir.z) * (0.5 / PM_PI)) * m->width - x;
+    v = v < 0.0 ? 0.0 : (v > 1.0 ? 1.0 : v);
+    w = w < 0.0 ? 0.0 : (w > 1.0 ? 1.0 : w);
+    const float *cdf = m->column_cdf + (size_t)y * (m->width + 1);
+    *u1 = (float)fmin(m->row_cdf[y] + v * (m->row_cdf[y + 1] - m->row_cdf[y]), 0x1.fffffep-1);
+    *u2 = (float)fmin(cdf[x] + w * (cdf[x + 1] - cdf[x]), 0x1.fffffep-1);
+}
+
 vec3 pm_sky_map_sample(const pm_sky_map *m, float u1, float u2, vec3 *dir, float *pdf) {
     int y = (int)pm_cdf_interval_cut(m->row_cdf, m->row_cut, (uint32_t)m->height, u1);
     float row_p = m->row_cdf[y + 1] - m->row_cdf[y];
@@ -217,7 +234,7 @@ vec3 pm_sky_map_sample(const pm_sky_map *m, float u1, float u2, vec3 *dir, float
     v = v < 0.f ? 0.f : (v > 1.f ? 1.f : v);
     w = w < 0.f ? 0.f : (w > 1.f ? 1.f : w);
     /* uniform in solid angle within the texel: cos(theta) uniform across the band, phi uniform */
-    double c0 = cos(PM_PI * y / m->height), c1 = cos(PM_PI * (y + 1) / m->height);
+    double c0 = m->band_cos[y], c1 = m->band_cos[y + 1];
     double cos_t = c0 + (c1 - c0) * v, sin_t = sqrt(fmax(0.0, 1.0 - cos_t * cos_t));
     double phi = ((x + w) / m->width - 0.5) * 2.0 * PM_PI;
     *dir = out_of_map(m, v3((float)(sin_t * sin(phi)), (float)cos_t, (float)(-sin_t * cos(phi))));

@@ -88,7 +88,7 @@ static void check_light(const char *name, pm_scene *s, pm_accel *a, const double
           pm_photon_tracer_guided_sources(t));
     pm_marks_clear(&marks, 0.1f);
     for (float x = sq[0].x0 + 0.05f; x < sq[0].x0 + sq[0].size; x += 0.1f)
-        for (float z = sq[0].z0 + 0.05f; z < sq[0].z0 + sq[0].size; z += 0.1f) pm_marks_set(&marks, v3(x, 0, z));
+        for (float z = sq[0].z0 + 0.05f; z < sq[0].z0 + sq[0].size; z += 0.1f) pm_marks_set(&marks, v3(x, 0, z), v3(0, 1, 0));
     CHECK(marks.any && pm_marks_test(&marks, v3(sq[0].x0 + 0.3f, 0, sq[0].z0 + 0.3f)) &&
               !pm_marks_test(&marks, v3(sq[1].x0 + 0.3f, 0, sq[1].z0 + 0.3f)),
           "%s: the marked square is marked, the other is not", name);

@@ -1,34 +1,35 @@
 #!/bin/sh
-# test_window_default.sh: the default mode in rooms lit through a window (solid slabs, scenes/window-room.gltf; single-sided faces with hollow walls and a ground under the floor, scenes/window-hollow.gltf) against Mitsuba 3's references: the choice of the path tracer's light, the connections' trial (on under the sun alone, off under sun and sky), every channel's mean, and the error against the path tracer's at equal work.
+# test_window_default.sh: the default mode in rooms lit through a window (solid slabs, scenes/window-room.gltf; single-sided faces with hollow walls and a ground under the floor, scenes/window-hollow.gltf) against Mitsuba 3's references: the choice of the path tracer's light, the connections' trial (on in the hollow room under sun and sky and under the sun alone, off in the solid room under sun and sky), every channel's mean, and the error against the path tracer's at equal work.
 #
 # Work is counted, never timed: the rays each run cast (eye rays with their shadow rays and its
-# connections', photon rays, the clips' probes), from the stat lines. The default renders 512
+# connections', photon rays, the clips' probes), from the stat lines. The default renders 1,536
 # samples per pixel at 64x64 with its default settings (its learning and trial iterations
-# included in its rays); the path tracer renders as many samples as the same rays buy it.
+# included in its rays: by 512 samples the trial has barely decided); the path tracer renders as
+# many samples as the same rays buy it.
 #
 # Under sun and sky (--sky white, both rooms): the photons' estimate is biased by wide discs and
-# costs more than a path-traced sample, so the default must choose the path tracer's light; the
-# connections' trial then finds that joining light vertices costs more than it brings (the sky's
-# light, which no light vertex carries, is most of the noise) and leaves them off. What the default
-# pays on top of the path tracer is the learning and the trial's iterations with connections:
-# 3.8% and 4.3% of the rays at 512 samples (seed 1), checked below 6%, and the relMSE at equal rays
-# 1.026-1.046 times the path tracer's on the solid room and 1.029-1.039 on the hollow one over
-# seeds 1-3, checked at 1.06 (one standard deviation of what the seed alone changes is about 2%:
-# the path tracer's relMSE at 512 samples over seeds 1-6 spreads by 1.9% of its mean on the solid
-# room and 1.6% on the hollow one). The means: within 0.5% of the
-# reference. With the photons forced (--gather photons) the same work errs more on the solid room
-# (relMSE x rays against the default's; seeds 1-6 before the trial: 1.95 1.12 1.56 2.10 1.34 1.17),
-# checked at 1.05 there, as the control that the choice matters and the checks can fail.
+# costs more than a path-traced sample, so the default must choose the path tracer's light. The
+# connections' trial then keeps them in the hollow room, where sun and sky light vertices enter
+# through the window (relMSE at equal rays 0.846, 0.842, 0.820 of the path tracer's over seeds
+# 1-3, checked at 0.92), and leaves them off in the solid room, where they bring less than they
+# cost. What the default pays there on top of the path tracer is the learning and the trial's
+# iterations with connections: 5.9% of the rays (seeds 1-3), checked below 8%, and the relMSE at
+# equal rays 1.024, 1.040, 1.060 times the path tracer's, checked at 1.10 (one standard deviation
+# of what the seed alone changes is about 2%; at 10 s make bench reads 0.98-1.00 there, the
+# learning a smaller share). The means: within 0.5% of the reference. With the photons forced
+# (--gather photons) the same work errs more on the solid room (relMSE x rays against the
+# default's: 1.80, 1.69, 1.79 over seeds 1-3), checked at 1.05 there, as the control that the
+# choice matters and the checks can fail.
 #
 # Under the sun alone (the hollow room, --sky none, against tests/ref/window_hollow_sun_64.exr):
 # the path tracer finds the sunlit patch's light only where a bounce happens to land on it, and
-# the connections join it from every diffuse vertex: the trial keeps them (seeds 1-4), and the
-# default's relMSE at equal rays is checked at most 0.92 times the path tracer's (seeds 1-4: 0.829,
-# 0.891, 0.904, 0.845; the trial's iterations without connections and their start included).
+# the connections join it from every diffuse vertex: the trial keeps them, and the default's
+# relMSE at equal rays is checked at most 0.80 times the path tracer's (seeds 1-3: 0.645, 0.694,
+# 0.653; the trial's iterations without connections and its warm-up included).
 #
 # And the choice and the trial, made from the film and counts, give the same image on 1 and 2
-# threads (on the solid room, 40 iterations: through the choice and into the trial, connections
-# joined).
+# threads (on the solid room, 40 iterations: through the choice and into the trial's warm-up,
+# sun and sky light vertices joined).
 cd "$(dirname "$0")/.." || exit 1
 . tests/stat_setup.sh
 # the rays a run cast: eye (shadow rays and connections' included), photons, the clips' probes, and
@@ -40,8 +41,9 @@ rays() { awk -v e="$(value eye rays "$1")" -v s="$(value eye shadow_rays_saved "
 # the iterations that buy the rays wanted, from the rays a run of n iterations cast: n, wanted, cast
 scaled() { awk -v n="$1" -v want="$2" -v got="$3" 'BEGIN { x = n * want / got; printf "%d\n", x < 1 ? 1 : x + 0.5 }'; }
 # room:reference:sky:the trial's verdict:the default's relMSE over the path tracer's at most
-for room in window-room:window_room_64:white:0:1.06 window-hollow:window_hollow_64:white:0:1.06 \
-            window-hollow:window_hollow_sun_64:none:1:0.92; do
+default_samples=1536
+for room in window-room:window_room_64:white:0:1.10 window-hollow:window_hollow_64:white:1:0.92 \
+            window-hollow:window_hollow_sun_64:none:1:0.80; do
     scene=scenes/${room%%:*}.gltf; rest=${room#*:}; ref=tests/ref/${rest%%:*}.exr; rest=${rest#*:}
     sky=${rest%%:*}; rest=${rest#*:}; verdict=${rest%%:*}; bound=${rest#*:}
     name="${room%%:*} (--sky $sky)"
@@ -51,7 +53,7 @@ for room in window-room:window_room_64:white:0:1.06 window-hollow:window_hollow_
         "$bin" "$scene" --sky "$sky" --width 64 --height 64 --reference "$ref" --stats --quiet --seed 1 \
             --snapshot "$tmp/$out.exr" "$@" >"$tmp/$out" 2>&1 || { echo "FAIL: pmview $name $out: $(tail -n 1 "$tmp/$out")"; exit 1; }
     }
-    run default --iterations 512
+    run default --iterations $default_samples
     # the path tracer's samples for the default's rays, its rays per sample from a 40-sample run
     run path40 --mode pathtrace --iterations 40
     samples=$(scaled 40 "$(rays "$tmp/default")" "$(rays "$tmp/path40")")
@@ -72,10 +74,10 @@ for room in window-room:window_room_64:white:0:1.06 window-hollow:window_hollow_
     else fails=$((fails + 1)); echo "FAIL: $name: the connections' trial decided connect_trial='$trial', not $verdict"; fi
     # the checks, pairs of a description and a python condition over d (default), t (path tracer) and
     # f (photons forced), dicts of error and rays: all of a room's in one python3
-    set -- "every channel's mean within 0.5% of the reference after 512 samples" "all(abs(m - 1) < 0.005 for m in d['means'])" \
+    set -- "every channel's mean within 0.5% of the reference after $default_samples samples" "all(abs(m - 1) < 0.005 for m in d['means'])" \
         "the default's relMSE at most $bound times the path tracer's at equal rays" "d['relmse'] <= $bound * t['relmse']"
     if [ "$verdict" = 0 ]; then
-        set -- "$@" "the learning and the trial cost under 6% of the path tracer's rays for the same 512 samples" "0 <= d['learning'] < 0.06"
+        set -- "$@" "the learning and the trial cost under 8% of the path tracer's rays for the same $default_samples samples" "0 <= d['learning'] < 0.08"
     fi
     if [ "$scene" = scenes/window-room.gltf ]; then
         set -- "$@" "the photons forced err 1.05 times as much at about equal rays (the choice matters)" \
@@ -84,20 +86,20 @@ for room in window-room:window_room_64:white:0:1.06 window-hollow:window_hollow_
     python3 - "$name" "$(value error relmse "$tmp/default")" "$(rays "$tmp/default")" "$(value error relmse "$tmp/path")" \
         "$(rays "$tmp/path")" "$(value error relmse "$tmp/photons" 2>/dev/null)" "$(rays "$tmp/photons" 2>/dev/null)" \
         "$(value error mean_ratio_r "$tmp/default")" "$(value error mean_ratio_g "$tmp/default")" \
-        "$(value error mean_ratio_b "$tmp/default")" "$samples" "$@" >"$tmp/py" 2>&1 <<'EOF'
+        "$(value error mean_ratio_b "$tmp/default")" "$samples" "$default_samples" "$@" >"$tmp/py" 2>&1 <<'EOF'
 import sys
 name = sys.argv[1]
-a = [float(x or "nan") for x in sys.argv[2:12]]  # (no photons forced on the hollow room: nan)
-# the learning's share: the default's rays against the path tracer's for 512 samples, from its run
+a = [float(x or "nan") for x in sys.argv[2:13]]  # (no photons forced on the hollow room: nan)
+# the learning's share: the default's rays against the path tracer's for as many samples (a[10]), from its run
 # of a[9] samples (the same seed: the same paths, so the scaling errs only by the last few samples'
 # share of a path's average rays, well under 0.1%)
-d = {"relmse": a[0], "rays": a[1], "means": a[6:9], "learning": a[1] / (a[3] * 512 / a[9]) - 1}
+d = {"relmse": a[0], "rays": a[1], "means": a[6:9], "learning": a[1] / (a[3] * a[10] / a[9]) - 1}
 t = {"relmse": a[2], "rays": a[3]}
 f = {"relmse": a[4], "rays": a[5]}
 summary = ("default relmse %.6f rays %.0f means %s learning +%.2f%% rays; path tracer relmse %.6f rays %.0f (ratio %.3f); photons forced relmse %.6f rays %.0f"
            % (d["relmse"], d["rays"], d["means"], 100 * d["learning"], t["relmse"], t["rays"], d["relmse"] / t["relmse"], f["relmse"], f["rays"]))
 failed = 0
-for description, condition in zip(sys.argv[12::2], sys.argv[13::2]):
+for description, condition in zip(sys.argv[13::2], sys.argv[14::2]):
     try:
         ok, why = eval(condition), summary
     except Exception as e:
@@ -121,7 +123,7 @@ EOF
     checks=$((checks + 1))
     joined=$(value eye connections "$tmp/threads2")
     if cmp -s "$tmp/threads1.exr" "$tmp/threads2.exr" && [ "$(value progressive gather_source "$tmp/threads1")" = path ] && [ "${joined:-0}" -gt 0 ]; then
-        echo "ok: $name: 40 iterations, through the choice and into the trial ($joined connections), bit for bit the same on 1 and 2 threads"
+        echo "ok: $name: 40 iterations, through the choice and into the trial's warm-up ($joined connections), bit for bit the same on 1 and 2 threads"
     else fails=$((fails + 1)); echo "FAIL: $name: 40 iterations differ between 1 and 2 threads (or chose no path tracer, or joined '$joined' light vertices)"; fi
 done
 echo "test_window_default: $checks checks, $fails failed"
