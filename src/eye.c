@@ -331,9 +331,8 @@ static vec3 punctual_light(light_site *ls, pm_rng *rng, const pm_shadow_map *sha
             ls->cast++;
             if (!pm_thin_visible(s, ls->a, origin, wi, tmax, &through, ls->rays)) continue;
         }
-        if (ls->arrival_pdf > 0.f) {
+        if (ls->arrival_pdf > 0.f)
             pick_weight *= power_heuristic(ls->arrival_pdf, connection_density(ls->connections, i, sf->p, sf->ng, wi, arrival_keep(ls)));
-        }
         e = v3_add(e, v3_mul(v3_mul(v3_scale(radiance_scale, pick_weight), through), reflected(sf, ls->part, ns, ls->wo, wi, cos_s)));
     }
     return e;
