@@ -1523,6 +1523,12 @@ static float azimuth_turn(float x, float y) {
     return turn < 0.f ? turn + 1.f : (turn >= 1.f ? 0.f : turn);
 }
 
+/* The two numbers pm_sample_sphere turns into the unit direction w. */
+static inline void sphere_numbers(vec3 w, float *u1, float *u2) {
+    *u1 = pm_minf(pm_maxf(0.5f * (1.f - w.z), 0.f), 0x1.fffffep-1f);
+    *u2 = azimuth_turn(w.x, w.y);
+}
+
 /* The two numbers pm_sample_disc turns into (x, y) of the unit disc (its concentric mapping
  * turned back: the side of the square is the larger of |x| and |y|'s, the angle within its
  * octant the other's share). */
@@ -1557,8 +1563,7 @@ static float sky_first_hit_density(const pm_photon_tracer *t, vec3 p, vec3 ng, v
         pm_sky_map_numbers(s->sky_map, to_light, &d1, &d2);
     } else {
         per_direction = (float)(0.25 / PM_PI);
-        d1 = pm_minf(pm_maxf(0.5f * (1.f - to_light.z), 0.f), 0x1.fffffep-1f);
-        d2 = azimuth_turn(to_light.x, to_light.y);
+        sphere_numbers(to_light, &d1, &d2);
     }
     double guided = 1.0;
     if (t->guide && l->guided >= 0 && l->guided_direction >= 0) {
@@ -1608,8 +1613,7 @@ float pm_photon_tracer_first_hit_density(const pm_photon_tracer *t, uint32_t lig
             u2 = azimuth_turn(v3_dot(w, tb), v3_dot(w, bb));
             per_area = cos_p / (2.f * PM_PI * (1.f - pl->cos_outer));
         } else {
-            u1 = 0.5f * (1.f - w.z);
-            u2 = azimuth_turn(w.x, w.y);
+            sphere_numbers(w, &u1, &u2);
             per_area = cos_p / (4.f * PM_PI);
         }
         u1 = pm_minf(pm_maxf(u1, 0.f), 0.99999994f);

@@ -1547,8 +1547,8 @@ static void end_light_vertices(pm_progressive *p) {
  * (the first pass only measures their density; the emission guide learns from the photons where
  * they reach, and the worth of cells from the connections: measured after 48 iterations at 64x64,
  * the hollow room's connections read 1.02-1.13 of the path tracer's error x work under sun and
- * sky and 0.89-1.16 under the sun alone, after 200 iterations (2 million photons) 0.81-0.87 and
- * 0.60-0.85, what the finished runs show); then the two in turn. */
+ * sky and 0.89-1.16 under the sun alone, after a million photons (100 iterations) 0.87-0.98 and
+ * 0.66-0.98, near what the finished runs show); then the two in turn. */
 static int connection_trial_arm(const pm_progressive *p) {
     return !p->radii.connect_warm || p->radii.connect_step % 2 == 0 ? CONNECT_ON : CONNECT_OFF;
 }
@@ -1669,7 +1669,8 @@ static phase_result trace_photon_passes(pm_progressive *p, pm_film *film, iterat
     if (ok && global_pass && !pm_parallel_cancelled())
         ok = pm_photon_tracer_trace_into(p->tracer, false, asked[KIND_INDIRECT], seed, global, &p->stats.photons);
     p->eye.connections = NULL;
-    if (ok && it->connect_trial) connection_grid_before(p, film);
+    /* the warm-up measures nothing */
+    if (ok && it->connect_trial && p->radii.connect_warm) connection_grid_before(p, film);
     if (ok && it->connecting && !pm_parallel_cancelled())
         ok = trace_light_vertices(p, asked[KIND_INDIRECT], seed, it->connect_trial && p->radii.connect_warm ? p->connect_grid.only : NULL);
     /* cancelled: the iteration is dropped before it touched the film; out of memory: the film
