@@ -1503,32 +1503,6 @@ static bool box_numbers(const pm_scene *s, const box_shadow *b, vec3 dir, vec3 p
     return true;
 }
 
-/* atan(t) for t in [-1, 1], within 3e-7 (a polynomial fit on [0, 1]): a guide cell's pick, at
- * every light vertex's weighing, where atan2f took a twentieth of the time. */
-static inline float atan_unit(float t) {
-    float a = fabsf(t), a2 = a * a;
-    float r = a * (0.99997726f + a2 * (-0.33262347f + a2 * (0.19354346f + a2 * (-0.11643287f + a2 * (0.05265332f - 0.01172120f * a2)))));
-    return t < 0.f ? -r : r;
-}
-
-/* The turn of a direction's azimuth in the frame (x, y): in [0, 1), within 3e-7 of atan2's
- * (atan_unit, folded by octant). */
-static float azimuth_turn(float x, float y) {
-    float ax = fabsf(x), ay = fabsf(y), lo = pm_minf(ax, ay), hi = pm_maxf(ax, ay);
-    float a = atan_unit(hi > 0.f ? lo / hi : 0.f);
-    if (ay > ax) a = (float)(PM_PI / 2.0) - a;
-    if (x < 0.f) a = (float)PM_PI - a;
-    if (y < 0.f) a = -a;
-    float turn = a * (float)(0.5 / PM_PI);
-    return turn < 0.f ? turn + 1.f : (turn >= 1.f ? 0.f : turn);
-}
-
-/* The two numbers pm_sample_sphere turns into the unit direction w. */
-static inline void sphere_numbers(vec3 w, float *u1, float *u2) {
-    *u1 = pm_minf(pm_maxf(0.5f * (1.f - w.z), 0.f), 0x1.fffffep-1f);
-    *u2 = azimuth_turn(w.x, w.y);
-}
-
 /* The two numbers pm_sample_disc turns into (x, y) of the unit disc (its concentric mapping
  * turned back: the side of the square is the larger of |x| and |y|'s, the angle within its
  * octant the other's share). */
@@ -1536,10 +1510,10 @@ static void disc_numbers(float x, float y, float *u1, float *u2) {
     float r = sqrtf(x * x + y * y), a, b;
     if (fabsf(x) > fabsf(y)) {
         a = x < 0.f ? -r : r;
-        b = a * atan_unit(y / x) * (float)(4.0 / PM_PI);
+        b = a * pm_atan_unit(y / x) * (float)(4.0 / PM_PI);
     } else {
         b = y < 0.f ? -r : r;
-        a = y != 0.f ? b * atan_unit(x / y) * (float)(4.0 / PM_PI) : 0.f;
+        a = y != 0.f ? b * pm_atan_unit(x / y) * (float)(4.0 / PM_PI) : 0.f;
     }
     *u1 = pm_minf(pm_maxf(0.5f * (a + 1.f), 0.f), 0x1.fffffep-1f);
     *u2 = pm_minf(pm_maxf(0.5f * (b + 1.f), 0.f), 0x1.fffffep-1f);
@@ -1563,7 +1537,7 @@ static float sky_first_hit_density(const pm_photon_tracer *t, vec3 p, vec3 ng, v
         pm_sky_map_numbers(s->sky_map, to_light, &d1, &d2);
     } else {
         per_direction = (float)(0.25 / PM_PI);
-        sphere_numbers(to_light, &d1, &d2);
+        pm_sphere_numbers(to_light, &d1, &d2);
     }
     double guided = 1.0;
     if (t->guide && l->guided >= 0 && l->guided_direction >= 0) {
@@ -1610,10 +1584,10 @@ float pm_photon_tracer_first_hit_density(const pm_photon_tracer *t, uint32_t lig
             vec3 tb, bb;
             v3_basis(pl->direction, &tb, &bb);
             u1 = (1.f - z) / pm_maxf(1.f - pl->cos_outer, FLT_MIN);
-            u2 = azimuth_turn(v3_dot(w, tb), v3_dot(w, bb));
+            u2 = pm_azimuth_turn(v3_dot(w, tb), v3_dot(w, bb));
             per_area = cos_p / (2.f * PM_PI * (1.f - pl->cos_outer));
         } else {
-            sphere_numbers(w, &u1, &u2);
+            pm_sphere_numbers(w, &u1, &u2);
             per_area = cos_p / (4.f * PM_PI);
         }
         u1 = pm_minf(pm_maxf(u1, 0.f), 0.99999994f);
