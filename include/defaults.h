@@ -152,6 +152,12 @@
 #define PM_CONNECT_WORTH_SHARE 4           /* one connection in this many adds its worth (the others would mostly repeat it) */
 #define PM_CONNECT_KEEP_LEAST 0.02f        /* a light vertex in a cell of little worth is kept at least this often */
 #define PM_CONNECT_HISTORY_FADE 0.875      /* photons per kept light vertex: each earlier pass's weight, per pass since */
+#define PM_ARRIVAL_CELL 4.0                /* the sky's arrival guide (arrival.h): its cells, in the connections' cells ... */
+#define PM_ARRIVAL_BINS_SIDE 12            /* ... direction bins a side (144 of 0.087 sr) ... */
+#define PM_ARRIVAL_SLOTS (1u << 12)        /* ... hashed slots (4.8 MB of counts and distributions) ... */
+#define PM_ARRIVAL_MIN_HITS 32             /* ... rays that reached the sky before a cell is used ... */
+#define PM_ARRIVAL_MAX_HITS 4096           /* ... and after which it counts no more ... */
+#define PM_ARRIVAL_CONCENTRATION 8.0       /* ... and its bins' squared probabilities x the bins, at least */
 
 /* photon mapping (classic two-pass mode) */
 #define PM_DEFAULT_PHOTONS_PER_PIXEL 1.0   /* global photons = pixels x this, clamped below */

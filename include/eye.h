@@ -26,6 +26,7 @@
 
 #include <stdint.h>
 #include "accel.h"
+#include "arrival.h"
 #include "camera.h"
 #include "film.h"
 #include "photonmap.h"
@@ -88,6 +89,9 @@ typedef struct {
     bool caustic_apart;
     const pm_shadow_map *shadow; /* shadow photons; NULL: every punctual light sample casts its shadow ray */
     const pm_connections *connections; /* light vertices the path tracer's samples join (above); NULL: none */
+    /* where the sky is seen from (arrival.h): direct light's sky sample where it is learned, and
+     * every diffuse vertex's own ray that reaches the sky counts there; NULL: none */
+    pm_arrival_guide *sky_arrival;
     bool unclipped;           /* classic estimates read their whole disc, through walls (no clip.h): only to measure what clipping mends */
     double deadline;          /* CLOCK_MONOTONIC seconds (0 = none): tiles not started by then are left out (see above) */
     const uint8_t *only_pixels; /* NULL: every pixel; else only the pixels whose byte is non-zero are traced (a
@@ -101,6 +105,7 @@ typedef struct {
     uint64_t path_vertices;   /* path tracer: surfaces its paths met (for the mean path length) */
     uint64_t shadow_rays;     /* shadow rays toward light samples (punctual, emitter, sky map), among rays: direct light's, and from sharp glossy lobes on gather paths */
     uint64_t shadow_rays_saved; /* punctual light samples that shadow photons decided without a ray */
+    uint64_t sky_arrival_samples; /* the sky's samples drawn from the arrival guide (arrival.h), among shadow_rays */
     uint64_t connections;     /* light vertices drawn to join (eye.h, connections) */
     uint64_t connection_rays; /* ... their shadow rays, among rays */
     bool failed;              /* out of memory: the pass did not run */

@@ -76,7 +76,8 @@ typedef struct {
     uint32_t radius_steps;     /* radius reductions an iteration makes (0 or 1: one); under mpirun the rank count, so that the
                                   radii of each rank shrink with the job's iterations, as one process's would, not with its own */
     bool unclipped;            /* estimates read their whole disc, through walls (no clip.h): only to measure what clipping costs and mends */
-    bool unguided;             /* photons emitted without the learned guide (guide.h): only to measure what guiding gains */
+    bool unguided;             /* photons emitted without the learned guide (guide.h), the sky sampled without its arrival
+                                  guide (arrival.h): only to measure what guiding gains */
     pm_connect_choice connect; /* where the path tracer's light is chosen: its samples join light vertices (eye.h), measured or forced */
     /* the caustic photons stay wherever they are traced, with no caustic trial (progressive.c):
      * under mpirun, where a rank that gave them up would dilute the others' caustic statistics in
@@ -106,6 +107,7 @@ typedef struct {
     uint32_t choice_iterations;  /* learning iterations probed before the choice, both sources */
     uint32_t path_only_samples;  /* samples taken as the path tracer's eye pass alone, the choice made (progressive.c, begin_iteration) */
     uint64_t light_vertices;     /* light vertices the path iterations' passes kept for connections (eye.h) */
+    uint32_t sky_arrival_cells;  /* the sky's arrival guide's cells that direct light samples (arrival.h) */
     /* the connections' trial (progressive.c): -1 none run, 0 connections left off, 1 kept; each
      * arm's predicted error x cost and its cost per iteration (CONNECT_ON, CONNECT_OFF) */
     int connect_trial;

@@ -50,7 +50,7 @@ typedef struct {
     int tiles_x;
     double deadline;                     /* tiles not started by then are left out (0 = none) */
     bool save;                           /* the iteration's first pass: each tile saves its pixels before writing them */
-    struct { uint64_t rays, dropped, vertices, connections, connection_rays, shadow[2]; char pad[8]; } counters[MAX_THREADS];
+    struct { uint64_t rays, dropped, vertices, connections, connection_rays, shadow[3]; } counters[MAX_THREADS];
     uint8_t done[];                      /* per tile: traced (a cut pass marks these in the film) */
 } eye_job;
 
@@ -165,11 +165,14 @@ typedef struct {
     const pm_connections *connections;
     float arrival_pdf;
     float arrival_keep;          /* with arrival_pdf: the probability a light vertex here is kept (pm_light_vertex_keep), < 0 until looked up */
+    pm_arrival_guide *sky_arrival; /* where a diffuse own ray reaching the sky counts (arrival.h); NULL: nowhere */
+    pm_arrival_cell sky_cell;    /* ... and its distribution here, a sky sample of its own (cdf NULL: none) */
+    uint64_t sky_samples;        /* the rays of those samples, among cast */
 } light_site;
 
 static light_site light_site_at(const pm_scene *s, const pm_accel *a, const pm_surface *sf, pm_lobe part, vec3 wo, uint64_t *rays) {
     vec3 ng = pm_facing(sf->ng, wo);
-    light_site ls = {s, a, sf, part, wo, ng, pm_facing(sf->ns, ng), pm_surface_origin(sf, ng, s->ray_scale), rays, 0, NULL, 0.f, -1.f};
+    light_site ls = {s, a, sf, part, wo, ng, pm_facing(sf->ns, ng), pm_surface_origin(sf, ng, s->ray_scale), rays, 0, NULL, 0.f, -1.f, NULL, {NULL}, 0};
     return ls;
 }
 
@@ -268,18 +271,22 @@ static float arrival_keep(light_site *ls) {
     return ls->arrival_keep;
 }
 
-/* The power heuristic's weight of one way that the sky along wi is found at ls's point, the sky
- * map's sample (by_map) or the surface's own ray, against the others: those two (pdf_map, 0
- * without a map; pdf_surface; per steradian) and, where the path arrived from a vertex that joined
- * a light vertex, the connection to a sky light vertex here (its density per unit area and
- * steradian over the arrival's per unit area; join weighs it the same way). */
-static float sky_weight(light_site *ls, vec3 wi, bool by_map, float pdf_surface, float pdf_map) {
+/* The power heuristic's weight of one way that the sky along wi is found at ls's point (its
+ * density `way`, per steradian) against the others: two of the surface's own ray, the sky map's
+ * sample (0 without a map) and the arrival guide's (0 without a cell here), and, where the path
+ * arrived from a vertex that joined a light vertex, the connection to a sky light vertex here
+ * (its density per unit area and steradian over the arrival's per unit area; join weighs it the
+ * same way). Over several ways the heuristic weighs against their densities' root sum of squares. */
+static float sky_weight(light_site *ls, vec3 wi, float way, float other, float another) {
     float joined = 0.f;
     if (ls->arrival_pdf > 0.f)
         joined = connection_density(ls->connections, PM_LIGHT_VERTEX_SKY, ls->sf->p, ls->sf->ng, wi, arrival_keep(ls)) / ls->arrival_pdf;
-    float way = by_map ? pdf_map : pdf_surface, other = by_map ? pdf_surface : pdf_map;
-    if (!(joined > 0.f)) return by_map || ls->s->sky_map ? power_heuristic(way, other) : 1.f;
-    return power_heuristic(way, hypotf(other, joined));
+    float others = hypotf(hypotf(other, another), joined);
+    return others > 0.f ? power_heuristic(way, others) : 1.f;
+}
+
+static inline float sky_map_pdf_along(const light_site *ls, vec3 wi) {
+    return ls->s->sky_map ? pm_sky_map_pdf(ls->s->sky_map, wi) : 0.f;
 }
 
 /* The punctual lights' share of direct_light (below): their light reflected toward ls->wo by the
@@ -389,13 +396,32 @@ static void sky_map_sample(light_site *ls, pm_rng *rng, vec3 *e) {
     float pdf_surface = pm_vertex_pdf(ls->sf, ls->part, ls->ns, ls->wo, wi);
     vec3 through;
     if (pm_thin_visible(s, ls->a, ls->origin, wi, INFINITY, &through, ls->rays))
-        *e = v3_add(*e, v3_mul(v3_mul(v3_scale(radiance, sky_weight(ls, wi, true, pdf_surface, pdf_sky) / pdf_sky), through),
+        *e = v3_add(*e, v3_mul(v3_mul(v3_scale(radiance, sky_weight(ls, wi, pdf_sky, pdf_surface, pm_arrival_pdf(&ls->sky_cell, wi)) / pdf_sky), through),
+                               reflected(ls->sf, ls->part, ls->ns, ls->wo, wi, cos_s)));
+}
+
+/* Where the sky is seen from here (arrival.h): a ray drawn from the directions the cell learned,
+ * weighted against the surface's own ray and the sky map's sample. */
+static void sky_arrival_sample(light_site *ls, pm_rng *rng, vec3 *e) {
+    const pm_scene *s = ls->s;
+    float pdf_arrival, u_bin = pm_rng_float(rng), u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
+    vec3 wi = pm_arrival_sample(&ls->sky_cell, u_bin, u1, u2, &pdf_arrival);
+    float cos_s = v3_dot(ls->ns, wi);
+    if (!(pdf_arrival > 0.f && cos_s > 0.f && v3_dot(ls->ng, wi) > 0.f)) return;
+    (*ls->rays)++;
+    ls->cast++;
+    ls->sky_samples++;
+    float pdf_surface = pm_vertex_pdf(ls->sf, ls->part, ls->ns, ls->wo, wi);
+    vec3 through;
+    if (pm_thin_visible(s, ls->a, ls->origin, wi, INFINITY, &through, ls->rays))
+        *e = v3_add(*e, v3_mul(v3_mul(v3_scale(pm_scene_sky(s, wi), sky_weight(ls, wi, pdf_arrival, pdf_surface, sky_map_pdf_along(ls, wi)) / pdf_arrival),
+                                      through),
                                reflected(ls->sf, ls->part, ls->ns, ls->wo, wi, cos_s)));
 }
 
 /* The weight of the sky the surface's own ray finds along wi (sky_weight). */
 static inline float own_ray_sky_weight(light_site *ls, vec3 wi, float pdf_surface) {
-    return sky_weight(ls, wi, false, pdf_surface, ls->s->sky_map ? pm_sky_map_pdf(ls->s->sky_map, wi) : 0.f);
+    return sky_weight(ls, wi, pdf_surface, sky_map_pdf_along(ls, wi), pm_arrival_pdf(&ls->sky_cell, wi));
 }
 
 /* The light the own ray (direction wi, value weight, pdf pdf_surface) finds at its hit h and past
@@ -405,7 +431,10 @@ static void light_along_own_ray(light_site *ls, vec3 wi, vec3 weight, float pdf_
     const pm_scene *s = ls->s;
     for (int crossings = 0;; crossings++) {
         if (!hit) {
-            if (s->sky) *e = v3_add(*e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, own_ray_sky_weight(ls, wi, pdf_surface))));
+            if (s->sky) {
+                *e = v3_add(*e, v3_mul(pm_scene_sky(s, wi), v3_scale(weight, own_ray_sky_weight(ls, wi, pdf_surface))));
+                if (ls->sky_arrival) pm_arrival_count(ls->sky_arrival, ls->sf->p, ls->ng, wi);
+            }
         } else if (s->emitter_count) {
             const pm_material *m = &s->materials[pm_scene_triangle_material(s, h.tri)];
             float pick_pdf = v3_is_black(m->emission) ? 0.f : pm_scene_emitter_pdf(s, h.tri);
@@ -456,8 +485,10 @@ static void own_ray_light(light_site *ls, pm_rng *rng, const pm_vertex_ray *boun
         /* a sky without emitters: only whether the ray gets out matters */
         (*ls->rays)++;
         vec3 through;
-        if (pm_thin_visible(s, ls->a, ls->origin, wi, INFINITY, &through, ls->rays))
+        if (pm_thin_visible(s, ls->a, ls->origin, wi, INFINITY, &through, ls->rays)) {
             *e = v3_add(*e, v3_mul(v3_mul(pm_scene_sky(s, wi), through), v3_scale(weight, own_ray_sky_weight(ls, wi, pdf_surface))));
+            if (ls->sky_arrival) pm_arrival_count(ls->sky_arrival, ls->sf->p, ls->ng, wi);
+        }
     }
 }
 
@@ -472,24 +503,36 @@ static void own_ray_light(light_site *ls, pm_rng *rng, const pm_vertex_ray *boun
  * sampling (punctual lights are deltas: no other strategy can find them, so they take no MIS
  * weight). With shadow photons (shadow != NULL) a punctual light that the records near the point
  * surely show or surely hide costs no ray; shadow_counts (may be NULL) adds the shadow rays cast
- * to light samples [0] and those the records made unnecessary [1]. A NULL shadow map is exactly
- * the ray-only estimate, random numbers included. With `next`, the bounce's ray is traced whatever
- * the scene's lights, its hit kept there for the path that goes on along it. */
+ * to light samples [0], those the records made unnecessary [1] and the arrival guide's samples
+ * [2]. A NULL shadow map is exactly the ray-only estimate, random numbers included. With `next`,
+ * the bounce's ray is traced whatever the scene's lights, its hit kept there for the path that
+ * goes on along it. Given the sky's arrival guide (sky_arrival), a diffuse own ray that reaches
+ * the sky counts there, and with sky_sample (the path's first non-specular vertex) a used cell
+ * here adds a ray drawn from it, weighed with the own ray and the map's sample (sky_weight). */
 static vec3 direct_light(const pm_scene *s, const pm_accel *a, const pm_surface *sf, pm_lobe part, vec3 wo, pm_rng *rng,
-                         uint64_t *rays, const pm_shadow_map *shadow, uint64_t shadow_counts[2], const pm_vertex_ray *bounce,
-                         surface_bounce *next, const pm_connections *connections, float arrival_pdf) {
+                         uint64_t *rays, const pm_shadow_map *shadow, uint64_t shadow_counts[3], const pm_vertex_ray *bounce,
+                         surface_bounce *next, const pm_connections *connections, float arrival_pdf,
+                         pm_arrival_guide *sky_arrival, bool sky_sample) {
     light_site ls = light_site_at(s, a, sf, part, wo, rays);
     ls.connections = connections;
     ls.arrival_pdf = connections ? arrival_pdf : 0.f;
+    /* the guide's directions are a diffuse surface's: a glossy lobe's own ray finds its highlight */
+    if (s->sky && part == PM_LOBE_NONSPECULAR && sky_arrival) {
+        if (sky_sample) pm_arrival_find(sky_arrival, sf->p, ls.ng, &ls.sky_cell);
+        /* cosine-distributed rays alone count: the guide's counts are the sky's cosine-weighted visibility */
+        if (!sf->glossy) ls.sky_arrival = sky_arrival;
+    }
     uint64_t saved = 0;
     vec3 e = punctual_light(&ls, rng, shadow, &saved);
     if (s->emitter_count) emitter_area_sample(&ls, rng, &e);
     if (s->sky && s->sky_map) sky_map_sample(&ls, rng, &e);
+    if (ls.sky_cell.cdf) sky_arrival_sample(&ls, rng, &e);
     if (next) next->traced = false;
     if (s->sky || s->emitter_count || next) own_ray_light(&ls, rng, bounce, next, &e);
     if (shadow_counts) {
         shadow_counts[0] += ls.cast;
         shadow_counts[1] += saved;
+        shadow_counts[2] += ls.sky_samples;
     }
     return e;
 }
@@ -563,7 +606,7 @@ static vec3 gather(const eye_job *job, const pm_surface *sf, vec3 d0, pm_rng *rn
 /* The punctual lights' direct light reflected toward wo by a part of sf (a gather point's
  * non-specular part), times throughput, added to *out; its shadow rays counted. */
 static void add_punctual_light(const eye_job *job, const pm_surface *sf, pm_lobe part, vec3 wo, vec3 throughput,
-                               pm_rng *rng, uint64_t *rays, uint64_t shadow_counts[2], vec3 *out) {
+                               pm_rng *rng, uint64_t *rays, uint64_t shadow_counts[3], vec3 *out) {
     uint64_t saved = 0;
     light_site ls = light_site_at(job->scene, job->accel, sf, part, wo, rays);
     vec3 e = punctual_light(&ls, rng, job->settings->shadow, &saved);
@@ -575,7 +618,7 @@ static void add_punctual_light(const eye_job *job, const pm_surface *sf, pm_lobe
 }
 
 static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, pm_rng *rng,
-                        vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2]) {
+                        vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[3]) {
     const pm_scene *s = job->scene;
     vec3 throughput = v3s(1.f);
     float path_length = 0.f; /* the pixel's cone widens along the chain as it would unfolded (flat mirrors) */
@@ -599,7 +642,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
                     v3_mul(throughput, map_estimate(job, &set->maps->global, &sf, h.tri, ng, wo, &indirect_only, rays)));
             } else {
                 out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, &sf, PM_LOBE_NONSPECULAR, wo, rng, rays,
-                                                                              set->shadow, shadow_counts, NULL, NULL, NULL, 0.f)));
+                                                                              set->shadow, shadow_counts, NULL, NULL, NULL, 0.f, set->sky_arrival, true)));
             }
             if (set->maps && set->maps->caustic.count) {
                 int c = depth == 0 ? PM_CAUSTIC : PM_SPECULAR;
@@ -630,7 +673,7 @@ static void trace_pixel(const eye_job *job, vec3 o, vec3 d, const surface_bounce
             out[PM_SPECULAR] = v3_add(out[PM_SPECULAR], v3_mul(v3_scale(throughput, ray.choice),
                                                                direct_light(s, job->accel, &sf, PM_LOBE_NEAR_SPECULAR, wo, rng, rays,
                                                                             job->settings->shadow, shadow_counts, &ray,
-                                                                            goes_on ? &pending : NULL, NULL, 0.f)));
+                                                                            goes_on ? &pending : NULL, NULL, 0.f, NULL, false)));
         if (!goes_on) return;
         throughput = v3_scale(v3_mul(throughput, ray.weight), ray.radiance_scale);
         d = ray.direction;
@@ -691,7 +734,7 @@ static void set_point(pm_visible_point *vp, const pm_surface *sf, vec3 ng, vec3 
  * at 512x512 for the same error at 320x320). */
 static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bounce *traced, vec3 throughput,
                             bool camera_ray, int first_vertex, pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], int lobe_component, uint64_t *rays,
-                            uint64_t shadow_counts[2], pm_visible_point *vp, pm_surface *sf, vec3 *point_throughput,
+                            uint64_t shadow_counts[3], pm_visible_point *vp, pm_surface *sf, vec3 *point_throughput,
                             point_exit *exit) {
     const pm_scene *s = job->scene;
     float path_length = 0.f;
@@ -720,7 +763,8 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
             if (camera_ray) {
                 out[comp] = v3_add(out[comp], v3_mul(throughput, direct_light(s, job->accel, sf, PM_LOBE_NONSPECULAR, wo, rng, rays,
                                                                               job->settings->shadow, shadow_counts, exit ? &ray : NULL,
-                                                                              exit && goes_on ? &exit->traced : NULL, NULL, 0.f)));
+                                                                              exit && goes_on ? &exit->traced : NULL, NULL, 0.f,
+                                                                              job->settings->sky_arrival, true)));
             } else if (s->light_count) {
                 /* the punctual lights at a gather point: the visible point's indirect light, traced
                  * (their first-hit photons are not stored, see above) */
@@ -735,7 +779,7 @@ static bool walk_to_diffuse(const eye_job *job, vec3 o, vec3 d, const surface_bo
         if (camera_ray && !lit)
             out[PM_SPECULAR] = v3_add(out[PM_SPECULAR], v3_mul(v3_scale(throughput, ray.choice),
                                                                direct_light(s, job->accel, sf, PM_LOBE_NEAR_SPECULAR, wo, rng, rays,
-                                                                            job->settings->shadow, shadow_counts, &ray, &pending, NULL, 0.f)));
+                                                                            job->settings->shadow, shadow_counts, &ray, &pending, NULL, 0.f, NULL, false)));
         throughput = v3_scale(v3_mul(throughput, ray.weight), ray.radiance_scale);
         d = ray.direction;
         o = ray.origin;
@@ -765,7 +809,7 @@ typedef struct {
 static const path_start path_from_camera = {{1.f, 1.f, 1.f}, 0, true, false, false, NULL, NULL, false, {0.f, 0.f, 0.f}, 0.f};
 
 static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce *first, const path_start *start,
-                       pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
+                       pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[3],
                        path_tally *tally);
 
 /* The progressive mode's eye sample: the pixel's visible point and, with final gathering, the
@@ -773,7 +817,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
  * there traced); emission and direct light go to out[]. With PM_GATHER_PATH the path tracer goes
  * on from the visible point instead (no gather point). */
 static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_bounce *camera, const pm_connections *connections,
-                          pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
+                          pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[3],
                           path_tally *tally, pm_visible_point *vp, pm_visible_point *gp) {
     /* a point's fields are all written where it becomes valid; clearing two 96-byte records per
      * pixel would cost 2% of an iteration */
@@ -817,7 +861,7 @@ static void trace_visible(const eye_job *job, vec3 o, vec3 d, const surface_boun
  * near-specular choice direct light adds the lights (MIS with the step's own sample, which it
  * traces for the path to go on along, counting what that segment meets). */
 static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce *first, const path_start *start,
-                       pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[2],
+                       pm_rng *rng, vec3 out[PM_COMPONENT_COUNT], uint64_t *rays, uint64_t shadow_counts[3],
                        path_tally *tally) {
     const pm_scene *s = job->scene;
     vec3 throughput = start->throughput;
@@ -852,7 +896,8 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
             out[here] = v3_add(out[here], v3_mul(v3_scale(throughput, ray.choice),
                                                  direct_light(s, job->accel, &sf, PM_LOBE_NONSPECULAR, wo, rng, rays,
                                                               job->settings->shadow, shadow_counts, &ray, goes_on ? &next : NULL,
-                                                              connections, arrival_pdf)));
+                                                              connections, arrival_pdf, job->settings->sky_arrival,
+                                                              !past_nonspecular)));
             if (connections) {
                 /* the light a vertex reached from here adds by its punctual lights, as NEE there would */
                 int there = behind_specular ? PM_SPECULAR : PM_INDIRECT;
@@ -881,7 +926,7 @@ static void trace_path(const eye_job *job, vec3 o, vec3 d, const surface_bounce 
                 /* the lights by MIS with this sample, which direct light traces and counts */
                 out[seen] = v3_add(out[seen], v3_mul(v3_scale(throughput, ray.choice),
                                                      direct_light(s, job->accel, &sf, PM_LOBE_NEAR_SPECULAR, wo, rng, rays,
-                                                                  job->settings->shadow, shadow_counts, &ray, goes_on ? &next : NULL, NULL, 0.f)));
+                                                                  job->settings->shadow, shadow_counts, &ray, goes_on ? &next : NULL, NULL, 0.f, NULL, false)));
                 lit_by_segment = false;
             }
         }
@@ -902,7 +947,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
     int x1 = x0 + TILE < film->width ? x0 + TILE : film->width;
     int y1 = y0 + TILE < film->height ? y0 + TILE : film->height;
     if (job->save) pm_film_save_rect(film, x0, y0, x1, y1); /* what a cancel puts back */
-    uint64_t rays = 0, dropped = 0, shadow_counts[2] = {0, 0};
+    uint64_t rays = 0, dropped = 0, shadow_counts[3] = {0, 0, 0};
     const pm_connections *joining = job->settings->connections;
     path_tally tally = {0, 0, 0, joining && joining->worth_next ? &joining->worth_next[thread] : NULL};
     assert(!tally.worth || thread < joining->worth_tables);
@@ -979,6 +1024,7 @@ static void render_tile(void *ctx, size_t task, int thread) {
     job->counters[thread].connection_rays += tally.connection_rays;
     job->counters[thread].shadow[0] += shadow_counts[0];
     job->counters[thread].shadow[1] += shadow_counts[1];
+    job->counters[thread].shadow[2] += shadow_counts[2];
 }
 
 /* How the pass ended. Cut by the deadline: the traced tiles' pixels are marked `reached` in the
@@ -1037,6 +1083,7 @@ static pm_eye_pass_result run_eye_pass(const pm_scene *s, const pm_accel *a, con
             stats->connection_rays += job->counters[t].connection_rays;
             stats->shadow_rays += job->counters[t].shadow[0];
             stats->shadow_rays_saved += job->counters[t].shadow[1];
+            stats->sky_arrival_samples += job->counters[t].shadow[2];
         }
         stats->seconds += pm_now_seconds() - start;
     }

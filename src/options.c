@@ -158,7 +158,8 @@ static const option options_table[] = {
     {"--clip", "on|off", KIND_WORD, FIELD(unclipped), 0, 0, "on|off", {0, 1}, NULL, NULL, NULL, RULE_PHOTON_ONLY,
      "photon estimates stay on their side of walls (default on; off only to measure the leak)", {0}},
     {"--guide", "on|off", KIND_WORD, FIELD(unguided), 0, 0, "on|off", {0, 1}, NULL, NULL, NULL, RULE_PER_PASS_ONLY,
-     "progressive: photons sent where the camera reads them, learned (default on)", {0}},
+     "progressive: photons sent where the camera reads them, and the sky sampled from the\n"
+     "directions it is seen from, learned (default on; off only to measure what they gain)", {0}},
     {"--connect", "auto|on|off", KIND_WORD, FIELD(connect), 0, 0, "auto|on|off", {PM_CONNECT_AUTO, PM_CONNECT_FORCE_ON, PM_CONNECT_FORCE_OFF},
      NULL, NULL, NULL, RULE_PER_PASS_ONLY,
      "progressive: where the path tracer's light is chosen, its samples joined to first hits of\n"

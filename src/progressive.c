@@ -173,6 +173,9 @@ struct pm_progressive {
     pm_cell_values worth, *worth_next;
     int worth_tables;
     bool worth_sized;
+    /* where the sky is seen from, per cell (arrival.h), for direct light's sky samples: its
+     * cells sized from the camera's distances at each restart (connection_cell) */
+    pm_arrival_guide arrival;
     /* the connections' trial's grid (connection_trial_due): its pixels, each one's film total
      * before the running iteration, and per arm the sums of an iteration's light and its square */
     struct {
@@ -197,6 +200,8 @@ uint64_t pm_progressive_default_photons(int width, int height) {
     double n = (double)width * height * PM_PPM_PHOTONS_PER_PIXEL;
     return (uint64_t)(n < PM_PPM_MIN_PHOTONS ? PM_PPM_MIN_PHOTONS : (n > PM_PPM_MAX_PHOTONS ? PM_PPM_MAX_PHOTONS : n));
 }
+
+static float sky_luminance(const void *scene, vec3 w) { return v3_luminance(pm_scene_sky(scene, w)); }
 
 pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, const pm_camera *camera,
                                       const pm_progressive_settings *settings, char *err, size_t err_size) {
@@ -268,6 +273,13 @@ pm_progressive *pm_progressive_create(const pm_scene *s, const pm_accel *a, cons
      * light reflected once more is what its samples find only by chance (a sunlit patch) */
     p->connecting = p->gathering && settings->connect != PM_CONNECT_FORCE_OFF && s->light_count > 0 &&
                     settings->gather != PM_GATHER_FORCE_PHOTONS;
+    /* the sky's arrival guide where a sky lights the scene (and guides are wanted) */
+    if (s->sky && !settings->unguided && !pm_arrival_init(&p->arrival, 1.f, sky_luminance, s)) {
+        const char *why = pm_memory_failure_since(mark);
+        snprintf(err, err_size, "out of memory (%s)", why ? why : "sky arrival guide");
+        pm_progressive_destroy(p);
+        return NULL;
+    }
     if (p->connecting) {
         p->worth_tables = pm_thread_count(settings->threads);
         p->worth_next = pm_calloc((size_t)p->worth_tables, sizeof *p->worth_next, "cell values");
@@ -300,6 +312,7 @@ void pm_progressive_destroy(pm_progressive *p) {
     pm_guide_free(&p->guide_saved);
     free(p->light_vertices.data);
     pm_cell_values_free(&p->worth);
+    pm_arrival_free(&p->arrival);
     for (int t = 0; p->worth_next && t < p->worth_tables; t++) pm_cell_values_free(&p->worth_next[t]);
     free(p->worth_next);
     free(p->connect_grid.pixel);
@@ -812,6 +825,8 @@ static bool path_finds_all_light(const pm_scene *s) {
     return !(delta_light && scene_has_caustic_surfaces(s));
 }
 
+static float connection_cell(const pm_progressive *p);
+
 static void reset_state(pm_progressive *p, const pm_film *film) {
     p->radii.density_r2[KIND_CAUSTIC] = p->radii.density_r2[KIND_INDIRECT] = 0.0;
     p->radii.gather_r2 = 0.0;
@@ -831,7 +846,13 @@ static void reset_state(pm_progressive *p, const pm_film *film) {
     p->radii.initial_radius_count = 0;
     p->pixel_angle = p->camera.orthographic ? 0.0 : pm_camera_pixel_size(&p->camera, film->height, 1.f);
     p->pixel_width = p->camera.orthographic ? pm_camera_pixel_size(&p->camera, film->height, 0.f) : 0.0;
-    p->probe_footprint = pm_progressive_uses_photons(p) ? probe_footprint(p, film) : 0.0;
+    /* the sparse grid's points also size the sky's arrival guide, photons or none */
+    double footprint = pm_progressive_uses_photons(p) || p->arrival.counts ? probe_footprint(p, film) : 0.0;
+    p->probe_footprint = pm_progressive_uses_photons(p) ? footprint : 0.0;
+    if (p->arrival.counts) {
+        pm_arrival_clear(&p->arrival, connection_cell(p) * (float)PM_ARRIVAL_CELL);
+        p->eye.sky_arrival = &p->arrival;
+    }
     p->radii.eye_passes = p->settings.eye_passes > 0 ? (uint32_t)p->settings.eye_passes : 1;
     probe_reset(&p->probe);
     memset(&p->stats, 0, sizeof p->stats);
@@ -1917,6 +1938,10 @@ static void end_iteration(pm_progressive *p, pm_film *film, const iteration_run 
     }
     if (it->trial && !it->cut) p->radii.trial_step++;
     if (it->connecting) end_light_vertices(p);
+    if (p->arrival.counts) {
+        pm_arrival_finish(&p->arrival);
+        p->stats.sky_arrival_cells = p->arrival.usable_count;
+    }
     if (it->connect_trial && !it->cut && it->whole_passes > 0) learn_connection_trial(p, film, it);
     if (it->trial && it->probing && it->whole_passes >= 2) learn_caustic_trial(p, film, it);
     if (it->probing && !it->cut && !it->trial_loop)

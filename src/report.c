@@ -69,7 +69,7 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
                pm_progressive_projection_fraction(progressive), (unsigned long long)ph->dropped);
         pm_radius_summary r = pm_progressive_radii(progressive, film);
         double useful = ps->photons_stored ? (double)ps->photons_read / (double)ps->photons_stored : 0.0;
-        printf("stat progressive iterations=%u photons_per_iteration=%llu alpha=%.4f radius_initial=%.6g radius_mean=%.6g radius_min=%.6g radius_max=%.6g gather_radius=%.6g gather_seconds=%.4f photons_found=%llu caustic_splats=%llu photon_passes=%u eye_passes_next=%u useful_share=%.4f useful_photons_per_second=%.0f clip_rays=%llu gather_source=%s choice_relmse_photons=%.6g choice_relmse_path=%.6g choice_bias2=%.6g choice_cost_photons=%.0f choice_cost_path=%.0f choice_iterations=%u photons_examined=%llu disc_queries=%llu choice_caustic_share=%.4g path_only_samples=%u caustic_trial=%d caustic_trial_error_photons=%.6g caustic_trial_error_path=%.6g caustic_trial_cost_photons=%.0f caustic_trial_cost_path=%.0f light_vertices=%llu connect_trial=%d connect_trial_error_on=%.6g connect_trial_error_off=%.6g connect_trial_cost_on=%.0f connect_trial_cost_off=%.0f\n",
+        printf("stat progressive iterations=%u photons_per_iteration=%llu alpha=%.4f radius_initial=%.6g radius_mean=%.6g radius_min=%.6g radius_max=%.6g gather_radius=%.6g gather_seconds=%.4f photons_found=%llu caustic_splats=%llu photon_passes=%u eye_passes_next=%u useful_share=%.4f useful_photons_per_second=%.0f clip_rays=%llu gather_source=%s choice_relmse_photons=%.6g choice_relmse_path=%.6g choice_bias2=%.6g choice_cost_photons=%.0f choice_cost_path=%.0f choice_iterations=%u photons_examined=%llu disc_queries=%llu choice_caustic_share=%.4g path_only_samples=%u caustic_trial=%d caustic_trial_error_photons=%.6g caustic_trial_error_path=%.6g caustic_trial_cost_photons=%.0f caustic_trial_cost_path=%.0f light_vertices=%llu connect_trial=%d connect_trial_error_on=%.6g connect_trial_error_off=%.6g connect_trial_cost_on=%.0f connect_trial_cost_off=%.0f sky_arrival_cells=%u\n",
                film->samples, (unsigned long long)pm_progressive_photons_per_iteration(progressive), alpha,
                r.initial_mean, r.mean, r.min, r.max, r.gather, ps->gather_seconds,
                (unsigned long long)ps->photons_found, (unsigned long long)ps->splats, film->photon_passes,
@@ -80,7 +80,7 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
                ps->choice_cost[PM_GATHER_PHOTONS], ps->choice_cost[PM_GATHER_PATH], ps->choice_iterations,
                (unsigned long long)ps->photons_examined, (unsigned long long)ps->disc_queries, ps->choice_caustic_share,
                ps->path_only_samples, ps->caustic_trial, ps->caustic_trial_error[0], ps->caustic_trial_error[1],
-               ps->caustic_trial_cost[0], ps->caustic_trial_cost[1], (unsigned long long)ps->light_vertices, ps->connect_trial, ps->connect_trial_error[0], ps->connect_trial_error[1], ps->connect_trial_cost[0], ps->connect_trial_cost[1]);
+               ps->caustic_trial_cost[0], ps->caustic_trial_cost[1], (unsigned long long)ps->light_vertices, ps->connect_trial, ps->connect_trial_error[0], ps->connect_trial_error[1], ps->connect_trial_cost[0], ps->connect_trial_cost[1], ps->sky_arrival_cells);
     } else {
         eye_stats = *pm_session_eye_stats(session);
         const pm_photon_maps *maps = pm_session_classic_maps(session);
@@ -110,11 +110,12 @@ void pm_print_final_stats(pm_session *session, const pm_accel *accel, int thread
                eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, eye_stats.seconds > 0 ? paths / eye_stats.seconds : 0.0,
                paths > 0 ? eye_stats.path_vertices / paths : 0.0, PM_EYE_ROULETTE_VERTEX, PM_MAX_SURVIVAL);
     }
-    printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu shadow_rays=%llu shadow_rays_saved=%llu pixels_ahead=%zu connections=%llu\n",
+    printf("stat eye iterations=%u rays=%llu seconds=%.4f rays_per_second=%.0f threads=%d dropped_samples=%llu shadow_rays=%llu shadow_rays_saved=%llu pixels_ahead=%zu connections=%llu sky_arrival_samples=%llu\n",
            film->samples, (unsigned long long)eye_stats.rays, eye_stats.seconds,
            eye_stats.seconds > 0 ? eye_stats.rays / eye_stats.seconds : 0.0, threads,
            (unsigned long long)eye_stats.dropped_samples, (unsigned long long)eye_stats.shadow_rays,
-           (unsigned long long)eye_stats.shadow_rays_saved, pm_film_pixels_ahead(film), (unsigned long long)eye_stats.connections);
+           (unsigned long long)eye_stats.shadow_rays_saved, pm_film_pixels_ahead(film), (unsigned long long)eye_stats.connections,
+           (unsigned long long)eye_stats.sky_arrival_samples);
     long peak = peak_rss_bytes();
     uint64_t estimate = pm_memory_forecast();
     printf("stat memory peak_rss_bytes=%ld film_bytes=%zu bvh_bytes=%zu limit_bytes=%llu checked_allocations=%llu "
