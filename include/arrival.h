@@ -37,6 +37,7 @@
 typedef struct {
     uint32_t *counts;               /* PM_ARRIVAL_SLOTS x PM_ARRIVAL_BINS: rays that reached the sky */
     uint32_t *hits;                 /* per slot, their sum */
+    uint32_t *hits_made;            /* per slot, the hits its distribution was made from */
     float *cdf;                     /* PM_ARRIVAL_SLOTS x (PM_ARRIVAL_BINS + 1), made where usable */
     uint8_t *usable;                /* per slot */
     uint64_t *touched;              /* a bit a slot: counted since the last pm_arrival_finish */
