@@ -19,22 +19,10 @@
 # share counted twice, 0.25-0.34% too bright).
 cd "$(dirname "$0")/.." || exit 1
 . tests/stat_setup.sh
-check() { # description, python condition over the named numbers that follow (name=value ...)
-    desc=$1; cond=$2; shift 2
-    checks=$((checks + 1))
-    if python3 -c 'import sys
-v = {k: float(x or "nan") for k, x in (a.split("=", 1) for a in sys.argv[2:])}
-sys.exit(0 if eval(sys.argv[1], {}, v) else 1)' "$cond" "$@"; then
-        echo "ok: $desc ($*)"
-    else fails=$((fails + 1)); echo "FAIL: $desc ($*)"; fi
-}
 run() { # out, scene, options...
     out=$1; scene=$2; shift 2
     "$bin" "$scene" --width 64 --height 64 --gather path --stats --quiet --seed 1 --snapshot "$tmp/$out.exr" "$@" >"$tmp/$out" 2>&1 ||
         { echo "FAIL: pmview $out: $(tail -n 1 "$tmp/$out")"; exit 1; }
-}
-means_of() { # the run's channel means over its reference's: r= g= b=
-    echo "r=$(value error mean_ratio_r "$tmp/$1") g=$(value error mean_ratio_g "$tmp/$1") b=$(value error mean_ratio_b "$tmp/$1")"
 }
 ref=tests/ref/point_room_path_64.exr
 if [ -f "$ref" ]; then
