@@ -14,5 +14,5 @@ plot 'data/mirror-default.csv' every ::1 using 1:5 with lines lc rgb "#d62728" l
      'data/mirror-ppm-direct.csv' every ::1 using 1:5 with lines lc rgb "#1f77b4" lw 2 dt 2 title 'PPM, photons read at the visible point (--indirect photons)', \
      'data/mirror-classic-1M-gather-disc.csv' every ::1 using 1:5 with lines lc rgb "#8c564b" lw 1.5 dt 3 title 'classic 1M, final gather, disc', \
      'data/mirror-pt.csv' every ::1 using 1:5 with lines lc rgb "#000000" lw 3 dt 1 title 'path tracing', \
-     0.352462*x**-1 with lines lc rgb '#aaaaaa' dt 2 title 'slope -1', \
-     0.352462*x**(-2./3) with lines lc rgb '#aaaaaa' dt 3 title 'slope -2/3'
+     0.354403*x**-1 with lines lc rgb '#aaaaaa' dt 2 title 'slope -1', \
+     0.354403*x**(-2./3) with lines lc rgb '#aaaaaa' dt 3 title 'slope -2/3'
