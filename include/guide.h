@@ -31,6 +31,37 @@
 #include "defaults.h"
 #include "pm_math.h"
 
+/* ---- the cells of space the marks, the cell values and the sky's arrival guide (arrival.h) hash ---- */
+static inline int32_t pm_cell_coord(float x, float inv_cell) {
+    float c = x * inv_cell;
+    c = c < -1e9f ? -1e9f : (c > 1e9f ? 1e9f : c);
+    int32_t i = (int32_t)c;
+    return i - (c < (float)i);
+}
+
+/* p's cell's coordinates folded into one word, before mixing (pm_cell_mix). */
+static inline uint32_t pm_cell_key(vec3 p, float inv_cell) {
+    uint32_t x = (uint32_t)pm_cell_coord(p.x, inv_cell), y = (uint32_t)pm_cell_coord(p.y, inv_cell), z = (uint32_t)pm_cell_coord(p.z, inv_cell);
+    return (x * 73856093u) ^ (y * 19349663u) ^ (z * 83492791u);
+}
+
+/* A key mixed so that its low bits index a table of 2^k entries. */
+static inline uint32_t pm_cell_mix(uint32_t h) {
+    h ^= h >> 15;
+    h *= 0x2c1b3c6du;
+    h ^= h >> 12;
+    return h;
+}
+
+/* The hash of p's cell, for a table of 2^k entries: its low k bits. */
+static inline uint32_t pm_cell_hash(vec3 p, float inv_cell) { return pm_cell_mix(pm_cell_key(p, inv_cell)); }
+
+/* Which of the six axis directions n is nearest: 0-5 (+x, -x, +y, -y, +z, -z). */
+static inline uint32_t pm_axis_side(vec3 n) {
+    float ax = fabsf(n.x), ay = fabsf(n.y), az = fabsf(n.z);
+    return ax >= ay && ax >= az ? (n.x < 0.f) : ay >= az ? 2u + (n.y < 0.f) : 4u + (n.z < 0.f);
+}
+
 /* ---- marks ---- */
 typedef struct {
     uint64_t *bits;      /* PM_GUIDE_MARK_BITS bits: cells */

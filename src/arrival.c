@@ -6,30 +6,14 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "guide.h"
 #include "memory.h"
 
 #define TOUCHED_WORDS (PM_ARRIVAL_SLOTS / 64)
 
-static inline int32_t cell_coord(float x, float inv_cell) {
-    float c = x * inv_cell;
-    c = c < -1e9f ? -1e9f : (c > 1e9f ? 1e9f : c);
-    return (int32_t)floorf(c);
-}
-
-/* Which of the six axis directions n is nearest: 0-5. */
-static inline uint32_t side_of(vec3 n) {
-    float ax = fabsf(n.x), ay = fabsf(n.y), az = fabsf(n.z);
-    return ax >= ay && ax >= az ? (n.x < 0.f) : ay >= az ? 2u + (n.y < 0.f) : 4u + (n.z < 0.f);
-}
-
 /* p's cell on ng's side, hashed to a slot. */
 static inline uint32_t slot_of(const pm_arrival_guide *g, vec3 p, vec3 ng) {
-    uint32_t x = (uint32_t)cell_coord(p.x, g->inv_cell), y = (uint32_t)cell_coord(p.y, g->inv_cell), z = (uint32_t)cell_coord(p.z, g->inv_cell);
-    uint32_t h = (x * 73856093u) ^ (y * 19349663u) ^ (z * 83492791u) ^ (side_of(ng) * 0x9e3779b9u);
-    h ^= h >> 15;
-    h *= 0x2c1b3c6du;
-    h ^= h >> 12;
-    return h & (PM_ARRIVAL_SLOTS - 1);
+    return pm_cell_mix(pm_cell_key(p, g->inv_cell) ^ (pm_axis_side(ng) * 0x9e3779b9u)) & (PM_ARRIVAL_SLOTS - 1);
 }
 
 /* The bin of direction w: pm_sample_sphere's numbers, squared into PM_ARRIVAL_BINS_SIDE^2. */

@@ -382,6 +382,24 @@ static void emitter_area_sample(light_site *ls, pm_rng *rng, vec3 *e) {
     }
 }
 
+/* A ray of a sky sample along wi (radiance there, drawn with density pdf by the sky map's sampling
+ * or, by_map false, the arrival guide's), weighted against the surface's own ray and the other of
+ * the two; false where no ray was cast (nothing to reach). */
+static bool sky_sample_along(light_site *ls, vec3 wi, vec3 radiance, float pdf, bool by_map, vec3 *e) {
+    float cos_s = v3_dot(ls->ns, wi);
+    if (!(pdf > 0.f && cos_s > 0.f && v3_dot(ls->ng, wi) > 0.f)) return false;
+    (*ls->rays)++;
+    ls->cast++;
+    float pdf_surface = pm_vertex_pdf(ls->sf, ls->part, ls->ns, ls->wo, wi);
+    vec3 through;
+    if (pm_thin_visible(ls->s, ls->a, ls->origin, wi, INFINITY, &through, ls->rays)) {
+        float other = by_map ? pm_arrival_pdf(&ls->sky_cell, wi) : sky_map_pdf_along(ls, wi);
+        *e = v3_add(*e, v3_mul(v3_mul(v3_scale(radiance, sky_weight(ls, wi, pdf, pdf_surface, other) / pdf), through),
+                               reflected(ls->sf, ls->part, ls->ns, ls->wo, wi, cos_s)));
+    }
+    return true;
+}
+
 /* A sky with a map (a sun, a bright window) gets a ray drawn from the map too, weighted against
  * the surface's own ray (own_ray_light); a uniform sky is sampled best by that ray alone. */
 static void sky_map_sample(light_site *ls, pm_rng *rng, vec3 *e) {
@@ -389,34 +407,15 @@ static void sky_map_sample(light_site *ls, pm_rng *rng, vec3 *e) {
     vec3 wi;
     float pdf_sky;
     vec3 radiance = v3_mul(s->sky_radiance, pm_sky_map_sample(s->sky_map, pm_rng_float(rng), pm_rng_float(rng), &wi, &pdf_sky));
-    float cos_s = v3_dot(ls->ns, wi);
-    if (!(pdf_sky > 0.f && cos_s > 0.f && v3_dot(ls->ng, wi) > 0.f)) return;
-    (*ls->rays)++;
-    ls->cast++;
-    float pdf_surface = pm_vertex_pdf(ls->sf, ls->part, ls->ns, ls->wo, wi);
-    vec3 through;
-    if (pm_thin_visible(s, ls->a, ls->origin, wi, INFINITY, &through, ls->rays))
-        *e = v3_add(*e, v3_mul(v3_mul(v3_scale(radiance, sky_weight(ls, wi, pdf_sky, pdf_surface, pm_arrival_pdf(&ls->sky_cell, wi)) / pdf_sky), through),
-                               reflected(ls->sf, ls->part, ls->ns, ls->wo, wi, cos_s)));
+    sky_sample_along(ls, wi, radiance, pdf_sky, true, e);
 }
 
 /* Where the sky is seen from here (arrival.h): a ray drawn from the directions the cell learned,
  * weighted against the surface's own ray and the sky map's sample. */
 static void sky_arrival_sample(light_site *ls, pm_rng *rng, vec3 *e) {
-    const pm_scene *s = ls->s;
     float pdf_arrival, u_bin = pm_rng_float(rng), u1 = pm_rng_float(rng), u2 = pm_rng_float(rng);
     vec3 wi = pm_arrival_sample(&ls->sky_cell, u_bin, u1, u2, &pdf_arrival);
-    float cos_s = v3_dot(ls->ns, wi);
-    if (!(pdf_arrival > 0.f && cos_s > 0.f && v3_dot(ls->ng, wi) > 0.f)) return;
-    (*ls->rays)++;
-    ls->cast++;
-    ls->sky_samples++;
-    float pdf_surface = pm_vertex_pdf(ls->sf, ls->part, ls->ns, ls->wo, wi);
-    vec3 through;
-    if (pm_thin_visible(s, ls->a, ls->origin, wi, INFINITY, &through, ls->rays))
-        *e = v3_add(*e, v3_mul(v3_mul(v3_scale(pm_scene_sky(s, wi), sky_weight(ls, wi, pdf_arrival, pdf_surface, sky_map_pdf_along(ls, wi)) / pdf_arrival),
-                                      through),
-                               reflected(ls->sf, ls->part, ls->ns, ls->wo, wi, cos_s)));
+    if (sky_sample_along(ls, wi, pm_scene_sky(ls->s, wi), pdf_arrival, false, e)) ls->sky_samples++;
 }
 
 /* The weight of the sky the surface's own ray finds along wi (sky_weight). */

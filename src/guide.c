@@ -9,32 +9,12 @@
 
 #define MARK_WORDS (PM_GUIDE_MARK_BITS / 64)
 
-static inline int32_t mark_coord(float x, float inv_cell) {
-    float c = x * inv_cell;
-    c = c < -1e9f ? -1e9f : (c > 1e9f ? 1e9f : c);
-    int32_t i = (int32_t)c;
-    return i - (c < (float)i);
-}
-
-/* The hash of p's cell, for a table of 2^k entries: its low k bits. */
-static inline uint32_t cell_hash(vec3 p, float inv_cell) {
-    uint32_t x = (uint32_t)mark_coord(p.x, inv_cell), y = (uint32_t)mark_coord(p.y, inv_cell), z = (uint32_t)mark_coord(p.z, inv_cell);
-    uint32_t h = (x * 73856093u) ^ (y * 19349663u) ^ (z * 83492791u);
-    h ^= h >> 15;
-    h *= 0x2c1b3c6du;
-    h ^= h >> 12;
-    return h;
-}
-
-/* Which of the six axis directions n is nearest: 1-6. */
-static inline uint32_t facing_class(vec3 n) {
-    float ax = fabsf(n.x), ay = fabsf(n.y), az = fabsf(n.z);
-    return 1u + (ax >= ay && ax >= az ? (n.x < 0.f) : ay >= az ? 2u + (n.y < 0.f) : 4u + (n.z < 0.f));
-}
+/* A mark's side: 1-6 (0 stands for either side). */
+static inline uint32_t facing_class(vec3 n) { return 1u + pm_axis_side(n); }
 
 /* A mark's bit: p's cell, and the side its surface faces (facing 1-6) or either side (0). */
 static inline size_t mark_bit(const pm_marks *m, vec3 p, uint32_t facing) {
-    return (size_t)(cell_hash(p, m->inv_cell) ^ (facing * 0x9e3779b9u)) & (PM_GUIDE_MARK_BITS - 1);
+    return (size_t)(pm_cell_hash(p, m->inv_cell) ^ (facing * 0x9e3779b9u)) & (PM_GUIDE_MARK_BITS - 1);
 }
 
 static inline void set_bit(uint64_t *bits, size_t b) {
@@ -101,7 +81,7 @@ void pm_cell_values_clear(pm_cell_values *v, float cell) {
 }
 
 void pm_cell_values_add(pm_cell_values *v, vec3 p, uint32_t value) {
-    size_t i = cell_hash(p, v->inv_cell) & (PM_CELL_VALUES_CELLS - 1);
+    size_t i = pm_cell_hash(p, v->inv_cell) & (PM_CELL_VALUES_CELLS - 1);
     /* past 2^31 values a cell has been measured enough: it stops, and sums stay below 2^63 */
     if (v->count[i] >= (1u << 31)) return;
     v->count[i]++;
@@ -111,7 +91,7 @@ void pm_cell_values_add(pm_cell_values *v, vec3 p, uint32_t value) {
 }
 
 bool pm_cell_values_mean(const pm_cell_values *v, vec3 p, float *mean) {
-    size_t i = cell_hash(p, v->inv_cell) & (PM_CELL_VALUES_CELLS - 1);
+    size_t i = pm_cell_hash(p, v->inv_cell) & (PM_CELL_VALUES_CELLS - 1);
     if (!v->count[i]) return false;
     *mean = (float)v->sum[i] / (float)v->count[i];
     return true;
